@@ -1,0 +1,80 @@
+"""Subcommands of ``stickslip`` that use the FE solver: ``run`` and ``plot``.
+
+Imports of dolfinx/PETSc happen inside the handlers, so ``stickslip --help`` stays fast.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "run",
+        help="run a scene (TOML) with the explicit FE solver; writes a run directory",
+        description=(
+            "Run a scene: gmsh tube, discrete steady sliding state plus the scene's "
+            "perturbation, explicit Newmark with the contact/friction projection. Writes "
+            "RUN_DIR/scene.toml (resolved), samples.npz (inner-circle u_r, u_theta, "
+            "velocities, status, energies) and summary.json. Works under mpirun."
+        ),
+    )
+    p.add_argument("scene", help="scene TOML file, or the name of a scene in scenes/")
+    p.add_argument("-o", "--output", help="run directory (default: $STICKSLIP_OUTPUT/<name>)")
+    p.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
+                   help="override a scene field, e.g. --set mesh.n_inner=264 (repeatable)")
+    p.add_argument("--force", action="store_true", help="overwrite an existing run directory")
+    p.add_argument("--plot", action="store_true", help="draw the run's figures when done")
+    p.add_argument("--profile", action="store_true", help="print where the time went")
+    p.set_defaults(func=_run)
+
+    p = sub.add_parser("plot", help="draw the figures of a run directory (PNG)",
+                       description="Space-time map of u_r, zone map, final profile, phase "
+                                   "diagram and energies of a run directory, as PNG files.")
+    p.add_argument("run_dir", help="a run directory written by `stickslip run`")
+    p.set_defaults(func=_plot)
+
+
+def _run(args: argparse.Namespace) -> int:
+    from mpi4py import MPI
+
+    from solver.cli import output_root
+    from solver.run import StepTooLarge, run_scene
+    from solver.scene import SceneError, load_scene
+
+    comm = MPI.COMM_WORLD
+    try:
+        scene = load_scene(args.scene, args.overrides)
+    except (SceneError, FileNotFoundError) as err:
+        if comm.rank == 0:
+            print(f"error: {err}", file=sys.stderr)
+        return 2
+    run_dir = Path(args.output) if args.output else output_root() / scene.name
+    try:
+        summary = run_scene(scene, run_dir, force=args.force, comm=comm, profile=args.profile)
+    except (FileExistsError, StepTooLarge, ValueError) as err:
+        if comm.rank == 0:
+            print(f"error: {err}", file=sys.stderr)
+        return 2
+    status = comm.bcast(summary.get("status") if comm.rank == 0 else None, root=0)
+    if args.plot and comm.rank == 0 and status in ("completed", "interrupted"):
+        from solver.plotting import plot_run
+
+        for path in plot_run(run_dir):
+            print(f"figure: {path}")
+    return {"completed": 0, "interrupted": 130}.get(status, 1)
+
+
+def _plot(args: argparse.Namespace) -> int:
+    from solver.plotting import plot_run
+
+    run_dir = Path(args.run_dir)
+    if not (run_dir / "samples.npz").exists():
+        print(f"error: {run_dir} has no samples.npz (not a finished run directory)",
+              file=sys.stderr)
+        return 2
+    for path in plot_run(run_dir):
+        print(f"figure: {path}")
+    return 0

@@ -1,0 +1,150 @@
+"""Newmark beta-method (the paper's beta_1, beta_2) with a forward-increment contact step.
+
+Semi-discrete system (lumped mass M, stiffness K, nodal contact forces r on the inner circle):
+
+    M a + K u = r.
+
+Newmark, paper's notation (beta_1 = "beta", beta_2 = "gamma" elsewhere):
+
+    u_{n+1} = u_n + dt v_n + dt^2/2 [(1 - 2 beta_1) a_n + 2 beta_1 a_{n+1}]
+    v_{n+1} = v_n + dt [(1 - beta_2) a_n + beta_2 a_{n+1}]
+
+Explicit case beta_1 = 0 with the Carpenter-Taylor-Katona forward increment [CAR 91]: the
+contact force r_n at t_n is chosen so that the constraint holds at t_{n+1}. Write the velocity
+as a predictor plus its beta_2 part, v_n = v~_n + beta_2 dt a_n with
+v~_n = v_{n-1} + (1 - beta_2) dt a_{n-1}. With a_n = a*_n + M^{-1} r_n, a*_n = -M^{-1} K u_n:
+
+    u_{n+1} = u_n + dt v~_n + kappa a*_n  +  kappa M^{-1} r_n,   kappa = (beta_2 + 1/2) dt^2.
+
+So, because v_n carries beta_2 dt a_n, a contact force moves u_{n+1} by kappa M^{-1} r, not by
+the textbook dt^2/2 M^{-1} r (which is kappa only for beta_2 = 0). The projection
+(``solver.contact.project_contact``) uses this kappa, which makes non-penetration exact to
+round-off and stick nodes move exactly R Omega dt per step.
+
+Stability of the explicit scheme (no physical damping), from the amplification matrix of
+u'' + w^2 u = 0: |eigenvalues| <= 1 iff w dt <= sqrt(2 / beta_2) (= 2, central differences,
+for beta_2 = 1/2). With w_max the largest eigenfrequency of (K, M):
+dt_crit = sqrt(2 / beta_2) / w_max. The algorithmic damping of beta_2 > 1/2 acts on w dt, so at a
+fixed fraction of dt_crit it damps the same *relative* part of the spectrum on every mesh, but
+a given physical frequency is damped less on a finer mesh (smaller dt).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+
+import numpy as np
+
+ContactStep = Callable[[np.ndarray, np.ndarray, np.ndarray], None]
+"""contact(u_trial, u_now, force_out): fills force_out (owned dofs) with r_n, in place."""
+
+
+def critical_time_step(omega_max: float, beta1: float, beta2: float) -> float:
+    """Largest stable dt of the undamped Newmark scheme for eigenfrequency ``omega_max``.
+
+    beta_1 = 0: sqrt(2 / beta_2) / omega_max. Unconditionally stable (inf) for
+    2 beta_1 >= beta_2 >= 1/2; otherwise 1 / (omega_max sqrt(beta_2 / 2 - beta_1)).
+    """
+    if beta2 < 0.5:
+        raise ValueError(f"beta2 = {beta2} < 0.5 is unstable for any dt (need beta2 >= 0.5)")
+    if 2.0 * beta1 >= beta2:
+        return math.inf
+    return 1.0 / (omega_max * math.sqrt(beta2 / 2.0 - beta1))
+
+
+class Newmark:
+    """Explicit Newmark (beta_1 = 0) on owned-dof numpy arrays.
+
+    The only global operation per step is ``stiffness_mult(u, ku)`` (one PETSc MatMult);
+    everything else is in-place numpy on preallocated arrays.
+
+    Parameters
+    ----------
+    stiffness_mult
+        ``stiffness_mult(u, out)`` computes out = K u on owned arrays.
+    inv_mass
+        Inverse lumped mass per owned dof; 0 on clamped dofs (they never move).
+    dt, beta1, beta2
+        Time step and Newmark parameters (paper's notation).
+    contact
+        Optional forward-increment constraint, see ``ContactStep``.
+    """
+
+    def __init__(
+        self,
+        stiffness_mult: Callable[[np.ndarray, np.ndarray], None],
+        inv_mass: np.ndarray,
+        dt: float,
+        beta1: float = 0.0,
+        beta2: float = 0.5,
+        contact: ContactStep | None = None,
+    ) -> None:
+        if beta1 != 0.0:
+            raise NotImplementedError(
+                f"time.beta1 = {beta1}: only the explicit scheme (beta1 = 0) is implemented; "
+                "set time.beta1 = 0"
+            )
+        if not 0.5 <= beta2 <= 1.0:
+            raise ValueError(f"time.beta2 = {beta2} must be in [0.5, 1]")
+        self.beta1, self.beta2, self.dt = beta1, beta2, dt
+        self.kappa = (beta2 + 0.5) * dt * dt
+        self._mult = stiffness_mult
+        self.inv_mass = inv_mass
+        self.contact = contact
+        n = inv_mass.size
+        self.u = np.zeros(n)  # u_n
+        self.v = np.zeros(n)  # v_n (after the step that produced it)
+        self.a = np.zeros(n)  # a_n
+        self.v_pred = np.zeros(n)  # v~_{n}: v_{n-1} + (1 - beta2) dt a_{n-1}
+        self.ku = np.zeros(n)  # K u_n
+        self.u_trial = np.zeros(n)
+        self.force = np.zeros(n)  # contact force r_n
+        self.u_prev = np.zeros(n)  # u_{n} once the step is done (u holds u_{n+1})
+        self.scratch = np.zeros(n)
+        self.time = 0.0
+        self.step_count = 0
+
+    def set_state(self, u: np.ndarray, v: np.ndarray) -> None:
+        """Initial displacement and velocity. The first step's velocity predictor is v_0."""
+        self.u[:] = u
+        self.v[:] = v
+        self.v_pred[:] = v
+        self.a.fill(0.0)
+
+    def step(self) -> None:
+        """Advance one step: u_n -> u_{n+1}.
+
+        Afterwards ``u`` is u_{n+1}, while ``u_prev``, ``v``, ``a``, ``ku`` and ``force`` hold
+        u_n, v_n, a_n, K u_n and r_n (one consistent time level, used for energies).
+        """
+        dt, b2 = self.dt, self.beta2
+        u, a, v, vp = self.u, self.a, self.v, self.v_pred
+        # a*_n = -M^{-1} K u_n
+        self._mult(u, self.ku)
+        np.multiply(self.ku, self.inv_mass, out=a)
+        np.negative(a, out=a)
+        if self.contact is not None:
+            # trial u_{n+1} without contact force: u_n + dt v~_n + kappa a*_n
+            np.multiply(vp, dt, out=self.u_trial)
+            self.u_trial += u
+            np.multiply(a, self.kappa, out=self.scratch)
+            self.u_trial += self.scratch
+            self.contact(self.u_trial, u, self.force)
+            # a_n = a*_n + M^{-1} r_n
+            np.multiply(self.force, self.inv_mass, out=self.scratch)
+            a += self.scratch
+        # v_n = v~_n + beta2 dt a_n
+        np.multiply(a, b2 * dt, out=v)
+        v += vp
+        # u_{n+1} = u_n + dt v_n + dt^2/2 a_n  (in place; u_n kept in u_prev)
+        self.u_prev[:] = u
+        np.multiply(v, dt, out=self.scratch)
+        u += self.scratch
+        np.multiply(a, 0.5 * dt * dt, out=self.scratch)
+        u += self.scratch
+        # v~_{n+1} = v_n + (1 - beta2) dt a_n
+        np.multiply(a, (1.0 - b2) * dt, out=vp)
+        vp += v
+        self.time += dt
+        self.step_count += 1

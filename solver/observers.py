@@ -1,0 +1,203 @@
+"""Observers of the time loop: sampled diagnostics on the inner circle, energies, progress.
+
+Observers are called by ``solver.run.Simulation`` after a step; each decides cheaply whether it
+has work to do (a sample is due). Arrays are preallocated for the whole run on rank 0.
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+import time
+
+import numpy as np
+from mpi4py import MPI
+
+from solver.contact import SEPARATION, SLIP, STICK
+
+ENERGY_FIELDS = (
+    "kinetic",
+    "strain",
+    "work_contact",
+    "work_cylinder",
+    "friction_dissipation",
+)
+
+
+class EnergyAccumulator:
+    """Work of the contact forces, accumulated every step over the owned contact nodes.
+
+    With r_n the nodal force at t_n (polar r_r, r_theta) and Delta u = u_{n+1} - u_n:
+      work_contact         = sum r_n . Delta u               (work done on the tube)
+      work_cylinder        = sum r_theta,n R Omega dt         (power fed by the rotating cylinder)
+      friction_dissipation = sum r_theta,n (R Omega dt - Delta u_theta) >= 0
+    The energy balance E(t) - E(0) - work_contact = -(numerical dissipation) closes for
+    beta_2 = 1/2 up to O(dt^2), and is <= 0 for beta_2 > 1/2.
+    """
+
+    def __init__(self, projection, with_friction: bool) -> None:
+        self.p = projection
+        self.with_friction = with_friction
+        n = projection.nodes.dofs_x.size
+        self.du_r, self.du_t = np.zeros(n), np.zeros(n)
+        self.ur_new, self.ut_new = np.zeros(n), np.zeros(n)
+        self.work_contact = 0.0
+        self.work_cylinder = 0.0
+        self.friction_dissipation = 0.0
+
+    def after_step(self, u_prev: np.ndarray, u_next: np.ndarray) -> None:
+        p = self.p
+        p._polar(u_prev, self.du_r, self.du_t)
+        p._polar(u_next, self.ur_new, self.ut_new)
+        self.ur_new -= self.du_r
+        self.ut_new -= self.du_t
+        out = p.out
+        self.work_contact += float(out.r_r @ self.ur_new)
+        if self.with_friction:
+            wt = float(out.r_t @ self.ut_new)
+            self.work_contact += wt
+            wc = float(out.r_t.sum()) * p.slide
+            self.work_cylinder += wc
+            self.friction_dissipation += wc - wt
+
+    def totals(self, comm: MPI.Comm) -> tuple[float, float, float]:
+        local = np.array([self.work_contact, self.work_cylinder, self.friction_dissipation])
+        total = np.zeros(3)
+        comm.Allreduce(local, total, op=MPI.SUM)
+        return float(total[0]), float(total[1]), float(total[2])
+
+
+class InnerCircleRecorder:
+    """Samples u_r(theta), u_theta(theta), velocities and contact status on the inner circle.
+
+    Every ``every`` steps the owned contact-node values are gathered to rank 0 (one Gatherv
+    each) and stored, ordered by angle, in preallocated arrays. Energies are sampled at the
+    same times.
+    """
+
+    def __init__(self, problem, projection, energy: EnergyAccumulator, every: int,
+                 max_samples: int) -> None:
+        self.problem, self.p, self.energy = problem, projection, energy
+        self.every = max(1, every)
+        self.comm = problem.comm
+        nd = problem.nodes
+        n_local = nd.dofs_x.size
+        counts = self.comm.allgather(n_local)
+        self.counts = np.array(counts)
+        self.displs = np.concatenate([[0], np.cumsum(self.counts)[:-1]])
+        self.n_nodes = int(self.counts.sum())
+        order_local = np.asarray(nd.global_node_index, dtype=np.int64)
+        order = np.zeros(self.n_nodes, dtype=np.int64) if self.comm.rank == 0 else None
+        self.comm.Gatherv(order_local, (order, self.counts, self.displs, MPI.INT64_T)
+                          if self.comm.rank == 0 else None, root=0)
+        theta_all = np.zeros(self.n_nodes) if self.comm.rank == 0 else None
+        self.comm.Gatherv(np.ascontiguousarray(nd.theta),
+                          (theta_all, self.counts, self.displs, MPI.DOUBLE)
+                          if self.comm.rank == 0 else None, root=0)
+        self.is_root = self.comm.rank == 0
+        self.max_samples = max_samples
+        self.n = 0
+        # send buffers (owned): 4 float fields and the status
+        self.send = np.zeros((4, n_local))
+        self.vr, self.vt = np.zeros(n_local), np.zeros(n_local)
+        if self.is_root:
+            self.perm = np.argsort(order)  # gathered position -> angle order
+            self.theta = theta_all[self.perm]
+            self.recv = np.zeros((4, self.n_nodes))
+            self.recv_status = np.zeros(self.n_nodes, dtype=np.int8)
+            self.t = np.zeros(max_samples)
+            self.u_r = np.zeros((max_samples, self.n_nodes))
+            self.u_t = np.zeros((max_samples, self.n_nodes))
+            self.v_r = np.zeros((max_samples, self.n_nodes))
+            self.v_t = np.zeros((max_samples, self.n_nodes))
+            self.status = np.zeros((max_samples, self.n_nodes), dtype=np.int8)
+            self.energies = np.zeros((max_samples, len(ENERGY_FIELDS)))
+        self.e_local = np.zeros(2)
+        self.e_total = np.zeros(2)
+
+    def due(self, step: int) -> bool:
+        return step % self.every == 0 and self.n < self.max_samples
+
+    def sample(self, integrator) -> tuple[float, float]:
+        """Record time level n (u_prev, v, a, K u_n, r_n). Returns (kinetic, strain) energy."""
+        p = self.p
+        p._polar(integrator.u_prev, self.send[0], self.send[1])
+        p._polar(integrator.v, self.send[2], self.send[3])
+        self.e_local[0] = 0.5 * float(np.dot(integrator.v * self.problem.mass, integrator.v))
+        self.e_local[1] = 0.5 * float(np.dot(integrator.u_prev, integrator.ku))
+        self.comm.Allreduce(self.e_local, self.e_total, op=MPI.SUM)
+        work = self.energy.totals(self.comm)
+        for k in range(4):
+            self.comm.Gatherv(
+                self.send[k],
+                (self.recv[k], self.counts, self.displs, MPI.DOUBLE) if self.is_root else None,
+                root=0,
+            )
+        self.comm.Gatherv(
+            p.out.status,
+            (self.recv_status, self.counts, self.displs, MPI.INT8_T) if self.is_root else None,
+            root=0,
+        )
+        if self.is_root:
+            i, perm = self.n, self.perm
+            self.t[i] = integrator.time - integrator.dt
+            self.u_r[i] = self.recv[0][perm]
+            self.u_t[i] = self.recv[1][perm]
+            self.v_r[i] = self.recv[2][perm]
+            self.v_t[i] = self.recv[3][perm]
+            self.status[i] = self.recv_status[perm]
+            self.energies[i] = (self.e_total[0], self.e_total[1], *work)
+        self.n += 1
+        return float(self.e_total[0]), float(self.e_total[1])
+
+    def arrays(self) -> dict[str, np.ndarray]:
+        """The recorded samples (rank 0), trimmed to the samples actually taken."""
+        n = self.n
+        out = {
+            "t": self.t[:n], "theta": self.theta, "u_r": self.u_r[:n], "u_theta": self.u_t[:n],
+            "v_r": self.v_r[:n], "v_theta": self.v_t[:n], "status": self.status[:n],
+            "energies": self.energies[:n],
+        }
+        return out
+
+    def status_fractions(self, last: int) -> dict[str, float]:
+        """Fractions of node-samples in each status over the last ``last`` samples (rank 0)."""
+        s = self.status[max(0, self.n - last): self.n]
+        total = max(1, s.size)
+        return {
+            "separation": float(np.count_nonzero(s == SEPARATION)) / total,
+            "stick": float(np.count_nonzero(s == STICK)) / total,
+            "slip": float(np.count_nonzero(s == SLIP)) / total,
+        }
+
+
+class Progress:
+    """One line every ``interval`` seconds of wall time on rank 0: time, ETA, contact status."""
+
+    def __init__(self, end_time: float, enabled: bool, interval: float = 5.0,
+                 stream=sys.stdout) -> None:
+        self.end_time, self.enabled, self.interval = end_time, enabled, interval
+        self.stream = stream
+        self.t0 = time.perf_counter()
+        self.last = self.t0
+
+    def update(self, sim_time: float, step: int, fractions: dict[str, float] | None,
+               force: bool = False) -> None:
+        if not self.enabled:
+            return
+        now = time.perf_counter()
+        if not force and now - self.last < self.interval:
+            return
+        self.last = now
+        elapsed = now - self.t0
+        frac = min(1.0, sim_time / self.end_time) if self.end_time > 0 else 0.0
+        eta = elapsed * (1.0 - frac) / frac if frac > 0 else math.nan
+        zones = ""
+        if fractions:
+            zones = "  sep {separation:.0%} stick {stick:.0%} slip {slip:.0%}".format(**fractions)
+        print(
+            f"  t = {sim_time:.4g} s ({frac:5.1%})  step {step}  wall {elapsed:.1f} s"
+            f"  ETA {eta:.0f} s{zones}",
+            file=self.stream,
+            flush=True,
+        )

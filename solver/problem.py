@@ -1,0 +1,217 @@
+"""The discrete problem: tube mesh -> P1/P2 vector space -> stiffness, lumped mass, contact nodes.
+
+Everything here is built once per run. The time loop (``solver.newmark``) then only needs
+``stiffness_mult`` (one PETSc MatMult), the inverse lumped mass and the contact projection.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from mpi4py import MPI
+from petsc4py import PETSc
+
+import dolfinx
+import dolfinx.fem.petsc
+import ufl
+from forms.elasticity import Material, lumped_mass, stiffness
+from forms.polar import ContactNodes, contact_nodes
+from meshes.annulus import INNER_TAG, OUTER_TAG, TubeMesh, annulus_mesh
+from solver.contact import ContactArrays, project_contact
+from solver.scene import Scene
+
+
+@dataclass
+class TubeProblem:
+    """Spaces, matrices and contact data of one scene (SI units)."""
+
+    scene: Scene
+    tube: TubeMesh
+    V: dolfinx.fem.FunctionSpace
+    material: Material
+    K: PETSc.Mat
+    mass: np.ndarray  # lumped mass per owned dof
+    inv_mass: np.ndarray  # 0 on clamped dofs
+    clamped: np.ndarray  # owned local dof indices on the outer circle
+    nodes: ContactNodes
+    comm: MPI.Comm
+
+    @property
+    def n_owned(self) -> int:
+        return self.mass.size
+
+    @property
+    def n_global_dofs(self) -> int:
+        return self.K.getSize()[0]
+
+    def vec(self, array: np.ndarray) -> PETSc.Vec:
+        """A PETSc Vec sharing memory with an owned-dof numpy array (no copy)."""
+        return PETSc.Vec().createWithArray(
+            array, size=(array.size, self.n_global_dofs), comm=self.comm
+        )
+
+    def stiffness_mult(self):
+        """``mult(u, out)``: out = K u on owned numpy arrays, via one PETSc MatMult.
+
+        The PETSc vectors wrapping the arrays are created once per array pair and cached.
+        """
+        cache: dict[tuple[int, int], tuple[PETSc.Vec, PETSc.Vec]] = {}
+        K = self.K
+
+        def mult(u: np.ndarray, out: np.ndarray) -> None:
+            key = (u.ctypes.data, out.ctypes.data)
+            pair = cache.get(key)
+            if pair is None:
+                pair = cache[key] = (self.vec(u), self.vec(out))
+            K.mult(pair[0], pair[1])
+
+        return mult
+
+    def owned_array(self, function: dolfinx.fem.Function) -> np.ndarray:
+        """Owned dof values of a dolfinx Function (copy)."""
+        n = self.n_owned
+        return function.x.array[:n].copy()
+
+    def to_function(self, array: np.ndarray, name: str = "u") -> dolfinx.fem.Function:
+        """A dolfinx Function (ghosts updated) from owned dof values."""
+        fn = dolfinx.fem.Function(self.V, name=name)
+        fn.x.array[: self.n_owned] = array
+        fn.x.scatter_forward()
+        return fn
+
+    def polar(self, array: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(radial, tangential) components of ``array`` at the owned contact nodes."""
+        nd = self.nodes
+        x, y = array[nd.dofs_x], array[nd.dofs_y]
+        return nd.cos_t * x + nd.sin_t * y, -nd.sin_t * x + nd.cos_t * y
+
+    def radial_field(self, amplitude_of_theta) -> np.ndarray:
+        """Owned dofs of u = A(theta) X(r) e_r, X(r) = (xi^2 R/r - r/R) / (xi^2 - 1) (eq. [1]).
+
+        X(R) = 1 and X(xi R) = 0, so the field is clamped on the outer circle. Defined from
+        coordinates, hence independent of the mesh partition.
+        """
+        R, xi = self.scene.geometry.R, self.scene.geometry.xi
+
+        def expr(x: np.ndarray) -> np.ndarray:
+            r = np.hypot(x[0], x[1])
+            theta = np.arctan2(x[1], x[0])
+            radial = amplitude_of_theta(theta) * (xi**2 * R / r - r / R) / (xi**2 - 1.0)
+            return np.vstack([radial * x[0] / r, radial * x[1] / r])
+
+        fn = dolfinx.fem.Function(self.V)
+        fn.interpolate(expr)
+        arr = self.owned_array(fn)
+        arr[self.clamped] = 0.0
+        return arr
+
+
+def build_problem(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD) -> TubeProblem:
+    """Mesh, P1/P2 space, stiffness matrix, lumped mass and contact nodes for ``scene``."""
+    g, m = scene.geometry, scene.mesh
+    tube = annulus_mesh(
+        comm, R=g.R, xi=g.xi, n_inner=m.n_inner, n_radial=m.n_radial, cell=m.cell, degree=m.degree
+    )
+    msh = tube.mesh
+    V = dolfinx.fem.functionspace(msh, ("Lagrange", m.degree, (msh.geometry.dim,)))
+    mat = scene.material
+    material = Material(E=mat.E, nu=mat.nu, rho=mat.rho)
+    u, v = ufl.TrialFunction(V), ufl.TestFunction(V)
+    K = dolfinx.fem.petsc.assemble_matrix(dolfinx.fem.form(stiffness(u, v, material)))
+    K.assemble()
+    mass_vec = lumped_mass(V, material.rho)
+    mass = mass_vec.array.copy()
+    bs = V.dofmap.index_map_bs
+    n_owned = V.dofmap.index_map.size_local * bs
+    outer = tube.facet_tags.find(OUTER_TAG)
+    blocks = dolfinx.fem.locate_dofs_topological(V, msh.topology.dim - 1, outer)
+    clamped = (blocks[:, None] * bs + np.arange(bs)[None, :]).ravel()
+    clamped = np.sort(clamped[clamped < n_owned])
+    inv_mass = 1.0 / mass
+    inv_mass[clamped] = 0.0
+    nodes = contact_nodes(V, tube.facet_tags, INNER_TAG)
+    return TubeProblem(scene, tube, V, material, K, mass, inv_mass, clamped, nodes, comm)
+
+
+class ContactProjection:
+    """The forward-increment contact step of ``Newmark`` for the tube's inner circle.
+
+    Converts the owned contact dofs to polar components, calls the nodal law
+    ``solver.contact.project_contact`` and writes the nodal forces back in (x, y). Each node is
+    owned by exactly one rank, so nothing is double counted in parallel. All arrays are
+    preallocated: the call allocates nothing.
+    """
+
+    def __init__(self, problem: TubeProblem, kappa: float, dt: float) -> None:
+        sc = problem.scene
+        nd = problem.nodes
+        self.nodes = nd
+        self.kappa = kappa
+        self.d = sc.geometry.d
+        self.f = sc.loading.f
+        self.slide = sc.geometry.R * sc.loading.omega * dt  # cylinder surface travel per step
+        self.mass = problem.mass[nd.dofs_x].copy()
+        n = nd.dofs_x.size
+        self.out = ContactArrays(n)
+        self.ux, self.uy = np.zeros(n), np.zeros(n)
+        self.u_r, self.u_t, self.u_t_prev = np.zeros(n), np.zeros(n), np.zeros(n)
+        self.tmp = np.zeros(n)
+
+    def _polar(self, array: np.ndarray, radial: np.ndarray, tangential: np.ndarray) -> None:
+        nd = self.nodes
+        np.take(array, nd.dofs_x, out=self.ux)
+        np.take(array, nd.dofs_y, out=self.uy)
+        np.multiply(nd.cos_t, self.ux, out=radial)
+        np.multiply(nd.sin_t, self.uy, out=self.tmp)
+        radial += self.tmp
+        np.multiply(nd.cos_t, self.uy, out=tangential)
+        np.multiply(nd.sin_t, self.ux, out=self.tmp)
+        tangential -= self.tmp
+
+    def __call__(self, u_trial: np.ndarray, u_now: np.ndarray, force: np.ndarray) -> None:
+        nd, out = self.nodes, self.out
+        self._polar(u_now, self.tmp, self.u_t_prev)  # radial part unused
+        self._polar(u_trial, self.u_r, self.u_t)
+        project_contact(
+            self.u_r, self.u_t, self.u_t_prev, self.mass, self.kappa, self.d, self.slide,
+            self.f, out,
+        )
+        # back to (x, y): f_x = cos r_r - sin r_t, f_y = sin r_r + cos r_t
+        np.multiply(nd.cos_t, out.r_r, out=self.ux)
+        np.multiply(nd.sin_t, out.r_t, out=self.tmp)
+        self.ux -= self.tmp
+        np.multiply(nd.sin_t, out.r_r, out=self.uy)
+        np.multiply(nd.cos_t, out.r_t, out=self.tmp)
+        self.uy += self.tmp
+        force.fill(0.0)
+        np.put(force, nd.dofs_x, self.ux)
+        np.put(force, nd.dofs_y, self.uy)
+
+
+def omega_max(problem: TubeProblem) -> float:
+    """Largest eigenfrequency (rad/s) of K phi = w^2 M phi with the outer circle clamped.
+
+    SLEPc Krylov-Schur on the symmetric scaled operator M^{-1/2} K M^{-1/2} (clamped rows and
+    columns zeroed), largest magnitude; converges in a few dozen MatMults.
+    """
+    from slepc4py import SLEPc
+
+    scale = np.sqrt(problem.inv_mass)
+    d = problem.vec(scale)
+    A = problem.K.copy()
+    A.diagonalScale(d, d)
+    eps = SLEPc.EPS().create(problem.comm)
+    eps.setOperators(A)
+    eps.setProblemType(SLEPc.EPS.ProblemType.HEP)
+    eps.setWhichEigenpairs(SLEPc.EPS.Which.LARGEST_MAGNITUDE)
+    eps.setDimensions(1)
+    eps.setTolerances(1e-10, 500)
+    eps.solve()
+    if eps.getConverged() < 1:
+        raise RuntimeError("SLEPc did not converge on the largest eigenvalue of M^-1 K")
+    lam = eps.getEigenvalue(0).real
+    eps.destroy()
+    A.destroy()
+    return math.sqrt(lam)

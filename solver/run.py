@@ -1,0 +1,349 @@
+"""Simulation: scene -> problem -> steady state -> Newmark + contact -> observers -> run dir.
+
+``Simulation.proceed()`` advances the time loop until a stop criterion (simulated time, steps,
+wall time) is met; ``run_scene`` wraps it with the run directory, signals and ``summary.json``.
+Only rank 0 writes files; every write is atomic (temporary file, then rename), so a run
+directory never holds a half-written file.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import shutil
+import signal
+import sys
+import time
+from collections.abc import Callable
+from contextlib import contextmanager
+from pathlib import Path
+
+import numpy as np
+from mpi4py import MPI
+
+from solver import __version__
+from solver.scene import Scene, write_scene
+
+
+class Diverged(RuntimeError):
+    """The explicit scheme blew up (NaN, or energy beyond the bound)."""
+
+
+class StepTooLarge(ValueError):
+    """A fixed time step above the explicit stability limit."""
+
+
+class Profile:
+    """Wall time per phase (mesh, assembly, steady state, time loop, contact, I/O)."""
+
+    def __init__(self) -> None:
+        self.seconds: dict[str, float] = {}
+
+    @contextmanager
+    def phase(self, name: str):
+        t0 = time.perf_counter()
+        try:
+            yield
+        finally:
+            self.seconds[name] = self.seconds.get(name, 0.0) + time.perf_counter() - t0
+
+
+class Simulation:
+    """One scene's explicit run. Build with ``Simulation(scene)``, then ``proceed()``."""
+
+    def __init__(self, scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD,
+                 profile: Profile | None = None, log: Callable[[str], None] | None = None
+                 ) -> None:
+        from solver.newmark import Newmark, critical_time_step
+        from solver.observers import EnergyAccumulator, InnerCircleRecorder, Progress
+        from solver.problem import ContactProjection, build_problem, omega_max
+        from solver.steady import solve_steady_sliding
+
+        self.scene, self.comm = scene, comm
+        self.profile = profile or Profile()
+        self.log = log or (lambda msg: None)
+        ts = scene.time
+        with self.profile.phase("mesh+assembly"):
+            self.problem = build_problem(scene, comm)
+        with self.profile.phase("stability"):
+            self.omega_max = omega_max(self.problem)
+            self.dt_crit = critical_time_step(self.omega_max, ts.beta1, ts.beta2)
+        if ts.dt > 0.0:
+            if ts.dt > self.dt_crit:
+                raise StepTooLarge(
+                    f"time.dt = {ts.dt:.4g} s is above the explicit stability limit "
+                    f"dt_crit = sqrt(2/beta2)/omega_max = {self.dt_crit:.4g} s "
+                    f"(omega_max = {self.omega_max:.4g} rad/s, beta2 = {ts.beta2}). Use "
+                    f"time.dt <= {self.dt_crit:.4g}, or time.dt = 0 with time.dt_fraction <= 1"
+                )
+            dt = ts.dt
+        else:
+            dt = ts.dt_fraction * self.dt_crit
+        self.dt = dt
+        with self.profile.phase("steady-state"):
+            self.steady = solve_steady_sliding(self.problem)
+        self.integrator = Newmark(self.problem.stiffness_mult(), self.problem.inv_mass, dt,
+                                  ts.beta1, ts.beta2)
+        self.projection = ContactProjection(self.problem, self.integrator.kappa, dt)
+        self.integrator.contact = self.projection
+        u0 = self.steady.u + self.perturbation()
+        self.integrator.set_state(u0, np.zeros_like(u0))
+        self.energy = EnergyAccumulator(self.projection, scene.loading.f > 0.0)
+        every = max(1, int(round(scene.output.sample_interval / dt)))
+        n_steps = self.planned_steps()
+        self.recorder = InnerCircleRecorder(self.problem, self.projection, self.energy, every,
+                                            max_samples=n_steps // every + 2)
+        self.progress = Progress(ts.end_time, scene.output.progress and comm.rank == 0)
+        self.initial_energy: float | None = None
+        self.energy_bound = math.inf
+        self.status = "running"
+        self.stop_reason = ""
+
+    def planned_steps(self) -> int:
+        n = int(math.ceil(self.scene.time.end_time / self.dt - 1e-9))
+        if self.scene.time.max_steps:
+            n = min(n, self.scene.time.max_steps)
+        return n
+
+    def perturbation(self) -> np.ndarray:
+        """Initial radial bump (scene ``initial``), amplitude x d, shaped by X(r) (eq. [1])."""
+        ini, d = self.scene.initial, self.scene.geometry.d
+        if ini.perturbation == "none" or ini.amplitude == 0.0:
+            return np.zeros(self.problem.n_owned)
+        amp = ini.amplitude * d
+        if ini.perturbation == "mode":
+            k = ini.mode
+            return self.problem.radial_field(lambda th: amp * 0.5 * (1.0 + np.cos(k * th)))
+        rng = np.random.default_rng(ini.seed)  # same numbers on every rank: partition-free
+        ks = np.arange(1, ini.n_modes + 1)
+        weights = rng.uniform(0.0, 1.0, ks.size)
+        phases = rng.uniform(0.0, 2 * np.pi, ks.size)
+        weights /= weights.sum()
+
+        def shape(th: np.ndarray) -> np.ndarray:
+            s = np.zeros_like(th)
+            for k, w, ph in zip(ks, weights, phases, strict=True):
+                s += w * 0.5 * (1.0 + np.cos(k * th + ph))
+            return amp * s
+
+        return self.problem.radial_field(shape)
+
+    def _check_health(self, kinetic: float, strain: float) -> None:
+        total = kinetic + strain
+        if not math.isfinite(total):
+            raise Diverged(f"non-finite energy at t = {self.integrator.time:.6g} s")
+        if self.initial_energy is None:
+            self.initial_energy = total
+            # Energy fed by the cylinder is bounded by f p R Omega t per unit length; a wave's
+            # energy far beyond 1e4 x the initial strain energy means the scheme blew up.
+            self.energy_bound = 1e4 * max(total, 1e-300)
+        elif total > self.energy_bound:
+            raise Diverged(
+                f"energy {total:.3g} J/m exceeds {self.energy_bound:.3g} J/m (1e4 x initial) "
+                f"at t = {self.integrator.time:.6g} s: the explicit scheme is unstable here; "
+                "reduce time.dt_fraction"
+            )
+
+    def proceed(self, end_time: float | None = None, max_steps: int | None = None,
+                max_wall_time: float | None = None) -> str:
+        """Advance until a stop criterion: sim time, step count or wall time. Returns reason."""
+        ts = self.scene.time
+        end_time = ts.end_time if end_time is None else end_time
+        max_steps = (ts.max_steps or None) if max_steps is None else max_steps
+        max_wall = (ts.max_wall_time or None) if max_wall_time is None else max_wall_time
+        integ, rec, energy = self.integrator, self.recorder, self.energy
+        t_start = time.perf_counter()
+        with self.profile.phase("time-loop"):
+            while True:
+                if integ.time >= end_time - 1e-12 * end_time:
+                    self.stop_reason = "end_time"
+                    break
+                if max_steps is not None and integ.step_count >= max_steps:
+                    self.stop_reason = "max_steps"
+                    break
+                integ.step()
+                energy.after_step(integ.u_prev, integ.u)
+                if rec.due(integ.step_count - 1):
+                    kin, strain = rec.sample(integ)
+                    self._check_health(kin, strain)
+                    if self.comm.rank == 0 and self.progress.enabled:
+                        self.progress.update(integ.time, integ.step_count,
+                                             rec.status_fractions(max(1, rec.n // 10)))
+                    if max_wall is not None:
+                        stop = time.perf_counter() - t_start > max_wall
+                        if self.comm.allreduce(stop, op=MPI.LOR):
+                            self.stop_reason = "max_wall_time"
+                            break
+        return self.stop_reason
+
+    def summary(self) -> dict:
+        """Run summary (rank 0): wave analysis of the recorded samples plus run facts."""
+        from solver.analysis import analyse
+
+        sc = self.scene
+        data = self.recorder.arrays()
+        out: dict = {
+            "stickslip_version": __version__,
+            "scene": sc.name,
+            "status": self.status,
+            "stop_reason": self.stop_reason,
+            "steps": self.integrator.step_count,
+            "sim_time_s": self.integrator.time,
+            "dt_s": self.dt,
+            "dt_crit_s": self.dt_crit,
+            "omega_max_rad_s": self.omega_max,
+            "dofs": int(self.problem.n_global_dofs),
+            "contact_nodes": int(self.recorder.n_nodes),
+            "ranks": self.comm.size,
+            "samples": int(self.recorder.n),
+            "steady_pressure_pa": float(np.mean(self.steady.pressure)) if self.steady.pressure.size
+            else None,
+        }
+        if data["t"].size >= 4:
+            wave = analyse(data["t"], data["theta"], data["u_r"], data["u_theta"], data["status"],
+                           d=sc.geometry.d, radius=sc.geometry.R)
+            out.update(
+                regime=wave.regime, mode=wave.mode, celerity_m_s=wave.celerity_m_s,
+                frequency_hz=wave.frequency_hz, fractions=wave.fractions,
+                amplitude_m=wave.amplitude_m, limit_cycle=wave.limit_cycle,
+                analysis_window_s=wave.window_s,
+            )
+            e = data["energies"]
+            out["energy"] = {
+                "initial_J_per_m": float(e[0, 0] + e[0, 1]),
+                "final_J_per_m": float(e[-1, 0] + e[-1, 1]),
+                "work_contact_J_per_m": float(e[-1, 2]),
+                "work_cylinder_J_per_m": float(e[-1, 3]),
+                "friction_dissipation_J_per_m": float(e[-1, 4]),
+                "balance_residual_J_per_m": float(e[-1, 0] + e[-1, 1] - e[0, 0] - e[0, 1]
+                                                  - (e[-1, 2] - e[0, 2])),
+            }
+        return out
+
+
+# ---------------------------------------------------------------------------------------------
+# Run directory
+
+
+def atomic_write_text(path: Path, text: str) -> None:
+    tmp = path.with_name(f".{path.name}.tmp")
+    with open(tmp, "w") as fh:
+        fh.write(text)
+        fh.flush()
+        os.fsync(fh.fileno())
+    os.replace(tmp, path)
+
+
+def atomic_save_npz(path: Path, arrays: dict[str, np.ndarray]) -> None:
+    tmp = path.with_name(f".{path.stem}.tmp.npz")
+    np.savez_compressed(tmp, **arrays)
+    os.replace(tmp, path)
+
+
+def prepare_run_dir(path: Path, force: bool, comm: MPI.Comm) -> None:
+    """Create the run directory; refuse to overwrite an existing one unless ``force``."""
+    error = None
+    if comm.rank == 0:
+        if path.exists() and any(path.iterdir()):
+            if not force:
+                error = (f"run directory {path} exists; use --force to overwrite it, "
+                         "or -o to choose another")
+            else:
+                shutil.rmtree(path)
+        if error is None:
+            path.mkdir(parents=True, exist_ok=True)
+    error = comm.bcast(error, root=0)
+    if error:
+        raise FileExistsError(error)
+
+
+class _Terminate(Exception):
+    pass
+
+
+@contextmanager
+def _sigterm_as_interrupt():
+    """SIGTERM (e.g. a batch system or mpirun being killed) behaves like Ctrl-C."""
+
+    def handler(signum, frame):
+        raise KeyboardInterrupt
+
+    previous = signal.signal(signal.SIGTERM, handler)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
+def run_scene(scene: Scene, run_dir: Path, *, force: bool = False,
+              comm: MPI.Comm = MPI.COMM_WORLD, profile: bool = False,
+              stream=sys.stdout) -> dict:
+    """Run ``scene`` into ``run_dir``: scene.toml, samples.npz, summary.json (rank 0)."""
+    prof = Profile()
+    rank0 = comm.rank == 0
+
+    def say(msg: str) -> None:
+        if rank0:
+            print(msg, file=stream, flush=True)
+
+    prepare_run_dir(run_dir, force, comm)
+    if rank0:
+        write_scene(scene, run_dir / "scene.toml")
+        atomic_write_text(run_dir / "summary.json",
+                          json.dumps({"scene": scene.name, "status": "running"}, indent=2))
+    t0 = time.perf_counter()
+    sim = None
+    error = None
+    with _sigterm_as_interrupt():
+        try:
+            say(f"stickslip {__version__}: scene '{scene.name}' on {comm.size} rank(s)")
+            sim = Simulation(scene, comm, prof)
+            say(f"  {sim.problem.n_global_dofs} dofs, {sim.recorder.n_nodes} contact nodes, "
+                f"dt = {sim.dt:.4g} s ({sim.dt / sim.dt_crit:.2f} dt_crit), "
+                f"{sim.planned_steps()} steps to t = {scene.time.end_time} s")
+            sim.proceed()
+            sim.status = "completed"
+        except KeyboardInterrupt:
+            if sim is not None:
+                sim.status = "interrupted"
+            error = "interrupted"
+        except Diverged as err:
+            if sim is not None:
+                sim.status = "diverged"
+            error = str(err)
+    with prof.phase("output"):
+        summary = sim.summary() if (sim is not None and rank0) else {}
+        if rank0:
+            if sim is None:
+                summary = {"scene": scene.name, "status": "interrupted"}
+            summary["wall_time_s"] = time.perf_counter() - t0
+            if error:
+                summary["message"] = error
+            if sim is not None:
+                arrays = sim.recorder.arrays()
+                arrays["steady_pressure"] = np.asarray(sim.steady.pressure)
+                atomic_save_npz(run_dir / "samples.npz", arrays)
+    if rank0:
+        summary["profile_s"] = {k: round(v, 4) for k, v in prof.seconds.items()}
+        atomic_write_text(run_dir / "summary.json", json.dumps(summary, indent=2))
+        _print_summary(summary, run_dir, stream, profile)
+    return summary
+
+
+def _print_summary(s: dict, run_dir: Path, stream, profile: bool) -> None:
+    lines = [f"status: {s.get('status')}" + (f" ({s['message']})" if s.get("message") else "")]
+    if "regime" in s:
+        fr = s["fractions"]
+        lines += [
+            f"regime: {s['regime']}, mode k = {s['mode']}, "
+            f"celerity {s['celerity_m_s']:+.1f} m/s (+ = rotation sense), "
+            f"frequency {s['frequency_hz']:.1f} Hz",
+            f"zones: separation {fr['separation']:.3f}, stick {fr['stick']:.3f}, "
+            f"slip {fr['slip']:.3f}; amplitude {s['amplitude_m']:.3g} m; "
+            f"limit cycle: {s['limit_cycle']}",
+        ]
+    lines.append(f"steps {s.get('steps')}, wall {s.get('wall_time_s', 0):.2f} s -> {run_dir}")
+    if profile:
+        lines.append("profile: " + ", ".join(f"{k} {v:.3f} s" for k, v in s["profile_s"].items()))
+    print("\n".join(lines), file=stream, flush=True)
