@@ -27,38 +27,46 @@ ENERGY_FIELDS = (
 class EnergyAccumulator:
     """Work of the contact forces, accumulated every step over the owned contact nodes.
 
-    With r_n the nodal force at t_n (polar r_r, r_theta) and Delta u = u_{n+1} - u_n:
-      work_contact         = sum r_n . Delta u               (work done on the tube)
-      work_cylinder        = sum r_theta,n R Omega dt         (power fed by the rotating cylinder)
-      friction_dissipation = sum r_theta,n (R Omega dt - Delta u_theta) >= 0
-    The energy balance E(t) - E(0) - work_contact = -(numerical dissipation) closes for
-    beta_2 = 1/2 up to O(dt^2), and is <= 0 for beta_2 > 1/2.
+    The force r_n acts at t_n; its work uses the centred displacement increment
+    Delta u_n = (u_{n+1} - u_{n-1}) / 2 (with the forward increment, the systematic error
+    r_n . dt^2 M^{-1} r_n / 2 > 0 of every stiff constraint force would pile up):
+      work_contact         = sum r_n . Delta u_n           (work done on the tube)
+      work_cylinder        = sum r_theta,n R Omega dt       (work fed by the rotating cylinder)
+      friction_dissipation = work_cylinder - sum r_theta,n Delta u_theta,n
+    The balance E(t) - E(0) - work_contact closes to O(dt^2) for beta_2 = 1/2 and is the
+    (negative) numerical dissipation for beta_2 > 1/2.
     """
 
-    def __init__(self, projection, with_friction: bool) -> None:
+    def __init__(self, projection, with_friction: bool, u0: np.ndarray) -> None:
         self.p = projection
         self.with_friction = with_friction
         n = projection.nodes.dofs_x.size
-        self.du_r, self.du_t = np.zeros(n), np.zeros(n)
-        self.ur_new, self.ut_new = np.zeros(n), np.zeros(n)
+        self.ur_prev, self.ut_prev = np.zeros(n), np.zeros(n)  # u_{n-1}
+        self.ur_now, self.ut_now = np.zeros(n), np.zeros(n)  # u_n
+        self.ur_next, self.ut_next = np.zeros(n), np.zeros(n)  # u_{n+1}
+        projection._polar(u0, self.ur_now, self.ut_now)
+        self.ur_prev[:] = self.ur_now
+        self.ut_prev[:] = self.ut_now
         self.work_contact = 0.0
         self.work_cylinder = 0.0
         self.friction_dissipation = 0.0
 
-    def after_step(self, u_prev: np.ndarray, u_next: np.ndarray) -> None:
-        p = self.p
-        p._polar(u_prev, self.du_r, self.du_t)
-        p._polar(u_next, self.ur_new, self.ut_new)
-        self.ur_new -= self.du_r
-        self.ut_new -= self.du_t
-        out = p.out
-        self.work_contact += float(out.r_r @ self.ur_new)
+    def after_step(self, u_next: np.ndarray) -> None:
+        p, out = self.p, self.p.out
+        p._polar(u_next, self.ur_next, self.ut_next)
+        # centred increments, in the u_prev arrays (they are rolled below anyway)
+        np.subtract(self.ur_next, self.ur_prev, out=self.ur_prev)
+        np.subtract(self.ut_next, self.ut_prev, out=self.ut_prev)
+        self.work_contact += 0.5 * float(out.r_r @ self.ur_prev)
         if self.with_friction:
-            wt = float(out.r_t @ self.ut_new)
-            self.work_contact += wt
+            wt = 0.5 * float(out.r_t @ self.ut_prev)
             wc = float(out.r_t.sum()) * p.slide
+            self.work_contact += wt
             self.work_cylinder += wc
             self.friction_dissipation += wc - wt
+        # roll: (n-1, n, n+1) <- (n, n+1, scratch)
+        self.ur_prev, self.ur_now, self.ur_next = self.ur_now, self.ur_next, self.ur_prev
+        self.ut_prev, self.ut_now, self.ut_next = self.ut_now, self.ut_next, self.ut_prev
 
     def totals(self, comm: MPI.Comm) -> tuple[float, float, float]:
         local = np.array([self.work_contact, self.work_cylinder, self.friction_dissipation])
@@ -201,3 +209,67 @@ class Progress:
             file=self.stream,
             flush=True,
         )
+
+
+class ProbeRecorder:
+    """Time histories (every step) of u_r, u_theta, v_r, v_theta at probe angles.
+
+    Each probe is the contact node nearest to its angle (ties broken by the global node
+    order, so the choice does not depend on the partition). The owning rank records it
+    locally every step, without communication; ``arrays()`` gathers the histories to rank 0.
+    """
+
+    def __init__(self, problem, probes_deg, max_steps: int) -> None:
+        self.comm = problem.comm
+        nd = problem.nodes
+        self.cos, self.sin, self.ix, self.iy, self.slots = [], [], [], [], []
+        self.angles = []
+        for slot, deg in enumerate(probes_deg):
+            target = np.radians(deg) % (2 * np.pi)
+            if nd.theta.size:
+                dist = np.abs((nd.theta - target + np.pi) % (2 * np.pi) - np.pi)
+                j = int(np.lexsort((nd.global_node_index, dist))[0])
+                mine = (float(dist[j]), int(nd.global_node_index[j]))
+            else:
+                j, mine = -1, (np.inf, -1)
+            best = self.comm.allreduce(mine, op=MPI.MIN)
+            if mine == best and j >= 0:
+                self.slots.append(slot)
+                self.ix.append(int(nd.dofs_x[j]))
+                self.iy.append(int(nd.dofs_y[j]))
+                self.cos.append(float(nd.cos_t[j]))
+                self.sin.append(float(nd.sin_t[j]))
+                self.angles.append(float(np.degrees(nd.theta[j])))
+        self.n_probes = len(probes_deg)
+        self.data = np.zeros((len(self.slots), max_steps + 1, 4))
+        self.t = np.zeros(max_steps + 1)
+        self.n = 0
+
+    def record(self, integrator) -> None:
+        """Record time level n (u_prev = u_n, v = v_n) after a step."""
+        if self.n >= self.t.size:
+            return
+        self.t[self.n] = integrator.time - integrator.dt
+        u, v = integrator.u_prev, integrator.v
+        for i in range(len(self.slots)):  # loop over the (few) probes, not over nodes
+            c, s, ix, iy = self.cos[i], self.sin[i], self.ix[i], self.iy[i]
+            row = self.data[i, self.n]
+            row[0] = c * u[ix] + s * u[iy]
+            row[1] = -s * u[ix] + c * u[iy]
+            row[2] = c * v[ix] + s * v[iy]
+            row[3] = -s * v[ix] + c * v[iy]
+        self.n += 1
+
+    def arrays(self) -> dict[str, np.ndarray] | None:
+        """Gathered histories on rank 0 (None elsewhere): probe_t, probe_deg, probe_data."""
+        local = (self.slots, self.angles, self.data[:, : self.n])
+        gathered = self.comm.gather(local, root=0)
+        if self.comm.rank != 0:
+            return None
+        data = np.zeros((self.n_probes, self.n, 4))
+        deg = np.zeros(self.n_probes)
+        for slots, angles, arr in gathered:
+            for k, slot in enumerate(slots):
+                data[slot] = arr[k]
+                deg[slot] = angles[k]
+        return {"probe_t": self.t[: self.n], "probe_deg": deg, "probe_data": data}

@@ -66,20 +66,28 @@ def plot_run(run_dir: Path) -> list[Path]:
     ax.legend(loc="upper right", fontsize=8)
     out.append(_save(fig, run_dir / "profile.png"))
 
-    # Phase diagrams at the first probe, over the analysis window.
-    probe = scene["output"].get("probes_deg", [0.0])[0]
-    j = int(np.argmin(np.abs(((deg - probe + 180.0) % 360.0) - 180.0)))
+    # Phase diagrams at the first probe (every-step history), over the analysis window.
     window = summary.get("analysis_window_s", (t[-1] - t[0]) / 3)
-    sel = t >= t[-1] - window
+    if "probe_data" in data.files and data["probe_data"].shape[1] > 0:
+        pt, pd = data["probe_t"], data["probe_data"][0]
+        sel = pt >= pt[-1] - min(window, 5.0 * _period(summary, pt))
+        pr, pth, pvr, pvt = pd[sel, 0] - d, pd[sel, 1], pd[sel, 2], pd[sel, 3]
+        probe_deg = float(data["probe_deg"][0])
+    else:
+        probe = scene["output"].get("probes_deg", [0.0])[0]
+        j = int(np.argmin(np.abs(((deg - probe + 180.0) % 360.0) - 180.0)))
+        sel = t >= t[-1] - window
+        pr, pth, pvr, pvt = ur[sel, j], ut[sel, j], data["v_r"][sel, j], data["v_theta"][sel, j]
+        probe_deg = float(deg[j])
     fig, axes = plt.subplots(1, 2, figsize=(10, 4), constrained_layout=True)
-    axes[0].plot(1e3 * ur[sel, j], data["v_r"][sel, j], lw=0.8)
+    axes[0].plot(1e3 * pr, pvr, lw=0.8)
     axes[0].set(xlabel="u_r − d (mm)", ylabel="du_r/dt (m/s)", title="radial phase diagram")
-    axes[1].plot(1e3 * ut[sel, j], data["v_theta"][sel, j], lw=0.8, color="C1")
+    axes[1].plot(1e3 * pth, pvt, lw=0.8, color="C1")
     rw = scene["geometry"]["R"] * scene["loading"]["omega"]
     axes[1].axhline(rw, color="k", ls="--", lw=0.8, label="RΩ (stick)")
     axes[1].set(xlabel="u_θ (mm)", ylabel="du_θ/dt (m/s)", title="tangential phase diagram")
     axes[1].legend(fontsize=8)
-    fig.suptitle(f"{title}, probe θ = {deg[j]:.1f}°", fontsize=10)
+    fig.suptitle(f"{title}, probe θ = {probe_deg:.1f}°", fontsize=10)
     out.append(_save(fig, run_dir / "phase.png"))
 
     # Energies.
@@ -92,6 +100,12 @@ def plot_run(run_dir: Path) -> list[Path]:
     ax.legend(fontsize=8)
     out.append(_save(fig, run_dir / "energy.png"))
     return out
+
+
+def _period(summary: dict, t: np.ndarray) -> float:
+    """Wave period seen at a fixed point (s), or the record length if there is no wave."""
+    freq = summary.get("frequency_hz") or 0.0
+    return 1.0 / freq if freq > 0 else float(t[-1] - t[0])
 
 
 def _shade_zones(ax, deg: np.ndarray, status: np.ndarray) -> None:

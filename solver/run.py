@@ -56,7 +56,12 @@ class Simulation:
                  profile: Profile | None = None, log: Callable[[str], None] | None = None
                  ) -> None:
         from solver.newmark import Newmark, critical_time_step
-        from solver.observers import EnergyAccumulator, InnerCircleRecorder, Progress
+        from solver.observers import (
+            EnergyAccumulator,
+            InnerCircleRecorder,
+            ProbeRecorder,
+            Progress,
+        )
         from solver.problem import ContactProjection, build_problem, omega_max
         from solver.steady import solve_steady_sliding
 
@@ -83,17 +88,20 @@ class Simulation:
         self.dt = dt
         with self.profile.phase("steady-state"):
             self.steady = solve_steady_sliding(self.problem)
+            p = self.steady.pressure
+            self.steady_mean_pressure = comm.allreduce(float(p.sum())) / comm.allreduce(p.size)
         self.integrator = Newmark(self.problem.stiffness_mult(), self.problem.inv_mass, dt,
                                   ts.beta1, ts.beta2)
         self.projection = ContactProjection(self.problem, self.integrator.kappa, dt)
         self.integrator.contact = self.projection
         u0 = self.steady.u + self.perturbation()
         self.integrator.set_state(u0, np.zeros_like(u0))
-        self.energy = EnergyAccumulator(self.projection, scene.loading.f > 0.0)
+        self.energy = EnergyAccumulator(self.projection, scene.loading.f > 0.0, u0)
         every = max(1, int(round(scene.output.sample_interval / dt)))
         n_steps = self.planned_steps()
         self.recorder = InnerCircleRecorder(self.problem, self.projection, self.energy, every,
                                             max_samples=n_steps // every + 2)
+        self.probes = ProbeRecorder(self.problem, scene.output.probes_deg, n_steps)
         self.progress = Progress(ts.end_time, scene.output.progress and comm.rank == 0)
         self.initial_energy: float | None = None
         self.energy_bound = math.inf
@@ -152,7 +160,7 @@ class Simulation:
         end_time = ts.end_time if end_time is None else end_time
         max_steps = (ts.max_steps or None) if max_steps is None else max_steps
         max_wall = (ts.max_wall_time or None) if max_wall_time is None else max_wall_time
-        integ, rec, energy = self.integrator, self.recorder, self.energy
+        integ, rec, energy, probes = self.integrator, self.recorder, self.energy, self.probes
         t_start = time.perf_counter()
         with self.profile.phase("time-loop"):
             while True:
@@ -163,7 +171,8 @@ class Simulation:
                     self.stop_reason = "max_steps"
                     break
                 integ.step()
-                energy.after_step(integ.u_prev, integ.u)
+                energy.after_step(integ.u)
+                probes.record(integ)
                 if rec.due(integ.step_count - 1):
                     kin, strain = rec.sample(integ)
                     self._check_health(kin, strain)
@@ -197,8 +206,7 @@ class Simulation:
             "contact_nodes": int(self.recorder.n_nodes),
             "ranks": self.comm.size,
             "samples": int(self.recorder.n),
-            "steady_pressure_pa": float(np.mean(self.steady.pressure)) if self.steady.pressure.size
-            else None,
+            "steady_pressure_pa": self.steady_mean_pressure,
         }
         if data["t"].size >= 4:
             wave = analyse(data["t"], data["theta"], data["u_r"], data["u_theta"], data["status"],
@@ -314,6 +322,7 @@ def run_scene(scene: Scene, run_dir: Path, *, force: bool = False,
             error = str(err)
     with prof.phase("output"):
         summary = sim.summary() if (sim is not None and rank0) else {}
+        probe_arrays = sim.probes.arrays() if sim is not None else None
         if rank0:
             if sim is None:
                 summary = {"scene": scene.name, "status": "interrupted"}
@@ -322,7 +331,7 @@ def run_scene(scene: Scene, run_dir: Path, *, force: bool = False,
                 summary["message"] = error
             if sim is not None:
                 arrays = sim.recorder.arrays()
-                arrays["steady_pressure"] = np.asarray(sim.steady.pressure)
+                arrays.update(probe_arrays or {})
                 atomic_save_npz(run_dir / "samples.npz", arrays)
     if rank0:
         summary["profile_s"] = {k: round(v, 4) for k, v in prof.seconds.items()}
