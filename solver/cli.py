@@ -74,16 +74,32 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("info", help="versions of dolfinx, PETSc, MPI; where outputs go")
     p.set_defaults(func=_info)
 
-    _register_optional(sub, "solver.commands")
-    _register_optional(sub, "semianalytic.cli")
+    for module in COMMAND_MODULES:
+        _register(sub, module)
     return parser
 
 
-def _register_optional(sub: argparse._SubParsersAction, module: str) -> None:
-    """Let a package add its subcommands (``register(subparsers)``)."""
+# Modules that add subcommands through ``register(subparsers)``. Each keeps its heavy imports
+# (dolfinx, PETSc, matplotlib, pyvista) inside its handlers.
+COMMAND_MODULES = (
+    "solver.commands",  # run, plot
+    "semianalytic.cli",  # wave, flutter
+    "solver.verification",  # compare
+    "solver.sweep",  # sweep
+    "solver.flutter_fe",  # flutter-fe
+)
+
+
+def _register(sub: argparse._SubParsersAction, module: str) -> None:
     import importlib
 
-    importlib.import_module(module).register(sub)
+    try:
+        mod = importlib.import_module(module)
+    except ModuleNotFoundError as err:  # a feature module not present in this version
+        if err.name != module:
+            raise
+        return
+    mod.register(sub)
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -9,13 +9,13 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import dolfinx
+import dolfinx.fem.petsc
 import numpy as np
+import ufl
 from mpi4py import MPI
 from petsc4py import PETSc
 
-import dolfinx
-import dolfinx.fem.petsc
-import ufl
 from forms.elasticity import Material, lumped_mass, stiffness
 from forms.polar import ContactNodes, contact_nodes
 from meshes.annulus import INNER_TAG, OUTER_TAG, TubeMesh, annulus_mesh

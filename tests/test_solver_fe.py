@@ -15,7 +15,7 @@ from mpi4py import MPI  # noqa: E402
 from solver.contact import SEPARATION, SLIP, STICK  # noqa: E402
 from solver.newmark import Newmark  # noqa: E402
 from solver.problem import build_problem, omega_max  # noqa: E402
-from solver.run import Diverged, Simulation, StepTooLarge, run_scene  # noqa: E402
+from solver.run import Simulation, StepTooLarge, run_scene  # noqa: E402
 from solver.scene import load_scene  # noqa: E402
 
 SELF = MPI.COMM_SELF
@@ -142,7 +142,9 @@ def test_divergence_is_reported_not_hidden(tmp_path, monkeypatch):
     import solver.newmark
 
     real = solver.newmark.critical_time_step
-    monkeypatch.setattr(solver.newmark, "critical_time_step", lambda w, b1, b2: 1.6 * real(w, b1, b2))
+    monkeypatch.setattr(
+        solver.newmark, "critical_time_step", lambda w, b1, b2: 1.6 * real(w, b1, b2)
+    )
     s = run_scene(smoke(), tmp_path / "div", comm=SELF, stream=open("/dev/null", "w"))
     assert s["status"] == "diverged"
     assert "energy" in s["message"] or "non-finite" in s["message"]

@@ -1,0 +1,213 @@
+"""``stickslip wave`` and ``stickslip flutter`` subcommands (issue 3, section 6).
+
+The lead's ``solver/cli.py`` calls :func:`register` with its ``subparsers``. Handlers return
+the exit code: 0 on success, 2 on bad input (one ``error: ...`` line on stderr naming the
+bad value and the allowed range).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+import warnings
+from typing import Any
+
+__all__ = ["register", "wave_command", "flutter_command"]
+
+
+class InputError(ValueError):
+    """Bad command-line value (message names the flag, the value and the allowed range)."""
+
+
+def _common(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--nu", type=float, default=0.3, help="Poisson ratio, -1 < nu < 0.5")
+    p.add_argument("--xi", type=float, default=1.25, help="R*/R, > 1")
+    p.add_argument("--f", type=float, default=0.7, help="friction coefficient, > 0")
+    p.add_argument("--omega", type=float, default=40.0, help="rotation speed (rad/s), > 0")
+    p.add_argument("--wave-speed", type=float, default=1000.0, help="sqrt(E/rho) (m/s)")
+    p.add_argument("--radius", type=float, default=1.0, help="inner radius R (m)")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+
+
+def register(subparsers: Any) -> None:
+    """Add the ``wave`` and ``flutter`` subcommands to an argparse ``subparsers`` object."""
+    pw = subparsers.add_parser(
+        "wave",
+        help="travelling stick-slip(-separation) waves of the reduced model",
+        description="Solve eqs. [4]-[7] of the paper for travelling waves (semi-analytical).",
+    )
+    _common(pw)
+    pw.add_argument("--k", type=int, default=4, help="mode number (waves per turn), >= 1")
+    pw.add_argument("--delta", type=float, default=0.001, help="mismatch d/R, >= 0")
+    pw.add_argument("--plot", metavar="PNG", default=None, help="draw Figure 1 to this file")
+    pw.add_argument(
+        "--regime",
+        choices=("auto", "stick-slip", "stick-slip-separation"),
+        default="auto",
+        help="which kind of wave to look for (default: both)",
+    )
+    pw.add_argument(
+        "--junction",
+        choices=("both", "impact", "smooth"),
+        default="both",
+        help="matching conditions for separation waves (docs/semianalytic.md)",
+    )
+    pw.set_defaults(func=wave_command)
+    pf = subparsers.add_parser(
+        "flutter",
+        help="flutter modes of steady sliding (reduced model)",
+        description="Growth rate, phase speed and direction of the modes exp(i(k theta - w t)).",
+    )
+    _common(pf)
+    pf.add_argument("--kmax", type=int, default=8, help="largest mode number, >= 1")
+    pf.set_defaults(func=flutter_command)
+
+
+def _validate(args: argparse.Namespace) -> None:
+    def bad(flag: str, value: Any, allowed: str) -> InputError:
+        return InputError(f"--{flag} {value!r} is out of range: need {allowed}")
+
+    for name, val in (
+        ("nu", args.nu),
+        ("xi", args.xi),
+        ("f", args.f),
+        ("omega", args.omega),
+        ("wave-speed", args.wave_speed),
+        ("radius", args.radius),
+    ):
+        if not math.isfinite(val):
+            raise bad(name, val, "a finite number")
+    if not -1.0 < args.nu < 0.5:
+        raise bad("nu", args.nu, "-1 < nu < 0.5")
+    if not args.xi > 1.0:
+        raise bad("xi", args.xi, "xi > 1")
+    if not args.f > 0.0:
+        raise bad("f", args.f, "f > 0")
+    if not args.omega > 0.0:
+        raise bad("omega", args.omega, "omega > 0 (rad/s)")
+    if not args.wave_speed > 0.0:
+        raise bad("wave-speed", args.wave_speed, "wave speed > 0 (m/s)")
+    if not args.radius > 0.0:
+        raise bad("radius", args.radius, "radius > 0 (m)")
+    if hasattr(args, "k") and args.k < 1:
+        raise bad("k", args.k, "an integer k >= 1")
+    if hasattr(args, "delta") and not (math.isfinite(args.delta) and args.delta >= 0.0):
+        raise bad("delta", args.delta, "delta >= 0")
+    if hasattr(args, "kmax") and args.kmax < 1:
+        raise bad("kmax", args.kmax, "an integer kmax >= 1")
+
+
+def _jsonable(d: dict[str, Any]) -> dict[str, Any]:
+    return {k: (float(v) if isinstance(v, float) else v) for k, v in d.items()}
+
+
+def wave_command(args: argparse.Namespace) -> int:
+    """Handler of ``stickslip wave``: solve, print JSON or a table, optionally plot."""
+    try:
+        _validate(args)
+    except InputError as err:
+        print(f"error: {err}", file=sys.stderr)
+        return 2
+    from semianalytic.coefficients import coefficients, gamma_from_physical
+    from semianalytic.waves import find_waves
+
+    gamma = gamma_from_physical(args.wave_speed, args.radius, args.omega)
+    co = coefficients(args.nu, args.xi, gamma)
+    junctions = ("impact", "smooth") if args.junction == "both" else (args.junction,)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        waves = find_waves(co, args.f, args.k, args.delta, regime=args.regime, junctions=junctions)
+    sols = [_jsonable(w.summary(args.radius, args.omega)) for w in waves]
+    best = next((w for w in waves if w.admissible), None)
+    out: dict[str, Any] = {
+        "regime": best.regime if best else "none",
+        "inputs": {
+            "nu": args.nu,
+            "xi": args.xi,
+            "f": args.f,
+            "k": args.k,
+            "delta": args.delta,
+            "omega": args.omega,
+            "wave_speed": args.wave_speed,
+            "radius": args.radius,
+            "gamma": gamma,
+        },
+        "coefficients": {"a": co.a, "b": co.b, "g": co.g, "h": co.h, "D": co.D},
+    }
+    keys = (
+        "junction",
+        "c",
+        "celerity_m_s",
+        "frequency_hz",
+        "angular_frequency_rad_s",
+        "psi1",
+        "psi2",
+        "amplitude",
+        "v_amplitude",
+    )
+    bsum = sols[waves.index(best)] if best else {}
+    for key in keys:
+        out[key] = bsum.get(key)
+    out["solutions"] = sols
+    if args.plot:
+        target = best or (waves[0] if waves else None)
+        if target is None:
+            print("error: --plot: no wave solution was found to draw", file=sys.stderr)
+            return 1
+        from semianalytic.plotting import plot_wave
+
+        plot_wave(target, args.plot, R=args.radius, omega=args.omega)
+    if args.json:
+        print(json.dumps(out, indent=2))
+        return 0
+    print(
+        f"gamma = {gamma:.6g}   a = {co.a:.6g}  b = {co.b:.6g}  g = {co.g:.6g}  "
+        f"h = {co.h:.6g}  D = {co.D:.6g}"
+    )
+    print(f"selected regime: {out['regime']}")
+    hdr = (
+        f"{'regime':<22}{'junction':<15}{'c':>10}{'m/s':>10}{'Hz':>9}{'psi1':>8}"
+        f"{'psi2':>8}{'max U-d':>10}  admissible / violated"
+    )
+    print(hdr)
+    print("-" * len(hdr))
+    for s in sols:
+        print(
+            f"{s['regime']:<22}{s['junction']:<15}{s['c']:>10.4g}{s['celerity_m_s']:>10.1f}"
+            f"{s['frequency_hz']:>9.1f}{s['psi1']:>8.4f}{s['psi2']:>8.4f}"
+            f"{s['amplitude']:>10.3g}  {'yes' if s['admissible'] else 'no: ' + s['violated']}"
+        )
+    if not sols:
+        print("(no solution found)")
+    return 0
+
+
+def flutter_command(args: argparse.Namespace) -> int:
+    """Handler of ``stickslip flutter``: modes k = 1..kmax in physical units."""
+    try:
+        _validate(args)
+    except InputError as err:
+        print(f"error: {err}", file=sys.stderr)
+        return 2
+    from semianalytic.coefficients import coefficients, gamma_from_physical
+    from semianalytic.flutter import flutter_modes, mode_physical
+
+    co = coefficients(
+        args.nu, args.xi, gamma_from_physical(args.wave_speed, args.radius, args.omega)
+    )
+    modes = [
+        mode_physical(m, args.radius, args.omega) for m in flutter_modes(co, args.f, args.kmax)
+    ]
+    if args.json:
+        print(json.dumps({"D": co.D, "modes": modes}, indent=2))
+        return 0
+    print(f"D = {co.D:.6g} (exploding wave {'with' if co.D > 0 else 'against'} the rotation)")
+    print(f"{'k':>3}{'growth 1/s':>14}{'phase m/s':>14}{'freq Hz':>12}  direction")
+    for m in modes:
+        print(
+            f"{m['k']:>3}{m['growth_rate_per_s']:>14.4g}{m['phase_speed_m_s']:>14.2f}"
+            f"{m['frequency_hz']:>12.2f}  {m['direction']}"
+        )
+    return 0

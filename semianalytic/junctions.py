@@ -1,0 +1,183 @@
+"""Generic junction-condition residuals for the stick-slip-separation wave (evidence tool).
+
+Used to compare closures of eqs. [5]-[7] (docs/semianalytic.md, "Figure 1 case"). The 7
+integration constants ``x = (y0[4], V1, z2[2])`` enter linearly; for given ``(c, ψ1, ψ2)``
+they are eliminated by least squares and the normalised residual norm measures how far the
+point is from satisfying the chosen conditions. Time-ordered coordinate ``s`` as in
+:mod:`semianalytic.waves` (separation [0, ψ1T] → stick → slip [ψ2T, T]).
+
+Condition names: ``liftoff:U, liftoff:V, liftoff:dU, liftoff:dV, liftoff:P0`` (at s = T ≡ 0),
+``landing:U, landing:V, landing:dU, landing:dV`` (s = ψ1T), ``stickslip:V, stickslip:dV,
+stickslip:Qbound`` (s = ψ2T).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.linalg import expm
+from scipy.optimize import least_squares
+
+from semianalytic.coefficients import Coefficients
+from semianalytic.waves import _scaled_coeffs, _sep_matrix, _slip_matrix
+
+__all__ = ["CLOSURES", "junction_residual", "nearest_point"]
+
+#: closures compared in docs/semianalytic.md (number of equations in brackets)
+CLOSURES: dict[str, tuple[str, ...]] = {
+    # full continuity of U, V, U', V' (10): the paper's "3 nonlinear unknowns" count
+    "smooth": (
+        "liftoff:U",
+        "liftoff:V",
+        "liftoff:dU",
+        "liftoff:dV",
+        "landing:U",
+        "landing:V",
+        "landing:dU",
+        "landing:dV",
+        "stickslip:V",
+        "stickslip:dV",
+    ),
+    # impact at landing, P -> 0 at lift-off, Q = fP at stick -> slip (10): physical
+    "impact": (
+        "liftoff:U",
+        "liftoff:V",
+        "liftoff:dU",
+        "liftoff:dV",
+        "liftoff:P0",
+        "landing:U",
+        "landing:V",
+        "stickslip:V",
+        "stickslip:dV",
+        "stickslip:Qbound",
+    ),
+    # paper read literally: U', V' continuous at ψ1T and T only (9; underdetermined)
+    "paper-literal": (
+        "liftoff:U",
+        "liftoff:V",
+        "liftoff:dU",
+        "liftoff:dV",
+        "landing:U",
+        "landing:V",
+        "landing:dU",
+        "landing:dV",
+        "stickslip:V",
+    ),
+    # paper literal + friction bound at stick -> slip (10)
+    "paper-literal+Qbound": (
+        "liftoff:U",
+        "liftoff:V",
+        "liftoff:dU",
+        "liftoff:dV",
+        "landing:U",
+        "landing:V",
+        "landing:dU",
+        "landing:dV",
+        "stickslip:V",
+        "stickslip:Qbound",
+    ),
+}
+
+
+def _raw(
+    x: NDArray[np.float64],
+    co0: Coefficients,
+    f: float,
+    k: int,
+    dt: float,
+    ct: float,
+    p1: float,
+    p2: float,
+    sigma: float,
+    conds: tuple[str, ...],
+) -> NDArray[np.float64]:
+    T = 2.0 * math.pi / k
+    Ds = sigma * co0.D
+    c2 = ct * ct
+    y0, V1, z2 = x[:4], x[4], x[5:7]
+    zp = np.array([f * co0.g * dt / co0.h, 0.0])
+    zT = expm(_slip_matrix(co0, c2, Ds, f) * ((1.0 - p2) * T)) @ (z2 - zp) + zp
+    y1 = expm(_sep_matrix(co0, c2, Ds) * (p1 * T)) @ y0
+    Lst = (p2 - p1) * T / ct
+    su = dt + 1.0 / ct
+    sp = co0.g * dt + abs(Ds) / ct
+    vals = {
+        "liftoff:U": (y0[0] - dt) / su,
+        "liftoff:dU": y0[1] / su,
+        "liftoff:V": (y0[2] - zT[0]) / su,
+        "liftoff:dV": (y0[3] - zT[1]) / su,
+        "liftoff:P0": (co0.g * dt - Ds * zT[1]) / sp,
+        "landing:U": (y1[0] - dt) / su,
+        "landing:dU": y1[1] / su,
+        "landing:V": (y1[2] - V1) / su,
+        "landing:dV": (y1[3] - 1.0 / ct) / su,
+        "stickslip:V": (z2[0] - V1 - Lst) / su,
+        "stickslip:dV": (z2[1] - 1.0 / ct) / su,
+        "stickslip:Qbound": (co0.h * (V1 + Lst) - f * (co0.g * dt - Ds / ct)) / (f * sp),
+    }
+    return np.array([vals[c] for c in conds])
+
+
+def junction_residual(
+    coeffs: Coefficients,
+    f: float,
+    k: int,
+    delta: float,
+    c: float,
+    psi1: float,
+    psi2: float,
+    conditions: tuple[str, ...] | str = "smooth",
+) -> tuple[float, NDArray[np.float64]]:
+    """Least-squares residual norm of the chosen junction conditions at ``(c, ψ1, ψ2)``.
+
+    ``c`` is the signed non-dimensional celerity. Returns ``(norm, constants)`` (scaled
+    variables, γ = 1). A root of the closure has norm 0.
+    """
+    conds = CLOSURES[conditions] if isinstance(conditions, str) else conditions
+    co0 = _scaled_coeffs(coeffs)
+    sg = math.sqrt(coeffs.gamma)
+    dt, ct = delta / sg, abs(c) * sg
+    sigma = -1.0 if c > 0 else 1.0
+    args = (co0, f, k, dt, ct, psi1, psi2, sigma, conds)
+    b = _raw(np.zeros(7), *args)
+    A = np.column_stack([_raw(e, *args) - b for e in np.eye(7)])
+    x, *_ = np.linalg.lstsq(A, -b, rcond=None)
+    return float(np.linalg.norm(A @ x + b)), x
+
+
+def nearest_point(
+    coeffs: Coefficients,
+    f: float,
+    k: int,
+    delta: float,
+    c0: float,
+    psi1: float,
+    psi2: float,
+    conditions: tuple[str, ...] | str = "smooth",
+    fix_psi1: bool = False,
+) -> dict[str, float]:
+    """Minimise the junction residual from ``(c0, ψ1, ψ2)``; returns the local minimum found."""
+    sg = math.sqrt(coeffs.gamma)
+    sign = 1.0 if c0 > 0 else -1.0
+
+    def fun(p: NDArray[np.float64]) -> NDArray[np.float64]:
+        ct, a1, a2 = (p[0], psi1, p[1]) if fix_psi1 else p
+        return np.array(
+            [junction_residual(coeffs, f, k, delta, sign * ct / sg, a1, a2, conditions)[0]]
+        )
+
+    x0 = [abs(c0) * sg, psi2] if fix_psi1 else [abs(c0) * sg, psi1, psi2]
+    lo = [1e-3, 0.0] if fix_psi1 else [1e-3, 0.0, 0.0]
+    hi = [5.0, 1.0] if fix_psi1 else [5.0, 1.0, 1.0]
+    sol = least_squares(fun, x0, bounds=(lo, hi), xtol=1e-14, ftol=1e-14, gtol=1e-14)
+    p = sol.x
+    ct, a1, a2 = (p[0], psi1, p[1]) if fix_psi1 else p
+    return {
+        "c_scaled": sign * ct,
+        "c": sign * ct / sg,
+        "psi1": a1,
+        "psi2": a2,
+        "residual": float(sol.fun[0]),
+    }

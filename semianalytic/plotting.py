@@ -1,0 +1,113 @@
+"""Figure 1 of the paper for a :class:`~semianalytic.waves.TravellingWave` (matplotlib, lazy)."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+if TYPE_CHECKING:
+    from semianalytic.waves import TravellingWave
+
+__all__ = ["plot_wave"]
+
+_ZONE_COLOURS = {0: ("#9ecae1", "separation"), 1: ("#fdae6b", "stick"), 2: ("#a1d99b", "slip")}
+
+
+def _shade(ax: object, phi: np.ndarray, zone: np.ndarray, T: float) -> None:
+    edges = np.flatnonzero(np.diff(zone)) + 1
+    starts = np.concatenate([[0], edges])
+    ends = np.concatenate([edges, [zone.size]])
+    for a, b in zip(starts, ends, strict=True):
+        x0 = phi[a]
+        x1 = phi[b] if b < zone.size else T
+        colour, _ = _ZONE_COLOURS[int(zone[a])]
+        ax.axvspan(x0, x1, color=colour, alpha=0.35, lw=0)  # type: ignore[attr-defined]
+
+
+def plot_wave(
+    wave: TravellingWave, path: str, *, R: float = 1.0, omega: float = 1.0, n: int = 2000
+) -> None:
+    """Draw U, V, phase diagrams (U, U̇), (V, V̇) and P, Q over one period, zones shaded.
+
+    Time derivatives are ``U̇ = dU/dt = −c U'`` (non-dimensional time ``Ωt``).
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.patches import Patch
+
+    from semianalytic.waves import celerity_m_s, frequency_hz
+
+    ev = wave.evaluate(n)
+    phi, U, V, P, Q, zone = (ev[k] for k in ("phi", "U", "V", "P", "Q", "zone"))
+    Ud, Vd = -wave.c * ev["dU"], -wave.c * ev["dV"]
+    T = wave.period
+    fig, axs = plt.subplots(2, 3, figsize=(14, 8), constrained_layout=True)
+    for ax, y, lab in ((axs[0, 0], U, "U = u(1)/R"), (axs[0, 1], V, "V = v(1)/R")):
+        _shade(ax, phi, zone, T)
+        ax.plot(phi, y, "k-", lw=1.5)
+        ax.set_xlabel("φ = θ − ct (rad)")
+        ax.set_ylabel(lab)
+        ax.set_xlim(0, T)
+        ax.grid(alpha=0.3)
+    axs[0, 0].axhline(wave.delta, color="r", ls="--", lw=1, label="δ (contact)")
+    axs[0, 0].legend(loc="best", fontsize=8)
+    ax = axs[0, 2]
+    _shade(ax, phi, zone, T)
+    ax.plot(phi, P, "b-", lw=1.5, label="P")
+    ax.plot(phi, Q, "m-", lw=1.5, label="Q")
+    ax.plot(phi, wave.f * P, "m:", lw=1, label="fP")
+    ax.set_xlabel("φ = θ − ct (rad)")
+    ax.set_ylabel("reduced reactions P, Q")
+    ax.set_xlim(0, T)
+    ax.legend(loc="best", fontsize=8)
+    ax.grid(alpha=0.3)
+    for ax, x, y, xl, yl in (
+        (axs[1, 0], U, Ud, "U", "dU/dt (per unit Ωt)"),
+        (axs[1, 1], V, Vd, "V", "dV/dt (per unit Ωt)"),
+    ):
+        for zid, (colour, name) in _ZONE_COLOURS.items():
+            m = zone == zid
+            if m.any():
+                ax.plot(x[m], y[m], ".", ms=2, color=colour, label=name)
+        ax.plot(x, y, "k-", lw=0.5, alpha=0.6)
+        ax.set_xlabel(xl)
+        ax.set_ylabel(yl)
+        ax.set_title(f"phase diagram ({xl}, d{xl}/dt)")
+        ax.grid(alpha=0.3)
+    axs[1, 1].axhline(1.0, color="r", ls="--", lw=1, label="V̇ = 1 (stick)")
+    axs[1, 0].legend(loc="best", fontsize=8, markerscale=4)
+    axs[1, 1].legend(loc="best", fontsize=8, markerscale=4)
+    ax = axs[1, 2]
+    ax.axis("off")
+    co = wave.coeffs
+    status = "admissible" if wave.admissible else f"NOT admissible: {wave.violated}"
+    lines = [
+        f"regime: {wave.regime} ({wave.junction})",
+        f"ν = {co.nu}, ξ = {co.xi}, f = {wave.f}, k = {wave.k}, δ = {wave.delta}",
+        f"Ω = {omega} rad/s, R = {R} m, γ = {co.gamma:.4g}",
+        f"c = {wave.c:.5g}  ({celerity_m_s(wave.c, R, omega):.1f} m/s)",
+        f"frequency = {frequency_hz(wave.c, wave.k, omega):.1f} Hz",
+        f"ψ1 = {wave.psi1:.4f}, ψ2 = {wave.psi2:.4f}",
+        f"max U − δ = {wave.amplitude:.3g}",
+        status,
+    ]
+    ax.text(
+        0.0,
+        1.0,
+        "\n".join(lines),
+        va="top",
+        family="monospace",
+        fontsize=10,
+        transform=ax.transAxes,
+    )
+    ax.legend(
+        handles=[Patch(color=c, alpha=0.5, label=n) for c, n in _ZONE_COLOURS.values()],
+        loc="lower left",
+        title="zones",
+    )
+    fig.suptitle("Travelling wave of the reduced model (paper Figure 1 layout)")
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
