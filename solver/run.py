@@ -53,8 +53,8 @@ class Simulation:
     """One scene's explicit run. Build with ``Simulation(scene)``, then ``proceed()``."""
 
     def __init__(self, scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD,
-                 profile: Profile | None = None, log: Callable[[str], None] | None = None
-                 ) -> None:
+                 profile: Profile | None = None, log: Callable[[str], None] | None = None,
+                 output_dir: Path | None = None) -> None:
         from solver.newmark import Newmark, critical_time_step
         from solver.observers import (
             EnergyAccumulator,
@@ -103,6 +103,13 @@ class Simulation:
                                             max_samples=n_steps // every + 2)
         self.probes = ProbeRecorder(self.problem, scene.output.probes_deg, n_steps)
         self.progress = Progress(ts.end_time, scene.output.progress and comm.rank == 0)
+        self.writer = None  # field output only when the scene asks for it
+        self.writer_every = 0
+        if scene.output.fields and output_dir is not None:
+            from solver.writers import FieldWriter
+
+            self.writer = FieldWriter(self.problem, Path(output_dir) / "fields.xdmf")
+            self.writer_every = max(1, int(round(scene.output.field_interval / dt)))
         self.initial_energy: float | None = None
         self.energy_bound = math.inf
         self.status = "running"
@@ -173,6 +180,9 @@ class Simulation:
                 integ.step()
                 energy.after_step(integ.u)
                 probes.record(integ)
+                if self.writer is not None and (integ.step_count - 1) % self.writer_every == 0:
+                    with self.profile.phase("output"):
+                        self.writer.write(integ.time, integ.u, self.projection.out.status)
                 if rec.due(integ.step_count - 1):
                     kin, strain = rec.sample(integ)
                     self._check_health(kin, strain)
@@ -185,6 +195,40 @@ class Simulation:
                             self.stop_reason = "max_wall_time"
                             break
         return self.stop_reason
+
+    def final_field(self) -> dict[str, np.ndarray] | None:
+        """Displacement on the whole tube at the end, gathered to rank 0 (None elsewhere).
+
+        VTK-ready arrays for iso-value maps: ``points`` (n, 3), ``cells`` (flat VTK topology
+        [nv, i0, ..., nv, ...]), ``cell_types``, ``u`` (n, 2) at the points. Each rank sends
+        its local cells; ghost points are duplicated, which is harmless for plotting.
+        """
+        import dolfinx.plot
+
+        fn = self.problem.to_function(self.integrator.u)
+        topology, cell_types, geometry = dolfinx.plot.vtk_mesh(self.problem.V)
+        values = fn.x.array.reshape(-1, 2)[: geometry.shape[0]]
+        pieces = self.comm.gather((topology, cell_types, geometry, values), root=0)
+        if self.comm.rank != 0:
+            return None
+        cells, types, points, us = [], [], [], []
+        offset = 0
+        for top, ct, geo, val in pieces:
+            nv = int(top[0]) if top.size else 0
+            blocks = top.reshape(-1, nv + 1).copy() if top.size else top.reshape(0, 1)
+            blocks[:, 1:] += offset
+            cells.append(blocks.ravel())
+            types.append(ct)
+            points.append(geo)
+            us.append(val)
+            offset += geo.shape[0]
+        return {
+            "points": np.concatenate(points),
+            "cells": np.concatenate(cells),
+            "cell_types": np.concatenate(types),
+            "u": np.concatenate(us),
+            "time": np.array(self.integrator.time),
+        }
 
     def summary(self) -> dict:
         """Run summary (rank 0): wave analysis of the recorded samples plus run facts."""
@@ -306,7 +350,7 @@ def run_scene(scene: Scene, run_dir: Path, *, force: bool = False,
     with _sigterm_as_interrupt():
         try:
             say(f"stickslip {__version__}: scene '{scene.name}' on {comm.size} rank(s)")
-            sim = Simulation(scene, comm, prof)
+            sim = Simulation(scene, comm, prof, output_dir=run_dir)
             say(f"  {sim.problem.n_global_dofs} dofs, {sim.recorder.n_nodes} contact nodes, "
                 f"dt = {sim.dt:.4g} s ({sim.dt / sim.dt_crit:.2f} dt_crit), "
                 f"{sim.planned_steps()} steps to t = {scene.time.end_time} s")
@@ -323,6 +367,9 @@ def run_scene(scene: Scene, run_dir: Path, *, force: bool = False,
     with prof.phase("output"):
         summary = sim.summary() if (sim is not None and rank0) else {}
         probe_arrays = sim.probes.arrays() if sim is not None else None
+        field = sim.final_field() if sim is not None else None
+        if sim is not None and sim.writer is not None:
+            sim.writer.close()
         if rank0:
             if sim is None:
                 summary = {"scene": scene.name, "status": "interrupted"}
@@ -333,6 +380,8 @@ def run_scene(scene: Scene, run_dir: Path, *, force: bool = False,
                 arrays = sim.recorder.arrays()
                 arrays.update(probe_arrays or {})
                 atomic_save_npz(run_dir / "samples.npz", arrays)
+                if field is not None:
+                    atomic_save_npz(run_dir / "final_field.npz", field)
     if rank0:
         summary["profile_s"] = {k: round(v, 4) for k, v in prof.seconds.items()}
         atomic_write_text(run_dir / "summary.json", json.dumps(summary, indent=2))

@@ -140,6 +140,23 @@ def test_called_twice_and_gmsh_left_clean() -> None:
         assert not gmsh.isInitialized()
 
 
+def test_gmsh_initialised_by_caller_is_left_as_found() -> None:
+    gmsh = pytest.importorskip("gmsh")
+    if MPI.COMM_WORLD.rank == 0:
+        gmsh.initialize(readConfigFiles=False, interruptible=False)
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.model.add("caller_model")
+    try:
+        annulus_mesh(MPI.COMM_WORLD, R=R, xi=XI, n_inner=16)
+        if MPI.COMM_WORLD.rank == 0:
+            assert gmsh.isInitialized()
+            assert gmsh.model.getCurrent() == "caller_model"
+            assert "stickslip_annulus" not in gmsh.model.list()
+    finally:
+        if MPI.COMM_WORLD.rank == 0:
+            gmsh.finalize()
+
+
 @pytest.mark.parallel
 @pytest.mark.parametrize("cell", ["triangle", "quadrilateral"])
 @pytest.mark.parametrize("degree", [1, 2])

@@ -166,25 +166,26 @@ def test_interrupt_leaves_a_valid_partial_run_directory(tmp_path, monkeypatch):
 
 @pytest.mark.parallel
 def test_serial_and_parallel_runs_agree():
-    """Same statuses and u on 1 and COMM_WORLD ranks over ~1550 steps.
+    """Same statuses and u on 1 and COMM_WORLD ranks over ~1940 steps (t = 0.15 s).
 
     The partitions sum the MatMult in different orders, so u differs by round-off; the
-    stick-slip-separation limit cycle amplifies that (measured on 2 ranks: 1e-16 at t = 0,
-    1e-13 at 0.03 s, 1e-12 at 0.09 s, 3e-12 at 0.12 s, 5e-10 at 0.3 s, relative to max u_r).
-    Hence 1e-11 of the amplitude at 0.12 s: round-off growth, not a partition-dependent result.
+    stick-slip-separation limit cycle amplifies it (measured on 2 ranks, relative to max u_r:
+    2e-17 at t = 0, 4e-13 at 0.03 s, 2e-12 at 0.09 s, 1.4e-11 at 0.15 s, 7e-10 at 0.3 s).
+    Hence 1e-10 at 0.15 s: round-off growth, not a partition-dependent result. The contact
+    statuses must agree exactly.
     """
-    sc = smoke("time.end_time=0.12", "output.sample_interval=0.001")
+    sc = smoke("time.end_time=0.15", "output.sample_interval=0.001")
     results = {}
     for name, comm in (("serial", SELF), ("world", MPI.COMM_WORLD)):
         sim = Simulation(sc, comm)
         sim.proceed()
         if comm.rank == 0:
             results[name] = sim.recorder.arrays()
-        assert sim.integrator.step_count > 1500
+        assert sim.integrator.step_count > 1900
     if MPI.COMM_WORLD.rank == 0:
         a, b = results["serial"], results["world"]
         np.testing.assert_array_equal(a["theta"], b["theta"])
         np.testing.assert_array_equal(a["status"], b["status"])
         scale = np.max(np.abs(a["u_r"]))
-        assert np.max(np.abs(a["u_r"] - b["u_r"])) < 1e-11 * scale
-        assert np.max(np.abs(a["u_theta"] - b["u_theta"])) < 1e-11 * scale
+        assert np.max(np.abs(a["u_r"] - b["u_r"])) < 1e-10 * scale
+        assert np.max(np.abs(a["u_theta"] - b["u_theta"])) < 1e-10 * scale

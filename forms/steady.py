@@ -1,0 +1,151 @@
+"""Discrete steady sliding state of the tube (paper section 2), with the NODAL contact law.
+
+Problem: ``Div σ = 0`` in the tube, ``u = 0`` on r = ξR, and on the contact circle r = R the
+nodal law used by the explicit solver, at every contact node ``i`` (angle θ_i):
+
+* normal constraint ``u_i·e_r(θ_i) = d`` (``d = δR``, mismatch, persistent contact),
+* nodal force exerted by the cylinder ``F_i = λ_i (e_r(θ_i) + f e_θ(θ_i))``: Coulomb sliding
+  with ``t_θ = f p`` (``q = fp``), ``λ_i > 0`` the unknown normal nodal force [N/m].
+
+``λ_i`` are Lagrange multipliers eliminated node by node: rotate each contact node to its
+(r, θ) basis (``ũ = Tᵀu``), replace the θ-row by ``row_θ − f·row_r`` (``F_θ = f F_r``) and the
+r-row by the constraint ``ũ_r = d``; one nonsymmetric sparse LU solve. The result is the
+exact discrete equilibrium of the solver's contact law (a clean initial condition), and the
+pressure is ``p_i = λ_i / ∫_Γ φ_i ds``. It converges to the closed form ``u_e, v_e, p_e``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import dolfinx
+import dolfinx.fem.petsc
+import numpy as np
+import ufl
+from numpy.typing import NDArray
+from petsc4py import PETSc
+
+from forms.elasticity import Material, stiffness
+from forms.polar import ContactNodes, contact_nodes
+from meshes.annulus import INNER_TAG, OUTER_TAG, TubeMesh
+
+__all__ = ["StaticSliding", "solve_static_sliding", "static_sliding"]
+
+
+@dataclass
+class StaticSliding:
+    """Discrete steady sliding state: displacement, contact nodes, nodal forces, pressures."""
+
+    u: dolfinx.fem.Function
+    contact: ContactNodes
+    normal_force: NDArray[np.float64]  # λ_i [N/m] on the owned contact nodes
+    pressure: NDArray[np.float64]  # p_i = λ_i / ds_weight_i [Pa]
+
+
+def _node_matrix(
+    template: PETSc.Mat,
+    rows_x: NDArray[np.int64],
+    local_x: NDArray[np.int32],
+    vals: tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]],
+) -> PETSc.Mat:
+    """Identity, except 2×2 blocks ``[[a, b], [c, d]]`` on the contact node dof pairs."""
+    (n_loc, _), _ = template.getSizes()
+    rstart = template.getOwnershipRange()[0]
+    counts = np.ones(n_loc, dtype=PETSc.IntType)
+    counts[local_x] = 2
+    counts[local_x + 1] = 2
+    indptr = np.zeros(n_loc + 1, dtype=PETSc.IntType)
+    np.cumsum(counts, out=indptr[1:])
+    cols = (rstart + np.arange(n_loc, dtype=PETSc.IntType))[np.repeat(np.arange(n_loc), counts)]
+    data = np.ones(indptr[-1], dtype=PETSc.ScalarType)
+    a, b, c, d = vals
+    px, py = indptr[local_x], indptr[local_x + 1]
+    cols[px], cols[px + 1], cols[py], cols[py + 1] = rows_x, rows_x + 1, rows_x, rows_x + 1
+    data[px], data[px + 1], data[py], data[py + 1] = a, b, c, d
+    mat = PETSc.Mat().createAIJ(
+        size=template.getSizes(), csr=(indptr, cols, data), comm=template.getComm()
+    )
+    mat.assemble()
+    return mat
+
+
+def static_sliding(
+    V: dolfinx.fem.FunctionSpace,
+    tube: TubeMesh,
+    material: Material,
+    delta_m: float,
+    f: float,
+) -> StaticSliding:
+    """Solve the discrete steady sliding problem (mismatch ``delta_m`` = d [m], friction ``f``)."""
+    msh = V.mesh
+    comm = msh.comm
+    fdim = msh.topology.dim - 1
+    msh.topology.create_connectivity(fdim, msh.topology.dim)
+    outer = dolfinx.fem.locate_dofs_topological(V, fdim, tube.facet_tags.find(OUTER_TAG))
+    bc = dolfinx.fem.dirichletbc(np.zeros(2, dtype=dolfinx.default_scalar_type), outer, V)
+    u_, v_ = ufl.TrialFunction(V), ufl.TestFunction(V)
+    K = dolfinx.fem.petsc.assemble_matrix(dolfinx.fem.form(stiffness(u_, v_, material)), bcs=[bc])
+    K.assemble()
+
+    cn = contact_nodes(V, tube.facet_tags, INNER_TAG)
+    bs = V.dofmap.index_map_bs
+    rstart = V.dofmap.index_map.local_range[0] * bs
+    rows_x = (rstart + cn.dofs_x).astype(PETSc.IntType)
+    c, s = cn.cos_t, cn.sin_t
+    T = _node_matrix(K, rows_x, cn.dofs_x, (c, -s, s, c))  # u = T ũ, ũ = (ũ_r, ũ_θ)
+    one, zero = np.ones_like(c), np.zeros_like(c)
+    L = _node_matrix(K, rows_x, cn.dofs_x, (one, zero, -f * one, one))  # row_θ − f row_r
+
+    Kt = K.ptap(T)  # Tᵀ K T
+    A = L.matMult(Kt)
+    A.zeroRows(rows_x, diag=1.0)  # ũ_r = d
+    b = A.createVecLeft()
+    b.set(0.0)
+    b.setValues(rows_x, np.full(rows_x.size, delta_m))
+    b.assemble()
+
+    ksp = PETSc.KSP().create(comm)
+    ksp.setOperators(A)
+    ksp.setType("preonly")
+    pc = ksp.getPC()
+    pc.setType("lu")
+    pc.setFactorSolverType("mumps")
+    ut = A.createVecRight()
+    ksp.solve(b, ut)
+    if ksp.getConvergedReason() < 0:
+        raise RuntimeError(f"static sliding solve failed: reason {ksp.getConvergedReason()}")
+    # Two steps of iterative refinement: the LU error (~cond(A) eps) would otherwise make the
+    # initial state depend on the factorisation (serial vs parallel MUMPS) at ~1e-12, and the
+    # flutter-unstable steady state amplifies it; refined, it is round-off (~eps) in u.
+    res, corr = A.createVecLeft(), A.createVecRight()
+    for _ in range(2):
+        A.mult(ut, res)
+        res.aypx(-1.0, b)  # res = b - A ut
+        ksp.solve(res, corr)
+        ut.axpy(1.0, corr)
+    res.destroy()
+    corr.destroy()
+
+    r = Kt.createVecLeft()
+    Kt.mult(ut, r)  # = Tᵀ F_ext: (λ_i, f λ_i) on the contact nodes, 0 elsewhere
+    lam = r.getArray(readonly=True)[cn.dofs_x].copy()
+    u = dolfinx.fem.Function(V, name="u_static")
+    uv = T.createVecLeft()
+    T.mult(ut, uv)
+    n = uv.getLocalSize()
+    u.x.array[:n] = uv.getArray(readonly=True)
+    u.x.scatter_forward()
+    for obj in (ksp, A, Kt, K, T, L, b, ut, r, uv):
+        obj.destroy()
+    return StaticSliding(u=u, contact=cn, normal_force=lam, pressure=lam / cn.ds_weight)
+
+
+def solve_static_sliding(
+    V: dolfinx.fem.FunctionSpace,
+    tube: TubeMesh,
+    material: Material,
+    delta_m: float,
+    f: float,
+) -> dolfinx.fem.Function:
+    """Discrete steady sliding displacement (initial condition of the solver); see module doc."""
+    return static_sliding(V, tube, material, delta_m, f).u
