@@ -1,0 +1,98 @@
+"""./dev's rootfs build: an interrupted or failed build is never mistaken for a good one,
+and concurrent calls serialise on the lock.
+
+A fake ``debootstrap`` on PATH stands in for the real one (no network, seconds instead of
+minutes); the build recipe around it is the real ./dev.
+"""
+
+import os
+import shutil
+import signal
+import subprocess
+import time
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[1]
+
+pytestmark = pytest.mark.skipif(
+    os.geteuid() != 0 or shutil.which("unshare") is None or shutil.which("flock") is None,
+    reason="./dev's rootfs path needs root, unshare and flock",
+)
+
+
+def fake_debootstrap(tmp_path: Path, body: str) -> Path:
+    bindir = tmp_path / "bin"
+    bindir.mkdir(exist_ok=True)
+    script = bindir / "debootstrap"
+    script.write_text(f"#!/bin/sh\necho \"$@\" >> {tmp_path}/calls\nmkdir -p \"$3/etc\"\n{body}\n")
+    script.chmod(0o755)
+    return bindir
+
+
+def dev_env(tmp_path: Path, bindir: Path) -> dict:
+    env = dict(os.environ)
+    env.update(
+        PATH=f"{bindir}:{env['PATH']}",
+        STICKSLIP_CACHE=str(tmp_path / "cache"),
+        STICKSLIP_MIRROR="http://mirror.invalid/debian",
+        STICKSLIP_FORCE_ROOTFS="1",
+    )
+    return env
+
+
+def start(env: dict) -> subprocess.Popen:
+    return subprocess.Popen(
+        [str(REPO / "dev"), "true"], env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+        text=True, start_new_session=True,
+    )
+
+
+def wait_for(path: Path, timeout: float = 20.0) -> None:
+    t0 = time.time()
+    while not path.exists():
+        assert time.time() - t0 < timeout, f"{path} never appeared"
+        time.sleep(0.05)
+
+
+def test_killed_build_is_discarded_and_the_next_call_rebuilds(tmp_path):
+    cache = tmp_path / "cache"
+    env = dev_env(tmp_path, fake_debootstrap(tmp_path, "sleep 60"))
+    proc = start(env)
+    wait_for(tmp_path / "calls")
+    os.killpg(proc.pid, signal.SIGKILL)  # worst case: no trap, no cleanup at all
+    proc.wait()
+    leftovers = list(cache.glob(".build.*"))
+    assert leftovers, "the killed build left its temporary tree (expected)"
+    assert not (cache / "trixie").exists(), "a half-built rootfs must never be in place"
+
+    # Next call: a debootstrap that fails. The leftover is discarded, nothing is installed,
+    # and the error is reported clearly with a non-zero exit.
+    env = dev_env(tmp_path, fake_debootstrap(tmp_path, "echo boom >&2; exit 1"))
+    res = subprocess.run([str(REPO / "dev"), "true"], env=env, capture_output=True, text=True,
+                         timeout=60)
+    assert res.returncode == 2
+    assert "debootstrap failed" in res.stderr
+    assert len((tmp_path / "calls").read_text().splitlines()) == 2, "it must build again"
+    assert not list(cache.glob(".build.*"))
+    assert not (cache / "trixie").exists()
+
+
+def test_concurrent_calls_wait_on_the_lock(tmp_path):
+    env = dev_env(tmp_path, fake_debootstrap(tmp_path, "sleep 60"))
+    first = start(env)
+    wait_for(tmp_path / "calls")
+    second = start(env)
+    time.sleep(1.0)
+    assert second.poll() is None, "the second call must wait while the first builds"
+    os.killpg(first.pid, signal.SIGKILL)
+    first.wait()
+    # the second call now takes the lock and starts its own (fake, sleeping) build
+    t0 = time.time()
+    while len((tmp_path / "calls").read_text().splitlines()) < 2:
+        assert time.time() - t0 < 20
+        time.sleep(0.05)
+    os.killpg(second.pid, signal.SIGKILL)
+    _, err = second.communicate()
+    assert "waiting for it" in err
