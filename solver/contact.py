@@ -72,7 +72,7 @@ def project_contact(
         (SEPARATION, STICK, SLIP per node) and scratch arrays.
     """
     r_r, r_t, work = out.r_r, out.r_t, out.work
-    np.divide(mass, kappa, out=out.stiff)  # force per unit of displacement correction
+    np.multiply(mass, 1.0 / kappa, out=out.stiff)  # force per unit of displacement correction
     # Normal: project onto u_r >= d.
     np.subtract(d, u_r_trial, out=r_r)
     np.maximum(r_r, 0.0, out=r_r)
@@ -101,9 +101,12 @@ def project_contact(
 class ContactArrays:
     """Preallocated per-node arrays of the projection (outputs and scratch)."""
 
-    def __init__(self, n: int) -> None:
-        self.r_r = np.zeros(n)
-        self.r_t = np.zeros(n)
+    def __init__(self, n: int, r_r: np.ndarray | None = None,
+                 r_t: np.ndarray | None = None) -> None:
+        # r_r, r_t may be views supplied by the caller (e.g. the real and imaginary parts of
+        # one complex array, so that rotating the force back to (x, y) is one multiply).
+        self.r_r = np.zeros(n) if r_r is None else r_r
+        self.r_t = np.zeros(n) if r_t is None else r_t
         self.status = np.zeros(n, dtype=np.int8)
         self.stiff = np.zeros(n)
         self.work = np.zeros(n)

@@ -34,39 +34,37 @@ class EnergyAccumulator:
       work_cylinder        = sum r_theta,n R Omega dt       (work fed by the rotating cylinder)
       friction_dissipation = work_cylinder - sum r_theta,n Delta u_theta,n
     The balance E(t) - E(0) - work_contact closes to O(dt^2) for beta_2 = 1/2 and is the
-    (negative) numerical dissipation for beta_2 > 1/2.
+    (negative) numerical dissipation for beta_2 > 1/2. Nodal values are complex
+    z = u_x + i u_y (see ``ContactProjection``), so r . Delta u = Re(conj(r_xy) Delta z).
     """
 
     def __init__(self, projection, with_friction: bool, u0: np.ndarray) -> None:
         self.p = projection
         self.with_friction = with_friction
-        n = projection.nodes.dofs_x.size
-        self.ur_prev, self.ut_prev = np.zeros(n), np.zeros(n)  # u_{n-1}
-        self.ur_now, self.ut_now = np.zeros(n), np.zeros(n)  # u_n
-        self.ur_next, self.ut_next = np.zeros(n), np.zeros(n)  # u_{n+1}
-        projection._polar(u0, self.ur_now, self.ut_now)
-        self.ur_prev[:] = self.ur_now
-        self.ut_prev[:] = self.ut_now
+        n = projection.node_index.size
+        self.z_prev = np.zeros(n, dtype=complex)  # u_{n-1} (x + i y)
+        self.z_now = np.zeros(n, dtype=complex)  # u_n
+        self.z_next = np.zeros(n, dtype=complex)  # u_{n+1}
+        self.dz = np.zeros(n, dtype=complex)
+        np.take(projection.complex_view(u0), projection.node_index, out=self.z_now)
+        self.z_prev[:] = self.z_now
         self.work_contact = 0.0
         self.work_cylinder = 0.0
         self.friction_dissipation = 0.0
 
     def after_step(self, u_next: np.ndarray) -> None:
-        p, out = self.p, self.p.out
-        p._polar(u_next, self.ur_next, self.ut_next)
-        # centred increments, in the u_prev arrays (they are rolled below anyway)
-        np.subtract(self.ur_next, self.ur_prev, out=self.ur_prev)
-        np.subtract(self.ut_next, self.ut_prev, out=self.ut_prev)
-        self.work_contact += 0.5 * float(out.r_r @ self.ur_prev)
+        p = self.p
+        np.take(p.complex_view(u_next), p.node_index, out=self.z_next)
+        np.subtract(self.z_next, self.z_prev, out=self.dz)
+        self.work_contact += 0.5 * np.vdot(p.r_xy, self.dz).real
         if self.with_friction:
-            wt = 0.5 * float(out.r_t @ self.ut_prev)
-            wc = float(out.r_t.sum()) * p.slide
-            self.work_contact += wt
+            self.dz *= p.phase_conj  # polar increment: Delta u_r + i Delta u_theta
+            wt = 0.5 * float(np.dot(p.out.r_t, self.dz.imag))
+            wc = float(p.out.r_t.sum()) * p.slide
             self.work_cylinder += wc
             self.friction_dissipation += wc - wt
-        # roll: (n-1, n, n+1) <- (n, n+1, scratch)
-        self.ur_prev, self.ur_now, self.ur_next = self.ur_now, self.ur_next, self.ur_prev
-        self.ut_prev, self.ut_now, self.ut_next = self.ut_now, self.ut_next, self.ut_prev
+        # roll: (n-1, n, n+1) <- (n, n+1, reuse)
+        self.z_prev, self.z_now, self.z_next = self.z_now, self.z_next, self.z_prev
 
     def totals(self, comm: MPI.Comm) -> tuple[float, float, float]:
         local = np.array([self.work_contact, self.work_cylinder, self.friction_dissipation])
@@ -219,11 +217,11 @@ class ProbeRecorder:
     locally every step, without communication; ``arrays()`` gathers the histories to rank 0.
     """
 
-    def __init__(self, problem, probes_deg, max_steps: int) -> None:
+    def __init__(self, problem, projection, probes_deg, max_steps: int) -> None:
         self.comm = problem.comm
+        self.p = projection
         nd = problem.nodes
-        self.cos, self.sin, self.ix, self.iy, self.slots = [], [], [], [], []
-        self.angles = []
+        slots, index, angles = [], [], []
         for slot, deg in enumerate(probes_deg):
             target = np.radians(deg) % (2 * np.pi)
             if nd.theta.size:
@@ -234,42 +232,49 @@ class ProbeRecorder:
                 j, mine = -1, (np.inf, -1)
             best = self.comm.allreduce(mine, op=MPI.MIN)
             if mine == best and j >= 0:
-                self.slots.append(slot)
-                self.ix.append(int(nd.dofs_x[j]))
-                self.iy.append(int(nd.dofs_y[j]))
-                self.cos.append(float(nd.cos_t[j]))
-                self.sin.append(float(nd.sin_t[j]))
-                self.angles.append(float(np.degrees(nd.theta[j])))
+                slots.append(slot)
+                index.append(j)
+                angles.append(float(np.degrees(nd.theta[j])))
+        self.slots, self.angles = slots, angles
+        self.index = np.asarray(projection.node_index[index], dtype=np.intp)
+        self.phase_conj = projection.phase_conj[index].copy()
+        self.zu = np.zeros(len(slots), dtype=complex)
+        self.zv = np.zeros(len(slots), dtype=complex)
         self.n_probes = len(probes_deg)
-        self.data = np.zeros((len(self.slots), max_steps + 1, 4))
+        self.data = np.zeros((len(slots), max_steps + 1, 4))
         self.t = np.zeros(max_steps + 1)
         self.n = 0
 
     def record(self, integrator) -> None:
         """Record time level n (u_prev = u_n, v = v_n) after a step."""
-        if self.n >= self.t.size:
+        if self.n >= self.t.size or not self.slots:
+            self.n += self.n < self.t.size
             return
-        self.t[self.n] = integrator.time - integrator.dt
-        u, v = integrator.u_prev, integrator.v
-        for i in range(len(self.slots)):  # loop over the (few) probes, not over nodes
-            c, s, ix, iy = self.cos[i], self.sin[i], self.ix[i], self.iy[i]
-            row = self.data[i, self.n]
-            row[0] = c * u[ix] + s * u[iy]
-            row[1] = -s * u[ix] + c * u[iy]
-            row[2] = c * v[ix] + s * v[iy]
-            row[3] = -s * v[ix] + c * v[iy]
+        i = self.n
+        self.t[i] = integrator.time - integrator.dt
+        np.take(self.p.complex_view(integrator.u_prev), self.index, out=self.zu)
+        np.take(self.p.complex_view(integrator.v), self.index, out=self.zv)
+        self.zu *= self.phase_conj
+        self.zv *= self.phase_conj
+        row = self.data[:, i]
+        row[:, 0] = self.zu.real
+        row[:, 1] = self.zu.imag
+        row[:, 2] = self.zv.real
+        row[:, 3] = self.zv.imag
         self.n += 1
 
     def arrays(self) -> dict[str, np.ndarray] | None:
         """Gathered histories on rank 0 (None elsewhere): probe_t, probe_deg, probe_data."""
-        local = (self.slots, self.angles, self.data[:, : self.n])
+        local = (self.slots, self.angles, self.data[:, : self.n], self.t[: self.n])
         gathered = self.comm.gather(local, root=0)
         if self.comm.rank != 0:
             return None
-        data = np.zeros((self.n_probes, self.n, 4))
+        n = max(len(g[3]) for g in gathered)
+        t = next((g[3] for g in gathered if g[0]), self.t[:n])
+        data = np.zeros((self.n_probes, n, 4))
         deg = np.zeros(self.n_probes)
-        for slots, angles, arr in gathered:
+        for slots, angles, arr, _ in gathered:
             for k, slot in enumerate(slots):
                 data[slot] = arr[k]
                 deg[slot] = angles[k]
-        return {"probe_t": self.t[: self.n], "probe_deg": deg, "probe_data": data}
+        return {"probe_t": t, "probe_deg": deg, "probe_data": data}

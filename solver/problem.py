@@ -61,7 +61,7 @@ class TubeProblem:
         K = self.K
 
         def mult(u: np.ndarray, out: np.ndarray) -> None:
-            key = (u.ctypes.data, out.ctypes.data)
+            key = (id(u), id(out))  # persistent integrator arrays; id() is the cheap key
             pair = cache.get(key)
             if pair is None:
                 pair = cache[key] = (self.vec(u), self.vec(out))
@@ -138,56 +138,65 @@ def build_problem(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD) -> TubeProblem:
 class ContactProjection:
     """The forward-increment contact step of ``Newmark`` for the tube's inner circle.
 
-    Converts the owned contact dofs to polar components, calls the nodal law
-    ``solver.contact.project_contact`` and writes the nodal forces back in (x, y). Each node is
-    owned by exactly one rank, so nothing is double counted in parallel. All arrays are
-    preallocated: the call allocates nothing.
+    Rotating to and from the nodes' polar frames is done with complex numbers: an owned
+    blocked array (x0, y0, x1, y1, ...) viewed as complex128 holds z_i = x_i + i y_i per node,
+    and z_i e^{-i theta_i} = u_r + i u_theta. So each conversion is one ``take`` and one
+    multiply over the contact nodes. Calls ``solver.contact.project_contact`` (the nodal law)
+    and writes the nodal forces back at the contact dofs. Each node is owned by exactly one
+    rank, so nothing is double counted in parallel. All arrays are preallocated.
     """
 
     def __init__(self, problem: TubeProblem, kappa: float, dt: float) -> None:
         sc = problem.scene
         nd = problem.nodes
         self.nodes = nd
+        self.node_index = np.asarray(nd.nodes, dtype=np.intp)
         self.kappa = kappa
         self.d = sc.geometry.d
         self.f = sc.loading.f
         self.slide = sc.geometry.R * sc.loading.omega * dt  # cylinder surface travel per step
         self.mass = problem.mass[nd.dofs_x].copy()
+        self.phase = np.exp(1j * nd.theta)  # e^{i theta}: polar -> (x, y)
+        self.phase_conj = np.conj(self.phase)  # (x, y) -> polar
         n = nd.dofs_x.size
-        self.out = ContactArrays(n)
-        self.ux, self.uy = np.zeros(n), np.zeros(n)
-        self.u_r, self.u_t, self.u_t_prev = np.zeros(n), np.zeros(n), np.zeros(n)
-        self.tmp = np.zeros(n)
+        self.z_now = np.zeros(n, dtype=complex)  # u_n at the nodes, polar
+        self.z_trial = np.zeros(n, dtype=complex)  # trial u_{n+1}, polar
+        self.r_polar = np.zeros(n, dtype=complex)  # r_r + i r_theta
+        self.r_xy = np.zeros(n, dtype=complex)  # r_x + i r_y
+        self.out = ContactArrays(n, r_r=self.r_polar.real, r_t=self.r_polar.imag)
+        self._views: dict[int, np.ndarray] = {}
+
+    def complex_view(self, array: np.ndarray) -> np.ndarray:
+        """Cached complex128 view (one z per node) of an owned blocked array."""
+        key = id(array)  # the integrator's arrays live as long as the run (cheap key)
+        view = self._views.get(key)
+        if view is None:
+            view = self._views[key] = array.view(np.complex128)
+        return view
+
+    def polar_at_nodes(self, array: np.ndarray, out: np.ndarray) -> np.ndarray:
+        """u_r + i u_theta at the contact nodes, into the complex array ``out``."""
+        np.take(self.complex_view(array), self.node_index, out=out)
+        out *= self.phase_conj
+        return out
 
     def _polar(self, array: np.ndarray, radial: np.ndarray, tangential: np.ndarray) -> None:
-        nd = self.nodes
-        np.take(array, nd.dofs_x, out=self.ux)
-        np.take(array, nd.dofs_y, out=self.uy)
-        np.multiply(nd.cos_t, self.ux, out=radial)
-        np.multiply(nd.sin_t, self.uy, out=self.tmp)
-        radial += self.tmp
-        np.multiply(nd.cos_t, self.uy, out=tangential)
-        np.multiply(nd.sin_t, self.ux, out=self.tmp)
-        tangential -= self.tmp
+        """Radial and tangential components at the contact nodes (diagnostics, not hot)."""
+        z = self.polar_at_nodes(array, np.empty(self.node_index.size, dtype=complex))
+        radial[:] = z.real
+        tangential[:] = z.imag
 
     def __call__(self, u_trial: np.ndarray, u_now: np.ndarray, force: np.ndarray) -> None:
-        nd, out = self.nodes, self.out
-        self._polar(u_now, self.tmp, self.u_t_prev)  # radial part unused
-        self._polar(u_trial, self.u_r, self.u_t)
+        now = self.polar_at_nodes(u_now, self.z_now)
+        trial = self.polar_at_nodes(u_trial, self.z_trial)
         project_contact(
-            self.u_r, self.u_t, self.u_t_prev, self.mass, self.kappa, self.d, self.slide,
-            self.f, out,
+            trial.real, trial.imag, now.imag, self.mass, self.kappa, self.d, self.slide,
+            self.f, self.out,
         )
-        # back to (x, y): f_x = cos r_r - sin r_t, f_y = sin r_r + cos r_t
-        np.multiply(nd.cos_t, out.r_r, out=self.ux)
-        np.multiply(nd.sin_t, out.r_t, out=self.tmp)
-        self.ux -= self.tmp
-        np.multiply(nd.sin_t, out.r_r, out=self.uy)
-        np.multiply(nd.cos_t, out.r_t, out=self.tmp)
-        self.uy += self.tmp
-        force.fill(0.0)
-        np.put(force, nd.dofs_x, self.ux)
-        np.put(force, nd.dofs_y, self.uy)
+        # back to (x, y): r_x + i r_y = (r_r + i r_t) e^{i theta}; entries of ``force`` away
+        # from the contact nodes are never written, so they stay zero.
+        np.multiply(self.r_polar, self.phase, out=self.r_xy)
+        np.put(self.complex_view(force), self.node_index, self.r_xy)
 
 
 def omega_max(problem: TubeProblem) -> float:

@@ -84,7 +84,8 @@ class Simulation:
         n_steps = self.planned_steps()
         self.recorder = InnerCircleRecorder(self.problem, self.projection, self.energy, every,
                                             max_samples=n_steps // every + 2)
-        self.probes = ProbeRecorder(self.problem, scene.output.probes_deg, n_steps)
+        self.probes = ProbeRecorder(self.problem, self.projection, scene.output.probes_deg,
+                                    n_steps)
         self.progress = Progress(ts.end_time, scene.output.progress and comm.rank == 0)
         self.writer = None  # field output only when the scene asks for it
         self.writer_every = 0
