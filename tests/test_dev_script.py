@@ -83,9 +83,16 @@ def test_concurrent_calls_wait_on_the_lock(tmp_path):
     env = dev_env(tmp_path, fake_debootstrap(tmp_path, "sleep 60"))
     first = start(env)
     wait_for(tmp_path / "calls")
-    second = start(env)
-    time.sleep(1.0)
-    assert second.poll() is None, "the second call must wait while the first builds"
+    log = tmp_path / "second.err"
+    with open(log, "w") as err:
+        second = subprocess.Popen([str(REPO / "dev"), "true"], env=env, stdout=subprocess.DEVNULL,
+                                  stderr=err, start_new_session=True)
+    t0 = time.time()
+    while "waiting for it" not in log.read_text():
+        assert time.time() - t0 < 20, "the second call must say that it waits for the lock"
+        assert second.poll() is None, "the second call must wait while the first builds"
+        time.sleep(0.05)
+    assert len((tmp_path / "calls").read_text().splitlines()) == 1, "only one build at a time"
     os.killpg(first.pid, signal.SIGKILL)
     first.wait()
     # the second call now takes the lock and starts its own (fake, sleeping) build
@@ -94,5 +101,4 @@ def test_concurrent_calls_wait_on_the_lock(tmp_path):
         assert time.time() - t0 < 20
         time.sleep(0.05)
     os.killpg(second.pid, signal.SIGKILL)
-    _, err = second.communicate()
-    assert "waiting for it" in err
+    second.wait()
