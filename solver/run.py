@@ -335,6 +335,8 @@ def run_scene(scene: Scene, run_dir: Path, *, force: bool = False,
         try:
             say(f"stickslip {__version__}: scene '{scene.name}' on {comm.size} rank(s)")
             sim = Simulation(scene, comm, prof, output_dir=run_dir)
+            for warning in scene_warnings(scene):
+                say(f"  warning: {warning}")
             say(f"  {sim.problem.n_global_dofs} dofs, {sim.recorder.n_nodes} contact nodes, "
                 f"dt = {sim.dt:.4g} s ({sim.dt / sim.dt_crit:.2f} dt_crit), "
                 f"{sim.planned_steps()} steps to t = {scene.time.end_time} s")
@@ -368,9 +370,30 @@ def run_scene(scene: Scene, run_dir: Path, *, force: bool = False,
                     atomic_save_npz(run_dir / "final_field.npz", field)
     if rank0:
         summary["profile_s"] = {k: round(v, 4) for k, v in prof.seconds.items()}
+        summary["peak_rss_mb"] = peak_rss_mb()
         atomic_write_text(run_dir / "summary.json", json.dumps(summary, indent=2))
         _print_summary(summary, run_dir, stream, profile)
     return summary
+
+
+def peak_rss_mb() -> float:
+    """Peak resident memory of this process (MB)."""
+    import resource
+
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+
+
+def scene_warnings(scene: Scene) -> list[str]:
+    """Legal but doubtful choices, said before a long run starts."""
+    out = []
+    ini, n = scene.initial, scene.mesh.n_inner
+    if ini.perturbation == "mode" and n / ini.mode < 8:
+        out.append(
+            f"initial.mode = {ini.mode} has only {n / ini.mode:.1f} contact nodes per "
+            f"wavelength on mesh.n_inner = {n}; the wave will be poorly resolved "
+            f"(use mesh.n_inner >= {8 * ini.mode})"
+        )
+    return out
 
 
 def _print_summary(s: dict, run_dir: Path, stream, profile: bool) -> None:
@@ -385,7 +408,8 @@ def _print_summary(s: dict, run_dir: Path, stream, profile: bool) -> None:
             f"slip {fr['slip']:.3f}; amplitude {s['amplitude_m']:.3g} m; "
             f"limit cycle: {s['limit_cycle']}",
         ]
-    lines.append(f"steps {s.get('steps')}, wall {s.get('wall_time_s', 0):.2f} s -> {run_dir}")
+    lines.append(f"steps {s.get('steps')}, wall {s.get('wall_time_s', 0):.2f} s, "
+                 f"peak RSS {s.get('peak_rss_mb', 0):.0f} MB -> {run_dir}")
     if profile:
         lines.append("profile: " + ", ".join(f"{k} {v:.3f} s" for k, v in s["profile_s"].items()))
     print("\n".join(lines), file=stream, flush=True)
