@@ -100,22 +100,29 @@ class InnerCircleRecorder:
         self.comm.Gatherv(np.ascontiguousarray(nd.theta),
                           (theta_all, self.counts, self.displs, MPI.DOUBLE)
                           if self.comm.rank == 0 else None, root=0)
+        ds_all = np.zeros(self.n_nodes) if self.comm.rank == 0 else None
+        self.comm.Gatherv(np.ascontiguousarray(nd.ds_weight),
+                          (ds_all, self.counts, self.displs, MPI.DOUBLE)
+                          if self.comm.rank == 0 else None, root=0)
         self.is_root = self.comm.rank == 0
         self.max_samples = max_samples
         self.n = 0
-        # send buffers (owned): 4 float fields and the status
-        self.send = np.zeros((4, n_local))
+        # send buffers (owned): u_r, u_theta, v_r, v_theta, r_r, r_theta and the status
+        self.send = np.zeros((6, n_local))
         self.vr, self.vt = np.zeros(n_local), np.zeros(n_local)
         if self.is_root:
             self.perm = np.argsort(order)  # gathered position -> angle order
             self.theta = theta_all[self.perm]
-            self.recv = np.zeros((4, self.n_nodes))
+            self.ds = ds_all[self.perm]
+            self.recv = np.zeros((6, self.n_nodes))
             self.recv_status = np.zeros(self.n_nodes, dtype=np.int8)
             self.t = np.zeros(max_samples)
             self.u_r = np.zeros((max_samples, self.n_nodes))
             self.u_t = np.zeros((max_samples, self.n_nodes))
             self.v_r = np.zeros((max_samples, self.n_nodes))
             self.v_t = np.zeros((max_samples, self.n_nodes))
+            self.r_r = np.zeros((max_samples, self.n_nodes))
+            self.r_t = np.zeros((max_samples, self.n_nodes))
             self.status = np.zeros((max_samples, self.n_nodes), dtype=np.int8)
             self.energies = np.zeros((max_samples, len(ENERGY_FIELDS)))
         self.e_local = np.zeros(2)
@@ -129,11 +136,13 @@ class InnerCircleRecorder:
         p = self.p
         p._polar(integrator.u_prev, self.send[0], self.send[1])
         p._polar(integrator.v, self.send[2], self.send[3])
+        self.send[4] = p.out.r_r
+        self.send[5] = p.out.r_t
         self.e_local[0] = 0.5 * float(np.dot(integrator.v * self.problem.mass, integrator.v))
         self.e_local[1] = 0.5 * float(np.dot(integrator.u_prev, integrator.ku))
         self.comm.Allreduce(self.e_local, self.e_total, op=MPI.SUM)
         work = self.energy.totals(self.comm)
-        for k in range(4):
+        for k in range(6):
             self.comm.Gatherv(
                 self.send[k],
                 (self.recv[k], self.counts, self.displs, MPI.DOUBLE) if self.is_root else None,
@@ -151,6 +160,8 @@ class InnerCircleRecorder:
             self.u_t[i] = self.recv[1][perm]
             self.v_r[i] = self.recv[2][perm]
             self.v_t[i] = self.recv[3][perm]
+            self.r_r[i] = self.recv[4][perm]
+            self.r_t[i] = self.recv[5][perm]
             self.status[i] = self.recv_status[perm]
             self.energies[i] = (self.e_total[0], self.e_total[1], *work)
         self.n += 1
@@ -162,7 +173,8 @@ class InnerCircleRecorder:
         out = {
             "t": self.t[:n], "theta": self.theta, "u_r": self.u_r[:n], "u_theta": self.u_t[:n],
             "v_r": self.v_r[:n], "v_theta": self.v_t[:n], "status": self.status[:n],
-            "energies": self.energies[:n],
+            "energies": self.energies[:n], "r_r": self.r_r[:n], "r_theta": self.r_t[:n],
+            "ds": self.ds,
         }
         return out
 

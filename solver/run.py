@@ -243,7 +243,8 @@ class Simulation:
                 regime=wave.regime, mode=wave.mode, celerity_m_s=wave.celerity_m_s,
                 frequency_hz=wave.frequency_hz, fractions=wave.fractions,
                 amplitude_m=wave.amplitude_m, limit_cycle=wave.limit_cycle,
-                analysis_window_s=wave.window_s,
+                analysis_window_s=wave.window_s, psi1=wave.psi1, psi2=wave.psi2,
+                zone_order=wave.zone_order, direction=wave.direction,
             )
             e = data["energies"]
             out["energy"] = {
