@@ -29,7 +29,7 @@ from forms.elasticity import Material, stiffness
 from forms.polar import ContactNodes, contact_nodes
 from meshes.annulus import INNER_TAG, OUTER_TAG, TubeMesh
 
-__all__ = ["StaticSliding", "solve_static_sliding", "static_sliding"]
+__all__ = ["StaticSliding", "node_matrix", "solve_static_sliding", "static_sliding"]
 
 
 @dataclass
@@ -42,7 +42,7 @@ class StaticSliding:
     pressure: NDArray[np.float64]  # p_i = λ_i / ds_weight_i [Pa]
 
 
-def _node_matrix(
+def node_matrix(
     template: PETSc.Mat,
     rows_x: NDArray[np.int64],
     local_x: NDArray[np.int32],
@@ -92,9 +92,9 @@ def static_sliding(
     rstart = V.dofmap.index_map.local_range[0] * bs
     rows_x = (rstart + cn.dofs_x).astype(PETSc.IntType)
     c, s = cn.cos_t, cn.sin_t
-    T = _node_matrix(K, rows_x, cn.dofs_x, (c, -s, s, c))  # u = T ũ, ũ = (ũ_r, ũ_θ)
+    T = node_matrix(K, rows_x, cn.dofs_x, (c, -s, s, c))  # u = T ũ, ũ = (ũ_r, ũ_θ)
     one, zero = np.ones_like(c), np.zeros_like(c)
-    L = _node_matrix(K, rows_x, cn.dofs_x, (one, zero, -f * one, one))  # row_θ − f row_r
+    L = node_matrix(K, rows_x, cn.dofs_x, (one, zero, -f * one, one))  # row_θ − f row_r
 
     Kt = K.ptap(T)  # Tᵀ K T
     A = L.matMult(Kt)
@@ -110,6 +110,11 @@ def static_sliding(
     pc = ksp.getPC()
     pc.setType("lu")
     pc.setFactorSolverType("mumps")
+    # A is non-symmetric and indefinite: MUMPS' default relative pivot threshold (0.01) can
+    # lose digits silently; 0.5 pivots for accuracy (own options prefix, nothing global).
+    ksp.setOptionsPrefix("stickslip_steady_")
+    PETSc.Options().setValue("stickslip_steady_mat_mumps_cntl_1", 0.5)
+    ksp.setFromOptions()
     ut = A.createVecRight()
     ksp.solve(b, ut)
     if ksp.getConvergedReason() < 0:
