@@ -27,6 +27,10 @@ for beta_2 = 1/2). With w_max the largest eigenfrequency of (K, M):
 dt_crit = sqrt(2 / beta_2) / w_max. The algorithmic damping of beta_2 > 1/2 acts on w dt, so at a
 fixed fraction of dt_crit it damps the same *relative* part of the spectrum on every mesh, but
 a given physical frequency is damped less on a finer mesh (smaller dt).
+
+The implicit scheme (beta_1 > 0) lives in ``solver.implicit.ImplicitNewmark`` (it needs the
+stiffness matrix and a factorisation, not only a stiffness product); ``solver.schemes`` picks
+the class from the scene's ``time.beta1``.
 """
 
 from __future__ import annotations
@@ -82,8 +86,9 @@ class Newmark:
     ) -> None:
         if beta1 != 0.0:
             raise NotImplementedError(
-                f"time.beta1 = {beta1}: only the explicit scheme (beta1 = 0) is implemented; "
-                "set time.beta1 = 0"
+                f"time.beta1 = {beta1}: Newmark is the explicit scheme (beta1 = 0) driven by a "
+                "stiffness product; beta1 > 0 needs the factorised K_eff: use "
+                "solver.implicit.ImplicitNewmark (solver.schemes.make_integrator picks it)"
             )
         if not 0.5 <= beta2 <= 1.0:
             raise ValueError(f"time.beta2 = {beta2} must be in [0.5, 1]")

@@ -67,9 +67,16 @@ class EnergyAccumulator:
         self.z_prev, self.z_now, self.z_next = self.z_now, self.z_next, self.z_prev
 
     def totals(self, comm: MPI.Comm) -> tuple[float, float, float]:
+        """(work_contact, work_cylinder, friction_dissipation) summed over ranks. Collective.
+
+        A projection that keeps its own exact work bookkeeping (the implicit scheme's
+        ``work_totals``, whose energy identity is exact) supplies the first two.
+        """
         local = np.array([self.work_contact, self.work_cylinder, self.friction_dissipation])
         total = np.zeros(3)
         comm.Allreduce(local, total, op=MPI.SUM)
+        if hasattr(self.p, "work_totals"):
+            total[0], total[1] = self.p.work_totals(exposed=True)
         return float(total[0]), float(total[1]), float(total[2])
 
 
@@ -125,6 +132,7 @@ class InnerCircleRecorder:
             self.r_t = np.zeros((max_samples, self.n_nodes))
             self.status = np.zeros((max_samples, self.n_nodes), dtype=np.int8)
             self.energies = np.zeros((max_samples, len(ENERGY_FIELDS)))
+        self.last_work = (0.0, 0.0, 0.0)
         self.e_local = np.zeros(2)
         self.e_total = np.zeros(2)
 
@@ -142,6 +150,7 @@ class InnerCircleRecorder:
         self.e_local[1] = 0.5 * float(np.dot(integrator.u_prev, integrator.ku))
         self.comm.Allreduce(self.e_local, self.e_total, op=MPI.SUM)
         work = self.energy.totals(self.comm)
+        self.last_work = work  # on every rank (collective above)
         for k in range(6):
             self.comm.Gatherv(
                 self.send[k],

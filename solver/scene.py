@@ -304,13 +304,13 @@ class Time(_Section):
     SECTION: ClassVar[str] = "time"
 
     beta1: float = _opt(0.0, "float")
-    """Newmark beta_1 (0 = explicit central difference)."""
+    """Newmark beta_1 (0 = explicit; > 0 implicit, e.g. 0.25 with beta2 = 0.5)."""
     beta2: float = _opt(0.6, "float")
     """Newmark beta_2 (gamma in other texts)."""
     dt: float = _opt(0.0, "float")
     """Time step [s]; 0 = dt_fraction times the explicit stability limit."""
     dt_fraction: float = _opt(0.9, "float")
-    """Fraction of the explicit stability limit used when dt = 0."""
+    """Multiple of the explicit stability limit used when dt = 0 (<= 1 if beta1 = 0)."""
     end_time: float = _opt(0.3, "float")
     """Simulated physical time [s]."""
     max_steps: int = _opt(0, "int")
@@ -334,12 +334,22 @@ class Time(_Section):
         _require(
             self._key("dt"), self.dt, self.dt >= 0, "dt >= 0 (s; 0 = automatic from dt_fraction)"
         )
-        _require(
-            self._key("dt_fraction"),
-            self.dt_fraction,
-            0 < self.dt_fraction <= 1,
-            "0 < dt_fraction <= 1 (fraction of the explicit stability limit)",
-        )
+        if self.beta1 == 0:
+            _require(
+                self._key("dt_fraction"),
+                self.dt_fraction,
+                0 < self.dt_fraction <= 1,
+                "0 < dt_fraction <= 1 (fraction of the explicit stability limit; the "
+                "implicit scheme, beta1 > 0, allows dt_fraction > 1)",
+            )
+        else:
+            _require(
+                self._key("dt_fraction"),
+                self.dt_fraction,
+                0 < self.dt_fraction <= 1e6,
+                "0 < dt_fraction <= 1e6 (multiple of the explicit stability limit "
+                "sqrt(2/beta2)/omega_max; beta1 > 0 is implicit)",
+            )
         _require(self._key("end_time"), self.end_time, self.end_time > 0, "end_time > 0 (s)")
         _require(
             self._key("max_steps"),

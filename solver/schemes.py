@@ -1,33 +1,113 @@
 """Choice of the time scheme for a scene: time step and integrator + contact step.
 
-The scene's ``time`` table picks the scheme: beta1 = 0 is the paper's explicit Newmark with
-the forward-increment (Carpenter-Taylor-Katona) nodal contact projection.
+The scene's ``time`` table picks the scheme:
+
+* ``beta1 = 0``: the paper's explicit Newmark (``solver.newmark.Newmark``) with the
+  forward-increment (Carpenter-Taylor-Katona) nodal contact projection; stable for
+  dt <= dt_crit = sqrt(2 / beta2) / omega_max, so ``0 < dt_fraction <= 1``;
+* ``beta1 > 0``: implicit Newmark (``solver.implicit.ImplicitNewmark``) with the active-set
+  contact solve on the Schur complement; unconditionally stable for 2 beta1 >= beta2 >= 1/2
+  (e.g. beta1 = 1/4, beta2 = 1/2), so ``dt_fraction`` (still in units of the explicit limit)
+  may exceed 1.
+
+``time_step`` also prints advice (rank 0, stderr; a message, never an error) when the explicit
+step is tiny compared with the waves the mesh can carry, or the run needs more than
+``STEP_WARNING`` steps: the implicit scheme is then the better choice.
 """
 
 from __future__ import annotations
 
+import math
+import sys
+from time import perf_counter
+
 from solver.newmark import Newmark, critical_time_step
 from solver.scene import Scene
 
+STEP_WARNING = 1_000_000
+"""Planned steps above which ``time_step`` suggests a cheaper setting."""
+STEPS_PER_WAVE_WARNING = 15.0
+"""Explicit steps per period of the shortest contact-mesh shear wave above which the explicit
+step is "tiny": its size is set by stiff modes (pressure waves at nu -> 1/2, thin elements), not
+by the waves of interest (ratio ~5 at nu = 0.3, xi = 1.25; ~21 at nu = 0.49; docs/stability.md)."""
+
 
 class StepTooLarge(ValueError):
-    """A fixed time step above the explicit stability limit."""
+    """A fixed time step above the stability limit of the scheme."""
+
+
+def shortest_wave_period(scene: Scene) -> float:
+    """Period 2 h / c_s of the shortest wave (length 2h, h = 2 pi R / n_inner) that the contact
+    circle resolves, travelling at the shear speed c_s = sqrt(E / (2 (1 + nu) rho))."""
+    m, g = scene.material, scene.geometry
+    c_s = m.wave_speed / math.sqrt(2.0 * (1.0 + m.nu))
+    h = 2.0 * math.pi * g.R / scene.mesh.n_inner
+    return 2.0 * h / c_s
+
+
+def stability_advice(scene: Scene, dt: float, dt_crit: float) -> str | None:
+    """A warning text when the scene's step is impractical, else None (see module docstring)."""
+    ts = scene.time
+    steps = ts.end_time / dt
+    if ts.max_steps:
+        steps = min(steps, ts.max_steps)
+    per_wave = shortest_wave_period(scene) / dt_crit
+    notes = []
+    if ts.beta1 == 0.0 and per_wave > STEPS_PER_WAVE_WARNING:
+        notes.append(
+            f"the explicit stability limit dt_crit = {dt_crit:.3g} s is {per_wave:.0f} times "
+            f"smaller than the period of the shortest shear wave on the contact mesh "
+            f"({shortest_wave_period(scene):.3g} s): stiff modes (nu = {scene.material.nu}, "
+            f"xi = {scene.geometry.xi}) set the step, not the waves"
+        )
+    if steps > STEP_WARNING:
+        notes.append(f"{steps:.3g} time steps planned (> {STEP_WARNING:.0e})")
+    if not notes:
+        return None
+    text = "warning: " + "; ".join(notes) + "."
+    if ts.beta1 == 0.0:
+        text += (" Consider the implicit scheme: --set time.beta1=0.25 --set time.beta2=0.5 "
+                 f"--set time.dt_fraction={max(2.0, per_wave / 4):.0f} "
+                 "(unconditionally stable; see docs/stability.md and docs/accuracy.md)")
+    return text
+
+
+def _rank0() -> bool:
+    try:
+        from mpi4py import MPI
+
+        return MPI.COMM_WORLD.rank == 0
+    except ImportError:  # pragma: no cover - mpi4py is part of the stack
+        return True
 
 
 def time_step(scene: Scene, omega_max: float) -> tuple[float, float]:
-    """(dt, dt_crit) for ``scene``: a fixed ``time.dt`` (checked) or ``dt_fraction * dt_crit``."""
+    """(dt, dt_crit) for ``scene``: a fixed ``time.dt`` (checked) or ``dt_fraction * dt_crit``.
+
+    dt_crit is always the EXPLICIT limit sqrt(2 / beta2) / omega_max, the unit of
+    ``time.dt_fraction`` for both schemes. Implicit schemes with 2 beta1 < beta2 are only
+    conditionally stable: their own limit is checked too.
+    """
     ts = scene.time
-    dt_crit = critical_time_step(omega_max, ts.beta1, ts.beta2)
-    if ts.dt > 0.0:
-        if ts.dt > dt_crit:
-            raise StepTooLarge(
-                f"time.dt = {ts.dt:.4g} s is above the explicit stability limit "
-                f"dt_crit = sqrt(2/beta2)/omega_max = {dt_crit:.4g} s "
-                f"(omega_max = {omega_max:.4g} rad/s, beta2 = {ts.beta2}). Use "
-                f"time.dt <= {dt_crit:.4g}, or time.dt = 0 with time.dt_fraction <= 1"
-            )
-        return ts.dt, dt_crit
-    return ts.dt_fraction * dt_crit, dt_crit
+    dt_crit = critical_time_step(omega_max, 0.0, ts.beta2)
+    limit = critical_time_step(omega_max, ts.beta1, ts.beta2)
+    dt = ts.dt if ts.dt > 0.0 else ts.dt_fraction * dt_crit
+    if dt > limit:
+        what = "explicit" if ts.beta1 == 0.0 else f"beta1 = {ts.beta1}, beta2 = {ts.beta2}"
+        rule = ("sqrt(2/beta2)/omega_max" if ts.beta1 == 0.0
+                else "1/(omega_max sqrt(beta2/2 - beta1))")
+        raise StepTooLarge(
+            f"time.dt = {dt:.4g} s is above the {what} stability limit "
+            f"dt_crit = {rule} = {limit:.4g} s "
+            f"(omega_max = {omega_max:.4g} rad/s, beta2 = {ts.beta2}). Use "
+            f"time.dt <= {limit:.4g}, or time.dt = 0 with time.dt_fraction <= "
+            f"{limit / dt_crit:.4g}"
+            + ("" if ts.beta1 == 0.0 else ", or 2 beta1 >= beta2 (unconditionally stable)")
+        )
+    advice = stability_advice(scene, dt, dt_crit)
+    if advice and _rank0():
+        print(advice, file=sys.stderr, flush=True)
+    return dt, dt_crit
 
 
 def make_integrator(problem, scene: Scene, dt: float):
@@ -35,12 +115,53 @@ def make_integrator(problem, scene: Scene, dt: float):
 
     The projection exposes ``out`` (ContactArrays: r_r, r_t, status), ``slide``, ``nodes`` and
     ``_polar`` as used by the observers; the integrator exposes ``step()``, ``set_state``,
-    ``u``, ``u_prev``, ``v``, ``a``, ``ku``, ``time``, ``dt``, ``step_count``.
+    ``u``, ``u_prev``, ``v``, ``a``, ``ku``, ``time``, ``dt``, ``step_count``. After a step,
+    ``u`` is u_{n+1} and everything else (``u_prev``, ``v``, ``a``, ``ku``, ``out``) is time
+    level n, for both schemes. The implicit integrator also has ``iteration_stats()``.
     """
+    ts = scene.time
+    if ts.beta1 > 0.0:
+        from solver.implicit import ImplicitContact, ImplicitNewmark
+
+        g = scene.geometry
+        contact = ImplicitContact(problem.nodes, g.d, scene.loading.f,
+                                  g.R * scene.loading.omega, problem.comm)
+        integrator = ImplicitNewmark(problem.K, problem.mass, problem.clamped, dt, ts.beta1,
+                                     ts.beta2, contact, problem.comm)
+        return integrator, contact
+
     from solver.problem import ContactProjection
 
-    ts = scene.time
     integrator = Newmark(problem.stiffness_mult(), problem.inv_mass, dt, ts.beta1, ts.beta2)
     projection = ContactProjection(problem, integrator.kappa, dt)
-    integrator.contact = projection
+    integrator.contact = TimedContact(projection)
     return integrator, projection
+
+
+class TimedContact:
+    """The explicit contact step with its wall time summed in ``seconds`` (two clock reads a
+    step, ~0.1 us; the numbers the projection computes are unchanged)."""
+
+    def __init__(self, projection) -> None:
+        self.projection = projection
+        self.seconds = 0.0
+
+    def __call__(self, u_trial, u_now, force) -> None:
+        t0 = perf_counter()
+        self.projection(u_trial, u_now, force)
+        self.seconds += perf_counter() - t0
+
+
+def contact_seconds(integrator) -> float:
+    """Wall time spent in the contact step so far (projection, or active set + gathers)."""
+    if hasattr(integrator, "contact_seconds"):
+        return float(integrator.contact_seconds)
+    return float(getattr(integrator.contact, "seconds", 0.0))
+
+
+def scheme_summary(integrator) -> dict:
+    """Scheme facts for a run summary: name, beta1/2, contact time, active-set iterations."""
+    if hasattr(integrator, "iteration_stats"):
+        return integrator.iteration_stats()
+    return {"scheme": "explicit", "beta1": integrator.beta1, "beta2": integrator.beta2,
+            "contact_s": contact_seconds(integrator)}

@@ -46,7 +46,12 @@ def write(tmp_path: Path, text: str, name: str = "s.toml") -> Path:
 
 
 def test_shipped_scene_set() -> None:
-    assert {p.stem for p in list_scenes()} == set(SHIPPED)
+    """The paper's Figure 1-3 scenes and the smoke scene are shipped (Figure 4-6 scenes are
+    checked in tests/test_verification.py); every shipped scene loads and is described."""
+    stems = {p.stem for p in list_scenes()}
+    assert set(SHIPPED) <= stems
+    for path in list_scenes():
+        assert load_scene(path).description, path
 
 
 @pytest.mark.parametrize("name", sorted(SHIPPED))
@@ -200,6 +205,17 @@ def test_nu_message_exact() -> None:
         "material.nu = 0.5 is out of range: must satisfy 0 <= nu < 0.5 "
         "(incompressible nu = 0.5 is not supported by the displacement formulation)"
     )
+
+
+def test_implicit_scheme_allows_dt_fraction_above_one() -> None:
+    """beta1 > 0 (implicit, unconditionally stable for 2 beta1 >= beta2) takes dt_fraction in
+    units of the explicit limit, so values > 1 are valid; beta1 = 0 still refuses them."""
+    s = scene_from_dict({"time": {"beta1": 0.25, "beta2": 0.5, "dt_fraction": 10.0}})
+    assert s.time.dt_fraction == 10.0
+    with pytest.raises(SceneError, match=r"implicit scheme, beta1 > 0, allows dt_fraction > 1"):
+        scene_from_dict({"time": {"beta1": 0.0, "dt_fraction": 1.5}})
+    with pytest.raises(SceneError, match=r"time.dt_fraction = 0.0 is out of range: .*> 0"):
+        scene_from_dict({"time": {"beta1": 0.25, "dt_fraction": 0.0}})
 
 
 def test_range_bounds_inclusive() -> None:

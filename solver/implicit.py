@@ -1,0 +1,674 @@
+"""Implicit Newmark (beta_1 > 0) with an active-set contact/friction solve on a Schur complement.
+
+Scheme (paper's beta_1, beta_2; section 4), lumped mass M, stiffness K, contact forces r, elastic
+acceleration a*_n = -M^{-1} K u_n:
+
+    u_{n+1} = u~ + beta_1 dt^2 a*_{n+1} + dt^2/2 M^{-1} r_{n+1},
+              u~ = u_n + dt v_n + dt^2/2 (1 - 2 beta_1) a*_n
+    v_{n+1} = v_n + dt [(1 - beta_2) a*_n + beta_2 a*_{n+1}] + dt M^{-1} r_{n+1}
+    => K_eff u_{n+1} = M u~ / (beta_1 dt^2) + E r_{n+1} / (2 beta_1),  K_eff = M/(beta_1 dt^2) + K.
+
+The elastic forces have the Newmark weights (unconditionally stable for 2 beta_1 >= beta_2 >=
+1/2; beta_1 = 1/4, beta_2 = 1/2 is the trapezoidal rule, exactly energy conserving; beta_2 > 1/2
+with beta_1 = (beta_2 + 1/2)^2 / 4 damps high frequencies). The contact impulse is applied at
+t_{n+1} only, with weights 1/2 (position) and 1 (velocity): the only weights that keep steady
+sliding an exact fixed point once r_n is dropped. For beta_1 = 1/4, beta_2 = 1/2 this gives
+the exact identity
+
+    E_{n+1} - E_n = r_{n+1} . (u_{n+1} - u_n),   E = 1/2 v.Mv + 1/2 u.Ku,
+
+so the normal contact force only removes energy (impacts), lift-off is free, and without contact
+the scheme is the trapezoidal rule. The textbook variant (force averaged over the step,
+(r_n + r_{n+1}) / 2) gains r_n . du / 2 at every lift-off and blew up in a first prototype
+(docs/stability.md). The price: the contact force is first order in time, and the normal
+velocity of a node in persistent contact alternates in sign (bounded).
+
+Contact (paper section 2, eq. [2] nodal form). E maps the polar nodal forces (p_i, q_i) of the
+contact nodes to global dofs. With K_eff factorised ONCE per dt (PETSc KSP ``preonly`` + LU:
+PETSc's sparse LU with nested dissection on one rank, MUMPS in parallel; measured in
+docs/accuracy.md; PETSc options prefix ``stickslip_implicit_``), the contact displacements at
+t_{n+1} are affine in r:
+
+    (u_r, u_theta) = w + S r,  w = E^T K_eff^{-1} b,  S = E^T K_eff^{-1} E / (2 beta_1),
+
+S (2 n_c x 2 n_c, dense SPD, the Schur complement's compliance) is built once per dt by solving
+K_eff X = E (blocks of columns, ``KSP.matSolve``). Each step solves on the contact dofs only:
+
+* normal: g_i = u_r,i - d >= 0, p_i >= 0, p_i g_i = 0;
+* tangential, for p_i > 0: stick (u_theta,i increment = R Omega dt, the node moves with the
+  cylinder, the same rule as the explicit projection) if |q_i| <= f p_i, else slip with
+  q_i = +-f p_i against the slip;
+
+by a primal-dual active set (semi-smooth Newton, Hueber-Stadler-Wohlmuth) with
+lambda_n = p - c (u_r - d), lambda_t = q - c (u_theta - u_theta_n - R Omega dt), c = 1/S_ii:
+contact where lambda_n > 0, stick where |lambda_t| <= f lambda_n, slip otherwise with
+sign(lambda_t). For fixed sets the conditions are linear in r (slip: q = sign f p), one dense
+solve of the reduced size; the sets are updated until they repeat. Warm-started from the previous
+step's sets, the first system is usually the previous step's last one (its LU is reused). If the
+sets cycle, a fixed point on the friction bound (Tresca problems with g = f p) takes over; if
+that fails too, ``ContactSolveError`` (a ``solver.run.Diverged``) stops the run with both
+reasons. f = 0 drops the tangential unknowns (n_c x n_c system, radial columns of E only).
+
+MPI: every rank owns some contact nodes; S (small) and w are gathered to rank 0, which runs the
+active set and scatters (p, q, status) back. The displacement is then u_{n+1} = K_eff^{-1}(b +
+E r / (2 beta_1)) (a second triangular solve with the same factorisation).
+
+Diagnostics follow the explicit path's convention (``solver.newmark.Newmark``): after ``step()``
+the integrator holds ``u`` = u_{n+1}, and ``u_prev``, ``v``, ``a``, ``ku`` = u_n, v_n, a_n, K u_n
+(a_n = a*_n + M^{-1} r_n), and ``ImplicitContact.out`` / ``r_xy`` hold r_n and the statuses at
+t_n: one consistent time level for the observers. ``ImplicitContact.work_totals()`` is the
+exact contact work sum r_{n+1} . (u_{n+1} - u_n) of the identity above (the observers' centred
+formula misses half of every impact's dissipation for this scheme).
+
+Initial contact force r_0 (diagnostics and first active set): nodes with u_r <= d whose elastic
+force (K u_0)_r pushes on the cylinder carry p = (K u_0)_r and slip forward (the cylinder moves,
+the tube is at rest), q = f p. Steady sliding is then an exact fixed point (test).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+import scipy.linalg
+from mpi4py import MPI
+from petsc4py import PETSc
+
+from solver.contact import SEPARATION, SLIP, ContactArrays
+from solver.run import Diverged
+
+MAX_ACTIVE_SET_ITERATIONS = 50
+MAX_FIXED_POINT_ITERATIONS = 100  # friction-bound fixed point (fallback of the active set)
+OPTIONS_PREFIX = "stickslip_implicit_"  # PETSc options of the K_eff solver
+SCHUR_BLOCK = 64  # columns of E per KSP.matSolve (bounds the dense work array)
+
+
+class ContactSolveError(Diverged):
+    """The active-set contact solve did not converge (or its linear system is singular)."""
+
+
+# ---------------------------------------------------------------------------------------------
+# The per-step complementarity problem (rank 0, plain numpy on gidx-ordered arrays)
+
+
+SEPARATED, STUCK, SLIP_FORWARD, SLIP_BACKWARD = 0, 1, 2, 3  # active-set modes of a node
+
+
+class ActiveSetSolver:
+    """Primal-dual active set for the nodal contact + Coulomb problem on a Schur complement.
+
+    ``S`` is the compliance of the contact unknowns: interleaved (p_0, q_0, p_1, q_1, ...) when
+    ``f > 0``, only (p_0, p_1, ...) when ``f == 0``. Each node has a mode (separated, stuck,
+    slipping with q = +f p or q = -f p). For given modes the unknowns are p of the contact
+    nodes and q of the stuck ones (separated: p = q = 0; slipping: q = +-f p), with the
+    equations u_r = d at contact nodes and u_theta = u_theta_n + R Omega dt at stuck nodes:
+    a dense system of that (reduced) size, factorised by LU. The modes persist between calls
+    (warm start) and the LU of the last system is reused while the modes do not change (the
+    first system of a step is usually the last one of the previous step).
+    """
+
+    def __init__(self, S: np.ndarray, d: float, f: float,
+                 max_iterations: int = MAX_ACTIVE_SET_ITERATIONS) -> None:
+        S = 0.5 * (S + S.T)
+        self.S, self.d, self.f = S, d, f
+        self.friction = f > 0.0
+        self.max_iterations = max_iterations
+        per = 2 if self.friction else 1
+        nc = S.shape[0] // per
+        self.nc = nc
+        self.ir = np.arange(nc) * per  # radial rows/columns of S
+        self.it = self.ir + 1 if self.friction else self.ir  # tangential (friction only)
+        s_r = S[:, self.ir]
+        if self.friction:
+            s_t = S[:, self.it]
+            # columns of the unknown p for a stuck / forward-slipping / backward-slipping node,
+            # then of the unknown q of a stuck node
+            self.columns = np.hstack([s_r, s_r + f * s_t, s_r - f * s_t, s_t])
+        else:
+            self.columns = s_r
+        diag = np.diag(S)
+        self.c_n = 1.0 / diag[self.ir]
+        self.c_t = 1.0 / diag[self.it]
+        self.mode = np.zeros(nc, dtype=np.int8)
+        self.p, self.q = np.zeros(nc), np.zeros(nc)
+        self.u_r, self.u_t = np.zeros(nc), np.zeros(nc)
+        self.r = np.zeros(S.shape[0])
+        self.factorisations = 0
+        self.fallbacks = 0  # steps that needed the friction fixed point
+        self._cache_key: bytes | None = None
+        self._cache_lu = None
+
+    def set_contact(self, contact: np.ndarray) -> None:
+        """Warm start: nodes in contact slip forward (the cylinder is faster), others free."""
+        self.mode[:] = np.where(contact, SLIP_FORWARD, SEPARATED)
+
+    def _lu(self, mode: np.ndarray, c_idx: np.ndarray, s_idx: np.ndarray, tresca: bool):
+        key = mode.tobytes() + (b"T" if tresca else b"C")
+        if key != self._cache_key:
+            nc = self.nc
+            if self.friction:
+                if tresca:  # slip forces are known: every contact column is S[:, ir]
+                    col_p = c_idx
+                else:  # stuck 0, forward slip nc, backward slip 2 nc
+                    col_p = c_idx + nc * (mode[c_idx].astype(np.intp) - 1)
+                cols = np.concatenate([col_p, 3 * nc + s_idx])
+                rows = np.concatenate([self.ir[c_idx], self.it[s_idx]])
+            else:
+                cols, rows = c_idx, self.ir[c_idx]
+            A = self.columns[np.ix_(rows, cols)]
+            lu = None
+            if A.size:
+                lu = scipy.linalg.lu_factor(A, check_finite=False)
+                self.factorisations += 1
+                pivots = np.abs(np.diag(lu[0]))
+                if not np.all(np.isfinite(pivots)) or pivots.min() <= 1e-13 * pivots.max():
+                    raise ContactSolveError(
+                        f"implicit contact: the active-set system is singular with {c_idx.size}"
+                        f" contact nodes, {s_idx.size} stuck (f = {self.f}: the slip "
+                        "linearisation q = +-f p may be singular); reduce time.dt_fraction"
+                    )
+            self._cache_key, self._cache_lu = key, lu
+        return self._cache_lu
+
+    def _iterate(self, w_r, w_t, target_t, bound: np.ndarray | None) -> tuple[int, str]:
+        """Active-set iterations for Coulomb (``bound`` None: q = +-f p on slip) or Tresca
+        (q = +-bound). Returns (iterations, "" if converged else the reason)."""
+        S, ir, it, f, d = self.S, self.ir, self.it, self.f, self.d
+        p, q, r, mode = self.p, self.q, self.r, self.mode
+        tresca = bound is not None
+        seen: set[bytes] = set()
+        for iteration in range(1, self.max_iterations + 1):
+            c_idx = np.flatnonzero(mode)
+            s_idx = np.flatnonzero(mode == STUCK)
+            lu = self._lu(mode, c_idx, s_idx, tresca)
+            p.fill(0.0)
+            q.fill(0.0)
+            fwd, bwd = mode == SLIP_FORWARD, mode == SLIP_BACKWARD
+            if self.friction and tresca:
+                q[fwd], q[bwd] = bound[fwd], -bound[bwd]
+            if lu is not None:
+                if self.friction:
+                    rhs = np.concatenate([d - w_r[c_idx], target_t[s_idx] - w_t[s_idx]])
+                    if tresca:
+                        sl = np.flatnonzero(fwd | bwd)
+                        rows = np.concatenate([ir[c_idx], it[s_idx]])
+                        rhs -= S[np.ix_(rows, it[sl])] @ q[sl]
+                else:
+                    rhs = d - w_r[c_idx]
+                x = scipy.linalg.lu_solve(lu, rhs, check_finite=False)
+                p[c_idx] = x[:c_idx.size]
+                if self.friction:
+                    q[s_idx] = x[c_idx.size:]
+                    if not tresca:
+                        q[fwd], q[bwd] = f * p[fwd], -f * p[bwd]
+            r[ir] = p
+            if self.friction:
+                r[it] = q
+            sr = S @ r
+            np.add(w_r, sr[ir], out=self.u_r)
+            lam_n = p - self.c_n * (self.u_r - d)
+            new = (lam_n > 0.0).astype(np.int8)  # SEPARATED 0 or STUCK 1
+            if self.friction:
+                np.add(w_t, sr[it], out=self.u_t)
+                lam_t = q - self.c_t * (self.u_t - target_t)
+                cone = bound if tresca else f * lam_n
+                slipping = (new == STUCK) & (np.abs(lam_t) > cone)
+                new[slipping] = np.where(lam_t[slipping] >= 0.0, SLIP_FORWARD, SLIP_BACKWARD)
+            else:
+                self.u_t[:] = w_t
+                new *= SLIP_FORWARD  # frictionless contact nodes slip
+            if np.array_equal(new, mode):
+                return iteration, ""
+            key = new.tobytes()
+            if key in seen:
+                return iteration, (f"the active set cycles after {iteration} iterations "
+                                   f"({int(np.count_nonzero(new))} contact, "
+                                   f"{int(np.sum(new == STUCK))} stuck nodes)")
+            seen.add(mode.tobytes())
+            mode[:] = new
+        return self.max_iterations, f"no convergence in {self.max_iterations} iterations"
+
+    def solve(self, w_r: np.ndarray, w_t: np.ndarray, target_t: np.ndarray) -> int:
+        """Contact forces for displacement w + S r; returns the number of iterations.
+
+        ``target_t`` is the stick position u_theta_n + R Omega dt. Results in ``p``, ``q``,
+        ``u_r``, ``u_t`` and ``mode``. The semi-smooth Newton on Coulomb's law (slip
+        q = +-f p linearised in p) can cycle when the nodes are strongly coupled (large dt,
+        large f); then the fallback is a fixed point on the friction bound: Tresca problems
+        with bound g = f p from the previous iterate (each a convex problem, solved by the same
+        active set) until g = f p. Raises ``ContactSolveError`` if that fails too.
+        """
+        total, why = self._iterate(w_r, w_t, target_t, None)
+        if not why:
+            return total
+        self.fallbacks += 1
+        g = np.zeros(self.nc)
+        for _ in range(MAX_FIXED_POINT_ITERATIONS):
+            np.multiply(np.maximum(self.p, 0.0), self.f, out=g)
+            its, why2 = self._iterate(w_r, w_t, target_t, g.copy())
+            total += its
+            if why2:
+                break
+            if np.max(np.abs(self.f * self.p - g)) <= 1e-11 * max(np.max(g), 1e-300):
+                return total
+        else:
+            why2 = f"friction fixed point not converged in {MAX_FIXED_POINT_ITERATIONS} steps"
+        raise ContactSolveError(
+            f"implicit contact: Coulomb active set failed ({why}) and the friction fixed "
+            f"point failed ({why2}); reduce time.dt_fraction"
+        )
+
+    def status(self) -> np.ndarray:
+        """SEPARATION / STICK / SLIP per node (f = 0: every contact node slips)."""
+        return np.minimum(self.mode, SLIP).astype(np.int8)
+
+
+# ---------------------------------------------------------------------------------------------
+# Contact on the tube's inner circle: Schur complement, gather/scatter, diagnostics
+
+
+class _Level:
+    """Contact forces of one time level: polar r_r + i r_t, (x, y) r_x + i r_y, statuses."""
+
+    def __init__(self, n: int) -> None:
+        self.r_polar = np.zeros(n, dtype=complex)
+        self.r_xy = np.zeros(n, dtype=complex)
+        self.out = ContactArrays(n, r_r=self.r_polar.real, r_t=self.r_polar.imag)
+
+
+class ImplicitContact:
+    """Contact/friction of the implicit scheme on the owned contact nodes.
+
+    Exposes what the observers read, with the same meaning as in
+    ``solver.problem.ContactProjection``: ``out`` (r_r, r_t, status), ``r_xy``, ``slide``,
+    ``nodes``, ``node_index``, ``phase_conj``, ``complex_view``, ``polar_at_nodes`` and
+    ``_polar``; ``out`` and ``r_xy`` belong to the exposed time level n (module docstring).
+    Nodal values are complex z = u_x + i u_y, z e^{-i theta} = u_r + i u_theta.
+    """
+
+    def __init__(self, nodes, d: float, f: float, surface_speed: float, comm: MPI.Comm) -> None:
+        self.nodes, self.d, self.f, self.comm = nodes, d, f, comm
+        self.surface_speed = surface_speed  # R Omega
+        self.slide = 0.0  # R Omega dt, set with dt by ImplicitNewmark.set_dt
+        n = nodes.dofs_x.size
+        self.node_index = np.asarray(nodes.nodes, dtype=np.intp)
+        self.phase = np.exp(1j * nodes.theta)
+        self.phase_conj = np.conj(self.phase)
+        self._views: dict[int, np.ndarray] = {}
+        self._exposed, self._next = _Level(n), _Level(n)
+        self.z = np.zeros(n, dtype=complex)
+        counts = np.array(comm.allgather(n))
+        self.counts, self.displs = counts, np.concatenate([[0], np.cumsum(counts)[:-1]])
+        self.nc = int(counts.sum())
+        self.root = comm.rank == 0
+        gidx = np.ascontiguousarray(nodes.global_node_index, dtype=np.int64)
+        self.order = np.zeros(self.nc, dtype=np.int64) if self.root else None
+        comm.Gatherv(gidx, (self.order, counts, self.displs, MPI.INT64_T)
+                     if self.root else None, root=0)
+        self.send = np.zeros((3, n))  # w_r, w_t, target_t (gather) / p, q, status (scatter)
+        self.recv = np.zeros((3, self.nc)) if self.root else None
+        self.solver: ActiveSetSolver | None = None
+        self.iterations = 0  # of the last step
+        self.header = np.zeros(1, dtype=np.int64)
+        self.work = np.zeros(2)  # local exact contact work, cylinder work (to level n+1)
+        self.work_exposed = np.zeros(2)  # the same up to the exposed level n
+
+    # -- the observers' interface ----------------------------------------------------------------
+
+    @property
+    def out(self) -> ContactArrays:
+        return self._exposed.out
+
+    @property
+    def r_xy(self) -> np.ndarray:
+        return self._exposed.r_xy
+
+    def complex_view(self, array: np.ndarray) -> np.ndarray:
+        """Cached complex128 view (one z per node) of an owned blocked array."""
+        key = id(array)
+        view = self._views.get(key)
+        if view is None:
+            view = self._views[key] = array.view(np.complex128)
+        return view
+
+    def polar_at_nodes(self, array: np.ndarray, out: np.ndarray) -> np.ndarray:
+        """u_r + i u_theta at the contact nodes, into the complex array ``out``."""
+        np.take(self.complex_view(array), self.node_index, out=out)
+        out *= self.phase_conj
+        return out
+
+    def _polar(self, array: np.ndarray, radial: np.ndarray, tangential: np.ndarray) -> None:
+        z = self.polar_at_nodes(array, np.empty(self.node_index.size, dtype=complex))
+        radial[:] = z.real
+        tangential[:] = z.imag
+
+    def put_force(self, force: np.ndarray, exposed: bool = False) -> None:
+        """Nodal forces of the internal (or exposed) level into ``force`` (zero elsewhere)."""
+        level = self._exposed if exposed else self._next
+        np.put(self.complex_view(force), self.node_index, level.r_xy)
+
+    # -- Schur complement ----------------------------------------------------------------------
+
+    def build_schur(self, ksp: PETSc.KSP, K_eff: PETSc.Mat, scale: float) -> None:
+        """S = scale E^T K_eff^{-1} E on rank 0, by KSP.matSolve on blocks of E's columns."""
+        nd, comm = self.nodes, self.comm
+        per = 2 if self.f > 0.0 else 1
+        ncols = per * self.nc
+        (n_loc, n_glob), _ = K_eff.getSizes()
+        g = np.asarray(nd.global_node_index, dtype=np.int64)
+        S_part = np.zeros((ncols, ncols))
+        for c0 in range(0, ncols, SCHUR_BLOCK):
+            nb = min(SCHUR_BLOCK, ncols - c0)
+            B = PETSc.Mat().createDense(((n_loc, n_glob), (PETSc.DECIDE, nb)), comm=comm)
+            B.setUp()
+            Bl = B.getDenseArray()  # owned rows x nb (a view)
+            Bl[:] = 0.0
+            # radial columns per*g, tangential per*g + 1 (E: polar unit vectors at the node)
+            for comp in range(per):
+                col = per * g + comp - c0
+                sel = (col >= 0) & (col < nb)
+                cx = nd.cos_t if comp == 0 else -nd.sin_t
+                cy = nd.sin_t if comp == 0 else nd.cos_t
+                Bl[nd.dofs_x[sel], col[sel]] = cx[sel]
+                Bl[nd.dofs_y[sel], col[sel]] = cy[sel]
+            B.assemble()
+            X = B.duplicate()
+            ksp.matSolve(B, X)
+            Xl = X.getDenseArray(readonly=True)
+            xs, ys = Xl[nd.dofs_x], Xl[nd.dofs_y]
+            S_part[per * g, c0:c0 + nb] = nd.cos_t[:, None] * xs + nd.sin_t[:, None] * ys
+            if per == 2:
+                S_part[per * g + 1, c0:c0 + nb] = -nd.sin_t[:, None] * xs \
+                    + nd.cos_t[:, None] * ys
+            B.destroy()
+            X.destroy()
+        S = np.zeros_like(S_part) if self.root else None
+        comm.Reduce(S_part, S, op=MPI.SUM, root=0)  # each row comes from one rank: exact
+        if self.root:
+            self.solver = ActiveSetSolver(scale * S, self.d, self.f)
+
+    # -- per step ------------------------------------------------------------------------------
+
+    def _gather(self) -> None:
+        for k in range(3):
+            self.comm.Gatherv(self.send[k], (self.recv[k], self.counts, self.displs, MPI.DOUBLE)
+                              if self.root else None, root=0)
+
+    def _scatter_into_next(self) -> None:
+        for k in range(3):
+            self.comm.Scatterv((self.recv[k], self.counts, self.displs, MPI.DOUBLE)
+                               if self.root else None, self.send[k], root=0)
+        lev = self._next
+        lev.out.r_r[:] = self.send[0]
+        lev.out.r_t[:] = self.send[1]
+        lev.out.status[:] = self.send[2]
+        np.multiply(lev.r_polar, self.phase, out=lev.r_xy)
+
+    def solve(self, u_free: np.ndarray, u_now: np.ndarray, step: int, t: float) -> None:
+        """Contact forces at t_{n+1} (internal level) from the contact-free u_{n+1}."""
+        z = self.polar_at_nodes(u_free, self.z)
+        self.send[0] = z.real
+        self.send[1] = z.imag
+        z = self.polar_at_nodes(u_now, self.z)
+        np.add(z.imag, self.slide, out=self.send[2])
+        self._gather()
+        message = ""
+        if self.root:
+            s = self.solver
+            w_r, w_t, tgt = (np.empty(self.nc) for _ in range(3))
+            w_r[self.order], w_t[self.order], tgt[self.order] = self.recv
+            try:
+                self.header[0] = s.solve(w_r, w_t, tgt)
+            except ContactSolveError as err:
+                self.header[0] = -1
+                message = f"{err} (step {step}, t = {t:.6g} s)"
+            self.recv[0] = s.p[self.order]
+            self.recv[1] = s.q[self.order]
+            self.recv[2] = s.status()[self.order]
+        self.comm.Bcast(self.header, root=0)
+        if self.header[0] < 0:
+            raise ContactSolveError(self.comm.bcast(message, root=0))
+        self.iterations = int(self.header[0])
+        self._scatter_into_next()
+
+    def initial(self, u0: np.ndarray, ku0: np.ndarray) -> None:
+        """r_0 at rest into the internal level (module docstring) and the first active set."""
+        lev = self._next
+        z = self.polar_at_nodes(u0, np.empty_like(self.z))
+        k = self.polar_at_nodes(ku0, np.empty_like(self.z))
+        touching = (z.real - self.d <= 1e-12 * max(self.d, 1e-300)) & (k.real > 0.0)
+        lev.out.r_r[:] = np.where(touching, k.real, 0.0)
+        lev.out.r_t[:] = self.f * lev.out.r_r
+        lev.out.status[:] = np.where(touching, SLIP, SEPARATION)
+        np.multiply(lev.r_polar, self.phase, out=lev.r_xy)
+        self.send[2] = touching
+        self._gather()
+        if self.root:
+            C = np.zeros(self.nc, dtype=bool)
+            C[self.order] = self.recv[2] > 0.0
+            self.solver.set_contact(C)
+
+    def add_work(self, u_next: np.ndarray, u_now: np.ndarray) -> None:
+        """Exact work of the step: r_{n+1} . (u_{n+1} - u_n), and the cylinder's R Omega dt q."""
+        idx = self.node_index
+        np.subtract(self.complex_view(u_next)[idx], self.complex_view(u_now)[idx], out=self.z)
+        lev = self._next
+        self.work_exposed[:] = self.work
+        self.work[0] += np.vdot(lev.r_xy, self.z).real
+        self.work[1] += float(lev.out.r_t.sum()) * self.slide
+
+    def work_totals(self, exposed: bool = False) -> tuple[float, float]:
+        """(contact work, cylinder work) summed over steps and ranks [J/m], up to the last
+        computed level n+1 (or, ``exposed``, up to the observers' level n). Collective. For
+        beta1 = 1/4, beta2 = 1/2, E - E_0 equals the contact work to round-off."""
+        total = np.zeros(2)
+        self.comm.Allreduce(self.work_exposed if exposed else self.work, total, op=MPI.SUM)
+        return float(total[0]), float(total[1])
+
+    def swap(self) -> None:
+        """Expose the level computed last (internal) as level n; recycle the other arrays."""
+        self._exposed, self._next = self._next, self._exposed
+
+
+# ---------------------------------------------------------------------------------------------
+# The integrator
+
+
+class ImplicitNewmark:
+    """Implicit Newmark on owned-dof numpy arrays; linear solves by PETSc KSP (LU, see above).
+
+    Parameters
+    ----------
+    K
+        Assembled stiffness (PETSc Mat, no boundary conditions).
+    mass
+        Lumped mass per owned dof.
+    clamped
+        Owned local dof indices held at zero (outer circle).
+    dt, beta1, beta2
+        Time step and Newmark parameters (beta1 > 0).
+    contact
+        ``ImplicitContact`` or None (free vibration).
+    """
+
+    def __init__(self, K: PETSc.Mat, mass: np.ndarray, clamped: np.ndarray, dt: float,
+                 beta1: float, beta2: float, contact: ImplicitContact | None = None,
+                 comm: MPI.Comm | None = None) -> None:
+        if not beta1 > 0.0:
+            raise ValueError(f"ImplicitNewmark needs beta1 > 0 (got {beta1}); use Newmark")
+        if not 0.5 <= beta2 <= 1.0:
+            raise ValueError(f"time.beta2 = {beta2} must be in [0.5, 1]")
+        self.K, self.mass, self.clamped = K, mass, np.asarray(clamped)
+        self.beta1, self.beta2 = beta1, beta2
+        self.contact = contact
+        self.comm = comm if comm is not None else K.getComm().tompi4py()
+        n = mass.size
+        self.n_global = K.getSize()[0]
+        self.u, self.u_prev = np.zeros(n), np.zeros(n)  # u_{n+1}, u_n (exposed)
+        self.v, self.a, self.ku = np.zeros(n), np.zeros(n), np.zeros(n)  # level n (exposed)
+        self.v_next, self.a_next = np.zeros(n), np.zeros(n)  # v_{n+1}, a*_{n+1} (internal)
+        self.a_star, self.f_over_m = np.zeros(n), np.zeros(n)
+        self.inv_mass = np.where(mass > 0.0, 1.0 / np.where(mass > 0.0, mass, 1.0), 0.0)
+        self.inv_mass[self.clamped] = 0.0
+        self.u_pred, self.rhs, self.force = np.zeros(n), np.zeros(n), np.zeros(n)
+        self.u_free, self.scratch = np.zeros(n), np.zeros(n)
+        self._vecs: dict[int, PETSc.Vec] = {}
+        self.time = 0.0
+        self.step_count = 0
+        self.iterations: list[int] = []
+        self.contact_seconds = 0.0  # active set + gather/scatter (the contact's share)
+        self.solve_seconds = 0.0  # triangular solves with the factorised K_eff
+        self.factor_seconds = 0.0  # K_eff assembly + factorisation + Schur complement
+        self.ksp: PETSc.KSP | None = None
+        self.K_eff: PETSc.Mat | None = None
+        self.set_dt(dt)
+
+    def _vec(self, array: np.ndarray) -> PETSc.Vec:
+        key = array.ctypes.data
+        vec = self._vecs.get(key)
+        if vec is None:
+            vec = self._vecs[key] = PETSc.Vec().createWithArray(
+                array, size=(array.size, self.n_global), comm=self.comm)
+        return vec
+
+    def set_dt(self, dt: float) -> None:
+        """Assemble and factorise K_eff = M / (beta1 dt^2) + K for ``dt`` (once per dt)."""
+        t0 = time.perf_counter()
+        self.dt = dt
+        self.m_eff = self.mass / (self.beta1 * dt * dt)
+        self.m_eff[self.clamped] = 0.0
+        if self.K_eff is not None:
+            self.K_eff.destroy()
+            self.ksp.destroy()
+        K_eff = self.K.copy()
+        K_eff.setDiagonal(self._vec(self.m_eff), addv=PETSc.InsertMode.ADD_VALUES)
+        rstart = K_eff.getOwnershipRange()[0]
+        K_eff.zeroRowsColumns((rstart + self.clamped).astype(PETSc.IntType), diag=1.0)
+        ksp = PETSc.KSP().create(self.comm)
+        ksp.setOptionsPrefix(OPTIONS_PREFIX)
+        ksp.setOperators(K_eff)
+        ksp.setType("preonly")
+        pc = ksp.getPC()
+        pc.setType("lu")
+        if self.comm.size == 1:  # PETSc's own sparse LU: 3-30x faster solves than MUMPS here
+            pc.setFactorSolverType("petsc")
+            pc.setFactorOrdering("nd")
+        else:
+            pc.setFactorSolverType("mumps")
+        ksp.setFromOptions()  # e.g. -stickslip_implicit_pc_factor_mat_solver_type mumps
+        ksp.setUp()
+        self.K_eff, self.ksp = K_eff, ksp
+        if self.contact is not None:
+            self.contact.slide = self.contact.surface_speed * dt
+            self.contact.build_schur(ksp, K_eff, 0.5 / self.beta1)
+        self.factor_seconds += time.perf_counter() - t0
+
+    def _solve(self, rhs: np.ndarray, out: np.ndarray) -> None:
+        t0 = time.perf_counter()
+        self.ksp.solve(self._vec(rhs), self._vec(out))
+        reason = self.ksp.getConvergedReason()
+        if reason < 0:
+            raise Diverged(f"K_eff solve failed (KSP reason {reason})")
+        self.solve_seconds += time.perf_counter() - t0
+
+    def _mult(self, u: np.ndarray, out: np.ndarray) -> None:
+        self.K.mult(self._vec(u), self._vec(out))
+
+    def set_state(self, u: np.ndarray, v: np.ndarray) -> None:
+        """Initial u_0, v_0; r_0 from the nodal law at rest (module docstring)."""
+        self.u[:] = u
+        self.v_next[:] = v
+        if self.contact is not None:
+            self._mult(self.u, self.ku)
+            self.contact.initial(self.u, self.ku)
+
+    def step(self) -> None:
+        """Advance one step; afterwards ``u`` = u_{n+1} and the exposed level is n."""
+        dt, b1, b2 = self.dt, self.beta1, self.beta2
+        contact = self.contact
+        # expose level n: u_n, v_n, K u_n, a_n = a*_n + M^-1 r_n with a*_n = -M^-1 K u_n
+        self.u_prev[:] = self.u
+        self.v[:] = self.v_next
+        self._mult(self.u_prev, self.ku)
+        np.multiply(self.ku, self.inv_mass, out=self.a_star)
+        np.negative(self.a_star, out=self.a_star)
+        if contact is not None:
+            contact.swap()
+            contact.put_force(self.force, exposed=True)
+            np.multiply(self.force, self.inv_mass, out=self.a)
+            self.a += self.a_star
+        else:
+            self.a[:] = self.a_star
+        # predictor u~ = u_n + dt v_n + dt^2/2 (1 - 2 b1) a*_n
+        np.multiply(self.v, dt, out=self.u_pred)
+        self.u_pred += self.u_prev
+        np.multiply(self.a_star, 0.5 * dt * dt * (1.0 - 2.0 * b1), out=self.scratch)
+        self.u_pred += self.scratch
+        np.multiply(self.m_eff, self.u_pred, out=self.rhs)  # 0 on clamped rows
+        if contact is None:
+            self._solve(self.rhs, self.u)
+            self.force.fill(0.0)
+        else:
+            # K_eff u_{n+1} = M u~ / (b1 dt^2) + r_{n+1} / (2 b1)
+            self._solve(self.rhs, self.u_free)
+            t0 = time.perf_counter()
+            contact.solve(self.u_free, self.u_prev, self.step_count + 1, self.time + dt)
+            self.contact_seconds += time.perf_counter() - t0
+            self.iterations.append(contact.iterations)
+            contact.put_force(self.force)
+            np.multiply(self.force, 0.5 / b1, out=self.scratch)
+            self.rhs += self.scratch
+            self._solve(self.rhs, self.u)
+            contact.add_work(self.u, self.u_prev)
+        # a*_{n+1} = (u_{n+1} - u~ - dt^2/2 M^-1 r_{n+1}) / (b1 dt^2)
+        np.subtract(self.u, self.u_pred, out=self.scratch)
+        self.scratch *= 1.0 / (b1 * dt * dt)
+        np.multiply(self.force, self.inv_mass, out=self.f_over_m)
+        np.multiply(self.f_over_m, 0.5 / b1, out=self.a_next)
+        np.subtract(self.scratch, self.a_next, out=self.a_next)
+        # v_{n+1} = v_n + dt [(1 - b2) a*_n + b2 a*_{n+1}] + dt M^-1 r_{n+1}
+        np.multiply(self.a_star, (1.0 - b2) * dt, out=self.v_next)
+        self.v_next += self.v
+        np.multiply(self.a_next, b2 * dt, out=self.scratch)
+        self.v_next += self.scratch
+        np.multiply(self.f_over_m, dt, out=self.scratch)
+        self.v_next += self.scratch
+        self.time += dt
+        self.step_count += 1
+
+    def iteration_stats(self) -> dict:
+        """Active-set iterations per step (mean, max) and the time split of the scheme."""
+        its = np.asarray(self.iterations) if self.iterations else np.zeros(1)
+        return {
+            "scheme": "implicit",
+            "beta1": self.beta1,
+            "beta2": self.beta2,
+            "active_set_iterations_mean": float(its.mean()),
+            "active_set_iterations_max": int(its.max()),
+            "factorisation_s": self.factor_seconds,
+            "linear_solves_s": self.solve_seconds,
+            "contact_s": self.contact_seconds,
+        }
+
+
+def amplification_eigenvalues(omega_dt: float, beta1: float, beta2: float) -> np.ndarray:
+    """The two principal eigenvalues of the Newmark amplification matrix of u'' + w^2 u = 0.
+
+    State x = (u, dt v, dt^2 a); L x_{n+1} = R x_n with a_{n+1} = -w^2 u_{n+1}.
+    """
+    w2 = omega_dt * omega_dt
+    L = np.array([[1.0, 0.0, -beta1], [0.0, 1.0, -beta2], [w2, 0.0, 1.0]])
+    R = np.array([[1.0, 1.0, 0.5 - beta1], [0.0, 1.0, 1.0 - beta2], [0.0, 0.0, 0.0]])
+    lam = np.linalg.eigvals(np.linalg.solve(L, R))
+    return lam[np.argsort(-np.abs(lam))[:2]]  # the third root is the spurious 0 (a from u)
+
+
+def damping_per_period(omega_dt: float, beta1: float, beta2: float) -> float:
+    """Amplitude factor over one period of the oscillation at w dt: rho^(2 pi / phase)."""
+    lam = amplification_eigenvalues(omega_dt, beta1, beta2)
+    k = int(np.argmax(np.abs(lam.imag)))
+    rho, phase = abs(lam[k]), abs(np.angle(lam[k]))
+    if phase == 0.0:
+        return 0.0 if rho < 1.0 else math.inf
+    return float(rho ** (2.0 * math.pi / phase))
