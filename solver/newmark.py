@@ -110,11 +110,19 @@ class Newmark:
         self.time = 0.0
         self.step_count = 0
 
-    def set_state(self, u: np.ndarray, v: np.ndarray) -> None:
-        """Initial displacement and velocity. The first step's velocity predictor is v_0."""
+    def set_state(self, u: np.ndarray, v: np.ndarray, a0: np.ndarray | None = None) -> None:
+        """Initial displacement, velocity and (optionally) acceleration.
+
+        The first step computes v_0 = v~_0 + beta_2 dt a_0, so the predictor is set to
+        v~_0 = v_0 - beta_2 dt a_0 when a_0 is known; without it v~_0 = v_0, exact when a_0 = 0
+        (e.g. a start from the steady state) and an O(dt) start-up error otherwise, which
+        makes the whole run first order.
+        """
         self.u[:] = u
         self.v[:] = v
         self.v_pred[:] = v
+        if a0 is not None:
+            self.v_pred -= self.beta2 * self.dt * np.asarray(a0)
         self.a.fill(0.0)
 
     def step(self) -> None:

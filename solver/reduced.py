@@ -201,11 +201,11 @@ class ReducedModel:
         u = np.concatenate([U, V])
         v = np.concatenate([Ud, Vd])
         nm = self.integ
-        nm.set_state(u, v)
-        nm.time, nm.step_count = 0.0, 0
+        a0 = None
         if P is not None and Q is not None:
             a0 = np.concatenate([P, Q]) - (self.K @ u) / self.mass
-            nm.v_pred[:] = v - nm.beta2 * self.dt * a0
+        nm.set_state(u, v, a0)
+        nm.time, nm.step_count = 0.0, 0
 
     def run(self, t_end: float, n_samples: int = 200) -> ReducedRecord:
         """Advance to ``t_end`` (non-dimensional), recording ~``n_samples`` snapshots."""
