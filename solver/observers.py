@@ -54,7 +54,7 @@ class EnergyAccumulator:
 
     def after_step(self, u_next: np.ndarray) -> None:
         p = self.p
-        np.take(p.complex_view(u_next), p.node_index, out=self.z_next)
+        p.complex_view(u_next).take(p.node_index, out=self.z_next)
         np.subtract(self.z_next, self.z_prev, out=self.dz)
         self.work_contact += 0.5 * np.vdot(p.r_xy, self.dz).real
         if self.with_friction:
@@ -259,34 +259,34 @@ class ProbeRecorder:
         self.slots, self.angles = slots, angles
         self.index = np.asarray(projection.node_index[index], dtype=np.intp)
         self.phase_conj = projection.phase_conj[index].copy()
-        self.zu = np.zeros(len(slots), dtype=complex)
-        self.zv = np.zeros(len(slots), dtype=complex)
         self.n_probes = len(probes_deg)
-        self.data = np.zeros((len(slots), max_steps + 1, 4))
+        # (x + i y) of u_n and v_n per step; rotated to (r, theta) once, in ``arrays()``
+        self.zu = np.zeros((max_steps + 1, len(slots)), dtype=complex)
+        self.zv = np.zeros((max_steps + 1, len(slots)), dtype=complex)
         self.t = np.zeros(max_steps + 1)
         self.n = 0
 
     def record(self, integrator) -> None:
-        """Record time level n (u_prev = u_n, v = v_n) after a step."""
-        if self.n >= self.t.size or not self.slots:
-            self.n += self.n < self.t.size
-            return
+        """Record time level n (u_prev = u_n, v = v_n) after a step: two ``take`` calls."""
         i = self.n
+        if i >= self.t.size:
+            return
         self.t[i] = integrator.time - integrator.dt
-        np.take(self.p.complex_view(integrator.u_prev), self.index, out=self.zu)
-        np.take(self.p.complex_view(integrator.v), self.index, out=self.zv)
-        self.zu *= self.phase_conj
-        self.zv *= self.phase_conj
-        row = self.data[:, i]
-        row[:, 0] = self.zu.real
-        row[:, 1] = self.zu.imag
-        row[:, 2] = self.zv.real
-        row[:, 3] = self.zv.imag
-        self.n += 1
+        if self.slots:
+            self.p.complex_view(integrator.u_prev).take(self.index, out=self.zu[i])
+            self.p.complex_view(integrator.v).take(self.index, out=self.zv[i])
+        self.n = i + 1
+
+    @property
+    def data(self) -> np.ndarray:
+        """(probe, step, [u_r, u_theta, v_r, v_theta]) of the recorded steps (local probes)."""
+        zu = self.zu[: self.n] * self.phase_conj
+        zv = self.zv[: self.n] * self.phase_conj
+        return np.stack([zu.real, zu.imag, zv.real, zv.imag], axis=-1).transpose(1, 0, 2)
 
     def arrays(self) -> dict[str, np.ndarray] | None:
         """Gathered histories on rank 0 (None elsewhere): probe_t, probe_deg, probe_data."""
-        local = (self.slots, self.angles, self.data[:, : self.n], self.t[: self.n])
+        local = (self.slots, self.angles, self.data, self.t[: self.n])
         gathered = self.comm.gather(local, root=0)
         if self.comm.rank != 0:
             return None
