@@ -30,10 +30,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--profile", action="store_true", help="print where the time went")
     p.set_defaults(func=_run)
 
-    p = sub.add_parser("plot", help="draw the figures of a run directory (PNG)",
+    p = sub.add_parser("plot", help="draw the figures of a run or sweep directory (PNG)",
                        description="Space-time map of u_r, zone map, final profile, phase "
                                    "diagram and energies of a run directory, as PNG files.")
-    p.add_argument("run_dir", help="a run directory written by `stickslip run`")
+    p.add_argument("run_dir", help="a run directory (`stickslip run`) or a sweep directory "
+                   "(`stickslip sweep`: draws the regime map)")
     p.set_defaults(func=_plot)
 
 
@@ -71,6 +72,14 @@ def _plot(args: argparse.Namespace) -> int:
     from solver.plotting import plot_run
 
     run_dir = Path(args.run_dir)
+    try:
+        from solver.sweep import is_sweep_dir, plot_sweep
+    except ModuleNotFoundError:  # pragma: no cover - sweep module always shipped
+        is_sweep_dir = None
+    if is_sweep_dir is not None and is_sweep_dir(run_dir):
+        for path in plot_sweep(run_dir):
+            print(f"figure: {path}")
+        return 0
     if not (run_dir / "samples.npz").exists():
         print(f"error: {run_dir} has no samples.npz (not a finished run directory)",
               file=sys.stderr)

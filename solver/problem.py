@@ -152,15 +152,18 @@ class ContactProjection:
         self.nodes = nd
         self.node_index = np.asarray(nd.nodes, dtype=np.intp)
         self.kappa = kappa
+        self.dt = dt
         self.d = sc.geometry.d
         self.f = sc.loading.f
         self.slide = sc.geometry.R * sc.loading.omega * dt  # cylinder surface travel per step
         self.mass = problem.mass[nd.dofs_x].copy()
+        self.inv_mass = 1.0 / self.mass
         self.phase = np.exp(1j * nd.theta)  # e^{i theta}: polar -> (x, y)
         self.phase_conj = np.conj(self.phase)  # (x, y) -> polar
         n = nd.dofs_x.size
         self.z_now = np.zeros(n, dtype=complex)  # u_n at the nodes, polar
-        self.z_trial = np.zeros(n, dtype=complex)  # trial u_{n+1}, polar
+        self.z_trial = np.zeros(n, dtype=complex)  # trial u_{n+1}, (x, y) then polar
+        self.z_work = np.zeros(n, dtype=complex)
         self.r_polar = np.zeros(n, dtype=complex)  # r_r + i r_theta
         self.r_xy = np.zeros(n, dtype=complex)  # r_x + i r_y
         self.out = ContactArrays(n, r_r=self.r_polar.real, r_t=self.r_polar.imag)
@@ -186,17 +189,29 @@ class ContactProjection:
         radial[:] = z.real
         tangential[:] = z.imag
 
-    def __call__(self, u_trial: np.ndarray, u_now: np.ndarray, force: np.ndarray) -> None:
+    def __call__(self, u_now: np.ndarray, v_pred: np.ndarray, accel: np.ndarray) -> None:
+        """The ``Newmark`` contact step (see ``solver.newmark.ContactStep``)."""
+        idx, trial, work = self.node_index, self.z_trial, self.z_work
         now = self.polar_at_nodes(u_now, self.z_now)
-        trial = self.polar_at_nodes(u_trial, self.z_trial)
+        # trial u_{n+1} = u_n + dt v~_n + kappa a*_n at the nodes only, (x, y) then polar
+        a_c = self.complex_view(accel)
+        self.complex_view(v_pred).take(idx, out=trial)
+        trial *= self.dt
+        a_c.take(idx, out=work)
+        work *= self.kappa
+        trial += work
+        trial *= self.phase_conj
+        trial += now
         project_contact(
             trial.real, trial.imag, now.imag, self.mass, self.kappa, self.d, self.slide,
             self.f, self.out,
         )
-        # back to (x, y): r_x + i r_y = (r_r + i r_t) e^{i theta}; entries of ``force`` away
-        # from the contact nodes are never written, so they stay zero.
+        # back to (x, y): r_x + i r_y = (r_r + i r_t) e^{i theta}; a_n = a*_n + r / m
         np.multiply(self.r_polar, self.phase, out=self.r_xy)
-        np.put(self.complex_view(force), self.node_index, self.r_xy)
+        a_c.take(idx, out=work)
+        np.multiply(self.r_xy, self.inv_mass, out=trial)
+        work += trial
+        np.put(a_c, idx, work)
 
 
 def omega_max(problem: TubeProblem) -> float:

@@ -109,19 +109,29 @@ class GridContact:
     """
 
     def __init__(self, n: int, kappa: float, dt: float, delta: float, f: float) -> None:
-        self.n, self.kappa, self.delta, self.f = n, kappa, delta, f
+        self.n, self.kappa, self.dt, self.delta, self.f = n, kappa, dt, delta, f
         self.slide = 1.0 * dt
         self.mass = np.full(n, 2.0 * math.pi / n)
         self.out = ContactArrays(n)
+        self.trial = np.zeros(2 * n)
+        self.scratch = np.zeros(2 * n)
+        self.inv_mass = 1.0 / self.mass
 
-    def __call__(self, u_trial: Array, u_now: Array, force: Array) -> None:
-        n, out = self.n, self.out
+    def __call__(self, u_now: Array, v_pred: Array, accel: Array) -> None:
+        """The ``Newmark`` contact step (``solver.newmark.ContactStep``): every node is a
+        contact node, so the trial position is formed on the whole grid."""
+        n, out, trial = self.n, self.out, self.trial
+        np.multiply(v_pred, self.dt, out=trial)
+        trial += u_now
+        np.multiply(accel, self.kappa, out=self.scratch)
+        trial += self.scratch
         project_contact(
-            u_trial[:n], u_trial[n:], u_now[n:], self.mass, self.kappa, self.delta,
+            trial[:n], trial[n:], u_now[n:], self.mass, self.kappa, self.delta,
             self.slide, self.f, out,
         )
-        force[:n] = out.r_r
-        force[n:] = out.r_t
+        np.multiply(out.r_r, self.inv_mass, out=self.scratch[:n])
+        np.multiply(out.r_t, self.inv_mass, out=self.scratch[n:])
+        accel += self.scratch
 
 
 # ----------------------------------------------------------------------------- model

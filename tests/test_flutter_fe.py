@@ -235,8 +235,10 @@ def test_roundoff_growth_of_unperturbed_sliding_is_the_damped_cea_maximum():
     """scenes/smoke.toml, no perturbation, beta2 = 0.6: round-off grows at ~700 /s
     (steps 300-600, before saturation). CEA's most unstable mode (k = 7, 1819 Hz) grows at
     1042 /s; mapped through explicit Newmark with beta2 = 0.6 at the scene's dt
-    (w dt ~ 0.9) the largest discrete growth is 716 /s. Measured 707 /s: the 1.3 % gap is
-    the sub-dominant modes still present; tolerance 3 %."""
+    (w dt ~ 0.9) the two largest discrete growth rates are 715.6 and 682.7 /s. Round-off
+    seeds both with arbitrary weights (which one leads depends on the summation order of the
+    vector updates: measured 707 /s with one arithmetic, 684 /s with another), and they
+    separate only by e^{33 t}, so the measured rate must lie between them (1 % slack)."""
     MPI, _, load_scene = _fe()
     from solver.flutter_fe import complex_eigenvalue_analysis
     from solver.run import Simulation
@@ -247,6 +249,9 @@ def test_roundoff_growth_of_unperturbed_sliding_is_the_damped_cea_maximum():
     mu = np.array([m.omega2_real + 1j * m.omega2_imag for m in res.modes])
     s = newmark_exponents(mu, sim.dt, 0.6)
     assert res.unstable()[0].growth_rate == pytest.approx(1041.7, rel=1e-3)
+    rates = np.unique(np.round(s.real, 1))[::-1]
+    first, second = rates[0], rates[1]
+    assert first == pytest.approx(715.6, abs=0.2) and second == pytest.approx(682.7, abs=0.2)
     u0 = sim.integrator.u.copy()
     dev = np.zeros(600)
     for i in range(600):
@@ -254,7 +259,7 @@ def test_roundoff_growth_of_unperturbed_sliding_is_the_damped_cea_maximum():
         dev[i] = np.max(np.abs(sim.integrator.u - u0))
     t = sim.dt * np.arange(1, 601)
     rate = np.polyfit(t[300:], np.log(dev[300:]), 1)[0]
-    assert rate == pytest.approx(s.real.max(), rel=0.03)
+    assert 0.99 * second <= rate <= 1.01 * first
     assert rate < 0.75 * res.unstable()[0].growth_rate  # the beta2 damping is what hides it
 
 
