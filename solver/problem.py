@@ -218,7 +218,10 @@ def omega_max(problem: TubeProblem) -> float:
     """Largest eigenfrequency (rad/s) of K phi = w^2 M phi with the outer circle clamped.
 
     SLEPc Krylov-Schur on the symmetric scaled operator M^{-1/2} K M^{-1/2} (clamped rows and
-    columns zeroed), largest magnitude; converges in a few dozen MatMults.
+    columns zeroed), largest magnitude. The top of the spectrum clusters on fine meshes
+    (N >= 1000; N = 1024 takes ~13 s on one core), where Krylov-Schur may not converge to a
+    relative 1e-6 in its budget: then the safe
+    Gershgorin upper bound is used instead (a smaller, still stable dt; ~10 % smaller).
     """
     from slepc4py import SLEPc
 
@@ -230,12 +233,22 @@ def omega_max(problem: TubeProblem) -> float:
     eps.setOperators(A)
     eps.setProblemType(SLEPc.EPS.ProblemType.HEP)
     eps.setWhichEigenpairs(SLEPc.EPS.Which.LARGEST_MAGNITUDE)
-    eps.setDimensions(1)
-    eps.setTolerances(1e-10, 500)
+    eps.setDimensions(1, 32)
+    eps.setTolerances(1e-6, 1000)
     eps.solve()
-    if eps.getConverged() < 1:
-        raise RuntimeError("SLEPc did not converge on the largest eigenvalue of M^-1 K")
-    lam = eps.getEigenvalue(0).real
+    converged = eps.getConverged() >= 1
+    lam = eps.getEigenvalue(0).real if converged else math.nan
     eps.destroy()
     A.destroy()
-    return math.sqrt(lam)
+    if converged:
+        return math.sqrt(lam)
+    return gershgorin_omega_max(problem)
+
+
+def gershgorin_omega_max(problem: TubeProblem) -> float:
+    """Upper bound of the largest eigenfrequency: w_max^2 <= max_i sum_j |K_ij| / m_i."""
+    indptr, _, values = problem.K.getValuesCSR()
+    row_abs = np.add.reduceat(np.abs(values), indptr[:-1]) if values.size else np.zeros(0)
+    row_abs[np.diff(indptr) == 0] = 0.0
+    lam = float(np.max(row_abs[: problem.n_owned] * problem.inv_mass, initial=0.0))
+    return math.sqrt(problem.comm.allreduce(lam, op=MPI.MAX))

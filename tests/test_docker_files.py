@@ -1,0 +1,115 @@
+"""The Dockerfile and ./dev install the same stack (no Docker engine here: static checks).
+
+The Dockerfile's package pipeline and ./dev's ``packages()`` are both extracted and run with
+bash on docker/apt-packages.txt; they must produce the same list. The image must accept
+``docker run IMAGE stickslip ...`` and ``docker run IMAGE mpirun -n 4 stickslip ...``.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+import shlex
+import subprocess
+import tomllib
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+DOCKERFILE = REPO / "Dockerfile"
+DEV = REPO / "dev"
+APT_LIST = REPO / "docker" / "apt-packages.txt"
+
+
+def _instructions() -> list[tuple[str, str]]:
+    """(INSTRUCTION, arguments) of the Dockerfile, continuation lines joined."""
+    text = re.sub(r"\\\n", " ", DOCKERFILE.read_text())
+    out = []
+    for line in text.splitlines():
+        line = line.strip()
+        if line and not line.startswith("#"):
+            word, _, rest = line.partition(" ")
+            out.append((word.upper(), rest.strip()))
+    return out
+
+
+def _env() -> dict[str, str]:
+    env: dict[str, str] = {}
+    for word, rest in _instructions():
+        if word == "ENV":
+            for item in shlex.split(rest):
+                key, _, value = item.partition("=")
+                env[key] = value
+    return env
+
+
+def _bash(script: str) -> list[str]:
+    res = subprocess.run(["bash", "-c", script], capture_output=True, text=True, check=True)
+    return res.stdout.split()
+
+
+def test_dockerfile_and_dev_install_the_same_apt_packages():
+    # The Dockerfile copies the list and pipes it through sed | grep into apt-get install.
+    copies = [rest.split() for word, rest in _instructions() if word == "COPY"]
+    dst = next(c[-1] for c in copies if c[-2] == "docker/apt-packages.txt")
+    run = next(rest for word, rest in _instructions() if word == "RUN" and dst in rest)
+    pipeline = re.search(r"&&\s*(sed .*?)\|\s*xargs apt-get install", run)
+    assert pipeline, run
+    docker_pkgs = _bash(pipeline.group(1).replace(dst, shlex.quote(str(APT_LIST))))
+    # ./dev: PKG_LIST is docker/apt-packages.txt and packages() filters it.
+    dev = DEV.read_text()
+    assert 'PKG_LIST="$REPO/docker/apt-packages.txt"' in dev
+    body = re.search(r"^packages\(\) \{(.*)\}$", dev, re.M)
+    assert body, "packages() not found in ./dev"
+    dev_pkgs = _bash(f"PKG_LIST={shlex.quote(str(APT_LIST))}; {body.group(1)}")
+    assert docker_pkgs == dev_pkgs
+    # The list holds the stack the sweep needs: dolfinx, MPI launcher, mpi4py, matplotlib.
+    assert {"python3-dolfinx", "mpi-default-bin", "python3-mpi4py",
+            "python3-matplotlib"} <= set(dev_pkgs)
+    # The pip extras come from the same file too.
+    assert 'DEV_REQS="$REPO/docker/dev-requirements.txt"' in dev
+    assert any(c[-2] == "docker/dev-requirements.txt" for c in copies)
+
+
+def test_every_copied_path_exists():
+    for word, rest in _instructions():
+        if word == "COPY":
+            sources = [a for a in rest.split() if not a.startswith("--")][:-1]
+            for src in sources:
+                assert (REPO / src).exists(), f"COPY {src}: missing"
+
+
+def test_docker_run_image_stickslip_and_mpirun():
+    ins = _instructions()
+    # No ENTRYPOINT (or a pass-through one): `docker run IMAGE CMD...` runs CMD itself, so
+    # both `docker run IMAGE stickslip ...` and `docker run IMAGE mpirun -n 4 ...` work.
+    entry = [rest for word, rest in ins if word == "ENTRYPOINT"]
+    assert not entry or json.loads(entry[-1]) in ([], ["/usr/bin/env"]), entry
+    cmd = json.loads([rest for word, rest in ins if word == "CMD"][-1])
+    assert cmd[0] == "stickslip"
+    # `stickslip` on PATH: the project is pip-installed with its console script.
+    assert any(word == "RUN" and "pip install" in rest and " -e ." in rest for word, rest in ins)
+    scripts = tomllib.loads((REPO / "pyproject.toml").read_text())["project"]["scripts"]
+    assert scripts["stickslip"] == "solver.cli:main"
+    # Non-root by default; mpirun as root allowed (`--user root`) and -n 4 on fewer cores.
+    users = [rest for word, rest in ins if word == "USER"]
+    assert users and users[-1] not in ("root", "0")
+    env = _env()
+    for key in ("OMPI_ALLOW_RUN_AS_ROOT", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM",
+                "PRTE_ALLOW_RUN_AS_ROOT", "PRTE_ALLOW_RUN_AS_ROOT_CONFIRM"):
+        assert env.get(key) == "1", key
+    assert "oversubscribe" in env.get("PRTE_MCA_rmaps_default_mapping_policy", "")
+    # Same OpenMPI settings as ./dev, installed where OpenMPI reads them by default.
+    assert any(word == "COPY" and rest.split() == ["docker/openmpi-mca-params.conf",
+                                                   "/etc/openmpi/openmpi-mca-params.conf"]
+               for word, rest in ins)
+    assert "docker/openmpi-mca-params.conf" in DEV.read_text()
+    # Default outputs go to a directory the non-root user owns.
+    out = env.get("STICKSLIP_OUTPUT")
+    assert out and any(word == "RUN" and f"chown {users[-1]} {out}" in rest
+                       for word, rest in ins)
+
+
+def test_sweeps_doc_shows_the_docker_mpirun_sweep():
+    text = re.sub(r"\\\n\s*", " ", (REPO / "docs" / "sweeps.md").read_text())  # join "\"
+    assert re.search(r"docker run [^\n]*-v [^\n]*mpirun -n 4 stickslip sweep /data/\S+\.toml",
+                     text), "docs/sweeps.md must show docker run -v ... mpirun -n 4 ... sweep"
