@@ -113,3 +113,36 @@ class ContactArrays:
         self.cone = np.zeros(n)
         self.in_contact = np.zeros(n, dtype=bool)
         self.slipping = np.zeros(n, dtype=bool)
+
+
+class NodalFrames:
+    """(x, y) <-> (r, theta) at the contact nodes, with complex numbers.
+
+    An owned blocked array (x0, y0, x1, y1, ...) viewed as complex128 holds z_i = x_i + i y_i
+    per node, and z_i e^{-i theta_i} = u_r + i u_theta. Subclasses set ``node_index`` (local
+    node numbers of the contact nodes), ``phase_conj`` (e^{-i theta_i}) and ``_views`` ({}).
+    """
+
+    node_index: np.ndarray
+    phase_conj: np.ndarray
+    _views: dict
+
+    def complex_view(self, array: np.ndarray) -> np.ndarray:
+        """Cached complex128 view (one z per node) of an owned blocked array."""
+        key = id(array)  # the integrator's arrays live as long as the run (cheap key)
+        view = self._views.get(key)
+        if view is None:
+            view = self._views[key] = array.view(np.complex128)
+        return view
+
+    def polar_at_nodes(self, array: np.ndarray, out: np.ndarray) -> np.ndarray:
+        """u_r + i u_theta at the contact nodes, into the complex array ``out``."""
+        self.complex_view(array).take(self.node_index, out=out)  # method: no wrapper cost
+        out *= self.phase_conj
+        return out
+
+    def _polar(self, array: np.ndarray, radial: np.ndarray, tangential: np.ndarray) -> None:
+        """Radial and tangential components at the contact nodes (diagnostics, not hot)."""
+        z = self.polar_at_nodes(array, np.empty(self.node_index.size, dtype=complex))
+        radial[:] = z.real
+        tangential[:] = z.imag

@@ -75,7 +75,7 @@ import scipy.linalg
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from solver.contact import SEPARATION, SLIP, ContactArrays
+from solver.contact import SEPARATION, SLIP, ContactArrays, NodalFrames
 from solver.run import Diverged
 
 MAX_ACTIVE_SET_ITERATIONS = 50
@@ -277,7 +277,7 @@ class _Level:
         self.out = ContactArrays(n, r_r=self.r_polar.real, r_t=self.r_polar.imag)
 
 
-class ImplicitContact:
+class ImplicitContact(NodalFrames):
     """Contact/friction of the implicit scheme on the owned contact nodes.
 
     Exposes what the observers read, with the same meaning as in
@@ -323,25 +323,6 @@ class ImplicitContact:
     @property
     def r_xy(self) -> np.ndarray:
         return self._exposed.r_xy
-
-    def complex_view(self, array: np.ndarray) -> np.ndarray:
-        """Cached complex128 view (one z per node) of an owned blocked array."""
-        key = id(array)
-        view = self._views.get(key)
-        if view is None:
-            view = self._views[key] = array.view(np.complex128)
-        return view
-
-    def polar_at_nodes(self, array: np.ndarray, out: np.ndarray) -> np.ndarray:
-        """u_r + i u_theta at the contact nodes, into the complex array ``out``."""
-        np.take(self.complex_view(array), self.node_index, out=out)
-        out *= self.phase_conj
-        return out
-
-    def _polar(self, array: np.ndarray, radial: np.ndarray, tangential: np.ndarray) -> None:
-        z = self.polar_at_nodes(array, np.empty(self.node_index.size, dtype=complex))
-        radial[:] = z.real
-        tangential[:] = z.imag
 
     def put_force(self, force: np.ndarray, exposed: bool = False) -> None:
         """Nodal forces of the internal (or exposed) level into ``force`` (zero elsewhere)."""

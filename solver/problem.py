@@ -19,7 +19,7 @@ from petsc4py import PETSc
 from forms.elasticity import Material, lumped_mass, stiffness
 from forms.polar import ContactNodes, contact_nodes
 from meshes.annulus import INNER_TAG, OUTER_TAG, TubeMesh, annulus_mesh
-from solver.contact import ContactArrays, project_contact
+from solver.contact import ContactArrays, NodalFrames, project_contact
 from solver.scene import Scene
 
 
@@ -135,7 +135,7 @@ def build_problem(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD) -> TubeProblem:
     return TubeProblem(scene, tube, V, material, K, mass, inv_mass, clamped, nodes, comm)
 
 
-class ContactProjection:
+class ContactProjection(NodalFrames):
     """The forward-increment contact step of ``Newmark`` for the tube's inner circle.
 
     Rotating to and from the nodes' polar frames is done with complex numbers: an owned
@@ -168,26 +168,6 @@ class ContactProjection:
         self.r_xy = np.zeros(n, dtype=complex)  # r_x + i r_y
         self.out = ContactArrays(n, r_r=self.r_polar.real, r_t=self.r_polar.imag)
         self._views: dict[int, np.ndarray] = {}
-
-    def complex_view(self, array: np.ndarray) -> np.ndarray:
-        """Cached complex128 view (one z per node) of an owned blocked array."""
-        key = id(array)  # the integrator's arrays live as long as the run (cheap key)
-        view = self._views.get(key)
-        if view is None:
-            view = self._views[key] = array.view(np.complex128)
-        return view
-
-    def polar_at_nodes(self, array: np.ndarray, out: np.ndarray) -> np.ndarray:
-        """u_r + i u_theta at the contact nodes, into the complex array ``out``."""
-        self.complex_view(array).take(self.node_index, out=out)  # method: no wrapper cost
-        out *= self.phase_conj
-        return out
-
-    def _polar(self, array: np.ndarray, radial: np.ndarray, tangential: np.ndarray) -> None:
-        """Radial and tangential components at the contact nodes (diagnostics, not hot)."""
-        z = self.polar_at_nodes(array, np.empty(self.node_index.size, dtype=complex))
-        radial[:] = z.real
-        tangential[:] = z.imag
 
     def __call__(self, u_now: np.ndarray, v_pred: np.ndarray, accel: np.ndarray) -> None:
         """The ``Newmark`` contact step (see ``solver.newmark.ContactStep``)."""

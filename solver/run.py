@@ -23,6 +23,7 @@ import numpy as np
 from mpi4py import MPI
 
 from solver import __version__
+from solver.atomic import atomic_write_text
 from solver.scene import Scene, write_scene
 from solver.schemes import StepTooLarge  # noqa: F401  (re-exported for the CLI and tests)
 
@@ -272,15 +273,6 @@ class Simulation:
 
 # ---------------------------------------------------------------------------------------------
 # Run directory
-
-
-def atomic_write_text(path: Path, text: str) -> None:
-    tmp = path.with_name(f".{path.name}.tmp")
-    with open(tmp, "w") as fh:
-        fh.write(text)
-        fh.flush()
-        os.fsync(fh.fileno())
-    os.replace(tmp, path)
 
 
 def atomic_save_npz(path: Path, arrays: dict[str, np.ndarray]) -> None:

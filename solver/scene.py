@@ -21,9 +21,7 @@ from __future__ import annotations
 
 import difflib
 import math
-import os
 import re
-import tempfile
 import tomllib
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, fields, replace
@@ -723,19 +721,6 @@ def dumps_toml(scene: Scene) -> str:
 
 def write_scene(scene: Scene, path: str | Path) -> Path:
     """Atomically write ``scene`` as TOML to ``path`` (temp file + os.replace)."""
-    p = Path(path)
-    text = dumps_toml(scene)
-    fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".tmp", dir=p.parent or ".")
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8", newline="\n") as fh:
-            fh.write(text)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, p)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except FileNotFoundError:
-            pass
-        raise
-    return p
+    from solver.atomic import atomic_write_text
+
+    return atomic_write_text(path, dumps_toml(scene))

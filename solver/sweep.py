@@ -51,6 +51,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, TextIO
 
+from solver.atomic import atomic_write_text
 from solver.scene import (
     Scene,
     SceneError,
@@ -339,16 +340,6 @@ def _cost(scene: Scene) -> float:
 # ============================================================================ run directory
 
 
-def _atomic_write(path: Path, text: str) -> None:
-    """Write ``text`` to ``path`` via a temporary file and ``os.replace`` (atomic)."""
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    with open(tmp, "w") as fh:
-        fh.write(text)
-        fh.flush()
-        os.fsync(fh.fileno())
-    os.replace(tmp, path)
-
-
 def _read_json(path: Path) -> dict | None:
     try:
         return json.loads(path.read_text())
@@ -449,14 +440,14 @@ def write_table(out_dir: Path, spec: SweepSpec, extra: dict | None = None,
     meta = _meta(spec)
     meta.update(extra or {})
     meta.update({"updated": time.strftime("%Y-%m-%dT%H:%M:%S"), "counts": counts, "rows": rows})
-    _atomic_write(out_dir / "sweep.json", json.dumps(meta, indent=1, default=str) + "\n")
+    atomic_write_text(out_dir / "sweep.json", json.dumps(meta, indent=1, default=str) + "\n")
     buf = io.StringIO()
     writer = csv.DictWriter(buf, fieldnames=["id", *spec.keys, *_TABLE_FIELDS],
                             lineterminator="\n")
     writer.writeheader()
     for r in rows:
         writer.writerow({k: ("" if v is None else v) for k, v in r.items()})
-    _atomic_write(out_dir / "sweep.csv", buf.getvalue())
+    atomic_write_text(out_dir / "sweep.csv", buf.getvalue())
     return rows
 
 
@@ -671,7 +662,7 @@ def _run_one(spec: SweepSpec, task: Task, out_dir: Path, group: MPI.Comm,
                              "message": f"{type(err).__name__}: {err}",
                              "traceback": tb.splitlines()[-6:],
                              "wall_time_s": time.perf_counter() - t0, "ranks": group.size})
-                _atomic_write(run_dir / "summary.json", json.dumps(prev, indent=2))
+                atomic_write_text(run_dir / "summary.json", json.dumps(prev, indent=2))
         if group.size > 1:
             status = group.bcast(status, root=0)
     finally:
@@ -708,7 +699,7 @@ def _prepare(out_dir: Path, spec: SweepSpec, retry_failed: bool) -> tuple[list[T
     """Rank 0: create the sweep directory, classify the scenes, write the initial table."""
     (out_dir / "runs").mkdir(parents=True, exist_ok=True)
     (out_dir / "logs").mkdir(exist_ok=True)
-    _atomic_write(out_dir / "sweep.toml", spec.path.read_text())
+    atomic_write_text(out_dir / "sweep.toml", spec.path.read_text())
     pending: list[tuple[float, int, Task]] = []
     n_done = 0
     for i, task in enumerate(spec.tasks):
@@ -983,7 +974,7 @@ def _semianalytic_overlay(sweep_dir: Path, meta: dict, base: Scene, xkey: str, x
     res["seconds"] = time.perf_counter() - t0
     cache[key] = res
     try:
-        _atomic_write(cache_path, json.dumps(cache))
+        atomic_write_text(cache_path, json.dumps(cache))
     except OSError:  # read-only sweep directory: just don't cache
         pass
     return res
