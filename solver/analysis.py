@@ -99,7 +99,15 @@ def angular_speed(t: np.ndarray, field: np.ndarray, theta: np.ndarray, k: int,
         return 0.0
     coeff = mode_coefficients(field, theta, k)[:, k]
     if frequency_hz is None or t.size < 3:
-        slope = np.polyfit(t, np.unwrap(np.angle(coeff)), 1)[0]
+        # Amplitude-weighted mean of the wrapped per-sample phase increments. Equal to the
+        # slope of the unwrapped phase for a clean wave, but where |U_k| passes near zero
+        # (transients, mode competition) the ill-defined increments get ~no weight, so
+        # round-off cannot flip an unwrap by 2 pi and change the result.
+        prod = coeff[1:] * np.conj(coeff[:-1])
+        weight = np.abs(prod)
+        if weight.sum() == 0.0:
+            return 0.0
+        slope = float(np.sum(weight * np.angle(prod)) / np.sum(weight * np.diff(t)))
         return float(-slope / k)
     dts = float(np.mean(np.diff(t)))
     inc = np.angle(coeff[1:] * np.conj(coeff[:-1]))  # wrapped increments
