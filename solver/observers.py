@@ -13,8 +13,6 @@ import time
 import numpy as np
 from mpi4py import MPI
 
-from solver.contact import SEPARATION, SLIP, STICK
-
 ENERGY_FIELDS = (
     "kinetic",
     "strain",
@@ -187,15 +185,9 @@ class InnerCircleRecorder:
         }
         return out
 
-    def status_fractions(self, last: int) -> dict[str, float]:
-        """Fractions of node-samples in each status over the last ``last`` samples (rank 0)."""
-        s = self.status[max(0, self.n - last): self.n]
-        total = max(1, s.size)
-        return {
-            "separation": float(np.count_nonzero(s == SEPARATION)) / total,
-            "stick": float(np.count_nonzero(s == STICK)) / total,
-            "slip": float(np.count_nonzero(s == SLIP)) / total,
-        }
+    def recent_status(self, last: int) -> np.ndarray:
+        """Statuses of the last ``last`` samples (rank 0), e.g. for ``analysis.zone_fractions``."""
+        return self.status[max(0, self.n - last): self.n]
 
 
 class Progress:
@@ -208,13 +200,13 @@ class Progress:
         self.t0 = time.perf_counter()
         self.last = self.t0
 
-    def update(self, sim_time: float, step: int, fractions: dict[str, float] | None,
-               force: bool = False) -> None:
-        if not self.enabled:
-            return
+    def due(self) -> bool:
+        """True when a progress line should be printed now (cheap: one clock read)."""
+        return self.enabled and time.perf_counter() - self.last >= self.interval
+
+    def update(self, sim_time: float, step: int, fractions: dict[str, float] | None) -> None:
+        """Print one progress line (call when ``due()``)."""
         now = time.perf_counter()
-        if not force and now - self.last < self.interval:
-            return
         self.last = now
         elapsed = now - self.t0
         frac = min(1.0, sim_time / self.end_time) if self.end_time > 0 else 0.0

@@ -15,7 +15,6 @@ import shutil
 import signal
 import sys
 import time
-from collections.abc import Callable
 from contextlib import contextmanager
 from pathlib import Path
 
@@ -23,6 +22,7 @@ import numpy as np
 from mpi4py import MPI
 
 from solver import __version__
+from solver.analysis import zone_fractions
 from solver.atomic import atomic_write_text
 from solver.scene import Scene, write_scene
 from solver.schemes import StepTooLarge  # noqa: F401  (re-exported for the CLI and tests)
@@ -51,7 +51,7 @@ class Simulation:
     """One scene's explicit run. Build with ``Simulation(scene)``, then ``proceed()``."""
 
     def __init__(self, scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD,
-                 profile: Profile | None = None, log: Callable[[str], None] | None = None,
+                 profile: Profile | None = None,
                  output_dir: Path | None = None) -> None:
         from solver.observers import (
             EnergyAccumulator,
@@ -65,7 +65,6 @@ class Simulation:
 
         self.scene, self.comm = scene, comm
         self.profile = profile or Profile()
-        self.log = log or (lambda msg: None)
         ts = scene.time
         with self.profile.phase("mesh+assembly"):
             self.problem = build_problem(scene, comm)
@@ -177,9 +176,9 @@ class Simulation:
                 if rec.due(integ.step_count - 1):
                     kin, strain = rec.sample(integ)
                     self._check_health(kin, strain)
-                    if self.comm.rank == 0 and self.progress.enabled:
-                        self.progress.update(integ.time, integ.step_count,
-                                             rec.status_fractions(max(1, rec.n // 10)))
+                    if self.comm.rank == 0 and self.progress.due():
+                        recent = zone_fractions(rec.recent_status(max(1, rec.n // 10)))
+                        self.progress.update(integ.time, integ.step_count, recent)
                     if max_wall is not None:
                         stop = time.perf_counter() - t_start > max_wall
                         if self.comm.allreduce(stop, op=MPI.LOR):
@@ -296,10 +295,6 @@ def prepare_run_dir(path: Path, force: bool, comm: MPI.Comm) -> None:
     error = comm.bcast(error, root=0)
     if error:
         raise FileExistsError(error)
-
-
-class _Terminate(Exception):
-    pass
 
 
 @contextmanager
