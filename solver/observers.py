@@ -97,24 +97,18 @@ class InnerCircleRecorder:
         self.counts = np.array(counts)
         self.displs = np.concatenate([[0], np.cumsum(self.counts)[:-1]])
         self.n_nodes = int(self.counts.sum())
-        order_local = np.asarray(nd.global_node_index, dtype=np.int64)
-        order = np.zeros(self.n_nodes, dtype=np.int64) if self.comm.rank == 0 else None
-        self.comm.Gatherv(order_local, (order, self.counts, self.displs, MPI.INT64_T)
-                          if self.comm.rank == 0 else None, root=0)
-        theta_all = np.zeros(self.n_nodes) if self.comm.rank == 0 else None
-        self.comm.Gatherv(np.ascontiguousarray(nd.theta),
-                          (theta_all, self.counts, self.displs, MPI.DOUBLE)
-                          if self.comm.rank == 0 else None, root=0)
-        ds_all = np.zeros(self.n_nodes) if self.comm.rank == 0 else None
-        self.comm.Gatherv(np.ascontiguousarray(nd.ds_weight),
-                          (ds_all, self.counts, self.displs, MPI.DOUBLE)
-                          if self.comm.rank == 0 else None, root=0)
         self.is_root = self.comm.rank == 0
+        root = self.is_root
+        order = np.zeros(self.n_nodes, dtype=np.int64) if root else None
+        theta_all = np.zeros(self.n_nodes) if root else None
+        ds_all = np.zeros(self.n_nodes) if root else None
+        self._gatherv(np.asarray(nd.global_node_index, dtype=np.int64), order, MPI.INT64_T)
+        self._gatherv(nd.theta, theta_all, MPI.DOUBLE)
+        self._gatherv(nd.ds_weight, ds_all, MPI.DOUBLE)
         self.max_samples = max_samples
         self.n = 0
         # send buffers (owned): u_r, u_theta, v_r, v_theta, r_r, r_theta and the status
         self.send = np.zeros((6, n_local))
-        self.vr, self.vt = np.zeros(n_local), np.zeros(n_local)
         if self.is_root:
             self.perm = np.argsort(order)  # gathered position -> angle order
             self.theta = theta_all[self.perm]
@@ -134,6 +128,12 @@ class InnerCircleRecorder:
         self.e_local = np.zeros(2)
         self.e_total = np.zeros(2)
 
+    def _gatherv(self, local: np.ndarray, recv: np.ndarray | None, mpitype) -> None:
+        """Gather the owned contact-node values ``local`` into ``recv`` on rank 0."""
+        self.comm.Gatherv(np.ascontiguousarray(local),
+                          (recv, self.counts, self.displs, mpitype) if self.is_root else None,
+                          root=0)
+
     def due(self, step: int) -> bool:
         return step % self.every == 0 and self.n < self.max_samples
 
@@ -150,16 +150,8 @@ class InnerCircleRecorder:
         work = self.energy.totals(self.comm)
         self.last_work = work  # on every rank (collective above)
         for k in range(6):
-            self.comm.Gatherv(
-                self.send[k],
-                (self.recv[k], self.counts, self.displs, MPI.DOUBLE) if self.is_root else None,
-                root=0,
-            )
-        self.comm.Gatherv(
-            p.out.status,
-            (self.recv_status, self.counts, self.displs, MPI.INT8_T) if self.is_root else None,
-            root=0,
-        )
+            self._gatherv(self.send[k], self.recv[k] if self.is_root else None, MPI.DOUBLE)
+        self._gatherv(p.out.status, self.recv_status if self.is_root else None, MPI.INT8_T)
         if self.is_root:
             i, perm = self.n, self.perm
             self.t[i] = integrator.time - integrator.dt
