@@ -475,12 +475,13 @@ class ImplicitNewmark:
 
     def __init__(self, K: PETSc.Mat, mass: np.ndarray, clamped: np.ndarray, dt: float,
                  beta1: float, beta2: float, contact: ImplicitContact | None = None,
-                 comm: MPI.Comm | None = None) -> None:
+                 comm: MPI.Comm | None = None, tau: float = 0.0) -> None:
         if not beta1 > 0.0:
             raise ValueError(f"ImplicitNewmark needs beta1 > 0 (got {beta1}); use Newmark")
         if not 0.5 <= beta2 <= 1.0:
             raise ValueError(f"time.beta2 = {beta2} must be in [0.5, 1]")
         self.K, self.mass, self.clamped = K, mass, np.asarray(clamped)
+        self.tau = tau  # Kelvin-Voigt retardation time (0: undamped)
         self.beta1, self.beta2 = beta1, beta2
         self.contact = contact
         self.comm = comm if comm is not None else K.getComm().tompi4py()
@@ -523,6 +524,8 @@ class ImplicitNewmark:
             self.K_eff.destroy()
             self.ksp.destroy()
         K_eff = self.K.copy()
+        if self.tau > 0.0:  # damping tau K v^d, v^d = v~ + beta2/(beta1 dt) (u_{n+1} - u~)
+            K_eff.scale(1.0 + self.tau * self.beta2 / (self.beta1 * dt))
         K_eff.setDiagonal(self._vec(self.m_eff), addv=PETSc.InsertMode.ADD_VALUES)
         rstart = K_eff.getOwnershipRange()[0]
         K_eff.zeroRowsColumns((rstart + self.clamped).astype(PETSc.IntType), diag=1.0)
@@ -587,6 +590,8 @@ class ImplicitNewmark:
         np.multiply(self.a_star, 0.5 * dt * dt * (1.0 - 2.0 * b1), out=self.scratch)
         self.u_pred += self.scratch
         np.multiply(self.m_eff, self.u_pred, out=self.rhs)  # 0 on clamped rows
+        if self.tau > 0.0:
+            self._damping_rhs()
         if contact is None:
             self._solve(self.rhs, self.u)
             self.force.fill(0.0)
@@ -618,6 +623,23 @@ class ImplicitNewmark:
         self.time += dt
         self.step_count += 1
 
+    def _damping_rhs(self) -> None:
+        """Kelvin-Voigt damping (scene ``[damping]``): rhs += tau K (g u~ - v~), g = beta2 /
+        (beta1 dt), v~ = v_n + (1 - beta2) dt a*_n. With the damping force tau K v^d,
+        v^d = v~ + g (u_{n+1} - u~) (= v_{n+1} for beta1 = 1/4, beta2 = 1/2), this and
+        K_eff = M/(beta1 dt^2) + (1 + tau g) K solve M a* + tau K v^d + K u = 0 at t_{n+1},
+        and the contact forces keep the weight 1 / (2 beta1) (same Schur complement)."""
+        dt, b1, b2 = self.dt, self.beta1, self.beta2
+        g = b2 / (b1 * dt)
+        np.multiply(self.u_pred, g, out=self.u_free)
+        self.u_free -= self.v
+        np.multiply(self.a_star, (1.0 - b2) * dt, out=self.scratch)
+        self.u_free -= self.scratch
+        self._mult(self.u_free, self.scratch)
+        self.scratch *= self.tau
+        self.scratch[self.clamped] = 0.0
+        self.rhs += self.scratch
+
     def iteration_stats(self) -> dict:
         """Active-set iterations per step (mean, max) and the time split of the scheme."""
         its = np.asarray(self.iterations) if self.iterations else np.zeros(1)
@@ -625,6 +647,7 @@ class ImplicitNewmark:
             "scheme": "implicit",
             "beta1": self.beta1,
             "beta2": self.beta2,
+            "damping_tau_s": self.tau,
             "active_set_iterations_mean": float(its.mean()),
             "active_set_iterations_max": int(its.max()),
             "factorisation_s": self.factor_seconds,

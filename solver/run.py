@@ -84,6 +84,11 @@ class Simulation:
         n_steps = self.planned_steps()
         self.recorder = InnerCircleRecorder(self.problem, self.projection, self.energy, every,
                                             max_samples=n_steps // every + 2)
+        self.damping_work = None  # Kelvin-Voigt dissipation, only for damped explicit runs
+        if getattr(self.integrator, "damped", False):
+            from solver.observers import DampingWork
+
+            self.damping_work = self.recorder.damping = DampingWork(self.integrator, u0)
         self.probes = ProbeRecorder(self.problem, self.projection, scene.output.probes_deg,
                                     n_steps)
         self.progress = Progress(ts.end_time, scene.output.progress and comm.rank == 0)
@@ -158,6 +163,7 @@ class Simulation:
         max_steps = (ts.max_steps or None) if max_steps is None else max_steps
         max_wall = (ts.max_wall_time or None) if max_wall_time is None else max_wall_time
         integ, rec, energy, probes = self.integrator, self.recorder, self.energy, self.probes
+        damping = self.damping_work
         t_start = time.perf_counter()
         with self.profile.phase("time-loop"):
             while True:
@@ -169,6 +175,8 @@ class Simulation:
                     break
                 integ.step()
                 energy.after_step(integ.u)
+                if damping is not None:
+                    damping.after_step(integ)
                 probes.record(integ)
                 if self.writer is not None and (integ.step_count - 1) % self.writer_every == 0:
                     with self.profile.phase("output"):
@@ -264,8 +272,10 @@ class Simulation:
                 "work_contact_J_per_m": float(e[-1, 2]),
                 "work_cylinder_J_per_m": float(e[-1, 3]),
                 "friction_dissipation_J_per_m": float(e[-1, 4]),
+                "damping_dissipation_J_per_m": float(e[-1, 5]),
                 "balance_residual_J_per_m": float(e[-1, 0] + e[-1, 1] - e[0, 0] - e[0, 1]
-                                                  - (e[-1, 2] - e[0, 2])),
+                                                  - (e[-1, 2] - e[0, 2])
+                                                  + (e[-1, 5] - e[0, 5])),
             }
         return out
 
