@@ -1,0 +1,423 @@
+"""Convergence study of the FE limit cycle (issue 13): regenerates docs/convergence.md.
+
+    ./dev python3 benchmarks/convergence.py [--quick] [--results FILE] [--report-only]
+                                            [--max-n N] [--only SUBSTRING] [--budget S]
+
+Runs (each in its own process, one core, results appended to a JSON-lines file, so the study is
+resumable: finished cases are skipped) in priority order:
+
+1. Figure 3 (Omega = 50, delta = 4e-4, f = 0.7), mode-4 seed, undamped and damped, N = 66 ...
+   1056 at dt = 0.9 dt_crit (the damped limit when damped), beta2 = 1/2;
+2. the same at N = 264 with dt halved twice;
+3. random seeds 1, 2, 3 over N;
+4. Figure 1 (Omega = 40, delta = 1e-3, f = 0.7), the same list;
+5. beta2 = 0.6 and 0.9 on the finest mesh.
+
+Then writes the report (tables, observed orders, Richardson extrapolation, plot). ``--quick``
+keeps N <= 264, one random seed and Figure 3 only (a few minutes).
+
+Measured per run, over the last ``WINDOW`` seconds of ``END_TIME``:
+* frequency f: FFT peak (parabolic refinement) of the every-step probe history at theta = 0
+  (u_r - d when the tube separates, else u_theta): a property of the time signal, independent
+  of which wavenumber carries it;
+* zone fractions (node-samples), psi1, psi2, k, celerity (postprocess.analysis.analyse);
+* amplitude: RMS of u_r - d over all contact nodes and the samples of the last whole number of
+  periods 1/f (a mean, so it can converge; a maximum over a window need not);
+* stationarity: the same quantities over the two halves of the window; their difference is the
+  time-averaging uncertainty carried into the error bars.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+REPO = Path(__file__).resolve().parents[1]
+END_TIME = 0.3  # s; the limit cycle is reached by ~0.1 s (paper section 4)
+WINDOW = 0.12  # s analysed at the end of the run
+ETA_DAMPED = 0.02  # loss factor of the damped series ...
+F_REF_HZ = 1600.0  # ... at the frequency of the Figure-3 wave: tau = eta / (2 pi f) = 1.99 us
+PHYSICS = {
+    "fig3": ["loading.omega=50.0", "geometry.delta=0.0004", "loading.f=0.7"],
+    "fig1": ["loading.omega=40.0", "geometry.delta=0.001", "loading.f=0.7"],
+}
+NS = (66, 132, 264, 528, 1056)
+DEFAULT_RESULTS = REPO / "docs" / "convergence_runs.jsonl"
+
+
+# ---------------------------------------------------------------------------------------------
+# The run list
+
+
+def case_key(phys: str, damped: bool, n: int, seed: str, beta2: float = 0.5,
+             frac: float = 0.9) -> str:
+    return f"{phys}-{'eta2' if damped else 'undamped'}-N{n}-{seed}-b{beta2:g}-fr{frac:g}"
+
+
+def run_list(quick: bool, max_n: int) -> list[dict]:
+    """Cases in priority order (see module docstring)."""
+    ns = [n for n in NS if n <= (264 if quick else max_n)]
+    seeds = ["random1"] if quick else ["random1", "random2", "random3"]
+    physics = ["fig3"] if quick else ["fig3", "fig1"]
+    out: list[dict] = []
+
+    def add(phys, damped, n, seed, beta2=0.5, frac=0.9):
+        c = dict(phys=phys, damped=damped, n=n, seed=seed, beta2=beta2, frac=frac)
+        c["key"] = case_key(phys, damped, n, seed, beta2, frac)
+        if c["key"] not in {o["key"] for o in out}:
+            out.append(c)
+
+    for phys in physics:
+        for n in ns:
+            for damped in (False, True):
+                add(phys, damped, n, "mode4")
+        for frac in (0.45, 0.225):
+            for damped in (False, True):
+                add(phys, damped, 264, "mode4", frac=frac)
+        for seed in seeds:
+            for n in ns:
+                for damped in (False, True):
+                    add(phys, damped, n, seed)
+        if not quick:
+            for beta2 in (0.6, 0.9):
+                for damped in (False, True):
+                    add(phys, damped, ns[-1], "mode4", beta2=beta2)
+    return out
+
+
+def scene_for(case: dict):
+    from solver.scene import load_scene
+
+    ov = [*PHYSICS[case["phys"]], f"mesh.n_inner={case['n']}", "mesh.n_radial=0",
+          f"time.beta2={case['beta2']}", f"time.dt_fraction={case['frac']}", "time.dt=0",
+          f"time.end_time={END_TIME}", "output.progress=false", "output.sample_interval=1e-4",
+          "output.probes_deg=[0.0]", "time.max_wall_time=1800"]
+    if case["damped"]:
+        ov += [f"damping.loss_factor={ETA_DAMPED}", f"damping.reference_frequency_hz={F_REF_HZ}"]
+    if case["seed"] == "mode4":
+        ov += ['initial.perturbation="mode"', "initial.mode=4", "initial.amplitude=0.1"]
+    else:
+        ov += ['initial.perturbation="random"', f"initial.seed={case['seed'][6:]}",
+               "initial.amplitude=0.1", "initial.n_modes=16"]
+    name = case["key"].replace("+", "p")
+    return load_scene(REPO / "scenes" / "figure3_n132.toml", [f'name="{name}"', *ov])
+
+
+# ---------------------------------------------------------------------------------------------
+# One run (child process)
+
+
+def measure(t, theta, u_r, u_t, status, probe_t, probe, d, radius, window):
+    """Limit-cycle quantities over the last ``window`` seconds (module docstring)."""
+    from postprocess.analysis import analyse, probe_frequency, zone_fractions
+
+    sel = probe_t >= probe_t[-1] - window
+    sep = zone_fractions(status[t >= t[-1] - window])["separation"] > 0.02
+    sig = probe[sel, 0] - d if sep else probe[sel, 1]
+    freq = probe_frequency(probe_t[sel], sig)
+    wave = analyse(t, theta, u_r, u_t, status, d=d, radius=radius, window=window,
+                   frequency_hint_hz=freq if freq > 0 else None)
+    n_per = max(1, int(math.floor(window * freq))) if freq > 0 else 0
+    tw = n_per / freq if n_per else window
+    s = t >= t[-1] - tw + 1e-12
+    rms = float(np.sqrt(np.mean((u_r[s] - d) ** 2)))
+    rms_t = float(np.sqrt(np.mean((u_t[s] - u_t[s].mean(axis=1, keepdims=True)) ** 2)))
+    fr = zone_fractions(status[t >= t[-1] - window])
+    return dict(frequency_hz=freq, k=wave.mode, celerity_m_s=wave.celerity_m_s,
+                wave_frequency_hz=wave.frequency_hz, sep=fr["separation"], stick=fr["stick"],
+                slip=fr["slip"], psi1=wave.psi1, psi2=wave.psi2, amp_rms_m=rms,
+                amp_t_rms_m=rms_t, regime=wave.regime, limit_cycle=bool(wave.limit_cycle),
+                zone_order=wave.zone_order)
+
+
+def run_case(case: dict) -> dict:
+    from mpi4py import MPI
+
+    from solver.run import Simulation
+
+    scene = scene_for(case)
+    t0 = time.perf_counter()
+    sim = Simulation(scene, MPI.COMM_SELF)
+    setup = time.perf_counter() - t0
+    sim.proceed()
+    wall = time.perf_counter() - t0
+    a = sim.recorder.arrays()
+    pr = sim.probes.arrays()
+    g = scene.geometry
+    out = dict(case)
+    out.update(status=sim.stop_reason, steps=sim.integrator.step_count, dt_s=sim.dt,
+               dt_crit_s=sim.dt_crit, tau_s=scene.damping.tau, dofs=int(sim.problem.n_global_dofs),
+               omega_max=sim.omega_max, wall_s=wall, setup_s=setup, end_time=END_TIME,
+               sim_time_s=sim.integrator.time)
+    pdata = pr["probe_data"][0]  # (step, [u_r, u_theta, v_r, v_theta])
+    args = (a["t"], a["theta"], a["u_r"], a["u_theta"], a["status"], pr["probe_t"], pdata,
+            g.d, g.R)
+    out.update(measure(*args, WINDOW))
+    # stationarity: the two halves of the window
+    for half, shift in (("h1", WINDOW / 2), ("h2", 0.0)):
+        end = a["t"][-1] - shift
+        sa, sp = a["t"] <= end + 1e-12, pr["probe_t"] <= end + 1e-12
+        m = measure(a["t"][sa], a["theta"], a["u_r"][sa], a["u_theta"][sa], a["status"][sa],
+                    pr["probe_t"][sp], pdata[sp], g.d, g.R, WINDOW / 2)
+        out[half] = {k: m[k] for k in ("frequency_hz", "k", "sep", "stick", "slip", "psi1",
+                                       "psi2", "amp_rms_m")}
+    e = a["energies"]
+    out["energy_residual_rel"] = float(
+        abs(e[-1, 0] + e[-1, 1] - e[0, 0] - e[0, 1] - (e[-1, 2] - e[0, 2]) + (e[-1, 5] - e[0, 5]))
+        / max(1e-300, float(np.max(e[:, 0] + e[:, 1]))))
+    return out
+
+
+# ---------------------------------------------------------------------------------------------
+# Report
+
+
+QUANTS = [("frequency_hz", "f (Hz)", 1.0), ("sep", "sep", 1.0), ("stick", "stick", 1.0),
+          ("slip", "slip", 1.0), ("psi1", "psi1", 1.0), ("psi2", "psi2", 1.0),
+          ("amp_rms_m", "RMS(u_r - d) (um)", 1e6)]
+
+
+def richardson(ns, qs, noise):
+    """Observed order and extrapolated value from the three finest of (N, q) at ratio 2.
+
+    p = log2((q1 - q2) / (q2 - q3)); q_inf = q3 + (q3 - q2) / (2^p - 1). The error bar is
+    |q_inf - q3| plus the time-averaging noise of the finest run. If the differences change
+    sign (no asymptotic range) no order is claimed: the bar is the spread of the last two.
+    """
+    if len(qs) < 3:
+        return None
+    q1, q2, q3 = qs[-3:]
+    d1, d2 = q1 - q2, q2 - q3
+    if d1 == 0 or d2 == 0 or d1 * d2 < 0 or abs(d2) >= abs(d1):
+        return dict(order=None, value=q3, err=abs(d2) + noise, n=ns[-1])
+    p = math.log2(d1 / d2)
+    q_inf = q3 - d2 / (2 ** p - 1)
+    return dict(order=p, value=q_inf, err=abs(q_inf - q3) + noise, n=ns[-1])
+
+
+def load_results(path: Path) -> dict[str, dict]:
+    out = {}
+    if path.exists():
+        for line in path.read_text().splitlines():
+            if line.strip():
+                r = json.loads(line)
+                out[r["key"]] = r
+    return out
+
+
+def fmt(x, scale=1.0, digits=4):
+    if x is None or (isinstance(x, float) and not math.isfinite(x)):
+        return "-"
+    return f"{x * scale:.{digits}g}"
+
+
+def series_table(res, phys, damped, seed, ns):
+    rows = []
+    head = ("| N | dofs | dt (us) | dt/dt_crit | k | c (m/s) | f (Hz) | sep / stick / slip | "
+            "psi1 | psi2 | RMS(u_r-d) (um) | LC | drift f / sep | wall (s) |")
+    rows += [head, "|" + "---|" * 14]
+    for n in ns:
+        r = res.get(case_key(phys, damped, n, seed))
+        if r is None:
+            rows.append(f"| {n} | not run | | | | | | | | | | | | |")
+            continue
+        rows.append(
+            f"| {n} | {r['dofs']} | {r['dt_s'] * 1e6:.3g} | {r['frac']} | {r['k']} | "
+            f"{r['celerity_m_s']:+.0f} | {r['frequency_hz']:.1f} | {r['sep']:.3f} / "
+            f"{r['stick']:.3f} / {r['slip']:.3f} | {r['psi1']:.3f} | {r['psi2']:.3f} | "
+            f"{r['amp_rms_m'] * 1e6:.3f} | {'y' if r['limit_cycle'] else 'n'} | "
+            f"{abs(r['h1']['frequency_hz'] - r['h2']['frequency_hz']):.1f} / "
+            f"{abs(r['h1']['sep'] - r['h2']['sep']):.3f} | {r['wall_s']:.0f} |")
+    return rows
+
+
+def convergence_rows(res, phys, damped, seed, ns):
+    have = [n for n in ns if case_key(phys, damped, n, seed) in res]
+    rs = [res[case_key(phys, damped, n, seed)] for n in have]
+    rows = []
+    for q, label, scale in QUANTS:
+        qs = [r[q] for r in rs]
+        noise = abs(rs[-1]["h1"][q] - rs[-1]["h2"][q]) if rs else 0.0
+        rich = richardson(have, qs, noise)
+        diffs = " / ".join(fmt(abs(a - b), scale, 3) for a, b in zip(qs, qs[1:], strict=False))
+        if rich is None:
+            rows.append(f"| {label} | {diffs} | - | - | - |")
+            continue
+        order = "none (not monotone)" if rich["order"] is None else f"{rich['order']:.2f}"
+        rows.append(f"| {label} | {diffs} | {order} | {fmt(rich['value'], scale)} | "
+                    f"+- {fmt(rich['err'], scale, 2)} |")
+    return rows
+
+
+def plot(res, path: Path, ns):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, 3, figsize=(13, 3.8))
+    for phys, marker in (("fig3", "o"), ("fig1", "s")):
+        for damped, ls in ((False, "-"), (True, "--")):
+            for seed, color in (("mode4", "C0"), ("random1", "C1"), ("random2", "C2"),
+                                ("random3", "C3")):
+                pts = [(n, res[k]) for n in ns
+                       if (k := case_key(phys, damped, n, seed)) in res]
+                if len(pts) < 2:
+                    continue
+                x = [p[0] for p in pts]
+                lab = f"{phys} {'eta=2%' if damped else 'undamped'} {seed}"
+                axes[0].plot(x, [p[1]["frequency_hz"] for p in pts], ls, marker=marker,
+                             color=color, label=lab, ms=4)
+                axes[1].plot(x, [p[1]["sep"] for p in pts], ls, marker=marker, color=color,
+                             ms=4)
+                axes[1].plot(x, [p[1]["stick"] for p in pts], ls, marker=marker, color=color,
+                             ms=4, alpha=0.5)
+                axes[2].plot(x, [p[1]["amp_rms_m"] * 1e6 for p in pts], ls, marker=marker,
+                             color=color, ms=4)
+    for ax, title in zip(axes, ("frequency (Hz)", "separation (solid) and stick fractions",
+                                "RMS(u_r - d) (um)"), strict=True):
+        ax.set_xscale("log", base=2)
+        ax.set_xlabel("N (contact nodes)")
+        ax.set_title(title, fontsize=10)
+        ax.grid(alpha=0.3)
+    axes[0].legend(fontsize=6, ncol=1)
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def _rel(path: Path) -> Path:
+    return path.relative_to(REPO) if path.is_relative_to(REPO) else path
+
+
+def report(res: dict, out: Path, quick: bool, results_path: Path) -> None:
+    ns = [n for n in NS if not quick or n <= 264]
+    lines = ["# Convergence of the FE limit cycle (issue 13)", "",
+             "Generated by `./dev python3 benchmarks/convergence.py"
+             + (" --quick" if quick else "") + f"` from `{_rel(results_path)}`"
+             " (one JSON line per run; the command resumes and skips finished runs).", "",
+             f"Setting: explicit Newmark, beta2 = 1/2 (no algorithmic damping), dt = 0.9 dt_crit "
+             f"(the damped limit when damped), P1 triangles, automatic radial layers, "
+             f"end time {END_TIME} s, quantities over the last {WINDOW} s. "
+             f"Damped series: Kelvin-Voigt loss factor eta = {ETA_DAMPED:g} at {F_REF_HZ:g} Hz "
+             f"(tau = {ETA_DAMPED / (2 * math.pi * F_REF_HZ) * 1e6:.3g} us), the order of a "
+             "lightly damped polymer at the wave frequency. Wall times: one core of a shared "
+             "2-core machine (noisy).", ""]
+    for phys in ("fig3", "fig1"):
+        for damped in (False, True):
+            for seed in ("mode4", "random1", "random2", "random3"):
+                if not any(case_key(phys, damped, n, seed) in res for n in ns):
+                    continue
+                lines += [f"## {phys}, {'eta = 2 %' if damped else 'undamped'}, seed {seed}", ""]
+                lines += series_table(res, phys, damped, seed, ns)
+                lines += ["", "| quantity | successive differences | observed order | "
+                              "Richardson value | error bar |", "|---|---|---|---|---|"]
+                lines += convergence_rows(res, phys, damped, seed, ns)
+                lines += [""]
+    # dt refinement
+    lines += ["## Time-step refinement at N = 264 (mode-4 seed)", "",
+              "| physics | damping | dt/dt_crit | k | f (Hz) | sep / stick / slip | psi1 | psi2 |"
+              " RMS (um) | wall (s) |", "|---|---|---|---|---|---|---|---|---|---|"]
+    for phys in ("fig3", "fig1"):
+        for damped in (False, True):
+            for frac in (0.9, 0.45, 0.225):
+                r = res.get(case_key(phys, damped, 264, "mode4", frac=frac))
+                if r:
+                    lines.append(
+                        f"| {phys} | {'eta 2%' if damped else 'none'} | {frac} | {r['k']} | "
+                        f"{r['frequency_hz']:.1f} | {r['sep']:.3f} / {r['stick']:.3f} / "
+                        f"{r['slip']:.3f} | {r['psi1']:.3f} | {r['psi2']:.3f} | "
+                        f"{r['amp_rms_m'] * 1e6:.3f} | {r['wall_s']:.0f} |")
+    # family
+    lines += ["", "## The family: which k from which start", "",
+              "| physics | damping | seed | k over N (" + ", ".join(map(str, ns)) + ") | "
+              "f over N (Hz) |", "|---|---|---|---|---|"]
+    for phys in ("fig3", "fig1"):
+        for damped in (False, True):
+            for seed in ("mode4", "random1", "random2", "random3"):
+                rs = [res.get(case_key(phys, damped, n, seed)) for n in ns]
+                if not any(rs):
+                    continue
+                ks = ", ".join(f"{r['k']}{'+' if r['celerity_m_s'] > 0 else '-'}" if r else "."
+                               for r in rs)
+                fs = ", ".join(f"{r['frequency_hz']:.0f}" if r else "." for r in rs)
+                lines.append(f"| {phys} | {'eta 2%' if damped else 'none'} | {seed} | {ks} | "
+                             f"{fs} |")
+    # beta2
+    lines += ["", f"## beta2 on the finest mesh (N = {ns[-1]}, mode-4 seed)", "",
+              "| physics | damping | beta2 | k | f (Hz) | sep / stick / slip | psi1 | psi2 | "
+              "RMS (um) | wall (s) |", "|---|---|---|---|---|---|---|---|---|---|"]
+    for phys in ("fig3", "fig1"):
+        for damped in (False, True):
+            for beta2 in (0.5, 0.6, 0.9):
+                r = res.get(case_key(phys, damped, ns[-1], "mode4", beta2=beta2))
+                if r:
+                    lines.append(
+                        f"| {phys} | {'eta 2%' if damped else 'none'} | {beta2} | {r['k']} | "
+                        f"{r['frequency_hz']:.1f} | {r['sep']:.3f} / {r['stick']:.3f} / "
+                        f"{r['slip']:.3f} | {r['psi1']:.3f} | {r['psi2']:.3f} | "
+                        f"{r['amp_rms_m'] * 1e6:.3f} | {r['wall_s']:.0f} |")
+    fig = out.parent / "figures" / ("convergence_quick.png" if quick else "convergence.png")
+    plot(res, fig, ns)
+    lines += ["", f"![convergence]({fig.relative_to(out.parent)})", ""]
+    marker = "<!-- discussion -->"
+    old = out.read_text() if out.exists() else ""
+    tail = old[old.index(marker):] if marker in old else f"{marker}\n"
+    out.write_text("\n".join(lines) + "\n" + tail)
+
+
+# ---------------------------------------------------------------------------------------------
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true")
+    ap.add_argument("--results", type=Path, default=None)
+    ap.add_argument("--out", type=Path, default=REPO / "docs" / "convergence.md")
+    ap.add_argument("--report-only", action="store_true")
+    ap.add_argument("--max-n", type=int, default=NS[-1])
+    ap.add_argument("--only", default="", help="run only cases whose key contains this")
+    ap.add_argument("--budget", type=float, default=math.inf,
+                    help="stop starting new runs after this many seconds")
+    ap.add_argument("--case", default=None, help=argparse.SUPPRESS)  # child process
+    args = ap.parse_args()
+    results = args.results or (REPO / "docs" / ("convergence_runs_quick.jsonl" if args.quick
+                                                 else "convergence_runs.jsonl"))
+    if args.case:
+        case = json.loads(args.case)
+        r = run_case(case)
+        with results.open("a") as fh:
+            fh.write(json.dumps(r) + "\n")
+        return 0
+    t_start = time.perf_counter()
+    if not args.report_only:
+        for case in run_list(args.quick, args.max_n):
+            if args.only and args.only not in case["key"]:
+                continue
+            if case["key"] in load_results(results):
+                continue
+            if time.perf_counter() - t_start > args.budget:
+                print("budget spent; stopping", flush=True)
+                break
+            t0 = time.perf_counter()
+            print(f"run {case['key']} ...", flush=True)
+            proc = subprocess.run([sys.executable, __file__, "--results", str(results),
+                                   "--case", json.dumps(case)], cwd=REPO,
+                                  env={**os.environ, "OMP_NUM_THREADS": "1"})
+            print(f"  exit {proc.returncode}, {time.perf_counter() - t0:.0f} s", flush=True)
+            report(load_results(results), args.out, args.quick, results)
+    report(load_results(results), args.out, args.quick, results)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
