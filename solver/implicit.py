@@ -395,6 +395,8 @@ class ImplicitNewmark:
         self._mult(self.u_prev, self.ku)
         np.multiply(self.ku, self.inv_mass, out=self.a_star)
         np.negative(self.a_star, out=self.a_star)
+        if self.tau > 0.0 and self.step_count > 0:  # a*_n also carries the damping force
+            self.a_star[:] = self.a_next
         if contact is not None:
             contact.swap()
             contact.put_force(self.force, exposed=True)
