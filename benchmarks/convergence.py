@@ -75,21 +75,32 @@ def run_list(quick: bool, max_n: int) -> list[dict]:
         if c["key"] not in {o["key"] for o in out}:
             out.append(c)
 
+    small = [n for n in ns if n <= 528]
     for phys in physics:
-        for n in ns:
+        for n in ns if phys == "fig3" else small:  # 1. mode-4 seed over N
             for damped in (False, True):
                 add(phys, damped, n, "mode4")
-        for frac in (0.45, 0.225):
-            for damped in (False, True):
-                add(phys, damped, 264, "mode4", frac=frac)
-        for seed in seeds:
+        for seed in seeds:  # 2. random seeds, N <= 264
             for n in ns:
                 for damped in (False, True):
-                    add(phys, damped, n, seed)
-        if not quick:
+                    if n <= 264:
+                        add(phys, damped, n, seed)
+        for frac in (0.45, 0.225):  # 3. dt halved twice at N = 264
+            for damped in (False, True):
+                add(phys, damped, 264, "mode4", frac=frac)
+        for seed in seeds:  # 4. random seeds at N = 528
+            for damped in (False, True):
+                if small[-1] > 264:
+                    add(phys, damped, small[-1], seed)
+        if not quick:  # 5. beta2 on the finest affordable mesh
             for beta2 in (0.6, 0.9):
                 for damped in (False, True):
-                    add(phys, damped, ns[-1], "mode4", beta2=beta2)
+                    add(phys, damped, small[-1], "mode4", beta2=beta2)
+    for phys in physics:  # 6. the N = 1056 rows left
+        for seed in ["mode4", *seeds]:
+            for damped in (False, True):
+                if ns[-1] > small[-1]:
+                    add(phys, damped, ns[-1], seed)
     return out
 
 
@@ -170,6 +181,16 @@ def run_case(case: dict) -> dict:
         out[half] = {k: m[k] for k in ("frequency_hz", "k", "sep", "stick", "slip", "psi1",
                                        "psi2", "amp_rms_m")}
     e = a["energies"]
+    # power balance over the window (J/m/s): normal contact work (impacts, <= 0), friction,
+    # damping, fed by the cylinder; normal work = contact work - tangential work, tangential
+    # work = cylinder work - friction dissipation
+    w = a["t"] >= a["t"][-1] - WINDOW
+    i0, i1 = int(np.argmax(w)), a["t"].size - 1
+    span = a["t"][i1] - a["t"][i0]
+    de = (e[i1] - e[i0]) / span
+    out["power"] = dict(normal=float(de[2] - (de[3] - de[4])), friction=float(de[4]),
+                        damping=float(de[5]), cylinder=float(de[3]),
+                        mean_energy=float(np.mean(e[w, 0] + e[w, 1])))
     out["energy_residual_rel"] = float(
         abs(e[-1, 0] + e[-1, 1] - e[0, 0] - e[0, 1] - (e[-1, 2] - e[0, 2]) + (e[-1, 5] - e[0, 5]))
         / max(1e-300, float(np.max(e[:, 0] + e[:, 1]))))
@@ -388,6 +409,8 @@ def main() -> int:
     ap.add_argument("--only", default="", help="run only cases whose key contains this")
     ap.add_argument("--budget", type=float, default=math.inf,
                     help="stop starting new runs after this many seconds")
+    ap.add_argument("--skip", action="append", default=[],
+                    help="case key not to start (e.g. one still running elsewhere)")
     ap.add_argument("--case", default=None, help=argparse.SUPPRESS)  # child process
     args = ap.parse_args()
     results = args.results or (REPO / "docs" / ("convergence_runs_quick.jsonl" if args.quick
@@ -403,7 +426,7 @@ def main() -> int:
         for case in run_list(args.quick, args.max_n):
             if args.only and args.only not in case["key"]:
                 continue
-            if case["key"] in load_results(results):
+            if case["key"] in load_results(results) or case["key"] in args.skip:
                 continue
             if time.perf_counter() - t_start > args.budget:
                 print("budget spent; stopping", flush=True)
