@@ -182,6 +182,8 @@ class InnerCircleRecorder:
         if self.damping is not None:
             integrator.refresh_ku()  # the damped step forms K (u + tau v~), not K u
             self.e_local[2] = self.damping.local_total(integrator)
+        elif hasattr(integrator, "damping_work_local"):  # implicit: booked by the scheme
+            self.e_local[2] = integrator.damping_work_local
         self.e_local[0] = 0.5 * float(np.dot(integrator.v * self.problem.mass, integrator.v))
         self.e_local[1] = 0.5 * float(np.dot(integrator.u_prev, integrator.ku))
         self.comm.Allreduce(self.e_local, self.e_total, op=MPI.SUM)
