@@ -75,32 +75,36 @@ def run_list(quick: bool, max_n: int) -> list[dict]:
         if c["key"] not in {o["key"] for o in out}:
             out.append(c)
 
-    small = [n for n in ns if n <= 528]
-    for phys in physics:
-        for n in ns if phys == "fig3" else small:  # 1. mode-4 seed over N
-            for damped in (False, True):
-                add(phys, damped, n, "mode4")
-        for seed in seeds:  # 2. random seeds, N <= 264
-            for n in ns:
-                for damped in (False, True):
-                    if n <= 264:
-                        add(phys, damped, n, seed)
-        for frac in (0.45, 0.225):  # 3. dt halved twice at N = 264
-            for damped in (False, True):
-                add(phys, damped, 264, "mode4", frac=frac)
-        for seed in seeds:  # 4. random seeds at N = 528
-            for damped in (False, True):
-                if small[-1] > 264:
-                    add(phys, damped, small[-1], seed)
-        if not quick:  # 5. beta2 on the finest affordable mesh
-            for beta2 in (0.6, 0.9):
-                for damped in (False, True):
-                    add(phys, damped, small[-1], "mode4", beta2=beta2)
-    for phys in physics:  # 6. the N = 1056 rows left
-        for seed in ["mode4", *seeds]:
-            for damped in (False, True):
-                if ns[-1] > small[-1]:
-                    add(phys, damped, ns[-1], seed)
+    small = [n for n in ns if n <= 264]
+    both = (True, False)  # damped first: the physically motivated series
+    for n in ns:  # 1. Figure 3, mode-4 seed over N
+        for damped in both:
+            add("fig3", damped, n, "mode4") if n <= 528 else None
+    for frac in (0.45, 0.225):  # 2. dt halved twice at N = 264
+        for damped in both:
+            add("fig3", damped, 264, "mode4", frac=frac) if 264 in ns else None
+    for damped in both:  # 3. random seeds, N <= 264
+        for seed in seeds:
+            for n in small:
+                add("fig3", damped, n, seed)
+    if not quick:
+        for damped in both:  # 4. Figure 1, mode-4 seed; 5. beta2 on a fine mesh
+            for n in small:
+                add("fig1", damped, n, "mode4")
+        for beta2 in (0.6, 0.9):
+            for damped in both:
+                add("fig3", damped, small[-1], "mode4", beta2=beta2)
+        for damped in both:  # 6. Figure 1 seeds
+            for seed in seeds:
+                for n in small:
+                    add("fig1", damped, n, seed)
+    for phys in physics:  # 7. what is left on the fine meshes
+        for n in ns:
+            if n <= 264:
+                continue
+            for seed in ["mode4", *seeds]:
+                for damped in both:
+                    add(phys, damped, n, seed)
     return out
 
 
