@@ -38,28 +38,23 @@ import sys
 import time
 from pathlib import Path
 
-import numpy as np
+from studies.convergence import (  # noqa: E402
+    END_TIME,
+    ETA_DAMPED,
+    F_REF_HZ,
+    NS,
+    WINDOW,
+    case_key,
+    richardson,
+    run_case,
+)
 
 REPO = Path(__file__).resolve().parents[1]
-END_TIME = 0.3  # s; the limit cycle is reached by ~0.1 s (paper section 4)
-WINDOW = 0.12  # s analysed at the end of the run
-ETA_DAMPED = 0.02  # loss factor of the damped series ...
-F_REF_HZ = 1600.0  # ... at the frequency of the Figure-3 wave: tau = eta / (2 pi f) = 1.99 us
-PHYSICS = {
-    "fig3": ["loading.omega=50.0", "geometry.delta=0.0004", "loading.f=0.7"],
-    "fig1": ["loading.omega=40.0", "geometry.delta=0.001", "loading.f=0.7"],
-}
-NS = (66, 132, 264, 528, 1056)
 DEFAULT_RESULTS = REPO / "docs" / "convergence_runs.jsonl"
 
 
 # ---------------------------------------------------------------------------------------------
 # The run list
-
-
-def case_key(phys: str, damped: bool, n: int, seed: str, beta2: float = 0.5,
-             frac: float = 0.9) -> str:
-    return f"{phys}-{'eta2' if damped else 'undamped'}-N{n}-{seed}-b{beta2:g}-fr{frac:g}"
 
 
 def run_list(quick: bool, max_n: int) -> list[dict]:
@@ -108,99 +103,6 @@ def run_list(quick: bool, max_n: int) -> list[dict]:
     return out
 
 
-def scene_for(case: dict):
-    from solver.scene import load_scene
-
-    ov = [*PHYSICS[case["phys"]], f"mesh.n_inner={case['n']}", "mesh.n_radial=0",
-          f"time.beta2={case['beta2']}", f"time.dt_fraction={case['frac']}", "time.dt=0",
-          f"time.end_time={END_TIME}", "output.progress=false", "output.sample_interval=1e-4",
-          "output.probes_deg=[0.0]", "time.max_wall_time=1800"]
-    if case["damped"]:
-        ov += [f"damping.loss_factor={ETA_DAMPED}", f"damping.reference_frequency_hz={F_REF_HZ}"]
-    if case["seed"] == "mode4":
-        ov += ['initial.perturbation="mode"', "initial.mode=4", "initial.amplitude=0.1"]
-    else:
-        ov += ['initial.perturbation="random"', f"initial.seed={case['seed'][6:]}",
-               "initial.amplitude=0.1", "initial.n_modes=16"]
-    name = case["key"].replace("+", "p")
-    return load_scene(REPO / "scenes" / "figure3_n132.toml", [f'name="{name}"', *ov])
-
-
-# ---------------------------------------------------------------------------------------------
-# One run (child process)
-
-
-def measure(t, theta, u_r, u_t, status, probe_t, probe, d, radius, window):
-    """Limit-cycle quantities over the last ``window`` seconds (module docstring)."""
-    from postprocess.analysis import analyse, probe_frequency, zone_fractions
-
-    sel = probe_t >= probe_t[-1] - window
-    sep = zone_fractions(status[t >= t[-1] - window])["separation"] > 0.02
-    sig = probe[sel, 0] - d if sep else probe[sel, 1]
-    freq = probe_frequency(probe_t[sel], sig)
-    wave = analyse(t, theta, u_r, u_t, status, d=d, radius=radius, window=window,
-                   frequency_hint_hz=freq if freq > 0 else None)
-    n_per = max(1, int(math.floor(window * freq))) if freq > 0 else 0
-    tw = n_per / freq if n_per else window
-    s = t >= t[-1] - tw + 1e-12
-    rms = float(np.sqrt(np.mean((u_r[s] - d) ** 2)))
-    rms_t = float(np.sqrt(np.mean((u_t[s] - u_t[s].mean(axis=1, keepdims=True)) ** 2)))
-    fr = zone_fractions(status[t >= t[-1] - window])
-    return dict(frequency_hz=freq, k=wave.mode, celerity_m_s=wave.celerity_m_s,
-                wave_frequency_hz=wave.frequency_hz, sep=fr["separation"], stick=fr["stick"],
-                slip=fr["slip"], psi1=wave.psi1, psi2=wave.psi2, amp_rms_m=rms,
-                amp_t_rms_m=rms_t, regime=wave.regime, limit_cycle=bool(wave.limit_cycle),
-                zone_order=wave.zone_order)
-
-
-def run_case(case: dict) -> dict:
-    from mpi4py import MPI
-
-    from solver.run import Simulation
-
-    scene = scene_for(case)
-    t0 = time.perf_counter()
-    sim = Simulation(scene, MPI.COMM_SELF)
-    setup = time.perf_counter() - t0
-    sim.proceed()
-    wall = time.perf_counter() - t0
-    a = sim.recorder.arrays()
-    pr = sim.probes.arrays()
-    g = scene.geometry
-    out = dict(case)
-    out.update(status=sim.stop_reason, steps=sim.integrator.step_count, dt_s=sim.dt,
-               dt_crit_s=sim.dt_crit, tau_s=scene.damping.tau, dofs=int(sim.problem.n_global_dofs),
-               omega_max=sim.omega_max, wall_s=wall, setup_s=setup, end_time=END_TIME,
-               sim_time_s=sim.integrator.time)
-    pdata = pr["probe_data"][0]  # (step, [u_r, u_theta, v_r, v_theta])
-    args = (a["t"], a["theta"], a["u_r"], a["u_theta"], a["status"], pr["probe_t"], pdata,
-            g.d, g.R)
-    out.update(measure(*args, WINDOW))
-    # stationarity: the two halves of the window
-    for half, shift in (("h1", WINDOW / 2), ("h2", 0.0)):
-        end = a["t"][-1] - shift
-        sa, sp = a["t"] <= end + 1e-12, pr["probe_t"] <= end + 1e-12
-        m = measure(a["t"][sa], a["theta"], a["u_r"][sa], a["u_theta"][sa], a["status"][sa],
-                    pr["probe_t"][sp], pdata[sp], g.d, g.R, WINDOW / 2)
-        out[half] = {k: m[k] for k in ("frequency_hz", "k", "sep", "stick", "slip", "psi1",
-                                       "psi2", "amp_rms_m")}
-    e = a["energies"]
-    # power balance over the window (J/m/s): normal contact work (impacts, <= 0), friction,
-    # damping, fed by the cylinder; normal work = contact work - tangential work, tangential
-    # work = cylinder work - friction dissipation
-    w = a["t"] >= a["t"][-1] - WINDOW
-    i0, i1 = int(np.argmax(w)), a["t"].size - 1
-    span = a["t"][i1] - a["t"][i0]
-    de = (e[i1] - e[i0]) / span
-    out["power"] = dict(normal=float(de[2] - (de[3] - de[4])), friction=float(de[4]),
-                        damping=float(de[5]), cylinder=float(de[3]),
-                        mean_energy=float(np.mean(e[w, 0] + e[w, 1])))
-    out["energy_residual_rel"] = float(
-        abs(e[-1, 0] + e[-1, 1] - e[0, 0] - e[0, 1] - (e[-1, 2] - e[0, 2]) + (e[-1, 5] - e[0, 5]))
-        / max(1e-300, float(np.max(e[:, 0] + e[:, 1]))))
-    return out
-
-
 # ---------------------------------------------------------------------------------------------
 # Report
 
@@ -208,24 +110,6 @@ def run_case(case: dict) -> dict:
 QUANTS = [("frequency_hz", "f (Hz)", 1.0), ("sep", "sep", 1.0), ("stick", "stick", 1.0),
           ("slip", "slip", 1.0), ("psi1", "psi1", 1.0), ("psi2", "psi2", 1.0),
           ("amp_rms_m", "RMS(u_r - d) (um)", 1e6)]
-
-
-def richardson(ns, qs, noise):
-    """Observed order and extrapolated value from the three finest of (N, q) at ratio 2.
-
-    p = log2((q1 - q2) / (q2 - q3)); q_inf = q3 + (q3 - q2) / (2^p - 1). The error bar is
-    |q_inf - q3| plus the time-averaging noise of the finest run. If the differences change
-    sign (no asymptotic range) no order is claimed: the bar is the spread of the last two.
-    """
-    if len(qs) < 3:
-        return None
-    q1, q2, q3 = qs[-3:]
-    d1, d2 = q1 - q2, q2 - q3
-    if d1 == 0 or d2 == 0 or d1 * d2 < 0 or abs(d2) >= abs(d1):
-        return dict(order=None, value=q3, err=abs(d2) + noise, n=ns[-1])
-    p = math.log2(d1 / d2)
-    q_inf = q3 - d2 / (2 ** p - 1)
-    return dict(order=p, value=q_inf, err=abs(q_inf - q3) + noise, n=ns[-1])
 
 
 def load_results(path: Path) -> dict[str, dict]:
@@ -280,6 +164,42 @@ def convergence_rows(res, phys, damped, seed, ns):
         rows.append(f"| {label} | {diffs} | {order} | {fmt(rich['value'], scale)} | "
                     f"+- {fmt(rich['err'], scale, 2)} |")
     return rows
+
+
+def accuracy_rows(res, ns) -> list[str]:
+    """Error against wall time for the damped Figure-3 mode-4 runs (k = 12 branch), against
+    the finest run; the cheapest run within 1 %, 5 %, 20 % (frequency, RMS amplitude) and
+    0.01, 0.05, 0.2 (fractions, absolute)."""
+    rows = [r for k, r in res.items() if k.startswith("fig3-eta2-") and "-mode4-b0.5-" in k]
+    if len(rows) < 2:
+        return []
+    ref = max(rows, key=lambda r: (r["n"], -r["frac"]))
+    out = ["", f"## Error against run time (fig3, eta = 2 %, mode-4 seed; reference: N = "
+           f"{ref['n']}, dt = {ref['frac']} dt_crit)", "",
+           "| N | dt/dt_crit | k | wall (s) | err f | err sep | err stick | err slip | "
+           "err RMS |", "|---|---|---|---|---|---|---|---|---|"]
+    errs = []
+    for r in sorted(rows, key=lambda r: r["wall_s"]):
+        if r is ref:
+            continue
+        e = dict(f=abs(r["frequency_hz"] / ref["frequency_hz"] - 1),
+                 fr=max(abs(r[z] - ref[z]) for z in ("sep", "stick", "slip")),
+                 a=abs(r["amp_rms_m"] / ref["amp_rms_m"] - 1))
+        errs.append((r, e))
+        out.append(f"| {r['n']} | {r['frac']} | {r['k']} | {r['wall_s']:.0f} | "
+                   f"{e['f']:.2%} | {abs(r['sep'] - ref['sep']):.3f} | "
+                   f"{abs(r['stick'] - ref['stick']):.3f} | {abs(r['slip'] - ref['slip']):.3f} | "
+                   f"{e['a']:.1%} |")
+    out += ["", "| target | cheapest for f | cheapest for fractions (abs.) | cheapest for RMS |",
+            "|---|---|---|---|"]
+    for tol in (0.01, 0.05, 0.2):
+        cells = []
+        for q in ("f", "fr", "a"):
+            ok = [r for r, e in errs if e[q] <= tol]
+            cells.append(f"N = {ok[0]['n']}, {ok[0]['frac']} dt_crit ({ok[0]['wall_s']:.0f} s)"
+                         if ok else "not reached below the reference")
+        out.append(f"| {tol:g} | " + " | ".join(cells) + " |")
+    return out
 
 
 def plot(res, path: Path, ns):
@@ -378,19 +298,30 @@ def report(res: dict, out: Path, quick: bool, results_path: Path) -> None:
                 lines.append(f"| {phys} | {'eta 2%' if damped else 'none'} | {seed} | {ks} | "
                              f"{fs} |")
     # beta2
-    lines += ["", f"## beta2 on the finest mesh (N = {ns[-1]}, mode-4 seed)", "",
-              "| physics | damping | beta2 | k | f (Hz) | sep / stick / slip | psi1 | psi2 | "
-              "RMS (um) | wall (s) |", "|---|---|---|---|---|---|---|---|---|---|"]
+    lines += ["", "## beta2 on the finest mesh it was run on (mode-4 seed)", "",
+              "| physics | damping | N | beta2 | k | f (Hz) | sep / stick / slip | psi1 | psi2 | "
+              "RMS (um) | wall (s) |", "|---|---|---|---|---|---|---|---|---|---|---|"]
     for phys in ("fig3", "fig1"):
         for damped in (False, True):
-            for beta2 in (0.5, 0.6, 0.9):
-                r = res.get(case_key(phys, damped, ns[-1], "mode4", beta2=beta2))
+            n_b = [n for n in ns if case_key(phys, damped, n, "mode4", beta2=0.6) in res
+                   or case_key(phys, damped, n, "mode4", beta2=0.9) in res]
+            for beta2 in (0.5, 0.6, 0.9) if n_b else ():
+                r = res.get(case_key(phys, damped, n_b[-1], "mode4", beta2=beta2))
                 if r:
                     lines.append(
-                        f"| {phys} | {'eta 2%' if damped else 'none'} | {beta2} | {r['k']} | "
-                        f"{r['frequency_hz']:.1f} | {r['sep']:.3f} / {r['stick']:.3f} / "
-                        f"{r['slip']:.3f} | {r['psi1']:.3f} | {r['psi2']:.3f} | "
-                        f"{r['amp_rms_m'] * 1e6:.3f} | {r['wall_s']:.0f} |")
+                        f"| {phys} | {'eta 2%' if damped else 'none'} | {n_b[-1]} | {beta2} | "
+                        f"{r['k']} | {r['frequency_hz']:.1f} | {r['sep']:.3f} / "
+                        f"{r['stick']:.3f} / {r['slip']:.3f} | {r['psi1']:.3f} | "
+                        f"{r['psi2']:.3f} | {r['amp_rms_m'] * 1e6:.3f} | {r['wall_s']:.0f} |")
+    lines += ["", "## Power balance over the window (J/m/s; runs that recorded it)", "",
+              "| run | mean E (J/m) | cylinder | friction | damping | normal contact (impacts) |",
+              "|---|---|---|---|---|---|"]
+    for key, r in sorted(res.items()):
+        pw = r.get("power")
+        if pw:
+            lines.append(f"| {key} | {pw['mean_energy']:.4g} | {pw['cylinder']:.4g} | "
+                         f"{pw['friction']:.4g} | {pw['damping']:.4g} | {pw['normal']:.4g} |")
+    lines += accuracy_rows(res, ns)
     fig = out.parent / "figures" / ("convergence_quick.png" if quick else "convergence.png")
     plot(res, fig, ns)
     lines += ["", f"![convergence]({fig.relative_to(out.parent)})", ""]
