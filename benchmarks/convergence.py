@@ -152,6 +152,10 @@ def convergence_rows(res, phys, damped, seed, ns):
     have = [n for n in ns if case_key(phys, damped, n, seed) in res]
     rs = [res[case_key(phys, damped, n, seed)] for n in have]
     rows = []
+    if len({(r["k"], r["celerity_m_s"] > 0) for r in rs[-3:]}) > 1:
+        ks = ", ".join(f"{r['k']}{'+' if r['celerity_m_s'] > 0 else '-'}" for r in rs)
+        return [f"| all | the selected member changes with N (k = {ks}): no order, no "
+                "extrapolation | - | - | - |"]
     for q, label, scale in QUANTS:
         qs = [r[q] for r in rs]
         noise = abs(rs[-1]["h1"][q] - rs[-1]["h2"][q]) if rs else 0.0
@@ -297,6 +301,31 @@ def report(res: dict, out: Path, quick: bool, results_path: Path) -> None:
                 fs = ", ".join(f"{r['frequency_hz']:.0f}" if r else "." for r in rs)
                 lines.append(f"| {phys} | {'eta 2%' if damped else 'none'} | {seed} | {ks} | "
                              f"{fs} |")
+    # members reached on several meshes
+    lines += ["", "## Members of the family reached on several meshes (beta2 = 1/2, dt = 0.9 "
+              "dt_crit): does each converge?", "",
+              "| physics | damping | k | N: f (Hz), sep / stick / slip, RMS (um) [seeds] |",
+              "|---|---|---|---|"]
+    for phys in ("fig3", "fig1"):
+        for damped in (False, True):
+            members: dict = {}
+            for r in res.values():
+                if (r["phys"], r["damped"], r["beta2"], r["frac"]) != (phys, damped, 0.5, 0.9):
+                    continue
+                members.setdefault((r["k"], r["celerity_m_s"] > 0), {}).setdefault(
+                    r["n"], []).append(r)
+            for (k, fwd), by_n in sorted(members.items()):
+                if len(by_n) < 2:
+                    continue
+                cells = []
+                for n in sorted(by_n):
+                    rs = by_n[n]
+                    r = rs[0]
+                    cells.append(f"N = {n}: {r['frequency_hz']:.1f}, {r['sep']:.3f} / "
+                                 f"{r['stick']:.3f} / {r['slip']:.3f}, "
+                                 f"{r['amp_rms_m'] * 1e6:.0f} [{', '.join(x['seed'] for x in rs)}]")
+                lines.append(f"| {phys} | {'eta 2%' if damped else 'none'} | {k}"
+                             f"{'+' if fwd else '-'} | " + "; ".join(cells) + " |")
     # beta2
     lines += ["", "## beta2 on the finest mesh it was run on (mode-4 seed)", "",
               "| physics | damping | N | beta2 | k | f (Hz) | sep / stick / slip | psi1 | psi2 | "
