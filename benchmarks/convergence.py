@@ -164,6 +164,10 @@ def convergence_rows(res, phys, damped, seed, ns):
         if rich is None:
             rows.append(f"| {label} | {diffs} | - | - | - |")
             continue
+        if rich["order"] is not None and rich["order"] < 0.5:  # too slow to extrapolate
+            rows.append(f"| {label} | {diffs} | {rich['order']:.2f} (too slow to "
+                        f"extrapolate) | - | - |")
+            continue
         order = "none (not monotone)" if rich["order"] is None else f"{rich['order']:.2f}"
         rows.append(f"| {label} | {diffs} | {order} | {fmt(rich['value'], scale)} | "
                     f"+- {fmt(rich['err'], scale, 2)} |")
