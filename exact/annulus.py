@@ -82,26 +82,24 @@ class Elastic:
 
 
 def bessel_columns(
-    omega: complex, n: int, r: float, mat: Elastic, tau: float = 0.0
+    omega: complex | np.ndarray, n: int, r: float, mat: Elastic, tau: float = 0.0
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """(U, W, σ_rr/μ̃, S/μ̃) at radius ``r`` of the 4 potentials ``J_|n|(αr), Y_|n|(αr)``
-    (for F) and ``J_|n|(βr), Y_|n|(βr)`` (for H); ``μ̃ = μ(1 − iωτ)`` (Kelvin-Voigt)."""
+    (for F) and ``J_|n|(βr), Y_|n|(βr)`` (for H); ``μ̃ = μ(1 − iωτ)`` (Kelvin-Voigt).
+    ``omega`` may be an array: the results have shape ``omega.shape + (4,)``."""
     from scipy.special import jv, jvp, yv, yvp
 
     m = abs(int(n))
-    visc = 1.0 - 1j * omega * tau
-    al = omega / (mat.cp * np.sqrt(visc))
-    be = omega / (mat.cs * np.sqrt(visc))
+    w = np.asarray(omega, dtype=complex)[..., None]
+    visc = 1.0 - 1j * w * tau
+    al = w / (mat.cp * np.sqrt(visc))
+    be = w / (mat.cs * np.sqrt(visc))
     za, zb = al * r, be * r
-    z0 = np.zeros(2, dtype=complex)
-    Fa = np.array([jv(m, za), yv(m, za)])
-    Fpa = al * np.array([jvp(m, za), yvp(m, za)])
-    Hb = np.array([jv(m, zb), yv(m, zb)])
-    Hpb = be * np.array([jvp(m, zb), yvp(m, zb)])
-    F = np.concatenate([Fa, z0])
-    Fp = np.concatenate([Fpa, z0])
-    H = np.concatenate([z0, Hb])
-    Hp = np.concatenate([z0, Hpb])
+    zero = np.zeros_like(w)
+    F = np.concatenate([jv(m, za), yv(m, za), zero, zero], axis=-1)
+    Fp = np.concatenate([al * jvp(m, za), al * yvp(m, za), zero, zero], axis=-1)
+    H = np.concatenate([zero, zero, jv(m, zb), yv(m, zb)], axis=-1)
+    Hp = np.concatenate([zero, zero, be * jvp(m, zb), be * yvp(m, zb)], axis=-1)
     Fpp = -Fp / r - (al**2 - m * m / r**2) * F  # Bessel's equation
     U = Fp - n * H / r
     W = n * F / r - Hp
@@ -111,12 +109,16 @@ def bessel_columns(
 
 
 def sliding_matrix(
-    omega: complex, n: int, f_eff: complex, mat: Elastic, tau: float = 0.0
+    omega: complex | np.ndarray, n: int, f_eff: complex | np.ndarray, mat: Elastic,
+    tau: float = 0.0,
 ) -> np.ndarray:
-    """The 4×4 matrix (rows ``U(R)``, ``S + i f σ_rr`` at ``R``, ``U(ξR)``, ``W(ξR)``)."""
+    """The 4×4 matrix (rows ``U(R)``, ``S + i f σ_rr`` at ``R``, ``U(ξR)``, ``W(ξR)``;
+    shape ``omega.shape + (4, 4)``)."""
     Ua, _, sa, Sa = bessel_columns(omega, n, mat.R, mat, tau)
     Ub, Wb, _, _ = bessel_columns(omega, n, mat.xi * mat.R, mat, tau)
-    return np.array([Ua * mat.R, (Sa + 1j * f_eff * sa) * mat.R**2, Ub * mat.R, Wb * mat.R])
+    fe = np.asarray(f_eff)[..., None]
+    return np.stack([Ua * mat.R, (Sa + 1j * fe * sa) * mat.R**2, Ub * mat.R, Wb * mat.R],
+                    axis=-2)
 
 
 def sliding_determinant(
@@ -150,14 +152,14 @@ def annulus_sliding_frequencies(
 
     mat = Elastic(E=E, rho=rho, nu=nu, R=R, xi=xi)
 
-    def det(w: float) -> float:
-        M = sliding_matrix(complex(w), k, 0.0, mat).real
-        M = M / np.max(np.abs(M), axis=0, keepdims=True)  # positive: keeps the sign
-        return float(np.linalg.det(M))
+    def det(w: np.ndarray) -> np.ndarray:
+        M = sliding_matrix(np.atleast_1d(w), k, 0.0, mat).real
+        M = M / np.max(np.abs(M), axis=-2, keepdims=True)  # positive: keeps the sign
+        return np.linalg.det(M)
 
     w = 2 * math.pi * np.arange(max(df_hz, 1.0), fmax_hz + df_hz, df_hz)
-    d = np.array([det(x) for x in w])
-    roots = [brentq(det, w[i], w[i + 1], xtol=1e-10)
+    d = det(w)
+    roots = [brentq(lambda x: float(det(x)[0]), w[i], w[i + 1], xtol=1e-10)
              for i in np.flatnonzero(np.sign(d[:-1]) * np.sign(d[1:]) < 0)]
     return np.array(roots) / (2 * math.pi)
 

@@ -40,6 +40,7 @@ import numpy as np
 from exact.annulus import Elastic, collocation_operators, column_scale, sliding_determinant
 
 __all__ = [
+    "ELASTIC",
     "Branch",
     "Dissipation",
     "OrderSpectrum",
@@ -73,6 +74,9 @@ class Dissipation:
                              reference_velocity: float) -> float:
         """``t* = L / (|V| + V*)`` with ``|V| = R|Ω|`` the steady slip rate."""
         return slip_length / (abs(sliding_speed) + reference_velocity)
+
+
+ELASTIC = Dissipation()  #: no dissipation (elastic bulk, Coulomb friction)
 
 
 @dataclass(frozen=True)
@@ -120,7 +124,7 @@ def _points(n: int, mat: Elastic, omega_max: float) -> int:
 
 
 def collocation_roots(
-    n: int, f: float, mat: Elastic, omega_max: float, diss: Dissipation = Dissipation(),
+    n: int, f: float, mat: Elastic, omega_max: float, diss: Dissipation = ELASTIC,
     N: int | None = None,
 ) -> tuple[np.ndarray, int]:
     """Every ω (both signs of Re ω) with ``|Re ω| ≤ omega_max`` and ``Im ω ≥ −omega_max``
@@ -172,7 +176,7 @@ def collocation_roots(
 
 
 def polish(
-    omega0: complex, n: int, f: float, mat: Elastic, diss: Dissipation = Dissipation(),
+    omega0: complex, n: int, f: float, mat: Elastic, diss: Dissipation = ELASTIC,
     rtol: float = 1e-12, maxiter: int = 60,
 ) -> tuple[complex, bool]:
     """Secant iteration on the Bessel determinant from ``omega0`` (constant column scaling
@@ -199,7 +203,7 @@ def polish(
 
 def sliding_branches(
     n: int, f: float, mat: Elastic, *, fmax_hz: float = 3000.0, speed_factor: float = 0.0,
-    diss: Dissipation = Dissipation(), N: int | None = None,
+    diss: Dissipation = ELASTIC, N: int | None = None,
 ) -> OrderSpectrum:
     """Every branch of order ``n ≥ 0`` with frequency ≤ :func:`band_limit`, exact
     (collocation seeds, Bessel polish); see the module docstring for conventions."""
@@ -234,7 +238,7 @@ def sliding_branches(
 
 def spectrum_table(
     ns: list[int], fs: list[float], mat: Elastic, *, fmax_hz: float = 3000.0,
-    speed_factor: float = 1.5, diss: Dissipation = Dissipation(),
+    speed_factor: float = 1.5, diss: Dissipation = ELASTIC,
 ) -> dict[float, list[OrderSpectrum]]:
     """:func:`sliding_branches` for every (f, n)."""
     return {f: [sliding_branches(n, f, mat, fmax_hz=fmax_hz, speed_factor=speed_factor,
