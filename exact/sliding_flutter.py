@@ -37,7 +37,7 @@ from typing import Any
 
 import numpy as np
 
-from exact.annulus import Elastic, collocation_operators, column_scale, sliding_determinant
+from exact.annulus import Elastic, collocation_operators, sliding_matrix
 
 __all__ = [
     "ELASTIC",
@@ -176,29 +176,41 @@ def collocation_roots(
 
 
 def polish(
-    omega0: complex, n: int, f: float, mat: Elastic, diss: Dissipation = ELASTIC,
+    omega0: np.ndarray, n: int, f: float, mat: Elastic, diss: Dissipation = ELASTIC,
     rtol: float = 1e-12, maxiter: int = 60,
-) -> tuple[complex, bool]:
-    """Secant iteration on the Bessel determinant from ``omega0`` (constant column scaling
-    taken at ``omega0``, so the function iterated is analytic). Returns (root, converged)."""
-    scale = column_scale(omega0, n, mat, diss.tau)
+) -> tuple[np.ndarray, np.ndarray]:
+    """Secant iteration on the Bessel determinant from each seed of ``omega0`` (vectorised
+    over the seeds; constant column scaling taken at each seed, so each function iterated is
+    analytic). Returns (roots, converged)."""
+    x0 = np.array(omega0, dtype=complex).ravel()  # a copy: iterated in place
+    scale = 1.0 / np.maximum(np.max(np.abs(sliding_matrix(x0, n, 0.0, mat, diss.tau)),
+                                    axis=-2), 1e-300)  # (m, 4)
 
-    def g(w: complex) -> complex:
-        return sliding_determinant(w, n, diss.f_eff(f, w), mat, diss.tau, scale)
+    def g(w: np.ndarray, idx: np.ndarray) -> np.ndarray:
+        M = sliding_matrix(w, n, diss.f_eff(f, w), mat, diss.tau) * scale[idx, None, :]
+        return np.linalg.det(M)
 
-    x0, x1 = omega0, omega0 * (1 + 1e-7) + 1e-7 * abs(omega0) * 1j
-    g0, g1 = g(x0), g(x1)
+    allidx = np.arange(x0.size)
+    x1 = x0 * (1 + 1e-7) + 1e-7 * np.abs(x0) * 1j
+    g0, g1 = g(x0, allidx), g(x1, allidx)
+    active = allidx
     for _ in range(maxiter):
-        if g1 == g0:
+        a = active
+        den = g1[a] - g0[a]
+        safe = (den != 0) & np.isfinite(den)
+        x2 = x1[a].copy()
+        x2[safe] = x1[a][safe] - g1[a][safe] * (x1[a][safe] - x0[a][safe]) / den[safe]
+        bad = ~np.isfinite(x2)
+        x2[bad] = x1[a][bad]
+        x0[a], g0[a] = x1[a], g1[a]
+        x1[a] = x2
+        g1[a] = g(x2, a)
+        finished = (np.abs(x1[a] - x0[a]) <= rtol * np.abs(x1[a])) | ~safe | bad
+        active = a[~finished]
+        if active.size == 0:
             break
-        x2 = x1 - g1 * (x1 - x0) / (g1 - g0)
-        if not np.isfinite(x2):
-            return x1, False
-        x0, g0, x1 = x1, g1, x2
-        g1 = g(x1)
-        if abs(x1 - x0) <= rtol * abs(x1):
-            return x1, True
-    return x1, abs(x1 - x0) <= 1e-9 * abs(x1)
+    ok = np.abs(x1 - x0) <= 1e-9 * np.abs(x1)
+    return x1, ok
 
 
 def sliding_branches(
@@ -214,8 +226,9 @@ def sliding_branches(
     seeds, npts = collocation_roots(n, f, mat, wmax * 1.02, diss, N)
     out: list[Branch] = []
     seen: list[complex] = []
-    for w0 in seeds:
-        w, ok = polish(complex(w0), n, f, mat, diss)
+    roots, conv = polish(seeds, n, f, mat, diss) if seeds.size else (seeds, seeds.real > 0)
+    for w0, w, ok in zip(seeds, roots, conv, strict=True):
+        w0, w = complex(w0), complex(w)
         shift = abs(w - w0) / abs(w0)
         if not ok or shift > 1e-3:
             w, ok = complex(w0), False
