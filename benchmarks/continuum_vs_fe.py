@@ -231,7 +231,7 @@ def part_meshscale(quick: bool, out: Path, f: float = 0.7) -> dict:
             t0 = time.perf_counter()
             problem = _fe_problem(N, ov)
             ops = build_operators(problem, mass)
-            fmax = 1.02 * math.sqrt(_max_omega2(ops)) / (2 * math.pi)
+            fmax = 1.3 * math.sqrt(_max_omega2(ops)) / (2 * math.pi)  # whole spectrum
             res = complex_eigenvalue_analysis(problem, f, fmax, ops=ops)
             ops.destroy()
             best = res.by_wavenumber()

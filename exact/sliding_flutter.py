@@ -154,20 +154,23 @@ def collocation_roots(
             s = np.sqrt(mu)
             w = np.concatenate([s, -s])
     else:
-        A0 = np.zeros((M, M), dtype=complex)
-        A1 = np.zeros((M, M), dtype=complex)
-        A2 = np.zeros((M, M), dtype=complex)
-        A0[interior] = col.L[interior]
-        A1[interior] = -1j * diss.tau * col.L[interior]
-        A2[interior, interior] = mat.rho
-        for j in (iu0, iuN, iwN):
-            A0[j, j] = 1.0
-        A0[iw0] = fr_S + 1j * f * fr_s  # (1 − iωt*) S + i f σ_rr = 0
-        A1[iw0] = -1j * diss.t_star * fr_S
-        Id, Zm = np.eye(M), np.zeros((M, M))
+        # unknowns: all but U_0, U_N, W_N (zero); rows: the interior equations and the
+        # friction row (1 − iωt*) S + i f σ_rr = 0; ω = ω₀ ŵ, rows scaled to O(1)
+        cols = np.array([j for j in range(M) if j not in (iu0, iuN, iwN)])
+        w0 = mat.cs / ((mat.xi - 1.0) * mat.R)
+        Lr = col.L[np.ix_(interior, cols)] / (mat.rho * w0**2)
+        fr0 = (fr_S + 1j * f * fr_s)[cols]
+        fr1 = -1j * diss.t_star * w0 * fr_S[cols]
+        nrm = max(np.max(np.abs(fr0)), np.max(np.abs(fr1)))
+        m = cols.size
+        A0 = np.vstack([Lr, fr0 / nrm]).astype(complex)
+        A1 = np.vstack([-1j * diss.tau * w0 * Lr, fr1 / nrm])
+        A2 = np.zeros((m, m), dtype=complex)
+        A2[np.arange(m - 1), np.searchsorted(cols, interior)] = 1.0
+        Id, Zm = np.eye(m), np.zeros((m, m))
         big_a = np.block([[Zm, Id], [A0, A1]])
         big_b = np.block([[Id, Zm], [Zm, -A2]])
-        w = sla.eigvals(big_a, big_b)
+        w = sla.eigvals(big_a, big_b) * w0
         w = w[np.isfinite(w)]
     keep = (np.abs(w.real) <= omega_max) & (w.imag >= -omega_max) & (np.abs(w) > 1e-6)
     if n == 0:
