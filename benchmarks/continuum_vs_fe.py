@@ -12,6 +12,8 @@ PART is one of
 * ``meshscale``   the fastest FE growth per k over the whole discrete spectrum for P1/P2,
                   triangles/quadrilaterals, lumped/consistent mass, against the exact
                   fastest growth of the same n;
+* ``fespectrum``  P1 lumped FE, whole spectrum, f = 0.3, 0.5, 0.7, N = 36, 72, 132, undamped
+                  and with Kelvin-Voigt damping, against the exact fastest growth;
 * ``dissipation`` exact growth against n with Kelvin-Voigt damping and linearised
                   Prakash-Clifton friction, below and above f_c.
 
@@ -106,7 +108,7 @@ def part_annulus(quick: bool) -> dict:
         cells = []
         for f in FS:
             t0 = time.perf_counter()
-            br = exact_growing(n, f, fmax_hz=0.0, speed_factor=1.5)
+            br = exact_growing(n, f, fmax_hz=3000.0, speed_factor=1.5)
             best = max(br, key=lambda b: b["growth_rate"])
             res["f"].setdefault(str(f), []).append(
                 {"n": n, "best": best, "branches": len(br), "wall_s": time.perf_counter() - t0})
@@ -122,7 +124,7 @@ def part_annulus(quick: bool) -> dict:
         cells = []
         for f in (0.7, 1.5):
             for n in (100, 200):
-                best = max(exact_growing(n, f, mat, fmax_hz=0.0, speed_factor=1.5),
+                best = max(exact_growing(n, f, mat, fmax_hz=3000.0, speed_factor=1.5),
                            key=lambda b: b["growth_rate"])
                 res["xi"].setdefault(str(xi), []).append({"f": f, "n": n, "best": best})
                 cells.append(f"{best['growth_rate']:.0f} @ {best['frequency_hz']:.0f}")
@@ -275,6 +277,81 @@ def _max_omega2(ops) -> float:
     return float(val)
 
 
+def _kv_map(mu: complex, tau: float) -> complex:
+    """Kelvin-Voigt (stiffness-proportional, also in the contact reaction) of an undamped
+    eigenvalue μ = ω² (e^{−iωt}): ``ω² + iτμω − μ = 0``, the root with Re ω > 0."""
+    disc = complex(-(tau * mu) ** 2 + 4 * mu) ** 0.5
+    roots = ((-1j * tau * mu + disc) / 2, (-1j * tau * mu - disc) / 2)
+    return max(roots, key=lambda w: w.real)
+
+
+TAUS = (0.0, 1e-6, 2e-6)
+
+
+def part_fespectrum(quick: bool, out: Path) -> dict:
+    """P1 lumped CEA over the whole discrete spectrum for f = 0.3, 0.5, 0.7 and N = 36, 72,
+    132: fastest growth undamped and with Kelvin-Voigt τ (mapped eigenvalue by eigenvalue:
+    K → K(1 − iωτ) also in the nodal reactions), against the exact fastest growth over n."""
+    from studies.flutter_fe.cea import build_operators, complex_eigenvalue_analysis
+
+    Ns = (36, 72) if quick else (36, 72, 132)
+    fs = (0.3, 0.5, 0.7)
+    cache = out / "fespectrum.json"
+    runs = json.loads(cache.read_text()) if cache.exists() else {}
+    for N in Ns:
+        problem = None
+        for f in fs:
+            key = f"f={f} N={N}"
+            if key in runs:
+                continue
+            t0 = time.perf_counter()
+            problem = problem or _fe_problem(N, [])
+            ops = build_operators(problem, "lumped")
+            fmax = 1.3 * math.sqrt(_max_omega2(ops)) / (2 * math.pi)
+            res = complex_eigenvalue_analysis(problem, f, fmax, ops=ops)
+            ops.destroy()
+            runs[key] = {"wall_s": time.perf_counter() - t0, "fmax_hz": fmax,
+                         "modes": [[m.omega2_real, m.omega2_imag, m.wavenumber]
+                                   for m in res.modes]}
+            cache.write_text(json.dumps(runs))
+            print(f"{key}: {len(res.modes)} modes, {runs[key]['wall_s']:.1f} s", flush=True)
+    table: dict = {}
+    for f in fs:
+        ex = {}
+        for tau in TAUS:
+            diss = Dissipation(tau=tau)
+            best = 0.0
+            for n in (1, 2, 4, 7, 10, 15, 20, 30, 40, 50, 66):
+                br = exact_growing(n, f, fmax_hz=20000.0, diss=diss)
+                best = max(best, max((b["growth_rate"] for b in br), default=0.0))
+            ex[tau] = best
+        for N in Ns:
+            modes = runs[f"f={f} N={N}"]["modes"]
+            row = {}
+            for tau in TAUS:
+                g, kk = -math.inf, 0
+                for re, im, k in modes:
+                    for mu in (complex(re, im), complex(re, -im)):
+                        w = _kv_map(mu, tau) if tau else complex(mu) ** 0.5
+                        gr = abs(w.imag) if not tau else w.imag
+                        if gr > g:
+                            g, kk = gr, k
+                row[str(tau)] = [g, kk]
+            table[f"f={f} N={N}"] = row
+        table[f"f={f} exact"] = {str(t): ex[t] for t in TAUS}
+    print("\nFastest growth over the whole spectrum (1/s) @ k: P1 lumped FE vs exact sup over n "
+          "(n = 1..66, ≤ 20 kHz); Kelvin-Voigt τ applied to both")
+    print("| f | τ (s) | " + " | ".join(f"FE N = {N}" for N in Ns) + " | exact sup |")
+    print("|---|---|" + "---|" * (len(Ns) + 1))
+    for f in fs:
+        for tau in TAUS:
+            cells = [f"{table[f'f={f} N={N}'][str(tau)][0]:.0f} @ k = "
+                     f"{table[f'f={f} N={N}'][str(tau)][1]}" for N in Ns]
+            print(f"| {f} | {tau:g} | " + " | ".join(cells)
+                  + f" | {table[f'f={f} exact'][str(tau)]:.0f} |")
+    return table
+
+
 def part_dissipation(quick: bool) -> dict:
     ns = (1, 4, 8, 16, 32, 64) if quick else (1, 4, 8, 16, 32, 64, 100, 200)
     cases = {
@@ -296,7 +373,7 @@ def part_dissipation(quick: bool) -> dict:
         for name, diss in cases.items():
             cells = []
             for n in ns:
-                br = exact_growing(n, f, fmax_hz=0.0, speed_factor=1.5, diss=diss)
+                br = exact_growing(n, f, fmax_hz=3000.0, speed_factor=1.5, diss=diss)
                 best = max(br, key=lambda b: b["growth_rate"])
                 res.setdefault(str(f), {}).setdefault(name, []).append({"n": n, "best": best})
                 cells.append(f"{best['growth_rate']:.0f} @ {best['frequency_hz']:.0f}")
@@ -307,7 +384,8 @@ def part_dissipation(quick: bool) -> dict:
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("parts", nargs="+",
-                   choices=("halfspace", "annulus", "fe", "meshscale", "dissipation"))
+                   choices=("halfspace", "annulus", "fe", "meshscale", "fespectrum",
+                            "dissipation"))
     p.add_argument("--out", default="/tmp/continuum_vs_fe")
     p.add_argument("--quick", action="store_true", help="fewer n / N (a smoke run)")
     p.add_argument("--f", type=float, default=0.7, help="friction of the meshscale part")
@@ -325,6 +403,8 @@ def main(argv: list[str] | None = None) -> int:
             data = part_fe(args.quick, out)
         elif part == "meshscale":
             data = part_meshscale(args.quick, out, args.f)
+        elif part == "fespectrum":
+            data = part_fespectrum(args.quick, out)
         else:
             data = part_dissipation(args.quick)
         name = part if part != "meshscale" else f"meshscale_f{args.f}_table"
