@@ -170,8 +170,8 @@ def collocation_roots(
         Id, Zm = np.eye(m), np.zeros((m, m))
         big_a = np.block([[Zm, Id], [A0, A1]])
         big_b = np.block([[Id, Zm], [Zm, -A2]])
-        w = sla.eigvals(big_a, big_b) * w0
-        w = w[np.isfinite(w)]
+        w = sla.eigvals(big_a, big_b)
+        w = w[np.isfinite(w)] * w0  # the Dirichlet-free B is singular: infinite ones
     keep = (np.abs(w.real) <= omega_max) & (w.imag >= -omega_max) & (np.abs(w) > 1e-6)
     if n == 0:
         keep &= w.real >= 0  # ±ω are the same axisymmetric motion
