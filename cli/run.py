@@ -71,8 +71,6 @@ def _run(args: argparse.Namespace) -> int:
     except KeyboardInterrupt:  # a signal during the final save, honoured after it
         return EXIT_CODES["interrupted"]
     status = comm.bcast(summary.get("status") if comm.rank == 0 else None, root=0)
-    if status == "failed" and comm.rank == 0:
-        print(f"error: {summary.get('message', 'the run failed')}", file=sys.stderr)
     if args.plot and comm.rank == 0 and status in ("completed", "interrupted", "stopped"):
         from postprocess.plotting import plot_run
 

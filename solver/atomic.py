@@ -50,8 +50,9 @@ def atomic_write_text(path: str | Path, text: str) -> Path:
     return atomic_write(path, lambda fh: fh.write(data))
 
 
-def atomic_save_npz(path: str | Path, arrays: dict[str, Any]) -> Path:
-    """``numpy.savez_compressed`` of ``arrays`` to ``path`` atomically."""
+def atomic_save_npz(path: str | Path, arrays: dict[str, Any], compress: bool = True) -> Path:
+    """``numpy.savez_compressed`` (or ``savez``) of ``arrays`` to ``path`` atomically."""
     import numpy as np
 
-    return atomic_write(path, lambda fh: np.savez_compressed(fh, **arrays))
+    save = np.savez_compressed if compress else np.savez
+    return atomic_write(path, lambda fh: save(fh, **arrays))

@@ -411,25 +411,33 @@ def _save(sim: Simulation | None, rd: RunDir, scene: Scene, status: str, error: 
           prof: Profile, t0: float, comm: MPI.Comm, keep_previous: bool) -> dict:
     """Collect (collective) and write (rank 0) samples, final field and summary.
 
+    Order: samples.npz and final_field.npz, then summary.json with the status (no analysis
+    yet), the swap into place, then summary.json again with the wave analysis. A process
+    killed after the first summary (mpirun sends SIGKILL ~0.3 s after SIGTERM) leaves a
+    truthful, loadable run. ``interrupted`` runs save uncompressed (faster) samples.
     ``keep_previous``: the run has nothing worth keeping (no samples, or failed); an earlier
     run being replaced stays as it was. A write error makes the run ``failed`` with it.
     """
     rank0 = comm.rank == 0
     work = rd.work
     with prof.phase("output"):
-        summary = summarise(sim) if (sim is not None and rank0) else {}
         probe_arrays = sim.probes.arrays() if sim is not None else None
         field = sim.final_field() if sim is not None else None
         if sim is not None and sim.writer is not None:
             sim.writer.close()
         if not rank0:
-            return summary
-        if sim is None:
-            summary = {"scene": scene.name, "status": status}
-        summary["wall_time_s"] = time.perf_counter() - t0
-        if error:
-            summary["message"] = error
-        summary["peak_rss_mb"] = peak_rss_mb()
+            return {}
+        summary = sim.facts() if sim is not None else {"scene": scene.name, "status": status}
+
+        def finish(s: dict) -> dict:
+            s["wall_time_s"] = time.perf_counter() - t0
+            if error:
+                s["message"] = error
+            s["peak_rss_mb"] = peak_rss_mb()
+            s["profile_s"] = {k: round(v, 4) for k, v in prof.seconds.items()}
+            return s
+
+        finish(summary)
         if keep_previous and rd.replacing:
             discard_run_dir(rd)
             summary["message"] = (summary.get("message", status) + f"; the earlier run in "
@@ -439,21 +447,24 @@ def _save(sim: Simulation | None, rd: RunDir, scene: Scene, status: str, error: 
             if sim is not None:
                 arrays = sim.recorder.arrays()
                 arrays.update(probe_arrays or {})
-                atomic_save_npz(work / "samples.npz", arrays)
+                atomic_save_npz(work / "samples.npz", arrays,
+                                compress=status != "interrupted")
                 if field is not None:
                     atomic_save_npz(work / "final_field.npz", field)
-            summary["profile_s"] = {k: round(v, 4) for k, v in prof.seconds.items()}
             atomic_write_text(work / "summary.json", json.dumps(summary, indent=2))
             commit_run_dir(rd)
+            if sim is not None:
+                summary = finish(summarise(sim))
+                atomic_write_text(rd.final / "summary.json", json.dumps(summary, indent=2))
         except OSError as err:
             summary["status"] = "failed"
             summary["message"] = f"could not write the run's files: {err}"
-            if rd.replacing:
+            if rd.replacing and rd.work.exists():
                 discard_run_dir(rd)
                 summary["message"] += f"; the earlier run in {rd.final} is kept unchanged"
             else:
                 try:  # small: may still fit where samples.npz did not
-                    atomic_write_text(work / "summary.json", json.dumps(summary, indent=2))
+                    atomic_write_text(rd.final / "summary.json", json.dumps(summary, indent=2))
                 except OSError:
                     pass
     return summary
@@ -492,7 +503,7 @@ def _print_summary(s: dict, run_dir: Path, stream, profile: bool) -> None:
             f"slip {fr['slip']:.3f}; amplitude {s['amplitude_m']:.3g} m; "
             f"limit cycle: {s['limit_cycle']}",
         ]
-    lines.append(f"steps {s.get('steps')}, wall {s.get('wall_time_s', 0):.2f} s, "
+    lines.append(f"steps {s.get('steps', 0)}, wall {s.get('wall_time_s', 0):.2f} s, "
                  f"peak RSS {s.get('peak_rss_mb', 0):.0f} MB -> {run_dir}")
     if profile:
         lines.append("profile: " + ", ".join(f"{k} {v:.3f} s" for k, v in s["profile_s"].items()))
