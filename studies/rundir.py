@@ -196,6 +196,11 @@ class RunSignals:
       (:meth:`solver.run.Simulation._stop_now`) and the run is saved as ``interrupted``;
     * ``defer`` (final save): remembered, honoured once the files are written.
 
+    Under mpirun (``rescue`` given, rank 0 of a multi-rank run) the first signal also forks a
+    rescue writer, in a session of its own, that saves what rank 0 holds (the inner-circle
+    samples, the status) at once: Open MPI 5 sends SIGKILL 0.25 s after SIGTERM, often before
+    the collective save is done. The normal save waits for it and then writes the full run.
+
     A watcher thread reads the signal numbers from ``signal.set_wakeup_fd``: if the Python
     handler has not run ``grace`` seconds after a signal (the main thread is stuck in compiled
     code: gmsh meshing a huge mesh, an MPI call waiting for a dead rank), it calls
@@ -205,8 +210,9 @@ class RunSignals:
 
     SIGNALS = (signal.SIGINT, signal.SIGTERM)
 
-    def __init__(self, on_hard_stop, grace: float = 2.0) -> None:  # noqa: ANN001
-        self.on_hard_stop, self.grace = on_hard_stop, grace
+    def __init__(self, on_hard_stop, grace: float = 2.0, rescue=None) -> None:  # noqa: ANN001
+        self.on_hard_stop, self.grace, self.rescue = on_hard_stop, grace, rescue
+        self.rescue_pid = 0
         self.mode = "raise"
         self.sim = None
         self.requested = 0
@@ -243,10 +249,21 @@ class RunSignals:
     def _handler(self, signum: int, frame) -> None:  # noqa: ANN001, ARG002
         self.handled += 1
         self.requested = self.requested or signum
+        if self.rescue is not None and not self.rescue_pid and self.mode != "done":
+            self.rescue_pid = _fork(self.rescue)
         if self.mode == "flag" and self.sim is not None:
             self.sim.stop_requested = True
         elif self.mode == "raise":
             raise KeyboardInterrupt
+
+    def wait_rescue(self) -> None:
+        """Wait for the rescue writer (if any) before touching the run's files."""
+        if self.rescue_pid > 0:
+            try:
+                os.waitpid(self.rescue_pid, 0)
+            except ChildProcessError:
+                pass
+            self.rescue_pid = -1
 
     def _watch(self, fd: int) -> None:
         while True:
@@ -265,9 +282,35 @@ class RunSignals:
                 signum = data[-1]
                 with self.lock:
                     try:
-                        self.on_hard_stop(signum)
+                        if self.rescue_pid:
+                            self.wait_rescue()  # it saved what there was
+                        else:
+                            self.on_hard_stop(signum)
                     finally:
                         os._exit(128 + signum)
+
+
+def _fork(fn) -> int:  # noqa: ANN001
+    """Run ``fn()`` in a forked child of its own session (out of reach of mpirun's kill)."""
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DeprecationWarning)  # fork with threads: child uses none
+        try:
+            pid = os.fork()
+        except OSError:
+            return 0
+    if pid:
+        return pid
+    code = 1
+    try:
+        os.setsid()
+        for sig in RunSignals.SIGNALS:
+            signal.signal(sig, signal.SIG_IGN)
+        fn()
+        code = 0
+    finally:
+        os._exit(code)
 
 
 def run_scene(scene: Scene, run_dir: Path, *, force: bool = False,
@@ -337,6 +380,25 @@ def run_scene(scene: Scene, run_dir: Path, *, force: bool = False,
         if rank0:
             mark("interrupted", msg)
 
+    state: dict = {"sim": None, "status": None, "error": None}
+
+    def rescue() -> None:
+        """The forked rescue writer (rank 0 under mpirun): save what rank 0 holds, now."""
+        sim_ = state["sim"]
+        status_ = state["status"] or "interrupted"
+        msg = state["error"] or f"interrupted during {phase[0]}"
+        out = sim_.facts() if sim_ is not None else dict(started)
+        out.pop("pid", None)
+        out.update(status=status_, message=msg + " (saved by the rescue writer: no probes, "
+                   "no final field)", wall_time_s=time.perf_counter() - t0)
+        if sim_ is None and rd.replacing:
+            discard_run_dir(rd)
+            return
+        if sim_ is not None:
+            atomic_save_npz(rd.work / "samples.npz", sim_.recorder.arrays(), compress=False)
+        atomic_write_text(rd.work / "summary.json", json.dumps(out, indent=2))
+        commit_run_dir(rd)
+
     if rank0:
         try:
             write_scene(scene, work / "scene.toml")
@@ -348,7 +410,7 @@ def run_scene(scene: Scene, run_dir: Path, *, force: bool = False,
     sim = None
     error = None
     status = "failed"
-    with RunSignals(hard_stop) as signals:
+    with RunSignals(hard_stop, rescue=rescue if rank0 and comm.size > 1 else None) as signals:
         try:
             say(f"stickslip {__version__}: scene '{scene.name}' on {comm.size} rank(s)")
             if est is not None:
@@ -360,6 +422,7 @@ def run_scene(scene: Scene, run_dir: Path, *, force: bool = False,
                 f"dt = {sim.dt:.4g} s ({sim.dt / sim.dt_crit:.2f} dt_crit), "
                 f"{sim.planned_steps()} steps to t = {scene.time.end_time} s")
             phase[0] = "the time loop"
+            state["sim"] = sim
             signals.sim, signals.mode = sim, "flag"
             if signals.requested:  # a signal between the last check and now
                 sim.stop_requested = True
@@ -387,12 +450,13 @@ def run_scene(scene: Scene, run_dir: Path, *, force: bool = False,
                 mark("failed", f"rank {comm.rank}: {error}")
                 comm.Abort(EXIT_CODES["failed"])
         finally:
+            state["status"], state["error"] = status, error
             if signals.mode != "done":
                 signals.mode = "defer"
                 phase[0] = "the final save"
         if sim is not None:
             sim.status = status
-        summary = _save(sim, rd, scene, status, error, prof, t0, comm,
+        summary = _save(sim, rd, scene, status, error, prof, t0, comm, signals,
                         keep_previous=(status == "failed" or sim is None)
                         and not replace_on_failure)
         signals.mode = "done"
@@ -408,7 +472,8 @@ def run_scene(scene: Scene, run_dir: Path, *, force: bool = False,
 
 
 def _save(sim: Simulation | None, rd: RunDir, scene: Scene, status: str, error: str | None,
-          prof: Profile, t0: float, comm: MPI.Comm, keep_previous: bool) -> dict:
+          prof: Profile, t0: float, comm: MPI.Comm, signals: RunSignals,
+          keep_previous: bool) -> dict:
     """Collect (collective) and write (rank 0) samples, final field and summary.
 
     Order: samples.npz and final_field.npz, then summary.json with the status (no analysis
@@ -427,6 +492,9 @@ def _save(sim: Simulation | None, rd: RunDir, scene: Scene, status: str, error: 
             sim.writer.close()
         if not rank0:
             return {}
+        signals.wait_rescue()
+        if rd.replacing and not rd.work.exists():  # the rescue writer swapped it in
+            rd.work = rd.final
         summary = sim.facts() if sim is not None else {"scene": scene.name, "status": status}
 
         def finish(s: dict) -> dict:
