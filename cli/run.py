@@ -91,9 +91,11 @@ def _plot(args: argparse.Namespace) -> int:
         for path in plot_sweep(run_dir):
             print(f"figure: {path}")
         return 0
-    if not (run_dir / "samples.npz").exists():
-        print(f"error: {run_dir} has no samples.npz (not a finished run directory)",
-              file=sys.stderr)
+    from cli.checks import samples_problem
+
+    problem = samples_problem(run_dir)
+    if problem:
+        print(f"error: {problem}", file=sys.stderr)
         return 2
     for path in plot_run(run_dir):
         print(f"figure: {path}")

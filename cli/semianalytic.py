@@ -119,6 +119,13 @@ def wave_command(args: argparse.Namespace) -> int:
     except InputError as err:
         print(f"error: {err}", file=sys.stderr)
         return 2
+    if args.plot:
+        from cli.checks import output_file_problem
+
+        problem = output_file_problem(args.plot, "--plot")
+        if problem:
+            print(f"error: {problem}", file=sys.stderr)
+            return 2
     from semianalytic.coefficients import coefficients, gamma_from_physical
     from semianalytic.waves import find_waves
 

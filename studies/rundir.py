@@ -137,7 +137,8 @@ def _refusal(path: Path, force: bool) -> str | None:
     parent = path.parent
     while not parent.exists() and parent != parent.parent:
         parent = parent.parent
-    if not parent.is_dir() or not os.access(parent, os.W_OK | os.X_OK):
+    if not parent.is_dir() or not os.access(parent, os.W_OK | os.X_OK) \
+            or str(parent.resolve()).startswith(("/proc", "/sys")):
         return f"cannot create {path}: {parent} is not a writable directory; {fix}"
     return None
 
@@ -339,18 +340,19 @@ def run_scene(scene: Scene, run_dir: Path, *, force: bool = False,
             print(msg, file=stream, flush=True)
 
     est = None
-    if check_resources:
-        err = None
-        if rank0:
+    err, kind = None, None
+    if rank0:  # before anything is created: the place, then the resources
+        err, kind = _refusal(Path(run_dir), force), "dir"
+        if err is None and check_resources:
             try:
                 est = _check(scene, run_dir, comm.size)
             except ValueError as e:
-                err = str(e)
-        err = comm.bcast(err, root=0)
-        if err:
-            from studies.resources import ResourceError
+                err, kind = str(e), "resources"
+    err, kind = comm.bcast((err, kind), root=0)
+    if err:
+        from studies.resources import ResourceError
 
-            raise ResourceError(err)
+        raise (RunDirError if kind == "dir" else ResourceError)(err)
     rd = prepare_run_dir(run_dir, force, comm)
     work = rd.work
     t0 = time.perf_counter()
