@@ -26,7 +26,7 @@ from solver.atomic import atomic_save_npz, atomic_write_text
 from solver.errors import Diverged, StepTooLarge
 from solver.run import Profile, Simulation
 from solver.scene import Scene, write_scene
-from studies.output import output_root  # noqa: F401  (re-exported)
+from studies.output import output_root, process_alive  # noqa: F401  (re-exported)
 
 
 def summarise(sim: Simulation) -> dict:
@@ -66,20 +66,6 @@ def is_run_dir(path: Path) -> bool:
     except (OSError, ValueError):
         return False
     return isinstance(s, dict) and "scene" in s and "status" in s
-
-
-def process_alive(summary: dict) -> bool | None:
-    """Is the process that wrote a ``running`` summary alive? None: cannot tell (other host)."""
-    pid, host = summary.get("pid"), summary.get("host")
-    if not isinstance(pid, int) or host != socket.gethostname():
-        return None
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:  # alive, owned by another user
-        return True
-    return True
 
 
 @dataclass
@@ -443,7 +429,7 @@ def run_scene(scene: Scene, run_dir: Path, *, force: bool = False,
         except Diverged as err:
             status, error = "diverged", str(err)
         except StepTooLarge as err:  # same on every rank (omega_max is reduced): collective
-            status, error = "failed", str(err)
+            status, error = "failed", f"{type(err).__name__}: {err}"
         except Exception as err:  # noqa: BLE001 - recorded; under MPI every rank must end
             status, error = "failed", f"{type(err).__name__}: {err}"
             if comm.size > 1:
@@ -556,6 +542,13 @@ def scene_warnings(scene: Scene) -> list[str]:
             f"initial.mode = {ini.mode} has only {n / ini.mode:.1f} contact nodes per "
             f"wavelength on mesh.n_inner = {n}; the wave will be poorly resolved "
             f"(use mesh.n_inner >= {8 * ini.mode})"
+        )
+    out_ = scene.output
+    if out_.sample_interval > scene.time.end_time:
+        out.append(
+            f"output.sample_interval = {out_.sample_interval} s is longer than time.end_time "
+            f"= {scene.time.end_time} s: at most one sample, nothing to analyse (use "
+            "output.sample_interval <= time.end_time / 100)"
         )
     return out
 
