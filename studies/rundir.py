@@ -79,6 +79,7 @@ class RunDir:
 
     final: Path
     work: Path
+    created: bool = False
 
     @property
     def replacing(self) -> bool:
@@ -136,7 +137,7 @@ def prepare_run_dir(path: Path, force: bool, comm: MPI.Comm) -> RunDir:
     that is not a run directory even with ``force``, a file, an unwritable place.
     """
     path = Path(path)
-    result: tuple[str | None, str | None] = (None, None)
+    result: tuple = (None, None, False)
     if comm.rank == 0:
         try:
             _recover(path)
@@ -145,18 +146,21 @@ def prepare_run_dir(path: Path, force: bool, comm: MPI.Comm) -> RunDir:
                 if path.is_dir() and any(path.iterdir()):
                     work = path.parent / f".{path.name}.new.{os.getpid()}"
                     work.mkdir()
+                    created = True
                 else:
                     work = path
+                    created = not path.exists()
                     path.mkdir(parents=True, exist_ok=True)
-                result = (None, str(work))
+                result = (None, str(work), created)
             else:
-                result = (error, None)
+                result = (error, None, False)
         except OSError as err:
-            result = (f"cannot create {path}: {err.strerror or err}; choose another -o", None)
-    error, work = comm.bcast(result, root=0)
+            result = (f"cannot create {path}: {err.strerror or err}; choose another -o", None,
+                      False)
+    error, work, created = comm.bcast(result, root=0)
     if error:
         raise RunDirError(error)
-    return RunDir(final=path, work=Path(work))
+    return RunDir(final=path, work=Path(work), created=bool(created))
 
 
 def commit_run_dir(rd: RunDir) -> None:
@@ -387,19 +391,32 @@ def run_scene(scene: Scene, run_dir: Path, *, force: bool = False,
         atomic_write_text(rd.work / "summary.json", json.dumps(out, indent=2))
         commit_run_dir(rd)
 
-    if rank0:
-        try:
-            write_scene(scene, work / "scene.toml")
-            atomic_write_text(work / "summary.json", json.dumps(started, indent=2))
-        except OSError as err:
-            discard_run_dir(rd)
-            raise RunDirError(f"cannot write in {run_dir}: {err.strerror or err}; "
-                              "choose another -o") from None
     sim = None
     error = None
     status = "failed"
+    def first_files() -> None:
+        """scene.toml and the ``running`` summary; a write error leaves nothing half-made."""
+        problem = None
+        if rank0:
+            try:
+                write_scene(scene, work / "scene.toml")
+                atomic_write_text(work / "summary.json", json.dumps(started, indent=2))
+            except OSError as err:
+                problem = f"cannot write in {run_dir}: {err.strerror or err}; choose another -o"
+                if rd.replacing:
+                    discard_run_dir(rd)
+                else:  # our two files, and the folder if we made it
+                    for name in ("scene.toml", "summary.json"):
+                        (work / name).unlink(missing_ok=True)
+                    if rd.created:
+                        shutil.rmtree(work, ignore_errors=True)
+        problem = comm.bcast(problem, root=0)
+        if problem:
+            raise RunDirError(problem)
+
     with RunSignals(hard_stop, rescue=rescue if rank0 and comm.size > 1 else None) as signals:
         try:
+            first_files()
             say(f"stickslip {__version__}: scene '{scene.name}' on {comm.size} rank(s)")
             if est is not None:
                 say(f"  {est.line()}")
@@ -426,6 +443,9 @@ def run_scene(scene: Scene, run_dir: Path, *, force: bool = False,
             status = "interrupted"
             error = (f"interrupted by {signal.Signals(signals.requested).name} during "
                      f"{phase[0]}" if signals.requested else "interrupted")
+        except RunDirError:
+            signals.mode = "done"
+            raise
         except Diverged as err:
             status, error = "diverged", str(err)
         except StepTooLarge as err:  # same on every rank (omega_max is reduced): collective
@@ -509,9 +529,6 @@ def _save(sim: Simulation | None, rd: RunDir, scene: Scene, status: str, error: 
                     atomic_save_npz(work / "final_field.npz", field)
             atomic_write_text(work / "summary.json", json.dumps(summary, indent=2))
             commit_run_dir(rd)
-            if sim is not None:
-                summary = finish(summarise(sim))
-                atomic_write_text(rd.final / "summary.json", json.dumps(summary, indent=2))
         except OSError as err:
             summary["status"] = "failed"
             summary["message"] = f"could not write the run's files: {err}"
@@ -523,6 +540,15 @@ def _save(sim: Simulation | None, rd: RunDir, scene: Scene, status: str, error: 
                     atomic_write_text(rd.final / "summary.json", json.dumps(summary, indent=2))
                 except OSError:
                     pass
+            return summary
+        if sim is not None:  # the run is saved and true; the analysis is a bonus on top
+            analysed = finish(summarise(sim))
+            try:
+                atomic_write_text(rd.final / "summary.json", json.dumps(analysed, indent=2))
+                summary = analysed
+            except OSError as err:
+                summary["message"] = (f"{summary.get('message', '')}; " if summary.get(
+                    "message") else "") + f"could not add the wave analysis to summary.json: {err}"
     return summary
 
 
