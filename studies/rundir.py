@@ -306,7 +306,7 @@ def _fork(fn) -> int:  # noqa: ANN001
 
 def run_scene(scene: Scene, run_dir: Path, *, force: bool = False,
               comm: MPI.Comm = MPI.COMM_WORLD, profile: bool = False,
-              stream=sys.stdout, check_resources: bool = True,
+              stream=None, check_resources: bool = True,
               replace_on_failure: bool = False) -> dict:
     """Run ``scene`` into ``run_dir``: scene.toml, samples.npz, summary.json (rank 0).
 
@@ -324,6 +324,7 @@ def run_scene(scene: Scene, run_dir: Path, *, force: bool = False,
 
     prof = Profile()
     rank0 = comm.rank == 0
+    stream = sys.stdout if stream is None else stream
 
     def say(msg: str) -> None:
         if rank0:
