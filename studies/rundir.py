@@ -281,6 +281,14 @@ class RunSignals:
                         os._exit(128 + signum)
 
 
+def _signame(signum: int) -> str:
+    """SIGINT, SIGTERM, ...; "a signal on another rank" for 0 (this rank saw none)."""
+    try:
+        return signal.Signals(signum).name if signum else "a signal on another rank"
+    except ValueError:
+        return f"signal {signum}"
+
+
 def _fork(fn) -> int:  # noqa: ANN001
     """Run ``fn()`` in a forked child of its own session (out of reach of mpirun's kill)."""
     import warnings
@@ -367,7 +375,7 @@ def run_scene(scene: Scene, run_dir: Path, *, force: bool = False,
             pass
 
     def hard_stop(signum: int) -> None:
-        name = signal.Signals(signum).name
+        name = _signame(signum)
         msg = f"{name} while in {phase[0]} (busy in compiled code: stopped without saving)"
         print(f"stickslip: {msg}", file=sys.stderr, flush=True)
         if rank0:
@@ -436,14 +444,13 @@ def run_scene(scene: Scene, run_dir: Path, *, force: bool = False,
             status = {"signal": "interrupted", "max_wall_time": "stopped"}.get(reason,
                                                                               "completed")
             if reason == "signal":
-                error = f"interrupted by {signal.Signals(signals.requested).name}"
+                error = f"interrupted by {_signame(signals.requested)}"
             elif reason == "max_wall_time":
                 error = (f"stopped by time.max_wall_time = {scene.time.max_wall_time} s at "
                          f"t = {sim.integrator.time:.6g} s of {scene.time.end_time} s")
         except KeyboardInterrupt:
             status = "interrupted"
-            error = (f"interrupted by {signal.Signals(signals.requested).name} during "
-                     f"{phase[0]}" if signals.requested else "interrupted")
+            error = f"interrupted by {_signame(signals.requested)} during {phase[0]}"
         except RunDirError:
             signals.mode = "done"
             raise
@@ -474,8 +481,8 @@ def run_scene(scene: Scene, run_dir: Path, *, force: bool = False,
         summary["profile_s"] = {k: round(v, 4) for k, v in prof.seconds.items()}
         _print_summary(summary, run_dir, stream, profile)
     if comm.allreduce(deferred, op=MPI.MAX):
-        say(f"{signal.Signals(deferred).name if deferred else 'signal'} received while the "
-            "files were written: they are complete; stopping now")
+        say(f"{_signame(deferred)} received while the files were written: they are "
+            "complete; stopping now")
         raise KeyboardInterrupt
     return summary
 
