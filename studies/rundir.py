@@ -192,11 +192,14 @@ class RunSignals:
     samples, the status) at once: Open MPI 5 sends SIGKILL 0.25 s after SIGTERM, often before
     the collective save is done. The normal save waits for it and then writes the full run.
 
-    A watcher thread reads the signal numbers from ``signal.set_wakeup_fd``: if the Python
-    handler has not run ``grace`` seconds after a signal (the main thread is stuck in compiled
-    code: gmsh meshing a huge mesh, an MPI call waiting for a dead rank), it calls
-    ``on_hard_stop(signum)`` (mark the run, or drop the replacement) and ends the process with
-    128 + signum. Only in the main thread; elsewhere (a test's thread) nothing is installed.
+    Python runs signal handlers only between bytecodes, so a process inside one long compiled
+    call (gmsh meshing, SLEPc's eigensolver for omega_max: minutes on a big mesh, with the GIL
+    held) would ignore SIGTERM. A watchdog process (forked at entry) reads the signal numbers
+    from ``signal.set_wakeup_fd``, written by the C-level handler at once; if the Python
+    handler has not acknowledged a signal ``grace`` seconds later (in ``raise``/``flag``
+    mode), the watchdog calls ``on_hard_stop(signum)`` (mark the run ``interrupted``, or drop
+    the replacement) and ends the run with SIGKILL (exit status 137). Only in the main thread;
+    elsewhere (a test's thread) nothing is installed.
     """
 
     SIGNALS = (signal.SIGINT, signal.SIGTERM)
@@ -204,28 +207,48 @@ class RunSignals:
     def __init__(self, on_hard_stop, grace: float = 2.0, rescue=None) -> None:  # noqa: ANN001
         self.on_hard_stop, self.grace, self.rescue = on_hard_stop, grace, rescue
         self.rescue_pid = 0
-        self.mode = "raise"
+        self._mode = "raise"
         self.sim = None
         self.requested = 0
-        self.handled = 0
-        self.seen = 0
-        self.lock = threading.Lock()
         self.previous: dict = {}
         self.active = threading.current_thread() is threading.main_thread()
-        self.pipe: tuple[int, int] | None = None
+        self.watchdog = 0
+        self.sig_w = self.ack_w = -1
         self.old_wakeup = -1
+
+    @property
+    def mode(self) -> str:
+        return self._mode
+
+    @mode.setter
+    def mode(self, value: str) -> None:
+        self._mode = value
+        if value in ("defer", "done"):
+            self._tell(b"d")  # the watchdog stands down: the run saves or has saved
+
+    def _tell(self, byte: bytes) -> None:
+        if self.ack_w >= 0:
+            try:
+                os.write(self.ack_w, byte)
+            except OSError:
+                pass
 
     def __enter__(self) -> RunSignals:
         if not self.active:
             return self
+        sig_r, sig_w = os.pipe()
+        ack_r, ack_w = os.pipe()
+        os.set_blocking(sig_w, False)
+        os.set_blocking(ack_w, False)
+        parent = os.getpid()
+        pid = _fork(lambda: self._watch(sig_r, ack_r, parent), new_session=False,
+                    close=(sig_w, ack_w))
+        os.close(sig_r)
+        os.close(ack_r)
+        self.watchdog, self.sig_w, self.ack_w = pid, sig_w, ack_w
         for sig in self.SIGNALS:
             self.previous[sig] = signal.signal(sig, self._handler)
-        r, w = os.pipe()
-        os.set_blocking(w, False)
-        self.pipe = (r, w)
-        self.old_wakeup = signal.set_wakeup_fd(w, warn_on_full_buffer=False)
-        threading.Thread(target=self._watch, args=(r,), daemon=True,
-                         name="stickslip-signals").start()
+        self.old_wakeup = signal.set_wakeup_fd(sig_w, warn_on_full_buffer=False)
         return self
 
     def __exit__(self, *exc) -> None:  # noqa: ANN002
@@ -234,11 +257,17 @@ class RunSignals:
         signal.set_wakeup_fd(self.old_wakeup)
         for sig, handler in self.previous.items():
             signal.signal(sig, handler)
-        assert self.pipe is not None
-        os.close(self.pipe[1])  # the watcher reads EOF and ends
+        os.close(self.sig_w)
+        os.close(self.ack_w)
+        self.sig_w = self.ack_w = -1
+        if self.watchdog > 0:  # it reads EOF and ends
+            try:
+                os.waitpid(self.watchdog, 0)
+            except ChildProcessError:
+                pass
 
     def _handler(self, signum: int, frame) -> None:  # noqa: ANN001, ARG002
-        self.handled += 1
+        self._tell(b"a")
         self.requested = self.requested or signum
         if self.rescue is not None and not self.rescue_pid and self.mode != "done":
             self.rescue_pid = _fork(self.rescue)
@@ -256,29 +285,38 @@ class RunSignals:
                 pass
             self.rescue_pid = -1
 
-    def _watch(self, fd: int) -> None:
+    def _watch(self, sig_r: int, ack_r: int, parent: int) -> None:
+        """The watchdog process: signals in, acknowledgements in; hard stop if none comes."""
+        import select
+
+        received = acked = 0
+        since = None
+        last = 0
+        standing_down = False
         while True:
-            try:
-                data = os.read(fd, 64)
-            except OSError:
+            timeout = None
+            if since is not None and not standing_down:
+                timeout = max(0.0, since + self.grace - time.monotonic())
+            ready, _, _ = select.select([sig_r, ack_r], [], [], timeout)
+            if not ready:
+                self.on_hard_stop(last)
+                os.kill(parent, signal.SIGKILL)
                 return
-            if not data:
-                os.close(fd)
-                return
-            self.seen += len(data)
-            deadline = time.monotonic() + self.grace
-            while self.handled < self.seen and time.monotonic() < deadline:
-                time.sleep(0.05)
-            if self.handled < self.seen and self.mode != "done":
-                signum = data[-1]
-                with self.lock:
-                    try:
-                        if self.rescue_pid:
-                            self.wait_rescue()  # it saved what there was
-                        else:
-                            self.on_hard_stop(signum)
-                    finally:
-                        os._exit(128 + signum)
+            if sig_r in ready:
+                data = os.read(sig_r, 64)
+                if not data:
+                    return
+                received += len(data)
+                last = data[-1]
+                since = since or time.monotonic()
+            if ack_r in ready:
+                data = os.read(ack_r, 64)
+                if not data:
+                    return
+                acked += data.count(b"a")
+                standing_down = standing_down or b"d" in data
+            if acked >= received:
+                since = None
 
 
 def _signame(signum: int) -> str:
@@ -289,8 +327,9 @@ def _signame(signum: int) -> str:
         return f"signal {signum}"
 
 
-def _fork(fn) -> int:  # noqa: ANN001
-    """Run ``fn()`` in a forked child of its own session (out of reach of mpirun's kill)."""
+def _fork(fn, new_session: bool = True, close: tuple[int, ...] = ()) -> int:  # noqa: ANN001
+    """Run ``fn()`` in a forked child (by default in a session of its own, out of reach of
+    mpirun's kill, with SIGINT/SIGTERM ignored); returns its pid (0 if fork failed)."""
     import warnings
 
     with warnings.catch_warnings():
@@ -303,7 +342,11 @@ def _fork(fn) -> int:  # noqa: ANN001
         return pid
     code = 1
     try:
-        os.setsid()
+        signal.set_wakeup_fd(-1)
+        for fd in close:
+            os.close(fd)
+        if new_session:
+            os.setsid()
         for sig in RunSignals.SIGNALS:
             signal.signal(sig, signal.SIG_IGN)
         fn()
