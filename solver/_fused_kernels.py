@@ -1,0 +1,172 @@
+"""numba kernels of ``solver.fused`` (imported lazily: numba costs ~0.4 s to import).
+
+Module-level functions so that ``cache=True`` can store their machine code on disk.
+See ``solver.fused`` for the equations and the summation-order contract.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+
+SEPARATION, STICK, SLIP = 0, 1, 2
+
+jit = numba.njit(cache=True, nogil=True, fastmath=False, error_model="numpy")
+inline = numba.njit(inline="always", cache=True, fastmath=False, error_model="numpy")
+
+
+@inline
+def project(tr, tt, now_t, stiff, d, slide, f):
+    """Nodal law (solver.contact.project_contact), same operations: (r_r, r_t, status)."""
+    rr = d - tr
+    if rr < 0.0:  # np.maximum(rr, 0): NaN stays NaN (blow-ups must show)
+        rr = 0.0
+    rr = rr * stiff
+    inc = rr > 0.0
+    if f == 0.0:
+        return rr, 0.0, SLIP if inc else SEPARATION
+    rt = now_t + slide
+    rt = rt - tt
+    rt = rt * stiff
+    cone = rr * f
+    if abs(rt) > cone:
+        return rr, math.copysign(cone, rt), SLIP if inc else SEPARATION
+    return rr, rt, STICK if inc else SEPARATION
+
+
+@jit
+def single_step(indptr, indices, data, n_rows, u, u_next, v, vp, a, ku, nim,
+                c_v, c_w, c_p, b2_half, dt, kappa, inv_kappa,
+                cx, ph_re, ph_im, pc_re, pc_im, cmass, cinv,
+                d, slide, f, r_pol, r_xy, status, zprev, work):
+    # K u_n and a*_n = -M^{-1} K u_n (owned rows; columns may be ghosts)
+    for i in range(n_rows):
+        s = 0.0
+        for k in range(indptr[i], indptr[i + 1]):
+            s += data[k] * u[indices[k]]
+        ku[i] = s
+        a[i] = s * nim[i]
+    # forward-increment contact at the contact nodes (polar frame via e^{-i theta})
+    for j in range(cx.size):
+        ix = cx[j]
+        iy = ix + 1
+        ux = u[ix]
+        uy = u[iy]
+        now_r = ux * pc_re[j] - uy * pc_im[j]
+        now_t = ux * pc_im[j] + uy * pc_re[j]
+        tx = vp[ix] * dt + a[ix] * kappa
+        ty = vp[iy] * dt + a[iy] * kappa
+        tr = (tx * pc_re[j] - ty * pc_im[j]) + now_r
+        tt = (tx * pc_im[j] + ty * pc_re[j]) + now_t
+        rr, rt, st = project(tr, tt, now_t, cmass[j] * inv_kappa, d, slide, f)
+        r_pol[2 * j] = rr
+        r_pol[2 * j + 1] = rt
+        status[j] = st
+        rx = rr * ph_re[j] - rt * ph_im[j]
+        ry = rr * ph_im[j] + rt * ph_re[j]
+        r_xy[2 * j] = rx
+        r_xy[2 * j + 1] = ry
+        a[ix] = a[ix] + rx * cinv[j]
+        a[iy] = a[iy] + ry * cinv[j]
+    # Newmark: v_n, w, u_{n+1}, v~_{n+1}
+    for i in range(n_rows):
+        ai = a[i]
+        vi = ai * c_v + vp[i]
+        v[i] = vi
+        w = ai * c_w + vi
+        u_next[i] = w * dt + u[i]
+        vp[i] = w if b2_half else w + ai * c_p
+    # contact work with the centred increment u_{n+1} - u_{n-1} (EnergyAccumulator)
+    sc = 0.0
+    st_ = 0.0
+    srt = 0.0
+    for j in range(cx.size):
+        ix = cx[j]
+        dzx = u_next[ix] - zprev[2 * j]
+        dzy = u_next[ix + 1] - zprev[2 * j + 1]
+        zprev[2 * j] = u[ix]
+        zprev[2 * j + 1] = u[ix + 1]
+        sc += r_xy[2 * j] * dzx + r_xy[2 * j + 1] * dzy
+        rt = r_pol[2 * j + 1]
+        st_ += rt * (dzx * pc_im[j] + dzy * pc_re[j])
+        srt += rt
+    work[0] += 0.5 * sc
+    if f > 0.0:
+        wc = srt * slide
+        work[1] += wc
+        work[2] += wc - 0.5 * st_
+
+
+@jit
+def batched_step(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
+                 c_v, c_w, c_p, b2_half, dt, kappa, inv_kappa,
+                 cx, ph_re, ph_im, pc_re, pc_im, cmass, cinv,
+                 d, slide, f, r_r, r_t, r_x, r_y, status, zprev, work, acc):
+    """The same step on (n, B) arrays: column b is scene b (per-scene d, slide, f)."""
+    n_rows, nb = u.shape
+    for i in range(n_rows):
+        for b in range(nb):
+            ku[i, b] = 0.0
+        for k in range(indptr[i], indptr[i + 1]):
+            val = data[k]
+            col = indices[k]
+            for b in range(nb):
+                ku[i, b] += val * u[col, b]
+        for b in range(nb):
+            a[i, b] = ku[i, b] * nim[i]
+    for j in range(cx.size):
+        ix = cx[j]
+        iy = ix + 1
+        inv_m = cinv[j]
+        stiff = cmass[j] * inv_kappa
+        for b in range(nb):
+            ux = u[ix, b]
+            uy = u[iy, b]
+            now_r = ux * pc_re[j] - uy * pc_im[j]
+            now_t = ux * pc_im[j] + uy * pc_re[j]
+            tx = vp[ix, b] * dt + a[ix, b] * kappa
+            ty = vp[iy, b] * dt + a[iy, b] * kappa
+            tr = (tx * pc_re[j] - ty * pc_im[j]) + now_r
+            tt = (tx * pc_im[j] + ty * pc_re[j]) + now_t
+            rr, rt, st = project(tr, tt, now_t, stiff, d[b], slide[b], f[b])
+            r_r[j, b] = rr
+            r_t[j, b] = rt
+            status[j, b] = st
+            rx = rr * ph_re[j] - rt * ph_im[j]
+            ry = rr * ph_im[j] + rt * ph_re[j]
+            r_x[j, b] = rx
+            r_y[j, b] = ry
+            a[ix, b] = a[ix, b] + rx * inv_m
+            a[iy, b] = a[iy, b] + ry * inv_m
+    for i in range(n_rows):
+        for b in range(nb):
+            ai = a[i, b]
+            vi = ai * c_v + vp[i, b]
+            v[i, b] = vi
+            w = ai * c_w + vi
+            u_next[i, b] = w * dt + u[i, b]
+            vp[i, b] = w if b2_half else w + ai * c_p
+    # work sums: per scene, over the nodes in order (as single_step)
+    sc, st_, srt = acc[0], acc[1], acc[2]  # (3, B) scratch, no allocation per step
+    sc[:] = 0.0
+    st_[:] = 0.0
+    srt[:] = 0.0
+    for j in range(cx.size):
+        ix = cx[j]
+        for b in range(nb):
+            dzx = u_next[ix, b] - zprev[j, 0, b]
+            dzy = u_next[ix + 1, b] - zprev[j, 1, b]
+            zprev[j, 0, b] = u[ix, b]
+            zprev[j, 1, b] = u[ix + 1, b]
+            sc[b] += r_x[j, b] * dzx + r_y[j, b] * dzy
+            rt = r_t[j, b]
+            st_[b] += rt * (dzx * pc_im[j] + dzy * pc_re[j])
+            srt[b] += rt
+    for b in range(nb):
+        work[0, b] += 0.5 * sc[b]
+        if f[b] > 0.0:
+            wc = srt[b] * slide[b]
+            work[1, b] += wc
+            work[2, b] += wc - 0.5 * st_[b]
+
