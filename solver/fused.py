@@ -155,8 +155,20 @@ def local_csr(problem) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         if not np.all(ghosts[order[pos]] == cols[outside]):
             raise RuntimeError("K has a column that is neither owned nor a ghost dof")
         local[outside] = n_owned + order[pos]
-    return (np.ascontiguousarray(indptr, dtype=np.int32),
-            np.ascontiguousarray(local, dtype=np.int32),
+    indptr = np.asarray(indptr, dtype=np.int64)
+    lengths = np.diff(indptr)
+    paired = n_owned % 2 == 0 and np.array_equal(lengths[0::2], lengths[1::2])
+    if paired:
+        ln = lengths[0::2]
+        offs = np.arange(ln.sum()) - np.repeat(np.cumsum(ln) - ln, ln)
+        paired = np.array_equal(local[np.repeat(indptr[0:-1:2], ln) + offs],
+                                local[np.repeat(indptr[1::2], ln) + offs])
+    if not paired:
+        raise RuntimeError("the fused kernel needs the (x, y) rows of a node to share their "
+                           "column pattern (a blocked bs = 2 space); use time.kernel = numpy")
+    # unsigned indices: numba then skips its negative-index wrap-around test (2x faster K u)
+    return (np.ascontiguousarray(indptr, dtype=np.uint32),
+            np.ascontiguousarray(local, dtype=np.uint32),
             np.ascontiguousarray(data, dtype=np.float64), ghosts)
 
 
@@ -202,7 +214,7 @@ class FusedNewmark:
         self.nim = -problem.inv_mass
         self.work = np.zeros(3)
         p = projection
-        self.cx = np.ascontiguousarray(problem.nodes.dofs_x, dtype=np.int32)
+        self.cx = np.ascontiguousarray(problem.nodes.dofs_x, dtype=np.uint32)
         self.ph_re, self.ph_im = p.phase.real.copy(), p.phase.imag.copy()
         self.pc_re, self.pc_im = p.phase_conj.real.copy(), p.phase_conj.imag.copy()
         self.cmass = np.ascontiguousarray(p.mass)
@@ -234,8 +246,9 @@ class FusedNewmark:
         if a0 is not None:
             self.v_pred -= self.beta2 * self.dt * np.asarray(a0)
         self.a.fill(0.0)
-        self.zprev[0::2] = self.u[self.cx]
-        self.zprev[1::2] = self.u[self.cx + 1]
+        cx = self.cx.astype(np.intp)
+        self.zprev[0::2] = self.u[cx]
+        self.zprev[1::2] = self.u[cx + 1]
 
     def step(self) -> None:
         """u_n -> u_{n+1}: one ghost update (MPI) and one kernel call."""
