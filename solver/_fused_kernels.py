@@ -133,10 +133,17 @@ def single_step(indptr, indices, data, n_rows, u, u_next, v, vp, a, ku, nim,
 def batched_step(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
                  c_v, c_w, c_p, b2_half, dt, kappa, inv_kappa,
                  cx, ph_re, ph_im, pc_re, pc_im, cmass, cinv,
-                 d, slide, f, r_r, r_t, r_x, r_y, status, zprev, work, acc):
-    """The same step on (n, B) arrays: column b is scene b (per-scene d, slide, f)."""
+                 d, slide, f, r_r, r_t, r_x, r_y, status, zprev, work, acc, cslot):
+    """The same step on (n, B) arrays: column b is scene b (per-scene d, slide, f).
+
+    One pass over the nodes: the (x, y) rows of K u for all B scenes (one read of the row
+    for the whole batch), the contact projection if the node is a contact node
+    (``cslot`` >= 0), then the Newmark update of the node. Valid because a node's update
+    reads only u_n (never u_{n+1}) and its own v~_n, a_n.
+    """
     n_rows, nb = u.shape
     odd0, odd1 = acc[0], acc[1]  # odd-term partial sums of rows i, i + 1 (scratch)
+    # 2-D indexing only: a row view (u[col]) would cost a reference-count update per use
     for i in range(0, n_rows, 2):
         a0 = indptr[i]
         a1 = indptr[i + 1]
@@ -160,45 +167,46 @@ def batched_step(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
                     ub = u[col, b]
                     odd0[b] += d0 * ub
                     odd1[b] += d1 * ub
+        n0 = nim[i]
+        n1 = nim[i + 1]
         for b in range(nb):
             s0 = ku[i, b] + odd0[b]
             s1 = ku[i + 1, b] + odd1[b]
             ku[i, b] = s0
             ku[i + 1, b] = s1
-            a[i, b] = s0 * nim[i]
-            a[i + 1, b] = s1 * nim[i + 1]
-    for j in range(cx.size):
-        ix = cx[j]
-        iy = ix + 1
-        inv_m = cinv[j]
-        stiff = cmass[j] * inv_kappa
-        for b in range(nb):
-            ux = u[ix, b]
-            uy = u[iy, b]
-            now_r = ux * pc_re[j] - uy * pc_im[j]
-            now_t = ux * pc_im[j] + uy * pc_re[j]
-            tx = vp[ix, b] * dt + a[ix, b] * kappa
-            ty = vp[iy, b] * dt + a[iy, b] * kappa
-            tr = (tx * pc_re[j] - ty * pc_im[j]) + now_r
-            tt = (tx * pc_im[j] + ty * pc_re[j]) + now_t
-            rr, rt, st = project(tr, tt, now_t, stiff, d[b], slide[b], f[b])
-            r_r[j, b] = rr
-            r_t[j, b] = rt
-            status[j, b] = st
-            rx = rr * ph_re[j] - rt * ph_im[j]
-            ry = rr * ph_im[j] + rt * ph_re[j]
-            r_x[j, b] = rx
-            r_y[j, b] = ry
-            a[ix, b] = a[ix, b] + rx * inv_m
-            a[iy, b] = a[iy, b] + ry * inv_m
-    for i in range(n_rows):
-        for b in range(nb):
-            ai = a[i, b]
-            vi = ai * c_v + vp[i, b]
-            v[i, b] = vi
-            w = ai * c_w + vi
-            u_next[i, b] = w * dt + u[i, b]
-            vp[i, b] = w if b2_half else w + ai * c_p
+            a[i, b] = s0 * n0
+            a[i + 1, b] = s1 * n1
+        j = cslot[i // 2]
+        if j >= 0:
+            inv_m = cinv[j]
+            stiff = cmass[j] * inv_kappa
+            for b in range(nb):
+                ux = u[i, b]
+                uy = u[i + 1, b]
+                now_r = ux * pc_re[j] - uy * pc_im[j]
+                now_t = ux * pc_im[j] + uy * pc_re[j]
+                tx = vp[i, b] * dt + a[i, b] * kappa
+                ty = vp[i + 1, b] * dt + a[i + 1, b] * kappa
+                tr = (tx * pc_re[j] - ty * pc_im[j]) + now_r
+                tt = (tx * pc_im[j] + ty * pc_re[j]) + now_t
+                rr, rt, st = project(tr, tt, now_t, stiff, d[b], slide[b], f[b])
+                r_r[j, b] = rr
+                r_t[j, b] = rt
+                status[j, b] = st
+                rx = rr * ph_re[j] - rt * ph_im[j]
+                ry = rr * ph_im[j] + rt * ph_re[j]
+                r_x[j, b] = rx
+                r_y[j, b] = ry
+                a[i, b] = a[i, b] + rx * inv_m
+                a[i + 1, b] = a[i + 1, b] + ry * inv_m
+        for r in range(i, i + 2):
+            for b in range(nb):
+                ai = a[r, b]
+                vi = ai * c_v + vp[r, b]
+                v[r, b] = vi
+                w = ai * c_w + vi
+                u_next[r, b] = w * dt + u[r, b]
+                vp[r, b] = w if b2_half else w + ai * c_p
     # work sums: per scene, over the nodes in order (as single_step)
     sc, st_, srt = acc[0], acc[1], acc[2]  # (3, B) scratch, no allocation per step
     sc[:] = 0.0

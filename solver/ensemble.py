@@ -142,6 +142,9 @@ class BatchedExplicit:
         self.step_count = 0
         self.compile_s = 0.0
         self.active = np.ones(B, dtype=bool)
+        slot = -np.ones(n // 2, dtype=np.int64)
+        slot[bp.cx // 2] = np.arange(m)
+        self.cslot = dev(slot)  # contact index of each node, -1 off the contact circle
         if kernel == "numba":
             from solver.fused import kernel as get_kernel
 
@@ -195,7 +198,7 @@ class BatchedExplicit:
                     (0.5 - b2) * dt, b2 == 0.5, dt, self.kappa, 1.0 / self.kappa, self.cx,
                     self.ph_re, self.ph_im, self.pc_re, self.pc_im, self.cmass, self.cinv,
                     self.d, self.slide, self.f, self.r_r, self.r_t, self.r_x, self.r_y,
-                    self.status, self.zprev, self.work, self.acc)
+                    self.status, self.zprev, self.work, self.acc, self.cslot)
             if self.step_count == 0:
                 timed_first_call("batched_step", self._fn, *args)
                 from solver.fused import COMPILE_SECONDS
@@ -275,9 +278,7 @@ class BatchedExplicit:
         self._module = cupy.RawModule(code=CUDA_SOURCE, options=("--fmad=false",))
         self._kern = self._module.get_function("fused_step")
         nodes = self.n // 2
-        slot = -np.ones(nodes, dtype=np.int32)
-        slot[self.bp.cx // 2] = np.arange(self.m, dtype=np.int32)
-        self.cslot = cupy.asarray(slot)
+        self.cslot = self.cslot.astype(np.int32)
         self.work = cupy.zeros((3, self.m, self.B))  # per (node, scene): no atomics
         self._threads = 128
         self._blocks = (nodes * self.B + self._threads - 1) // self._threads
