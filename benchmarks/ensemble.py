@@ -181,9 +181,12 @@ def run_npz(path: Path, B: int, steps: int, backend: str, kernel: str, observe: 
         if xp is not np:
             xp.cuda.Device().synchronize()
 
+    if rec is not None:
+        integ.keep_nodes(bp.cx[:1] // 2)
+
     def advance(k: int) -> None:
         for _ in range(k):
-            integ.step()
+            integ.step(diag=rec is not None and rec.due(integ.step_count))
             if rec is not None:
                 rec.record_probes()
                 if rec.due(integ.step_count - 1):

@@ -187,7 +187,16 @@ class BatchedExplicit:
         return np.asarray(w.get() if hasattr(w, "get") else w)
 
     # -------------------------------------------------------------------------------- step
-    def step(self) -> None:
+    def keep_nodes(self, nodes: np.ndarray) -> None:
+        """Nodes whose v_n, a_n, K u_n are needed after every step (probes); see ``step``."""
+        keep = np.zeros(self.n // 2, dtype=np.int8)
+        keep[np.asarray(nodes, dtype=np.int64)] = 1
+        self.keep = self.xp.asarray(keep)
+
+    def step(self, diag: bool = True) -> None:
+        """One step. ``diag = False`` lets the CUDA kernel skip writing v_n, a_n and K u_n
+        (3 of its 7 array writes) except at the ``keep_nodes``: the state u, v~ is the same;
+        pass True before a step whose time level is sampled. The CPU kernels always write."""
         cur, nxt = self.cur, 1 - self.cur
         if self.kernel == "numba":
             from solver.fused import timed_first_call
@@ -207,7 +216,7 @@ class BatchedExplicit:
             else:
                 self._fn(*args)
         elif self.kernel == "cuda":
-            self._cuda_step(self._u[cur], self._u[nxt])
+            self._cuda_step(self._u[cur], self._u[nxt], diag)
         else:
             self._xp_step(self._u[cur], self._u[nxt])
         self.cur = nxt
@@ -279,11 +288,12 @@ class BatchedExplicit:
         self._kern = self._module.get_function("fused_step")
         nodes = self.n // 2
         self.cslot = self.cslot.astype(np.int32)
+        self.keep = cupy.zeros(nodes, dtype=np.int8)
         self.work = cupy.zeros((3, self.m, self.B))  # per (node, scene): no atomics
         self._threads = 128
         self._blocks = (nodes * self.B + self._threads - 1) // self._threads
 
-    def _cuda_step(self, u, u_next) -> None:  # pragma: no cover - GPU only
+    def _cuda_step(self, u, u_next, diag: bool) -> None:  # pragma: no cover - GPU only
         dt, b2 = self.dt, self.beta2
         f64 = np.float64
         self._kern((self._blocks,), (self._threads,), (
@@ -292,7 +302,8 @@ class BatchedExplicit:
             self.cmass, self.cinv, self.d, self.slide, self.f, self.r_r, self.r_t, self.r_x,
             self.r_y, self.status, self.zprev, self.work, f64(b2 * dt), f64(0.5 * dt),
             f64((0.5 - b2) * dt), np.int32(b2 == 0.5), f64(dt), f64(self.kappa),
-            f64(1.0 / self.kappa), np.int32(self.n // 2), np.int32(self.B), np.int32(self.m)))
+            f64(1.0 / self.kappa), np.int32(self.n // 2), np.int32(self.B), np.int32(self.m),
+            np.int32(diag), self.keep))
 
 
 CUDA_SOURCE = r"""
@@ -310,7 +321,7 @@ extern "C" __global__ void fused_step(
     double* zprev, double* work,
     const double c_v, const double c_w, const double c_p, const int b2_half,
     const double dt, const double kappa, const double inv_kappa,
-    const int n_nodes, const int B, const int m)
+    const int n_nodes, const int B, const int m, const int diag, const signed char* keep)
 {
     long long tid = (long long)blockIdx.x * blockDim.x + threadIdx.x;
     if (tid >= (long long)n_nodes * B) return;
@@ -336,8 +347,13 @@ extern "C" __global__ void fused_step(
     }
     const size_t ix = (size_t)i * B + b, iy = (size_t)(i + 1) * B + b;
     const double k0 = s0e + s0o, k1 = s1e + s1o;
-    ku[ix] = k0;
-    ku[iy] = k1;
+    // v_n, a_n, K u_n are read only by the observers: written on sample steps (diag) and at
+    // the probe nodes (keep); u_{n+1}, v~_{n+1} (the state) always
+    const bool write = diag || keep[p];
+    if (write) {
+        ku[ix] = k0;
+        ku[iy] = k1;
+    }
     double ax = k0 * nim[i], ay = k1 * nim[i + 1];
     const int j = cslot[p];
     const double ux = u[ix], uy = u[iy];
@@ -379,11 +395,13 @@ extern "C" __global__ void fused_step(
         ax = ax + rx * cinv[j];
         ay = ay + ry * cinv[j];
     }
-    a[ix] = ax;
-    a[iy] = ay;
     const double vx = ax * c_v + vp[ix], vy = ay * c_v + vp[iy];
-    v[ix] = vx;
-    v[iy] = vy;
+    if (write) {
+        a[ix] = ax;
+        a[iy] = ay;
+        v[ix] = vx;
+        v[iy] = vy;
+    }
     const double wx = ax * c_w + vx, wy = ay * c_w + vy;
     const double unx = wx * dt + ux, uny = wy * dt + uy;
     un[ix] = unx;

@@ -307,6 +307,7 @@ def _advance(spec, scenes, members, live, problem, base, dt, u0s, backend, logs,
         every=every, max_samples=n_steps // every + 2, max_steps=n_steps,
         probe_nodes=np.asarray(probes.index), probe_pc=probes.phase_conj,
         probe_deg=np.asarray(probes.angles), spool_dir=spool)
+    integ.keep_nodes(np.asarray(probes.index))
     views = []
     for b, k in enumerate(live):
         m = members[k]
@@ -333,7 +334,7 @@ def _advance(spec, scenes, members, live, problem, base, dt, u0s, backend, logs,
                     break
                 if not integ.active.any():
                     break
-                integ.step()
+                integ.step(diag=rec.due(integ.step_count))
                 rec.record_probes()
                 if rec.due(integ.step_count - 1):
                     kin, strain, wcyl = rec.sample()
