@@ -504,7 +504,8 @@ class BatchRecorder:
         self.scratch = xp.zeros((integ.n, B))
         self.perm = xp.asarray(np.asarray(perm, dtype=np.int64))
         self.theta, self.ds = theta, ds
-        self.probe_dofs = xp.asarray(2 * np.asarray(probe_nodes, dtype=np.int64))
+        pd = 2 * np.asarray(probe_nodes, dtype=np.int64)
+        self.probe_rows = xp.asarray(np.concatenate([pd, pd + 1]))  # x dofs, then y dofs
         self.probe_pc, self.probe_deg = probe_pc, probe_deg
         self.n = 0
         self.n_probe = 0
@@ -532,11 +533,9 @@ class BatchRecorder:
         it = self.integ
         self.probe_t[self.n_probe] = it.time - it.dt
         row = self.probes.row()
-        pd = self.probe_dofs
-        row[0] = it.u_prev[pd]
-        row[1] = it.u_prev[pd + 1]
-        row[2] = it.v[pd]
-        row[3] = it.v[pd + 1]
+        k = row.shape[1]
+        self.xp.take(it.u_prev, self.probe_rows, axis=0, out=row[:2].reshape(2 * k, -1))
+        self.xp.take(it.v, self.probe_rows, axis=0, out=row[2:].reshape(2 * k, -1))
         self.n_probe += 1
 
     def sample(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -557,16 +556,16 @@ class BatchRecorder:
         row[4] = it.r_r[self.perm]
         row[5] = it.r_t[self.perm]
         self.status.row()[...] = it.status[self.perm]
+        e = self.energies.row()  # kinetic, strain, the three works (on the device)
         xp.multiply(it.v, self.mass, out=self.scratch)
-        kin = 0.5 * xp.einsum("ib,ib->b", self.scratch, it.v)
-        strain = 0.5 * xp.einsum("ib,ib->b", it.u_prev, it.ku)
-        work = xp.asarray(it.work_totals())
-        e = self.energies.row()
-        e[0], e[1], e[2:] = kin, strain, work
+        e[0] = xp.einsum("ib,ib->b", self.scratch, it.v)
+        e[1] = xp.einsum("ib,ib->b", it.u_prev, it.ku)
+        e[:2] *= 0.5
+        e[2:] = it.work if it.work.ndim == 2 else it.work.sum(axis=1)
         self.t[self.n] = it.time - it.dt
         self.n += 1
-        host = lambda a: np.asarray(a.get() if hasattr(a, "get") else a)  # noqa: E731
-        return host(kin), host(strain), host(work[1])
+        host = e[:4].get() if hasattr(e, "get") else e[:4]  # one device -> host copy
+        return host[0], host[1], host[3]
 
     def check_health(self, kin: np.ndarray, strain: np.ndarray, w_cyl: np.ndarray,
                      time_now: float) -> dict[int, str]:

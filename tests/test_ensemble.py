@@ -50,7 +50,15 @@ def _spec(tmp_path):
 
 
 def _strip(summary: dict) -> dict:
-    return {k: v for k, v in summary.items() if k not in MACHINE_KEYS}
+    return {k: v for k, v in summary.items() if k not in MACHINE_KEYS | {"energy"}}
+
+
+def _close_energies(a: dict | None, b: dict | None) -> None:
+    """Kinetic and strain energies are sums over the dofs: BLAS ``dot`` alone, ``einsum``
+    in a batch, so equal to round-off (1e-12 relative), not necessarily bitwise."""
+    assert (a is None) == (b is None)
+    for key in a or {}:
+        assert abs(a[key] - b[key]) <= 1e-12 * max(abs(a[key]), 1e-300), key
 
 
 @pytest.fixture(scope="module")
@@ -74,8 +82,9 @@ def two_sweeps(tmp_path_factory):
 
 def test_every_summary_equals_the_single_scene_run(two_sweeps):
     """Bitwise: the batched kernel sums in the single-scene kernel's order, so the summaries
-    (regime, mode, celerity, fractions, amplitude, energies, steps, status, message) and the
-    recorded samples and probes are the same numbers, not only close ones."""
+    (regime, mode, celerity, fractions, amplitude, works, steps, status, message) and the
+    recorded samples and probes are the same numbers, not only close ones; the kinetic and
+    strain energies (diagnostics, not state) to round-off."""
     spec, out = two_sweeps
     statuses = {}
     for task in spec.tasks:
@@ -83,12 +92,17 @@ def test_every_summary_equals_the_single_scene_run(two_sweeps):
         batched = json.loads((out["3"] / "runs" / task.id / "summary.json").read_text())
         assert batched["batch"]["size"] in (2, 3)
         assert _strip(batched) == _strip(single), task.id
+        _close_energies(single.get("energy"), batched.get("energy"))
         statuses[task.id] = batched["status"]
         a = np.load(out["off"] / "runs" / task.id / "samples.npz")
         b = np.load(out["3"] / "runs" / task.id / "samples.npz")
         assert sorted(a.files) == sorted(b.files)
         for key in a.files:
-            np.testing.assert_array_equal(a[key], b[key], err_msg=f"{task.id}: {key}")
+            if key == "energies":  # kinetic, strain: round-off (above); works: bitwise
+                np.testing.assert_allclose(a[key], b[key], rtol=1e-12, atol=0)
+                np.testing.assert_array_equal(a[key][:, 2:], b[key][:, 2:])
+            else:
+                np.testing.assert_array_equal(a[key], b[key], err_msg=f"{task.id}: {key}")
         fa = np.load(out["off"] / "runs" / task.id / "final_field.npz")
         fb = np.load(out["3"] / "runs" / task.id / "final_field.npz")
         np.testing.assert_array_equal(fa["u"], fb["u"])
