@@ -4,8 +4,9 @@ CPU, side by side in one run (needs dolfinx; ~10 min on 2 busy cores)::
 
     ./dev python3 benchmarks/ensemble.py [--maps 132 528] [--ranks 1 2]
 
-runs the same regime map twice with ``stickslip sweep``, ``--batch off`` (today: one scene
-after the other on each rank) and ``--batch auto``, on 1 and 2 ranks: a 64-scene map at
+runs the same regime map three times with ``stickslip sweep``: today's sweep (``--batch
+off`` with ``time.kernel = "numpy"``, the reference step), the fused step alone (``--batch
+off``) and batched (``--batch auto``), on 1 and 2 ranks: a 64-scene map at
 N = 132 (8 Omega x 8 delta, 0.02 s each) and a 16-scene map at N = 528 (4 x 4, 0.004 s).
 It prints scene-steps per second end to end (the whole command: start-up, meshes, steady
 states, time loops, analysis, files) and of the time loops alone (from the summaries'
@@ -51,13 +52,14 @@ MAPS = {  # N: (omega values, delta values, end_time)
 # ------------------------------------------------------------------------------ CPU sweeps
 
 
-def _sweep_file(directory: Path, n: int) -> Path:
+def _sweep_file(directory: Path, n: int, kernel: str) -> Path:
     omegas, deltas, end = MAPS[n]
     text = (f'name = "bench_n{n}"\nbase = "{REPO / "scenes/figure3_n132.toml"}"\n'
-            f'set = ["mesh.n_inner = {n}", "time.end_time = {end}"]\n[grid]\n'
+            f'set = ["mesh.n_inner = {n}", "time.end_time = {end}", \'time.kernel = "{kernel}"\']\n'
+            '[grid]\n'
             f'"loading.omega" = {omegas}\n"geometry.delta" = {deltas}\n'
             '[map]\nsemianalytic = false\n')
-    path = directory / f"bench_n{n}.toml"
+    path = directory / f"bench_n{n}_{kernel}.toml"
     path.write_text(text)
     return path
 
@@ -87,26 +89,35 @@ def _run_sweep(sweep: Path, out: Path, ranks: int, batch: str) -> dict:
             "n": len(list((out / "runs").iterdir()))}
 
 
+#: The three ways to run a map: today's sweep (numpy step, one scene after the other), the
+#: fused step one scene after the other, and batches of the fused step.
+VARIANTS = (("today", "numpy", "off"), ("fused", "auto", "off"), ("batched", "auto", "auto"))
+
+
 def cpu_table(maps: list[int], ranks: list[int]) -> None:
     rows = []
     with tempfile.TemporaryDirectory(prefix="ensemble-bench-") as tmp:
         tmp_path = Path(tmp)
         for n in maps:
-            sweep = _sweep_file(tmp_path, n)
             for r in ranks:
                 res = {}
-                for batch in ("off", "auto"):
-                    res[batch] = _run_sweep(sweep, tmp_path / f"n{n}_r{r}_{batch}", r, batch)
-                    print(f"  N = {n}, {r} rank(s), --batch {batch}: {res[batch]}", flush=True)
-                rows.append((n, res["off"]["n"], r, res["off"], res["auto"]))
-    print("\nscene-steps per second (whole sweep command | time loops only, per core)")
-    print(f"{'N':>5} {'scenes':>6} {'ranks':>5} {'per-scene':>10} {'batched':>10} "
-          f"{'loop p-s':>10} {'loop bat':>10} {'target':>6} {'loop ratio':>10} {'ratio':>7}")
-    for n, ns, r, off, bat in rows:
-        e_off, e_bat = off["steps"] / off["wall"], bat["steps"] / bat["wall"]
-        l_off, l_bat = off["steps"] / off["loop"], bat["steps"] / bat["loop"]
-        print(f"{n:5d} {ns:6d} {r:5d} {e_off:10.0f} {e_bat:10.0f} {l_off:10.0f} {l_bat:10.0f} "
-              f"{8 if n < 528 else 2:6d} {l_bat / l_off:10.2f} {e_bat / e_off:7.2f}")
+                for name, kernel, batch in VARIANTS:
+                    sweep = _sweep_file(tmp_path, n, kernel)
+                    res[name] = _run_sweep(sweep, tmp_path / f"n{n}_r{r}_{name}", r, batch)
+                    print(f"  N = {n}, {r} rank(s), {name}: {res[name]}", flush=True)
+                rows.append((n, res["today"]["n"], r, res))
+    print("\nscene-steps per second: whole sweep command (e2e) and time loops only (loop, "
+          "per core); ratios batched / today")
+    print(f"{'N':>5} {'scenes':>6} {'ranks':>5} {'today e2e':>10} {'fused e2e':>10} "
+          f"{'batch e2e':>10} {'today loop':>10} {'fused loop':>10} {'batch loop':>10} "
+          f"{'target':>6} {'loop ratio':>10} {'ratio':>6}")
+    for n, ns, r, res in rows:
+        e = {k: v["steps"] / v["wall"] for k, v in res.items()}
+        lo = {k: v["steps"] / v["loop"] for k, v in res.items()}
+        print(f"{n:5d} {ns:6d} {r:5d} {e['today']:10.0f} {e['fused']:10.0f} {e['batched']:10.0f}"
+              f" {lo['today']:10.0f} {lo['fused']:10.0f} {lo['batched']:10.0f}"
+              f" {8 if n < 528 else 2:6d} {lo['batched'] / lo['today']:10.2f}"
+              f" {e['batched'] / e['today']:6.2f}")
 
 
 # ------------------------------------------------------------------------------ npz mode

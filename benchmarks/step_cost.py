@@ -7,8 +7,9 @@ integrator step with contact, and the full time loop (observers: energy work, pr
 samples), in microseconds per step and as a ratio to the bare loop. Targets (issue 15, fused
 step): loop/bare <= 1.3 at N = 132 and <= 1.1 at N >= 528. One process, one core.
 
-``--kernel numpy|numba|auto`` picks the step (``time.kernel``, solver/fused.py); the first
-step is taken before timing and its wall time (numba compile or on-disk cache load) printed.
+``--kernel numpy numba`` (one or more of numpy, numba, auto; ``time.kernel``, solver/fused.py)
+gives one row per kernel, side by side; the first step is taken before timing and its wall
+time (numba compile or on-disk cache load) printed.
 """
 
 from __future__ import annotations
@@ -70,12 +71,13 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--n", type=int, nargs="+", default=[132, 528])
     ap.add_argument("--steps", type=int, default=3000)
-    ap.add_argument("--kernel", choices=("auto", "numpy", "numba"), default="auto")
+    ap.add_argument("--kernel", choices=("auto", "numpy", "numba"), nargs="+",
+                    default=["auto"], help="one row per kernel and mesh, side by side")
     args = ap.parse_args()
     print(f"{'N':>5} {'dofs':>7} {'kernel':>6} {'1st call s':>10} {'bare us':>9} {'step us':>9} "
           f"{'loop us':>9} {'step/bare':>9} {'target':>7} {'loop/bare':>9}")
-    for n in args.n:
-        r = measure(n, args.steps, args.kernel)
+    for n, kernel in ((n, k) for n in args.n for k in args.kernel):
+        r = measure(n, args.steps, kernel)
         tgt = 1.3 if n < 528 else 1.1
         print(f"{n:5d} {r['dofs']:7d} {r['kernel']:>6} {r['first_s']:10.3f} {r['bare_us']:9.1f}"
               f" {r['step_us']:9.1f} {r['loop_us']:9.1f} {r['step_us'] / r['bare_us']:9.2f}"
