@@ -186,7 +186,8 @@ def run_npz(path: Path, B: int, steps: int, backend: str, kernel: str, observe: 
                             ds=np.zeros(bp.cx.size), every=int(extra["every"]),
                             max_samples=steps // int(extra["every"]) + 8, max_steps=steps + 8,
                             probe_nodes=bp.cx[:1] // 2, probe_pc=np.ones(1),
-                            probe_deg=np.zeros(1))
+                            probe_deg=np.zeros(1),
+                            spool_dir=Path(tempfile.mkdtemp(prefix="ensemble-spool-")))
 
     def sync() -> None:
         if xp is not np:
