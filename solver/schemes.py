@@ -82,11 +82,14 @@ def time_step(scene: Scene, omega_max: float) -> tuple[float, float]:
     """(dt, dt_crit) for ``scene``: a fixed ``time.dt`` (checked) or ``dt_fraction * dt_crit``.
 
     dt_crit is always the EXPLICIT limit sqrt(2 / beta2) / omega_max, the unit of
-    ``time.dt_fraction`` for both schemes. Implicit schemes with 2 beta1 < beta2 are only
-    conditionally stable: their own limit is checked too.
+    ``time.dt_fraction`` for both schemes; for an explicit scene with Kelvin-Voigt damping it
+    is the damped explicit limit (``critical_time_step``). Implicit schemes with
+    2 beta1 < beta2 are only conditionally stable: their own limit is checked too.
     """
     ts = scene.time
-    tau = scene.damping.tau
+    # explicit: the damped limit is the unit of dt_fraction; the implicit scheme treats the
+    # damping implicitly, so its unit stays the undamped explicit limit
+    tau = scene.damping.tau if ts.beta1 == 0.0 else 0.0
     dt_crit = critical_time_step(omega_max, 0.0, ts.beta2, tau)
     limit = critical_time_step(omega_max, ts.beta1, ts.beta2, tau)
     dt = ts.dt if ts.dt > 0.0 else ts.dt_fraction * dt_crit
