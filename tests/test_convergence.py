@@ -4,9 +4,10 @@ What the study established for Figure-3 physics with Kelvin-Voigt eta = 2 % at 1
 beta2 = 1/2, from the mode-4 seed: the same member of the wave family (k = 12, against the
 rotation, ~1.7 kHz) is selected at N = 132, 264 and 528; the time-step error shrinks when dt is
 halved (N = 264: f 1691.5 / 1688.3 / 1686.3 Hz, separation 0.745 / 0.762 / 0.768 at dt = 0.9 /
-0.45 / 0.225 dt_crit); under mesh refinement the RMS amplitude converges (1.486 / 1.296 /
-1.257 mm) but the frequency and the fractions still drift by ~1 % and ~0.025 per doubling up
-to N = 528. The tests pin these facts, not a convergence rate the data do not show.
+0.45 / 0.225 dt_crit); under mesh refinement the differences are irregular up to N = 528
+(f: 13.0, 16.8 Hz) and shrink only on the last doubling (7.9 Hz at N = 528 -> 1056), so a
+CI-sized N = 66/132/264 triple shows no asymptotic ratio (N = 66 even selects k = 4). The
+tests pin the member and the size of the differences, not a rate the small meshes lack.
 """
 
 import math
