@@ -89,7 +89,7 @@ def test_docker_run_image_stickslip_and_mpirun():
     # `stickslip` on PATH: the project is pip-installed with its console script.
     assert any(word == "RUN" and "pip install" in rest and " -e ." in rest for word, rest in ins)
     scripts = tomllib.loads((REPO / "pyproject.toml").read_text())["project"]["scripts"]
-    assert scripts["stickslip"] == "solver.cli:main"
+    assert scripts["stickslip"] == "cli.main:main"
     # Non-root by default; mpirun as root allowed (`--user root`) and -n 4 on fewer cores.
     users = [rest for word, rest in ins if word == "USER"]
     assert users and users[-1] not in ("root", "0")

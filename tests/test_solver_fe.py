@@ -15,8 +15,9 @@ from mpi4py import MPI  # noqa: E402
 from solver.contact import SEPARATION, SLIP, STICK  # noqa: E402
 from solver.newmark import Newmark  # noqa: E402
 from solver.problem import build_problem, omega_max  # noqa: E402
-from solver.run import Simulation, StepTooLarge, run_scene  # noqa: E402
+from solver.run import Simulation, StepTooLarge  # noqa: E402
 from solver.scene import load_scene  # noqa: E402
+from studies.rundir import run_scene  # noqa: E402
 
 SELF = MPI.COMM_SELF
 
