@@ -63,7 +63,7 @@ __all__ = [
 ]
 
 Array = NDArray[np.float64]
-StiffnessFn = Callable[[float], tuple[Array, Array]]
+StiffnessFn = Callable[..., tuple[Array, Array | None]]
 
 
 class NotConverged(RuntimeError):
@@ -78,8 +78,9 @@ class NotConverged(RuntimeError):
 class CircleProblem:
     """Travelling-wave problem reduced to N uniform contact nodes (any units, consistent).
 
-    ``stiffness(omega) -> (S, dS/domega)``: 2N × 2N, polar ordering (W_r block, W_θ block),
-    nodal forces = S W. ``surface_speed`` = RΩ, ``d`` = mismatch, ``f`` = friction.
+    ``stiffness(omega, derivative) -> (S, dS/domega or None)``: 2N × 2N, polar ordering (W_r
+    block, W_θ block), nodal forces = S W. ``surface_speed`` = RΩ, ``d`` = mismatch, ``f`` =
+    friction.
     """
 
     n: int
@@ -206,6 +207,8 @@ def solve_wave(
     max_iter: int = 60,
     margin_tol: float = 1e-8,
     min_mode_fraction: float = 1e-3,
+    growth: float = 1.0,
+    free_omega: bool = True,
 ) -> TravelSolution:
     """Semismooth Newton (with backtracking) for (W, ω) from the guess (W0, omega0).
 
@@ -216,7 +219,7 @@ def solve_wave(
     """
     n = prob.n
     theta = prob.theta
-    S0, _ = prob.stiffness(0.0)  # static: positive diagonal whatever the wave speed
+    S0, _ = prob.stiffness(0.0, False)  # static: positive diagonal whatever the wave speed
     c = float(np.mean(np.diag(S0)[:n]))
     law = _Law(prob, c)
     fscale = c * max(prob.d, 1e-300)
@@ -228,41 +231,56 @@ def solve_wave(
     W, om = np.array(W0, dtype=float), float(omega0)
     hist: list[float] = []
 
-    def residual(W: Array, om: float) -> tuple[Array, Array, Array, Array]:
-        S, dS = prob.stiffness(om)
+    def residual(W: Array, om: float) -> tuple[Array, Array, Array]:
+        S, _ = prob.stiffness(om, False)
         lam = S @ W
         C, proj = law(W, lam, om)
         F = np.empty(2 * n + 1)
         F[: 2 * n] = C
-        F[2 * n] = fscale * float(phase_row @ W[n:]) / max(prob.d, 1e-300)
-        return F, S, dS, proj
+        F[2 * n] = (fscale * float(phase_row @ W[n:]) / max(prob.d, 1e-300)
+                    if free_omega else 0.0)
+        return F, S, proj
 
-    F, S, dS, proj = residual(W, om)
+    F, S, proj = residual(W, om)
     it = 0
+    best = float(F @ F)
     while it < max_iter:
         it += 1
         norm = float(np.max(np.abs(F)))
         hist.append(norm / fscale)
         if norm <= tol * fscale:
             break
+        if free_omega:
+            _, dS = prob.stiffness(om, True)
+        else:
+            dS = np.zeros_like(S)
         J = _jacobian(prob, law, W, om, S, dS, phase_row, fscale)
+        if not free_omega:  # ω fixed: drop the phase row and the ω column
+            J, F = J[:-1, :-1], F[:-1]
         try:
             dx = np.linalg.solve(J, -F)
         except np.linalg.LinAlgError:
             dx = np.linalg.lstsq(J, -F, rcond=None)[0]
+        if not free_omega:
+            dx, F = np.append(dx, 0.0), np.append(F, 0.0)
+        # Non-monotone backtracking: a full step that changes the active set may raise the
+        # residual for a while (primal-dual active-set behaviour); accept growth up to
+        # ``growth`` times the best merit so far, else halve.
         step = 1.0
         merit = float(F @ F)
+        best = min(best, merit) if it > 1 else merit
         for _ in range(12):
-            om_t = om + step * dx[-1]
+            om_t = om + step * dx[-1] if free_omega else om
             if om_t * om <= 0:  # never cross ω = 0 (the upwind direction flips)
                 step *= 0.5
                 continue
             W_t = W + step * dx[:-1]
-            F_t, S_t, dS_t, proj_t = residual(W_t, om_t)
-            if float(F_t @ F_t) < (1.0 - 1e-4 * step) * merit:
+            F_t, S_t, proj_t = residual(W_t, om_t)
+            m_t = float(F_t @ F_t)
+            if np.isfinite(m_t) and (m_t < (1.0 - 1e-4 * step) * merit or m_t < growth * best):
                 break
             step *= 0.5
-        W, om, F, S, dS, proj = W_t, om_t, F_t, S_t, dS_t, proj_t
+        W, om, F, S, proj = W_t, om_t, F_t, S_t, proj_t
     norm = float(np.max(np.abs(F)))
     status = law.out.status.copy()
     sol = TravelSolution(
@@ -272,7 +290,7 @@ def solve_wave(
     sol.margins = inequality_margins(prob, sol, fscale)
     bad = [key for key, m in sol.margins.items() if m < -margin_tol]
     sol.violated = INEQUALITY_NAMES[bad[0]] if bad else None
-    info = {"residual": sol.residual, "iterations": it, "omega": om,
+    info = {"residual": sol.residual, "iterations": it, "omega": om, "hist": hist,
             "violated": sol.violated, "margins": sol.margins}
     if not norm <= tol * fscale or not np.isfinite(norm):
         raise NotConverged(

@@ -40,8 +40,8 @@ def reduced_problem(co: Coefficients, f: float, delta: float, n: int) -> CircleP
     unit = replace(co, a=1.0, b=1.0, g=0.0, h=0.0, D=0.0)
     G = stiffness_matrix(unit, n).toarray()  # Γ = −Δθ blockdiag(L, L)
 
-    def stiffness(c: float) -> tuple[Array, Array]:
-        return K - (c * c) * G, (-2.0 * c) * G
+    def stiffness(c: float, derivative: bool = True) -> tuple[Array, Array | None]:
+        return K - (c * c) * G, ((-2.0 * c) * G if derivative else None)
 
     return CircleProblem(n=n, d=delta, surface_speed=1.0, f=f, stiffness=stiffness)
 
