@@ -121,9 +121,30 @@ def start_from_reduced(st: Setup, k: int) -> tuple[Array, float, dict]:
     return W0, c * om, {"start": "flutter", "start_celerity_m_s": c * om * R}
 
 
-def solve_scene(st: Setup, k: int, W0: Array, omega0: float, **kw) -> TravelSolution:
-    """``studies.travel.newton.solve_wave`` on the scene's condensed problem."""
-    return solve_wave(st.prob, W0, omega0, k, **kw)
+def solve_scene(st: Setup, k: int, W0: Array, omega0: float, *, free_omega: bool = True,
+                max_iter: int = 60, scan: float = 0.1, **kw) -> TravelSolution:
+    """Newton for (W, ω) with the phase condition; if it fails, the fixed-ω wave nearest to
+    ω0 (``newton.nearest_wave``: ω0(1 ± j%) up to ±``scan``). ``sol.how`` says which."""
+    from studies.travel.newton import NotConverged, nearest_wave
+
+    first: NotConverged | None = None
+    if free_omega:
+        try:
+            sol = solve_wave(st.prob, W0, omega0, k, max_iter=max_iter, **kw)
+            sol.how = "free omega (phase condition)"
+            return sol
+        except NotConverged as err:
+            first = err
+    try:
+        sol = nearest_wave(st.prob, W0, omega0, k, rel_step=0.01,
+                           max_steps=max(0, int(round(scan / 0.01))),
+                           max_iter=min(max_iter, 30), **kw)
+    except NotConverged as err:
+        if first is not None:
+            raise NotConverged(f"{first}; then {err}", err.info) from None
+        raise
+    sol.how = "fixed omega (nearest admissible speed to the start)"
+    return sol
 
 
 def measure(st: Setup, sol: TravelSolution, k: int) -> tuple[dict, dict[str, Array]]:
@@ -156,6 +177,7 @@ def measure(st: Setup, sol: TravelSolution, k: int) -> tuple[dict, dict[str, Arr
         "zone_order": wave.zone_order, "direction": wave.direction,
         "limit_cycle": True,
         "residual": sol.residual, "iterations": sol.iterations,
+        "solve": getattr(sol, "how", ""),
         "residual_history": sol.residual_history,
         "inequalities": {"margins": sol.margins, "violated": sol.violated,
                          "all_satisfied": sol.violated is None},

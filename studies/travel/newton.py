@@ -109,6 +109,7 @@ class TravelSolution:
     residual_history: list[float] = field(default_factory=list)
     margins: dict[str, float] = field(default_factory=dict)
     violated: str | None = None
+    how: str = ""
 
     @property
     def fractions(self) -> dict[str, float]:
@@ -303,6 +304,14 @@ def solve_wave(
             f"{amp / abs(a0):.1e} of the start)", info)
     if sol.violated:
         raise NotConverged(f"converged wave violates {sol.violated}", info)
+    sep = np.any(status == SEPARATION)
+    signal = (sol.W_r - prob.d) if sep else (sol.W_t - sol.W_t.mean())
+    spec = np.abs(np.fft.rfft(signal))
+    spec[0] = 0.0
+    mode = int(np.argmax(spec))
+    if mode != k:
+        raise NotConverged(f"converged to a wave whose dominant mode is {mode}, not k = {k} "
+                           "(a node-scale pattern, not the requested wave)", info | {"mode": mode})
     return sol
 
 
@@ -378,6 +387,9 @@ def zone_lengths(prob: CircleProblem, sol: TravelSolution) -> dict[str, float]:
         else:
             ind = gap
         bounds.append(e + _extrapolate_zero(ind, e, n))
+    for i in range(1, len(bounds)):  # a one-node run may get crossing estimates: keep order
+        bounds[i] = max(bounds[i], bounds[i - 1])
+    bounds[-1] = min(bounds[-1], bounds[0] + n)
     for i, e in enumerate(edges):
         lo = bounds[i - 1] - (n if i == 0 else 0)
         lengths[st[e]] += bounds[i] - lo
@@ -400,3 +412,55 @@ def _extrapolate_zero(ind: Array, e: int, n: int) -> float:
     if drop <= 0.0:
         return off + 0.5
     return float(np.clip(off + ind[j] / drop, -1.0, 1.0))
+
+
+# ----------------------------------------------------------------------------- ω-band
+def nearest_wave(
+    prob: CircleProblem, W0: Array, omega0: float, k: int, *, rel_step: float = 0.01,
+    max_steps: int = 20, **kw,
+) -> TravelSolution:
+    """Fixed-ω solve at ω0, then at ω0(1 ± j·rel_step), j = 1 .. max_steps, alternately:
+    the admissible wave of speed nearest to the start (``NotConverged`` if none)."""
+    last: NotConverged | None = None
+    for j in range(0, max_steps + 1):
+        for sgn in ((1.0,) if j == 0 else (-1.0, 1.0)):
+            om = omega0 * (1.0 + sgn * j * rel_step)
+            try:
+                return solve_wave(prob, W0, om, k, free_omega=False, **kw)
+            except NotConverged as err:
+                last = err
+    assert last is not None
+    raise NotConverged(f"no admissible mode-{k} wave within ±{100 * max_steps * rel_step:.0f} % "
+                       f"of the start speed; last: {last}", last.info)
+
+
+def wave_band(
+    prob: CircleProblem, sol: TravelSolution, k: int, *, rel_step: float = 0.002,
+    max_steps: int = 40, bisections: int = 4, **kw,
+) -> tuple[float, float, list[TravelSolution]]:
+    """The interval of ω around ``sol.omega`` on which fixed-ω solves (warm started) converge.
+
+    The discrete Coulomb problem has, for each active set, a solution for every ω, admissible
+    on an interval: waves come in bands of speed (module doc). Steps of ``rel_step``|ω| each
+    way until a solve fails, then ``bisections`` halvings of the last step locate each edge.
+    """
+    members = [sol]
+    edges = []
+    for sgn in (-1.0, 1.0):
+        cur = sol
+        h = sgn * rel_step * abs(sol.omega)
+        steps = 0
+        while steps < max_steps:
+            W = np.concatenate([cur.W_r, cur.W_t])
+            try:
+                cur = solve_wave(prob, W, cur.omega + h, k, free_omega=False, **kw)
+                members.append(cur)
+                steps += 1
+                continue
+            except NotConverged:
+                if bisections == 0 or abs(h) < rel_step * abs(sol.omega) / 2**bisections:
+                    break
+                h *= 0.5
+        edges.append(cur.omega)
+    members.sort(key=lambda s: s.omega)
+    return min(edges), max(edges), members
