@@ -34,6 +34,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "loading.omega=50:1000:40")
     p.add_argument("--damping", type=float, default=0.0, metavar="ETA",
                    help="Kelvin-Voigt retardation time (s) in the wave frame (default 0)")
+    p.add_argument("--celerity", type=float, metavar="M_PER_S",
+                   help="start speed (signed, m/s) instead of the start's own")
     p.add_argument("--fixed-omega", action="store_true",
                    help="hold omega at the start's value (no phase condition)")
     p.add_argument("--max-iter", type=int, default=60, help="Newton iterations (default 60)")
@@ -79,6 +81,8 @@ def _travel(args: argparse.Namespace) -> int:
         return _err(f"--k {args.k}: the wavenumber must be an integer >= 1")
     if args.damping < 0:
         return _err(f"--damping {args.damping}: the retardation time must be >= 0")
+    if args.celerity is not None and args.celerity == 0.0:
+        return _err("--celerity 0: a travelling wave needs a non-zero speed (sign = sense)")
     if args.max_iter < 1:
         return _err(f"--max-iter {args.max_iter}: must be >= 1")
     try:
@@ -120,6 +124,9 @@ def _one_wave(scene, args: argparse.Namespace, out: Path, t0: float) -> int:
             W0, om0, info = D.start_from_reduced(st, args.k)
     except ValueError as err:
         return _err(str(err))
+    if args.celerity is not None:
+        om0 = args.celerity / scene.geometry.R
+        info["start_celerity_m_s"] = args.celerity
     t_setup = time.perf_counter() - t0
     try:
         sol = D.solve_scene(st, args.k, W0, om0, max_iter=args.max_iter,
