@@ -138,7 +138,10 @@ def _one_wave(scene, args: argparse.Namespace, out: Path, t0: float) -> int:
                    "residual_history": err.info.get("hist"), **info,
                    "wall_time_s": time.perf_counter() - t0}
         write_failure(out, scene, summary)
-        print(f"error: travel did not find a wave: {err}", file=sys.stderr)
+        res = err.info.get("residual")
+        print(f"error: travel did not find a wave: {err} [last residual "
+              f"{res if res is None else f'{res:.3e}'}, violated inequality: "
+              f"{err.info.get('violated') or 'none'}]", file=sys.stderr)
         print(f"(summary: {out / 'summary.json'}; no wave written)", file=sys.stderr)
         return 1
     summary, profiles = D.measure(st, sol, args.k)
