@@ -1,4 +1,5 @@
-"""Measurements of the reduced transient model (studies/reduced_transient.py) for docs/reduced_transient.md.
+"""Measurements of the reduced transient model (studies/reduced_transient.py) for
+docs/reduced_transient.md.
 
 Usage: ``python3 benchmarks/reduced_transient.py [--quick] [-o out.json]`` (one core, ~1 min).
 
