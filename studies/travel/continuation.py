@@ -14,6 +14,8 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
+
 from solver.scene import Scene
 
 __all__ = ["run_continuation", "REUSE_KEYS"]
@@ -44,17 +46,16 @@ def run_continuation(scene: Scene, args: argparse.Namespace, key: str, values: l
                     W, om, _ = D.start_from_run(Path(args.from_run), st)
                 else:
                     W, om, _ = D.start_from_reduced(st, args.k)
+                if getattr(args, "celerity", None) is not None:
+                    om = args.celerity / sc.geometry.R
             sol = D.solve_scene(st, args.k, W, om, max_iter=args.max_iter,
                                 free_omega=not args.fixed_omega)
             summ, _ = D.measure(st, sol, args.k)
             row.update(status="converged", **{k: summ[k] for k in (
                 "celerity_m_s", "amplitude_m", "psi1", "psi2", "psi1_subnode", "psi2_subnode",
                 "regime", "residual")}, violated=None)
-            W = sol.W_r.tolist() + sol.W_t.tolist()
+            W = np.concatenate([sol.W_r, sol.W_t])
             om = sol.omega
-            import numpy as np
-
-            W = np.asarray(W)
         except NotConverged as err:
             row.update(status="failed", residual=err.info.get("residual"),
                        violated=err.info.get("violated") or str(err))
