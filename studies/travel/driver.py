@@ -18,7 +18,6 @@ what it means for ``stickslip run``.
 from __future__ import annotations
 
 import math
-import time
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -194,9 +193,3 @@ def measure(st: Setup, sol: TravelSolution, k: int) -> tuple[dict, dict[str, Arr
         "status_all": sol.status, "omega": np.array(sol.omega),
     }
     return summary, profiles
-
-
-def timed(fn, *a, **kw) -> tuple[Any, float]:
-    t0 = time.perf_counter()
-    out = fn(*a, **kw)
-    return out, time.perf_counter() - t0

@@ -27,6 +27,7 @@ from numpy.typing import NDArray
 from scipy.sparse.linalg import splu
 
 from solver.problem import TubeProblem
+from solver.scene import Scene
 from studies.travel.newton import CircleProblem
 
 __all__ = ["FrameOperators", "frame_operators", "circle_problem"]
@@ -83,7 +84,8 @@ class FrameOperators:
             self._blocks = b
         return self._blocks
 
-    def factor(self, omega: float, derivative: bool = True):
+    def factor(self, omega: float, derivative: bool = True
+               ) -> tuple[Array, Array | None, Array | None]:
         """(S_polar, dS_polar/dω or None, X) at ω (module doc); the last result is cached.
 
         Small interiors use the modal form (one dense generalised eigenproblem at setup):
@@ -202,7 +204,7 @@ def frame_operators(problem: TubeProblem, damping: float = 0.0) -> FrameOperator
     return FrameOperators(problem, K, G, contact, interior, theta, nd.ds_weight[order], T, C)
 
 
-def circle_problem(ops: FrameOperators, scene=None) -> CircleProblem:
+def circle_problem(ops: FrameOperators, scene: Scene | None = None) -> CircleProblem:
     """The condensed FE problem for ``studies.travel.newton.solve_wave`` (SI units).
 
     ``scene`` (default: the one the operators were built for) may change the loading and the
