@@ -38,6 +38,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="start speed (signed, m/s) instead of the start's own")
     p.add_argument("--fixed-omega", action="store_true",
                    help="hold omega at the start's value (no phase condition)")
+    p.add_argument("--band", action="store_true",
+                   help="also measure the band of speeds over which the wave stays admissible "
+                        "(warm-started fixed-omega solves, steps of 0.2 %%)")
     p.add_argument("--max-iter", type=int, default=60, help="Newton iterations (default 60)")
     p.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
                    help="override a scene field (repeatable)")
@@ -145,6 +148,8 @@ def _one_wave(scene, args: argparse.Namespace, out: Path, t0: float) -> int:
         print(f"(summary: {out / 'summary.json'}; no wave written)", file=sys.stderr)
         return 1
     summary, profiles = D.measure(st, sol, args.k)
+    if args.band:
+        summary["band"] = D.band(st, sol, args.k)
     summary.update(info, damping_s=args.damping, setup_time_s=t_setup,
                    wall_time_s=time.perf_counter() - t0)
     write_wave(out, scene, summary, profiles)
@@ -160,5 +165,11 @@ def _one_wave(scene, args: argparse.Namespace, out: Path, t0: float) -> int:
               f"(sub-node); amplitude {summary['amplitude_m']:.4g} m; residual "
               f"{summary['residual']:.1e} in {summary['iterations']} iterations; "
               f"inequalities: all satisfied")
+        if "band" in summary:
+            b = summary["band"]
+            print(f"band: admissible for {b['celerity_m_s'][0]:.1f} ... "
+                  f"{b['celerity_m_s'][1]:.1f} m/s; psi1 {b['psi1'][0]:.3f} ... "
+                  f"{b['psi1'][1]:.3f}, psi2 {b['psi2'][0]:.3f} ... {b['psi2'][1]:.3f}, "
+                  f"amplitude {b['amplitude_m'][0]:.3g} ... {b['amplitude_m'][1]:.3g} m")
         print(f"-> {out}  ({summary['wall_time_s']:.2f} s)")
     return 0

@@ -34,7 +34,7 @@ from studies.travel.newton import (
     zone_lengths,
 )
 
-__all__ = ["TravelResult", "Setup", "setup", "start_from_run", "start_from_reduced",
+__all__ = ["TravelResult", "Setup", "band", "setup", "start_from_run", "start_from_reduced",
            "solve_scene", "measure"]
 
 Array = NDArray[np.float64]
@@ -193,3 +193,19 @@ def measure(st: Setup, sol: TravelSolution, k: int) -> tuple[dict, dict[str, Arr
         "status_all": sol.status, "omega": np.array(sol.omega),
     }
     return summary, profiles
+
+
+def band(st: Setup, sol: TravelSolution, k: int) -> dict:
+    """Speeds (m/s) over which the wave's family stays admissible, with ψ and amplitude ranges
+    (``studies.travel.newton.wave_band``; the discrete waves are not isolated in ω)."""
+    from studies.travel.newton import wave_band
+
+    lo, hi, members = wave_band(st.prob, sol, k, rel_step=0.002, max_steps=40, max_iter=30)
+    R = st.scene.geometry.R
+    zs = [zone_lengths(st.prob, m) for m in members]
+    p1 = [z["separation"] for z in zs]
+    p2 = [z["separation"] + z["stick"] for z in zs]
+    amp = [float(max(m.W_r.max() - st.prob.d, 0.5 * np.ptp(m.W_t))) for m in members]
+    return {"celerity_m_s": [lo * R, hi * R], "members": len(members),
+            "psi1": [min(p1), max(p1)], "psi2": [min(p2), max(p2)],
+            "amplitude_m": [min(amp), max(amp)]}
