@@ -9,8 +9,8 @@
   lie within a few % of ω; round-off of the difference ~1e-9).
 * the command: bad input exits 2 with one line; a failed solve exits 1, names the last
   residual and writes no wave; a converged wave (N = 36, Figure-1 physics, start speed
-  −2300 m/s held fixed) satisfies every nodal inequality, is mode 4 and has the `stickslip
-  run` summary keys.
+  −2300 m/s held fixed) satisfies every nodal inequality, is mode 4, has the `stickslip
+  run` summary keys and lies inside a band of admissible speeds (``--band``).
 """
 
 from __future__ import annotations
@@ -103,7 +103,7 @@ def test_travel_failure_exits_1_and_writes_no_wave(tmp_path):
 def test_travel_converged_wave_summary(tmp_path):
     out = tmp_path / "ok"
     rc = main(["travel", SCENE, "--set", "mesh.n_inner=36", "--k", "4", "--celerity",
-               "-2300", "--fixed-omega", "--max-iter", "40", "-o", str(out)])
+               "-2300", "--fixed-omega", "--max-iter", "40", "--band", "-o", str(out)])
     assert rc == 0
     s = json.loads((out / "summary.json").read_text())
     for key in ("regime", "mode", "celerity_m_s", "frequency_hz", "fractions", "psi1", "psi2",
@@ -112,6 +112,10 @@ def test_travel_converged_wave_summary(tmp_path):
     assert s["status"] == "converged" and s["mode"] == 4
     assert s["inequalities"]["all_satisfied"] and s["residual"] < 1e-10
     assert all(m >= -1e-8 for m in s["inequalities"]["margins"].values())
+    # the discrete waves are not isolated: a band of speeds around the start (measured
+    # −2316.8 … −2278.7 m/s) with ψ₂ varying across it
+    lo, hi = s["band"]["celerity_m_s"]
+    assert lo < -2300.0 < hi and s["band"]["psi2"][1] > s["band"]["psi2"][0]
     with np.load(out / "profiles.npz") as npz:
         assert npz["U"].min() >= -1e-12 * 0.001  # no penetration (U = u_r − d)
         assert npz["phi"].size == 9  # one period of 36 nodes at k = 4
