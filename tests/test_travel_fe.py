@@ -55,19 +55,31 @@ def test_modal_schur_equals_lu_and_derivative(setup36):
 
     ops = setup36.ops
     om = -2000.0
-    S, dS = ops.stiffness(om)
-    other = F.FrameOperators(ops.problem, ops.K, ops.G, ops.contact, ops.interior, ops.theta,
-                             ops.ds_weight, ops.T)
-    old, F.MODAL_MAX = F.MODAL_MAX, 0
+
+    def fresh():
+        return F.FrameOperators(ops.problem, ops.K, ops.G, ops.contact, ops.interior,
+                                ops.theta, ops.ds_weight, ops.T)
+
+    saved = F.MODAL_MAX, F.MODAL_AFTER
     try:
-        S_lu, dS_lu = other.stiffness(om)
+        F.MODAL_AFTER = -1  # modal from the first evaluation
+        modal = fresh()
+        S, dS = modal.stiffness(om)
+        assert "mu" in modal._blocks
+        F.MODAL_MAX = 0  # sparse LU only
+        lu = fresh()
+        S_lu, dS_lu = lu.stiffness(om)
+        assert "mu" not in lu._blocks
     finally:
-        F.MODAL_MAX = old
+        F.MODAL_MAX, F.MODAL_AFTER = saved
     assert np.abs(S_lu - S).max() < 1e-10 * np.abs(S).max()
     assert np.abs(dS_lu - dS).max() < 1e-10 * np.abs(dS).max()
     h = 1e-6 * abs(om)
-    fd = (ops.stiffness(om + h, False)[0] - ops.stiffness(om - h, False)[0]) / (2 * h)
+    fd = (lu.stiffness(om + h, False)[0] - lu.stiffness(om - h, False)[0]) / (2 * h)
     assert np.abs(fd - dS).max() < 1e-6 * np.abs(dS).max()
+    # the interior field is the same from both routes
+    W = np.linspace(0.0, 1e-3, 2 * ops.n)
+    assert np.allclose(modal.full_field(W, om), lu.full_field(W, om), rtol=1e-8, atol=1e-15)
 
 
 @pytest.mark.parametrize(

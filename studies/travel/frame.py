@@ -33,7 +33,9 @@ from studies.travel.newton import CircleProblem
 __all__ = ["FrameOperators", "frame_operators", "circle_problem"]
 
 Array = NDArray[np.float64]
-MODAL_MAX = 6000  # interiors up to this size use the modal form of the Schur complement
+MODAL_MAX = 6000  # interiors up to this size may use the modal form of the Schur complement
+MODAL_AFTER = 40  # ... once this many ω have been evaluated (a one-off dense eigenproblem
+# of the interior costs ~25 sparse-LU condensations at N = 132, so few-ω solves skip it)
 
 
 def _csr(mat) -> sp.csr_matrix:
@@ -56,13 +58,14 @@ class FrameOperators:
     C: sp.csr_matrix | None = None  # Kelvin–Voigt wave-frame damping (None: undamped)
     _cache: tuple | None = None
     _blocks: dict | None = None
+    _evaluations: int = 0
 
     @property
     def n(self) -> int:
         return self.theta.size
 
     def _split(self) -> dict:
-        """Blocks of K and G (once). Small interiors also get the modal form (below)."""
+        """Blocks of K and G (once); the modal form once it pays (``factor``)."""
         if self._blocks is None:
             c, i = self.contact, self.interior
             b = {}
@@ -74,23 +77,28 @@ class FrameOperators:
                 b[name + "ic"] = Mi[:, c].toarray()
                 b[name + "ci"] = M[c][:, i].toarray()
                 b[name + "cc"] = M[c][:, c].toarray()
-            if i.size <= MODAL_MAX and self.C is None:
-                # G_ii Φ = K_ii Φ diag(μ), ΦᵀK_iiΦ = I  =>  A_ii⁻¹ = Φ diag(1/(1 − ω²μ)) Φᵀ
-                from scipy.linalg import eigh
-
-                mu, phi = eigh(b["Gii"].toarray(), b["Kii"].toarray())
-                b["mu"], b["phi"] = mu, phi
-                b["B0"], b["B1"] = phi.T @ b["Kic"], phi.T @ b["Gic"]
             self._blocks = b
-        return self._blocks
+        b = self._blocks
+        self._evaluations += 1
+        if ("mu" not in b and self.C is None and self.interior.size <= MODAL_MAX
+                and self._evaluations > MODAL_AFTER):
+            # G_ii Φ = K_ii Φ diag(μ), ΦᵀK_iiΦ = I  =>  A_ii⁻¹ = Φ diag(1/(1 − ω²μ)) Φᵀ
+            from scipy.linalg import eigh
+
+            mu, phi = eigh(b["Gii"].toarray(), b["Kii"].toarray())
+            b["mu"], b["phi"] = mu, phi
+            b["B0"], b["B1"] = phi.T @ b["Kic"], phi.T @ b["Gic"]
+        return b
 
     def factor(self, omega: float, derivative: bool = True
                ) -> tuple[Array, Array | None, Array | None]:
         """(S_polar, dS_polar/dω or None, X) at ω (module doc); the last result is cached.
 
-        Small interiors use the modal form (one dense generalised eigenproblem at setup):
+        After ``MODAL_AFTER`` evaluations, small interiors switch to the modal form (one dense
+        generalised eigenproblem):
         with B = Φᵀ A_ic = B0 − ω²B1 and D = diag(1/(1 − ω²μ)), S = A_cc − BᵀDB and
-        w_i = −ΦDB w_c, so each ω costs dense products only. Large ones factor A_ii (LU).
+        w_i = −ΦDB w_c, so each ω costs dense products only. Before that, and for large
+        interiors, A_ii is factored (sparse LU) at each ω.
         """
         if self._cache is not None and self._cache[0] == omega and (
                 self._cache[1][1] is not None or not derivative):
