@@ -5,7 +5,7 @@ Prints, each with its wall time:
 
 1. the reduced-model rung: one wave (k = 8 example, N = 256) from the closed-form start;
 2. a 40-point continuation in Ω of that reduced wave (50 ... 1000 rad/s);
-3. the FE problem at N = 132 (figure3_n132): mesh + K + G + modal condensation (setup), then
+3. the FE problem at N = 132 (figure3_n132): mesh + K + G + one condensation (setup), then
    one solve attempt from the transient run RUN_DIR (default runs/figure3_n132; run
    ``stickslip run scenes/figure3_n132.toml`` first), reported with its outcome;
 4. a 40-point FE continuation in loading.omega (36 contact nodes, Figure-1 physics, start
@@ -82,7 +82,7 @@ def main() -> None:
             msg = f"converged, {s.omega:.1f} m/s"
         except NotConverged as err:
             msg = f"FAILED: {str(err)[:90]}"
-    print(f"FE N=132: setup (mesh, K, G, modal Schur) {t_setup:.2f} s; solve from the "
+    print(f"FE N=132: setup (mesh, K, G, one condensation) {t_setup:.2f} s; solve from the "
           f"transient {time.perf_counter() - t1:.2f} s: {msg}")
 
     # 4. FE continuation, 40 points, N = 36
