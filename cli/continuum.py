@@ -102,10 +102,10 @@ def _scene_values(args: argparse.Namespace) -> dict[str, Any]:
         v.update(E=sc.material.E, rho=sc.material.rho, nu=sc.material.nu, R=sc.geometry.R,
                  xi=sc.geometry.xi, f=sc.loading.f, omega=sc.loading.omega, source=sc.name)
         damp = getattr(sc, "damping", None)  # [damping] (issue 13, part B), if present
-        if damp is not None:
+        if damp is not None:  # part B's Damping.tau: retardation_time, else η / (2π f_ref)
             tau = getattr(damp, "retardation_time", 0.0) or 0.0
             eta = getattr(damp, "loss_factor", 0.0) or 0.0
-            if eta > 0:
+            if tau <= 0 and eta > 0:
                 tau = eta / (2 * math.pi * damp.reference_frequency_hz)
             v["tau"] = tau
         fr = getattr(sc, "friction", None)  # [friction] (issue 13, part B), if present
