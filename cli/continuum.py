@@ -62,7 +62,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--speed-factor", type=float, default=1.2,
                    help="band in phase speed, multiple of c_p (default 1.2; 0 = fmax only)")
     p.add_argument("--loss-factor", type=float, default=None,
-                   help="Kelvin-Voigt loss factor eta at --reference-frequency-hz (0..2)")
+                   help="Kelvin-Voigt loss factor eta at --reference-frequency-hz (0..10)")
     p.add_argument("--reference-frequency-hz", type=float, default=None,
                    help="frequency of the loss factor (Hz): tau = eta / (2 pi f_ref)")
     p.add_argument("--retardation-time", type=float, default=None,
@@ -171,7 +171,7 @@ def _parse(args: argparse.Namespace) -> tuple[Any, list[float], list[int], Any, 
         if args.retardation_time is not None:
             raise InputError("--loss-factor and --retardation-time both given: use one")
         eta = _finite("loss-factor", args.loss_factor if args.loss_factor is not None
-                      else float("nan"), 0.0, 2.0)
+                      else float("nan"), 0.0, 10.0)
         fref = _finite("reference-frequency-hz", args.reference_frequency_hz
                        if args.reference_frequency_hz is not None else float("nan"),
                        0.0, 1e8, lo_open=True)
