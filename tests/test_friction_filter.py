@@ -162,3 +162,45 @@ def test_filter_is_rank_count_independent():
         scale = np.max(np.abs(a["u_r"]))
         assert np.max(np.abs(a["u_r"] - b["u_r"])) < 1e-10 * scale
         assert np.max(np.abs(a["u_theta"] - b["u_theta"])) < 1e-10 * scale
+
+
+def test_seeded_transient_with_the_filter_grows_as_the_filtered_cea_predicts():
+    """figure3_n132 with the filter, beta2 = 1/2, mode k = 4 seeded at 1e-6 d, linear phase
+    1-8 ms (every node slipping). The explicit solver in sliding is Newmark on
+    M u'' + (K + K_f~) u = 0 with the filtered friction operator, which is what
+    ``flutter-fe --friction 1-2-1`` builds: the matrix-pencil exponents of U_4(t) must be
+    its two k = 4 eigenvalues mapped by ``newmark_exponents`` (tolerance 1e-3: the fit, as in
+    test_flutter_fe's nodal version). At k = 4 the filter scales the friction by
+    (2 + 2 cos(2 pi k / N)) / 4 = 0.991, so the nodal CEA's leading k = 4 rate is 0.7 % higher
+    (1192 vs 1184 /s): the transient must sit > 3e-3 away from it, so the test tells the two
+    laws apart. Over all k the filtered CEA has no mesh-scale branch
+    above the physical one: its fastest mode is k <= 8 (docs/friction_filter.md)."""
+    from solver.problem import build_problem
+    from studies.flutter_fe import (
+        complex_eigenvalue_analysis,
+        measure_transient_growth,
+        newmark_exponents,
+    )
+    from studies.flutter_fe.cea import build_operators
+    from studies.flutter_fe.plots import _distinct
+
+    scene = load_scene("figure3_n132", ["output.progress=false", 'friction.filter="1-2-1"'])
+    problem = build_problem(scene, MPI.COMM_SELF)
+    res = complex_eigenvalue_analysis(problem, None, 6000.0,
+                                      ops=build_operators(problem, friction="1-2-1"))
+    nodal = complex_eigenvalue_analysis(problem, None, 3000.0)
+    k4 = sorted(_distinct(m for m in res.modes if m.wavenumber == 4), key=lambda m: -m.growth_rate)
+    k4n = sorted(_distinct(m for m in nodal.modes if m.wavenumber == 4),
+                 key=lambda m: -m.growth_rate)
+    assert abs(k4[0].growth_rate / k4n[0].growth_rate - 1) > 0.005
+    assert res.unstable()[0].wavenumber <= 8
+    g = measure_transient_growth(scene, 4, MPI.COMM_SELF, window=(1e-3, 8e-3))
+    assert g.all_slip and g.amplitude_range_m[1] < 1e-5
+    for m, (growth, freq, _) in zip(k4[:2], g.exponents[:2], strict=True):
+        s = newmark_exponents(np.array([m.omega2_real + 1j * m.omega2_imag]), g.dt_s, 0.5)[0]
+        sign = -1.0 if m.direction == "rotation" else 1.0  # U_k of a +theta wave: e^{-iwt}
+        assert growth == pytest.approx(s.real, rel=1e-3)
+        assert freq == pytest.approx(sign * s.imag / (2 * np.pi), rel=1e-3)
+    sn = newmark_exponents(np.array([k4n[0].omega2_real + 1j * k4n[0].omega2_imag]), g.dt_s,
+                           0.5)[0]
+    assert abs(g.exponents[0][0] / sn.real - 1) > 3e-3
