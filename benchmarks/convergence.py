@@ -9,7 +9,8 @@ resumable: finished cases are skipped) in priority order:
 1. Figure 3 (Omega = 50, delta = 4e-4, f = 0.7), mode-4 seed, undamped and damped, N = 66 ...
    1056 at dt = 0.9 dt_crit (the damped limit when damped), beta2 = 1/2;
    1b. the same undamped with the 1-2-1 filtered friction bound (``[friction] filter``,
-   docs/friction_filter.md), mode-4 seed and random seeds 1, 2, N = 66 ... 528 (``--only f121``);
+   docs/friction_filter.md), mode-4 seed and random seeds, N = 66 ... 528, mode-4 at 1056
+   (``--only f121``);
 2. the same at N = 264 with dt halved twice;
 3. random seeds 1, 2, 3 over N;
 4. Figure 1 (Omega = 40, delta = 1e-3, f = 0.7), the same list;
@@ -77,9 +78,11 @@ def run_list(quick: bool, max_n: int) -> list[dict]:
     for n in ns:  # 1. Figure 3, mode-4 seed over N
         for damped in both:
             add("fig3", damped, n, "mode4") if n <= 528 else None
-    for seed in ["mode4", *seeds[:2]]:  # 1b. the 1-2-1 filtered bound, undamped
+    for seed in ["mode4", *seeds]:  # 1b. the 1-2-1 filtered bound, undamped
         for n in [n for n in ns if n <= 528]:
             add("fig3", False, n, seed, filt="1-2-1")
+    if 1056 in ns:
+        add("fig3", False, 1056, "mode4", filt="1-2-1")
     for frac in (0.45, 0.225):  # 2. dt halved twice at N = 264
         for damped in both:
             add("fig3", damped, 264, "mode4", frac=frac) if 264 in ns else None
