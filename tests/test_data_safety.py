@@ -445,3 +445,27 @@ def test_sample_interval_longer_than_end_time_is_warned():
 
     assert any("sample_interval" in w for w in scene_warnings(smoke("output.sample_interval=1")))
     assert not any("sample_interval" in w for w in scene_warnings(smoke()))
+
+
+def test_read_only_output_directory_is_refused_in_one_line():
+    """Case 9: `-o` inside a directory the user cannot write (root can write anywhere, so the
+    command runs as the unprivileged user `nobody`)."""
+    import tempfile
+
+    if os.geteuid() != 0:
+        pytest.skip("needs root to run a command as another user")
+    pytest.importorskip("dolfinx")
+    ro = Path(tempfile.mkdtemp(dir="/tmp"))
+    try:
+        ro.chmod(0o555)
+        res = subprocess.run(
+            [sys.executable, "-m", "cli.main", "run", "smoke", "-o", str(ro / "x")],
+            cwd=REPO, capture_output=True, text=True, timeout=120,
+            env={**os.environ, "HOME": str(ro)}, preexec_fn=lambda: os.setuid(65534))
+        assert res.returncode == 2, res.stderr
+        assert res.stderr.count("\n") == 1
+        assert f"cannot create {ro / 'x'}: {ro} is not a writable directory" in res.stderr
+        assert not (ro / "x").exists()
+    finally:
+        ro.chmod(0o755)
+        ro.rmdir()
