@@ -197,15 +197,17 @@ class RunSignals:
     held) would ignore SIGTERM. A watchdog process (forked at entry) reads the signal numbers
     from ``signal.set_wakeup_fd``, written by the C-level handler at once; if the Python
     handler has not acknowledged a signal ``grace`` seconds later (in ``raise``/``flag``
-    mode), the watchdog calls ``on_hard_stop(signum)`` (mark the run ``interrupted``, or drop
+    mode), the watchdog calls ``on_hard_stop(signum, phase)`` (mark it ``interrupted``, or drop
     the replacement) and ends the run with SIGKILL (exit status 137). Only in the main thread;
     elsewhere (a test's thread) nothing is installed.
     """
 
     SIGNALS = (signal.SIGINT, signal.SIGTERM)
 
-    def __init__(self, on_hard_stop, grace: float = 2.0, rescue=None) -> None:  # noqa: ANN001
+    def __init__(self, on_hard_stop, grace: float = 2.0, rescue=None,  # noqa: ANN001
+                 on_death=None) -> None:  # noqa: ANN001
         self.on_hard_stop, self.grace, self.rescue = on_hard_stop, grace, rescue
+        self.on_death = on_death
         self.rescue_pid = 0
         self._mode = "raise"
         self.sim = None
@@ -223,6 +225,8 @@ class RunSignals:
     @mode.setter
     def mode(self, value: str) -> None:
         self._mode = value
+        if value == "flag":
+            self._tell(b"f")  # the watchdog's phase name: the time loop
         if value in ("defer", "done"):
             self._tell(b"d")  # the watchdog stands down: the run saves or has saved
 
@@ -257,6 +261,7 @@ class RunSignals:
         signal.set_wakeup_fd(self.old_wakeup)
         for sig, handler in self.previous.items():
             signal.signal(sig, handler)
+        self._tell(b"x")  # a clean end: the watchdog has nothing to tidy
         os.close(self.sig_w)
         os.close(self.ack_w)
         self.sig_w = self.ack_w = -1
@@ -270,6 +275,7 @@ class RunSignals:
         self._tell(b"a")
         self.requested = self.requested or signum
         if self.rescue is not None and not self.rescue_pid and self.mode != "done":
+            self._tell(b"r")  # the rescue writer owns the status from now on
             self.rescue_pid = _fork(self.rescue)
         if self.mode == "flag" and self.sim is not None:
             self.sim.stop_requested = True
@@ -286,33 +292,48 @@ class RunSignals:
             self.rescue_pid = -1
 
     def _watch(self, sig_r: int, ack_r: int, parent: int) -> None:
-        """The watchdog process: signals in, acknowledgements in; hard stop if none comes."""
+        """The watchdog process: signals in, acknowledgements in; hard stop if none comes.
+
+        Ends when the acknowledgement pipe closes: after b"x" the run ended cleanly; without
+        it the process was killed outright and ``on_death(parent, rescued, phase)`` tidies.
+        """
         import select
 
         received = acked = 0
         since = None
         last = 0
-        standing_down = False
+        standing_down = clean = rescued = False
+        phase = "setup"
+        fds = [sig_r, ack_r]
         while True:
             timeout = None
             if since is not None and not standing_down:
                 timeout = max(0.0, since + self.grace - time.monotonic())
-            ready, _, _ = select.select([sig_r, ack_r], [], [], timeout)
+            ready, _, _ = select.select(fds, [], [], timeout)
             if not ready:
-                self.on_hard_stop(last)
+                self.on_hard_stop(last, phase)
                 os.kill(parent, signal.SIGKILL)
                 return
             if sig_r in ready:
                 data = os.read(sig_r, 64)
-                if not data:
-                    return
-                received += len(data)
-                last = data[-1]
-                since = since or time.monotonic()
+                if data:
+                    received += len(data)
+                    last = data[-1]
+                    since = since or time.monotonic()
+                else:
+                    fds.remove(sig_r)
             if ack_r in ready:
                 data = os.read(ack_r, 64)
                 if not data:
+                    if not clean and self.on_death is not None:
+                        self.on_death(parent, rescued, phase)
                     return
+                clean = clean or b"x" in data
+                rescued = rescued or b"r" in data
+                if b"f" in data:
+                    phase = "the time loop"
+                if b"d" in data:
+                    phase = "the final save"
                 acked += data.count(b"a")
                 standing_down = standing_down or b"d" in data
             if acked >= received:
@@ -417,9 +438,9 @@ def run_scene(scene: Scene, run_dir: Path, *, force: bool = False,
         except OSError:
             pass
 
-    def hard_stop(signum: int) -> None:
+    def hard_stop(signum: int, where: str) -> None:
         name = _signame(signum)
-        msg = f"{name} while in {phase[0]} (busy in compiled code: stopped without saving)"
+        msg = f"{name} while in {where} (busy in compiled code: stopped without saving)"
         print(f"stickslip: {msg}", file=sys.stderr, flush=True)
         if rank0:
             mark("interrupted", msg)
@@ -466,7 +487,32 @@ def run_scene(scene: Scene, run_dir: Path, *, force: bool = False,
         if problem:
             raise RunDirError(problem)
 
-    with RunSignals(hard_stop, rescue=rescue if rank0 and comm.size > 1 else None) as signals:
+    def tidy(pid: int, rescued: bool, where: str) -> None:
+        """The run's process died outright (SIGKILL, out of memory; in the watchdog): remove
+        its temporary files and, on rank 0, turn a ``running`` summary into ``failed`` (or
+        drop an unfinished replacement). The rescue writer, if any, owns the status."""
+        from solver.atomic import remove_temporaries
+
+        for folder in {rd.work, rd.final}:
+            remove_temporaries(folder, pid)
+        if not rank0 or rescued:
+            return
+        for folder in {rd.work, rd.final}:
+            try:
+                if json.loads((folder / "summary.json").read_text())["status"] != "running":
+                    continue
+            except (OSError, ValueError, KeyError):
+                continue
+            if rd.replacing and folder == rd.work:
+                discard_run_dir(rd)
+            else:
+                atomic_write_text(folder / "summary.json", json.dumps(dict(
+                    started, status="failed", message=f"the process was killed outright "
+                    f"(SIGKILL: out of memory, or mpirun/batch system) during {where}",
+                    wall_time_s=time.perf_counter() - t0), indent=2))
+
+    with RunSignals(hard_stop, rescue=rescue if rank0 and comm.size > 1 else None,
+                    on_death=tidy) as signals:
         try:
             first_files()
             say(f"stickslip {__version__}: scene '{scene.name}' on {comm.size} rank(s)")

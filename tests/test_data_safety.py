@@ -469,3 +469,42 @@ def test_read_only_output_directory_is_refused_in_one_line():
     finally:
         ro.chmod(0o755)
         ro.rmdir()
+
+
+def test_a_run_killed_outright_is_marked_and_tidied(tmp_path):
+    """Cases 3 and 6 under SIGKILL (out of memory, a batch system) in the middle of writing
+    samples.npz: nothing can run in the process, so its watchdog removes the temporary file
+    and marks the summary `failed` (never a stale `running`)."""
+    pytest.importorskip("dolfinx")
+    driver = tmp_path / "driver.py"
+    driver.write_text(f"""
+import io, os, signal, sys
+sys.path.insert(0, {str(REPO)!r})
+from mpi4py import MPI
+import solver.atomic
+from solver.scene import load_scene
+from studies.rundir import run_scene
+real = solver.atomic.atomic_write
+def write(path, fill):
+    if str(path).endswith("samples.npz"):
+        def killed(fh):
+            fh.write(b"partial")
+            fh.flush()
+            os.kill(os.getpid(), signal.SIGKILL)
+        return real(path, killed)
+    return real(path, fill)
+solver.atomic.atomic_write = write
+run_scene(load_scene("smoke", {SHORT!r}), {str(tmp_path / 'k')!r}, comm=MPI.COMM_SELF,
+          stream=io.StringIO())
+""")
+    res = subprocess.run([sys.executable, str(driver)], cwd=REPO, capture_output=True,
+                         timeout=120)
+    assert res.returncode == -signal.SIGKILL
+    for _ in range(50):  # the watchdog works on after its parent is gone
+        s = json.loads((tmp_path / "k" / "summary.json").read_text())
+        if s["status"] != "running":
+            break
+        time.sleep(0.1)
+    assert s["status"] == "failed" and "killed outright" in s["message"]
+    assert "the final save" in s["message"]
+    assert not leftovers(tmp_path / "k")
