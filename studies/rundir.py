@@ -209,7 +209,7 @@ class RunSignals:
         self.on_hard_stop, self.grace, self.rescue = on_hard_stop, grace, rescue
         self.on_death = on_death
         self.rescue_pid = 0
-        self._mode = "raise"
+        self._mode = "start"  # until the run's try block: record, do not raise yet
         self.sim = None
         self.requested = 0
         self.previous: dict = {}
@@ -240,20 +240,33 @@ class RunSignals:
     def __enter__(self) -> RunSignals:
         if not self.active:
             return self
-        sig_r, sig_w = os.pipe()
-        ack_r, ack_w = os.pipe()
-        os.set_blocking(sig_w, False)
-        os.set_blocking(ack_w, False)
-        parent = os.getpid()
-        pid = _fork(lambda: self._watch(sig_r, ack_r, parent), new_session=False,
-                    close=(sig_w, ack_w))
-        os.close(sig_r)
-        os.close(ack_r)
-        self.watchdog, self.sig_w, self.ack_w = pid, sig_w, ack_w
-        for sig in self.SIGNALS:
-            self.previous[sig] = signal.signal(sig, self._handler)
-        self.old_wakeup = signal.set_wakeup_fd(sig_w, warn_on_full_buffer=False)
+        # Blocked while forking and installing: a signal now waits, then reaches our handler
+        # (mode "start": recorded; the run raises it at its first line), never a caller's
+        # handler inside fork's at-fork hooks, where an exception is lost.
+        mask = signal.pthread_sigmask(signal.SIG_BLOCK, self.SIGNALS)
+        try:
+            sig_r, sig_w = os.pipe()
+            ack_r, ack_w = os.pipe()
+            os.set_blocking(sig_w, False)
+            os.set_blocking(ack_w, False)
+            parent = os.getpid()
+            pid = _fork(lambda: self._watch(sig_r, ack_r, parent), new_session=False,
+                        close=(sig_w, ack_w))
+            os.close(sig_r)
+            os.close(ack_r)
+            self.watchdog, self.sig_w, self.ack_w = pid, sig_w, ack_w
+            for sig in self.SIGNALS:
+                self.previous[sig] = signal.signal(sig, self._handler)
+            self.old_wakeup = signal.set_wakeup_fd(sig_w, warn_on_full_buffer=False)
+        finally:
+            signal.pthread_sigmask(signal.SIG_SETMASK, mask)
         return self
+
+    def start(self) -> None:
+        """Enter the setup phase: signals raise KeyboardInterrupt from now on."""
+        self.mode = "raise"
+        if self.requested:
+            raise KeyboardInterrupt
 
     def __exit__(self, *exc) -> None:  # noqa: ANN002
         if not self.active:
@@ -275,6 +288,7 @@ class RunSignals:
         self._tell(b"a")
         self.requested = self.requested or signum
         if self.rescue is not None and not self.rescue_pid and self.mode != "done":
+            self.rescue_pid = -2  # a second signal during the fork must not fork again
             self._tell(b"r")  # the rescue writer owns the status from now on
             self.rescue_pid = _fork(self.rescue)
         if self.mode == "flag" and self.sim is not None:
@@ -514,6 +528,7 @@ def run_scene(scene: Scene, run_dir: Path, *, force: bool = False,
     with RunSignals(hard_stop, rescue=rescue if rank0 and comm.size > 1 else None,
                     on_death=tidy) as signals:
         try:
+            signals.start()
             first_files()
             say(f"stickslip {__version__}: scene '{scene.name}' on {comm.size} rank(s)")
             if est is not None:
