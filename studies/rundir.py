@@ -354,6 +354,14 @@ class RunSignals:
                 since = None
 
 
+def _disk_status(folder: Path) -> str | None:
+    """The status in ``folder/summary.json``, None if there is none (or it is unreadable)."""
+    try:
+        return str(json.loads((Path(folder) / "summary.json").read_text())["status"])
+    except (OSError, ValueError, KeyError, TypeError):
+        return None
+
+
 def _signame(signum: int) -> str:
     """SIGINT, SIGTERM, ...; "a signal on another rank" for 0 (this rank saw none)."""
     try:
@@ -438,7 +446,10 @@ def run_scene(scene: Scene, run_dir: Path, *, force: bool = False,
     phase = ["setup"]
 
     def mark(status: str, message: str) -> None:
-        """The run ended without the normal save (rank-local; a last resort)."""
+        """The run ended without the normal save (rank-local; a last resort). A final status
+        already on disk (another rank's ``failed``) is the first truth: it stays."""
+        if _disk_status(work) not in (None, "running"):
+            return
         if rd.replacing and not replace_on_failure:
             discard_run_dir(rd)
             return
@@ -470,6 +481,8 @@ def run_scene(scene: Scene, run_dir: Path, *, force: bool = False,
         out.pop("pid", None)
         out.update(status=status_, message=msg + " (saved by the rescue writer: no probes, "
                    "no final field)", wall_time_s=time.perf_counter() - t0)
+        if _disk_status(rd.work) not in (None, "running"):
+            return  # another rank marked the run (failed) before mpirun's signal came
         if sim_ is None and rd.replacing:
             discard_run_dir(rd)
             return
@@ -478,9 +491,6 @@ def run_scene(scene: Scene, run_dir: Path, *, force: bool = False,
         atomic_write_text(rd.work / "summary.json", json.dumps(out, indent=2))
         commit_run_dir(rd)
 
-    sim = None
-    error = None
-    status = "failed"
     def first_files() -> None:
         """scene.toml and the ``running`` summary; a write error leaves nothing half-made."""
         problem = None
@@ -512,10 +522,7 @@ def run_scene(scene: Scene, run_dir: Path, *, force: bool = False,
         if not rank0 or rescued:
             return
         for folder in {rd.work, rd.final}:
-            try:
-                if json.loads((folder / "summary.json").read_text())["status"] != "running":
-                    continue
-            except (OSError, ValueError, KeyError):
+            if _disk_status(folder) != "running":
                 continue
             if rd.replacing and folder == rd.work:
                 discard_run_dir(rd)
@@ -525,6 +532,9 @@ def run_scene(scene: Scene, run_dir: Path, *, force: bool = False,
                     f"(SIGKILL: out of memory, or mpirun/batch system) during {where}",
                     wall_time_s=time.perf_counter() - t0), indent=2))
 
+    sim = None
+    error = None
+    status = "failed"
     with RunSignals(hard_stop, rescue=rescue if rank0 and comm.size > 1 else None,
                     on_death=tidy) as signals:
         try:
@@ -615,6 +625,10 @@ def _save(sim: Simulation | None, rd: RunDir, scene: Scene, status: str, error: 
         signals.wait_rescue()
         if rd.replacing and not rd.work.exists():  # the rescue writer swapped it in
             rd.work = rd.final
+        work = rd.work
+        if status in ("interrupted", "failed") and _disk_status(work) == "failed":
+            # another rank failed and marked the run before mpirun's signal reached us
+            return json.loads((work / "summary.json").read_text())
         summary = sim.facts() if sim is not None else {"scene": scene.name, "status": status}
 
         def finish(s: dict) -> dict:
