@@ -62,6 +62,28 @@ def test_filtered_projection_keeps_normal_step_and_uses_filtered_bound():
     assert not np.array_equal(a.status, b.status)  # the bound really changed
 
 
+def test_prakash_clifton_relaxes_towards_the_filtered_pressure():
+    """Composition: sigma_eff relaxes towards p~ (not p). With L -> 0 (exp(-rate dt) = 0)
+    the regularised filtered law is the filtered Coulomb law bit for bit."""
+    from solver.contact import EffectivePressure
+
+    rng = np.random.default_rng(7)
+    n, kappa, d, slide, f = 300, 1e-9, 1e-3, 1e-4, 0.7
+    mass = rng.uniform(1, 2, n)
+    a, b = ContactArrays(n), ContactArrays(n)
+    fa, fb = NeighbourFilter(np.arange(n), n), NeighbourFilter(np.arange(n), n)
+    eff = EffectivePressure(n, "prakash-clifton", 1e-6, slip_length=1e-300,
+                            reference_velocity=1.0)
+    for _ in range(4):
+        ur = d + rng.normal(scale=1e-4, size=n)
+        ut_prev = rng.normal(scale=1e-4, size=n)
+        ut = ut_prev + slide + rng.normal(scale=1e-4, size=n)
+        project_contact_filtered(ur, ut, ut_prev, mass, kappa, d, slide, f, fa, a)
+        project_contact_filtered(ur, ut, ut_prev, mass, kappa, d, slide, f, fb, b, eff)
+        assert np.array_equal(a.r_t, b.r_t) and np.array_equal(a.status, b.status)
+        assert np.array_equal(eff.sigma, fb.p)
+
+
 def test_filter_option_is_validated():
     sc = load_scene("scenes/smoke.toml")
     assert sc.friction.filter == "nodal" and not sc.friction.filtered
