@@ -71,11 +71,14 @@ mirror() {  # the Debian archive the host's apt uses (as ./dev's mirror())
     echo "$m"
 }
 
-ulimit_flags() {  # the host's hard limits (runc fails with "error setting rlimit" above them)
+ulimit_flags() {
+    # podman's default ulimits (1048576 open files) exceed some hosts' hard limits, and runc
+    # then fails with "error setting rlimit" (it cannot raise them without CAP_SYS_RESOURCE):
+    # 20000 files and processes, lowered to the host's hard limits where those are smaller.
     local n u
     n=$(ulimit -Hn); u=$(ulimit -Hu)
-    [ "$n" != unlimited ] || n=1048576
-    [ "$u" != unlimited ] || u=1048576
+    if [ "$n" = unlimited ] || [ "$n" -gt 20000 ]; then n=20000; fi
+    if [ "$u" = unlimited ] || [ "$u" -gt 20000 ]; then u=20000; fi
     echo "--ulimit nofile=$n:$n --ulimit nproc=$u:$u"
 }
 
@@ -139,18 +142,180 @@ base_image() {
         rm -rf --one-file-system "$tmp"
         trap - EXIT
     fi
-    "${ENGINE[@]}" import "$tarball" "$BASE" >/dev/null || die "could not import $tarball as $BASE"
+    "${ENGINE[@]}" import -q "$tarball" "$BASE" >/dev/null || die "could not import $tarball as $BASE"
     say "base: $BASE imported from $tarball"
 }
 
 # ---------------------------------------------------------------------------------------------
+# 3. build
+build_image() {
+    local log="$OUT/build.log"
+    if ! "${ENGINE[@]}" build "${BUILD_FLAGS[@]}" -t "$TAG" "$REPO" >"$log" 2>&1; then
+        tail -n 30 "$log" >&2
+        die "the image build failed (log above, whole log: $log)"
+    fi
+    local cached
+    cached=$(grep -c -- '--> Using cache' "$log" || true)
+    # Old project layers of earlier builds: untagged, no longer needed (the Debian stack layer
+    # stays: the tagged image holds it).
+    "${ENGINE[@]}" image prune -f >/dev/null 2>&1 || true
+    local bytes
+    bytes=$("${ENGINE[@]}" image inspect --format '{{.Size}}' "$TAG")
+    say "image $TAG: $((bytes / 1000000)) MB ($cached build steps from the layer cache)"
+}
+
+# ---------------------------------------------------------------------------------------------
+# 4. runs inside the image
+N_RUN=0
+crun() {  # crun [engine run options...] -- CMD...: one container, removed afterwards
+    local -a opts=()
+    while [ "$1" != "--" ]; do opts+=("$1"); shift; done
+    shift
+    N_RUN=$((N_RUN + 1))
+    "${ENGINE[@]}" run --rm --name "stickslip-test-$$-$N_RUN" "${RUN_FLAGS[@]}" "${opts[@]}" \
+        "$TAG" "$@"
+}
+
+cleanup() {
+    local ids
+    if [ "${#ENGINE[@]}" -gt 0 ]; then
+        ids=$("${ENGINE[@]}" ps -aq --filter "name=stickslip-test-$$-" 2>/dev/null || true)
+        [ -z "$ids" ] || "${ENGINE[@]}" rm -f $ids >/dev/null 2>&1 || true
+    fi
+    if [ -n "${OUT:-}" ] && [ -d "$OUT" ]; then
+        if [ -n "$KEEP" ] || [ "$FAILED" != 0 ]; then say "outputs kept in $OUT"
+        else rm -rf --one-file-system "$OUT"; fi
+    fi
+}
+
+run_help() {
+    local out
+    out=$(crun -- stickslip --help 2>&1) || { echo "$out" >&2; fail "stickslip --help failed"; return; }
+    grep -q '^usage: stickslip' <<<"$out" || { echo "$out" >&2; fail "stickslip --help: no usage line"; }
+}
+
+run_scenes() {  # the smoke scene and the 4-scene sweep, outputs in the mounted $OUT/image
+    local mount="$OUT/image:/work/runs"
+    # Default output root (STICKSLIP_OUTPUT=/work/runs): /work/runs/smoke, /work/runs/sweeps/smoke4.
+    crun -v "$mount" -- mpirun -n 2 stickslip run scenes/smoke.toml >"$OUT/image-smoke.log" 2>&1 ||
+        { tail -n 20 "$OUT/image-smoke.log" >&2; fail "mpirun -n 2 stickslip run scenes/smoke.toml"; }
+    crun -v "$mount" -- mpirun -n 2 stickslip sweep sweeps/smoke4.toml >"$OUT/image-sweep.log" 2>&1 ||
+        { tail -n 20 "$OUT/image-sweep.log" >&2; fail "mpirun -n 2 stickslip sweep sweeps/smoke4.toml"; }
+}
+
+run_sweep_cluster() {
+    # The README's cluster-node recipe: a host user other than the image's (uid 1234 here) runs
+    # `mpirun -n 4 stickslip sweep` (oversubscribed on a 2-core machine) as itself, with the
+    # results on a mounted directory it owns.
+    crun -v "$OUT/cluster:/data" --user 1234:1234 -e HOME=/tmp --shm-size=1g -- \
+        mpirun -n 4 stickslip sweep sweeps/smoke4.toml -o /data/smoke4 >"$OUT/image-sweep-np4.log" 2>&1 ||
+        { tail -n 20 "$OUT/image-sweep-np4.log" >&2; fail "mpirun -n 4 stickslip sweep sweeps/smoke4.toml"; }
+}
+
+run_scene_error() {  # a bad scene value: one line on stderr, exit status 2
+    local rc=0 err
+    crun -- stickslip run scenes/smoke.toml --set mesh.n_inner=-1 >"$OUT/error.out" 2>"$OUT/error.err" || rc=$?
+    err=$(grep -v '^[[:space:]]*$' "$OUT/error.err" || true)
+    if [ "$rc" != 2 ] || [ "$(wc -l <<<"$err")" != 1 ] || ! grep -q 'n_inner' <<<"$err"; then
+        cat "$OUT/error.err" >&2
+        fail "a scene error should exit 2 with one line naming mesh.n_inner (got exit $rc, above)"
+    else
+        say "scene error: exit $rc: $err"
+    fi
+}
+
+# ---------------------------------------------------------------------------------------------
+# 5. checks on the host
+check_readable() {  # every output readable by a user other than the container's (1000, 1234)
+    local bad
+    bad=$(find "$OUT/image" "$OUT/cluster" \( -type f ! -perm -o=r \) -o \( -type d ! -perm -o=rx \))
+    if [ -n "$bad" ]; then
+        ls -ln $bad >&2
+        fail "$(wc -l <<<"$bad") outputs are not readable by other users (mode o+r, listed above)"
+    fi
+    if [ "$(id -u)" = 0 ] && command -v setpriv >/dev/null; then  # read them as nobody
+        bad=$(setpriv --reuid=65534 --regid=65534 --clear-groups \
+              find "$OUT/image" "$OUT/cluster" ! -readable 2>&1 || true)
+        [ -z "$bad" ] || { echo "$bad" >&2; fail "user nobody cannot read these outputs"; }
+        setpriv --reuid=65534 --regid=65534 --clear-groups \
+            find "$OUT/image" "$OUT/cluster" -type f -exec cat {} + >/dev/null 2>&1 ||
+            fail "user nobody cannot read every output file"
+    fi
+    say "$(find "$OUT/image" "$OUT/cluster" -type f | wc -l) output files, owner uid(s)" \
+        "$(find "$OUT/image" "$OUT/cluster" -type f -printf '%U\n' | sort -u | tr '\n' ' ')"
+}
+
+dev_reference() {  # the same scenes through ./dev, into $OUT/dev
+    "$REPO/dev" mpirun -n 2 stickslip run scenes/smoke.toml -o "$OUT/dev/smoke" --force \
+        >"$OUT/dev-smoke.log" 2>&1 || { tail -n 20 "$OUT/dev-smoke.log" >&2; fail "./dev smoke run"; }
+    "$REPO/dev" mpirun -n 2 stickslip sweep sweeps/smoke4.toml -o "$OUT/dev/sweeps/smoke4" \
+        >"$OUT/dev-sweep.log" 2>&1 || { tail -n 20 "$OUT/dev-sweep.log" >&2; fail "./dev sweep"; }
+}
+
+compare_versions() {  # informative: the image's Debian stack versus ./dev's rootfs
+    local pkgs
+    pkgs=$(sed -e 's/#.*//' -e 's/[[:space:]]//g' "$REPO/docker/apt-packages.txt" | grep -v '^$' | tr '\n' ' ')
+    # shellcheck disable=SC2086
+    if diff <(crun -- dpkg-query -W $pkgs) <("$REPO/dev" dpkg-query -W $pkgs) >"$OUT/versions.diff"; then
+        say "the image and ./dev's rootfs have the same versions of the apt list's packages"
+    else
+        say "warning: package versions differ between the image and ./dev's rootfs:"
+        cat "$OUT/versions.diff" >&2
+    fi
+}
+
+compare_summaries() {
+    local pair ref other res
+    for pair in "dev/smoke image/smoke" "dev/sweeps/smoke4 image/sweeps/smoke4" \
+                "dev/sweeps/smoke4 cluster/smoke4"; do
+        read -r ref other <<<"$pair"
+        if res=$("$REPO/dev" python3 "$REPO/docker/compare_summaries.py" "$OUT/$ref" "$OUT/$other" 2>&1); then
+            say "summaries $other vs $ref: $res"
+        else
+            echo "$res" >&2
+            fail "summaries $other differ from ./dev's $ref"
+        fi
+    done
+}
+
+# ---------------------------------------------------------------------------------------------
 main() {
+    trap cleanup EXIT
     stage "engine"
     pick_engine
     stage "base image"
     base_image
+    OUT=$(mktemp -d /tmp/stickslip-image-test.XXXXXX)  # /tmp: ./dev sees it too
+    chmod 755 "$OUT"
+    mkdir -p "$OUT/image" "$OUT/dev"
+    mkdir -p "$OUT/cluster"
+    # The mounts belong to the container's users: the image's (1000) and the --user one (1234).
+    chown 1000:1000 "$OUT/image" 2>/dev/null || chmod 777 "$OUT/image"
+    chown 1234:1234 "$OUT/cluster" 2>/dev/null || chmod 777 "$OUT/cluster"
+    stage "build"
+    build_image
+    stage "stickslip --help"
+    run_help
+    stage "run + sweep (mpirun -n 2)"
+    run_scenes
+    stage "sweep (--user, mpirun -n 4)"
+    run_sweep_cluster
+    stage "scene error"
+    run_scene_error
+    stage "readable outputs"
+    check_readable
+    stage "./dev reference runs"
+    dev_reference
+    compare_versions
+    stage "compare summaries"
+    compare_summaries
+    stage "clean up"
+    local left
+    left=$("${ENGINE[@]}" ps -aq --filter "name=stickslip-test-$$-" 2>/dev/null || true)
+    [ -z "$left" ] || fail "containers left behind: $left"
     print_timings
     [ "$FAILED" = 0 ] || { say "some checks FAILED (see above)"; exit 1; }
+    say "all checks passed"
 }
 
 main "$@"
