@@ -1,4 +1,5 @@
-"""Measurements of the reduced transient model (solver/reduced.py) for docs/reduced_transient.md.
+"""Measurements of the reduced transient model (studies/reduced_transient.py) for
+docs/reduced_transient.md.
 
 Usage: ``python3 benchmarks/reduced_transient.py [--quick] [-o out.json]`` (one core, ~1 min).
 
@@ -19,7 +20,7 @@ from typing import Any
 import numpy as np
 
 from semianalytic import coefficients, gamma_from_physical, stick_slip_waves
-from solver.reduced import (
+from studies.reduced_transient import (
     ReducedModel,
     junction_phases,
     observed_order,

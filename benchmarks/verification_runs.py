@@ -75,8 +75,8 @@ def matrix(quick: bool) -> list[tuple[str, str, list[str]]]:
 def stage_runs(quick: bool, force: bool, only: str | None) -> None:
     from mpi4py import MPI
 
-    from solver.run import run_scene
     from solver.scene import load_scene
+    from studies.rundir import run_scene
 
     OUT.mkdir(parents=True, exist_ok=True)
     todo = [r for r in matrix(quick) if only is None or r[0].startswith(only)]
@@ -103,7 +103,7 @@ def stage_runs(quick: bool, force: bool, only: str | None) -> None:
 
 def stage_table(quick: bool) -> dict:
     from solver.scene import load_scene
-    from solver.verification import (
+    from studies.verification import (
         compare_run,
         fe_modes,
         free_flight_celerity,

@@ -9,7 +9,7 @@ of docs/stability.md)::
 
 Each point is one in-process run of the Figure-3 physics (Omega = 50 rad/s, delta = 4e-4,
 f = 0.7, nu = 0.3, xi = 1.25, mode-4 seed of 0.1 d) to ``T_END``; the wave is analysed over the
-last ``WINDOW`` seconds (``solver.analysis.analyse``). Errors are taken against the reference
+last ``WINDOW`` seconds (``postprocess.analysis.analyse``). Errors are taken against the reference
 run (explicit, N = 528, dt = 0.45 dt_crit; its own convergence is estimated from its neighbours
 N = 264 and dt = 0.9 dt_crit): relative for celerity, frequency and amplitude, absolute (max
 over separation/stick/slip) for the zone fractions. Wall time = setup (mesh, assembly,
@@ -67,7 +67,7 @@ def run_point(scheme: str, n: int, fraction: float, extra: tuple[str, ...] = (),
     """One run; returns wave metrics over the last ``window`` s and timings."""
     from mpi4py import MPI
 
-    from solver.analysis import analyse
+    from postprocess.analysis import analyse
     from solver.run import Diverged, Simulation
     from solver.scene import load_scene
     from solver.schemes import contact_seconds
@@ -294,7 +294,7 @@ def _plot(rows, path: Path) -> None:
 
 
 def semianalytic(cache: Cache) -> str:
-    from solver.verification import semianalytic_waves
+    from studies.verification import semianalytic_waves
 
     p = dict(nu=0.3, xi=1.25, f=0.7, delta=0.001, omega=40.0, R=1.0, wave_speed=1000.0)
     waves = [w for w in semianalytic_waves(p, 4) if w["admissible"]]
@@ -466,7 +466,7 @@ def lean() -> str:
         "import io, tempfile\n"
         "from pathlib import Path\n"
         "from mpi4py import MPI\n"
-        "from solver.run import run_scene\n"
+        "from studies.rundir import run_scene\n"
         "from solver.scene import load_scene\n"
         "res = {}\n"
         "for fields in ('false', 'true'):\n"
@@ -484,7 +484,7 @@ def lean() -> str:
         "import io, sys, tempfile\n"
         "from pathlib import Path\n"
         "from mpi4py import MPI\n"
-        "from solver.run import run_scene\n"
+        "from studies.rundir import run_scene\n"
         "from solver.scene import load_scene\n"
         "sc = load_scene('scenes/smoke.toml', ['output.progress=false', 'time.end_time=0.002'])\n"
         "run_scene(sc, Path(tempfile.mkdtemp()) / 'r', comm=MPI.COMM_SELF, "

@@ -4,7 +4,7 @@ Modules: :mod:`~semianalytic.coefficients` (eq. [2] coefficients), :mod:`~semian
 (steady sliding), :mod:`~semianalytic.flutter` (dispersion relation), :mod:`~semianalytic.waves`
 (stick-slip and stick-slip-separation waves, eqs. [3]-[7]), :mod:`~semianalytic.junctions`
 (closure comparison), :mod:`~semianalytic.plotting` (Figure 1; imports matplotlib lazily) and
-:mod:`~semianalytic.cli` (``stickslip wave`` / ``stickslip flutter``). No dolfinx needed.
+:mod:`~cli.semianalytic` (``stickslip wave`` / ``stickslip flutter``). No dolfinx needed.
 """
 
 from semianalytic.coefficients import Coefficients, coefficients, gamma_from_physical

@@ -146,3 +146,13 @@ class NodalFrames:
         z = self.polar_at_nodes(array, np.empty(self.node_index.size, dtype=complex))
         radial[:] = z.real
         tangential[:] = z.imag
+
+
+def zone_fractions(status: np.ndarray) -> dict[str, float]:
+    """Fractions of node-samples in separation / stick / slip."""
+    total = max(1, status.size)
+    return {
+        "separation": float(np.count_nonzero(status == SEPARATION)) / total,
+        "stick": float(np.count_nonzero(status == STICK)) / total,
+        "slip": float(np.count_nonzero(status == SLIP)) / total,
+    }

@@ -21,6 +21,7 @@ import math
 import sys
 from time import perf_counter
 
+from solver.errors import StepTooLarge  # noqa: F401  (raised here, caught above)
 from solver.newmark import Newmark, critical_time_step
 from solver.scene import Scene
 
@@ -30,10 +31,6 @@ STEPS_PER_WAVE_WARNING = 15.0
 """Explicit steps per period of the shortest contact-mesh shear wave above which the explicit
 step is "tiny": its size is set by stiff modes (pressure waves at nu -> 1/2, thin elements), not
 by the waves of interest (ratio ~5 at nu = 0.3, xi = 1.25; ~21 at nu = 0.49; docs/stability.md)."""
-
-
-class StepTooLarge(ValueError):
-    """A fixed time step above the stability limit of the scheme."""
 
 
 def shortest_wave_period(scene: Scene) -> float:

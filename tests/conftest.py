@@ -7,6 +7,7 @@ summary counts each parallel test once.
 
 import os
 
+import numpy as np
 import pytest
 
 MPI_RANK = int(os.environ.get("OMPI_COMM_WORLD_RANK", os.environ.get("PMI_RANK", "0")))
@@ -16,3 +17,22 @@ MPI_RANK = int(os.environ.get("OMPI_COMM_WORLD_RANK", os.environ.get("PMI_RANK",
 def pytest_configure(config: pytest.Config) -> None:
     if MPI_RANK > 0:
         config.option.xmlpath = None
+
+
+def assert_steady_sliding_stays(sim, steps: int = 40) -> np.ndarray:
+    """Step an unperturbed ``Simulation`` ``steps`` times: every node slips, nothing moves
+    beyond round-off (1e-13 of u, 1e-12 of the slide velocity) and q = f p at every node
+    (f = 0.7 of the smoke scene). The shared check of the explicit and implicit schemes'
+    fixed point; returns u_0."""
+    from solver.contact import SLIP
+
+    u0 = sim.integrator.u.copy()
+    scale = np.max(np.abs(u0))
+    for _ in range(steps):
+        sim.integrator.step()
+        assert np.all(sim.projection.out.status == SLIP)
+    assert np.max(np.abs(sim.integrator.u - u0)) < 1e-13 * scale
+    assert np.max(np.abs(sim.integrator.v)) < 1e-12 * sim.projection.slide / sim.dt
+    out = sim.projection.out  # tangential force = f x normal force (Coulomb, sliding forward)
+    assert np.allclose(out.r_t, 0.7 * out.r_r, rtol=1e-10)
+    return u0

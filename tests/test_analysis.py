@@ -12,7 +12,7 @@ import json
 import numpy as np
 import pytest
 
-from solver.analysis import (
+from postprocess.analysis import (
     analyse,
     analyse_run,
     angular_speed,

@@ -26,7 +26,9 @@ def fake_debootstrap(tmp_path: Path, body: str) -> Path:
     bindir = tmp_path / "bin"
     bindir.mkdir(exist_ok=True)
     script = bindir / "debootstrap"
-    script.write_text(f"#!/bin/sh\necho \"$@\" >> {tmp_path}/calls\nmkdir -p \"$3/etc\"\n{body}\n")
+    # the target exists before the call is logged: a test that kills the build as soon as
+    # ``calls`` appears must find the leftover tree, however loaded the machine is
+    script.write_text(f"#!/bin/sh\nmkdir -p \"$3/etc\"\necho \"$@\" >> {tmp_path}/calls\n{body}\n")
     script.chmod(0o755)
     return bindir
 

@@ -92,6 +92,7 @@ def test_docker_run_image_stickslip_and_mpirun():
     assert any(word == "RUN" and "pip install" in rest and "/opt/stickslip" in rest
                and " -e " not in rest for word, rest in ins)
     scripts = tomllib.loads((REPO / "pyproject.toml").read_text())["project"]["scripts"]
+    assert scripts["stickslip"] == "cli.main:main"
     module, _, func = scripts["stickslip"].partition(":")
     source = REPO / Path(*module.split("."))
     assert func and (source.with_suffix(".py").is_file() or (source / "__init__.py").is_file())

@@ -18,7 +18,7 @@ import pytest
 from scipy.optimize import brentq
 from scipy.special import jv, yv
 
-from solver.flutter_fe import annulus_sliding_frequencies, matrix_pencil, newmark_exponents
+from studies.flutter_fe import annulus_sliding_frequencies, matrix_pencil, newmark_exponents
 
 E, NU, RHO, R, XI = 1.0e9, 0.3, 1000.0, 1.0, 1.25  # the paper's tube (scenes/figure3_*)
 
@@ -106,7 +106,7 @@ def _problem(name: str, *overrides: str, comm=None):
 
 def _branches(res, k: int):
     """Distinct modes of wavenumber |k| (one per ±k pair), by frequency."""
-    from solver.flutter_fe import _distinct
+    from studies.flutter_fe.plots import _distinct
 
     return _distinct(m for m in res.modes if m.wavenumber == k)
 
@@ -118,7 +118,7 @@ def test_band_slicing_finds_every_eigenvalue_of_the_dense_problem():
     import scipy.linalg as sl
     from scipy.sparse import csr_matrix
 
-    from solver.flutter_fe import band_eigenvalues, build_operators
+    from studies.flutter_fe import band_eigenvalues, build_operators
 
     pb = _problem("smoke")
     ops = build_operators(pb)
@@ -148,7 +148,7 @@ def test_f0_gives_real_double_frequencies_matching_the_bessel_reference():
     second 9.7 % / 3.6 %, third 6.6 % / 2.4 %. Tolerances at N = 132: 0.5 %, 4 %, 3 %; and
     for the second and third branches the error of EVERY k must fall with an observed order
     > 1.4 from N = 72 to 132 (P1: 2 expected)."""
-    from solver.flutter_fe import complex_eigenvalue_analysis
+    from studies.flutter_fe import complex_eigenvalue_analysis
 
     errors = {}
     for n in (72, 132):
@@ -181,7 +181,7 @@ def test_growth_rates_converge_with_the_mesh():
     1845 Hz). The successive changes must shrink (|last| < 0.6 |previous|, observed 0.07-0.5
     while h halves, then shrinks by 1.83) and the last one stay below 10 % (growth) and 3 %
     (frequency) of the value: first-order-like convergence of the nodal contact."""
-    from solver.flutter_fe import complex_eigenvalue_analysis
+    from studies.flutter_fe import complex_eigenvalue_analysis
 
     results = [complex_eigenvalue_analysis(_problem("figure3_n36", f"mesh.n_inner={n}"), 0.7,
                                            2000.0) for n in (72, 132, 264)]
@@ -209,7 +209,7 @@ def test_seeded_transient_grows_as_cea_predicts():
     rotation): tolerance 1 %. The raw slope of log|U_4| includes the second k = 4 branch
     (1031 /s, against the rotation, amplitude ratio ~0.3 at 8 ms): tolerance 5 %."""
     MPI, _, load_scene = _fe()
-    from solver.flutter_fe import complex_eigenvalue_analysis, measure_transient_growth
+    from studies.flutter_fe import complex_eigenvalue_analysis, measure_transient_growth
 
     scene = load_scene("figure3_n132")
     res = complex_eigenvalue_analysis(_problem("figure3_n132"), None, 3000.0)
@@ -240,8 +240,8 @@ def test_roundoff_growth_of_unperturbed_sliding_is_the_damped_cea_maximum():
     vector updates: measured 707 /s with one arithmetic, 684 /s with another), and they
     separate only by e^{33 t}, so the measured rate must lie between them (1 % slack)."""
     MPI, _, load_scene = _fe()
-    from solver.flutter_fe import complex_eigenvalue_analysis
     from solver.run import Simulation
+    from studies.flutter_fe import complex_eigenvalue_analysis
 
     sim = Simulation(load_scene("smoke", ['initial.perturbation="none"',
                                           "output.progress=false"]), MPI.COMM_SELF)
@@ -271,7 +271,7 @@ def test_reduced_model_is_a_ritz_upper_bound_and_underestimates_the_growth():
     ones of the same k (> 350 /s): the single radial shape X(r) with u = delta removes the
     radial motion of the tube interior, which is what friction couples to."""
     _fe()
-    from solver.flutter_fe import complex_eigenvalue_analysis, reduced_model_flutter
+    from studies.flutter_fe import complex_eigenvalue_analysis, reduced_model_flutter
 
     scene0 = _problem("figure3_n132").scene
     red0 = reduced_model_flutter(scene0.with_overrides("loading.f=0.0"), 8)
@@ -290,7 +290,7 @@ def test_eigenvalues_are_the_same_on_one_and_all_ranks():
     """N = 72, f = 0.7, up to 2.5 kHz: same modes, growth rates and wavenumbers on
     COMM_SELF and COMM_WORLD (MUMPS/Krylov in another order: agreement to 1e-8)."""
     MPI, _, _ = _fe()
-    from solver.flutter_fe import complex_eigenvalue_analysis
+    from studies.flutter_fe import complex_eigenvalue_analysis
 
     out = {}
     for name, comm in (("self", MPI.COMM_SELF), ("world", MPI.COMM_WORLD)):
@@ -306,7 +306,7 @@ def test_eigenvalues_are_the_same_on_one_and_all_ranks():
 
 def test_cli_json_table_and_bad_input(capsys, tmp_path):
     _fe()
-    from solver.cli import main
+    from cli.main import main
 
     assert main(["flutter-fe", "smoke", "--json", "--fmax-hz", "5000"]) == 0
     out = json.loads(capsys.readouterr().out)

@@ -12,14 +12,13 @@ pytest.importorskip("petsc4py")
 from mpi4py import MPI  # noqa: E402
 from petsc4py import PETSc  # noqa: E402
 
-from solver.implicit import (  # noqa: E402
+from solver.active_set import (  # noqa: E402
     SEPARATED,
     STUCK,
     ActiveSetSolver,
     ContactSolveError,
-    ImplicitNewmark,
-    amplification_eigenvalues,
 )
+from solver.implicit import ImplicitNewmark, amplification_eigenvalues  # noqa: E402
 
 SELF = MPI.COMM_SELF
 
@@ -178,19 +177,12 @@ def test_steady_sliding_is_a_fixed_point_of_the_implicit_scheme():
     node slips with q = f p (same checks as the explicit test in test_solver_fe.py; 40 steps,
     before the flutter instability can amplify round-off)."""
     pytest.importorskip("dolfinx")
-    from solver.contact import SLIP
+    from conftest import assert_steady_sliding_stays
+
     from solver.run import Simulation
 
     sim = Simulation(implicit_smoke('initial.perturbation="none"', "time.dt_fraction=5"), SELF)
-    u0 = sim.integrator.u.copy()
-    scale = np.max(np.abs(u0))
-    for _ in range(40):
-        sim.integrator.step()
-        assert np.all(sim.projection.out.status == SLIP)
-    assert np.max(np.abs(sim.integrator.u - u0)) < 1e-13 * scale
-    assert np.max(np.abs(sim.integrator.v)) < 1e-12 * sim.projection.slide / sim.dt
-    out = sim.projection.out
-    assert np.allclose(out.r_t, 0.7 * out.r_r, rtol=1e-10)
+    assert_steady_sliding_stays(sim, 40)
     assert max(sim.integrator.iterations) == 1  # the warm-started set is already right
 
 
@@ -254,6 +246,7 @@ def test_short_run_same_mode_as_explicit():
     pytest.importorskip("dolfinx")
     from solver.run import Simulation
     from solver.scene import load_scene
+    from studies.rundir import summarise
 
     out = {}
     for name, sc in (
@@ -263,7 +256,7 @@ def test_short_run_same_mode_as_explicit():
     ):
         sim = Simulation(sc, SELF)
         sim.proceed()
-        out[name] = sim.summary()
+        out[name] = summarise(sim)
     ex, im = out["explicit"], out["implicit"]
     assert ex["mode"] == im["mode"] == 4
     assert ex["fractions"]["separation"] > 0.4 and im["fractions"]["separation"] > 0.4

@@ -14,7 +14,7 @@ import pytest
 
 from semianalytic import coefficients, gamma_from_physical, stick_slip_waves
 from solver.contact import SLIP
-from solver.reduced import (
+from studies.reduced_transient import (
     ReducedModel,
     eigenfrequencies,
     junction_phases,
@@ -52,7 +52,7 @@ def _run_wave(co, w, n, beta2, consistent=True):
 
 def test_import_is_dolfinx_free():
     code = (
-        "import sys, solver.reduced; "
+        "import sys, studies.reduced_transient; "
         "bad = [m for m in ('dolfinx', 'petsc4py', 'slepc4py') if m in sys.modules]; "
         "assert not bad, bad"
     )

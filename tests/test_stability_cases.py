@@ -52,11 +52,12 @@ def run(sc):
     """Run with the run's energy guard lifted: it trips on physics at Omega = 1000 and
     delta = 1e-7 (see docs/stability.md), and here the tests check the energy themselves."""
     from solver.run import Simulation
+    from studies.rundir import summarise
 
     sim = Simulation(sc, SELF)
     sim.initial_energy, sim.energy_bound = 1.0, math.inf
     sim.proceed()
-    return sim, sim.summary()
+    return sim, summarise(sim)
 
 
 @pytest.mark.parametrize("scheme", ["explicit", "implicit"])

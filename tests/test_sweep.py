@@ -21,15 +21,9 @@ from pathlib import Path
 
 import pytest
 
-from solver.sweep import (
-    SweepError,
-    _cost,
-    _Monitor,
-    _want_live,
-    is_sweep_dir,
-    load_sweep,
-    scene_for,
-)
+from studies.sweep import SweepError, is_sweep_dir, load_sweep, scene_for
+from studies.sweep.schedule import _Monitor, _want_live
+from studies.sweep.spec import _cost
 
 REPO = Path(__file__).resolve().parents[1]
 SMOKE = REPO / "scenes" / "smoke.toml"
@@ -157,13 +151,13 @@ def test_failures_divergence_resume_and_retry(tmp_path, monkeypatch):
     from mpi4py import MPI
 
     import solver.run
-    from solver.sweep import run_sweep
+    from studies.sweep import run_sweep
 
     original = solver.run.Simulation._check_health
 
     def check(self, kinetic, strain):  # Omega = 5: pretend the scheme blows up
         if self.scene.loading.omega == 5.0 and self.initial_energy is not None:
-            raise solver.run.Diverged("forced divergence for the test")
+            raise solver.errors.Diverged("forced divergence for the test")
         return original(self, kinetic, strain)
 
     monkeypatch.setattr(solver.run.Simulation, "_check_health", check)
@@ -220,7 +214,7 @@ def test_slow_scene_does_not_stall_the_others(tmp_path):
     pytest.importorskip("dolfinx")
     from mpi4py import MPI
 
-    from solver.sweep import run_sweep
+    from studies.sweep import run_sweep
 
     comm = MPI.COMM_WORLD
     root = Path(comm.bcast(str(tmp_path) if comm.rank == 0 else None, root=0))
@@ -292,7 +286,7 @@ def killed_and_resumed(tmp_path_factory):
     tmp = tmp_path_factory.mktemp("kill")
     sweep = _write(tmp / "killme.toml", KILL_SWEEP)
     out = tmp / "out"
-    cmd = [sys.executable, "-m", "solver.cli", "sweep", str(sweep), "-o", str(out)]
+    cmd = [sys.executable, "-m", "cli.main", "sweep", str(sweep), "-o", str(out)]
     rc = _run_until_then_kill(cmd, out, 2, tmp / "first.log")
     after_kill = _rows(out)
     starts_kill = _starts(out)
@@ -350,7 +344,7 @@ def test_mpirun_kill_resume_gives_the_serial_results(killed_and_resumed, tmp_pat
     """mpirun -n 2: SIGTERM mid-way, resume; results equal the serial sweep's bit for bit."""
     sweep = _write(tmp_path / "killme.toml", KILL_SWEEP)
     out = tmp_path / "out"
-    cmd = ["mpirun", "-n", "2", sys.executable, "-m", "solver.cli", "sweep", str(sweep),
+    cmd = ["mpirun", "-n", "2", sys.executable, "-m", "cli.main", "sweep", str(sweep),
            "-o", str(out)]
     rc = _run_until_then_kill(cmd, out, 2, tmp_path / "first.log")
     assert rc != 0  # mpirun reports the killed job
@@ -376,7 +370,7 @@ def test_mpirun_kill_resume_gives_the_serial_results(killed_and_resumed, tmp_pat
 def test_regime_map_and_semianalytic_boundary(killed_and_resumed):
     pytest.importorskip("matplotlib")
     from solver.scene import load_scene
-    from solver.sweep import existence_grid, plot_sweep
+    from studies.sweep import existence_grid, plot_sweep
 
     out = killed_and_resumed["out"]
     assert is_sweep_dir(out) and not is_sweep_dir(out / "runs" / "omega-2.0_delta-0.0004")
@@ -401,8 +395,8 @@ def test_xdmf_field_output_for_paraview(tmp_path):
     pytest.importorskip("dolfinx")
     from mpi4py import MPI
 
-    from solver.run import run_scene
     from solver.scene import load_scene
+    from studies.rundir import run_scene
 
     scene = load_scene(SMOKE, ["time.end_time=0.002", "output.fields=true",
                                "output.field_interval=5e-4", "output.progress=false"])

@@ -23,7 +23,7 @@ import pytest
 
 pytest.importorskip("dolfinx")
 
-from solver.analysis import analyse_run, load_run, probe_frequency  # noqa: E402
+from postprocess.analysis import analyse_run, load_run, probe_frequency  # noqa: E402
 
 # Regression values of scenes/figure3_n132 (measured; docs/verification.md). Bands: the run is
 # deterministic, so the bands only absorb BLAS / platform round-off amplified by the chaotic
@@ -48,8 +48,8 @@ PAPER_PSI1 = 0.716  # paper, Figure 1 (semi-analytical)
 def fig3_run(tmp_path_factory):
     from mpi4py import MPI
 
-    from solver.run import run_scene
     from solver.scene import load_scene
+    from studies.rundir import run_scene
 
     run_dir = tmp_path_factory.mktemp("verif") / "figure3_n132"
     scene = load_scene("figure3_n132", ["output.progress=false"])
@@ -60,7 +60,7 @@ def fig3_run(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def fig3_compare(fig3_run):
-    from solver.cli import main
+    from cli.main import main
 
     out = fig3_run / "cmp.json"
     assert main(["compare", str(fig3_run), "--json", str(out)]) == 0
@@ -136,7 +136,7 @@ def test_fe_tube_is_softer_than_the_ansatz() -> None:
     FE/reduced = 0.888 (tangential), 0.853 (radial), 0.887 (sliding), band +-0.02.
     """
     from solver.scene import load_scene
-    from solver.verification import modal_table
+    from studies.verification import modal_table
 
     row = modal_table(load_scene("figure3_n132"), [4])["4"]
     tang = row["fe_free_tangential_hz"] / row["reduced_free_tangential_hz"]
@@ -157,7 +157,7 @@ def test_celerity_follows_the_free_flight_law(fig3_compare) -> None:
     same law with the reduced model's (stiffer) radial root gives a faster wave, not 1084 m/s
     or -1670 m/s."""
     from solver.scene import load_scene
-    from solver.verification import free_flight_celerity, radial_branch
+    from studies.verification import free_flight_celerity, radial_branch
 
     fe = fig3_compare["fe"]
     branch = radial_branch(load_scene("figure3_n132"), kmax=8)

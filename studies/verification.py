@@ -1,6 +1,6 @@
 """FE <-> semi-analytical verification: ``stickslip compare RUN_DIR`` (issue 5).
 
-* ``compare_run``: the FE wave of a run directory (``solver.analysis.analyse_run``: k, signed
+* ``compare_run``: the FE wave of a run directory (``postprocess.analysis.analyse_run``: k, signed
   celerity, frequency, psi1, psi2, amplitudes, zone order) side by side with every travelling
   wave of the reduced model at the same (nu, xi, f, delta, Omega) and k
   (``semianalytic.waves.find_waves``), the reduced model's flutter mode k and its free /
@@ -18,10 +18,7 @@ Units in every table: m/s, Hz, m; celerity > 0 in the sense of rotation (paper e
 
 from __future__ import annotations
 
-import argparse
-import json
 import math
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -114,7 +111,7 @@ def semianalytic_waves(p: dict[str, float], k: int) -> list[dict]:
 
 def fe_wave(run_dir: Path) -> dict:
     """The FE wave of a run directory (``analyse_run``) as a table column."""
-    from solver.analysis import analyse_run, load_run
+    from postprocess.analysis import analyse_run, load_run
 
     run = load_run(run_dir)
     w = analyse_run(run)
@@ -138,7 +135,7 @@ def compare_run(run_dir: Path | str, ks: list[int] | None = None) -> dict:
 
     The reduced model is evaluated at the FE's wavenumber and at every k in ``ks``.
     """
-    from solver.analysis import load_run
+    from postprocess.analysis import load_run
 
     run_dir = Path(run_dir)
     run = load_run(run_dir)
@@ -358,65 +355,6 @@ def modal_table(scene, ks: list[int], kmax: int = 16) -> dict[str, dict]:
         row["reduced_flutter_growth_per_s"] = red["flutter"]["growth_rate_per_s"]
         table[str(k)] = row
     return table
-
-
-# ---------------------------------------------------------------------------------------------
-# CLI
-
-
-def register(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser(
-        "compare",
-        help="FE wave of a run directory against the semi-analytical waves (table + JSON)",
-        description=(
-            "Measure the FE wave of RUN_DIR (mode k, signed celerity, frequency, psi1, psi2, "
-            "amplitudes, zone order) and put it side by side with every travelling wave of "
-            "the reduced model (eqs. [2]-[7]) at the same parameters and k, plus the reduced "
-            "flutter phase speed. Writes the table as JSON (default RUN_DIR/compare.json)."
-        ),
-    )
-    p.add_argument("run_dir", help="a run directory written by `stickslip run`")
-    p.add_argument("--json", dest="json_out", help="output JSON (default RUN_DIR/compare.json)")
-    p.add_argument("--k", type=int, action="append", default=[],
-                   help="also compare with reduced waves of this wavenumber (repeatable)")
-    p.add_argument("--markdown", action="store_true", help="print a markdown table")
-    p.add_argument("--modal", action="store_true",
-                   help="also compute FE natural frequencies / flutter modes (N <= 264)")
-    p.set_defaults(func=_compare)
-
-
-def _compare(args: argparse.Namespace) -> int:
-    run_dir = Path(args.run_dir)
-    if not (run_dir / "samples.npz").exists():
-        print(f"error: {run_dir} has no samples.npz (not a finished run directory)",
-              file=sys.stderr)
-        return 2
-    ks = list(args.k)
-    result = compare_run(run_dir, ks)
-    if args.modal:
-        from solver.scene import load_scene
-
-        scene = load_scene(run_dir / "scene.toml")
-        result["fe_modes"] = modal_table(scene, sorted({result["fe"]["k"], *ks}))
-    print(format_table(result, markdown=args.markdown))
-    if args.modal:
-        for k, row in result["fe_modes"].items():
-            print(f"k = {k}: " + ", ".join(f"{key} {val:.1f}" for key, val in row.items()
-                                           if val is not None))
-    out = Path(args.json_out) if args.json_out else run_dir / "compare.json"
-    tmp = out.with_name(f".{out.name}.tmp")
-    tmp.write_text(json.dumps(result, indent=2, default=_json_default))
-    tmp.replace(out)
-    print(f"table: {out}")
-    return 0
-
-
-def _json_default(obj):
-    if isinstance(obj, np.integer | np.bool_):
-        return obj.item()
-    if isinstance(obj, np.floating):
-        return float(obj)
-    raise TypeError(f"not JSON serialisable: {type(obj).__name__}")
 
 
 # ---------------------------------------------------------------------------------------------

@@ -41,9 +41,10 @@ def register(sub: argparse._SubParsersAction) -> None:
 def _run(args: argparse.Namespace) -> int:
     from mpi4py import MPI
 
-    from solver.cli import output_root
-    from solver.run import StepTooLarge, run_scene
+    from solver.errors import StepTooLarge
     from solver.scene import SceneError, load_scene
+    from studies.output import output_root
+    from studies.rundir import run_scene
 
     comm = MPI.COMM_WORLD
     try:
@@ -61,7 +62,7 @@ def _run(args: argparse.Namespace) -> int:
         return 2
     status = comm.bcast(summary.get("status") if comm.rank == 0 else None, root=0)
     if args.plot and comm.rank == 0 and status in ("completed", "interrupted"):
-        from solver.plotting import plot_run
+        from postprocess.plotting import plot_run
 
         for path in plot_run(run_dir):
             print(f"figure: {path}")
@@ -69,11 +70,11 @@ def _run(args: argparse.Namespace) -> int:
 
 
 def _plot(args: argparse.Namespace) -> int:
-    from solver.plotting import plot_run
+    from postprocess.plotting import plot_run
 
     run_dir = Path(args.run_dir)
     try:
-        from solver.sweep import is_sweep_dir, plot_sweep
+        from studies.sweep import is_sweep_dir, plot_sweep
     except ModuleNotFoundError:  # pragma: no cover - sweep module always shipped
         is_sweep_dir = None
     if is_sweep_dir is not None and is_sweep_dir(run_dir):

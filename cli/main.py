@@ -7,19 +7,11 @@ dolfinx, ``stickslip run`` never imports pyvista unless it plots.
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 from collections.abc import Sequence
-from pathlib import Path
 
 from solver import __version__
-
-DEFAULT_OUTPUT_ROOT = "runs"
-
-
-def output_root() -> Path:
-    """Where run directories go by default: ``$STICKSLIP_OUTPUT`` or ``./runs``."""
-    return Path(os.environ.get("STICKSLIP_OUTPUT", DEFAULT_OUTPUT_ROOT))
+from studies.output import output_root
 
 
 def _info(args: argparse.Namespace) -> int:
@@ -82,11 +74,11 @@ def build_parser() -> argparse.ArgumentParser:
 # Modules that add subcommands through ``register(subparsers)``. Each keeps its heavy imports
 # (dolfinx, PETSc, matplotlib, pyvista) inside its handlers.
 COMMAND_MODULES = (
-    "solver.commands",  # run, plot
-    "semianalytic.cli",  # wave, flutter
-    "solver.verification",  # compare
-    "solver.sweep",  # sweep
-    "solver.flutter_fe",  # flutter-fe
+    "cli.run",  # run, plot
+    "cli.semianalytic",  # wave, flutter
+    "cli.compare",  # compare
+    "cli.sweep",  # sweep
+    "cli.flutter_fe",  # flutter-fe
 )
 
 

@@ -205,14 +205,14 @@ def plot_uvpq(run_dir: Path, out_png: Path, overlay: bool = True) -> Path:
     u_r − d and u_θ (mean removed) against the time-ordered co-moving coordinate s/T (a
     material point meets s = 0 → 1 in this order; zones shaded), the phase diagrams
     (u_r − d, du_r/dt), (u_θ, du_θ/dt), and p, q (MPa) when ``samples.npz`` has nodal forces.
-    Bin means over the analysis window (``solver.analysis.run_profile``).
+    Bin means over the analysis window (``postprocess.analysis.run_profile``).
     """
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from solver.analysis import analyse_run, load_run, run_profile
+    from postprocess.analysis import analyse_run, load_run, run_profile
 
     run = load_run(run_dir)
     wave = analyse_run(run)
@@ -284,7 +284,7 @@ def phase_family(run_dirs: list[Path], colors: list[str], labels: list[str], out
     waves at each run's parameters dashed in the same colour (paper Figures 4-6).
 
     The FE curve is the limit cycle a material point describes: the co-moving bin means of
-    (u_r − d, u̇_r), (u_θ, u̇_θ) over the analysis window (``solver.analysis.run_profile``),
+    (u_r − d, u̇_r), (u_θ, u̇_θ) over the analysis window (``postprocess.analysis.run_profile``),
     smoother than one probe's history and identical to it for a steady travelling wave.
     """
     import matplotlib
@@ -292,7 +292,7 @@ def phase_family(run_dirs: list[Path], colors: list[str], labels: list[str], out
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from solver.analysis import analyse_run, load_run, run_profile
+    from postprocess.analysis import analyse_run, load_run, run_profile
 
     fig, axes = plt.subplots(1, 2, figsize=(12, 5.6), layout="constrained")
     notes = []
@@ -382,7 +382,7 @@ def isomap_pair(run_dirs: list[Path], out_png: Path, magnify: float | None = Non
     ensure_display()
     import pyvista as pv
 
-    from solver.analysis import analyse_run, load_run
+    from postprocess.analysis import analyse_run, load_run
 
     pv.OFF_SCREEN = True
     grids, infos = [], []

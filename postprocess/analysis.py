@@ -28,7 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
-from solver.contact import SEPARATION, SLIP, STICK
+from solver.contact import SEPARATION, STICK, zone_fractions
 
 ZONE_THRESHOLD = 0.005  # a zone counts as present above 0.5 % of node-samples
 ZONE_NAMES = ("separation", "stick", "slip")
@@ -136,16 +136,6 @@ def probe_frequency(t: np.ndarray, signal: np.ndarray) -> float:
     else:
         shift = 0.0
     return float((i + shift) / (n * dtp))
-
-
-def zone_fractions(status: np.ndarray) -> dict[str, float]:
-    """Fractions of node-samples in separation / stick / slip."""
-    total = max(1, status.size)
-    return {
-        "separation": float(np.count_nonzero(status == SEPARATION)) / total,
-        "stick": float(np.count_nonzero(status == STICK)) / total,
-        "slip": float(np.count_nonzero(status == SLIP)) / total,
-    }
 
 
 def classify(fractions: dict[str, float], threshold: float = ZONE_THRESHOLD) -> str:

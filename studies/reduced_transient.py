@@ -46,9 +46,9 @@ import scipy.sparse as sp
 from numpy.typing import NDArray
 from scipy.linalg import expm
 
+from postprocess.analysis import angular_speed, classify, dominant_mode, mode_coefficients
 from semianalytic.coefficients import Coefficients
 from semianalytic.waves import TravellingWave, _sep_matrix, _slip_matrix
-from solver.analysis import angular_speed, classify, dominant_mode, mode_coefficients
 from solver.contact import SEPARATION, SLIP, STICK, ContactArrays, project_contact
 from solver.newmark import Newmark, critical_time_step
 
@@ -307,7 +307,7 @@ def start_from_wave(model: ReducedModel, w: TravellingWave) -> None:
 def wave_errors(rec: ReducedRecord, w: TravellingWave) -> dict[str, float]:
     """Errors of a run started on wave ``w`` against the exact travelling wave.
 
-    * ``celerity``: |c_num − c|/|c|, c_num from the phase of mode k (``solver.analysis``) of
+    * ``celerity``: |c_num − c|/|c|, c_num from the phase of mode k (``postprocess.analysis``) of
       V − V_e (U − δ when the wave separates) over the whole record;
     * ``fractions``: max over zones of |time-averaged fraction − exact| (all steps, all nodes);
     * ``profile``: max_j |V_j − V(θ_j − ct)| (and same for U) at the last snapshot, over the
@@ -385,7 +385,7 @@ def steady_start(
 def record_summary(rec: ReducedRecord, model: ReducedModel, window: float) -> dict[str, Any]:
     """Regime, mode, celerity and zone fractions over the last ``window`` (non-dim time).
 
-    Mode from ``solver.analysis.dominant_mode`` of U − δ when separation is present, else of
+    Mode from ``postprocess.analysis.dominant_mode`` of U − δ when separation is present, else of
     V − mean(V); celerity c (units RΩ, > 0 with the rotation) from the phase of that mode.
     """
     sel = rec.t >= rec.t[-1] - window

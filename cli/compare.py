@@ -1,0 +1,69 @@
+"""``stickslip compare RUN_DIR``: the FE wave against the reduced model's waves (issue 5)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from studies.verification import compare_run, format_table, modal_table
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "compare",
+        help="FE wave of a run directory against the semi-analytical waves (table + JSON)",
+        description=(
+            "Measure the FE wave of RUN_DIR (mode k, signed celerity, frequency, psi1, psi2, "
+            "amplitudes, zone order) and put it side by side with every travelling wave of "
+            "the reduced model (eqs. [2]-[7]) at the same parameters and k, plus the reduced "
+            "flutter phase speed. Writes the table as JSON (default RUN_DIR/compare.json)."
+        ),
+    )
+    p.add_argument("run_dir", help="a run directory written by `stickslip run`")
+    p.add_argument("--json", dest="json_out", help="output JSON (default RUN_DIR/compare.json)")
+    p.add_argument("--k", type=int, action="append", default=[],
+                   help="also compare with reduced waves of this wavenumber (repeatable)")
+    p.add_argument("--markdown", action="store_true", help="print a markdown table")
+    p.add_argument("--modal", action="store_true",
+                   help="also compute FE natural frequencies / flutter modes (N <= 264)")
+    p.set_defaults(func=_compare)
+
+
+def _compare(args: argparse.Namespace) -> int:
+    run_dir = Path(args.run_dir)
+    if not (run_dir / "samples.npz").exists():
+        print(f"error: {run_dir} has no samples.npz (not a finished run directory)",
+              file=sys.stderr)
+        return 2
+    ks = list(args.k)
+    result = compare_run(run_dir, ks)
+    if args.modal:
+        from solver.scene import load_scene
+
+        scene = load_scene(run_dir / "scene.toml")
+        result["fe_modes"] = modal_table(scene, sorted({result["fe"]["k"], *ks}))
+    print(format_table(result, markdown=args.markdown))
+    if args.modal:
+        for k, row in result["fe_modes"].items():
+            print(f"k = {k}: " + ", ".join(f"{key} {val:.1f}" for key, val in row.items()
+                                           if val is not None))
+    out = Path(args.json_out) if args.json_out else run_dir / "compare.json"
+    tmp = out.with_name(f".{out.name}.tmp")
+    tmp.write_text(json.dumps(result, indent=2, default=_json_default))
+    tmp.replace(out)
+    print(f"table: {out}")
+    return 0
+
+
+def _json_default(obj):
+    if isinstance(obj, np.integer | np.bool_):
+        return obj.item()
+    if isinstance(obj, np.floating):
+        return float(obj)
+    raise TypeError(f"not JSON serialisable: {type(obj).__name__}")
+
+

@@ -1,0 +1,97 @@
+"""``stickslip sweep``: run a sweep file under mpirun, list its scenes, draw its regime map."""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+from pathlib import Path
+
+from studies.sweep.regime_map import plot_sweep
+from studies.sweep.schedule import run_sweep
+from studies.sweep.spec import SweepError, SweepSpec, load_sweep
+from studies.sweep.table import task_state
+
+# ============================================================================ CLI
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "sweep",
+        help="run a grid/list of scene variants (mpirun: dynamic load balancing, resumable)",
+        description=(
+            "Run every scene of a sweep file (base scene + [grid]/[[points]] of dotted-key "
+            "overrides) into SWEEP_DIR/runs/<id>/, with a table SWEEP_DIR/sweep.{csv,json}. "
+            "Under `mpirun -n P`, groups of group_size ranks take scenes from a shared "
+            "counter. Re-running resumes: finished scenes are skipped. "
+            "`stickslip sweep --plot SWEEP_DIR` draws the regime map of a sweep directory."
+        ),
+    )
+    p.add_argument("target", help="sweep file (TOML), or a sweep directory with --plot")
+    p.add_argument("-o", "--output", help="sweep directory (default: the file's `output`, "
+                   "else $STICKSLIP_OUTPUT/sweeps/<name>)")
+    p.add_argument("--group-size", type=int, help="ranks per scene (overrides the file)")
+    p.add_argument("--retry-failed", action="store_true",
+                   help="run scenes that failed or diverged again")
+    p.add_argument("--plot", action="store_true",
+                   help="draw the regime map (after the sweep, or of an existing SWEEP_DIR)")
+    p.add_argument("--list", action="store_true",
+                   help="list the scenes and their state; run nothing")
+    p.add_argument("--progress", choices=("auto", "live", "lines"), default="auto",
+                   help="live status line (TTY) or one line per finished scene (auto: live "
+                        "only on a terminal outside mpirun)")
+    p.set_defaults(func=_sweep)
+
+
+def _out_dir(spec: SweepSpec, args: argparse.Namespace) -> Path:
+    from studies.output import output_root
+
+    if args.output:
+        return Path(args.output)
+    if spec.output is not None:
+        return spec.output
+    return output_root() / "sweeps" / spec.name
+
+
+def _sweep(args: argparse.Namespace) -> int:
+    target = Path(args.target)
+    if target.is_dir():
+        if not args.plot:
+            print(f"error: {target} is a directory; use `stickslip sweep --plot {target}` to "
+                  "draw its map, or give a sweep file", file=sys.stderr)
+            return 2
+        try:
+            for path in plot_sweep(target):
+                print(f"figure: {path}")
+        except SweepError as err:
+            print(f"error: {err}", file=sys.stderr)
+            return 2
+        return 0
+    # Only an atomic counter is needed (one operation per scene): keep OpenMPI's UCX one-sided
+    # component, which warns on hosts without UCX devices, out of the way unless asked for.
+    os.environ.setdefault("OMPI_MCA_osc", "^ucx")
+    from mpi4py import MPI
+
+    comm = MPI.COMM_WORLD
+    try:
+        spec = load_sweep(target)
+    except SweepError as err:
+        if comm.rank == 0:
+            print(f"error: {err}", file=sys.stderr)
+        return 2
+    out_dir = _out_dir(spec, args)
+    if args.group_size is not None and args.group_size < 1:
+        if comm.rank == 0:
+            print("error: --group-size must be >= 1", file=sys.stderr)
+        return 2
+    if args.list:
+        if comm.rank == 0:
+            for task in spec.tasks:
+                print(f"{task.id:40s} {task_state(out_dir, spec, task)}")
+        return 0
+    rc = run_sweep(spec, out_dir, comm=comm, group_size=args.group_size,
+                   retry_failed=args.retry_failed, progress=args.progress)
+    if args.plot and rc in (0, 1) and comm.rank == 0:
+        for path in plot_sweep(out_dir):
+            print(f"figure: {path}")
+    return rc

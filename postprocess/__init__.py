@@ -1,0 +1,1 @@
+"""Post-processing: wave measurement of recorded samples (analysis) and figures (plotting)."""

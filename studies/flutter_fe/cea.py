@@ -1,0 +1,474 @@
+"""Complex eigenvalue analysis (CEA) of the FE steady sliding state: ``stickslip flutter-fe``.
+
+Linearisation (paper section 2, sliding regime of the nodal law used by ``solver.newmark``):
+every contact node ``i`` stays in contact and slips forward, so in its rotated frame
+``ũ = Tᵀu`` (the trick of ``forms.steady``)
+
+* ``ũ_r,i = d``: the radial dof is eliminated (its perturbation is 0);
+* the normal reaction is ``λ_i = (K̂ũ)_r,i + m_i ü_r,i = (K̂ũ)_r,i`` (``K̂ = TᵀKT``; with the
+  lumped mass ``ü_r,i = 0`` drops out) and the tangential one is ``f λ_i``, so the θ-row
+  becomes ``row_θ − f row_r``: ``K + K_f`` with the non-symmetric friction stiffness
+  ``K_f = −f E K̂`` (``E`` copies r-rows onto θ-rows).
+
+On the free dofs (outer circle clamped, contact radial dofs removed) this gives
+``(K + K_f) φ = ω² M φ`` (``M`` = the solver's lumped mass, or ``L TᵀM_cT`` with the
+consistent one). It does not depend on ``d`` or ``Ω``: only on the mesh, material and ``f``.
+With ``u = Re(ψ e^{λt})``, ``λ² = −ω²``: a complex pair ``ω², conj(ω²)`` is one growing
+travelling wave (growth ``Re λ > 0``) and one decaying wave travelling the other way.
+
+Solver: SLEPc Krylov-Schur, GNHEP, shift-and-invert (MUMPS LU, pivot threshold 0.5) with
+real targets ``σ = ω_t²`` marching through ``[0, (2π f_max)²]`` in slices; each slice is
+accepted only where its disc of converged eigenvalues covers the strip of flutter
+eigenvalues (see :func:`band_eigenvalues`). Verification and findings: docs/flutter.md.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import asdict, dataclass, field
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+if TYPE_CHECKING:
+    from petsc4py import PETSc
+
+    from solver.problem import TubeProblem
+
+
+TARGET_STEP = 0.7  # next target: this many half-widths of the last slice above its end
+_PREFIX = "stickslip_cea_"  # PETSc options prefix of the CEA eigensolver
+STRIP_SAFETY = 1.3  # strip half-height H = this × the largest |Im ω²| found in a disc
+REAL_TOL = 1e-9  # |Im ω²| <= REAL_TOL |ω²|: a real eigenvalue (stable, or f = 0)
+
+
+# --------------------------------------------------------------------------------- operators
+
+
+@dataclass
+class CEAOperators:
+    """Free-dof matrices of the linearised sliding problem: ``A(f) = Kt + f Kf``, mass ``B``."""
+
+    Kt: PETSc.Mat  # K̂ on the free dofs (symmetric)
+    Kf: PETSc.Mat  # −E K̂ on the free dofs (unit friction stiffness)
+    B: PETSc.Mat  # lumped (diagonal) or L·M̂_c (consistent) mass on the free dofs
+    free: np.ndarray  # owned local dof indices (rotated frame) kept in the eigenproblem
+    pos_theta: np.ndarray  # positions of the owned contact θ-dofs in the free numbering
+    theta: np.ndarray  # angles of the owned contact nodes
+    n_contact: int  # contact nodes in total (all ranks)
+    radius: float
+    mass_kind: str
+    consistent_friction_mass: PETSc.Mat | None = None  # −E M̂_c (consistent mass only)
+    comm: Any = None
+
+    @property
+    def n_free(self) -> int:
+        return int(self.Kt.getSize()[0])
+
+    def operator(self, f: float) -> PETSc.Mat:
+        """``K + K_f`` for friction coefficient ``f`` (a new matrix)."""
+        A = self.Kt.copy()
+        if f != 0.0:
+            A.axpy(f, self.Kf)
+        return A
+
+    def mass(self, f: float) -> PETSc.Mat:
+        """The mass matrix (with the friction row-combination for the consistent mass)."""
+        if self.consistent_friction_mass is None or f == 0.0:
+            return self.B
+        Bf = self.B.copy()
+        Bf.axpy(f, self.consistent_friction_mass)
+        return Bf
+
+    def destroy(self) -> None:
+        for m in (self.Kt, self.Kf, self.B, self.consistent_friction_mass):
+            if m is not None:
+                m.destroy()
+
+
+def build_operators(problem: TubeProblem, mass: str = "lumped") -> CEAOperators:
+    """Rotate the contact nodes, split off the friction part, restrict to the free dofs.
+
+    ``mass="lumped"`` (default) is ``problem.mass``, the explicit solver's mass, so CEA and
+    the transient describe the same discrete system; ``"consistent"`` uses ``∫ρφ_i·φ_j``.
+    """
+    import dolfinx
+    import dolfinx.fem.petsc
+    import ufl
+    from petsc4py import PETSc
+
+    from forms.elasticity import mass as mass_form
+    from forms.steady import node_matrix
+
+    if mass not in ("lumped", "consistent"):
+        raise ValueError(f"mass={mass!r}: use 'lumped' or 'consistent'")
+    comm = problem.comm
+    K, nd = problem.K, problem.nodes
+    rstart = K.getOwnershipRange()[0]
+    rows_x = (rstart + nd.dofs_x).astype(PETSc.IntType)
+    c, s = nd.cos_t, nd.sin_t
+    one, zero = np.ones_like(c), np.zeros_like(c)
+    T = node_matrix(K, rows_x, nd.dofs_x, (c, -s, s, c))  # u = T ũ
+    L1 = node_matrix(K, rows_x, nd.dofs_x, (one, zero, -one, one))  # row_θ − 1·row_r
+    Khat = K.ptap(T)
+    Kf = L1.matMult(Khat)
+    Kf.axpy(-1.0, Khat)  # = −E K̂
+
+    keep = np.ones(problem.n_owned, dtype=bool)
+    keep[problem.clamped] = False
+    keep[nd.dofs_x] = False  # ũ_r = d: eliminated
+    free = np.flatnonzero(keep)
+    iset = PETSc.IS().createGeneral((rstart + free).astype(PETSc.IntType), comm=comm)
+    Kt_f = Khat.createSubMatrix(iset, iset)
+    Kf_f = Kf.createSubMatrix(iset, iset)
+    friction_mass = None
+    if mass == "lumped":
+        B = PETSc.Mat().createAIJ(size=Kt_f.getSizes(), nnz=(1, 0), comm=comm)
+        B.setUp()
+        diag = Kt_f.createVecLeft()
+        diag.getArray()[:] = problem.mass[free]
+        B.setDiagonal(diag)
+        B.assemble()
+        diag.destroy()
+    else:
+        u, v = ufl.TrialFunction(problem.V), ufl.TestFunction(problem.V)
+        Mc = dolfinx.fem.petsc.assemble_matrix(
+            dolfinx.fem.form(mass_form(u, v, problem.material.rho))
+        )
+        Mc.assemble()
+        Mhat = Mc.ptap(T)
+        Mf = L1.matMult(Mhat)
+        Mf.axpy(-1.0, Mhat)
+        B = Mhat.createSubMatrix(iset, iset)
+        friction_mass = Mf.createSubMatrix(iset, iset)
+        for m in (Mc, Mhat, Mf):
+            m.destroy()
+    for m in (T, L1, Khat, Kf, iset):
+        m.destroy()
+    return CEAOperators(
+        Kt=Kt_f, Kf=Kf_f, B=B, free=free,
+        pos_theta=np.searchsorted(free, nd.dofs_y), theta=nd.theta,
+        n_contact=nd.n_global, radius=problem.scene.geometry.R, mass_kind=mass,
+        consistent_friction_mass=friction_mass, comm=comm,
+    )
+
+
+# --------------------------------------------------------------------------------- eigensolver
+
+
+@dataclass
+class BandStats:
+    """How the band was covered: slices, solves, eigenpairs converged, strip, wall time."""
+
+    slices: int = 0
+    solves: int = 0
+    converged: int = 0
+    strip_half_height: float = 0.0  # largest H = safety × max |Im ω²| used
+    max_residual: float = 0.0  # largest ||A x − μ B x|| / (|μ| ||x||) accepted
+    seconds: float = 0.0
+
+
+def _slice_solve(A: PETSc.Mat, B: PETSc.Mat, sigma: float, nev: int, tol: float):
+    """Shift-and-invert Krylov-Schur (GNHEP, MUMPS LU): the ``nev`` eigenvalues nearest the
+    real target ``sigma`` (``TARGET_MAGNITUDE``: the order in which Krylov resolves them)."""
+    from petsc4py import PETSc
+    from slepc4py import SLEPc
+
+    eps = SLEPc.EPS().create(A.getComm())
+    eps.setOptionsPrefix(_PREFIX)
+    eps.setOperators(A, B)
+    eps.setProblemType(SLEPc.EPS.ProblemType.GNHEP)
+    eps.setType(SLEPc.EPS.Type.KRYLOVSCHUR)
+    eps.setTarget(sigma)
+    eps.setWhichEigenpairs(SLEPc.EPS.Which.TARGET_MAGNITUDE)
+    st = eps.getST()
+    st.setType(SLEPc.ST.Type.SINVERT)
+    ksp = st.getKSP()
+    ksp.setType("preonly")
+    pc = ksp.getPC()
+    pc.setType("lu")
+    pc.setFactorSolverType("mumps")
+    # A − σB is indefinite and non-symmetric: MUMPS' default pivot threshold (0.01) loses
+    # up to 1e-5 of accuracy on it (measured, cond = 53), which SLEPc's Krylov residual
+    # estimate does not see. Threshold 0.5 (near partial pivoting) solves it to round-off.
+    opts = PETSc.Options()
+    opts.setValue(f"{_PREFIX}st_mat_mumps_cntl_1", 0.5)
+    eps.setFromOptions()
+    n = A.getSize()[0]
+    nev = min(nev, n)
+    eps.setDimensions(nev, min(n, max(2 * nev, nev + 32)), PETSc.DECIDE)
+    eps.setTolerances(tol, 2000)
+    eps.solve()
+    return eps, nev
+
+
+def band_eigenvalues(
+    A: PETSc.Mat,
+    B: PETSc.Mat,
+    mu_max: float,
+    *,
+    nev_slice: int = 64,
+    tol: float = 1e-10,
+    contact_pos: np.ndarray | None = None,
+    strip_safety: float = STRIP_SAFETY,
+) -> tuple[np.ndarray, np.ndarray, BandStats]:
+    """All eigenvalues ``μ`` of ``A φ = μ B φ`` with ``Re μ ≤ mu_max`` (slices along Re μ).
+
+    A shift-and-invert solve at the real target ``σ`` returning the ``nev`` eigenvalues
+    nearest ``σ`` leaves none out (up to Krylov convergence) in the disc ``|μ − σ| < ρ``
+    (``ρ`` = distance of the ``nev``-th). The eigenvalues lie in a strip ``|Im μ| ≤ H``
+    around the real axis (flutter: ``Im μ = −2σ_g ω``); ``H`` = ``strip_safety`` × the largest
+    ``|Im μ|`` found in the disc, and the disc must reach above it (``ρ > H``, else ``nev``
+    doubles). The disc then covers the strip on ``Re μ ∈ σ ± √(ρ² − H²)``: slices are
+    accepted there only, march upwards from ``lo = −0.02 mu_max`` (first target ``lo``, next
+    ``0.7`` half-width above the covered end), and a slice that does not reach back to ``lo``
+    is redone nearer. Each accepted pair's relative residual is checked (< 1e-6, recorded).
+    Returns ``μ`` (complex), the eigenvectors at ``contact_pos`` (owned entries; rows =
+    eigenvalues) and statistics.
+    """
+    from slepc4py import SLEPc
+
+    t0 = time.perf_counter()
+    stats = BandStats()
+    n = A.getSize()[0]
+    mus: list[complex] = []
+    vecs: list[np.ndarray] = []
+    pos = np.zeros(0, dtype=np.int64) if contact_pos is None else contact_pos
+    vr, vi = A.createVecRight(), A.createVecRight()
+    lo = -0.02 * mu_max
+    sigma, nev = lo, nev_slice
+    while lo < mu_max:
+        if stats.solves > 50 + 8 * n // max(nev_slice, 1):
+            raise RuntimeError(f"band_eigenvalues: no progress after {stats.solves} solves")
+        eps, nev = _slice_solve(A, B, sigma, nev, tol)
+        stats.solves += 1
+        nconv = eps.getConverged()
+        mu = np.array([complex(eps.getEigenvalue(i)) for i in range(nconv)])
+        dist = np.abs(mu - sigma)
+        order = np.argsort(dist, kind="stable")
+        everything = nconv >= n
+        if nconv < nev and not everything:
+            eps.destroy()
+            nev = min(2 * nev, n)  # not converged: a bigger subspace
+            continue
+        inside = order if everything else order[:nev]
+        # open disc, shrunk by 1e-9: the nev-th may have an unreturned twin at equal distance
+        rho = math.inf if everything else float(dist[order[nev - 1]]) * (1.0 - 1e-9)
+        # Strip height: safety × max |Im μ| over the disc, then lowered to the eigenvalues of
+        # the slice's own Re-interval while that stays consistent (a lower strip widens the
+        # interval, which must not take in a taller eigenvalue).
+        im, re = np.abs(mu[inside].imag), np.abs(mu[inside].real - sigma)
+        strip = strip_safety * float(np.max(im, initial=0.0))
+        for _ in range(4):
+            if everything or rho <= strip:
+                break
+            half = math.sqrt(rho * rho - strip * strip)
+            lower = strip_safety * float(np.max(im[re <= half], initial=0.0))
+            if lower >= strip:
+                break
+            wider = math.sqrt(rho * rho - lower * lower)
+            if strip_safety * float(np.max(im[re <= wider], initial=0.0)) > lower:
+                break
+            strip = lower
+        if not everything and rho <= strip:
+            eps.destroy()
+            nev = min(2 * nev, n)
+            continue
+        stats.strip_half_height = max(stats.strip_half_height, strip)
+        half = math.sqrt(rho * rho - strip * strip) if not everything else math.inf
+        if sigma - half >= lo:  # the cover does not reach back to ``lo``: target lower
+            eps.destroy()
+            sigma = lo + 0.9 * half
+            continue
+        hi = sigma + half
+        for i in inside:
+            m = mu[i]
+            if lo <= m.real < hi:
+                err = eps.computeError(int(i), SLEPc.EPS.ErrorType.RELATIVE)
+                stats.max_residual = max(stats.max_residual, err)
+                if err > 1e-6:
+                    raise RuntimeError(f"eigenpair {m} has relative residual {err:.2g}")
+                mus.append(m)
+                if contact_pos is not None:  # collective: every rank, even without nodes
+                    eps.getEigenpair(int(i), vr, vi)
+                    vecs.append(vr.getArray()[pos] + 1j * vi.getArray()[pos])
+        eps.destroy()
+        stats.slices += 1
+        stats.converged += nconv
+        if everything:
+            break
+        lo = hi
+        sigma, nev = hi + TARGET_STEP * half, nev_slice if nev <= nev_slice else nev
+    vr.destroy()
+    vi.destroy()
+    mu_arr = np.array(mus, dtype=complex)
+    keep = mu_arr.real <= mu_max
+    stats.seconds = time.perf_counter() - t0
+    width = pos.size if contact_pos is not None else 0
+    V = np.array(vecs, dtype=complex).reshape(len(vecs), width) if vecs else \
+        np.zeros((mu_arr.size, width), dtype=complex)
+    return mu_arr[keep], V[keep], stats
+
+
+# --------------------------------------------------------------------------------- modes
+
+
+@dataclass(frozen=True)
+class CEAMode:
+    """One real motion ``u = Re(ψ e^{λt})`` of the linearised sliding system.
+
+    ``k`` is the signed dominant wavenumber of ``ψ_θ`` on the contact circle
+    (``ψ_θ ≈ A e^{ikθ}``); the wave travels at ``−ω/k`` rad/s, so ``k < 0`` is the sense of
+    rotation. Stable real eigenvalues (double, ``±k``) have ``direction = "standing"``.
+    """
+
+    omega2_real: float  # Re ω² [rad²/s²]
+    omega2_imag: float  # Im ω² (>= 0: one member of each conjugate pair)
+    growth_rate: float  # Re λ [1/s], > 0 = unstable (flutter)
+    frequency_hz: float  # Im λ / 2π >= 0
+    k: int  # signed wavenumber of the growing motion's ψ_θ (contact circle DFT)
+    wavenumber: int  # |k|
+    purity: float  # share of the DFT power of ψ_θ in wavenumber ±|k|
+    direction: str  # 'rotation' | 'opposite' | 'standing' | 'divergence'
+    phase_speed_m_s: float  # −ω R / k (signed, + = rotation sense); 0 if standing
+
+    def to_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+
+@dataclass
+class CEAResult:
+    """Spectrum of one friction coefficient (modes sorted by frequency)."""
+
+    f: float
+    fmax_hz: float
+    mass: str
+    n_free: int
+    modes: list[CEAMode]
+    stats: BandStats
+    scene: str = ""
+    timings: dict[str, float] = field(default_factory=dict)
+
+    def unstable(self, rel_tol: float = 1e-7) -> list[CEAMode]:
+        """Modes with growth rate > rel_tol·ω (flutter), most unstable first."""
+        out = [
+            m for m in self.modes
+            if m.growth_rate > rel_tol * max(2 * math.pi * m.frequency_hz, 1.0)
+        ]
+        return sorted(out, key=lambda m: -m.growth_rate)
+
+    def by_wavenumber(self) -> dict[int, CEAMode]:
+        """The most unstable mode of each wavenumber |k| (k ≥ 0)."""
+        best: dict[int, CEAMode] = {}
+        for m in self.modes:
+            if m.wavenumber not in best or m.growth_rate > best[m.wavenumber].growth_rate:
+                best[m.wavenumber] = m
+        return dict(sorted(best.items()))
+
+    def to_dict(self) -> dict[str, Any]:
+        uns = self.unstable()
+        return {
+            "scene": self.scene, "f": self.f, "fmax_hz": self.fmax_hz, "mass": self.mass,
+            "free_dofs": self.n_free, "modes_in_band": len(self.modes),
+            "unstable_count": len(uns),
+            "max_growth_rate_per_s": uns[0].growth_rate if uns else 0.0,
+            "unstable": [m.to_dict() for m in uns],
+            "most_unstable_per_k": {str(k): m.to_dict() for k, m in self.by_wavenumber().items()},
+            "solver": asdict(self.stats), "timings_s": self.timings,
+        }
+
+
+def _modes(mu: np.ndarray, psi: np.ndarray, ops: CEAOperators) -> list[CEAMode]:
+    """Growth, frequency, wavenumber and direction from eigenvalues and contact ψ_θ."""
+    comm = ops.comm
+    n_c = ops.n_contact
+    kk = np.arange(-(n_c // 2), n_c // 2 + 1)
+    real = np.abs(mu.imag) <= REAL_TOL * np.abs(mu)
+    keep = real | (mu.imag > 0)  # one eigenvalue of each conjugate pair
+    mu, psi = mu[keep], psi[keep]
+    real = real[keep]
+    root = np.sqrt(mu.astype(complex))  # a + i b, a >= 0
+    growth = np.where(real & (mu.real < 0), np.sqrt(np.abs(mu.real)), np.abs(root.imag))
+    omega = np.where(real & (mu.real < 0), 0.0, root.real)
+    # growing motion with positive frequency has shape conj(φ) (Im μ > 0), see module doc
+    shape = np.where(real[:, None], psi, np.conj(psi))
+    basis = np.exp(-1j * np.outer(ops.theta, kk))  # owned nodes × k
+    local = shape @ basis if shape.size else np.zeros((mu.size, kk.size), dtype=complex)
+    coeff = np.zeros_like(local)
+    comm.Allreduce(local, coeff)
+    power = np.abs(coeff) ** 2
+    modes = []
+    for i in range(mu.size):
+        p = power[i]
+        j = int(np.argmax(p))
+        k = int(kk[j])
+        total = float(p.sum())
+        pair = p[j] + (p[kk == -k][0] if k != 0 else 0.0)
+        purity = float(pair / total) if total > 0 else 0.0
+        if real[i]:
+            direction = "divergence" if mu[i].real < 0 else "standing"
+            k, speed = abs(k), 0.0
+        else:
+            speed = -omega[i] * ops.radius / k if k != 0 else 0.0
+            direction = "rotation" if speed > 0 else ("opposite" if speed < 0 else "standing")
+        modes.append(CEAMode(
+            omega2_real=float(mu[i].real), omega2_imag=float(abs(mu[i].imag)),
+            growth_rate=float(growth[i]), frequency_hz=float(omega[i] / (2 * math.pi)),
+            k=k, wavenumber=abs(k), purity=purity, direction=direction,
+            phase_speed_m_s=float(speed),
+        ))
+    return sorted(modes, key=lambda m: (m.frequency_hz, -m.growth_rate))
+
+
+def complex_eigenvalue_analysis(
+    problem: TubeProblem,
+    f: float | None = None,
+    fmax_hz: float = 10_000.0,
+    *,
+    mass: str = "lumped",
+    ops: CEAOperators | None = None,
+    nev_slice: int = 64,
+    tol: float = 1e-10,
+) -> CEAResult:
+    """CEA of ``problem``'s steady sliding at friction ``f`` (default: the scene's) up to
+    ``fmax_hz``: every eigenvalue with frequency ≤ fmax, growth rates, wavenumbers.
+    """
+    t0 = time.perf_counter()
+    f = problem.scene.loading.f if f is None else float(f)
+    own = ops is None
+    if ops is None:
+        ops = build_operators(problem, mass)
+    t1 = time.perf_counter()
+    A, B = ops.operator(f), ops.mass(f)
+    mu_max = (2.0 * math.pi * fmax_hz) ** 2
+    mu, psi, stats = band_eigenvalues(
+        A, B, mu_max * 1.0001, nev_slice=nev_slice, tol=tol, contact_pos=ops.pos_theta
+    )
+    t2 = time.perf_counter()
+    modes = [m for m in _modes(mu, psi, ops) if m.frequency_hz <= fmax_hz]
+    t3 = time.perf_counter()
+    res = CEAResult(
+        f=f, fmax_hz=fmax_hz, mass=ops.mass_kind, n_free=ops.n_free, modes=modes, stats=stats,
+        scene=problem.scene.name,
+        timings={"operators": t1 - t0, "eigensolve": t2 - t1, "modes": t3 - t2},
+    )
+    A.destroy()
+    if B is not ops.B:
+        B.destroy()
+    if own:
+        ops.destroy()
+    return res
+
+
+def sweep_friction(
+    problem: TubeProblem, fs: np.ndarray, fmax_hz: float, *, mass: str = "lumped"
+) -> list[CEAResult]:
+    """CEA for each friction coefficient of ``fs`` (operators built once)."""
+    ops = build_operators(problem, mass)
+    try:
+        return [complex_eigenvalue_analysis(problem, float(f), fmax_hz, ops=ops) for f in fs]
+    finally:
+        ops.destroy()
+
+

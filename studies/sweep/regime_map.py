@@ -1,0 +1,344 @@
+"""The regime map of a sweep directory (``stickslip plot SWEEP_DIR``), with the reduced
+model's existence boundaries overlaid (semianalytic.waves)."""
+
+from __future__ import annotations
+
+import itertools
+import json
+import time
+from collections.abc import Iterable, Sequence
+from pathlib import Path
+from typing import Any
+
+from solver.atomic import atomic_write_text
+from solver.scene import (
+    Scene,
+    load_scene,
+    scene_to_dict,
+)
+from studies.sweep.spec import _SEMIANALYTIC_KEYS, REGIMES, SweepError, _slug_value, _toml_value
+from studies.sweep.table import _read_json, read_table
+
+# ============================================================================ regime map
+
+
+def _axis_scale(values: Sequence[float], scale: str) -> str:
+    if scale != "auto":
+        return scale
+    v = [float(x) for x in values]
+    return "log" if min(v) > 0 and max(v) / min(v) >= 20 else "linear"
+
+
+def _edges(values: Sequence[float], scale: str) -> list[float]:
+    """Cell edges around sorted ``values``: midpoints (geometric for log axes)."""
+    import numpy as np
+
+    v = np.asarray(values, dtype=float)
+    t = np.log(v) if scale == "log" else v
+    if t.size == 1:
+        mid = np.array([t[0] - 0.5, t[0] + 0.5]) if scale == "log" else \
+            np.array([t[0] - 0.5 * max(abs(t[0]), 1.0), t[0] + 0.5 * max(abs(t[0]), 1.0)])
+    else:
+        inner = 0.5 * (t[1:] + t[:-1])
+        mid = np.concatenate([[t[0] - (inner[0] - t[0])], inner, [t[-1] + (t[-1] - inner[-1])]])
+    return [float(x) for x in (np.exp(mid) if scale == "log" else mid)]
+
+
+def _refine(values: Sequence[float], scale: str, factor: int) -> list[float]:
+    import numpy as np
+
+    v = np.asarray(sorted(values), dtype=float)
+    if v.size < 2:
+        return list(v)
+    t = np.log(v) if scale == "log" else v
+    fine = np.concatenate([np.linspace(a, b, factor, endpoint=False) for a, b in
+                           zip(t[:-1], t[1:], strict=True)] + [t[-1:]])
+    return [float(x) for x in (np.exp(fine) if scale == "log" else fine)]
+
+
+def _span(values: Sequence[float], scale: str) -> list[float]:
+    """``values`` plus the outer cell edges (the map is covered edge to edge).
+
+    On a linear axis a non-positive lower edge is dropped (Ω, δ, f, ξ... must stay > 0).
+    """
+    if len(values) < 2:
+        return list(values)
+    e = _edges(values, scale)
+    return ([e[0]] if e[0] > 0 else []) + list(values) + [e[-1]]
+
+
+def _reduced_params(scene: Scene) -> tuple[float, float, float, float, float, float]:
+    """(nu, xi, gamma, f, delta, omega) of the reduced model (paper section 2) for ``scene``."""
+    from semianalytic.coefficients import gamma_from_physical
+
+    g, m, ld = scene.geometry, scene.material, scene.loading
+    return (m.nu, g.xi, gamma_from_physical(m.wave_speed, g.R, ld.omega), ld.f, g.delta,
+            ld.omega)
+
+
+def existence_grid(base: Scene, xkey: str, xs: Sequence[float], ykey: str, ys: Sequence[float],
+                   ks: Iterable[int], *, regime: str,
+                   junctions: Sequence[str] = ("impact",)) -> list[list[int]]:
+    """Admissibility (0/1, rows = y) of semi-analytical waves of ``regime`` on an x-y grid.
+
+    Uses ``semianalytic.waves.find_waves`` (eqs. [4]-[7]). A point counts when any wavenumber
+    of ``ks`` has an admissible wave. Stick-slip waves: c sqrt(gamma) and psi depend only on
+    (nu, xi, f, k) (docs/semianalytic.md), so the multistart runs once per (nu, xi, f, k)
+    and each grid point is one Newton step (``refine_wave``) with its own admissibility check;
+    stick-slip-separation waves: one multistart per point and k.
+    """
+    import warnings
+
+    from semianalytic.coefficients import coefficients
+    from semianalytic.waves import find_waves, refine_wave
+
+    ks = tuple(ks)
+    searched: dict[tuple, list] = {}
+    out = []
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        for y in ys:
+            row = []
+            for x in xs:
+                scene = base.with_overrides(f"{xkey}={_toml_value(x)}",
+                                            f"{ykey}={_toml_value(y)}")
+                nu, xi, gamma, f, delta, _ = _reduced_params(scene)
+                if f <= 0 or delta <= 0:
+                    row.append(0)
+                    continue
+                co = coefficients(nu, xi, gamma)
+                ok = False
+                for k in ks:
+                    if regime == "stick-slip":
+                        key = (nu, xi, f, k)
+                        if key not in searched:
+                            searched[key] = find_waves(co, f, k, delta, regime="stick-slip")
+                        for w in searched[key]:
+                            r = refine_wave(w, co, f=f, delta=delta)
+                            if r is not None and r.admissible:
+                                ok = True
+                                break
+                    else:
+                        waves = find_waves(co, f, k, delta, regime="stick-slip-separation",
+                                           junctions=tuple(junctions))
+                        ok = any(w.admissible for w in waves)
+                    if ok:
+                        break
+                row.append(int(ok))
+            out.append(row)
+    return out
+
+
+def _numeric(values: Iterable[Any]) -> bool:
+    return all(isinstance(v, int | float) and not isinstance(v, bool) for v in values)
+
+
+def _semianalytic_overlay(sweep_dir: Path, meta: dict, base: Scene, xkey: str, xs: list,
+                          xscale: str, ykey: str, ys: list, yscale: str, others: dict,
+                          ks: tuple[int, ...]) -> dict:
+    """Existence grids for both wave types, cached in ``semianalytic.json`` of the sweep."""
+    scene = base.with_overrides(*(f"{k}={_toml_value(v)}" for k, v in others.items()))
+    junctions = tuple(meta["map"].get("junctions") or ("impact",))
+    # The stick-slip check is one Newton step a point: refine the axes of the reduced model 4x.
+    fx = _refine(_span(xs, xscale), xscale, 4) if xkey in _SEMIANALYTIC_KEYS else list(xs)
+    fy = _refine(_span(ys, yscale), yscale, 4) if ykey in _SEMIANALYTIC_KEYS else list(ys)
+    physics = {k: v for k, v in scene_to_dict(scene).items()
+               if k in ("material", "geometry", "loading")}  # all the reduced model sees
+    key = json.dumps({"x": xkey, "y": ykey, "xs": xs, "ys": ys, "k": list(ks),
+                      "junctions": list(junctions), "scene": physics},
+                     sort_keys=True, default=str)
+    cache_path = sweep_dir / "semianalytic.json"
+    cache = _read_json(cache_path) or {}
+    if key in cache:
+        return cache[key]
+    t0 = time.perf_counter()
+    res = {
+        "k": list(ks), "junctions": list(junctions),
+        "stick-slip": {"x": fx, "y": fy, "admissible": existence_grid(
+            scene, xkey, fx, ykey, fy, ks, regime="stick-slip")},
+        "stick-slip-separation": {"x": list(xs), "y": list(ys), "admissible": existence_grid(
+            scene, xkey, xs, ykey, ys, ks, regime="stick-slip-separation",
+            junctions=junctions)},
+    }
+    res["seconds"] = time.perf_counter() - t0
+    cache[key] = res
+    try:
+        atomic_write_text(cache_path, json.dumps(cache))
+    except OSError:  # read-only sweep directory: just don't cache
+        pass
+    return res
+
+
+_REGIME_COLORS = {
+    "steady-sliding": "#d9d9d9",
+    "stick-slip": "#4c9be8",
+    "slip-separation": "#f5b041",
+    "stick-slip-separation": "#d64541",
+    "diverged": "#222222",
+    "failed": "#ffffff",
+}
+
+
+def plot_sweep(sweep_dir: str | Path) -> list[Path]:
+    """Regime map(s) of a sweep directory: ``regime_map[_<other params>].png``.
+
+    One map per combination of the swept parameters that are not on the axes. Cells are
+    coloured by the FE regime, annotated with the mode k and the celerity (m/s, + = rotation
+    sense); lines mark the semi-analytical existence boundary of stick-slip (solid) and
+    stick-slip-separation (dashed) waves for the wavenumbers of ``map.k`` (default: the
+    modes the FE runs selected).
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+    from matplotlib.colors import BoundaryNorm, ListedColormap
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch
+
+    sweep_dir = Path(sweep_dir)
+    meta = read_table(sweep_dir)
+    rows = meta["rows"]
+    params = list(meta["parameters"])
+    distinct = {k: sorted({_hashable(r[k]) for r in rows if r.get(k) is not None}, key=_sortkey)
+                for k in params}
+    varying = [k for k in params if len(distinct[k]) > 1]
+    mp = meta.get("map") or {}
+    xkey = mp.get("x") or (varying[0] if varying else (params[0] if params else None))
+    ykey = mp.get("y") or next((k for k in varying if k != xkey), None)
+    if xkey is None:
+        raise SweepError(f"{sweep_dir}: nothing was swept; no map to draw")
+    others = [k for k in varying if k not in (xkey, ykey)]
+    base = _map_base(sweep_dir, meta)
+    categories = [*REGIMES, "failed"]
+    cmap = ListedColormap([_REGIME_COLORS[c] for c in categories])
+    cmap.set_bad("white")
+    norm = BoundaryNorm(np.arange(len(categories) + 1) - 0.5, cmap.N)
+    outputs = []
+    combos = list(itertools.product(*(distinct[k] for k in others))) or [()]
+    for combo in combos:
+        fixed = dict(zip(others, combo, strict=True))
+        sel = [r for r in rows if all(_hashable(r.get(k)) == v for k, v in fixed.items())
+               and r.get(xkey) is not None and (ykey is None or r.get(ykey) is not None)]
+        xs = [v for v in distinct[xkey] if any(_hashable(r[xkey]) == v for r in sel)]
+        ys = ([v for v in distinct[ykey] if any(_hashable(r[ykey]) == v for r in sel)]
+              if ykey else [0.0])
+        numeric = _numeric(xs) and _numeric(ys)
+        xscale = _axis_scale(xs, mp.get("xscale", "auto")) if numeric else "linear"
+        yscale = (_axis_scale(ys, mp.get("yscale", "auto")) if numeric and ykey else "linear")
+        xpos = xs if numeric else list(range(len(xs)))
+        ypos = ys if numeric else list(range(len(ys)))
+        codes = np.full((len(ys), len(xs)), np.nan)
+        fig, ax = plt.subplots(figsize=(2.0 + 1.15 * len(xs), 1.9 + 0.75 * len(ys)))
+        for r in sel:
+            i = ys.index(_hashable(r[ykey])) if ykey else 0
+            j = xs.index(_hashable(r[xkey]))
+            st, regime = r.get("status"), r.get("regime")
+            cat = ("diverged" if st == "diverged" else
+                   "failed" if st == "failed" else regime if st == "completed" else None)
+            if cat not in categories:
+                continue
+            codes[i, j] = categories.index(cat)
+            dark = cat in ("diverged", "stick-slip-separation")
+            if st == "completed" and r.get("mode") is not None:
+                text = f"k={r['mode']}\n{r['celerity_m_s']:+.0f}"
+            else:
+                text = {"diverged": "div.", "failed": "error"}.get(cat, "")
+            ax.text(xpos[j], ypos[i], text, ha="center", va="center", fontsize=7,
+                    color="white" if dark else "black",
+                    bbox={"boxstyle": "round,pad=0.2", "fc": _REGIME_COLORS[cat],
+                          "ec": "none", "alpha": 0.9})
+        xe = _edges(xpos, xscale) if numeric else list(np.arange(len(xs) + 1) - 0.5)
+        ye = (_edges(ypos, yscale) if numeric and ykey else
+              list(np.arange(len(ys) + 1) - 0.5))
+        ax.pcolormesh(xe, ye, np.ma.masked_invalid(codes), cmap=cmap, norm=norm,
+                      edgecolors="white", linewidth=0.8)
+        ax.set_xscale(xscale)
+        ax.set_yscale(yscale)
+        ax.minorticks_off()
+        ax.set_xticks(xpos, [f"{v:g}" if numeric else str(v) for v in xs])
+        ax.set_yticks(ypos, [f"{v:g}" if numeric else str(v) for v in ys])
+        ax.set_xlabel(_label(xkey))
+        ax.set_ylabel(_label(ykey) if ykey else "")
+        if not ykey:
+            ax.set_yticks([])
+        handles = [Patch(facecolor=_REGIME_COLORS[c], edgecolor="0.5", label=c)
+                   for c in categories if c in {categories[int(v)] for v in
+                                                codes[np.isfinite(codes)].ravel()}]
+        note = ""
+        ks = tuple(mp.get("k") or sorted({int(r["mode"]) for r in sel
+                                          if r.get("status") == "completed"
+                                          and r.get("mode") is not None})[:4])
+        if (mp.get("semianalytic", True) and numeric and ykey and ks
+                and (xkey in _SEMIANALYTIC_KEYS or ykey in _SEMIANALYTIC_KEYS)):
+            sa = _semianalytic_overlay(sweep_dir, meta, base, xkey, [float(v) for v in xs],
+                                       xscale, ykey, [float(v) for v in ys], yscale, fixed, ks)
+            for name, style, hatch, what in (("stick-slip", "-", "//", "solid"),
+                                             ("stick-slip-separation", "--", "\\\\", "dashed")):
+                g = sa[name]
+                z = np.asarray(g["admissible"], dtype=float)
+                found = bool(z.any())
+                if found and not z.all():
+                    ax.contour(g["x"], g["y"], z, levels=[0.5], colors="k", linestyles=style,
+                               linewidths=1.8)
+                if found:
+                    ax.contourf(g["x"], g["y"], z, levels=[0.5, 1.5], colors="none",
+                                hatches=[hatch])
+                kset = ", ".join(map(str, ks))
+                if found:
+                    handles.append(Patch(facecolor="none", edgecolor="k", hatch=hatch,
+                                         linestyle=style,
+                                         label=f"semi-analytical {name} wave exists "
+                                               f"(k ∈ {{{kset}}}; {what} boundary)"))
+                else:
+                    handles.append(Line2D([], [], color="0.6", linestyle=style,
+                                          label=f"no admissible semi-analytical {name} wave "
+                                                f"on this grid (k ∈ {{{kset}}})"))
+            note = f"; boundaries: reduced model, junction {'/'.join(sa['junctions'])}"
+        fixed_txt = ", ".join(f"{_label(k)} = {v}" for k, v in fixed.items())
+        sc = base.with_overrides(*(f"{k}={_toml_value(v)}" for k, v in fixed.items()))
+        ax.set_title(f"sweep {meta['name']}: FE regime, k and celerity (m/s)"
+                     + (f"\n{fixed_txt}" if fixed_txt else "")
+                     + f"\nf = {sc.loading.f:g}, N = {sc.mesh.n_inner}, "
+                       f"t_end = {sc.time.end_time:g} s{note}", fontsize=8)
+        ax.legend(handles=handles, fontsize=7, loc="upper center", frameon=False, ncol=2,
+                  bbox_to_anchor=(0.5, -0.13 if len(ys) > 3 else -0.25))
+        suffix = "".join(f"_{k.rsplit('.', 1)[-1]}-{_slug_value(v)}" for k, v in fixed.items())
+        path = sweep_dir / f"regime_map{suffix}.png"
+        fig.savefig(path, dpi=130, bbox_inches="tight")
+        plt.close(fig)
+        outputs.append(path)
+    return outputs
+
+
+def _map_base(sweep_dir: Path, meta: dict) -> Scene:
+    """A resolved scene of the sweep (every swept key is overridden per cell anyway).
+
+    A run's own ``scene.toml`` first, so a sweep directory copied elsewhere (out of a
+    container) still plots; the base scene file the sweep named otherwise.
+    """
+    for row in meta["rows"]:
+        path = sweep_dir / str(row.get("run_dir", "")) / "scene.toml"
+        if row.get("run_dir") and path.is_file():
+            return load_scene(path)
+    return load_scene(meta["base"], meta.get("set", []))
+
+
+def _hashable(v: Any) -> Any:
+    return tuple(v) if isinstance(v, list) else v
+
+
+def _sortkey(v: Any) -> tuple:
+    return (0, float(v), "") if _numeric([v]) else (1, 0.0, str(v))
+
+
+_LABELS = {"loading.omega": "Ω (rad/s)", "geometry.delta": "δ = d/R", "loading.f": "f",
+           "mesh.n_inner": "N (contact nodes)", "initial.seed": "seed",
+           "initial.mode": "initial mode", "geometry.xi": "ξ = R*/R"}
+
+
+def _label(key: str | None) -> str:
+    return _LABELS.get(key or "", key or "")
+
+

@@ -1,0 +1,409 @@
+"""Sweep execution (``run_sweep``) under MPI.
+
+COMM_WORLD is split into groups of ``group_size`` ranks; the leader of each group takes the
+next pending scene from a shared counter on rank 0 (MPI-3 passive target
+``Fetch_and_op``), so every rank works and a slow scene only occupies its own group.
+Each scene runs with ``studies.rundir.run_scene`` into ``SWEEP_DIR/runs/<id>/``, its console
+output goes to ``SWEEP_DIR/logs/<id>.log`` (appended: one ``== start`` line per attempt).
+
+Resume and faults: a scene whose ``summary.json`` holds a final status (completed, diverged,
+failed) for the same resolved scene is skipped; ``running``/``interrupted`` ones (killed in
+flight) run again. An exception inside a scene is recorded as status ``failed`` with its
+message and the sweep goes on. Rank 0 rebuilds the table ``SWEEP_DIR/sweep.{csv,json}``
+(atomically) from the summaries whenever a scene finishes, so a killed sweep loses at most
+the scenes in flight.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import sys
+import threading
+import time
+import traceback
+from collections.abc import Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING, TextIO
+
+from solver.atomic import atomic_write_text
+from solver.scene import (
+    write_scene,
+)
+from studies.sweep.spec import FINAL_STATUSES, SweepError, SweepSpec, Task, _cost, scene_for
+from studies.sweep.table import _read_json, task_state, write_table
+
+if TYPE_CHECKING:  # pragma: no cover
+    from mpi4py import MPI
+
+# ============================================================================ progress
+
+
+def _fmt_duration(seconds: float) -> str:
+    if not math.isfinite(seconds):
+        return "?"
+    seconds = int(round(seconds))
+    h, rem = divmod(seconds, 3600)
+    m, s = divmod(rem, 60)
+    return f"{h}h{m:02d}m" if h else (f"{m}m{s:02d}s" if m else f"{s}s")
+
+
+class _Monitor(threading.Thread):
+    """Rank 0's progress and table keeper: polls the pending scenes' ``summary.json``.
+
+    Runs beside rank 0's own scenes (no MPI calls, wakes every ``interval`` s). Each newly
+    finished scene rewrites the table and prints one line; on a TTY (``live``) a status line
+    with done / running / failed counts and an ETA is redrawn in place.
+    """
+
+    def __init__(self, out_dir: Path, spec: SweepSpec, pending: Sequence[Task], n_done: int,
+                 stream: TextIO, live: bool, interval: float = 1.0) -> None:
+        super().__init__(daemon=True, name="sweep-monitor")
+        self.out_dir, self.spec, self.stream, self.live = out_dir, spec, stream, live
+        self.pending = list(pending)
+        self.total = len(spec.tasks)
+        self.n_done_before = n_done
+        self.interval = interval
+        self.t0 = time.time()
+        self.finished: dict[str, str] = {}
+        self.failed = 0
+        self.running = 0
+        self.stop_event = threading.Event()
+        self.cache: dict[str, tuple[float, dict | None]] = {}
+        self.lock = threading.Lock()
+        self._line_len = 0
+
+    def run(self) -> None:
+        while not self.stop_event.wait(self.interval):
+            try:
+                self.poll()
+            except Exception as err:  # never let the monitor take the sweep down
+                print(f"sweep monitor: {err}", file=sys.stderr, flush=True)
+
+    def stop(self) -> None:
+        self.stop_event.set()
+        self.join(timeout=10)
+        self.poll()
+        if self.live and self._line_len:
+            print(file=self.stream, flush=True)
+
+    def poll(self) -> None:
+        with self.lock:
+            new = []
+            running = 0
+            for task in self.pending:
+                if task.id in self.finished:
+                    continue
+                path = self.out_dir / "runs" / task.id / "summary.json"
+                try:
+                    mtime = path.stat().st_mtime
+                except OSError:
+                    continue
+                if mtime < self.t0 - 1.0:  # left over from an earlier sweep
+                    continue
+                s = _read_json(path) or {}
+                status = s.get("status")
+                if status in FINAL_STATUSES or status == "interrupted":
+                    new.append((task, s))
+                elif status == "running":
+                    running += 1
+            self.running = running
+            for task, s in new:
+                self.finished[task.id] = s.get("status", "")
+                self.failed += s.get("status") in ("failed", "diverged")
+                self._say(self._scene_line(task, s))
+            if new:
+                write_table(self.out_dir, self.spec, cache=self.cache)
+            if self.live:
+                self._redraw()
+
+    def counts(self) -> tuple[int, int, int, float]:
+        done = sum(1 for st in self.finished.values() if st != "interrupted")
+        elapsed = time.time() - self.t0
+        left = len(self.pending) - done
+        eta = elapsed / done * left if done else math.nan
+        return done, self.running, self.failed, eta
+
+    def status_line(self) -> str:
+        done, running, failed, eta = self.counts()
+        return (f"sweep {self.spec.name}: {self.n_done_before + done}/{self.total} done, "
+                f"{running} running, {failed} failed/diverged, "
+                f"elapsed {_fmt_duration(time.time() - self.t0)}, ETA {_fmt_duration(eta)}")
+
+    def _scene_line(self, task: Task, s: dict) -> str:
+        done, _, _, eta = self.counts()
+        status = s.get("status")
+        what = status
+        if "regime" in s and status == "completed":
+            what = (f"{s['regime']}, k = {s.get('mode')}, "
+                    f"c = {s.get('celerity_m_s', math.nan):+.0f} m/s")
+        elif s.get("message") and s["message"] != status:
+            what = f"{status}: {str(s['message']).splitlines()[0][:120]}"
+        return (f"[{self.n_done_before + done}/{self.total}] {task.id}: {what} "
+                f"({s.get('wall_time_s', math.nan):.1f} s)  ETA {_fmt_duration(eta)}")
+
+    def _say(self, text: str) -> None:
+        if self.live and self._line_len:
+            self.stream.write("\r" + " " * self._line_len + "\r")
+            self._line_len = 0
+        print(text, file=self.stream, flush=True)
+
+    def _redraw(self) -> None:
+        line = self.status_line()
+        pad = max(0, self._line_len - len(line))
+        self.stream.write("\r" + line + " " * pad)
+        self.stream.flush()
+        self._line_len = len(line)
+
+
+def _want_live(mode: str, stream: TextIO) -> bool:
+    """Live status line only on a real terminal (mpirun gives ranks a pseudo-TTY, so no)."""
+    if mode in ("live", "lines"):
+        return mode == "live"
+    launched = any(v in os.environ for v in ("OMPI_COMM_WORLD_SIZE", "PMIX_RANK", "PMI_RANK"))
+    return (stream.isatty() and not launched and not os.environ.get("CI")
+            and os.environ.get("TERM", "") != "dumb")
+
+
+# ============================================================================ execution
+
+
+class _Counter:
+    """Shared next-scene counter: MPI-3 atomic ``Fetch_and_op`` on a window at rank 0."""
+
+    def __init__(self, comm: MPI.Comm) -> None:
+        import numpy as np
+        from mpi4py import MPI
+
+        self.comm = comm
+        self.local = 0
+        self.win = None
+        if comm.size > 1:
+            self.win = MPI.Win.Allocate(8 if comm.rank == 0 else 0, 8, comm=comm)
+            if comm.rank == 0:
+                np.frombuffer(self.win.tomemory(), dtype=np.int64)[:] = 0
+            self.one = np.ones(1, dtype=np.int64)
+            self.res = np.zeros(1, dtype=np.int64)
+            comm.Barrier()
+
+    def next(self) -> int:
+        from mpi4py import MPI
+
+        if self.win is None:
+            self.local += 1
+            return self.local - 1
+        self.win.Lock(0, MPI.LOCK_SHARED)
+        self.win.Fetch_and_op(self.one, self.res, 0, 0, MPI.SUM)
+        self.win.Unlock(0)
+        return int(self.res[0])
+
+    def free(self) -> None:
+        if self.win is not None:
+            self.win.Free()
+            self.win = None
+
+
+def _run_one(spec: SweepSpec, task: Task, out_dir: Path, group: MPI.Comm,
+             world_rank: int) -> str:
+    """Run one scene on ``group``; exceptions become status ``failed``. Returns the status."""
+    from studies.rundir import run_scene
+
+    leader = group.rank == 0
+    run_dir = out_dir / "runs" / task.id
+    log = open(out_dir / "logs" / f"{task.id}.log", "a") if leader else None  # noqa: SIM115
+    t0 = time.perf_counter()
+    status = "failed"
+    try:
+        if log is not None:
+            log.write(f"== start {time.strftime('%Y-%m-%dT%H:%M:%S')} world rank {world_rank} "
+                      f"({group.size} rank(s)) pid {os.getpid()}\n")
+            log.flush()
+        try:
+            summary = run_scene(scene_for(spec, task), run_dir, force=True, comm=group,
+                                stream=log if log is not None else sys.stdout)
+            status = str(summary.get("status", "failed")) if leader else "?"
+        except KeyboardInterrupt:
+            status = "interrupted"
+        except Exception as err:  # recorded, the sweep goes on
+            status = "failed"
+            if leader:
+                tb = traceback.format_exc()
+                assert log is not None
+                log.write(tb)
+                run_dir.mkdir(parents=True, exist_ok=True)
+                if not (run_dir / "scene.toml").exists():  # resume compares against it
+                    write_scene(scene_for(spec, task), run_dir / "scene.toml")
+                prev = _read_json(run_dir / "summary.json") or {}
+                prev.update({"scene": f"{spec.name}.{task.id}", "status": "failed",
+                             "message": f"{type(err).__name__}: {err}",
+                             "traceback": tb.splitlines()[-6:],
+                             "wall_time_s": time.perf_counter() - t0, "ranks": group.size})
+                atomic_write_text(run_dir / "summary.json", json.dumps(prev, indent=2))
+        if group.size > 1:
+            status = group.bcast(status, root=0)
+    finally:
+        if log is not None:
+            log.write(f"== end {status}\n")
+            log.close()
+    return status
+
+
+_PETSC_WORLD: list = []  # the group communicator PETSc was initialised on (kept alive)
+
+
+def _init_petsc(group: MPI.Comm) -> None:
+    """Initialise PETSc/SLEPc/dolfinx on every rank now, with the group as PETSc's world.
+
+    ``PetscInitialize`` (the first ``import petsc4py.PETSc``, e.g. by dolfinx) is collective
+    over PETSC_COMM_WORLD. Left to each group's first scene it deadlocks as soon as the
+    groups start scenes at different times (a resumed sweep with one scene left: one rank
+    imports PETSc while the other waits in the final barrier). ``petsc4py.init(comm=group)``
+    makes every PETSc-level collective a group collective. If PETSc is already initialised
+    (a caller imported dolfinx), SLEPc and dolfinx are still imported here, on all ranks.
+    """
+    if "petsc4py.PETSc" not in sys.modules:
+        import petsc4py
+
+        petsc4py.init(comm=group)
+        _PETSC_WORLD.append(group)  # PetscFinalize uses it at exit: never free it
+    import dolfinx  # noqa: F401
+    from petsc4py import PETSc  # noqa: F401
+    from slepc4py import SLEPc  # noqa: F401
+
+
+def _prepare(out_dir: Path, spec: SweepSpec, retry_failed: bool) -> tuple[list[Task], int]:
+    """Rank 0: create the sweep directory, classify the scenes, write the initial table."""
+    (out_dir / "runs").mkdir(parents=True, exist_ok=True)
+    (out_dir / "logs").mkdir(exist_ok=True)
+    atomic_write_text(out_dir / "sweep.toml", spec.path.read_text())
+    pending: list[tuple[float, int, Task]] = []
+    n_done = 0
+    for i, task in enumerate(spec.tasks):
+        scene = scene_for(spec, task)
+        state = task_state(out_dir, spec, task, scene)
+        redo = retry_failed and state in ("failed", "diverged")
+        if state in FINAL_STATUSES and not redo:
+            n_done += 1
+        else:
+            pending.append((-_cost(scene), i, task))
+    pending.sort(key=lambda x: (x[0], x[1]))
+    write_table(out_dir, spec)
+    return [t for _, _, t in pending], n_done
+
+
+def _lock(out_dir: Path):  # noqa: ANN202
+    """Exclusive lock on the sweep directory (a second sweep on it refuses to start)."""
+    import fcntl
+
+    fh = open(out_dir / ".lock", "w")  # noqa: SIM115
+    try:
+        fcntl.flock(fh, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError:
+        fh.close()
+        raise SweepError(f"another sweep is running in {out_dir} (lock {out_dir / '.lock'})"
+                         ) from None
+    return fh
+
+
+def run_sweep(spec: SweepSpec, out_dir: str | Path, *, comm: MPI.Comm | None = None,
+              group_size: int | None = None, retry_failed: bool = False,
+              stream: TextIO = sys.stdout, progress: str = "auto") -> int:
+    """Run every pending scene of ``spec`` into ``out_dir``; collective over ``comm``.
+
+    Returns 0 (every scene final, none ``failed``), 1 (the table holds a scene that failed
+    with an exception), 130 (interrupted: the table holds what finished; run again to resume).
+    """
+    import signal
+
+    from mpi4py import MPI
+
+    comm = MPI.COMM_WORLD if comm is None else comm
+    out_dir = Path(out_dir)
+    g = group_size or spec.group_size
+    rank0 = comm.rank == 0
+    info: tuple | str | None = None
+    lock = None
+    t_start = time.time()
+    if rank0:
+        try:
+            out_dir.mkdir(parents=True, exist_ok=True)
+            lock = _lock(out_dir)
+            pending, n_done = _prepare(out_dir, spec, retry_failed)
+            info = ([t.id for t in pending], n_done)
+        except (SweepError, OSError) as err:
+            info = str(err)
+    info = comm.bcast(info, root=0)
+    if isinstance(info, str):
+        if rank0:
+            print(f"error: {info}", file=sys.stderr, flush=True)
+            if lock is not None:
+                lock.close()
+        return 2
+    by_id = {t.id: t for t in spec.tasks}
+    pending = [by_id[i] for i in info[0]]
+    n_done = info[1]
+    color = comm.rank // g
+    n_groups = (comm.size + g - 1) // g
+    group = comm.Split(color, comm.rank)
+    _init_petsc(group)
+    monitor = None
+    if rank0:
+        print(f"sweep {spec.name}: {len(spec.tasks)} scenes, {n_done} already done, "
+              f"{len(pending)} to run on {n_groups} group(s) of {g} rank(s) -> {out_dir}",
+              file=stream, flush=True)
+        if comm.size % g:
+            print(f"  note: {comm.size} ranks are not a multiple of group_size {g}; the last "
+                  f"group has {comm.size % g} rank(s)", file=stream, flush=True)
+        monitor = _Monitor(out_dir, spec, pending, n_done, stream, _want_live(progress, stream))
+        monitor.start()
+
+    def on_term(signum, frame):  # noqa: ANN001, ARG001
+        raise KeyboardInterrupt
+
+    previous = signal.signal(signal.SIGTERM, on_term)
+    counter = None
+    interrupted = False
+    try:
+        counter = _Counter(comm)
+        while True:
+            idx = counter.next() if group.rank == 0 else 0
+            if group.size > 1:
+                idx = group.bcast(idx, root=0)
+            if idx >= len(pending):
+                break
+            if _run_one(spec, pending[idx], out_dir, group, comm.rank) == "interrupted":
+                interrupted = True
+                break
+    except KeyboardInterrupt:
+        interrupted = True
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+    if not interrupted:  # collective clean-up only when every rank got here normally
+        comm.Barrier()
+        if counter is not None:
+            counter.free()
+    rc = 130
+    if rank0:
+        assert monitor is not None
+        monitor.stop()
+        session = {"started": t_start, "finished": time.time(), "ranks": comm.size,
+                   "groups": n_groups, "group_size": g, "pending_at_start": len(pending),
+                   "interrupted": interrupted}
+        rows = write_table(out_dir, spec, extra={"last_session": session})
+        counts: dict[str, int] = {}
+        for r in rows:
+            counts[r["status"]] = counts.get(r["status"], 0) + 1
+        text = ", ".join(f"{v} {k}" for k, v in sorted(counts.items()))
+        print(f"sweep {spec.name}: {text}; table {out_dir / 'sweep.csv'}"
+              + ("  (interrupted: run the same command again to resume)" if interrupted else ""),
+              file=stream, flush=True)
+        if lock is not None:
+            lock.close()
+        if not interrupted:
+            rc = 1 if counts.get("failed") else 0
+    if not interrupted:
+        rc = comm.bcast(rc, root=0)
+    return rc
+
+

@@ -1,0 +1,157 @@
+"""The sweep directory's table: per-scene state from ``summary.json``, ``sweep.{csv,json}``.
+
+Rank 0 rebuilds the table (atomically) from the summaries whenever a scene finishes, so a
+killed sweep loses at most the scenes in flight. A scene whose summary holds a final status
+for the same resolved scene is done; a re-run skips it.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import time
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from solver.atomic import atomic_write_text
+from solver.scene import (
+    Scene,
+    SceneError,
+    load_scene,
+    scene_to_dict,
+)
+from studies.sweep.spec import (
+    _TABLE_FIELDS,
+    FINAL_STATUSES,
+    SWEEP_KIND,
+    SweepError,
+    SweepSpec,
+    Task,
+    scene_for,
+)
+
+# ============================================================================ run directory
+
+
+def _read_json(path: Path) -> dict | None:
+    try:
+        return json.loads(path.read_text())
+    except (OSError, ValueError):
+        return None
+
+
+def is_sweep_dir(path: str | Path) -> bool:
+    """True if ``path`` is a sweep directory (holds a ``sweep.json`` written by a sweep)."""
+    meta = _read_json(Path(path) / "sweep.json")
+    return bool(meta) and meta.get("kind") == SWEEP_KIND
+
+
+def _same_scene(run_dir: Path, scene: Scene) -> bool:
+    try:
+        done = load_scene(run_dir / "scene.toml")
+    except (SceneError, OSError):
+        return False
+    a, b = scene_to_dict(done), scene_to_dict(scene)
+    return a == b
+
+
+def task_state(out_dir: Path, spec: SweepSpec, task: Task, scene: Scene | None = None) -> str:
+    """``pending``, ``changed`` (finished, but for another scene), or the summary's status."""
+    run_dir = out_dir / "runs" / task.id
+    summary = _read_json(run_dir / "summary.json")
+    if summary is None:
+        return "pending"
+    status = str(summary.get("status", "pending"))
+    if status in FINAL_STATUSES and not _same_scene(run_dir, scene or scene_for(spec, task)):
+        return "changed"
+    return status
+
+
+def _row(spec_keys: Sequence[str], task: Task, summary: dict | None, run_dir: str) -> dict:
+    row: dict[str, Any] = {"id": task.id}
+    row.update({k: task.params.get(k) for k in spec_keys})
+    s = summary or {}
+    fr = s.get("fractions") or {}
+    status = s.get("status", "pending")
+    row.update({
+        "status": status,
+        "regime": "diverged" if status == "diverged" else s.get("regime"),
+        "mode": s.get("mode"),
+        "celerity_m_s": s.get("celerity_m_s"),
+        "frequency_hz": s.get("frequency_hz"),
+        "fraction_separation": fr.get("separation"),
+        "fraction_stick": fr.get("stick"),
+        "fraction_slip": fr.get("slip"),
+        "amplitude_m": s.get("amplitude_m"),
+        "limit_cycle": s.get("limit_cycle"),
+        "steps": s.get("steps"),
+        "dofs": s.get("dofs"),
+        "ranks": s.get("ranks"),
+        "wall_time_s": s.get("wall_time_s"),
+        "message": s.get("message"),
+        "run_dir": run_dir,
+    })
+    return row
+
+
+def _meta(spec: SweepSpec) -> dict[str, Any]:
+    m = spec.map
+    return {
+        "kind": SWEEP_KIND,
+        "name": spec.name,
+        "description": spec.description,
+        "sweep_file": str(spec.path),
+        "base": str(spec.base),
+        "set": list(spec.set),
+        "group_size": spec.group_size,
+        "parameters": list(spec.keys),
+        "map": {"x": m.x, "y": m.y, "xscale": m.xscale, "yscale": m.yscale,
+                "semianalytic": m.semianalytic, "k": list(m.k), "junctions": list(m.junctions)},
+    }
+
+
+def write_table(out_dir: Path, spec: SweepSpec, extra: dict | None = None,
+                cache: dict[str, tuple[float, dict | None]] | None = None) -> list[dict]:
+    """Rebuild ``sweep.json`` and ``sweep.csv`` from every scene's ``summary.json``.
+
+    ``cache`` (id -> (mtime, summary)) avoids re-reading unchanged summaries.
+    """
+    rows = []
+    cache = {} if cache is None else cache
+    for task in spec.tasks:
+        path = out_dir / "runs" / task.id / "summary.json"
+        try:
+            mtime = path.stat().st_mtime
+        except OSError:
+            mtime = -1.0
+        if task.id not in cache or cache[task.id][0] != mtime:
+            cache[task.id] = (mtime, _read_json(path) if mtime >= 0 else None)
+        rows.append(_row(spec.keys, task, cache[task.id][1], f"runs/{task.id}"))
+    counts: dict[str, int] = {}
+    for r in rows:
+        counts[r["status"]] = counts.get(r["status"], 0) + 1
+    meta = _meta(spec)
+    meta.update(extra or {})
+    meta.update({"updated": time.strftime("%Y-%m-%dT%H:%M:%S"), "counts": counts, "rows": rows})
+    atomic_write_text(out_dir / "sweep.json", json.dumps(meta, indent=1, default=str) + "\n")
+    buf = io.StringIO()
+    writer = csv.DictWriter(buf, fieldnames=["id", *spec.keys, *_TABLE_FIELDS],
+                            lineterminator="\n")
+    writer.writeheader()
+    for r in rows:
+        writer.writerow({k: ("" if v is None else v) for k, v in r.items()})
+    atomic_write_text(out_dir / "sweep.csv", buf.getvalue())
+    return rows
+
+
+def read_table(sweep_dir: str | Path) -> dict:
+    """The ``sweep.json`` of a sweep directory (meta plus ``rows``)."""
+    path = Path(sweep_dir) / "sweep.json"
+    meta = _read_json(path)
+    if not meta or meta.get("kind") != SWEEP_KIND:
+        raise SweepError(f"{sweep_dir} is not a sweep directory (no valid sweep.json)")
+    return meta
+
+
