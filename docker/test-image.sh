@@ -12,7 +12,7 @@
 #    stickslip:test.  The engine's layer cache keeps the Debian stack layer between runs (its key
 #    is the Dockerfile lines above it and docker/apt-packages.txt), so a warm build only
 #    re-installs the project.
-# 4. inside the image: `stickslip --help`; `mpirun -n 2 stickslip run scenes/smoke.toml` and
+# 4. inside the image: `stickslip --help`; `mpirun -n 2 stickslip run scenes/smoke.toml --plot` and
 #    `mpirun -n 2 stickslip sweep sweeps/smoke4.toml` (4 scenes) into a bind-mounted host
 #    directory; `mpirun -n 4 stickslip sweep ...` (oversubscribed on a 2-core machine); a scene
 #    error (`--set mesh.n_inner=-1`) must give one line on stderr and exit 2.
@@ -197,8 +197,14 @@ run_help() {
 run_scenes() {  # the smoke scene and the 4-scene sweep, outputs in the mounted $OUT/image
     local mount="$OUT/image:/work/runs"
     # Default output root (STICKSLIP_OUTPUT=/work/runs): /work/runs/smoke, /work/runs/sweeps/smoke4.
-    crun -v "$mount" -- mpirun -n 2 stickslip run scenes/smoke.toml >"$OUT/image-smoke.log" 2>&1 ||
-        { tail -n 20 "$OUT/image-smoke.log" >&2; fail "mpirun -n 2 stickslip run scenes/smoke.toml"; }
+    # --plot: matplotlib and pyvista's off-screen rendering (Xvfb, Mesa) work in the image too.
+    crun -v "$mount" -- mpirun -n 2 stickslip run scenes/smoke.toml --plot >"$OUT/image-smoke.log" 2>&1 ||
+        { tail -n 20 "$OUT/image-smoke.log" >&2; fail "mpirun -n 2 stickslip run scenes/smoke.toml --plot"; }
+    local png
+    for png in spacetime profile phase energy isomap; do
+        [ "$(stat -c %s "$OUT/image/smoke/$png.png" 2>/dev/null || echo 0)" -gt 10000 ] ||
+            fail "--plot in the image: $png.png missing or nearly empty"
+    done
     crun -v "$mount" -- mpirun -n 2 stickslip sweep sweeps/smoke4.toml >"$OUT/image-sweep.log" 2>&1 ||
         { tail -n 20 "$OUT/image-sweep.log" >&2; fail "mpirun -n 2 stickslip sweep sweeps/smoke4.toml"; }
 }
