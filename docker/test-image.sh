@@ -4,21 +4,24 @@
 #   docker/test-image.sh            (CI: .ci/run calls it after the tests)
 #
 # 1. engine: `docker` if a daemon answers, else podman (root: installed from Debian with runc
-#    when missing; overlay storage, runc, ulimits within the host's hard limits).
+#    when missing; runc, overlay storage of its own in $STICKSLIP_CACHE/containers, ulimits
+#    within the host's hard limits).
 # 2. base:   `debian:trixie`, pulled, or (no registry reachable) made offline with
 #    `debootstrap --variant=minbase trixie` and cached as a tarball outside the repository in
 #    $STICKSLIP_CACHE/images (default /var/cache/stickslip/images), like ./dev's rootfs.
 # 3. build:  the runtime image (Dockerfile's last stage; no PyPI request), tagged
-#    stickslip:test.  The engine's layer cache keeps the Debian stack layer between runs (its key
-#    is the Dockerfile lines above it and docker/apt-packages.txt), so a warm build only
+#    stickslip:test.  The engine's layer cache keeps the Debian stack layer between runs (its
+#    key is the Dockerfile lines above it and docker/apt-packages.txt), so a warm build only
 #    re-installs the project.
-# 4. inside the image: `stickslip --help`, `stickslip info`; `mpirun -n 2 stickslip run scenes/smoke.toml --plot` and
+# 4. inside the image: `stickslip --help`, `stickslip info`;
+#    `mpirun -n 2 stickslip run scenes/smoke.toml --plot` and
 #    `mpirun -n 2 stickslip sweep sweeps/smoke4.toml` (4 scenes) into a bind-mounted host
-#    directory; `mpirun -n 4 stickslip sweep ...` (oversubscribed on a 2-core machine); a scene
-#    error (`--set mesh.n_inner=-1`) must give one line on stderr and exit 2.
-# 5. on the host: every output is readable by a user other than the container's (checked by
-#    reading it as `nobody`), and the summaries equal those of `./dev` runs of the same scenes
-#    to round-off (docker/compare_summaries.py).
+#    directory; the README's cluster recipe (`--user 1234:1234 -e HOME=/tmp`,
+#    `mpirun -n 4 stickslip sweep ...`, oversubscribed on a 2-core machine); a scene error
+#    (`--set mesh.n_inner=-1`) must give one line on stderr and exit 2.
+# 5. on the host: every output is readable by a user other than the container's (modes, and
+#    reading them as `nobody`), and the summaries equal those of `./dev` runs of the same
+#    scenes to round-off (docker/compare_summaries.py).
 # Containers are removed (--rm, and a trap for the named ones); stage timings are printed.
 # Exit 0: all checks passed, or containers are impossible here (no root and no Docker daemon:
 # says so and skips).  Exit 1: a check failed.  Exit 2: the environment is broken.
@@ -131,16 +134,20 @@ base_image() {
             apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq debootstrap
         } >/dev/null || die "could not install debootstrap"
         mkdir -p "$IMAGES"
-        local tmp="$IMAGES/.build.$$"
-        rm -rf --one-file-system "$tmp"
-        trap 'rm -rf --one-file-system "$tmp"' EXIT
-        debootstrap --variant=minbase trixie "$tmp" "$(mirror)" >"$IMAGES/debootstrap.log" 2>&1 ||
-            die "debootstrap failed; see $IMAGES/debootstrap.log"
-        # What the official image leaves out too: package caches and lists.
-        rm -rf "$tmp"/var/cache/apt/archives/*.deb "$tmp"/var/lib/apt/lists/*
-        tar --numeric-owner -C "$tmp" -cf "$tarball.tmp" . && mv "$tarball.tmp" "$tarball"
-        rm -rf --one-file-system "$tmp"
-        trap - EXIT
+        exec 8>"$IMAGES/.lock"
+        flock 8  # one debootstrap at a time; a concurrent one may have made the tarball meanwhile
+        if [ ! -f "$tarball" ]; then
+            BASE_TMP="$IMAGES/.build.$$"   # removed by cleanup() if we are interrupted
+            rm -rf --one-file-system "$BASE_TMP"
+            debootstrap --variant=minbase trixie "$BASE_TMP" "$(mirror)" >"$IMAGES/debootstrap.log" 2>&1 ||
+                die "debootstrap failed; see $IMAGES/debootstrap.log"
+            # What the official image leaves out too: package caches and lists.
+            rm -rf "$BASE_TMP"/var/cache/apt/archives/*.deb "$BASE_TMP"/var/lib/apt/lists/*
+            tar --numeric-owner -C "$BASE_TMP" -cf "$tarball.tmp" . && mv "$tarball.tmp" "$tarball"
+            rm -rf --one-file-system "$BASE_TMP"
+            BASE_TMP=""
+        fi
+        exec 8>&-
     fi
     "${ENGINE[@]}" import -q "$tarball" "$BASE" >/dev/null || die "could not import $tarball as $BASE"
     say "base: $BASE imported from $tarball"
@@ -176,8 +183,10 @@ crun() {  # crun [engine run options...] -- CMD...: one container, removed after
         "$TAG" "$@"
 }
 
+BASE_TMP=""
 cleanup() {
     local ids
+    [ -z "$BASE_TMP" ] || rm -rf --one-file-system "$BASE_TMP" "$IMAGES/debian-trixie-minbase.tar.tmp"
     if [ "${#ENGINE[@]}" -gt 0 ]; then
         ids=$("${ENGINE[@]}" ps -aq --filter "name=stickslip-test-$$-" 2>/dev/null || true)
         [ -z "$ids" ] || "${ENGINE[@]}" rm -f $ids >/dev/null 2>&1 || true
