@@ -79,6 +79,7 @@ COMMAND_MODULES = (
     "cli.compare",  # compare
     "cli.sweep",  # sweep
     "cli.flutter_fe",  # flutter-fe
+    "cli.continuum",  # flutter-exact (issue 13)
 )
 
 
