@@ -57,8 +57,10 @@ CMD ["bash"]
 
 # Runtime image (the default): the project installed normally (not editable: the image is
 # what users run, nothing in it changes), with --no-index so that pip cannot reach any index.
-# The source tree stays in /opt/stickslip for its scenes/, sweeps/, docs/ and tests/.
+# The source tree stays in /opt/stickslip for its scenes/, sweeps/, docs/ and tests/; the
+# installed code finds the shipped scenes (`stickslip run figure3_n36`) through STICKSLIP_SCENES.
 FROM stack AS runtime
+ENV STICKSLIP_SCENES=/opt/stickslip/scenes
 COPY . /opt/stickslip
 RUN python3 -m pip install --no-index --no-cache-dir --no-deps --no-build-isolation \
         --break-system-packages --root-user-action=ignore /opt/stickslip \

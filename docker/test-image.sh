@@ -13,7 +13,8 @@
 #    stickslip:test.  The engine's layer cache keeps the Debian stack layer between runs (its
 #    key is the Dockerfile lines above it and docker/apt-packages.txt), so a warm build only
 #    re-installs the project.
-# 4. inside the image: `stickslip --help`, `stickslip info`;
+# 4. inside the image: `stickslip --help`, `stickslip info`, every package of the source tree
+#    importable from the install;
 #    `mpirun -n 2 stickslip run scenes/smoke.toml --plot` and
 #    `mpirun -n 2 stickslip sweep sweeps/smoke4.toml` (4 scenes) into a bind-mounted host
 #    directory; the README's cluster recipe (`--user 1234:1234 -e HOME=/tmp`,
@@ -206,6 +207,27 @@ run_help() {
     say "stickslip info: $(grep -E '^(dolfinx|PETSc|MPI [^s])' <<<"$out" | tr '\n' ';')"
 }
 
+run_installed_packages() {  # the install holds every package of the source tree
+    # From / (not the source tree in the working directory), as the `stickslip` script does.
+    local out
+    out=$(crun -w / -- python3 -c '
+import importlib, pathlib, sys
+src = pathlib.Path("/opt/stickslip")
+names = sorted(".".join(p.parent.relative_to(src).parts) for p in src.rglob("__init__.py")
+               if p.parent.relative_to(src).parts[0] not in ("tests", "benchmarks"))
+bad = []
+for name in names:
+    try:
+        mod = importlib.import_module(name)
+        if not mod.__file__.startswith("/usr/local/lib/"):
+            bad.append(f"{name}: imported from {mod.__file__}")
+    except ImportError as err:
+        bad.append(f"{name}: {err}")
+print(f"{len(names)} packages installed: {\" \".join(names)}" if not bad else "\n".join(bad))
+sys.exit(1 if bad else 0)' 2>&1) || { echo "$out" >&2; fail "the installed project lacks packages of the source tree (pyproject.toml [tool.setuptools] packages)"; return; }
+    say "$out"
+}
+
 run_scenes() {  # the smoke scene and the 4-scene sweep, outputs in the mounted $OUT/image
     local mount="$OUT/image:/work/runs"
     # Default output root (STICKSLIP_OUTPUT=/work/runs): /work/runs/smoke, /work/runs/sweeps/smoke4.
@@ -231,8 +253,9 @@ run_sweep_cluster() {
 }
 
 run_scene_error() {  # a bad scene value: one line on stderr, exit status 2
+    # (`smoke`: a shipped scene by its bare name, found by the installed code via STICKSLIP_SCENES)
     local rc=0 err
-    crun -- stickslip run scenes/smoke.toml --set mesh.n_inner=-1 >"$OUT/error.out" 2>"$OUT/error.err" || rc=$?
+    crun -- stickslip run smoke --set mesh.n_inner=-1 >"$OUT/error.out" 2>"$OUT/error.err" || rc=$?
     err=$(grep -v '^[[:space:]]*$' "$OUT/error.err" || true)
     if [ "$rc" != 2 ] || [ "$(wc -l <<<"$err")" != 1 ] || ! grep -q 'n_inner' <<<"$err"; then
         cat "$OUT/error.err" >&2
@@ -312,8 +335,9 @@ main() {
     chown 1234:1234 "$OUT/cluster" 2>/dev/null || chmod 777 "$OUT/cluster"
     stage "build"
     build_image
-    stage "stickslip --help, info"
+    stage "--help, info, packages"
     run_help
+    run_installed_packages
     stage "run + sweep (mpirun -n 2)"
     run_scenes
     stage "sweep (--user, mpirun -n 4)"

@@ -152,6 +152,12 @@ def test_runtime_image_needs_nothing_outside_debian():
     # The dev stage exists and installs the development tools.
     dev = by_name["dev"][1]
     assert any(word == "RUN" and "dev-requirements.txt" in rest for word, rest in dev)
+    # The installed code finds the shipped scenes in the source tree copied to the image.
+    copy_dst = next(rest.split()[-1] for word, rest in ins
+                    if word == "COPY" and rest.startswith(". "))
+    scenes = dict(item.partition("=")[::2] for word, rest in ins if word == "ENV"
+                  for item in shlex.split(rest)).get("STICKSLIP_SCENES")
+    assert scenes == f"{copy_dst}/scenes"
     # Documentation and apt's lists stay out of the image.
     stack_run = next(rest for word, rest in by_name["stack"][1]
                      if word == "RUN" and "apt-get install" in rest)
@@ -188,3 +194,15 @@ def test_smoke4_sweep_has_four_smoke_scenes():
     for values in spec["grid"].values():
         n *= len(values)
     assert n == 4
+
+
+def test_installed_code_finds_the_shipped_scenes_through_stickslip_scenes(tmp_path):
+    """In the image the code is installed away from its source tree: STICKSLIP_SCENES says
+    where the shipped scenes are (bare names like ``smoke`` resolve there)."""
+    (tmp_path / "only_here.toml").write_text("")
+    code = ("from solver.scene import SCENES_DIR, list_scenes; "
+            "print(SCENES_DIR, [p.name for p in list_scenes()])")
+    env = {"PATH": "/usr/bin:/bin", "PYTHONPATH": str(REPO), "STICKSLIP_SCENES": str(tmp_path)}
+    out = subprocess.run(["python3", "-c", code], env=env, capture_output=True, text=True,
+                         check=True).stdout
+    assert out.split()[0] == str(tmp_path) and "only_here.toml" in out
