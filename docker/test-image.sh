@@ -202,7 +202,7 @@ run_help() {
     local out
     out=$(crun -- stickslip --help 2>&1) || { echo "$out" >&2; fail "stickslip --help failed"; return; }
     grep -q '^usage: stickslip' <<<"$out" || { echo "$out" >&2; fail "stickslip --help: no usage line"; }
-    out=$(crun -- stickslip info 2>&1) || { echo "$out" >&2; fail "stickslip info failed"; return; }
+    out=$(crun -- stickslip info 2>&1 | tr -d '\0') || { echo "$out" >&2; fail "stickslip info failed"; return; }
     grep -q '^dolfinx 0\.9' <<<"$out" || { echo "$out" >&2; fail "stickslip info: no dolfinx 0.9"; }
     say "stickslip info: $(grep -E '^(dolfinx|PETSc|MPI [^s])' <<<"$out" | tr '\n' ';')"
 }
@@ -223,7 +223,7 @@ for name in names:
             bad.append(f"{name}: imported from {mod.__file__}")
     except ImportError as err:
         bad.append(f"{name}: {err}")
-print(f"{len(names)} packages installed: {\" \".join(names)}" if not bad else "\n".join(bad))
+print("\n".join(bad) if bad else f"{len(names)} packages installed: {chr(32).join(names)}")
 sys.exit(1 if bad else 0)' 2>&1) || { echo "$out" >&2; fail "the installed project lacks packages of the source tree (pyproject.toml [tool.setuptools] packages)"; return; }
     say "$out"
 }
@@ -241,6 +241,10 @@ run_scenes() {  # the smoke scene and the 4-scene sweep, outputs in the mounted 
     done
     crun -v "$mount" -- mpirun -n 2 stickslip sweep sweeps/smoke4.toml >"$OUT/image-sweep.log" 2>&1 ||
         { tail -n 20 "$OUT/image-sweep.log" >&2; fail "mpirun -n 2 stickslip sweep sweeps/smoke4.toml"; }
+    # The same command again resumes: nothing left to run.
+    crun -v "$mount" -- mpirun -n 2 stickslip sweep sweeps/smoke4.toml >"$OUT/image-resume.log" 2>&1 &&
+        grep -q '4 already done, 0 to run' "$OUT/image-resume.log" ||
+        { tail -n 20 "$OUT/image-resume.log" >&2; fail "re-running the sweep should resume (4 already done)"; }
 }
 
 run_sweep_cluster() {
@@ -360,4 +364,4 @@ main() {
     say "all checks passed"
 }
 
-main "$@"
+main "$@"; exit $?
