@@ -34,10 +34,13 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def _compare(args: argparse.Namespace) -> int:
+    from cli.checks import output_file_problem, samples_problem
+
     run_dir = Path(args.run_dir)
-    if not (run_dir / "samples.npz").exists():
-        print(f"error: {run_dir} has no samples.npz (not a finished run directory)",
-              file=sys.stderr)
+    out = Path(args.json_out) if args.json_out else run_dir / "compare.json"
+    problem = samples_problem(run_dir, need=4) or output_file_problem(out, "--json")
+    if problem:
+        print(f"error: {problem}", file=sys.stderr)
         return 2
     ks = list(args.k)
     result = compare_run(run_dir, ks)
@@ -51,10 +54,9 @@ def _compare(args: argparse.Namespace) -> int:
         for k, row in result["fe_modes"].items():
             print(f"k = {k}: " + ", ".join(f"{key} {val:.1f}" for key, val in row.items()
                                            if val is not None))
-    out = Path(args.json_out) if args.json_out else run_dir / "compare.json"
-    tmp = out.with_name(f".{out.name}.tmp")
-    tmp.write_text(json.dumps(result, indent=2, default=_json_default))
-    tmp.replace(out)
+    from solver.atomic import atomic_write_text
+
+    atomic_write_text(out, json.dumps(result, indent=2, default=_json_default))
     print(f"table: {out}")
     return 0
 

@@ -63,7 +63,11 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"stickslip {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
 
-    p = sub.add_parser("info", help="versions of dolfinx, PETSc, MPI; where outputs go")
+    p = sub.add_parser("info", help="versions of dolfinx, PETSc, MPI; where outputs go",
+                       description="Print the versions of stickslip, Python, dolfinx, PETSc, "
+                                   "MPI, gmsh, numpy and scipy, the MPI size, and the folder "
+                                   "where run directories go by default ($STICKSLIP_OUTPUT or "
+                                   "./runs).")
     p.set_defaults(func=_info)
 
     for module in COMMAND_MODULES:
@@ -95,14 +99,48 @@ def _register(sub: argparse._SubParsersAction, module: str) -> None:
     mod.register(sub)
 
 
+def _last_resort(err: BaseException) -> str:
+    """One line for an error no handler foresaw (issue 12: errors, not tracebacks)."""
+    if isinstance(err, MemoryError):
+        return ("out of memory; reduce the problem (mesh.n_inner, time.end_time, "
+                "output.sample_interval) or use a machine with more memory")
+    if isinstance(err, UnicodeDecodeError):
+        return f"a file is not UTF-8 text ({err.reason} at byte {err.start}); check the inputs"
+    where = f" {err.filename}" if getattr(err, "filename", None) else ""
+    what = err.strerror or str(err)  # type: ignore[union-attr]
+    return f"cannot use{where}: {what}; check the path, its permissions and the free space"
+
+
+def _end_all_ranks(code: int) -> None:
+    """Under mpirun an error seen by one rank must end every rank (no hang): Abort."""
+    mpi = sys.modules.get("mpi4py.MPI")
+    if mpi is not None and mpi.Is_initialized() and not mpi.Is_finalized() \
+            and mpi.COMM_WORLD.size > 1:
+        sys.stderr.flush()
+        mpi.COMM_WORLD.Abort(code)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point: the handler's exit status; 2 with one line for a foreseen error class."""
     parser = build_parser()
     args = parser.parse_args(argv)
     if not getattr(args, "func", None):
         parser.print_help()
         return 2
-    return int(args.func(args) or 0)
+    try:
+        return int(args.func(args) or 0)
+    except KeyboardInterrupt:
+        print("stickslip: interrupted", file=sys.stderr)
+        return 130
+    except (OSError, UnicodeDecodeError, MemoryError) as err:
+        print(f"error: {_last_resort(err)}", file=sys.stderr, flush=True)
+        _end_all_ranks(2)
+        return 2
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    try:
+        sys.exit(main())
+    except KeyboardInterrupt:  # while Python was still importing: nothing started, nothing lost
+        print("stickslip: interrupted", file=sys.stderr)
+        sys.exit(130)

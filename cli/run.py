@@ -25,7 +25,13 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("-o", "--output", help="run directory (default: $STICKSLIP_OUTPUT/<name>)")
     p.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
                    help="override a scene field, e.g. --set mesh.n_inner=264 (repeatable)")
-    p.add_argument("--force", action="store_true", help="overwrite an existing run directory")
+    p.add_argument("--force", action="store_true",
+                   help="replace an existing RUN DIRECTORY (one holding a stickslip "
+                        "summary.json; anything else is refused). The new run is built beside "
+                        "it and swapped in when it ends; if it fails, the old run is kept")
+    p.add_argument("--yes-i-know", dest="yes_i_know", action="store_true",
+                   help="run even if the estimated memory or output exceeds what this "
+                        "machine has (the estimate is printed before meshing)")
     p.add_argument("--plot", action="store_true", help="draw the run's figures when done")
     p.add_argument("--profile", action="store_true", help="print where the time went")
     p.set_defaults(func=_run)
@@ -39,12 +45,13 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def _run(args: argparse.Namespace) -> int:
+    """``stickslip run``: exit status from the run's status (README: "Exit codes")."""
     from mpi4py import MPI
 
-    from solver.errors import StepTooLarge
     from solver.scene import SceneError, load_scene
     from studies.output import output_root
-    from studies.rundir import run_scene
+    from studies.resources import ResourceError
+    from studies.rundir import EXIT_CODES, RunDirError, run_scene
 
     comm = MPI.COMM_WORLD
     try:
@@ -55,18 +62,21 @@ def _run(args: argparse.Namespace) -> int:
         return 2
     run_dir = Path(args.output) if args.output else output_root() / scene.name
     try:
-        summary = run_scene(scene, run_dir, force=args.force, comm=comm, profile=args.profile)
-    except (FileExistsError, StepTooLarge, ValueError) as err:
+        summary = run_scene(scene, run_dir, force=args.force, comm=comm, profile=args.profile,
+                            check_resources=not args.yes_i_know)
+    except (RunDirError, ResourceError) as err:
         if comm.rank == 0:
             print(f"error: {err}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt:  # a signal during the final save, honoured after it
+        return EXIT_CODES["interrupted"]
     status = comm.bcast(summary.get("status") if comm.rank == 0 else None, root=0)
-    if args.plot and comm.rank == 0 and status in ("completed", "interrupted"):
+    if args.plot and comm.rank == 0 and status in ("completed", "interrupted", "stopped"):
         from postprocess.plotting import plot_run
 
         for path in plot_run(run_dir):
             print(f"figure: {path}")
-    return {"completed": 0, "interrupted": 130}.get(status, 1)
+    return EXIT_CODES.get(status, 1)
 
 
 def _plot(args: argparse.Namespace) -> int:
@@ -81,9 +91,11 @@ def _plot(args: argparse.Namespace) -> int:
         for path in plot_sweep(run_dir):
             print(f"figure: {path}")
         return 0
-    if not (run_dir / "samples.npz").exists():
-        print(f"error: {run_dir} has no samples.npz (not a finished run directory)",
-              file=sys.stderr)
+    from cli.checks import samples_problem
+
+    problem = samples_problem(run_dir)
+    if problem:
+        print(f"error: {problem}", file=sys.stderr)
         return 2
     for path in plot_run(run_dir):
         print(f"figure: {path}")

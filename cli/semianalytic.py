@@ -22,9 +22,9 @@ class InputError(ValueError):
 
 
 def _common(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--nu", type=float, default=0.3, help="Poisson ratio, -1 < nu < 0.5")
+    p.add_argument("--nu", type=float, default=0.3, help="Poisson ratio, 0 <= nu < 0.5")
     p.add_argument("--xi", type=float, default=1.25, help="R*/R, > 1")
-    p.add_argument("--f", type=float, default=0.7, help="friction coefficient, > 0")
+    p.add_argument("--f", type=float, default=0.7, help="friction coefficient, >= 0")
     p.add_argument("--omega", type=float, default=40.0, help="rotation speed (rad/s), > 0")
     p.add_argument("--wave-speed", type=float, default=1000.0, help="sqrt(E/rho) (m/s)")
     p.add_argument("--radius", type=float, default=1.0, help="inner radius R (m)")
@@ -37,10 +37,11 @@ def register(subparsers: Any) -> None:
         "wave",
         help="travelling stick-slip(-separation) waves of the reduced model",
         description="Solve eqs. [4]-[7] of the paper for travelling waves (semi-analytical).",
+        allow_abbrev=False,
     )
     _common(pw)
     pw.add_argument("--k", type=int, default=4, help="mode number (waves per turn), >= 1")
-    pw.add_argument("--delta", type=float, default=0.001, help="mismatch d/R, >= 0")
+    pw.add_argument("--delta", type=float, default=0.001, help="mismatch d/R, > 0")
     pw.add_argument("--plot", metavar="PNG", default=None, help="draw Figure 1 to this file")
     pw.add_argument(
         "--regime",
@@ -59,44 +60,52 @@ def register(subparsers: Any) -> None:
         "flutter",
         help="flutter modes of steady sliding (reduced model)",
         description="Growth rate, phase speed and direction of the modes exp(i(k theta - w t)).",
+        allow_abbrev=False,  # `--k 0` must not be read as `--kmax 0`
     )
     _common(pf)
-    pf.add_argument("--kmax", type=int, default=8, help="largest mode number, >= 1")
+    pf.add_argument("--kmax", type=int, default=8, help=f"largest mode number, 1..{KMAX_LIMIT}")
     pf.set_defaults(func=flutter_command)
 
 
+#: Command-line flag -> scene key: one set of ranges for scenes and this CLI (solver.scene).
+_FLAG_KEYS = (
+    ("nu", "nu", "material.nu"),
+    ("xi", "xi", "geometry.xi"),
+    ("f", "f", "loading.f"),
+    ("omega", "omega", "loading.omega"),
+    ("wave-speed", "wave_speed", "material.wave_speed"),
+    ("radius", "radius", "geometry.R"),
+    ("delta", "delta", "geometry.delta"),
+    ("k", "k", "initial.mode"),
+)
+#: Largest ``flutter --kmax``: k = 1..kmax costs ~1 ms per mode; beyond 10^4 waves per turn
+#: the reduced model's ansatz (one radial shape X(r)) has long lost its meaning.
+KMAX_LIMIT = 10_000
+
+
 def _validate(args: argparse.Namespace) -> None:
+    from solver.scene import RANGES, SceneError, check_speed_ratio
+
     def bad(flag: str, value: Any, allowed: str) -> InputError:
         return InputError(f"--{flag} {value!r} is out of range: need {allowed}")
 
-    for name, val in (
-        ("nu", args.nu),
-        ("xi", args.xi),
-        ("f", args.f),
-        ("omega", args.omega),
-        ("wave-speed", args.wave_speed),
-        ("radius", args.radius),
-    ):
+    for flag, attr, key in _FLAG_KEYS:
+        if not hasattr(args, attr):
+            continue
+        val = getattr(args, attr)
         if not math.isfinite(val):
-            raise bad(name, val, "a finite number")
-    if not -1.0 < args.nu < 0.5:
-        raise bad("nu", args.nu, "-1 < nu < 0.5")
-    if not args.xi > 1.0:
-        raise bad("xi", args.xi, "xi > 1")
-    if not args.f > 0.0:
-        raise bad("f", args.f, "f > 0")
-    if not args.omega > 0.0:
-        raise bad("omega", args.omega, "omega > 0 (rad/s)")
-    if not args.wave_speed > 0.0:
-        raise bad("wave-speed", args.wave_speed, "wave speed > 0 (m/s)")
-    if not args.radius > 0.0:
-        raise bad("radius", args.radius, "radius > 0 (m)")
-    if hasattr(args, "k") and args.k < 1:
-        raise bad("k", args.k, "an integer k >= 1")
-    if hasattr(args, "delta") and not (math.isfinite(args.delta) and args.delta >= 0.0):
-        raise bad("delta", args.delta, "delta >= 0")
-    if hasattr(args, "kmax") and args.kmax < 1:
-        raise bad("kmax", args.kmax, "an integer kmax >= 1")
+            raise bad(flag, val, "a finite number")
+        if not RANGES[key].ok(val):
+            raise bad(flag, val, RANGES[key].rule)
+    try:
+        check_speed_ratio(args.radius, args.omega, args.wave_speed,
+                          f"--omega {args.omega!r}, --wave-speed {args.wave_speed!r}, "
+                          f"--radius {args.radius!r}")
+    except SceneError as err:
+        raise InputError(str(err).replace("loading.omega and material.wave_speed",
+                                          "--omega and --wave-speed")) from None
+    if hasattr(args, "kmax") and not 1 <= args.kmax <= KMAX_LIMIT:
+        raise bad("kmax", args.kmax, f"an integer 1 <= kmax <= {KMAX_LIMIT}")
 
 
 def _jsonable(d: dict[str, Any]) -> dict[str, Any]:
@@ -110,6 +119,13 @@ def wave_command(args: argparse.Namespace) -> int:
     except InputError as err:
         print(f"error: {err}", file=sys.stderr)
         return 2
+    if args.plot:
+        from cli.checks import output_file_problem
+
+        problem = output_file_problem(args.plot, "--plot")
+        if problem:
+            print(f"error: {problem}", file=sys.stderr)
+            return 2
     from semianalytic.coefficients import coefficients, gamma_from_physical
     from semianalytic.waves import find_waves
 
@@ -118,7 +134,10 @@ def wave_command(args: argparse.Namespace) -> int:
     junctions = ("impact", "smooth") if args.junction == "both" else (args.junction,)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
-        waves = find_waves(co, args.f, args.k, args.delta, regime=args.regime, junctions=junctions)
+        # f = 0 (allowed, as in scenes): no friction, no stick zone, steady sliding is neutral
+        # (flutter growth 0): the reduced model has no travelling stick-slip wave to find.
+        waves = (find_waves(co, args.f, args.k, args.delta, regime=args.regime,
+                            junctions=junctions) if args.f > 0 else [])
     sols = [_jsonable(w.summary(args.radius, args.omega)) for w in waves]
     best = next((w for w in waves if w.admissible), None)
     out: dict[str, Any] = {

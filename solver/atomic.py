@@ -1,19 +1,37 @@
-"""Atomic file writes: a reader sees the old file or the new one, never half of one."""
+"""Atomic file writes: a reader sees the old file or the new one, never half of one.
+
+Every output goes through a temporary file in the same folder (``.NAME.*.tmp``), is flushed to
+disk, given the mode the umask allows (``mkstemp`` alone would leave it 0600, unreadable by
+the host user of a Docker run) and renamed over ``NAME``. On any failure (disk full, a signal)
+the temporary file is removed: nothing is ever left behind.
+"""
 
 from __future__ import annotations
 
 import os
 import tempfile
+from collections.abc import Callable
 from pathlib import Path
+from typing import IO, Any
+
+__all__ = ["atomic_save_npz", "atomic_write", "atomic_write_text", "umask_mode"]
 
 
-def atomic_write_text(path: str | Path, text: str) -> Path:
-    """Write ``text`` to ``path`` through a temporary file in the same folder, fsync, rename."""
+def umask_mode(full: int = 0o666) -> int:
+    """``full`` with the process umask applied (what ``open(..., 'w')`` would give)."""
+    mask = os.umask(0)
+    os.umask(mask)
+    return full & ~mask
+
+
+def atomic_write(path: str | Path, fill: Callable[[IO[bytes]], Any]) -> Path:
+    """Write ``path`` with ``fill(binary file)`` through a temporary file, fsync, rename."""
     p = Path(path)
     fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".tmp", dir=p.parent or ".")
     try:
-        with os.fdopen(fd, "w", encoding="utf-8", newline="\n") as fh:
-            fh.write(text)
+        os.fchmod(fd, umask_mode())
+        with os.fdopen(fd, "wb") as fh:
+            fill(fh)
             fh.flush()
             os.fsync(fh.fileno())
         os.replace(tmp, p)
@@ -24,3 +42,17 @@ def atomic_write_text(path: str | Path, text: str) -> Path:
             pass
         raise
     return p
+
+
+def atomic_write_text(path: str | Path, text: str) -> Path:
+    """Write ``text`` (UTF-8, ``\\n`` line ends) to ``path`` atomically."""
+    data = text.encode("utf-8")
+    return atomic_write(path, lambda fh: fh.write(data))
+
+
+def atomic_save_npz(path: str | Path, arrays: dict[str, Any], compress: bool = True) -> Path:
+    """``numpy.savez_compressed`` (or ``savez``) of ``arrays`` to ``path`` atomically."""
+    import numpy as np
+
+    save = np.savez_compressed if compress else np.savez
+    return atomic_write(path, lambda fh: save(fh, **arrays))

@@ -87,6 +87,8 @@ class Simulation:
         self.energy_bound = math.inf
         self.status = "running"
         self.stop_reason = ""
+        #: Set (e.g. by a SIGINT/SIGTERM handler) to stop at the next sample; see _stop_now.
+        self.stop_requested = False
 
     def planned_steps(self) -> int:
         n = int(math.ceil(self.scene.time.end_time / self.dt - 1e-9))
@@ -139,6 +141,19 @@ class Simulation:
                 "time scheme is unstable here; reduce time.dt_fraction"
             )
 
+    def _stop_now(self, t_start: float, max_wall: float | None) -> str:
+        """At a sample: "" or why to stop, agreed by every rank (one integer allreduce).
+
+        "signal": some rank saw ``stop_requested`` (SIGINT/SIGTERM), so all ranks stop at the
+        same step and save the same samples; "max_wall_time": the wall-clock limit.
+        """
+        code = 2 if self.stop_requested else 0
+        if not code and max_wall is not None and time.perf_counter() - t_start > max_wall:
+            code = 1
+        if self.comm.size > 1:
+            code = self.comm.allreduce(code, op=MPI.MAX)
+        return ("", "max_wall_time", "signal")[code]
+
     def proceed(self, end_time: float | None = None, max_steps: int | None = None,
                 max_wall_time: float | None = None) -> str:
         """Advance until a stop criterion: sim time, step count or wall time. Returns reason."""
@@ -168,11 +183,10 @@ class Simulation:
                     if self.comm.rank == 0 and self.progress.due():
                         recent = zone_fractions(rec.recent_status(max(1, rec.n // 10)))
                         self.progress.update(integ.time, integ.step_count, recent)
-                    if max_wall is not None:
-                        stop = time.perf_counter() - t_start > max_wall
-                        if self.comm.allreduce(stop, op=MPI.LOR):
-                            self.stop_reason = "max_wall_time"
-                            break
+                    stop = self._stop_now(t_start, max_wall)
+                    if stop:
+                        self.stop_reason = stop
+                        break
         from solver.schemes import contact_seconds
 
         self.profile.seconds["contact (in time-loop)"] = contact_seconds(self.integrator)

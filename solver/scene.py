@@ -37,10 +37,15 @@ __all__ = [
     "Material",
     "Mesh",
     "Output",
+    "RANGES",
+    "SPEED_RATIO",
+    "Range",
     "Scene",
     "SceneError",
     "Time",
     "apply_overrides",
+    "check_range",
+    "check_speed_ratio",
     "dumps_toml",
     "list_scenes",
     "load_scene",
@@ -152,6 +157,61 @@ def _suggest(word: str, candidates: Sequence[str]) -> str:
     return f"; did you mean {lower[close[0]]!r}?" if close else ""
 
 
+@dataclass(frozen=True)
+class Range:
+    """An allowed range: ``ok(value)`` and the rule as the user reads it."""
+
+    ok: Callable[[float], bool]
+    rule: str
+
+
+#: The physical ranges, in one place for the scenes and the reduced-model CLI (``wave``,
+#: ``flutter``): key -> range. Keys are dotted scene keys.
+RANGES: dict[str, Range] = {
+    "material.E": Range(lambda x: x > 0, "E > 0 (Pa)"),
+    "material.wave_speed": Range(lambda x: x > 0, "wave_speed > 0 (m/s)"),
+    "material.rho": Range(lambda x: x > 0, "rho > 0 (kg/m^3)"),
+    "material.nu": Range(
+        lambda x: 0 <= x < 0.5,
+        "0 <= nu < 0.5 (incompressible nu = 0.5 is not supported by the displacement "
+        "formulation)",
+    ),
+    "geometry.R": Range(lambda x: x > 0, "R > 0 (m)"),
+    "geometry.xi": Range(lambda x: x > 1, "xi > 1 (outer/inner radius ratio)"),
+    "geometry.delta": Range(
+        lambda x: x > 0,
+        "delta > 0 (mismatch d/R; with delta = 0 the tube is not pressed on the cylinder: "
+        "no contact pressure, no friction, nothing to simulate)",
+    ),
+    "geometry.d": Range(lambda x: x > 0, "d > 0 (m; the cylinder must press the tube)"),
+    "loading.omega": Range(lambda x: x > 0, "omega > 0 (rad/s)"),
+    "loading.f": Range(lambda x: x >= 0, "f >= 0 (Coulomb friction coefficient)"),
+    "initial.mode": Range(lambda x: x >= 1, "mode >= 1"),
+}
+
+#: Allowed rim-speed ratio R*omega/wave_speed: outside it the numbers of the model
+#: (gamma**2 in eqs. [2]-[3], steps per turn) leave double precision or make no sense.
+SPEED_RATIO = (1e-12, 1e6)
+
+
+def check_range(key: str, value: Any, label: str | None = None) -> None:
+    """Raise :class:`SceneError` unless ``value`` is in ``RANGES[key]``; names ``label``."""
+    r = RANGES[key]
+    _require(label or key, value, r.ok(value), r.rule)
+
+
+def check_speed_ratio(R: float, omega: float, wave_speed: float, label: str) -> None:
+    """Raise :class:`SceneError` unless R*omega/wave_speed is within :data:`SPEED_RATIO`."""
+    lo, hi = SPEED_RATIO
+    with_ratio = R * omega / wave_speed if wave_speed > 0 else math.inf
+    if not (lo <= with_ratio <= hi):
+        raise SceneError(
+            f"{label}: the rim-speed ratio R*omega/wave_speed = {with_ratio:.3g} is out of "
+            f"range: must satisfy {lo:g} <= R*omega/wave_speed <= {hi:g} (check "
+            "loading.omega and material.wave_speed)"
+        )
+
+
 class _Section:
     """Mixin: coerce field types from metadata, then run the section's range checks."""
 
@@ -199,22 +259,17 @@ class Material(_Section):
         """Build from a density instead of a wave speed."""
         E = _to_float("material.E", E)
         rho = _to_float("material.rho", rho)
-        _require("material.rho", rho, rho > 0, "rho > 0 (kg/m^3)")
-        _require("material.E", E, E > 0, "E > 0 (Pa)")
+        check_range("material.rho", rho)
+        check_range("material.E", E)
         return cls(E=E, wave_speed=math.sqrt(E / rho), nu=nu)
 
     def _check(self) -> None:
-        _require(self._key("E"), self.E, self.E > 0, "E > 0 (Pa)")
-        _require(
-            self._key("wave_speed"), self.wave_speed, self.wave_speed > 0, "wave_speed > 0 (m/s)"
-        )
-        _require(
-            self._key("nu"),
-            self.nu,
-            0 <= self.nu < 0.5,
-            "0 <= nu < 0.5 (incompressible nu = 0.5 is not supported by the "
-            "displacement formulation)",
-        )
+        for name in ("E", "wave_speed", "nu"):
+            check_range(self._key(name), getattr(self, name))
+        c2 = self.wave_speed**2
+        rho = self.E / c2 if c2 > 0 else math.inf
+        _require(self._key("wave_speed"), self.wave_speed, 0 < rho < math.inf,
+                 "a finite, non-zero density E / wave_speed**2 (kg/m^3)")
 
 
 @dataclass(frozen=True)
@@ -241,14 +296,8 @@ class Geometry(_Section):
         return self.xi * self.R
 
     def _check(self) -> None:
-        _require(self._key("R"), self.R, self.R > 0, "R > 0 (m)")
-        _require(self._key("xi"), self.xi, self.xi > 1, "xi > 1 (outer/inner radius ratio)")
-        _require(
-            self._key("delta"),
-            self.delta,
-            self.delta >= 0,
-            "delta >= 0 (mismatch d/R; the cylinder must not be smaller than the tube)",
-        )
+        for name in ("R", "xi", "delta"):
+            check_range(self._key(name), getattr(self, name))
 
 
 @dataclass(frozen=True)
@@ -263,8 +312,8 @@ class Loading(_Section):
     """Coulomb friction coefficient [-]."""
 
     def _check(self) -> None:
-        _require(self._key("omega"), self.omega, self.omega > 0, "omega > 0 (rad/s)")
-        _require(self._key("f"), self.f, self.f >= 0, "f >= 0 (Coulomb friction coefficient)")
+        for name in ("omega", "f"):
+            check_range(self._key(name), getattr(self, name))
 
 
 CELL_TYPES = ("triangle", "quadrilateral")
@@ -385,7 +434,7 @@ class Initial(_Section):
 
     def _check(self) -> None:
         _choice(self._key("perturbation"), self.perturbation, PERTURBATIONS)
-        _require(self._key("mode"), self.mode, self.mode >= 1, "mode >= 1")
+        check_range(self._key("mode"), self.mode)
         _require(
             self._key("amplitude"),
             self.amplitude,
@@ -440,7 +489,8 @@ _SECTIONS: dict[str, type[_Section]] = {
 _TOP_SCALARS = ("name", "description")
 #: Input-only alternatives: (section, canonical key, alternative key).
 _EXCLUSIVE = (("material", "wave_speed", "rho"), ("geometry", "delta", "d"))
-_NAME_RE = re.compile(r"[A-Za-z0-9_.\-]+")
+#: A safe file name: it starts with a letter, digit or '_' (never '.', '..', '-x' or hidden).
+_NAME_RE = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.\-]{0,127}")
 
 
 @dataclass(frozen=True)
@@ -461,9 +511,14 @@ class Scene(_Section):
     def _check(self) -> None:
         if not _NAME_RE.fullmatch(self.name):
             raise SceneError(
-                f"name = {_fmt(self.name)} is not allowed: must be non-empty and use only "
-                "letters, digits, '_', '-' and '.'"
+                f"name = {_fmt(self.name)} is not allowed: it names the run directory, so it "
+                "must be 1 to 128 letters, digits, '_', '-' or '.', starting with a letter, "
+                "digit or '_' (not '.' or '..')"
             )
+        g, lo = self.geometry, self.loading
+        check_speed_ratio(g.R, lo.omega, self.material.wave_speed,
+                          f"loading.omega = {_fmt(lo.omega)}, material.wave_speed = "
+                          f"{_fmt(self.material.wave_speed)}, geometry.R = {_fmt(g.R)}")
         for sec, cls in _SECTIONS.items():
             if not isinstance(getattr(self, sec), cls):
                 raise SceneError(f"{sec} must be a {cls.__name__} (got {getattr(self, sec)!r})")
@@ -539,16 +594,16 @@ def _build_section(section: str, sub: dict[str, Any]) -> _Section:
     if section == "material" and "rho" in sub:
         _exactly_one(section, sub, "wave_speed", "rho", "wave_speed = sqrt(E/rho)")
         rho = _to_float("material.rho", sub.pop("rho"))
-        _require("material.rho", rho, rho > 0, "rho > 0 (kg/m^3)")
+        check_range("material.rho", rho)
         E = _to_float("material.E", sub.get("E", Material.E))
-        _require("material.E", E, E > 0, "E > 0 (Pa)")
+        check_range("material.E", E)
         sub["wave_speed"] = math.sqrt(E / rho)
     if section == "geometry" and "d" in sub:
         _exactly_one(section, sub, "delta", "d", "delta = d/R")
         d = _to_float("geometry.d", sub.pop("d"))
-        _require("geometry.d", d, d >= 0, "d >= 0 (m)")
+        check_range("geometry.d", d)
         R = _to_float("geometry.R", sub.get("R", Geometry.R))
-        _require("geometry.R", R, R > 0, "R > 0 (m)")
+        check_range("geometry.R", R)
         sub["delta"] = d / R
     return _SECTIONS[section](**sub)
 
@@ -645,7 +700,10 @@ def list_scenes() -> list[Path]:
 
 def _resolve(path: str | Path) -> Path:
     p = Path(path)
-    if p.is_file():
+    if p.is_dir():
+        raise SceneError(f"scene file {str(path)!r} is a directory: give a scene .toml file "
+                         "(e.g. scenes/smoke.toml)")
+    if p.exists():
         return p
     if p.parent == Path(".") and (SCENES_DIR / f"{p.stem}.toml").is_file():
         return SCENES_DIR / f"{p.stem}.toml"
@@ -663,8 +721,14 @@ def load_scene(path: str | Path, overrides: Sequence[str] = ()) -> Scene:
     try:
         with p.open("rb") as fh:
             data = tomllib.load(fh)
+    except UnicodeDecodeError as exc:
+        raise SceneError(f"{p}: not a text TOML file (byte {exc.start} is not UTF-8); "
+                         "give a scene .toml file") from exc
     except tomllib.TOMLDecodeError as exc:
         raise SceneError(f"{p}: invalid TOML: {exc}") from exc
+    except OSError as exc:
+        raise SceneError(f"{p}: cannot read the scene file ({exc.strerror}); check the "
+                         "path and its permissions") from exc
     data.setdefault("name", p.stem)
     data = apply_overrides(data, overrides)
     try:

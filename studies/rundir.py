@@ -12,20 +12,21 @@ import json
 import os
 import shutil
 import signal
+import socket
 import sys
+import threading
 import time
-from contextlib import contextmanager
+from dataclasses import dataclass
 from pathlib import Path
 
-import numpy as np
 from mpi4py import MPI
 
 from solver import __version__
-from solver.atomic import atomic_write_text
-from solver.errors import Diverged
+from solver.atomic import atomic_save_npz, atomic_write_text
+from solver.errors import Diverged, StepTooLarge
 from solver.run import Profile, Simulation
 from solver.scene import Scene, write_scene
-from studies.output import output_root  # noqa: F401  (re-exported)
+from studies.output import output_root, process_alive  # noqa: F401  (re-exported)
 
 
 def summarise(sim: Simulation) -> dict:
@@ -50,104 +51,555 @@ def summarise(sim: Simulation) -> dict:
     return out
 
 
-def atomic_save_npz(path: Path, arrays: dict[str, np.ndarray]) -> None:
-    tmp = path.with_name(f".{path.stem}.tmp.npz")
-    np.savez_compressed(tmp, **arrays)
-    os.replace(tmp, path)
+#: Exit status of ``stickslip run`` by the run's final status (README: "Exit codes").
+EXIT_CODES = {"completed": 0, "diverged": 1, "failed": 2, "stopped": 3, "interrupted": 130}
 
 
-def prepare_run_dir(path: Path, force: bool, comm: MPI.Comm) -> None:
-    """Create the run directory; refuse to overwrite an existing one unless ``force``."""
-    error = None
-    if comm.rank == 0:
-        if path.exists() and any(path.iterdir()):
-            if not force:
-                error = (f"run directory {path} exists; use --force to overwrite it, "
-                         "or -o to choose another")
-            else:
-                shutil.rmtree(path)
-        if error is None:
-            path.mkdir(parents=True, exist_ok=True)
-    error = comm.bcast(error, root=0)
-    if error:
-        raise FileExistsError(error)
+class RunDirError(FileExistsError):
+    """The run directory is refused (exists, not ours, not writable): a one-line message."""
 
 
-@contextmanager
-def _sigterm_as_interrupt():
-    """SIGTERM (e.g. a batch system or mpirun being killed) behaves like Ctrl-C."""
-
-    def handler(signum, frame):
-        raise KeyboardInterrupt
-
-    previous = signal.signal(signal.SIGTERM, handler)
+def is_run_dir(path: Path) -> bool:
+    """True if ``path`` holds a ``summary.json`` written by ``stickslip run`` (its marker)."""
     try:
-        yield
+        s = json.loads((Path(path) / "summary.json").read_text())
+    except (OSError, ValueError):
+        return False
+    return isinstance(s, dict) and "scene" in s and "status" in s
+
+
+@dataclass
+class RunDir:
+    """Where a run ends up (``final``) and where it is written meanwhile (``work``).
+
+    Replacing an earlier run (``--force``) writes into a hidden sibling ``.NAME.new.PID`` and
+    swaps it in at the end (:func:`commit_run_dir`): the earlier run stays intact until the new
+    one has a final status, and stays for good if the new one fails.
+    """
+
+    final: Path
+    work: Path
+    created: bool = False
+
+    @property
+    def replacing(self) -> bool:
+        return self.work != self.final
+
+
+def _siblings(path: Path, kind: str) -> list[Path]:
+    return sorted(path.parent.glob(f".{path.name}.{kind}.*"))
+
+
+def _recover(path: Path) -> None:
+    """Clean up after a run killed while replacing ``path`` (rank 0, before anything else).
+
+    ``.NAME.old.PID`` exists only during the swap: if NAME is missing it goes back in place.
+    ``.NAME.new.PID`` of a dead process is an unfinished replacement: removed.
+    """
+    for old in _siblings(path, "old"):
+        if not path.exists() and is_run_dir(old):
+            os.rename(old, path)
+        elif is_run_dir(old):
+            shutil.rmtree(old, ignore_errors=True)
+    for new in _siblings(path, "new"):
+        pid = new.name.rsplit(".", 1)[-1]
+        alive = process_alive({"pid": int(pid), "host": socket.gethostname()}) \
+            if pid.isdigit() else True
+        if not alive and (is_run_dir(new) or not any(new.iterdir())):
+            shutil.rmtree(new, ignore_errors=True)
+
+
+def _refusal(path: Path, force: bool) -> str | None:
+    """Why ``path`` cannot take a run, or None (rank 0; no side effects)."""
+    fix = "choose another -o"
+    if path.exists() and not path.is_dir():
+        return f"-o {path} is not a directory (a file or device); {fix}"
+    if path.is_dir() and any(path.iterdir()):
+        if not force:
+            return (f"run directory {path} exists; use --force to replace it (only a run "
+                    f"directory is replaced, atomically), or {fix}")
+        if not is_run_dir(path):
+            return (f"{path} is not a stickslip run directory (no run summary.json): --force "
+                    f"replaces only run directories; {fix}, or empty it yourself")
+    parent = path.parent
+    while not parent.exists() and parent != parent.parent:
+        parent = parent.parent
+    if not parent.is_dir() or not os.access(parent, os.W_OK | os.X_OK) \
+            or str(parent.resolve()).startswith(("/proc", "/sys")):
+        return f"cannot create {path}: {parent} is not a writable directory; {fix}"
+    return None
+
+
+def prepare_run_dir(path: Path, force: bool, comm: MPI.Comm) -> RunDir:
+    """Check ``path`` and create the directory to write into (collective; rank 0 acts).
+
+    Refused (:class:`RunDirError`, every rank): a non-empty ``path`` without ``force``, one
+    that is not a run directory even with ``force``, a file, an unwritable place.
+    """
+    path = Path(path)
+    result: tuple = (None, None, False)
+    if comm.rank == 0:
+        try:
+            _recover(path)
+            error = _refusal(path, force)
+            if error is None:
+                if path.is_dir() and any(path.iterdir()):
+                    work = path.parent / f".{path.name}.new.{os.getpid()}"
+                    work.mkdir()
+                    created = True
+                else:
+                    work = path
+                    created = not path.exists()
+                    path.mkdir(parents=True, exist_ok=True)
+                result = (None, str(work), created)
+            else:
+                result = (error, None, False)
+        except OSError as err:
+            result = (f"cannot create {path}: {err.strerror or err}; choose another -o", None,
+                      False)
+    error, work, created = comm.bcast(result, root=0)
+    if error:
+        raise RunDirError(error)
+    return RunDir(final=path, work=Path(work), created=bool(created))
+
+
+def commit_run_dir(rd: RunDir) -> None:
+    """Swap the finished replacement in (rank 0): two renames, then the old run is deleted."""
+    if not rd.replacing:
+        return
+    old = rd.final.parent / f".{rd.final.name}.old.{os.getpid()}"
+    os.rename(rd.final, old)
+    os.rename(rd.work, rd.final)
+    shutil.rmtree(old, ignore_errors=True)
+
+
+def discard_run_dir(rd: RunDir) -> None:
+    """Drop an unfinished replacement; the earlier run is left as it was."""
+    if rd.replacing:
+        shutil.rmtree(rd.work, ignore_errors=True)
+
+
+class RunSignals:
+    """SIGINT/SIGTERM during a run, by phase (issue 12).
+
+    * ``raise`` (setup: meshing, assembly, steady state): KeyboardInterrupt at once;
+    * ``flag`` (time loop): ``sim.stop_requested``; every rank stops at the same sample
+      (:meth:`solver.run.Simulation._stop_now`) and the run is saved as ``interrupted``;
+    * ``defer`` (final save): remembered, honoured once the files are written.
+
+    Under mpirun (``rescue`` given, rank 0 of a multi-rank run) the first signal also forks a
+    rescue writer, in a session of its own, that saves what rank 0 holds (the inner-circle
+    samples, the status) at once: Open MPI 5 sends SIGKILL 0.25 s after SIGTERM, often before
+    the collective save is done. The normal save waits for it and then writes the full run.
+
+    Python runs signal handlers only between bytecodes, so a process inside one long compiled
+    call (gmsh meshing, SLEPc's eigensolver for omega_max: minutes on a big mesh, with the GIL
+    held) would ignore SIGTERM. A watchdog process (forked at entry) reads the signal numbers
+    from ``signal.set_wakeup_fd``, written by the C-level handler at once; if the Python
+    handler has not acknowledged a signal ``grace`` seconds later (in ``raise``/``flag``
+    mode), the watchdog calls ``on_hard_stop(signum)`` (mark the run ``interrupted``, or drop
+    the replacement) and ends the run with SIGKILL (exit status 137). Only in the main thread;
+    elsewhere (a test's thread) nothing is installed.
+    """
+
+    SIGNALS = (signal.SIGINT, signal.SIGTERM)
+
+    def __init__(self, on_hard_stop, grace: float = 2.0, rescue=None) -> None:  # noqa: ANN001
+        self.on_hard_stop, self.grace, self.rescue = on_hard_stop, grace, rescue
+        self.rescue_pid = 0
+        self._mode = "raise"
+        self.sim = None
+        self.requested = 0
+        self.previous: dict = {}
+        self.active = threading.current_thread() is threading.main_thread()
+        self.watchdog = 0
+        self.sig_w = self.ack_w = -1
+        self.old_wakeup = -1
+
+    @property
+    def mode(self) -> str:
+        return self._mode
+
+    @mode.setter
+    def mode(self, value: str) -> None:
+        self._mode = value
+        if value in ("defer", "done"):
+            self._tell(b"d")  # the watchdog stands down: the run saves or has saved
+
+    def _tell(self, byte: bytes) -> None:
+        if self.ack_w >= 0:
+            try:
+                os.write(self.ack_w, byte)
+            except OSError:
+                pass
+
+    def __enter__(self) -> RunSignals:
+        if not self.active:
+            return self
+        sig_r, sig_w = os.pipe()
+        ack_r, ack_w = os.pipe()
+        os.set_blocking(sig_w, False)
+        os.set_blocking(ack_w, False)
+        parent = os.getpid()
+        pid = _fork(lambda: self._watch(sig_r, ack_r, parent), new_session=False,
+                    close=(sig_w, ack_w))
+        os.close(sig_r)
+        os.close(ack_r)
+        self.watchdog, self.sig_w, self.ack_w = pid, sig_w, ack_w
+        for sig in self.SIGNALS:
+            self.previous[sig] = signal.signal(sig, self._handler)
+        self.old_wakeup = signal.set_wakeup_fd(sig_w, warn_on_full_buffer=False)
+        return self
+
+    def __exit__(self, *exc) -> None:  # noqa: ANN002
+        if not self.active:
+            return
+        signal.set_wakeup_fd(self.old_wakeup)
+        for sig, handler in self.previous.items():
+            signal.signal(sig, handler)
+        os.close(self.sig_w)
+        os.close(self.ack_w)
+        self.sig_w = self.ack_w = -1
+        if self.watchdog > 0:  # it reads EOF and ends
+            try:
+                os.waitpid(self.watchdog, 0)
+            except ChildProcessError:
+                pass
+
+    def _handler(self, signum: int, frame) -> None:  # noqa: ANN001, ARG002
+        self._tell(b"a")
+        self.requested = self.requested or signum
+        if self.rescue is not None and not self.rescue_pid and self.mode != "done":
+            self.rescue_pid = _fork(self.rescue)
+        if self.mode == "flag" and self.sim is not None:
+            self.sim.stop_requested = True
+        elif self.mode == "raise":
+            raise KeyboardInterrupt
+
+    def wait_rescue(self) -> None:
+        """Wait for the rescue writer (if any) before touching the run's files."""
+        if self.rescue_pid > 0:
+            try:
+                os.waitpid(self.rescue_pid, 0)
+            except ChildProcessError:
+                pass
+            self.rescue_pid = -1
+
+    def _watch(self, sig_r: int, ack_r: int, parent: int) -> None:
+        """The watchdog process: signals in, acknowledgements in; hard stop if none comes."""
+        import select
+
+        received = acked = 0
+        since = None
+        last = 0
+        standing_down = False
+        while True:
+            timeout = None
+            if since is not None and not standing_down:
+                timeout = max(0.0, since + self.grace - time.monotonic())
+            ready, _, _ = select.select([sig_r, ack_r], [], [], timeout)
+            if not ready:
+                self.on_hard_stop(last)
+                os.kill(parent, signal.SIGKILL)
+                return
+            if sig_r in ready:
+                data = os.read(sig_r, 64)
+                if not data:
+                    return
+                received += len(data)
+                last = data[-1]
+                since = since or time.monotonic()
+            if ack_r in ready:
+                data = os.read(ack_r, 64)
+                if not data:
+                    return
+                acked += data.count(b"a")
+                standing_down = standing_down or b"d" in data
+            if acked >= received:
+                since = None
+
+
+def _signame(signum: int) -> str:
+    """SIGINT, SIGTERM, ...; "a signal on another rank" for 0 (this rank saw none)."""
+    try:
+        return signal.Signals(signum).name if signum else "a signal on another rank"
+    except ValueError:
+        return f"signal {signum}"
+
+
+def _fork(fn, new_session: bool = True, close: tuple[int, ...] = ()) -> int:  # noqa: ANN001
+    """Run ``fn()`` in a forked child (by default in a session of its own, out of reach of
+    mpirun's kill, with SIGINT/SIGTERM ignored); returns its pid (0 if fork failed)."""
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DeprecationWarning)  # fork with threads: child uses none
+        try:
+            pid = os.fork()
+        except OSError:
+            return 0
+    if pid:
+        return pid
+    code = 1
+    try:
+        signal.set_wakeup_fd(-1)
+        for fd in close:
+            os.close(fd)
+        if new_session:
+            os.setsid()
+        for sig in RunSignals.SIGNALS:
+            signal.signal(sig, signal.SIG_IGN)
+        fn()
+        code = 0
     finally:
-        signal.signal(signal.SIGTERM, previous)
+        os._exit(code)
 
 
 def run_scene(scene: Scene, run_dir: Path, *, force: bool = False,
               comm: MPI.Comm = MPI.COMM_WORLD, profile: bool = False,
-              stream=sys.stdout) -> dict:
-    """Run ``scene`` into ``run_dir``: scene.toml, samples.npz, summary.json (rank 0)."""
+              stream=None, check_resources: bool = True,
+              replace_on_failure: bool = False) -> dict:
+    """Run ``scene`` into ``run_dir``: scene.toml, samples.npz, summary.json (rank 0).
+
+    Statuses: completed, diverged, stopped (wall-time limit), interrupted (SIGINT/SIGTERM;
+    the samples so far are saved), failed (an error, with its message). ``running`` is left
+    only by a process that is really running (its ``pid`` and ``host`` are recorded) or was
+    killed outright. With ``force`` an earlier run directory is replaced atomically, and kept
+    if the new run fails before its time loop (unless ``replace_on_failure``, for sweeps).
+    A signal that arrives while the files are written is honoured afterwards
+    (KeyboardInterrupt on every rank). Resources are estimated before meshing and a scene
+    beyond the machine is refused (:class:`studies.resources.ResourceError`) unless
+    ``check_resources`` is False.
+    """
+    from studies.resources import check_resources as _check
+
     prof = Profile()
     rank0 = comm.rank == 0
+    stream = sys.stdout if stream is None else stream
 
     def say(msg: str) -> None:
         if rank0:
             print(msg, file=stream, flush=True)
 
-    prepare_run_dir(run_dir, force, comm)
-    if rank0:
-        write_scene(scene, run_dir / "scene.toml")
-        atomic_write_text(run_dir / "summary.json",
-                          json.dumps({"scene": scene.name, "status": "running"}, indent=2))
+    est = None
+    err, kind = None, None
+    if rank0:  # before anything is created: the place, then the resources
+        err, kind = _refusal(Path(run_dir), force), "dir"
+        if err is None and check_resources:
+            try:
+                est = _check(scene, run_dir, comm.size)
+            except ValueError as e:
+                err, kind = str(e), "resources"
+    err, kind = comm.bcast((err, kind), root=0)
+    if err:
+        from studies.resources import ResourceError
+
+        raise (RunDirError if kind == "dir" else ResourceError)(err)
+    rd = prepare_run_dir(run_dir, force, comm)
+    work = rd.work
     t0 = time.perf_counter()
+    started = {"scene": scene.name, "status": "running", "pid": os.getpid(),
+               "host": socket.gethostname(), "started": time.strftime("%Y-%m-%dT%H:%M:%S%z")}
+    phase = ["setup"]
+
+    def mark(status: str, message: str) -> None:
+        """The run ended without the normal save (rank-local; a last resort)."""
+        if rd.replacing and not replace_on_failure:
+            discard_run_dir(rd)
+            return
+        summary = dict(started, status=status, message=message,
+                       wall_time_s=time.perf_counter() - t0)
+        summary.pop("pid", None)
+        try:
+            atomic_write_text(work / "summary.json", json.dumps(summary, indent=2))
+            if rd.replacing:
+                commit_run_dir(rd)
+        except OSError:
+            pass
+
+    def hard_stop(signum: int) -> None:
+        name = _signame(signum)
+        msg = f"{name} while in {phase[0]} (busy in compiled code: stopped without saving)"
+        print(f"stickslip: {msg}", file=sys.stderr, flush=True)
+        if rank0:
+            mark("interrupted", msg)
+
+    state: dict = {"sim": None, "status": None, "error": None}
+
+    def rescue() -> None:
+        """The forked rescue writer (rank 0 under mpirun): save what rank 0 holds, now."""
+        sim_ = state["sim"]
+        status_ = state["status"] or "interrupted"
+        msg = state["error"] or f"interrupted during {phase[0]}"
+        out = sim_.facts() if sim_ is not None else dict(started)
+        out.pop("pid", None)
+        out.update(status=status_, message=msg + " (saved by the rescue writer: no probes, "
+                   "no final field)", wall_time_s=time.perf_counter() - t0)
+        if sim_ is None and rd.replacing:
+            discard_run_dir(rd)
+            return
+        if sim_ is not None:
+            atomic_save_npz(rd.work / "samples.npz", sim_.recorder.arrays(), compress=False)
+        atomic_write_text(rd.work / "summary.json", json.dumps(out, indent=2))
+        commit_run_dir(rd)
+
     sim = None
     error = None
-    with _sigterm_as_interrupt():
+    status = "failed"
+    def first_files() -> None:
+        """scene.toml and the ``running`` summary; a write error leaves nothing half-made."""
+        problem = None
+        if rank0:
+            try:
+                write_scene(scene, work / "scene.toml")
+                atomic_write_text(work / "summary.json", json.dumps(started, indent=2))
+            except OSError as err:
+                problem = f"cannot write in {run_dir}: {err.strerror or err}; choose another -o"
+                if rd.replacing:
+                    discard_run_dir(rd)
+                else:  # our two files, and the folder if we made it
+                    for name in ("scene.toml", "summary.json"):
+                        (work / name).unlink(missing_ok=True)
+                    if rd.created:
+                        shutil.rmtree(work, ignore_errors=True)
+        problem = comm.bcast(problem, root=0)
+        if problem:
+            raise RunDirError(problem)
+
+    with RunSignals(hard_stop, rescue=rescue if rank0 and comm.size > 1 else None) as signals:
         try:
+            first_files()
             say(f"stickslip {__version__}: scene '{scene.name}' on {comm.size} rank(s)")
-            sim = Simulation(scene, comm, prof, output_dir=run_dir)
+            if est is not None:
+                say(f"  {est.line()}")
             for warning in scene_warnings(scene):
                 say(f"  warning: {warning}")
+            sim = Simulation(scene, comm, prof, output_dir=work)
             say(f"  {sim.problem.n_global_dofs} dofs, {sim.recorder.n_nodes} contact nodes, "
                 f"dt = {sim.dt:.4g} s ({sim.dt / sim.dt_crit:.2f} dt_crit), "
                 f"{sim.planned_steps()} steps to t = {scene.time.end_time} s")
-            sim.proceed()
-            sim.status = "completed"
+            phase[0] = "the time loop"
+            state["sim"] = sim
+            signals.sim, signals.mode = sim, "flag"
+            if signals.requested:  # a signal between the last check and now
+                sim.stop_requested = True
+            reason = sim.proceed()
+            status = {"signal": "interrupted", "max_wall_time": "stopped"}.get(reason,
+                                                                              "completed")
+            if reason == "signal":
+                error = f"interrupted by {_signame(signals.requested)}"
+            elif reason == "max_wall_time":
+                error = (f"stopped by time.max_wall_time = {scene.time.max_wall_time} s at "
+                         f"t = {sim.integrator.time:.6g} s of {scene.time.end_time} s")
         except KeyboardInterrupt:
-            if sim is not None:
-                sim.status = "interrupted"
-            error = "interrupted"
+            status = "interrupted"
+            error = f"interrupted by {_signame(signals.requested)} during {phase[0]}"
+        except RunDirError:
+            signals.mode = "done"
+            raise
         except Diverged as err:
-            if sim is not None:
-                sim.status = "diverged"
-            error = str(err)
+            status, error = "diverged", str(err)
+        except StepTooLarge as err:  # same on every rank (omega_max is reduced): collective
+            status, error = "failed", f"{type(err).__name__}: {err}"
+        except Exception as err:  # noqa: BLE001 - recorded; under MPI every rank must end
+            status, error = "failed", f"{type(err).__name__}: {err}"
+            if comm.size > 1:
+                signals.mode = "done"
+                print(f"error (rank {comm.rank}): {error}", file=sys.stderr, flush=True)
+                mark("failed", f"rank {comm.rank}: {error}")
+                comm.Abort(EXIT_CODES["failed"])
+        finally:
+            state["status"], state["error"] = status, error
+            if signals.mode != "done":
+                signals.mode = "defer"
+                phase[0] = "the final save"
+        if sim is not None:
+            sim.status = status
+        summary = _save(sim, rd, scene, status, error, prof, t0, comm, signals,
+                        keep_previous=(status == "failed" or sim is None)
+                        and not replace_on_failure)
+        signals.mode = "done"
+        deferred = signals.requested if status != "interrupted" else 0
+    if rank0:
+        summary["profile_s"] = {k: round(v, 4) for k, v in prof.seconds.items()}
+        _print_summary(summary, run_dir, stream, profile)
+    if comm.allreduce(deferred, op=MPI.MAX):
+        say(f"{_signame(deferred)} received while the files were written: they are "
+            "complete; stopping now")
+        raise KeyboardInterrupt
+    return summary
+
+
+def _save(sim: Simulation | None, rd: RunDir, scene: Scene, status: str, error: str | None,
+          prof: Profile, t0: float, comm: MPI.Comm, signals: RunSignals,
+          keep_previous: bool) -> dict:
+    """Collect (collective) and write (rank 0) samples, final field and summary.
+
+    Order: samples.npz and final_field.npz, then summary.json with the status (no analysis
+    yet), the swap into place, then summary.json again with the wave analysis. A process
+    killed after the first summary (mpirun sends SIGKILL ~0.3 s after SIGTERM) leaves a
+    truthful, loadable run. ``interrupted`` runs save uncompressed (faster) samples.
+    ``keep_previous``: the run has nothing worth keeping (no samples, or failed); an earlier
+    run being replaced stays as it was. A write error makes the run ``failed`` with it.
+    """
+    rank0 = comm.rank == 0
+    work = rd.work
     with prof.phase("output"):
-        summary = summarise(sim) if (sim is not None and rank0) else {}
         probe_arrays = sim.probes.arrays() if sim is not None else None
         field = sim.final_field() if sim is not None else None
         if sim is not None and sim.writer is not None:
             sim.writer.close()
-        if rank0:
-            if sim is None:
-                summary = {"scene": scene.name, "status": "interrupted"}
-            summary["wall_time_s"] = time.perf_counter() - t0
+        if not rank0:
+            return {}
+        signals.wait_rescue()
+        if rd.replacing and not rd.work.exists():  # the rescue writer swapped it in
+            rd.work = rd.final
+        summary = sim.facts() if sim is not None else {"scene": scene.name, "status": status}
+
+        def finish(s: dict) -> dict:
+            s["wall_time_s"] = time.perf_counter() - t0
             if error:
-                summary["message"] = error
+                s["message"] = error
+            s["peak_rss_mb"] = peak_rss_mb()
+            s["profile_s"] = {k: round(v, 4) for k, v in prof.seconds.items()}
+            return s
+
+        finish(summary)
+        if keep_previous and rd.replacing:
+            discard_run_dir(rd)
+            summary["message"] = (summary.get("message", status) + f"; the earlier run in "
+                                  f"{rd.final} is kept unchanged")
+            return summary
+        try:
             if sim is not None:
                 arrays = sim.recorder.arrays()
                 arrays.update(probe_arrays or {})
-                atomic_save_npz(run_dir / "samples.npz", arrays)
+                atomic_save_npz(work / "samples.npz", arrays,
+                                compress=status != "interrupted")
                 if field is not None:
-                    atomic_save_npz(run_dir / "final_field.npz", field)
-    if rank0:
-        summary["profile_s"] = {k: round(v, 4) for k, v in prof.seconds.items()}
-        summary["peak_rss_mb"] = peak_rss_mb()
-        atomic_write_text(run_dir / "summary.json", json.dumps(summary, indent=2))
-        _print_summary(summary, run_dir, stream, profile)
+                    atomic_save_npz(work / "final_field.npz", field)
+            atomic_write_text(work / "summary.json", json.dumps(summary, indent=2))
+            commit_run_dir(rd)
+        except OSError as err:
+            summary["status"] = "failed"
+            summary["message"] = f"could not write the run's files: {err}"
+            if rd.replacing and rd.work.exists():
+                discard_run_dir(rd)
+                summary["message"] += f"; the earlier run in {rd.final} is kept unchanged"
+            else:
+                try:  # small: may still fit where samples.npz did not
+                    atomic_write_text(rd.final / "summary.json", json.dumps(summary, indent=2))
+                except OSError:
+                    pass
+            return summary
+        if sim is not None:  # the run is saved and true; the analysis is a bonus on top
+            analysed = finish(summarise(sim))
+            try:
+                atomic_write_text(rd.final / "summary.json", json.dumps(analysed, indent=2))
+                summary = analysed
+            except OSError as err:
+                summary["message"] = (f"{summary.get('message', '')}; " if summary.get(
+                    "message") else "") + f"could not add the wave analysis to summary.json: {err}"
     return summary
 
 
@@ -168,11 +620,19 @@ def scene_warnings(scene: Scene) -> list[str]:
             f"wavelength on mesh.n_inner = {n}; the wave will be poorly resolved "
             f"(use mesh.n_inner >= {8 * ini.mode})"
         )
+    out_ = scene.output
+    if out_.sample_interval > scene.time.end_time:
+        out.append(
+            f"output.sample_interval = {out_.sample_interval} s is longer than time.end_time "
+            f"= {scene.time.end_time} s: at most one sample, nothing to analyse (use "
+            "output.sample_interval <= time.end_time / 100)"
+        )
     return out
 
 
 def _print_summary(s: dict, run_dir: Path, stream, profile: bool) -> None:
-    lines = [f"status: {s.get('status')}" + (f" ({s['message']})" if s.get("message") else "")]
+    msg = s.get("message")
+    lines = [f"status: {s.get('status')}" + (f" ({msg})" if msg and msg != s.get("status") else "")]
     if "regime" in s:
         fr = s["fractions"]
         lines += [
@@ -183,7 +643,7 @@ def _print_summary(s: dict, run_dir: Path, stream, profile: bool) -> None:
             f"slip {fr['slip']:.3f}; amplitude {s['amplitude_m']:.3g} m; "
             f"limit cycle: {s['limit_cycle']}",
         ]
-    lines.append(f"steps {s.get('steps')}, wall {s.get('wall_time_s', 0):.2f} s, "
+    lines.append(f"steps {s.get('steps', 0)}, wall {s.get('wall_time_s', 0):.2f} s, "
                  f"peak RSS {s.get('peak_rss_mb', 0):.0f} MB -> {run_dir}")
     if profile:
         lines.append("profile: " + ", ".join(f"{k} {v:.3f} s" for k, v in s["profile_s"].items()))

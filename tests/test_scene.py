@@ -167,7 +167,8 @@ def test_section_must_be_table() -> None:
         ("material", "wave_speed", -1.0, "wave_speed > 0"),
         ("geometry", "xi", 1.0, "xi > 1"),
         ("geometry", "R", 0.0, "R > 0"),
-        ("geometry", "delta", -1e-3, "delta >= 0"),
+        ("geometry", "delta", -1e-3, "delta > 0"),
+        ("geometry", "delta", 0.0, "delta > 0"),  # issue 12: nothing to simulate
         ("loading", "f", -0.1, "f >= 0"),
         ("loading", "omega", 0.0, "omega > 0"),
         ("mesh", "n_inner", 7, "n_inner >= 8"),
@@ -222,14 +223,13 @@ def test_range_bounds_inclusive() -> None:
     s = scene_from_dict(
         {
             "material": {"nu": 0.0},
-            "geometry": {"delta": 0.0},
             "loading": {"f": 0.0},
             "mesh": {"n_inner": 8, "n_radial": 0},
             "time": {"beta1": 0.5, "beta2": 1.0, "dt_fraction": 1.0},
             "initial": {"amplitude": 0.0, "perturbation": "none"},
         }
     )
-    assert s.mesh.n_inner == 8 and s.time.beta2 == 1.0 and s.geometry.delta == 0.0
+    assert s.mesh.n_inner == 8 and s.time.beta2 == 1.0 and s.loading.f == 0.0
     assert scene_from_dict({"time": {"beta2": 0.5}}).time.beta2 == 0.5
 
 

@@ -91,11 +91,12 @@ def test_case_runs_bounded_without_nan(case, scheme):
 
 def test_zero_mismatch_is_refused_with_a_clear_message():
     """delta = 0: the tube only touches the cylinder, no contact pressure, no friction. The
-    steady-state solver refuses it (documented outcome; nothing to simulate)."""
-    from solver.run import Simulation
+    scene is refused at load time (issue 12), as the other ranges, before any meshing."""
+    from solver.scene import SceneError
 
-    with pytest.raises(RuntimeError, match="admit no steady sliding"):
-        Simulation(scene("base", "explicit", "geometry.delta=0"), SELF)
+    with pytest.raises(SceneError, match=r"geometry.delta = 0(\.0)? is out of range: must "
+                       r"satisfy delta > 0"):
+        scene("base", "explicit", "geometry.delta=0")
 
 
 def test_nearly_incompressible_explicit_step_shrinks_and_the_cli_says_so(capsys):

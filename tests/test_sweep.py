@@ -111,7 +111,7 @@ def test_shipped_omega_delta_sweep_is_valid():
 @pytest.mark.parametrize("body, words", [
     ('[grid]\n"loading.omegga" = [1.0]', ["loading.omegga", "omega"]),
     ('[grid]\n"loading.omega" = 5.0', ["non-empty list"]),
-    ('[grid]\n"geometry.delta" = [1e-3, -1.0]', ["delta-", "geometry.delta", ">= 0"]),
+    ('[grid]\n"geometry.delta" = [1e-3, -1.0]', ["delta-", "geometry.delta", "> 0"]),
     ('[grid]\n"loading.omega" = [1.0, 1.0]', ["appears twice"]),
     ('group_size = 0', ["group_size"]),
     ('[map]\nx = "loading.f"', ["map.x", "not a swept key"]),

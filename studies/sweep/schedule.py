@@ -31,6 +31,7 @@ from solver.atomic import atomic_write_text
 from solver.scene import (
     write_scene,
 )
+from studies.output import process_alive
 from studies.sweep.spec import FINAL_STATUSES, SweepError, SweepSpec, Task, _cost, scene_for
 from studies.sweep.table import _read_json, task_state, write_table
 
@@ -106,7 +107,7 @@ class _Monitor(threading.Thread):
                 status = s.get("status")
                 if status in FINAL_STATUSES or status == "interrupted":
                     new.append((task, s))
-                elif status == "running":
+                elif status == "running" and process_alive(s) is not False:
                     running += 1
             self.running = running
             for task, s in new:
@@ -221,6 +222,7 @@ def _run_one(spec: SweepSpec, task: Task, out_dir: Path, group: MPI.Comm,
             log.flush()
         try:
             summary = run_scene(scene_for(spec, task), run_dir, force=True, comm=group,
+                                replace_on_failure=True,
                                 stream=log if log is not None else sys.stdout)
             status = str(summary.get("status", "failed")) if leader else "?"
         except KeyboardInterrupt:

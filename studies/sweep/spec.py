@@ -37,7 +37,7 @@ from solver.scene import (
 
 SWEEP_KIND = "stickslip-sweep"
 #: A scene with one of these statuses is done; a re-run skips it.
-FINAL_STATUSES = ("completed", "diverged", "failed")
+FINAL_STATUSES = ("completed", "diverged", "failed", "stopped")
 #: Regime categories of the map (``diverged`` = the explicit scheme blew up).
 REGIMES = ("steady-sliding", "stick-slip", "slip-separation", "stick-slip-separation",
            "diverged")

@@ -66,6 +66,20 @@ def task_state(out_dir: Path, spec: SweepSpec, task: Task, scene: Scene | None =
     status = str(summary.get("status", "pending"))
     if status in FINAL_STATUSES and not _same_scene(run_dir, scene or scene_for(spec, task)):
         return "changed"
+    return live_status(summary)
+
+
+def live_status(summary: dict) -> str:
+    """The summary's status, with a ``running`` one whose process is gone shown as ``crashed``.
+
+    ``stickslip run`` records ``pid`` and ``host`` while running; a killed process (SIGKILL,
+    out of memory) cannot update its summary, so the table tells it from a live one here.
+    """
+    from studies.output import process_alive
+
+    status = str(summary.get("status", "pending"))
+    if status == "running" and process_alive(summary) is False:
+        return "crashed"
     return status
 
 
@@ -74,7 +88,7 @@ def _row(spec_keys: Sequence[str], task: Task, summary: dict | None, run_dir: st
     row.update({k: task.params.get(k) for k in spec_keys})
     s = summary or {}
     fr = s.get("fractions") or {}
-    status = s.get("status", "pending")
+    status = live_status(s) if s else "pending"
     row.update({
         "status": status,
         "regime": "diverged" if status == "diverged" else s.get("regime"),

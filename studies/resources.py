@@ -1,0 +1,143 @@
+"""What a scene will cost, estimated before anything is meshed (issue 12, item 10).
+
+Dofs, steps, memory, output size and run time follow from the scene alone (no dolfinx):
+
+* nodes = n_inner x (layers x degree + 1), layers = mesh.n_radial or the mesher's automatic
+  choice round((xi - 1) n_edges / 2 pi) (>= 2); dofs = 2 nodes;
+* the explicit step: dt_crit = sqrt(2/beta2) / omega_max, omega_max ~ C c_p / h_min with
+  c_p = wave_speed sqrt((1 - nu) / ((1 + nu)(1 - 2 nu))) and h_min the smallest node spacing;
+  C = 2.8 measured (P1 triangles: 2.29 at N = 36, 2.67 at N = 132, 2.80 at N = 1056);
+* memory = 250 MB (Python, dolfinx, PETSc per rank) + 3 kB per dof (measured 2.4 kB: peak RSS
+  222 MB at 1584 dofs, 439 MB at 90816 dofs) + the preallocated recorders (49 B per contact
+  node per sample, 40 B per probe per step);
+* time = setup 48 s x (dofs / 90816)^1.5 (the SLEPc stability estimate dominates) + steps x
+  (3e-4 s + 8e-8 s x dofs) on one rank (measured on this project's 2-core machine).
+
+The numbers are order-of-magnitude guards, not promises: a run is refused when the memory
+exceeds what the machine has available or the samples exceed the free disk, unless the user
+says ``--yes-i-know``.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import shutil
+from dataclasses import dataclass
+from pathlib import Path
+
+from solver.scene import Scene
+
+__all__ = ["Estimate", "ResourceError", "available_memory", "check_resources", "estimate"]
+
+OMEGA_MAX_C = 2.8
+BASE_MEMORY = 250e6
+BYTES_PER_DOF = 3e3
+
+
+class ResourceError(ValueError):
+    """The scene needs more than the machine has (message: the numbers and the fix)."""
+
+
+@dataclass(frozen=True)
+class Estimate:
+    """Cost of one scene (see the module docstring for the model)."""
+
+    dofs: int
+    steps: int
+    samples: int
+    memory_bytes: float
+    output_bytes: float
+    seconds: float
+
+    def line(self) -> str:
+        """One line for the console."""
+        return (f"estimate: {self.dofs} dofs, {self.steps} steps, {_bytes(self.memory_bytes)} "
+                f"memory, {_bytes(self.output_bytes)} of samples, ~{_duration(self.seconds)} "
+                "on one rank")
+
+
+def estimate(scene: Scene, ranks: int = 1) -> Estimate:
+    """Dofs, steps, memory (all ranks), output size and one-rank run time of ``scene``."""
+    g, m, ts = scene.geometry, scene.mesh, scene.time
+    n_edges = m.n_inner // m.degree
+    layers = m.n_radial or max(2, round((g.xi - 1.0) * n_edges / (2.0 * math.pi)))
+    nodes = m.n_inner * (layers * m.degree + 1)
+    dofs = 2 * nodes
+    h_min = min(2 * math.pi * g.R / m.n_inner, (g.xi - 1.0) * g.R / (layers * m.degree))
+    nu = scene.material.nu
+    c_p = scene.material.wave_speed * math.sqrt((1 - nu) / ((1 + nu) * (1 - 2 * nu)))
+    omega_max = OMEGA_MAX_C * c_p / h_min
+    dt = ts.dt if ts.dt > 0 else ts.dt_fraction * math.sqrt(2.0 / ts.beta2) / omega_max
+    steps = math.ceil(ts.end_time / dt)
+    if ts.max_steps:
+        steps = min(steps, ts.max_steps)
+    every = max(1, round(scene.output.sample_interval / dt))
+    samples = steps // every + 2
+    sample_bytes = samples * m.n_inner * 49.0
+    probe_bytes = (steps + 1) * (40.0 * len(scene.output.probes_deg) + 8.0)
+    memory = ranks * BASE_MEMORY + BYTES_PER_DOF * dofs + sample_bytes + probe_bytes
+    seconds = 48.0 * (dofs / 90816.0) ** 1.5 + steps * (3e-4 + 8e-8 * dofs)
+    return Estimate(dofs=dofs, steps=steps, samples=samples, memory_bytes=memory,
+                    output_bytes=sample_bytes + probe_bytes, seconds=seconds)
+
+
+def available_memory() -> float:
+    """MemAvailable of /proc/meminfo (bytes); +inf where it cannot be read."""
+    try:
+        with open("/proc/meminfo") as fh:
+            for line in fh:
+                if line.startswith("MemAvailable:"):
+                    return float(line.split()[1]) * 1024.0
+    except OSError:
+        pass
+    return math.inf
+
+
+def check_resources(scene: Scene, run_dir: Path, ranks: int = 1) -> Estimate:
+    """The estimate, or :class:`ResourceError` if it exceeds the memory or the disk."""
+    est = estimate(scene, ranks)
+    mem = available_memory()
+    fix = ("reduce mesh.n_inner, time.end_time or raise output.sample_interval, or pass "
+           "--yes-i-know to run anyway")
+    if est.memory_bytes > mem:
+        raise ResourceError(
+            f"scene '{scene.name}' needs about {_bytes(est.memory_bytes)} of memory "
+            f"({est.dofs} dofs, {est.samples} samples, {est.steps} steps) but "
+            f"{_bytes(mem)} is available: {fix}")
+    free = _free_disk(run_dir)
+    if est.output_bytes > free:
+        raise ResourceError(
+            f"scene '{scene.name}' would write about {_bytes(est.output_bytes)} of samples "
+            f"but {_bytes(free)} is free under {run_dir}: {fix}")
+    return est
+
+
+def _free_disk(path: Path) -> float:
+    p = Path(os.path.abspath(path))
+    while not p.exists() and p != p.parent:
+        p = p.parent
+    try:
+        return float(shutil.disk_usage(p).free)
+    except OSError:
+        return math.inf
+
+
+def _bytes(n: float) -> str:
+    if not math.isfinite(n):
+        return "unlimited"
+    for unit in ("B", "kB", "MB", "GB", "TB", "PB"):
+        if n < 1000 or unit == "PB":
+            return f"{n:.3g} {unit}"
+        n /= 1000.0
+    return f"{n:.3g} PB"  # pragma: no cover
+
+
+def _duration(s: float) -> str:
+    if s < 120:
+        return f"{s:.0f} s"
+    if s < 7200:
+        return f"{s / 60:.0f} min"
+    if s < 172800:
+        return f"{s / 3600:.1f} h"
+    return f"{s / 86400:.3g} days"

@@ -1,0 +1,139 @@
+"""Fault injection for run directories (issue 12): a failing write (disk full) or a signal,
+at each phase of ``studies.rundir.run_scene``, and the invariant that must hold afterwards.
+
+Phases, in the order a run meets them::
+
+    setup       meshing/assembly (solver.problem.build_problem)
+    loop        the time loop (the 3rd health check, i.e. the 3rd sample)
+    scene.toml, summary.json (running), samples.npz, final_field.npz, summary.json (final),
+    summary.json (analysis)        the writes, in this order (solver.atomic.atomic_write)
+    swap        commit_run_dir (replacing an earlier run)
+
+``inject(monkeypatch, kind, phase)`` arms one fault: ``kind`` is "disk-full" (the write fails
+with ENOSPC after a few bytes, as a full disk does) or a signal name ("SIGINT", "SIGTERM")
+sent to this process at that moment. ``check_after(run_dir, before)`` asserts the invariant:
+no temporary file or directory is left; the earlier run (``before`` = its ``digest``) is
+intact, or the directory holds a new run that is complete (final status, loadable samples)
+or marked ``failed`` with a message; never ``running``.
+"""
+
+from __future__ import annotations
+
+import errno
+import hashlib
+import json
+import os
+import signal
+from pathlib import Path
+
+import numpy as np
+
+WRITES = ("scene.toml", "summary.json#1", "samples.npz", "final_field.npz", "summary.json#2",
+          "summary.json#3")
+PHASES = ("setup", "loop", *WRITES, "swap")
+FINAL = ("completed", "interrupted", "diverged", "stopped")
+
+
+def digest(run_dir: Path) -> str | None:
+    """Hash of every file of a run directory (None if it does not exist)."""
+    if not run_dir.is_dir():
+        return None
+    h = hashlib.sha256()
+    for f in sorted(run_dir.rglob("*")):
+        if f.is_file():
+            h.update(f.name.encode())
+            h.update(f.read_bytes())
+    return h.hexdigest()
+
+
+def inject(monkeypatch, kind: str, phase: str) -> dict:  # noqa: ANN001
+    """Arm one fault; returns a dict whose "fired" says whether it happened."""
+    import solver.atomic
+    import solver.problem
+    import solver.run
+    import studies.rundir
+
+    state = {"fired": False, "count": {}}
+
+    def fire() -> None:
+        state["fired"] = True
+        if kind == "disk-full":
+            raise OSError(errno.ENOSPC, "No space left on device (injected)")
+        os.kill(os.getpid(), getattr(signal, kind))
+
+    if phase == "setup":
+        real_build = solver.problem.build_problem
+
+        def build(*a, **k):  # noqa: ANN002, ANN003
+            if not state["fired"]:
+                fire()
+            return real_build(*a, **k)
+
+        monkeypatch.setattr(solver.problem, "build_problem", build)
+    elif phase == "loop":
+        real_check = solver.run.Simulation._check_health
+
+        def check(self, kinetic, strain):  # noqa: ANN001
+            state["count"]["loop"] = state["count"].get("loop", 0) + 1
+            if state["count"]["loop"] == 3 and not state["fired"]:
+                fire()
+            return real_check(self, kinetic, strain)
+
+        monkeypatch.setattr(solver.run.Simulation, "_check_health", check)
+    elif phase == "swap":
+        real_commit = studies.rundir.commit_run_dir
+
+        def commit(rd):  # noqa: ANN001
+            if rd.replacing and not state["fired"]:
+                fire()
+            return real_commit(rd)
+
+        monkeypatch.setattr(studies.rundir, "commit_run_dir", commit)
+    else:
+        name, _, nth = phase.partition("#")
+        real_write = solver.atomic.atomic_write
+
+        def write(path, fill):  # noqa: ANN001
+            p = Path(path)
+            n = state["count"][p.name] = state["count"].get(p.name, 0) + 1
+            if p.name == name and n == int(nth or 1) and not state["fired"]:
+                if kind == "disk-full":
+                    def failing(fh):  # noqa: ANN001
+                        fh.write(b"partial")
+                        fire()
+                    return real_write(path, failing)
+                fire()  # a signal just before this write
+            return real_write(path, fill)
+
+        monkeypatch.setattr(solver.atomic, "atomic_write", write)
+    return state
+
+
+def leftovers(run_dir: Path) -> list[Path]:
+    """Temporary files or directories a run must never leave behind."""
+    out = list(run_dir.parent.glob(f".{run_dir.name}.new.*"))
+    out += list(run_dir.parent.glob(f".{run_dir.name}.old.*"))
+    if run_dir.is_dir():
+        out += [p for p in run_dir.rglob(".*") if p.name.endswith(".tmp")]
+    return out
+
+
+def check_after(run_dir: Path, before: str | None) -> str:
+    """Assert the invariant; returns "intact", "complete", "failed" or "absent"."""
+    assert not leftovers(run_dir), leftovers(run_dir)
+    if before is not None and digest(run_dir) == before:
+        return "intact"
+    if not run_dir.exists():
+        assert before is None, "the earlier run disappeared"
+        return "absent"
+    summary = json.loads((run_dir / "summary.json").read_text())
+    status = summary["status"]
+    assert status != "running", summary
+    if status == "failed":
+        assert summary.get("message"), summary
+        return "failed"
+    assert status in FINAL, summary
+    if "steps" in summary:  # the time loop ran: its samples must load
+        with np.load(run_dir / "samples.npz") as data:
+            assert data["t"].size == summary["samples"] > 0
+    return "complete"

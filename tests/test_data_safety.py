@@ -1,0 +1,447 @@
+"""Issue 12: never lose a user's data; errors, not tracebacks; a status that tells the truth.
+
+Each numbered case of the issue is a test here (./dev's item 5: tests/test_dev_paths.py).
+Runs use the smoke scene shortened to 0.005 s (65 steps, 50 samples: enough for the
+analysis) in this process on COMM_SELF, so a fault costs ~1 s; the CLI is called in-process
+through ``cli.main.main`` except where a separate process is the point (MPI, a hang).
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import os
+import signal
+import stat
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from faults import PHASES, check_after, digest, inject, leftovers
+
+REPO = Path(__file__).resolve().parents[1]
+SHORT = ["time.end_time=0.005", "output.progress=false"]
+
+
+def smoke(*extra: str):
+    from solver.scene import load_scene
+
+    return load_scene(REPO / "scenes" / "smoke.toml", [*SHORT, *extra])
+
+
+def run(run_dir: Path, *extra: str, force: bool = False, **kw) -> dict:
+    from mpi4py import MPI
+
+    from studies.rundir import run_scene
+
+    return run_scene(smoke(*extra), run_dir, force=force, comm=MPI.COMM_SELF,
+                     stream=io.StringIO(), **kw)
+
+
+def cli(capsys, *argv: str) -> tuple[int, str]:
+    """``stickslip ARGV`` in this process: (exit status, stderr)."""
+    from cli.main import main
+
+    rc = main(list(argv))
+    return rc, capsys.readouterr().err
+
+
+@pytest.fixture()
+def good_run(tmp_path) -> tuple[Path, str]:
+    pytest.importorskip("dolfinx")
+    run_dir = tmp_path / "r"
+    assert run(run_dir)["status"] == "completed"
+    return run_dir, digest(run_dir)
+
+
+# --------------------------------------------------------------------------- 1, 2: --force
+
+
+def test_force_replaces_only_run_directories(tmp_path, capsys):
+    """Case 1: `--force` on a directory that is not a run is refused, in one line."""
+    pytest.importorskip("dolfinx")
+    d = tmp_path / "d"
+    d.mkdir()
+    (d / "precious").write_text("x")
+    rc, err = cli(capsys, "run", str(REPO / "scenes/smoke.toml"), "-o", str(d), "--force")
+    assert rc == 2 and err.count("\n") == 1 and "not a stickslip run directory" in err
+    assert (d / "precious").read_text() == "x" and sorted(os.listdir(d)) == ["precious"]
+
+
+def test_scene_names_are_safe_file_names(tmp_path, capsys):
+    """Case 1: name = ".." would make --force remove the output root's parent."""
+    from solver.scene import SceneError
+
+    for bad in ("..", ".", ".hidden", "-x", "a/b", ""):
+        with pytest.raises(SceneError, match="is not allowed"):
+            smoke(f'name="{bad}"')
+    sb = tmp_path / "sb"
+    (sb / "runs").mkdir(parents=True)
+    (sb / "keep").write_text("x")
+    os.environ["STICKSLIP_OUTPUT"] = str(sb / "runs")
+    try:
+        rc, err = cli(capsys, "run", "smoke", "--set", 'name=".."', "--force")
+    finally:
+        del os.environ["STICKSLIP_OUTPUT"]
+    assert rc == 2 and "name = '..' is not allowed" in err
+    assert (sb / "keep").exists()
+
+
+def test_a_failing_rerun_keeps_the_earlier_run(good_run):
+    """Case 2: `--force --set time.dt=1` fails at once: the earlier results stay, bit for bit."""
+    run_dir, before = good_run
+    s = run(run_dir, "time.dt=1", force=True)
+    assert s["status"] == "failed" and "kept unchanged" in s["message"]
+    assert digest(run_dir) == before and not leftovers(run_dir)
+
+
+def test_a_successful_rerun_replaces_atomically(good_run):
+    run_dir, before = good_run
+    s = run(run_dir, "initial.amplitude=0.2", force=True)
+    assert s["status"] == "completed" and digest(run_dir) != before
+    assert json.loads((run_dir / "summary.json").read_text())["status"] == "completed"
+    assert not leftovers(run_dir)
+
+
+# --------------------------------------------------------------------------- 3: faults
+
+
+@pytest.mark.parametrize("replacing", [False, True], ids=["fresh", "replacing"])
+@pytest.mark.parametrize("kind", ["disk-full", "SIGINT", "SIGTERM"])
+@pytest.mark.parametrize("phase", PHASES)
+def test_fault_at_every_phase(tmp_path, monkeypatch, phase, kind, replacing):
+    """Case 3 and the fault-injection helper: after a failing write (disk full) or a signal at
+    any phase, the earlier run is intact, the new one complete or marked, nothing temporary
+    is left, and a signal that came during the final save is honoured after it."""
+    pytest.importorskip("dolfinx")
+    if kind == "disk-full" and phase in ("setup", "loop"):
+        pytest.skip("no write in this phase")
+    if phase == "swap" and not replacing:
+        pytest.skip("no swap without an earlier run")
+    if kind == "SIGTERM" and phase not in ("setup", "loop", "samples.npz"):
+        pytest.skip("SIGTERM takes the SIGINT path (one handler); sampled where it differs")
+    run_dir = tmp_path / "r"
+    before = None
+    if replacing:
+        assert run(run_dir)["status"] == "completed"
+        before = digest(run_dir)
+    state = inject(monkeypatch, kind, phase)
+    from studies.rundir import RunDirError
+
+    outcome = "returned"
+    try:
+        s = run(run_dir, force=replacing)
+    except KeyboardInterrupt:
+        outcome = "raised"  # a signal during the final save, honoured after the files
+    except RunDirError as err:
+        outcome = "refused"
+        assert "cannot write" in str(err)
+    assert state["fired"], "the fault was never reached"
+    result = check_after(run_dir, before)
+    if kind == "disk-full":
+        assert outcome in ("returned", "refused")
+        if phase == "summary.json#3":  # the analysis only: the saved run stays true
+            assert s["status"] == "completed" and "No space left" in s["message"]
+            assert result == "complete"
+        elif outcome == "returned":
+            assert s["status"] == "failed" and "No space left" in s["message"]
+            assert result == ("intact" if replacing else "failed")
+        else:
+            assert result == ("intact" if replacing else "absent")
+    elif phase in ("samples.npz", "final_field.npz", "summary.json#2", "summary.json#3",
+                   "swap"):
+        # the time loop had ended: the run is saved as completed, then the signal honoured
+        assert outcome == "raised" and result == "complete"
+        assert json.loads((run_dir / "summary.json").read_text())["status"] == "completed"
+    else:
+        assert outcome == "returned" and s["status"] == "interrupted"
+        if phase == "loop":
+            assert result == "complete" and s["samples"] >= 2
+        elif replacing:
+            assert result == "intact"  # nothing to save yet: the earlier run stays
+
+
+def test_outputs_have_the_umask_mode(tmp_path):
+    """Case 11: summary.json and scene.toml were 0600 (mkstemp); every output follows umask."""
+    pytest.importorskip("dolfinx")
+    old = os.umask(0o002)
+    try:
+        run(tmp_path / "r")
+    finally:
+        os.umask(old)
+    for f in (tmp_path / "r").iterdir():
+        assert stat.S_IMODE(f.stat().st_mode) == 0o664, f
+
+
+# --------------------------------------------------------------------------- 6, 7: status
+
+
+def test_failures_are_recorded_not_left_running(tmp_path, monkeypatch):
+    """Case 6: a MemoryError (or any error) gives status failed with the message."""
+    pytest.importorskip("dolfinx")
+    import solver.problem
+
+    def boom(*a, **k):
+        raise MemoryError("injected")
+
+    monkeypatch.setattr(solver.problem, "build_problem", boom)
+    s = run(tmp_path / "r")
+    on_disk = json.loads((tmp_path / "r" / "summary.json").read_text())
+    assert s["status"] == on_disk["status"] == "failed"
+    assert on_disk["message"] == "MemoryError: injected"
+
+
+def test_a_killed_run_is_told_from_a_live_one(tmp_path):
+    """Case 6: `running` + pid + host; a sweep table shows a dead one as `crashed`."""
+    import socket
+
+    from studies.sweep.table import live_status
+
+    child = subprocess.Popen([sys.executable, "-c", "pass"])
+    child.wait()
+    here = socket.gethostname()
+    assert live_status({"status": "running", "pid": child.pid, "host": here}) == "crashed"
+    assert live_status({"status": "running", "pid": os.getpid(), "host": here}) == "running"
+    assert live_status({"status": "running", "pid": 1, "host": "elsewhere"}) == "running"
+    assert live_status({"status": "completed"}) == "completed"
+
+
+def test_wall_time_stop_has_its_own_status_and_exit_code(tmp_path, capsys):
+    """Case 7: max_wall_time stops are `stopped` (exit 3), not `completed` with 0; the status
+    line reads `status: interrupted`, never `interrupted (interrupted)` (case 11)."""
+    pytest.importorskip("dolfinx")
+    rc, _ = cli(capsys, "run", "smoke", "-o", str(tmp_path / "w"), "--set",
+                "time.max_wall_time=1e-9", *[a for o in SHORT for a in ("--set", o)])
+    s = json.loads((tmp_path / "w" / "summary.json").read_text())
+    assert (rc, s["status"], s["stop_reason"]) == (3, "stopped", "max_wall_time")
+    assert "time.max_wall_time" in s["message"]
+    from studies.rundir import EXIT_CODES, _print_summary
+
+    assert EXIT_CODES == {"completed": 0, "diverged": 1, "failed": 2, "stopped": 3,
+                          "interrupted": 130}
+    out = io.StringIO()
+    _print_summary({"status": "interrupted", "message": "interrupted"}, tmp_path, out, False)
+    assert out.getvalue().startswith("status: interrupted\n")
+
+
+# --------------------------------------------------------------------------- 4, 8: MPI
+
+
+@pytest.mark.parallel
+def test_a_signal_on_one_rank_stops_every_rank_at_the_same_sample(tmp_path, monkeypatch):
+    """Case 4, in-process: rank 1 (only) gets SIGTERM in the time loop; every rank stops at
+    the same sample and the run is saved as `interrupted` with loadable samples."""
+    pytest.importorskip("dolfinx")
+    from mpi4py import MPI
+
+    import solver.run
+    from studies.rundir import run_scene
+
+    comm = MPI.COMM_WORLD
+    real = solver.run.Simulation._check_health
+    calls = {"n": 0}
+
+    def check(self, kinetic, strain):
+        calls["n"] += 1
+        if calls["n"] == 3 and comm.rank == comm.size - 1:
+            os.kill(os.getpid(), signal.SIGTERM)
+        return real(self, kinetic, strain)
+
+    monkeypatch.setattr(solver.run.Simulation, "_check_health", check)
+    run_dir = Path(comm.bcast(str(tmp_path), root=0)) / "mpi"
+    s = run_scene(smoke(), run_dir, comm=comm, stream=io.StringIO())
+    status = comm.bcast(s.get("status"), root=0)
+    assert status == "interrupted"
+    if comm.rank == 0:
+        assert s["samples"] >= 3
+        with np.load(run_dir / "samples.npz") as data:
+            assert data["t"].size == s["samples"]
+
+
+def _mpirun(*args: str, timeout: float) -> subprocess.CompletedProcess:
+    return subprocess.run(["mpirun", "-n", "2", *args], capture_output=True, text=True,
+                          timeout=timeout, cwd=REPO)
+
+
+def test_an_error_on_one_rank_ends_every_rank(tmp_path):
+    """Case 8: `mpirun -n 2 stickslip run ... -o /proc/foo` used to wait forever; and an
+    exception raised on rank 1 only (rank 0 waits in a collective) ends the job with it."""
+    pytest.importorskip("dolfinx")
+    import shutil
+
+    if shutil.which("mpirun") is None or "OMPI_COMM_WORLD_SIZE" in os.environ:
+        pytest.skip("needs mpirun, outside mpirun")
+    res = _mpirun(sys.executable, "-m", "cli.main", "run", "smoke", "-o", "/proc/foo",
+                  timeout=120)
+    assert res.returncode == 2 and "error: cannot create /proc/foo" in res.stderr
+    driver = tmp_path / "driver.py"
+    driver.write_text(f"""
+import io, sys
+sys.path.insert(0, {str(REPO)!r})
+from mpi4py import MPI
+import solver.problem
+from solver.scene import load_scene
+from studies.rundir import run_scene
+real = solver.problem.build_problem
+def build(scene, comm):
+    if comm.rank == 1:
+        raise RuntimeError("injected on rank 1")
+    return real(scene, comm)
+solver.problem.build_problem = build
+run_scene(load_scene("smoke", {SHORT!r}), {str(tmp_path / 'm')!r}, stream=io.StringIO())
+""")
+    t0 = time.time()
+    res = _mpirun(sys.executable, str(driver), timeout=120)
+    assert res.returncode != 0 and "error (rank 1): RuntimeError: injected on rank 1" in res.stderr
+    assert time.time() - t0 < 110  # ended, not hung
+    s = json.loads((tmp_path / "m" / "summary.json").read_text())
+    assert s["status"] == "failed" and "injected on rank 1" in s["message"]
+
+
+@pytest.mark.slow
+def test_sigterm_to_mpirun_leaves_interrupted_and_samples(tmp_path):
+    """Case 4 end to end: Open MPI 5 SIGKILLs the ranks 0.25 s after forwarding SIGTERM; the
+    rescue writer (rank 0) still leaves `interrupted` and loadable samples."""
+    pytest.importorskip("dolfinx")
+    import shutil
+
+    if shutil.which("mpirun") is None or "OMPI_COMM_WORLD_SIZE" in os.environ:
+        pytest.skip("needs mpirun, outside mpirun")
+    run_dir = tmp_path / "r"
+    proc = subprocess.Popen(["mpirun", "-n", "2", sys.executable, "-m", "cli.main", "run",
+                             "figure3_n132", "--set", "time.end_time=1.5", "-o", str(run_dir)],
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                            cwd=REPO)
+    for line in proc.stdout:  # wait for the time loop (its first progress line)
+        if line.lstrip().startswith("t = "):
+            break
+    proc.send_signal(signal.SIGTERM)
+    proc.communicate(timeout=60)
+    time.sleep(1.0)  # the rescue writer runs on after mpirun has gone
+    s = json.loads((run_dir / "summary.json").read_text())
+    assert s["status"] == "interrupted"
+    with np.load(run_dir / "samples.npz") as data:
+        assert data["t"].size > 0
+
+
+def test_sigterm_while_stuck_in_compiled_code(tmp_path):
+    """Case 10: SIGTERM during meshing (gmsh is compiled code: Python handlers wait for it).
+    The watcher ends the run 2 s later, marked `interrupted`, instead of ignoring SIGTERM."""
+    pytest.importorskip("dolfinx")
+    driver = tmp_path / "driver.py"
+    driver.write_text(f"""
+import io, sys, time
+sys.path.insert(0, {str(REPO)!r})
+from mpi4py import MPI
+import numpy as np
+import solver.problem
+from solver.scene import load_scene
+from studies.rundir import run_scene
+def build(scene, comm):  # stands for gmsh meshing a huge mesh: minutes inside C
+    a = np.random.default_rng(0).random((4000, 4000))
+    print("meshing", flush=True)
+    for _ in range(50):
+        np.linalg.svd(a)
+solver.problem.build_problem = build
+run_scene(load_scene("smoke", {SHORT!r}), {str(tmp_path / 'm')!r}, comm=MPI.COMM_SELF,
+          stream=io.StringIO())
+""")
+    proc = subprocess.Popen([sys.executable, str(driver)], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, cwd=REPO)
+    assert proc.stdout.readline().strip() == "meshing"
+    time.sleep(1.0)  # well inside the first SVD (> 10 s on one core)
+    t0 = time.time()
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == -signal.SIGKILL, err  # the watchdog ends it (shell: 137)
+    assert time.time() - t0 < 20  # grace 2 s; generous for a loaded 2-core machine
+    s = json.loads((tmp_path / "m" / "summary.json").read_text())
+    assert s["status"] == "interrupted" and "SIGTERM while in setup" in s["message"]
+
+
+# --------------------------------------------------------------------------- 9, 10, 11: CLI
+
+
+@pytest.mark.parametrize(("argv", "words"), [
+    (["run", "smoke", "-o", "/dev/null"], "is not a directory"),
+    (["run", "smoke", "-o", "/proc/foo"], "cannot create /proc/foo"),
+    (["run", "smoke", "-o", "FILE"], "is not a directory"),
+    (["run", "DIR"], "is a directory: give a scene .toml file"),
+    (["run", "BINARY"], "not a text TOML file"),
+    (["run", "smoke", "--set", "geometry.delta=0"], "geometry.delta = 0.0 is out of range"),
+    (["run", "smoke", "--set", "time.end_time=1e6"], "of memory"),
+    (["run", "smoke", "--set", "mesh.n_inner=10000000"], "--yes-i-know"),
+    (["run", "smoke", "--set", "material.wave_speed=1e-300"], "material.wave_speed = 1e-300"),
+    (["wave", "--omega", "1e-300"], "rim-speed ratio"),
+    (["wave", "--plot", "/proc/x.png"], "--plot /proc/x.png: cannot write"),
+    (["wave", "--nu", "-0.2"], "0 <= nu < 0.5"),
+    (["flutter", "--kmax", "100000000"], "kmax <= 10000"),
+    (["compare", "RUN", "--json", "/proc/x.json"], "--json /proc/x.json: cannot write"),
+    (["compare", "CORRUPT"], "is not a readable samples file"),
+    (["plot", "CORRUPT"], "is not a readable samples file"),
+    (["compare", "SHORT"], "too short"),
+])
+def test_errors_are_one_line_with_exit_2(tmp_path, capsys, argv, words, request):
+    """Case 9 and 10: one line naming the problem and the fix, exit status 2."""
+    if argv[0] in ("run", "compare", "plot"):
+        pytest.importorskip("dolfinx")
+    subs = {"FILE": tmp_path / "file", "DIR": tmp_path, "BINARY": tmp_path / "bin.toml"}
+    subs["FILE"].write_text("x")
+    subs["BINARY"].write_bytes(b"\xff\xfe\x00binary")
+    if {"RUN", "CORRUPT", "SHORT"} & set(argv):
+        run_dir = tmp_path / "run"
+        run(run_dir)
+        subs["RUN"] = run_dir
+        corrupt = tmp_path / "corrupt"
+        corrupt.mkdir()
+        (corrupt / "samples.npz").write_bytes((run_dir / "samples.npz").read_bytes()[:500])
+        subs["CORRUPT"] = corrupt
+        short = tmp_path / "short"
+        run(short, "time.end_time=0.0002")
+        subs["SHORT"] = short
+    argv = [str(subs.get(a, a)) for a in argv]
+    rc, err = cli(capsys, *argv)
+    assert rc == 2, err
+    assert err.count("\n") == 1 and err.startswith("error: ") and words in err, err
+
+
+def test_flutter_k_is_not_read_as_kmax(capsys):
+    """Case 11: `flutter --k 0` was taken as `--kmax 0` (argparse abbreviations)."""
+    with pytest.raises(SystemExit) as exc:
+        cli(capsys, "flutter", "--k", "0")
+    assert exc.value.code == 2 and "unrecognized arguments: --k 0" in capsys.readouterr().err
+
+
+def test_wave_and_scenes_share_one_set_of_ranges(capsys):
+    """Case 11: `wave` took -1 < nu < 0.5 and f > 0, scenes 0 <= nu < 0.5 and f >= 0."""
+    from solver.scene import RANGES
+
+    assert RANGES["material.nu"].ok(0.0) and not RANGES["material.nu"].ok(-0.1)
+    assert RANGES["loading.f"].ok(0.0)
+    from cli.main import main
+
+    assert main(["wave", "--f", "0", "--json"]) == 0  # frictionless: allowed, and no wave
+    assert json.loads(capsys.readouterr().out)["regime"] == "none"
+    rc, err = cli(capsys, "wave", "--nu", "-0.1")
+    assert rc == 2 and "0 <= nu < 0.5" in err
+
+
+def test_help_texts(capsys):
+    """Case 11: `info` has a description; `run --help` says what --force replaces."""
+    from cli.main import build_parser
+
+    parser = build_parser()
+    sub = next(a for a in parser._actions if a.dest == "command")
+    assert sub.choices["info"].description
+    assert "RUN DIRECTORY" in sub.choices["run"].format_help()
+    assert "--yes-i-know" in sub.choices["run"].format_help()
+
+
+def test_sample_interval_longer_than_end_time_is_warned():
+    from studies.rundir import scene_warnings
+
+    assert any("sample_interval" in w for w in scene_warnings(smoke("output.sample_interval=1")))
+    assert not any("sample_interval" in w for w in scene_warnings(smoke()))

@@ -1,0 +1,109 @@
+"""./dev shows the caller's paths inside the rootfs or refuses (issue 12, item 5).
+
+``./dev --mounts CMD...`` prints the host directories that CMD would get bind-mounted. A fake
+rootfs (a few directories and files under STICKSLIP_CACHE) stands in for the real one: the
+rule is about which of its directories may be covered (missing or holding only directories)
+and which may not (holding files, like /usr/lib), so no real rootfs is needed. Only paths
+that do not exist on the host are named (nothing is created outside tmp_path).
+"""
+
+import os
+import subprocess
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture()
+def fake_cache(tmp_path: Path) -> Path:
+    root = tmp_path / "cache" / "trixie"
+    (root / "var" / "tmp").mkdir(parents=True)  # empty: may be covered
+    (root / "var" / "lib").mkdir()
+    (root / "var" / "lib" / "state").write_text("x")  # holds a file: must not be covered
+    (root / "usr" / "lib").mkdir(parents=True)
+    (root / "usr" / "lib" / "libc.so").write_text("x")
+    (root / "usr" / "bin").mkdir()
+    (root / "usr" / "bin" / "tool").write_text("x")
+    return tmp_path / "cache"
+
+
+def mounts(cache: Path, *args: str, cwd: str | Path = REPO, **env: str):
+    e = {k: v for k, v in os.environ.items() if k != "STICKSLIP_OUTPUT"}
+    e.update(STICKSLIP_CACHE=str(cache), **env)
+    return subprocess.run([str(REPO / "dev"), "--mounts", *args], cwd=cwd, env=e,
+                          capture_output=True, text=True, timeout=30)
+
+
+def test_output_outside_the_repository_is_mounted_not_hidden(fake_cache):
+    # `-o /var/tmp/x` used to land inside the rootfs: now /var/tmp is bind-mounted.
+    res = mounts(fake_cache, "stickslip", "run", "scenes/smoke.toml", "-o", "/var/tmp/no-such-12/x")
+    assert res.returncode == 0, res.stderr
+    assert res.stdout.split() == ["/var/tmp"]
+    res = mounts(fake_cache, "stickslip", "run", "--output=/var/tmp/no-such-12/y")
+    assert res.stdout.split() == ["/var/tmp"]
+    res = mounts(fake_cache, "true", STICKSLIP_OUTPUT="/var/tmp/no-such-12/runs")
+    assert res.stdout.split() == ["/var/tmp"]
+
+
+def test_repository_and_tmp_need_no_mount(fake_cache, tmp_path):
+    res = mounts(fake_cache, "stickslip", "run", str(tmp_path / "a.toml"), "-o", "runs/x",
+                 "./scenes/smoke.toml", "--set", "time.dt=1")
+    assert res.returncode == 0, res.stderr
+    assert res.stdout.split() == []
+
+
+def test_a_path_that_would_hide_the_rootfs_is_refused_in_one_message(fake_cache):
+    res = mounts(fake_cache, "stickslip", "run", "scenes/smoke.toml", "-o", "/usr/lib/no-such-12")
+    assert res.returncode == 2
+    assert "/usr/lib/no-such-12 cannot be shown inside the rootfs" in res.stderr
+    assert "/tmp" in res.stderr  # the fix: where to write instead
+
+
+def test_system_paths_of_the_rootfs_pass_and_the_root_cwd_is_refused(fake_cache):
+    assert mounts(fake_cache, "/usr/bin/tool").returncode == 0
+    res = mounts(fake_cache, "true", cwd="/")
+    assert res.returncode == 2 and "working directory / cannot be shown" in res.stderr
+
+
+SIGNAL_SCRIPT = """
+import signal, sys, time
+def handler(signum, frame):
+    time.sleep(0.5)  # a final save in progress
+    open(sys.argv[1], "w").write(str(signum))
+    sys.exit(3)
+signal.signal(signal.SIGINT, handler)
+signal.signal(signal.SIGTERM, handler)
+print("ready", flush=True)
+time.sleep(60)
+"""
+
+
+@pytest.mark.parametrize("signame", ["SIGINT", "SIGTERM"])
+def test_signals_reach_the_command_and_dev_waits_for_it(tmp_path, signame):
+    """Item 5: `./dev` forwards SIGINT/SIGTERM and returns only after the command ended.
+
+    Through the rootfs path this needs the real rootfs (host only: inside it ./dev runs the
+    command natively, also with exec, which is what is then checked).
+    """
+    import signal
+
+    script = tmp_path / "sig.py"
+    script.write_text(SIGNAL_SCRIPT)
+    out = tmp_path / "got"
+    proc = subprocess.Popen([str(REPO / "dev"), "python3", str(script), str(out)],
+                            stdout=subprocess.PIPE, text=True)
+    assert proc.stdout.readline().strip() == "ready"
+    proc.send_signal(getattr(signal, signame))
+    rc = proc.wait(timeout=30)
+    assert out.exists(), "./dev returned before the command finished its handler"
+    assert out.read_text() == str(int(getattr(signal, signame)))
+    assert rc == 3
+
+
+def test_the_rootfs_path_execs_the_command():
+    """Static check of the rootfs path (the test above cannot reach it inside the rootfs)."""
+    body = (REPO / "dev").read_text()
+    run = body[body.index("run_in_rootfs() {"):body.index("main() {")]
+    assert "exec unshare" in run and "exec chroot" in run
