@@ -150,7 +150,9 @@ base_image() {
         fi
         exec 8>&-
     fi
-    "${ENGINE[@]}" import -q "$tarball" "$BASE" >/dev/null || die "could not import $tarball as $BASE"
+    # (no -q: `docker import` has none; the progress goes to a log)
+    "${ENGINE[@]}" import "$tarball" "$BASE" >"$IMAGES/import.log" 2>&1 ||
+        die "could not import $tarball as $BASE; see $IMAGES/import.log"
     say "base: $BASE imported from $tarball"
 }
 
