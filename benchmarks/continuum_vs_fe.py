@@ -14,7 +14,7 @@ PART is one of
                   fastest growth of the same n;
 * ``fespectrum``  P1 lumped FE, whole spectrum, f = 0.3, 0.5, 0.7, N = 36, 72, 132, undamped
                   and with Kelvin-Voigt damping, against the exact fastest growth;
-* ``smoothing``   experiment: friction on 1-2-1 filtered nodal reactions (P1 lumped);
+* ``smoothing``   flutter-fe ``--friction 1-2-1`` (friction on filtered nodal reactions);
 * ``dissipation`` exact growth against n with Kelvin-Voigt damping and linearised
                   Prakash-Clifton friction, below and above f_c.
 
@@ -36,8 +36,6 @@ import math  # noqa: E402
 import sys  # noqa: E402
 import time  # noqa: E402
 from pathlib import Path  # noqa: E402
-
-import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
@@ -355,42 +353,6 @@ def part_fespectrum(quick: bool, out: Path) -> dict:
     return table
 
 
-def smoothed_friction(problem, ops, weights: tuple[float, float, float]) -> None:
-    """Experiment (serial): replace ``ops.Kf = −E K̂`` by ``−E_s K̂``, where the friction force of
-    contact node i is f × (w₋ λ_{i−1} + w₀ λ_i + w₊ λ_{i+1}) (a filter on the nodal normal
-    reactions along the contact circle; 1-2-1 kills the Nyquist wave and changes wavenumber
-    k by cos²(πk/N) = 1 − O(h²))."""
-    from petsc4py import PETSc
-
-    from forms.steady import node_matrix
-
-    K, nd = problem.K, problem.nodes
-    c, s_ = nd.cos_t, nd.sin_t
-    T = node_matrix(K, nd.dofs_x.astype(PETSc.IntType), nd.dofs_x, (c, -s_, s_, c))
-    Khat = K.ptap(T)
-    n = problem.n_owned
-    order = np.argsort(nd.theta)
-    m = order.size
-    rows, cols, vals = [], [], []
-    for j, i in enumerate(order):  # experiment only: a loop over the N contact nodes, once
-        for off, w in zip((-1, 0, 1), weights, strict=True):
-            rows.append(nd.dofs_y[i])
-            cols.append(nd.dofs_x[order[(j + off) % m]])
-            vals.append(w)
-    Es = PETSc.Mat().createAIJ(size=(n, n), nnz=3, comm=problem.comm)
-    Es.setUp()
-    for r_, c_, v_ in zip(rows, cols, vals, strict=True):
-        Es.setValue(int(r_), int(c_), v_, addv=True)
-    Es.assemble()
-    Kf = Es.matMult(Khat)
-    Kf.scale(-1.0)
-    iset = PETSc.IS().createGeneral(ops.free.astype(PETSc.IntType), comm=problem.comm)
-    ops.Kf.destroy()
-    ops.Kf = Kf.createSubMatrix(iset, iset)
-    for x in (T, Khat, Es, Kf, iset):
-        x.destroy()
-
-
 def part_smoothing(quick: bool, out: Path) -> dict:
     """P1 lumped with the 1-2-1 smoothed friction: fastest growth over the whole spectrum and
     the first three branches of n = 2, 4, 7 against the exact, f = 0.7."""
@@ -401,15 +363,13 @@ def part_smoothing(quick: bool, out: Path) -> dict:
     cache = out / "smoothing.json"
     runs = json.loads(cache.read_text()) if cache.exists() else {}
     for N in Ns:
-        for name, w in (("nodal", None), ("1-2-1", (0.25, 0.5, 0.25))):
+        for name in ("nodal", "1-2-1"):
             key = f"{name} N={N}"
             if key in runs or (name == "nodal" and N == 264):
                 continue
             t0 = time.perf_counter()
             problem = _fe_problem(N, [])
-            ops = build_operators(problem, "lumped")
-            if w is not None:
-                smoothed_friction(problem, ops, w)
+            ops = build_operators(problem, "lumped", name)
             fmax = 1.3 * math.sqrt(_max_omega2(ops)) / (2 * math.pi)
             if N == 264:
                 fmax = 12000.0  # the whole spectrum costs too long; the k ≈ 0.3 N band

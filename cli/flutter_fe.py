@@ -57,6 +57,10 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="upper end of the frequency band (Hz, default 10000)")
     p.add_argument("--mass", choices=("lumped", "consistent"), default="lumped",
                    help="mass matrix: the explicit solver's lumped one (default) or consistent")
+    p.add_argument("--friction", choices=("nodal", "1-2-1"), default="nodal",
+                   help="friction force of node i: f x its nodal reaction (default, the "
+                        "transient's law) or f x the 1-2-1 filtered reactions of i-1, i, i+1 "
+                        "(removes the spurious mesh-scale branch, docs/continuum.md)")
     p.add_argument("--f-sweep", default=None, metavar="A:B:N|F1,F2,...",
                    help="also sweep the friction coefficient (CEA diagram with --plot)")
     p.add_argument("--kmax", type=int, default=12, help="reduced-model modes to compare (k<=)")
@@ -95,7 +99,7 @@ def flutter_fe_command(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     problem = build_problem(scene, comm)
     t_build = time.perf_counter() - t0
-    ops = build_operators(problem, args.mass)
+    ops = build_operators(problem, args.mass, args.friction)
     res = complex_eigenvalue_analysis(problem, None, args.fmax_hz, ops=ops)
     res.timings["mesh+assembly"] = t_build
     sweep = None
@@ -107,6 +111,7 @@ def flutter_fe_command(args: argparse.Namespace) -> int:
     if not rank0:
         return 0
     out = res.to_dict()
+    out["friction"] = args.friction
     out["reduced_model"] = reduced
     if sweep is not None:
         out["f_sweep"] = [

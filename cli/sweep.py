@@ -37,6 +37,13 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="draw the regime map (after the sweep, or of an existing SWEEP_DIR)")
     p.add_argument("--list", action="store_true",
                    help="list the scenes and their state; run nothing")
+    p.add_argument("--batch", default="off", metavar="off|auto|B",
+                   help="advance scenes that share mesh, material, dt and scheme as batches "
+                        "(one sparse matrix x block product per step, solver/ensemble.py): "
+                        "off (default), auto (size from memory and ranks) or a size B")
+    p.add_argument("--backend", choices=("cpu", "gpu"), default="cpu",
+                   help="batched integrator on the CPU (numba) or on a GPU (CuPy, optional "
+                        "extra; see README)")
     p.add_argument("--progress", choices=("auto", "live", "lines"), default="auto",
                    help="live status line (TTY) or one line per finished scene (auto: live "
                         "only on a terminal outside mpirun)")
@@ -84,13 +91,28 @@ def _sweep(args: argparse.Namespace) -> int:
         if comm.rank == 0:
             print("error: --group-size must be >= 1", file=sys.stderr)
         return 2
+    from studies.sweep.batch import parse_batch
+
+    try:
+        batch = parse_batch(args.batch)
+        if args.backend == "gpu":
+            from solver.ensemble import array_namespace
+
+            array_namespace("gpu")
+            if batch == "off":
+                raise ValueError("--backend gpu runs batches: add --batch auto or --batch B")
+    except (ValueError, ImportError) as err:
+        if comm.rank == 0:
+            print(f"error: {err}", file=sys.stderr)
+        return 2
     if args.list:
         if comm.rank == 0:
             for task in spec.tasks:
                 print(f"{task.id:40s} {task_state(out_dir, spec, task)}")
         return 0
     rc = run_sweep(spec, out_dir, comm=comm, group_size=args.group_size,
-                   retry_failed=args.retry_failed, progress=args.progress)
+                   retry_failed=args.retry_failed, progress=args.progress, batch=batch,
+                   backend=args.backend)
     if args.plot and rc in (0, 1) and comm.rank == 0:
         for path in plot_sweep(out_dir):
             print(f"figure: {path}")

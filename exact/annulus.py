@@ -81,25 +81,44 @@ class Elastic:
         return math.sqrt(self.mu / self.rho)
 
 
+def _second(m: int, z: np.ndarray, upper: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+    """The second radial solution and its derivative: ``Y_m`` (``upper is None``), else
+    ``H⁽¹⁾_m`` where ``upper`` (decays for Im z > 0) and ``H⁽²⁾_m`` elsewhere. With ``J_m``
+    this basis stays well conditioned for strongly growing or decaying waves
+    (|Im z| ≫ 1), where ``J`` and ``Y`` both grow like ``e^{|Im z|}`` and cancel."""
+    from scipy.special import h1vp, h2vp, hankel1, hankel2, yv, yvp
+
+    if upper is None:
+        return yv(m, z), yvp(m, z)
+    up = np.broadcast_to(upper, z.shape)
+    return (np.where(up, hankel1(m, z), hankel2(m, z)),
+            np.where(up, h1vp(m, z), h2vp(m, z)))
+
+
 def bessel_columns(
-    omega: complex | np.ndarray, n: int, r: float, mat: Elastic, tau: float = 0.0
+    omega: complex | np.ndarray, n: int, r: float, mat: Elastic, tau: float = 0.0,
+    upper: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """(U, W, σ_rr/μ̃, S/μ̃) at radius ``r`` of the 4 potentials ``J_|n|(αr), Y_|n|(αr)``
-    (for F) and ``J_|n|(βr), Y_|n|(βr)`` (for H); ``μ̃ = μ(1 − iωτ)`` (Kelvin-Voigt).
+    """(U, W, σ_rr/μ̃, S/μ̃) at radius ``r`` of the 4 potentials ``J_|n|(αr)``, second(αr)
+    (for F) and ``J_|n|(βr)``, second(βr) (for H), second = ``Y`` or a Hankel function
+    (:func:`_second`); ``μ̃ = μ(1 − iωτ)`` (Kelvin-Voigt).
     ``omega`` may be an array: the results have shape ``omega.shape + (4,)``."""
-    from scipy.special import jv, jvp, yv, yvp
+    from scipy.special import jv, jvp
 
     m = abs(int(n))
     w = np.asarray(omega, dtype=complex)[..., None]
+    up = None if upper is None else np.asarray(upper)[..., None]
     visc = 1.0 - 1j * w * tau
     al = w / (mat.cp * np.sqrt(visc))
     be = w / (mat.cs * np.sqrt(visc))
     za, zb = al * r, be * r
     zero = np.zeros_like(w)
-    F = np.concatenate([jv(m, za), yv(m, za), zero, zero], axis=-1)
-    Fp = np.concatenate([al * jvp(m, za), al * yvp(m, za), zero, zero], axis=-1)
-    H = np.concatenate([zero, zero, jv(m, zb), yv(m, zb)], axis=-1)
-    Hp = np.concatenate([zero, zero, be * jvp(m, zb), be * yvp(m, zb)], axis=-1)
+    ya, ypa = _second(m, za, up)
+    yb, ypb = _second(m, zb, up)
+    F = np.concatenate([jv(m, za), ya, zero, zero], axis=-1)
+    Fp = np.concatenate([al * jvp(m, za), al * ypa, zero, zero], axis=-1)
+    H = np.concatenate([zero, zero, jv(m, zb), yb], axis=-1)
+    Hp = np.concatenate([zero, zero, be * jvp(m, zb), be * ypb], axis=-1)
     Fpp = -Fp / r - (al**2 - m * m / r**2) * F  # Bessel's equation
     U = Fp - n * H / r
     W = n * F / r - Hp
@@ -110,12 +129,12 @@ def bessel_columns(
 
 def sliding_matrix(
     omega: complex | np.ndarray, n: int, f_eff: complex | np.ndarray, mat: Elastic,
-    tau: float = 0.0,
+    tau: float = 0.0, upper: np.ndarray | None = None,
 ) -> np.ndarray:
     """The 4×4 matrix (rows ``U(R)``, ``S + i f σ_rr`` at ``R``, ``U(ξR)``, ``W(ξR)``;
-    shape ``omega.shape + (4, 4)``)."""
-    Ua, _, sa, Sa = bessel_columns(omega, n, mat.R, mat, tau)
-    Ub, Wb, _, _ = bessel_columns(omega, n, mat.xi * mat.R, mat, tau)
+    shape ``omega.shape + (4, 4)``); ``upper``: Hankel basis choice (:func:`_second`)."""
+    Ua, _, sa, Sa = bessel_columns(omega, n, mat.R, mat, tau, upper)
+    Ub, Wb, _, _ = bessel_columns(omega, n, mat.xi * mat.R, mat, tau, upper)
     fe = np.asarray(f_eff)[..., None]
     return np.stack([Ua * mat.R, (Sa + 1j * fe * sa) * mat.R**2, Ub * mat.R, Wb * mat.R],
                     axis=-2)

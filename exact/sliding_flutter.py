@@ -186,12 +186,14 @@ def polish(
     over the seeds; constant column scaling taken at each seed, so each function iterated is
     analytic). Returns (roots, converged)."""
     x0 = np.array(omega0, dtype=complex).ravel()  # a copy: iterated in place
-    scale = 1.0 / np.maximum(np.max(np.abs(sliding_matrix(x0, n, 0.0, mat, diss.tau)),
+    # basis J, H⁽¹⁾ where Im α ≥ 0 (α = ω / c_p sqrt(1 − iωτ)), else J, H⁽²⁾; fixed per seed
+    upper = (x0 / np.sqrt(1.0 - 1j * x0 * diss.tau)).imag >= 0
+    scale = 1.0 / np.maximum(np.max(np.abs(sliding_matrix(x0, n, 0.0, mat, diss.tau, upper)),
                                     axis=-2), 1e-300)  # (m, 4)
 
     def g(w: np.ndarray, idx: np.ndarray) -> np.ndarray:
-        M = sliding_matrix(w, n, diss.f_eff(f, w), mat, diss.tau) * scale[idx, None, :]
-        return np.linalg.det(M)
+        M = sliding_matrix(w, n, diss.f_eff(f, w), mat, diss.tau, upper[idx])
+        return np.linalg.det(M * scale[idx, None, :])
 
     allidx = np.arange(x0.size)
     x1 = x0 * (1 + 1e-7) + 1e-7 * np.abs(x0) * 1j

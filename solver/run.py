@@ -43,13 +43,12 @@ class Simulation:
                  profile: Profile | None = None,
                  output_dir: Path | None = None) -> None:
         from solver.observers import (
-            EnergyAccumulator,
             InnerCircleRecorder,
             ProbeRecorder,
             Progress,
         )
         from solver.problem import build_problem, omega_max
-        from solver.schemes import make_integrator, time_step
+        from solver.schemes import make_energy, make_integrator, time_step
         from solver.steady import solve_steady_sliding
 
         self.scene, self.comm = scene, comm
@@ -68,7 +67,7 @@ class Simulation:
         self.integrator, self.projection = make_integrator(self.problem, scene, dt)
         u0 = self.steady.u + self.perturbation()
         self.integrator.set_state(u0, np.zeros_like(u0))
-        self.energy = EnergyAccumulator(self.projection, scene.loading.f > 0.0, u0)
+        self.energy = make_energy(self.integrator, self.projection, scene.loading.f > 0.0, u0)
         every = max(1, int(round(scene.output.sample_interval / dt)))
         n_steps = self.planned_steps()
         self.recorder = InnerCircleRecorder(self.problem, self.projection, self.energy, every,

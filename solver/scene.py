@@ -7,7 +7,7 @@ A scene is a TOML file mapped onto frozen, validated dataclasses (SI units)::
     [geometry]   R, xi, delta | d
     [loading]    omega, f
     [mesh]       n_inner, n_radial, cell, degree
-    [time]       beta1, beta2, dt, dt_fraction, end_time, max_steps, max_wall_time
+    [time]       beta1, beta2, dt, dt_fraction, end_time, max_steps, max_wall_time, kernel
     [initial]    perturbation, mode, amplitude, seed, n_modes
     [output]     sample_interval, probes_deg, fields, field_interval, progress
 
@@ -318,6 +318,7 @@ class Loading(_Section):
 
 CELL_TYPES = ("triangle", "quadrilateral")
 PERTURBATIONS = ("none", "mode", "random")
+KERNELS = ("auto", "numpy", "numba")
 
 
 @dataclass(frozen=True)
@@ -367,6 +368,9 @@ class Time(_Section):
     """Step limit; 0 = unlimited."""
     max_wall_time: float = _opt(0.0, "float")
     """Wall-clock limit [s]; 0 = unlimited."""
+    kernel: str = _opt("auto", "str")
+    """Explicit step: "numpy" (reference), "numba" (fused, solver.fused), "auto" (numba if it
+    imports). Same results to round-off; see solver.fused.resolve_kernel."""
 
     def _check(self) -> None:
         _require(
@@ -413,6 +417,7 @@ class Time(_Section):
             self.max_wall_time >= 0,
             "max_wall_time >= 0 (s; 0 = unlimited)",
         )
+        _choice(self._key("kernel"), self.kernel, KERNELS)
 
 
 @dataclass(frozen=True)

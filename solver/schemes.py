@@ -127,12 +127,30 @@ def make_integrator(problem, scene: Scene, dt: float):
                                      ts.beta2, contact, problem.comm)
         return integrator, contact
 
+    from solver.fused import resolve_kernel
     from solver.problem import ContactProjection
 
+    kappa = (ts.beta2 + 0.5) * dt * dt
+    if resolve_kernel(scene) == "numba":
+        from solver.fused import FusedNewmark
+
+        projection = ContactProjection(problem, kappa, dt)
+        return FusedNewmark(problem, dt, ts.beta2, projection), projection
     integrator = Newmark(problem.stiffness_mult(), problem.inv_mass, dt, ts.beta1, ts.beta2)
     projection = ContactProjection(problem, integrator.kappa, dt)
     integrator.contact = TimedContact(projection)
     return integrator, projection
+
+
+def make_energy(integrator, projection, with_friction: bool, u0):
+    """The contact-work observer: accumulated inside the fused kernel, or by numpy."""
+    if getattr(integrator, "kernel", "numpy") == "numba":
+        from solver.fused import FusedEnergy
+
+        return FusedEnergy(integrator, projection)
+    from solver.observers import EnergyAccumulator
+
+    return EnergyAccumulator(projection, with_friction, u0)
 
 
 class TimedContact:
@@ -160,5 +178,9 @@ def scheme_summary(integrator) -> dict:
     """Scheme facts for a run summary: name, beta1/2, contact time, active-set iterations."""
     if hasattr(integrator, "iteration_stats"):
         return integrator.iteration_stats()
-    return {"scheme": "explicit", "beta1": integrator.beta1, "beta2": integrator.beta2,
-            "contact_s": contact_seconds(integrator)}
+    out = {"scheme": "explicit", "beta1": integrator.beta1, "beta2": integrator.beta2,
+           "contact_s": contact_seconds(integrator),
+           "kernel": getattr(integrator, "kernel", "numpy")}
+    if hasattr(integrator, "compile_s"):
+        out["kernel_first_call_s"] = integrator.compile_s  # numba compile or cache load
+    return out

@@ -87,11 +87,57 @@ class CEAOperators:
                 m.destroy()
 
 
-def build_operators(problem: TubeProblem, mass: str = "lumped") -> CEAOperators:
+FRICTION_FILTERS = {"nodal": None, "1-2-1": (0.25, 0.5, 0.25)}
+
+
+def _friction_rows(K: PETSc.Mat, nd: Any, weights: tuple[float, float, float]) -> PETSc.Mat:
+    """``E_s``: the θ-row of contact node i takes ``w₋ r-row(i−1) + w₀ r-row(i) + w₊ r-row(i+1)``
+    (neighbours in angle along the contact circle, across ranks). Issue 13 experiment: the
+    friction force on node i is f × the filtered nodal normal reactions (docs/continuum.md)."""
+    from petsc4py import PETSc
+
+    comm = K.getComm().tompi4py()
+    rstart = K.getOwnershipRange()[0]
+    theta = np.concatenate(comm.allgather(np.asarray(nd.theta, dtype=float)))
+    gcol = np.concatenate(comm.allgather((rstart + nd.dofs_x).astype(np.int64)))
+    order = np.argsort(theta, kind="stable")
+    pos = np.empty_like(order)
+    pos[order] = np.arange(order.size)
+    sizes = comm.allgather(len(nd.theta))
+    first = int(sum(sizes[: comm.rank]))  # this rank's nodes in the gathered arrays
+    mine = pos[first: first + len(nd.theta)]
+    m = order.size
+    cols = np.stack([gcol[order[(mine + off) % m]] for off in (-1, 0, 1)], axis=1)
+    vals = np.broadcast_to(np.asarray(weights, dtype=float), cols.shape).copy()
+    srt = np.argsort(cols, axis=1)
+    cols = np.take_along_axis(cols, srt, axis=1)
+    vals = np.take_along_axis(vals, srt, axis=1)
+    n_loc = K.getSizes()[0][0]
+    counts = np.zeros(n_loc, dtype=PETSc.IntType)
+    counts[nd.dofs_y] = 3
+    indptr = np.zeros(n_loc + 1, dtype=PETSc.IntType)
+    np.cumsum(counts, out=indptr[1:])
+    J = np.zeros(indptr[-1], dtype=PETSc.IntType)
+    A = np.zeros(indptr[-1], dtype=PETSc.ScalarType)
+    rows = np.argsort(nd.dofs_y)  # CSR rows in increasing dof order
+    for j in range(3):
+        J[indptr[nd.dofs_y[rows]] + j] = cols[rows, j]
+        A[indptr[nd.dofs_y[rows]] + j] = vals[rows, j]
+    mat = PETSc.Mat().createAIJ(size=K.getSizes(), csr=(indptr, J, A), comm=K.getComm())
+    mat.assemble()
+    return mat
+
+
+def build_operators(
+    problem: TubeProblem, mass: str = "lumped", friction: str = "nodal"
+) -> CEAOperators:
     """Rotate the contact nodes, split off the friction part, restrict to the free dofs.
 
     ``mass="lumped"`` (default) is ``problem.mass``, the explicit solver's mass, so CEA and
     the transient describe the same discrete system; ``"consistent"`` uses ``∫ρφ_i·φ_j``.
+    ``friction="nodal"`` (default, the transient's law) applies ``f λ_i`` at node i;
+    ``"1-2-1"`` applies ``f (λ_{i−1} + 2λ_i + λ_{i+1})/4`` (issue 13: removes the spurious
+    mesh-scale flutter branch; an O(h²) change; CEA only, not in the transient solver).
     """
     import dolfinx
     import dolfinx.fem.petsc
@@ -103,6 +149,8 @@ def build_operators(problem: TubeProblem, mass: str = "lumped") -> CEAOperators:
 
     if mass not in ("lumped", "consistent"):
         raise ValueError(f"mass={mass!r}: use 'lumped' or 'consistent'")
+    if friction not in FRICTION_FILTERS:
+        raise ValueError(f"friction={friction!r}: use one of {sorted(FRICTION_FILTERS)}")
     comm = problem.comm
     K, nd = problem.K, problem.nodes
     rstart = K.getOwnershipRange()[0]
@@ -112,8 +160,14 @@ def build_operators(problem: TubeProblem, mass: str = "lumped") -> CEAOperators:
     T = node_matrix(K, rows_x, nd.dofs_x, (c, -s, s, c))  # u = T ũ
     L1 = node_matrix(K, rows_x, nd.dofs_x, (one, zero, -one, one))  # row_θ − 1·row_r
     Khat = K.ptap(T)
-    Kf = L1.matMult(Khat)
-    Kf.axpy(-1.0, Khat)  # = −E K̂
+    Es = None
+    if FRICTION_FILTERS[friction] is None:
+        Kf = L1.matMult(Khat)
+        Kf.axpy(-1.0, Khat)  # = −E K̂
+    else:
+        Es = _friction_rows(K, nd, FRICTION_FILTERS[friction])
+        Kf = Es.matMult(Khat)
+        Kf.scale(-1.0)  # = −E_s K̂
 
     keep = np.ones(problem.n_owned, dtype=bool)
     keep[problem.clamped] = False
@@ -138,14 +192,19 @@ def build_operators(problem: TubeProblem, mass: str = "lumped") -> CEAOperators:
         )
         Mc.assemble()
         Mhat = Mc.ptap(T)
-        Mf = L1.matMult(Mhat)
-        Mf.axpy(-1.0, Mhat)
+        if Es is None:
+            Mf = L1.matMult(Mhat)
+            Mf.axpy(-1.0, Mhat)
+        else:
+            Mf = Es.matMult(Mhat)
+            Mf.scale(-1.0)
         B = Mhat.createSubMatrix(iset, iset)
         friction_mass = Mf.createSubMatrix(iset, iset)
         for m in (Mc, Mhat, Mf):
             m.destroy()
-    for m in (T, L1, Khat, Kf, iset):
-        m.destroy()
+    for m in (T, L1, Khat, Kf, iset, Es):
+        if m is not None:
+            m.destroy()
     return CEAOperators(
         Kt=Kt_f, Kf=Kf_f, B=B, free=free,
         pos_theta=np.searchsorted(free, nd.dofs_y), theta=nd.theta,

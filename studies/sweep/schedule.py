@@ -308,10 +308,28 @@ def _lock(out_dir: Path):  # noqa: ANN202
     return fh
 
 
+def _run_unit(spec: SweepSpec, unit: list[Task], out_dir: Path, group: MPI.Comm,
+              world_rank: int, backend: str) -> str:
+    """One work unit: a single scene (``_run_one``) or a batch (``studies.sweep.batch``)."""
+    if len(unit) == 1:
+        return _run_one(spec, unit[0], out_dir, group, world_rank)
+    from studies.sweep.batch import run_batch
+
+    try:
+        statuses = run_batch(spec, unit, out_dir, world_rank, backend=backend)
+    except KeyboardInterrupt:
+        return "interrupted"
+    return "failed" if "failed" in statuses else "completed"
+
+
 def run_sweep(spec: SweepSpec, out_dir: str | Path, *, comm: MPI.Comm | None = None,
               group_size: int | None = None, retry_failed: bool = False,
-              stream: TextIO = sys.stdout, progress: str = "auto") -> int:
+              stream: TextIO = sys.stdout, progress: str = "auto", batch: str = "off",
+              backend: str = "cpu") -> int:
     """Run every pending scene of ``spec`` into ``out_dir``; collective over ``comm``.
+
+    ``batch`` ("off", "auto" or a size B): scenes sharing mesh, material, dt and scheme run
+    as batches of ``solver.ensemble`` (studies/sweep/batch.py) on ``backend`` (cpu, gpu).
 
     Returns 0 (every scene final, none ``failed``), 1 (the table holds a scene that failed
     with an exception), 130 (interrupted: the table holds what finished; run again to resume).
@@ -332,7 +350,10 @@ def run_sweep(spec: SweepSpec, out_dir: str | Path, *, comm: MPI.Comm | None = N
             out_dir.mkdir(parents=True, exist_ok=True)
             lock = _lock(out_dir)
             pending, n_done = _prepare(out_dir, spec, retry_failed)
-            info = ([t.id for t in pending], n_done)
+            from studies.sweep.batch import plan_units
+
+            units = plan_units(spec, pending, batch, (comm.size + g - 1) // g, g)
+            info = ([[t.id for t in u] for u in units], n_done)
         except (SweepError, OSError) as err:
             info = str(err)
     info = comm.bcast(info, root=0)
@@ -343,7 +364,8 @@ def run_sweep(spec: SweepSpec, out_dir: str | Path, *, comm: MPI.Comm | None = N
                 lock.close()
         return 2
     by_id = {t.id: t for t in spec.tasks}
-    pending = [by_id[i] for i in info[0]]
+    units = [[by_id[i] for i in u] for u in info[0]]
+    pending = [t for u in units for t in u]
     n_done = info[1]
     color = comm.rank // g
     n_groups = (comm.size + g - 1) // g
@@ -354,6 +376,12 @@ def run_sweep(spec: SweepSpec, out_dir: str | Path, *, comm: MPI.Comm | None = N
         print(f"sweep {spec.name}: {len(spec.tasks)} scenes, {n_done} already done, "
               f"{len(pending)} to run on {n_groups} group(s) of {g} rank(s) -> {out_dir}",
               file=stream, flush=True)
+        batches = [len(u) for u in units if len(u) > 1]
+        if batches:
+            sizes = ", ".join(map(str, batches))
+            print(f"  batched ({backend}): {len(batches)} batch(es) of {sizes}"
+                  f" scenes, {len(units) - len(batches)} single scene(s)", file=stream,
+                  flush=True)
         if comm.size % g:
             print(f"  note: {comm.size} ranks are not a multiple of group_size {g}; the last "
                   f"group has {comm.size % g} rank(s)", file=stream, flush=True)
@@ -372,9 +400,9 @@ def run_sweep(spec: SweepSpec, out_dir: str | Path, *, comm: MPI.Comm | None = N
             idx = counter.next() if group.rank == 0 else 0
             if group.size > 1:
                 idx = group.bcast(idx, root=0)
-            if idx >= len(pending):
+            if idx >= len(units):
                 break
-            if _run_one(spec, pending[idx], out_dir, group, comm.rank) == "interrupted":
+            if _run_unit(spec, units[idx], out_dir, group, comm.rank, backend) == "interrupted":
                 interrupted = True
                 break
     except KeyboardInterrupt:

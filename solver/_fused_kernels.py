@@ -1,0 +1,232 @@
+"""numba kernels of ``solver.fused`` (imported lazily: numba costs ~0.4 s to import).
+
+Module-level functions so that ``cache=True`` can store their machine code on disk.
+See ``solver.fused`` for the equations and the summation-order contract.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+
+SEPARATION, STICK, SLIP = 0, 1, 2
+
+jit = numba.njit(cache=True, nogil=True, fastmath=False, error_model="numpy")
+inline = numba.njit(inline="always", cache=True, fastmath=False, error_model="numpy")
+
+
+@inline
+def project(tr, tt, now_t, stiff, d, slide, f):
+    """Nodal law (solver.contact.project_contact), same operations: (r_r, r_t, status)."""
+    rr = d - tr
+    if rr < 0.0:  # np.maximum(rr, 0): NaN stays NaN (blow-ups must show)
+        rr = 0.0
+    rr = rr * stiff
+    inc = rr > 0.0
+    if f == 0.0:
+        return rr, 0.0, SLIP if inc else SEPARATION
+    rt = now_t + slide
+    rt = rt - tt
+    rt = rt * stiff
+    cone = rr * f
+    if abs(rt) > cone:
+        return rr, math.copysign(cone, rt), SLIP if inc else SEPARATION
+    return rr, rt, STICK if inc else SEPARATION
+
+
+@inline
+def pair_product(indptr, indices, data, u, i):
+    """Rows i, i + 1 of K u (same column pattern: the x and y rows of one node).
+
+    Each row is summed as (even terms) + (odd terms) of its CSR order: four independent
+    chains per pass instead of one, and one column-index load for both rows. The batched
+    kernel sums in exactly this order, so a scene alone and in a batch agree bitwise.
+    """
+    a0 = indptr[i]
+    a1 = indptr[i + 1]
+    ln = a1 - a0
+    s0e = 0.0
+    s0o = 0.0
+    s1e = 0.0
+    s1o = 0.0
+    t = 0
+    while t + 1 < ln:
+        c0 = u[indices[a0 + t]]
+        c1 = u[indices[a0 + t + 1]]
+        s0e += data[a0 + t] * c0
+        s0o += data[a0 + t + 1] * c1
+        s1e += data[a1 + t] * c0
+        s1o += data[a1 + t + 1] * c1
+        t += 2
+    if t < ln:
+        c0 = u[indices[a0 + t]]
+        s0e += data[a0 + t] * c0
+        s1e += data[a1 + t] * c0
+    return s0e + s0o, s1e + s1o
+
+
+@jit
+def single_step(indptr, indices, data, n_rows, u, u_next, v, vp, a, ku, nim,
+                c_v, c_w, c_p, b2_half, dt, kappa, inv_kappa,
+                cx, ph_re, ph_im, pc_re, pc_im, cmass, cinv,
+                d, slide, f, r_pol, r_xy, status, zprev, work):
+    # K u_n and a*_n = -M^{-1} K u_n (owned rows; columns may be ghosts)
+    for i in range(0, n_rows, 2):
+        s0, s1 = pair_product(indptr, indices, data, u, i)
+        ku[i] = s0
+        ku[i + 1] = s1
+        a[i] = s0 * nim[i]
+        a[i + 1] = s1 * nim[i + 1]
+    # forward-increment contact at the contact nodes (polar frame via e^{-i theta})
+    for j in range(cx.size):
+        ix = cx[j]
+        iy = ix + 1
+        ux = u[ix]
+        uy = u[iy]
+        now_r = ux * pc_re[j] - uy * pc_im[j]
+        now_t = ux * pc_im[j] + uy * pc_re[j]
+        tx = vp[ix] * dt + a[ix] * kappa
+        ty = vp[iy] * dt + a[iy] * kappa
+        tr = (tx * pc_re[j] - ty * pc_im[j]) + now_r
+        tt = (tx * pc_im[j] + ty * pc_re[j]) + now_t
+        rr, rt, st = project(tr, tt, now_t, cmass[j] * inv_kappa, d, slide, f)
+        r_pol[2 * j] = rr
+        r_pol[2 * j + 1] = rt
+        status[j] = st
+        rx = rr * ph_re[j] - rt * ph_im[j]
+        ry = rr * ph_im[j] + rt * ph_re[j]
+        r_xy[2 * j] = rx
+        r_xy[2 * j + 1] = ry
+        a[ix] = a[ix] + rx * cinv[j]
+        a[iy] = a[iy] + ry * cinv[j]
+    # Newmark: v_n, w, u_{n+1}, v~_{n+1}
+    for i in range(n_rows):
+        ai = a[i]
+        vi = ai * c_v + vp[i]
+        v[i] = vi
+        w = ai * c_w + vi
+        u_next[i] = w * dt + u[i]
+        vp[i] = w if b2_half else w + ai * c_p
+    # contact work with the centred increment u_{n+1} - u_{n-1} (EnergyAccumulator)
+    sc = 0.0
+    st_ = 0.0
+    srt = 0.0
+    for j in range(cx.size):
+        ix = cx[j]
+        dzx = u_next[ix] - zprev[2 * j]
+        dzy = u_next[ix + 1] - zprev[2 * j + 1]
+        zprev[2 * j] = u[ix]
+        zprev[2 * j + 1] = u[ix + 1]
+        sc += r_xy[2 * j] * dzx + r_xy[2 * j + 1] * dzy
+        rt = r_pol[2 * j + 1]
+        st_ += rt * (dzx * pc_im[j] + dzy * pc_re[j])
+        srt += rt
+    work[0] += 0.5 * sc
+    if f > 0.0:
+        wc = srt * slide
+        work[1] += wc
+        work[2] += wc - 0.5 * st_
+
+
+@jit
+def batched_step(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
+                 c_v, c_w, c_p, b2_half, dt, kappa, inv_kappa,
+                 cx, ph_re, ph_im, pc_re, pc_im, cmass, cinv,
+                 d, slide, f, r_r, r_t, r_x, r_y, status, zprev, work, acc, cslot):
+    """The same step on (n, B) arrays: column b is scene b (per-scene d, slide, f).
+
+    One pass over the nodes: the (x, y) rows of K u for all B scenes (one read of the row
+    for the whole batch), the contact projection if the node is a contact node
+    (``cslot`` >= 0), then the Newmark update of the node. Valid because a node's update
+    reads only u_n (never u_{n+1}) and its own v~_n, a_n.
+    """
+    n_rows, nb = u.shape
+    odd0, odd1 = acc[0], acc[1]  # odd-term partial sums of rows i, i + 1 (scratch)
+    # 2-D indexing only: a row view (u[col]) would cost a reference-count update per use
+    for i in range(0, n_rows, 2):
+        a0 = indptr[i]
+        a1 = indptr[i + 1]
+        ln = a1 - a0
+        for b in range(nb):
+            ku[i, b] = 0.0
+            ku[i + 1, b] = 0.0
+            odd0[b] = 0.0
+            odd1[b] = 0.0
+        for t in range(ln):  # same order as pair_product: even terms, odd terms, then sum
+            col = indices[a0 + t]
+            d0 = data[a0 + t]
+            d1 = data[a1 + t]
+            if t % 2 == 0:
+                for b in range(nb):
+                    ub = u[col, b]
+                    ku[i, b] += d0 * ub
+                    ku[i + 1, b] += d1 * ub
+            else:
+                for b in range(nb):
+                    ub = u[col, b]
+                    odd0[b] += d0 * ub
+                    odd1[b] += d1 * ub
+        n0 = nim[i]
+        n1 = nim[i + 1]
+        for b in range(nb):
+            s0 = ku[i, b] + odd0[b]
+            s1 = ku[i + 1, b] + odd1[b]
+            ku[i, b] = s0
+            ku[i + 1, b] = s1
+            a[i, b] = s0 * n0
+            a[i + 1, b] = s1 * n1
+        j = cslot[i // 2]
+        if j >= 0:
+            inv_m = cinv[j]
+            stiff = cmass[j] * inv_kappa
+            for b in range(nb):
+                ux = u[i, b]
+                uy = u[i + 1, b]
+                now_r = ux * pc_re[j] - uy * pc_im[j]
+                now_t = ux * pc_im[j] + uy * pc_re[j]
+                tx = vp[i, b] * dt + a[i, b] * kappa
+                ty = vp[i + 1, b] * dt + a[i + 1, b] * kappa
+                tr = (tx * pc_re[j] - ty * pc_im[j]) + now_r
+                tt = (tx * pc_im[j] + ty * pc_re[j]) + now_t
+                rr, rt, st = project(tr, tt, now_t, stiff, d[b], slide[b], f[b])
+                r_r[j, b] = rr
+                r_t[j, b] = rt
+                status[j, b] = st
+                rx = rr * ph_re[j] - rt * ph_im[j]
+                ry = rr * ph_im[j] + rt * ph_re[j]
+                r_x[j, b] = rx
+                r_y[j, b] = ry
+                a[i, b] = a[i, b] + rx * inv_m
+                a[i + 1, b] = a[i + 1, b] + ry * inv_m
+        for r in range(i, i + 2):
+            for b in range(nb):
+                ai = a[r, b]
+                vi = ai * c_v + vp[r, b]
+                v[r, b] = vi
+                w = ai * c_w + vi
+                u_next[r, b] = w * dt + u[r, b]
+                vp[r, b] = w if b2_half else w + ai * c_p
+    # work sums: per scene, over the nodes in order (as single_step)
+    sc, st_, srt = acc[0], acc[1], acc[2]  # (3, B) scratch, no allocation per step
+    sc[:] = 0.0
+    st_[:] = 0.0
+    srt[:] = 0.0
+    for j in range(cx.size):
+        ix = cx[j]
+        for b in range(nb):
+            dzx = u_next[ix, b] - zprev[j, 0, b]
+            dzy = u_next[ix + 1, b] - zprev[j, 1, b]
+            zprev[j, 0, b] = u[ix, b]
+            zprev[j, 1, b] = u[ix + 1, b]
+            sc[b] += r_x[j, b] * dzx + r_y[j, b] * dzy
+            rt = r_t[j, b]
+            st_[b] += rt * (dzx * pc_im[j] + dzy * pc_re[j])
+            srt[b] += rt
+    for b in range(nb):
+        work[0, b] += 0.5 * sc[b]
+        if f[b] > 0.0:
+            wc = srt[b] * slide[b]
+            work[1, b] += wc
+            work[2, b] += wc - 0.5 * st_[b]
+

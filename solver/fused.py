@@ -1,0 +1,301 @@
+"""Fused explicit step: K u, the Newmark update, the contact projection and the contact work
+in one compiled pass (numba), for one scene (``FusedNewmark``) and for a batch of scenes that
+share K and M (``batched_step``, used by ``solver.ensemble``).
+
+The arithmetic is the one of the numpy reference (``solver.newmark.Newmark`` +
+``solver.problem.ContactProjection`` + ``solver.contact.project_contact`` +
+``solver.observers.EnergyAccumulator``), element by element, with beta_2 and kappa of the
+paper's explicit scheme (solver/newmark.py docstring):
+
+    a*_n   = -M^{-1} K u_n
+    trial  = u_n + dt v~_n + kappa a*_n                    (contact nodes, polar frame)
+    r_n    = project(trial; d, R Omega dt, f)              (paper section 2, [CAR 91])
+    a_n    = a*_n + M^{-1} r_n
+    v_n    = v~_n + beta_2 dt a_n,   w = v_n + dt/2 a_n
+    u_{n+1} = u_n + dt w,            v~_{n+1} = w + (1/2 - beta_2) dt a_n
+
+Only the summation order of K u (CSR order here, PETSc's order in MatMult) and of the work
+sums (sequential here, BLAS in ``np.vdot``) differ, so the two kernels agree to round-off
+(tests/test_fused.py). The single-scene and the batched kernel share the per-node functions
+below and sum in the same order, so a scene gives *bitwise* the same numbers alone or in a
+batch, whatever the batch size.
+
+MPI: the kernel works on the local arrays (owned + ghost dofs, local column numbering); the
+ghost values of u_n are refreshed by PETSc (``Vec.ghostUpdate``) before each step.
+
+numba compiles on the first call (~1-3 s per kernel) and caches the machine code on disk
+(``cache=True``): in the package's ``__pycache__`` when it is writable, else in
+``$NUMBA_CACHE_DIR``, which ``_cache_dir`` sets to a user cache directory (Docker images with
+a read-only package directory). ``COMPILE_SECONDS`` records the cost of the first call.
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+SEPARATION, STICK, SLIP = 0, 1, 2
+COMPILE_SECONDS: dict[str, float] = {}
+"""Wall time of the first (compiling or cache-loading) call of each kernel, seconds."""
+
+
+def _cache_dir() -> None:
+    """Point numba's cache to a writable directory when the package directory is not."""
+    if os.environ.get("NUMBA_CACHE_DIR"):
+        return
+    here = Path(__file__).resolve().parent
+    if os.access(here, os.W_OK):
+        return
+    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    for root in (base, tempfile.gettempdir()):
+        path = Path(root) / "stickslip-numba"
+        try:
+            path.mkdir(parents=True, exist_ok=True)
+        except OSError:
+            continue
+        if os.access(path, os.W_OK):
+            os.environ["NUMBA_CACHE_DIR"] = str(path)
+            return
+
+
+def numba_available() -> bool:
+    """True when numba imports (Debian's python3-numba is in the apt list)."""
+    try:
+        _cache_dir()
+        import numba  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+def resolve_kernel(scene) -> str:
+    """The step kernel a scene runs with: ``"numba"`` or ``"numpy"``. THE fallback rule.
+
+    * the implicit scheme (time.beta1 > 0) has no fused step: "numpy" (it is not a stiffness
+      product; ``time.kernel`` is ignored there);
+    * physics the fused kernel does not implement (a scene section ``damping`` or a
+      ``loading.friction_law`` other than Coulomb, when those keys exist) falls back to
+      "numpy";
+    * ``time.kernel = "auto"``: "numba" when numba imports, else "numpy";
+    * ``time.kernel = "numba"`` without numba: ValueError naming the fix.
+    """
+    ts = scene.time
+    if ts.beta1 > 0.0:
+        return "numpy"
+    damping = getattr(scene, "damping", None)
+    if damping is not None and any(float(getattr(damping, k, 0.0) or 0.0) != 0.0
+                                   for k in ("alpha", "beta", "mass", "stiffness")):
+        return "numpy"
+    law = getattr(scene.loading, "friction_law", "coulomb")
+    if law not in ("coulomb", None):
+        return "numpy"
+    requested = getattr(ts, "kernel", "auto")
+    if requested == "numpy":
+        return "numpy"
+    if numba_available():
+        return "numba"
+    if requested == "numba":
+        raise ValueError("time.kernel = \"numba\" but numba does not import: install "
+                         "python3-numba (apt) or set time.kernel = \"numpy\"")
+    return "numpy"
+
+
+# ------------------------------------------------------------------------------ kernels
+
+def _kernels():
+    """The kernels module, imported (and numba with it) on first use."""
+    _cache_dir()
+    from solver import _fused_kernels
+
+    return _fused_kernels
+
+
+def kernel(name: str):
+    """The compiled kernel ``name`` ("single_step" or "batched_step")."""
+    return getattr(_kernels(), name)
+
+
+def timed_first_call(name: str, fn, *args) -> None:
+    """Call ``fn(*args)``; the first call of kernel ``name`` is timed (compile or cache load)."""
+    if name in COMPILE_SECONDS:
+        fn(*args)
+        return
+    t0 = time.perf_counter()
+    fn(*args)
+    COMPILE_SECONDS[name] = time.perf_counter() - t0
+
+
+# ------------------------------------------------------------------------------ local CSR
+
+
+def local_csr(problem) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(indptr, indices, data, ghosts) of K's owned rows in LOCAL column numbering.
+
+    Local numbering: owned dofs 0 .. n_owned - 1, then the off-process columns of the owned
+    rows ("ghosts", sorted by global index), so the columns index an array of owned + ghost
+    values. The ghosts come from K itself, not from the dofmap: with dolfinx's default ghost
+    mode, rows on the partition boundary also couple to dofs of cells the rank does not hold.
+    ``ghosts`` are their global indices (for ``PETSc.Vec.createGhostWithArray``).
+    """
+    indptr, cols, data = problem.K.getValuesCSR()
+    r0, r1 = problem.K.getOwnershipRange()
+    n_owned = problem.n_owned
+    if r1 - r0 != n_owned:
+        raise RuntimeError(f"K owns {r1 - r0} rows, the space {n_owned} dofs")
+    cols = np.asarray(cols, dtype=np.int64)
+    local = cols - r0
+    outside = (local < 0) | (local >= n_owned)
+    ghosts = np.unique(cols[outside])
+    local[outside] = n_owned + np.searchsorted(ghosts, cols[outside])
+    indptr = np.asarray(indptr, dtype=np.int64)
+    lengths = np.diff(indptr)
+    paired = n_owned % 2 == 0 and np.array_equal(lengths[0::2], lengths[1::2])
+    if paired:
+        ln = lengths[0::2]
+        offs = np.arange(ln.sum()) - np.repeat(np.cumsum(ln) - ln, ln)
+        paired = np.array_equal(local[np.repeat(indptr[0:-1:2], ln) + offs],
+                                local[np.repeat(indptr[1::2], ln) + offs])
+    if not paired:
+        raise RuntimeError("the fused kernel needs the (x, y) rows of a node to share their "
+                           "column pattern (a blocked bs = 2 space); use time.kernel = numpy")
+    # unsigned indices: numba then skips its negative-index wrap-around test (2x faster K u)
+    return (np.ascontiguousarray(indptr, dtype=np.uint32),
+            np.ascontiguousarray(local, dtype=np.uint32),
+            np.ascontiguousarray(data, dtype=np.float64), ghosts)
+
+
+# ------------------------------------------------------------------------------ single scene
+
+
+class FusedNewmark:
+    """Explicit Newmark + forward-increment contact as ONE compiled call per step.
+
+    Same interface as ``solver.newmark.Newmark`` (``step``, ``set_state``, ``u``, ``u_prev``,
+    ``v``, ``a``, ``ku``, ``time``, ``dt``, ``step_count``, ``beta1``, ``beta2``, ``kappa``)
+    plus ``work`` = [work_contact, work_cylinder, friction_dissipation] of the owned contact
+    nodes (``FusedEnergy`` reads it). The contact forces and statuses are written into the
+    ``projection``'s arrays (``ContactProjection``), so every observer works unchanged.
+    """
+
+    kernel = "numba"
+
+    def __init__(self, problem, dt: float, beta2: float, projection) -> None:
+        if not 0.5 <= beta2 <= 1.0:
+            raise ValueError(f"time.beta2 = {beta2} must be in [0.5, 1]")
+        self.beta1, self.beta2, self.dt = 0.0, beta2, dt
+        self.kappa = (beta2 + 0.5) * dt * dt
+        self.p = projection
+        self.comm = problem.comm
+        n = problem.n_owned
+        self.indptr, self.indices, self.data, ghosts = local_csr(problem)
+        n_local = n + ghosts.size
+        self._full = [np.zeros(n_local), np.zeros(n_local)]  # u_n, u_{n+1} (owned + ghosts)
+        self._views = [f[:n] for f in self._full]
+        self._ghosted = None
+        if self.comm.size > 1:
+            from petsc4py import PETSc
+
+            self._ghosted = [PETSc.Vec().createGhostWithArray(
+                ghosts.astype(PETSc.IntType), f, size=(n, problem.n_global_dofs),
+                comm=self.comm) for f in self._full]
+        self.cur = 0
+        self.v = np.zeros(n)
+        self.a = np.zeros(n)
+        self.v_pred = np.zeros(n)
+        self.ku = np.zeros(n)
+        self.nim = -problem.inv_mass
+        self.work = np.zeros(3)
+        p = projection
+        self.cx = np.ascontiguousarray(problem.nodes.dofs_x, dtype=np.uint32)
+        self.ph_re, self.ph_im = p.phase.real.copy(), p.phase.imag.copy()
+        self.pc_re, self.pc_im = p.phase_conj.real.copy(), p.phase_conj.imag.copy()
+        self.cmass = np.ascontiguousarray(p.mass)
+        self.cinv = np.ascontiguousarray(p.inv_mass)
+        self.r_pol = p.r_polar.view(np.float64)  # (r_r, r_t) interleaved: the projection's
+        self.r_xy = p.r_xy.view(np.float64)
+        self.zprev = np.zeros(2 * self.cx.size)  # u_{n-1} at the contact nodes (x, y)
+        self.time = 0.0
+        self.step_count = 0
+        self._fn = kernel("single_step")
+        self.compile_s = 0.0
+        self.contact = None
+
+    @property
+    def u(self) -> np.ndarray:
+        """u_{n+1} after a step (owned dofs)."""
+        return self._views[self.cur]
+
+    @property
+    def u_prev(self) -> np.ndarray:
+        """u_n after a step (owned dofs)."""
+        return self._views[1 - self.cur]
+
+    def set_state(self, u: np.ndarray, v: np.ndarray, a0: np.ndarray | None = None) -> None:
+        """As ``Newmark.set_state``; also u_{n-1} := u_0 for the contact work."""
+        self.u[:] = u
+        self.v[:] = v
+        self.v_pred[:] = v
+        if a0 is not None:
+            self.v_pred -= self.beta2 * self.dt * np.asarray(a0)
+        self.a.fill(0.0)
+        cx = self.cx.astype(np.intp)
+        self.zprev[0::2] = self.u[cx]
+        self.zprev[1::2] = self.u[cx + 1]
+
+    def step(self) -> None:
+        """u_n -> u_{n+1}: one ghost update (MPI) and one kernel call."""
+        cur, nxt = self.cur, 1 - self.cur
+        if self._ghosted is not None:
+            from petsc4py import PETSc
+
+            self._ghosted[cur].ghostUpdate(PETSc.InsertMode.INSERT, PETSc.ScatterMode.FORWARD)
+        p, dt, b2 = self.p, self.dt, self.beta2
+        args = (self.indptr, self.indices, self.data, self.nim.size, self._full[cur],
+                self._full[nxt], self.v, self.v_pred, self.a, self.ku, self.nim,
+                b2 * dt, 0.5 * dt, (0.5 - b2) * dt, b2 == 0.5, dt, self.kappa,
+                1.0 / self.kappa, self.cx, self.ph_re, self.ph_im, self.pc_re, self.pc_im,
+                self.cmass, self.cinv, p.d, p.slide, p.f, self.r_pol, self.r_xy,
+                p.out.status, self.zprev, self.work)
+        if self.step_count == 0:
+            timed_first_call("single_step", self._fn, *args)
+            self.compile_s = COMPILE_SECONDS["single_step"]
+        else:
+            self._fn(*args)
+        self.cur = nxt
+        self.time += dt
+        self.step_count += 1
+
+
+class FusedEnergy:
+    """``EnergyAccumulator`` for ``FusedNewmark``: the kernel accumulates the work itself."""
+
+    def __init__(self, integrator: FusedNewmark, projection) -> None:
+        self.integ = integrator
+        self.p = projection
+
+    @property
+    def work_contact(self) -> float:
+        return float(self.integ.work[0])
+
+    @property
+    def work_cylinder(self) -> float:
+        return float(self.integ.work[1])
+
+    @property
+    def friction_dissipation(self) -> float:
+        return float(self.integ.work[2])
+
+    def after_step(self, u_next: np.ndarray) -> None:
+        """Nothing to do: the kernel accumulated this step's work."""
+
+    def totals(self, comm) -> tuple[float, float, float]:
+        """(work_contact, work_cylinder, friction_dissipation) summed over ranks."""
+        from mpi4py import MPI
+
+        total = np.zeros(3)
+        comm.Allreduce(self.integ.work, total, op=MPI.SUM)
+        return float(total[0]), float(total[1]), float(total[2])

@@ -1,0 +1,215 @@
+"""Batched ensemble (solver/ensemble.py, studies/sweep/batch.py): a batch gives every scene
+the numbers of its single-scene run, its own run directory, status and resume semantics."""
+
+from __future__ import annotations
+
+import json
+import os
+
+import numpy as np
+import pytest
+
+pytest.importorskip("dolfinx")
+pytest.importorskip("numba")
+from mpi4py import MPI  # noqa: E402
+
+SELF = MPI.COMM_SELF
+#: Keys of summary.json that are about the machine, not the numbers (wall times, memory,
+#: the kernel's name and compile time, the batch facts).
+MACHINE_KEYS = {"wall_time_s", "profile_s", "peak_rss_mb", "scheme", "batch"}
+
+MIXED = """
+name = "mixed"
+base = "{base}"
+set = ["time.end_time = 0.01"]
+[grid]
+"loading.omega" = [20.0, 50.0]
+[[points]]
+"loading.f" = 0.7
+"initial.amplitude" = 0.1
+[[points]]
+"loading.f" = 0.5
+"initial.amplitude" = 0.3
+[[points]]
+"loading.f" = 0.0
+"initial.amplitude" = 0.3
+[[points]]
+"loading.f" = 0.7
+"initial.amplitude" = 1e200
+"""
+
+
+def _spec(tmp_path):
+    from pathlib import Path
+
+    from studies.sweep.spec import load_sweep
+
+    path = tmp_path / "mixed.toml"
+    path.write_text(MIXED.format(base=Path("scenes/smoke.toml").resolve()))
+    return load_sweep(path)
+
+
+def _strip(summary: dict) -> dict:
+    return {k: v for k, v in summary.items() if k not in MACHINE_KEYS | {"energy"}}
+
+
+def _close_energies(a: dict | None, b: dict | None) -> None:
+    """Kinetic and strain energies are sums over the dofs: BLAS ``dot`` alone, ``einsum``
+    in a batch, so equal to round-off (1e-12 relative), not necessarily bitwise."""
+    assert (a is None) == (b is None)
+    for key in a or {}:
+        assert abs(a[key] - b[key]) <= 1e-12 * max(abs(a[key]), 1e-300), key
+
+
+@pytest.fixture(scope="module")
+def two_sweeps(tmp_path_factory):
+    """The mixed sweep (8 scenes: two Omega x (f = 0.7, 0.5, 0 frictionless, and a start
+    at 1e200 x d that blows up at the first energy check)) run alone (--batch off) and in
+    batches of 3 (3 + 3 + 2 scenes: the batch size must not matter)."""
+    from studies.sweep.schedule import run_sweep
+
+    tmp = tmp_path_factory.mktemp("ens")
+    spec = _spec(tmp)
+    out = {}
+    with open(os.devnull, "w") as quiet:
+        for batch in ("off", "3"):
+            rc = run_sweep(spec, tmp / batch, comm=SELF, batch=batch, stream=quiet,
+                           progress="lines")
+            assert rc == 0
+            out[batch] = tmp / batch
+    return spec, out
+
+
+def test_every_summary_equals_the_single_scene_run(two_sweeps):
+    """Bitwise: the batched kernel sums in the single-scene kernel's order, so the summaries
+    (regime, mode, celerity, fractions, amplitude, works, steps, status, message) and the
+    recorded samples and probes are the same numbers, not only close ones; the kinetic and
+    strain energies (diagnostics, not state) to round-off."""
+    spec, out = two_sweeps
+    statuses = {}
+    for task in spec.tasks:
+        single = json.loads((out["off"] / "runs" / task.id / "summary.json").read_text())
+        batched = json.loads((out["3"] / "runs" / task.id / "summary.json").read_text())
+        assert batched["batch"]["size"] in (2, 3)
+        assert _strip(batched) == _strip(single), task.id
+        _close_energies(single.get("energy"), batched.get("energy"))
+        statuses[task.id] = batched["status"]
+        a = np.load(out["off"] / "runs" / task.id / "samples.npz")
+        b = np.load(out["3"] / "runs" / task.id / "samples.npz")
+        assert sorted(a.files) == sorted(b.files)
+        for key in a.files:
+            if key == "energies":  # kinetic, strain: round-off (above); works: bitwise
+                np.testing.assert_allclose(a[key], b[key], rtol=1e-12, atol=0)
+                np.testing.assert_array_equal(a[key][:, 2:], b[key][:, 2:])
+            else:
+                np.testing.assert_array_equal(a[key], b[key], err_msg=f"{task.id}: {key}")
+        fa = np.load(out["off"] / "runs" / task.id / "final_field.npz")
+        fb = np.load(out["3"] / "runs" / task.id / "final_field.npz")
+        np.testing.assert_array_equal(fa["u"], fb["u"])
+    assert sorted(statuses.values()).count("diverged") == 2
+    assert sorted(statuses.values()).count("completed") == 6
+
+
+def test_diverged_scene_is_masked_and_recorded_the_others_go_on(two_sweeps):
+    spec, out = two_sweeps
+    table = json.loads((out["3"] / "sweep.json").read_text())
+    rows = {r["id"]: r for r in table["rows"]}
+    for task in spec.tasks:
+        row = rows[task.id]
+        if task.params["initial.amplitude"] > 1e100:
+            assert row["status"] == "diverged" and row["regime"] == "diverged"
+            assert "non-finite energy" in row["message"]
+            assert row["steps"] < 10  # stopped at the first energy check, as alone
+        else:
+            assert row["status"] == "completed"
+            assert row["steps"] == rows[spec.tasks[0].id]["steps"] > 100  # 0.01 s, 130 steps
+    log = (out["3"] / "logs" / f"{spec.tasks[0].id}.log").read_text()
+    assert "batch of 3" in log and "== end completed" in log
+    assert not list(out["3"].glob(".batch-*")), "the batch's sample spool must be removed"
+
+
+def test_resume_runs_nothing_that_is_final(two_sweeps):
+    from studies.sweep.schedule import run_sweep
+
+    spec, out = two_sweeps
+    before = {p: p.stat().st_mtime for p in (out["3"] / "runs").glob("*/summary.json")}
+    with open(os.devnull, "w") as quiet:
+        assert run_sweep(spec, out["3"], comm=SELF, batch="3", stream=quiet) == 0
+    after = {p: p.stat().st_mtime for p in (out["3"] / "runs").glob("*/summary.json")}
+    assert before == after
+
+
+def _batch(B_scenes, kernel="numba"):
+    from solver.ensemble import BatchedExplicit, BatchedProblem
+    from solver.run import Simulation
+    from solver.scene import load_scene
+
+    sims = [Simulation(load_scene("scenes/smoke.toml", ["output.progress=false", *o]), SELF)
+            for o in B_scenes]
+    s0 = sims[0]
+    bp = BatchedProblem.from_problem(s0.problem, s0.dt, s0.scene.time.beta2)
+    integ = BatchedExplicit(
+        bp, d=[s.scene.geometry.d for s in sims],
+        slide=[s.scene.geometry.R * s.scene.loading.omega * s.dt for s in sims],
+        f=[s.scene.loading.f for s in sims], kernel=kernel)
+    u0 = np.stack([s.integrator.u for s in sims], axis=1)
+    integ.set_state(u0, np.zeros_like(u0))
+    return integ, sims
+
+
+VARIANTS = [(), ("loading.omega=20.0",), ("loading.f=0.0",), ("geometry.delta=0.001",
+                                                                 "initial.amplitude=0.4")]
+
+
+def test_batched_kernel_equals_the_single_scene_kernel_bitwise_for_any_batch_size():
+    """Each column of a 4-scene batch, and a batch of one, give the bits of the fused
+    single-scene run (time.kernel = numba): displacement and contact statuses, 250 steps."""
+    integ, sims = _batch(VARIANTS)
+    alone, _ = _batch(VARIANTS[2:3])
+    for _ in range(250):
+        integ.step()
+        alone.step()
+        for s in sims:
+            s.integrator.step()
+    for b, s in enumerate(sims):
+        np.testing.assert_array_equal(integ.u[:, b], s.integrator.u)
+        np.testing.assert_array_equal(integ.status[:, b], s.projection.out.status)
+        np.testing.assert_array_equal(integ.work[:, b], s.integrator.work)
+    np.testing.assert_array_equal(alone.u[:, 0], integ.u[:, 2])
+
+
+def test_array_namespace_reference_equals_the_kernel_to_round_off():
+    """The xp (numpy) reference step against the numba kernel: 250 steps, scipy's K @ U sums
+    rows in CSR order, not in even/odd pairs, so 1e-12 of max|u| (round-off, amplified by the
+    flutter of steady sliding); statuses equal; work to 1e-9 relative."""
+    ref, _ = _batch(VARIANTS, kernel="xp")
+    new, _ = _batch(VARIANTS)
+    for _ in range(250):
+        ref.step()
+        new.step()
+    scale = np.max(np.abs(ref.u))
+    assert np.max(np.abs(ref.u - new.u)) < 1e-12 * scale
+    np.testing.assert_array_equal(ref.status, new.status)
+    assert np.allclose(ref.work_totals(), new.work_totals(), rtol=1e-9, atol=1e-30)
+
+
+def test_grouping_and_batch_option(tmp_path):
+    from studies.sweep.batch import auto_batch_size, batch_key, bytes_per_scene, parse_batch
+    from studies.sweep.spec import scene_for
+
+    spec = _spec(tmp_path)
+    scenes = [scene_for(spec, t) for t in spec.tasks]
+    assert len({batch_key(s) for s in scenes}) == 1  # Omega, f, start differ: one group
+    base = scenes[0]
+    assert batch_key(base.with_overrides("mesh.n_inner=48")) != batch_key(base)
+    assert batch_key(base.with_overrides("time.beta1=0.25", "time.beta2=0.5")) is None
+    assert batch_key(base.with_overrides("output.fields=true")) is None
+    assert batch_key(base.with_overrides('time.kernel="numpy"')) is None
+    assert parse_batch("auto") == "auto" and parse_batch("16") == "16"
+    for bad in ("0", "x", "-3"):
+        with pytest.raises(ValueError, match="--batch"):
+            parse_batch(bad)
+    assert auto_batch_size(base, 64, 2) == 32  # split evenly over the ranks
+    # memory: a 1024-scene N = 132 batch (state, contact arrays, observer chunks) < 4 GB
+    n132 = base.with_overrides("mesh.n_inner=132", "mesh.n_radial=0")
+    assert 1024 * bytes_per_scene(n132) < 4e9
