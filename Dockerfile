@@ -68,4 +68,7 @@ RUN python3 -m pip install --no-index --no-cache-dir --no-deps --no-build-isolat
 
 USER stickslip
 WORKDIR /opt/stickslip
+# Warm the user's caches (~/.cache: dolfinx's compiled forms, numba's step kernels) with one
+# short run of the shipped P1-triangle explicit scenes' kind: containers start with them.
+RUN stickslip run smoke -o /tmp/warm-up --set time.end_time=0.001 >/dev/null && rm -rf /tmp/warm-up
 CMD ["stickslip", "--help"]
