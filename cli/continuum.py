@@ -62,7 +62,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--speed-factor", type=float, default=1.2,
                    help="band in phase speed, multiple of c_p (default 1.2; 0 = fmax only)")
     p.add_argument("--loss-factor", type=float, default=None,
-                   help="Kelvin-Voigt loss factor eta at --reference-frequency-hz (0..2)")
+                   help="Kelvin-Voigt loss factor eta at --reference-frequency-hz (0..10)")
     p.add_argument("--reference-frequency-hz", type=float, default=None,
                    help="frequency of the loss factor (Hz): tau = eta / (2 pi f_ref)")
     p.add_argument("--retardation-time", type=float, default=None,
@@ -102,10 +102,10 @@ def _scene_values(args: argparse.Namespace) -> dict[str, Any]:
         v.update(E=sc.material.E, rho=sc.material.rho, nu=sc.material.nu, R=sc.geometry.R,
                  xi=sc.geometry.xi, f=sc.loading.f, omega=sc.loading.omega, source=sc.name)
         damp = getattr(sc, "damping", None)  # [damping] (issue 13, part B), if present
-        if damp is not None:
+        if damp is not None:  # part B's Damping.tau: retardation_time, else η / (2π f_ref)
             tau = getattr(damp, "retardation_time", 0.0) or 0.0
             eta = getattr(damp, "loss_factor", 0.0) or 0.0
-            if eta > 0:
+            if tau <= 0 and eta > 0:
                 tau = eta / (2 * math.pi * damp.reference_frequency_hz)
             v["tau"] = tau
         fr = getattr(sc, "friction", None)  # [friction] (issue 13, part B), if present
@@ -171,7 +171,7 @@ def _parse(args: argparse.Namespace) -> tuple[Any, list[float], list[int], Any, 
         if args.retardation_time is not None:
             raise InputError("--loss-factor and --retardation-time both given: use one")
         eta = _finite("loss-factor", args.loss_factor if args.loss_factor is not None
-                      else float("nan"), 0.0, 2.0)
+                      else float("nan"), 0.0, 10.0)
         fref = _finite("reference-frequency-hz", args.reference_frequency_hz
                        if args.reference_frequency_hz is not None else float("nan"),
                        0.0, 1e8, lo_open=True)

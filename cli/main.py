@@ -84,6 +84,7 @@ COMMAND_MODULES = (
     "cli.sweep",  # sweep
     "cli.flutter_fe",  # flutter-fe
     "cli.continuum",  # flutter-exact (issue 13)
+    "cli.travel",  # travel (issue 14)
 )
 
 

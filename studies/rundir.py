@@ -197,17 +197,19 @@ class RunSignals:
     held) would ignore SIGTERM. A watchdog process (forked at entry) reads the signal numbers
     from ``signal.set_wakeup_fd``, written by the C-level handler at once; if the Python
     handler has not acknowledged a signal ``grace`` seconds later (in ``raise``/``flag``
-    mode), the watchdog calls ``on_hard_stop(signum)`` (mark the run ``interrupted``, or drop
+    mode), the watchdog calls ``on_hard_stop(signum, phase)`` (mark it ``interrupted``, or drop
     the replacement) and ends the run with SIGKILL (exit status 137). Only in the main thread;
     elsewhere (a test's thread) nothing is installed.
     """
 
     SIGNALS = (signal.SIGINT, signal.SIGTERM)
 
-    def __init__(self, on_hard_stop, grace: float = 2.0, rescue=None) -> None:  # noqa: ANN001
+    def __init__(self, on_hard_stop, grace: float = 2.0, rescue=None,  # noqa: ANN001
+                 on_death=None) -> None:  # noqa: ANN001
         self.on_hard_stop, self.grace, self.rescue = on_hard_stop, grace, rescue
+        self.on_death = on_death
         self.rescue_pid = 0
-        self._mode = "raise"
+        self._mode = "start"  # until the run's try block: record, do not raise yet
         self.sim = None
         self.requested = 0
         self.previous: dict = {}
@@ -223,6 +225,8 @@ class RunSignals:
     @mode.setter
     def mode(self, value: str) -> None:
         self._mode = value
+        if value == "flag":
+            self._tell(b"f")  # the watchdog's phase name: the time loop
         if value in ("defer", "done"):
             self._tell(b"d")  # the watchdog stands down: the run saves or has saved
 
@@ -236,20 +240,33 @@ class RunSignals:
     def __enter__(self) -> RunSignals:
         if not self.active:
             return self
-        sig_r, sig_w = os.pipe()
-        ack_r, ack_w = os.pipe()
-        os.set_blocking(sig_w, False)
-        os.set_blocking(ack_w, False)
-        parent = os.getpid()
-        pid = _fork(lambda: self._watch(sig_r, ack_r, parent), new_session=False,
-                    close=(sig_w, ack_w))
-        os.close(sig_r)
-        os.close(ack_r)
-        self.watchdog, self.sig_w, self.ack_w = pid, sig_w, ack_w
-        for sig in self.SIGNALS:
-            self.previous[sig] = signal.signal(sig, self._handler)
-        self.old_wakeup = signal.set_wakeup_fd(sig_w, warn_on_full_buffer=False)
+        # Blocked while forking and installing: a signal now waits, then reaches our handler
+        # (mode "start": recorded; the run raises it at its first line), never a caller's
+        # handler inside fork's at-fork hooks, where an exception is lost.
+        mask = signal.pthread_sigmask(signal.SIG_BLOCK, self.SIGNALS)
+        try:
+            sig_r, sig_w = os.pipe()
+            ack_r, ack_w = os.pipe()
+            os.set_blocking(sig_w, False)
+            os.set_blocking(ack_w, False)
+            parent = os.getpid()
+            pid = _fork(lambda: self._watch(sig_r, ack_r, parent), new_session=False,
+                        close=(sig_w, ack_w))
+            os.close(sig_r)
+            os.close(ack_r)
+            self.watchdog, self.sig_w, self.ack_w = pid, sig_w, ack_w
+            for sig in self.SIGNALS:
+                self.previous[sig] = signal.signal(sig, self._handler)
+            self.old_wakeup = signal.set_wakeup_fd(sig_w, warn_on_full_buffer=False)
+        finally:
+            signal.pthread_sigmask(signal.SIG_SETMASK, mask)
         return self
+
+    def start(self) -> None:
+        """Enter the setup phase: signals raise KeyboardInterrupt from now on."""
+        self.mode = "raise"
+        if self.requested:
+            raise KeyboardInterrupt
 
     def __exit__(self, *exc) -> None:  # noqa: ANN002
         if not self.active:
@@ -257,6 +274,7 @@ class RunSignals:
         signal.set_wakeup_fd(self.old_wakeup)
         for sig, handler in self.previous.items():
             signal.signal(sig, handler)
+        self._tell(b"x")  # a clean end: the watchdog has nothing to tidy
         os.close(self.sig_w)
         os.close(self.ack_w)
         self.sig_w = self.ack_w = -1
@@ -270,6 +288,8 @@ class RunSignals:
         self._tell(b"a")
         self.requested = self.requested or signum
         if self.rescue is not None and not self.rescue_pid and self.mode != "done":
+            self.rescue_pid = -2  # a second signal during the fork must not fork again
+            self._tell(b"r")  # the rescue writer owns the status from now on
             self.rescue_pid = _fork(self.rescue)
         if self.mode == "flag" and self.sim is not None:
             self.sim.stop_requested = True
@@ -286,37 +306,60 @@ class RunSignals:
             self.rescue_pid = -1
 
     def _watch(self, sig_r: int, ack_r: int, parent: int) -> None:
-        """The watchdog process: signals in, acknowledgements in; hard stop if none comes."""
+        """The watchdog process: signals in, acknowledgements in; hard stop if none comes.
+
+        Ends when the acknowledgement pipe closes: after b"x" the run ended cleanly; without
+        it the process was killed outright and ``on_death(parent, rescued, phase)`` tidies.
+        """
         import select
 
         received = acked = 0
         since = None
         last = 0
-        standing_down = False
+        standing_down = clean = rescued = False
+        phase = "setup"
+        fds = [sig_r, ack_r]
         while True:
             timeout = None
             if since is not None and not standing_down:
                 timeout = max(0.0, since + self.grace - time.monotonic())
-            ready, _, _ = select.select([sig_r, ack_r], [], [], timeout)
+            ready, _, _ = select.select(fds, [], [], timeout)
             if not ready:
-                self.on_hard_stop(last)
+                self.on_hard_stop(last, phase)
                 os.kill(parent, signal.SIGKILL)
                 return
             if sig_r in ready:
                 data = os.read(sig_r, 64)
-                if not data:
-                    return
-                received += len(data)
-                last = data[-1]
-                since = since or time.monotonic()
+                if data:
+                    received += len(data)
+                    last = data[-1]
+                    since = since or time.monotonic()
+                else:
+                    fds.remove(sig_r)
             if ack_r in ready:
                 data = os.read(ack_r, 64)
                 if not data:
+                    if not clean and self.on_death is not None:
+                        self.on_death(parent, rescued, phase)
                     return
+                clean = clean or b"x" in data
+                rescued = rescued or b"r" in data
+                if b"f" in data:
+                    phase = "the time loop"
+                if b"d" in data:
+                    phase = "the final save"
                 acked += data.count(b"a")
                 standing_down = standing_down or b"d" in data
             if acked >= received:
                 since = None
+
+
+def _disk_status(folder: Path) -> str | None:
+    """The status in ``folder/summary.json``, None if there is none (or it is unreadable)."""
+    try:
+        return str(json.loads((Path(folder) / "summary.json").read_text())["status"])
+    except (OSError, ValueError, KeyError, TypeError):
+        return None
 
 
 def _signame(signum: int) -> str:
@@ -403,7 +446,10 @@ def run_scene(scene: Scene, run_dir: Path, *, force: bool = False,
     phase = ["setup"]
 
     def mark(status: str, message: str) -> None:
-        """The run ended without the normal save (rank-local; a last resort)."""
+        """The run ended without the normal save (rank-local; a last resort). A final status
+        already on disk (another rank's ``failed``) is the first truth: it stays."""
+        if _disk_status(work) not in (None, "running"):
+            return
         if rd.replacing and not replace_on_failure:
             discard_run_dir(rd)
             return
@@ -417,9 +463,9 @@ def run_scene(scene: Scene, run_dir: Path, *, force: bool = False,
         except OSError:
             pass
 
-    def hard_stop(signum: int) -> None:
+    def hard_stop(signum: int, where: str) -> None:
         name = _signame(signum)
-        msg = f"{name} while in {phase[0]} (busy in compiled code: stopped without saving)"
+        msg = f"{name} while in {where} (busy in compiled code: stopped without saving)"
         print(f"stickslip: {msg}", file=sys.stderr, flush=True)
         if rank0:
             mark("interrupted", msg)
@@ -435,6 +481,8 @@ def run_scene(scene: Scene, run_dir: Path, *, force: bool = False,
         out.pop("pid", None)
         out.update(status=status_, message=msg + " (saved by the rescue writer: no probes, "
                    "no final field)", wall_time_s=time.perf_counter() - t0)
+        if _disk_status(rd.work) not in (None, "running"):
+            return  # another rank marked the run (failed) before mpirun's signal came
         if sim_ is None and rd.replacing:
             discard_run_dir(rd)
             return
@@ -443,9 +491,6 @@ def run_scene(scene: Scene, run_dir: Path, *, force: bool = False,
         atomic_write_text(rd.work / "summary.json", json.dumps(out, indent=2))
         commit_run_dir(rd)
 
-    sim = None
-    error = None
-    status = "failed"
     def first_files() -> None:
         """scene.toml and the ``running`` summary; a write error leaves nothing half-made."""
         problem = None
@@ -466,8 +511,34 @@ def run_scene(scene: Scene, run_dir: Path, *, force: bool = False,
         if problem:
             raise RunDirError(problem)
 
-    with RunSignals(hard_stop, rescue=rescue if rank0 and comm.size > 1 else None) as signals:
+    def tidy(pid: int, rescued: bool, where: str) -> None:
+        """The run's process died outright (SIGKILL, out of memory; in the watchdog): remove
+        its temporary files and, on rank 0, turn a ``running`` summary into ``failed`` (or
+        drop an unfinished replacement). The rescue writer, if any, owns the status."""
+        from solver.atomic import remove_temporaries
+
+        for folder in {rd.work, rd.final}:
+            remove_temporaries(folder, pid)
+        if not rank0 or rescued:
+            return
+        for folder in {rd.work, rd.final}:
+            if _disk_status(folder) != "running":
+                continue
+            if rd.replacing and folder == rd.work:
+                discard_run_dir(rd)
+            else:
+                atomic_write_text(folder / "summary.json", json.dumps(dict(
+                    started, status="failed", message=f"the process was killed outright "
+                    f"(SIGKILL: out of memory, or mpirun/batch system) during {where}",
+                    wall_time_s=time.perf_counter() - t0), indent=2))
+
+    sim = None
+    error = None
+    status = "failed"
+    with RunSignals(hard_stop, rescue=rescue if rank0 and comm.size > 1 else None,
+                    on_death=tidy) as signals:
         try:
+            signals.start()
             first_files()
             say(f"stickslip {__version__}: scene '{scene.name}' on {comm.size} rank(s)")
             if est is not None:
@@ -554,6 +625,10 @@ def _save(sim: Simulation | None, rd: RunDir, scene: Scene, status: str, error: 
         signals.wait_rescue()
         if rd.replacing and not rd.work.exists():  # the rescue writer swapped it in
             rd.work = rd.final
+        work = rd.work
+        if status in ("interrupted", "failed") and _disk_status(work) == "failed":
+            # another rank failed and marked the run before mpirun's signal reached us
+            return json.loads((work / "summary.json").read_text())
         summary = sim.facts() if sim is not None else {"scene": scene.name, "status": status}
 
         def finish(s: dict) -> dict:

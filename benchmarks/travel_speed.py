@@ -1,0 +1,104 @@
+"""Speed of ``stickslip travel`` (issue 14), one core: ``OMP_NUM_THREADS=1 python3
+benchmarks/travel_speed.py [RUN_DIR]``.
+
+Prints, each with its wall time:
+
+1. the reduced-model rung: one wave (k = 8 example, N = 256) from the closed-form start;
+2. a 40-point continuation in Ω of that reduced wave (50 ... 1000 rad/s);
+3. the FE problem at N = 132 (figure3_n132): mesh + K + G + one condensation (setup), then
+   one solve attempt from the transient run RUN_DIR (default runs/figure3_n132; run
+   ``stickslip run scenes/figure3_n132.toml`` first), reported with its outcome;
+4. a 40-point FE continuation in loading.omega (36 contact nodes, Figure-1 physics, start
+   speed −2300 m/s held fixed per point).
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from semianalytic.coefficients import coefficients, gamma_from_physical
+from semianalytic.waves import stick_slip_waves
+from studies.travel.newton import NotConverged, solve_wave
+from studies.travel.reduced import reduced_problem, wave_start
+
+
+def main() -> None:
+    run_dir = Path(sys.argv[1]) if len(sys.argv) > 1 else Path("runs/figure3_n132")
+    co = coefficients(0.3, 1.25, gamma_from_physical(1000.0, 1.0, 100.0))
+    w = [x for x in stick_slip_waves(co, 1.0, 8, 0.005) if x.admissible][0]
+    n = 256
+    prob = reduced_problem(co, 1.0, 0.005, n)
+    W0, c0 = wave_start(w, n)
+    t0 = time.perf_counter()
+    sol = solve_wave(prob, W0, c0, 8)
+    print(f"reduced wave k=8 N={n}: {time.perf_counter() - t0:.3f} s, c err "
+          f"{abs(sol.omega - w.c) / abs(w.c):.2e}, {sol.iterations} iterations")
+
+    # 2. continuation in Ω, 40 values from 100 down to 50 rad/s (c√γ is Ω independent: the
+    # predictor scales c as 1/Ω and W_θ − V_e as Ω, V_e = δfg/h the steady slip value)
+    from semianalytic.waves import continuation_omega
+
+    omegas = np.linspace(100.0, 50.0, 40)
+    t0 = time.perf_counter()
+    ok, first_bad = 0, None
+    W, c = np.concatenate([sol.W_r, sol.W_t]), sol.omega
+    om_prev = 100.0
+    for om in omegas:
+        cor = coefficients(0.3, 1.25, gamma_from_physical(1000.0, 1.0, om))
+        pr = reduced_problem(cor, 1.0, 0.005, n)
+        ve = 0.005 * 1.0 * cor.g / cor.h
+        Wp = W.copy()
+        Wp[n:] = ve + (W[n:] - ve) * om / om_prev
+        try:
+            s = solve_wave(pr, Wp, c * om_prev / om, 8)
+            W, c, om_prev = np.concatenate([s.W_r, s.W_t]), s.omega, om
+            ok += 1
+        except NotConverged as err:
+            first_bad = first_bad or (om, str(err)[:80])
+    t_cont = time.perf_counter() - t0
+    ref = continuation_omega(w, omegas)
+    n_adm = sum(1 for r in ref if r is not None and r.admissible)
+    print(f"reduced continuation, 40 values of Omega 100 -> 50: {t_cont:.2f} s, {ok}/40 "
+          f"converged (closed form: {n_adm}/40 admissible); first failure: {first_bad}")
+
+    # 3. FE at N = 132
+    from solver.scene import load_scene
+    from studies.travel import driver as D
+
+    t0 = time.perf_counter()
+    st = D.setup(load_scene("scenes/figure3_n132.toml"))
+    st.prob.stiffness(-2500.0)
+    t_setup = time.perf_counter() - t0
+    msg = "no run directory"
+    t1 = time.perf_counter()
+    if (run_dir / "samples.npz").exists():
+        W0, om0, _ = D.start_from_run(run_dir, st)
+        try:
+            s = D.solve_scene(st, 4, W0, om0, max_iter=30, scan=0.0)
+            msg = f"converged, {s.omega:.1f} m/s"
+        except NotConverged as err:
+            msg = f"FAILED: {str(err)[:90]}"
+    print(f"FE N=132: setup (mesh, K, G, one condensation) {t_setup:.2f} s; solve from the "
+          f"transient {time.perf_counter() - t1:.2f} s: {msg}")
+
+    # 4. FE continuation, 40 points, N = 36
+    from types import SimpleNamespace
+
+    from studies.travel.continuation import run_continuation
+
+    sc = load_scene("scenes/figure1.toml", ["mesh.n_inner=36"])
+    args = SimpleNamespace(k=4, damping=0.0, from_run=None, celerity=-2300.0,
+                           fixed_omega=True, max_iter=40, plot=False)
+    out = Path("/tmp/travel_speed_cont")
+    out.mkdir(exist_ok=True)
+    t0 = time.perf_counter()
+    run_continuation(sc, args, "loading.omega", list(np.linspace(30.0, 50.0, 40)), out, t0)
+    print(f"FE continuation N=36, 40 points: {time.perf_counter() - t0:.2f} s")
+
+
+if __name__ == "__main__":
+    main()

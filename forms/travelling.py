@@ -1,0 +1,45 @@
+"""Inertia of a wave that is stationary in a frame turning at ω (issue 14, ``stickslip travel``).
+
+A wave turning rigidly at angular speed ω is u(x, t) = Q(ωt) w(Q(ωt)ᵀx), Q(α) = exp(αJ),
+J = [[0, −1], [1, 0]] the quarter turn. With y = Qᵀx, dy/dα = −Jy and ∇w·(−Jy) = −∂_θ w
+(∂_θ = x ∂_y − y ∂_x), so
+
+    ∂u/∂α = Q (J − ∂_θ) w,    ü = ω² Q (∂_θ − J)² w.
+
+On the annulus (rotation invariant) ∂_θ is skew-adjoint in L² (its field (−y, x) is
+divergence free and tangent to both circles) and J is a skew matrix, so L = ∂_θ − J is
+skew-adjoint and ∫ρ ü·v (pulled back to the wave frame) = −ω² ∫ρ Lw·Lv. The wave-frame
+equation K w − ω² G w = r (r: contact forces) therefore has the symmetric, positive
+semi-definite "travelling inertia" G below. An axisymmetric field has Lw = 0 (∂_θ e_r = e_θ =
+J e_r), so steady sliding feels no inertia, as it must.
+"""
+
+from __future__ import annotations
+
+import ufl
+
+__all__ = ["frame_derivative", "travelling_damping", "travelling_inertia"]
+
+
+def frame_derivative(w: ufl.core.expr.Expr, x: ufl.core.expr.Expr) -> ufl.core.expr.Expr:
+    """``(∂_θ − J) w`` with ``∂_θ w = ∇w · (−x₂, x₁)`` and ``J w = (−w₂, w₁)``."""
+    t = ufl.as_vector((-x[1], x[0]))
+    return ufl.dot(ufl.grad(w), t) - ufl.as_vector((-w[1], w[0]))
+
+
+def travelling_inertia(u: ufl.Argument, v: ufl.Argument, rho: float) -> ufl.Form:
+    """``G(u, v) = ∫ ρ (∂_θ − J)u · (∂_θ − J)v dx``; wave-frame operator ``K − ω² G``."""
+    x = ufl.SpatialCoordinate(u.ufl_function_space().mesh)
+    return rho * ufl.inner(frame_derivative(u, x), frame_derivative(v, x)) * ufl.dx
+
+
+def travelling_damping(u: ufl.Argument, v: ufl.Argument, material, eta: float) -> ufl.Form:
+    """Kelvin–Voigt damping in the wave frame: ``η ∫ σ(u̇):ε(v)`` with u̇ = −ω Q(∂_θ − J)w.
+
+    Returns ``D(w, v) = η ∫ σ((∂_θ − J)w) : ε(v) dx`` (not symmetric); the wave-frame
+    operator becomes ``K − ω²G − ω D``. ``material`` is a ``forms.elasticity.Material``.
+    """
+    from forms.elasticity import strain, stress
+
+    x = ufl.SpatialCoordinate(u.ufl_function_space().mesh)
+    return eta * ufl.inner(stress(frame_derivative(u, x), material), strain(v)) * ufl.dx

@@ -1,0 +1,211 @@
+"""One travelling wave of a scene on its FE mesh: start, solve, measure (``stickslip travel``).
+
+Starts (``start``):
+
+* ``run``: a transient run directory (``--from``): the last inner-circle sample is the wave
+  (in polar components it is W(θ − ωt_end), a rotation of the same wave) and the measured
+  angular speed of ``postprocess.analysis`` is ω₀;
+* ``reduced``: the reduced model's travelling wave at the scene's ν, ξ, f, δ, Ω and k
+  (``semianalytic.waves.find_waves``, admissible first), W = R(U, V)(θ), ω₀ = cΩ;
+* ``guess``: built in: ``reduced`` if the reduced model has any wave at k, otherwise a
+  mode-k stick-slip guess W_θ = 0.2 d cos kθ at the reduced flutter phase speed.
+
+The measured summary uses ``postprocess.analysis.analyse`` on the exact space-time record of
+the discrete wave (the nodal values shifted by one node every Δφ/|ω|), so every key means
+what it means for ``stickslip run``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from solver.scene import Scene
+from studies.travel.newton import (
+    CircleProblem,
+    TravelSolution,
+    material_rate,
+    solve_wave,
+    zone_lengths,
+)
+
+__all__ = ["TravelResult", "Setup", "band", "setup", "start_from_run", "start_from_reduced",
+           "solve_scene", "measure"]
+
+Array = NDArray[np.float64]
+
+
+@dataclass
+class Setup:
+    """Scene, FE problem in the wave frame and the condensed contact problem."""
+
+    scene: Scene
+    ops: Any  # studies.travel.frame.FrameOperators
+    prob: CircleProblem
+
+
+@dataclass
+class TravelResult:
+    """A solved wave, its measured summary and the profiles over one period."""
+
+    solution: TravelSolution
+    summary: dict
+    profiles: dict[str, Array] = field(default_factory=dict)
+
+
+def setup(scene: Scene, damping: float = 0.0) -> Setup:
+    """Mesh, stiffness (``solver.problem``), travelling inertia and the condensed problem."""
+    from solver.problem import build_problem
+    from studies.travel.frame import circle_problem, frame_operators
+
+    ops = frame_operators(build_problem(scene), damping)
+    return Setup(scene, ops, circle_problem(ops))
+
+
+def retarget(st: Setup, scene: Scene) -> Setup:
+    """Same mesh and material, new loading / mismatch (continuation in Ω, f, δ): no rebuild."""
+    from studies.travel.frame import circle_problem
+
+    return Setup(scene, st.ops, circle_problem(st.ops, scene))
+
+
+def start_from_run(run_dir: Path, st: Setup) -> tuple[Array, float, dict]:
+    """(W0, ω0, info) from a transient run directory's last sample (module doc)."""
+    from postprocess.analysis import analyse_run, load_run
+
+    run = load_run(run_dir)
+    s = run.samples
+    order = np.argsort(s["theta"])
+    if s["theta"].size != st.ops.n or not np.allclose(s["theta"][order], st.ops.theta):
+        raise ValueError(f"--from {run_dir}: its contact nodes differ from the scene's mesh "
+                         f"({s['theta'].size} vs {st.ops.n}); use the run's own scene")
+    wave = analyse_run(run)
+    if wave.angular_speed_rad_s == 0.0:
+        raise ValueError(f"--from {run_dir}: the run ended in steady sliding (no wave to start "
+                         "from); start from the reduced model instead")
+    W0 = np.concatenate([s["u_r"][-1][order], s["u_theta"][-1][order]])
+    return W0, float(wave.angular_speed_rad_s), {"start": "run", "from": str(run_dir),
+                                                 "start_celerity_m_s": wave.celerity_m_s,
+                                                 "start_mode": wave.mode}
+
+
+def start_from_reduced(st: Setup, k: int) -> tuple[Array, float, dict]:
+    """(W0, ω0, info) from the reduced model's wave at k (module doc)."""
+    from semianalytic.coefficients import coefficients, gamma_from_physical
+    from semianalytic.waves import find_waves
+    from studies.reduced_transient import wave_fields
+
+    sc = st.scene
+    R, om = sc.geometry.R, sc.loading.omega
+    co = coefficients(sc.material.nu, sc.geometry.xi,
+                      gamma_from_physical(sc.material.wave_speed, R, om))
+    waves = find_waves(co, sc.loading.f, k, sc.geometry.delta)
+    theta = st.ops.theta
+    if waves:
+        w = waves[0]
+        ev = wave_fields(w, theta)
+        W0 = R * np.concatenate([ev["U"], ev["V"]])
+        return W0, w.c * om, {"start": "reduced", "start_celerity_m_s": w.c * om * R,
+                              "start_regime": w.regime, "start_admissible": w.admissible}
+    from semianalytic.flutter import flutter_modes
+
+    c = flutter_modes(co, sc.loading.f, kmax=k, kmin=k)[0].phase_speed
+    d = sc.geometry.d
+    W0 = np.concatenate([np.full(theta.size, d), 0.2 * d * np.cos(k * theta)])
+    return W0, c * om, {"start": "flutter", "start_celerity_m_s": c * om * R}
+
+
+def solve_scene(st: Setup, k: int, W0: Array, omega0: float, *, free_omega: bool = True,
+                max_iter: int = 60, scan: float = 0.1, **kw) -> TravelSolution:
+    """Newton for (W, ω) with the phase condition; if it fails, the fixed-ω wave nearest to
+    ω0 (``newton.nearest_wave``: ω0(1 ± j%) up to ±``scan``). ``sol.how`` says which."""
+    from studies.travel.newton import NotConverged, nearest_wave
+
+    first: NotConverged | None = None
+    if free_omega:
+        try:
+            sol = solve_wave(st.prob, W0, omega0, k, max_iter=max_iter, **kw)
+            sol.how = "free omega (phase condition)"
+            return sol
+        except NotConverged as err:
+            first = err
+    try:
+        sol = nearest_wave(st.prob, W0, omega0, k, rel_step=0.01,
+                           max_steps=max(0, int(round(scan / 0.01))),
+                           max_iter=min(max_iter, 30), **kw)
+    except NotConverged as err:
+        if first is not None:
+            raise NotConverged(f"{first}; then {err}", err.info) from None
+        raise
+    sol.how = "fixed omega (nearest admissible speed to the start)"
+    return sol
+
+
+def measure(st: Setup, sol: TravelSolution, k: int) -> tuple[dict, dict[str, Array]]:
+    """``stickslip run``-style summary (``postprocess.analysis.analyse``) and profiles."""
+    from postprocess.analysis import analyse
+
+    sc, ops = st.scene, st.ops
+    n, R, d = ops.n, sc.geometry.R, sc.geometry.d
+    theta = ops.theta
+    dt = (2.0 * math.pi / n) / abs(sol.omega)
+    sign = 1 if sol.omega > 0 else -1
+    shifts = np.arange(n)  # one full turn; at t_m the wave has moved m nodes
+    idx = (np.arange(n)[None, :] - sign * shifts[:, None]) % n
+    t = shifts * dt
+    wave = analyse(t, theta, sol.W_r[idx], sol.W_t[idx], sol.status[idx], d=d, radius=R)
+    z = zone_lengths(st.prob, sol)
+    v_t = material_rate(sol.W_t, sol.omega)
+    v_r = material_rate(sol.W_r, sol.omega)
+    summary = {
+        "status": "converged",
+        "method": "travel (wave frame, semismooth Newton)",
+        "regime": wave.regime, "mode": wave.mode, "k": k,
+        "celerity_m_s": sol.omega * R, "angular_speed_rad_s": sol.omega,
+        "celerity_measured_m_s": wave.celerity_m_s,
+        "frequency_hz": abs(sol.omega) * k / (2.0 * math.pi),
+        "fractions": wave.fractions, "amplitude_m": wave.amplitude_m,
+        "amplitude_r_m": wave.amplitude_r_m, "amplitude_theta_m": wave.amplitude_theta_m,
+        "psi1": wave.psi1, "psi2": wave.psi2,
+        "psi1_subnode": z["separation"], "psi2_subnode": z["separation"] + z["stick"],
+        "zone_order": wave.zone_order, "direction": wave.direction,
+        "limit_cycle": True,
+        "residual": sol.residual, "iterations": sol.iterations,
+        "solve": getattr(sol, "how", ""),
+        "residual_history": sol.residual_history,
+        "inequalities": {"margins": sol.margins, "violated": sol.violated,
+                         "all_satisfied": sol.violated is None},
+        "contact_nodes": n, "dofs": int(ops.problem.n_global_dofs),
+    }
+    ds = ops.ds_weight
+    T = 2.0 * math.pi / k
+    per = theta < T - 1e-12
+    profiles = {
+        "phi": theta[per], "U": (sol.W_r - d)[per], "V": sol.W_t[per],
+        "U_dot": v_r[per], "V_dot": v_t[per], "P": (sol.p / ds)[per], "Q": (sol.q / ds)[per],
+        "status": sol.status[per],
+        "W_r": sol.W_r, "W_t": sol.W_t, "p_node": sol.p, "q_node": sol.q, "theta": theta,
+        "status_all": sol.status, "omega": np.array(sol.omega),
+    }
+    return summary, profiles
+
+
+def band(st: Setup, sol: TravelSolution, k: int) -> dict:
+    """Speeds (m/s) over which the wave's family stays admissible, with ψ and amplitude ranges
+    (``studies.travel.newton.wave_band``; the discrete waves are not isolated in ω)."""
+    from studies.travel.newton import wave_band
+
+    lo, hi, members = wave_band(st.prob, sol, k, rel_step=0.002, max_steps=40, max_iter=30)
+    R = st.scene.geometry.R
+    zs = [zone_lengths(st.prob, m) for m in members]
+    p1 = [z["separation"] for z in zs]
+    p2 = [z["separation"] + z["stick"] for z in zs]
+    amp = [float(max(m.W_r.max() - st.prob.d, 0.5 * np.ptp(m.W_t))) for m in members]
+    return {"celerity_m_s": [lo * R, hi * R], "members": len(members),
+            "psi1": [min(p1), max(p1)], "psi2": [min(p2), max(p2)],
+            "amplitude_m": [min(amp), max(amp)]}

@@ -1,0 +1,223 @@
+"""The FE tube in the wave's frame: K − ω²G condensed on the contact nodes (issue 14).
+
+``forms.travelling`` gives the wave-frame operator A(ω) = K − ω²G (K: the transient's
+stiffness, ``solver.problem.build_problem``; G: travelling inertia). The outer circle is
+clamped (its dofs removed). Everything but the contact is linear, so with c = contact dofs
+and i = the other free dofs,
+
+    S(ω) = A_cc − A_ci A_ii⁻¹ A_ic          (the FE dynamic stiffness at the contact nodes),
+    dS/dω = −2ω (G_cc − G_ci X − Xᵀ G_ic + Xᵀ G_ii X),   X = A_ii⁻¹ A_ic,
+
+(differentiate A_ii⁻¹: d(A⁻¹) = −A⁻¹ dA A⁻¹; A, G symmetric). The interior is recovered as
+w_i = −X w_c. S is rotated node by node to polar components (W_r block, W_θ block, nodes in
+θ order): x = cosθ W_r − sinθ W_θ, y = sinθ W_r + cosθ W_θ, S_polar = Tᵀ S T, so that
+S_polar W = (p, q), the nodal forces [N/m] the cylinder exerts (as in ``solver.contact``).
+
+Serial (one process): the condensed problem is dense and small (2N × 2N).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+from numpy.typing import NDArray
+from scipy.sparse.linalg import splu
+
+from solver.problem import TubeProblem
+from solver.scene import Scene
+from studies.travel.newton import CircleProblem
+
+__all__ = ["FrameOperators", "frame_operators", "circle_problem"]
+
+Array = NDArray[np.float64]
+MODAL_MAX = 6000  # interiors up to this size may use the modal form of the Schur complement
+MODAL_AFTER = 40  # ... once this many ω have been evaluated (a one-off dense eigenproblem
+# of the interior costs ~25 sparse-LU condensations at N = 132, so few-ω solves skip it)
+
+
+def _csr(mat) -> sp.csr_matrix:
+    indptr, indices, data = mat.getValuesCSR()
+    return sp.csr_matrix((data, indices, indptr), shape=mat.getSize())
+
+
+@dataclass
+class FrameOperators:
+    """K and G restricted to the free dofs, split into contact (c) and interior (i) parts."""
+
+    problem: TubeProblem
+    K: sp.csr_matrix
+    G: sp.csr_matrix
+    contact: NDArray[np.intp]  # dof indices, x block then y block, nodes in θ order
+    interior: NDArray[np.intp]
+    theta: Array
+    ds_weight: Array  # ∫φ_i ds per contact node (nodal force / ds = pressure)
+    T: Array  # polar -> (x, y) at the contact dofs
+    C: sp.csr_matrix | None = None  # Kelvin–Voigt wave-frame damping (None: undamped)
+    _cache: tuple | None = None
+    _blocks: dict | None = None
+    _evaluations: int = 0
+
+    @property
+    def n(self) -> int:
+        return self.theta.size
+
+    def _split(self) -> dict:
+        """Blocks of K and G (once); the modal form once it pays (``factor``)."""
+        if self._blocks is None:
+            c, i = self.contact, self.interior
+            b = {}
+            mats = [("K", self.K), ("G", self.G)] + ([("C", self.C)] if self.C is not None
+                                                     else [])
+            for name, M in mats:
+                Mi = M[i]
+                b[name + "ii"] = Mi[:, i].tocsc()
+                b[name + "ic"] = Mi[:, c].toarray()
+                b[name + "ci"] = M[c][:, i].toarray()
+                b[name + "cc"] = M[c][:, c].toarray()
+            self._blocks = b
+        b = self._blocks
+        self._evaluations += 1
+        if ("mu" not in b and self.C is None and self.interior.size <= MODAL_MAX
+                and self._evaluations > MODAL_AFTER):
+            # G_ii Φ = K_ii Φ diag(μ), ΦᵀK_iiΦ = I  =>  A_ii⁻¹ = Φ diag(1/(1 − ω²μ)) Φᵀ
+            from scipy.linalg import eigh
+
+            mu, phi = eigh(b["Gii"].toarray(), b["Kii"].toarray())
+            b["mu"], b["phi"] = mu, phi
+            b["B0"], b["B1"] = phi.T @ b["Kic"], phi.T @ b["Gic"]
+        return b
+
+    def factor(self, omega: float, derivative: bool = True
+               ) -> tuple[Array, Array | None, Array | None]:
+        """(S_polar, dS_polar/dω or None, X) at ω (module doc); the last result is cached.
+
+        After ``MODAL_AFTER`` evaluations, small interiors switch to the modal form (one dense
+        generalised eigenproblem):
+        with B = Φᵀ A_ic = B0 − ω²B1 and D = diag(1/(1 − ω²μ)), S = A_cc − BᵀDB and
+        w_i = −ΦDB w_c, so each ω costs dense products only. Before that, and for large
+        interiors, A_ii is factored (sparse LU) at each ω.
+        """
+        if self._cache is not None and self._cache[0] == omega and (
+                self._cache[1][1] is not None or not derivative):
+            return self._cache[1]
+        b = self._split()
+        w2 = omega * omega
+        Acc = b["Kcc"] - w2 * b["Gcc"]
+        T = self.T
+        dS = None
+        if "mu" in b:
+            den = 1.0 - w2 * b["mu"]
+            B = b["B0"] - w2 * b["B1"]
+            DB = B / den[:, None]
+            S = Acc - B.T @ DB
+            if derivative:
+                # d(BᵀDB)/dω = 2 dBᵀ D B + Bᵀ dD B (D diagonal)
+                dB = -2.0 * omega * b["B1"]
+                dD = (2.0 * omega * b["mu"] / den**2)[:, None]
+                M = dB.T @ DB
+                dS = -2.0 * omega * b["Gcc"] - M - M.T - B.T @ (dD * B)
+            X = None  # w_i = −Φ D B w_c, formed only for the output field
+        elif self.C is None:
+            Aic = b["Kic"] - w2 * b["Gic"]
+            X = splu((b["Kii"] - w2 * b["Gii"]).tocsc()).solve(Aic)
+            S = Acc - Aic.T @ X
+            if derivative:
+                GX = b["Gic"].T @ X
+                dS = -2.0 * omega * (b["Gcc"] - GX - GX.T + X.T @ (b["Gii"] @ X))
+        else:  # damped: A = K − ω²G − ωC is not symmetric; dS/dω by a central difference
+            S = self._schur_damped(omega)
+            if derivative:
+                h = 1e-6 * abs(omega)
+                dS = (self._schur_damped(omega + h) - self._schur_damped(omega - h)) / (2 * h)
+            X = None
+        out = (T.T @ S @ T, None if dS is None else T.T @ dS @ T, X)
+        self._cache = (omega, out)
+        return out
+
+    def _schur_damped(self, omega: float) -> Array:
+        b = self._split()
+        w2 = omega * omega
+
+        def blk(key: str):
+            return b["K" + key] - w2 * b["G" + key] - omega * b["C" + key]
+
+        Aii = (b["Kii"] - w2 * b["Gii"] - omega * b["Cii"]).tocsc()
+        return blk("cc") - blk("ci") @ splu(Aii).solve(blk("ic"))
+
+    def stiffness(self, omega: float, derivative: bool = True) -> tuple[Array, Array | None]:
+        S, dS, _ = self.factor(omega, derivative)
+        return S, dS
+
+    def full_field(self, W: Array, omega: float) -> Array:
+        """Owned dof array of w (clamped dofs 0) from the polar contact values W at ω."""
+        _, _, X = self.factor(omega)
+        b = self._split()
+        wc = self.T @ W
+        out = np.zeros(self.problem.n_owned)
+        out[self.contact] = wc
+        if X is None:
+            w2 = omega * omega
+            out[self.interior] = -b["phi"] @ (((b["B0"] - w2 * b["B1"]) @ wc)
+                                             / (1.0 - w2 * b["mu"]))
+        else:
+            out[self.interior] = -X @ wc
+        return out
+
+
+def frame_operators(problem: TubeProblem, damping: float = 0.0) -> FrameOperators:
+    """Assemble G (and the damping, retardation time ``damping`` s), split the free dofs,
+    order the contact nodes by θ (serial only)."""
+    import dolfinx
+    import dolfinx.fem.petsc
+    import ufl
+
+    from forms.travelling import travelling_inertia
+
+    if problem.comm.size > 1:
+        raise ValueError("stickslip travel runs on one process: drop mpirun")
+    V = problem.V
+    u, v = ufl.TrialFunction(V), ufl.TestFunction(V)
+    Gm = dolfinx.fem.petsc.assemble_matrix(
+        dolfinx.fem.form(travelling_inertia(u, v, problem.material.rho)))
+    Gm.assemble()
+    G = _csr(Gm)
+    Gm.destroy()
+    K = _csr(problem.K)
+    nd = problem.nodes
+    order = np.argsort(nd.theta)
+    theta = nd.theta[order]
+    n = theta.size
+    dphi = 2.0 * math.pi / n
+    if abs(theta[0]) > 1e-9 * dphi or np.ptp(np.diff(theta)) > 1e-9 * dphi:
+        raise ValueError("contact nodes are not uniform from θ = 0: need the structured tube mesh")
+    contact = np.concatenate([nd.dofs_x[order], nd.dofs_y[order]]).astype(np.intp)
+    free = np.ones(problem.n_owned, dtype=bool)
+    free[problem.clamped] = False
+    free[contact] = False
+    interior = np.flatnonzero(free)
+    cs, sn = np.cos(theta), np.sin(theta)
+    T = np.block([[np.diag(cs), -np.diag(sn)], [np.diag(sn), np.diag(cs)]])
+    C = None
+    if damping > 0.0:
+        from forms.travelling import travelling_damping
+
+        Cm = dolfinx.fem.petsc.assemble_matrix(
+            dolfinx.fem.form(travelling_damping(u, v, problem.material, damping)))
+        Cm.assemble()
+        C = _csr(Cm)
+        Cm.destroy()
+    return FrameOperators(problem, K, G, contact, interior, theta, nd.ds_weight[order], T, C)
+
+
+def circle_problem(ops: FrameOperators, scene: Scene | None = None) -> CircleProblem:
+    """The condensed FE problem for ``studies.travel.newton.solve_wave`` (SI units).
+
+    ``scene`` (default: the one the operators were built for) may change the loading and the
+    mismatch only: K and G do not depend on them.
+    """
+    sc = ops.problem.scene if scene is None else scene
+    return CircleProblem(n=ops.n, d=sc.geometry.d, surface_speed=sc.geometry.R * sc.loading.omega,
+                         f=sc.loading.f, stiffness=ops.stiffness)

@@ -1,0 +1,466 @@
+"""Semismooth Newton for a travelling wave on the contact circle, interior eliminated.
+
+Setting (derivation in ``studies.travel.frame`` and docs/travelling_waves.md)
+-----------------------------------------------------------------------------
+A wave turning at angular speed ω is stationary in its own frame: u(x, t) = Q(ωt) w(Q(ωt)ᵀx).
+Everything but the contact is linear, so the interior unknowns are eliminated and the problem
+lives on the N contact nodes (θ_i = 2πi/N, uniform) with the polar nodal values
+W = (W_r, W_θ) and the nodal contact forces λ = (p, q) exerted by the cylinder:
+
+    S(ω) W = λ,                                                     (equilibrium)
+
+S(ω) = Schur complement of the dynamic stiffness K − ω²G at the contact nodes (FE) or the
+reduced operator of eq. [2] (reduced model). Both are supplied as a callable returning
+(S, dS/dω).
+
+Contact law in the wave frame. The material derivative of a polar component is −ω ∂_φ, so
+the slip velocity of the cylinder relative to the tube is s = RΩ + ω ∂_φ W_θ. It is
+discretised *upwind in time*: the material point now at node i was at the upstream node
+up(i) = i + sign(ω) a time τ_h = Δφ/|ω| earlier (Δφ = 2π/N), so
+
+    s_i τ_h = RΩ τ_h + W_θ,up(i) − W_θ,i.
+
+This is exactly the transient's nodal law with "time step" τ_h (``solver.contact``: stick =
+the node advances RΩ·dt from where it was one step earlier). So the law is applied by the same
+function, ``solver.contact.project_contact``, in the Alart–Curnier fixed-point form
+
+    λ = proj(λ − c (W − W_target)),   c > 0 a nodal stiffness,
+
+i.e. the trial position is W − λ/c, the "previous" tangential position is W_θ,up and the
+cylinder travel is RΩ τ_h. A root of C(W, ω) = λ − proj(...) satisfies, node by node,
+W_r ≥ d, p ≥ 0, p(W_r − d) = 0, |q| ≤ f p, q = f p sign(s) where s ≠ 0 (stick: s = 0).
+
+Unknowns (W, ω), 2N + 1; equations C (2N) and one phase condition
+Im(e^{−iα₀} Σ_j W_θ,j e^{−ikθ_j}) = 0 that fixes the wave's position. Steady sliding solves
+C = 0 for every ω (and has no k-th Fourier mode), so it is rejected after convergence if the
+mode-k amplitude collapsed; a start near a wave stays near it in practice.
+
+The discrete problem is only Z_N symmetric, so the continuous rotation family of the
+continuum becomes a family parametrised by the sub-node position of the wave: for a fixed
+active set (which nodes separate / stick / slip) C = 0 is linear in W for every ω, so each
+active set is admissible on an interval of ω. The phase condition selects one member; ω
+varies over the family by an amount that falls with N (measured in docs/travelling_waves.md).
+
+Generalised Jacobian (rows by the status ``project_contact`` returns):
+separation: C = λ; stick: C_n = c(W_r − d), C_t = c(W_θ − W_θ,up − RΩτ_h);
+slip: C_n = c(W_r − d), C_t = q − fσ(p − c(W_r − d)), σ = sign of the trial stick force.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+from solver.contact import SEPARATION, SLIP, STICK, ContactArrays, project_contact
+
+__all__ = [
+    "CircleProblem", "NotConverged", "TravelSolution", "inequality_margins", "material_rate",
+    "solve_wave", "zone_lengths",
+]
+
+Array = NDArray[np.float64]
+StiffnessFn = Callable[..., tuple[Array, Array | None]]
+
+
+class NotConverged(RuntimeError):
+    """The Newton iteration failed; ``info`` names the last residual and what was violated."""
+
+    def __init__(self, message: str, info: dict) -> None:
+        super().__init__(message)
+        self.info = info
+
+
+@dataclass
+class CircleProblem:
+    """Travelling-wave problem reduced to N uniform contact nodes (any units, consistent).
+
+    ``stiffness(omega, derivative) -> (S, dS/domega or None)``: 2N × 2N, polar ordering (W_r
+    block, W_θ block), nodal forces = S W. ``surface_speed`` = RΩ, ``d`` = mismatch, ``f`` =
+    friction.
+    """
+
+    n: int
+    d: float
+    surface_speed: float
+    f: float
+    stiffness: StiffnessFn
+
+    @property
+    def theta(self) -> Array:
+        return np.arange(self.n) * (2.0 * math.pi / self.n)
+
+
+@dataclass
+class TravelSolution:
+    """A converged wave: nodal polar displacements, forces, status and ω (problem units)."""
+
+    omega: float
+    W_r: Array
+    W_t: Array
+    p: Array
+    q: Array
+    status: NDArray[np.int8]
+    iterations: int
+    residual: float
+    residual_history: list[float] = field(default_factory=list)
+    margins: dict[str, float] = field(default_factory=dict)
+    violated: str | None = None
+    how: str = ""
+
+    @property
+    def fractions(self) -> dict[str, float]:
+        n = self.status.size
+        return {
+            "separation": float(np.count_nonzero(self.status == SEPARATION)) / n,
+            "stick": float(np.count_nonzero(self.status == STICK)) / n,
+            "slip": float(np.count_nonzero(self.status == SLIP)) / n,
+        }
+
+
+def _upstream(n: int, omega: float) -> NDArray[np.intp]:
+    """Node the material at node i came from: i + sign(ω) (material moves by −ω in φ)."""
+    return (np.arange(n) + (1 if omega > 0 else -1)) % n
+
+
+def _tau(n: int, omega: float) -> float:
+    """BDF2 "time step" 2τ_h/3, τ_h = Δφ/|ω| (module doc)."""
+    return (2.0 / 3.0) * (2.0 * math.pi / n) / abs(omega)
+
+
+def material_rate(W_t: Array, omega: float) -> Array:
+    """Material time derivative −ω ∂_φ W_θ at the nodes, BDF2 upwind in time (module doc)."""
+    n = W_t.size
+    up = _upstream(n, omega)
+    return (W_t - (4.0 * W_t[up] - W_t[up[up]]) / 3.0) / _tau(n, omega)
+
+
+def fourier_k(values: Array, theta: Array, k: int) -> complex:
+    """Σ_j values_j e^{−ikθ_j} (same convention as postprocess.analysis.mode_coefficients)."""
+    return complex(np.sum(values * np.exp(-1j * k * theta)))
+
+
+class _Law:
+    """Alart–Curnier residual through ``project_contact`` (preallocated, allocation-light)."""
+
+    def __init__(self, prob: CircleProblem, c: float) -> None:
+        n = prob.n
+        self.prob, self.c, self.n = prob, c, n
+        self.out = ContactArrays(n)
+        self.mass = np.full(n, c)  # project_contact's stiff = mass / kappa = c (kappa = 1)
+
+    def __call__(self, W: Array, lam: Array, omega: float) -> tuple[Array, Array]:
+        """(C, λ_projected); ``self.out.status`` holds the nodal statuses."""
+        n, c, pr = self.n, self.c, self.prob
+        tau = _tau(n, omega)
+        up = _upstream(n, omega)
+        prev = (4.0 * W[n:][up] - W[n:][up[up]]) / 3.0
+        project_contact(
+            W[:n] - lam[:n] / c, W[n:] - lam[n:] / c, prev, self.mass, 1.0, pr.d,
+            pr.surface_speed * tau, pr.f, self.out,
+        )
+        proj = np.concatenate([self.out.r_r, self.out.r_t])
+        return lam - proj, proj
+
+
+def inequality_margins(prob: CircleProblem, sol: TravelSolution, scale_force: float) -> dict:
+    """Margins of every inequality of the nodal law (>= 0 when satisfied), relative.
+
+    gap (separated nodes) / d, p (contact) / force scale, f p − |q| (stick), slip velocity in
+    the sense of q (slip) / RΩ.
+    """
+    st = sol.status
+    sep, stick, slip = st == SEPARATION, st == STICK, st == SLIP
+    contact = ~sep
+    s = prob.surface_speed - material_rate(sol.W_t, sol.omega)
+    big = np.inf
+    return {
+        "gap_separation": float(np.min((sol.W_r[sep] - prob.d) / max(prob.d, 1e-300),
+                                       initial=big)),
+        "pressure_contact": float(np.min(sol.p[contact] / scale_force, initial=big)),
+        "cone_stick": float(np.min((prob.f * sol.p[stick] - np.abs(sol.q[stick])) / scale_force,
+                                   initial=big)),
+        "slip_direction": float(np.min(np.sign(sol.q[slip]) * s[slip] / prob.surface_speed,
+                                       initial=big)),
+        "penetration": float(np.min((sol.W_r - prob.d) / max(prob.d, 1e-300))),
+    }
+
+
+INEQUALITY_NAMES = {
+    "gap_separation": "[7] U > delta in separation",
+    "pressure_contact": "[5]/[6] P >= 0 in contact",
+    "cone_stick": "[6] |Q| <= fP in stick",
+    "slip_direction": "[5] slip velocity in the sense of Q",
+    "penetration": "U >= delta (no penetration)",
+}
+
+
+def solve_wave(
+    prob: CircleProblem,
+    W0: Array,
+    omega0: float,
+    k: int,
+    *,
+    tol: float = 1e-10,
+    max_iter: int = 60,
+    margin_tol: float = 1e-8,
+    min_mode_fraction: float = 1e-3,
+    growth: float = 1.0,
+    free_omega: bool = True,
+) -> TravelSolution:
+    """Semismooth Newton (with backtracking) for (W, ω) from the guess (W0, omega0).
+
+    The phase of the k-th Fourier mode of W_θ is held at that of the guess. Converged when
+    ‖C‖_∞ ≤ tol · c·d (c·d: the nodal force that pushes a node by the mismatch). Raises
+    ``NotConverged`` (last residual, violated inequality) on failure, on a collapse to steady
+    sliding, or when a converged wave violates an inequality by more than ``margin_tol``.
+    """
+    n = prob.n
+    theta = prob.theta
+    S0, _ = prob.stiffness(0.0, False)  # static: positive diagonal whatever the wave speed
+    c = float(np.mean(np.diag(S0)[:n]))
+    law = _Law(prob, c)
+    fscale = c * max(prob.d, 1e-300)
+    a0 = fourier_k(W0[n:], theta, k)
+    if abs(a0) == 0.0:
+        raise NotConverged("the start has no mode-k content in u_theta", {"k": k})
+    alpha = np.exp(-1j * (np.angle(a0) + k * theta))  # phase row: Im(alpha · W_θ) = 0
+    phase_row = alpha.imag / abs(a0)
+    W, om = np.array(W0, dtype=float), float(omega0)
+    hist: list[float] = []
+
+    def residual(W: Array, om: float) -> tuple[Array, Array, Array]:
+        S, _ = prob.stiffness(om, False)
+        lam = S @ W
+        C, proj = law(W, lam, om)
+        F = np.empty(2 * n + 1)
+        F[: 2 * n] = C
+        F[2 * n] = (fscale * float(phase_row @ W[n:]) / max(prob.d, 1e-300)
+                    if free_omega else 0.0)
+        return F, S, proj
+
+    F, S, proj = residual(W, om)
+    it = 0
+    best = float(F @ F)
+    while it < max_iter:
+        it += 1
+        norm = float(np.max(np.abs(F)))
+        hist.append(norm / fscale)
+        if norm <= tol * fscale:
+            break
+        if free_omega:
+            _, dS = prob.stiffness(om, True)
+        else:
+            dS = np.zeros_like(S)
+        J = _jacobian(prob, law, W, om, S, dS, phase_row, fscale)
+        if not free_omega:  # ω fixed: drop the phase row and the ω column
+            J, F = J[:-1, :-1], F[:-1]
+        try:
+            dx = np.linalg.solve(J, -F)
+        except np.linalg.LinAlgError:
+            dx = np.linalg.lstsq(J, -F, rcond=None)[0]
+        if not free_omega:
+            dx, F = np.append(dx, 0.0), np.append(F, 0.0)
+        # Non-monotone backtracking: a full step that changes the active set may raise the
+        # residual for a while (primal-dual active-set behaviour); accept growth up to
+        # ``growth`` times the best merit so far, else halve.
+        step = 1.0
+        merit = float(F @ F)
+        best = min(best, merit) if it > 1 else merit
+        for _ in range(12):
+            om_t = om + step * dx[-1] if free_omega else om
+            if om_t * om <= 0:  # never cross ω = 0 (the upwind direction flips)
+                step *= 0.5
+                continue
+            W_t = W + step * dx[:-1]
+            F_t, S_t, proj_t = residual(W_t, om_t)
+            m_t = float(F_t @ F_t)
+            if np.isfinite(m_t) and (m_t < (1.0 - 1e-4 * step) * merit or m_t < growth * best):
+                break
+            step *= 0.5
+        W, om, F, S, proj = W_t, om_t, F_t, S_t, proj_t
+    norm = float(np.max(np.abs(F)))
+    status = law.out.status.copy()
+    sol = TravelSolution(
+        omega=om, W_r=W[:n].copy(), W_t=W[n:].copy(), p=proj[:n].copy(), q=proj[n:].copy(),
+        status=status, iterations=it, residual=norm / fscale, residual_history=hist,
+    )
+    sol.margins = inequality_margins(prob, sol, fscale)
+    bad = [key for key, m in sol.margins.items() if m < -margin_tol]
+    sol.violated = INEQUALITY_NAMES[bad[0]] if bad else None
+    info = {"residual": sol.residual, "iterations": it, "omega": om, "hist": hist,
+            "violated": sol.violated, "margins": sol.margins}
+    if not norm <= tol * fscale or not np.isfinite(norm):
+        raise NotConverged(
+            f"no convergence after {it} iterations: last residual {sol.residual:.3e} "
+            f"(tol {tol:.1e}); violated inequality: {sol.violated or 'none'}", info)
+    amp = abs(fourier_k(W[n:], theta, k))
+    if amp < min_mode_fraction * abs(a0) or sol.fractions["slip"] == 1.0:
+        raise NotConverged(
+            "converged to steady sliding (no stick or separation, mode-k amplitude "
+            f"{amp / abs(a0):.1e} of the start)", info)
+    if sol.violated:
+        raise NotConverged(f"converged wave violates {sol.violated}", info)
+    sep = np.any(status == SEPARATION)
+    signal = (sol.W_r - prob.d) if sep else (sol.W_t - sol.W_t.mean())
+    spec = np.abs(np.fft.rfft(signal))
+    spec[0] = 0.0
+    mode = int(np.argmax(spec))
+    if mode != k:
+        raise NotConverged(f"converged to a wave whose dominant mode is {mode}, not k = {k} "
+                           "(a node-scale pattern, not the requested wave)", info | {"mode": mode})
+    return sol
+
+
+def _jacobian(
+    prob: CircleProblem, law: _Law, W: Array, om: float, S: Array, dS: Array,
+    phase_row: Array, fscale: float,
+) -> Array:
+    """Generalised Jacobian of (C, phase) w.r.t. (W, ω) at the current statuses (module doc)."""
+    n, c, f = prob.n, law.c, prob.f
+    st = law.out.status
+    sgn = np.sign(law.out.r_t)
+    dlam_w = dS @ W
+    J = np.zeros((2 * n + 1, 2 * n + 1))
+    J[: 2 * n, : 2 * n] = S  # separation rows (C = λ) by default
+    J[: 2 * n, 2 * n] = dlam_w
+    idx = np.arange(n)
+    contact = st != SEPARATION
+    ci = idx[contact]
+    J[ci, :] = 0.0
+    J[ci, ci] = c  # C_n = c (W_r − d)
+    stick = idx[st == STICK]
+    up = _upstream(n, om)
+    J[n + stick, :] = 0.0
+    J[n + stick, n + stick] = c
+    J[n + stick, n + up[stick]] -= c * 4.0 / 3.0
+    J[n + stick, n + up[up[stick]]] += c / 3.0
+    # d/dω of −c RΩ τ, τ = (2/3)Δφ/|ω|
+    J[n + stick, 2 * n] = c * prob.surface_speed * _tau(n, om) / om
+    slip = idx[st == SLIP]
+    fs = (f * sgn[slip])[:, None]
+    J[n + slip, : 2 * n] = S[n + slip, :] - fs * S[slip, :]
+    J[n + slip, slip] += f * sgn[slip] * c
+    J[n + slip, 2 * n] = dlam_w[n + slip] - f * sgn[slip] * dlam_w[slip]
+    J[2 * n, n: 2 * n] = fscale * phase_row / max(prob.d, 1e-300)
+    return J
+
+
+# ----------------------------------------------------------------------------- zone measure
+def zone_lengths(prob: CircleProblem, sol: TravelSolution) -> dict[str, float]:
+    """Zone fractions with the boundaries located *between* nodes (ψ to o(Δφ), not Δφ).
+
+    Nodal statuses give ψ only to one node, and near a boundary where an inequality is
+    tangent (the slip velocity or the cone margin going to 0) the discrete law may keep a
+    node or two on the wrong side with a tiny margin. Each boundary A → B (time order) is put
+    where the quantity that must vanish as zone A ends goes to 0, by linear extrapolation
+    from the two nodes where it is smallest at the end of the run of A:
+
+    * slip → stick: the slip velocity s; slip → separation, stick → separation: p;
+    * stick → slip: the cone margin f p − |q|; separation → contact: the gap W_r − d.
+
+    Returns the fractions of the circle (sum 1) and the sub-node boundary count.
+    """
+    n = prob.n
+    order = np.arange(n) if sol.omega < 0 else np.arange(n)[::-1]  # time order of nodes
+    st = sol.status[order]
+    if np.all(st == st[0]):
+        return {name: float(np.all(st == code)) for code, name in
+                enumerate(("separation", "stick", "slip"))} | {"boundaries": 0}
+    s = (prob.surface_speed - material_rate(sol.W_t, sol.omega))[order]
+    p, q, gap = sol.p[order], sol.q[order], (sol.W_r - prob.d)[order]
+    cone = prob.f * p - np.abs(q)
+    start = int(np.flatnonzero(st != np.roll(st, 1))[0])  # a run boundary
+    st, s, p, cone, gap = (np.roll(a, -start) for a in (st, s, p, cone, gap))
+    edges = np.flatnonzero(st != np.roll(st, -1))  # last node of each run
+    lengths = np.zeros(3)
+    bounds = []
+    for e in edges:
+        a, b = st[e], st[(e + 1) % n]
+        if a == SLIP:
+            ind = np.abs(s) if b == STICK else p
+        elif a == STICK:
+            ind = cone if b == SLIP else p
+        else:
+            ind = gap
+        bounds.append(e + _extrapolate_zero(ind, e, n))
+    for i in range(1, len(bounds)):  # a one-node run may get crossing estimates: keep order
+        bounds[i] = max(bounds[i], bounds[i - 1])
+    bounds[-1] = min(bounds[-1], bounds[0] + n)
+    for i, e in enumerate(edges):
+        lo = bounds[i - 1] - (n if i == 0 else 0)
+        lengths[st[e]] += bounds[i] - lo
+    frac = lengths / n
+    return {"separation": float(frac[0]), "stick": float(frac[1]), "slip": float(frac[2]),
+            "boundaries": len(edges)}
+
+
+def _extrapolate_zero(ind: Array, e: int, n: int) -> float:
+    """Offset in [−1, 1] from node e where ``ind`` (≥ 0 on the run ending at e) reaches 0.
+
+    Uses the pair of consecutive nodes among the last three of the run with the smallest
+    value (a last node held in the zone with a tiny, non-monotone margin is skipped).
+    """
+    cand = [e, (e - 1) % n, (e - 2) % n]
+    j = min(cand[:2], key=lambda i: ind[i])
+    jm = (j - 1) % n
+    drop = ind[jm] - ind[j]
+    off = (j - e) % n - (n if (j - e) % n > n // 2 else 0)
+    if drop <= 0.0:
+        return off + 0.5
+    return float(np.clip(off + ind[j] / drop, -1.0, 1.0))
+
+
+# ----------------------------------------------------------------------------- ω-band
+def nearest_wave(
+    prob: CircleProblem, W0: Array, omega0: float, k: int, *, rel_step: float = 0.01,
+    max_steps: int = 20, **kw,
+) -> TravelSolution:
+    """Fixed-ω solve at ω0, then at ω0(1 ± j·rel_step), j = 1 .. max_steps, alternately:
+    the admissible wave of speed nearest to the start (``NotConverged`` if none)."""
+    last: NotConverged | None = None
+    for j in range(0, max_steps + 1):
+        for sgn in ((1.0,) if j == 0 else (-1.0, 1.0)):
+            om = omega0 * (1.0 + sgn * j * rel_step)
+            try:
+                return solve_wave(prob, W0, om, k, free_omega=False, **kw)
+            except NotConverged as err:
+                last = err
+    assert last is not None
+    raise NotConverged(f"no admissible mode-{k} wave within ±{100 * max_steps * rel_step:.0f} % "
+                       f"of the start speed; last: {last}", last.info)
+
+
+def wave_band(
+    prob: CircleProblem, sol: TravelSolution, k: int, *, rel_step: float = 0.002,
+    max_steps: int = 40, bisections: int = 4, **kw,
+) -> tuple[float, float, list[TravelSolution]]:
+    """The interval of ω around ``sol.omega`` on which fixed-ω solves (warm started) converge.
+
+    The discrete Coulomb problem has, for each active set, a solution for every ω, admissible
+    on an interval: waves come in bands of speed (module doc). Steps of ``rel_step``|ω| each
+    way until a solve fails, then ``bisections`` halvings of the last step locate each edge.
+    """
+    members = [sol]
+    edges = []
+    for sgn in (-1.0, 1.0):
+        cur = sol
+        h = sgn * rel_step * abs(sol.omega)
+        steps = 0
+        while steps < max_steps:
+            W = np.concatenate([cur.W_r, cur.W_t])
+            try:
+                cur = solve_wave(prob, W, cur.omega + h, k, free_omega=False, **kw)
+                members.append(cur)
+                steps += 1
+                continue
+            except NotConverged:
+                if bisections == 0 or abs(h) < rel_step * abs(sol.omega) / 2**bisections:
+                    break
+                h *= 0.5
+        edges.append(cur.omega)
+    members.sort(key=lambda s: s.omega)
+    return min(edges), max(edges), members

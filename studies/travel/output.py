@@ -1,0 +1,128 @@
+"""The run-like directory of ``stickslip travel`` and the branch table of ``--continue``.
+
+``summary.json`` carries the keys of ``stickslip run`` (status, regime, mode, signed
+celerity, frequency, fractions, ψ₁, ψ₂, amplitude) plus the Newton residual and the
+inequality margins; ``profiles.npz`` the U, V, U̇, V̇, P, Q, status over one period (paper
+Figure 1). A failed solve writes ``summary.json`` with ``status: failed``, the last residual
+and the violated inequality, and **no** wave file.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+from pathlib import Path
+
+import numpy as np
+
+from solver.atomic import atomic_write_text
+from solver.scene import Scene, write_scene
+
+__all__ = ["prepare_dir", "write_wave", "write_failure", "write_branch", "plot_profiles",
+           "plot_branch"]
+
+
+def prepare_dir(path: Path, force: bool) -> None:
+    """Create ``path``; refuse to overwrite a non-empty one unless ``force``."""
+    if path.exists() and any(path.iterdir()):
+        if not force:
+            raise FileExistsError(f"output directory {path} exists; use --force to overwrite it, "
+                                  "or -o to choose another")
+        shutil.rmtree(path)
+    path.mkdir(parents=True, exist_ok=True)
+
+
+def _json(obj) -> str:
+    def default(o):
+        if isinstance(o, np.generic):
+            return o.item()
+        if isinstance(o, np.ndarray):
+            return o.tolist()
+        raise TypeError(type(o))
+
+    return json.dumps(obj, indent=2, default=default)
+
+
+def write_wave(path: Path, scene: Scene, summary: dict, profiles: dict) -> None:
+    """scene.toml, summary.json and profiles.npz (atomic writes)."""
+    write_scene(scene, path / "scene.toml")
+    tmp = path / ".profiles.tmp.npz"
+    np.savez_compressed(tmp, **profiles)
+    os.replace(tmp, path / "profiles.npz")
+    atomic_write_text(path / "summary.json", _json(summary))
+
+
+def write_failure(path: Path, scene: Scene, summary: dict) -> None:
+    """scene.toml and summary.json (status failed); no wave file."""
+    write_scene(scene, path / "scene.toml")
+    atomic_write_text(path / "summary.json", _json(summary))
+
+
+def write_branch(path: Path, rows: list[dict]) -> None:
+    """branch.json and branch.csv of a continuation."""
+    atomic_write_text(path / "branch.json", _json(rows))
+    keys = ["value", "status", "celerity_m_s", "amplitude_m", "psi1", "psi2", "psi1_subnode",
+            "psi2_subnode", "regime", "residual", "violated"]
+    lines = [",".join(keys)]
+    for r in rows:
+        lines.append(",".join(str(r.get(k, "")) for k in keys))
+    atomic_write_text(path / "branch.csv", "\n".join(lines) + "\n")
+
+
+def plot_profiles(path: Path, profiles: dict, summary: dict) -> Path:
+    """U, V, P, Q over one period with the zones shaded (paper Figure 1)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    phi = profiles["phi"]
+    fig, axes = plt.subplots(4, 1, figsize=(7, 8), sharex=True)
+    colors = {0: "#dddddd", 1: "#ffd6a0", 2: "#ffffff"}
+    dphi = phi[1] - phi[0] if phi.size > 1 else 1.0
+    for ax, key, lab in zip(axes, ("U", "V", "P", "Q"),
+                            ("u_r − d (m)", "u_θ (m)", "p (Pa)", "q (Pa)"), strict=True):
+        for j, s in enumerate(profiles["status"]):
+            ax.axvspan(phi[j] - dphi / 2, phi[j] + dphi / 2, color=colors[int(s)], lw=0)
+        ax.plot(phi, profiles[key], "k.-", ms=3)
+        ax.set_ylabel(lab)
+    axes[-1].set_xlabel("φ = θ − ωt (rad); grey separation, orange stick, white slip")
+    fig.suptitle(f"travel: {summary['regime']}, k = {summary['k']}, "
+                 f"{summary['celerity_m_s']:.1f} m/s, ψ1 = {summary['psi1_subnode']:.3f}, "
+                 f"ψ2 = {summary['psi2_subnode']:.3f}")
+    out = path / "travel_profiles.png"
+    fig.tight_layout()
+    fig.savefig(out, dpi=110)
+    plt.close(fig)
+    return out
+
+
+def plot_branch(path: Path, rows: list[dict], key: str) -> Path:
+    """Celerity, amplitude, ψ₁, ψ₂ against the continuation parameter (Figures 4–6)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    ok = [r for r in rows if r["status"] == "converged"]
+    x = [r["value"] for r in ok]
+    fig, axes = plt.subplots(3, 1, figsize=(6, 7), sharex=True)
+    axes[0].plot(x, [r["celerity_m_s"] for r in ok], "o-")
+    axes[0].set_ylabel("celerity (m/s)")
+    axes[1].plot(x, [r["amplitude_m"] for r in ok], "o-")
+    axes[1].set_ylabel("amplitude (m)")
+    axes[2].plot(x, [r["psi1_subnode"] for r in ok], "o-", label="ψ1")
+    axes[2].plot(x, [r["psi2_subnode"] for r in ok], "s-", label="ψ2")
+    axes[2].legend()
+    axes[2].set_xlabel(key)
+    bad = [r for r in rows if r["status"] != "converged"]
+    if bad:
+        for ax in axes:
+            ax.axvline(bad[0]["value"], color="r", ls="--")
+        axes[0].set_title(f"branch lost at {key} = {bad[0]['value']:g}: {bad[0].get('violated')}")
+    out = path / "branch.png"
+    fig.tight_layout()
+    fig.savefig(out, dpi=110)
+    plt.close(fig)
+    return out
