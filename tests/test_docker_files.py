@@ -206,3 +206,15 @@ def test_installed_code_finds_the_shipped_scenes_through_stickslip_scenes(tmp_pa
     out = subprocess.run(["python3", "-c", code], env=env, capture_output=True, text=True,
                          check=True).stdout
     assert out.split()[0] == str(tmp_path) and "only_here.toml" in out
+
+
+def test_pyproject_installs_every_package_of_the_source_tree():
+    """The image installs the project (not editable): a package missing from pyproject's list
+    is missing there, and only the commands that import it fail (docker/test-image.sh checks
+    the installed image; this catches it without one)."""
+    listed = set(tomllib.loads((REPO / "pyproject.toml").read_text())
+                 ["tool"]["setuptools"]["packages"])
+    found = {".".join(p.parent.relative_to(REPO).parts) for p in REPO.rglob("__init__.py")
+             if p.parent.relative_to(REPO).parts[0] not in ("tests", "benchmarks", "build")
+             and ".git" not in p.parts}
+    assert listed == found, f"missing: {sorted(found - listed)}, extra: {sorted(listed - found)}"
