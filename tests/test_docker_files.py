@@ -8,6 +8,7 @@ bash on docker/apt-packages.txt; they must produce the same list. The image must
 
 from __future__ import annotations
 
+import fnmatch
 import json
 import re
 import shlex
@@ -209,12 +210,16 @@ def test_installed_code_finds_the_shipped_scenes_through_stickslip_scenes(tmp_pa
 
 
 def test_pyproject_installs_every_package_of_the_source_tree():
-    """The image installs the project (not editable): a package missing from pyproject's list
-    is missing there, and only the commands that import it fail (docker/test-image.sh checks
-    the installed image; this catches it without one)."""
-    listed = set(tomllib.loads((REPO / "pyproject.toml").read_text())
-                 ["tool"]["setuptools"]["packages"])
+    """The image installs the project (not editable): a package that pyproject's package list
+    or discovery misses is missing there, and only the commands importing it fail
+    (docker/test-image.sh checks the installed image; this catches it without one)."""
+    setuptools = tomllib.loads((REPO / "pyproject.toml").read_text())["tool"]["setuptools"]
     found = {".".join(p.parent.relative_to(REPO).parts) for p in REPO.rglob("__init__.py")
              if p.parent.relative_to(REPO).parts[0] not in ("tests", "benchmarks", "build")
              and ".git" not in p.parts}
+    if isinstance(setuptools.get("packages"), list):
+        listed = set(setuptools["packages"])
+    else:  # [tool.setuptools.packages.find] include = [...] (fnmatch patterns)
+        include = setuptools["packages"]["find"]["include"]
+        listed = {name for name in found if any(fnmatch.fnmatchcase(name, pat) for pat in include)}
     assert listed == found, f"missing: {sorted(found - listed)}, extra: {sorted(listed - found)}"
