@@ -34,8 +34,8 @@ def test_ci_runs_exactly_the_readme_test_commands():
     for test_cmd in ("./dev bash tests/run.sh", "docker/test-image.sh"):
         assert test_cmd in fenced_commands()
     ci = (REPO / ".ci" / "run").read_text()
-    assert re.search(r"^\./dev bash tests/run\.sh \|\| status=1$", ci, flags=re.M)
-    assert re.search(r"^docker/test-image\.sh \|\| status=1$", ci, flags=re.M)
+    assert re.search(r"^\./dev bash tests/run\.sh\b", ci, flags=re.M)
+    assert re.search(r"^docker/test-image\.sh \|\|", ci, flags=re.M)
 
 
 def test_every_stickslip_command_in_readme_parses():
