@@ -86,9 +86,11 @@ def run_list(quick: bool, max_n: int) -> list[dict]:
         for damped in both:  # 4. Figure 1, mode-4 seed; 5. beta2 on a fine mesh
             for n in small:
                 add("fig1", damped, n, "mode4")
-        for beta2 in (0.6, 0.9):
-            for damped in both:
-                add("fig3", damped, small[-1], "mode4", beta2=beta2)
+        for n_b in (small[-1], 528):  # 264 first; 528 when the list reaches it
+            for beta2 in (0.6, 0.9):
+                for damped in both:
+                    if n_b in ns:
+                        add("fig3", damped, n_b, "mode4", beta2=beta2)
         for damped in both:  # 6. Figure 1 seeds
             for seed in seeds:
                 for n in small:
