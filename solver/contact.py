@@ -71,31 +71,133 @@ def project_contact(
         ``r_r``, ``r_t`` (normal and tangential nodal force on the tube, N/m), ``status``
         (SEPARATION, STICK, SLIP per node) and scratch arrays.
     """
-    r_r, r_t, work = out.r_r, out.r_t, out.work
+    project_normal(u_r_trial, mass, kappa, d, out)
+    if f == 0.0:  # frictionless: contact nodes slip freely, no tangential force
+        out.r_t.fill(0.0)
+        np.multiply(out.in_contact, SLIP, out=out.status)
+        return
+    np.multiply(out.r_r, f, out=out.cone)  # Coulomb bound f p
+    project_tangential(u_t_trial, u_t_prev, slide, out)
+
+
+def project_normal(u_r_trial: np.ndarray, mass: np.ndarray, kappa: float, d: float,
+                   out: ContactArrays) -> None:
+    """Normal multiplier r_r = m (d - u_r_trial)^+ / kappa (u_r,{n+1} >= d exactly), and
+    ``out.stiff`` = m / kappa, ``out.in_contact``."""
+    r_r = out.r_r
     np.multiply(mass, 1.0 / kappa, out=out.stiff)  # force per unit of displacement correction
-    # Normal: project onto u_r >= d.
     np.subtract(d, u_r_trial, out=r_r)
     np.maximum(r_r, 0.0, out=r_r)
     r_r *= out.stiff
     np.greater(r_r, 0.0, out=out.in_contact)
-    if f == 0.0:  # frictionless: contact nodes slip freely, no tangential force
-        r_t.fill(0.0)
-        np.multiply(out.in_contact, SLIP, out=out.status)
-        return
-    # Tangential trial (stick) force: the node moves with the cylinder over the step.
+
+
+def project_tangential(u_t_trial: np.ndarray, u_t_prev: np.ndarray, slide: float,
+                       out: ContactArrays) -> None:
+    """Tangential multiplier inside the friction bound ``out.cone`` (>= 0 per node; it must be
+    zero where separated: r_r = 0 there for Coulomb, and ``EffectivePressure`` zeroes it).
+
+    The stick force makes the node move with the cylinder over the step; where it exceeds the
+    bound the node slips with r_theta = cone sign(r_theta_stick). Statuses 0/1/2.
+    """
+    r_t, work = out.r_t, out.work
     np.add(u_t_prev, slide, out=r_t)
     r_t -= u_t_trial
     r_t *= out.stiff
-    # Coulomb cone: slip where |r_t| > f r_r.
     np.abs(r_t, out=work)
-    np.multiply(r_r, f, out=out.cone)
     np.greater(work, out.cone, out=out.slipping)
     # status = in_contact * (STICK + slipping): 0 separation, 1 stick, 2 slip.
     np.add(out.slipping, STICK, out=out.status)
     out.status *= out.in_contact
-    # Slip: return to the cone, q = f p sign(relative sliding).
     np.copysign(out.cone, r_t, out=work)
     np.copyto(r_t, work, where=out.slipping)
+
+
+# ---------------------------------------------------------------------------------------------
+# Regularised friction bound (Prakash-Clifton), issue 13
+
+
+def relax_effective_pressure(sigma: np.ndarray, p: np.ndarray, rate: np.ndarray, dt: float,
+                             work: np.ndarray) -> None:
+    """Exact step of d sigma/dt = -rate (sigma - p) with p and rate frozen over dt, in place:
+
+        sigma <- p + (sigma - p) exp(-rate dt).
+
+    Unconditionally stable and exact for any dt at frozen (p, rate); ``work`` is scratch.
+    """
+    np.multiply(rate, -dt, out=work)
+    np.exp(work, out=work)
+    sigma -= p
+    sigma *= work
+    sigma += p
+
+
+class EffectivePressure:
+    """Per-node state of the Prakash-Clifton law (Prakash & Clifton 1993; Ranjith & Rice 2001):
+    the friction bound is f sigma_eff with
+
+        d sigma_eff / dt = -(|V| + V*) / L (sigma_eff - p)        ("prakash-clifton")
+        d sigma_eff / dt = -(sigma_eff - p) / t*                   ("constant-time")
+
+    in nodal-force units (N/m, as the multipliers), V the slip rate of the node relative to
+    the cylinder. Each step (``update``) integrates it exactly with the rate frozen at the
+    previous step's slip rate |u_theta,n - u_theta,{n-1} - R Omega dt| / dt and p = r_r,n, the
+    normal multiplier of this step; then the tangential projection uses cone = f sigma_eff.
+    The normal projection is untouched (exact non-penetration) and stick is still exact.
+
+    Out of contact sigma_eff follows the same law with p = 0: the ODE is defined for every
+    p >= 0, so this is its continuous extension; sigma_eff is a memory of the pressure that
+    fades over a slip distance L (or a time t*) after lift-off, and at re-contact the bound
+    builds up gradually from what is left, which is the very delay that regularises the
+    Coulomb law. (Resetting it to 0 or to p would be an infinitely fast relaxation, the
+    instantaneous response that Prakash-Clifton removes.) A separated node has no friction
+    force whatever sigma_eff is: friction needs contact. At the first step sigma_eff = p, so
+    steady sliding is a fixed point. All arrays are allocated once.
+    """
+
+    def __init__(self, n: int, kind: str, dt: float, slip_length: float = 0.0,
+                 reference_velocity: float = 0.0, relaxation_time: float = 0.0) -> None:
+        if kind not in ("prakash-clifton", "constant-time"):
+            raise ValueError(f"friction.regularization = {kind!r}: not a regularised law")
+        self.kind, self.dt = kind, dt
+        self.L, self.v_ref, self.t_relax = slip_length, reference_velocity, relaxation_time
+        self.sigma = np.zeros(n)
+        self.rate = np.zeros(n)
+        if kind == "constant-time":
+            self.rate.fill(1.0 / relaxation_time)
+        self.u_t_last = np.zeros(n)  # u_theta,{n-1}
+        self.work = np.zeros(n)
+        self.started = False
+
+    def update(self, p: np.ndarray, u_t_now: np.ndarray, slide: float, f: float,
+               out: ContactArrays) -> None:
+        """Advance sigma_eff to t_n and set ``out.cone`` = f sigma_eff where in contact, else 0."""
+        if not self.started:
+            self.sigma[:] = p
+            self.u_t_last[:] = u_t_now  # at rest: slip rate R Omega, as in steady sliding
+            self.started = True
+        if self.kind == "prakash-clifton":
+            # rate = (|V| + V*) / L with V = (u_theta,n - u_theta,{n-1} - slide) / dt
+            np.subtract(u_t_now, self.u_t_last, out=self.rate)
+            self.rate -= slide
+            np.abs(self.rate, out=self.rate)
+            self.rate *= 1.0 / (self.dt * self.L)
+            self.rate += self.v_ref / self.L
+        relax_effective_pressure(self.sigma, p, self.rate, self.dt, self.work)
+        self.u_t_last[:] = u_t_now
+        np.multiply(self.sigma, f, out=out.cone)
+        out.cone *= out.in_contact  # no friction without contact
+
+
+def project_contact_regularized(
+    u_r_trial: np.ndarray, u_t_trial: np.ndarray, u_t_prev: np.ndarray, mass: np.ndarray,
+    kappa: float, d: float, slide: float, f: float, effective: EffectivePressure,
+    out: ContactArrays,
+) -> None:
+    """``project_contact`` with the Prakash-Clifton bound f sigma_eff instead of f p."""
+    project_normal(u_r_trial, mass, kappa, d, out)
+    effective.update(out.r_r, u_t_prev, slide, f, out)
+    project_tangential(u_t_trial, u_t_prev, slide, out)
 
 
 class ContactArrays:

@@ -77,22 +77,16 @@ def resolve_kernel(scene) -> str:
 
     * the implicit scheme (time.beta1 > 0) has no fused step: "numpy" (it is not a stiffness
       product; ``time.kernel`` is ignored there);
-    * physics the fused kernel does not implement (a scene section ``damping`` or a
-      ``loading.friction_law`` other than Coulomb, when those keys exist) falls back to
-      "numpy";
+    * physics the fused kernel does not implement (Kelvin-Voigt ``[damping]`` with tau > 0,
+      a ``[friction]`` regularisation) falls back to "numpy";
     * ``time.kernel = "auto"``: "numba" when numba imports, else "numpy";
     * ``time.kernel = "numba"`` without numba: ValueError naming the fix.
     """
     ts = scene.time
     if ts.beta1 > 0.0:
         return "numpy"
-    damping = getattr(scene, "damping", None)
-    if damping is not None and any(float(getattr(damping, k, 0.0) or 0.0) != 0.0
-                                   for k in ("alpha", "beta", "mass", "stiffness")):
-        return "numpy"
-    law = getattr(scene.loading, "friction_law", "coulomb")
-    if law not in ("coulomb", None):
-        return "numpy"
+    if scene.damping.enabled or scene.friction.enabled:  # [damping] tau > 0, [friction]
+        return "numpy"  # regularisation (issue 13): DampedNewmark / regularised projection
     requested = getattr(ts, "kernel", "auto")
     if requested == "numpy":
         return "numpy"

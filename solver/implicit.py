@@ -293,12 +293,14 @@ class ImplicitNewmark:
 
     def __init__(self, K: PETSc.Mat, mass: np.ndarray, clamped: np.ndarray, dt: float,
                  beta1: float, beta2: float, contact: ImplicitContact | None = None,
-                 comm: MPI.Comm | None = None) -> None:
+                 comm: MPI.Comm | None = None, tau: float = 0.0) -> None:
         if not beta1 > 0.0:
             raise ValueError(f"ImplicitNewmark needs beta1 > 0 (got {beta1}); use Newmark")
         if not 0.5 <= beta2 <= 1.0:
             raise ValueError(f"time.beta2 = {beta2} must be in [0.5, 1]")
         self.K, self.mass, self.clamped = K, mass, np.asarray(clamped)
+        self.tau = tau  # Kelvin-Voigt retardation time (0: undamped)
+        self.damping_work_local = 0.0  # damping work up to the exposed level n (this rank)
         self.beta1, self.beta2 = beta1, beta2
         self.contact = contact
         self.comm = comm if comm is not None else K.getComm().tompi4py()
@@ -312,6 +314,8 @@ class ImplicitNewmark:
         self.inv_mass[self.clamped] = 0.0
         self.u_pred, self.rhs, self.force = np.zeros(n), np.zeros(n), np.zeros(n)
         self.u_free, self.scratch = np.zeros(n), np.zeros(n)
+        if tau > 0.0:  # K (g u~ - v~) of the last step, K v^d at level n, u_n - u_{n-1}
+            self.kb, self.kvd, self.du = np.zeros(n), np.zeros(n), np.zeros(n)
         self._vecs: dict[int, PETSc.Vec] = {}
         self.time = 0.0
         self.step_count = 0
@@ -341,6 +345,8 @@ class ImplicitNewmark:
             self.K_eff.destroy()
             self.ksp.destroy()
         K_eff = self.K.copy()
+        if self.tau > 0.0:  # damping tau K v^d, v^d = v~ + beta2/(beta1 dt) (u_{n+1} - u~)
+            K_eff.scale(1.0 + self.tau * self.beta2 / (self.beta1 * dt))
         K_eff.setDiagonal(self._vec(self.m_eff), addv=PETSc.InsertMode.ADD_VALUES)
         rstart = K_eff.getOwnershipRange()[0]
         K_eff.zeroRowsColumns((rstart + self.clamped).astype(PETSc.IntType), diag=1.0)
@@ -378,6 +384,8 @@ class ImplicitNewmark:
         """Initial u_0, v_0; r_0 from the nodal law at rest (module docstring)."""
         self.u[:] = u
         self.v_next[:] = v
+        if self.tau > 0.0:
+            self._mult(self.v_next, self.kvd)  # v^d_0 = v_0
         if self.contact is not None:
             self._mult(self.u, self.ku)
             self.contact.initial(self.u, self.ku)
@@ -387,11 +395,17 @@ class ImplicitNewmark:
         dt, b1, b2 = self.dt, self.beta1, self.beta2
         contact = self.contact
         # expose level n: u_n, v_n, K u_n, a_n = a*_n + M^-1 r_n with a*_n = -M^-1 K u_n
+        if self.tau > 0.0 and self.step_count > 0:
+            np.subtract(self.u, self.u_prev, out=self.du)  # u_n - u_{n-1}
         self.u_prev[:] = self.u
         self.v[:] = self.v_next
         self._mult(self.u_prev, self.ku)
+        if self.tau > 0.0 and self.step_count > 0:
+            self._book_damping_work()
         np.multiply(self.ku, self.inv_mass, out=self.a_star)
         np.negative(self.a_star, out=self.a_star)
+        if self.tau > 0.0 and self.step_count > 0:  # a*_n also carries the damping force
+            self.a_star[:] = self.a_next
         if contact is not None:
             contact.swap()
             contact.put_force(self.force, exposed=True)
@@ -405,6 +419,8 @@ class ImplicitNewmark:
         np.multiply(self.a_star, 0.5 * dt * dt * (1.0 - 2.0 * b1), out=self.scratch)
         self.u_pred += self.scratch
         np.multiply(self.m_eff, self.u_pred, out=self.rhs)  # 0 on clamped rows
+        if self.tau > 0.0:
+            self._damping_rhs()
         if contact is None:
             self._solve(self.rhs, self.u)
             self.force.fill(0.0)
@@ -436,6 +452,34 @@ class ImplicitNewmark:
         self.time += dt
         self.step_count += 1
 
+    def _damping_rhs(self) -> None:
+        """Kelvin-Voigt damping (scene ``[damping]``): rhs += tau K (g u~ - v~), g = beta2 /
+        (beta1 dt), v~ = v_n + (1 - beta2) dt a*_n. With the damping force tau K v^d,
+        v^d = v~ + g (u_{n+1} - u~) (= v_{n+1} for beta1 = 1/4, beta2 = 1/2), this and
+        K_eff = M/(beta1 dt^2) + (1 + tau g) K solve M a* + tau K v^d + K u = 0 at t_{n+1},
+        and the contact forces keep the weight 1 / (2 beta1) (same Schur complement)."""
+        dt, b1, b2 = self.dt, self.beta1, self.beta2
+        g = b2 / (b1 * dt)
+        np.multiply(self.u_pred, g, out=self.u_free)
+        self.u_free -= self.v
+        np.multiply(self.a_star, (1.0 - b2) * dt, out=self.scratch)
+        self.u_free -= self.scratch
+        self._mult(self.u_free, self.kb)
+        np.multiply(self.kb, self.tau, out=self.scratch)
+        self.scratch[self.clamped] = 0.0
+        self.rhs += self.scratch
+
+    def _book_damping_work(self) -> None:
+        """Damping work of the step n-1 -> n: tau/2 (u_n - u_{n-1}) . K (v^d_{n-1} + v^d_n),
+        with K v^d_n = g K u_n - K (g u~ - v~) (no extra MatMult). The damping force has the
+        Newmark weights of the elastic force, so for beta1 = 1/4, beta2 = 1/2 this is exactly
+        the energy it removes: E_n - E_0 = W_contact - W_damping to round-off."""
+        g = self.beta2 / (self.beta1 * self.dt)
+        w_old = float(np.dot(self.du, self.kvd))
+        np.multiply(self.ku, g, out=self.kvd)
+        self.kvd -= self.kb
+        self.damping_work_local += 0.5 * self.tau * (w_old + float(np.dot(self.du, self.kvd)))
+
     def iteration_stats(self) -> dict:
         """Active-set iterations per step (mean, max) and the time split of the scheme."""
         its = np.asarray(self.iterations) if self.iterations else np.zeros(1)
@@ -443,6 +487,7 @@ class ImplicitNewmark:
             "scheme": "implicit",
             "beta1": self.beta1,
             "beta2": self.beta2,
+            "damping_tau_s": self.tau,
             "active_set_iterations_mean": float(its.mean()),
             "active_set_iterations_max": int(its.max()),
             "factorisation_s": self.factor_seconds,

@@ -50,16 +50,33 @@ number of contact nodes, not with the mesh.
 """
 
 
-def critical_time_step(omega_max: float, beta1: float, beta2: float) -> float:
-    """Largest stable dt of the undamped Newmark scheme for eigenfrequency ``omega_max``.
+def critical_time_step(omega_max: float, beta1: float, beta2: float, tau: float = 0.0) -> float:
+    """Largest stable dt of the Newmark scheme for eigenfrequency ``omega_max``.
 
-    beta_1 = 0: sqrt(2 / beta_2) / omega_max. Unconditionally stable (inf) for
+    beta_1 = 0: sqrt(2 / beta_2) / omega_max without damping. Unconditionally stable (inf) for
     2 beta_1 >= beta_2 >= 1/2; otherwise 1 / (omega_max sqrt(beta_2 / 2 - beta_1)).
+
+    With Kelvin-Voigt damping C = tau K, explicit (``DampedNewmark``: damping force on the
+    predictor v~_n), a mode w obeys a_n = -w^2 u_n - c v~_n with c = tau w^2 = 2 zeta w. In
+    x = (u_n, dt v~_n) one step is x_{n+1} = A x_n with (W = w dt, C = c dt, k = beta_2 + 1/2)
+
+        A = [[1 - k W^2, 1 - k C], [-W^2, 1 - C]],  tr A = 2 - k W^2 - C,
+        det A = 1 - C - (beta_2 - 1/2) W^2.
+
+    Jury's conditions |det| <= 1, |tr| <= 1 + det reduce to beta_2 W^2 + C <= 2, i.e.
+    w dt <= (sqrt(zeta^2 + 2 beta_2) - zeta) / beta_2 (central differences, beta_2 = 1/2:
+    (2 / w)(sqrt(1 + zeta^2) - zeta)). As c grows with w^2 the largest w is critical:
+    dt_crit = 4 / (w_max^2 (tau + sqrt(tau^2 + 8 beta_2 / w_max^2))) (rationalised root of
+    beta_2 w^2 dt^2 + tau w^2 dt = 2). The implicit scheme treats the damping implicitly, so
+    ``tau`` only enters the explicit limit.
     """
     if beta2 < 0.5:
         raise ValueError(f"beta2 = {beta2} < 0.5 is unstable for any dt (need beta2 >= 0.5)")
     if 2.0 * beta1 >= beta2:
         return math.inf
+    if beta1 == 0.0 and tau > 0.0:
+        w2 = omega_max * omega_max
+        return 4.0 / (w2 * (tau + math.sqrt(tau * tau + 8.0 * beta2 / w2)))
     return 1.0 / (omega_max * math.sqrt(beta2 / 2.0 - beta1))
 
 
@@ -159,6 +176,61 @@ class Newmark:
         nxt += u
         self.u, self.u_prev = nxt, u
         # v~_{n+1} = v_n + (1 - beta2) dt a_n = w + (1/2 - beta2) dt a_n
+        if b2 != 0.5:
+            np.multiply(a, (0.5 - b2) * dt, out=self.scratch)
+            vp += self.scratch
+        self.time += dt
+        self.step_count += 1
+
+
+class DampedNewmark(Newmark):
+    """Explicit Newmark with Kelvin-Voigt damping C = tau K (scene ``[damping]``).
+
+    M a_n + tau K v~_n + K u_n = r_n: the damping force uses the velocity predictor
+    v~_n = v_{n-1} + (1 - beta_2) dt a_{n-1} (known before a_n), so the internal force is ONE
+    MatMult, K w_n with w_n = u_n + tau v~_n, and the contact force still moves u_{n+1} by
+    kappa M^{-1} r (the forward-increment projection is unchanged). Stability limit:
+    ``critical_time_step(w_max, 0, beta_2, tau)``. A separate class, so the undamped
+    ``Newmark.step`` is untouched.
+
+    After ``step()``, ``kw`` = K w_n (the internal force that was applied) and ``ku`` is only
+    valid after ``refresh_ku()`` (one extra MatMult, done at sample times by the observers).
+    """
+
+    damped = True
+
+    def __init__(self, stiffness_mult: Callable[[np.ndarray, np.ndarray], None],
+                 inv_mass: np.ndarray, dt: float, beta1: float = 0.0, beta2: float = 0.5,
+                 contact: ContactStep | None = None, tau: float = 0.0) -> None:
+        super().__init__(stiffness_mult, inv_mass, dt, beta1, beta2, contact)
+        if not (math.isfinite(tau) and tau > 0.0):
+            raise ValueError(f"damping tau = {tau} must be a finite number > 0 (s)")
+        self.tau = tau
+        self.w = np.zeros(inv_mass.size)  # u_n + tau v~_n
+        self.kw = np.zeros(inv_mass.size)  # K w_n
+
+    def refresh_ku(self) -> None:
+        """ku = K u_n (u_n is ``u_prev`` after a step): for the strain energy at samples."""
+        self._mult(self.u_prev, self.ku)
+
+    def step(self) -> None:
+        """One step of ``Newmark.step`` with a*_n = -M^{-1} K (u_n + tau v~_n)."""
+        dt, b2 = self.dt, self.beta2
+        u, a, v, vp = self.u, self.a, self.v, self.v_pred
+        np.multiply(vp, self.tau, out=self.w)
+        self.w += u
+        self._mult(self.w, self.kw)
+        np.multiply(self.kw, self._neg_inv_mass, out=a)
+        if self.contact is not None:
+            self.contact(u, vp, a)
+        np.multiply(a, b2 * dt, out=v)
+        v += vp
+        np.multiply(a, 0.5 * dt, out=vp)
+        vp += v
+        nxt = self.u_prev
+        np.multiply(vp, dt, out=nxt)
+        nxt += u
+        self.u, self.u_prev = nxt, u
         if b2 != 0.5:
             np.multiply(a, (0.5 - b2) * dt, out=self.scratch)
             vp += self.scratch

@@ -19,6 +19,7 @@ ENERGY_FIELDS = (
     "work_contact",
     "work_cylinder",
     "friction_dissipation",
+    "damping_dissipation",
 )
 
 
@@ -78,6 +79,39 @@ class EnergyAccumulator:
         return float(total[0]), float(total[1]), float(total[2])
 
 
+class DampingWork:
+    """Work dissipated by the Kelvin-Voigt damping of ``DampedNewmark`` (scene ``[damping]``).
+
+    The damping force tau K v~_n acts at t_n; its work with the centred increment
+    Delta u_n = (u_{n+1} - u_{n-1}) / 2 (as the contact work) is W_d = sum tau K v~_n . Delta u_n.
+    The step only forms K w_n, w_n = u_n + tau v~_n, so W_d = sum K w_n . Delta u_n
+    - sum K u_n . Delta u_n, and the second sum telescopes exactly (K symmetric, u_{-1} := u_0):
+
+        sum_{m<=n} K u_m . (u_{m+1} - u_{m-1}) / 2 = (u_{n+1} . K u_n - u_0 . K u_0) / 2.
+
+    So each step costs two local dot products and one copy (no MatMult); the K u_n of the
+    closing term is the one the observers compute at a sample anyway. Then
+    E_n - E_0 = W_contact - W_d + O(dt^2) (beta_2 = 1/2). Created only for damped scenes.
+    """
+
+    def __init__(self, integrator, u0: np.ndarray) -> None:
+        self.u_older = u0.copy()  # u_{n-1}
+        ku0 = np.zeros_like(u0)
+        integrator._mult(u0, ku0)
+        self.u0_ku0 = float(np.dot(u0, ku0))
+        self.sum_kw = 0.0
+
+    def after_step(self, integrator) -> None:
+        """Accumulate K w_n . (u_{n+1} - u_{n-1}) / 2 (integrator.u = u_{n+1}, u_prev = u_n)."""
+        kw = integrator.kw
+        self.sum_kw += 0.5 * (float(np.dot(kw, integrator.u)) - float(np.dot(kw, self.u_older)))
+        self.u_older[:] = integrator.u_prev
+
+    def local_total(self, integrator) -> float:
+        """W_d up to level n on this rank's dofs; needs ``integrator.ku`` = K u_n (refreshed)."""
+        return self.sum_kw - 0.5 * (float(np.dot(integrator.u, integrator.ku)) - self.u0_ku0)
+
+
 class InnerCircleRecorder:
     """Samples u_r(theta), u_theta(theta), velocities and contact status on the inner circle.
 
@@ -124,10 +158,11 @@ class InnerCircleRecorder:
             self.r_t = np.zeros((max_samples, self.n_nodes))
             self.status = np.zeros((max_samples, self.n_nodes), dtype=np.int8)
             self.energies = np.zeros((max_samples, len(ENERGY_FIELDS)))
-        self.last_work = (0.0, 0.0, 0.0)
+        self.last_work = (0.0, 0.0, 0.0, 0.0)
         self.kin_scratch = np.zeros(problem.n_owned)
-        self.e_local = np.zeros(2)
-        self.e_total = np.zeros(2)
+        self.e_local = np.zeros(3)  # kinetic, strain, damping work (local)
+        self.e_total = np.zeros(3)
+        self.damping: DampingWork | None = None  # set by the run for damped scenes
 
     def _gatherv(self, local: np.ndarray, recv: np.ndarray | None, mpitype) -> None:
         """Gather the owned contact-node values ``local`` into ``recv`` on rank 0."""
@@ -145,11 +180,16 @@ class InnerCircleRecorder:
         p._polar(integrator.v, self.send[2], self.send[3])
         self.send[4] = p.out.r_r
         self.send[5] = p.out.r_t
+        if self.damping is not None:
+            integrator.refresh_ku()  # the damped step forms K (u + tau v~), not K u
+            self.e_local[2] = self.damping.local_total(integrator)
+        elif hasattr(integrator, "damping_work_local"):  # implicit: booked by the scheme
+            self.e_local[2] = integrator.damping_work_local
         np.multiply(integrator.v, self.problem.mass, out=self.kin_scratch)  # no allocation
         self.e_local[0] = 0.5 * float(np.dot(self.kin_scratch, integrator.v))
         self.e_local[1] = 0.5 * float(np.dot(integrator.u_prev, integrator.ku))
         self.comm.Allreduce(self.e_local, self.e_total, op=MPI.SUM)
-        work = self.energy.totals(self.comm)
+        work = (*self.energy.totals(self.comm), float(self.e_total[2]))
         self.last_work = work  # on every rank (collective above)
         if self.comm.size == 1:  # one rank: the "gather" is a copy (7 MPI calls saved)
             np.copyto(self.recv, self.send)

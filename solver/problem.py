@@ -19,7 +19,13 @@ from petsc4py import PETSc
 from forms.elasticity import Material, lumped_mass, stiffness
 from forms.polar import ContactNodes, contact_nodes
 from meshes.annulus import INNER_TAG, OUTER_TAG, TubeMesh, annulus_mesh
-from solver.contact import ContactArrays, NodalFrames, project_contact
+from solver.contact import (
+    ContactArrays,
+    EffectivePressure,
+    NodalFrames,
+    project_contact,
+    project_contact_regularized,
+)
 from solver.scene import Scene
 
 
@@ -169,6 +175,12 @@ class ContactProjection(NodalFrames):
         self.out = ContactArrays(n, r_r=self.r_polar.real, r_t=self.r_polar.imag)
         self._views: dict[int, np.ndarray] = {}
 
+    def _project(self, u_r_trial: np.ndarray, u_t_trial: np.ndarray,
+                 u_t_now: np.ndarray) -> None:
+        """The nodal law (Coulomb): ``solver.contact.project_contact``."""
+        project_contact(u_r_trial, u_t_trial, u_t_now, self.mass, self.kappa, self.d,
+                        self.slide, self.f, self.out)
+
     def __call__(self, u_now: np.ndarray, v_pred: np.ndarray, accel: np.ndarray) -> None:
         """The ``Newmark`` contact step (see ``solver.newmark.ContactStep``)."""
         idx, trial, work = self.node_index, self.z_trial, self.z_work
@@ -182,16 +194,38 @@ class ContactProjection(NodalFrames):
         trial += work
         trial *= self.phase_conj
         trial += now
-        project_contact(
-            trial.real, trial.imag, now.imag, self.mass, self.kappa, self.d, self.slide,
-            self.f, self.out,
-        )
+        self._project(trial.real, trial.imag, now.imag)
         # back to (x, y): r_x + i r_y = (r_r + i r_t) e^{i theta}; a_n = a*_n + r / m
         np.multiply(self.r_polar, self.phase, out=self.r_xy)
         a_c.take(idx, out=work)
         np.multiply(self.r_xy, self.inv_mass, out=trial)
         work += trial
         np.put(a_c, idx, work)
+
+
+class RegularizedContactProjection(ContactProjection):
+    """``ContactProjection`` with the Prakash-Clifton friction bound (scene ``[friction]``):
+    ``solver.contact.project_contact_regularized`` and the per-node state
+    ``solver.contact.EffectivePressure`` (allocated once)."""
+
+    def __init__(self, problem: TubeProblem, kappa: float, dt: float) -> None:
+        super().__init__(problem, kappa, dt)
+        fr = problem.scene.friction
+        self.effective = EffectivePressure(
+            self.mass.size, fr.regularization, dt, slip_length=fr.slip_length,
+            reference_velocity=fr.reference_velocity, relaxation_time=fr.relaxation_time)
+
+    def _project(self, u_r_trial: np.ndarray, u_t_trial: np.ndarray,
+                 u_t_now: np.ndarray) -> None:
+        project_contact_regularized(u_r_trial, u_t_trial, u_t_now, self.mass, self.kappa,
+                                    self.d, self.slide, self.f, self.effective, self.out)
+
+
+def make_projection(problem: TubeProblem, kappa: float, dt: float) -> ContactProjection:
+    """The explicit contact step for the scene's friction law (Coulomb or regularised)."""
+    if problem.scene.friction.enabled:
+        return RegularizedContactProjection(problem, kappa, dt)
+    return ContactProjection(problem, kappa, dt)
 
 
 def omega_max(problem: TubeProblem) -> float:

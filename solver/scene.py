@@ -9,6 +9,8 @@ A scene is a TOML file mapped onto frozen, validated dataclasses (SI units)::
     [mesh]       n_inner, n_radial, cell, degree
     [time]       beta1, beta2, dt, dt_fraction, end_time, max_steps, max_wall_time, kernel
     [initial]    perturbation, mode, amplitude, seed, n_modes
+    [damping]    loss_factor + reference_frequency_hz | retardation_time   (default: none)
+    [friction]   regularization, slip_length, reference_velocity, relaxation_time
     [output]     sample_interval, probes_deg, fields, field_interval, progress
 
 Every table and key is optional (defaults below).  Unknown keys, wrong types and
@@ -31,6 +33,8 @@ from typing import Any, ClassVar
 
 __all__ = [
     "SCENES_DIR",
+    "Damping",
+    "Friction",
     "Geometry",
     "Initial",
     "Loading",
@@ -451,6 +455,107 @@ class Initial(_Section):
 
 
 @dataclass(frozen=True)
+class Damping(_Section):
+    """Kelvin-Voigt bulk viscosity sigma = C : (eps + tau eps_dot), i.e. damping matrix tau K.
+
+    Give either ``loss_factor`` eta at ``reference_frequency_hz`` f_ref (tau = eta / (2 pi
+    f_ref): the loss factor of a Kelvin-Voigt solid is eta(omega) = tau omega), or
+    ``retardation_time`` tau directly. All zero (the default): no damping, and the time step
+    does no damping work at all.
+    """
+
+    SECTION: ClassVar[str] = "damping"
+
+    loss_factor: float = _opt(0.0, "float")
+    """Loss factor eta [-] at ``reference_frequency_hz`` (tau = eta / (2 pi f_ref))."""
+    reference_frequency_hz: float = _opt(0.0, "float")
+    """Frequency [Hz] at which ``loss_factor`` is given."""
+    retardation_time: float = _opt(0.0, "float")
+    """Retardation time tau [s] (instead of loss_factor + reference_frequency_hz)."""
+
+    @property
+    def tau(self) -> float:
+        """Retardation time tau [s]; 0 = undamped."""
+        if self.retardation_time > 0.0:
+            return self.retardation_time
+        if self.loss_factor > 0.0:
+            return self.loss_factor / (2.0 * math.pi * self.reference_frequency_hz)
+        return 0.0
+
+    @property
+    def enabled(self) -> bool:
+        return self.tau > 0.0
+
+    def _check(self) -> None:
+        _require(self._key("loss_factor"), self.loss_factor, 0 <= self.loss_factor <= 10,
+                 "0 <= loss_factor <= 10 (eta = tau omega; 0.01-0.02 is a lightly damped "
+                 "polymer or a brake pad, 0 = undamped)")
+        _require(self._key("reference_frequency_hz"), self.reference_frequency_hz,
+                 self.reference_frequency_hz >= 0, "reference_frequency_hz >= 0 (Hz)")
+        _require(self._key("retardation_time"), self.retardation_time,
+                 self.retardation_time >= 0, "retardation_time >= 0 (s; 0 = undamped)")
+        if self.loss_factor > 0 and self.retardation_time > 0:
+            raise SceneError(
+                f"damping: give either damping.loss_factor (+ reference_frequency_hz) or "
+                f"damping.retardation_time, not both (got loss_factor = {self.loss_factor}, "
+                f"retardation_time = {self.retardation_time}; tau = eta / (2 pi f_ref))")
+        if self.loss_factor > 0:
+            _require(self._key("reference_frequency_hz"), self.reference_frequency_hz,
+                     self.reference_frequency_hz > 0,
+                     "reference_frequency_hz > 0 (Hz) when loss_factor > 0 (e.g. 1600, the "
+                     "frequency of the Figure-3 wave)")
+
+
+REGULARIZATIONS = ("none", "prakash-clifton", "constant-time")
+
+
+@dataclass(frozen=True)
+class Friction(_Section):
+    """Regularisation of the Coulomb friction bound (the coefficient is ``loading.f``).
+
+    "prakash-clifton": the bound is f sigma_eff with
+    d sigma_eff/dt = -(|V| + V*) / L (sigma_eff - p)  (V: slip rate, L: ``slip_length``,
+    V*: ``reference_velocity``); "constant-time": d sigma_eff/dt = -(sigma_eff - p) / t*
+    (t*: ``relaxation_time``); "none": the classical bound f p.
+    """
+
+    SECTION: ClassVar[str] = "friction"
+
+    regularization: str = _opt("none", "str")
+    """"none", "prakash-clifton" or "constant-time"."""
+    slip_length: float = _opt(0.0, "float")
+    """Prakash-Clifton slip length L [m]."""
+    reference_velocity: float = _opt(0.0, "float")
+    """Prakash-Clifton reference velocity V* [m/s]."""
+    relaxation_time: float = _opt(0.0, "float")
+    """Constant-time variant: relaxation time t* [s]."""
+
+    @property
+    def enabled(self) -> bool:
+        return self.regularization != "none"
+
+    def _check(self) -> None:
+        _choice(self._key("regularization"), self.regularization, REGULARIZATIONS)
+        _require(self._key("slip_length"), self.slip_length, self.slip_length >= 0,
+                 "slip_length >= 0 (m)")
+        _require(self._key("reference_velocity"), self.reference_velocity,
+                 self.reference_velocity >= 0, "reference_velocity >= 0 (m/s)")
+        _require(self._key("relaxation_time"), self.relaxation_time,
+                 self.relaxation_time >= 0, "relaxation_time >= 0 (s)")
+        if self.regularization == "prakash-clifton":
+            _require(self._key("slip_length"), self.slip_length, self.slip_length > 0,
+                     'slip_length > 0 (m) with regularization = "prakash-clifton"')
+            _require(self._key("reference_velocity"), self.reference_velocity,
+                     self.reference_velocity > 0,
+                     'reference_velocity > 0 (m/s) with regularization = "prakash-clifton" '
+                     "(it keeps the relaxation finite at zero slip rate)")
+        if self.regularization == "constant-time":
+            _require(self._key("relaxation_time"), self.relaxation_time,
+                     self.relaxation_time > 0,
+                     'relaxation_time > 0 (s) with regularization = "constant-time"')
+
+
+@dataclass(frozen=True)
 class Output(_Section):
     """What is recorded and how often."""
 
@@ -490,6 +595,8 @@ _SECTIONS: dict[str, type[_Section]] = {
     "time": Time,
     "initial": Initial,
     "output": Output,
+    "damping": Damping,
+    "friction": Friction,
 }
 _TOP_SCALARS = ("name", "description")
 #: Input-only alternatives: (section, canonical key, alternative key).
@@ -512,6 +619,8 @@ class Scene(_Section):
     time: Time = field(default_factory=Time)
     initial: Initial = field(default_factory=Initial)
     output: Output = field(default_factory=Output)
+    damping: Damping = field(default_factory=Damping)
+    friction: Friction = field(default_factory=Friction)
 
     def _check(self) -> None:
         if not _NAME_RE.fullmatch(self.name):
@@ -527,6 +636,11 @@ class Scene(_Section):
         for sec, cls in _SECTIONS.items():
             if not isinstance(getattr(self, sec), cls):
                 raise SceneError(f"{sec} must be a {cls.__name__} (got {getattr(self, sec)!r})")
+        if self.friction.enabled and self.time.beta1 != 0.0:
+            raise SceneError(
+                f"friction.regularization = {self.friction.regularization!r} needs the explicit "
+                f"scheme (time.beta1 = 0; got {self.time.beta1}): the law is built into its "
+                "forward-increment contact projection")
         half = self.mesh.n_inner // 2
         why = f"mesh.n_inner // 2 = {half} (at least 2 contact nodes per wavelength)"
         if self.initial.perturbation == "mode":

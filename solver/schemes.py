@@ -82,17 +82,23 @@ def time_step(scene: Scene, omega_max: float) -> tuple[float, float]:
     """(dt, dt_crit) for ``scene``: a fixed ``time.dt`` (checked) or ``dt_fraction * dt_crit``.
 
     dt_crit is always the EXPLICIT limit sqrt(2 / beta2) / omega_max, the unit of
-    ``time.dt_fraction`` for both schemes. Implicit schemes with 2 beta1 < beta2 are only
-    conditionally stable: their own limit is checked too.
+    ``time.dt_fraction`` for both schemes; for an explicit scene with Kelvin-Voigt damping it
+    is the damped explicit limit (``critical_time_step``). Implicit schemes with
+    2 beta1 < beta2 are only conditionally stable: their own limit is checked too.
     """
     ts = scene.time
-    dt_crit = critical_time_step(omega_max, 0.0, ts.beta2)
-    limit = critical_time_step(omega_max, ts.beta1, ts.beta2)
+    # explicit: the damped limit is the unit of dt_fraction; the implicit scheme treats the
+    # damping implicitly, so its unit stays the undamped explicit limit
+    tau = scene.damping.tau if ts.beta1 == 0.0 else 0.0
+    dt_crit = critical_time_step(omega_max, 0.0, ts.beta2, tau)
+    limit = critical_time_step(omega_max, ts.beta1, ts.beta2, tau)
     dt = ts.dt if ts.dt > 0.0 else ts.dt_fraction * dt_crit
     if dt > limit:
         what = "explicit" if ts.beta1 == 0.0 else f"beta1 = {ts.beta1}, beta2 = {ts.beta2}"
         rule = ("sqrt(2/beta2)/omega_max" if ts.beta1 == 0.0
                 else "1/(omega_max sqrt(beta2/2 - beta1))")
+        if ts.beta1 == 0.0 and tau > 0.0:
+            rule = "4/(omega_max^2 (tau + sqrt(tau^2 + 8 beta2/omega_max^2)))"
         raise StepTooLarge(
             f"time.dt = {dt:.4g} s is above the {what} stability limit "
             f"dt_crit = {rule} = {limit:.4g} s "
@@ -102,9 +108,45 @@ def time_step(scene: Scene, omega_max: float) -> tuple[float, float]:
             + ("" if ts.beta1 == 0.0 else ", or 2 beta1 >= beta2 (unconditionally stable)")
         )
     advice = stability_advice(scene, dt, dt_crit)
+    damped = damping_advice(scene, omega_max)
+    if damped:
+        advice = f"{advice}\n{damped}" if advice else damped
     if advice and _rank0():
         print(advice, file=sys.stderr, flush=True)
     return dt, dt_crit
+
+
+DAMPED_STEP_WARNING = 1e-3
+"""Ratio damped / undamped explicit limit below which the implicit scheme is recommended."""
+
+
+def damping_advice(scene: Scene, omega_max: float) -> str | None:
+    """A warning when Kelvin-Voigt damping collapses the explicit step (ratio < 1e-3)."""
+    tau = scene.damping.tau
+    if scene.time.beta1 != 0.0 or tau <= 0.0:
+        return None
+    b2 = scene.time.beta2
+    ratio = critical_time_step(omega_max, 0.0, b2, tau) / critical_time_step(omega_max, 0.0, b2)
+    if ratio >= DAMPED_STEP_WARNING:
+        return None
+    zeta = 0.5 * tau * omega_max
+    return (f"warning: damping tau = {tau:.3g} s gives zeta = tau omega_max / 2 = {zeta:.3g} at "
+            f"the highest mode, which cuts the explicit stability limit to {ratio:.2g} x its "
+            "undamped value (< 1e-3). Use the implicit scheme, which treats the damping "
+            "implicitly and is unconditionally stable: --set time.beta1=0.25 "
+            "--set time.beta2=0.5 --set time.dt_fraction=1")
+
+
+def make_explicit(problem, scene: Scene, dt: float):
+    """Explicit integrator for ``scene``: ``Newmark``, or ``DampedNewmark`` when the scene has
+    Kelvin-Voigt damping (the undamped step then stays exactly the plain one)."""
+    ts, tau = scene.time, scene.damping.tau
+    if tau > 0.0:
+        from solver.newmark import DampedNewmark
+
+        return DampedNewmark(problem.stiffness_mult(), problem.inv_mass, dt, ts.beta1,
+                             ts.beta2, tau=tau)
+    return Newmark(problem.stiffness_mult(), problem.inv_mass, dt, ts.beta1, ts.beta2)
 
 
 def make_integrator(problem, scene: Scene, dt: float):
@@ -124,11 +166,11 @@ def make_integrator(problem, scene: Scene, dt: float):
         contact = ImplicitContact(problem.nodes, g.d, scene.loading.f,
                                   g.R * scene.loading.omega, problem.comm)
         integrator = ImplicitNewmark(problem.K, problem.mass, problem.clamped, dt, ts.beta1,
-                                     ts.beta2, contact, problem.comm)
+                                     ts.beta2, contact, problem.comm, tau=scene.damping.tau)
         return integrator, contact
 
     from solver.fused import resolve_kernel
-    from solver.problem import ContactProjection
+    from solver.problem import ContactProjection, make_projection
 
     kappa = (ts.beta2 + 0.5) * dt * dt
     if resolve_kernel(scene) == "numba":
@@ -136,8 +178,8 @@ def make_integrator(problem, scene: Scene, dt: float):
 
         projection = ContactProjection(problem, kappa, dt)
         return FusedNewmark(problem, dt, ts.beta2, projection), projection
-    integrator = Newmark(problem.stiffness_mult(), problem.inv_mass, dt, ts.beta1, ts.beta2)
-    projection = ContactProjection(problem, integrator.kappa, dt)
+    integrator = make_explicit(problem, scene, dt)  # damped or plain numpy step
+    projection = make_projection(problem, integrator.kappa, dt)  # Coulomb or regularised
     integrator.contact = TimedContact(projection)
     return integrator, projection
 
@@ -179,6 +221,7 @@ def scheme_summary(integrator) -> dict:
     if hasattr(integrator, "iteration_stats"):
         return integrator.iteration_stats()
     out = {"scheme": "explicit", "beta1": integrator.beta1, "beta2": integrator.beta2,
+           "damping_tau_s": getattr(integrator, "tau", 0.0),
            "contact_s": contact_seconds(integrator),
            "kernel": getattr(integrator, "kernel", "numpy")}
     if hasattr(integrator, "compile_s"):

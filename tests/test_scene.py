@@ -488,6 +488,8 @@ def test_dumps_toml_is_resolved() -> None:
         "time",
         "initial",
         "output",
+        "damping",
+        "friction",
     }
     assert data["material"] == {"E": 1.0e9, "wave_speed": 1000.0, "nu": 0.3}
     assert re.search(r"^field_interval = 0\.001$", text, re.M)

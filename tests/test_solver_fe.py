@@ -137,7 +137,8 @@ def test_divergence_is_reported_not_hidden(tmp_path, monkeypatch):
 
     real = solver.schemes.critical_time_step
     monkeypatch.setattr(
-        solver.schemes, "critical_time_step", lambda w, b1, b2: 1.6 * real(w, b1, b2)
+        solver.schemes, "critical_time_step",
+        lambda w, b1, b2, tau=0.0: 1.6 * real(w, b1, b2, tau)
     )
     s = run_scene(smoke(), tmp_path / "div", comm=SELF, stream=open("/dev/null", "w"))
     assert s["status"] == "diverged"
