@@ -98,7 +98,9 @@ class BatchRecorder:
         npb = len(probe_nodes)
         self.fields = _Spool(xp, (6, m), B, chunk, np.float64, path("fields.f64"))
         self.status = _Spool(xp, (m,), B, chunk, np.int8, path("status.i8"))
-        self.energies = _Spool(xp, (5,), B, chunk, np.float64, path("energies.f64"))
+        # kinetic, strain, 3 works, damping work (0: batched scenes are undamped), as
+        # solver.observers.ENERGY_FIELDS
+        self.energies = _Spool(xp, (6,), B, chunk, np.float64, path("energies.f64"))
         self.probes = _Spool(xp, (4, npb), B, 16 * chunk, np.float64, path("probes.f64"))
         self.cx_sorted = integ.cx.astype(np.int64)[self.perm]
         self.pc_sorted = xp.asarray(integ.phase_conj)[self.perm]
@@ -144,7 +146,8 @@ class BatchRecorder:
         e[0] = xp.einsum("ib,ib->b", self.scratch, it.v)
         e[1] = xp.einsum("ib,ib->b", it.u_prev, it.ku)
         e[:2] *= 0.5
-        e[2:] = it.work if it.work.ndim == 2 else it.work.sum(axis=1)
+        e[2:5] = it.work if it.work.ndim == 2 else it.work.sum(axis=1)
+        e[5] = 0.0
         self.t[self.n] = it.time - it.dt
         self.n += 1
         host = e[:4].get() if hasattr(e, "get") else e[:4]  # one device -> host copy
