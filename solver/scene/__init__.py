@@ -1,0 +1,77 @@
+"""Scene files: TOML descriptions of one stick-slip-separation simulation.
+
+A scene is a TOML file mapped onto frozen, validated dataclasses (SI units)::
+
+    name = "figure3_n132"
+    [material]   E, wave_speed | rho, nu
+    [geometry]   R, xi, delta | d
+    [loading]    omega, f
+    [mesh]       n_inner, n_radial, cell, degree
+    [time]       beta1, beta2, dt, dt_fraction, end_time, max_steps, max_wall_time, kernel
+    [initial]    perturbation, mode, amplitude, seed, n_modes
+    [damping]    loss_factor + reference_frequency_hz | retardation_time   (default: none)
+    [friction]   regularization, slip_length, reference_velocity, relaxation_time
+    [output]     sample_interval, probes_deg, fields, field_interval, progress
+
+Every table and key is optional (defaults below).  Unknown keys, wrong types and
+out-of-range values raise :class:`SceneError`, whose message names the dotted key,
+the offending value and the allowed range or keys.  Pure standard library: this
+module must not import dolfinx.
+"""
+
+
+from solver.scene.files import SCENES_DIR, dumps_toml, list_scenes, load_scene, write_scene
+from solver.scene.model import (
+    Scene,
+    apply_overrides,
+    parse_override,
+    scene_from_dict,
+    scene_to_dict,
+)
+from solver.scene.sections import (
+    Damping,
+    Friction,
+    Geometry,
+    Initial,
+    Loading,
+    Material,
+    Mesh,
+    Output,
+    Time,
+)
+from solver.scene.values import (
+    RANGES,
+    SPEED_RATIO,
+    Range,
+    SceneError,
+    check_range,
+    check_speed_ratio,
+)
+
+__all__ = [
+    "SCENES_DIR",
+    "Damping",
+    "Friction",
+    "Geometry",
+    "Initial",
+    "Loading",
+    "Material",
+    "Mesh",
+    "Output",
+    "RANGES",
+    "SPEED_RATIO",
+    "Range",
+    "Scene",
+    "SceneError",
+    "Time",
+    "apply_overrides",
+    "check_range",
+    "check_speed_ratio",
+    "dumps_toml",
+    "list_scenes",
+    "load_scene",
+    "parse_override",
+    "scene_from_dict",
+    "scene_to_dict",
+    "write_scene",
+]

@@ -1,0 +1,126 @@
+"""Scene files: load a TOML scene (with overrides), write the resolved one; the shipped scenes."""
+
+from __future__ import annotations
+
+import math
+import os
+import tomllib
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from solver.scene.model import _TOP_SCALARS, Scene, apply_overrides, scene_from_dict, scene_to_dict
+from solver.scene.sections import _SECTIONS
+from solver.scene.values import (
+    SceneError,
+)
+
+#: Directory of the scenes shipped with the project: ``<repo>/scenes``, or ``$STICKSLIP_SCENES``
+#: where the project is installed away from its source tree (the Docker image).
+SCENES_DIR = Path(os.environ.get("STICKSLIP_SCENES")
+                  or Path(__file__).resolve().parents[2] / "scenes")
+
+
+
+
+# ----------------------------------------------------------------------------- files
+
+
+def list_scenes() -> list[Path]:
+    """The ``*.toml`` scenes shipped in :data:`SCENES_DIR`, sorted."""
+    return sorted(SCENES_DIR.glob("*.toml"))
+
+
+def _resolve(path: str | Path) -> Path:
+    p = Path(path)
+    if p.is_dir():
+        raise SceneError(f"scene file {str(path)!r} is a directory: give a scene .toml file "
+                         "(e.g. scenes/smoke.toml)")
+    if p.exists():
+        return p
+    if p.parent == Path(".") and (SCENES_DIR / f"{p.stem}.toml").is_file():
+        return SCENES_DIR / f"{p.stem}.toml"
+    shipped = ", ".join(s.stem for s in list_scenes())
+    raise SceneError(f"scene file {str(path)!r} not found (shipped scenes: {shipped})")
+
+
+def load_scene(path: str | Path, overrides: Sequence[str] = ()) -> Scene:
+    """Load and validate a scene file, applying ``"section.key=value"`` overrides.
+
+    ``path`` may also be the bare name of a shipped scene (``"figure3_n36"``).
+    A missing ``name`` defaults to the file stem.
+    """
+    p = _resolve(path)
+    try:
+        with p.open("rb") as fh:
+            data = tomllib.load(fh)
+    except UnicodeDecodeError as exc:
+        raise SceneError(f"{p}: not a text TOML file (byte {exc.start} is not UTF-8); "
+                         "give a scene .toml file") from exc
+    except tomllib.TOMLDecodeError as exc:
+        raise SceneError(f"{p}: invalid TOML: {exc}") from exc
+    except OSError as exc:
+        raise SceneError(f"{p}: cannot read the scene file ({exc.strerror}); check the "
+                         "path and its permissions") from exc
+    data.setdefault("name", p.stem)
+    data = apply_overrides(data, overrides)
+    try:
+        return scene_from_dict(data)
+    except SceneError as exc:
+        where = f"{p} with --set {' '.join(overrides)}" if overrides else str(p)
+        raise SceneError(f"{where}: {exc}") from exc
+
+
+def _toml_str(s: str) -> str:
+    out = ['"']
+    for ch in s:
+        if ch == '"':
+            out.append('\\"')
+        elif ch == "\\":
+            out.append("\\\\")
+        elif ch == "\n":
+            out.append("\\n")
+        elif ch == "\t":
+            out.append("\\t")
+        elif ch == "\r":
+            out.append("\\r")
+        elif ord(ch) < 0x20 or ord(ch) == 0x7F:
+            out.append(f"\\u{ord(ch):04X}")
+        else:
+            out.append(ch)
+    out.append('"')
+    return "".join(out)
+
+
+def _toml_value(v: Any) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, int):
+        return str(v)
+    if isinstance(v, float):
+        if not math.isfinite(v):
+            raise SceneError(f"cannot write non-finite float {v!r}")
+        return repr(v)
+    if isinstance(v, str):
+        return _toml_str(v)
+    if isinstance(v, list | tuple):
+        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
+    raise SceneError(f"cannot write value {v!r} of type {type(v).__name__} to TOML")
+
+
+def dumps_toml(scene: Scene) -> str:
+    """Serialise ``scene`` (fully resolved) as TOML text."""
+    d = scene_to_dict(scene)
+    lines = ["# stickslip scene (resolved: all defaults written out)"]
+    lines += [f"{k} = {_toml_value(d[k])}" for k in _TOP_SCALARS]
+    for sec in _SECTIONS:
+        lines += ["", f"[{sec}]"]
+        lines += [f"{k} = {_toml_value(v)}" for k, v in d[sec].items()]
+    return "\n".join(lines) + "\n"
+
+
+def write_scene(scene: Scene, path: str | Path) -> Path:
+    """Atomically write ``scene`` as TOML to ``path`` (temp file + os.replace)."""
+    from solver.atomic import atomic_write_text
+
+    return atomic_write_text(path, dumps_toml(scene))

@@ -1,0 +1,252 @@
+"""``Scene``: the whole validated scene, its dict form and ``--set key=value`` overrides."""
+
+from __future__ import annotations
+
+import math
+import re
+import tomllib
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field, fields, replace
+from typing import Any
+
+from solver.scene.sections import (
+    _SECTIONS,
+    Damping,
+    Friction,
+    Geometry,
+    Initial,
+    Loading,
+    Material,
+    Mesh,
+    Output,
+    Time,
+)
+from solver.scene.values import (
+    SceneError,
+    _fmt,
+    _opt,
+    _require,
+    _Section,
+    _suggest,
+    _to_float,
+    check_range,
+    check_speed_ratio,
+)
+
+_TOP_SCALARS = ("name", "description")
+#: Input-only alternatives: (section, canonical key, alternative key).
+_EXCLUSIVE = (("material", "wave_speed", "rho"), ("geometry", "delta", "d"))
+#: A safe file name: it starts with a letter, digit or '_' (never '.', '..', '-x' or hidden).
+_NAME_RE = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.\-]{0,127}")
+
+
+@dataclass(frozen=True)
+class Scene(_Section):
+    """A complete, validated simulation description."""
+
+    name: str = _opt("scene", "str")
+    """Short identifier (letters, digits, '_', '-', '.'); used for output names."""
+    description: str = _opt("", "str")
+    material: Material = field(default_factory=Material)
+    geometry: Geometry = field(default_factory=Geometry)
+    loading: Loading = field(default_factory=Loading)
+    mesh: Mesh = field(default_factory=Mesh)
+    time: Time = field(default_factory=Time)
+    initial: Initial = field(default_factory=Initial)
+    output: Output = field(default_factory=Output)
+    damping: Damping = field(default_factory=Damping)
+    friction: Friction = field(default_factory=Friction)
+
+    def _check(self) -> None:
+        if not _NAME_RE.fullmatch(self.name):
+            raise SceneError(
+                f"name = {_fmt(self.name)} is not allowed: it names the run directory, so it "
+                "must be 1 to 128 letters, digits, '_', '-' or '.', starting with a letter, "
+                "digit or '_' (not '.' or '..')"
+            )
+        g, lo = self.geometry, self.loading
+        check_speed_ratio(g.R, lo.omega, self.material.wave_speed,
+                          f"loading.omega = {_fmt(lo.omega)}, material.wave_speed = "
+                          f"{_fmt(self.material.wave_speed)}, geometry.R = {_fmt(g.R)}")
+        for sec, cls in _SECTIONS.items():
+            if not isinstance(getattr(self, sec), cls):
+                raise SceneError(f"{sec} must be a {cls.__name__} (got {getattr(self, sec)!r})")
+        if self.friction.enabled and self.time.beta1 != 0.0:
+            raise SceneError(
+                f"friction.regularization = {self.friction.regularization!r} needs the explicit "
+                f"scheme (time.beta1 = 0; got {self.time.beta1}): the law is built into its "
+                "forward-increment contact projection")
+        if self.friction.filtered and self.time.beta1 != 0.0:
+            raise SceneError(
+                f"friction.filter = {self.friction.filter!r} needs the explicit scheme "
+                f"(time.beta1 = 0; got {self.time.beta1}): the filtered bound couples "
+                "neighbouring nodes, which the implicit active set does not model; use "
+                'time.beta1 = 0 or friction.filter = "nodal"')
+        half = self.mesh.n_inner // 2
+        why = f"mesh.n_inner // 2 = {half} (at least 2 contact nodes per wavelength)"
+        if self.initial.perturbation == "mode":
+            _require(
+                "initial.mode", self.initial.mode, self.initial.mode <= half, f"1 <= mode <= {why}"
+            )
+        if self.initial.perturbation == "random":
+            _require(
+                "initial.n_modes",
+                self.initial.n_modes,
+                self.initial.n_modes <= half,
+                f"1 <= n_modes <= {why}",
+            )
+
+    def with_overrides(self, *overrides: str) -> Scene:
+        """Return a copy with ``"section.key=value"`` overrides applied (and re-validated)."""
+        return scene_from_dict(apply_overrides(scene_to_dict(self), overrides))
+
+    def replace(self, **changes: Any) -> Scene:
+        """``dataclasses.replace`` shortcut (validated)."""
+        return replace(self, **changes)
+
+
+# ----------------------------------------------------------------------------- dict <-> Scene
+
+
+def _unknown(key: str, allowed: Sequence[str], word: str | None = None) -> SceneError:
+    """Error for an unknown ``key``; suggests the closest of ``allowed`` to ``word``."""
+    leaf = key.rsplit(".", 1)[-1] if word is None else word
+    return SceneError(
+        f"unknown key {key!r} (allowed: {', '.join(allowed)}){_suggest(leaf, allowed)}"
+    )
+
+
+def _allowed_keys(section: str) -> list[str]:
+    keys = [f.name for f in fields(_SECTIONS[section])]
+    for sec, canon, alt in _EXCLUSIVE:
+        if sec == section:
+            keys.insert(keys.index(canon) + 1, alt)
+    return keys
+
+
+def scene_from_dict(data: Mapping[str, Any]) -> Scene:
+    """Validate a nested dict (as parsed from TOML) and build a :class:`Scene`."""
+    if not isinstance(data, Mapping):
+        raise SceneError(f"a scene must be a table/dict (got {type(data).__name__})")
+    top_allowed = [*_TOP_SCALARS, *_SECTIONS]
+    kwargs: dict[str, Any] = {}
+    for key, value in data.items():
+        if key not in top_allowed:
+            raise _unknown(str(key), top_allowed)
+        if key in _TOP_SCALARS:
+            kwargs[key] = value
+            continue
+        if not isinstance(value, Mapping):
+            raise SceneError(
+                f"{key} = {_fmt(value)} has the wrong type: must be a table "
+                f"([{key}] in TOML, keys: {', '.join(_allowed_keys(key))})"
+            )
+        allowed = _allowed_keys(key)
+        sub = dict(value)
+        for k in sub:
+            if k not in allowed:
+                raise _unknown(f"{key}.{k}", allowed)
+        kwargs[key] = _build_section(key, sub)
+    return Scene(**kwargs)
+
+
+def _build_section(section: str, sub: dict[str, Any]) -> _Section:
+    if section == "material" and "rho" in sub:
+        _exactly_one(section, sub, "wave_speed", "rho", "wave_speed = sqrt(E/rho)")
+        rho = _to_float("material.rho", sub.pop("rho"))
+        check_range("material.rho", rho)
+        E = _to_float("material.E", sub.get("E", Material.E))
+        check_range("material.E", E)
+        sub["wave_speed"] = math.sqrt(E / rho)
+    if section == "geometry" and "d" in sub:
+        _exactly_one(section, sub, "delta", "d", "delta = d/R")
+        d = _to_float("geometry.d", sub.pop("d"))
+        check_range("geometry.d", d)
+        R = _to_float("geometry.R", sub.get("R", Geometry.R))
+        check_range("geometry.R", R)
+        sub["delta"] = d / R
+    return _SECTIONS[section](**sub)
+
+
+def _exactly_one(section: str, sub: Mapping[str, Any], a: str, b: str, rel: str) -> None:
+    if a in sub and b in sub:
+        raise SceneError(
+            f"{section}: give exactly one of '{section}.{a}' or '{section}.{b}' "
+            f"(got both: {a} = {_fmt(sub[a])}, {b} = {_fmt(sub[b])}; {rel})"
+        )
+
+
+def scene_to_dict(scene: Scene) -> dict[str, Any]:
+    """Resolved nested dict of ``scene`` (all defaults filled in; lists for tuples)."""
+    out: dict[str, Any] = {"name": scene.name, "description": scene.description}
+    for sec in _SECTIONS:
+        obj = getattr(scene, sec)
+        out[sec] = {
+            f.name: list(v) if isinstance(v := getattr(obj, f.name), tuple) else v
+            for f in fields(obj)
+        }
+    return out
+
+
+# ----------------------------------------------------------------------------- overrides
+
+
+def parse_override(text: str) -> tuple[tuple[str, ...], Any]:
+    """Split ``"section.key=value"`` into a key path and a TOML-parsed value.
+
+    The value is parsed as a TOML value (``132``, ``0.7``, ``"quadrilateral"``,
+    ``[0.0, 90.0]``, ``true``); anything that is not valid TOML is taken as a bare string.
+    """
+    if "=" not in text:
+        raise SceneError(
+            f"override {text!r} must look like 'section.key=value' (e.g. mesh.n_inner=132)"
+        )
+    raw_key, raw_value = (s.strip() for s in text.split("=", 1))
+    path = tuple(p.strip() for p in raw_key.split("."))
+    if len(path) == 1 and path[0] in _TOP_SCALARS:
+        pass
+    elif len(path) == 2 and path[0] in _SECTIONS:
+        allowed = _allowed_keys(path[0])
+        if path[1] not in allowed:
+            raise _unknown(raw_key, allowed)
+    elif path[0] in _SECTIONS:
+        raise SceneError(
+            f"override key {raw_key!r} must name one key of [{path[0]}] "
+            f"(allowed: {', '.join(f'{path[0]}.{k}' for k in _allowed_keys(path[0]))})"
+        )
+    elif path[0] in _TOP_SCALARS:
+        raise SceneError(f"override key {raw_key!r}: {path[0]!r} is a string, not a table")
+    else:
+        raise _unknown(raw_key, [*_TOP_SCALARS, *_SECTIONS], word=path[0])
+    try:
+        value = tomllib.loads(f"v = {raw_value}")["v"]
+    except tomllib.TOMLDecodeError:
+        value = raw_value
+    return path, value
+
+
+def apply_overrides(data: Mapping[str, Any], overrides: Sequence[str]) -> dict[str, Any]:
+    """Return a copy of the nested ``data`` with ``"section.key=value"`` overrides applied.
+
+    Setting one of a mutually exclusive pair (``wave_speed``/``rho``, ``delta``/``d``)
+    removes the other from the copy.
+    """
+    if isinstance(overrides, str):
+        overrides = (overrides,)
+    out: dict[str, Any] = {k: dict(v) if isinstance(v, Mapping) else v for k, v in data.items()}
+    for text in overrides:
+        path, value = parse_override(text)
+        if len(path) == 1:
+            out[path[0]] = value
+            continue
+        sec, key = path
+        table = out.setdefault(sec, {})
+        if not isinstance(table, dict):
+            raise SceneError(f"{sec} must be a table (got {_fmt(table)})")
+        for s, a, b in _EXCLUSIVE:
+            if s == sec and key in (a, b):
+                table.pop(b if key == a else a, None)
+        table[key] = value
+    return out
+
+

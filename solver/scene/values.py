@@ -1,0 +1,184 @@
+"""Scene values: coercion of TOML values, the one table of ranges (also read by the
+``wave``/``flutter`` CLI), and the validated-section base class. Standard library only."""
+
+from __future__ import annotations
+
+import difflib
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field, fields
+from typing import Any, ClassVar
+
+
+class SceneError(ValueError):
+    """Invalid scene: the message names the dotted key, the bad value and the fix."""
+
+
+# ----------------------------------------------------------------------------- type coercion
+
+
+def _fmt(value: Any) -> str:
+    """Render a value for an error message (TOML-ish: strings quoted, bools lower-case)."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    return repr(value)
+
+
+def _to_float(key: str, value: Any) -> float:
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise SceneError(
+            f"{key} = {_fmt(value)} has the wrong type: must be a number "
+            f"(got {type(value).__name__})"
+        )
+    x = float(value)
+    if not math.isfinite(x):
+        raise SceneError(f"{key} = {_fmt(value)} is out of range: must be a finite number")
+    return x
+
+
+def _to_int(key: str, value: Any) -> int:
+    if isinstance(value, bool) or not isinstance(value, int):
+        raise SceneError(
+            f"{key} = {_fmt(value)} has the wrong type: must be an integer "
+            f"(got {type(value).__name__})"
+        )
+    return int(value)
+
+
+def _to_str(key: str, value: Any) -> str:
+    if not isinstance(value, str):
+        raise SceneError(
+            f"{key} = {_fmt(value)} has the wrong type: must be a string "
+            f"(got {type(value).__name__}; quote it in TOML)"
+        )
+    return value
+
+
+def _to_bool(key: str, value: Any) -> bool:
+    if not isinstance(value, bool):
+        raise SceneError(
+            f"{key} = {_fmt(value)} has the wrong type: must be a boolean true/false "
+            f"(got {type(value).__name__})"
+        )
+    return value
+
+
+def _to_floats(key: str, value: Any) -> tuple[float, ...]:
+    if not isinstance(value, list | tuple):
+        raise SceneError(
+            f"{key} = {_fmt(value)} has the wrong type: must be a list of numbers "
+            f"such as [0.0, 90.0] (got {type(value).__name__})"
+        )
+    return tuple(_to_float(f"{key}[{i}]", v) for i, v in enumerate(value))
+
+
+_COERCE: dict[str, Callable[[str, Any], Any]] = {
+    "float": _to_float,
+    "int": _to_int,
+    "str": _to_str,
+    "bool": _to_bool,
+    "floats": _to_floats,
+}
+
+
+def _opt(default: Any, kind: str) -> Any:
+    """Dataclass field with a coercion kind (key of ``_COERCE``) in its metadata."""
+    return field(default=default, metadata={"kind": kind})
+
+
+def _require(key: str, value: Any, ok: bool, rule: str) -> None:
+    """Raise a range error for ``key`` unless ``ok``."""
+    if not ok:
+        raise SceneError(f"{key} = {_fmt(value)} is out of range: must satisfy {rule}")
+
+
+def _choice(key: str, value: str, allowed: Sequence[Any]) -> None:
+    if value not in allowed:
+        opts = ", ".join(_fmt(a) for a in allowed)
+        hint = _suggest(value, [str(a) for a in allowed]) if isinstance(value, str) else ""
+        raise SceneError(f"{key} = {_fmt(value)} is not allowed: must be one of {opts}{hint}")
+
+
+def _suggest(word: str, candidates: Sequence[str]) -> str:
+    """ "; did you mean 'x'?" for the closest candidate (case-insensitive), else ""."""
+    lower = {c.lower(): c for c in candidates}
+    close = difflib.get_close_matches(word.lower(), list(lower), n=1, cutoff=0.6)
+    return f"; did you mean {lower[close[0]]!r}?" if close else ""
+
+
+@dataclass(frozen=True)
+class Range:
+    """An allowed range: ``ok(value)`` and the rule as the user reads it."""
+
+    ok: Callable[[float], bool]
+    rule: str
+
+
+#: The physical ranges, in one place for the scenes and the reduced-model CLI (``wave``,
+#: ``flutter``): key -> range. Keys are dotted scene keys.
+RANGES: dict[str, Range] = {
+    "material.E": Range(lambda x: x > 0, "E > 0 (Pa)"),
+    "material.wave_speed": Range(lambda x: x > 0, "wave_speed > 0 (m/s)"),
+    "material.rho": Range(lambda x: x > 0, "rho > 0 (kg/m^3)"),
+    "material.nu": Range(
+        lambda x: 0 <= x < 0.5,
+        "0 <= nu < 0.5 (incompressible nu = 0.5 is not supported by the displacement "
+        "formulation)",
+    ),
+    "geometry.R": Range(lambda x: x > 0, "R > 0 (m)"),
+    "geometry.xi": Range(lambda x: x > 1, "xi > 1 (outer/inner radius ratio)"),
+    "geometry.delta": Range(
+        lambda x: x > 0,
+        "delta > 0 (mismatch d/R; with delta = 0 the tube is not pressed on the cylinder: "
+        "no contact pressure, no friction, nothing to simulate)",
+    ),
+    "geometry.d": Range(lambda x: x > 0, "d > 0 (m; the cylinder must press the tube)"),
+    "loading.omega": Range(lambda x: x > 0, "omega > 0 (rad/s)"),
+    "loading.f": Range(lambda x: x >= 0, "f >= 0 (Coulomb friction coefficient)"),
+    "initial.mode": Range(lambda x: x >= 1, "mode >= 1"),
+}
+
+#: Allowed rim-speed ratio R*omega/wave_speed: outside it the numbers of the model
+#: (gamma**2 in eqs. [2]-[3], steps per turn) leave double precision or make no sense.
+SPEED_RATIO = (1e-12, 1e6)
+
+
+def check_range(key: str, value: Any, label: str | None = None) -> None:
+    """Raise :class:`SceneError` unless ``value`` is in ``RANGES[key]``; names ``label``."""
+    r = RANGES[key]
+    _require(label or key, value, r.ok(value), r.rule)
+
+
+def check_speed_ratio(R: float, omega: float, wave_speed: float, label: str) -> None:
+    """Raise :class:`SceneError` unless R*omega/wave_speed is within :data:`SPEED_RATIO`."""
+    lo, hi = SPEED_RATIO
+    with_ratio = R * omega / wave_speed if wave_speed > 0 else math.inf
+    if not (lo <= with_ratio <= hi):
+        raise SceneError(
+            f"{label}: the rim-speed ratio R*omega/wave_speed = {with_ratio:.3g} is out of "
+            f"range: must satisfy {lo:g} <= R*omega/wave_speed <= {hi:g} (check "
+            "loading.omega and material.wave_speed)"
+        )
+
+
+class _Section:
+    """Mixin: coerce field types from metadata, then run the section's range checks."""
+
+    SECTION: ClassVar[str] = ""
+
+    def __post_init__(self) -> None:
+        for f in fields(self):  # type: ignore[arg-type]
+            kind = f.metadata.get("kind")
+            if kind is None:
+                continue
+            key = f"{self.SECTION}.{f.name}" if self.SECTION else f.name
+            object.__setattr__(self, f.name, _COERCE[kind](key, getattr(self, f.name)))
+        self._check()
+
+    def _key(self, name: str) -> str:
+        return f"{self.SECTION}.{name}"
+
+    def _check(self) -> None:  # pragma: no cover - overridden
+        pass
+
+
