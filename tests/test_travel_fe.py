@@ -152,5 +152,5 @@ def test_travel_reads_the_scene_damping_and_converges_damped(tmp_path):
     assert s["inequalities"]["all_satisfied"]
     assert s["mode"] == 4 and s["regime"] == "stick-slip-separation"
     assert s["residual"] <= 1e-10
-    # within the ±10 % nearest-speed scan of the start
-    assert -2530.0 < s["celerity_m_s"] < -2070.0
+    # within the ±5 % nearest-speed scan of the start
+    assert -2415.0 < s["celerity_m_s"] < -2185.0
