@@ -37,13 +37,14 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="draw the regime map (after the sweep, or of an existing SWEEP_DIR)")
     p.add_argument("--list", action="store_true",
                    help="list the scenes and their state; run nothing")
-    p.add_argument("--batch", default="off", metavar="off|auto|B",
+    p.add_argument("--batch", default=None, metavar="off|auto|B",
                    help="advance scenes that share mesh, material, dt and scheme as batches "
                         "(one sparse matrix x block product per step, solver/ensemble.py): "
-                        "off (default), auto (size from memory and ranks) or a size B")
-    p.add_argument("--backend", choices=("cpu", "gpu"), default="cpu",
+                        "off, auto (size from memory and ranks) or a size B; default: the "
+                        "sweep file's `batch`, else off")
+    p.add_argument("--backend", choices=("cpu", "gpu"), default=None,
                    help="batched integrator on the CPU (numba) or on a GPU (CuPy, optional "
-                        "extra; see README)")
+                        "extra; see README); default: the sweep file's `backend`, else cpu")
     p.add_argument("--progress", choices=("auto", "live", "lines"), default="auto",
                    help="live status line (TTY) or one line per finished scene (auto: live "
                         "only on a terminal outside mpirun)")
@@ -93,9 +94,10 @@ def _sweep(args: argparse.Namespace) -> int:
         return 2
     from studies.sweep.batch import parse_batch
 
+    backend = args.backend or spec.backend
     try:
-        batch = parse_batch(args.batch)
-        if args.backend == "gpu":
+        batch = parse_batch(args.batch if args.batch is not None else spec.batch)
+        if backend == "gpu":
             from solver.ensemble import array_namespace
 
             array_namespace("gpu")
@@ -112,7 +114,7 @@ def _sweep(args: argparse.Namespace) -> int:
         return 0
     rc = run_sweep(spec, out_dir, comm=comm, group_size=args.group_size,
                    retry_failed=args.retry_failed, progress=args.progress, batch=batch,
-                   backend=args.backend)
+                   backend=backend)
     if args.plot and rc in (0, 1) and comm.rank == 0:
         for path in plot_sweep(out_dir):
             print(f"figure: {path}")

@@ -1,24 +1,8 @@
 """Zones of the reduced model's travelling waves (eqs. [3]-[7]): units, zone matrices,
 the wave object, its evaluation and the admissibility checks.
 
-Conventions
------------
-Waves are ``U(φ), V(φ)`` with ``φ = θ − ct`` (eq. [3]), period ``T = 2π/k``; ``c > 0`` is the
-sense of rotation. Everything is solved in the *time-ordered* coordinate
-``s = σφ``, ``σ = −sign(c)``, so that ``ds/dt = |c| > 0`` at a material point. In ``s`` the
-equations [4] keep their form with ``D`` replaced by ``D_s = σD``, the stick condition
-``V_φ = −1/c`` becomes ``V_s = 1/|c|`` and the slip velocity ``1 + cV_φ`` is ``1 − |c|V_s``.
-
-The zones follow each other in time as separation ``[0, ψ1T]`` → stick ``[ψ1T, ψ2T]`` →
-slip ``[ψ2T, T]`` (for ``c < 0``, ``s = φ`` and this is exactly the paper's layout; for
-``c > 0`` the φ-layout is mirrored). A stick-slip wave is the case ``ψ1 = 0``.
-
-Zone solutions (closed form, matrix exponentials, no numerical ODE integration):
-
-* separation [7], ``y = (U, U_s, V, V_s)``: ``y(s) = expm(M s) y0``;
-* stick [6]: ``U = δ``, ``V = V1 + (s − ψ1T)/|c|``, ``P = gδ + D/c``, ``Q = hV``;
-* slip [5], ``z = (V, V_s)``: ``z(s) = expm(N s)(z0 − z_p) + z_p`` with ``z_p = (fgδ/h, 0)``,
-  ``P = gδ − D_s V_s``, ``Q = fP``.
+Conventions (``φ = θ − ct``, the time-ordered coordinate ``s``, the zone order) and the closed-form
+zone solutions are derived in the docstring of ``semianalytic.waves``.
 """
 
 from __future__ import annotations

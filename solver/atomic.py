@@ -1,6 +1,6 @@
 """Atomic file writes: a reader sees the old file or the new one, never half of one.
 
-Every output goes through a temporary file in the same folder (``.NAME.*.tmp``), is flushed to
+Every output goes through a temporary file in the same folder (``.NAME.PID.*.tmp``), is flushed to
 disk, given the mode the umask allows (``mkstemp`` alone would leave it 0600, unreadable by
 the host user of a Docker run) and renamed over ``NAME``. On any failure (disk full, a signal)
 the temporary file is removed: nothing is ever left behind.
@@ -14,7 +14,8 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import IO, Any
 
-__all__ = ["atomic_save_npz", "atomic_write", "atomic_write_text", "umask_mode"]
+__all__ = ["atomic_save_npz", "atomic_write", "atomic_write_text", "remove_temporaries",
+           "umask_mode"]
 
 
 def umask_mode(full: int = 0o666) -> int:
@@ -27,7 +28,10 @@ def umask_mode(full: int = 0o666) -> int:
 def atomic_write(path: str | Path, fill: Callable[[IO[bytes]], Any]) -> Path:
     """Write ``path`` with ``fill(binary file)`` through a temporary file, fsync, rename."""
     p = Path(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".tmp", dir=p.parent or ".")
+    # the writer's pid in the name: a process killed outright (SIGKILL) leaves a temporary
+    # file that its survivors can tell from the live writers' (studies.rundir's watchdog)
+    fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.{os.getpid()}.", suffix=".tmp",
+                               dir=p.parent or ".")
     try:
         os.fchmod(fd, umask_mode())
         with os.fdopen(fd, "wb") as fh:
@@ -56,3 +60,12 @@ def atomic_save_npz(path: str | Path, arrays: dict[str, Any], compress: bool = T
 
     save = np.savez_compressed if compress else np.savez
     return atomic_write(path, lambda fh: save(fh, **arrays))
+
+
+def remove_temporaries(folder: str | Path, pid: int) -> None:
+    """Remove the temporary files that process ``pid`` (now dead) left in ``folder``."""
+    for tmp in Path(folder).glob(f".*.{pid}.*.tmp"):
+        try:
+            tmp.unlink()
+        except OSError:
+            pass

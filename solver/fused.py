@@ -230,12 +230,9 @@ class FusedNewmark:
 
     def set_state(self, u: np.ndarray, v: np.ndarray, a0: np.ndarray | None = None) -> None:
         """As ``Newmark.set_state``; also u_{n-1} := u_0 for the contact work."""
-        self.u[:] = u
-        self.v[:] = v
-        self.v_pred[:] = v
-        if a0 is not None:
-            self.v_pred -= self.beta2 * self.dt * np.asarray(a0)
-        self.a.fill(0.0)
+        from solver.newmark import Newmark
+
+        Newmark.set_state(self, u, v, a0)  # the same predictor start, on this class's arrays
         cx = self.cx.astype(np.intp)
         self.zprev[0::2] = self.u[cx]
         self.zprev[1::2] = self.u[cx + 1]

@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import difflib
 import math
+import os
 import re
 import tomllib
 from collections.abc import Callable, Mapping, Sequence
@@ -58,8 +59,10 @@ __all__ = [
     "write_scene",
 ]
 
-#: Directory of the scenes shipped with the project (``<repo>/scenes``).
-SCENES_DIR = Path(__file__).resolve().parent.parent / "scenes"
+#: Directory of the scenes shipped with the project: ``<repo>/scenes``, or ``$STICKSLIP_SCENES``
+#: where the project is installed away from its source tree (the Docker image).
+SCENES_DIR = Path(os.environ.get("STICKSLIP_SCENES")
+                  or Path(__file__).resolve().parent.parent / "scenes")
 
 
 class SceneError(ValueError):

@@ -109,20 +109,31 @@ def test_a_successful_rerun_replaces_atomically(good_run):
 # --------------------------------------------------------------------------- 3: faults
 
 
-@pytest.mark.parametrize("replacing", [False, True], ids=["fresh", "replacing"])
-@pytest.mark.parametrize("kind", ["disk-full", "SIGINT", "SIGTERM"])
-@pytest.mark.parametrize("phase", PHASES)
+def _fault_cases() -> list:
+    """(phase, kind, replacing) worth running: a disk-full fault needs a write in the phase,
+    a swap needs an earlier run, and SIGTERM takes the SIGINT path (one handler), so it is
+    sampled only where the phases differ (setup, loop, the first big write)."""
+    cases = []
+    for phase in PHASES:
+        for kind in ("disk-full", "SIGINT", "SIGTERM"):
+            for replacing in (False, True):
+                if kind == "disk-full" and phase in ("setup", "loop"):
+                    continue
+                if phase == "swap" and not replacing:
+                    continue
+                if kind == "SIGTERM" and phase not in ("setup", "loop", "samples.npz"):
+                    continue
+                cases.append(pytest.param(phase, kind, replacing, id=f"{phase}-{kind}-"
+                                          + ("replacing" if replacing else "fresh")))
+    return cases
+
+
+@pytest.mark.parametrize(("phase", "kind", "replacing"), _fault_cases())
 def test_fault_at_every_phase(tmp_path, monkeypatch, phase, kind, replacing):
     """Case 3 and the fault-injection helper: after a failing write (disk full) or a signal at
     any phase, the earlier run is intact, the new one complete or marked, nothing temporary
     is left, and a signal that came during the final save is honoured after it."""
     pytest.importorskip("dolfinx")
-    if kind == "disk-full" and phase in ("setup", "loop"):
-        pytest.skip("no write in this phase")
-    if phase == "swap" and not replacing:
-        pytest.skip("no swap without an earlier run")
-    if kind == "SIGTERM" and phase not in ("setup", "loop", "samples.npz"):
-        pytest.skip("SIGTERM takes the SIGINT path (one handler); sampled where it differs")
     run_dir = tmp_path / "r"
     before = None
     if replacing:
@@ -445,3 +456,66 @@ def test_sample_interval_longer_than_end_time_is_warned():
 
     assert any("sample_interval" in w for w in scene_warnings(smoke("output.sample_interval=1")))
     assert not any("sample_interval" in w for w in scene_warnings(smoke()))
+
+
+def test_read_only_output_directory_is_refused_in_one_line():
+    """Case 9: `-o` inside a directory the user cannot write (root can write anywhere, so the
+    command runs as the unprivileged user `nobody`)."""
+    import tempfile
+
+    if os.geteuid() != 0:
+        pytest.skip("needs root to run a command as another user")
+    pytest.importorskip("dolfinx")
+    ro = Path(tempfile.mkdtemp(dir="/tmp"))
+    try:
+        ro.chmod(0o555)
+        res = subprocess.run(
+            [sys.executable, "-m", "cli.main", "run", "smoke", "-o", str(ro / "x")],
+            cwd=REPO, capture_output=True, text=True, timeout=120,
+            env={**os.environ, "HOME": str(ro)}, preexec_fn=lambda: os.setuid(65534))
+        assert res.returncode == 2, res.stderr
+        assert res.stderr.count("\n") == 1
+        assert f"cannot create {ro / 'x'}: {ro} is not a writable directory" in res.stderr
+        assert not (ro / "x").exists()
+    finally:
+        ro.chmod(0o755)
+        ro.rmdir()
+
+
+def test_a_run_killed_outright_is_marked_and_tidied(tmp_path):
+    """Cases 3 and 6 under SIGKILL (out of memory, a batch system) in the middle of writing
+    samples.npz: nothing can run in the process, so its watchdog removes the temporary file
+    and marks the summary `failed` (never a stale `running`)."""
+    pytest.importorskip("dolfinx")
+    driver = tmp_path / "driver.py"
+    driver.write_text(f"""
+import io, os, signal, sys
+sys.path.insert(0, {str(REPO)!r})
+from mpi4py import MPI
+import solver.atomic
+from solver.scene import load_scene
+from studies.rundir import run_scene
+real = solver.atomic.atomic_write
+def write(path, fill):
+    if str(path).endswith("samples.npz"):
+        def killed(fh):
+            fh.write(b"partial")
+            fh.flush()
+            os.kill(os.getpid(), signal.SIGKILL)
+        return real(path, killed)
+    return real(path, fill)
+solver.atomic.atomic_write = write
+run_scene(load_scene("smoke", {SHORT!r}), {str(tmp_path / 'k')!r}, comm=MPI.COMM_SELF,
+          stream=io.StringIO())
+""")
+    res = subprocess.run([sys.executable, str(driver)], cwd=REPO, capture_output=True,
+                         timeout=120)
+    assert res.returncode == -signal.SIGKILL
+    for _ in range(50):  # the watchdog works on after its parent is gone
+        s = json.loads((tmp_path / "k" / "summary.json").read_text())
+        if s["status"] != "running":
+            break
+        time.sleep(0.1)
+    assert s["status"] == "failed" and "killed outright" in s["message"]
+    assert "the final save" in s["message"]
+    assert not leftovers(tmp_path / "k")

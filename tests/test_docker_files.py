@@ -1,4 +1,5 @@
-"""The Dockerfile and ./dev install the same stack (no Docker engine here: static checks).
+"""The Dockerfile and ./dev install the same stack (static checks; docker/test-image.sh builds
+and runs the image for real, in CI).
 
 The Dockerfile's package pipeline and ./dev's ``packages()`` are both extracted and run with
 bash on docker/apt-packages.txt; they must produce the same list. The image must accept
@@ -7,6 +8,7 @@ bash on docker/apt-packages.txt; they must produce the same list. The image must
 
 from __future__ import annotations
 
+import fnmatch
 import json
 import re
 import shlex
@@ -86,10 +88,15 @@ def test_docker_run_image_stickslip_and_mpirun():
     assert not entry or json.loads(entry[-1]) in ([], ["/usr/bin/env"]), entry
     cmd = json.loads([rest for word, rest in ins if word == "CMD"][-1])
     assert cmd[0] == "stickslip"
-    # `stickslip` on PATH: the project is pip-installed with its console script.
-    assert any(word == "RUN" and "pip install" in rest and " -e ." in rest for word, rest in ins)
+    # `stickslip` on PATH: the project is pip-installed (not editable) with its console script,
+    # whose module is a file of the project.
+    assert any(word == "RUN" and "pip install" in rest and "/opt/stickslip" in rest
+               and " -e " not in rest for word, rest in ins)
     scripts = tomllib.loads((REPO / "pyproject.toml").read_text())["project"]["scripts"]
     assert scripts["stickslip"] == "cli.main:main"
+    module, _, func = scripts["stickslip"].partition(":")
+    source = REPO / Path(*module.split("."))
+    assert func and (source.with_suffix(".py").is_file() or (source / "__init__.py").is_file())
     # Non-root by default; mpirun as root allowed (`--user root`) and -n 4 on fewer cores.
     users = [rest for word, rest in ins if word == "USER"]
     assert users and users[-1] not in ("root", "0")
@@ -113,3 +120,106 @@ def test_sweeps_doc_shows_the_docker_mpirun_sweep():
     text = re.sub(r"\\\n\s*", " ", (REPO / "docs" / "sweeps.md").read_text())  # join "\"
     assert re.search(r"docker run [^\n]*-v [^\n]*mpirun -n 4 stickslip sweep /data/\S+\.toml",
                      text), "docs/sweeps.md must show docker run -v ... mpirun -n 4 ... sweep"
+
+
+def _stages() -> list[tuple[str, str, list[tuple[str, str]]]]:
+    """(name, parent, instructions) of each build stage, in order."""
+    stages: list[tuple[str, str, list[tuple[str, str]]]] = []
+    for word, rest in _instructions():
+        if word == "FROM":
+            parts = rest.split()
+            name = parts[2] if len(parts) == 3 and parts[1].upper() == "AS" else ""
+            stages.append((name, parts[0], []))
+        elif stages:
+            stages[-1][2].append((word, rest))
+    return stages
+
+
+def test_runtime_image_needs_nothing_outside_debian():
+    """The default target (last stage) and the stages it builds on make no PyPI request: pip
+    only installs the project, with --no-index; ruff comes only in the `dev` stage."""
+    stages = _stages()
+    by_name = {name: (parent, ins) for name, parent, ins in stages}
+    name, parent, ins = stages[-1]
+    assert name == "runtime"
+    chain = list(ins)
+    while parent in by_name:  # the runtime's ancestry, up to debian:trixie
+        parent, more = by_name[parent]
+        chain += more
+    assert parent == "debian:trixie"
+    pips = [rest for word, rest in chain if word == "RUN" and "pip install" in rest]
+    assert pips and all("--no-index" in rest and "--no-deps" in rest for rest in pips), pips
+    assert not any("dev-requirements" in rest for _, rest in chain)
+    # The dev stage exists and installs the development tools.
+    dev = by_name["dev"][1]
+    assert any(word == "RUN" and "dev-requirements.txt" in rest for word, rest in dev)
+    # The installed code finds the shipped scenes in the source tree copied to the image.
+    copy_dst = next(rest.split()[-1] for word, rest in ins
+                    if word == "COPY" and rest.startswith(". "))
+    scenes = dict(item.partition("=")[::2] for word, rest in ins if word == "ENV"
+                  for item in shlex.split(rest)).get("STICKSLIP_SCENES")
+    assert scenes == f"{copy_dst}/scenes"
+    # Documentation and apt's lists stay out of the image.
+    stack_run = next(rest for word, rest in by_name["stack"][1]
+                     if word == "RUN" and "apt-get install" in rest)
+    assert "path-exclude=/usr/share/doc/*" in stack_run
+    assert "rm -rf /var/lib/apt/lists/*" in stack_run
+
+
+def test_build_context_leaves_out_git_and_outputs():
+    ignored = (REPO / ".dockerignore").read_text().split()
+    assert {".git", "runs", "**/__pycache__"} <= set(ignored)
+
+
+def test_ci_runs_the_image_test_after_the_tests():
+    """.ci/run: the README's test command, then docker/test-image.sh (which must parse)."""
+    ci = (REPO / ".ci" / "run").read_text()
+    lines = [ln.strip() for ln in ci.splitlines() if ln.strip() and not ln.startswith("#")]
+    tests = next(i for i, ln in enumerate(lines) if "./dev bash tests/run.sh" in ln)
+    image = next(i for i, ln in enumerate(lines) if "docker/test-image.sh" in ln)
+    assert tests < image
+    script = REPO / "docker" / "test-image.sh"
+    subprocess.run(["bash", "-n", str(script)], check=True)
+    text = script.read_text()
+    # The recipe that works on hosts without a Docker daemon (see the script's header).
+    for needle in ("docker info", "--runtime runc", "--storage-driver overlay",
+                   "--ulimit nofile=", "debootstrap --variant=minbase trixie",
+                   "sweeps/smoke4.toml", "mesh.n_inner=-1", "compare_summaries.py"):
+        assert needle in text, needle
+
+
+def test_smoke4_sweep_has_four_smoke_scenes():
+    spec = tomllib.loads((REPO / "sweeps" / "smoke4.toml").read_text())
+    assert (REPO / "sweeps" / spec["base"]).resolve() == REPO / "scenes" / "smoke.toml"
+    n = 1
+    for values in spec["grid"].values():
+        n *= len(values)
+    assert n == 4
+
+
+def test_installed_code_finds_the_shipped_scenes_through_stickslip_scenes(tmp_path):
+    """In the image the code is installed away from its source tree: STICKSLIP_SCENES says
+    where the shipped scenes are (bare names like ``smoke`` resolve there)."""
+    (tmp_path / "only_here.toml").write_text("")
+    code = ("from solver.scene import SCENES_DIR, list_scenes; "
+            "print(SCENES_DIR, [p.name for p in list_scenes()])")
+    env = {"PATH": "/usr/bin:/bin", "PYTHONPATH": str(REPO), "STICKSLIP_SCENES": str(tmp_path)}
+    out = subprocess.run(["python3", "-c", code], env=env, capture_output=True, text=True,
+                         check=True).stdout
+    assert out.split()[0] == str(tmp_path) and "only_here.toml" in out
+
+
+def test_pyproject_installs_every_package_of_the_source_tree():
+    """The image installs the project (not editable): a package that pyproject's package list
+    or discovery misses is missing there, and only the commands importing it fail
+    (docker/test-image.sh checks the installed image; this catches it without one)."""
+    setuptools = tomllib.loads((REPO / "pyproject.toml").read_text())["tool"]["setuptools"]
+    found = {".".join(p.parent.relative_to(REPO).parts) for p in REPO.rglob("__init__.py")
+             if p.parent.relative_to(REPO).parts[0] not in ("tests", "benchmarks", "build")
+             and ".git" not in p.parts}
+    if isinstance(setuptools.get("packages"), list):
+        listed = set(setuptools["packages"])
+    else:  # [tool.setuptools.packages.find] include = [...] (fnmatch patterns)
+        include = setuptools["packages"]["find"]["include"]
+        listed = {name for name in found if any(fnmatch.fnmatchcase(name, pat) for pat in include)}
+    assert listed == found, f"missing: {sorted(found - listed)}, extra: {sorted(listed - found)}"

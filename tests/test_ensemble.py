@@ -213,3 +213,19 @@ def test_grouping_and_batch_option(tmp_path):
     # memory: a 1024-scene N = 132 batch (state, contact arrays, observer chunks) < 4 GB
     n132 = base.with_overrides("mesh.n_inner=132", "mesh.n_radial=0")
     assert 1024 * bytes_per_scene(n132) < 4e9
+
+
+def test_sweep_file_batch_and_backend_keys(tmp_path):
+    from studies.sweep.spec import SweepError, load_sweep
+
+    text = MIXED.format(base=__import__("pathlib").Path("scenes/smoke.toml").resolve())
+    path = tmp_path / "s.toml"
+    path.write_text('batch = "auto"\nbackend = "cpu"\n' + text)
+    spec = load_sweep(path)
+    assert (spec.batch, spec.backend) == ("auto", "cpu")
+    path.write_text("batch = 16\n" + text)
+    assert load_sweep(path).batch == "16"
+    for bad in ('batch = "fast"', "batch = 0", 'backend = "tpu"'):
+        path.write_text(bad + "\n" + text)
+        with pytest.raises(SweepError, match="batch|backend"):
+            load_sweep(path)

@@ -23,17 +23,19 @@ def fenced_commands() -> list[str]:
 def stickslip_args(cmd: str) -> list[str] | None:
     """The arguments after `stickslip` in a README command (./dev, docker or mpirun form)."""
     words = shlex.split(cmd)
-    if "stickslip" not in words or words[0] == "docker" and words[1] == "build":
+    if "stickslip" not in words or "build" in words[:words.index("stickslip")]:  # image build
         return None
     last = len(words) - 1 - words[::-1].index("stickslip")  # `docker run IMAGE stickslip ...`
     return words[last + 1:]
 
 
-def test_ci_runs_exactly_the_readme_test_command():
-    test_cmd = "./dev bash tests/run.sh"
-    assert test_cmd in fenced_commands()
+def test_ci_runs_exactly_the_readme_test_commands():
+    # The tests, then the image test (docker/test-image.sh): both shown in the README.
+    for test_cmd in ("./dev bash tests/run.sh", "docker/test-image.sh"):
+        assert test_cmd in fenced_commands()
     ci = (REPO / ".ci" / "run").read_text()
-    assert re.search(r"^exec \./dev bash tests/run\.sh$", ci, flags=re.M)
+    assert re.search(r"^\./dev bash tests/run\.sh\b", ci, flags=re.M)
+    assert re.search(r"^docker/test-image\.sh \|\|", ci, flags=re.M)
 
 
 def test_every_stickslip_command_in_readme_parses():

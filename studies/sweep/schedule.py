@@ -324,12 +324,13 @@ def _run_unit(spec: SweepSpec, unit: list[Task], out_dir: Path, group: MPI.Comm,
 
 def run_sweep(spec: SweepSpec, out_dir: str | Path, *, comm: MPI.Comm | None = None,
               group_size: int | None = None, retry_failed: bool = False,
-              stream: TextIO = sys.stdout, progress: str = "auto", batch: str = "off",
-              backend: str = "cpu") -> int:
+              stream: TextIO = sys.stdout, progress: str = "auto", batch: str | None = None,
+              backend: str | None = None) -> int:
     """Run every pending scene of ``spec`` into ``out_dir``; collective over ``comm``.
 
     ``batch`` ("off", "auto" or a size B): scenes sharing mesh, material, dt and scheme run
-    as batches of ``solver.ensemble`` (studies/sweep/batch.py) on ``backend`` (cpu, gpu).
+    as batches of ``solver.ensemble`` (studies/sweep/batch.py) on ``backend`` (cpu, gpu);
+    None: the sweep file's ``batch`` / ``backend`` (default off / cpu).
 
     Returns 0 (every scene final, none ``failed``), 1 (the table holds a scene that failed
     with an exception), 130 (interrupted: the table holds what finished; run again to resume).
@@ -339,6 +340,8 @@ def run_sweep(spec: SweepSpec, out_dir: str | Path, *, comm: MPI.Comm | None = N
     from mpi4py import MPI
 
     comm = MPI.COMM_WORLD if comm is None else comm
+    batch = spec.batch if batch is None else batch
+    backend = spec.backend if backend is None else backend
     out_dir = Path(out_dir)
     g = group_size or spec.group_size
     rank0 = comm.rank == 0
@@ -388,7 +391,12 @@ def run_sweep(spec: SweepSpec, out_dir: str | Path, *, comm: MPI.Comm | None = N
         monitor = _Monitor(out_dir, spec, pending, n_done, stream, _want_live(progress, stream))
         monitor.start()
 
+    terminated = [False]
+
     def on_term(signum, frame):  # noqa: ANN001, ARG001
+        # The flag survives where the exception is lost: raised while an at-fork callback
+        # runs (a scene's start forks), Python prints "Exception ignored" and goes on.
+        terminated[0] = True
         raise KeyboardInterrupt
 
     previous = signal.signal(signal.SIGTERM, on_term)
@@ -402,7 +410,8 @@ def run_sweep(spec: SweepSpec, out_dir: str | Path, *, comm: MPI.Comm | None = N
                 idx = group.bcast(idx, root=0)
             if idx >= len(units):
                 break
-            if _run_unit(spec, units[idx], out_dir, group, comm.rank, backend) == "interrupted":
+            status = _run_unit(spec, units[idx], out_dir, group, comm.rank, backend)
+            if status == "interrupted" or terminated[0]:
                 interrupted = True
                 break
     except KeyboardInterrupt:

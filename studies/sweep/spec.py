@@ -6,6 +6,8 @@ A sweep file names a base scene and the parameters to vary (dotted scene keys, a
     name = "omega_delta"
     base = "../scenes/figure3_n36.toml"     # relative to this file, or a shipped scene name
     group_size = 1                           # MPI ranks per scene (default 1)
+    batch = "auto"                           # off (default) | auto | B; --batch wins
+    backend = "cpu"                          # or "gpu" (CuPy extra); --backend wins
     set = ["time.end_time=0.3"]              # applied to every scene
     [grid]                                   # Cartesian product, in this key order
     "loading.omega" = [2.0, 10.0, 50.0]
@@ -42,7 +44,7 @@ FINAL_STATUSES = ("completed", "diverged", "failed", "stopped")
 REGIMES = ("steady-sliding", "stick-slip", "slip-separation", "stick-slip-separation",
            "diverged")
 _TOP_KEYS = ("name", "description", "base", "group_size", "output", "set", "grid", "points",
-             "map")
+             "map", "batch", "backend")
 _MAP_KEYS = ("x", "y", "xscale", "yscale", "semianalytic", "k", "junctions")
 #: Scene keys that enter the reduced model (semi-analytical existence boundary).
 _SEMIANALYTIC_KEYS = ("loading.omega", "loading.f", "geometry.delta", "geometry.d",
@@ -101,6 +103,8 @@ class SweepSpec:
     output: Path | None = None
     description: str = ""
     map: MapSpec = field(default_factory=MapSpec)
+    batch: str = "off"  # "off", "auto" or a batch size (studies/sweep/batch.py)
+    backend: str = "cpu"  # batched integrator on "cpu" or "gpu" (CuPy)
 
 
 def _toml_value(v: Any) -> str:
@@ -192,6 +196,14 @@ def load_sweep(path: str | Path) -> SweepSpec:
     group_size = data.get("group_size", 1)
     if isinstance(group_size, bool) or not isinstance(group_size, int) or group_size < 1:
         raise SweepError(f"{p}: group_size = {group_size!r} must be an integer >= 1")
+    batch = data.get("batch", "off")
+    if isinstance(batch, bool) or not (batch in ("off", "auto")
+                                       or (isinstance(batch, int) and batch >= 1)):
+        raise SweepError(f"{p}: batch = {batch!r} must be \"off\", \"auto\" or an integer "
+                         ">= 1 (scenes per batch)")
+    backend = data.get("backend", "cpu")
+    if backend not in ("cpu", "gpu"):
+        raise SweepError(f"{p}: backend = {backend!r} must be \"cpu\" or \"gpu\"")
     raw_set = data.get("set", [])
     if isinstance(raw_set, dict):
         fixed = tuple(f"{k}={_toml_value(v)}"
@@ -257,7 +269,8 @@ def load_sweep(path: str | Path) -> SweepSpec:
         raise SweepError(f"{p}: map.junctions must be a subset of ['impact', 'smooth']")
     spec = SweepSpec(
         name=name, path=p.resolve(), base=base, base_scene=base_scene, set=fixed,
-        keys=tuple(keys), tasks=tuple(tasks), group_size=group_size,
+        keys=tuple(keys), tasks=tuple(tasks), group_size=group_size, batch=str(batch),
+        backend=backend,
         output=p.parent / str(data["output"]) if data.get("output") else None,
         description=str(data.get("description", "")),
         map=MapSpec(x=raw_map.get("x"), y=raw_map.get("y"),

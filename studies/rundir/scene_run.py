@@ -6,17 +6,15 @@ the wave analysis of ``postprocess.analysis``). Only rank 0 writes files; every 
 (temporary file, then rename), so a run directory never holds a half-written file.
 """
 
+
 from __future__ import annotations
 
 import json
 import os
 import shutil
-import signal
 import socket
 import sys
-import threading
 import time
-from dataclasses import dataclass
 from pathlib import Path
 
 from mpi4py import MPI
@@ -27,6 +25,16 @@ from solver.errors import Diverged, StepTooLarge
 from solver.run import Profile, Simulation
 from solver.scene import Scene, write_scene
 from studies.output import output_root, process_alive  # noqa: F401  (re-exported)
+from studies.rundir.directory import (
+    RunDir,
+    RunDirError,
+    _disk_status,
+    _refusal,
+    commit_run_dir,
+    discard_run_dir,
+    prepare_run_dir,
+)
+from studies.rundir.signals import RunSignals, _signame
 
 
 def summarise(sim: Simulation) -> dict:
@@ -53,306 +61,6 @@ def summarise(sim: Simulation) -> dict:
 
 #: Exit status of ``stickslip run`` by the run's final status (README: "Exit codes").
 EXIT_CODES = {"completed": 0, "diverged": 1, "failed": 2, "stopped": 3, "interrupted": 130}
-
-
-class RunDirError(FileExistsError):
-    """The run directory is refused (exists, not ours, not writable): a one-line message."""
-
-
-def is_run_dir(path: Path) -> bool:
-    """True if ``path`` holds a ``summary.json`` written by ``stickslip run`` (its marker)."""
-    try:
-        s = json.loads((Path(path) / "summary.json").read_text())
-    except (OSError, ValueError):
-        return False
-    return isinstance(s, dict) and "scene" in s and "status" in s
-
-
-@dataclass
-class RunDir:
-    """Where a run ends up (``final``) and where it is written meanwhile (``work``).
-
-    Replacing an earlier run (``--force``) writes into a hidden sibling ``.NAME.new.PID`` and
-    swaps it in at the end (:func:`commit_run_dir`): the earlier run stays intact until the new
-    one has a final status, and stays for good if the new one fails.
-    """
-
-    final: Path
-    work: Path
-    created: bool = False
-
-    @property
-    def replacing(self) -> bool:
-        return self.work != self.final
-
-
-def _siblings(path: Path, kind: str) -> list[Path]:
-    return sorted(path.parent.glob(f".{path.name}.{kind}.*"))
-
-
-def _recover(path: Path) -> None:
-    """Clean up after a run killed while replacing ``path`` (rank 0, before anything else).
-
-    ``.NAME.old.PID`` exists only during the swap: if NAME is missing it goes back in place.
-    ``.NAME.new.PID`` of a dead process is an unfinished replacement: removed.
-    """
-    for old in _siblings(path, "old"):
-        if not path.exists() and is_run_dir(old):
-            os.rename(old, path)
-        elif is_run_dir(old):
-            shutil.rmtree(old, ignore_errors=True)
-    for new in _siblings(path, "new"):
-        pid = new.name.rsplit(".", 1)[-1]
-        alive = process_alive({"pid": int(pid), "host": socket.gethostname()}) \
-            if pid.isdigit() else True
-        if not alive and (is_run_dir(new) or not any(new.iterdir())):
-            shutil.rmtree(new, ignore_errors=True)
-
-
-def _refusal(path: Path, force: bool) -> str | None:
-    """Why ``path`` cannot take a run, or None (rank 0; no side effects)."""
-    fix = "choose another -o"
-    if path.exists() and not path.is_dir():
-        return f"-o {path} is not a directory (a file or device); {fix}"
-    if path.is_dir() and any(path.iterdir()):
-        if not force:
-            return (f"run directory {path} exists; use --force to replace it (only a run "
-                    f"directory is replaced, atomically), or {fix}")
-        if not is_run_dir(path):
-            return (f"{path} is not a stickslip run directory (no run summary.json): --force "
-                    f"replaces only run directories; {fix}, or empty it yourself")
-    parent = path.parent
-    while not parent.exists() and parent != parent.parent:
-        parent = parent.parent
-    if not parent.is_dir() or not os.access(parent, os.W_OK | os.X_OK) \
-            or str(parent.resolve()).startswith(("/proc", "/sys")):
-        return f"cannot create {path}: {parent} is not a writable directory; {fix}"
-    return None
-
-
-def prepare_run_dir(path: Path, force: bool, comm: MPI.Comm) -> RunDir:
-    """Check ``path`` and create the directory to write into (collective; rank 0 acts).
-
-    Refused (:class:`RunDirError`, every rank): a non-empty ``path`` without ``force``, one
-    that is not a run directory even with ``force``, a file, an unwritable place.
-    """
-    path = Path(path)
-    result: tuple = (None, None, False)
-    if comm.rank == 0:
-        try:
-            _recover(path)
-            error = _refusal(path, force)
-            if error is None:
-                if path.is_dir() and any(path.iterdir()):
-                    work = path.parent / f".{path.name}.new.{os.getpid()}"
-                    work.mkdir()
-                    created = True
-                else:
-                    work = path
-                    created = not path.exists()
-                    path.mkdir(parents=True, exist_ok=True)
-                result = (None, str(work), created)
-            else:
-                result = (error, None, False)
-        except OSError as err:
-            result = (f"cannot create {path}: {err.strerror or err}; choose another -o", None,
-                      False)
-    error, work, created = comm.bcast(result, root=0)
-    if error:
-        raise RunDirError(error)
-    return RunDir(final=path, work=Path(work), created=bool(created))
-
-
-def commit_run_dir(rd: RunDir) -> None:
-    """Swap the finished replacement in (rank 0): two renames, then the old run is deleted."""
-    if not rd.replacing:
-        return
-    old = rd.final.parent / f".{rd.final.name}.old.{os.getpid()}"
-    os.rename(rd.final, old)
-    os.rename(rd.work, rd.final)
-    shutil.rmtree(old, ignore_errors=True)
-
-
-def discard_run_dir(rd: RunDir) -> None:
-    """Drop an unfinished replacement; the earlier run is left as it was."""
-    if rd.replacing:
-        shutil.rmtree(rd.work, ignore_errors=True)
-
-
-class RunSignals:
-    """SIGINT/SIGTERM during a run, by phase (issue 12).
-
-    * ``raise`` (setup: meshing, assembly, steady state): KeyboardInterrupt at once;
-    * ``flag`` (time loop): ``sim.stop_requested``; every rank stops at the same sample
-      (:meth:`solver.run.Simulation._stop_now`) and the run is saved as ``interrupted``;
-    * ``defer`` (final save): remembered, honoured once the files are written.
-
-    Under mpirun (``rescue`` given, rank 0 of a multi-rank run) the first signal also forks a
-    rescue writer, in a session of its own, that saves what rank 0 holds (the inner-circle
-    samples, the status) at once: Open MPI 5 sends SIGKILL 0.25 s after SIGTERM, often before
-    the collective save is done. The normal save waits for it and then writes the full run.
-
-    Python runs signal handlers only between bytecodes, so a process inside one long compiled
-    call (gmsh meshing, SLEPc's eigensolver for omega_max: minutes on a big mesh, with the GIL
-    held) would ignore SIGTERM. A watchdog process (forked at entry) reads the signal numbers
-    from ``signal.set_wakeup_fd``, written by the C-level handler at once; if the Python
-    handler has not acknowledged a signal ``grace`` seconds later (in ``raise``/``flag``
-    mode), the watchdog calls ``on_hard_stop(signum)`` (mark the run ``interrupted``, or drop
-    the replacement) and ends the run with SIGKILL (exit status 137). Only in the main thread;
-    elsewhere (a test's thread) nothing is installed.
-    """
-
-    SIGNALS = (signal.SIGINT, signal.SIGTERM)
-
-    def __init__(self, on_hard_stop, grace: float = 2.0, rescue=None) -> None:  # noqa: ANN001
-        self.on_hard_stop, self.grace, self.rescue = on_hard_stop, grace, rescue
-        self.rescue_pid = 0
-        self._mode = "raise"
-        self.sim = None
-        self.requested = 0
-        self.previous: dict = {}
-        self.active = threading.current_thread() is threading.main_thread()
-        self.watchdog = 0
-        self.sig_w = self.ack_w = -1
-        self.old_wakeup = -1
-
-    @property
-    def mode(self) -> str:
-        return self._mode
-
-    @mode.setter
-    def mode(self, value: str) -> None:
-        self._mode = value
-        if value in ("defer", "done"):
-            self._tell(b"d")  # the watchdog stands down: the run saves or has saved
-
-    def _tell(self, byte: bytes) -> None:
-        if self.ack_w >= 0:
-            try:
-                os.write(self.ack_w, byte)
-            except OSError:
-                pass
-
-    def __enter__(self) -> RunSignals:
-        if not self.active:
-            return self
-        sig_r, sig_w = os.pipe()
-        ack_r, ack_w = os.pipe()
-        os.set_blocking(sig_w, False)
-        os.set_blocking(ack_w, False)
-        parent = os.getpid()
-        pid = _fork(lambda: self._watch(sig_r, ack_r, parent), new_session=False,
-                    close=(sig_w, ack_w))
-        os.close(sig_r)
-        os.close(ack_r)
-        self.watchdog, self.sig_w, self.ack_w = pid, sig_w, ack_w
-        for sig in self.SIGNALS:
-            self.previous[sig] = signal.signal(sig, self._handler)
-        self.old_wakeup = signal.set_wakeup_fd(sig_w, warn_on_full_buffer=False)
-        return self
-
-    def __exit__(self, *exc) -> None:  # noqa: ANN002
-        if not self.active:
-            return
-        signal.set_wakeup_fd(self.old_wakeup)
-        for sig, handler in self.previous.items():
-            signal.signal(sig, handler)
-        os.close(self.sig_w)
-        os.close(self.ack_w)
-        self.sig_w = self.ack_w = -1
-        if self.watchdog > 0:  # it reads EOF and ends
-            try:
-                os.waitpid(self.watchdog, 0)
-            except ChildProcessError:
-                pass
-
-    def _handler(self, signum: int, frame) -> None:  # noqa: ANN001, ARG002
-        self._tell(b"a")
-        self.requested = self.requested or signum
-        if self.rescue is not None and not self.rescue_pid and self.mode != "done":
-            self.rescue_pid = _fork(self.rescue)
-        if self.mode == "flag" and self.sim is not None:
-            self.sim.stop_requested = True
-        elif self.mode == "raise":
-            raise KeyboardInterrupt
-
-    def wait_rescue(self) -> None:
-        """Wait for the rescue writer (if any) before touching the run's files."""
-        if self.rescue_pid > 0:
-            try:
-                os.waitpid(self.rescue_pid, 0)
-            except ChildProcessError:
-                pass
-            self.rescue_pid = -1
-
-    def _watch(self, sig_r: int, ack_r: int, parent: int) -> None:
-        """The watchdog process: signals in, acknowledgements in; hard stop if none comes."""
-        import select
-
-        received = acked = 0
-        since = None
-        last = 0
-        standing_down = False
-        while True:
-            timeout = None
-            if since is not None and not standing_down:
-                timeout = max(0.0, since + self.grace - time.monotonic())
-            ready, _, _ = select.select([sig_r, ack_r], [], [], timeout)
-            if not ready:
-                self.on_hard_stop(last)
-                os.kill(parent, signal.SIGKILL)
-                return
-            if sig_r in ready:
-                data = os.read(sig_r, 64)
-                if not data:
-                    return
-                received += len(data)
-                last = data[-1]
-                since = since or time.monotonic()
-            if ack_r in ready:
-                data = os.read(ack_r, 64)
-                if not data:
-                    return
-                acked += data.count(b"a")
-                standing_down = standing_down or b"d" in data
-            if acked >= received:
-                since = None
-
-
-def _signame(signum: int) -> str:
-    """SIGINT, SIGTERM, ...; "a signal on another rank" for 0 (this rank saw none)."""
-    try:
-        return signal.Signals(signum).name if signum else "a signal on another rank"
-    except ValueError:
-        return f"signal {signum}"
-
-
-def _fork(fn, new_session: bool = True, close: tuple[int, ...] = ()) -> int:  # noqa: ANN001
-    """Run ``fn()`` in a forked child (by default in a session of its own, out of reach of
-    mpirun's kill, with SIGINT/SIGTERM ignored); returns its pid (0 if fork failed)."""
-    import warnings
-
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", DeprecationWarning)  # fork with threads: child uses none
-        try:
-            pid = os.fork()
-        except OSError:
-            return 0
-    if pid:
-        return pid
-    code = 1
-    try:
-        signal.set_wakeup_fd(-1)
-        for fd in close:
-            os.close(fd)
-        if new_session:
-            os.setsid()
-        for sig in RunSignals.SIGNALS:
-            signal.signal(sig, signal.SIG_IGN)
-        fn()
-        code = 0
-    finally:
-        os._exit(code)
 
 
 def run_scene(scene: Scene, run_dir: Path, *, force: bool = False,
@@ -403,7 +111,10 @@ def run_scene(scene: Scene, run_dir: Path, *, force: bool = False,
     phase = ["setup"]
 
     def mark(status: str, message: str) -> None:
-        """The run ended without the normal save (rank-local; a last resort)."""
+        """The run ended without the normal save (rank-local; a last resort). A final status
+        already on disk (another rank's ``failed``) is the first truth: it stays."""
+        if _disk_status(work) not in (None, "running"):
+            return
         if rd.replacing and not replace_on_failure:
             discard_run_dir(rd)
             return
@@ -417,9 +128,9 @@ def run_scene(scene: Scene, run_dir: Path, *, force: bool = False,
         except OSError:
             pass
 
-    def hard_stop(signum: int) -> None:
+    def hard_stop(signum: int, where: str) -> None:
         name = _signame(signum)
-        msg = f"{name} while in {phase[0]} (busy in compiled code: stopped without saving)"
+        msg = f"{name} while in {where} (busy in compiled code: stopped without saving)"
         print(f"stickslip: {msg}", file=sys.stderr, flush=True)
         if rank0:
             mark("interrupted", msg)
@@ -435,6 +146,8 @@ def run_scene(scene: Scene, run_dir: Path, *, force: bool = False,
         out.pop("pid", None)
         out.update(status=status_, message=msg + " (saved by the rescue writer: no probes, "
                    "no final field)", wall_time_s=time.perf_counter() - t0)
+        if _disk_status(rd.work) not in (None, "running"):
+            return  # another rank marked the run (failed) before mpirun's signal came
         if sim_ is None and rd.replacing:
             discard_run_dir(rd)
             return
@@ -443,9 +156,6 @@ def run_scene(scene: Scene, run_dir: Path, *, force: bool = False,
         atomic_write_text(rd.work / "summary.json", json.dumps(out, indent=2))
         commit_run_dir(rd)
 
-    sim = None
-    error = None
-    status = "failed"
     def first_files() -> None:
         """scene.toml and the ``running`` summary; a write error leaves nothing half-made."""
         problem = None
@@ -466,8 +176,34 @@ def run_scene(scene: Scene, run_dir: Path, *, force: bool = False,
         if problem:
             raise RunDirError(problem)
 
-    with RunSignals(hard_stop, rescue=rescue if rank0 and comm.size > 1 else None) as signals:
+    def tidy(pid: int, rescued: bool, where: str) -> None:
+        """The run's process died outright (SIGKILL, out of memory; in the watchdog): remove
+        its temporary files and, on rank 0, turn a ``running`` summary into ``failed`` (or
+        drop an unfinished replacement). The rescue writer, if any, owns the status."""
+        from solver.atomic import remove_temporaries
+
+        for folder in {rd.work, rd.final}:
+            remove_temporaries(folder, pid)
+        if not rank0 or rescued:
+            return
+        for folder in {rd.work, rd.final}:
+            if _disk_status(folder) != "running":
+                continue
+            if rd.replacing and folder == rd.work:
+                discard_run_dir(rd)
+            else:
+                atomic_write_text(folder / "summary.json", json.dumps(dict(
+                    started, status="failed", message=f"the process was killed outright "
+                    f"(SIGKILL: out of memory, or mpirun/batch system) during {where}",
+                    wall_time_s=time.perf_counter() - t0), indent=2))
+
+    sim = None
+    error = None
+    status = "failed"
+    with RunSignals(hard_stop, rescue=rescue if rank0 and comm.size > 1 else None,
+                    on_death=tidy) as signals:
         try:
+            signals.start()
             first_files()
             say(f"stickslip {__version__}: scene '{scene.name}' on {comm.size} rank(s)")
             if est is not None:
@@ -554,6 +290,10 @@ def _save(sim: Simulation | None, rd: RunDir, scene: Scene, status: str, error: 
         signals.wait_rescue()
         if rd.replacing and not rd.work.exists():  # the rescue writer swapped it in
             rd.work = rd.final
+        work = rd.work
+        if status in ("interrupted", "failed") and _disk_status(work) == "failed":
+            # another rank failed and marked the run before mpirun's signal reached us
+            return json.loads((work / "summary.json").read_text())
         summary = sim.facts() if sim is not None else {"scene": scene.name, "status": status}
 
         def finish(s: dict) -> dict:
