@@ -86,9 +86,11 @@ def run_list(quick: bool, max_n: int) -> list[dict]:
         for damped in both:  # 4. Figure 1, mode-4 seed; 5. beta2 on a fine mesh
             for n in small:
                 add("fig1", damped, n, "mode4")
-        for beta2 in (0.6, 0.9):
-            for damped in both:
-                add("fig3", damped, small[-1], "mode4", beta2=beta2)
+        for n_b in (small[-1], 528):  # 264 first; 528 when the list reaches it
+            for beta2 in (0.6, 0.9):
+                for damped in both:
+                    if n_b in ns:
+                        add("fig3", damped, n_b, "mode4", beta2=beta2)
         for damped in both:  # 6. Figure 1 seeds
             for seed in seeds:
                 for n in small:
@@ -367,6 +369,29 @@ def report(res: dict, out: Path, quick: bool, results_path: Path) -> None:
 # ---------------------------------------------------------------------------------------------
 
 
+def speed(n: int = 1056, steps: int = 3000) -> None:
+    """CPU time of the N-node Figure-3 runs (undamped, eta = 2 %) on one core: setup plus
+    ``steps`` steps measured with time.process_time, projected to the whole run."""
+    from mpi4py import MPI
+
+    from solver.run import Simulation
+    from studies.convergence import scene_for
+
+    for damped in (False, True):
+        sc = scene_for(dict(phys="fig3", damped=damped, n=n, seed="mode4", beta2=0.5,
+                            frac=0.9, key="speed"))
+        c0 = time.process_time()
+        sim = Simulation(sc, MPI.COMM_SELF)
+        c1 = time.process_time()
+        sim.proceed(max_steps=steps)
+        per = (time.process_time() - c1) / steps
+        total = sim.planned_steps()
+        print(json.dumps(dict(n=n, damped=damped, kernel=sim.integrator.__class__.__name__,
+                              setup_cpu_s=c1 - c0, cpu_per_step_ms=per * 1e3,
+                              planned_steps=total,
+                              projected_cpu_min=(c1 - c0 + per * total) / 60)), flush=True)
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true")
@@ -379,10 +404,15 @@ def main() -> int:
                     help="stop starting new runs after this many seconds")
     ap.add_argument("--skip", action="append", default=[],
                     help="case key not to start (e.g. one still running elsewhere)")
+    ap.add_argument("--speed", action="store_true",
+                    help="CPU time of the N = 1056 rows on one core (projected from 3000 steps)")
     ap.add_argument("--case", default=None, help=argparse.SUPPRESS)  # child process
     args = ap.parse_args()
     results = args.results or (REPO / "docs" / ("convergence_runs_quick.jsonl" if args.quick
                                                  else "convergence_runs.jsonl"))
+    if args.speed:
+        speed()
+        return 0
     if args.case:
         case = json.loads(args.case)
         r = run_case(case)

@@ -165,12 +165,8 @@ def _tile(arr: np.ndarray, B: int) -> np.ndarray:
 
 def run_npz(path: Path, B: int, steps: int, backend: str, kernel: str, observe: bool,
             check: int) -> dict:
-    from solver.ensemble import (
-        BatchedExplicit,
-        BatchedProblem,
-        BatchRecorder,
-        array_namespace,
-    )
+    from solver.ensemble import BatchedExplicit, BatchedProblem, array_namespace
+    from solver.ensemble_observers import BatchRecorder
 
     with np.load(path) as z:
         extra = {k: z[k] for k in ("u0", "d", "slide", "f", "every")}

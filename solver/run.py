@@ -260,15 +260,17 @@ class Simulation:
         data = self.recorder.arrays()
         if data["t"].size >= 4:  # as many samples as the wave analysis needs
             e = data["energies"]
+            # damping work: column 6 (the batched ensemble records 5 columns, undamped only)
+            wd = e[:, 5] if e.shape[1] > 5 else np.zeros(e.shape[0])
             out["energy"] = {
                 "initial_J_per_m": float(e[0, 0] + e[0, 1]),
                 "final_J_per_m": float(e[-1, 0] + e[-1, 1]),
                 "work_contact_J_per_m": float(e[-1, 2]),
                 "work_cylinder_J_per_m": float(e[-1, 3]),
                 "friction_dissipation_J_per_m": float(e[-1, 4]),
-                "damping_dissipation_J_per_m": float(e[-1, 5]),
+                "damping_dissipation_J_per_m": float(wd[-1]),
                 "balance_residual_J_per_m": float(e[-1, 0] + e[-1, 1] - e[0, 0] - e[0, 1]
                                                   - (e[-1, 2] - e[0, 2])
-                                                  + (e[-1, 5] - e[0, 5])),
+                                                  + (wd[-1] - wd[0])),
             }
         return out

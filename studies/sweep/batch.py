@@ -149,7 +149,8 @@ def run_batch(spec: SweepSpec, tasks: list[Task], out_dir: Path, world_rank: int
     """Run ``tasks`` (same ``batch_key``) as one batch on this rank; returns their statuses."""
     from mpi4py import MPI
 
-    from solver.ensemble import BatchedExplicit, BatchedProblem, BatchRecorder, array_namespace
+    from solver.ensemble import BatchedExplicit, BatchedProblem, array_namespace
+    from solver.ensemble_observers import BatchRecorder
     from solver.observers import InnerCircleRecorder, ProbeRecorder
     from solver.problem import ContactProjection, build_problem, omega_max
     from solver.run import Profile, Simulation

@@ -1,0 +1,120 @@
+"""The CUDA source of the batched explicit step (``solver.ensemble``, backend "cuda"): one
+thread per (node, scene), the arithmetic of ``solver._fused_kernels`` in the same order."""
+
+CUDA_SOURCE = r"""
+// One explicit step for one (node, scene): the (x, y) rows of K u (even/odd partial sums, as
+// solver/_fused_kernels.py), the contact projection when the node is on the contact circle,
+// the Newmark update and the contact work. Arrays are (rows, B) row-major: consecutive
+// threads are consecutive scenes, so every load is coalesced.
+extern "C" __global__ void fused_step(
+    const unsigned int* indptr, const unsigned int* indices, const double* data,
+    const double* u, double* un, double* v, double* vp, double* a, double* ku,
+    const double* nim, const int* cslot, const double* ph_re, const double* ph_im,
+    const double* pc_re, const double* pc_im, const double* cmass, const double* cinv,
+    const double* d, const double* slide, const double* f,
+    double* r_r, double* r_t, double* r_x, double* r_y, signed char* status,
+    double* zprev, double* work,
+    const double c_v, const double c_w, const double c_p, const int b2_half,
+    const double dt, const double kappa, const double inv_kappa,
+    const int n_nodes, const int B, const int m, const int diag, const signed char* keep)
+{
+    long long tid = (long long)blockIdx.x * blockDim.x + threadIdx.x;
+    if (tid >= (long long)n_nodes * B) return;
+    const int p = (int)(tid / B);
+    const int b = (int)(tid % B);
+    const int i = 2 * p;
+    const unsigned int a0 = indptr[i], a1 = indptr[i + 1];
+    const unsigned int ln = a1 - a0;
+    double s0e = 0.0, s0o = 0.0, s1e = 0.0, s1o = 0.0;
+    unsigned int t = 0;
+    for (; t + 1 < ln; t += 2) {
+        const double c0 = u[(size_t)indices[a0 + t] * B + b];
+        const double c1 = u[(size_t)indices[a0 + t + 1] * B + b];
+        s0e += data[a0 + t] * c0;
+        s0o += data[a0 + t + 1] * c1;
+        s1e += data[a1 + t] * c0;
+        s1o += data[a1 + t + 1] * c1;
+    }
+    if (t < ln) {
+        const double c0 = u[(size_t)indices[a0 + t] * B + b];
+        s0e += data[a0 + t] * c0;
+        s1e += data[a1 + t] * c0;
+    }
+    const size_t ix = (size_t)i * B + b, iy = (size_t)(i + 1) * B + b;
+    const double k0 = s0e + s0o, k1 = s1e + s1o;
+    // v_n, a_n, K u_n are read only by the observers: written on sample steps (diag) and at
+    // the probe nodes (keep); u_{n+1}, v~_{n+1} (the state) always
+    const bool write = diag || keep[p];
+    if (write) {
+        ku[ix] = k0;
+        ku[iy] = k1;
+    }
+    double ax = k0 * nim[i], ay = k1 * nim[i + 1];
+    const int j = cslot[p];
+    const double ux = u[ix], uy = u[iy];
+    double rx = 0.0, ry = 0.0, rt = 0.0;
+    if (j >= 0) {
+        const double pr = pc_re[j], pi = pc_im[j];
+        const double now_r = ux * pr - uy * pi;
+        const double now_t = ux * pi + uy * pr;
+        const double tx = vp[ix] * dt + ax * kappa;
+        const double ty = vp[iy] * dt + ay * kappa;
+        const double tr = (tx * pr - ty * pi) + now_r;
+        const double tt = (tx * pi + ty * pr) + now_t;
+        const double stiff = cmass[j] * inv_kappa;
+        double rr = d[b] - tr;
+        if (rr < 0.0) rr = 0.0;
+        rr = rr * stiff;
+        const bool inc = rr > 0.0;
+        signed char st;
+        const double fb = f[b];
+        if (fb == 0.0) {
+            rt = 0.0;
+            st = inc ? 2 : 0;
+        } else {
+            rt = now_t + slide[b];
+            rt = rt - tt;
+            rt = rt * stiff;
+            const double cone = rr * fb;
+            if (fabs(rt) > cone) { rt = copysign(cone, rt); st = inc ? 2 : 0; }
+            else { st = inc ? 1 : 0; }
+        }
+        const size_t jb = (size_t)j * B + b;
+        r_r[jb] = rr;
+        r_t[jb] = rt;
+        status[jb] = st;
+        rx = rr * ph_re[j] - rt * ph_im[j];
+        ry = rr * ph_im[j] + rt * ph_re[j];
+        r_x[jb] = rx;
+        r_y[jb] = ry;
+        ax = ax + rx * cinv[j];
+        ay = ay + ry * cinv[j];
+    }
+    const double vx = ax * c_v + vp[ix], vy = ay * c_v + vp[iy];
+    if (write) {
+        a[ix] = ax;
+        a[iy] = ay;
+        v[ix] = vx;
+        v[iy] = vy;
+    }
+    const double wx = ax * c_w + vx, wy = ay * c_w + vy;
+    const double unx = wx * dt + ux, uny = wy * dt + uy;
+    un[ix] = unx;
+    un[iy] = uny;
+    vp[ix] = b2_half ? wx : wx + ax * c_p;
+    vp[iy] = b2_half ? wy : wy + ay * c_p;
+    if (j >= 0) {
+        const size_t zx = ((size_t)j * 2) * B + b, zy = ((size_t)j * 2 + 1) * B + b;
+        const double dzx = unx - zprev[zx], dzy = uny - zprev[zy];
+        zprev[zx] = ux;
+        zprev[zy] = uy;
+        const size_t jb = (size_t)j * B + b, mb = (size_t)m * B;
+        work[jb] += 0.5 * (rx * dzx + ry * dzy);
+        if (f[b] > 0.0) {
+            const double wc = rt * slide[b];
+            work[mb + jb] += wc;
+            work[2 * mb + jb] += wc - 0.5 * (rt * (dzx * pc_im[j] + dzy * pc_re[j]));
+        }
+    }
+}
+"""

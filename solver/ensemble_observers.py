@@ -1,0 +1,199 @@
+"""Observers of a batch (``solver.ensemble``): per-scene samples and probes of B scenes,
+spooled to disk in chunks so memory does not grow with the run length."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+if TYPE_CHECKING:  # pragma: no cover
+    from solver.ensemble import BatchedExplicit
+
+
+class _Spool:
+    """One recorded field of a batch: rows of shape (*inner, B) in chunks of ``chunk`` rows.
+
+    A full chunk is turned scene-major (B, chunk, *inner) on the host and appended to a file
+    (``path``) or kept in memory (``path = None``); ``read(b, n)`` returns scene b's first n
+    rows, (n, *inner). Memory stays O(chunk x inner x B) with a file, whatever the run length.
+    """
+
+    def __init__(self, xp: Any, inner: tuple[int, ...], B: int, chunk: int, dtype,
+                 path=None) -> None:
+        self.xp, self.inner, self.B, self.chunk, self.dtype = xp, inner, B, chunk, dtype
+        self.buf = xp.zeros((chunk, *inner, B), dtype=dtype)
+        self.path = path
+        self.fh = open(path, "wb") if path is not None else None  # noqa: SIM115
+        self.mem: list[np.ndarray] = []
+        self.rows = 0  # rows written (including the ones still in buf)
+        self.n_chunks = 0
+
+    def row(self):
+        """The buffer row to fill next (flushes a full chunk first)."""
+        i = self.rows % self.chunk
+        if i == 0 and self.rows:
+            self._flush()
+        self.rows += 1
+        return self.buf[i]
+
+    def _flush(self) -> None:
+        blk = self.xp.moveaxis(self.buf, -1, 0)
+        host = np.ascontiguousarray(blk.get() if hasattr(blk, "get") else blk)
+        if self.fh is not None:
+            host.tofile(self.fh)
+        else:
+            self.mem.append(host)
+        self.n_chunks += 1
+        self.buf.fill(0)
+
+    def close(self) -> None:
+        """Flush the last (partial) chunk; afterwards ``read`` works."""
+        if self.rows > self.n_chunks * self.chunk:
+            self._flush()
+        if self.fh is not None:
+            self.fh.close()
+            self.fh = None
+
+    def read(self, b: int, n: int) -> np.ndarray:
+        if self.n_chunks == 0:
+            return np.zeros((0, *self.inner), dtype=self.dtype)
+        shape = (self.n_chunks, self.B, self.chunk, *self.inner)
+        if self.path is not None:
+            data = np.memmap(self.path, dtype=self.dtype, mode="r", shape=shape)[:, b]
+        else:
+            data = np.stack([c[b] for c in self.mem])
+        return np.array(data.reshape(-1, *self.inner)[:n])
+
+
+class BatchRecorder:
+    """The observers of ``solver.run.Simulation`` for a batch, scene by scene.
+
+    Samples (every ``every`` steps, time level n): u_r, u_theta, v_r, v_theta, r_r, r_theta
+    and the status at the contact nodes in angle order ``perm``, the energies (kinetic,
+    strain, the three works); probes (every step): u_n and v_n (x, y) at the probe nodes.
+    ``arrays(b)`` / ``probe_arrays(b)`` return exactly the dictionaries of
+    ``InnerCircleRecorder.arrays`` / ``ProbeRecorder.arrays`` for scene b.
+    """
+
+    def __init__(self, integ: BatchedExplicit, *, mass: np.ndarray, perm: np.ndarray,
+                 theta: np.ndarray, ds: np.ndarray, every: int, max_samples: int,
+                 max_steps: int, probe_nodes: np.ndarray, probe_pc: np.ndarray,
+                 probe_deg: np.ndarray, spool_dir=None, chunk: int = 16) -> None:
+        xp, B, m = integ.xp, integ.B, integ.m
+        self.integ, self.xp = integ, xp
+        self.every, self.max_samples, self.max_steps = max(1, every), max_samples, max_steps
+        self.mass = xp.asarray(mass)[:, None]
+        self.scratch = xp.zeros((integ.n, B))
+        self.perm = xp.asarray(np.asarray(perm, dtype=np.int64))
+        self.theta, self.ds = theta, ds
+        pd = 2 * np.asarray(probe_nodes, dtype=np.int64)
+        self.probe_rows = xp.asarray(np.concatenate([pd, pd + 1]))  # x dofs, then y dofs
+        self.probe_pc, self.probe_deg = probe_pc, probe_deg
+        self.n = 0
+        self.n_probe = 0
+        self.t = np.zeros(max_samples)
+        self.probe_t = np.zeros(max_steps + 1)
+        path = (lambda name: None) if spool_dir is None else (lambda name: spool_dir / name)
+        npb = len(probe_nodes)
+        self.fields = _Spool(xp, (6, m), B, chunk, np.float64, path("fields.f64"))
+        self.status = _Spool(xp, (m,), B, chunk, np.int8, path("status.i8"))
+        # kinetic, strain, 3 works, damping work (0: batched scenes are undamped), as
+        # solver.observers.ENERGY_FIELDS
+        self.energies = _Spool(xp, (6,), B, chunk, np.float64, path("energies.f64"))
+        self.probes = _Spool(xp, (4, npb), B, 16 * chunk, np.float64, path("probes.f64"))
+        self.cx_sorted = integ.cx.astype(np.int64)[self.perm]
+        self.pc_sorted = xp.asarray(integ.phase_conj)[self.perm]
+        self.z = xp.zeros((B, m), dtype=np.complex128)
+        self.initial = np.full(B, np.nan)
+        self.bound = np.full(B, np.inf)
+
+    def due(self, step: int) -> bool:
+        return step % self.every == 0 and self.n < self.max_samples
+
+    def record_probes(self) -> None:
+        """u_n and v_n at the probe nodes, every step (ProbeRecorder.record)."""
+        if self.n_probe >= self.probe_t.size:
+            return
+        it = self.integ
+        self.probe_t[self.n_probe] = it.time - it.dt
+        row = self.probes.row()
+        k = row.shape[1]
+        self.xp.take(it.u_prev, self.probe_rows, axis=0, out=row[:2].reshape(2 * k, -1))
+        self.xp.take(it.v, self.probe_rows, axis=0, out=row[2:].reshape(2 * k, -1))
+        self.n_probe += 1
+
+    def sample(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Record time level n; returns host (kinetic, strain, work_cylinder) per scene."""
+        it, xp = self.integ, self.xp
+        cx = self.cx_sorted
+        row = self.fields.row()
+        z = self.z
+        for k, arr in ((0, it.u_prev), (2, it.v)):
+            # (B, m) complex rows times e^{-i theta}: the same ufunc loop as the single run's
+            # ``NodalFrames.polar_at_nodes``, hence the same bits (numpy's SIMD complex
+            # multiply may fuse multiply-adds)
+            z.real[...] = arr[cx].T
+            z.imag[...] = arr[cx + 1].T
+            z *= self.pc_sorted
+            row[k] = z.real.T
+            row[k + 1] = z.imag.T
+        row[4] = it.r_r[self.perm]
+        row[5] = it.r_t[self.perm]
+        self.status.row()[...] = it.status[self.perm]
+        e = self.energies.row()  # kinetic, strain, the three works (on the device)
+        xp.multiply(it.v, self.mass, out=self.scratch)
+        e[0] = xp.einsum("ib,ib->b", self.scratch, it.v)
+        e[1] = xp.einsum("ib,ib->b", it.u_prev, it.ku)
+        e[:2] *= 0.5
+        e[2:5] = it.work if it.work.ndim == 2 else it.work.sum(axis=1)
+        e[5] = 0.0
+        self.t[self.n] = it.time - it.dt
+        self.n += 1
+        host = e[:4].get() if hasattr(e, "get") else e[:4]  # one device -> host copy
+        return host[0], host[1], host[3]
+
+    def check_health(self, kin: np.ndarray, strain: np.ndarray, w_cyl: np.ndarray,
+                     time_now: float) -> dict[int, str]:
+        """``Simulation._check_health`` for every active scene: {b: message} of new blow-ups."""
+        total = kin + strain
+        out: dict[int, str] = {}
+        for b in np.flatnonzero(self.integ.active):
+            tb = float(total[b])
+            if not np.isfinite(tb):
+                out[int(b)] = f"non-finite energy at t = {time_now:.6g} s"
+                continue
+            if np.isnan(self.initial[b]):
+                self.initial[b] = tb
+                self.bound[b] = 1e4 * max(tb, 1e-300)
+                continue
+            fed = self.initial[b] + abs(float(w_cyl[b]))
+            if tb > self.bound[b] and tb > 10.0 * fed:
+                out[int(b)] = (
+                    f"energy {tb:.3g} J/m exceeds 1e4 x the initial energy and 10 x the energy "
+                    f"fed by the cylinder ({fed:.3g} J/m) at t = {time_now:.6g} s: the "
+                    "time scheme is unstable here; reduce time.dt_fraction")
+        return out
+
+    def close(self) -> None:
+        for s in (self.fields, self.status, self.energies, self.probes):
+            s.close()
+
+    def arrays(self, b: int, n: int | None = None) -> dict[str, np.ndarray]:
+        """Scene b's ``InnerCircleRecorder.arrays()`` (its first n samples)."""
+        n = self.n if n is None else n
+        f = self.fields.read(b, n)
+        return {"t": self.t[:n].copy(), "theta": self.theta, "u_r": f[:, 0],
+                "u_theta": f[:, 1], "v_r": f[:, 2], "v_theta": f[:, 3],
+                "status": self.status.read(b, n), "energies": self.energies.read(b, n),
+                "r_r": f[:, 4], "r_theta": f[:, 5], "ds": self.ds}
+
+    def probe_arrays(self, b: int, n: int | None = None) -> dict[str, np.ndarray]:
+        """Scene b's ``ProbeRecorder.arrays()`` (its first n steps)."""
+        n = self.n_probe if n is None else n
+        p = self.probes.read(b, n)  # (n, 4, n_probes)
+        zu = (p[:, 0] + 1j * p[:, 1]) * self.probe_pc
+        zv = (p[:, 2] + 1j * p[:, 3]) * self.probe_pc
+        data = np.stack([zu.real, zu.imag, zv.real, zv.imag], axis=-1).transpose(1, 0, 2)
+        return {"probe_t": self.probe_t[:n].copy(), "probe_deg": self.probe_deg,
+                "probe_data": data}
