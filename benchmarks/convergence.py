@@ -8,6 +8,9 @@ resumable: finished cases are skipped) in priority order:
 
 1. Figure 3 (Omega = 50, delta = 4e-4, f = 0.7), mode-4 seed, undamped and damped, N = 66 ...
    1056 at dt = 0.9 dt_crit (the damped limit when damped), beta2 = 1/2;
+   1b. the same undamped with the 1-2-1 filtered friction bound (``[friction] filter``,
+   docs/friction_filter.md), mode-4 seed and random seeds, N = 66 ... 528, mode-4 at 1056
+   (``--only f121``);
 2. the same at N = 264 with dt halved twice;
 3. random seeds 1, 2, 3 over N;
 4. Figure 1 (Omega = 40, delta = 1e-3, f = 0.7), the same list;
@@ -64,9 +67,9 @@ def run_list(quick: bool, max_n: int) -> list[dict]:
     physics = ["fig3"] if quick else ["fig3", "fig1"]
     out: list[dict] = []
 
-    def add(phys, damped, n, seed, beta2=0.5, frac=0.9):
-        c = dict(phys=phys, damped=damped, n=n, seed=seed, beta2=beta2, frac=frac)
-        c["key"] = case_key(phys, damped, n, seed, beta2, frac)
+    def add(phys, damped, n, seed, beta2=0.5, frac=0.9, filt="nodal"):
+        c = dict(phys=phys, damped=damped, n=n, seed=seed, beta2=beta2, frac=frac, filter=filt)
+        c["key"] = case_key(phys, damped, n, seed, beta2, frac, filt)
         if c["key"] not in {o["key"] for o in out}:
             out.append(c)
 
@@ -75,6 +78,11 @@ def run_list(quick: bool, max_n: int) -> list[dict]:
     for n in ns:  # 1. Figure 3, mode-4 seed over N
         for damped in both:
             add("fig3", damped, n, "mode4") if n <= 528 else None
+    for seed in ["mode4", *seeds]:  # 1b. the 1-2-1 filtered bound, undamped
+        for n in [n for n in ns if n <= 528]:
+            add("fig3", False, n, seed, filt="1-2-1")
+    if 1056 in ns:
+        add("fig3", False, 1056, "mode4", filt="1-2-1")
     for frac in (0.45, 0.225):  # 2. dt halved twice at N = 264
         for damped in both:
             add("fig3", damped, 264, "mode4", frac=frac) if 264 in ns else None
@@ -130,13 +138,13 @@ def fmt(x, scale=1.0, digits=4):
     return f"{x * scale:.{digits}g}"
 
 
-def series_table(res, phys, damped, seed, ns):
+def series_table(res, phys, damped, seed, ns, filt="nodal"):
     rows = []
     head = ("| N | dofs | dt (us) | dt/dt_crit | k | c (m/s) | f (Hz) | sep / stick / slip | "
             "psi1 | psi2 | RMS(u_r-d) (um) | LC | drift f / sep | wall (s) |")
     rows += [head, "|" + "---|" * 14]
     for n in ns:
-        r = res.get(case_key(phys, damped, n, seed))
+        r = res.get(case_key(phys, damped, n, seed, filt=filt))
         if r is None:
             rows.append(f"| {n} | not run | | | | | | | | | | | | |")
             continue
@@ -150,9 +158,9 @@ def series_table(res, phys, damped, seed, ns):
     return rows
 
 
-def convergence_rows(res, phys, damped, seed, ns):
-    have = [n for n in ns if case_key(phys, damped, n, seed) in res]
-    rs = [res[case_key(phys, damped, n, seed)] for n in have]
+def convergence_rows(res, phys, damped, seed, ns, filt="nodal"):
+    have = [n for n in ns if case_key(phys, damped, n, seed, filt=filt) in res]
+    rs = [res[case_key(phys, damped, n, seed, filt=filt)] for n in have]
     rows = []
     if len({(r["k"], r["celerity_m_s"] > 0) for r in rs[-3:]}) > 1:
         ks = ", ".join(f"{r['k']}{'+' if r['celerity_m_s'] > 0 else '-'}" for r in rs)
@@ -254,6 +262,12 @@ def _rel(path: Path) -> Path:
     return path.relative_to(REPO) if path.is_relative_to(REPO) else path
 
 
+def _series():
+    """(physics, damped, seed, friction filter) of the per-seed sections, in report order."""
+    return [(p, d, s, f) for p in ("fig3", "fig1") for d in (False, True)
+            for f in ("nodal", "1-2-1") for s in ("mode4", "random1", "random2", "random3")]
+
+
 def report(res: dict, out: Path, quick: bool, results_path: Path) -> None:
     ns = [n for n in NS if not quick or n <= 264]
     lines = ["# Convergence of the FE limit cycle (issue 13)", "",
@@ -267,17 +281,16 @@ def report(res: dict, out: Path, quick: bool, results_path: Path) -> None:
              f"(tau = {ETA_DAMPED / (2 * math.pi * F_REF_HZ) * 1e6:.3g} us), the order of a "
              "lightly damped polymer at the wave frequency. Wall times: one core of a shared "
              "2-core machine (noisy).", ""]
-    for phys in ("fig3", "fig1"):
-        for damped in (False, True):
-            for seed in ("mode4", "random1", "random2", "random3"):
-                if not any(case_key(phys, damped, n, seed) in res for n in ns):
-                    continue
-                lines += [f"## {phys}, {'eta = 2 %' if damped else 'undamped'}, seed {seed}", ""]
-                lines += series_table(res, phys, damped, seed, ns)
-                lines += ["", "| quantity | successive differences | observed order | "
-                              "Richardson value | error bar |", "|---|---|---|---|---|"]
-                lines += convergence_rows(res, phys, damped, seed, ns)
-                lines += [""]
+    for phys, damped, seed, filt in _series():
+        if not any(case_key(phys, damped, n, seed, filt=filt) in res for n in ns):
+            continue
+        lines += [f"## {phys}, {'eta = 2 %' if damped else 'undamped'}, seed {seed}"
+                  + ("" if filt == "nodal" else f", friction filter {filt}"), ""]
+        lines += series_table(res, phys, damped, seed, ns, filt)
+        lines += ["", "| quantity | successive differences | observed order | "
+                      "Richardson value | error bar |", "|---|---|---|---|---|"]
+        lines += convergence_rows(res, phys, damped, seed, ns, filt)
+        lines += [""]
     # dt refinement
     lines += ["## Time-step refinement at N = 264 (mode-4 seed)", "",
               "| physics | damping | dt/dt_crit | k | f (Hz) | sep / stick / slip | psi1 | psi2 |"
@@ -294,29 +307,29 @@ def report(res: dict, out: Path, quick: bool, results_path: Path) -> None:
                         f"{r['amp_rms_m'] * 1e6:.3f} | {r['wall_s']:.0f} |")
     # family
     lines += ["", "## The family: which k from which start", "",
-              "| physics | damping | seed | k over N (" + ", ".join(map(str, ns)) + ") | "
-              "f over N (Hz) |", "|---|---|---|---|---|"]
-    for phys in ("fig3", "fig1"):
-        for damped in (False, True):
-            for seed in ("mode4", "random1", "random2", "random3"):
-                rs = [res.get(case_key(phys, damped, n, seed)) for n in ns]
-                if not any(rs):
-                    continue
-                ks = ", ".join(f"{r['k']}{'+' if r['celerity_m_s'] > 0 else '-'}" if r else "."
-                               for r in rs)
-                fs = ", ".join(f"{r['frequency_hz']:.0f}" if r else "." for r in rs)
-                lines.append(f"| {phys} | {'eta 2%' if damped else 'none'} | {seed} | {ks} | "
-                             f"{fs} |")
+              "| physics | damping | friction | seed | k over N (" + ", ".join(map(str, ns))
+              + ") | f over N (Hz) |", "|---|---|---|---|---|---|"]
+    for phys, damped, seed, filt in _series():
+        rs = [res.get(case_key(phys, damped, n, seed, filt=filt)) for n in ns]
+        if not any(rs):
+            continue
+        ks = ", ".join(f"{r['k']}{'+' if r['celerity_m_s'] > 0 else '-'}" if r else "."
+                       for r in rs)
+        fs = ", ".join(f"{r['frequency_hz']:.0f}" if r else "." for r in rs)
+        lines.append(f"| {phys} | {'eta 2%' if damped else 'none'} | {filt} | {seed} | {ks} | "
+                     f"{fs} |")
     # members reached on several meshes
     lines += ["", "## Members of the family reached on several meshes (beta2 = 1/2, dt = 0.9 "
               "dt_crit): does each converge?", "",
-              "| physics | damping | k | N: f (Hz), sep / stick / slip, RMS (um) [seeds] |",
-              "|---|---|---|---|"]
-    for phys in ("fig3", "fig1"):
-        for damped in (False, True):
+              "| physics | damping | friction | k | N: f (Hz), sep / stick / slip, RMS (um) "
+              "[seeds] |", "|---|---|---|---|---|"]
+    for phys, damped, filt in ((p, d, f) for p in ("fig3", "fig1") for d in (False, True)
+                               for f in ("nodal", "1-2-1")):
+        if True:
             members: dict = {}
             for r in res.values():
-                if (r["phys"], r["damped"], r["beta2"], r["frac"]) != (phys, damped, 0.5, 0.9):
+                if (r["phys"], r["damped"], r["beta2"], r["frac"], r.get("filter", "nodal")) \
+                        != (phys, damped, 0.5, 0.9, filt):
                     continue
                 members.setdefault((r["k"], r["celerity_m_s"] > 0), {}).setdefault(
                     r["n"], []).append(r)
@@ -330,7 +343,7 @@ def report(res: dict, out: Path, quick: bool, results_path: Path) -> None:
                     cells.append(f"N = {n}: {r['frequency_hz']:.1f}, {r['sep']:.3f} / "
                                  f"{r['stick']:.3f} / {r['slip']:.3f}, "
                                  f"{r['amp_rms_m'] * 1e6:.0f} [{', '.join(x['seed'] for x in rs)}]")
-                lines.append(f"| {phys} | {'eta 2%' if damped else 'none'} | {k}"
+                lines.append(f"| {phys} | {'eta 2%' if damped else 'none'} | {filt} | {k}"
                              f"{'+' if fwd else '-'} | " + "; ".join(cells) + " |")
     # beta2
     lines += ["", "## beta2 on the finest mesh it was run on (mode-4 seed)", "",

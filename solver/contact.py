@@ -200,6 +200,92 @@ def project_contact_regularized(
     project_tangential(u_t_trial, u_t_prev, slide, out)
 
 
+# ---------------------------------------------------------------------------------------------
+# Filtered friction bound (1-2-1 along the contact circle), issue 13 item 2
+
+
+class NeighbourFilter:
+    """The 1-2-1 filter of nodal normal reactions along the contact circle:
+
+        p~_i = in_contact_i (p_{i-1} + 2 p_i + p_{i+1}) / 4,
+
+    neighbours in angle, periodic (node i-1 of the first node is the last). The friction
+    bound of node i becomes f p~_i instead of f p_i (docs/friction_filter.md): the node-by-node
+    Coulomb bound is what carries the FE's spurious mesh-scale flutter branch
+    (docs/continuum.md); the filter is exact on a uniform pressure, so steady sliding is
+    unchanged, and p~_i = 0 off contact (friction needs contact).
+
+    ``global_index``: partition-independent rank of each owned node in the angle-sorted list
+    of all ``n_global`` contact nodes (``forms.polar.ContactNodes.global_node_index``). Under
+    MPI the N nodal p's are Allgather-ed each step (N is small: ~1 kB), so each rank filters
+    the same global array: results do not depend on the rank count. Arrays are allocated once.
+    """
+
+    def __init__(self, global_index: np.ndarray, n_global: int, comm=None) -> None:
+        gidx = np.asarray(global_index, dtype=np.intp)
+        self.comm = comm if comm is not None and comm.size > 1 else None
+        self.full = np.zeros(n_global)  # p at every contact node, in angle order
+        self.mine = gidx
+        self.left = (gidx - 1) % n_global
+        self.right = (gidx + 1) % n_global
+        self.p = np.zeros(gidx.size)  # p~ at the owned nodes (the output)
+        self.work = np.zeros(gidx.size)
+        if self.comm is not None:
+            counts = np.asarray(self.comm.allgather(gidx.size))
+            self.counts = counts
+            self.displs = np.concatenate([[0], np.cumsum(counts)[:-1]])
+            self.order = np.concatenate(self.comm.allgather(gidx))  # gathered slot -> node
+            self.gathered = np.zeros(n_global)
+            self.send = np.zeros(gidx.size)  # contiguous copy (p may be a strided view)
+
+    def apply(self, p: np.ndarray, in_contact: np.ndarray) -> np.ndarray:
+        """p~ of the owned nodes into ``self.p`` (returned), from their nodal reactions ``p``."""
+        if self.comm is None:
+            self.full[self.mine] = p
+        else:
+            from mpi4py import MPI
+
+            self.send[:] = p
+            self.comm.Allgatherv(self.send, [self.gathered, self.counts, self.displs, MPI.DOUBLE])
+            self.full[self.order] = self.gathered
+        out, work = self.p, self.work
+        self.full.take(self.left, out=out)
+        self.full.take(self.right, out=work)
+        out += work
+        self.full.take(self.mine, out=work)
+        work *= 2.0
+        out += work
+        out *= 0.25
+        out *= in_contact
+        return out
+
+
+def project_contact_filtered(
+    u_r_trial: np.ndarray, u_t_trial: np.ndarray, u_t_prev: np.ndarray, mass: np.ndarray,
+    kappa: float, d: float, slide: float, f: float, filt: NeighbourFilter,
+    out: ContactArrays, effective: EffectivePressure | None = None,
+) -> None:
+    """``project_contact`` with the filtered bound f p~_i (``NeighbourFilter``).
+
+    1. the normal projection of every node, unchanged (exact non-penetration): p_i = r_r,i;
+    2. p~ = the 1-2-1 filter of p along the circle (zero where separated);
+    3. the tangential stick/slip projection with bound f p~_i (stick stays exact); with a
+       ``effective`` (Prakash-Clifton) state, sigma_eff relaxes towards p~ and the bound is
+       f sigma_eff.
+    """
+    project_normal(u_r_trial, mass, kappa, d, out)
+    if f == 0.0:
+        out.r_t.fill(0.0)
+        np.multiply(out.in_contact, SLIP, out=out.status)
+        return
+    p_filtered = filt.apply(out.r_r, out.in_contact)
+    if effective is None:
+        np.multiply(p_filtered, f, out=out.cone)
+    else:
+        effective.update(p_filtered, u_t_prev, slide, f, out)
+    project_tangential(u_t_trial, u_t_prev, slide, out)
+
+
 class ContactArrays:
     """Preallocated per-node arrays of the projection (outputs and scratch)."""
 

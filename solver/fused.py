@@ -78,15 +78,17 @@ def resolve_kernel(scene) -> str:
     * the implicit scheme (time.beta1 > 0) has no fused step: "numpy" (it is not a stiffness
       product; ``time.kernel`` is ignored there);
     * physics the fused kernel does not implement (Kelvin-Voigt ``[damping]`` with tau > 0,
-      a ``[friction]`` regularisation) falls back to "numpy";
+      a ``[friction]`` regularisation, a ``[friction] filter`` other than "nodal") falls
+      back to "numpy";
     * ``time.kernel = "auto"``: "numba" when numba imports, else "numpy";
     * ``time.kernel = "numba"`` without numba: ValueError naming the fix.
     """
     ts = scene.time
     if ts.beta1 > 0.0:
         return "numpy"
-    if scene.damping.enabled or scene.friction.enabled:  # [damping] tau > 0, [friction]
-        return "numpy"  # regularisation (issue 13): DampedNewmark / regularised projection
+    fr = scene.friction
+    if scene.damping.enabled or fr.enabled or fr.filtered:  # [damping] tau > 0, [friction]
+        return "numpy"  # regularisation or filter (issue 13): DampedNewmark / make_projection
     requested = getattr(ts, "kernel", "auto")
     if requested == "numpy":
         return "numpy"

@@ -22,8 +22,10 @@ from meshes.annulus import INNER_TAG, OUTER_TAG, TubeMesh, annulus_mesh
 from solver.contact import (
     ContactArrays,
     EffectivePressure,
+    NeighbourFilter,
     NodalFrames,
     project_contact,
+    project_contact_filtered,
     project_contact_regularized,
 )
 from solver.scene import Scene
@@ -221,8 +223,33 @@ class RegularizedContactProjection(ContactProjection):
                                     self.d, self.slide, self.f, self.effective, self.out)
 
 
+class FilteredContactProjection(ContactProjection):
+    """``ContactProjection`` with the 1-2-1 filtered friction bound (``[friction] filter =
+    "1-2-1"``): ``solver.contact.project_contact_filtered`` with a ``NeighbourFilter`` over
+    the angle-ordered contact nodes (Allgather of the N nodal p's under MPI), composed with
+    the Prakash-Clifton state when the scene also regularises."""
+
+    def __init__(self, problem: TubeProblem, kappa: float, dt: float) -> None:
+        super().__init__(problem, kappa, dt)
+        nd, fr = problem.nodes, problem.scene.friction
+        self.filter = NeighbourFilter(nd.global_node_index, nd.n_global, problem.comm)
+        self.effective = None
+        if fr.enabled:
+            self.effective = EffectivePressure(
+                self.mass.size, fr.regularization, dt, slip_length=fr.slip_length,
+                reference_velocity=fr.reference_velocity, relaxation_time=fr.relaxation_time)
+
+    def _project(self, u_r_trial: np.ndarray, u_t_trial: np.ndarray,
+                 u_t_now: np.ndarray) -> None:
+        project_contact_filtered(u_r_trial, u_t_trial, u_t_now, self.mass, self.kappa, self.d,
+                                 self.slide, self.f, self.filter, self.out, self.effective)
+
+
 def make_projection(problem: TubeProblem, kappa: float, dt: float) -> ContactProjection:
-    """The explicit contact step for the scene's friction law (Coulomb or regularised)."""
+    """The explicit contact step for the scene's friction law (Coulomb, filtered and/or
+    regularised)."""
+    if problem.scene.friction.filtered:
+        return FilteredContactProjection(problem, kappa, dt)
     if problem.scene.friction.enabled:
         return RegularizedContactProjection(problem, kappa, dt)
     return ContactProjection(problem, kappa, dt)

@@ -507,6 +507,7 @@ class Damping(_Section):
 
 
 REGULARIZATIONS = ("none", "prakash-clifton", "constant-time")
+FRICTION_FILTERS = ("nodal", "1-2-1")
 
 
 @dataclass(frozen=True)
@@ -517,6 +518,12 @@ class Friction(_Section):
     d sigma_eff/dt = -(|V| + V*) / L (sigma_eff - p)  (V: slip rate, L: ``slip_length``,
     V*: ``reference_velocity``); "constant-time": d sigma_eff/dt = -(sigma_eff - p) / t*
     (t*: ``relaxation_time``); "none": the classical bound f p.
+
+    ``filter``: "nodal" (default) bounds the friction force of node i by f p_i, its own normal
+    reaction; "1-2-1" by f p~_i with p~_i = in_contact_i (p_{i-1} + 2 p_i + p_{i+1}) / 4, the
+    normal reactions filtered along the contact circle, which removes the FE's spurious
+    mesh-scale flutter branch (docs/friction_filter.md). With a regularisation, sigma_eff
+    relaxes towards p~.
     """
 
     SECTION: ClassVar[str] = "friction"
@@ -529,13 +536,22 @@ class Friction(_Section):
     """Prakash-Clifton reference velocity V* [m/s]."""
     relaxation_time: float = _opt(0.0, "float")
     """Constant-time variant: relaxation time t* [s]."""
+    filter: str = _opt("nodal", "str")
+    """"nodal" (bound f p_i) or "1-2-1" (bound f (p_{i-1} + 2 p_i + p_{i+1}) / 4)."""
 
     @property
     def enabled(self) -> bool:
+        """A regularised (Prakash-Clifton or constant-time) bound."""
         return self.regularization != "none"
+
+    @property
+    def filtered(self) -> bool:
+        """The bound uses the 1-2-1 filtered normal reactions."""
+        return self.filter != "nodal"
 
     def _check(self) -> None:
         _choice(self._key("regularization"), self.regularization, REGULARIZATIONS)
+        _choice(self._key("filter"), self.filter, FRICTION_FILTERS)
         _require(self._key("slip_length"), self.slip_length, self.slip_length >= 0,
                  "slip_length >= 0 (m)")
         _require(self._key("reference_velocity"), self.reference_velocity,
@@ -641,6 +657,12 @@ class Scene(_Section):
                 f"friction.regularization = {self.friction.regularization!r} needs the explicit "
                 f"scheme (time.beta1 = 0; got {self.time.beta1}): the law is built into its "
                 "forward-increment contact projection")
+        if self.friction.filtered and self.time.beta1 != 0.0:
+            raise SceneError(
+                f"friction.filter = {self.friction.filter!r} needs the explicit scheme "
+                f"(time.beta1 = 0; got {self.time.beta1}): the filtered bound couples "
+                "neighbouring nodes, which the implicit active set does not model; use "
+                'time.beta1 = 0 or friction.filter = "nodal"')
         half = self.mesh.n_inner // 2
         why = f"mesh.n_inner // 2 = {half} (at least 2 contact nodes per wavelength)"
         if self.initial.perturbation == "mode":

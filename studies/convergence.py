@@ -2,7 +2,8 @@
 
 A case is Figure-3 or Figure-1 physics ("fig3": Omega = 50 rad/s, delta = 4e-4, f = 0.7;
 "fig1": Omega = 40, delta = 1e-3, f = 0.7) at N contact nodes, beta2, dt = frac x dt_crit,
-undamped or with Kelvin-Voigt eta = 2 % at 1.6 kHz, from the mode-4 seed or a random seed.
+undamped or with Kelvin-Voigt eta = 2 % at 1.6 kHz, from the mode-4 seed or a random seed,
+with the nodal or the 1-2-1 filtered friction bound (``case["filter"]``, docs/friction_filter.md).
 ``run_case`` runs it in this process and ``measure`` extracts, over the last ``WINDOW`` s:
 
 * frequency: FFT peak (parabolic refinement) of the every-step probe history at theta = 0
@@ -35,9 +36,11 @@ PHYSICS = {
 NS = (66, 132, 264, 528, 1056)
 
 def case_key(phys: str, damped: bool, n: int, seed: str, beta2: float = 0.5,
-             frac: float = 0.9) -> str:
-    """Unique name of a case of the study."""
-    return f"{phys}-{'eta2' if damped else 'undamped'}-N{n}-{seed}-b{beta2:g}-fr{frac:g}"
+             frac: float = 0.9, filt: str = "nodal") -> str:
+    """Unique name of a case of the study (``filt``: ``[friction] filter``; the nodal law
+    keeps the keys it had before the option existed)."""
+    tail = "" if filt == "nodal" else "-f" + filt.replace("-", "")
+    return f"{phys}-{'eta2' if damped else 'undamped'}-N{n}-{seed}-b{beta2:g}-fr{frac:g}{tail}"
 
 
 def scene_for(case: dict) -> Scene:
@@ -46,6 +49,8 @@ def scene_for(case: dict) -> Scene:
           f"time.beta2={case['beta2']}", f"time.dt_fraction={case['frac']}", "time.dt=0",
           f"time.end_time={END_TIME}", "output.progress=false", "output.sample_interval=1e-4",
           "output.probes_deg=[0.0]", "time.max_wall_time=1800"]
+    if case.get("filter", "nodal") != "nodal":
+        ov += [f'friction.filter="{case["filter"]}"']
     if case["damped"]:
         ov += [f"damping.loss_factor={ETA_DAMPED}", f"damping.reference_frequency_hz={F_REF_HZ}"]
     if case["seed"] == "mode4":

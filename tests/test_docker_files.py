@@ -216,7 +216,7 @@ def test_pyproject_installs_every_package_of_the_source_tree():
     setuptools = tomllib.loads((REPO / "pyproject.toml").read_text())["tool"]["setuptools"]
     found = {".".join(p.parent.relative_to(REPO).parts) for p in REPO.rglob("__init__.py")
              if p.parent.relative_to(REPO).parts[0] not in ("tests", "benchmarks", "build")
-             and ".git" not in p.parts}
+             and not any(part.startswith(".") for part in p.relative_to(REPO).parts)}
     if isinstance(setuptools.get("packages"), list):
         listed = set(setuptools["packages"])
     else:  # [tool.setuptools.packages.find] include = [...] (fnmatch patterns)
