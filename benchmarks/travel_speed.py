@@ -5,9 +5,11 @@ Prints, each with its wall time:
 
 1. the reduced-model rung: one wave (k = 8 example, N = 256) from the closed-form start;
 2. a 40-point continuation in Ω of that reduced wave (50 ... 1000 rad/s);
-3. the FE problem at N = 132 (figure3_n132): mesh + K + G + one condensation (setup), then
-   one solve attempt from the transient run RUN_DIR (default runs/figure3_n132; run
-   ``stickslip run scenes/figure3_n132.toml`` first), reported with its outcome;
+3. the FE problem at N = 132 (figure1_n132_damped, the scene's Kelvin–Voigt τ, issue 18):
+   mesh + K + G + D + one condensation (setup), then one wave from the transient run RUN_DIR
+   (default runs/figure1_n132_damped; run ``stickslip run scenes/figure1_n132_damped.toml``
+   first; fixed-ω nearest-speed route, as ``stickslip travel --fixed-omega``), wall and CPU
+   time, with its outcome;
 4. a 40-point FE continuation in loading.omega (36 contact nodes, Figure-1 physics, start
    speed −2300 m/s held fixed per point).
 """
@@ -27,7 +29,7 @@ from studies.travel.reduced import reduced_problem, wave_start
 
 
 def main() -> None:
-    run_dir = Path(sys.argv[1]) if len(sys.argv) > 1 else Path("runs/figure3_n132")
+    run_dir = Path(sys.argv[1]) if len(sys.argv) > 1 else Path("runs/figure1_n132_damped")
     co = coefficients(0.3, 1.25, gamma_from_physical(1000.0, 1.0, 100.0))
     w = [x for x in stick_slip_waves(co, 1.0, 8, 0.005) if x.admissible][0]
     n = 256
@@ -69,21 +71,23 @@ def main() -> None:
     from solver.scene import load_scene
     from studies.travel import driver as D
 
-    t0 = time.perf_counter()
-    st = D.setup(load_scene("scenes/figure3_n132.toml"))
+    t0, c0 = time.perf_counter(), time.process_time()
+    sc132 = load_scene("scenes/figure1_n132_damped.toml")
+    st = D.setup(sc132, sc132.damping.tau)
     st.prob.stiffness(-2500.0)
-    t_setup = time.perf_counter() - t0
+    t_setup, c_setup = time.perf_counter() - t0, time.process_time() - c0
     msg = "no run directory"
-    t1 = time.perf_counter()
+    t1, c1 = time.perf_counter(), time.process_time()
     if (run_dir / "samples.npz").exists():
         W0, om0, _ = D.start_from_run(run_dir, st)
         try:
-            s = D.solve_scene(st, 4, W0, om0, max_iter=30, scan=0.0)
-            msg = f"converged, {s.omega:.1f} m/s"
+            s = D.solve_scene(st, 4, W0, om0, max_iter=30, free_omega=False)
+            msg = f"converged, {s.omega:.1f} m/s, {s.iterations} iterations"
         except NotConverged as err:
             msg = f"FAILED: {str(err)[:90]}"
-    print(f"FE N=132: setup (mesh, K, G, one condensation) {t_setup:.2f} s; solve from the "
-          f"transient {time.perf_counter() - t1:.2f} s: {msg}")
+    print(f"FE N=132 damped: setup (mesh, K, G, D, one condensation) {t_setup:.2f} s wall, "
+          f"{c_setup:.2f} s CPU; one wave from the transient {time.perf_counter() - t1:.2f} s "
+          f"wall, {time.process_time() - c1:.2f} s CPU: {msg}")
 
     # 4. FE continuation, 40 points, N = 36
     from types import SimpleNamespace

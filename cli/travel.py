@@ -32,8 +32,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--continue", dest="cont", metavar="KEY=A:B:N",
                    help="follow the branch over N values of a scene key, e.g. "
                         "loading.omega=50:1000:40")
-    p.add_argument("--damping", type=float, default=0.0, metavar="ETA",
-                   help="Kelvin-Voigt retardation time (s) in the wave frame (default 0)")
+    p.add_argument("--damping", type=float, default=None, metavar="TAU",
+                   help="Kelvin-Voigt retardation time (s) in the wave frame (default: the "
+                        "scene's [damping], the same physics as `stickslip run`)")
     p.add_argument("--celerity", type=float, metavar="M_PER_S",
                    help="start speed (signed, m/s) instead of the start's own")
     p.add_argument("--fixed-omega", action="store_true",
@@ -82,7 +83,7 @@ def _travel(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     if args.k < 1:
         return _err(f"--k {args.k}: the wavenumber must be an integer >= 1")
-    if args.damping < 0:
+    if args.damping is not None and args.damping < 0:
         return _err(f"--damping {args.damping}: the retardation time must be >= 0")
     if args.celerity is not None and args.celerity == 0.0:
         return _err("--celerity 0: a travelling wave needs a non-zero speed (sign = sense)")
@@ -95,6 +96,8 @@ def _travel(args: argparse.Namespace) -> int:
             scene.with_overrides(f"{cont[0]}={cont[1][0]}")  # validates the key early
     except (SceneError, FileNotFoundError, ValueError) as err:
         return _err(str(err))
+    if args.damping is None:  # same physics as the transient: the scene's Kelvin-Voigt tau
+        args.damping = float(scene.damping.tau)
     if args.from_run and not (Path(args.from_run) / "samples.npz").exists():
         return _err(f"--from {args.from_run}: no samples.npz there (not a finished run "
                     "directory of `stickslip run`)")
@@ -139,6 +142,7 @@ def _one_wave(scene, args: argparse.Namespace, out: Path, t0: float) -> int:
                    "last_residual": err.info.get("residual"),
                    "violated": err.info.get("violated"), "margins": err.info.get("margins"),
                    "residual_history": err.info.get("hist"), **info,
+                   "damping_s": args.damping,
                    "wall_time_s": time.perf_counter() - t0}
         write_failure(out, scene, summary)
         res = err.info.get("residual")

@@ -121,9 +121,13 @@ def start_from_reduced(st: Setup, k: int) -> tuple[Array, float, dict]:
 
 
 def solve_scene(st: Setup, k: int, W0: Array, omega0: float, *, free_omega: bool = True,
-                max_iter: int = 60, scan: float = 0.1, **kw) -> TravelSolution:
+                max_iter: int = 60, scan: float = 0.05, rel_step: float = 0.0025,
+                **kw) -> TravelSolution:
     """Newton for (W, ω) with the phase condition; if it fails, the fixed-ω wave nearest to
-    ω0 (``newton.nearest_wave``: ω0(1 ± j%) up to ±``scan``). ``sol.how`` says which."""
+    ω0 (``newton.nearest_wave``: ω0(1 ± j·rel_step) up to ±``scan``). ``sol.how`` says which.
+
+    The step is 0.25 %: at N = 132 the admissible bands of a wave family are ~0.5 % of the
+    speed wide (docs/travelling_waves.md), so steps of 1 % jump over them."""
     from studies.travel.newton import NotConverged, nearest_wave
 
     first: NotConverged | None = None
@@ -135,8 +139,8 @@ def solve_scene(st: Setup, k: int, W0: Array, omega0: float, *, free_omega: bool
         except NotConverged as err:
             first = err
     try:
-        sol = nearest_wave(st.prob, W0, omega0, k, rel_step=0.01,
-                           max_steps=max(0, int(round(scan / 0.01))),
+        sol = nearest_wave(st.prob, W0, omega0, k, rel_step=rel_step,
+                           max_steps=max(0, int(round(scan / rel_step))),
                            max_iter=min(max_iter, 30), **kw)
     except NotConverged as err:
         if first is not None:
