@@ -323,9 +323,11 @@ def test_sigterm_to_mpirun_leaves_interrupted_and_samples(tmp_path):
         pytest.skip("needs mpirun, outside mpirun")
     run_dir = tmp_path / "r"
     proc = subprocess.Popen(["mpirun", "-n", "2", sys.executable, "-m", "cli.main", "run",
-                             "figure3_n132", "--set", "time.end_time=1.5", "-o", str(run_dir)],
+                             "figure3_n132", "--set", "time.end_time=6", "-o", str(run_dir)],
                             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
                             cwd=REPO)
+    # end_time 6 s: minutes of work even with the fused step, so the signal always lands in
+    # the time loop (1.5 s finished before the first progress line on a quiet machine)
     for line in proc.stdout:  # wait for the time loop (its first progress line)
         if line.lstrip().startswith("t = "):
             break
