@@ -108,6 +108,17 @@ def test_shipped_omega_delta_sweep_is_valid():
     assert (sc.mesh.n_inner, sc.time.end_time, sc.loading.f) == (36, 0.3, 0.7)
 
 
+def test_shipped_damped_omega_delta_sweep_is_the_same_grid_on_the_damped_setting():
+    """Issue 13 item 6: same Omega x delta grid as omega_delta.toml, converged setting."""
+    spec = load_sweep(REPO / "sweeps" / "omega_delta_damped.toml")
+    undamped = load_sweep(REPO / "sweeps" / "omega_delta.toml")
+    assert [t.overrides for t in spec.tasks] == [t.overrides for t in undamped.tasks]
+    assert spec.base == REPO / "scenes" / "figure3_n132_damped.toml"
+    sc = scene_for(spec, spec.tasks[0])
+    assert (sc.mesh.n_inner, sc.time.beta2, sc.time.end_time, sc.loading.f) == (132, 0.5, 0.3, 0.7)
+    assert (sc.damping.loss_factor, sc.damping.reference_frequency_hz) == (0.02, 1600.0)
+
+
 @pytest.mark.parametrize("body, words", [
     ('[grid]\n"loading.omegga" = [1.0]', ["loading.omegga", "omega"]),
     ('[grid]\n"loading.omega" = 5.0', ["non-empty list"]),
