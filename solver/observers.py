@@ -54,7 +54,7 @@ class EnergyAccumulator:
 
     def after_step(self, u_next: np.ndarray) -> None:
         p = self.p
-        p.complex_view(u_next).take(p.node_index, out=self.z_next)
+        p.complex_view(u_next).take(p.node_index, out=self.z_next, mode="clip")
         np.subtract(self.z_next, self.z_prev, out=self.dz)
         self.work_contact += 0.5 * np.vdot(p.r_xy, self.dz).real
         if self.with_friction:
@@ -167,6 +167,8 @@ class InnerCircleRecorder:
             self.idx_sorted = np.asarray(projection.node_index, dtype=np.intp)[self.perm]
             self.phase_sorted = np.ascontiguousarray(projection.phase_conj[self.perm])
             self.z_sorted = np.zeros((2, n_local), dtype=complex)  # (u, v) as u_r + i u_theta
+            z = self.z_sorted  # the four real views, made once
+            self.z_parts = (z[0].real, z[0].imag, z[1].real, z[1].imag)
         self.last_work = (0.0, 0.0, 0.0, 0.0)
         self.kin_scratch = np.zeros(problem.n_owned)
         self.e_local = np.zeros(3)  # kinetic, strain, damping work (local)
@@ -207,20 +209,22 @@ class InnerCircleRecorder:
         so every recorded value is bitwise the one of the gathered path; no MPI call.
         """
         i, z, idx, perm, out = self.n, self.z_sorted, self.idx_sorted, self.perm, p.out
+        ur, ut, vr, vt = self.z_parts
         np.copyto(self.e_total, self.e_local)  # the sum over one rank
         work = (*self.energy.totals(self.comm), float(self.e_total[2]))
         self.last_work = work
-        p.complex_view(integrator.u_prev).take(idx, out=z[0])
-        p.complex_view(integrator.v).take(idx, out=z[1])
+        # mode="clip": the indices are valid, and "raise" would copy through a buffer
+        p.complex_view(integrator.u_prev).take(idx, out=z[0], mode="clip")
+        p.complex_view(integrator.v).take(idx, out=z[1], mode="clip")
         z *= self.phase_sorted
         self.t[i] = integrator.time - integrator.dt
-        np.copyto(self.u_r[i], z[0].real)
-        np.copyto(self.u_t[i], z[0].imag)
-        np.copyto(self.v_r[i], z[1].real)
-        np.copyto(self.v_t[i], z[1].imag)
-        out.r_r.take(perm, out=self.r_r[i])
-        out.r_t.take(perm, out=self.r_t[i])
-        out.status.take(perm, out=self.status[i])
+        np.copyto(self.u_r[i], ur)
+        np.copyto(self.u_t[i], ut)
+        np.copyto(self.v_r[i], vr)
+        np.copyto(self.v_t[i], vt)
+        out.r_r.take(perm, out=self.r_r[i], mode="clip")
+        out.r_t.take(perm, out=self.r_t[i], mode="clip")
+        out.status.take(perm, out=self.status[i], mode="clip")
         self.energies[i] = (self.e_total[0], self.e_total[1], *work)
 
     def _record_gathered(self, integrator, p) -> None:
@@ -337,9 +341,9 @@ class ProbeRecorder:
         if i >= self.t.size:
             return
         self.t[i] = integrator.time - integrator.dt
-        if self.slots:
-            self.p.complex_view(integrator.u_prev).take(self.index, out=self.zu[i])
-            self.p.complex_view(integrator.v).take(self.index, out=self.zv[i])
+        if self.slots:  # mode="clip": valid indices, no buffered copy ("raise" buffers out)
+            self.p.complex_view(integrator.u_prev).take(self.index, out=self.zu[i], mode="clip")
+            self.p.complex_view(integrator.v).take(self.index, out=self.zv[i], mode="clip")
         self.n = i + 1
 
     @property
