@@ -266,6 +266,8 @@ class FusedNewmark:
 class FusedEnergy:
     """``EnergyAccumulator`` for ``FusedNewmark``: the kernel accumulates the work itself."""
 
+    per_step = False  # ``after_step`` does nothing: the time loop skips the call
+
     def __init__(self, integrator: FusedNewmark, projection) -> None:
         self.integ = integrator
         self.p = projection
