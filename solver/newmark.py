@@ -147,6 +147,11 @@ class Newmark:
             self.v_pred -= self.beta2 * self.dt * np.asarray(a0)
         self.a.fill(0.0)
 
+    def _elastic_acceleration(self, u: np.ndarray, v_pred: np.ndarray, a: np.ndarray) -> None:
+        """a*_n = -M^{-1} K u_n (K u_n kept in ``ku`` for the energies)."""
+        self._mult(u, self.ku)
+        np.multiply(self.ku, self._neg_inv_mass, out=a)
+
     def step(self) -> None:
         """Advance one step: u_n -> u_{n+1}.
 
@@ -160,9 +165,7 @@ class Newmark:
         """
         dt, b2 = self.dt, self.beta2
         u, a, v, vp = self.u, self.a, self.v, self.v_pred
-        # a*_n = -M^{-1} K u_n
-        self._mult(u, self.ku)
-        np.multiply(self.ku, self._neg_inv_mass, out=a)
+        self._elastic_acceleration(u, vp, a)  # a*_n
         if self.contact is not None:
             self.contact(u, vp, a)  # a_n = a*_n + M^{-1} r_n at the contact dofs
         # v_n = v~_n + beta2 dt a_n
@@ -190,8 +193,8 @@ class DampedNewmark(Newmark):
     v~_n = v_{n-1} + (1 - beta_2) dt a_{n-1} (known before a_n), so the internal force is ONE
     MatMult, K w_n with w_n = u_n + tau v~_n, and the contact force still moves u_{n+1} by
     kappa M^{-1} r (the forward-increment projection is unchanged). Stability limit:
-    ``critical_time_step(w_max, 0, beta_2, tau)``. A separate class, so the undamped
-    ``Newmark.step`` is untouched.
+    ``critical_time_step(w_max, 0, beta_2, tau)``. Only the elastic acceleration differs from
+    ``Newmark`` (``_elastic_acceleration``): the undamped step does no damping work.
 
     After ``step()``, ``kw`` = K w_n (the internal force that was applied) and ``ku`` is only
     valid after ``refresh_ku()`` (one extra MatMult, done at sample times by the observers).
@@ -213,26 +216,9 @@ class DampedNewmark(Newmark):
         """ku = K u_n (u_n is ``u_prev`` after a step): for the strain energy at samples."""
         self._mult(self.u_prev, self.ku)
 
-    def step(self) -> None:
-        """One step of ``Newmark.step`` with a*_n = -M^{-1} K (u_n + tau v~_n)."""
-        dt, b2 = self.dt, self.beta2
-        u, a, v, vp = self.u, self.a, self.v, self.v_pred
-        np.multiply(vp, self.tau, out=self.w)
+    def _elastic_acceleration(self, u: np.ndarray, v_pred: np.ndarray, a: np.ndarray) -> None:
+        """a*_n = -M^{-1} K (u_n + tau v~_n): elastic plus Kelvin-Voigt force, one MatMult."""
+        np.multiply(v_pred, self.tau, out=self.w)
         self.w += u
         self._mult(self.w, self.kw)
         np.multiply(self.kw, self._neg_inv_mass, out=a)
-        if self.contact is not None:
-            self.contact(u, vp, a)
-        np.multiply(a, b2 * dt, out=v)
-        v += vp
-        np.multiply(a, 0.5 * dt, out=vp)
-        vp += v
-        nxt = self.u_prev
-        np.multiply(vp, dt, out=nxt)
-        nxt += u
-        self.u, self.u_prev = nxt, u
-        if b2 != 0.5:
-            np.multiply(a, (0.5 - b2) * dt, out=self.scratch)
-            vp += self.scratch
-        self.time += dt
-        self.step_count += 1

@@ -36,3 +36,33 @@ def assert_steady_sliding_stays(sim, steps: int = 40) -> np.ndarray:
     out = sim.projection.out  # tangential force = f x normal force (Coulomb, sliding forward)
     assert np.allclose(out.r_t, 0.7 * out.r_r, rtol=1e-10)
     return u0
+
+
+def step_checking_contact(sim, steps: int, each=None) -> tuple[set, int]:
+    """Step ``sim`` ``steps`` times; after every step assert the contact constraints of the
+    forward-increment projection: no penetration and contact nodes exactly on the cylinder
+    (to 1e-12 d, round-off), stick nodes moved exactly with the cylinder surface (R Omega dt,
+    1e-9: the tangential increment is a difference of O(1) polar components). ``each(status)``
+    adds a law-specific check. Returns (statuses seen, number of steps with a stick node)."""
+    from solver.contact import SEPARATION, STICK
+
+    integ, proj = sim.integrator, sim.projection
+    d = sim.scene.geometry.d
+    seen: set = set()
+    n_stick = 0
+    for _ in range(steps):
+        integ.step()
+        u_r, u_t = sim.problem.polar(integ.u)
+        _, u_t_prev = sim.problem.polar(integ.u_prev)
+        status = proj.out.status
+        seen.update(np.unique(status).tolist())
+        assert u_r.min() >= d * (1 - 1e-12)
+        contact = status != SEPARATION
+        assert np.allclose(u_r[contact], d, rtol=1e-12, atol=0)
+        stick = status == STICK
+        if stick.any():
+            assert np.allclose(u_t[stick] - u_t_prev[stick], proj.slide, rtol=1e-9, atol=0)
+            n_stick += 1
+        if each is not None:
+            each(status)
+    return seen, n_stick

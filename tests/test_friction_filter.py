@@ -7,6 +7,7 @@ along the angle-ordered contact circle (periodic).
 
 import numpy as np
 import pytest
+from conftest import step_checking_contact
 
 from solver.contact import (
     SEPARATION,
@@ -140,26 +141,16 @@ def test_non_penetration_and_exact_stick_with_the_filter():
     sc = load_scene("scenes/smoke.toml", [*SMALL, "time.end_time=0.25",
                                           'friction.filter="1-2-1"'])
     sim = Simulation(sc, MPI.COMM_SELF)
-    integ, proj = sim.integrator, sim.projection
+    proj = sim.projection
     assert isinstance(proj, FilteredContactProjection)
-    d, f = sc.geometry.d, sc.loading.f
-    seen, n_stick = set(), 0
-    for _ in range(2500):
-        integ.step()
-        u_r, u_t = sim.problem.polar(integ.u)
-        _, u_t_prev = sim.problem.polar(integ.u_prev)
-        status = proj.out.status
-        seen.update(np.unique(status).tolist())
-        assert u_r.min() >= d * (1 - 1e-12)
-        contact = status != SEPARATION
-        assert np.allclose(u_r[contact], d, rtol=1e-12, atol=0)
-        stick = status == STICK
-        if stick.any():
-            assert np.allclose(u_t[stick] - u_t_prev[stick], proj.slide, rtol=1e-9, atol=0)
-            n_stick += 1
+    f = sc.loading.f
+
+    def slip_on_the_filtered_bound(status):
         slip = status == SLIP
         np.testing.assert_allclose(np.abs(proj.out.r_t[slip]), f * proj.filter.p[slip],
                                    rtol=1e-12)
+
+    seen, n_stick = step_checking_contact(sim, 2500, slip_on_the_filtered_bound)
     assert seen == {SEPARATION, STICK, SLIP}
     assert n_stick > 10
 

@@ -6,6 +6,7 @@ d sigma_eff/dt = -(|V| + V*)/L (sigma_eff - p), or -(sigma_eff - p)/t* ("constan
 
 import numpy as np
 import pytest
+from conftest import step_checking_contact
 
 from solver.contact import (
     SEPARATION,
@@ -115,26 +116,16 @@ def test_non_penetration_and_exact_stick_with_prakash_clifton():
         'friction.regularization="prakash-clifton"', "friction.slip_length=2e-5",
         "friction.reference_velocity=1.0"])
     sim = Simulation(sc, MPI.COMM_SELF)
-    integ, proj = sim.integrator, sim.projection
-    d = sc.geometry.d
-    seen, n_stick, below_p = set(), 0, 0
-    for _ in range(2500):
-        integ.step()
-        u_r, u_t = sim.problem.polar(integ.u)
-        _, u_t_prev = sim.problem.polar(integ.u_prev)
-        status = proj.out.status
-        seen.update(np.unique(status).tolist())
-        assert u_r.min() >= d * (1 - 1e-12)
-        contact = status != SEPARATION
-        assert np.allclose(u_r[contact], d, rtol=1e-12, atol=0)
-        stick = status == STICK
-        if stick.any():
-            assert np.allclose(u_t[stick] - u_t_prev[stick], proj.slide, rtol=1e-9, atol=0)
-            n_stick += 1
-        slip = status == SLIP
+    proj = sim.projection
+    below_p = [0]
+
+    def slip_on_the_effective_bound(status):
+        slip, contact = status == SLIP, status != SEPARATION
         # slip force on the bound f sigma_eff (not f p): the law is really in use
         assert np.allclose(np.abs(proj.out.r_t[slip]), 0.7 * proj.effective.sigma[slip],
                            rtol=1e-12)
-        below_p += int(np.sum(proj.effective.sigma[contact] < 0.99 * proj.out.r_r[contact]))
+        below_p[0] += int(np.sum(proj.effective.sigma[contact] < 0.99 * proj.out.r_r[contact]))
+
+    seen, n_stick = step_checking_contact(sim, 2500, slip_on_the_effective_bound)
     assert seen == {SEPARATION, STICK, SLIP}
-    assert n_stick > 10 and below_p > 100
+    assert n_stick > 10 and below_p[0] > 100

@@ -10,7 +10,7 @@ import pytest
 
 pytest.importorskip("dolfinx")
 
-from conftest import assert_steady_sliding_stays  # noqa: E402
+from conftest import assert_steady_sliding_stays, step_checking_contact  # noqa: E402
 from mpi4py import MPI  # noqa: E402
 
 from solver.contact import SEPARATION, SLIP, STICK  # noqa: E402
@@ -47,25 +47,7 @@ def test_steady_sliding_is_a_fixed_point_of_the_scheme():
 
 def test_non_penetration_and_exact_stick_after_every_step():
     sim = Simulation(smoke("time.end_time=0.25", "mesh.n_inner=72", "mesh.n_radial=0"), SELF)
-    integ, proj = sim.integrator, sim.projection
-    d = sim.scene.geometry.d
-    seen = set()
-    n_stick_checks = 0
-    for _ in range(2500):
-        integ.step()
-        u_r, u_t = sim.problem.polar(integ.u)
-        _, u_t_prev = sim.problem.polar(integ.u_prev)
-        status = proj.out.status
-        seen.update(np.unique(status).tolist())
-        # non-penetration to round-off (relative to d)
-        assert u_r.min() >= d * (1 - 1e-12)
-        contact = status != SEPARATION
-        assert np.allclose(u_r[contact], d, rtol=1e-12, atol=0)
-        stick = status == STICK
-        if stick.any():
-            # stick nodes moved exactly with the cylinder surface: R Omega dt
-            assert np.allclose(u_t[stick] - u_t_prev[stick], proj.slide, rtol=1e-9, atol=0)
-            n_stick_checks += 1
+    seen, n_stick_checks = step_checking_contact(sim, 2500)
     assert seen == {SEPARATION, STICK, SLIP}, "the test must exercise all three statuses"
     assert n_stick_checks > 10
 
