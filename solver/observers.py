@@ -50,10 +50,11 @@ class EnergyAccumulator:
         self.work_contact = 0.0
         self.work_cylinder = 0.0
         self.friction_dissipation = 0.0
+        self._exact_work = hasattr(projection, "work_totals")  # implicit scheme (checked once)
 
     def after_step(self, u_next: np.ndarray) -> None:
         p = self.p
-        p.complex_view(u_next).take(p.node_index, out=self.z_next)
+        p.complex_view(u_next).take(p.node_index, out=self.z_next, mode="clip")
         np.subtract(self.z_next, self.z_prev, out=self.dz)
         self.work_contact += 0.5 * np.vdot(p.r_xy, self.dz).real
         if self.with_friction:
@@ -71,10 +72,13 @@ class EnergyAccumulator:
         A projection that keeps its own exact work bookkeeping (the implicit scheme's
         ``work_totals``, whose energy identity is exact) supplies the first two.
         """
-        local = np.array([self.work_contact, self.work_cylinder, self.friction_dissipation])
-        total = np.zeros(3)
-        comm.Allreduce(local, total, op=MPI.SUM)
-        if hasattr(self.p, "work_totals"):
+        if comm.size == 1:  # one rank: the sum is the local value (no Allreduce)
+            total = [self.work_contact, self.work_cylinder, self.friction_dissipation]
+        else:
+            local = np.array([self.work_contact, self.work_cylinder, self.friction_dissipation])
+            total = np.zeros(3)
+            comm.Allreduce(local, total, op=MPI.SUM)
+        if self._exact_work:
             total[0], total[1] = self.p.work_totals(exposed=True)
         return float(total[0]), float(total[1]), float(total[2])
 
@@ -158,6 +162,13 @@ class InnerCircleRecorder:
             self.r_t = np.zeros((max_samples, self.n_nodes))
             self.status = np.zeros((max_samples, self.n_nodes), dtype=np.int8)
             self.energies = np.zeros((max_samples, len(ENERGY_FIELDS)))
+        self.single = self.comm.size == 1
+        if self.single:  # one rank: gathered order = local order; sort while taking
+            self.idx_sorted = np.asarray(projection.node_index, dtype=np.intp)[self.perm]
+            self.phase_sorted = np.ascontiguousarray(projection.phase_conj[self.perm])
+            self.z_sorted = np.zeros((2, n_local), dtype=complex)  # (u, v) as u_r + i u_theta
+            z = self.z_sorted  # the four real views, made once
+            self.z_parts = (z[0].real, z[0].imag, z[1].real, z[1].imag)
         self.last_work = (0.0, 0.0, 0.0, 0.0)
         self.kin_scratch = np.zeros(problem.n_owned)
         self.e_local = np.zeros(3)  # kinetic, strain, damping work (local)
@@ -176,10 +187,6 @@ class InnerCircleRecorder:
     def sample(self, integrator) -> tuple[float, float]:
         """Record time level n (u_prev, v, a, K u_n, r_n). Returns (kinetic, strain) energy."""
         p = self.p
-        p._polar(integrator.u_prev, self.send[0], self.send[1])
-        p._polar(integrator.v, self.send[2], self.send[3])
-        self.send[4] = p.out.r_r
-        self.send[5] = p.out.r_t
         if self.damping is not None:
             integrator.refresh_ku()  # the damped step forms K (u + tau v~), not K u
             self.e_local[2] = self.damping.local_total(integrator)
@@ -188,17 +195,50 @@ class InnerCircleRecorder:
         np.multiply(integrator.v, self.problem.mass, out=self.kin_scratch)  # no allocation
         self.e_local[0] = 0.5 * float(np.dot(self.kin_scratch, integrator.v))
         self.e_local[1] = 0.5 * float(np.dot(integrator.u_prev, integrator.ku))
+        if self.single:
+            self._record_single(integrator, p)
+        else:
+            self._record_gathered(integrator, p)
+        self.n += 1
+        return float(self.e_total[0]), float(self.e_total[1])
+
+    def _record_single(self, integrator, p) -> None:
+        """One rank: take the nodes already in angle order straight into the sample rows.
+
+        Same products z e^{-i theta} as ``ContactProjection.polar_at_nodes``, node by node,
+        so every recorded value is bitwise the one of the gathered path; no MPI call.
+        """
+        i, z, idx, perm, out = self.n, self.z_sorted, self.idx_sorted, self.perm, p.out
+        ur, ut, vr, vt = self.z_parts
+        np.copyto(self.e_total, self.e_local)  # the sum over one rank
+        work = (*self.energy.totals(self.comm), float(self.e_total[2]))
+        self.last_work = work
+        # mode="clip": the indices are valid, and "raise" would copy through a buffer
+        p.complex_view(integrator.u_prev).take(idx, out=z[0], mode="clip")
+        p.complex_view(integrator.v).take(idx, out=z[1], mode="clip")
+        z *= self.phase_sorted
+        self.t[i] = integrator.time - integrator.dt
+        np.copyto(self.u_r[i], ur)
+        np.copyto(self.u_t[i], ut)
+        np.copyto(self.v_r[i], vr)
+        np.copyto(self.v_t[i], vt)
+        out.r_r.take(perm, out=self.r_r[i], mode="clip")
+        out.r_t.take(perm, out=self.r_t[i], mode="clip")
+        out.status.take(perm, out=self.status[i], mode="clip")
+        self.energies[i] = (self.e_total[0], self.e_total[1], *work)
+
+    def _record_gathered(self, integrator, p) -> None:
+        """Several ranks: polar values of the owned nodes, one Gatherv each, sorted on rank 0."""
+        p._polar(integrator.u_prev, self.send[0], self.send[1])
+        p._polar(integrator.v, self.send[2], self.send[3])
+        self.send[4] = p.out.r_r
+        self.send[5] = p.out.r_t
         self.comm.Allreduce(self.e_local, self.e_total, op=MPI.SUM)
         work = (*self.energy.totals(self.comm), float(self.e_total[2]))
         self.last_work = work  # on every rank (collective above)
-        if self.comm.size == 1:  # one rank: the "gather" is a copy (7 MPI calls saved)
-            np.copyto(self.recv, self.send)
-            np.copyto(self.recv_status, p.out.status)
-        else:
-            for k in range(6):
-                self._gatherv(self.send[k], self.recv[k] if self.is_root else None, MPI.DOUBLE)
-            self._gatherv(p.out.status, self.recv_status if self.is_root else None,
-                          MPI.INT8_T)
+        for k in range(6):
+            self._gatherv(self.send[k], self.recv[k] if self.is_root else None, MPI.DOUBLE)
+        self._gatherv(p.out.status, self.recv_status if self.is_root else None, MPI.INT8_T)
         if self.is_root:
             i, perm = self.n, self.perm
             self.t[i] = integrator.time - integrator.dt
@@ -210,8 +250,6 @@ class InnerCircleRecorder:
             self.r_t[i] = self.recv[5][perm]
             self.status[i] = self.recv_status[perm]
             self.energies[i] = (self.e_total[0], self.e_total[1], *work)
-        self.n += 1
-        return float(self.e_total[0]), float(self.e_total[1])
 
     def arrays(self) -> dict[str, np.ndarray]:
         """The recorded samples (rank 0), trimmed to the samples actually taken."""
@@ -303,9 +341,9 @@ class ProbeRecorder:
         if i >= self.t.size:
             return
         self.t[i] = integrator.time - integrator.dt
-        if self.slots:
-            self.p.complex_view(integrator.u_prev).take(self.index, out=self.zu[i])
-            self.p.complex_view(integrator.v).take(self.index, out=self.zv[i])
+        if self.slots:  # mode="clip": valid indices, no buffered copy ("raise" buffers out)
+            self.p.complex_view(integrator.u_prev).take(self.index, out=self.zu[i], mode="clip")
+            self.p.complex_view(integrator.v).take(self.index, out=self.zv[i], mode="clip")
         self.n = i + 1
 
     @property

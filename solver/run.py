@@ -169,28 +169,35 @@ class Simulation:
         max_steps = (ts.max_steps or None) if max_steps is None else max_steps
         max_wall = (ts.max_wall_time or None) if max_wall_time is None else max_wall_time
         integ, rec, energy, probes = self.integrator, self.recorder, self.energy, self.probes
-        damping = self.damping_work
+        damping, writer, writer_every = self.damping_work, self.writer, self.writer_every
+        # invariants hoisted out of the loop (the same comparisons, evaluated once)
+        t_stop = end_time - 1e-12 * end_time
+        step_stop = max_steps if max_steps is not None else math.inf
+        after_step = energy.after_step if getattr(energy, "per_step", True) else None
+        every, max_samples, root = rec.every, rec.max_samples, self.comm.rank == 0
         t_start = time.perf_counter()
         with self.profile.phase("time-loop"):
             while True:
-                if integ.time >= end_time - 1e-12 * end_time:
+                if integ.time >= t_stop:
                     self.stop_reason = "end_time"
                     break
-                if max_steps is not None and integ.step_count >= max_steps:
+                if integ.step_count >= step_stop:
                     self.stop_reason = "max_steps"
                     break
                 integ.step()
-                energy.after_step(integ.u)
+                if after_step is not None:
+                    after_step(integ.u)
                 if damping is not None:
                     damping.after_step(integ)
                 probes.record(integ)
-                if self.writer is not None and (integ.step_count - 1) % self.writer_every == 0:
+                level = integ.step_count - 1  # the time level n the observers record
+                if writer is not None and level % writer_every == 0:
                     with self.profile.phase("output"):
-                        self.writer.write(integ.time, integ.u, self.projection.out.status)
-                if rec.due(integ.step_count - 1):
+                        writer.write(integ.time, integ.u, self.projection.out.status)
+                if level % every == 0 and rec.n < max_samples:  # rec.due(level), inlined
                     kin, strain = rec.sample(integ)
                     self._check_health(kin, strain)
-                    if self.comm.rank == 0 and self.progress.due():
+                    if root and self.progress.due():
                         recent = zone_fractions(rec.recent_status(max(1, rec.n // 10)))
                         self.progress.update(integ.time, integ.step_count, recent)
                     stop = self._stop_now(t_start, max_wall)
