@@ -66,3 +66,19 @@ def step_checking_contact(sim, steps: int, each=None) -> tuple[set, int]:
         if each is not None:
             each(status)
     return seen, n_stick
+
+
+def peaks_just_below_and_above(make_integrator, u0: np.ndarray, factors=(0.97, 1.03),
+                               steps: int = 4000) -> list[float]:
+    """max |u| after ``steps`` steps from (u0, 0) with dt = factor x dt_crit, one per factor:
+    the stability-limit check (``make_integrator(factor)`` builds the integrator). A stable
+    run stays O(max |u0|); an unstable one overflows or grows by > 1e6 in 4000 steps."""
+    peaks = []
+    for factor in factors:
+        integ = make_integrator(factor)
+        integ.set_state(u0, np.zeros_like(u0))
+        with np.errstate(all="ignore"):
+            for _ in range(steps):
+                integ.step()
+        peaks.append(float(np.max(np.abs(integ.u))))
+    return peaks

@@ -9,6 +9,7 @@ import math
 
 import numpy as np
 import pytest
+from conftest import peaks_just_below_and_above
 
 from solver.newmark import DampedNewmark, Newmark, critical_time_step
 from solver.scene import SceneError, load_scene
@@ -56,14 +57,9 @@ def test_damped_explicit_stable_just_below_and_unstable_just_above_the_limit(bet
     assert dt_crit < 0.7 * critical_time_step(w_max, 0.0, beta2)  # damping does cut it
     rng = np.random.default_rng(1)
     u0 = rng.normal(size=inv_m.size)
-    peaks = []
-    for factor in (0.98, 1.02):
-        integ = DampedNewmark(mult, inv_m, factor * dt_crit, 0.0, beta2, tau=tau)
-        integ.set_state(u0, np.zeros_like(u0))
-        with np.errstate(all="ignore"):
-            for _ in range(4000):
-                integ.step()
-        peaks.append(np.max(np.abs(integ.u)))
+    peaks = peaks_just_below_and_above(
+        lambda factor: DampedNewmark(mult, inv_m, factor * dt_crit, 0.0, beta2, tau=tau),
+        u0, factors=(0.98, 1.02))
     assert peaks[0] < 2 * np.max(np.abs(u0))
     assert not np.isfinite(peaks[1]) or peaks[1] > 1e6 * np.max(np.abs(u0))
 
@@ -127,15 +123,9 @@ def test_damped_limit_on_the_fe_matrices():
     u0[problem.clamped] = 0.0
     dt_crit = critical_time_step(w_max, 0.0, 0.5, tau)
     assert dt_crit < 0.9 * critical_time_step(w_max, 0.0, 0.5)
-    peaks = []
-    for factor in (0.97, 1.03):
-        integ = DampedNewmark(problem.stiffness_mult(), problem.inv_mass, factor * dt_crit,
-                              0.0, 0.5, tau=tau)
-        integ.set_state(u0, np.zeros_like(u0))
-        with np.errstate(all="ignore"):
-            for _ in range(4000):
-                integ.step()
-        peaks.append(np.max(np.abs(integ.u)))
+    peaks = peaks_just_below_and_above(
+        lambda factor: DampedNewmark(problem.stiffness_mult(), problem.inv_mass,
+                                     factor * dt_crit, 0.0, 0.5, tau=tau), u0)
     assert peaks[0] < 10 * np.max(np.abs(u0))
     assert not np.isfinite(peaks[1]) or peaks[1] > 1e6 * np.max(np.abs(u0))
 
