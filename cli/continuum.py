@@ -101,19 +101,9 @@ def _scene_values(args: argparse.Namespace) -> dict[str, Any]:
         sc = load_scene(args.scene, args.overrides)
         v.update(E=sc.material.E, rho=sc.material.rho, nu=sc.material.nu, R=sc.geometry.R,
                  xi=sc.geometry.xi, f=sc.loading.f, omega=sc.loading.omega, source=sc.name)
-        damp = getattr(sc, "damping", None)  # [damping] (issue 13, part B), if present
-        if damp is not None:  # part B's Damping.tau: retardation_time, else η / (2π f_ref)
-            tau = getattr(damp, "retardation_time", 0.0) or 0.0
-            eta = getattr(damp, "loss_factor", 0.0) or 0.0
-            if tau <= 0 and eta > 0:
-                tau = eta / (2 * math.pi * damp.reference_frequency_hz)
-            v["tau"] = tau
-        fr = getattr(sc, "friction", None)  # [friction] (issue 13, part B), if present
-        if fr is not None:
-            v.update(reg=getattr(fr, "regularization", "none"),
-                     L=getattr(fr, "slip_length", None),
-                     vstar=getattr(fr, "reference_velocity", 0.0) or 0.0,
-                     tstar=getattr(fr, "relaxation_time", None))
+        fr = sc.friction  # the scene's own [damping] tau and [friction] keys (solver.scene)
+        v.update(tau=sc.damping.tau, reg=fr.regularization, L=fr.slip_length,
+                 vstar=fr.reference_velocity, tstar=fr.relaxation_time)
     elif args.overrides:
         raise InputError("--set needs a SCENE: give a scene file or use the options")
     for key, opt in (("E", args.E), ("nu", args.nu), ("R", args.R), ("xi", args.xi),

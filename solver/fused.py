@@ -89,7 +89,7 @@ def resolve_kernel(scene) -> str:
     fr = scene.friction
     if scene.damping.enabled or fr.enabled or fr.filtered:  # [damping] tau > 0, [friction]
         return "numpy"  # regularisation or filter (issue 13): DampedNewmark / make_projection
-    requested = getattr(ts, "kernel", "auto")
+    requested = ts.kernel
     if requested == "numpy":
         return "numpy"
     if numba_available():
