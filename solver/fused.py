@@ -217,6 +217,8 @@ class FusedNewmark:
         self.time = 0.0
         self.step_count = 0
         self._fn = kernel("single_step")
+        self._advance = kernel("advance") if self._ghosted is None else None
+        self._clock = np.zeros(1)  # the time, as the kernel accumulates it (time += dt)
         self.compile_s = 0.0
         self.contact = None
 
@@ -239,6 +241,15 @@ class FusedNewmark:
         self.zprev[0::2] = self.u[cx]
         self.zprev[1::2] = self.u[cx + 1]
 
+    def _args(self, u: np.ndarray, u_next: np.ndarray) -> tuple:
+        """``single_step``'s arguments from the CSR matrix on (same order, same values)."""
+        p, dt, b2 = self.p, self.dt, self.beta2
+        return (self.indptr, self.indices, self.data, self.nim.size, u, u_next, self.v,
+                self.v_pred, self.a, self.ku, self.nim, b2 * dt, 0.5 * dt, (0.5 - b2) * dt,
+                b2 == 0.5, dt, self.kappa, 1.0 / self.kappa, self.cx, self.ph_re, self.ph_im,
+                self.pc_re, self.pc_im, self.cmass, self.cinv, p.d, p.slide, p.f, self.r_pol,
+                self.r_xy, p.out.status, self.zprev, self.work)
+
     def step(self) -> None:
         """u_n -> u_{n+1}: one ghost update (MPI) and one kernel call."""
         cur, nxt = self.cur, 1 - self.cur
@@ -246,21 +257,50 @@ class FusedNewmark:
             from petsc4py import PETSc
 
             self._ghosted[cur].ghostUpdate(PETSc.InsertMode.INSERT, PETSc.ScatterMode.FORWARD)
-        p, dt, b2 = self.p, self.dt, self.beta2
-        args = (self.indptr, self.indices, self.data, self.nim.size, self._full[cur],
-                self._full[nxt], self.v, self.v_pred, self.a, self.ku, self.nim,
-                b2 * dt, 0.5 * dt, (0.5 - b2) * dt, b2 == 0.5, dt, self.kappa,
-                1.0 / self.kappa, self.cx, self.ph_re, self.ph_im, self.pc_re, self.pc_im,
-                self.cmass, self.cinv, p.d, p.slide, p.f, self.r_pol, self.r_xy,
-                p.out.status, self.zprev, self.work)
+        args = self._args(self._full[cur], self._full[nxt])
         if self.step_count == 0:
             timed_first_call("single_step", self._fn, *args)
             self.compile_s = COMPILE_SECONDS["single_step"]
         else:
             self._fn(*args)
         self.cur = nxt
-        self.time += dt
+        self.time += self.dt
         self.step_count += 1
+
+    @property
+    def can_advance(self) -> bool:
+        """``advance`` is available: one rank (several ranks need a ghost update per step)."""
+        return self._ghosted is None
+
+    def advance(self, n_max: int, t_stop: float, probes) -> int:
+        """Up to ``n_max`` steps in ONE compiled call (``_fused_kernels.advance``), recording
+        the ``probes`` (``ProbeRecorder``) every step as ``probes.record`` would; stops before
+        a step once ``time >= t_stop``. The same arithmetic as ``n_max`` calls of ``step``
+        (bitwise: the kernel calls ``single_step``). Returns the number of steps taken."""
+        if self._ghosted is not None:
+            raise RuntimeError("FusedNewmark.advance runs on one rank; use step()")
+        if self.step_count == 0:  # the first step through ``step``: compile time recorded
+            if self.time >= t_stop or n_max < 1:
+                return 0
+            self.step()
+            probes.record(self)
+            return 1 + self.advance(n_max - 1, t_stop, probes)
+        args = self._args(self._full[self.cur], self._full[1 - self.cur])
+        self._clock[0] = self.time
+        kargs = (n_max, t_stop, self._clock, *args[4:6], *args[:4], *args[6:],
+                 *probes.kernel_buffers())
+        if "advance" not in COMPILE_SECONDS:
+            t0 = time.perf_counter()
+            taken = self._advance(*kargs)
+            COMPILE_SECONDS["advance"] = time.perf_counter() - t0
+            self.compile_s += COMPILE_SECONDS["advance"]
+        else:
+            taken = self._advance(*kargs)
+        probes.n = int(probes.count[0])
+        self.time = float(self._clock[0])
+        self.step_count += taken
+        self.cur = (self.cur + taken) % 2
+        return taken
 
 
 class FusedEnergy:

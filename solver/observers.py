@@ -174,6 +174,7 @@ class InnerCircleRecorder:
         self.e_local = np.zeros(3)  # kinetic, strain, damping work (local)
         self.e_total = np.zeros(3)
         self.damping: DampingWork | None = None  # set by the run for damped scenes
+        self._compiled: tuple | None = None  # set by ``use_compiled`` (fused step, one rank)
 
     def _gatherv(self, local: np.ndarray, recv: np.ndarray | None, mpitype) -> None:
         """Gather the owned contact-node values ``local`` into ``recv`` on rank 0."""
@@ -184,8 +185,47 @@ class InnerCircleRecorder:
     def due(self, step: int) -> bool:
         return step % self.every == 0 and self.n < self.max_samples
 
+    def use_compiled(self, record_sample, integrator) -> None:
+        """Take the samples with the compiled ``record_sample`` (``solver._fused_kernels``):
+        one rank, undamped fused step, whose ``work`` holds the contact work (FusedEnergy).
+        The kernel stores Cartesian rows; ``_rotate_pending`` turns them polar on reading."""
+        if not self.single or self.damping is not None:
+            raise RuntimeError("the compiled sample is for one rank and an undamped step")
+        self._compiled = (record_sample, np.ascontiguousarray(2 * self.idx_sorted,
+                                                              dtype=np.uint32),
+                          np.ascontiguousarray(self.perm, dtype=np.intp))
+        self._polar_rows = self.n  # rows below are polar already
+
+    def _sample_compiled(self, integrator) -> None:
+        fn, node_x, perm = self._compiled
+        out = self.p.out
+        fn(self.n, integrator.time - integrator.dt, integrator.u_prev, integrator.v,
+           integrator.ku, self.problem.mass, node_x, perm, out.r_r, out.r_t, out.status,
+           self.t, self.u_r, self.u_t, self.v_r, self.v_t, self.r_r, self.r_t, self.status,
+           self.energies, self.e_local, integrator.work)
+        np.copyto(self.e_total, self.e_local)  # the sum over one rank
+        w = integrator.work
+        self.last_work = (float(w[0]), float(w[1]), float(w[2]), 0.0)
+
+    def _rotate_pending(self) -> None:
+        """(x, y) rows of the compiled samples -> (r, theta): z e^{-i theta}, the same numpy
+        complex multiply as ``_record_single`` (element by element: the same bits)."""
+        if self._compiled is None or self._polar_rows >= self.n:
+            return
+        rows = slice(self._polar_rows, self.n)
+        for re, im in ((self.u_r, self.u_t), (self.v_r, self.v_t)):
+            z = re[rows] + 1j * im[rows]
+            z *= self.phase_sorted
+            re[rows] = z.real
+            im[rows] = z.imag
+        self._polar_rows = self.n
+
     def sample(self, integrator) -> tuple[float, float]:
         """Record time level n (u_prev, v, a, K u_n, r_n). Returns (kinetic, strain) energy."""
+        if self._compiled is not None:
+            self._sample_compiled(integrator)
+            self.n += 1
+            return float(self.e_total[0]), float(self.e_total[1])
         p = self.p
         if self.damping is not None:
             integrator.refresh_ku()  # the damped step forms K (u + tau v~), not K u
@@ -253,6 +293,7 @@ class InnerCircleRecorder:
 
     def arrays(self) -> dict[str, np.ndarray]:
         """The recorded samples (rank 0), trimmed to the samples actually taken."""
+        self._rotate_pending()
         n = self.n
         out = {
             "t": self.t[:n], "theta": self.theta, "u_r": self.u_r[:n], "u_theta": self.u_t[:n],
@@ -334,6 +375,16 @@ class ProbeRecorder:
         self.zv = np.zeros((max_steps + 1, len(slots)), dtype=complex)
         self.t = np.zeros(max_steps + 1)
         self.n = 0
+        self.count = np.zeros(1, dtype=np.int64)  # ``n`` as a compiled recorder updates it
+        self._buffers = (np.ascontiguousarray(2 * self.index, dtype=np.uint32), self.t,
+                         self.zu.view(np.float64), self.zv.view(np.float64), self.count)
+
+    def kernel_buffers(self) -> tuple:
+        """(x dof of each local probe, t, u, v as (step, 2 probe) real views, count) for a
+        compiled time loop that records in place (``solver.fused.FusedNewmark.advance``);
+        ``count`` starts at ``n``, and the caller sets ``n = count[0]`` afterwards."""
+        self.count[0] = self.n
+        return self._buffers
 
     def record(self, integrator) -> None:
         """Record time level n (u_prev = u_n, v = v_n) after a step: two ``take`` calls."""

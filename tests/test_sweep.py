@@ -162,7 +162,7 @@ def test_failures_divergence_resume_and_retry(tmp_path, monkeypatch):
     from mpi4py import MPI
 
     import solver.run
-    from studies.sweep import run_sweep
+    from studies.sweep import run_sweep, write_table
 
     original = solver.run.Simulation._check_health
 
@@ -217,6 +217,18 @@ set = ["time.end_time=0.02"]
     spec2 = load_sweep(_write(tmp_path / "f.toml", body.replace("0.02", "0.021")))
     run_sweep(spec2, out, comm=MPI.COMM_SELF, stream=io.StringIO())
     assert _starts(out)["omega-2.0"] == 2 and _rows(out)["omega-2.0"]["steps"] > ok["steps"]
+    # A run SIGKILLed between its first summary and the wave analysis (mpirun's SIGKILL
+    # ~0.3 s after SIGTERM) is saved but unanalysed: the table says so, resume runs it again.
+    path = out / "runs" / "omega-2.0" / "summary.json"
+    first = {k: v for k, v in json.loads(path.read_text()).items()
+             if k not in ("regime", "mode", "celerity_m_s")}
+    path.write_text(json.dumps({**first, "analysis": "pending"}))
+    write_table(out, spec2)
+    assert _rows(out)["omega-2.0"]["status"] == "unanalysed"
+    run_sweep(spec2, out, comm=MPI.COMM_SELF, stream=io.StringIO())
+    assert _starts(out)["omega-2.0"] == 3
+    again = _rows(out)["omega-2.0"]
+    assert again["status"] == "completed" and again["regime"] == "stick-slip"
 
 
 @pytest.mark.parallel
@@ -362,8 +374,12 @@ def test_mpirun_kill_resume_gives_the_serial_results(killed_and_resumed, tmp_pat
     # What finished is read from the run directories, not from sweep.json: under mpirun the
     # table is rewritten by rank 0's monitor and may lag a scene that finished just before
     # Open MPI's SIGKILL (0.25 s after SIGTERM).
-    done_before = {p.parent.name for p in out.glob("runs/*/summary.json")
-                   if json.loads(p.read_text()).get("status") == "completed"}
+    # A scene SIGKILLed between saving its run and adding the wave analysis ("analysis":
+    # "pending") is not done: the resumed sweep runs it again.
+    summaries = {p.parent.name: json.loads(p.read_text())
+                 for p in out.glob("runs/*/summary.json")}
+    done_before = {sid for sid, s in summaries.items()
+                   if s.get("status") == "completed" and "analysis" not in s}
     in_flight = set(_starts(out)) - done_before
     assert len(in_flight) <= 2 and len(done_before) >= 2
     res = subprocess.run(cmd, cwd=REPO, env=_env(), capture_output=True, text=True,

@@ -271,10 +271,12 @@ def _save(sim: Simulation | None, rd: RunDir, scene: Scene, status: str, error: 
           keep_previous: bool) -> dict:
     """Collect (collective) and write (rank 0) samples, final field and summary.
 
-    Order: samples.npz and final_field.npz, then summary.json with the status (no analysis
-    yet), the swap into place, then summary.json again with the wave analysis. A process
-    killed after the first summary (mpirun sends SIGKILL ~0.3 s after SIGTERM) leaves a
-    truthful, loadable run. ``interrupted`` runs save uncompressed (faster) samples.
+    Order: samples.npz and final_field.npz, then summary.json with the status and
+    ``"analysis": "pending"``, the swap into place, then summary.json again with the wave
+    analysis (and without that key). A process killed after the first summary (mpirun sends
+    SIGKILL ~0.3 s after SIGTERM) leaves a truthful, loadable run, which a resumed sweep runs
+    again (``studies.sweep.table.task_state``: "unanalysed"). ``interrupted`` runs save
+    uncompressed (faster) samples.
     ``keep_previous``: the run has nothing worth keeping (no samples, or failed); an earlier
     run being replaced stays as it was. A write error makes the run ``failed`` with it.
     """
@@ -295,6 +297,8 @@ def _save(sim: Simulation | None, rd: RunDir, scene: Scene, status: str, error: 
             # another rank failed and marked the run before mpirun's signal reached us
             return json.loads((work / "summary.json").read_text())
         summary = sim.facts() if sim is not None else {"scene": scene.name, "status": status}
+        if sim is not None:  # until the second write below: a kill in between is visible
+            summary["analysis"] = "pending"
 
         def finish(s: dict) -> dict:
             s["wall_time_s"] = time.perf_counter() - t0

@@ -58,7 +58,8 @@ def _same_scene(run_dir: Path, scene: Scene) -> bool:
 
 
 def task_state(out_dir: Path, spec: SweepSpec, task: Task, scene: Scene | None = None) -> str:
-    """``pending``, ``changed`` (finished, but for another scene), or the summary's status."""
+    """``pending``, ``changed`` (finished, but for another scene), ``unanalysed`` (saved, but
+    killed before its wave analysis was added: run again), or the summary's status."""
     run_dir = out_dir / "runs" / task.id
     summary = _read_json(run_dir / "summary.json")
     if summary is None:
@@ -66,6 +67,8 @@ def task_state(out_dir: Path, spec: SweepSpec, task: Task, scene: Scene | None =
     status = str(summary.get("status", "pending"))
     if status in FINAL_STATUSES and not _same_scene(run_dir, scene or scene_for(spec, task)):
         return "changed"
+    if summary.get("analysis") == "pending":
+        return "unanalysed"
     return live_status(summary)
 
 
@@ -89,6 +92,8 @@ def _row(spec_keys: Sequence[str], task: Task, summary: dict | None, run_dir: st
     s = summary or {}
     fr = s.get("fractions") or {}
     status = live_status(s) if s else "pending"
+    if s.get("analysis") == "pending":  # between the run's two summary writes, or killed there
+        status = "unanalysed"
     row.update({
         "status": status,
         "regime": "diverged" if status == "diverged" else s.get("regime"),
