@@ -57,6 +57,7 @@ class FrameOperators:
     T: Array  # polar -> (x, y) at the contact dofs
     C: sp.csr_matrix | None = None  # Kelvin–Voigt wave-frame damping (None: undamped)
     _cache: tuple | None = None
+    _static: tuple | None = None  # S(0): every solve reads it for its nodal stiffness scale
     _blocks: dict | None = None
     _evaluations: int = 0
 
@@ -103,6 +104,8 @@ class FrameOperators:
         if self._cache is not None and self._cache[0] == omega and (
                 self._cache[1][1] is not None or not derivative):
             return self._cache[1]
+        if omega == 0.0 and not derivative and self._static is not None:
+            return self._static
         b = self._split()
         w2 = omega * omega
         Acc = b["Kcc"] - w2 * b["Gcc"]
@@ -135,6 +138,8 @@ class FrameOperators:
             X = None
         out = (T.T @ S @ T, None if dS is None else T.T @ dS @ T, X)
         self._cache = (omega, out)
+        if omega == 0.0:
+            self._static = (out[0], None, out[2])
         return out
 
     def _schur_damped(self, omega: float) -> Array:
