@@ -172,9 +172,11 @@ class FrameOperators:
         return out
 
 
-def frame_operators(problem: TubeProblem, damping: float = 0.0) -> FrameOperators:
+def frame_operators(problem: TubeProblem, damping: float = 0.0,
+                    lumped: bool = False) -> FrameOperators:
     """Assemble G (and the damping, retardation time ``damping`` s), split the free dofs,
-    order the contact nodes by θ (serial only)."""
+    order the contact nodes by θ (serial only). ``lumped``: G by the vertex rule
+    (``forms.travelling.travelling_inertia``), the analogue of the transient's lumped mass."""
     import dolfinx
     import dolfinx.fem.petsc
     import ufl
@@ -186,7 +188,7 @@ def frame_operators(problem: TubeProblem, damping: float = 0.0) -> FrameOperator
     V = problem.V
     u, v = ufl.TrialFunction(V), ufl.TestFunction(V)
     Gm = dolfinx.fem.petsc.assemble_matrix(
-        dolfinx.fem.form(travelling_inertia(u, v, problem.material.rho)))
+        dolfinx.fem.form(travelling_inertia(u, v, problem.material.rho, lumped)))
     Gm.assemble()
     G = _csr(Gm)
     Gm.destroy()
