@@ -33,11 +33,7 @@ def main() -> None:
     from studies.travel.newton import NotConverged, nearest_wave
 
     for run in a.runs:
-        summ = json.loads((run / "summary.json").read_text())
-        scene = load_scene(str(run / "scene.toml"), []) if (run / "scene.toml").exists() \
-            else None
-        if scene is None:
-            raise SystemExit(f"{run}: no scene.toml in the run directory")
+        scene = load_scene(str(run / "scene.toml"), [])
         t0 = time.process_time()
         st = D.setup(scene, float(scene.damping.tau), lumped=a.lumped)
         W0, om0, _ = D.start_from_run(run, st)
@@ -45,7 +41,8 @@ def main() -> None:
         k = a.k or wave.mode
         R = scene.geometry.R
         rec = {"run": str(run), "k": k, "n": st.ops.n, "dofs": int(st.ops.problem.n_global_dofs),
-               "lumped": a.lumped, "dt_fraction": scene.time.dt_fraction, "transient_c_m_s": wave.celerity_m_s,
+               "lumped": a.lumped, "dt_fraction": scene.time.dt_fraction,
+               "transient_c_m_s": wave.celerity_m_s,
                "transient_amplitude_m": wave.amplitude_m, "transient_psi1": wave.psi1,
                "transient_psi2": wave.psi2, "step": a.step, "scan": a.scan}
         try:
