@@ -2,7 +2,8 @@
 
 ``./dev nice python3 benchmarks/travel_family.py OUT [--scene NAME ...] [--dt-fraction F]``
 then ``./dev python3 benchmarks/travel_family.py OUT --table`` prints the markdown table of
-docs/travelling_waves.md ("Family of FE waves").
+docs/travelling_waves.md ("Family of FE waves"), with each transient's frame spread
+(``travel_mismatch.rigidity``: is the limit cycle a rigidly turning wave at all?).
 
 Stage 1 (attractors): for each seed k = 1 .. 12 the transient
 ``stickslip run scenes/NAME.toml --set initial.mode=k --set time.dt_fraction=F`` (mode-k seed of
@@ -37,6 +38,9 @@ import numpy as np
 
 SCENES = ("figure1_n132_damped", "figure3_n132_damped")
 REL_STEP, STEPS = 0.0025, 20  # ±5 % of the start speed in steps of 0.25 % (bands ~0.5-1 % wide)
+DIRS = {"opposite": "against Ω", "rotation": "with Ω"}
+RIGID = 0.10  # frame spread (travel_mismatch.rigidity) below which a limit cycle is a rigidly
+# turning wave: measured 0.2 - 6 % for waves and 28 - 46 % for modulated cycles at N = 66 - 264
 
 
 def transients(out: Path, scene: str, dt_fraction: float, kmax: int) -> dict[int, dict]:
@@ -156,6 +160,8 @@ def _fmt_band(b: dict) -> str:
 
 def table(out: Path, kmax: int) -> str:
     """Markdown table: per scene and k, the transient from seed k and the waves found at k."""
+    from travel_mismatch import rigidity  # benchmarks/ (this script's folder)
+
     recs = [json.loads(x) for x in (out / "family.jsonl").read_text().splitlines() if x]
     short = {"figure1_n132_damped": "Figure 1", "figure3_n132_damped": "Figure 3"}
     reg = {"stick-slip-separation": "SSS", "stick-slip": "SS", "slip-separation": "slip-sep",
@@ -174,13 +180,18 @@ def table(out: Path, kmax: int) -> str:
             p = out / f"{scene}_seed{s}" / "summary.json"
             if p.exists():
                 runs[s] = json.loads(p.read_text())
+                rig = rigidity(p.parent)
+                runs[s]["spread"] = max(rig["frame_spread_u_r"], rig["frame_spread_u_theta"])
         for k in range(1, kmax + 1):
             a = runs.get(k, {})
             tr = (f"{reg.get(a.get('regime'), a.get('regime'))}, k = {a.get('mode')}, "
                   f"{a.get('celerity_m_s', float('nan')):.1f}, "
                   f"{1e3 * a.get('amplitude_m', float('nan')):.2f}, "
                   f"{a.get('psi1', float('nan')):.3f}/{a.get('psi2', float('nan')):.3f}"
-                  + ("" if a.get("limit_cycle") else " (no limit cycle)")) if a else "–"
+                  + ("" if a.get("limit_cycle") else " (no limit cycle)")
+                  + (f"; rigid wave (spread {100 * a['spread']:.1f} %)" if a["spread"] < RIGID
+                     else f"; **not a rigid wave** (spread {100 * a['spread']:.0f} %)")
+                  ) if a else "–"
             ks = [r for r in sub if r["k"] == k]
             bands: list[tuple[dict, list[str], dict]] = []
             for r in ks:
@@ -193,7 +204,9 @@ def table(out: Path, kmax: int) -> str:
                 else:
                     bands.append((r["band"], [r["start"]], r))
             waves = "; ".join(
-                f"{reg.get(r['regime'], r['regime'])}, {r['direction']}, {_fmt_band(b)} "
+                f"{reg.get(r['regime'], r['regime'])}, "
+                f"{DIRS.get(r['direction'], r['direction'])}, "
+                f"{_fmt_band(b)} "
                 f"(from {', '.join(fr)})" for b, fr, r in bands) or "none found"
             reached = []
             for s, a2 in runs.items():

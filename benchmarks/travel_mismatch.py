@@ -25,37 +25,42 @@ from pathlib import Path
 import numpy as np
 
 
-def main() -> None:
+def rigidity(run_dir: Path) -> dict:
+    """frame_spread and rate_mismatch of one run directory (module doc)."""
     from postprocess.analysis import analyse_run, load_run
     from studies.travel.newton import material_rate
 
+    run = load_run(run_dir)
+    s = run.samples
+    o = np.argsort(s["theta"])
+    n = o.size
+    wave = analyse_run(run)
+    om = wave.angular_speed_rad_s
+    k = np.fft.rfftfreq(n, 1.0 / n)
+    sel = s["t"] >= s["t"][-1] - (s["t"][-1] - s["t"][0]) / 3.0
+    rec = {"run": str(run_dir), "n": n, "mode": wave.mode, "omega": om,
+           "samples": int(sel.sum())}
+    for comp in ("u_r", "u_theta"):
+        F = np.fft.rfft(s[comp][sel][:, o], axis=1)
+        F *= np.exp(1j * k[None, :] * om * (s["t"][sel] - s["t"][-1])[:, None])
+        F[:, 0] = 0.0  # the axisymmetric part (steady sliding) is excluded
+        back = np.fft.irfft(F, n, axis=1)
+        mean = back.mean(axis=0)
+        rec[f"frame_spread_{comp}"] = float(np.sqrt(np.mean((back - mean) ** 2))
+                                            / np.sqrt(np.mean(mean**2)))
+    W = np.concatenate([s["u_r"][-1][o], s["u_theta"][-1][o]])
+    v = np.concatenate([s["v_r"][-1][o], s["v_theta"][-1][o]])
+    spec = np.concatenate([np.fft.irfft(1j * k * np.fft.rfft(W[i * n:(i + 1) * n]), n)
+                           for i in (0, 1)])
+    bdf2 = np.concatenate([material_rate(W[:n], om), material_rate(W[n:], om)])
+    rec["rate_mismatch_spectral"] = float(np.linalg.norm(v + om * spec) / np.linalg.norm(v))
+    rec["rate_mismatch_bdf2"] = float(np.linalg.norm(v - bdf2) / np.linalg.norm(v))
+    return rec
+
+
+def main() -> None:
     for run_dir in map(Path, sys.argv[1:]):
-        run = load_run(run_dir)
-        s = run.samples
-        o = np.argsort(s["theta"])
-        n = o.size
-        wave = analyse_run(run)
-        om = wave.angular_speed_rad_s
-        k = np.fft.rfftfreq(n, 1.0 / n)
-        sel = s["t"] >= s["t"][-1] - (s["t"][-1] - s["t"][0]) / 3.0
-        rec = {"run": str(run_dir), "n": n, "mode": wave.mode, "omega": om,
-               "samples": int(sel.sum())}
-        for comp in ("u_r", "u_theta"):
-            F = np.fft.rfft(s[comp][sel][:, o], axis=1)
-            F *= np.exp(1j * k[None, :] * om * (s["t"][sel] - s["t"][-1])[:, None])
-            F[:, 0] = 0.0  # the axisymmetric part (steady sliding) is excluded
-            back = np.fft.irfft(F, n, axis=1)
-            mean = back.mean(axis=0)
-            rec[f"frame_spread_{comp}"] = float(np.sqrt(np.mean((back - mean) ** 2))
-                                                / np.sqrt(np.mean(mean**2)))
-        W = np.concatenate([s["u_r"][-1][o], s["u_theta"][-1][o]])
-        v = np.concatenate([s["v_r"][-1][o], s["v_theta"][-1][o]])
-        spec = np.concatenate([np.fft.irfft(1j * k * np.fft.rfft(W[i * n:(i + 1) * n]), n)
-                               for i in (0, 1)])
-        bdf2 = np.concatenate([material_rate(W[:n], om), material_rate(W[n:], om)])
-        rec["rate_mismatch_spectral"] = float(np.linalg.norm(v + om * spec) / np.linalg.norm(v))
-        rec["rate_mismatch_bdf2"] = float(np.linalg.norm(v - bdf2) / np.linalg.norm(v))
-        print(json.dumps(rec), flush=True)
+        print(json.dumps(rigidity(run_dir)), flush=True)
 
 
 if __name__ == "__main__":
