@@ -162,7 +162,13 @@ def table(out: Path, kmax: int) -> str:
     """Markdown table: per scene and k, the transient from seed k and the waves found at k."""
     from travel_mismatch import rigidity  # benchmarks/ (this script's folder)
 
-    recs = [json.loads(x) for x in (out / "family.jsonl").read_text().splitlines() if x]
+    recs, seen = [], set()
+    for line in (out / "family.jsonl").read_text().splitlines():
+        r = json.loads(line)
+        key = (r["scene"], r["k"], r["start"], r["status"], r.get("celerity_m_s"))
+        if key not in seen:  # a rerun appends the same attempt again
+            seen.add(key)
+            recs.append(r)
     short = {"figure1_n132_damped": "Figure 1", "figure3_n132_damped": "Figure 3"}
     reg = {"stick-slip-separation": "SSS", "stick-slip": "SS", "slip-separation": "slip-sep",
            "steady-sliding": "sliding"}
