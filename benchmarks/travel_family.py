@@ -224,8 +224,9 @@ def table(out: Path, kmax: int) -> str:
                        <= b["celerity_m_s"][1] + 0.005 * abs(c)]
                 reached.append(f"seed {s}: {c:.0f}" + (" (in/within 0.5 % of a band)" if inb
                                                         else " (no band found there)"))
-            fails = [r["scanned_m_s"] for r in ks if r["status"] != "converged"]
-            scanned = ", ".join(f"[{lo:.0f}, {hi:.0f}]" for lo, hi in sorted(fails)) or "–"
+            fails = {f"[{lo:.0f}, {hi:.0f}]": lo for lo, hi in
+                     (r["scanned_m_s"] for r in ks if r["status"] != "converged")}
+            scanned = ", ".join(sorted(fails, key=fails.get)) or "–"
             rows.append(f"| {short[scene]} | {k} | {tr} | {waves} | "
                         f"{'; '.join(reached) or 'no'} | {scanned} |")
     return "\n".join(rows)
