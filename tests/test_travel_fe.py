@@ -186,11 +186,12 @@ def test_travel_agrees_with_the_damped_transient_at_n132(tmp_path):
     assert abs(t["celerity_m_s"] / r["celerity_m_s"] - 1.0) < 0.005
     assert abs(t["amplitude_m"] / r["amplitude_m"] - 1.0) < 0.02
     assert abs(t["psi1"] - r["psi1"]) < 2.0 / 132
-    # Selection (docs/travelling_waves.md, "Which member"): the transient sits at the fast
+    # Selection (docs/travelling_waves.md, "Which member"): the transient sits near the fast
     # edge of the band (measured 0.1 m/s outside a band 26 m/s wide), where the stick zone
     # ends on the friction cone: beyond it the solve fails with the slip-sense inequality.
     # Tolerance 1.5 m/s: edge located to 0.3 m/s (4 bisections of a 0.2 % step) plus the
-    # transient's remaining time error (its speed moved 2.2 m/s from dt = 0.225 to 0.1125).
+    # transient's remaining time error (its speed moved 2.2 m/s from dt = 0.225 to 0.1125
+    # and 0.9 m/s from 0.1125 to 0.05625 dt_crit).
     lo, hi = t["band"]["celerity_m_s"]
     assert hi - lo > 10.0
     assert abs(r["celerity_m_s"] - lo) < 1.5
