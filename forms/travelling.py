@@ -27,10 +27,17 @@ def frame_derivative(w: ufl.core.expr.Expr, x: ufl.core.expr.Expr) -> ufl.core.e
     return ufl.dot(ufl.grad(w), t) - ufl.as_vector((-w[1], w[0]))
 
 
-def travelling_inertia(u: ufl.Argument, v: ufl.Argument, rho: float) -> ufl.Form:
-    """``G(u, v) = ∫ ρ (∂_θ − J)u · (∂_θ − J)v dx``; wave-frame operator ``K − ω² G``."""
+def travelling_inertia(u: ufl.Argument, v: ufl.Argument, rho: float,
+                       lumped: bool = False) -> ufl.Form:
+    """``G(u, v) = ∫ ρ (∂_θ − J)u · (∂_θ − J)v dx``; wave-frame operator ``K − ω² G``.
+
+    ``lumped``: the integral by the vertex rule (∫g ≈ |cell| mean of g at the vertices), the
+    rule that makes the P1 mass the transient's lumped mass (``forms.elasticity.lumped_mass``):
+    the wave-frame counterpart of mass lumping, exact for (∂_θ − J)x = 0 (rigid rotation)."""
     x = ufl.SpatialCoordinate(u.ufl_function_space().mesh)
-    return rho * ufl.inner(frame_derivative(u, x), frame_derivative(v, x)) * ufl.dx
+    dx = (ufl.dx(metadata={"quadrature_rule": "vertex", "quadrature_degree": 1}) if lumped
+          else ufl.dx)
+    return rho * ufl.inner(frame_derivative(u, x), frame_derivative(v, x)) * dx
 
 
 def travelling_damping(u: ufl.Argument, v: ufl.Argument, material, eta: float) -> ufl.Form:

@@ -58,12 +58,13 @@ class TravelResult:
     profiles: dict[str, Array] = field(default_factory=dict)
 
 
-def setup(scene: Scene, damping: float = 0.0) -> Setup:
-    """Mesh, stiffness (``solver.problem``), travelling inertia and the condensed problem."""
+def setup(scene: Scene, damping: float = 0.0, lumped: bool = False) -> Setup:
+    """Mesh, stiffness (``solver.problem``), travelling inertia (``lumped``: vertex rule,
+    ``frame.frame_operators``) and the condensed problem."""
     from solver.problem import build_problem
     from studies.travel.frame import circle_problem, frame_operators
 
-    ops = frame_operators(build_problem(scene), damping)
+    ops = frame_operators(build_problem(scene), damping, lumped)
     return Setup(scene, ops, circle_problem(ops))
 
 
@@ -204,12 +205,20 @@ def band(st: Setup, sol: TravelSolution, k: int) -> dict:
     (``studies.travel.newton.wave_band``; the discrete waves are not isolated in ω)."""
     from studies.travel.newton import wave_band
 
-    lo, hi, members = wave_band(st.prob, sol, k, rel_step=0.002, max_steps=40, max_iter=30)
+    why: list = []
+    lo, hi, members = wave_band(st.prob, sol, k, rel_step=0.002, max_steps=40, max_iter=30,
+                                edge_reasons=why)
     R = st.scene.geometry.R
     zs = [zone_lengths(st.prob, m) for m in members]
     p1 = [z["separation"] for z in zs]
     p2 = [z["separation"] + z["stick"] for z in zs]
     amp = [float(max(m.W_r.max() - st.prob.d, 0.5 * np.ptp(m.W_t))) for m in members]
-    return {"celerity_m_s": [lo * R, hi * R], "members": len(members),
+    # members in order of celerity (m/s): the selection question is where on this list the
+    # transient's wave sits (docs/travelling_waves.md, "selection")
+    table = sorted(zip([m.omega * R for m in members], amp, p1, p2, strict=True))
+    return {"celerity_m_s": [min(lo * R, hi * R), max(lo * R, hi * R)],
+            "members": len(members),
             "psi1": [min(p1), max(p1)], "psi2": [min(p2), max(p2)],
-            "amplitude_m": [min(amp), max(amp)]}
+            "amplitude_m": [min(amp), max(amp)],
+            "edge_violated": why,  # [lower c edge, upper c edge]
+            "member_table": [[round(v, 6) for v in row] for row in table]}

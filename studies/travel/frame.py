@@ -57,6 +57,7 @@ class FrameOperators:
     T: Array  # polar -> (x, y) at the contact dofs
     C: sp.csr_matrix | None = None  # Kelvin–Voigt wave-frame damping (None: undamped)
     _cache: tuple | None = None
+    _static: tuple | None = None  # S(0): every solve reads it for its nodal stiffness scale
     _blocks: dict | None = None
     _evaluations: int = 0
 
@@ -103,6 +104,8 @@ class FrameOperators:
         if self._cache is not None and self._cache[0] == omega and (
                 self._cache[1][1] is not None or not derivative):
             return self._cache[1]
+        if omega == 0.0 and not derivative and self._static is not None:
+            return self._static
         b = self._split()
         w2 = omega * omega
         Acc = b["Kcc"] - w2 * b["Gcc"]
@@ -135,6 +138,8 @@ class FrameOperators:
             X = None
         out = (T.T @ S @ T, None if dS is None else T.T @ dS @ T, X)
         self._cache = (omega, out)
+        if omega == 0.0:
+            self._static = (out[0], None, out[2])
         return out
 
     def _schur_damped(self, omega: float) -> Array:
@@ -167,9 +172,11 @@ class FrameOperators:
         return out
 
 
-def frame_operators(problem: TubeProblem, damping: float = 0.0) -> FrameOperators:
+def frame_operators(problem: TubeProblem, damping: float = 0.0,
+                    lumped: bool = False) -> FrameOperators:
     """Assemble G (and the damping, retardation time ``damping`` s), split the free dofs,
-    order the contact nodes by θ (serial only)."""
+    order the contact nodes by θ (serial only). ``lumped``: G by the vertex rule
+    (``forms.travelling.travelling_inertia``), the analogue of the transient's lumped mass."""
     import dolfinx
     import dolfinx.fem.petsc
     import ufl
@@ -181,7 +188,7 @@ def frame_operators(problem: TubeProblem, damping: float = 0.0) -> FrameOperator
     V = problem.V
     u, v = ufl.TrialFunction(V), ufl.TestFunction(V)
     Gm = dolfinx.fem.petsc.assemble_matrix(
-        dolfinx.fem.form(travelling_inertia(u, v, problem.material.rho)))
+        dolfinx.fem.form(travelling_inertia(u, v, problem.material.rho, lumped)))
     Gm.assemble()
     G = _csr(Gm)
     Gm.destroy()

@@ -444,20 +444,25 @@ def nearest_wave(
 
 def wave_band(
     prob: CircleProblem, sol: TravelSolution, k: int, *, rel_step: float = 0.002,
-    max_steps: int = 40, bisections: int = 4, **kw,
+    max_steps: int = 40, bisections: int = 4, edge_reasons: list | None = None, **kw,
 ) -> tuple[float, float, list[TravelSolution]]:
     """The interval of ω around ``sol.omega`` on which fixed-ω solves (warm started) converge.
 
     The discrete Coulomb problem has, for each active set, a solution for every ω, admissible
     on an interval: waves come in bands of speed (module doc). Steps of ``rel_step``|ω| each
     way until a solve fails, then ``bisections`` halvings of the last step locate each edge.
+    ``edge_reasons`` (a list) receives, for the lower then the upper ω edge, the inequality the
+    last failed solve beyond it violated (None: no convergence without a violation, or
+    ``max_steps`` reached).
     """
     members = [sol]
     edges = []
+    reasons: list = []
     for sgn in (-1.0, 1.0):
         cur = sol
         h = sgn * rel_step * abs(sol.omega)
         steps = 0
+        why = None
         while steps < max_steps:
             W = np.concatenate([cur.W_r, cur.W_t])
             try:
@@ -465,10 +470,14 @@ def wave_band(
                 members.append(cur)
                 steps += 1
                 continue
-            except NotConverged:
+            except NotConverged as err:
+                why = err.info.get("violated")
                 if bisections == 0 or abs(h) < rel_step * abs(sol.omega) / 2**bisections:
                     break
                 h *= 0.5
         edges.append(cur.omega)
+        reasons.append(why if steps < max_steps else None)
+    if edge_reasons is not None:  # edges[0] is the lower ω
+        edge_reasons.extend(reasons)
     members.sort(key=lambda s: s.omega)
     return min(edges), max(edges), members
