@@ -15,7 +15,7 @@ resumable: finished cases are skipped) in priority order:
 3. random seeds 1, 2, 3 over N;
 4. Figure 1 (Omega = 40, delta = 1e-3, f = 0.7), the same list;
 5. beta2 = 0.6 and 0.9 on the fine meshes (Figure 3 at N = 264, 528; Figure 1 damped at
-   N = 528, 1056).
+   N = 264, 528, 1056).
 
 Then writes the report (tables, observed orders, Richardson extrapolation, plot). ``--quick``
 keeps N <= 264, one random seed and Figure 3 only (a few minutes).
@@ -100,7 +100,7 @@ def run_list(quick: bool, max_n: int) -> list[dict]:
                 for damped in both:
                     if n_b in ns:
                         add("fig3", damped, n_b, "mode4", beta2=beta2)
-        for n_b in (528, 1056):  # 5b. beta2 on the Figure-1 k = 4 member (damped)
+        for n_b in (264, 528, 1056):  # 5b. beta2 on the Figure-1 k = 4 member (damped)
             for beta2 in (0.6, 0.9):
                 if n_b in ns:
                     add("fig1", True, n_b, "mode4", beta2=beta2)
