@@ -80,9 +80,9 @@ def test_halving_dt_keeps_the_member_and_moves_it_little():
 
 @pytest.mark.slow
 def test_figure1_k4_member_converges_at_the_expected_ratio():
-    """Damped Figure-1 physics, mode-4 seed, N = 132 / 264 / 528 (0.2 s each, ~45 s CPU, ~1.5
-    min wall on the shared machine): the same k = 4 member against the rotation on all three,
-    and the successive differences shrink at the rate the study observed.
+    """Damped Figure-1 physics, mode-4 seed, N = 132 / 264 / 528 (0.2 s each; 27 s on an idle
+    core, ~2 min on the loaded shared machine): the same k = 4 member against the rotation
+    on all three, and the successive differences shrink at the rate the study observed.
 
     Measured (0.2 s, last 0.08 s; docs/convergence.md section 3): wave frequency
     |c| k / (2 pi R) = 1609.96 / 1643.55 / 1647.54 Hz (differences 33.6, 4.0 Hz: ratio 8.4),
