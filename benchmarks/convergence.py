@@ -14,7 +14,8 @@ resumable: finished cases are skipped) in priority order:
 2. the same at N = 264 with dt halved twice;
 3. random seeds 1, 2, 3 over N;
 4. Figure 1 (Omega = 40, delta = 1e-3, f = 0.7), the same list;
-5. beta2 = 0.6 and 0.9 on the finest mesh.
+5. beta2 = 0.6 and 0.9 on the fine meshes (Figure 3 at N = 264, 528; Figure 1 damped at
+   N = 264, 528, 1056).
 
 Then writes the report (tables, observed orders, Richardson extrapolation, plot). ``--quick``
 keeps N <= 264, one random seed and Figure 3 only (a few minutes).
@@ -99,6 +100,10 @@ def run_list(quick: bool, max_n: int) -> list[dict]:
                 for damped in both:
                     if n_b in ns:
                         add("fig3", damped, n_b, "mode4", beta2=beta2)
+        for n_b in (264, 528, 1056):  # 5b. beta2 on the Figure-1 k = 4 member (damped)
+            for beta2 in (0.6, 0.9):
+                if n_b in ns:
+                    add("fig1", True, n_b, "mode4", beta2=beta2)
         for damped in both:  # 6. Figure 1 seeds
             for seed in seeds:
                 for n in small:
@@ -346,21 +351,33 @@ def report(res: dict, out: Path, quick: bool, results_path: Path) -> None:
                 lines.append(f"| {phys} | {'eta 2%' if damped else 'none'} | {filt} | {k}"
                              f"{'+' if fwd else '-'} | " + "; ".join(cells) + " |")
     # beta2
-    lines += ["", "## beta2 on the finest mesh it was run on (mode-4 seed)", "",
-              "| physics | damping | N | beta2 | k | f (Hz) | sep / stick / slip | psi1 | psi2 | "
-              "RMS (um) | wall (s) |", "|---|---|---|---|---|---|---|---|---|---|---|"]
+    lines += ["", "## beta2 on the meshes it was run on (mode-4 seed)", "",
+              "f_c = |c| k / (2 pi R), the frequency of the tracked phase; the relative "
+              "differences are against beta2 = 1/2 on the same mesh (same member only).", "",
+              "| physics | damping | N | beta2 | dt (us) | k | c (m/s) | f (Hz) | f_c (Hz) | "
+              "sep / stick / slip | psi1 | psi2 | RMS (um) | rel. diff f_c / psi1 / psi2 / RMS "
+              "| wall (s) |", "|" + "---|" * 15]
     for phys in ("fig3", "fig1"):
         for damped in (False, True):
             n_b = [n for n in ns if case_key(phys, damped, n, "mode4", beta2=0.6) in res
                    or case_key(phys, damped, n, "mode4", beta2=0.9) in res]
-            for beta2 in (0.5, 0.6, 0.9) if n_b else ():
-                r = res.get(case_key(phys, damped, n_b[-1], "mode4", beta2=beta2))
-                if r:
-                    lines.append(
-                        f"| {phys} | {'eta 2%' if damped else 'none'} | {n_b[-1]} | {beta2} | "
-                        f"{r['k']} | {r['frequency_hz']:.1f} | {r['sep']:.3f} / "
-                        f"{r['stick']:.3f} / {r['slip']:.3f} | {r['psi1']:.3f} | "
-                        f"{r['psi2']:.3f} | {r['amp_rms_m'] * 1e6:.3f} | {r['wall_s']:.0f} |")
+            for n, beta2 in ((n, b) for n in n_b for b in (0.5, 0.6, 0.9)):
+                r = res.get(case_key(phys, damped, n, "mode4", beta2=beta2))
+                r0 = res.get(case_key(phys, damped, n, "mode4"))
+                if not r:
+                    continue
+                rel = "-"
+                if beta2 != 0.5 and r0 and (r0["k"], r0["celerity_m_s"] > 0) == (
+                        r["k"], r["celerity_m_s"] > 0):
+                    rel = " / ".join(f"{r[q] / r0[q] - 1:+.2%}" for q in (
+                        "wave_frequency_hz", "psi1", "psi2", "amp_rms_m"))
+                lines.append(
+                    f"| {phys} | {'eta 2%' if damped else 'none'} | {n} | {beta2} | "
+                    f"{r['dt_s'] * 1e6:.3g} | {r['k']} | {r['celerity_m_s']:+.0f} | "
+                    f"{r['frequency_hz']:.1f} | {r['wave_frequency_hz']:.2f} | {r['sep']:.3f} / "
+                    f"{r['stick']:.3f} / {r['slip']:.3f} | {r['psi1']:.3f} | "
+                    f"{r['psi2']:.3f} | {r['amp_rms_m'] * 1e6:.3f} | {rel} | "
+                    f"{r['wall_s']:.0f} |")
     lines += ["", "## Power balance over the window (J/m/s; runs that recorded it)", "",
               "| run | mean E (J/m) | cylinder | friction | damping | normal contact (impacts) |",
               "|---|---|---|---|---|---|"]
