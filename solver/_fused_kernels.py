@@ -233,16 +233,16 @@ def batched_step(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
 
 
 @jit
-def advance(n_max, t_stop, clock, u_a, u_b, indptr, indices, data, n_rows, v, vp, a, ku, nim,
+def advance(n_max, t_stop, clock, indptr, indices, data, n_rows, u_a, u_b, v, vp, a, ku, nim,
             c_v, c_w, c_p, b2_half, dt, kappa, inv_kappa,
             cx, ph_re, ph_im, pc_re, pc_im, cmass, cinv,
             d, slide, f, r_pol, r_xy, status, zprev, work,
             probe_dof, probe_t, probe_u, probe_v, probe_count):
-    """Up to ``n_max`` steps of ``single_step`` in one call (one rank), stopping before a step
-    once ``clock[0] >= t_stop``; after each step the probes record time level n as
-    ``solver.observers.ProbeRecorder.record`` does (t_n, u_n and v_n at ``probe_dof`` (x dof;
-    y = x + 1) while rows are left). ``u_a`` holds u_n on entry; the buffers alternate.
-    Returns the number of steps taken."""
+    """Up to ``n_max`` steps of ``single_step`` (same arguments, from ``indptr`` to ``work``) in
+    one call (one rank), stopping before a step once ``clock[0] >= t_stop``; after each step
+    the probes record time level n as ``solver.observers.ProbeRecorder.record`` does (t_n,
+    u_n and v_n at ``probe_dof`` (x dof; y = x + 1) while rows are left). ``u_a`` holds u_n
+    on entry; the buffers alternate. Returns the number of steps taken."""
     cap = probe_t.size
     n_probes = probe_dof.size
     for s in range(n_max):

@@ -185,10 +185,13 @@ class InnerCircleRecorder:
     def due(self, step: int) -> bool:
         return step % self.every == 0 and self.n < self.max_samples
 
-    def use_compiled(self, record_sample, integrator) -> None:
+    def use_compiled(self, record_sample) -> None:
         """Take the samples with the compiled ``record_sample`` (``solver._fused_kernels``):
         one rank, undamped fused step, whose ``work`` holds the contact work (FusedEnergy).
-        The kernel stores Cartesian rows; ``_rotate_pending`` turns them polar on reading."""
+        The kernel stores Cartesian rows; ``_rotate_pending`` turns them polar on reading.
+        A second call keeps the first (rows taken since then are still Cartesian)."""
+        if self._compiled is not None:
+            return
         if not self.single or self.damping is not None:
             raise RuntimeError("the compiled sample is for one rank and an undamped step")
         self._compiled = (record_sample, np.ascontiguousarray(2 * self.idx_sorted,

@@ -180,10 +180,10 @@ class Simulation:
         per_step_python = after_step is not None or damping is not None or writer is not None
         advance = (integ.advance if getattr(integ, "can_advance", False)
                    and not per_step_python else None)
-        if advance is not None and rec._compiled is None:
+        if advance is not None:
             from solver.fused import kernel
 
-            rec.use_compiled(kernel("record_sample"), integ)
+            rec.use_compiled(kernel("record_sample"))
         t_start = time.perf_counter()
         with self.profile.phase("time-loop"):
             while True:

@@ -67,22 +67,25 @@ def task_state(out_dir: Path, spec: SweepSpec, task: Task, scene: Scene | None =
     status = str(summary.get("status", "pending"))
     if status in FINAL_STATUSES and not _same_scene(run_dir, scene or scene_for(spec, task)):
         return "changed"
-    if summary.get("analysis") == "pending":
-        return "unanalysed"
     return live_status(summary)
 
 
 def live_status(summary: dict) -> str:
-    """The summary's status, with a ``running`` one whose process is gone shown as ``crashed``.
+    """The summary's status, with a ``running`` one whose process is gone shown as ``crashed``
+    and a saved run whose wave analysis is still ``pending`` shown as ``unanalysed``.
 
     ``stickslip run`` records ``pid`` and ``host`` while running; a killed process (SIGKILL,
     out of memory) cannot update its summary, so the table tells it from a live one here.
+    A run is saved before its analysis is added (``studies.rundir.scene_run._save``); one
+    killed in between is not final, and a resumed sweep runs it again.
     """
     from studies.output import process_alive
 
     status = str(summary.get("status", "pending"))
     if status == "running" and process_alive(summary) is False:
         return "crashed"
+    if summary.get("analysis") == "pending":
+        return "unanalysed"
     return status
 
 
@@ -92,8 +95,6 @@ def _row(spec_keys: Sequence[str], task: Task, summary: dict | None, run_dir: st
     s = summary or {}
     fr = s.get("fractions") or {}
     status = live_status(s) if s else "pending"
-    if s.get("analysis") == "pending":  # between the run's two summary writes, or killed there
-        status = "unanalysed"
     row.update({
         "status": status,
         "regime": "diverged" if status == "diverged" else s.get("regime"),
