@@ -11,11 +11,18 @@ Prints, each with its wall time:
    first; fixed-ω nearest-speed route, as ``stickslip travel --fixed-omega``), wall and CPU
    time, with its outcome;
 4. a 40-point FE continuation in loading.omega (36 contact nodes, Figure-1 physics, start
-   speed −2300 m/s held fixed per point).
+   speed −2300 m/s held fixed per point);
+5. the issue's two targets as whole ``stickslip travel`` processes (start-up and imports
+   included, CPU = user + sys of the child): one wave at N = 132 from RUN_DIR (target < 2 s),
+   and a 40-point continuation in loading.omega = 40 … 50 rad/s at N = 132 from the same run
+   (target < 60 s).
 """
 
 from __future__ import annotations
 
+import os
+import resource
+import subprocess
 import sys
 import time
 from pathlib import Path
@@ -102,6 +109,30 @@ def main() -> None:
     t0 = time.perf_counter()
     run_continuation(sc, args, "loading.omega", list(np.linspace(30.0, 50.0, 40)), out, t0)
     print(f"FE continuation N=36, 40 points: {time.perf_counter() - t0:.2f} s")
+
+    # 5. the targets as whole processes
+    if (run_dir / "samples.npz").exists():
+        base = ["stickslip", "travel", "scenes/figure1_n132_damped.toml", "--k", "4",
+                "--from", str(run_dir), "--fixed-omega", "--force"]
+        for what, extra, target in (
+                ("one wave", ["-o", "/tmp/travel_speed_one"], 2.0),
+                ("40-point continuation", ["--continue", "loading.omega=40:50:40",
+                                           "-o", "/tmp/travel_speed_c132"], 60.0)):
+            wall, cpu, rc = _child_cost(base + extra)
+            print(f"whole process, N=132, {what}: {wall:.2f} s wall, {cpu:.2f} s CPU "
+                  f"(target {target:g} s), exit {rc}")
+
+
+def _child_cost(cmd: list[str]) -> tuple[float, float, int]:
+    """Wall time and CPU time (user + sys) of one child process, with its exit status."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    t0 = time.perf_counter()
+    rc = subprocess.run(cmd, stdout=subprocess.DEVNULL, env={**os.environ,
+                        "OMP_NUM_THREADS": "1"}).returncode
+    wall = time.perf_counter() - t0
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    return wall, cpu, rc
 
 
 if __name__ == "__main__":

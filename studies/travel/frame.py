@@ -8,7 +8,12 @@ and i = the other free dofs,
     S(ω) = A_cc − A_ci A_ii⁻¹ A_ic          (the FE dynamic stiffness at the contact nodes),
     dS/dω = −2ω (G_cc − G_ci X − Xᵀ G_ic + Xᵀ G_ii X),   X = A_ii⁻¹ A_ic,
 
-(differentiate A_ii⁻¹: d(A⁻¹) = −A⁻¹ dA A⁻¹; A, G symmetric). The interior is recovered as
+(differentiate A_ii⁻¹: d(A⁻¹) = −A⁻¹ dA A⁻¹; A, G symmetric). With Kelvin–Voigt damping,
+A = K − ω²G − ωC is not symmetric, and with A' = dA/dω = −2ωG − C and Y = A_ci A_ii⁻¹,
+
+    dS/dω = A'_cc − A'_ci X − Y A'_ic + Y A'_ii X      (one LU of A_ii: X and Yᵀ = A_ii⁻ᵀ A_ciᵀ).
+
+The interior is recovered as
 w_i = −X w_c. S is rotated node by node to polar components (W_r block, W_θ block, nodes in
 θ order): x = cosθ W_r − sinθ W_θ, y = sinθ W_r + cosθ W_θ, S_polar = Tᵀ S T, so that
 S_polar W = (p, q), the nodal forces [N/m] the cylinder exerts (as in ``solver.contact``).
@@ -130,11 +135,8 @@ class FrameOperators:
             if derivative:
                 GX = b["Gic"].T @ X
                 dS = -2.0 * omega * (b["Gcc"] - GX - GX.T + X.T @ (b["Gii"] @ X))
-        else:  # damped: A = K − ω²G − ωC is not symmetric; dS/dω by a central difference
-            S = self._schur_damped(omega)
-            if derivative:
-                h = 1e-6 * abs(omega)
-                dS = (self._schur_damped(omega + h) - self._schur_damped(omega - h)) / (2 * h)
+        else:  # damped: A = K − ω²G − ωC is not symmetric (module doc)
+            S, dS = self._schur_damped(omega, derivative)
             X = None
         out = (T.T @ S @ T, None if dS is None else T.T @ dS @ T, X)
         self._cache = (omega, out)
@@ -142,15 +144,25 @@ class FrameOperators:
             self._static = (out[0], None, out[2])
         return out
 
-    def _schur_damped(self, omega: float) -> Array:
+    def _schur_damped(self, omega: float, derivative: bool) -> tuple[Array, Array | None]:
+        """S(ω) and dS/dω of the damped A = K − ω²G − ωC with one LU of A_ii (module doc)."""
         b = self._split()
         w2 = omega * omega
 
         def blk(key: str):
             return b["K" + key] - w2 * b["G" + key] - omega * b["C" + key]
 
-        Aii = (b["Kii"] - w2 * b["Gii"] - omega * b["Cii"]).tocsc()
-        return blk("cc") - blk("ci") @ splu(Aii).solve(blk("ic"))
+        def dblk(key: str):  # A' = dA/dω = −2ωG − C
+            return -2.0 * omega * b["G" + key] - b["C" + key]
+
+        lu = splu((b["Kii"] - w2 * b["Gii"] - omega * b["Cii"]).tocsc())
+        X = lu.solve(blk("ic"))
+        S = blk("cc") - blk("ci") @ X
+        if not derivative:
+            return S, None
+        Y = lu.solve(np.ascontiguousarray(blk("ci").T), trans="T").T  # A_ci A_ii⁻¹
+        dS = dblk("cc") - dblk("ci") @ X - Y @ dblk("ic") + Y @ (dblk("ii") @ X)
+        return S, dS
 
     def stiffness(self, omega: float, derivative: bool = True) -> tuple[Array, Array | None]:
         S, dS, _ = self.factor(omega, derivative)
