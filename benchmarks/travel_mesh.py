@@ -48,6 +48,9 @@ def main() -> None:
                     help="at each finer level: fixed-ω solves from the prolonged fast-edge "
                          "member over C_FROM..C_TO m/s in steps of --step (a map of where it "
                          "converges), instead of the nearest-wave search")
+    ap.add_argument("--c-start", type=float, nargs="*", default=[],
+                    help="per finer level, the speed (m/s) of the first fixed-ω solve from the "
+                         "prolonged member (0: the member's own speed)")
     ap.add_argument("--all-starts", action="store_true",
                     help="try every start and trace each band found (default: stop at the first)")
     a = ap.parse_args()
@@ -163,6 +166,8 @@ def nested(run: Path, a: argparse.Namespace) -> None:
             for m in picks:
                 W0 = D.prolong(np.concatenate([m.W_r, m.W_t]), n, a.prolong)
                 om0 = m.omega + shift
+                if level <= len(a.c_start) and a.c_start[level - 1]:
+                    om0 = a.c_start[level - 1] / R
                 att = {"from_c_m_s": m.omega * R, "c0_m_s": om0 * R}
                 t_att = time.process_time()
                 got = None
