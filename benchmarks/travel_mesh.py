@@ -45,7 +45,7 @@ def main() -> None:
                     help="coarse members tried per level (fast edge first)")
     ap.add_argument("--bisections", type=int, default=5)
     ap.add_argument("--sweep", type=float, nargs=2, metavar=("C_FROM", "C_TO"),
-                    help="at each finer level: fixed-ω solves from the prolonged fast-edge "
+                    help="at the finest level: fixed-ω solves from the prolonged fast-edge "
                          "member over C_FROM..C_TO m/s in steps of --step (a map of where it "
                          "converges), instead of the nearest-wave search")
     ap.add_argument("--c-start", type=float, nargs="*", default=[],
@@ -159,7 +159,7 @@ def nested(run: Path, a: argparse.Namespace) -> None:
             shift = 0.0
             if len(fast_hist) >= 2:
                 shift = 0.375 * (fast_hist[-1] - fast_hist[-2])
-            if a.sweep:
+            if a.sweep and level == len(a.levels):  # the sweep maps the finest level
                 sweep(st, members, n, k, a, rec)
                 return
             found = []  # (fast-edge |ω|, sol) per start that converged
