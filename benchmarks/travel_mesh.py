@@ -51,6 +51,10 @@ def main() -> None:
     ap.add_argument("--c-start", type=float, nargs="*", default=[],
                     help="per finer level, the speed (m/s) of the first fixed-ω solve from the "
                          "prolonged member (0: the member's own speed)")
+    ap.add_argument("--tau-scales", type=float, nargs="*", default=[],
+                    help="at the finest level, after its band: continue its middle member in the "
+                         "damping τ·s for each s in turn (same ω, else nearest within ±1 %%) "
+                         "and trace each band; stops at the first failure")
     ap.add_argument("--all-starts", action="store_true",
                     help="try every start and trace each band found (default: stop at the first)")
     a = ap.parse_args()
@@ -229,8 +233,45 @@ def nested(run: Path, a: argparse.Namespace) -> None:
                                  for m in members],
                    cpu_s=time.process_time() - c0, wall_s=time.time() - w0)
         print(json.dumps(rec), flush=True)
+        if a.tau_scales and level == len(a.levels):
+            damping_path(scene, sorted(members, key=lambda x: x.omega)[len(members) // 2],
+                         n, k, tau, a)
         _log(f"N={n}: band [{lo * R:.2f}, {hi * R:.2f}] m/s, fast edge amplitude "
              f"{rec['fast']['amplitude_m']:.4e}, cpu {rec['cpu_s']:.0f} s")
+
+
+def damping_path(scene, start, n: int, k: int, tau: float, a: argparse.Namespace) -> None:
+    """Continuation in the Kelvin–Voigt τ from a converged wave (same ω, else the nearest
+    within ±1 %): does more damping widen the band (blunt the interior resonances)? One JSON
+    line per τ; the path stops at the first τ without a wave."""
+    from studies.travel import driver as D
+    from studies.travel.newton import NotConverged, nearest_wave, wave_band
+
+    R = scene.geometry.R
+    cur = start
+    for s in a.tau_scales:
+        c0 = time.process_time()
+        st = D.setup(scene, tau * s, lumped=a.lumped)
+        rec: dict = {"n": n, "k": k, "tau_s": tau * s, "tau_scale": s, "c0_m_s": cur.omega * R}
+        try:
+            # same ω first, then the nearest speed within ±1 % (0.1 % steps)
+            cur = nearest_wave(st.prob, np.concatenate([cur.W_r, cur.W_t]), cur.omega, k,
+                               rel_step=0.001, max_steps=10, max_iter=30)
+            lo, hi, mem = wave_band(st.prob, cur, k, rel_step=0.002, max_steps=60,
+                                    bisections=a.bisections, max_iter=30)
+            amp = [float(max(x.W_r.max() - st.prob.d, 0.5 * np.ptp(x.W_t))) for x in mem]
+            rec.update(status="converged", band_m_s=[lo * R, hi * R],
+                       amplitude_m=[min(amp), max(amp)], members=len(mem))
+            # next τ from the band's middle member (an edge member is marginal by definition)
+            cur = sorted(mem, key=lambda x: x.omega)[len(mem) // 2]
+        except NotConverged as err:
+            rec.update(status="none", residual=err.info.get("residual"),
+                       violated=err.info.get("violated"))
+        rec["cpu_s"] = time.process_time() - c0
+        print(json.dumps(rec), flush=True)
+        _log(f"N={n} tau x{s}: {rec}")
+        if rec["status"] != "converged":
+            break  # the path ends here: the row names the violated inequality
 
 
 def sweep(st, members, n: int, k: int, a: argparse.Namespace, rec: dict) -> None:
