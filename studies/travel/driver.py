@@ -35,7 +35,7 @@ from studies.travel.newton import (
 )
 
 __all__ = ["TravelResult", "Setup", "band", "setup", "start_from_run", "start_from_reduced",
-           "solve_scene", "measure"]
+           "prolong", "solve_scene", "measure"]
 
 Array = NDArray[np.float64]
 
@@ -119,6 +119,34 @@ def start_from_reduced(st: Setup, k: int) -> tuple[Array, float, dict]:
     d = sc.geometry.d
     W0 = np.concatenate([np.full(theta.size, d), 0.2 * d * np.cos(k * theta)])
     return W0, c * om, {"start": "flutter", "start_celerity_m_s": c * om * R}
+
+
+def prolong(W: Array, n_fine: int, how: str = "linear") -> Array:
+    """A wave's contact-circle state W = (W_r, W_θ) on N uniform nodes θ_j = 2πj/N, carried
+    to ``n_fine`` nodes (nested iteration: the converged wave of a coarse mesh starts the fine
+    one; the Newton's unknown is W alone, the forces follow as λ = S(ω)W).
+
+    Both components are periodic in φ. ``linear``: piecewise-linear interpolation on the
+    circle (for n_fine = 2N the coarse values are kept and each midpoint is the mean of its
+    neighbours; W_r ≥ d is preserved, the zone boundaries stay sharp). ``fourier``:
+    trigonometric interpolation (zero-padded spectrum; Gibbs wiggles at the kinks of W_r at
+    take-off and landing, so W_r may dip below d).
+    """
+    W = np.asarray(W, dtype=float)
+    n = W.size // 2
+    if W.size != 2 * n or n_fine < 2:
+        raise ValueError(f"prolong: W has {W.size} values, need 2N (W_r, W_θ), n_fine ≥ 2")
+    parts = W.reshape(2, n)
+    if how == "fourier":
+        from scipy.signal import resample
+
+        return resample(parts, n_fine, axis=1).reshape(-1)
+    if how != "linear":
+        raise ValueError(f"prolong: how = {how!r}; use 'linear' or 'fourier'")
+    x = np.arange(n_fine) * (n / n_fine)  # fine node positions in coarse node spacings
+    j = np.floor(x).astype(np.intp)
+    a = x - j
+    return ((1.0 - a) * parts[:, j % n] + a * parts[:, (j + 1) % n]).reshape(-1)
 
 
 def solve_scene(st: Setup, k: int, W0: Array, omega0: float, *, free_omega: bool = True,
