@@ -215,12 +215,11 @@ def batched_step(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
                 r_y[j, b] = ry
                 e0[b] = e0[b] + rx * inv_m
                 e1[b] = e1[b] + ry * inv_m
-        for r in range(2):
-            ar = acc[r]
+        for r in range(2):  # a_n of row i + r is acc[r] (e0, e1)
             row = i + r
             if write:
                 for b in range(nb):
-                    ai = ar[b]
+                    ai = acc[r, b]
                     vi = ai * c_v + vp[row, b]
                     a[row, b] = ai
                     v[row, b] = vi
@@ -229,7 +228,7 @@ def batched_step(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
                     vp[row, b] = w if b2_half else w + ai * c_p
             else:
                 for b in range(nb):
-                    ai = ar[b]
+                    ai = acc[r, b]
                     w = ai * c_w + (ai * c_v + vp[row, b])
                     u_next[row, b] = w * dt + u[row, b]
                     vp[row, b] = w if b2_half else w + ai * c_p
