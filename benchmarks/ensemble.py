@@ -21,8 +21,10 @@ The npz holds K (local CSR), the lumped mass, the contact nodes and frames, dt, 
 steady states + perturbations of a few scenes (their d, R Omega dt, f), tiled to B columns.
 ``--npz`` times the batched step (integrator + contact + contact work, state on the device)
 and checks it against the CPU numba kernel on the same scenes (max |difference|; 0 = same
-bits). ``--observe`` adds the batch observers (samples every ``every`` steps, probes every
-step). Peak RSS per scene is printed for ``--rss B`` (a CPU batch of B scenes, observers on).
+bits). Without ``--observe`` every step is a lean one (v, a, K u not stored, as an unsampled
+step of a sweep); ``--full`` stores them at every step (as a sampled step); ``--observe``
+adds the batch observers (samples every ``every`` steps, probes every step). Peak RSS per
+scene is printed for ``--rss B`` (a CPU batch of B scenes, observers on).
 """
 
 from __future__ import annotations
@@ -169,7 +171,7 @@ def _tile(arr: np.ndarray, B: int) -> np.ndarray:
 
 
 def run_npz(path: Path, B: int, steps: int, backend: str, kernel: str, observe: bool,
-            check: int) -> dict:
+            check: int, full: bool = False) -> dict:
     from solver.ensemble import BatchedExplicit, BatchedProblem, array_namespace
     from solver.ensemble_observers import BatchRecorder
 
@@ -199,7 +201,7 @@ def run_npz(path: Path, B: int, steps: int, backend: str, kernel: str, observe: 
 
     def advance(k: int) -> None:
         for _ in range(k):
-            integ.step(diag=rec is not None and rec.due(integ.step_count))
+            integ.step(diag=full or (rec is not None and rec.due(integ.step_count)))
             if rec is not None:
                 rec.record_probes()
                 if rec.due(integ.step_count - 1):
@@ -211,14 +213,16 @@ def run_npz(path: Path, B: int, steps: int, backend: str, kernel: str, observe: 
     first = time.perf_counter() - t0
     advance(9)  # warm-up
     sync()
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     advance(steps)
     sync()
     seconds = time.perf_counter() - t0
+    cpu = time.process_time() - c0  # this process's CPU time: not its waits on a busy machine
     out = {"backend": backend, "kernel": kernel, "n": bp.n, "nnz": int(bp.data.size), "B": B,
-           "steps": steps, "seconds": seconds, "first_s": first, "observe": observe,
+           "full": full, "steps": steps, "seconds": seconds, "first_s": first, "observe": observe,
            "scene_steps_per_s": B * steps / seconds,
-           "us_per_scene_step": seconds / (B * steps) * 1e6}
+           "us_per_scene_step": seconds / (B * steps) * 1e6,
+           "cpu_us_per_scene_step": cpu / (B * steps) * 1e6}
     if check:
         s0 = min(B, extra["u0"].shape[1])
         ref = BatchedExplicit(bp, extra["d"][:s0], extra["slide"][:s0], extra["f"][:s0],
@@ -255,6 +259,8 @@ def main() -> None:
     ap.add_argument("--kernel", choices=("numba", "cuda", "xp"), default=None)
     ap.add_argument("--observe", action="store_true")
     ap.add_argument("--check", type=int, default=1, help="compare with the CPU numba kernel")
+    ap.add_argument("--full", action="store_true",
+                    help="store v, a, K u at every step (diag = True), as a sampled step")
     ap.add_argument("--json", type=Path, help="append the npz results to this file")
     args = ap.parse_args()
     if args.dump:
@@ -262,18 +268,22 @@ def main() -> None:
         return
     if args.npz:
         kernel = args.kernel or ("numba" if args.backend == "cpu" else "cuda")
-        print(f"{'N file':>24} {'kernel':>6} {'B':>6} {'steps':>6} {'1st s':>6} "
-              f"{'us/scene-step':>13} {'same bits':>9} {'rel diff':>9} {'scene-steps/s':>14}")
+        print(f"{'N file':>24} {'kernel':>6} {'full':>5} {'B':>6} {'steps':>6} {'1st s':>6} "
+              f"{'us/scene-step':>13} {'same bits':>9} {'rel diff':>9} {'scene-steps/s':>14} "
+              f"{'cpu us':>8}")
         for path in args.npz:
             for B in args.B:
-                r = run_npz(path, B, args.steps, args.backend, kernel, args.observe, args.check)
+                r = run_npz(path, B, args.steps, args.backend, kernel, args.observe, args.check,
+                            args.full)
                 if args.json:
                     with open(args.json, "a") as fh:
                         fh.write(json.dumps(r) + "\n")
-                print(f"{path.name:>24} {kernel:>6} {B:6d} {args.steps:6d} {r['first_s']:6.2f} "
+                print(f"{path.name:>24} {kernel:>6} {str(args.full):>5} {B:6d} {args.steps:6d} "
+                      f"{r['first_s']:6.2f} "
                       f"{r['us_per_scene_step']:13.4f} {str(r.get('check_same_bits', '-')):>9} "
                       f"{r.get('check_max_abs_diff_rel', float('nan')):9.1e} "
-                      f"{r['scene_steps_per_s']:14.4g}", flush=True)
+                      f"{r['scene_steps_per_s']:14.4g} {r['cpu_us_per_scene_step']:8.2f}",
+                      flush=True)
         return
     os.environ.setdefault("OMPI_MCA_osc", "^ucx")
     cpu_table(args.maps, args.ranks)

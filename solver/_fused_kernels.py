@@ -133,26 +133,36 @@ def single_step(indptr, indices, data, n_rows, u, u_next, v, vp, a, ku, nim,
 def batched_step(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
                  c_v, c_w, c_p, b2_half, dt, kappa, inv_kappa,
                  cx, ph_re, ph_im, pc_re, pc_im, cmass, cinv,
-                 d, slide, f, r_r, r_t, r_x, r_y, status, zprev, work, acc, cslot):
+                 d, slide, f, r_r, r_t, r_x, r_y, status, zprev, work, acc, cslot,
+                 diag, keep):
     """The same step on (n, B) arrays: column b is scene b (per-scene d, slide, f).
 
     One pass over the nodes: the (x, y) rows of K u for all B scenes (one read of the row
     for the whole batch), the contact projection if the node is a contact node
     (``cslot`` >= 0), then the Newmark update of the node. Valid because a node's update
     reads only u_n (never u_{n+1}) and its own v~_n, a_n.
+
+    Only u_{n+1} and v~_{n+1} are state. v_n, a_n and K u_n are outputs read by the
+    observers alone, so they are stored only when ``diag`` (a sampled step) or at the
+    nodes with ``keep[node] != 0`` (probes); otherwise they stay in the (4, B) scratch
+    ``acc``: 3 of the 6 (n, B) arrays the step would write are not touched, and the
+    batch's working set (u_n, u_{n+1}, v~, K) is half as large. Same operations in the same
+    order either way: the state's bits do not depend on ``diag``.
     """
     n_rows, nb = u.shape
-    odd0, odd1 = acc[0], acc[1]  # odd-term partial sums of rows i, i + 1 (scratch)
-    # 2-D indexing only: a row view (u[col]) would cost a reference-count update per use
+    # scratch rows of the node's two dofs: even-term partial sums, then a_n (e0, e1);
+    # odd-term partial sums (o0, o1). 2-D indexing only: a row view (u[col]) would cost a
+    # reference-count update per use
+    e0, e1, o0, o1 = acc[0], acc[1], acc[2], acc[3]
     for i in range(0, n_rows, 2):
         a0 = indptr[i]
         a1 = indptr[i + 1]
         ln = a1 - a0
         for b in range(nb):
-            ku[i, b] = 0.0
-            ku[i + 1, b] = 0.0
-            odd0[b] = 0.0
-            odd1[b] = 0.0
+            e0[b] = 0.0
+            e1[b] = 0.0
+            o0[b] = 0.0
+            o1[b] = 0.0
         for t in range(ln):  # same order as pair_product: even terms, odd terms, then sum
             col = indices[a0 + t]
             d0 = data[a0 + t]
@@ -160,22 +170,28 @@ def batched_step(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
             if t % 2 == 0:
                 for b in range(nb):
                     ub = u[col, b]
-                    ku[i, b] += d0 * ub
-                    ku[i + 1, b] += d1 * ub
+                    e0[b] += d0 * ub
+                    e1[b] += d1 * ub
             else:
                 for b in range(nb):
                     ub = u[col, b]
-                    odd0[b] += d0 * ub
-                    odd1[b] += d1 * ub
+                    o0[b] += d0 * ub
+                    o1[b] += d1 * ub
         n0 = nim[i]
         n1 = nim[i + 1]
-        for b in range(nb):
-            s0 = ku[i, b] + odd0[b]
-            s1 = ku[i + 1, b] + odd1[b]
-            ku[i, b] = s0
-            ku[i + 1, b] = s1
-            a[i, b] = s0 * n0
-            a[i + 1, b] = s1 * n1
+        write = diag or keep[i // 2] != 0
+        if write:
+            for b in range(nb):
+                s0 = e0[b] + o0[b]
+                s1 = e1[b] + o1[b]
+                ku[i, b] = s0
+                ku[i + 1, b] = s1
+                e0[b] = s0 * n0
+                e1[b] = s1 * n1
+        else:
+            for b in range(nb):
+                e0[b] = (e0[b] + o0[b]) * n0
+                e1[b] = (e1[b] + o1[b]) * n1
         j = cslot[i // 2]
         if j >= 0:
             inv_m = cinv[j]
@@ -185,8 +201,8 @@ def batched_step(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
                 uy = u[i + 1, b]
                 now_r = ux * pc_re[j] - uy * pc_im[j]
                 now_t = ux * pc_im[j] + uy * pc_re[j]
-                tx = vp[i, b] * dt + a[i, b] * kappa
-                ty = vp[i + 1, b] * dt + a[i + 1, b] * kappa
+                tx = vp[i, b] * dt + e0[b] * kappa
+                ty = vp[i + 1, b] * dt + e1[b] * kappa
                 tr = (tx * pc_re[j] - ty * pc_im[j]) + now_r
                 tt = (tx * pc_im[j] + ty * pc_re[j]) + now_t
                 rr, rt, st = project(tr, tt, now_t, stiff, d[b], slide[b], f[b])
@@ -197,18 +213,27 @@ def batched_step(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
                 ry = rr * ph_im[j] + rt * ph_re[j]
                 r_x[j, b] = rx
                 r_y[j, b] = ry
-                a[i, b] = a[i, b] + rx * inv_m
-                a[i + 1, b] = a[i + 1, b] + ry * inv_m
-        for r in range(i, i + 2):
-            for b in range(nb):
-                ai = a[r, b]
-                vi = ai * c_v + vp[r, b]
-                v[r, b] = vi
-                w = ai * c_w + vi
-                u_next[r, b] = w * dt + u[r, b]
-                vp[r, b] = w if b2_half else w + ai * c_p
+                e0[b] = e0[b] + rx * inv_m
+                e1[b] = e1[b] + ry * inv_m
+        for r in range(2):  # a_n of row i + r is acc[r] (e0, e1)
+            row = i + r
+            if write:
+                for b in range(nb):
+                    ai = acc[r, b]
+                    vi = ai * c_v + vp[row, b]
+                    a[row, b] = ai
+                    v[row, b] = vi
+                    w = ai * c_w + vi
+                    u_next[row, b] = w * dt + u[row, b]
+                    vp[row, b] = w if b2_half else w + ai * c_p
+            else:
+                for b in range(nb):
+                    ai = acc[r, b]
+                    w = ai * c_w + (ai * c_v + vp[row, b])
+                    u_next[row, b] = w * dt + u[row, b]
+                    vp[row, b] = w if b2_half else w + ai * c_p
     # work sums: per scene, over the nodes in order (as single_step)
-    sc, st_, srt = acc[0], acc[1], acc[2]  # (3, B) scratch, no allocation per step
+    sc, st_, srt = acc[0], acc[1], acc[2]  # scratch, no allocation per step
     sc[:] = 0.0
     st_[:] = 0.0
     srt[:] = 0.0
@@ -229,7 +254,6 @@ def batched_step(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
             wc = srt[b] * slide[b]
             work[1, b] += wc
             work[2, b] += wc - 0.5 * st_[b]
-
 
 
 @jit

@@ -139,7 +139,7 @@ class BatchedExplicit:
         self.status = xp.zeros((m, B), dtype=np.int8)
         self.zprev = z(m, 2, B)
         self.work = z(3, B)
-        self.acc = z(3, B)
+        self.acc = z(4, B)  # the numba kernel's per-node scratch (and work sums)
         self.time = 0.0
         self.step_count = 0
         self.compile_s = 0.0
@@ -147,6 +147,7 @@ class BatchedExplicit:
         slot = -np.ones(n // 2, dtype=np.int64)
         slot[bp.cx // 2] = np.arange(m)
         self.cslot = dev(slot)  # contact index of each node, -1 off the contact circle
+        self.keep = xp.zeros(n // 2, dtype=np.int8)  # nodes whose v, a, K u are always stored
         if kernel == "numba":
             from solver.fused import kernel as get_kernel
 
@@ -196,9 +197,10 @@ class BatchedExplicit:
         self.keep = self.xp.asarray(keep)
 
     def step(self, diag: bool = True) -> None:
-        """One step. ``diag = False`` lets the CUDA kernel skip writing v_n, a_n and K u_n
-        (3 of its 7 array writes) except at the ``keep_nodes``: the state u, v~ is the same;
-        pass True before a step whose time level is sampled. The CPU kernels always write."""
+        """One step. ``diag = False`` lets the numba and CUDA kernels skip writing v_n, a_n
+        and K u_n (3 of the 6 (n, B) arrays a step writes) except at the ``keep_nodes``: the
+        state u, v~ and the contact outputs are the same bits; pass True before a step whose
+        time level is sampled (``BatchRecorder.due``). The xp reference always writes."""
         cur, nxt = self.cur, 1 - self.cur
         if self.kernel == "numba":
             from solver.fused import timed_first_call
@@ -209,7 +211,8 @@ class BatchedExplicit:
                     (0.5 - b2) * dt, b2 == 0.5, dt, self.kappa, 1.0 / self.kappa, self.cx,
                     self.ph_re, self.ph_im, self.pc_re, self.pc_im, self.cmass, self.cinv,
                     self.d, self.slide, self.f, self.r_r, self.r_t, self.r_x, self.r_y,
-                    self.status, self.zprev, self.work, self.acc, self.cslot)
+                    self.status, self.zprev, self.work, self.acc, self.cslot, bool(diag),
+                    self.keep)
             if self.step_count == 0:
                 timed_first_call("batched_step", self._fn, *args)
                 from solver.fused import COMPILE_SECONDS

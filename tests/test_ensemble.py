@@ -36,6 +36,10 @@ set = ["time.end_time = 0.01"]
 [[points]]
 "loading.f" = 0.7
 "initial.amplitude" = 1e200
+[[points]]
+"loading.f" = 0.6
+"initial.amplitude" = 0.2
+"output.sample_interval" = 3e-4
 """
 
 
@@ -63,9 +67,11 @@ def _close_energies(a: dict | None, b: dict | None) -> None:
 
 @pytest.fixture(scope="module")
 def two_sweeps(tmp_path_factory):
-    """The mixed sweep (8 scenes: two Omega x (f = 0.7, 0.5, 0 frictionless, and a start
-    at 1e200 x d that blows up at the first energy check)) run alone (--batch off) and in
-    batches of 3 (3 + 3 + 2 scenes: the batch size must not matter)."""
+    """The mixed sweep (10 scenes: two Omega x (f = 0.7, 0.5, 0 frictionless, a start at
+    1e200 x d that blows up at the first energy check, and f = 0.6 sampled every 4th step
+    (3e-4 s), so that the batch's unsampled steps skip storing v, a, K u)) run alone
+    (--batch off) and in batches of 3 (3 + 3 + 2 scenes, and the 2 scenes of the other
+    sample interval: the batch size must not matter)."""
     from studies.sweep.schedule import run_sweep
 
     tmp = tmp_path_factory.mktemp("ens")
@@ -107,7 +113,7 @@ def test_every_summary_equals_the_single_scene_run(two_sweeps):
         fb = np.load(out["3"] / "runs" / task.id / "final_field.npz")
         np.testing.assert_array_equal(fa["u"], fb["u"])
     assert sorted(statuses.values()).count("diverged") == 2
-    assert sorted(statuses.values()).count("completed") == 6
+    assert sorted(statuses.values()).count("completed") == 8
 
 
 def test_diverged_scene_is_masked_and_recorded_the_others_go_on(two_sweeps):
@@ -178,6 +184,34 @@ def test_batched_kernel_equals_the_single_scene_kernel_bitwise_for_any_batch_siz
     np.testing.assert_array_equal(alone.u[:, 0], integ.u[:, 2])
 
 
+def test_lean_steps_keep_the_state_bitwise_and_store_outputs_when_asked():
+    """Steps with ``diag = False`` (not sampled) store v_n, a_n, K u_n only at the
+    ``keep_nodes`` (probes) but leave the state untouched: sampled every 3rd step, 250
+    steps, each column's u, v~, statuses and works are the single-scene run's bits at every
+    step, v_n, a_n, K u_n at every sampled step, and v_n at the kept nodes at every step."""
+    integ, sims = _batch(VARIANTS)
+    kept = np.array([int(integ.cx[0]) // 2, 1])  # a contact node and an interior node
+    integ.keep_nodes(kept)
+    rows = np.concatenate([2 * kept, 2 * kept + 1])
+    for n in range(250):
+        diag = n % 3 == 0
+        integ.step(diag=diag)
+        for b, s in enumerate(sims):
+            s.integrator.step()
+            it = s.integrator
+            np.testing.assert_array_equal(integ.u[:, b], it.u)
+            np.testing.assert_array_equal(integ.v_pred[:, b], it.v_pred)
+            np.testing.assert_array_equal(integ.status[:, b], s.projection.out.status)
+            np.testing.assert_array_equal(integ.work[:, b], it.work)
+            np.testing.assert_array_equal(integ.v[rows, b], it.v[rows])
+            if diag:
+                np.testing.assert_array_equal(integ.v[:, b], it.v)
+                np.testing.assert_array_equal(integ.a[:, b], it.a)
+                np.testing.assert_array_equal(integ.ku[:, b], it.ku)
+        if not diag:  # the lean step did run: v_n elsewhere is the last sampled step's
+            assert not np.array_equal(integ.v[:, 0], sims[0].integrator.v)
+
+
 def test_array_namespace_reference_equals_the_kernel_to_round_off():
     """The xp (numpy) reference step against the numba kernel: 250 steps, scipy's K @ U sums
     rows in CSR order, not in even/odd pairs, so 1e-12 of max|u| (round-off, amplified by the
@@ -199,7 +233,8 @@ def test_grouping_and_batch_option(tmp_path):
 
     spec = _spec(tmp_path)
     scenes = [scene_for(spec, t) for t in spec.tasks]
-    assert len({batch_key(s) for s in scenes}) == 1  # Omega, f, start differ: one group
+    # Omega, f, start differ: one group; the output's sample interval differs: another
+    assert len({batch_key(s) for s in scenes}) == 2
     base = scenes[0]
     assert batch_key(base.with_overrides("mesh.n_inner=48")) != batch_key(base)
     assert batch_key(base.with_overrides("time.beta1=0.25", "time.beta2=0.5")) is None

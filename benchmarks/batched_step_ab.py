@@ -1,0 +1,102 @@
+"""A/B timing of the batched kernel in ONE process: an earlier ``batched_step`` against today's.
+
+This VM's timings drift by up to 1.5x from run to run (placement of the arrays, the shared
+L3), far more than a kernel change, so comparing two runs says little. Here both kernels
+step the same (n, B) arrays in the same process, in alternating rounds of ``--steps`` steps
+(order rotated each round), and the median per kernel is printed. Variants:
+
+* ``old``: the kernel of an earlier commit, from a file (``--old``), called with its own
+  arguments (before the lean steps: it stores v_n, a_n, K u_n at every step);
+* ``full``: today's kernel with ``diag = True`` at every step (a sampled step);
+* ``lean``: today's kernel with ``diag = False`` (an unsampled step: v_n, a_n, K u_n not
+  stored).
+
+All three compute the same state bitwise (checked at the end against a fresh run of today's
+kernel), so they may share the arrays. Example (run two at once for the 2-rank case)::
+
+    git show 202fb9c:solver/_fused_kernels.py > /tmp/old_kernels.py
+    ./dev python3 benchmarks/batched_step_ab.py DIR/problem_n528.npz --old /tmp/old_kernels.py --B 8
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import statistics
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+
+def _old_kernel(path: Path):
+    """``batched_step`` of the file ``path``, imported by its name (so numba's cache works)."""
+    sys.path.insert(0, str(path.resolve().parent))
+    return importlib.import_module(path.stem).batched_step
+
+
+def main() -> None:
+    from benchmarks.ensemble import _tile
+    from solver.ensemble import BatchedExplicit, BatchedProblem
+
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("npz", type=Path, help="a problem written by benchmarks/ensemble.py --dump")
+    ap.add_argument("--old", type=Path, help="_fused_kernels.py of an earlier commit")
+    ap.add_argument("--B", type=int, default=8)
+    ap.add_argument("--steps", type=int, default=100, help="steps per round and kernel")
+    ap.add_argument("--rounds", type=int, default=9)
+    ap.add_argument("--tag", default="", help="label printed with each line")
+    args = ap.parse_args()
+
+    with np.load(args.npz) as z:
+        extra = {k: z[k] for k in ("u0", "d", "slide", "f")}
+    bp = BatchedProblem.load(args.npz)
+    B = args.B
+    u0 = _tile(extra["u0"], B)
+    scenes = (_tile(extra["d"], B), _tile(extra["slide"], B), _tile(extra["f"], B))
+    it = BatchedExplicit(bp, *scenes)
+    it.set_state(u0, np.zeros_like(u0))
+    it.step()  # load / compile today's kernel
+    old = _old_kernel(args.old) if args.old else None
+    dt, b2 = it.dt, it.beta2
+    coef = (b2 * dt, 0.5 * dt, (0.5 - b2) * dt, b2 == 0.5, dt, it.kappa, 1.0 / it.kappa)
+
+    def old_step() -> None:
+        cur, nxt = it.cur, 1 - it.cur
+        old(it.indptr, it.indices, it.data, it._u[cur], it._u[nxt], it.v, it.v_pred, it.a,
+            it.ku, it.nim, *coef, it.cx, it.ph_re, it.ph_im, it.pc_re, it.pc_im, it.cmass,
+            it.cinv, it.d, it.slide, it.f, it.r_r, it.r_t, it.r_x, it.r_y, it.status,
+            it.zprev, it.work, it.acc, it.cslot)
+        it.cur = nxt
+        it.step_count += 1
+
+    variants = {"full": lambda: it.step(diag=True), "lean": lambda: it.step(diag=False)}
+    if old is not None:
+        old_step()  # load / compile
+        variants = {"old": old_step, **variants}
+    times: dict[str, list[float]] = {k: [] for k in variants}
+    names = list(variants)
+    for r in range(args.rounds):
+        for k in names[r % len(names):] + names[:r % len(names)]:
+            fn = variants[k]
+            t0 = time.perf_counter()
+            for _ in range(args.steps):
+                fn()
+            times[k].append((time.perf_counter() - t0) / (args.steps * B) * 1e6)
+    ref = BatchedExplicit(bp, *scenes)
+    ref.set_state(u0, np.zeros_like(u0))
+    for _ in range(it.step_count):
+        ref.step()
+    same = bool(np.array_equal(ref.u, it.u))
+    for k, x in times.items():
+        print(f"{args.tag} {args.npz.name} B={B} {k}: median {statistics.median(x):.1f} "
+              f"min {min(x):.1f} max {max(x):.1f} us/scene-step ({args.rounds} rounds x "
+              f"{args.steps} steps); state same bits as today's kernel alone: {same}",
+              flush=True)
+
+
+if __name__ == "__main__":
+    main()
