@@ -23,8 +23,9 @@ steady states + perturbations of a few scenes (their d, R Omega dt, f), tiled to
 and checks it against the CPU numba kernel on the same scenes (max |difference|; 0 = same
 bits). Without ``--observe`` every step is a lean one (v, a, K u not stored, as an unsampled
 step of a sweep); ``--full`` stores them at every step (as a sampled step); ``--observe``
-adds the batch observers (samples every ``every`` steps, probes every step). Peak RSS per
-scene is printed for ``--rss B`` (a CPU batch of B scenes, observers on).
+adds the batch observers (samples every ``every`` steps, probes every step). Peak RSS of the
+process is in the ``--json`` lines (``peak_rss_mb``, CPU): one process per B, e.g.
+``--npz DIR/problem_n132.npz --B 1024 --steps 300 --observe --check 0 --json rss.jsonl``.
 """
 
 from __future__ import annotations
