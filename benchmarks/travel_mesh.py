@@ -197,8 +197,7 @@ def nested(run: Path, a: argparse.Namespace) -> None:
                         lo_, hi_, mem_ = wave_band(st.prob, got, k, rel_step=0.002,
                                                    max_steps=60, bisections=3, max_iter=30)
                         att["band_m_s"] = [lo_ * R, hi_ * R]
-                        att["amplitude_m"] = [float(max(x.W_r.max() - st.prob.d,
-                                                        0.5 * np.ptp(x.W_t))) for x in mem_]
+                        att["amplitude_m"] = [D.member_amplitude(st, x) for x in mem_]
                         found.append((max(abs(lo_), abs(hi_)), got))
                     else:
                         found.append((abs(got.omega), got))
@@ -228,9 +227,7 @@ def nested(run: Path, a: argparse.Namespace) -> None:
                    band_m_s=[lo * R, hi * R], members=len(members),
                    fast=_edge(st, fast, k) | {"violated_beyond": beyond["fast"]},
                    slow=_edge(st, slow, k) | {"violated_beyond": beyond["slow"]},
-                   member_table=[[m.omega * R, float(max(m.W_r.max() - st.prob.d,
-                                                         0.5 * np.ptp(m.W_t)))]
-                                 for m in members],
+                   member_table=[[m.omega * R, D.member_amplitude(st, m)] for m in members],
                    cpu_s=time.process_time() - c0, wall_s=time.time() - w0)
         print(json.dumps(rec), flush=True)
         if a.tau_scales and level == len(a.levels):
@@ -259,7 +256,7 @@ def damping_path(scene, start, n: int, k: int, tau: float, a: argparse.Namespace
                                rel_step=0.001, max_steps=10, max_iter=30)
             lo, hi, mem = wave_band(st.prob, cur, k, rel_step=0.002, max_steps=60,
                                     bisections=a.bisections, max_iter=30)
-            amp = [float(max(x.W_r.max() - st.prob.d, 0.5 * np.ptp(x.W_t))) for x in mem]
+            amp = [D.member_amplitude(st, x) for x in mem]
             rec.update(status="converged", band_m_s=[lo * R, hi * R],
                        amplitude_m=[min(amp), max(amp)], members=len(mem))
             # next τ from the band's middle member (an edge member is marginal by definition)

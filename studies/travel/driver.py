@@ -35,7 +35,7 @@ from studies.travel.newton import (
 )
 
 __all__ = ["TravelResult", "Setup", "band", "setup", "start_from_run", "start_from_reduced",
-           "prolong", "solve_scene", "measure"]
+           "prolong", "solve_scene", "measure", "member_amplitude"]
 
 Array = NDArray[np.float64]
 
@@ -228,6 +228,13 @@ def measure(st: Setup, sol: TravelSolution, k: int) -> tuple[dict, dict[str, Arr
     return summary, profiles
 
 
+def member_amplitude(st: Setup, sol: TravelSolution) -> float:
+    """A band member's amplitude (m): the larger of the peak lift-off W_r − d and half the
+    peak-to-peak tangential displacement W_θ (the band tables' measure; cheaper than
+    ``measure``, which analyses the wave like ``stickslip run``)."""
+    return float(max(sol.W_r.max() - st.prob.d, 0.5 * np.ptp(sol.W_t)))
+
+
 def band(st: Setup, sol: TravelSolution, k: int) -> dict:
     """Speeds (m/s) over which the wave's family stays admissible, with ψ and amplitude ranges
     (``studies.travel.newton.wave_band``; the discrete waves are not isolated in ω)."""
@@ -240,7 +247,7 @@ def band(st: Setup, sol: TravelSolution, k: int) -> dict:
     zs = [zone_lengths(st.prob, m) for m in members]
     p1 = [z["separation"] for z in zs]
     p2 = [z["separation"] + z["stick"] for z in zs]
-    amp = [float(max(m.W_r.max() - st.prob.d, 0.5 * np.ptp(m.W_t))) for m in members]
+    amp = [member_amplitude(st, m) for m in members]
     # members in order of celerity (m/s): the selection question is where on this list the
     # transient's wave sits (docs/travelling_waves.md, "selection")
     table = sorted(zip([m.omega * R for m in members], amp, p1, p2, strict=True))
