@@ -273,6 +273,8 @@ def main() -> None:
                     help="store v, a, K u at every step (diag = True), as a sampled step")
     ap.add_argument("--json", type=Path, help="append the npz results to this file")
     args = ap.parse_args()
+    if args.rounds < 1:
+        ap.error(f"--rounds {args.rounds}: give at least 1")
     if args.dump:
         dump(args.dump, args.n)
         return
