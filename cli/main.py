@@ -130,8 +130,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 2
     try:
         return int(args.func(args) or 0)
-    except KeyboardInterrupt:
-        print("stickslip: interrupted", file=sys.stderr)
+    except KeyboardInterrupt as stop:  # a handler may say what it kept (its message)
+        print(f"stickslip: interrupted{f' {stop}' if str(stop) else ''}", file=sys.stderr)
         return 130
     except (OSError, UnicodeDecodeError, MemoryError) as err:
         print(f"error: {_last_resort(err)}", file=sys.stderr, flush=True)

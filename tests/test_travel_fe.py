@@ -135,6 +135,31 @@ def test_travel_failure_exits_1_and_writes_no_wave(tmp_path):
     assert not (out / "profiles.npz").exists()
 
 
+def test_interrupted_continuation_keeps_the_points_solved(tmp_path, monkeypatch, capsys):
+    """Ctrl-C during ``--continue`` (KeyboardInterrupt in the third solve): exit 130, one line
+    naming how many points are kept, and branch.json holds the two points already solved."""
+    from studies.travel import driver as D
+
+    solve = D.solve_scene
+    calls = []
+
+    def interrupt_third(*a, **kw):
+        calls.append(1)
+        if len(calls) == 3:
+            raise KeyboardInterrupt
+        return solve(*a, **kw)
+
+    monkeypatch.setattr(D, "solve_scene", interrupt_third)
+    out = tmp_path / "branch"
+    rc = main(["travel", SCENE, "--set", "mesh.n_inner=36", "--k", "4", "--celerity", "-2300",
+               "--fixed-omega", "--continue", "loading.omega=40:42:5", "-o", str(out)])
+    assert rc == 130
+    assert "interrupted after 2 of 5 points" in capsys.readouterr().err
+    rows = json.loads((out / "branch.json").read_text())
+    assert [r["value"] for r in rows] == [40.0, 40.5]
+    assert all(r["status"] == "converged" for r in rows)
+
+
 def test_travel_converged_wave_summary(tmp_path):
     out = tmp_path / "ok"
     rc = main(["travel", SCENE, "--set", "mesh.n_inner=36", "--k", "4", "--celerity",

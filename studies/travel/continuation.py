@@ -25,12 +25,36 @@ REUSE_KEYS = ("loading.omega", "loading.f", "geometry.delta")
 
 def run_continuation(scene: Scene, args: argparse.Namespace, key: str, values: list[float],
                      out: Path, t0: float) -> int:
-    """Follow the branch; write branch.json/csv (+ branch.png); exit 0 if any point solved."""
-    from studies.travel import driver as D
-    from studies.travel.newton import NotConverged
+    """Follow the branch; write branch.json/csv (+ branch.png); exit 0 if any point solved.
+    Interrupted (Ctrl-C), it writes the points solved so far and re-raises."""
     from studies.travel.output import plot_branch, write_branch
 
     rows: list[dict] = []
+    try:
+        _follow(scene, args, key, values, rows)
+    except KeyboardInterrupt as stop:  # keep the points already solved; exit 130 (cli.main)
+        if not rows:
+            raise
+        write_branch(out, rows)
+        raise KeyboardInterrupt(f"after {len(rows)} of {len(values)} points; those are in "
+                                f"{out / 'branch.json'}") from stop
+    write_branch(out, rows)
+    if args.plot:
+        print(f"figure: {plot_branch(out, rows, key)}")
+    ok = sum(r["status"] == "converged" for r in rows)
+    print(f"{ok}/{len(rows)} points converged -> {out}  ({time.perf_counter() - t0:.1f} s)")
+    if ok == 0:
+        print("error: no point of the branch converged", file=sys.stderr)
+        return 1
+    return 0
+
+
+def _follow(scene: Scene, args: argparse.Namespace, key: str, values: list[float],
+            rows: list[dict]) -> None:
+    """Solve each point from the last converged one, appending a row per point to ``rows``."""
+    from studies.travel import driver as D
+    from studies.travel.newton import NotConverged
+
     st = None
     W, om = None, None
     for val in values:
@@ -68,12 +92,3 @@ def run_continuation(scene: Scene, args: argparse.Namespace, key: str, values: l
         if row["status"] != "converged" and rows[:-1] and rows[-2]["status"] == "converged":
             print(f"branch lost between {key} = {rows[-2]['value']:g} and {val:g}: "
                   f"{row.get('violated')}")
-    write_branch(out, rows)
-    if args.plot:
-        print(f"figure: {plot_branch(out, rows, key)}")
-    ok = sum(r["status"] == "converged" for r in rows)
-    print(f"{ok}/{len(rows)} points converged -> {out}  ({time.perf_counter() - t0:.1f} s)")
-    if ok == 0:
-        print("error: no point of the branch converged", file=sys.stderr)
-        return 1
-    return 0
