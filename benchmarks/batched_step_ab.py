@@ -64,19 +64,25 @@ def main() -> None:
     dt, b2 = it.dt, it.beta2
     coef = (b2 * dt, 0.5 * dt, (0.5 - b2) * dt, b2 == 0.5, dt, it.kappa, 1.0 / it.kappa)
 
-    def old_step() -> None:
+    # an old kernel from before the lean steps takes 36 arguments, a later one 38 (diag, keep)
+    lean_old = old is not None and old.py_func.__code__.co_argcount == 38
+
+    def old_step(diag: bool = True) -> None:
         cur, nxt = it.cur, 1 - it.cur
+        tail = (diag, it.keep) if lean_old else ()
         old(it.indptr, it.indices, it.data, it._u[cur], it._u[nxt], it.v, it.v_pred, it.a,
             it.ku, it.nim, *coef, it.cx, it.ph_re, it.ph_im, it.pc_re, it.pc_im, it.cmass,
             it.cinv, it.d, it.slide, it.f, it.r_r, it.r_t, it.r_x, it.r_y, it.status,
-            it.zprev, it.work, it.acc, it.cslot)
+            it.zprev, it.work, it.acc, it.cslot, *tail)
         it.cur = nxt
         it.step_count += 1
 
     variants = {"full": lambda: it.step(diag=True), "lean": lambda: it.step(diag=False)}
     if old is not None:
         old_step()  # load / compile
-        variants = {"old": old_step, **variants}
+        olds = ({"old full": old_step, "old lean": lambda: old_step(False)} if lean_old
+                else {"old": old_step})
+        variants = {**olds, **variants}
     times: dict[str, list[float]] = {k: [] for k in variants}
     names = list(variants)
     for r in range(args.rounds):

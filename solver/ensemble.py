@@ -139,7 +139,7 @@ class BatchedExplicit:
         self.status = xp.zeros((m, B), dtype=np.int8)
         self.zprev = z(m, 2, B)
         self.work = z(3, B)
-        self.acc = z(4, B)  # the numba kernel's per-node scratch (and work sums)
+        self.acc = z(4, B)  # the numba kernel's scratch (a*_n of a block of nodes, work sums)
         self.time = 0.0
         self.step_count = 0
         self.compile_s = 0.0
@@ -149,9 +149,11 @@ class BatchedExplicit:
         self.cslot = dev(slot)  # contact index of each node, -1 off the contact circle
         self.keep = xp.zeros(n // 2, dtype=np.int8)  # nodes whose v, a, K u are always stored
         if kernel == "numba":
+            from solver.fused import _kernels
             from solver.fused import kernel as get_kernel
 
             self._fn = get_kernel("batched_step")
+            self.acc = z(max(4, 2 * _kernels().NODE_BLOCK), B)
         elif kernel == "cuda":
             self._cuda_setup()
         else:
@@ -203,7 +205,7 @@ class BatchedExplicit:
         time level is sampled (``BatchRecorder.due``). The xp reference always writes."""
         cur, nxt = self.cur, 1 - self.cur
         if self.kernel == "numba":
-            from solver.fused import timed_first_call
+            from solver.fused import slp_vectorize, timed_first_call
 
             dt, b2 = self.dt, self.beta2
             args = (self.indptr, self.indices, self.data, self._u[cur], self._u[nxt], self.v,
@@ -214,7 +216,8 @@ class BatchedExplicit:
                     self.status, self.zprev, self.work, self.acc, self.cslot, bool(diag),
                     self.keep)
             if self.step_count == 0:
-                timed_first_call("batched_step", self._fn, *args)
+                with slp_vectorize():
+                    timed_first_call("batched_step", self._fn, *args)
                 from solver.fused import COMPILE_SECONDS
 
                 self.compile_s = COMPILE_SECONDS["batched_step"]

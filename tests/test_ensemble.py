@@ -184,6 +184,28 @@ def test_batched_kernel_equals_the_single_scene_kernel_bitwise_for_any_batch_siz
     np.testing.assert_array_equal(alone.u[:, 0], integ.u[:, 2])
 
 
+def test_register_passes_and_single_columns_give_the_single_scene_bits():
+    """A 7-scene batch runs one 4-scene register pass (``half_product4``, SLP-vectorised)
+    and 3 single columns (``pair_product_col``) per node, over node blocks whose last one
+    is partial: every column is the fused single-scene run's bits (u, v~, statuses, works),
+    lean steps (diag = False) included. Exact equality: same operations in the same order
+    (docs/performance.md, 'Batches')."""
+    extra = [("loading.omega=35.0",), ("geometry.delta=0.0008",), ("loading.f=0.2",)]
+    integ, sims = _batch(VARIANTS + extra)
+    from solver.fused import _kernels
+
+    assert integ.B == 7 and (integ.n // 2) % _kernels().NODE_BLOCK != 0
+    for n in range(120):
+        integ.step(diag=n % 5 == 0)
+        for s in sims:
+            s.integrator.step()
+    for b, s in enumerate(sims):
+        np.testing.assert_array_equal(integ.u[:, b], s.integrator.u)
+        np.testing.assert_array_equal(integ.v_pred[:, b], s.integrator.v_pred)
+        np.testing.assert_array_equal(integ.status[:, b], s.projection.out.status)
+        np.testing.assert_array_equal(integ.work[:, b], s.integrator.work)
+
+
 def test_lean_steps_keep_the_state_bitwise_and_store_outputs_when_asked():
     """Steps with ``diag = False`` (not sampled) store v_n, a_n, K u_n only at the
     ``keep_nodes`` (probes) but leave the state untouched: sampled every 3rd step, 250
