@@ -293,12 +293,13 @@ def batched_step(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
                         ai = acc[k + r, b]
                         a[i + r, b] = ai
                         v[i + r, b] = ai * c_v + vp[i + r, b]
-        # Newmark on the block's rows: v_n, w, u_{n+1}, v~_{n+1} (elementwise, one flat loop)
-        q0 = 2 * g0 * nb
-        q1 = 2 * g1 * nb
+        # Newmark on the block's rows: v_n, w, u_{n+1}, v~_{n+1} (elementwise, one flat loop;
+        # unsigned q: a signed index's wrap-around test would stop it vectorising, 3.7x)
+        q0 = numba.uint64(2 * g0 * nb)
         if diag:
-            for q in range(q0, q1):
-                ai = acc_f[q - q0]
+            for t in range(2 * (g1 - g0) * nb):
+                q = q0 + numba.uint64(t)
+                ai = acc_f[t]
                 vi = ai * c_v + vp_f[q]
                 a_f[q] = ai
                 v_f[q] = vi
@@ -306,8 +307,9 @@ def batched_step(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
                 un_f[q] = w * dt + u_f[q]
                 vp_f[q] = w if b2_half else w + ai * c_p
         else:
-            for q in range(q0, q1):
-                ai = acc_f[q - q0]
+            for t in range(2 * (g1 - g0) * nb):
+                q = q0 + numba.uint64(t)
+                ai = acc_f[t]
                 w = ai * c_w + (ai * c_v + vp_f[q])
                 un_f[q] = w * dt + u_f[q]
                 vp_f[q] = w if b2_half else w + ai * c_p
