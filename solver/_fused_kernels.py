@@ -212,12 +212,13 @@ def batched_step(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
     """The same step on (n, B) arrays: column b is scene b (per-scene d, slide, f).
 
     One pass over the nodes, in blocks of ``NODE_BLOCK`` nodes: the (x, y) rows of K u for
-    all B scenes (one read of the row for the whole batch, 4 scenes per register pass:
-    ``pair_product4``) and a*_n = -M^{-1} K u_n into the scratch ``acc`` (2 NODE_BLOCK, B),
-    the contact projection at the block's contact nodes (``cslot`` >= 0), then the Newmark
-    update of the block's rows as one flat loop of 2 NODE_BLOCK B elements (a loop that long
-    vectorises; one per node, B long, would pay the vector loop's set-up per node). Valid
-    because a node's update reads only u_n (never u_{n+1}) and its own v~_n, a_n.
+    all B scenes (one read of the row for the whole batch; 4 scenes per register pass,
+    ``half_product4``, the last B mod 4 one by one, ``pair_product_col``) and
+    a*_n = -M^{-1} K u_n into the scratch ``acc`` (2 NODE_BLOCK, B), the contact projection
+    at the block's contact nodes (``cslot`` >= 0), then the Newmark update of the block's
+    rows as one flat loop of 2 NODE_BLOCK B elements (a loop that long vectorises; one per
+    node, B long, would pay the vector loop's set-up per node). Valid because a node's
+    update reads only u_n (never u_{n+1}) and its own v~_n, a_n.
 
     Only u_{n+1} and v~_{n+1} are state. v_n, a_n and K u_n are outputs read by the
     observers alone, so they are stored only when ``diag`` (a sampled step) or at the

@@ -121,7 +121,7 @@ def kernel(name: str):
 def slp_vectorize() -> Iterator[None]:
     """Compile inside this block with LLVM's SLP vectoriser on (numba's default is off).
 
-    ``batched_step`` keeps 4 scenes' partial sums in scalar locals (``pair_product4``);
+    ``batched_step`` keeps 4 scenes' partial sums in scalar locals (``half_product4``);
     only the SLP vectoriser packs them into 4-wide registers (the loop vectoriser cannot:
     the lanes are not a loop). numba reads ``config.SLP_VECTORIZE`` when it builds the
     pass pipeline of a compilation, so the flag is set around the kernel's first call and
