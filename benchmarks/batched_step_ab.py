@@ -6,15 +6,19 @@ step the same (n, B) arrays in the same process, in alternating rounds of ``--st
 (order rotated each round), and the median per kernel is printed. Variants:
 
 * ``old``: the kernel of an earlier commit, from a file (``--old``), called with its own
-  arguments (before the lean steps: it stores v_n, a_n, K u_n at every step);
+  arguments: before the lean steps (36 arguments) it stores v_n, a_n, K u_n at every step;
+  a later one (38 arguments: ``diag``, ``keep``) runs as ``old full`` and ``old lean``.
+  It is compiled as numba compiles by default (SLP vectoriser off);
 * ``full``: today's kernel with ``diag = True`` at every step (a sampled step);
 * ``lean``: today's kernel with ``diag = False`` (an unsampled step: v_n, a_n, K u_n not
-  stored).
+  stored). Today's kernel is compiled as the sweep compiles it (``BatchedExplicit.step``:
+  SLP on for its first call, ``solver.fused.slp_vectorize``).
 
-All three compute the same state bitwise (checked at the end against a fresh run of today's
-kernel), so they may share the arrays. Example (run two at once for the 2-rank case)::
+All compute the same state bitwise (checked at the end against a fresh run of today's
+kernel), so they may share the arrays. Examples (run two at once for the 2-rank case)::
 
-    git show 202fb9c:solver/_fused_kernels.py > /tmp/old_kernels.py
+    git show 202fb9c:solver/_fused_kernels.py > /tmp/old_kernels.py     # before lean steps
+    git show main:solver/_fused_kernels.py > /tmp/main_kernels.py       # lean steps, main
     ./dev python3 benchmarks/batched_step_ab.py DIR/problem_n528.npz --old /tmp/old_kernels.py --B 8
 """
 
