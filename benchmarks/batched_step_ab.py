@@ -53,6 +53,8 @@ def main() -> None:
     ap.add_argument("--steps", type=int, default=100, help="steps per round and kernel")
     ap.add_argument("--rounds", type=int, default=9)
     ap.add_argument("--tag", default="", help="label printed with each line")
+    ap.add_argument("--today", choices=("auto", "batched_step", "batched_step_long"),
+                    default="auto", help="today's kernel: as the sweep picks it by B, or forced")
     args = ap.parse_args()
 
     with np.load(args.npz) as z:
@@ -62,6 +64,10 @@ def main() -> None:
     u0 = _tile(extra["u0"], B)
     scenes = (_tile(extra["d"], B), _tile(extra["slide"], B), _tile(extra["f"], B))
     it = BatchedExplicit(bp, *scenes)
+    if args.today != "auto":
+        from solver.fused import kernel
+
+        it._name, it._fn = args.today, kernel(args.today)
     it.set_state(u0, np.zeros_like(u0))
     it.step()  # load / compile today's kernel
     old = _old_kernel(args.old) if args.old else None
@@ -102,7 +108,9 @@ def main() -> None:
         ref.step()
     same = bool(np.array_equal(ref.u, it.u))
     for k, x in times.items():
-        print(f"{args.tag} {args.npz.name} B={B} {k}: median {statistics.median(x):.1f} "
+        name = k if k.startswith("old") else f"{k} ({it._name})"
+        print(f"{args.tag} {args.npz.name} B={B} {name}: "
+              f"median {statistics.median(x):.1f} "
               f"min {min(x):.1f} max {max(x):.1f} us/scene-step ({args.rounds} rounds x "
               f"{args.steps} steps); state same bits as today's kernel alone: {same}",
               flush=True)

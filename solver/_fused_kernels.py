@@ -13,8 +13,12 @@ import numpy as np
 
 SEPARATION, STICK, SLIP = 0, 1, 2
 U1, U2, U3 = np.uint64(1), np.uint64(2), np.uint64(3)  # unsigned offsets: no wrap-around test
-#: nodes per block of ``batched_step``: its scratch ``acc`` is (2 NODE_BLOCK, B)
+#: nodes per block of ``batched_step``: its scratch ``acc`` is (2 NODE_BLOCK, B) at least
 NODE_BLOCK = 32
+#: from this B on the batch runs ``batched_step_long`` (B-long vector loops) instead of
+#: ``batched_step`` (4-scene register passes): at N = 528 the passes are 1.7x faster at
+#: B = 8 and 1.2x slower at B = 16 (benchmarks/batched_step_ab.py; docs/performance.md)
+LONG_B = 16
 
 jit = numba.njit(cache=True, nogil=True, fastmath=False, error_model="numpy")
 inline = numba.njit(inline="always", cache=True, fastmath=False, error_model="numpy")
@@ -315,7 +319,8 @@ def batched_step(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
                 un_f[q] = w * dt + u_f[q]
                 vp_f[q] = w if b2_half else w + ai * c_p
     # work sums: per scene, over the contact nodes in order (as single_step); scene-outer so
-    # that the three sums stay in registers
+    # that the three sums stay in registers (a B-long loop per contact node would pay its
+    # vector loop's set-up per node)
     for b in range(nb):
         sc = 0.0
         st_ = 0.0
@@ -335,6 +340,140 @@ def batched_step(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
             wc = srt * slide[b]
             work[1, b] += wc
             work[2, b] += wc - 0.5 * st_
+
+
+@jit
+def batched_step_long(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
+                      c_v, c_w, c_p, b2_half, dt, kappa, inv_kappa,
+                      cx, ph_re, ph_im, pc_re, pc_im, cmass, cinv,
+                      d, slide, f, r_r, r_t, r_x, r_y, status, zprev, work, acc, cslot,
+                      diag, keep):
+    """``batched_step`` for long batches (B >= LONG_B; ``acc`` (4, B) at least): same
+    arguments, same operations in the same order per scene, hence the same bits.
+
+    K u is formed term-outer: for each term of the node's two rows one B-long vector loop
+    adds it to partial sums kept in ``acc``. With B long that loop's set-up is paid once per
+    B scenes and its body vectorises; with B short (8) the set-up dominates and the
+    register passes of ``batched_step`` are faster (docs/performance.md, "Batches"). This is
+    the kernel ``batched_step`` was before (commit 171b587):
+
+    One pass over the nodes: the (x, y) rows of K u for all B scenes (one read of the row
+    for the whole batch), the contact projection if the node is a contact node
+    (``cslot`` >= 0), then the Newmark update of the node. Valid because a node's update
+    reads only u_n (never u_{n+1}) and its own v~_n, a_n.
+
+    Only u_{n+1} and v~_{n+1} are state. v_n, a_n and K u_n are outputs read by the
+    observers alone, so they are stored only when ``diag`` (a sampled step) or at the
+    nodes with ``keep[node] != 0`` (probes); otherwise they stay in the (4, B) scratch
+    ``acc``: 3 of the 6 (n, B) arrays the step would write are not touched, and the
+    batch's working set (u_n, u_{n+1}, v~, K) is half as large. Same operations in the same
+    order either way: the state's bits do not depend on ``diag``.
+    """
+    n_rows, nb = u.shape
+    # scratch rows of the node's two dofs: even-term partial sums, then a_n (e0, e1);
+    # odd-term partial sums (o0, o1). 2-D indexing only: a row view (u[col]) would cost a
+    # reference-count update per use
+    e0, e1, o0, o1 = acc[0], acc[1], acc[2], acc[3]
+    for i in range(0, n_rows, 2):
+        a0 = indptr[i]
+        a1 = indptr[i + 1]
+        ln = a1 - a0
+        for b in range(nb):
+            e0[b] = 0.0
+            e1[b] = 0.0
+            o0[b] = 0.0
+            o1[b] = 0.0
+        for t in range(ln):  # same order as pair_product: even terms, odd terms, then sum
+            col = indices[a0 + t]
+            d0 = data[a0 + t]
+            d1 = data[a1 + t]
+            if t % 2 == 0:
+                for b in range(nb):
+                    ub = u[col, b]
+                    e0[b] += d0 * ub
+                    e1[b] += d1 * ub
+            else:
+                for b in range(nb):
+                    ub = u[col, b]
+                    o0[b] += d0 * ub
+                    o1[b] += d1 * ub
+        n0 = nim[i]
+        n1 = nim[i + 1]
+        write = diag or keep[i // 2] != 0
+        if write:
+            for b in range(nb):
+                s0 = e0[b] + o0[b]
+                s1 = e1[b] + o1[b]
+                ku[i, b] = s0
+                ku[i + 1, b] = s1
+                e0[b] = s0 * n0
+                e1[b] = s1 * n1
+        else:
+            for b in range(nb):
+                e0[b] = (e0[b] + o0[b]) * n0
+                e1[b] = (e1[b] + o1[b]) * n1
+        j = cslot[i // 2]
+        if j >= 0:
+            inv_m = cinv[j]
+            stiff = cmass[j] * inv_kappa
+            for b in range(nb):
+                ux = u[i, b]
+                uy = u[i + 1, b]
+                now_r = ux * pc_re[j] - uy * pc_im[j]
+                now_t = ux * pc_im[j] + uy * pc_re[j]
+                tx = vp[i, b] * dt + e0[b] * kappa
+                ty = vp[i + 1, b] * dt + e1[b] * kappa
+                tr = (tx * pc_re[j] - ty * pc_im[j]) + now_r
+                tt = (tx * pc_im[j] + ty * pc_re[j]) + now_t
+                rr, rt, st = project(tr, tt, now_t, stiff, d[b], slide[b], f[b])
+                r_r[j, b] = rr
+                r_t[j, b] = rt
+                status[j, b] = st
+                rx = rr * ph_re[j] - rt * ph_im[j]
+                ry = rr * ph_im[j] + rt * ph_re[j]
+                r_x[j, b] = rx
+                r_y[j, b] = ry
+                e0[b] = e0[b] + rx * inv_m
+                e1[b] = e1[b] + ry * inv_m
+        for r in range(2):  # a_n of row i + r is acc[r] (e0, e1)
+            row = i + r
+            if write:
+                for b in range(nb):
+                    ai = acc[r, b]
+                    vi = ai * c_v + vp[row, b]
+                    a[row, b] = ai
+                    v[row, b] = vi
+                    w = ai * c_w + vi
+                    u_next[row, b] = w * dt + u[row, b]
+                    vp[row, b] = w if b2_half else w + ai * c_p
+            else:
+                for b in range(nb):
+                    ai = acc[r, b]
+                    w = ai * c_w + (ai * c_v + vp[row, b])
+                    u_next[row, b] = w * dt + u[row, b]
+                    vp[row, b] = w if b2_half else w + ai * c_p
+    # work sums: per scene, over the nodes in order (as single_step)
+    sc, st_, srt = acc[0], acc[1], acc[2]  # scratch, no allocation per step
+    sc[:] = 0.0
+    st_[:] = 0.0
+    srt[:] = 0.0
+    for j in range(cx.size):
+        ix = cx[j]
+        for b in range(nb):
+            dzx = u_next[ix, b] - zprev[j, 0, b]
+            dzy = u_next[ix + 1, b] - zprev[j, 1, b]
+            zprev[j, 0, b] = u[ix, b]
+            zprev[j, 1, b] = u[ix + 1, b]
+            sc[b] += r_x[j, b] * dzx + r_y[j, b] * dzy
+            rt = r_t[j, b]
+            st_[b] += rt * (dzx * pc_im[j] + dzy * pc_re[j])
+            srt[b] += rt
+    for b in range(nb):
+        work[0, b] += 0.5 * sc[b]
+        if f[b] > 0.0:
+            wc = srt[b] * slide[b]
+            work[1, b] += wc
+            work[2, b] += wc - 0.5 * st_[b]
 
 
 @jit

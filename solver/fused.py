@@ -113,7 +113,7 @@ def _kernels():
 
 
 def kernel(name: str):
-    """The compiled kernel ``name`` ("single_step" or "batched_step")."""
+    """The compiled kernel ``name`` ("single_step", "batched_step", "batched_step_long")."""
     return getattr(_kernels(), name)
 
 

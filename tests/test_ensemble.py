@@ -206,6 +206,30 @@ def test_register_passes_and_single_columns_give_the_single_scene_bits():
         np.testing.assert_array_equal(integ.work[:, b], s.integrator.work)
 
 
+def test_long_batches_run_the_term_outer_kernel_with_the_same_bits():
+    """From B = LONG_B on, ``batched_step_long`` (B-long vector loops) runs instead of the
+    register passes: a batch of the 4 variants 4 times over (B = 16) gives, column by
+    column, the 4-scene batch's bits (itself the single-scene runs', tests above), lean
+    steps included."""
+    from solver.ensemble import BatchedExplicit
+    from solver.fused import _kernels
+
+    small, _ = _batch(VARIANTS)
+    reps = _kernels().LONG_B // 4
+    big = BatchedExplicit(small.bp, d=np.tile(small.d, reps), slide=np.tile(small.slide, reps),
+                          f=np.tile(small.f, reps))
+    big.set_state(np.tile(small.u, reps), np.zeros((small.n, 4 * reps)))
+    assert big._name == "batched_step_long" and small._name == "batched_step"
+    for n in range(120):
+        big.step(diag=n % 5 == 0)
+        small.step(diag=n % 5 == 0)
+    for b in range(4 * reps):
+        np.testing.assert_array_equal(big.u[:, b], small.u[:, b % 4])
+        np.testing.assert_array_equal(big.v_pred[:, b], small.v_pred[:, b % 4])
+        np.testing.assert_array_equal(big.status[:, b], small.status[:, b % 4])
+        np.testing.assert_array_equal(big.work[:, b], small.work[:, b % 4])
+
+
 def test_lean_steps_keep_the_state_bitwise_and_store_outputs_when_asked():
     """Steps with ``diag = False`` (not sampled) store v_n, a_n, K u_n only at the
     ``keep_nodes`` (probes) but leave the state untouched: sampled every 3rd step, 250
