@@ -133,7 +133,10 @@ def slp_vectorize() -> Iterator[None]:
     """
     from numba.core import config
 
-    old = config.SLP_VECTORIZE
+    old = getattr(config, "SLP_VECTORIZE", None)
+    if old is None:  # a numba without the flag: compile as it does (slower, same bits)
+        yield
+        return
     config.SLP_VECTORIZE = 1
     try:
         yield
