@@ -310,3 +310,19 @@ def test_sweep_file_batch_and_backend_keys(tmp_path):
         path.write_text(bad + "\n" + text)
         with pytest.raises(SweepError, match="batch|backend"):
             load_sweep(path)
+
+
+def test_slp_flag_is_set_for_the_first_call_only():
+    """``slp_vectorize`` turns numba's SLP vectoriser on inside the block (the batch kernel's
+    first call) and restores the process-wide default after it, also on an error."""
+    from numba.core import config
+
+    from solver.fused import slp_vectorize
+
+    before = config.SLP_VECTORIZE
+    with slp_vectorize():
+        assert config.SLP_VECTORIZE == 1
+    assert config.SLP_VECTORIZE == before
+    with pytest.raises(RuntimeError), slp_vectorize():
+        raise RuntimeError("compile failed")
+    assert config.SLP_VECTORIZE == before
