@@ -6,15 +6,19 @@ step the same (n, B) arrays in the same process, in alternating rounds of ``--st
 (order rotated each round), and the median per kernel is printed. Variants:
 
 * ``old``: the kernel of an earlier commit, from a file (``--old``), called with its own
-  arguments (before the lean steps: it stores v_n, a_n, K u_n at every step);
+  arguments: before the lean steps (36 arguments) it stores v_n, a_n, K u_n at every step;
+  a later one (38 arguments: ``diag``, ``keep``) runs as ``old full`` and ``old lean``.
+  It is compiled as numba compiles by default (SLP vectoriser off);
 * ``full``: today's kernel with ``diag = True`` at every step (a sampled step);
 * ``lean``: today's kernel with ``diag = False`` (an unsampled step: v_n, a_n, K u_n not
-  stored).
+  stored). Today's kernel is compiled as the sweep compiles it (``BatchedExplicit.step``:
+  SLP on for its first call, ``solver.fused.slp_vectorize``).
 
-All three compute the same state bitwise (checked at the end against a fresh run of today's
-kernel), so they may share the arrays. Example (run two at once for the 2-rank case)::
+All compute the same state bitwise (checked at the end against a fresh run of today's
+kernel), so they may share the arrays. Examples (run two at once for the 2-rank case)::
 
-    git show 202fb9c:solver/_fused_kernels.py > /tmp/old_kernels.py
+    git show 202fb9c:solver/_fused_kernels.py > /tmp/old_kernels.py     # before lean steps
+    git show main:solver/_fused_kernels.py > /tmp/main_kernels.py       # lean steps, main
     ./dev python3 benchmarks/batched_step_ab.py DIR/problem_n528.npz --old /tmp/old_kernels.py --B 8
 """
 
@@ -49,6 +53,8 @@ def main() -> None:
     ap.add_argument("--steps", type=int, default=100, help="steps per round and kernel")
     ap.add_argument("--rounds", type=int, default=9)
     ap.add_argument("--tag", default="", help="label printed with each line")
+    ap.add_argument("--today", choices=("auto", "batched_step", "batched_step_long"),
+                    default="auto", help="today's kernel: as the sweep picks it by B, or forced")
     args = ap.parse_args()
 
     with np.load(args.npz) as z:
@@ -58,25 +64,35 @@ def main() -> None:
     u0 = _tile(extra["u0"], B)
     scenes = (_tile(extra["d"], B), _tile(extra["slide"], B), _tile(extra["f"], B))
     it = BatchedExplicit(bp, *scenes)
+    if args.today != "auto":
+        from solver.fused import kernel
+
+        it._name, it._fn = args.today, kernel(args.today)
     it.set_state(u0, np.zeros_like(u0))
     it.step()  # load / compile today's kernel
     old = _old_kernel(args.old) if args.old else None
     dt, b2 = it.dt, it.beta2
     coef = (b2 * dt, 0.5 * dt, (0.5 - b2) * dt, b2 == 0.5, dt, it.kappa, 1.0 / it.kappa)
 
-    def old_step() -> None:
+    # an old kernel from before the lean steps takes 36 arguments, a later one 38 (diag, keep)
+    lean_old = old is not None and old.py_func.__code__.co_argcount == 38
+
+    def old_step(diag: bool = True) -> None:
         cur, nxt = it.cur, 1 - it.cur
+        tail = (diag, it.keep) if lean_old else ()
         old(it.indptr, it.indices, it.data, it._u[cur], it._u[nxt], it.v, it.v_pred, it.a,
             it.ku, it.nim, *coef, it.cx, it.ph_re, it.ph_im, it.pc_re, it.pc_im, it.cmass,
             it.cinv, it.d, it.slide, it.f, it.r_r, it.r_t, it.r_x, it.r_y, it.status,
-            it.zprev, it.work, it.acc, it.cslot)
+            it.zprev, it.work, it.acc, it.cslot, *tail)
         it.cur = nxt
         it.step_count += 1
 
     variants = {"full": lambda: it.step(diag=True), "lean": lambda: it.step(diag=False)}
     if old is not None:
         old_step()  # load / compile
-        variants = {"old": old_step, **variants}
+        olds = ({"old full": old_step, "old lean": lambda: old_step(False)} if lean_old
+                else {"old": old_step})
+        variants = {**olds, **variants}
     times: dict[str, list[float]] = {k: [] for k in variants}
     names = list(variants)
     for r in range(args.rounds):
@@ -92,7 +108,9 @@ def main() -> None:
         ref.step()
     same = bool(np.array_equal(ref.u, it.u))
     for k, x in times.items():
-        print(f"{args.tag} {args.npz.name} B={B} {k}: median {statistics.median(x):.1f} "
+        name = k if k.startswith("old") else f"{k} ({it._name})"
+        print(f"{args.tag} {args.npz.name} B={B} {name}: "
+              f"median {statistics.median(x):.1f} "
               f"min {min(x):.1f} max {max(x):.1f} us/scene-step ({args.rounds} rounds x "
               f"{args.steps} steps); state same bits as today's kernel alone: {same}",
               flush=True)

@@ -9,8 +9,16 @@ from __future__ import annotations
 import math
 
 import numba
+import numpy as np
 
 SEPARATION, STICK, SLIP = 0, 1, 2
+U1, U2, U3 = np.uint64(1), np.uint64(2), np.uint64(3)  # unsigned offsets: no wrap-around test
+#: nodes per block of ``batched_step``: its scratch ``acc`` is (2 NODE_BLOCK, B) at least
+NODE_BLOCK = 32
+#: from this B on the batch runs ``batched_step_long`` (B-long vector loops) instead of
+#: ``batched_step`` (4-scene register passes): at N = 528 the passes are 1.7x faster at
+#: B = 8 and 1.2x slower at B = 16 (benchmarks/batched_step_ab.py; docs/performance.md)
+LONG_B = 16
 
 jit = numba.njit(cache=True, nogil=True, fastmath=False, error_model="numpy")
 inline = numba.njit(inline="always", cache=True, fastmath=False, error_model="numpy")
@@ -64,6 +72,76 @@ def pair_product(indptr, indices, data, u, i):
         s0e += data[a0 + t] * c0
         s1e += data[a1 + t] * c0
     return s0e + s0o, s1e + s1o
+
+
+@jit
+def pair_product_col(indices, data, u, a0, a1, b):
+    """``pair_product`` on column b of an (n, B) u (same order; unsigned a0, a1, b)."""
+    s0e = 0.0
+    s0o = 0.0
+    s1e = 0.0
+    s1o = 0.0
+    ln = a1 - a0
+    p = a0
+    r = a1
+    end = a0 + (ln - ln % U2)
+    while p < end:
+        c0 = u[indices[p], b]
+        c1 = u[indices[p + U1], b]
+        s0e += data[p] * c0
+        s0o += data[p + U1] * c1
+        s1e += data[r] * c0
+        s1o += data[r + U1] * c1
+        p += U2
+        r += U2
+    if ln % U2 != 0:
+        c0 = u[indices[p], b]
+        s0e += data[p] * c0
+        s1e += data[r] * c0
+    return s0e + s0o, s1e + s1o
+
+
+@jit
+def half_product4(indices, data, u, p, r, end, b0):
+    """Every second term of rows i (from ``p``) and i + 1 (from ``r``) of K u, for columns
+    b0 .. b0 + 3 of an (n, B) u: the even (``p = a0``) or odd (``p = a0 + 1``) partial sums
+    of ``pair_product``, each a sequential sum from 0.0 in CSR order.
+
+    The 8 sums are scalar locals that LLVM's SLP vectoriser packs into two 4-wide
+    registers (``solver.fused.slp_vectorize``); each (column index, K value) load serves
+    4 scenes. Offsets are unsigned (uint64) so that numba emits no negative-index
+    wrap-around test. Returns (row i: b0 .. b0 + 3, row i + 1: b0 .. b0 + 3).
+    """
+    b1 = b0 + U1
+    b2 = b0 + U2
+    b3 = b0 + U3
+    x0 = 0.0
+    x1 = 0.0
+    x2 = 0.0
+    x3 = 0.0
+    y0 = 0.0
+    y1 = 0.0
+    y2 = 0.0
+    y3 = 0.0
+    while p < end:
+        c = indices[p]
+        dp = data[p]
+        dq = data[r]
+        w0 = u[c, b0]
+        w1 = u[c, b1]
+        w2 = u[c, b2]
+        w3 = u[c, b3]
+        x0 += dp * w0
+        x1 += dp * w1
+        x2 += dp * w2
+        x3 += dp * w3
+        y0 += dq * w0
+        y1 += dq * w1
+        y2 += dq * w2
+        y3 += dq * w3
+        p += U2
+        r += U2
+    return x0, x1, x2, x3, y0, y1, y2, y3
 
 
 @jit
@@ -136,6 +214,148 @@ def batched_step(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
                  d, slide, f, r_r, r_t, r_x, r_y, status, zprev, work, acc, cslot,
                  diag, keep):
     """The same step on (n, B) arrays: column b is scene b (per-scene d, slide, f).
+
+    One pass over the nodes, in blocks of ``NODE_BLOCK`` nodes: the (x, y) rows of K u for
+    all B scenes (one read of the row for the whole batch; 4 scenes per register pass,
+    ``half_product4``, the last B mod 4 one by one, ``pair_product_col``) and
+    a*_n = -M^{-1} K u_n into the scratch ``acc`` (2 NODE_BLOCK, B), the contact projection
+    at the block's contact nodes (``cslot`` >= 0), then the Newmark update of the block's
+    rows as one flat loop of 2 NODE_BLOCK B elements (a loop that long vectorises; one per
+    node, B long, would pay the vector loop's set-up per node). Valid because a node's
+    update reads only u_n (never u_{n+1}) and its own v~_n, a_n.
+
+    Only u_{n+1} and v~_{n+1} are state. v_n, a_n and K u_n are outputs read by the
+    observers alone, so they are stored only when ``diag`` (a sampled step) or at the
+    nodes with ``keep[node] != 0`` (probes). Same operations in the same order either way,
+    and the same as ``single_step`` per scene: the state's bits do not depend on ``diag``,
+    B or the block size.
+    """
+    n_rows, nb = u.shape
+    nb4 = nb - nb % 4
+    n_nodes = n_rows // 2
+    u_f = u.reshape(-1)  # flat views (C order: row-major, B per row) for the Newmark loop
+    un_f = u_next.reshape(-1)
+    vp_f = vp.reshape(-1)
+    v_f = v.reshape(-1)
+    a_f = a.reshape(-1)
+    acc_f = acc.reshape(-1)
+    for g0 in range(0, n_nodes, NODE_BLOCK):
+        g1 = min(g0 + NODE_BLOCK, n_nodes)
+        for node in range(g0, g1):
+            i = 2 * node
+            k = i - 2 * g0  # the node's x row in acc
+            a0 = numba.uint64(indptr[i])
+            a1 = numba.uint64(indptr[i + 1])
+            n0 = nim[i]
+            n1 = nim[i + 1]
+            write = diag or keep[node] != 0
+            for b0 in range(0, nb4, 4):  # 4 scenes at a time, their sums in registers
+                bu = numba.uint64(b0)
+                # pair_product's order: even terms, odd terms, then their sum
+                e = half_product4(indices, data, u, a0, a1, a1, bu)  # row i: a0 .. a1 - 1
+                o = half_product4(indices, data, u, a0 + U1, a1 + U1, a1, bu)
+                for m in range(4):
+                    s0 = e[m] + o[m]
+                    s1 = e[4 + m] + o[4 + m]
+                    if write:
+                        ku[i, b0 + m] = s0
+                        ku[i + 1, b0 + m] = s1
+                    acc[k, b0 + m] = s0 * n0
+                    acc[k + 1, b0 + m] = s1 * n1
+            for b in range(nb4, nb):  # the last nb % 4 scenes one by one
+                s0, s1 = pair_product_col(indices, data, u, a0, a1, numba.uint64(b))
+                if write:
+                    ku[i, b] = s0
+                    ku[i + 1, b] = s1
+                acc[k, b] = s0 * n0
+                acc[k + 1, b] = s1 * n1
+            j = cslot[node]
+            if j >= 0:  # a_n = a*_n + M^{-1} r_n at a contact node
+                inv_m = cinv[j]
+                stiff = cmass[j] * inv_kappa
+                for b in range(nb):
+                    ux = u[i, b]
+                    uy = u[i + 1, b]
+                    now_r = ux * pc_re[j] - uy * pc_im[j]
+                    now_t = ux * pc_im[j] + uy * pc_re[j]
+                    tx = vp[i, b] * dt + acc[k, b] * kappa
+                    ty = vp[i + 1, b] * dt + acc[k + 1, b] * kappa
+                    tr = (tx * pc_re[j] - ty * pc_im[j]) + now_r
+                    tt = (tx * pc_im[j] + ty * pc_re[j]) + now_t
+                    rr, rt, st = project(tr, tt, now_t, stiff, d[b], slide[b], f[b])
+                    r_r[j, b] = rr
+                    r_t[j, b] = rt
+                    status[j, b] = st
+                    rx = rr * ph_re[j] - rt * ph_im[j]
+                    ry = rr * ph_im[j] + rt * ph_re[j]
+                    r_x[j, b] = rx
+                    r_y[j, b] = ry
+                    acc[k, b] = acc[k, b] + rx * inv_m
+                    acc[k + 1, b] = acc[k + 1, b] + ry * inv_m
+            if write and not diag:  # a probe node: a_n and v_n (before v~ is overwritten)
+                for r in range(2):
+                    for b in range(nb):
+                        ai = acc[k + r, b]
+                        a[i + r, b] = ai
+                        v[i + r, b] = ai * c_v + vp[i + r, b]
+        # Newmark on the block's rows: v_n, w, u_{n+1}, v~_{n+1} (elementwise, one flat loop;
+        # unsigned q: a signed index's wrap-around test would stop it vectorising, 3.7x)
+        q0 = numba.uint64(2 * g0 * nb)
+        if diag:
+            for t in range(2 * (g1 - g0) * nb):
+                q = q0 + numba.uint64(t)
+                ai = acc_f[t]
+                vi = ai * c_v + vp_f[q]
+                a_f[q] = ai
+                v_f[q] = vi
+                w = ai * c_w + vi
+                un_f[q] = w * dt + u_f[q]
+                vp_f[q] = w if b2_half else w + ai * c_p
+        else:
+            for t in range(2 * (g1 - g0) * nb):
+                q = q0 + numba.uint64(t)
+                ai = acc_f[t]
+                w = ai * c_w + (ai * c_v + vp_f[q])
+                un_f[q] = w * dt + u_f[q]
+                vp_f[q] = w if b2_half else w + ai * c_p
+    # work sums: per scene, over the contact nodes in order (as single_step); scene-outer so
+    # that the three sums stay in registers (a B-long loop per contact node would pay its
+    # vector loop's set-up per node)
+    for b in range(nb):
+        sc = 0.0
+        st_ = 0.0
+        srt = 0.0
+        for j in range(cx.size):
+            ix = cx[j]
+            dzx = u_next[ix, b] - zprev[j, 0, b]
+            dzy = u_next[ix + 1, b] - zprev[j, 1, b]
+            zprev[j, 0, b] = u[ix, b]
+            zprev[j, 1, b] = u[ix + 1, b]
+            sc += r_x[j, b] * dzx + r_y[j, b] * dzy
+            rt = r_t[j, b]
+            st_ += rt * (dzx * pc_im[j] + dzy * pc_re[j])
+            srt += rt
+        work[0, b] += 0.5 * sc
+        if f[b] > 0.0:
+            wc = srt * slide[b]
+            work[1, b] += wc
+            work[2, b] += wc - 0.5 * st_
+
+
+@jit
+def batched_step_long(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
+                      c_v, c_w, c_p, b2_half, dt, kappa, inv_kappa,
+                      cx, ph_re, ph_im, pc_re, pc_im, cmass, cinv,
+                      d, slide, f, r_r, r_t, r_x, r_y, status, zprev, work, acc, cslot,
+                      diag, keep):
+    """``batched_step`` for long batches (B >= LONG_B; ``acc`` (4, B) at least): same
+    arguments, same operations in the same order per scene, hence the same bits.
+
+    K u is formed term-outer: for each term of the node's two rows one B-long vector loop
+    adds it to partial sums kept in ``acc``. With B long that loop's set-up is paid once per
+    B scenes and its body vectorises; with B short (8) the set-up dominates and the
+    register passes of ``batched_step`` are faster (docs/performance.md, "Batches"). This is
+    the kernel ``batched_step`` was before (commit 171b587):
 
     One pass over the nodes: the (x, y) rows of K u for all B scenes (one read of the row
     for the whole batch), the contact projection if the node is a contact node

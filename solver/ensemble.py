@@ -11,7 +11,8 @@ length B) and the initial state. Everything else is solver/fused.py's step, colu
 
 Backends (``kernel``):
 
-* ``"numba"`` (CPU default): ``solver._fused_kernels.batched_step``, the single-scene
+* ``"numba"`` (CPU default): ``solver._fused_kernels.batched_step`` (B < ``LONG_B``: 4-scene
+  register passes) or ``batched_step_long`` (B-long vector loops), the single-scene
   kernel's arithmetic in the same order, so a scene's numbers are *bitwise* those of
   ``stickslip run`` with ``time.kernel = "numba"``, whatever B;
 * ``"cuda"`` (``xp = cupy``): one CUDA kernel per step, thread per (node, scene), compiled with
@@ -139,7 +140,7 @@ class BatchedExplicit:
         self.status = xp.zeros((m, B), dtype=np.int8)
         self.zprev = z(m, 2, B)
         self.work = z(3, B)
-        self.acc = z(4, B)  # the numba kernel's per-node scratch (and work sums)
+        self.acc = z(4, B)  # the numba kernels' scratch (a*_n of a block of nodes, sums)
         self.time = 0.0
         self.step_count = 0
         self.compile_s = 0.0
@@ -149,9 +150,14 @@ class BatchedExplicit:
         self.cslot = dev(slot)  # contact index of each node, -1 off the contact circle
         self.keep = xp.zeros(n // 2, dtype=np.int8)  # nodes whose v, a, K u are always stored
         if kernel == "numba":
+            from solver.fused import _kernels
             from solver.fused import kernel as get_kernel
 
-            self._fn = get_kernel("batched_step")
+            # short batches: 4-scene register passes; long ones: B-long vector loops (same
+            # bits either way; solver._fused_kernels.LONG_B)
+            self._name = "batched_step" if B < _kernels().LONG_B else "batched_step_long"
+            self._fn = get_kernel(self._name)
+            self.acc = z(max(4, 2 * _kernels().NODE_BLOCK), B)
         elif kernel == "cuda":
             self._cuda_setup()
         else:
@@ -203,7 +209,7 @@ class BatchedExplicit:
         time level is sampled (``BatchRecorder.due``). The xp reference always writes."""
         cur, nxt = self.cur, 1 - self.cur
         if self.kernel == "numba":
-            from solver.fused import timed_first_call
+            from solver.fused import slp_vectorize, timed_first_call
 
             dt, b2 = self.dt, self.beta2
             args = (self.indptr, self.indices, self.data, self._u[cur], self._u[nxt], self.v,
@@ -214,10 +220,11 @@ class BatchedExplicit:
                     self.status, self.zprev, self.work, self.acc, self.cslot, bool(diag),
                     self.keep)
             if self.step_count == 0:
-                timed_first_call("batched_step", self._fn, *args)
+                with slp_vectorize():
+                    timed_first_call(self._name, self._fn, *args)
                 from solver.fused import COMPILE_SECONDS
 
-                self.compile_s = COMPILE_SECONDS["batched_step"]
+                self.compile_s = COMPILE_SECONDS[self._name]
             else:
                 self._fn(*args)
         elif self.kernel == "cuda":

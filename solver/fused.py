@@ -34,6 +34,8 @@ from __future__ import annotations
 import os
 import tempfile
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -111,8 +113,35 @@ def _kernels():
 
 
 def kernel(name: str):
-    """The compiled kernel ``name`` ("single_step" or "batched_step")."""
+    """The compiled kernel ``name`` ("single_step", "batched_step", "batched_step_long")."""
     return getattr(_kernels(), name)
+
+
+@contextmanager
+def slp_vectorize() -> Iterator[None]:
+    """Compile inside this block with LLVM's SLP vectoriser on (numba's default is off).
+
+    ``batched_step`` keeps 4 scenes' partial sums in scalar locals (``half_product4``);
+    only the SLP vectoriser packs them into 4-wide registers (the loop vectoriser cannot:
+    the lanes are not a loop). numba reads ``config.SLP_VECTORIZE`` when it builds the
+    pass pipeline of a compilation, so the flag is set around the kernel's first call and
+    restored after it; a cache load is unaffected. SLP packs identical scalar operations
+    and does not reorder floating-point ones (no fast-math), so the bits cannot change:
+    tests/test_ensemble.py checks the batch bitwise against ``single_step``, which is
+    compiled without it. (numba turned SLP off by default after LLVM miscompilations,
+    numba PR #8852; that bitwise test is the guard here.)
+    """
+    from numba.core import config
+
+    old = getattr(config, "SLP_VECTORIZE", None)
+    if old is None:  # a numba without the flag: compile as it does (slower, same bits)
+        yield
+        return
+    config.SLP_VECTORIZE = 1
+    try:
+        yield
+    finally:
+        config.SLP_VECTORIZE = old
 
 
 def timed_first_call(name: str, fn, *args):

@@ -184,6 +184,52 @@ def test_batched_kernel_equals_the_single_scene_kernel_bitwise_for_any_batch_siz
     np.testing.assert_array_equal(alone.u[:, 0], integ.u[:, 2])
 
 
+def test_register_passes_and_single_columns_give_the_single_scene_bits():
+    """A 7-scene batch runs one 4-scene register pass (``half_product4``, SLP-vectorised)
+    and 3 single columns (``pair_product_col``) per node, over node blocks whose last one
+    is partial: every column is the fused single-scene run's bits (u, v~, statuses, works),
+    lean steps (diag = False) included. Exact equality: same operations in the same order
+    (docs/performance.md, 'Batches')."""
+    extra = [("loading.omega=35.0",), ("geometry.delta=0.0008",), ("loading.f=0.2",)]
+    integ, sims = _batch(VARIANTS + extra)
+    from solver.fused import _kernels
+
+    assert integ.B == 7 and (integ.n // 2) % _kernels().NODE_BLOCK != 0
+    for n in range(120):
+        integ.step(diag=n % 5 == 0)
+        for s in sims:
+            s.integrator.step()
+    for b, s in enumerate(sims):
+        np.testing.assert_array_equal(integ.u[:, b], s.integrator.u)
+        np.testing.assert_array_equal(integ.v_pred[:, b], s.integrator.v_pred)
+        np.testing.assert_array_equal(integ.status[:, b], s.projection.out.status)
+        np.testing.assert_array_equal(integ.work[:, b], s.integrator.work)
+
+
+def test_long_batches_run_the_term_outer_kernel_with_the_same_bits():
+    """From B = LONG_B on, ``batched_step_long`` (B-long vector loops) runs instead of the
+    register passes: a batch of the 4 variants 4 times over (B = 16) gives, column by
+    column, the 4-scene batch's bits (itself the single-scene runs', tests above), lean
+    steps included."""
+    from solver.ensemble import BatchedExplicit
+    from solver.fused import _kernels
+
+    small, _ = _batch(VARIANTS)
+    reps = _kernels().LONG_B // 4
+    big = BatchedExplicit(small.bp, d=np.tile(small.d, reps), slide=np.tile(small.slide, reps),
+                          f=np.tile(small.f, reps))
+    big.set_state(np.tile(small.u, reps), np.zeros((small.n, 4 * reps)))
+    assert big._name == "batched_step_long" and small._name == "batched_step"
+    for n in range(120):
+        big.step(diag=n % 5 == 0)
+        small.step(diag=n % 5 == 0)
+    for b in range(4 * reps):
+        np.testing.assert_array_equal(big.u[:, b], small.u[:, b % 4])
+        np.testing.assert_array_equal(big.v_pred[:, b], small.v_pred[:, b % 4])
+        np.testing.assert_array_equal(big.status[:, b], small.status[:, b % 4])
+        np.testing.assert_array_equal(big.work[:, b], small.work[:, b % 4])
+
+
 def test_lean_steps_keep_the_state_bitwise_and_store_outputs_when_asked():
     """Steps with ``diag = False`` (not sampled) store v_n, a_n, K u_n only at the
     ``keep_nodes`` (probes) but leave the state untouched: sampled every 3rd step, 250
@@ -264,3 +310,19 @@ def test_sweep_file_batch_and_backend_keys(tmp_path):
         path.write_text(bad + "\n" + text)
         with pytest.raises(SweepError, match="batch|backend"):
             load_sweep(path)
+
+
+def test_slp_flag_is_set_for_the_first_call_only():
+    """``slp_vectorize`` turns numba's SLP vectoriser on inside the block (the batch kernel's
+    first call) and restores the process-wide default after it, also on an error."""
+    from numba.core import config
+
+    from solver.fused import slp_vectorize
+
+    before = config.SLP_VECTORIZE
+    with slp_vectorize():
+        assert config.SLP_VECTORIZE == 1
+    assert config.SLP_VECTORIZE == before
+    with pytest.raises(RuntimeError), slp_vectorize():
+        raise RuntimeError("compile failed")
+    assert config.SLP_VECTORIZE == before
