@@ -42,6 +42,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--band", action="store_true",
                    help="also measure the band of speeds over which the wave stays admissible "
                         "(warm-started fixed-omega solves, steps of 0.2 %%)")
+    p.add_argument("--rate", default="bdf2", metavar="SCHEME",
+                   help="material derivative in the contact law, upwind over node passages: "
+                        "bdf2 (second order, default) or bdf1 (first order: what the transient "
+                        "sees on a rigidly travelling P1 wave)")
     p.add_argument("--max-iter", type=int, default=60, help="Newton iterations (default 60)")
     p.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
                    help="override a scene field (repeatable)")
@@ -89,6 +93,11 @@ def _travel(args: argparse.Namespace) -> int:
         return _err("--celerity 0: a travelling wave needs a non-zero speed (sign = sense)")
     if args.max_iter < 1:
         return _err(f"--max-iter {args.max_iter}: must be >= 1")
+    from studies.travel.newton import RATES
+
+    if args.rate not in RATES:
+        return _err(f"--rate {args.rate}: the material-derivative scheme must be one of "
+                    f"{', '.join(RATES)}")
     try:
         scene = load_scene(args.scene, args.overrides)
         cont = parse_continue(args.cont) if args.cont else None
@@ -123,7 +132,7 @@ def _one_wave(scene, args: argparse.Namespace, out: Path, t0: float) -> int:
     from studies.travel.output import plot_profiles, write_failure, write_wave
 
     try:
-        st = D.setup(scene, args.damping)
+        st = D.setup(scene, args.damping, rate=args.rate)
         if args.from_run:
             W0, om0, info = D.start_from_run(Path(args.from_run), st)
         else:

@@ -234,12 +234,14 @@ def frame_operators(problem: TubeProblem, damping: float = 0.0,
     return FrameOperators(problem, K, G, contact, interior, theta, nd.ds_weight[order], T, C)
 
 
-def circle_problem(ops: FrameOperators, scene: Scene | None = None) -> CircleProblem:
+def circle_problem(ops: FrameOperators, scene: Scene | None = None,
+                   rate: str = "bdf2") -> CircleProblem:
     """The condensed FE problem for ``studies.travel.newton.solve_wave`` (SI units).
 
     ``scene`` (default: the one the operators were built for) may change the loading and the
-    mismatch only: K and G do not depend on them.
+    mismatch only: K and G do not depend on them. ``rate``: the material-derivative scheme
+    (``newton.RATES``).
     """
     sc = ops.problem.scene if scene is None else scene
     return CircleProblem(n=ops.n, d=sc.geometry.d, surface_speed=sc.geometry.R * sc.loading.omega,
-                         f=sc.loading.f, stiffness=ops.stiffness)
+                         f=sc.loading.f, stiffness=ops.stiffness, rate=rate)
