@@ -47,7 +47,8 @@ def main() -> None:
     ap.add_argument("--sweep", type=float, nargs=2, metavar=("C_FROM", "C_TO"),
                     help="at the finest level: fixed-ω solves from the prolonged fast-edge "
                          "member over C_FROM..C_TO m/s in steps of --step (a map of where it "
-                         "converges), instead of the nearest-wave search")
+                         "converges), instead of the nearest-wave search; without --nested: "
+                         "the same map from each run's last sample")
     ap.add_argument("--c-start", type=float, nargs="*", default=[],
                     help="per finer level, the speed (m/s) of the first fixed-ω solve from the "
                          "prolonged member (0: the member's own speed)")
@@ -83,6 +84,9 @@ def main() -> None:
                "transient_c_m_s": wave.celerity_m_s,
                "transient_amplitude_m": wave.amplitude_m, "transient_psi1": wave.psi1,
                "transient_psi2": wave.psi2, "step": a.step, "scan": a.scan}
+        if a.sweep:  # a map from the run's own last sample instead of the nearest wave
+            sweep(st, None, st.ops.n, k, a, rec, W0=W0, from_c=om0 * R)
+            continue
         try:
             sol = nearest_wave(st.prob, W0, om0, k, rel_step=a.step,
                                max_steps=int(round(a.scan / a.step)), max_iter=30)
@@ -274,16 +278,20 @@ def damping_path(scene, start, n: int, k: int, tau: float, a: argparse.Namespace
             break  # the path ends here: the row names the violated inequality
 
 
-def sweep(st, members, n: int, k: int, a: argparse.Namespace, rec: dict) -> None:
-    """Fixed-ω solves over a range of speeds, each from the same prolonged start (the coarse
-    band's fast-edge member): where does an admissible wave exist near it? JSON line."""
+def sweep(st, members, n: int, k: int, a: argparse.Namespace, rec: dict,
+          W0: np.ndarray | None = None, from_c: float | None = None) -> None:
+    """Fixed-ω solves over a range of speeds, each from the same start (the coarse band's
+    prolonged fast-edge member, or ``W0``, e.g. a run's last sample): where does an admissible
+    wave exist near it? JSON line."""
     from studies.travel import driver as D
     from studies.travel.newton import NotConverged, solve_wave
 
     R = st.scene.geometry.R
     c0, w0 = time.process_time(), time.time()
-    m = max(members, key=lambda x: abs(x.omega))
-    W0 = D.prolong(np.concatenate([m.W_r, m.W_t]), n, a.prolong)
+    if W0 is None:
+        m = max(members, key=lambda x: abs(x.omega))
+        W0 = D.prolong(np.concatenate([m.W_r, m.W_t]), n, a.prolong)
+        from_c = m.omega * R
     c_from, c_to = a.sweep
     count = int(round(abs(np.log(c_to / c_from)) / a.step)) + 1
     rows = []
@@ -299,7 +307,7 @@ def sweep(st, members, n: int, k: int, a: argparse.Namespace, rec: dict) -> None
                    "violated": err.info.get("violated"), "iterations": err.info.get("iterations")}
         rows.append(row)
         _log(f"N={n} sweep {row}")
-    rec.update(status="sweep", from_c_m_s=m.omega * R, sweep=rows,
+    rec.update(status="sweep", from_c_m_s=from_c, sweep=rows,
                cpu_s=time.process_time() - c0, wall_s=time.time() - w0)
     print(json.dumps(rec), flush=True)
 
