@@ -58,6 +58,9 @@ def main() -> None:
                          "and trace each band; stops at the first failure")
     ap.add_argument("--rate", choices=("bdf1", "bdf2"), default="bdf2",
                     help="material-derivative scheme of the contact law (newton.RATES)")
+    ap.add_argument("--pick", type=float, default=None, metavar="C_M_S",
+                    help="nested: start each finer level from the coarse member nearest this "
+                         "speed (default: the fast edge)")
     ap.add_argument("--all-starts", action="store_true",
                     help="try every start and trace each band found (default: stop at the first)")
     a = ap.parse_args()
@@ -162,8 +165,10 @@ def nested(run: Path, a: argparse.Namespace) -> None:
                 rec["attempts"].append({"c0_m_s": om0 * R, "residual": err.info.get("residual"),
                                         "violated": err.info.get("violated")})
         else:
-            # fast edge first (largest |ω|), then the others by distance from it
-            order = sorted(members, key=lambda m: -abs(m.omega))
+            # fast edge first (largest |ω|), then the others by distance from it; --pick: the
+            # member nearest that speed first
+            order = sorted(members, key=lambda m: -abs(m.omega) if a.pick is None
+                           else abs(m.omega * R - a.pick))
             picks = [order[0]] if len(order) == 1 else [
                 order[int(round(i * (len(order) - 1) / max(a.starts - 1, 1)))]
                 for i in range(min(a.starts, len(order)))]
