@@ -22,6 +22,11 @@ converged for the harmonics that carry the wave.
     into the frame equilibrium: r_m = |F_m(S(ω₀)W̄ − λ̄)| / |F_m λ̄| per harmonic, with the
     share |F_m λ̄|² / Σ of the contact force in each. r_m ≈ 0: the transient's state is a
     stationary solution of the frame equations at that harmonic.
+
+``./dev nice python3 benchmarks/travel_symbol.py law RUN --rate bdf1``
+    the run's last sample (W, and its own contact forces λ) put into the wave-frame contact
+    law of that scheme at ω₀: max_i |C_i| / (c·d) and the nodes whose status differs (the law
+    alone, without the bulk equilibrium).
 """
 
 from __future__ import annotations
@@ -83,7 +88,7 @@ def cmd_residual(a: argparse.Namespace) -> None:
     from studies.travel import driver as D
 
     sc = load_scene(str(a.run / "scene.toml"), [])
-    st = D.setup(sc, float(sc.damping.tau), lumped=a.lumped)
+    st = D.setup(sc, a.tau_scale * float(sc.damping.tau), lumped=a.lumped)
     _, om0, _ = D.start_from_run(a.run, st)
     s = load_run(a.run).samples
     o = np.argsort(s["theta"])
@@ -104,6 +109,7 @@ def cmd_residual(a: argparse.Namespace) -> None:
         ks = list(range(0, min(n // 2, a.m_max) + 1, a.k))
         rec = {"run": str(a.run), "n": n, "omega": om, "omega0": om0, "samples": a.samples,
                "span_s": float(t[-1] - t[-a.samples]), "lumped": a.lumped,
+               "tau_scale": a.tau_scale,
                "m": ks,
                "force_share": [float(np.sum(np.abs(Lf[:, k]) ** 2) / total) for k in ks],
                "residual": [float(np.linalg.norm(Rf[:, k]) / np.linalg.norm(Lf[:, k]))
@@ -113,6 +119,30 @@ def cmd_residual(a: argparse.Namespace) -> None:
               + "  ".join(f"{k}:{sh:.1e}/{r:.3f}" for k, sh, r in
                           zip(ks, rec["force_share"], rec["residual"], strict=True)),
               file=sys.stderr)
+
+
+def cmd_law(a: argparse.Namespace) -> None:
+    from postprocess.analysis import load_run
+    from solver.scene import load_scene
+    from studies.travel import driver as D
+    from studies.travel.newton import _Law
+
+    sc = load_scene(str(a.run / "scene.toml"), [])
+    st = D.setup(sc, float(sc.damping.tau), rate=a.rate)
+    W, om0, _ = D.start_from_run(a.run, st)
+    s = load_run(a.run).samples
+    o = np.argsort(s["theta"])
+    n = o.size
+    lam = np.concatenate([s["r_r"][-1][o], s["r_theta"][-1][o]])
+    c = float(np.mean(np.diag(st.prob.stiffness(0.0, False)[0])[:n]))
+    law = _Law(st.prob, c)
+    C, _ = law(W, lam, om0)
+    scale = c * sc.geometry.d
+    rec = {"run": str(a.run), "n": n, "rate": a.rate, "omega0": om0,
+           "law_residual_normal": float(np.abs(C[:n]).max() / scale),
+           "law_residual_tangential": float(np.abs(C[n:]).max() / scale),
+           "status_differs": int(np.count_nonzero(law.out.status != s["status"][-1][o]))}
+    print(json.dumps(rec), flush=True)
 
 
 def main() -> None:
@@ -130,9 +160,15 @@ def main() -> None:
     q.add_argument("--samples", type=int, default=20)
     q.add_argument("--rel-omega", type=float, nargs="+", default=[0.0])
     q.add_argument("--lumped", action="store_true")
+    q.add_argument("--tau-scale", type=float, default=1.0,
+                   help="frame damping = this × the scene's τ (a sign / size check)")
     q.add_argument("--k", type=int, default=4)
     q.add_argument("--m-max", type=int, default=64)
     q.set_defaults(func=cmd_residual)
+    w = sub.add_parser("law")
+    w.add_argument("run", type=Path)
+    w.add_argument("--rate", choices=("bdf1", "bdf2"), default="bdf2")
+    w.set_defaults(func=cmd_law)
     a = ap.parse_args()
     a.func(a)
 
