@@ -58,6 +58,9 @@ def main() -> None:
                          "and trace each band; stops at the first failure")
     ap.add_argument("--rate", choices=("bdf1", "bdf2"), default="bdf2",
                     help="material-derivative scheme of the contact law (newton.RATES)")
+    ap.add_argument("--inertia", choices=("rotation", "shift"), default="rotation",
+                    help="wave-frame operator: K - w^2 G (rotation) or the transient's own "
+                         "travelling operator (shift; frame.py)")
     ap.add_argument("--pick", type=float, default=None, metavar="C_M_S",
                     help="nested: start each finer level from the coarse member nearest this "
                          "speed (default: the fast edge)")
@@ -77,13 +80,15 @@ def main() -> None:
     for run in a.runs:
         scene = load_scene(str(run / "scene.toml"), [])
         t0 = time.process_time()
-        st = D.setup(scene, float(scene.damping.tau), lumped=a.lumped, rate=a.rate)
+        st = D.setup(scene, float(scene.damping.tau), lumped=a.lumped, rate=a.rate,
+                     inertia=a.inertia)
         W0, om0, _ = D.start_from_run(run, st)
         wave = analyse_run(run)
         k = a.k or wave.mode
         R = scene.geometry.R
         rec = {"run": str(run), "k": k, "n": st.ops.n, "dofs": int(st.ops.problem.n_global_dofs),
-               "lumped": a.lumped, "rate": a.rate, "dt_fraction": scene.time.dt_fraction,
+               "lumped": a.lumped, "rate": a.rate,
+               "inertia": a.inertia, "dt_fraction": scene.time.dt_fraction,
                "transient_c_m_s": wave.celerity_m_s,
                "transient_amplitude_m": wave.amplitude_m, "transient_psi1": wave.psi1,
                "transient_psi2": wave.psi2, "step": a.step, "scan": a.scan}
@@ -146,10 +151,11 @@ def nested(run: Path, a: argparse.Namespace) -> None:
         c0, w0 = time.process_time(), time.time()
         scene = base if level == 0 else load_scene(str(run / "scene.toml"),
                                                    [f"mesh.n_inner={n}"])
-        st = D.setup(scene, tau, lumped=a.lumped, rate=a.rate)
+        st = D.setup(scene, tau, lumped=a.lumped, rate=a.rate,
+                     inertia=a.inertia)
         rec: dict = {"run": str(run), "k": k, "n": n, "dofs": int(st.ops.problem.n_global_dofs),
                      "tau_s": tau, "beta2": scene.time.beta2, "lumped": a.lumped,
-                     "rate": a.rate,
+                     "rate": a.rate, "inertia": a.inertia,
                      "start": "run" if level == 0 else f"prolonged from N = {members_n}",
                      "prolong": a.prolong, "attempts": []}
         sol = None
@@ -260,7 +266,8 @@ def damping_path(scene, start, n: int, k: int, tau: float, a: argparse.Namespace
     cur = start
     for s in a.tau_scales:
         c0 = time.process_time()
-        st = D.setup(scene, tau * s, lumped=a.lumped, rate=a.rate)
+        st = D.setup(scene, tau * s, lumped=a.lumped, rate=a.rate,
+                     inertia=a.inertia)
         rec: dict = {"n": n, "k": k, "tau_s": tau * s, "tau_scale": s, "c0_m_s": cur.omega * R}
         try:
             # same ω first, then the nearest speed within ±1 % (0.1 % steps)

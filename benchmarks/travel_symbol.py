@@ -23,6 +23,15 @@ converged for the harmonics that carry the wave.
     share |F_m λ̄|² / Σ of the contact force in each. r_m ≈ 0: the transient's state is a
     stationary solution of the frame equations at that harmonic.
 
+``./dev nice python3 benchmarks/travel_symbol.py transient --n 132 264 --omega -2580``
+    the same symbol for the *transient's* semi-discrete equations M ü + τK u̇ + K u = r
+    (lumped M, ``solver.newmark.DampedNewmark``, continuous in time): a wave W(θ − ωt) that
+    is invariant under the mesh's discrete shift has, per discrete harmonic m, the frequency
+    −mω, so its dynamic stiffness is the contact Schur complement of
+    A_m = (1 − imωτ)K − (mω)² M, t_m(ω) = e_mᴴ S(A_m) e_m / (2π/N). The wave-frame operator
+    replaces (mω)² M by ω² G (the Galerkin form of the continuous rotation): they agree as
+    the harmonic is resolved. One JSON line per (N, ω); max|s_m − t_m| / max|t_m| on stderr.
+
 ``./dev nice python3 benchmarks/travel_symbol.py law RUN --rate bdf1``
     the run's last sample (W, and its own contact forces λ) put into the wave-frame contact
     law of that scheme at ω₀: max_i |C_i| / (c·d) and the nodes whose status differs (the law
@@ -80,6 +89,49 @@ def cmd_symbol(a: argparse.Namespace) -> None:
                    / np.abs(table[(y, om)][m]).max()
                    for x, y in pairs if m in table[(y, om)]]
             print(f"  m = {m:3d}  " + "  ".join(f"{v:9.3f}" for v in row), file=sys.stderr)
+
+
+def cmd_transient(a: argparse.Namespace) -> None:
+    import scipy.sparse as sp
+    from scipy.sparse.linalg import splu
+
+    from solver.scene import load_scene
+    from studies.travel import driver as D
+
+    for n in a.n:
+        sc = load_scene(a.scene, [f"mesh.n_inner={n}"])
+        tau = float(sc.damping.tau)
+        st = D.setup(sc, tau)
+        ops = st.ops
+        c, i = ops.contact, ops.interior
+        K = ops.K.tocsr()
+        M = sp.diags(ops.problem.mass).tocsr()
+        blocks = {name: (X[i][:, i].tocsc(), X[i][:, c].toarray(), X[c][:, i].tocsr(),
+                         X[c][:, c].toarray()) for name, X in (("K", K), ("M", M))}
+        ms = [m for m in range(a.k, a.m_max + 1, a.k) if m <= n // 2]
+        for om in a.omega:
+            t0 = time.process_time()
+            S_frame, _ = st.prob.stiffness(om, False)
+            s_f = symbols(S_frame, n, ms)
+            diff, t_sym = {}, {}
+            for m in ms:
+                fk, fm = 1.0 - 1j * m * om * tau, (m * om) ** 2
+                Kii, Kic, Kci, Kcc = blocks["K"]
+                Mii, Mic, Mci, Mcc = blocks["M"]
+                lu = splu((fk * Kii - fm * Mii).tocsc())
+                X = lu.solve((fk * Kic - fm * Mic).astype(complex))
+                S = fk * Kcc - fm * Mcc - (fk * Kci - fm * Mci) @ X
+                t_m = symbols(ops.T.T @ S @ ops.T, n, [m])[m]
+                t_sym[m] = t_m
+                diff[m] = float(np.abs(s_f[m] - t_m).max() / np.abs(t_m).max())
+            print(json.dumps({"n": n, "omega": om, "tau_s": tau,
+                              "cpu_s": time.process_time() - t0,
+                              "frame_vs_transient": diff,
+                              "transient_symbol_re_im": {m: [v.real.tolist(), v.imag.tolist()]
+                                                         for m, v in t_sym.items()}}),
+                  flush=True)
+            print(f"N = {n}, omega = {om}: max|s_m - t_m|/max|t_m|  "
+                  + "  ".join(f"{m}:{v:.3f}" for m, v in diff.items()), file=sys.stderr)
 
 
 def cmd_residual(a: argparse.Namespace) -> None:
@@ -155,6 +207,13 @@ def main() -> None:
     p.add_argument("--k", type=int, default=4)
     p.add_argument("--m-max", type=int, default=64)
     p.set_defaults(func=cmd_symbol)
+    t = sub.add_parser("transient")
+    t.add_argument("--scene", default="scenes/figure1_n132_damped.toml")
+    t.add_argument("--n", type=int, nargs="+", default=[132, 264])
+    t.add_argument("--omega", type=float, nargs="+", default=[-2580.0])
+    t.add_argument("--k", type=int, default=4)
+    t.add_argument("--m-max", type=int, default=64)
+    t.set_defaults(func=cmd_transient)
     q = sub.add_parser("residual")
     q.add_argument("run", type=Path)
     q.add_argument("--samples", type=int, default=20)

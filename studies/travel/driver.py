@@ -59,16 +59,17 @@ class TravelResult:
 
 
 def setup(scene: Scene, damping: float = 0.0, lumped: bool = False,
-          rate: str = "bdf2") -> Setup:
+          rate: str = "bdf2", inertia: str = "rotation") -> Setup:
     """Mesh, stiffness (``solver.problem``), travelling inertia (``lumped``: vertex rule,
-    ``frame.frame_operators``) and the condensed problem (``rate``: the material-derivative
-    scheme, ``newton.RATES``)."""
+    ``frame.frame_operators``; ``inertia="shift"``: the transient's own travelling operator,
+    lumped M per discrete harmonic) and the condensed problem (``rate``: the
+    material-derivative scheme, ``newton.RATES``)."""
     from solver.problem import build_problem
     from studies.travel.frame import circle_problem, frame_operators
     from studies.travel.newton import check_rate
 
     check_rate(rate)
-    ops = frame_operators(build_problem(scene), damping, lumped)
+    ops = frame_operators(build_problem(scene), damping, lumped, inertia)
     return Setup(scene, ops, circle_problem(ops, rate=rate))
 
 
