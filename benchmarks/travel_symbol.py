@@ -140,7 +140,8 @@ def cmd_residual(a: argparse.Namespace) -> None:
     from studies.travel import driver as D
 
     sc = load_scene(str(a.run / "scene.toml"), [])
-    st = D.setup(sc, a.tau_scale * float(sc.damping.tau), lumped=a.lumped)
+    st = D.setup(sc, a.tau_scale * float(sc.damping.tau), lumped=a.lumped,
+                 inertia=a.inertia)
     _, om0, _ = D.start_from_run(a.run, st)
     s = load_run(a.run).samples
     o = np.argsort(s["theta"])
@@ -161,7 +162,7 @@ def cmd_residual(a: argparse.Namespace) -> None:
         ks = list(range(0, min(n // 2, a.m_max) + 1, a.k))
         rec = {"run": str(a.run), "n": n, "omega": om, "omega0": om0, "samples": a.samples,
                "span_s": float(t[-1] - t[-a.samples]), "lumped": a.lumped,
-               "tau_scale": a.tau_scale,
+               "tau_scale": a.tau_scale, "inertia": a.inertia,
                "m": ks,
                "force_share": [float(np.sum(np.abs(Lf[:, k]) ** 2) / total) for k in ks],
                "residual": [float(np.linalg.norm(Rf[:, k]) / np.linalg.norm(Lf[:, k]))
@@ -219,6 +220,7 @@ def main() -> None:
     q.add_argument("--samples", type=int, default=20)
     q.add_argument("--rel-omega", type=float, nargs="+", default=[0.0])
     q.add_argument("--lumped", action="store_true")
+    q.add_argument("--inertia", choices=("rotation", "shift"), default="rotation")
     q.add_argument("--tau-scale", type=float, default=1.0,
                    help="frame damping = this × the scene's τ (a sign / size check)")
     q.add_argument("--k", type=int, default=4)
