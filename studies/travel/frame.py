@@ -195,9 +195,84 @@ class FrameOperators:
         Z = lu.solve(dblk("ii") @ X - dblk("ic"))
         return S, dblk("cc") - dblk("ci") @ X + Aci @ Z
 
+    def _bloch(self) -> dict:
+        """Node orbits under the Z_N rotation (once): each free node p is the image of a
+        representative q (same r, θ_q ∈ [0, Δφ)) turned by α_p = θ_p − θ_q. R maps the
+        representatives' polar dofs (2 per node) to every free node's (x, y) dofs:
+        R[(x, y)_p, (r, θ)_q] = rotation by θ_p. A harmonic-m field is diag(e^{imα}) R c.
+        Serial (dof 2p, 2p + 1 = x, y of node p)."""
+        if self._blocks is not None and "bloch" in self._blocks:
+            return self._blocks["bloch"]
+        n = self.n
+        dphi = 2.0 * math.pi / n
+        xy = self.problem.V.tabulate_dof_coordinates()[: self.problem.n_owned // 2, :2]
+        rad = np.hypot(xy[:, 0], xy[:, 1])
+        th = np.mod(np.arctan2(xy[:, 1], xy[:, 0]), 2.0 * math.pi)
+        frac = np.mod(th, dphi)
+        frac[dphi - frac < 1e-9 * dphi] = 0.0
+        free_nodes = np.setdiff1d(np.arange(rad.size), np.asarray(self.problem.clamped) // 2)
+        keys = np.round(np.c_[rad[free_nodes] / rad.max(), frac[free_nodes] / dphi] * 1e6)
+        _, rep = np.unique(keys, axis=0, return_inverse=True)
+        rep = rep.reshape(-1)
+        n_rep = int(rep.max()) + 1
+        tp = th[free_nodes]
+        alpha = tp - frac[free_nodes]  # sector angle jΔφ of each free node
+        cs, sn = np.cos(tp), np.sin(tp)
+        rows = np.r_[2 * free_nodes, 2 * free_nodes, 2 * free_nodes + 1, 2 * free_nodes + 1]
+        cols = np.r_[2 * rep, 2 * rep + 1, 2 * rep, 2 * rep + 1]
+        vals = np.r_[cs, -sn, sn, cs]
+        R = sp.csr_matrix((vals, (rows, cols)), shape=(self.problem.n_owned, 2 * n_rep))
+        ph_dof = np.zeros(self.problem.n_owned)
+        ph_dof[2 * free_nodes], ph_dof[2 * free_nodes + 1] = alpha, alpha
+        c0 = int(rep[np.flatnonzero((np.abs(rad[free_nodes] - rad.min()) < 1e-9 * rad.max())
+                                    & (np.abs(alpha) < 1e-12) & (frac[free_nodes] == 0.0))[0]])
+        if len(free_nodes) != n * n_rep:
+            raise ValueError("the mesh is not Z_N symmetric: no Bloch reduction")
+        # A couples a node to its neighbours only, so α_col − α_row takes a few values s (mod
+        # 2π): RᵀA_m R = Σ_s e^{ims} RᵀA_s R, each RᵀA_s R (2 n_rep square) formed once
+        mats = {}
+        for name, M in (("K", self.K), ("M", sp.diags(self.problem.mass).tocsr())):
+            C = M.tocoo()
+            dal = np.mod(ph_dof[C.col] - ph_dof[C.row], 2.0 * math.pi)
+            key = np.round(dal / dphi).astype(np.intp) % n
+            parts = []
+            for k in np.unique(key):
+                sel = key == k
+                As = sp.csr_matrix((C.data[sel], (C.row[sel], C.col[sel])), shape=M.shape)
+                parts.append((k * dphi, (R.T @ (As @ R)).toarray() / n))
+            mats[name] = parts
+        cdofs = np.array([2 * c0, 2 * c0 + 1])
+        idofs = np.setdiff1d(np.arange(2 * n_rep), cdofs)
+        out = {"mats": mats, "c": cdofs, "i": idofs}
+        if self._blocks is None:
+            self._blocks = {}
+        self._blocks["bloch"] = out
+        return out
+
+    def shift_symbols_bloch(self, omega: float) -> NDArray[np.complex128]:
+        """t_m, m = 0 … N/2, by the Bloch (one-sector) reduction of A_m (``_bloch``): the
+        harmonic-m subspace is invariant, so A_m restricted to it is Rᴴ diag(e^{−imα})
+        A_m diag(e^{imα}) R / N on 2 dofs per node orbit; its Schur complement on the contact
+        orbit's (r, θ) is t_m. Cost per m: a few dense sums and one solve of 2 n_rep unknowns
+        (n_rep = nodes per sector), no LU of the whole interior."""
+        bl = self._bloch()
+        ci, ii = bl["c"], bl["i"]
+        n = self.n
+        sym = np.zeros((n // 2 + 1, 2, 2), dtype=complex)
+        red = {}
+        for m in range(n // 2 + 1):
+            for name, parts in bl["mats"].items():
+                red[name] = sum(np.exp(1j * m * a) * P for a, P in parts)
+            A = (1.0 - 1j * m * omega * self.tau) * red["K"] - (m * omega) ** 2 * red["M"]
+            sym[m] = A[np.ix_(ci, ci)] - A[np.ix_(ci, ii)] @ np.linalg.solve(
+                A[np.ix_(ii, ii)], A[np.ix_(ii, ci)])
+        return sym
+
     def shift_symbols(self, omega: float) -> tuple[NDArray[np.complex128], float]:
         """(t_m for m = 0 … N/2, shape (N/2 + 1, 2, 2), forces per unit polar harmonic; the
-        largest relative part of S(A_m) e_m outside harmonic m: the Z_N-symmetry check)."""
+        largest relative part of S(A_m) e_m outside harmonic m: the Z_N-symmetry check).
+        The reference route: one sparse LU of the whole A_m,ii per m (``shift_symbols_bloch``
+        is the fast one)."""
         if self._blocks is None or "Mii" not in self._blocks:
             c, i = self.contact, self.interior
             b = self._blocks if self._blocks is not None else {}
@@ -231,7 +306,7 @@ class FrameOperators:
     def _schur_shift(self, omega: float) -> Array:
         """The block-circulant S of the transient's travelling operator (module doc)."""
         n = self.n
-        sym, _ = self.shift_symbols(omega)
+        sym = self.shift_symbols_bloch(omega)
         full = np.zeros((n, 2, 2), dtype=complex)
         full[: n // 2 + 1] = sym
         full[n // 2 + 1:] = np.conj(sym[1:(n + 1) // 2][::-1])  # t_{N−m} = conj(t_m)
