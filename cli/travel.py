@@ -46,6 +46,10 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="material derivative in the contact law, upwind over node passages: "
                         "bdf2 (second order, default) or bdf1 (first order: what the transient "
                         "sees on a rigidly travelling P1 wave)")
+    p.add_argument("--inertia", default="rotation", metavar="OPERATOR",
+                   help="wave-frame operator: rotation (K - w^2 G - w D, the continuous "
+                        "rotation, default) or shift (the transient's own travelling "
+                        "operator per discrete harmonic, lumped mass; docs/travelling_waves.md)")
     p.add_argument("--max-iter", type=int, default=60, help="Newton iterations (default 60)")
     p.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
                    help="override a scene field (repeatable)")
@@ -95,6 +99,8 @@ def _travel(args: argparse.Namespace) -> int:
         return _err(f"--max-iter {args.max_iter}: must be >= 1")
     from studies.travel.newton import RATES
 
+    if args.inertia not in ("rotation", "shift"):
+        return _err(f"--inertia {args.inertia}: use rotation or shift")
     if args.rate not in RATES:
         return _err(f"--rate {args.rate}: the material-derivative scheme must be one of "
                     f"{', '.join(RATES)}")
@@ -132,7 +138,7 @@ def _one_wave(scene, args: argparse.Namespace, out: Path, t0: float) -> int:
     from studies.travel.output import plot_profiles, write_failure, write_wave
 
     try:
-        st = D.setup(scene, args.damping, rate=args.rate)
+        st = D.setup(scene, args.damping, rate=args.rate, inertia=args.inertia)
         if args.from_run:
             W0, om0, info = D.start_from_run(Path(args.from_run), st)
         else:
@@ -151,7 +157,7 @@ def _one_wave(scene, args: argparse.Namespace, out: Path, t0: float) -> int:
                    "last_residual": err.info.get("residual"),
                    "violated": err.info.get("violated"), "margins": err.info.get("margins"),
                    "residual_history": err.info.get("hist"), **info,
-                   "damping_s": args.damping,
+                   "damping_s": args.damping, "rate": args.rate, "inertia": args.inertia,
                    "wall_time_s": time.perf_counter() - t0}
         write_failure(out, scene, summary)
         res = err.info.get("residual")
@@ -163,7 +169,7 @@ def _one_wave(scene, args: argparse.Namespace, out: Path, t0: float) -> int:
     summary, profiles = D.measure(st, sol, args.k)
     if args.band:
         summary["band"] = D.band(st, sol, args.k)
-    summary.update(info, damping_s=args.damping, setup_time_s=t_setup,
+    summary.update(info, damping_s=args.damping, inertia=args.inertia, setup_time_s=t_setup,
                    wall_time_s=time.perf_counter() - t0)
     write_wave(out, scene, summary, profiles)
     if args.plot:

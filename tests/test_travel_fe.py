@@ -114,6 +114,7 @@ def test_damped_schur_derivative_matches_a_central_difference(setup36):
         (["--k", "4", "--from", "/nonexistent"], "samples.npz"),
         (["--k", "4", "--celerity", "0"], "--celerity 0"),
         (["--k", "4", "--rate", "bdf3"], "--rate bdf3"),
+        (["--k", "4", "--inertia", "spin"], "--inertia spin"),
     ],
 )
 def test_travel_bad_input_is_one_line_exit_2(argv, needle, tmp_path, capsys):
