@@ -28,9 +28,11 @@ converged for the harmonics that carry the wave.
     (lumped M, ``solver.newmark.DampedNewmark``, continuous in time): a wave W(θ − ωt) that
     is invariant under the mesh's discrete shift has, per discrete harmonic m, the frequency
     −mω, so its dynamic stiffness is the contact Schur complement of
-    A_m = (1 − imωτ)K − (mω)² M, t_m(ω) = e_mᴴ S(A_m) e_m / (2π/N). The wave-frame operator
-    replaces (mω)² M by ω² G (the Galerkin form of the continuous rotation): they agree as
-    the harmonic is resolved. One JSON line per (N, ω); max|s_m − t_m| / max|t_m| on stderr.
+    A_m = (1 − imωτ)K − (mω)² M, t_m(ω) = e_mᴴ S(A_m) e_m / (2π/N) (``frame`` with
+    ``inertia="shift"``, Bloch reduction). The wave-frame operator replaces (mω)² M by ω² G
+    (the Galerkin form of the continuous rotation). One JSON line per (N, ω);
+    max|s_m − t_m| / max|t_m| on stderr. ``symcmp``-style tables of t_m across N: run with
+    ``--no-rotation`` and compare the lines.
 
 ``./dev nice python3 benchmarks/travel_symbol.py law RUN --rate bdf1``
     the run's last sample (W, and its own contact forces λ) put into the wave-frame contact
@@ -92,46 +94,31 @@ def cmd_symbol(a: argparse.Namespace) -> None:
 
 
 def cmd_transient(a: argparse.Namespace) -> None:
-    import scipy.sparse as sp
-    from scipy.sparse.linalg import splu
-
     from solver.scene import load_scene
     from studies.travel import driver as D
 
     for n in a.n:
         sc = load_scene(a.scene, [f"mesh.n_inner={n}"])
         tau = float(sc.damping.tau)
-        st = D.setup(sc, tau)
-        ops = st.ops
-        c, i = ops.contact, ops.interior
-        K = ops.K.tocsr()
-        M = sp.diags(ops.problem.mass).tocsr()
-        blocks = {name: (X[i][:, i].tocsc(), X[i][:, c].toarray(), X[c][:, i].tocsr(),
-                         X[c][:, c].toarray()) for name, X in (("K", K), ("M", M))}
+        st = D.setup(sc, tau, inertia="shift")
+        rot = D.setup(sc, tau) if not a.no_rotation else None
         ms = [m for m in range(a.k, a.m_max + 1, a.k) if m <= n // 2]
         for om in a.omega:
             t0 = time.process_time()
-            S_frame, _ = st.prob.stiffness(om, False)
-            s_f = symbols(S_frame, n, ms)
-            diff, t_sym = {}, {}
-            for m in ms:
-                fk, fm = 1.0 - 1j * m * om * tau, (m * om) ** 2
-                Kii, Kic, Kci, Kcc = blocks["K"]
-                Mii, Mic, Mci, Mcc = blocks["M"]
-                lu = splu((fk * Kii - fm * Mii).tocsc())
-                X = lu.solve((fk * Kic - fm * Mic).astype(complex))
-                S = fk * Kcc - fm * Mcc - (fk * Kci - fm * Mci) @ X
-                t_m = symbols(ops.T.T @ S @ ops.T, n, [m])[m]
-                t_sym[m] = t_m
-                diff[m] = float(np.abs(s_f[m] - t_m).max() / np.abs(t_m).max())
-            print(json.dumps({"n": n, "omega": om, "tau_s": tau,
-                              "cpu_s": time.process_time() - t0,
-                              "frame_vs_transient": diff,
-                              "transient_symbol_re_im": {m: [v.real.tolist(), v.imag.tolist()]
-                                                         for m, v in t_sym.items()}}),
-                  flush=True)
-            print(f"N = {n}, omega = {om}: max|s_m - t_m|/max|t_m|  "
-                  + "  ".join(f"{m}:{v:.3f}" for m, v in diff.items()), file=sys.stderr)
+            t_all = st.ops.shift_symbols_bloch(om) / (2.0 * math.pi / n)
+            rec = {"n": n, "omega": om, "tau_s": tau,
+                   "transient_symbol_re_im": {m: [t_all[m].real.tolist(), t_all[m].imag.tolist()]
+                                              for m in ms}}
+            if rot is not None:
+                S, _ = rot.prob.stiffness(om, False)
+                s_f = symbols(S, n, ms)
+                rec["frame_vs_transient"] = {m: float(np.abs(s_f[m] - t_all[m]).max()
+                                                      / np.abs(t_all[m]).max()) for m in ms}
+                print(f"N = {n}, omega = {om}: max|s_m - t_m|/max|t_m|  "
+                      + "  ".join(f"{m}:{v:.3f}" for m, v in rec["frame_vs_transient"].items()),
+                      file=sys.stderr)
+            rec["cpu_s"] = time.process_time() - t0
+            print(json.dumps(rec), flush=True)
 
 
 def cmd_residual(a: argparse.Namespace) -> None:
@@ -214,6 +201,8 @@ def main() -> None:
     t.add_argument("--omega", type=float, nargs="+", default=[-2580.0])
     t.add_argument("--k", type=int, default=4)
     t.add_argument("--m-max", type=int, default=64)
+    t.add_argument("--no-rotation", action="store_true",
+                   help="the transient's symbols only (no LU of the rotation operator)")
     t.set_defaults(func=cmd_transient)
     q = sub.add_parser("residual")
     q.add_argument("run", type=Path)
