@@ -61,6 +61,9 @@ def main() -> None:
     ap.add_argument("--inertia", choices=("rotation", "shift"), default="rotation",
                     help="wave-frame operator: K - w^2 G (rotation) or the transient's own "
                          "travelling operator (shift; frame.py)")
+    ap.add_argument("--free", action="store_true",
+                    help="first a free-omega solve (phase condition) from each run's last "
+                         "sample, recorded under 'free'")
     ap.add_argument("--pick", type=float, default=None, metavar="C_M_S",
                     help="nested: start each finer level from the coarse member nearest this "
                          "speed (default: the fast edge)")
@@ -75,7 +78,7 @@ def main() -> None:
     from postprocess.analysis import analyse_run
     from solver.scene import load_scene
     from studies.travel import driver as D
-    from studies.travel.newton import NotConverged, nearest_wave
+    from studies.travel.newton import NotConverged, nearest_wave, solve_wave
 
     for run in a.runs:
         scene = load_scene(str(run / "scene.toml"), [])
@@ -92,6 +95,20 @@ def main() -> None:
                "transient_c_m_s": wave.celerity_m_s,
                "transient_amplitude_m": wave.amplitude_m, "transient_psi1": wave.psi1,
                "transient_psi2": wave.psi2, "step": a.step, "scan": a.scan}
+        if a.free:  # (W, ω) with the phase condition from the run's last sample
+            t_f = time.process_time()
+            try:
+                fs = solve_wave(st.prob, W0, om0, k, max_iter=40, stall=15)
+                rec["free"] = {"status": "converged", "c_m_s": fs.omega * R,
+                               "amplitude_m": D.member_amplitude(st, fs),
+                               "history": fs.residual_history}
+            except NotConverged as err:
+                rec["free"] = {"status": "none", "last_c_m_s": err.info.get("omega", 0.0) * R,
+                               "residual": err.info.get("residual"),
+                               "violated": err.info.get("violated"),
+                               "history": err.info.get("hist")}
+            rec["free"]["cpu_s"] = time.process_time() - t_f
+            _log(f"N={st.ops.n} free omega: {rec['free']}"[:300])
         if a.sweep:  # a map from the run's own last sample instead of the nearest wave
             sweep(st, None, st.ops.n, k, a, rec, W0=W0, from_c=om0 * R)
             continue
