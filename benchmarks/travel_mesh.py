@@ -63,7 +63,8 @@ def main() -> None:
                          "travelling operator (shift; frame.py)")
     ap.add_argument("--free", action="store_true",
                     help="first a free-omega solve (phase condition) from each run's last "
-                         "sample, recorded under 'free'")
+                         "sample (nested: from the first prolonged member at each finer "
+                         "level), recorded under 'free'")
     ap.add_argument("--pick", type=float, default=None, metavar="C_M_S",
                     help="nested: start each finer level from the coarse member nearest this "
                          "speed (default: the fast edge)")
@@ -202,7 +203,25 @@ def nested(run: Path, a: argparse.Namespace) -> None:
                 sweep(st, members, n, k, a, rec)
                 return
             found = []  # (fast-edge |ω|, sol) per start that converged
-            for m in picks:
+            if a.free:  # (W, ω) with the phase condition from the first prolonged member
+                t_f = time.process_time()
+                W0 = D.prolong(np.concatenate([picks[0].W_r, picks[0].W_t]), n, a.prolong)
+                try:
+                    fs = solve_wave(st.prob, W0, picks[0].omega + shift, k, max_iter=40,
+                                    stall=15)
+                    rec["free"] = {"status": "converged", "c_m_s": fs.omega * R,
+                                   "amplitude_m": D.member_amplitude(st, fs),
+                                   "history": fs.residual_history}
+                    found.append((abs(fs.omega), fs))
+                except NotConverged as err:
+                    rec["free"] = {"status": "none",
+                                   "last_c_m_s": err.info.get("omega", 0.0) * R,
+                                   "residual": err.info.get("residual"),
+                                   "violated": err.info.get("violated"),
+                                   "history": err.info.get("hist")}
+                rec["free"]["cpu_s"] = time.process_time() - t_f
+                _log(f"N={n} free omega: {rec['free']}"[:300])
+            for m in picks if not found else []:
                 W0 = D.prolong(np.concatenate([m.W_r, m.W_t]), n, a.prolong)
                 om0 = m.omega + shift
                 if level <= len(a.c_start) and a.c_start[level - 1]:
