@@ -183,8 +183,16 @@ def nested(run: Path, a: argparse.Namespace) -> None:
                                 "psi1": wave.psi1, "psi2": wave.psi2,
                                 "dt_fraction": scene.time.dt_fraction}
             try:
-                sol = nearest_wave(st.prob, W0, om0, k, rel_step=a.step,
-                                   max_steps=int(round(a.scan / a.step)), max_iter=30)
+                if a.free:  # free ω first (phase condition), else the nearest fixed speed
+                    try:
+                        sol = solve_wave(st.prob, W0, om0, k, max_iter=40, stall=15)
+                        rec["free"] = {"status": "converged", "c_m_s": sol.omega * R,
+                                       "history": sol.residual_history}
+                    except NotConverged:
+                        sol = None
+                if sol is None:
+                    sol = nearest_wave(st.prob, W0, om0, k, rel_step=a.step,
+                                       max_steps=int(round(a.scan / a.step)), max_iter=30)
             except NotConverged as err:
                 rec["attempts"].append({"c0_m_s": om0 * R, "residual": err.info.get("residual"),
                                         "violated": err.info.get("violated")})
