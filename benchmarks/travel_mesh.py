@@ -47,7 +47,8 @@ def main() -> None:
     ap.add_argument("--sweep", type=float, nargs=2, metavar=("C_FROM", "C_TO"),
                     help="at the finest level: fixed-ω solves from the prolonged fast-edge "
                          "member over C_FROM..C_TO m/s in steps of --step (a map of where it "
-                         "converges), instead of the nearest-wave search")
+                         "converges), instead of the nearest-wave search; without --nested: "
+                         "the same map from each run's last sample")
     ap.add_argument("--c-start", type=float, nargs="*", default=[],
                     help="per finer level, the speed (m/s) of the first fixed-ω solve from the "
                          "prolonged member (0: the member's own speed)")
@@ -55,6 +56,18 @@ def main() -> None:
                     help="at the finest level, after its band: continue its middle member in the "
                          "damping τ·s for each s in turn (same ω, else nearest within ±1 %%) "
                          "and trace each band; stops at the first failure")
+    ap.add_argument("--rate", choices=("bdf1", "bdf2"), default="bdf2",
+                    help="material-derivative scheme of the contact law (newton.RATES)")
+    ap.add_argument("--inertia", choices=("rotation", "shift"), default="rotation",
+                    help="wave-frame operator: K - w^2 G (rotation) or the transient's own "
+                         "travelling operator (shift; frame.py)")
+    ap.add_argument("--free", action="store_true",
+                    help="first a free-omega solve (phase condition) from each run's last "
+                         "sample (nested: from the first prolonged member at each finer "
+                         "level), recorded under 'free'")
+    ap.add_argument("--pick", type=float, default=None, metavar="C_M_S",
+                    help="nested: start each finer level from the coarse member nearest this "
+                         "speed (default: the fast edge)")
     ap.add_argument("--all-starts", action="store_true",
                     help="try every start and trace each band found (default: stop at the first)")
     a = ap.parse_args()
@@ -66,21 +79,40 @@ def main() -> None:
     from postprocess.analysis import analyse_run
     from solver.scene import load_scene
     from studies.travel import driver as D
-    from studies.travel.newton import NotConverged, nearest_wave
+    from studies.travel.newton import NotConverged, nearest_wave, solve_wave
 
     for run in a.runs:
         scene = load_scene(str(run / "scene.toml"), [])
         t0 = time.process_time()
-        st = D.setup(scene, float(scene.damping.tau), lumped=a.lumped)
+        st = D.setup(scene, float(scene.damping.tau), lumped=a.lumped, rate=a.rate,
+                     inertia=a.inertia)
         W0, om0, _ = D.start_from_run(run, st)
         wave = analyse_run(run)
         k = a.k or wave.mode
         R = scene.geometry.R
         rec = {"run": str(run), "k": k, "n": st.ops.n, "dofs": int(st.ops.problem.n_global_dofs),
-               "lumped": a.lumped, "dt_fraction": scene.time.dt_fraction,
+               "lumped": a.lumped, "rate": a.rate,
+               "inertia": a.inertia, "dt_fraction": scene.time.dt_fraction,
                "transient_c_m_s": wave.celerity_m_s,
                "transient_amplitude_m": wave.amplitude_m, "transient_psi1": wave.psi1,
                "transient_psi2": wave.psi2, "step": a.step, "scan": a.scan}
+        if a.free:  # (W, ω) with the phase condition from the run's last sample
+            t_f = time.process_time()
+            try:
+                fs = solve_wave(st.prob, W0, om0, k, max_iter=40, stall=15)
+                rec["free"] = {"status": "converged", "c_m_s": fs.omega * R,
+                               "amplitude_m": D.member_amplitude(st, fs),
+                               "history": fs.residual_history}
+            except NotConverged as err:
+                rec["free"] = {"status": "none", "last_c_m_s": err.info.get("omega", 0.0) * R,
+                               "residual": err.info.get("residual"),
+                               "violated": err.info.get("violated"),
+                               "history": err.info.get("hist")}
+            rec["free"]["cpu_s"] = time.process_time() - t_f
+            _log(f"N={st.ops.n} free omega: {rec['free']}"[:300])
+        if a.sweep:  # a map from the run's own last sample instead of the nearest wave
+            sweep(st, None, st.ops.n, k, a, rec, W0=W0, from_c=om0 * R)
+            continue
         try:
             sol = nearest_wave(st.prob, W0, om0, k, rel_step=a.step,
                                max_steps=int(round(a.scan / a.step)), max_iter=30)
@@ -137,9 +169,11 @@ def nested(run: Path, a: argparse.Namespace) -> None:
         c0, w0 = time.process_time(), time.time()
         scene = base if level == 0 else load_scene(str(run / "scene.toml"),
                                                    [f"mesh.n_inner={n}"])
-        st = D.setup(scene, tau, lumped=a.lumped)
+        st = D.setup(scene, tau, lumped=a.lumped, rate=a.rate,
+                     inertia=a.inertia)
         rec: dict = {"run": str(run), "k": k, "n": n, "dofs": int(st.ops.problem.n_global_dofs),
                      "tau_s": tau, "beta2": scene.time.beta2, "lumped": a.lumped,
+                     "rate": a.rate, "inertia": a.inertia,
                      "start": "run" if level == 0 else f"prolonged from N = {members_n}",
                      "prolong": a.prolong, "attempts": []}
         sol = None
@@ -149,14 +183,24 @@ def nested(run: Path, a: argparse.Namespace) -> None:
                                 "psi1": wave.psi1, "psi2": wave.psi2,
                                 "dt_fraction": scene.time.dt_fraction}
             try:
-                sol = nearest_wave(st.prob, W0, om0, k, rel_step=a.step,
-                                   max_steps=int(round(a.scan / a.step)), max_iter=30)
+                if a.free:  # free ω first (phase condition), else the nearest fixed speed
+                    try:
+                        sol = solve_wave(st.prob, W0, om0, k, max_iter=40, stall=15)
+                        rec["free"] = {"status": "converged", "c_m_s": sol.omega * R,
+                                       "history": sol.residual_history}
+                    except NotConverged:
+                        sol = None
+                if sol is None:
+                    sol = nearest_wave(st.prob, W0, om0, k, rel_step=a.step,
+                                       max_steps=int(round(a.scan / a.step)), max_iter=30)
             except NotConverged as err:
                 rec["attempts"].append({"c0_m_s": om0 * R, "residual": err.info.get("residual"),
                                         "violated": err.info.get("violated")})
         else:
-            # fast edge first (largest |ω|), then the others by distance from it
-            order = sorted(members, key=lambda m: -abs(m.omega))
+            # fast edge first (largest |ω|), then the others by distance from it; --pick: the
+            # member nearest that speed first
+            order = sorted(members, key=lambda m: -abs(m.omega) if a.pick is None
+                           else abs(m.omega * R - a.pick))
             picks = [order[0]] if len(order) == 1 else [
                 order[int(round(i * (len(order) - 1) / max(a.starts - 1, 1)))]
                 for i in range(min(a.starts, len(order)))]
@@ -167,7 +211,25 @@ def nested(run: Path, a: argparse.Namespace) -> None:
                 sweep(st, members, n, k, a, rec)
                 return
             found = []  # (fast-edge |ω|, sol) per start that converged
-            for m in picks:
+            if a.free:  # (W, ω) with the phase condition from the first prolonged member
+                t_f = time.process_time()
+                W0 = D.prolong(np.concatenate([picks[0].W_r, picks[0].W_t]), n, a.prolong)
+                try:
+                    fs = solve_wave(st.prob, W0, picks[0].omega + shift, k, max_iter=40,
+                                    stall=15)
+                    rec["free"] = {"status": "converged", "c_m_s": fs.omega * R,
+                                   "amplitude_m": D.member_amplitude(st, fs),
+                                   "history": fs.residual_history}
+                    found.append((abs(fs.omega), fs))
+                except NotConverged as err:
+                    rec["free"] = {"status": "none",
+                                   "last_c_m_s": err.info.get("omega", 0.0) * R,
+                                   "residual": err.info.get("residual"),
+                                   "violated": err.info.get("violated"),
+                                   "history": err.info.get("hist")}
+                rec["free"]["cpu_s"] = time.process_time() - t_f
+                _log(f"N={n} free omega: {rec['free']}"[:300])
+            for m in picks if not found else []:
                 W0 = D.prolong(np.concatenate([m.W_r, m.W_t]), n, a.prolong)
                 om0 = m.omega + shift
                 if level <= len(a.c_start) and a.c_start[level - 1]:
@@ -248,7 +310,8 @@ def damping_path(scene, start, n: int, k: int, tau: float, a: argparse.Namespace
     cur = start
     for s in a.tau_scales:
         c0 = time.process_time()
-        st = D.setup(scene, tau * s, lumped=a.lumped)
+        st = D.setup(scene, tau * s, lumped=a.lumped, rate=a.rate,
+                     inertia=a.inertia)
         rec: dict = {"n": n, "k": k, "tau_s": tau * s, "tau_scale": s, "c0_m_s": cur.omega * R}
         try:
             # same ω first, then the nearest speed within ±1 % (0.1 % steps)
@@ -271,16 +334,20 @@ def damping_path(scene, start, n: int, k: int, tau: float, a: argparse.Namespace
             break  # the path ends here: the row names the violated inequality
 
 
-def sweep(st, members, n: int, k: int, a: argparse.Namespace, rec: dict) -> None:
-    """Fixed-ω solves over a range of speeds, each from the same prolonged start (the coarse
-    band's fast-edge member): where does an admissible wave exist near it? JSON line."""
+def sweep(st, members, n: int, k: int, a: argparse.Namespace, rec: dict,
+          W0: np.ndarray | None = None, from_c: float | None = None) -> None:
+    """Fixed-ω solves over a range of speeds, each from the same start (the coarse band's
+    prolonged fast-edge member, or ``W0``, e.g. a run's last sample): where does an admissible
+    wave exist near it? JSON line."""
     from studies.travel import driver as D
     from studies.travel.newton import NotConverged, solve_wave
 
     R = st.scene.geometry.R
     c0, w0 = time.process_time(), time.time()
-    m = max(members, key=lambda x: abs(x.omega))
-    W0 = D.prolong(np.concatenate([m.W_r, m.W_t]), n, a.prolong)
+    if W0 is None:
+        m = max(members, key=lambda x: abs(x.omega))
+        W0 = D.prolong(np.concatenate([m.W_r, m.W_t]), n, a.prolong)
+        from_c = m.omega * R
     c_from, c_to = a.sweep
     count = int(round(abs(np.log(c_to / c_from)) / a.step)) + 1
     rows = []
@@ -296,7 +363,7 @@ def sweep(st, members, n: int, k: int, a: argparse.Namespace, rec: dict) -> None
                    "violated": err.info.get("violated"), "iterations": err.info.get("iterations")}
         rows.append(row)
         _log(f"N={n} sweep {row}")
-    rec.update(status="sweep", from_c_m_s=m.omega * R, sweep=rows,
+    rec.update(status="sweep", from_c_m_s=from_c, sweep=rows,
                cpu_s=time.process_time() - c0, wall_s=time.time() - w0)
     print(json.dumps(rec), flush=True)
 

@@ -103,7 +103,8 @@ def main() -> None:
 
     sc = load_scene("scenes/figure1.toml", ["mesh.n_inner=36"])
     args = SimpleNamespace(k=4, damping=0.0, from_run=None, celerity=-2300.0,
-                           fixed_omega=True, max_iter=40, plot=False)
+                           fixed_omega=True, max_iter=40, plot=False, rate="bdf2",
+                           inertia="rotation")
     out = Path("/tmp/travel_speed_cont")
     out.mkdir(exist_ok=True)
     t0 = time.perf_counter()

@@ -42,6 +42,14 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--band", action="store_true",
                    help="also measure the band of speeds over which the wave stays admissible "
                         "(warm-started fixed-omega solves, steps of 0.2 %%)")
+    p.add_argument("--rate", default="bdf2", metavar="SCHEME",
+                   help="material derivative in the contact law, upwind over node passages: "
+                        "bdf2 (second order, default) or bdf1 (first order: what the transient "
+                        "sees on a rigidly travelling P1 wave)")
+    p.add_argument("--inertia", default="rotation", metavar="OPERATOR",
+                   help="wave-frame operator: rotation (K - w^2 G - w D, the continuous "
+                        "rotation, default) or shift (the transient's own travelling "
+                        "operator per discrete harmonic, lumped mass; docs/travelling_waves.md)")
     p.add_argument("--max-iter", type=int, default=60, help="Newton iterations (default 60)")
     p.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
                    help="override a scene field (repeatable)")
@@ -89,6 +97,13 @@ def _travel(args: argparse.Namespace) -> int:
         return _err("--celerity 0: a travelling wave needs a non-zero speed (sign = sense)")
     if args.max_iter < 1:
         return _err(f"--max-iter {args.max_iter}: must be >= 1")
+    from studies.travel.newton import RATES
+
+    if args.inertia not in ("rotation", "shift"):
+        return _err(f"--inertia {args.inertia}: use rotation or shift")
+    if args.rate not in RATES:
+        return _err(f"--rate {args.rate}: the material-derivative scheme must be one of "
+                    f"{', '.join(RATES)}")
     try:
         scene = load_scene(args.scene, args.overrides)
         cont = parse_continue(args.cont) if args.cont else None
@@ -123,7 +138,7 @@ def _one_wave(scene, args: argparse.Namespace, out: Path, t0: float) -> int:
     from studies.travel.output import plot_profiles, write_failure, write_wave
 
     try:
-        st = D.setup(scene, args.damping)
+        st = D.setup(scene, args.damping, rate=args.rate, inertia=args.inertia)
         if args.from_run:
             W0, om0, info = D.start_from_run(Path(args.from_run), st)
         else:
@@ -142,7 +157,7 @@ def _one_wave(scene, args: argparse.Namespace, out: Path, t0: float) -> int:
                    "last_residual": err.info.get("residual"),
                    "violated": err.info.get("violated"), "margins": err.info.get("margins"),
                    "residual_history": err.info.get("hist"), **info,
-                   "damping_s": args.damping,
+                   "damping_s": args.damping, "rate": args.rate, "inertia": args.inertia,
                    "wall_time_s": time.perf_counter() - t0}
         write_failure(out, scene, summary)
         res = err.info.get("residual")
@@ -154,7 +169,7 @@ def _one_wave(scene, args: argparse.Namespace, out: Path, t0: float) -> int:
     summary, profiles = D.measure(st, sol, args.k)
     if args.band:
         summary["band"] = D.band(st, sol, args.k)
-    summary.update(info, damping_s=args.damping, setup_time_s=t_setup,
+    summary.update(info, damping_s=args.damping, inertia=args.inertia, setup_time_s=t_setup,
                    wall_time_s=time.perf_counter() - t0)
     write_wave(out, scene, summary, profiles)
     if args.plot:

@@ -89,3 +89,55 @@ def test_reduced_transient_and_travel_agree_on_the_same_grid():
     rec = model.run(5 * 2.0 * math.pi / (8 * abs(w.c)), n_samples=400)
     c_tr = wave_errors(rec, w)["c_num"]
     assert abs(c_tr - sol.omega) / abs(sol.omega) < 5e-3
+
+
+def test_reduced_travel_bdf1_converges_first_order():
+    """The first-order upwind material derivative (``rate="bdf1"``, the transient's view of a
+    rigid P1 wave) still recovers the k = 8 closed-form wave, at first order: measured errors
+    5.8e-3, 3.0e-3, 1.4e-3, 6.9e-4 at N = 128 … 1024 (orders 0.96, 1.08, 1.04); asserted on
+    256 -> 512 within 0.8 … 1.3 (a first-order scheme; the band spread is O(h) here too)."""
+    co, w = _wave(100.0, 1.0, 8, 0.005)
+    err = []
+    for n in (256, 512):
+        W0, c0 = wave_start(w, n)
+        sol = solve_reduced(co, 1.0, 0.005, n, W0, c0, 8, rate="bdf1")
+        err.append(abs(sol.omega - w.c) / abs(w.c))
+    order = np.log(err[0] / err[1]) / np.log(2.0)
+    assert 0.8 < order < 1.3, (err, order)
+
+
+@pytest.mark.parametrize("rate", ["bdf1", "bdf2"])
+def test_generalised_jacobian_matches_finite_differences(rate):
+    """The generalised Jacobian of C(W, ω) (``newton._jacobian``) against central
+    differences along random directions, at a state whose statuses a step of 1e-7 of the
+    wave's scale does not change (checked): the law is then linear in W and smooth in ω,
+    so the difference is round-off plus O(h²) in ω: asserted < 1e-6 relative."""
+    from studies.travel.newton import RATES, _jacobian, _Law
+
+    assert set(RATES) == {"bdf1", "bdf2"}
+    co, w = _wave(100.0, 1.0, 8, 0.005)
+    n = 128
+    prob = reduced_problem(co, 1.0, 0.005, n, rate)
+    W0, om = wave_start(w, n)
+    c = float(np.mean(np.diag(prob.stiffness(0.0, False)[0])[:n]))
+    law = _Law(prob, c)
+
+    def C(W, om):
+        S, _ = prob.stiffness(om, False)
+        return law(W, S @ W, om)[0].copy(), law.out.status.copy()
+
+    _, st0 = C(W0, om)  # law.out holds the base state's statuses
+    assert np.count_nonzero(st0 == STICK) > 0 and np.count_nonzero(st0 != STICK) > 0
+    S, dS = prob.stiffness(om, True)
+    J = _jacobian(prob, law, W0, om, S, dS, np.zeros(n), 1.0)[: 2 * n]
+    rng = np.random.default_rng(1)
+    scale = np.abs(W0).max()
+    for _ in range(3):
+        dx = rng.standard_normal(2 * n + 1)
+        dx[-1] *= abs(om) / scale
+        h = 1e-7 * scale
+        Cp, stp = C(W0 + h * dx[:-1], om + h * dx[-1])
+        Cm, stm = C(W0 - h * dx[:-1], om - h * dx[-1])
+        assert np.array_equal(stp, st0) and np.array_equal(stm, st0)
+        fd = (Cp - Cm) / (2 * h)
+        assert np.abs(fd - J @ dx).max() < 1e-6 * np.abs(J @ dx).max()

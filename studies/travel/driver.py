@@ -58,21 +58,26 @@ class TravelResult:
     profiles: dict[str, Array] = field(default_factory=dict)
 
 
-def setup(scene: Scene, damping: float = 0.0, lumped: bool = False) -> Setup:
+def setup(scene: Scene, damping: float = 0.0, lumped: bool = False,
+          rate: str = "bdf2", inertia: str = "rotation") -> Setup:
     """Mesh, stiffness (``solver.problem``), travelling inertia (``lumped``: vertex rule,
-    ``frame.frame_operators``) and the condensed problem."""
+    ``frame.frame_operators``; ``inertia="shift"``: the transient's own travelling operator,
+    lumped M per discrete harmonic) and the condensed problem (``rate``: the
+    material-derivative scheme, ``newton.RATES``)."""
     from solver.problem import build_problem
     from studies.travel.frame import circle_problem, frame_operators
+    from studies.travel.newton import check_rate
 
-    ops = frame_operators(build_problem(scene), damping, lumped)
-    return Setup(scene, ops, circle_problem(ops))
+    check_rate(rate)
+    ops = frame_operators(build_problem(scene), damping, lumped, inertia)
+    return Setup(scene, ops, circle_problem(ops, rate=rate))
 
 
 def retarget(st: Setup, scene: Scene) -> Setup:
     """Same mesh and material, new loading / mismatch (continuation in Ω, f, δ): no rebuild."""
     from studies.travel.frame import circle_problem
 
-    return Setup(scene, st.ops, circle_problem(st.ops, scene))
+    return Setup(scene, st.ops, circle_problem(st.ops, scene, rate=st.prob.rate))
 
 
 def start_from_run(run_dir: Path, st: Setup) -> tuple[Array, float, dict]:
@@ -193,8 +198,8 @@ def measure(st: Setup, sol: TravelSolution, k: int) -> tuple[dict, dict[str, Arr
     t = shifts * dt
     wave = analyse(t, theta, sol.W_r[idx], sol.W_t[idx], sol.status[idx], d=d, radius=R)
     z = zone_lengths(st.prob, sol)
-    v_t = material_rate(sol.W_t, sol.omega)
-    v_r = material_rate(sol.W_r, sol.omega)
+    v_t = material_rate(sol.W_t, sol.omega, st.prob.rate)
+    v_r = material_rate(sol.W_r, sol.omega, st.prob.rate)
     summary = {
         "status": "converged",
         "method": "travel (wave frame, semismooth Newton)",
@@ -214,6 +219,7 @@ def measure(st: Setup, sol: TravelSolution, k: int) -> tuple[dict, dict[str, Arr
         "inequalities": {"margins": sol.margins, "violated": sol.violated,
                          "all_satisfied": sol.violated is None},
         "contact_nodes": n, "dofs": int(ops.problem.n_global_dofs),
+        "rate": st.prob.rate,
     }
     ds = ops.ds_weight
     T = 2.0 * math.pi / k

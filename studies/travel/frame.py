@@ -20,6 +20,23 @@ w_i = −X w_c. S is rotated node by node to polar components (W_r block, W_θ b
 S_polar W = (p, q), the nodal forces [N/m] the cylinder exerts (as in ``solver.contact``).
 
 Serial (one process): the condensed problem is dense and small (2N × 2N).
+
+**The transient's own travelling operator** (``inertia="shift"``). G is the Galerkin form of
+the *continuous* rotation on the P1 space. The transient (lumped mass M, Kelvin–Voigt
+σ = C:(ε + τε̇), ``solver.newmark``) can only carry waves invariant under the mesh's discrete
+shift (θ → θ + Δφ, t → t + Δφ/|ω|). For such a wave W(θ − ωt) each discrete harmonic m of the
+contact values (e_m = e^{imθ_j}, |m| ≤ N/2) has the frequency −mω, so its semi-discrete
+(continuous in time) equations are A_m w = r with
+
+    A_m(ω) = (1 − imωτ) K − (mω)² M,
+
+and the mesh is Z_N symmetric, so the contact Schur complement of A_m maps the polar harmonic
+m onto itself through a 2 × 2 symbol t_m(ω). The operator is block circulant in polar
+components: S_ab[j, l] = (1/N) Σ_m t_m,ab e^{im(θ_j − θ_l)}, t_−m = conj(t_m) (K, M real), the
+Nyquist term real. It costs one sparse complex LU of A_m,ii (two right-hand sides) per
+harmonic m = 0 … N/2 and ω; dS/dω by a central difference. The two operators agree as the
+harmonics are resolved (``benchmarks/travel_symbol.py``: at N = 132, ω = −2497 rad/s they
+differ by 15 % at m = 4 and by O(1) at m = 12, 16).
 """
 
 from __future__ import annotations
@@ -62,6 +79,8 @@ class FrameOperators:
     ds_weight: Array  # ∫φ_i ds per contact node (nodal force / ds = pressure)
     T: Array  # polar -> (x, y) at the contact dofs
     C: sp.csr_matrix | None = None  # Kelvin–Voigt wave-frame damping (None: undamped)
+    inertia: str = "rotation"  # "rotation": K − ω²G − ωC; "shift": the transient's (module doc)
+    tau: float = 0.0  # Kelvin–Voigt retardation time (s), for "shift"
     _cache: tuple | None = None
     _static: tuple | None = None  # S(0): every solve reads it for its nodal stiffness scale
     _blocks: dict | None = None
@@ -112,6 +131,15 @@ class FrameOperators:
             return self._cache[1]
         if omega == 0.0 and not derivative and self._static is not None:
             return self._static
+        if self.inertia == "shift":
+            S = self._schur_shift(omega)
+            dS = None
+            if derivative:
+                h = 1e-6 * abs(omega)
+                dS = (self._schur_shift(omega + h) - self._schur_shift(omega - h)) / (2.0 * h)
+            out = (S, dS, None)
+            self._cache = (omega, out)
+            return out
         b = self._split()
         w2 = omega * omega
         Acc = b["Kcc"] - w2 * b["Gcc"]
@@ -167,6 +195,132 @@ class FrameOperators:
         Z = lu.solve(dblk("ii") @ X - dblk("ic"))
         return S, dblk("cc") - dblk("ci") @ X + Aci @ Z
 
+    def _bloch(self) -> dict:
+        """Node orbits under the Z_N rotation (once): each free node p is the image of a
+        representative q (same r, θ_q ∈ [0, Δφ)) turned by α_p = θ_p − θ_q. R maps the
+        representatives' polar dofs (2 per node) to every free node's (x, y) dofs:
+        R[(x, y)_p, (r, θ)_q] = rotation by θ_p. A harmonic-m field is diag(e^{imα}) R c.
+        Serial (dof 2p, 2p + 1 = x, y of node p)."""
+        if self._blocks is not None and "bloch" in self._blocks:
+            return self._blocks["bloch"]
+        n = self.n
+        dphi = 2.0 * math.pi / n
+        xy = self.problem.V.tabulate_dof_coordinates()[: self.problem.n_owned // 2, :2]
+        rad = np.hypot(xy[:, 0], xy[:, 1])
+        th = np.mod(np.arctan2(xy[:, 1], xy[:, 0]), 2.0 * math.pi)
+        frac = np.mod(th, dphi)
+        frac[dphi - frac < 1e-9 * dphi] = 0.0
+        free_nodes = np.setdiff1d(np.arange(rad.size), np.asarray(self.problem.clamped) // 2)
+        keys = np.round(np.c_[rad[free_nodes] / rad.max(), frac[free_nodes] / dphi] * 1e6)
+        _, rep = np.unique(keys, axis=0, return_inverse=True)
+        rep = rep.reshape(-1)
+        n_rep = int(rep.max()) + 1
+        tp = th[free_nodes]
+        alpha = tp - frac[free_nodes]  # sector angle jΔφ of each free node
+        cs, sn = np.cos(tp), np.sin(tp)
+        rows = np.r_[2 * free_nodes, 2 * free_nodes, 2 * free_nodes + 1, 2 * free_nodes + 1]
+        cols = np.r_[2 * rep, 2 * rep + 1, 2 * rep, 2 * rep + 1]
+        vals = np.r_[cs, -sn, sn, cs]
+        R = sp.csr_matrix((vals, (rows, cols)), shape=(self.problem.n_owned, 2 * n_rep))
+        ph_dof = np.zeros(self.problem.n_owned)
+        ph_dof[2 * free_nodes], ph_dof[2 * free_nodes + 1] = alpha, alpha
+        c0 = int(rep[np.flatnonzero((np.abs(rad[free_nodes] - rad.min()) < 1e-9 * rad.max())
+                                    & (np.abs(alpha) < 1e-12) & (frac[free_nodes] == 0.0))[0]])
+        if len(free_nodes) != n * n_rep:
+            raise ValueError("the mesh is not Z_N symmetric: no Bloch reduction")
+        # A couples a node to its neighbours only, so α_col − α_row takes a few values s (mod
+        # 2π): RᵀA_m R = Σ_s e^{ims} RᵀA_s R, each RᵀA_s R (2 n_rep square) formed once
+        mats = {}
+        for name, M in (("K", self.K), ("M", sp.diags(self.problem.mass).tocsr())):
+            C = M.tocoo()
+            dal = np.mod(ph_dof[C.col] - ph_dof[C.row], 2.0 * math.pi)
+            key = np.round(dal / dphi).astype(np.intp) % n
+            parts = []
+            for k in np.unique(key):
+                sel = key == k
+                As = sp.csr_matrix((C.data[sel], (C.row[sel], C.col[sel])), shape=M.shape)
+                parts.append((k * dphi, (R.T @ (As @ R)).toarray() / n))
+            mats[name] = parts
+        cdofs = np.array([2 * c0, 2 * c0 + 1])
+        idofs = np.setdiff1d(np.arange(2 * n_rep), cdofs)
+        out = {"mats": mats, "c": cdofs, "i": idofs}
+        if self._blocks is None:
+            self._blocks = {}
+        self._blocks["bloch"] = out
+        return out
+
+    def shift_symbols_bloch(self, omega: float) -> NDArray[np.complex128]:
+        """t_m, m = 0 … N/2, by the Bloch (one-sector) reduction of A_m (``_bloch``): the
+        harmonic-m subspace is invariant, so A_m restricted to it is Rᴴ diag(e^{−imα})
+        A_m diag(e^{imα}) R / N on 2 dofs per node orbit; its Schur complement on the contact
+        orbit's (r, θ) is t_m. Cost per m: a few dense sums and one solve of 2 n_rep unknowns
+        (n_rep = nodes per sector), no LU of the whole interior."""
+        bl = self._bloch()
+        ci, ii = bl["c"], bl["i"]
+        n = self.n
+        sym = np.zeros((n // 2 + 1, 2, 2), dtype=complex)
+        red = {}
+        for m in range(n // 2 + 1):
+            for name, parts in bl["mats"].items():
+                red[name] = sum(np.exp(1j * m * a) * P for a, P in parts)
+            A = (1.0 - 1j * m * omega * self.tau) * red["K"] - (m * omega) ** 2 * red["M"]
+            sym[m] = A[np.ix_(ci, ci)] - A[np.ix_(ci, ii)] @ np.linalg.solve(
+                A[np.ix_(ii, ii)], A[np.ix_(ii, ci)])
+        return sym
+
+    def shift_symbols(self, omega: float) -> tuple[NDArray[np.complex128], float]:
+        """(t_m for m = 0 … N/2, shape (N/2 + 1, 2, 2), forces per unit polar harmonic; the
+        largest relative part of S(A_m) e_m outside harmonic m: the Z_N-symmetry check).
+        The reference route: one sparse LU of the whole A_m,ii per m (``shift_symbols_bloch``
+        is the fast one)."""
+        if self._blocks is None or "Mii" not in self._blocks:
+            c, i = self.contact, self.interior
+            b = self._blocks if self._blocks is not None else {}
+            Mm = sp.diags(self.problem.mass).tocsr()
+            for name, Mat in (("Ks", self.K.tocsr()), ("M", Mm)):
+                Mi = Mat[i]
+                b[name + "ii"] = Mi[:, i].tocsc()
+                b[name + "ic"] = Mi[:, c].tocsr()
+                b[name + "ci"] = Mat[c][:, i].tocsr()
+                b[name + "cc"] = Mat[c][:, c].toarray()
+            self._blocks = b
+        b = self._blocks
+        n, theta, T = self.n, self.theta, self.T
+        sym = np.zeros((n // 2 + 1, 2, 2), dtype=complex)
+        leak = 0.0
+        for m in range(n // 2 + 1):
+            fk, fm = 1.0 - 1j * m * omega * self.tau, (m * omega) ** 2
+            e = np.exp(1j * m * theta)
+            E = np.zeros((2 * n, 2), dtype=complex)  # polar harmonic m, r then θ
+            E[:n, 0], E[n:, 1] = e, e
+            V = T @ E  # (x, y) contact dofs
+            Aii = (fk * b["Ksii"] - fm * b["Mii"]).tocsc()
+            X = splu(Aii).solve(fk * (b["Ksic"] @ V) - fm * (b["Mic"] @ V))
+            SV = T.T @ (fk * (b["Kscc"] @ V) - fm * (b["Mcc"] @ V)
+                        - fk * (b["Ksci"] @ X) + fm * (b["Mci"] @ X))
+            t = E.conj().T @ SV / n
+            sym[m] = t
+            leak = max(leak, float(np.abs(SV - E @ t).max() / np.abs(SV).max()))
+        return sym, leak
+
+    def _schur_shift(self, omega: float) -> Array:
+        """The block-circulant S of the transient's travelling operator (module doc)."""
+        n = self.n
+        sym = self.shift_symbols_bloch(omega)
+        full = np.zeros((n, 2, 2), dtype=complex)
+        full[: n // 2 + 1] = sym
+        full[n // 2 + 1:] = np.conj(sym[1:(n + 1) // 2][::-1])  # t_{N−m} = conj(t_m)
+        if n % 2 == 0:
+            full[n // 2] = full[n // 2].real
+        col = np.fft.ifft(full, axis=0).real  # S_ab[j, 0] = (1/N) Σ_m t_m,ab e^{imθ_j}
+        j = np.arange(n)
+        idx = (j[:, None] - j[None, :]) % n
+        S = np.empty((2 * n, 2 * n))
+        for a in range(2):
+            for bb in range(2):
+                S[a * n:(a + 1) * n, bb * n:(bb + 1) * n] = col[idx, a, bb]
+        return S
+
     def stiffness(self, omega: float, derivative: bool = True) -> tuple[Array, Array | None]:
         S, dS, _ = self.factor(omega, derivative)
         return S, dS
@@ -188,7 +342,7 @@ class FrameOperators:
 
 
 def frame_operators(problem: TubeProblem, damping: float = 0.0,
-                    lumped: bool = False) -> FrameOperators:
+                    lumped: bool = False, inertia: str = "rotation") -> FrameOperators:
     """Assemble G (and the damping, retardation time ``damping`` s), split the free dofs,
     order the contact nodes by θ (serial only). ``lumped``: G by the vertex rule
     (``forms.travelling.travelling_inertia``), the analogue of the transient's lumped mass."""
@@ -231,15 +385,21 @@ def frame_operators(problem: TubeProblem, damping: float = 0.0,
         Cm.assemble()
         C = _csr(Cm)
         Cm.destroy()
-    return FrameOperators(problem, K, G, contact, interior, theta, nd.ds_weight[order], T, C)
+    if inertia not in ("rotation", "shift"):
+        raise ValueError(f"inertia {inertia!r}: use 'rotation' (K − ω²G) or 'shift' (the "
+                         "transient's travelling operator)")
+    return FrameOperators(problem, K, G, contact, interior, theta, nd.ds_weight[order], T, C,
+                          inertia=inertia, tau=float(damping))
 
 
-def circle_problem(ops: FrameOperators, scene: Scene | None = None) -> CircleProblem:
+def circle_problem(ops: FrameOperators, scene: Scene | None = None,
+                   rate: str = "bdf2") -> CircleProblem:
     """The condensed FE problem for ``studies.travel.newton.solve_wave`` (SI units).
 
     ``scene`` (default: the one the operators were built for) may change the loading and the
-    mismatch only: K and G do not depend on them.
+    mismatch only: K and G do not depend on them. ``rate``: the material-derivative scheme
+    (``newton.RATES``).
     """
     sc = ops.problem.scene if scene is None else scene
     return CircleProblem(n=ops.n, d=sc.geometry.d, surface_speed=sc.geometry.R * sc.loading.omega,
-                         f=sc.loading.f, stiffness=ops.stiffness)
+                         f=sc.loading.f, stiffness=ops.stiffness, rate=rate)

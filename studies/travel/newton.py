@@ -16,18 +16,27 @@ reduced operator of eq. [2] (reduced model). Both are supplied as a callable ret
 Contact law in the wave frame. The material derivative of a polar component is −ω ∂_φ, so
 the slip velocity of the cylinder relative to the tube is s = RΩ + ω ∂_φ W_θ. It is
 discretised *upwind in time*: the material point now at node i was at the upstream node
-up(i) = i + sign(ω) a time τ_h = Δφ/|ω| earlier (Δφ = 2π/N), so
+up(i) = i + sign(ω) a time τ_h = Δφ/|ω| earlier (Δφ = 2π/N), so (first order)
 
     s_i τ_h = RΩ τ_h + W_θ,up(i) − W_θ,i.
 
 This is exactly the transient's nodal law with "time step" τ_h (``solver.contact``: stick =
-the node advances RΩ·dt from where it was one step earlier). So the law is applied by the same
+the node advances RΩ·dt from where it was one step earlier). Two upwind schemes (``RATES``,
+``CircleProblem.rate``), each a "previous position" and a "step":
+
+    bdf1:  prev = W_θ,up,                    step = τ_h        (first order),
+    bdf2:  prev = (4W_θ,up − W_θ,upup)/3,    step = 2τ_h/3     (second order, the default).
+
+bdf1 is what the transient sees on a rigidly travelling P1 wave: W(φ_i + ω dt) interpolated
+between i and up(i) gives (W_i − W_up)/τ_h for any dt < τ_h. ``rate_stencil`` is the one
+place that defines (prev, step); the law, the Jacobian, ``material_rate``, the margins and the
+zone measure all read it. So the law is applied by the same
 function, ``solver.contact.project_contact``, in the Alart–Curnier fixed-point form
 
     λ = proj(λ − c (W − W_target)),   c > 0 a nodal stiffness,
 
-i.e. the trial position is W − λ/c, the "previous" tangential position is W_θ,up and the
-cylinder travel is RΩ τ_h. A root of C(W, ω) = λ − proj(...) satisfies, node by node,
+i.e. the trial position is W − λ/c, the "previous" tangential position is prev and the
+cylinder travel is RΩ·step. A root of C(W, ω) = λ − proj(...) satisfies, node by node,
 W_r ≥ d, p ≥ 0, p(W_r − d) = 0, |q| ≤ f p, q = f p sign(s) where s ≠ 0 (stick: s = 0).
 
 Unknowns (W, ω), 2N + 1; equations C (2N) and one phase condition
@@ -44,6 +53,7 @@ varies over the family by an amount that falls with N (measured in docs/travelli
 Generalised Jacobian (rows by the status ``project_contact`` returns):
 separation: C = λ; stick: C_n = c(W_r − d), C_t = c(W_θ − W_θ,up − RΩτ_h);
 slip: C_n = c(W_r − d), C_t = q − fσ(p − c(W_r − d)), σ = sign of the trial stick force.
+(bdf2: W_θ,up + RΩτ_h becomes (4W_θ,up − W_θ,upup)/3 + 2RΩτ_h/3.)
 """
 
 from __future__ import annotations
@@ -58,12 +68,26 @@ from numpy.typing import NDArray
 from solver.contact import SEPARATION, SLIP, STICK, ContactArrays, project_contact
 
 __all__ = [
-    "CircleProblem", "NotConverged", "TravelSolution", "inequality_margins", "material_rate",
-    "solve_wave", "zone_lengths",
+    "CircleProblem", "NotConverged", "RATES", "TravelSolution", "inequality_margins",
+    "material_rate", "rate_stencil", "solve_wave", "zone_lengths",
 ]
 
 Array = NDArray[np.float64]
 StiffnessFn = Callable[..., tuple[Array, Array | None]]
+
+# material-derivative schemes (module doc): weight of W_up, weight of W_upup, step / τ_h
+RATES: dict[str, tuple[float, float, float]] = {
+    "bdf1": (1.0, 0.0, 1.0),
+    "bdf2": (4.0 / 3.0, -1.0 / 3.0, 2.0 / 3.0),
+}
+
+
+def check_rate(rate: str) -> str:
+    """``rate`` if it names a scheme of ``RATES``, else a one-line ``ValueError``."""
+    if rate not in RATES:
+        raise ValueError(f"rate {rate!r}: the material-derivative scheme must be one of "
+                         f"{', '.join(RATES)}")
+    return rate
 
 
 class NotConverged(RuntimeError):
@@ -88,6 +112,10 @@ class CircleProblem:
     surface_speed: float
     f: float
     stiffness: StiffnessFn
+    rate: str = "bdf2"  # material-derivative scheme (``RATES``, module doc)
+
+    def __post_init__(self) -> None:
+        check_rate(self.rate)
 
     @property
     def theta(self) -> Array:
@@ -126,16 +154,20 @@ def _upstream(n: int, omega: float) -> NDArray[np.intp]:
     return (np.arange(n) + (1 if omega > 0 else -1)) % n
 
 
-def _tau(n: int, omega: float) -> float:
-    """BDF2 "time step" 2τ_h/3, τ_h = Δφ/|ω| (module doc)."""
-    return (2.0 / 3.0) * (2.0 * math.pi / n) / abs(omega)
-
-
-def material_rate(W_t: Array, omega: float) -> Array:
-    """Material time derivative −ω ∂_φ W_θ at the nodes, BDF2 upwind in time (module doc)."""
+def rate_stencil(W_t: Array, omega: float, rate: str = "bdf2") -> tuple[Array, float]:
+    """(prev, step) of the upwind material derivative (module doc): the "previous position"
+    of the material now at each node and the time since, so −ω∂_φW_θ ≈ (W_θ − prev)/step."""
+    a1, a2, s = RATES[rate]
     n = W_t.size
     up = _upstream(n, omega)
-    return (W_t - (4.0 * W_t[up] - W_t[up[up]]) / 3.0) / _tau(n, omega)
+    prev = a1 * W_t[up] if a2 == 0.0 else a1 * W_t[up] + a2 * W_t[up[up]]
+    return prev, s * (2.0 * math.pi / n) / abs(omega)
+
+
+def material_rate(W_t: Array, omega: float, rate: str = "bdf2") -> Array:
+    """Material time derivative −ω ∂_φ W_θ at the nodes, upwind in time (``rate_stencil``)."""
+    prev, step = rate_stencil(W_t, omega, rate)
+    return (W_t - prev) / step
 
 
 def fourier_k(values: Array, theta: Array, k: int) -> complex:
@@ -155,12 +187,10 @@ class _Law:
     def __call__(self, W: Array, lam: Array, omega: float) -> tuple[Array, Array]:
         """(C, λ_projected); ``self.out.status`` holds the nodal statuses."""
         n, c, pr = self.n, self.c, self.prob
-        tau = _tau(n, omega)
-        up = _upstream(n, omega)
-        prev = (4.0 * W[n:][up] - W[n:][up[up]]) / 3.0
+        prev, step = rate_stencil(W[n:], omega, pr.rate)
         project_contact(
             W[:n] - lam[:n] / c, W[n:] - lam[n:] / c, prev, self.mass, 1.0, pr.d,
-            pr.surface_speed * tau, pr.f, self.out,
+            pr.surface_speed * step, pr.f, self.out,
         )
         proj = np.concatenate([self.out.r_r, self.out.r_t])
         return lam - proj, proj
@@ -175,7 +205,7 @@ def inequality_margins(prob: CircleProblem, sol: TravelSolution, scale_force: fl
     st = sol.status
     sep, stick, slip = st == SEPARATION, st == STICK, st == SLIP
     contact = ~sep
-    s = prob.surface_speed - material_rate(sol.W_t, sol.omega)
+    s = prob.surface_speed - material_rate(sol.W_t, sol.omega, prob.rate)
     big = np.inf
     return {
         "gap_separation": float(np.min((sol.W_r[sep] - prob.d) / max(prob.d, 1e-300),
@@ -343,11 +373,12 @@ def _jacobian(
     stick = idx[st == STICK]
     up = _upstream(n, om)
     J[n + stick, :] = 0.0
+    a1, a2, _ = RATES[prob.rate]
     J[n + stick, n + stick] = c
-    J[n + stick, n + up[stick]] -= c * 4.0 / 3.0
-    J[n + stick, n + up[up[stick]]] += c / 3.0
-    # d/dω of −c RΩ τ, τ = (2/3)Δφ/|ω|
-    J[n + stick, 2 * n] = c * prob.surface_speed * _tau(n, om) / om
+    J[n + stick, n + up[stick]] -= c * a1
+    J[n + stick, n + up[up[stick]]] -= c * a2
+    # d/dω of −c RΩ step, step ∝ 1/|ω|
+    J[n + stick, 2 * n] = c * prob.surface_speed * rate_stencil(W[n:], om, prob.rate)[1] / om
     slip = idx[st == SLIP]
     fs = (f * sgn[slip])[:, None]
     J[n + slip, : 2 * n] = S[n + slip, :] - fs * S[slip, :]
@@ -378,7 +409,7 @@ def zone_lengths(prob: CircleProblem, sol: TravelSolution) -> dict[str, float]:
     if np.all(st == st[0]):
         return {name: float(np.all(st == code)) for code, name in
                 enumerate(("separation", "stick", "slip"))} | {"boundaries": 0}
-    s = (prob.surface_speed - material_rate(sol.W_t, sol.omega))[order]
+    s = (prob.surface_speed - material_rate(sol.W_t, sol.omega, prob.rate))[order]
     p, q, gap = sol.p[order], sol.q[order], (sol.W_r - prob.d)[order]
     cone = prob.f * p - np.abs(q)
     start = int(np.flatnonzero(st != np.roll(st, 1))[0])  # a run boundary

@@ -34,8 +34,10 @@ __all__ = ["reduced_problem", "wave_start", "solve_reduced", "psi_fractions"]
 Array = NDArray[np.float64]
 
 
-def reduced_problem(co: Coefficients, f: float, delta: float, n: int) -> CircleProblem:
-    """The reduced model [2] on ``n`` nodes as a ``CircleProblem`` (module doc)."""
+def reduced_problem(co: Coefficients, f: float, delta: float, n: int,
+                    rate: str = "bdf2") -> CircleProblem:
+    """The reduced model [2] on ``n`` nodes as a ``CircleProblem`` (module doc; ``rate``: the
+    material-derivative scheme, ``newton.RATES``)."""
     K = stiffness_matrix(co, n).toarray()
     unit = replace(co, a=1.0, b=1.0, g=0.0, h=0.0, D=0.0)
     G = stiffness_matrix(unit, n).toarray()  # Γ = −Δθ blockdiag(L, L)
@@ -43,7 +45,7 @@ def reduced_problem(co: Coefficients, f: float, delta: float, n: int) -> CircleP
     def stiffness(c: float, derivative: bool = True) -> tuple[Array, Array | None]:
         return K - (c * c) * G, ((-2.0 * c) * G if derivative else None)
 
-    return CircleProblem(n=n, d=delta, surface_speed=1.0, f=f, stiffness=stiffness)
+    return CircleProblem(n=n, d=delta, surface_speed=1.0, f=f, stiffness=stiffness, rate=rate)
 
 
 def wave_start(w: TravellingWave, n: int) -> tuple[Array, float]:
@@ -54,10 +56,11 @@ def wave_start(w: TravellingWave, n: int) -> tuple[Array, float]:
 
 
 def solve_reduced(
-    co: Coefficients, f: float, delta: float, n: int, W0: Array, c0: float, k: int, **kw
+    co: Coefficients, f: float, delta: float, n: int, W0: Array, c0: float, k: int,
+    rate: str = "bdf2", **kw,
 ) -> TravelSolution:
     """Solve the discrete reduced travelling-wave problem from (W0, c0)."""
-    return solve_wave(reduced_problem(co, f, delta, n), W0, c0, k, **kw)
+    return solve_wave(reduced_problem(co, f, delta, n, rate), W0, c0, k, **kw)
 
 
 def psi_fractions(sol: TravelSolution) -> tuple[float, float]:
