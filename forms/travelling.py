@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import ufl
 
-__all__ = ["frame_derivative", "travelling_damping", "travelling_inertia"]
+__all__ = ["frame_derivative", "travelling_inertia", "travelling_transport"]
 
 
 def frame_derivative(w: ufl.core.expr.Expr, x: ufl.core.expr.Expr) -> ufl.core.expr.Expr:
@@ -40,13 +40,14 @@ def travelling_inertia(u: ufl.Argument, v: ufl.Argument, rho: float,
     return rho * ufl.inner(frame_derivative(u, x), frame_derivative(v, x)) * dx
 
 
-def travelling_damping(u: ufl.Argument, v: ufl.Argument, material, eta: float) -> ufl.Form:
-    """Kelvin–Voigt damping in the wave frame: ``η ∫ σ(u̇):ε(v)`` with u̇ = −ω Q(∂_θ − J)w.
+def travelling_transport(u: ufl.Argument, v: ufl.Argument, rho: float) -> ufl.Form:
+    """``B(w, v) = ∫ ρ (∂_θ − J)w · v dx``: the frame velocity −ω(∂_θ − J)w tested in L².
 
-    Returns ``D(w, v) = η ∫ σ((∂_θ − J)w) : ε(v) dx`` (not symmetric); the wave-frame
-    operator becomes ``K − ω²G − ω D``. ``material`` is a ``forms.elasticity.Material``.
-    """
-    from forms.elasticity import strain, stress
-
+    With the lumped mass M, ``M⁻¹B w`` is the P1 field of (∂_θ − J)w (its lumped L²
+    projection), so the wave-frame Kelvin–Voigt damping is ``D = τ K M⁻¹ B`` (the transient's
+    C = τK applied to the frame velocity; ``studies.travel.frame.frame_operators``). Only first
+    derivatives of w appear. The direct form τ∫σ((∂_θ − J)w):ε(v) would differentiate ∇w once
+    more inside each cell, which P1 cannot: it loses the leading term τ∂_θ ε(w) and gives
+    ~−0.03 of the damping on a travelling harmonic (docs/travelling_waves.md, 2d)."""
     x = ufl.SpatialCoordinate(u.ufl_function_space().mesh)
-    return eta * ufl.inner(stress(frame_derivative(u, x), material), strain(v)) * ufl.dx
+    return rho * ufl.inner(frame_derivative(u, x), v) * ufl.dx

@@ -378,13 +378,18 @@ def frame_operators(problem: TubeProblem, damping: float = 0.0,
     T = np.block([[np.diag(cs), -np.diag(sn)], [np.diag(sn), np.diag(cs)]])
     C = None
     if damping > 0.0:
-        from forms.travelling import travelling_damping
+        # Kelvin–Voigt in the frame: D = τ K M⁻¹ B, M⁻¹B w the lumped projection of
+        # (∂_θ − J)w onto P1 (forms.travelling.travelling_transport); the clamped dofs
+        # have no velocity, so their rows of the projection are zero.
+        from forms.travelling import travelling_transport
 
-        Cm = dolfinx.fem.petsc.assemble_matrix(
-            dolfinx.fem.form(travelling_damping(u, v, problem.material, damping)))
-        Cm.assemble()
-        C = _csr(Cm)
-        Cm.destroy()
+        Bm = dolfinx.fem.petsc.assemble_matrix(
+            dolfinx.fem.form(travelling_transport(u, v, problem.material.rho)))
+        Bm.assemble()
+        moving = np.ones(problem.n_owned)
+        moving[problem.clamped] = 0.0
+        C = (damping * (K @ (sp.diags(moving / problem.mass) @ _csr(Bm)))).tocsr()
+        Bm.destroy()
     if inertia not in ("rotation", "shift"):
         raise ValueError(f"inertia {inertia!r}: use 'rotation' (K − ω²G) or 'shift' (the "
                          "transient's travelling operator)")
