@@ -44,6 +44,26 @@ def project(tr, tt, now_t, stiff, d, slide, f):
 
 
 @inline
+def contact_reaction(ux, uy, vx, vy, ax, ay, c_re, c_im, h_re, h_im, dt, kappa, stiff,
+                     d, slide, f):
+    """Forward-increment contact at one node of one scene, from u_n = (ux, uy), v~_n and
+    a*_n: the trial position u_n + dt v~_n + κ a*_n turned to polar components by
+    (c_re, c_im) = e^{-iθ}, the nodal law ``project``, and the reaction turned back by
+    (h_re, h_im) = e^{iθ}. Returns (r_r, r_t, status, r_x, r_y). Shared by ``single_step``,
+    ``batched_step`` and ``batched_step_long`` so that they run the same operations."""
+    now_r = ux * c_re - uy * c_im
+    now_t = ux * c_im + uy * c_re
+    tx = vx * dt + ax * kappa
+    ty = vy * dt + ay * kappa
+    tr = (tx * c_re - ty * c_im) + now_r
+    tt = (tx * c_im + ty * c_re) + now_t
+    rr, rt, st = project(tr, tt, now_t, stiff, d, slide, f)
+    rx = rr * h_re - rt * h_im
+    ry = rr * h_im + rt * h_re
+    return rr, rt, st, rx, ry
+
+
+@inline
 def pair_product(indptr, indices, data, u, i):
     """Rows i, i + 1 of K u (same column pattern: the x and y rows of one node).
 
@@ -160,20 +180,12 @@ def single_step(indptr, indices, data, n_rows, u, u_next, v, vp, a, ku, nim,
     for j in range(cx.size):
         ix = cx[j]
         iy = ix + 1
-        ux = u[ix]
-        uy = u[iy]
-        now_r = ux * pc_re[j] - uy * pc_im[j]
-        now_t = ux * pc_im[j] + uy * pc_re[j]
-        tx = vp[ix] * dt + a[ix] * kappa
-        ty = vp[iy] * dt + a[iy] * kappa
-        tr = (tx * pc_re[j] - ty * pc_im[j]) + now_r
-        tt = (tx * pc_im[j] + ty * pc_re[j]) + now_t
-        rr, rt, st = project(tr, tt, now_t, cmass[j] * inv_kappa, d, slide, f)
+        rr, rt, st, rx, ry = contact_reaction(
+            u[ix], u[iy], vp[ix], vp[iy], a[ix], a[iy], pc_re[j], pc_im[j], ph_re[j],
+            ph_im[j], dt, kappa, cmass[j] * inv_kappa, d, slide, f)
         r_pol[2 * j] = rr
         r_pol[2 * j + 1] = rt
         status[j] = st
-        rx = rr * ph_re[j] - rt * ph_im[j]
-        ry = rr * ph_im[j] + rt * ph_re[j]
         r_xy[2 * j] = rx
         r_xy[2 * j + 1] = ry
         a[ix] = a[ix] + rx * cinv[j]
@@ -274,20 +286,13 @@ def batched_step(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
                 inv_m = cinv[j]
                 stiff = cmass[j] * inv_kappa
                 for b in range(nb):
-                    ux = u[i, b]
-                    uy = u[i + 1, b]
-                    now_r = ux * pc_re[j] - uy * pc_im[j]
-                    now_t = ux * pc_im[j] + uy * pc_re[j]
-                    tx = vp[i, b] * dt + acc[k, b] * kappa
-                    ty = vp[i + 1, b] * dt + acc[k + 1, b] * kappa
-                    tr = (tx * pc_re[j] - ty * pc_im[j]) + now_r
-                    tt = (tx * pc_im[j] + ty * pc_re[j]) + now_t
-                    rr, rt, st = project(tr, tt, now_t, stiff, d[b], slide[b], f[b])
+                    rr, rt, st, rx, ry = contact_reaction(
+                        u[i, b], u[i + 1, b], vp[i, b], vp[i + 1, b], acc[k, b],
+                        acc[k + 1, b], pc_re[j], pc_im[j], ph_re[j], ph_im[j], dt, kappa,
+                        stiff, d[b], slide[b], f[b])
                     r_r[j, b] = rr
                     r_t[j, b] = rt
                     status[j, b] = st
-                    rx = rr * ph_re[j] - rt * ph_im[j]
-                    ry = rr * ph_im[j] + rt * ph_re[j]
                     r_x[j, b] = rx
                     r_y[j, b] = ry
                     acc[k, b] = acc[k, b] + rx * inv_m
@@ -417,20 +422,12 @@ def batched_step_long(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
             inv_m = cinv[j]
             stiff = cmass[j] * inv_kappa
             for b in range(nb):
-                ux = u[i, b]
-                uy = u[i + 1, b]
-                now_r = ux * pc_re[j] - uy * pc_im[j]
-                now_t = ux * pc_im[j] + uy * pc_re[j]
-                tx = vp[i, b] * dt + e0[b] * kappa
-                ty = vp[i + 1, b] * dt + e1[b] * kappa
-                tr = (tx * pc_re[j] - ty * pc_im[j]) + now_r
-                tt = (tx * pc_im[j] + ty * pc_re[j]) + now_t
-                rr, rt, st = project(tr, tt, now_t, stiff, d[b], slide[b], f[b])
+                rr, rt, st, rx, ry = contact_reaction(
+                    u[i, b], u[i + 1, b], vp[i, b], vp[i + 1, b], e0[b], e1[b], pc_re[j],
+                    pc_im[j], ph_re[j], ph_im[j], dt, kappa, stiff, d[b], slide[b], f[b])
                 r_r[j, b] = rr
                 r_t[j, b] = rt
                 status[j, b] = st
-                rx = rr * ph_re[j] - rt * ph_im[j]
-                ry = rr * ph_im[j] + rt * ph_re[j]
                 r_x[j, b] = rx
                 r_y[j, b] = ry
                 e0[b] = e0[b] + rx * inv_m
