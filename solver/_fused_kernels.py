@@ -219,6 +219,33 @@ def single_step(indptr, indices, data, n_rows, u, u_next, v, vp, a, ku, nim,
         work[2] += wc - 0.5 * st_
 
 
+@inline
+def batched_contact_work(u, u_next, cx, pc_re, pc_im, r_x, r_y, r_t, zprev, work, slide, f):
+    """Contact work of every scene of a batch with the centred increment u_{n+1} − u_{n−1}
+    (as ``single_step``: per scene, over the contact nodes in order). Scene-outer, so that
+    the three sums stay in registers (a B-long loop per contact node would pay its vector
+    loop's set-up per node)."""
+    for b in range(u.shape[1]):
+        sc = 0.0
+        st_ = 0.0
+        srt = 0.0
+        for j in range(cx.size):
+            ix = cx[j]
+            dzx = u_next[ix, b] - zprev[j, 0, b]
+            dzy = u_next[ix + 1, b] - zprev[j, 1, b]
+            zprev[j, 0, b] = u[ix, b]
+            zprev[j, 1, b] = u[ix + 1, b]
+            sc += r_x[j, b] * dzx + r_y[j, b] * dzy
+            rt = r_t[j, b]
+            st_ += rt * (dzx * pc_im[j] + dzy * pc_re[j])
+            srt += rt
+        work[0, b] += 0.5 * sc
+        if f[b] > 0.0:
+            wc = srt * slide[b]
+            work[1, b] += wc
+            work[2, b] += wc - 0.5 * st_
+
+
 @jit
 def batched_step(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
                  c_v, c_w, c_p, b2_half, dt, kappa, inv_kappa,
@@ -323,28 +350,7 @@ def batched_step(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
                 w = ai * c_w + (ai * c_v + vp_f[q])
                 un_f[q] = w * dt + u_f[q]
                 vp_f[q] = w if b2_half else w + ai * c_p
-    # work sums: per scene, over the contact nodes in order (as single_step); scene-outer so
-    # that the three sums stay in registers (a B-long loop per contact node would pay its
-    # vector loop's set-up per node)
-    for b in range(nb):
-        sc = 0.0
-        st_ = 0.0
-        srt = 0.0
-        for j in range(cx.size):
-            ix = cx[j]
-            dzx = u_next[ix, b] - zprev[j, 0, b]
-            dzy = u_next[ix + 1, b] - zprev[j, 1, b]
-            zprev[j, 0, b] = u[ix, b]
-            zprev[j, 1, b] = u[ix + 1, b]
-            sc += r_x[j, b] * dzx + r_y[j, b] * dzy
-            rt = r_t[j, b]
-            st_ += rt * (dzx * pc_im[j] + dzy * pc_re[j])
-            srt += rt
-        work[0, b] += 0.5 * sc
-        if f[b] > 0.0:
-            wc = srt * slide[b]
-            work[1, b] += wc
-            work[2, b] += wc - 0.5 * st_
+    batched_contact_work(u, u_next, cx, pc_re, pc_im, r_x, r_y, r_t, zprev, work, slide, f)
 
 
 @jit
@@ -449,28 +455,7 @@ def batched_step_long(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
                     w = ai * c_w + (ai * c_v + vp[row, b])
                     u_next[row, b] = w * dt + u[row, b]
                     vp[row, b] = w if b2_half else w + ai * c_p
-    # work sums: per scene, over the nodes in order (as single_step)
-    sc, st_, srt = acc[0], acc[1], acc[2]  # scratch, no allocation per step
-    sc[:] = 0.0
-    st_[:] = 0.0
-    srt[:] = 0.0
-    for j in range(cx.size):
-        ix = cx[j]
-        for b in range(nb):
-            dzx = u_next[ix, b] - zprev[j, 0, b]
-            dzy = u_next[ix + 1, b] - zprev[j, 1, b]
-            zprev[j, 0, b] = u[ix, b]
-            zprev[j, 1, b] = u[ix + 1, b]
-            sc[b] += r_x[j, b] * dzx + r_y[j, b] * dzy
-            rt = r_t[j, b]
-            st_[b] += rt * (dzx * pc_im[j] + dzy * pc_re[j])
-            srt[b] += rt
-    for b in range(nb):
-        work[0, b] += 0.5 * sc[b]
-        if f[b] > 0.0:
-            wc = srt[b] * slide[b]
-            work[1, b] += wc
-            work[2, b] += wc - 0.5 * st_[b]
+    batched_contact_work(u, u_next, cx, pc_re, pc_im, r_x, r_y, r_t, zprev, work, slide, f)
 
 
 @jit
