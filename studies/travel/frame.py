@@ -35,8 +35,9 @@ m onto itself through a 2 × 2 symbol t_m(ω). The operator is block circulant i
 components: S_ab[j, l] = (1/N) Σ_m t_m,ab e^{im(θ_j − θ_l)}, t_−m = conj(t_m) (K, M real), the
 Nyquist term real. It costs one sparse complex LU of A_m,ii (two right-hand sides) per
 harmonic m = 0 … N/2 and ω; dS/dω by a central difference. The two operators agree as the
-harmonics are resolved (``benchmarks/travel_symbol.py``: at N = 132, ω = −2497 rad/s they
-differ by 15 % at m = 4 and by O(1) at m = 12, 16).
+harmonics are resolved (``benchmarks/travel_symbol.py``; measured with the former, P1-
+inconsistent damping form: at N = 132, ω = −2497 rad/s they differed by 15 % at m = 4 and by
+O(1) at m = 12, 16; not re-measured with D = τK M⁻¹B).
 """
 
 from __future__ import annotations
@@ -333,6 +334,10 @@ class FrameOperators:
         out = np.zeros(self.problem.n_owned)
         out[self.contact] = wc
         if X is None:
+            if "phi" not in b:
+                raise ValueError("full_field: the interior is kept only by the undamped "
+                                 "rotation operator (LU or modal route), not with damping "
+                                 "or inertia='shift'")
             w2 = omega * omega
             out[self.interior] = -b["phi"] @ (((b["B0"] - w2 * b["B1"]) @ wc)
                                              / (1.0 - w2 * b["mu"]))
@@ -354,6 +359,9 @@ def frame_operators(problem: TubeProblem, damping: float = 0.0,
 
     if problem.comm.size > 1:
         raise ValueError("stickslip travel runs on one process: drop mpirun")
+    if inertia not in ("rotation", "shift"):
+        raise ValueError(f"inertia {inertia!r}: use 'rotation' (K − ω²G) or 'shift' (the "
+                         "transient's travelling operator)")
     V = problem.V
     u, v = ufl.TrialFunction(V), ufl.TestFunction(V)
     Gm = dolfinx.fem.petsc.assemble_matrix(
@@ -377,7 +385,7 @@ def frame_operators(problem: TubeProblem, damping: float = 0.0,
     cs, sn = np.cos(theta), np.sin(theta)
     T = np.block([[np.diag(cs), -np.diag(sn)], [np.diag(sn), np.diag(cs)]])
     C = None
-    if damping > 0.0:
+    if damping > 0.0 and inertia == "rotation":  # "shift" damps with τK per harmonic
         # Kelvin–Voigt in the frame: D = τ K M⁻¹ B, M⁻¹B w the lumped projection of
         # (∂_θ − J)w onto P1 (forms.travelling.travelling_transport); the clamped dofs
         # have no velocity, so their rows of the projection are zero.
@@ -390,9 +398,6 @@ def frame_operators(problem: TubeProblem, damping: float = 0.0,
         moving[problem.clamped] = 0.0
         C = (damping * (K @ (sp.diags(moving / problem.mass) @ _csr(Bm)))).tocsr()
         Bm.destroy()
-    if inertia not in ("rotation", "shift"):
-        raise ValueError(f"inertia {inertia!r}: use 'rotation' (K − ω²G) or 'shift' (the "
-                         "transient's travelling operator)")
     return FrameOperators(problem, K, G, contact, interior, theta, nd.ds_weight[order], T, C,
                           inertia=inertia, tau=float(damping))
 
