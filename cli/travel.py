@@ -97,10 +97,11 @@ def _travel(args: argparse.Namespace) -> int:
         return _err("--celerity 0: a travelling wave needs a non-zero speed (sign = sense)")
     if args.max_iter < 1:
         return _err(f"--max-iter {args.max_iter}: must be >= 1")
+    from studies.travel.frame import INERTIAS
     from studies.travel.newton import RATES
 
-    if args.inertia not in ("rotation", "shift"):
-        return _err(f"--inertia {args.inertia}: use rotation or shift")
+    if args.inertia not in INERTIAS:
+        return _err(f"--inertia {args.inertia}: use {' or '.join(INERTIAS)}")
     if args.rate not in RATES:
         return _err(f"--rate {args.rate}: the material-derivative scheme must be one of "
                     f"{', '.join(RATES)}")

@@ -54,7 +54,7 @@ from solver.problem import TubeProblem
 from solver.scene import Scene
 from studies.travel.newton import CircleProblem
 
-__all__ = ["FrameOperators", "frame_operators", "circle_problem"]
+__all__ = ["INERTIAS", "FrameOperators", "frame_operators", "circle_problem"]
 
 Array = NDArray[np.float64]
 MODAL_MAX = 6000  # interiors up to this size may use the modal form of the Schur complement
@@ -66,6 +66,9 @@ def _csr(mat) -> sp.csr_matrix:
     indptr, indices, data = mat.getValuesCSR()
     return sp.csr_matrix((data, indices, indptr), shape=mat.getSize())
 
+
+#: wave-frame operators (module doc): the continuous rotation, or the transient's shift
+INERTIAS = ("rotation", "shift")
 
 @dataclass
 class FrameOperators:
@@ -359,7 +362,7 @@ def frame_operators(problem: TubeProblem, damping: float = 0.0,
 
     if problem.comm.size > 1:
         raise ValueError("stickslip travel runs on one process: drop mpirun")
-    if inertia not in ("rotation", "shift"):
+    if inertia not in INERTIAS:
         raise ValueError(f"inertia {inertia!r}: use 'rotation' (K − ω²G) or 'shift' (the "
                          "transient's travelling operator)")
     V = problem.V
