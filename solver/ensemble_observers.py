@@ -1,5 +1,7 @@
 """Observers of a batch (``solver.ensemble``): per-scene samples and probes of B scenes,
-spooled to disk in chunks so memory does not grow with the run length."""
+kept whole in host memory (``spool_dir = None`` on the CPU; the caller checks that the record
+fits, ``BatchRecorder.record_bytes``) or spooled to disk in chunks, so that memory does not
+grow with the run length."""
 
 from __future__ import annotations
 
@@ -66,6 +68,28 @@ class _Spool:
         return np.array(data.reshape(-1, *self.inner)[:n])
 
 
+class _Record:
+    """One recorded field of a batch, whole and in host memory, scene-major:
+    (B, rows, *inner). ``row()`` is a (*inner, B) view of the next row, the layout of
+    ``_Spool.row``, so the observers write straight into each scene's own block: no chunk,
+    no flush, no transposed copy; ``read(b, n)`` is one contiguous slice."""
+
+    def __init__(self, inner: tuple[int, ...], B: int, rows: int, dtype) -> None:
+        self.data = np.zeros((B, rows, *inner), dtype=dtype)  # untouched pages cost nothing
+        self.rows = 0
+
+    def row(self) -> np.ndarray:
+        view = np.moveaxis(self.data[:, self.rows], 0, -1)
+        self.rows += 1
+        return view
+
+    def close(self) -> None:
+        pass
+
+    def read(self, b: int, n: int) -> np.ndarray:
+        return np.array(self.data[b, :n])
+
+
 class BatchRecorder:
     """The observers of ``solver.run.Simulation`` for a batch, scene by scene.
 
@@ -94,19 +118,33 @@ class BatchRecorder:
         self.n_probe = 0
         self.t = np.zeros(max_samples)
         self.probe_t = np.zeros(max_steps + 1)
-        path = (lambda name: None) if spool_dir is None else (lambda name: spool_dir / name)
         npb = len(probe_nodes)
-        self.fields = _Spool(xp, (6, m), B, chunk, np.float64, path("fields.f64"))
-        self.status = _Spool(xp, (m,), B, chunk, np.int8, path("status.i8"))
+
+        def store(name: str, inner: tuple[int, ...], dtype, rows: int, chunk_rows: int):
+            if spool_dir is None and xp is np:  # the whole record, in host memory
+                return _Record(inner, B, rows, dtype)
+            path = None if spool_dir is None else spool_dir / name  # chunks (file or host)
+            return _Spool(xp, inner, B, chunk_rows, dtype, path)
+
+        self.fields = store("fields.f64", (6, m), np.float64, max_samples, chunk)
+        self.status = store("status.i8", (m,), np.int8, max_samples, chunk)
         # kinetic, strain, 3 works, damping work (0: batched scenes are undamped), as
         # solver.observers.ENERGY_FIELDS
-        self.energies = _Spool(xp, (6,), B, chunk, np.float64, path("energies.f64"))
-        self.probes = _Spool(xp, (4, npb), B, 16 * chunk, np.float64, path("probes.f64"))
+        self.energies = store("energies.f64", (6,), np.float64, max_samples, chunk)
+        self.probes = store("probes.f64", (4, npb), np.float64, max_steps + 1, 16 * chunk)
         self.cx_sorted = integ.cx.astype(np.int64)[self.perm]
         self.pc_sorted = xp.asarray(integ.phase_conj)[self.perm]
         self.z = xp.zeros((B, m), dtype=np.complex128)
         self.initial = np.full(B, np.nan)
         self.bound = np.full(B, np.inf)
+
+    @staticmethod
+    def record_bytes(B: int, m: int, n_probes: int, max_samples: int, max_steps: int) -> int:
+        """Bytes of a whole batch record: the fields (6 x m doubles), status (m bytes) and
+        energies (6 doubles) of every sample, and the probes (4 doubles each) of every step.
+        A caller keeps the record in memory (``spool_dir = None``) when this fits."""
+        per_sample = 8 * 6 * m + m + 8 * 6
+        return int(B * (max_samples * per_sample + (max_steps + 1) * 8 * 4 * n_probes))
 
     def due(self, step: int) -> bool:
         return step % self.every == 0 and self.n < self.max_samples

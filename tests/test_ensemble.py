@@ -258,6 +258,40 @@ def test_lean_steps_keep_the_state_bitwise_and_store_outputs_when_asked():
             assert not np.array_equal(integ.v[:, 0], sims[0].integrator.v)
 
 
+def test_memory_record_and_disk_spool_hold_the_same_samples(tmp_path):
+    """The batch's record kept whole in memory (``spool_dir = None``, what a sweep uses when
+    it fits) and spooled to disk in chunks give every scene the same samples and probes,
+    bit for bit: both observe the same steps, 4 scenes, 70 steps (several chunks and a
+    partial one), sampled every 3rd step."""
+    from solver.ensemble_observers import BatchRecorder
+
+    integ, _ = _batch(VARIANTS)
+    bp = integ.bp
+    kept = np.array([int(integ.cx[0]) // 2])
+    integ.keep_nodes(kept)
+    kw = dict(mass=bp.mass, perm=np.argsort(bp.theta), theta=bp.theta,
+              ds=np.zeros(bp.cx.size), every=3, max_samples=30, max_steps=80,
+              probe_nodes=kept, probe_pc=np.ones(1), probe_deg=np.zeros(1), chunk=4)
+    memory = BatchRecorder(integ, **kw)
+    disk = BatchRecorder(integ, spool_dir=tmp_path, **kw)
+    assert disk.fields.path == tmp_path / "fields.f64" and not hasattr(memory.fields, "path")
+    for _ in range(70):
+        integ.step(diag=memory.due(integ.step_count))
+        for rec in (memory, disk):
+            rec.record_probes()
+            if rec.due(integ.step_count - 1):
+                rec.sample()
+    for rec in (memory, disk):
+        rec.close()
+    assert memory.n == disk.n == 24 and memory.n_probe == disk.n_probe == 70
+    for b in range(integ.B):
+        for got, want in ((memory.arrays(b), disk.arrays(b)),
+                          (memory.probe_arrays(b), disk.probe_arrays(b))):
+            assert sorted(got) == sorted(want)
+            for key in got:
+                np.testing.assert_array_equal(got[key], want[key], err_msg=key)
+
+
 def test_array_namespace_reference_equals_the_kernel_to_round_off():
     """The xp (numpy) reference step against the numba kernel: 250 steps, scipy's K @ U sums
     rows in CSR order, not in even/odd pairs, so 1e-12 of max|u| (round-off, amplified by the

@@ -36,6 +36,7 @@ import numpy as np
 
 from solver.atomic import atomic_write_text
 from solver.scene import Scene, scene_to_dict, write_scene
+from studies.resources import available_memory
 from studies.sweep.spec import SweepSpec, Task, scene_for
 
 #: Scene keys that may differ inside a batch (the contact law's data and the initial state).
@@ -44,6 +45,9 @@ PER_SCENE = {"name": None, "description": None, "loading": None, "initial": None
 #: Memory a batch may use (bytes) when ``--batch auto`` picks its size.
 AUTO_MEMORY_FRACTION = 0.25
 AUTO_MAX = 1024
+#: A batch keeps its whole sample record in memory when it needs at most this fraction of
+#: the available memory; otherwise the record is spooled to files under the sweep directory.
+SPOOL_MEMORY_FRACTION = 0.1
 
 
 def batch_key(scene: Scene) -> str | None:
@@ -302,7 +306,13 @@ def _advance(spec, scenes, members, live, problem, base, dt, u0s, backend, logs,
     probes = ProbeRecorder(problem, projection, sc0.output.probes_deg, 0)
     every = max(1, int(round(sc0.output.sample_interval / dt)))
     n_steps = members[live[0]].planned_steps()
-    spool = Path(tempfile.mkdtemp(prefix=".batch-", dir=out_dir))
+    # the record stays in memory when it fits (no file round trip in the time loop);
+    # otherwise it is spooled to disk in chunks, so memory does not grow with the run
+    n_probes = len(probes.index)
+    record = BatchRecorder.record_bytes(len(live), bp.cx.size, n_probes,
+                                        n_steps // every + 2, n_steps)
+    in_memory = xp is np and record <= SPOOL_MEMORY_FRACTION * available_memory()
+    spool = None if in_memory else Path(tempfile.mkdtemp(prefix=".batch-", dir=out_dir))
     rec = BatchRecorder(
         integ, mass=problem.mass, perm=shape.perm, theta=shape.theta, ds=shape.ds,
         every=every, max_samples=n_steps // every + 2, max_steps=n_steps,
@@ -354,7 +364,8 @@ def _advance(spec, scenes, members, live, problem, base, dt, u0s, backend, logs,
     out = list(statuses)
     for k in live:
         out[k] = members[k].status
-    spools.append(spool)
+    if spool is not None:
+        spools.append(spool)
     return out
 
 
