@@ -20,6 +20,7 @@ kernel), so they may share the arrays. Examples (run two at once for the 2-rank 
     git show 202fb9c:solver/_fused_kernels.py > /tmp/old_kernels.py     # before lean steps
     git show main:solver/_fused_kernels.py > /tmp/main_kernels.py       # lean steps, main
     ./dev python3 benchmarks/batched_step_ab.py DIR/problem_n528.npz --old /tmp/old_kernels.py --B 8
+    ./dev python3 benchmarks/batched_step_ab.py DIR/problem_n132.npz --both --B 32   # LONG_B
 """
 
 from __future__ import annotations
@@ -55,6 +56,8 @@ def main() -> None:
     ap.add_argument("--tag", default="", help="label printed with each line")
     ap.add_argument("--today", choices=("auto", "batched_step", "batched_step_long"),
                     default="auto", help="today's kernel: as the sweep picks it by B, or forced")
+    ap.add_argument("--both", action="store_true",
+                    help="time batched_step against batched_step_long (lean and full steps)")
     args = ap.parse_args()
 
     with np.load(args.npz) as z:
@@ -88,6 +91,19 @@ def main() -> None:
         it.step_count += 1
 
     variants = {"full": lambda: it.step(diag=True), "lean": lambda: it.step(diag=False)}
+    if args.both:  # today's two kernels on the same arrays, interleaved (the LONG_B choice)
+        from solver.fused import kernel
+
+        fns = {name: kernel(name) for name in ("batched_step", "batched_step_long")}
+
+        def pick(name: str, diag: bool):
+            def run() -> None:
+                it._name, it._fn = name, fns[name]
+                it.step(diag=diag)
+            return run
+
+        variants = {f"{name} {'full' if diag else 'lean'}": pick(name, diag)
+                    for name in fns for diag in (False, True)}
     if old is not None:
         old_step()  # load / compile
         olds = ({"old full": old_step, "old lean": lambda: old_step(False)} if lean_old
@@ -108,7 +124,7 @@ def main() -> None:
         ref.step()
     same = bool(np.array_equal(ref.u, it.u))
     for k, x in times.items():
-        name = k if k.startswith("old") else f"{k} ({it._name})"
+        name = k if k.startswith("old") or args.both else f"{k} ({it._name})"
         print(f"{args.tag} {args.npz.name} B={B} {name}: "
               f"median {statistics.median(x):.1f} "
               f"min {min(x):.1f} max {max(x):.1f} us/scene-step ({args.rounds} rounds x "

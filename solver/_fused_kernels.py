@@ -19,6 +19,20 @@ NODE_BLOCK = 32
 #: ``batched_step`` (4-scene register passes): at N = 528 the passes are 1.7x faster at
 #: B = 8 and 1.2x slower at B = 16 (benchmarks/batched_step_ab.py; docs/performance.md)
 LONG_B = 16
+#: ... unless K is small: the passes read K's CSR once per 4 scenes, which costs little
+#: while it stays in a core's L2 cache (1 MiB here; half of it for K). Then they run up to
+#: B < SMALL_K_LONG_B: at N = 132 (K 0.27 MB) they are 1.04-1.3x faster at B = 32 and
+#: 1.2x slower at B = 48 (``benchmarks/batched_step_ab.py --both``)
+SMALL_K_BYTES = 1 << 19
+SMALL_K_LONG_B = 48
+
+
+def batched_kernel_name(B: int, k_bytes: int) -> str:
+    """``batched_step`` (4-scene register passes) or ``batched_step_long`` (B-long vector
+    loops) for a batch of B scenes whose K's CSR (values + column indices) is ``k_bytes``:
+    the faster of the two on the measurements above. Same bits either way."""
+    long_from = SMALL_K_LONG_B if k_bytes <= SMALL_K_BYTES else LONG_B
+    return "batched_step" if B < long_from else "batched_step_long"
 
 jit = numba.njit(cache=True, nogil=True, fastmath=False, error_model="numpy")
 inline = numba.njit(inline="always", cache=True, fastmath=False, error_model="numpy")

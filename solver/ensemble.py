@@ -11,8 +11,9 @@ length B) and the initial state. Everything else is solver/fused.py's step, colu
 
 Backends (``kernel``):
 
-* ``"numba"`` (CPU default): ``solver._fused_kernels.batched_step`` (B < ``LONG_B``: 4-scene
-  register passes) or ``batched_step_long`` (B-long vector loops), the single-scene
+* ``"numba"`` (CPU default): ``solver._fused_kernels.batched_step`` (short batches: 4-scene
+  register passes) or ``batched_step_long`` (B-long vector loops; ``batched_kernel_name``
+  picks by B and the size of K), the single-scene
   kernel's arithmetic in the same order, so a scene's numbers are *bitwise* those of
   ``stickslip run`` with ``time.kernel = "numba"``, whatever B;
 * ``"cuda"`` (``xp = cupy``): one CUDA kernel per step, thread per (node, scene), compiled with
@@ -154,8 +155,9 @@ class BatchedExplicit:
             from solver.fused import kernel as get_kernel
 
             # short batches: 4-scene register passes; long ones: B-long vector loops (same
-            # bits either way; solver._fused_kernels.LONG_B)
-            self._name = "batched_step" if B < _kernels().LONG_B else "batched_step_long"
+            # bits either way; solver._fused_kernels.batched_kernel_name)
+            k_bytes = int(bp.data.nbytes + bp.indices.nbytes)
+            self._name = _kernels().batched_kernel_name(B, k_bytes)
             self._fn = get_kernel(self._name)
             self.acc = z(max(4, 2 * _kernels().NODE_BLOCK), B)
         elif kernel == "cuda":

@@ -207,15 +207,21 @@ def test_register_passes_and_single_columns_give_the_single_scene_bits():
 
 
 def test_long_batches_run_the_term_outer_kernel_with_the_same_bits():
-    """From B = LONG_B on, ``batched_step_long`` (B-long vector loops) runs instead of the
-    register passes: a batch of the 4 variants 4 times over (B = 16) gives, column by
-    column, the 4-scene batch's bits (itself the single-scene runs', tests above), lean
-    steps included."""
+    """Long batches run ``batched_step_long`` (B-long vector loops) instead of the register
+    passes: from B = LONG_B on, or SMALL_K_LONG_B when K fits the L2 cache (the smoke
+    mesh's does: B = 48 here). That batch, the 4 variants 12 times over, gives column by
+    column the 4-scene batch's bits (itself the single-scene runs', tests above), lean steps
+    included."""
     from solver.ensemble import BatchedExplicit
     from solver.fused import _kernels
 
+    kern = _kernels()
+    assert kern.batched_kernel_name(kern.LONG_B - 1, 1 << 30) == "batched_step"
+    assert kern.batched_kernel_name(kern.LONG_B, 1 << 30) == "batched_step_long"
+    assert kern.batched_kernel_name(kern.SMALL_K_LONG_B - 1, 1000) == "batched_step"
+    assert kern.batched_kernel_name(kern.SMALL_K_LONG_B, 1000) == "batched_step_long"
     small, _ = _batch(VARIANTS)
-    reps = _kernels().LONG_B // 4
+    reps = kern.SMALL_K_LONG_B // 4
     big = BatchedExplicit(small.bp, d=np.tile(small.d, reps), slide=np.tile(small.slide, reps),
                           f=np.tile(small.f, reps))
     big.set_state(np.tile(small.u, reps), np.zeros((small.n, 4 * reps)))
