@@ -54,12 +54,29 @@ def atomic_write_text(path: str | Path, text: str) -> Path:
     return atomic_write(path, lambda fh: fh.write(data))
 
 
-def atomic_save_npz(path: str | Path, arrays: dict[str, Any], compress: bool = True) -> Path:
-    """``numpy.savez_compressed`` (or ``savez``) of ``arrays`` to ``path`` atomically."""
+#: zlib level of the compressed .npz files. Level 1 instead of numpy's default 6 makes
+#: them 1.02x larger and 1.45x faster to write: a run's samples are float64
+#: fields that deflate to ~0.57 of their size at either level (docs/performance.md).
+NPZ_LEVEL = 1
+
+
+def _save_npz(fh: IO[bytes], arrays: dict[str, Any], compress: bool) -> None:
+    """``numpy.savez_compressed`` / ``savez`` of ``arrays`` into ``fh`` (the same .npz
+    layout, one NAME.npy member per array), deflated at ``NPZ_LEVEL`` when ``compress``."""
+    import zipfile
+
     import numpy as np
 
-    save = np.savez_compressed if compress else np.savez
-    return atomic_write(path, lambda fh: save(fh, **arrays))
+    method = zipfile.ZIP_DEFLATED if compress else zipfile.ZIP_STORED
+    with zipfile.ZipFile(fh, "w", compression=method, compresslevel=NPZ_LEVEL) as zf:
+        for name, value in arrays.items():
+            with zf.open(f"{name}.npy", "w", force_zip64=True) as member:
+                np.lib.format.write_array(member, np.asanyarray(value), allow_pickle=True)
+
+
+def atomic_save_npz(path: str | Path, arrays: dict[str, Any], compress: bool = True) -> Path:
+    """``numpy.savez_compressed`` (or ``savez``) of ``arrays`` to ``path`` atomically."""
+    return atomic_write(path, lambda fh: _save_npz(fh, arrays, compress))
 
 
 def remove_temporaries(folder: str | Path, pid: int) -> None:
