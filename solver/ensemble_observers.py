@@ -16,17 +16,18 @@ if TYPE_CHECKING:  # pragma: no cover
 class _Spool:
     """One recorded field of a batch: rows of shape (B, *inner) in chunks of ``chunk`` rows.
 
-    A full chunk is turned scene-major (B, chunk, *inner) on the host and appended to a file
-    (``path``) or kept in memory (``path = None``); ``read(b, n)`` returns scene b's first n
-    rows, (n, *inner). Memory stays O(chunk x inner x B) with a file, whatever the run length.
-    Rows are scene-first so that a scene's values are written contiguously (a row written
-    scene-last, with the scene index innermost, cost ~4x more per sample).
+    The chunk buffer is scene-major, (B, chunk, *inner): a row is a (B, *inner) view whose
+    scene rows are contiguous (a row written scene-last, the scene index innermost, cost ~4x
+    more per sample), and a full chunk is appended to a file (``path``) or kept in memory
+    (``path = None``) as it is, without a transposed copy; ``read(b, n)`` returns scene b's
+    first n rows, (n, *inner). Memory stays O(chunk x inner x B) with a file, whatever the
+    run length.
     """
 
     def __init__(self, xp: Any, inner: tuple[int, ...], B: int, chunk: int, dtype,
                  path=None) -> None:
         self.xp, self.inner, self.B, self.chunk, self.dtype = xp, inner, B, chunk, dtype
-        self.buf = xp.zeros((chunk, B, *inner), dtype=dtype)
+        self.buf = xp.zeros((B, chunk, *inner), dtype=dtype)  # scene-major: no transpose
         self.path = path
         self.fh = open(path, "wb") if path is not None else None  # noqa: SIM115
         self.mem: list[np.ndarray] = []
@@ -39,17 +40,14 @@ class _Spool:
         if i == 0 and self.rows:
             self._flush()
         self.rows += 1
-        return self.buf[i]
+        return self.buf[:, i]
 
     def _flush(self) -> None:
-        blk = self.xp.moveaxis(self.buf, 1, 0)
-        host = np.ascontiguousarray(blk.get() if hasattr(blk, "get") else blk)
         if self.fh is not None:
-            host.tofile(self.fh)
+            (self.buf.get() if hasattr(self.buf, "get") else self.buf).tofile(self.fh)
         else:
-            self.mem.append(host)
-        self.n_chunks += 1
-        self.buf.fill(0)
+            self.mem.append(self.buf.get() if hasattr(self.buf, "get") else self.buf.copy())
+        self.n_chunks += 1  # rows of a partial last chunk past ``rows`` are never read
 
     def close(self) -> None:
         """Flush the last (partial) chunk; afterwards ``read`` works."""
