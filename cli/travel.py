@@ -84,6 +84,21 @@ def parse_continue(text: str) -> tuple[str, list[float]]:
     return key.strip(), [float(v) for v in np.linspace(a, b, n)]
 
 
+def _import_dolfinx_without_numba() -> None:
+    """Import dolfinx with numba hidden (issue 14's speed target). ``dolfinx.utils`` imports
+    numba and LLVM at import time for its numba helpers only. ``travel`` runs no compiled
+    kernel, and that import is 0.2-0.3 s of the command's ~2 s of CPU (docs/
+    travelling_waves.md, "Speed"). numba is importable again afterwards; only dolfinx's
+    numba helpers stay undefined in this process. A no-op when either is imported already."""
+    if "dolfinx" in sys.modules or "numba" in sys.modules:
+        return
+    sys.modules["numba"] = None  # type: ignore[assignment]  # import numba -> ImportError
+    try:
+        import dolfinx.fem.petsc  # noqa: F401
+    finally:
+        del sys.modules["numba"]
+
+
 def _travel(args: argparse.Namespace) -> int:
     from solver.scene import SceneError, load_scene
     from studies.output import output_root
@@ -97,6 +112,7 @@ def _travel(args: argparse.Namespace) -> int:
         return _err("--celerity 0: a travelling wave needs a non-zero speed (sign = sense)")
     if args.max_iter < 1:
         return _err(f"--max-iter {args.max_iter}: must be >= 1")
+    _import_dolfinx_without_numba()
     from studies.travel.frame import INERTIAS
     from studies.travel.newton import RATES
 
