@@ -234,6 +234,17 @@ def single_step(indptr, indices, data, n_rows, u, u_next, v, vp, a, ku, nim,
 
 
 @inline
+def batch_energies(u, v, ku, mass, energy, row, nb):
+    """Row ``row``'s terms of the sampled energies of B scenes: energy[0] += m v², energy[1] +=
+    u (K u) (kinetic and strain energy x 2; the observers' sums, in row order)."""
+    mr = mass[row]
+    for b in range(nb):
+        vi = v[row, b]
+        energy[0, b] += vi * mr * vi
+        energy[1, b] += u[row, b] * ku[row, b]
+
+
+@inline
 def batched_contact_work(u, u_next, cx, pc_re, pc_im, r_x, r_y, r_t, zprev, work, slide, f):
     """Contact work of every scene of a batch with the centred increment u_{n+1} − u_{n−1}
     (as ``single_step``: per scene, over the contact nodes in order). Scene-outer, so that
@@ -265,7 +276,7 @@ def batched_step(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
                  c_v, c_w, c_p, b2_half, dt, kappa, inv_kappa,
                  cx, ph_re, ph_im, pc_re, pc_im, cmass, cinv,
                  d, slide, f, r_r, r_t, r_x, r_y, status, zprev, work, acc, cslot,
-                 diag, keep):
+                 diag, keep, mass, energy):
     """The same step on (n, B) arrays: column b is scene b (per-scene d, slide, f).
 
     One pass over the nodes, in blocks of ``NODE_BLOCK`` nodes: the (x, y) rows of K u for
@@ -281,10 +292,16 @@ def batched_step(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
     observers alone, so they are stored only when ``diag`` (a sampled step) or at the
     nodes with ``keep[node] != 0`` (probes). Same operations in the same order either way,
     and the same as ``single_step`` per scene: the state's bits do not depend on ``diag``,
-    B or the block size.
+    B or the block size. On a ``diag`` step the sampled energies are summed too, while the
+    block is in cache: ``energy`` (2, B) = Σ_i m_i v_i² and Σ_i u_i (K u)_i over the rows in
+    ascending order (``batch_energies``; the observers halve them).
     """
     n_rows, nb = u.shape
     nb4 = nb - nb % 4
+    if diag:
+        for b in range(nb):
+            energy[0, b] = 0.0
+            energy[1, b] = 0.0
     n_nodes = n_rows // 2
     u_f = u.reshape(-1)  # flat views (C order: row-major, B per row) for the Newmark loop
     un_f = u_next.reshape(-1)
@@ -357,6 +374,8 @@ def batched_step(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
                 w = ai * c_w + vi
                 un_f[q] = w * dt + u_f[q]
                 vp_f[q] = w if b2_half else w + ai * c_p
+            for row in range(2 * g0, 2 * g1):
+                batch_energies(u, v, ku, mass, energy, row, nb)
         else:
             for t in range(2 * (g1 - g0) * nb):
                 q = q0 + numba.uint64(t)
@@ -372,7 +391,7 @@ def batched_step_long(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
                       c_v, c_w, c_p, b2_half, dt, kappa, inv_kappa,
                       cx, ph_re, ph_im, pc_re, pc_im, cmass, cinv,
                       d, slide, f, r_r, r_t, r_x, r_y, status, zprev, work, acc, cslot,
-                      diag, keep):
+                      diag, keep, mass, energy):
     """``batched_step`` for long batches (B >= LONG_B; ``acc`` (4, B) at least): same
     arguments, same operations in the same order per scene, hence the same bits.
 
@@ -399,6 +418,10 @@ def batched_step_long(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
     # odd-term partial sums (o0, o1). 2-D indexing only: a row view (u[col]) would cost a
     # reference-count update per use
     e0, e1, o0, o1 = acc[0], acc[1], acc[2], acc[3]
+    if diag:
+        for b in range(nb):
+            energy[0, b] = 0.0
+            energy[1, b] = 0.0
     for i in range(0, n_rows, 2):
         a0 = indptr[i]
         a1 = indptr[i + 1]
@@ -463,6 +486,8 @@ def batched_step_long(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
                     w = ai * c_w + vi
                     u_next[row, b] = w * dt + u[row, b]
                     vp[row, b] = w if b2_half else w + ai * c_p
+                if diag:
+                    batch_energies(u, v, ku, mass, energy, row, nb)
             else:
                 for b in range(nb):
                     ai = acc[r, b]

@@ -141,6 +141,9 @@ class BatchedExplicit:
         self.status = xp.zeros((m, B), dtype=np.int8)
         self.zprev = z(m, 2, B)
         self.work = z(3, B)
+        self.mass = dev(bp.mass)
+        self.energy = z(2, B)  # numba kernels, sampled steps: Σ m v², Σ u K u (x 2 energies)
+        self.energy_summed = False  # True after a numba step that summed ``energy``
         self.acc = z(4, B)  # the numba kernels' scratch (a*_n of a block of nodes, sums)
         self.time = 0.0
         self.step_count = 0
@@ -220,7 +223,7 @@ class BatchedExplicit:
                     self.ph_re, self.ph_im, self.pc_re, self.pc_im, self.cmass, self.cinv,
                     self.d, self.slide, self.f, self.r_r, self.r_t, self.r_x, self.r_y,
                     self.status, self.zprev, self.work, self.acc, self.cslot, bool(diag),
-                    self.keep)
+                    self.keep, self.mass, self.energy)
             if self.step_count == 0:
                 with slp_vectorize():
                     timed_first_call(self._name, self._fn, *args)
@@ -229,6 +232,7 @@ class BatchedExplicit:
                 self.compile_s = COMPILE_SECONDS[self._name]
             else:
                 self._fn(*args)
+            self.energy_summed = bool(diag)
         elif self.kernel == "cuda":
             self._cuda_step(self._u[cur], self._u[nxt], diag)
         else:

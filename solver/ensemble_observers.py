@@ -182,9 +182,12 @@ class BatchRecorder:
         row[:, 5] = it.r_t[self.perm].T
         self.status.row()[...] = it.status[self.perm].T
         e = self.energies.row()  # (B, 6): kinetic, strain, the three works (on the device)
-        xp.multiply(it.v, self.mass, out=self.scratch)
-        e[:, 0] = xp.einsum("ib,ib->b", self.scratch, it.v)
-        e[:, 1] = xp.einsum("ib,ib->b", it.u_prev, it.ku)
+        if it.energy_summed:  # the numba kernel summed them on this step, in row order
+            e[:, :2] = it.energy.T
+        else:
+            xp.multiply(it.v, self.mass, out=self.scratch)
+            e[:, 0] = xp.einsum("ib,ib->b", self.scratch, it.v)
+            e[:, 1] = xp.einsum("ib,ib->b", it.u_prev, it.ku)
         e[:, :2] *= 0.5
         e[:, 2:5] = (it.work if it.work.ndim == 2 else it.work.sum(axis=1)).T
         e[:, 5] = 0.0
