@@ -1,0 +1,124 @@
+"""Is a transient's wave a member of the band of its own active set? (issue 14, selection)
+
+``./dev nice python3 benchmarks/travel_active_set.py RUN_DIR [--span S] [--speeds M]
+[--rate bdf1|bdf2] [--inertia rotation|shift] [--tol T]``
+
+The nodal statuses (separation / stick / slip) and slip senses of the run's last sample are
+held fixed. For a fixed active set the wave-frame contact law is linear in W at every ω
+(docs/travelling_waves.md, "The discrete waves come in bands"):
+
+    separated:  λ = S(ω) W = 0                    (both components)
+    contact:    W_r = d
+    stick:      W_θ − prev(W_θ) = RΩ · step       (newton.rate_stencil: the upwind rate)
+    slip:       λ_θ = f sgn(q) λ_r
+
+so one linear solve gives W(ω). At M speeds ω0 (1 ± S) the script solves it and checks that
+active set's inequalities (``newton.inequality_margins``: gap in separation, p ≥ 0, |q| ≤ f p
+in stick, slip velocity in the sense of q). The band of the transient's own active set is
+where all of them hold. One JSON line: per speed the smallest margin and the inequality
+that fails, the band, and the member nearest the transient's speed against the transient
+(amplitude, sub-node ψ).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("run", type=Path)
+    ap.add_argument("--span", type=float, default=0.01, help="relative half-width of the scan")
+    ap.add_argument("--speeds", type=int, default=81)
+    ap.add_argument("--rate", choices=("bdf1", "bdf2"), default="bdf2")
+    ap.add_argument("--inertia", choices=("rotation", "shift"), default="rotation")
+    ap.add_argument("--tol", type=float, default=1e-8,
+                    help="a member: every margin >= -tol (relative, as newton's margin_tol)")
+    a = ap.parse_args()
+    if a.span <= 0.0 or a.speeds < 2:
+        ap.error(f"--span {a.span} --speeds {a.speeds}: give a positive span and >= 2 speeds")
+
+    from postprocess.analysis import analyse_run, load_run
+    from solver.contact import SEPARATION, SLIP, STICK
+    from solver.scene import load_scene
+    from studies.travel import driver as D
+    from studies.travel.newton import (
+        INEQUALITY_NAMES,
+        RATES,
+        TravelSolution,
+        inequality_margins,
+    )
+
+    scene = load_scene(a.run / "scene.toml")
+    st = D.setup(scene, float(scene.damping.tau), rate=a.rate,
+                 inertia=a.inertia)
+    prob, n = st.prob, st.prob.n
+    run = load_run(a.run)
+    s = run.samples
+    order = np.argsort(s["theta"])
+    status = np.asarray(s["status"][-1][order], dtype=np.int8)
+    sense = np.sign(s["r_theta"][-1][order])
+    wave = analyse_run(run)
+    k, om0 = wave.mode, wave.angular_speed_rad_s
+    R = scene.geometry.R
+    a1, a2, sfac = RATES[prob.rate]
+    S0, _ = prob.stiffness(0.0, False)
+    c_scale = float(np.mean(np.diag(S0)[:n]))
+    fscale = c_scale * prob.d
+    sep = np.flatnonzero(status == SEPARATION)
+    con = np.flatnonzero(status != SEPARATION)
+    stick = np.flatnonzero(status == STICK)
+    slip = np.flatnonzero(status == SLIP)
+
+    def solve_at(om: float) -> TravelSolution:
+        """W(ω) of the fixed active set (module doc): one dense linear solve."""
+        S, _ = prob.stiffness(om, False)
+        up = (np.arange(n) + (1 if om > 0 else -1)) % n
+        step = sfac * (2.0 * math.pi / n) / abs(om)
+        A = np.zeros((2 * n, 2 * n))
+        b = np.zeros(2 * n)
+        A[sep] = S[sep]
+        A[n + sep] = S[n + sep]
+        A[con, con] = 1.0
+        b[con] = prob.d
+        A[n + stick, n + stick] = 1.0
+        A[n + stick, n + up[stick]] -= a1
+        A[n + stick, n + up[up[stick]]] -= a2
+        b[n + stick] = prob.surface_speed * step
+        A[n + slip] = S[n + slip] - (prob.f * sense[slip])[:, None] * S[slip]
+        W = np.linalg.solve(A, b)
+        lam = S @ W
+        return TravelSolution(omega=om, W_r=W[:n], W_t=W[n:], p=lam[:n], q=lam[n:],
+                              status=status.copy(), iterations=1, residual=0.0)
+
+    rows, members = [], []
+    for om in om0 * np.linspace(1.0 - a.span, 1.0 + a.span, a.speeds):
+        sol = solve_at(float(om))
+        margins = inequality_margins(prob, sol, fscale)
+        worst = min(margins, key=margins.get)
+        rows.append({"c_m_s": om * R, "min_margin": margins[worst],
+                     "failing": INEQUALITY_NAMES[worst] if margins[worst] < -a.tol else None})
+        if margins[worst] >= -a.tol:
+            summary, _ = D.measure(st, sol, k)
+            members.append({"c_m_s": om * R, "amplitude_m": summary["amplitude_m"],
+                            "psi1": summary["psi1_subnode"], "psi2": summary["psi2_subnode"]})
+    t = {"c_m_s": wave.celerity_m_s, "amplitude_m": wave.amplitude_m, "psi1": wave.psi1,
+         "psi2": wave.psi2}
+    out = {"run": str(a.run), "k": k, "n": n, "rate": prob.rate, "inertia": a.inertia,
+           "tol": a.tol,
+           "statuses": {"separation": len(sep), "stick": len(stick), "slip": len(slip)},
+           "transient": t, "scan": rows, "members": members,
+           "band_m_s": ([min(m["c_m_s"] for m in members), max(m["c_m_s"] for m in members)]
+                        if members else None)}
+    if members:
+        out["member_at_c"] = min(members, key=lambda m: abs(m["c_m_s"] - t["c_m_s"]))
+    print(json.dumps(out))
+
+
+if __name__ == "__main__":
+    main()
