@@ -12,9 +12,10 @@ held fixed. For a fixed active set the wave-frame contact law is linear in W at 
     stick:      W_θ − prev(W_θ) = RΩ · step       (newton.rate_stencil: the upwind rate)
     slip:       λ_θ = f sgn(q) λ_r
 
-so one linear solve gives W(ω). At M speeds ω0 (1 ± S) the script solves it and checks that
-active set's inequalities (``newton.inequality_margins``: gap in separation, p ≥ 0, |q| ≤ f p
-in stick, slip velocity in the sense of q). The band of the transient's own active set is
+so one linear solve gives W(ω) (``newton.wave_of_active_set``). At M speeds ω0 (1 ± S)
+the script solves it and checks that active set's inequalities
+(``newton.inequality_margins``: gap in separation, p ≥ 0, |q| ≤ f p in stick, slip velocity
+in the sense of q). The band of the transient's own active set is
 where all of them hold. One JSON line: per speed the smallest margin and the inequality
 that fails, the band, and the member nearest the transient's speed against the transient
 (amplitude, sub-node ψ).
@@ -24,7 +25,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 from pathlib import Path
 
 import numpy as np
@@ -47,16 +47,10 @@ def main() -> None:
     from solver.contact import SEPARATION, SLIP, STICK
     from solver.scene import load_scene
     from studies.travel import driver as D
-    from studies.travel.newton import (
-        INEQUALITY_NAMES,
-        RATES,
-        TravelSolution,
-        inequality_margins,
-    )
+    from studies.travel.newton import INEQUALITY_NAMES, inequality_margins, wave_of_active_set
 
     scene = load_scene(a.run / "scene.toml")
-    st = D.setup(scene, float(scene.damping.tau), rate=a.rate,
-                 inertia=a.inertia)
+    st = D.setup(scene, float(scene.damping.tau), rate=a.rate, inertia=a.inertia)
     prob, n = st.prob, st.prob.n
     run = load_run(a.run)
     s = run.samples
@@ -66,39 +60,14 @@ def main() -> None:
     wave = analyse_run(run)
     k, om0 = wave.mode, wave.angular_speed_rad_s
     R = scene.geometry.R
-    a1, a2, sfac = RATES[prob.rate]
     S0, _ = prob.stiffness(0.0, False)
-    c_scale = float(np.mean(np.diag(S0)[:n]))
-    fscale = c_scale * prob.d
-    sep = np.flatnonzero(status == SEPARATION)
-    con = np.flatnonzero(status != SEPARATION)
-    stick = np.flatnonzero(status == STICK)
-    slip = np.flatnonzero(status == SLIP)
-
-    def solve_at(om: float) -> TravelSolution:
-        """W(ω) of the fixed active set (module doc): one dense linear solve."""
-        S, _ = prob.stiffness(om, False)
-        up = (np.arange(n) + (1 if om > 0 else -1)) % n
-        step = sfac * (2.0 * math.pi / n) / abs(om)
-        A = np.zeros((2 * n, 2 * n))
-        b = np.zeros(2 * n)
-        A[sep] = S[sep]
-        A[n + sep] = S[n + sep]
-        A[con, con] = 1.0
-        b[con] = prob.d
-        A[n + stick, n + stick] = 1.0
-        A[n + stick, n + up[stick]] -= a1
-        A[n + stick, n + up[up[stick]]] -= a2
-        b[n + stick] = prob.surface_speed * step
-        A[n + slip] = S[n + slip] - (prob.f * sense[slip])[:, None] * S[slip]
-        W = np.linalg.solve(A, b)
-        lam = S @ W
-        return TravelSolution(omega=om, W_r=W[:n], W_t=W[n:], p=lam[:n], q=lam[n:],
-                              status=status.copy(), iterations=1, residual=0.0)
+    fscale = float(np.mean(np.diag(S0)[:n])) * prob.d  # c·d, as solve_wave
+    counts = {name: int(np.count_nonzero(status == code))
+              for name, code in (("separation", SEPARATION), ("stick", STICK), ("slip", SLIP))}
 
     rows, members = [], []
     for om in om0 * np.linspace(1.0 - a.span, 1.0 + a.span, a.speeds):
-        sol = solve_at(float(om))
+        sol = wave_of_active_set(prob, status, sense, float(om))
         margins = inequality_margins(prob, sol, fscale)
         worst = min(margins, key=margins.get)
         rows.append({"c_m_s": om * R, "min_margin": margins[worst],
@@ -111,7 +80,7 @@ def main() -> None:
          "psi2": wave.psi2}
     out = {"run": str(a.run), "k": k, "n": n, "rate": prob.rate, "inertia": a.inertia,
            "tol": a.tol,
-           "statuses": {"separation": len(sep), "stick": len(stick), "slip": len(slip)},
+           "statuses": counts,
            "transient": t, "scan": rows, "members": members,
            "band_m_s": ([min(m["c_m_s"] for m in members), max(m["c_m_s"] for m in members)]
                         if members else None)}

@@ -69,7 +69,7 @@ from solver.contact import SEPARATION, SLIP, STICK, ContactArrays, project_conta
 
 __all__ = [
     "CircleProblem", "NotConverged", "RATES", "TravelSolution", "inequality_margins",
-    "material_rate", "rate_stencil", "solve_wave", "zone_lengths",
+    "material_rate", "rate_stencil", "solve_wave", "wave_of_active_set", "zone_lengths",
 ]
 
 Array = NDArray[np.float64]
@@ -351,6 +351,48 @@ def solve_wave(
         raise NotConverged(f"converged to a wave whose dominant mode is {mode}, not k = {k} "
                            "(a node-scale pattern, not the requested wave)", info | {"mode": mode})
     return sol
+
+
+def wave_of_active_set(prob: CircleProblem, status: NDArray[np.int8], sense: Array,
+                       omega: float) -> TravelSolution:
+    """The wave of a *fixed* active set at speed ω: one linear solve, no Newton.
+
+    With the statuses (``solver.contact`` codes) and the slip senses ``sense`` = sgn q held,
+    the nodal law is linear in W ("The discrete waves come in bands",
+    docs/travelling_waves.md):
+
+        separated:  λ = S(ω) W = 0            contact:  W_r = d
+        stick:      W_θ − prev(W_θ) = RΩ·step    (``rate_stencil``)
+        slip:       λ_θ = f sgn λ_r
+
+    The result satisfies the equalities exactly. Whether it is a wave is the sign of
+    ``inequality_margins``, which the caller checks. The band of the active set is the ω where
+    every margin is >= 0 (benchmarks/travel_active_set.py)."""
+    n = prob.n
+    a1, a2, s = RATES[prob.rate]
+    S, _ = prob.stiffness(omega, False)
+    up = _upstream(n, omega)
+    step = s * (2.0 * math.pi / n) / abs(omega)
+    sep = np.flatnonzero(status == SEPARATION)
+    con = np.flatnonzero(status != SEPARATION)
+    stick = np.flatnonzero(status == STICK)
+    slip = np.flatnonzero(status == SLIP)
+    A = np.zeros((2 * n, 2 * n))
+    b = np.zeros(2 * n)
+    A[sep] = S[sep]
+    A[n + sep] = S[n + sep]
+    A[con, con] = 1.0
+    b[con] = prob.d
+    A[n + stick, n + stick] = 1.0
+    A[n + stick, n + up[stick]] -= a1
+    A[n + stick, n + up[up[stick]]] -= a2
+    b[n + stick] = prob.surface_speed * step
+    A[n + slip] = S[n + slip] - (prob.f * np.asarray(sense)[slip])[:, None] * S[slip]
+    W = np.linalg.solve(A, b)
+    lam = S @ W
+    return TravelSolution(omega=omega, W_r=W[:n], W_t=W[n:], p=lam[:n], q=lam[n:],
+                          status=np.asarray(status, dtype=np.int8).copy(), iterations=1,
+                          residual=0.0, how="fixed active set")
 
 
 def _jacobian(
