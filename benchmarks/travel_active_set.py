@@ -1,11 +1,12 @@
 """Is a transient's wave a member of the band of its own active set? (issue 14, selection)
 
 ``./dev nice python3 benchmarks/travel_active_set.py RUN_DIR [--span S] [--speeds M]
-[--rate bdf1|bdf2] [--inertia rotation|shift] [--tol T]``
+[--rate bdf1|bdf2] [--inertia rotation|shift] [--tol T] [--sample I]``
 
-The nodal statuses (separation / stick / slip) and slip senses of the run's last sample are
-held fixed. For a fixed active set the wave-frame contact law is linear in W at every ω
-(docs/travelling_waves.md, "The discrete waves come in bands"):
+The nodal statuses (separation / stick / slip) and slip senses of the run's last sample
+(``--sample I``: sample I) are held fixed. For a fixed active set the wave-frame contact
+law is linear in W at every ω (docs/travelling_waves.md, "The discrete waves come in
+bands"):
 
     separated:  λ = S(ω) W = 0                    (both components)
     contact:    W_r = d
@@ -37,6 +38,8 @@ def main() -> None:
     ap.add_argument("--speeds", type=int, default=81)
     ap.add_argument("--rate", choices=("bdf1", "bdf2"), default="bdf2")
     ap.add_argument("--inertia", choices=("rotation", "shift"), default="rotation")
+    ap.add_argument("--sample", type=int, default=-1,
+                    help="which sample's statuses (index, default the last)")
     ap.add_argument("--tol", type=float, default=1e-8,
                     help="a member: every margin >= -tol (relative, as newton's margin_tol)")
     a = ap.parse_args()
@@ -55,8 +58,8 @@ def main() -> None:
     run = load_run(a.run)
     s = run.samples
     order = np.argsort(s["theta"])
-    status = np.asarray(s["status"][-1][order], dtype=np.int8)
-    sense = np.sign(s["r_theta"][-1][order])
+    status = np.asarray(s["status"][a.sample][order], dtype=np.int8)
+    sense = np.sign(s["r_theta"][a.sample][order])
     wave = analyse_run(run)
     k, om0 = wave.mode, wave.angular_speed_rad_s
     R = scene.geometry.R
@@ -79,7 +82,7 @@ def main() -> None:
     t = {"c_m_s": wave.celerity_m_s, "amplitude_m": wave.amplitude_m, "psi1": wave.psi1,
          "psi2": wave.psi2}
     out = {"run": str(a.run), "k": k, "n": n, "rate": prob.rate, "inertia": a.inertia,
-           "tol": a.tol,
+           "tol": a.tol, "sample": a.sample,
            "statuses": counts,
            "transient": t, "scan": rows, "members": members,
            "band_m_s": ([min(m["c_m_s"] for m in members), max(m["c_m_s"] for m in members)]
