@@ -50,7 +50,12 @@ def main() -> None:
     from solver.contact import SEPARATION, SLIP, STICK
     from solver.scene import load_scene
     from studies.travel import driver as D
-    from studies.travel.newton import INEQUALITY_NAMES, inequality_margins, wave_of_active_set
+    from studies.travel.newton import (
+        INEQUALITY_NAMES,
+        inequality_margins,
+        nodal_stiffness,
+        wave_of_active_set,
+    )
 
     scene = load_scene(a.run / "scene.toml")
     st = D.setup(scene, float(scene.damping.tau), rate=a.rate, inertia=a.inertia)
@@ -63,8 +68,7 @@ def main() -> None:
     wave = analyse_run(run)
     k, om0 = wave.mode, wave.angular_speed_rad_s
     R = scene.geometry.R
-    S0, _ = prob.stiffness(0.0, False)
-    fscale = float(np.mean(np.diag(S0)[:n])) * prob.d  # c·d, as solve_wave
+    fscale = nodal_stiffness(prob) * prob.d  # c·d, as solve_wave
     counts = {name: int(np.count_nonzero(status == code))
               for name, code in (("separation", SEPARATION), ("stick", STICK), ("slip", SLIP))}
 

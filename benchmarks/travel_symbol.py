@@ -165,7 +165,7 @@ def cmd_law(a: argparse.Namespace) -> None:
     from postprocess.analysis import load_run
     from solver.scene import load_scene
     from studies.travel import driver as D
-    from studies.travel.newton import _Law
+    from studies.travel.newton import _Law, nodal_stiffness
 
     sc = load_scene(str(a.run / "scene.toml"), [])
     st = D.setup(sc, float(sc.damping.tau), rate=a.rate)
@@ -174,7 +174,7 @@ def cmd_law(a: argparse.Namespace) -> None:
     o = np.argsort(s["theta"])
     n = o.size
     lam = np.concatenate([s["r_r"][-1][o], s["r_theta"][-1][o]])
-    c = float(np.mean(np.diag(st.prob.stiffness(0.0, False)[0])[:n]))
+    c = nodal_stiffness(st.prob)
     law = _Law(st.prob, c)
     C, _ = law(W, lam, om0)
     scale = c * sc.geometry.d

@@ -69,7 +69,8 @@ from solver.contact import SEPARATION, SLIP, STICK, ContactArrays, project_conta
 
 __all__ = [
     "CircleProblem", "NotConverged", "RATES", "TravelSolution", "inequality_margins",
-    "material_rate", "rate_stencil", "solve_wave", "wave_of_active_set", "zone_lengths",
+    "material_rate", "nodal_stiffness", "rate_stencil", "solve_wave", "wave_of_active_set",
+    "zone_lengths",
 ]
 
 Array = NDArray[np.float64]
@@ -157,11 +158,16 @@ def _upstream(n: int, omega: float) -> NDArray[np.intp]:
 def rate_stencil(W_t: Array, omega: float, rate: str = "bdf2") -> tuple[Array, float]:
     """(prev, step) of the upwind material derivative (module doc): the "previous position"
     of the material now at each node and the time since, so −ω∂_φW_θ ≈ (W_θ − prev)/step."""
-    a1, a2, s = RATES[rate]
+    a1, a2, _ = RATES[rate]
     n = W_t.size
     up = _upstream(n, omega)
     prev = a1 * W_t[up] if a2 == 0.0 else a1 * W_t[up] + a2 * W_t[up[up]]
-    return prev, s * (2.0 * math.pi / n) / abs(omega)
+    return prev, rate_step(n, omega, rate)
+
+
+def rate_step(n: int, omega: float, rate: str = "bdf2") -> float:
+    """The ``step`` of ``rate_stencil``: s · Δφ/|ω|, s from ``RATES``."""
+    return RATES[rate][2] * (2.0 * math.pi / n) / abs(omega)
 
 
 def material_rate(W_t: Array, omega: float, rate: str = "bdf2") -> Array:
@@ -228,6 +234,13 @@ INEQUALITY_NAMES = {
 }
 
 
+def nodal_stiffness(prob: CircleProblem) -> float:
+    """c, the scale of the nodal law: the mean normal diagonal of the static S(0) (positive
+    whatever the wave speed). c·d is the nodal force that pushes a node by the mismatch."""
+    S0, _ = prob.stiffness(0.0, False)
+    return float(np.mean(np.diag(S0)[: prob.n]))
+
+
 def solve_wave(
     prob: CircleProblem,
     W0: Array,
@@ -256,8 +269,7 @@ def solve_wave(
     """
     n = prob.n
     theta = prob.theta
-    S0, _ = prob.stiffness(0.0, False)  # static: positive diagonal whatever the wave speed
-    c = float(np.mean(np.diag(S0)[:n]))
+    c = nodal_stiffness(prob)
     law = _Law(prob, c)
     fscale = c * max(prob.d, 1e-300)
     a0 = fourier_k(W0[n:], theta, k)
@@ -367,32 +379,50 @@ def wave_of_active_set(prob: CircleProblem, status: NDArray[np.int8], sense: Arr
 
     The result satisfies the equalities exactly. Whether it is a wave is the sign of
     ``inequality_margins``, which the caller checks. The band of the active set is the ω where
-    every margin is >= 0 (benchmarks/travel_active_set.py)."""
+    every margin is >= 0 (benchmarks/travel_active_set.py). The matrix is the W-block of
+    the semismooth Newton's generalised Jacobian at these statuses (``_law_rows``)."""
     n = prob.n
-    a1, a2, s = RATES[prob.rate]
+    c = nodal_stiffness(prob)
     S, _ = prob.stiffness(omega, False)
-    up = _upstream(n, omega)
-    step = s * (2.0 * math.pi / n) / abs(omega)
-    sep = np.flatnonzero(status == SEPARATION)
-    con = np.flatnonzero(status != SEPARATION)
+    sgn = np.sign(np.asarray(sense, dtype=float))
+    A = _law_rows(prob, status, sgn, c, S, omega)
+    b = np.zeros(2 * n)  # the constant parts of C (Alart-Curnier form, module doc)
+    contact = np.flatnonzero(status != SEPARATION)
     stick = np.flatnonzero(status == STICK)
     slip = np.flatnonzero(status == SLIP)
-    A = np.zeros((2 * n, 2 * n))
-    b = np.zeros(2 * n)
-    A[sep] = S[sep]
-    A[n + sep] = S[n + sep]
-    A[con, con] = 1.0
-    b[con] = prob.d
-    A[n + stick, n + stick] = 1.0
-    A[n + stick, n + up[stick]] -= a1
-    A[n + stick, n + up[up[stick]]] -= a2
-    b[n + stick] = prob.surface_speed * step
-    A[n + slip] = S[n + slip] - (prob.f * np.asarray(sense)[slip])[:, None] * S[slip]
+    b[contact] = c * prob.d  # C_r = c (W_r − d)
+    b[n + stick] = c * prob.surface_speed * rate_step(n, omega, prob.rate)
+    b[n + slip] = prob.f * sgn[slip] * c * prob.d  # λ_θ − f sgn (λ_r − c (W_r − d))
     W = np.linalg.solve(A, b)
     lam = S @ W
     return TravelSolution(omega=omega, W_r=W[:n], W_t=W[n:], p=lam[:n], q=lam[n:],
                           status=np.asarray(status, dtype=np.int8).copy(), iterations=1,
                           residual=0.0, how="fixed active set")
+
+
+def _law_rows(prob: CircleProblem, status: NDArray[np.int8], sgn: Array, c: float,
+              S: Array, om: float) -> Array:
+    """∂C/∂W at fixed statuses and slip senses ``sgn`` (2N × 2N; module doc): separated
+    nodes C = λ = S W; contact C_r = c (W_r − d); stick C_θ = c (W_θ − prev − RΩ·step);
+    slip C_θ = λ_θ − f sgn (λ_r − c (W_r − d)). At a fixed active set C is affine in W
+    with this matrix (``wave_of_active_set``)."""
+    n, f = prob.n, prob.f
+    A = S.copy()  # separation rows (C = λ) by default
+    idx = np.arange(n)
+    ci = idx[status != SEPARATION]
+    A[ci, :] = 0.0
+    A[ci, ci] = c
+    stick = idx[status == STICK]
+    up = _upstream(n, om)
+    a1, a2, _ = RATES[prob.rate]
+    A[n + stick, :] = 0.0
+    A[n + stick, n + stick] = c
+    A[n + stick, n + up[stick]] -= c * a1
+    A[n + stick, n + up[up[stick]]] -= c * a2
+    slip = idx[status == SLIP]
+    A[n + slip] = S[n + slip] - (f * sgn[slip])[:, None] * S[slip]
+    A[n + slip, slip] += f * sgn[slip] * c
+    return A
 
 
 def _jacobian(
@@ -405,26 +435,14 @@ def _jacobian(
     sgn = np.sign(law.out.r_t)
     dlam_w = dS @ W
     J = np.zeros((2 * n + 1, 2 * n + 1))
-    J[: 2 * n, : 2 * n] = S  # separation rows (C = λ) by default
-    J[: 2 * n, 2 * n] = dlam_w
+    J[: 2 * n, : 2 * n] = _law_rows(prob, st, sgn, c, S, om)
+    J[: 2 * n, 2 * n] = dlam_w  # separation rows: dλ/dω
     idx = np.arange(n)
-    contact = st != SEPARATION
-    ci = idx[contact]
-    J[ci, :] = 0.0
-    J[ci, ci] = c  # C_n = c (W_r − d)
+    J[idx[st != SEPARATION], 2 * n] = 0.0  # C_r = c (W_r − d): no ω
     stick = idx[st == STICK]
-    up = _upstream(n, om)
-    J[n + stick, :] = 0.0
-    a1, a2, _ = RATES[prob.rate]
-    J[n + stick, n + stick] = c
-    J[n + stick, n + up[stick]] -= c * a1
-    J[n + stick, n + up[up[stick]]] -= c * a2
     # d/dω of −c RΩ step, step ∝ 1/|ω|
-    J[n + stick, 2 * n] = c * prob.surface_speed * rate_stencil(W[n:], om, prob.rate)[1] / om
+    J[n + stick, 2 * n] = c * prob.surface_speed * rate_step(n, om, prob.rate) / om
     slip = idx[st == SLIP]
-    fs = (f * sgn[slip])[:, None]
-    J[n + slip, : 2 * n] = S[n + slip, :] - fs * S[slip, :]
-    J[n + slip, slip] += f * sgn[slip] * c
     J[n + slip, 2 * n] = dlam_w[n + slip] - f * sgn[slip] * dlam_w[slip]
     J[2 * n, n: 2 * n] = fscale * phase_row / max(prob.d, 1e-300)
     return J
