@@ -108,7 +108,7 @@ class BatchRecorder:
         self.integ, self.xp = integ, xp
         self.every, self.max_samples, self.max_steps = max(1, every), max_samples, max_steps
         self.mass = xp.asarray(mass)[:, None]
-        self.scratch = xp.zeros((integ.n, B))
+        self.scratch = None  # (n, B), for the energies of steps the kernel did not sum
         self.perm = xp.asarray(np.asarray(perm, dtype=np.int64))
         self.theta, self.ds = theta, ds
         pd = 2 * np.asarray(probe_nodes, dtype=np.int64)
@@ -185,6 +185,8 @@ class BatchRecorder:
         if it.energy_summed:  # the numba kernel summed them on this step, in row order
             e[:, :2] = it.energy.T
         else:
+            if self.scratch is None:
+                self.scratch = xp.zeros((it.n, it.B))
             xp.multiply(it.v, self.mass, out=self.scratch)
             e[:, 0] = xp.einsum("ib,ib->b", self.scratch, it.v)
             e[:, 1] = xp.einsum("ib,ib->b", it.u_prev, it.ku)
