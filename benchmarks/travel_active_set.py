@@ -57,6 +57,8 @@ def main() -> None:
         wave_of_active_set,
     )
 
+    if not (a.run / "samples.npz").is_file():
+        ap.error(f"{a.run}: no samples.npz there (give a finished `stickslip run` directory)")
     scene = load_scene(a.run / "scene.toml")
     st = D.setup(scene, float(scene.damping.tau), rate=a.rate, inertia=a.inertia)
     prob, n = st.prob, st.prob.n
