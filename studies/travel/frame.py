@@ -143,6 +143,8 @@ class FrameOperators:
                 dS = (self._schur_shift(omega + h) - self._schur_shift(omega - h)) / (2.0 * h)
             out = (S, dS, None)
             self._cache = (omega, out)
+            if omega == 0.0:  # the nodal-stiffness scale, read by every solve
+                self._static = out
             return out
         b = self._split()
         w2 = omega * omega

@@ -69,8 +69,8 @@ from solver.contact import SEPARATION, SLIP, STICK, ContactArrays, project_conta
 
 __all__ = [
     "CircleProblem", "NotConverged", "RATES", "TravelSolution", "inequality_margins",
-    "material_rate", "nodal_stiffness", "rate_stencil", "solve_wave", "wave_of_active_set",
-    "zone_lengths",
+    "material_rate", "nodal_stiffness", "rate_stencil", "solve_wave", "wave_amplitude",
+    "wave_of_active_set", "zone_lengths",
 ]
 
 Array = NDArray[np.float64]
@@ -366,7 +366,8 @@ def solve_wave(
 
 
 def wave_of_active_set(prob: CircleProblem, status: NDArray[np.int8], sense: Array,
-                       omega: float) -> TravelSolution:
+                       omega: float, *, period: int = 1, S: Array | None = None,
+                       c: float | None = None) -> TravelSolution:
     """The wave of a *fixed* active set at speed ω: one linear solve, no Newton.
 
     With the statuses (``solver.contact`` codes) and the slip senses ``sense`` = sgn q held,
@@ -380,11 +381,25 @@ def wave_of_active_set(prob: CircleProblem, status: NDArray[np.int8], sense: Arr
     The result satisfies the equalities exactly. Whether it is a wave is the sign of
     ``inequality_margins``, which the caller checks. The band of the active set is the ω where
     every margin is >= 0 (benchmarks/travel_active_set.py). The matrix is the W-block of
-    the semismooth Newton's generalised Jacobian at these statuses (``_law_rows``)."""
+    the semismooth Newton's generalised Jacobian at these statuses (``_law_rows``).
+
+    ``period`` = k > 1: the statuses and senses repeat every N/k nodes and W is sought with
+    the same period (a k-periodic wave): the 2N equations of one wavelength, with the columns
+    of the k copies of each unknown summed, are solved (2N/k unknowns). ``S`` = S(ω) and
+    ``c`` = ``nodal_stiffness(prob)`` may be passed to reuse them across active sets.
+    """
     n = prob.n
-    c = nodal_stiffness(prob)
-    S, _ = prob.stiffness(omega, False)
+    if n % period or period < 1:
+        raise ValueError(f"period {period}: must divide the {n} contact nodes")
+    n0 = n // period
+    status = np.asarray(status, dtype=np.int8)
     sgn = np.sign(np.asarray(sense, dtype=float))
+    if period > 1 and (np.any(status != np.roll(status, n0)) or np.any(sgn != np.roll(sgn, n0))):
+        raise ValueError(f"period {period}: the statuses and slip senses do not repeat every "
+                         f"{n0} nodes")
+    c = nodal_stiffness(prob) if c is None else c
+    if S is None:
+        S, _ = prob.stiffness(omega, False)
     A = _law_rows(prob, status, sgn, c, S, omega)
     b = np.zeros(2 * n)  # the constant parts of C (Alart-Curnier form, module doc)
     contact = np.flatnonzero(status != SEPARATION)
@@ -393,11 +408,23 @@ def wave_of_active_set(prob: CircleProblem, status: NDArray[np.int8], sense: Arr
     b[contact] = c * prob.d  # C_r = c (W_r − d)
     b[n + stick] = c * prob.surface_speed * rate_step(n, omega, prob.rate)
     b[n + slip] = prob.f * sgn[slip] * c * prob.d  # λ_θ − f sgn (λ_r − c (W_r − d))
-    W = np.linalg.solve(A, b)
+    if period == 1:
+        W = np.linalg.solve(A, b)
+    else:  # rows of one wavelength; columns folded over the k copies
+        rows = np.r_[np.arange(n0), n + np.arange(n0)]
+        A_fold = A[rows].reshape(2 * n0, 2, period, n0).sum(axis=2).reshape(2 * n0, 2 * n0)
+        w = np.linalg.solve(A_fold, b[rows]).reshape(2, 1, n0)
+        W = np.broadcast_to(w, (2, period, n0)).reshape(-1)
     lam = S @ W
-    return TravelSolution(omega=omega, W_r=W[:n], W_t=W[n:], p=lam[:n], q=lam[n:],
-                          status=np.asarray(status, dtype=np.int8).copy(), iterations=1,
+    return TravelSolution(omega=omega, W_r=W[:n].copy(), W_t=W[n:].copy(), p=lam[:n],
+                          q=lam[n:], status=status.copy(), iterations=1,
                           residual=0.0, how="fixed active set")
+
+
+def wave_amplitude(prob: CircleProblem, sol: TravelSolution) -> float:
+    """A wave's amplitude (problem units): the larger of the peak lift-off W_r − d and half the
+    peak-to-peak tangential displacement W_θ (the band and family tables' measure)."""
+    return float(max(sol.W_r.max() - prob.d, 0.5 * np.ptp(sol.W_t)))
 
 
 def _law_rows(prob: CircleProblem, status: NDArray[np.int8], sgn: Array, c: float,
