@@ -5,6 +5,12 @@ enumeration of active sets (issue 14 items 3-4; ``studies.travel.family``).
 STEP --stick A B --slip A B [--land A B] [--k 4] [--rate bdf1] [--inertia shift]
 [--out FILE.json]``
 
+``./dev nice python3 benchmarks/travel_family_scan.py RUN_DIR [--span 0.03] [--step 1]
+[--pad 3]``: around a transient. k, its speed and the zone lengths seen in its last 40
+snapshots (``family.zones_of_statuses``, ± ``--pad`` nodes) set the scan; the summary then
+says where the transient lies in the family: inside the members' speed range or not, the
+member nearest in speed, and the members at the scanned speed nearest to the transient's.
+
 Speeds in m/s (signed: the Figure-1 waves run at c < 0). Zones in nodes per wavelength,
 inclusive ranges. One JSON line per speed (progress: the best smallest margin and its
 zones), one per member found, then a summary line: the members' speed, amplitude and ψ
@@ -23,30 +29,44 @@ import numpy as np
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("scene", type=Path)
+    ap.add_argument("source", type=Path, help="a scene file, or a `stickslip run` directory")
     ap.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE")
-    ap.add_argument("--c", type=float, nargs=3, required=True, metavar=("FROM", "TO", "STEP"))
-    ap.add_argument("--stick", type=int, nargs=2, required=True, metavar=("A", "B"))
-    ap.add_argument("--slip", type=int, nargs=2, required=True, metavar=("A", "B"))
+    ap.add_argument("--c", type=float, nargs=3, metavar=("FROM", "TO", "STEP"))
+    ap.add_argument("--stick", type=int, nargs=2, metavar=("A", "B"))
+    ap.add_argument("--slip", type=int, nargs=2, metavar=("A", "B"))
     ap.add_argument("--land", type=int, nargs=2, default=[0, 2], metavar=("A", "B"))
+    ap.add_argument("--span", type=float, default=0.03, help="RUN_DIR: relative half-width")
+    ap.add_argument("--step", type=float, default=1.0, help="RUN_DIR: speed step (m/s)")
+    ap.add_argument("--pad", type=int, default=3, help="RUN_DIR: nodes added to each zone range")
     ap.add_argument("--k", type=int, default=4)
     ap.add_argument("--rate", choices=("bdf1", "bdf2"), default="bdf1")
     ap.add_argument("--inertia", choices=("rotation", "shift"), default="shift")
     ap.add_argument("--tol", type=float, default=1e-8)
     ap.add_argument("--out", type=Path)
     a = ap.parse_args()
+    transient = None
+    if a.source.is_dir():
+        if not (a.source / "samples.npz").is_file():
+            ap.error(f"{a.source}: no samples.npz there (give a finished `stickslip run` "
+                     "directory or a scene file)")
+        transient = _transient(a)
+        scene_file = a.source / "scene.toml"
+    elif a.source.is_file():
+        scene_file = a.source
+        if a.c is None or a.stick is None or a.slip is None:
+            ap.error("with a scene file give --c FROM TO STEP, --stick A B and --slip A B")
+    else:
+        ap.error(f"{a.source}: no such scene file or run directory")
     c_from, c_to, c_step = a.c
     if c_step == 0.0 or (c_to - c_from) * c_step < 0.0:
         ap.error(f"--c {c_from} {c_to} {c_step}: the step must be non-zero and point from "
                  "FROM to TO")
-    if not a.scene.is_file():
-        ap.error(f"{a.scene}: no such scene file")
 
     from solver.scene import load_scene
     from studies.travel import driver as D
     from studies.travel.family import scan_family
 
-    scene = load_scene(a.scene)
+    scene = load_scene(scene_file)
     if a.overrides:
         scene = scene.with_overrides(*a.overrides)
     t0 = time.process_time()
@@ -79,14 +99,53 @@ def main() -> None:
         for key in ("c_m_s", "amplitude_mm", "psi1", "psi2"):
             vals = [m[key] for m in members]
             summary[key] = [min(vals), max(vals)]
+    if transient is not None:
+        summary["transient"] = transient["wave"]
+        if members:
+            ct = transient["wave"]["c_m_s"]
+            summary["transient_inside_speed_range"] = (
+                summary["c_m_s"][0] <= ct <= summary["c_m_s"][1])
+            summary["nearest_in_speed"] = min(members, key=lambda m: abs(m["c_m_s"] - ct))
+            c_at = summary["nearest_in_speed"]["c_m_s"]
+            summary["members_at_that_speed"] = [m for m in members if m["c_m_s"] == c_at]
     print(json.dumps({"summary": summary}))
     if a.out:
         from solver.atomic import atomic_write_text
 
-        atomic_write_text(a.out, json.dumps({"scene": str(a.scene), "overrides": a.overrides,
+        atomic_write_text(a.out, json.dumps({"source": str(a.source), "overrides": a.overrides,
                                              "k": a.k, "n": st.prob.n, "rate": a.rate,
                                              "inertia": a.inertia, "summary": summary,
                                              "members": members, "best": best}))
+
+
+def _transient(a: argparse.Namespace) -> dict:
+    """k, speed, amplitude, ψ and zone ranges of a run's wave; sets a.k, a.c and the zones."""
+    from postprocess.analysis import analyse_run, load_run
+    from studies.travel.family import zones_of_statuses
+
+    run = load_run(a.source)
+    wave = analyse_run(run)
+    s = run.samples
+    order = np.argsort(s["theta"])
+    seen = []
+    for status in s["status"][-40:]:
+        z = zones_of_statuses(np.asarray(status)[order])
+        if z:
+            seen.extend(z)
+    if wave.angular_speed_rad_s == 0.0 or not seen:
+        raise SystemExit(f"{a.source}: the run's last samples hold no stick · slip · "
+                         "separation · slip wave (steady sliding or another topology)")
+    lo, hi = np.min(seen, axis=0), np.max(seen, axis=0)
+    a.k = wave.mode
+    a.stick = [max(1, int(lo[0]) - a.pad), int(hi[0]) + a.pad]
+    a.slip = [max(0, int(lo[1]) - a.pad), int(hi[1]) + a.pad]
+    a.land = [max(0, int(lo[2]) - a.pad), int(hi[2]) + a.pad]
+    c0 = wave.celerity_m_s
+    step = -a.step if c0 < 0 else a.step
+    a.c = [c0 * (1.0 - a.span), c0 * (1.0 + a.span), step]
+    return {"wave": {"c_m_s": c0, "k": wave.mode, "amplitude_mm": wave.amplitude_m * 1e3,
+                     "psi1": wave.psi1, "psi2": wave.psi2,
+                     "zones_seen": sorted({tuple(z) for z in seen})}}
 
 
 if __name__ == "__main__":

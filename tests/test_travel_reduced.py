@@ -165,3 +165,21 @@ def test_generalised_jacobian_matches_finite_differences(rate):
         assert np.array_equal(stp, st0) and np.array_equal(stm, st0)
         fd = (Cp - Cm) / (2 * h)
         assert np.abs(fd - J @ dx).max() < 1e-6 * np.abs(J @ dx).max()
+
+
+def test_zones_of_statuses_reads_back_zone_pattern():
+    """``family.zones_of_statuses`` inverts ``zone_pattern`` wavelength by wavelength, from
+    any rotation of the circle, and refuses a snapshot of another topology (a slip run
+    inside a stick run)."""
+    from solver.contact import SLIP
+    from studies.travel.family import zone_pattern, zones_of_statuses
+
+    waves = [(8, 1, 1), (7, 2, 0), (9, 0, 2)]
+    status = np.concatenate([zone_pattern(33, *z) for z in waves])
+    for shift in (0, 5, 40, 98):
+        got = zones_of_statuses(np.roll(status, shift))
+        k = got.index(waves[0])
+        assert got[k:] + got[:k] == waves
+    other = status.copy()
+    other[3] = SLIP
+    assert zones_of_statuses(other) is None

@@ -31,7 +31,6 @@ from studies.travel.newton import (
     TravelSolution,
     material_rate,
     solve_wave,
-    wave_amplitude,
     zone_lengths,
 )
 
@@ -239,7 +238,7 @@ def member_amplitude(st: Setup, sol: TravelSolution) -> float:
     """A band member's amplitude (m): the larger of the peak lift-off W_r − d and half the
     peak-to-peak tangential displacement W_θ (the band tables' measure; cheaper than
     ``measure``, which analyses the wave like ``stickslip run``)."""
-    return wave_amplitude(st.prob, sol)
+    return float(max(sol.W_r.max() - st.prob.d, 0.5 * np.ptp(sol.W_t)))
 
 
 def band(st: Setup, sol: TravelSolution, k: int) -> dict:

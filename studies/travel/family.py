@@ -39,7 +39,7 @@ from studies.travel.newton import (
     zone_lengths,
 )
 
-__all__ = ["FamilyMember", "FamilyScan", "scan_family", "zone_pattern"]
+__all__ = ["FamilyMember", "FamilyScan", "scan_family", "zone_pattern", "zones_of_statuses"]
 
 
 def zone_pattern(n_wave: int, n_stick: int, n_slip: int, n_land: int) -> NDArray[np.int8]:
@@ -52,6 +52,36 @@ def zone_pattern(n_wave: int, n_stick: int, n_slip: int, n_land: int) -> NDArray
                     + [SLIP] * n_land, dtype=np.int8)
 
 
+def zones_of_statuses(status: NDArray[np.int8]) -> list[tuple[int, int, int]] | None:
+    """The (n_stick, n_slip, n_land) of each wavelength of a nodal status array in θ order
+    (a transient's snapshot), or None if it is not of the ``zone_pattern`` topology: runs
+    stick · [slip] · separation · [slip], repeated."""
+    st = np.asarray(status)
+    if not np.any(st == STICK) or not np.any(st == SEPARATION):
+        return None
+    start = int(np.flatnonzero((st == STICK) & (np.roll(st, 1) != STICK))[0])
+    st = np.roll(st, -start)
+    edges = np.flatnonzero(st != np.roll(st, -1))
+    runs = [(int(st[e]), int(e - b + 1)) for b, e in zip(np.r_[0, edges[:-1] + 1], edges,
+                                                          strict=True)]
+    out, i = [], 0
+    while i < len(runs):
+        code, length = runs[i]
+        if code != STICK:
+            return None
+        slip = land = 0
+        i += 1
+        if i < len(runs) and runs[i][0] == SLIP:
+            slip, i = runs[i][1], i + 1
+        if i >= len(runs) or runs[i][0] != SEPARATION:
+            return None
+        i += 1
+        if i < len(runs) and runs[i][0] == SLIP:
+            land, i = runs[i][1], i + 1
+        out.append((length, slip, land))
+    return out
+
+
 @dataclass
 class FamilyMember:
     """An admissible k-periodic wave: speed, zones (nodes per wavelength), amplitude, ψ."""
@@ -59,7 +89,7 @@ class FamilyMember:
     omega: float
     zones: tuple[int, int, int]  # (n_stick, n_slip, n_land)
     min_margin: float
-    amplitude: float  # ``newton.wave_amplitude``
+    amplitude: float  # ``newton.wave_amplitude`` (as a transient's: peak lift-off)
     psi1: float  # sub-node separation fraction (``newton.zone_lengths``)
     psi2: float  # ψ₁ + sub-node stick fraction
 

@@ -422,9 +422,12 @@ def wave_of_active_set(prob: CircleProblem, status: NDArray[np.int8], sense: Arr
 
 
 def wave_amplitude(prob: CircleProblem, sol: TravelSolution) -> float:
-    """A wave's amplitude (problem units): the larger of the peak lift-off W_r − d and half the
-    peak-to-peak tangential displacement W_θ (the band and family tables' measure)."""
-    return float(max(sol.W_r.max() - prob.d, 0.5 * np.ptp(sol.W_t)))
+    """A wave's amplitude as ``postprocess.analysis.analyse`` measures a transient's: the
+    peak lift-off max(W_r − d) if any node separates, else half the peak-to-peak W_θ.
+    (``driver.member_amplitude``, the band tables' measure, takes the larger of the two.)"""
+    if np.any(sol.status == SEPARATION):
+        return float(max(0.0, sol.W_r.max() - prob.d))
+    return float(0.5 * np.ptp(sol.W_t))
 
 
 def _law_rows(prob: CircleProblem, status: NDArray[np.int8], sgn: Array, c: float,
