@@ -72,6 +72,9 @@ def main() -> None:
     t0 = time.process_time()
     st = D.setup(scene, float(scene.damping.tau), rate=a.rate, inertia=a.inertia)
     R = scene.geometry.R
+    if a.k < 1 or st.prob.n % a.k:
+        ap.error(f"k = {a.k}: a k-periodic wave on {st.prob.n} contact nodes needs k to divide "
+                 f"{st.prob.n} (choose another k or mesh.n_inner)")
     n_wave = st.prob.n // a.k
     zones = [(s1, s2, s3) for s1 in range(a.stick[0], a.stick[1] + 1)
              for s2 in range(a.slip[0], a.slip[1] + 1)
