@@ -60,7 +60,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -384,8 +384,9 @@ def wave_of_active_set(prob: CircleProblem, status: NDArray[np.int8], sense: Arr
     the semismooth Newton's generalised Jacobian at these statuses (``_law_rows``).
 
     ``period`` = k > 1: the statuses and senses repeat every N/k nodes and W is sought with
-    the same period (a k-periodic wave): the 2N equations of one wavelength, with the columns
-    of the k copies of each unknown summed, are solved (2N/k unknowns). ``S`` = S(ω) and
+    the same period (a k-periodic wave): S is folded to one wavelength (its rows there, the
+    columns of the k copies of each unknown summed) and the 2N/k equations of that wavelength
+    are solved; W and λ are tiled back. ``S`` = S(ω) and
     ``c`` = ``nodal_stiffness(prob)`` may be passed to reuse them across active sets.
     """
     n = prob.n
@@ -400,24 +401,25 @@ def wave_of_active_set(prob: CircleProblem, status: NDArray[np.int8], sense: Arr
     c = nodal_stiffness(prob) if c is None else c
     if S is None:
         S, _ = prob.stiffness(omega, False)
-    A = _law_rows(prob, status, sgn, c, S, omega)
-    b = np.zeros(2 * n)  # the constant parts of C (Alart-Curnier form, module doc)
+    if period > 1:  # rows of one wavelength, columns summed over the k copies: S on
+        # n0-periodic fields, so the law's rows (upstream node taken mod n0) are those of a
+        # circle of n0 nodes; the stick step stays that of the N-node mesh
+        rows = np.r_[np.arange(n0), n + np.arange(n0)]
+        S = S[rows].reshape(2 * n0, 2, period, n0).sum(axis=2).reshape(2 * n0, 2 * n0)
+        status, sgn = status[:n0], sgn[:n0]
+    A = _law_rows(replace(prob, n=n0), status, sgn, c, S, omega)
+    b = np.zeros(2 * n0)  # the constant parts of C (Alart-Curnier form, module doc)
     contact = np.flatnonzero(status != SEPARATION)
     stick = np.flatnonzero(status == STICK)
     slip = np.flatnonzero(status == SLIP)
     b[contact] = c * prob.d  # C_r = c (W_r − d)
-    b[n + stick] = c * prob.surface_speed * rate_step(n, omega, prob.rate)
-    b[n + slip] = prob.f * sgn[slip] * c * prob.d  # λ_θ − f sgn (λ_r − c (W_r − d))
-    if period == 1:
-        W = np.linalg.solve(A, b)
-    else:  # rows of one wavelength; columns folded over the k copies
-        rows = np.r_[np.arange(n0), n + np.arange(n0)]
-        A_fold = A[rows].reshape(2 * n0, 2, period, n0).sum(axis=2).reshape(2 * n0, 2 * n0)
-        w = np.linalg.solve(A_fold, b[rows]).reshape(2, 1, n0)
-        W = np.broadcast_to(w, (2, period, n0)).reshape(-1)
-    lam = S @ W
-    return TravelSolution(omega=omega, W_r=W[:n].copy(), W_t=W[n:].copy(), p=lam[:n],
-                          q=lam[n:], status=status.copy(), iterations=1,
+    b[n0 + stick] = c * prob.surface_speed * rate_step(n, omega, prob.rate)
+    b[n0 + slip] = prob.f * sgn[slip] * c * prob.d  # λ_θ − f sgn (λ_r − c (W_r − d))
+    w = np.linalg.solve(A, b)
+    lam = S @ w  # one wavelength's forces
+    W, lam = (np.tile(x.reshape(2, n0), (1, period)).reshape(-1) for x in (w, lam))
+    return TravelSolution(omega=omega, W_r=W[:n], W_t=W[n:], p=lam[:n], q=lam[n:],
+                          status=np.tile(status, period), iterations=1,
                           residual=0.0, how="fixed active set")
 
 
