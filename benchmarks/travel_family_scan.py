@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 import time
 from pathlib import Path
 
@@ -44,6 +45,9 @@ def main() -> None:
     ap.add_argument("--tol", type=float, default=1e-8)
     ap.add_argument("--out", type=Path)
     a = ap.parse_args()
+    if a.span <= 0.0 or a.step <= 0.0 or a.pad < 0:
+        ap.error(f"--span {a.span} --step {a.step} --pad {a.pad}: give a positive span and step "
+                 "and a pad >= 0")
     transient = None
     if a.source.is_dir():
         if not (a.source / "samples.npz").is_file():
@@ -62,13 +66,15 @@ def main() -> None:
         ap.error(f"--c {c_from} {c_to} {c_step}: the step must be non-zero and point from "
                  "FROM to TO")
 
-    from solver.scene import load_scene
+    from solver.scene import SceneError, load_scene
     from studies.travel import driver as D
-    from studies.travel.family import scan_family
 
-    scene = load_scene(scene_file)
-    if a.overrides:
-        scene = scene.with_overrides(*a.overrides)
+    try:
+        scene = load_scene(scene_file)
+        if a.overrides:
+            scene = scene.with_overrides(*a.overrides)
+    except SceneError as err:
+        ap.error(f"{scene_file}: {err}")
     t0 = time.process_time()
     st = D.setup(scene, float(scene.damping.tau), rate=a.rate, inertia=a.inertia)
     R = scene.geometry.R
@@ -80,22 +86,20 @@ def main() -> None:
              for s2 in range(a.slip[0], a.slip[1] + 1)
              for s3 in range(a.land[0], a.land[1] + 1)
              if n_wave - s1 - s2 - s3 >= 1]
+    if not zones:
+        ap.error(f"--stick {a.stick} --slip {a.slip} --land {a.land}: no zone lengths that fit a "
+                 f"wavelength of {n_wave} nodes (give A <= B and room for a separation run)")
     print(json.dumps({"n": st.prob.n, "k": a.k, "active_sets": len(zones), "rate": a.rate,
                       "inertia": a.inertia, "setup_cpu_s": round(time.process_time() - t0, 1)}),
           flush=True)
     speeds = np.arange(c_from, c_to + 1e-9 * c_step, c_step)
     members, best = [], []
-    for c in speeds:
-        t1 = time.process_time()
-        scan = scan_family(st.prob, a.k, [c / R], zones, tol=a.tol)
-        om, margin, z, why = scan.best[0]
-        best.append({"c_m_s": round(float(c), 6), "best_margin": margin, "zones": z,
-                     "violated": why})
-        for m in scan.members:
-            members.append({"c_m_s": round(m.omega * R, 6), "zones": m.zones,
-                            "amplitude_mm": m.amplitude * 1e3, "psi1": m.psi1, "psi2": m.psi2})
-            print(json.dumps({"member": members[-1]}), flush=True)
-        print(json.dumps(best[-1] | {"cpu_s": round(time.process_time() - t1, 2)}), flush=True)
+    try:
+        _scan(a, st, R, speeds, zones, members, best)
+    except KeyboardInterrupt:
+        print(f"travel_family_scan: interrupted after {len(best)} of {speeds.size} speeds; the "
+              "lines above are complete, --out was not written", file=sys.stderr)
+        raise SystemExit(130) from None
     summary: dict = {"members": len(members),
                      "active_sets_admissible": len({tuple(m["zones"]) for m in members})}
     if members:
@@ -119,6 +123,24 @@ def main() -> None:
                                              "k": a.k, "n": st.prob.n, "rate": a.rate,
                                              "inertia": a.inertia, "summary": summary,
                                              "members": members, "best": best}))
+
+
+def _scan(a: argparse.Namespace, st, R: float, speeds: np.ndarray, zones: list,
+          members: list, best: list) -> None:
+    """The speed loop: one JSON line per speed and per member; fills ``members``, ``best``."""
+    from studies.travel.family import scan_family
+
+    for c in speeds:
+        t1 = time.process_time()
+        scan = scan_family(st.prob, a.k, [c / R], zones, tol=a.tol)
+        om, margin, z, why = scan.best[0]
+        best.append({"c_m_s": round(float(c), 6), "best_margin": margin, "zones": z,
+                     "violated": why})
+        for m in scan.members:
+            members.append({"c_m_s": round(m.omega * R, 6), "zones": m.zones,
+                            "amplitude_mm": m.amplitude * 1e3, "psi1": m.psi1, "psi2": m.psi2})
+            print(json.dumps({"member": members[-1]}), flush=True)
+        print(json.dumps(best[-1] | {"cpu_s": round(time.process_time() - t1, 2)}), flush=True)
 
 
 def _transient(a: argparse.Namespace) -> dict:
