@@ -37,11 +37,17 @@ class Profile:
 
 
 class Simulation:
-    """One scene's explicit run. Build with ``Simulation(scene)``, then ``proceed()``."""
+    """One scene's explicit run. Build with ``Simulation(scene)``, then ``proceed()``.
+
+    It starts from steady sliding plus the scene's ``[initial]`` bump, or from
+    ``initial_state`` = (u, v, a or None) on the owned dofs (serial use: a wave of
+    ``studies.travel.frame.FrameOperators.shift_state``)."""
 
     def __init__(self, scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD,
                  profile: Profile | None = None,
-                 output_dir: Path | None = None) -> None:
+                 output_dir: Path | None = None,
+                 initial_state: tuple[np.ndarray, np.ndarray, np.ndarray | None] | None = None,
+                 ) -> None:
         from solver.observers import (
             InnerCircleRecorder,
             ProbeRecorder,
@@ -65,8 +71,19 @@ class Simulation:
             p = self.steady.pressure
             self.steady_mean_pressure = comm.allreduce(float(p.sum())) / comm.allreduce(p.size)
         self.integrator, self.projection = make_integrator(self.problem, scene, dt)
-        u0 = self.steady.u + self.perturbation()
-        self.integrator.set_state(u0, np.zeros_like(u0))
+        if initial_state is None:  # steady sliding + the scene's [initial] bump
+            u0 = self.steady.u + self.perturbation()
+            self.integrator.set_state(u0, np.zeros_like(u0))
+        else:  # a given state, e.g. a travelled wave (studies.travel.frame.shift_state)
+            u0, v0, a0 = (None if x is None else np.asarray(x, dtype=float)
+                          for x in initial_state)
+            if u0.shape != (self.problem.n_owned,) or v0.shape != u0.shape:
+                raise ValueError(f"initial_state: u and v need {self.problem.n_owned} owned "
+                                 f"dofs each, got {u0.shape} and {v0.shape}")
+            if a0 is None:  # the implicit scheme finds a_0 from its own law
+                self.integrator.set_state(u0, v0)
+            else:
+                self.integrator.set_state(u0, v0, a0)
         self.energy = make_energy(self.integrator, self.projection, scene.loading.f > 0.0, u0)
         every = max(1, int(round(scene.output.sample_interval / dt)))
         n_steps = self.planned_steps()

@@ -249,7 +249,7 @@ class FrameOperators:
             mats[name] = parts
         cdofs = np.array([2 * c0, 2 * c0 + 1])
         idofs = np.setdiff1d(np.arange(2 * n_rep), cdofs)
-        out = {"mats": mats, "c": cdofs, "i": idofs}
+        out = {"mats": mats, "c": cdofs, "i": idofs, "R": R, "alpha": ph_dof}
         if self._blocks is None:
             self._blocks = {}
         self._blocks["bloch"] = out
@@ -331,24 +331,38 @@ class FrameOperators:
         S, dS, _ = self.factor(omega, derivative)
         return S, dS
 
-    def full_field(self, W: Array, omega: float) -> Array:
-        """Owned dof array of w (clamped dofs 0) from the polar contact values W at ω."""
-        _, _, X = self.factor(omega)
-        b = self._split()
-        wc = self.T @ W
-        out = np.zeros(self.problem.n_owned)
-        out[self.contact] = wc
-        if X is None:
-            if "phi" not in b:
-                raise ValueError("full_field: the interior is kept only by the undamped "
-                                 "rotation operator (LU or modal route), not with damping "
-                                 "or inertia='shift'")
-            w2 = omega * omega
-            out[self.interior] = -b["phi"] @ (((b["B0"] - w2 * b["B1"]) @ wc)
-                                             / (1.0 - w2 * b["mu"]))
-        else:
-            out[self.interior] = -X @ wc
-        return out
+    def shift_state(self, W: Array, omega: float) -> tuple[Array, Array, Array]:
+        """(u, v, a) at t = 0 of the whole mesh for the contact values W of a wave of the
+        transient's travelling operator (``inertia="shift"``, module doc); owned dofs, clamped
+        ones 0. With ĉ_m the polar DFT of W (ĉ_m = (1/N) Σ_j W_j e^{−imθ_j}), the wave is
+
+            u(t) = Σ_m diag(e^{imα}) R c_m e^{−imωt},   c_m = (ĉ_m, −A_m,ii⁻¹ A_m,ic ĉ_m),
+
+        over |m| ≤ N/2 (``_bloch``: c_m on one sector's node orbits, α the sector angle), so
+        v = Σ −imω (…) and a = Σ −(mω)² (…). The interior rows of M a + K (u + τ v) vanish
+        and the contact rows are the nodal forces S(ω) W (``tests/test_travel_fe.py``): a
+        start for ``solver.run.Simulation(initial_state=...)`` on the wave itself."""
+        if self.inertia != "shift":
+            raise ValueError("shift_state: the wave must be one of inertia='shift'")
+        bl = self._bloch()
+        ci, ii = bl["c"], bl["i"]
+        n = self.n
+        chat = np.fft.fft(np.asarray(W, dtype=float).reshape(2, n), axis=1) / n  # (r, θ) x m
+        R, alpha = bl["R"], bl["alpha"]
+        u, v, a = (np.zeros(self.problem.n_owned) for _ in range(3))
+        for m in range(n // 2 + 1):
+            red = {name: sum(np.exp(1j * m * s) * P for s, P in parts)
+                   for name, parts in bl["mats"].items()}
+            A = (1.0 - 1j * m * omega * self.tau) * red["K"] - (m * omega) ** 2 * red["M"]
+            c = np.zeros(A.shape[0], dtype=complex)
+            c[ci] = chat[:, m]
+            c[ii] = -np.linalg.solve(A[np.ix_(ii, ii)], A[np.ix_(ii, ci)] @ chat[:, m])
+            field = np.exp(1j * m * alpha) * (R @ c)
+            weight = 1.0 if m == 0 or 2 * m == n else 2.0  # ĉ_{−m} = conj(ĉ_m): W is real
+            u += weight * field.real
+            v += weight * (-1j * m * omega * field).real
+            a += weight * (-((m * omega) ** 2) * field).real
+        return u, v, a
 
 
 def frame_operators(problem: TubeProblem, damping: float = 0.0,
