@@ -20,7 +20,8 @@ One JSON line per member: the member (speed, zones, amplitude, ψ) and the trans
 mode, amplitude and ψ per window, so one sees whether the transient stays on the member
 (a family of attractors) or leaves it (and for which wave). ``--shard I/N`` runs every N-th
 picked member from the I-th, to use N processes. ``--out`` appends the lines atomically at the
-end. Serial (one process per shard).
+end. Exit status 1 if a transient stopped before ``--end-time``. Serial (one process per
+shard).
 """
 
 from __future__ import annotations
@@ -91,6 +92,11 @@ def main() -> None:
 
         old = a.out.read_text() if a.out.exists() else ""
         atomic_write_text(a.out, old + "".join(json.dumps(x) + "\n" for x in lines))
+    stopped = [x["member"]["c_m_s"] for x in lines if x["status"] != "end_time"]
+    if stopped:
+        print(f"travel_member_seeds: the transients from the members at {stopped} m/s stopped "
+              "before --end-time (see their status)", file=sys.stderr)
+        raise SystemExit(1)
 
 
 def _scene(fam: dict):

@@ -364,6 +364,25 @@ class FrameOperators:
             a += weight * (-((m * omega) ** 2) * field).real
         return u, v, a
 
+    def full_field(self, W: Array, omega: float) -> Array:
+        """Owned dof array of w (clamped dofs 0) from the polar contact values W at ω."""
+        _, _, X = self.factor(omega)
+        b = self._split()
+        wc = self.T @ W
+        out = np.zeros(self.problem.n_owned)
+        out[self.contact] = wc
+        if X is None:
+            if "phi" not in b:
+                raise ValueError("full_field: the interior is kept only by the undamped "
+                                 "rotation operator (LU or modal route), not with damping "
+                                 "or inertia='shift'")
+            w2 = omega * omega
+            out[self.interior] = -b["phi"] @ (((b["B0"] - w2 * b["B1"]) @ wc)
+                                             / (1.0 - w2 * b["mu"]))
+        else:
+            out[self.interior] = -X @ wc
+        return out
+
 
 def frame_operators(problem: TubeProblem, damping: float = 0.0,
                     lumped: bool = False, inertia: str = "rotation") -> FrameOperators:
