@@ -78,10 +78,14 @@ def main() -> None:
         ap.error(f"{a.family}: scanned with inertia {fam.get('inertia')!r}; a transient start "
                  "needs the transient's own operator (--inertia shift)")
     chosen = pick_members(members, a.pick)[shard::n_shards]
+    from studies.travel import driver as D
+
+    scene = _scene(fam)
+    st = D.setup(scene, float(scene.damping.tau), rate=fam["rate"], inertia="shift")
     lines = []
     try:
         for m in chosen:
-            lines.append(run_member(fam, k, m, a.end_time, a.window))
+            lines.append(run_member(st, k, m, a.end_time, a.window))
             print(json.dumps(lines[-1]), flush=True)
     except KeyboardInterrupt:
         print(f"travel_member_seeds: interrupted after {len(lines)} of {len(chosen)} members; "
@@ -107,16 +111,13 @@ def _scene(fam: dict):
     return scene.with_overrides(*fam["overrides"]) if fam["overrides"] else scene
 
 
-_SETUP: dict = {}
-
-
-def run_member(fam: dict, k: int, member: dict, end_time: float, window: float) -> dict:
-    """Re-solve ``member``, start a transient on it, measure it window by window."""
+def run_member(st, k: int, member: dict, end_time: float, window: float) -> dict:
+    """Re-solve ``member`` on the wave-frame setup ``st`` (``driver.setup``, inertia "shift"),
+    start a transient of ``st.scene`` on it, measure it window by window."""
     from mpi4py import MPI
 
     from postprocess.analysis import analyse
     from solver.run import Simulation
-    from studies.travel import driver as D
     from studies.travel.family import zone_pattern
     from studies.travel.newton import (
         inequality_margins,
@@ -125,11 +126,7 @@ def run_member(fam: dict, k: int, member: dict, end_time: float, window: float) 
         wave_of_active_set,
     )
 
-    scene = _scene(fam)
-    if "st" not in _SETUP:
-        _SETUP["st"] = D.setup(scene, float(scene.damping.tau), rate=fam["rate"],
-                               inertia="shift")
-    st = _SETUP["st"]
+    scene = st.scene
     prob, R = st.prob, scene.geometry.R
     n = prob.n
     omega = member["c_m_s"] / R

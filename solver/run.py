@@ -77,9 +77,10 @@ class Simulation:
         else:  # a given state, e.g. a travelled wave (studies.travel.frame.shift_state)
             u0, v0, a0 = (None if x is None else np.asarray(x, dtype=float)
                           for x in initial_state)
-            if u0.shape != (self.problem.n_owned,) or v0.shape != u0.shape:
-                raise ValueError(f"initial_state: u and v need {self.problem.n_owned} owned "
-                                 f"dofs each, got {u0.shape} and {v0.shape}")
+            shapes = [x.shape for x in (u0, v0, a0) if x is not None]
+            if any(sh != (self.problem.n_owned,) for sh in shapes):
+                raise ValueError(f"initial_state: u, v (and a) need {self.problem.n_owned} "
+                                 f"owned dofs each, got {shapes}")
             if a0 is None:  # the implicit scheme finds a_0 from its own law
                 self.integrator.set_state(u0, v0)
             else:

@@ -265,14 +265,17 @@ class FrameOperators:
         ci, ii = bl["c"], bl["i"]
         n = self.n
         sym = np.zeros((n // 2 + 1, 2, 2), dtype=complex)
-        red = {}
         for m in range(n // 2 + 1):
-            for name, parts in bl["mats"].items():
-                red[name] = sum(np.exp(1j * m * a) * P for a, P in parts)
-            A = (1.0 - 1j * m * omega * self.tau) * red["K"] - (m * omega) ** 2 * red["M"]
+            A = self._sector_operator(bl, m, omega)
             sym[m] = A[np.ix_(ci, ci)] - A[np.ix_(ci, ii)] @ np.linalg.solve(
                 A[np.ix_(ii, ii)], A[np.ix_(ii, ci)])
         return sym
+
+    def _sector_operator(self, bl: dict, m: int, omega: float) -> NDArray[np.complex128]:
+        """A_m = (1 − imωτ)K − (mω)²M restricted to harmonic m on one sector (``_bloch``)."""
+        red = {name: sum(np.exp(1j * m * a) * P for a, P in parts)
+               for name, parts in bl["mats"].items()}
+        return (1.0 - 1j * m * omega * self.tau) * red["K"] - (m * omega) ** 2 * red["M"]
 
     def shift_symbols(self, omega: float) -> tuple[NDArray[np.complex128], float]:
         """(t_m for m = 0 … N/2, shape (N/2 + 1, 2, 2), forces per unit polar harmonic; the
@@ -351,9 +354,7 @@ class FrameOperators:
         R, alpha = bl["R"], bl["alpha"]
         u, v, a = (np.zeros(self.problem.n_owned) for _ in range(3))
         for m in range(n // 2 + 1):
-            red = {name: sum(np.exp(1j * m * s) * P for s, P in parts)
-                   for name, parts in bl["mats"].items()}
-            A = (1.0 - 1j * m * omega * self.tau) * red["K"] - (m * omega) ** 2 * red["M"]
+            A = self._sector_operator(bl, m, omega)
             c = np.zeros(A.shape[0], dtype=complex)
             c[ci] = chat[:, m]
             c[ii] = -np.linalg.solve(A[np.ix_(ii, ii)], A[np.ix_(ii, ci)] @ chat[:, m])
