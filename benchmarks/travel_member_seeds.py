@@ -78,9 +78,13 @@ def main() -> None:
         ap.error(f"{a.family}: scanned with inertia {fam.get('inertia')!r}; a transient start "
                  "needs the transient's own operator (--inertia shift)")
     chosen = pick_members(members, a.pick)[shard::n_shards]
+    from solver.scene import SceneError
     from studies.travel import driver as D
 
-    scene = _scene(fam)
+    try:
+        scene = _scene(fam)
+    except SceneError as err:
+        ap.error(f"{a.family}: its source {fam['source']!r} gives no scene ({err})")
     st = D.setup(scene, float(scene.damping.tau), rate=fam["rate"], inertia="shift")
     lines = []
     try:
@@ -140,8 +144,9 @@ def run_member(st, k: int, member: dict, end_time: float, window: float) -> dict
     sim.proceed()
     rec = sim.recorder.arrays()
     t = rec["t"]
-    windows = []
-    for end in np.arange(window, t[-1] + 1e-9, window):
+    windows = []  # the last sample lies within one sample interval before end_time
+    last = t[-1] + scene.output.sample_interval
+    for end in np.arange(window, last, window):
         sel = (t > end - window - 1e-12) & (t <= end + 1e-12)
         if np.count_nonzero(sel) < 8:
             continue
