@@ -3,7 +3,7 @@ enumeration of active sets (issue 14 items 3-4; ``studies.travel.family``).
 
 ``./dev nice python3 benchmarks/travel_family_scan.py SCENE [--set key=value ...] --c FROM TO
 STEP --stick A B --slip A B [--land A B] [--k 4] [--rate bdf1] [--inertia shift]
-[--out FILE.json]``
+[--samples S] [--out FILE.json]``
 
 ``./dev nice python3 benchmarks/travel_family_scan.py RUN_DIR [--span 0.03] [--step 1]
 [--pad 3]``: around a transient. k, its speed and the zone lengths seen in its last 40
@@ -11,8 +11,10 @@ snapshots (``family.zones_of_statuses``, ± ``--pad`` nodes) set the scan; the s
 says where the transient lies in the family: inside the members' speed range or not, the
 member nearest in speed, and the members at the scanned speed nearest to the transient's.
 
-Speeds in m/s (signed: the Figure-1 waves run at c < 0). Zones in nodes per wavelength,
-inclusive ranges. One JSON line per speed (progress: the best smallest margin and its
+Speeds in m/s (signed: the Figure-1 waves run at c < 0). Zones in contact points per
+wavelength, inclusive ranges: nodes, or with ``--samples S`` (S points per node, the node's
+history between node passages, ``studies.travel.frame``) S times as many; from a RUN_DIR the
+seen ranges are scaled by S. One JSON line per speed (progress: the best smallest margin and its
 zones), one per member found, then a summary line: the members' speed, amplitude and ψ
 ranges. ``--out`` writes every member and the per-speed best margins.
 """
@@ -42,9 +44,12 @@ def main() -> None:
     ap.add_argument("--k", type=int, default=4)
     ap.add_argument("--rate", choices=("bdf1", "bdf2"), default="bdf1")
     ap.add_argument("--inertia", choices=("rotation", "shift"), default="shift")
+    ap.add_argument("--samples", type=int, default=1, help="contact points per mesh node")
     ap.add_argument("--tol", type=float, default=1e-8)
     ap.add_argument("--out", type=Path)
     a = ap.parse_args()
+    if a.samples < 1 or (a.samples > 1 and a.inertia != "shift"):
+        ap.error(f"--samples {a.samples}: give a whole number >= 1 (> 1 with --inertia shift)")
     if a.span <= 0.0 or a.step <= 0.0 or a.pad < 0:
         ap.error(f"--span {a.span} --step {a.step} --pad {a.pad}: give a positive span and step "
                  "and a pad >= 0")
@@ -76,7 +81,8 @@ def main() -> None:
     except SceneError as err:
         ap.error(f"{scene_file}: {err}")
     t0 = time.process_time()
-    st = D.setup(scene, float(scene.damping.tau), rate=a.rate, inertia=a.inertia)
+    st = D.setup(scene, float(scene.damping.tau), rate=a.rate, inertia=a.inertia,
+                 samples=a.samples)
     R = scene.geometry.R
     if a.k < 1 or st.prob.n % a.k:
         ap.error(f"k = {a.k}: a k-periodic wave on {st.prob.n} contact nodes needs k to divide "
@@ -89,8 +95,9 @@ def main() -> None:
     if not zones:
         ap.error(f"--stick {a.stick} --slip {a.slip} --land {a.land}: no zone lengths that fit a "
                  f"wavelength of {n_wave} nodes (give A <= B and room for a separation run)")
-    print(json.dumps({"n": st.prob.n, "k": a.k, "active_sets": len(zones), "rate": a.rate,
-                      "inertia": a.inertia, "setup_cpu_s": round(time.process_time() - t0, 1)}),
+    print(json.dumps({"n": st.prob.n, "samples": a.samples, "k": a.k,
+                      "active_sets": len(zones), "rate": a.rate, "inertia": a.inertia,
+                      "setup_cpu_s": round(time.process_time() - t0, 1)}),
           flush=True)
     speeds = np.arange(c_from, c_to + 1e-9 * c_step, c_step)
     members, best = [], []
@@ -121,7 +128,8 @@ def main() -> None:
 
         atomic_write_text(a.out, json.dumps({"source": str(a.source), "overrides": a.overrides,
                                              "k": a.k, "n": st.prob.n, "rate": a.rate,
-                                             "inertia": a.inertia, "summary": summary,
+                                             "inertia": a.inertia, "samples": a.samples,
+                                             "summary": summary,
                                              "members": members, "best": best}))
 
 
@@ -160,11 +168,12 @@ def _transient(a: argparse.Namespace) -> dict:
     if wave.angular_speed_rad_s == 0.0 or not seen:
         raise SystemExit(f"{a.source}: the run's last samples hold no stick · slip · "
                          "separation · slip wave (steady sliding or another topology)")
-    lo, hi = np.min(seen, axis=0), np.max(seen, axis=0)
+    sm = a.samples
+    lo, hi = sm * np.min(seen, axis=0), sm * np.max(seen, axis=0)
     a.k = wave.mode
-    a.stick = [max(1, int(lo[0]) - a.pad), int(hi[0]) + a.pad]
-    a.slip = [max(0, int(lo[1]) - a.pad), int(hi[1]) + a.pad]
-    a.land = [max(0, int(lo[2]) - a.pad), int(hi[2]) + a.pad]
+    a.stick = [max(1, int(lo[0]) - sm * a.pad), int(hi[0]) + sm * a.pad]
+    a.slip = [max(0, int(lo[1]) - sm * a.pad), int(hi[1]) + sm * a.pad]
+    a.land = [max(0, int(lo[2]) - sm * a.pad), int(hi[2]) + sm * a.pad]
     c0 = wave.celerity_m_s
     step = -a.step if c0 < 0 else a.step
     a.c = [c0 * (1.0 - a.span), c0 * (1.0 + a.span), step]

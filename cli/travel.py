@@ -50,6 +50,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="wave-frame operator: rotation (K - w^2 G - w D, the continuous "
                         "rotation, default) or shift (the transient's own travelling "
                         "operator per discrete harmonic, lumped mass; docs/travelling_waves.md)")
+    p.add_argument("--samples", type=int, default=1, metavar="S",
+                   help="contact points per mesh node with --inertia shift: the node's history "
+                        "between node passages (default 1; docs/travelling_waves.md, Samples)")
     p.add_argument("--max-iter", type=int, default=60, help="Newton iterations (default 60)")
     p.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
                    help="override a scene field (repeatable)")
@@ -121,6 +124,9 @@ def _travel(args: argparse.Namespace) -> int:
     if args.rate not in RATES:
         return _err(f"--rate {args.rate}: the material-derivative scheme must be one of "
                     f"{', '.join(RATES)}")
+    if args.samples < 1 or (args.samples > 1 and args.inertia != "shift"):
+        return _err(f"--samples {args.samples}: give a whole number >= 1; more than 1 needs "
+                    "--inertia shift")
     try:
         scene = load_scene(args.scene, args.overrides)
         cont = parse_continue(args.cont) if args.cont else None
@@ -155,7 +161,8 @@ def _one_wave(scene, args: argparse.Namespace, out: Path, t0: float) -> int:
     from studies.travel.output import plot_profiles, write_failure, write_wave
 
     try:
-        st = D.setup(scene, args.damping, rate=args.rate, inertia=args.inertia)
+        st = D.setup(scene, args.damping, rate=args.rate, inertia=args.inertia,
+                     samples=args.samples)
         if args.from_run:
             W0, om0, info = D.start_from_run(Path(args.from_run), st)
         else:
@@ -175,6 +182,7 @@ def _one_wave(scene, args: argparse.Namespace, out: Path, t0: float) -> int:
                    "violated": err.info.get("violated"), "margins": err.info.get("margins"),
                    "residual_history": err.info.get("hist"), **info,
                    "damping_s": args.damping, "rate": args.rate, "inertia": args.inertia,
+                   "samples_per_node": args.samples,
                    "wall_time_s": time.perf_counter() - t0}
         write_failure(out, scene, summary)
         res = err.info.get("residual")

@@ -62,7 +62,8 @@ def _follow(scene: Scene, args: argparse.Namespace, key: str, values: list[float
         row: dict = {"value": val}
         try:
             if st is None or key not in REUSE_KEYS:
-                st = D.setup(sc, args.damping, rate=args.rate, inertia=args.inertia)
+                st = D.setup(sc, args.damping, rate=args.rate, inertia=args.inertia,
+                             samples=getattr(args, "samples", 1))
             else:
                 st = D.retarget(st, sc)
             if W is None:

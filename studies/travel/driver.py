@@ -59,17 +59,17 @@ class TravelResult:
 
 
 def setup(scene: Scene, damping: float = 0.0, lumped: bool = False,
-          rate: str = "bdf2", inertia: str = "rotation") -> Setup:
+          rate: str = "bdf2", inertia: str = "rotation", samples: int = 1) -> Setup:
     """Mesh, stiffness (``solver.problem``), travelling inertia (``lumped``: vertex rule,
     ``frame.frame_operators``; ``inertia="shift"``: the transient's own travelling operator,
-    lumped M per discrete harmonic) and the condensed problem (``rate``: the
-    material-derivative scheme, ``newton.RATES``)."""
+    lumped M per discrete harmonic; ``samples``: contact points per node, "shift" only) and the
+    condensed problem (``rate``: the material-derivative scheme, ``newton.RATES``)."""
     from solver.problem import build_problem
     from studies.travel.frame import circle_problem, frame_operators
     from studies.travel.newton import check_rate
 
     check_rate(rate)
-    ops = frame_operators(build_problem(scene), damping, lumped, inertia)
+    ops = frame_operators(build_problem(scene), damping, lumped, inertia, samples)
     return Setup(scene, ops, circle_problem(ops, rate=rate))
 
 
@@ -87,14 +87,18 @@ def start_from_run(run_dir: Path, st: Setup) -> tuple[Array, float, dict]:
     run = load_run(run_dir)
     s = run.samples
     order = np.argsort(s["theta"])
-    if s["theta"].size != st.ops.n or not np.allclose(s["theta"][order], st.ops.theta):
+    ops = st.ops
+    nodes = ops.theta[:: ops.samples]
+    if s["theta"].size != ops.mesh_n or not np.allclose(s["theta"][order], nodes):
         raise ValueError(f"--from {run_dir}: its contact nodes differ from the scene's mesh "
-                         f"({s['theta'].size} vs {st.ops.n}); use the run's own scene")
+                         f"({s['theta'].size} vs {ops.mesh_n}); use the run's own scene")
     wave = analyse_run(run)
     if wave.angular_speed_rad_s == 0.0:
         raise ValueError(f"--from {run_dir}: the run ended in steady sliding (no wave to start "
                          "from); start from the reduced model instead")
     W0 = np.concatenate([s["u_r"][-1][order], s["u_theta"][-1][order]])
+    if ops.samples > 1:  # node values to the sub-node points (linear in θ)
+        W0 = prolong(W0, ops.n)
     return W0, float(wave.angular_speed_rad_s), {"start": "run", "from": str(run_dir),
                                                  "start_celerity_m_s": wave.celerity_m_s,
                                                  "start_mode": wave.mode}
@@ -218,7 +222,8 @@ def measure(st: Setup, sol: TravelSolution, k: int) -> tuple[dict, dict[str, Arr
         "residual_history": sol.residual_history,
         "inequalities": {"margins": sol.margins, "violated": sol.violated,
                          "all_satisfied": sol.violated is None},
-        "contact_nodes": n, "dofs": int(ops.problem.n_global_dofs),
+        "contact_nodes": ops.mesh_n, "samples_per_node": ops.samples,
+        "dofs": int(ops.problem.n_global_dofs),
         "rate": st.prob.rate,
     }
     ds = ops.ds_weight

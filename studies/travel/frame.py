@@ -38,6 +38,20 @@ harmonic m = 0 … N/2 and ω; dS/dω by a central difference. The two operators
 harmonics are resolved (``benchmarks/travel_symbol.py``; measured with the former, P1-
 inconsistent damping form: at N = 132, ω = −2497 rad/s they differed by 15 % at m = 4 and by
 O(1) at m = 12, 16; not re-measured with D = τK M⁻¹B).
+
+**Samples: the node's history between node passages** (``samples`` = s > 1, "shift" only).
+A wave of the semi-discrete transient is u_j(t) = R^j u_0(t − jτ), τ = Δφ/|ω|: every contact
+node runs through the same history, one node passage later than its upstream neighbour. With
+one point per node (s = 1) the frame holds that history only at the node passages, so a node
+changes status (stick, slip, separation) only there. With s points per node the contact
+circle carries the profile at θ_j = jΔφ/s, i.e. node 0's history at the times jτ/s. A profile
+harmonic e^{imθ} is seen by the mesh nodes as the discrete harmonic m mod N at the frequency
+−mω, so its symbol is the Schur complement of the same A_m = (1 − imωτ_KV)K − (mω)²M for
+|m| ≤ Ns/2: ``_sector_operator`` already carries the Bloch phase e^{imα} (α a multiple of Δφ,
+hence m mod N) and the frequency mω. The contact law is applied at every point with the
+material rate over τ/s (``newton.rate_stencil``). As s → ∞ this is the transient's own
+travelling wave at N, continuous in time (the transient's limit as Δt → 0); s is the time
+resolution, N the space resolution (docs/travelling_waves.md, "Samples").
 """
 
 from __future__ import annotations
@@ -85,6 +99,7 @@ class FrameOperators:
     C: sp.csr_matrix | None = None  # Kelvin–Voigt wave-frame damping (None: undamped)
     inertia: str = "rotation"  # "rotation": K − ω²G − ωC; "shift": the transient's (module doc)
     tau: float = 0.0  # Kelvin–Voigt retardation time (s), for "shift"
+    samples: int = 1  # contact points per mesh node ("shift" only; module doc, "Samples")
     _cache: tuple | None = None
     _static: tuple | None = None  # S(0): every solve reads it for its nodal stiffness scale
     _blocks: dict | None = None
@@ -92,7 +107,13 @@ class FrameOperators:
 
     @property
     def n(self) -> int:
+        """Points on the contact circle: N mesh nodes × ``samples``."""
         return self.theta.size
+
+    @property
+    def mesh_n(self) -> int:
+        """N, the contact nodes of the mesh (its Z_N symmetry)."""
+        return self.theta.size // self.samples
 
     def _split(self) -> dict:
         """Blocks of K and G (once); the modal form once it pays (``factor``)."""
@@ -209,7 +230,7 @@ class FrameOperators:
         Serial (dof 2p, 2p + 1 = x, y of node p)."""
         if self._blocks is not None and "bloch" in self._blocks:
             return self._blocks["bloch"]
-        n = self.n
+        n = self.mesh_n
         dphi = 2.0 * math.pi / n
         xy = self.problem.V.tabulate_dof_coordinates()[: self.problem.n_owned // 2, :2]
         rad = np.hypot(xy[:, 0], xy[:, 1])
@@ -282,6 +303,9 @@ class FrameOperators:
         largest relative part of S(A_m) e_m outside harmonic m: the Z_N-symmetry check).
         The reference route: one sparse LU of the whole A_m,ii per m (``shift_symbols_bloch``
         is the fast one)."""
+        if self.samples != 1:
+            raise ValueError("shift_symbols: the whole-mesh reference route has one point "
+                             "per node; use shift_symbols_bloch for samples > 1")
         if self._blocks is None or "Mii" not in self._blocks:
             c, i = self.contact, self.interior
             b = self._blocks if self._blocks is not None else {}
@@ -334,17 +358,21 @@ class FrameOperators:
         S, dS, _ = self.factor(omega, derivative)
         return S, dS
 
-    def shift_state(self, W: Array, omega: float) -> tuple[Array, Array, Array]:
-        """(u, v, a) at t = 0 of the whole mesh for the contact values W of a wave of the
+    def shift_state(self, W: Array, omega: float, t: float = 0.0
+                    ) -> tuple[Array, Array, Array]:
+        """(u, v, a) at time t of the whole mesh for the contact values W of a wave of the
         transient's travelling operator (``inertia="shift"``, module doc); owned dofs, clamped
-        ones 0. With ĉ_m the polar DFT of W (ĉ_m = (1/N) Σ_j W_j e^{−imθ_j}), the wave is
+        ones 0. With P = N·samples points and ĉ_m the polar DFT of W (ĉ_m = (1/P) Σ_j W_j
+        e^{−imθ_j}), the wave is
 
             u(t) = Σ_m diag(e^{imα}) R c_m e^{−imωt},   c_m = (ĉ_m, −A_m,ii⁻¹ A_m,ic ĉ_m),
 
-        over |m| ≤ N/2 (``_bloch``: c_m on one sector's node orbits, α the sector angle), so
-        v = Σ −imω (…) and a = Σ −(mω)² (…). The interior rows of M a + K (u + τ v) vanish
-        and the contact rows are the nodal forces S(ω) W (``tests/test_travel_fe.py``): a
-        start for ``solver.run.Simulation(initial_state=...)`` on the wave itself."""
+        over |m| ≤ P/2 (``_bloch``: c_m on one sector's node orbits, α the sector angle, so
+        e^{imα} is the discrete harmonic m mod N), v = Σ −imω (…), a = Σ −(mω)² (…). The
+        interior rows of M a + K (u + τ v) vanish, the contact rows are the nodal forces
+        S(ω) W at the points the nodes occupy at t, and at t = jτ/samples (τ = Δφ/|ω|) node i
+        holds W at point i·samples − j·sign(ω) (``tests/test_travel_fe.py``): a start for
+        ``solver.run.Simulation(initial_state=...)`` on the wave itself."""
         if self.inertia != "shift":
             raise ValueError("shift_state: the wave must be one of inertia='shift'")
         bl = self._bloch()
@@ -358,7 +386,7 @@ class FrameOperators:
             c = np.zeros(A.shape[0], dtype=complex)
             c[ci] = chat[:, m]
             c[ii] = -np.linalg.solve(A[np.ix_(ii, ii)], A[np.ix_(ii, ci)] @ chat[:, m])
-            field = np.exp(1j * m * alpha) * (R @ c)
+            field = np.exp(1j * m * alpha) * (R @ c) * np.exp(-1j * m * omega * t)
             weight = 1.0 if m == 0 or 2 * m == n else 2.0  # ĉ_{−m} = conj(ĉ_m): W is real
             u += weight * field.real
             v += weight * (-1j * m * omega * field).real
@@ -386,10 +414,12 @@ class FrameOperators:
 
 
 def frame_operators(problem: TubeProblem, damping: float = 0.0,
-                    lumped: bool = False, inertia: str = "rotation") -> FrameOperators:
+                    lumped: bool = False, inertia: str = "rotation",
+                    samples: int = 1) -> FrameOperators:
     """Assemble G (and the damping, retardation time ``damping`` s), split the free dofs,
     order the contact nodes by θ (serial only). ``lumped``: G by the vertex rule
-    (``forms.travelling.travelling_inertia``), the analogue of the transient's lumped mass."""
+    (``forms.travelling.travelling_inertia``), the analogue of the transient's lumped mass.
+    ``samples``: contact points per mesh node (``inertia="shift"`` only, module doc)."""
     import dolfinx
     import dolfinx.fem.petsc
     import ufl
@@ -401,6 +431,12 @@ def frame_operators(problem: TubeProblem, damping: float = 0.0,
     if inertia not in INERTIAS:
         raise ValueError(f"inertia {inertia!r}: use 'rotation' (K − ω²G) or 'shift' (the "
                          "transient's travelling operator)")
+    if not (isinstance(samples, int) and samples >= 1):
+        raise ValueError(f"samples = {samples!r}: give a whole number ≥ 1 of contact points "
+                         "per mesh node")
+    if samples > 1 and inertia != "shift":
+        raise ValueError(f"samples = {samples}: sub-node samples need inertia='shift' (the "
+                         "continuous rotation has no node passage to sample)")
     V = problem.V
     u, v = ufl.TrialFunction(V), ufl.TestFunction(V)
     Gm = dolfinx.fem.petsc.assemble_matrix(
@@ -437,8 +473,10 @@ def frame_operators(problem: TubeProblem, damping: float = 0.0,
         moving[problem.clamped] = 0.0
         C = (damping * (K @ (sp.diags(moving / problem.mass) @ _csr(Bm)))).tocsr()
         Bm.destroy()
-    return FrameOperators(problem, K, G, contact, interior, theta, nd.ds_weight[order], T, C,
-                          inertia=inertia, tau=float(damping))
+    points = theta if samples == 1 else np.arange(n * samples) * (dphi / samples)
+    return FrameOperators(problem, K, G, contact, interior, points,
+                          np.repeat(nd.ds_weight[order], samples), T, C,
+                          inertia=inertia, tau=float(damping), samples=samples)
 
 
 def circle_problem(ops: FrameOperators, scene: Scene | None = None,
