@@ -3,7 +3,7 @@ enumeration of active sets (issue 14 items 3-4; ``studies.travel.family``).
 
 ``./dev nice python3 benchmarks/travel_family_scan.py SCENE [--set key=value ...] --c FROM TO
 STEP --stick A B --slip A B [--land A B] [--k 4] [--rate bdf1] [--inertia shift]
-[--samples S] [--out FILE.json]``
+[--samples S] [--time-scheme central] [--out FILE.json]``
 
 ``./dev nice python3 benchmarks/travel_family_scan.py RUN_DIR [--span 0.03] [--step 1]
 [--pad 3]``: around a transient. k, its speed and the zone lengths seen in its last 40
@@ -45,11 +45,16 @@ def main() -> None:
     ap.add_argument("--rate", choices=("bdf1", "bdf2"), default="bdf1")
     ap.add_argument("--inertia", choices=("rotation", "shift"), default="shift")
     ap.add_argument("--samples", type=int, default=1, help="contact points per mesh node")
+    ap.add_argument("--time-scheme", choices=("exact", "central"), default="exact",
+                    help="shift operator exact in time, or the transient's central-difference "
+                         "step h = node passage / samples")
     ap.add_argument("--tol", type=float, default=1e-8)
     ap.add_argument("--out", type=Path)
     a = ap.parse_args()
-    if a.samples < 1 or (a.samples > 1 and a.inertia != "shift"):
-        ap.error(f"--samples {a.samples}: give a whole number >= 1 (> 1 with --inertia shift)")
+    if a.samples < 1 or ((a.samples > 1 or a.time_scheme != "exact")
+                         and a.inertia != "shift"):
+        ap.error(f"--samples {a.samples} --time-scheme {a.time_scheme}: give a whole number "
+                 ">= 1; more than 1, or central, needs --inertia shift")
     if a.span <= 0.0 or a.step <= 0.0 or a.pad < 0:
         ap.error(f"--span {a.span} --step {a.step} --pad {a.pad}: give a positive span and step "
                  "and a pad >= 0")
@@ -82,7 +87,7 @@ def main() -> None:
         ap.error(f"{scene_file}: {err}")
     t0 = time.process_time()
     st = D.setup(scene, float(scene.damping.tau), rate=a.rate, inertia=a.inertia,
-                 samples=a.samples)
+                 samples=a.samples, time_scheme=a.time_scheme)
     R = scene.geometry.R
     if a.k < 1 or st.prob.n % a.k:
         ap.error(f"k = {a.k}: a k-periodic wave on {st.prob.n} contact nodes needs k to divide "
@@ -95,7 +100,8 @@ def main() -> None:
     if not zones:
         ap.error(f"--stick {a.stick} --slip {a.slip} --land {a.land}: no zone lengths that fit a "
                  f"wavelength of {n_wave} nodes (give A <= B and room for a separation run)")
-    print(json.dumps({"n": st.prob.n, "samples": a.samples, "k": a.k,
+    print(json.dumps({"n": st.prob.n, "samples": a.samples, "time_scheme": a.time_scheme,
+                      "k": a.k,
                       "active_sets": len(zones), "rate": a.rate, "inertia": a.inertia,
                       "setup_cpu_s": round(time.process_time() - t0, 1)}),
           flush=True)
@@ -129,6 +135,7 @@ def main() -> None:
         atomic_write_text(a.out, json.dumps({"source": str(a.source), "overrides": a.overrides,
                                              "k": a.k, "n": st.prob.n, "rate": a.rate,
                                              "inertia": a.inertia, "samples": a.samples,
+                                             "time_scheme": a.time_scheme,
                                              "summary": summary,
                                              "members": members, "best": best}))
 

@@ -42,10 +42,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--band", action="store_true",
                    help="also measure the band of speeds over which the wave stays admissible "
                         "(warm-started fixed-omega solves, steps of 0.2 %%)")
-    p.add_argument("--rate", default="bdf2", metavar="SCHEME",
+    p.add_argument("--rate", default=None, metavar="SCHEME",
                    help="material derivative in the contact law, upwind over node passages: "
                         "bdf2 (second order, default) or bdf1 (first order: what the transient "
-                        "sees on a rigidly travelling P1 wave)")
+                        "sees on a rigidly travelling P1 wave; the default, and the only "
+                        "choice, with --time-scheme central)")
     p.add_argument("--inertia", default="rotation", metavar="OPERATOR",
                    help="wave-frame operator: rotation (K - w^2 G - w D, the continuous "
                         "rotation, default) or shift (the transient's own travelling "
@@ -53,6 +54,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--samples", type=int, default=1, metavar="S",
                    help="contact points per mesh node with --inertia shift: the node's history "
                         "between node passages (default 1; docs/travelling_waves.md, Samples)")
+    p.add_argument("--time-scheme", default="exact", choices=("exact", "central"),
+                   help="with --inertia shift: exact in time (default) or the transient's "
+                        "explicit central-difference step h = node passage / samples (its own "
+                        "discrete travelling wave; docs/travelling_waves.md)")
     p.add_argument("--max-iter", type=int, default=60, help="Newton iterations (default 60)")
     p.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
                    help="override a scene field (repeatable)")
@@ -119,6 +124,11 @@ def _travel(args: argparse.Namespace) -> int:
     from studies.travel.frame import INERTIAS
     from studies.travel.newton import RATES
 
+    if args.rate is None:
+        args.rate = "bdf1" if args.time_scheme == "central" else "bdf2"
+    if args.time_scheme == "central" and args.rate != "bdf1":
+        return _err(f"--rate {args.rate}: the central time scheme is the transient's step, whose "
+                    "contact law is first order (bdf1); drop --rate")
     if args.inertia not in INERTIAS:
         return _err(f"--inertia {args.inertia}: use {' or '.join(INERTIAS)}")
     if args.rate not in RATES:
@@ -127,6 +137,8 @@ def _travel(args: argparse.Namespace) -> int:
     if args.samples < 1 or (args.samples > 1 and args.inertia != "shift"):
         return _err(f"--samples {args.samples}: give a whole number >= 1; more than 1 needs "
                     "--inertia shift")
+    if args.time_scheme != "exact" and args.inertia != "shift":
+        return _err(f"--time-scheme {args.time_scheme}: needs --inertia shift")
     try:
         scene = load_scene(args.scene, args.overrides)
         cont = parse_continue(args.cont) if args.cont else None
@@ -162,7 +174,7 @@ def _one_wave(scene, args: argparse.Namespace, out: Path, t0: float) -> int:
 
     try:
         st = D.setup(scene, args.damping, rate=args.rate, inertia=args.inertia,
-                     samples=args.samples)
+                     samples=args.samples, time_scheme=args.time_scheme)
         if args.from_run:
             W0, om0, info = D.start_from_run(Path(args.from_run), st)
         else:
@@ -182,7 +194,7 @@ def _one_wave(scene, args: argparse.Namespace, out: Path, t0: float) -> int:
                    "violated": err.info.get("violated"), "margins": err.info.get("margins"),
                    "residual_history": err.info.get("hist"), **info,
                    "damping_s": args.damping, "rate": args.rate, "inertia": args.inertia,
-                   "samples_per_node": args.samples,
+                   "samples_per_node": args.samples, "time_scheme": args.time_scheme,
                    "wall_time_s": time.perf_counter() - t0}
         write_failure(out, scene, summary)
         res = err.info.get("residual")

@@ -35,7 +35,7 @@ from studies.travel.newton import (
 )
 
 __all__ = ["TravelResult", "Setup", "band", "setup", "start_from_run", "start_from_reduced",
-           "prolong", "solve_scene", "measure", "member_amplitude"]
+           "probe_history", "prolong", "solve_scene", "measure", "member_amplitude"]
 
 Array = NDArray[np.float64]
 
@@ -59,17 +59,19 @@ class TravelResult:
 
 
 def setup(scene: Scene, damping: float = 0.0, lumped: bool = False,
-          rate: str = "bdf2", inertia: str = "rotation", samples: int = 1) -> Setup:
+          rate: str = "bdf2", inertia: str = "rotation", samples: int = 1,
+          time_scheme: str = "exact") -> Setup:
     """Mesh, stiffness (``solver.problem``), travelling inertia (``lumped``: vertex rule,
     ``frame.frame_operators``; ``inertia="shift"``: the transient's own travelling operator,
-    lumped M per discrete harmonic; ``samples``: contact points per node, "shift" only) and the
-    condensed problem (``rate``: the material-derivative scheme, ``newton.RATES``)."""
+    lumped M per discrete harmonic; ``samples``: contact points per node, ``time_scheme``:
+    exact or central in time, both "shift" only) and the condensed problem (``rate``: the
+    material-derivative scheme, ``newton.RATES``)."""
     from solver.problem import build_problem
     from studies.travel.frame import circle_problem, frame_operators
     from studies.travel.newton import check_rate
 
     check_rate(rate)
-    ops = frame_operators(build_problem(scene), damping, lumped, inertia, samples)
+    ops = frame_operators(build_problem(scene), damping, lumped, inertia, samples, time_scheme)
     return Setup(scene, ops, circle_problem(ops, rate=rate))
 
 
@@ -81,7 +83,8 @@ def retarget(st: Setup, scene: Scene) -> Setup:
 
 
 def start_from_run(run_dir: Path, st: Setup) -> tuple[Array, float, dict]:
-    """(W0, ω0, info) from a transient run directory's last sample (module doc)."""
+    """(W0, ω0, info) from a transient run directory's last sample (module doc); with sub-node
+    samples, from its probe's every-step history (``probe_history``) where it has one."""
     from postprocess.analysis import analyse_run, load_run
 
     run = load_run(run_dir)
@@ -97,11 +100,35 @@ def start_from_run(run_dir: Path, st: Setup) -> tuple[Array, float, dict]:
         raise ValueError(f"--from {run_dir}: the run ended in steady sliding (no wave to start "
                          "from); start from the reduced model instead")
     W0 = np.concatenate([s["u_r"][-1][order], s["u_theta"][-1][order]])
-    if ops.samples > 1:  # node values to the sub-node points (linear in θ)
-        W0 = prolong(W0, ops.n)
-    return W0, float(wave.angular_speed_rad_s), {"start": "run", "from": str(run_dir),
-                                                 "start_celerity_m_s": wave.celerity_m_s,
-                                                 "start_mode": wave.mode}
+    omega = float(wave.angular_speed_rad_s)
+    info = {"start": "run", "from": str(run_dir), "start_celerity_m_s": wave.celerity_m_s,
+            "start_mode": wave.mode}
+    if ops.samples > 1:
+        history = probe_history(s, omega, wave.mode, ops.n)
+        if history is not None:
+            W0, info["start"] = history, "run (probe history)"
+        else:  # node values to the sub-node points (linear in θ)
+            W0, info["start"] = prolong(W0, ops.n), "run (last sample, prolonged)"
+    return W0, omega, info
+
+
+def probe_history(samples: dict, omega: float, k: int, points: int) -> Array | None:
+    """W on ``points`` uniform points from the every-step history of the run's first probe
+    over its last wave period 2π/(k|ω|), or None if the run has no probe or too short a
+    history. A wave W(θ − ωt) passes a fixed node as W(θ_p − ωt), so the history read
+    against the frame angle −ω(t − t_end) is the profile (turned by θ_p − ωt_end), sampled
+    every |ω|Δt: finer than the nodes (``studies.travel.frame``, "Samples").
+    Linear interpolation, periodic over one wavelength (the wave is k-periodic)."""
+    if "probe_data" not in samples or samples["probe_data"].shape[0] == 0:
+        return None
+    t, x = samples["probe_t"], samples["probe_data"][0]
+    length = 2.0 * math.pi / k
+    sel = t >= t[-1] - 1.02 * length / abs(omega)
+    if t.size < 2 or t[-1] - t[0] < length / abs(omega) or np.count_nonzero(sel) < 8:
+        return None
+    phase = np.mod(-omega * (t[sel] - t[-1]), length)
+    at = np.mod(np.arange(points) * (2.0 * math.pi / points), length)
+    return np.concatenate([np.interp(at, phase, x[sel, c], period=length) for c in (0, 1)])
 
 
 def start_from_reduced(st: Setup, k: int) -> tuple[Array, float, dict]:
@@ -223,6 +250,8 @@ def measure(st: Setup, sol: TravelSolution, k: int) -> tuple[dict, dict[str, Arr
         "inequalities": {"margins": sol.margins, "violated": sol.violated,
                          "all_satisfied": sol.violated is None},
         "contact_nodes": ops.mesh_n, "samples_per_node": ops.samples,
+        "time_scheme": ops.time_scheme,
+        "time_step_s": ops.step(sol.omega) if ops.time_scheme == "central" else None,
         "dofs": int(ops.problem.n_global_dofs),
         "rate": st.prob.rate,
     }

@@ -68,7 +68,7 @@ from solver.problem import TubeProblem
 from solver.scene import Scene
 from studies.travel.newton import CircleProblem
 
-__all__ = ["INERTIAS", "FrameOperators", "frame_operators", "circle_problem"]
+__all__ = ["INERTIAS", "TIME_SCHEMES", "FrameOperators", "frame_operators", "circle_problem"]
 
 Array = NDArray[np.float64]
 MODAL_MAX = 6000  # interiors up to this size may use the modal form of the Schur complement
@@ -83,6 +83,9 @@ def _csr(mat) -> sp.csr_matrix:
 
 #: wave-frame operators (module doc): the continuous rotation, or the transient's shift
 INERTIAS = ("rotation", "shift")
+#: time discretisation of the shift operator (module doc): exact in time, or the transient's
+#: explicit central-difference step h = Δφ/(samples·|ω|)
+TIME_SCHEMES = ("exact", "central")
 
 @dataclass
 class FrameOperators:
@@ -100,6 +103,7 @@ class FrameOperators:
     inertia: str = "rotation"  # "rotation": K − ω²G − ωC; "shift": the transient's (module doc)
     tau: float = 0.0  # Kelvin–Voigt retardation time (s), for "shift"
     samples: int = 1  # contact points per mesh node ("shift" only; module doc, "Samples")
+    time_scheme: str = "exact"  # "exact" in time, or "central": the transient's step h = τ/s
     _cache: tuple | None = None
     _static: tuple | None = None  # S(0): every solve reads it for its nodal stiffness scale
     _blocks: dict | None = None
@@ -288,24 +292,44 @@ class FrameOperators:
         sym = np.zeros((n // 2 + 1, 2, 2), dtype=complex)
         for m in range(n // 2 + 1):
             A = self._sector_operator(bl, m, omega)
-            sym[m] = A[np.ix_(ci, ci)] - A[np.ix_(ci, ii)] @ np.linalg.solve(
-                A[np.ix_(ii, ii)], A[np.ix_(ii, ci)])
+            sym[m] = self.time_symbols(m, omega)[2] * (
+                A[np.ix_(ci, ci)] - A[np.ix_(ci, ii)] @ np.linalg.solve(
+                    A[np.ix_(ii, ii)], A[np.ix_(ii, ci)]))
         return sym
 
+    def step(self, omega: float) -> float:
+        """h = Δφ/(samples·|ω|): the time between two contact points (module doc)."""
+        return 2.0 * math.pi / (self.n * abs(omega))
+
+    def time_symbols(self, m: int, omega: float) -> tuple[complex, float, complex]:
+        """(damping factor, inertia factor, contact factor) of harmonic m at ω, so that
+        A_m = damping·K − inertia·M and the contact symbol is contact·(Schur complement).
+
+        exact:   1 − iντ,                 ν²,                 1          (ν = mω);
+        central: 1 + τ(1 − e^{iνh})/h,    (2/h)² sin²(νh/2),  e^{iνh}    (module doc)."""
+        nu = m * omega
+        if self.time_scheme == "exact" or omega == 0.0:  # ω = 0: the static S (no step)
+            return 1.0 - 1j * nu * self.tau, nu * nu, 1.0
+        h = self.step(omega)
+        return (1.0 + self.tau * (1.0 - np.exp(1j * nu * h)) / h,
+                (2.0 / h * math.sin(0.5 * nu * h)) ** 2, np.exp(1j * nu * h))
+
     def _sector_operator(self, bl: dict, m: int, omega: float) -> NDArray[np.complex128]:
-        """A_m = (1 − imωτ)K − (mω)²M restricted to harmonic m on one sector (``_bloch``)."""
+        """A_m = (1 − imωτ)K − (mω)²M (or the central scheme's, ``time_symbols``) restricted
+        to harmonic m on one sector (``_bloch``)."""
         red = {name: sum(np.exp(1j * m * a) * P for a, P in parts)
                for name, parts in bl["mats"].items()}
-        return (1.0 - 1j * m * omega * self.tau) * red["K"] - (m * omega) ** 2 * red["M"]
+        fk, fm, _ = self.time_symbols(m, omega)
+        return fk * red["K"] - fm * red["M"]
 
     def shift_symbols(self, omega: float) -> tuple[NDArray[np.complex128], float]:
         """(t_m for m = 0 … N/2, shape (N/2 + 1, 2, 2), forces per unit polar harmonic; the
         largest relative part of S(A_m) e_m outside harmonic m: the Z_N-symmetry check).
         The reference route: one sparse LU of the whole A_m,ii per m (``shift_symbols_bloch``
         is the fast one)."""
-        if self.samples != 1:
+        if self.samples != 1 or self.time_scheme != "exact":
             raise ValueError("shift_symbols: the whole-mesh reference route has one point "
-                             "per node; use shift_symbols_bloch for samples > 1")
+                             "per node, exact in time; use shift_symbols_bloch")
         if self._blocks is None or "Mii" not in self._blocks:
             c, i = self.contact, self.interior
             b = self._blocks if self._blocks is not None else {}
@@ -368,11 +392,14 @@ class FrameOperators:
             u(t) = Σ_m diag(e^{imα}) R c_m e^{−imωt},   c_m = (ĉ_m, −A_m,ii⁻¹ A_m,ic ĉ_m),
 
         over |m| ≤ P/2 (``_bloch``: c_m on one sector's node orbits, α the sector angle, so
-        e^{imα} is the discrete harmonic m mod N), v = Σ −imω (…), a = Σ −(mω)² (…). The
-        interior rows of M a + K (u + τ v) vanish, the contact rows are the nodal forces
-        S(ω) W at the points the nodes occupy at t, and at t = jτ/samples (τ = Δφ/|ω|) node i
-        holds W at point i·samples − j·sign(ω) (``tests/test_travel_fe.py``): a start for
-        ``solver.run.Simulation(initial_state=...)`` on the wave itself."""
+        e^{imα} is the discrete harmonic m mod N). ``time_scheme="exact"``: v = Σ −imω (…),
+        a = Σ −(mω)² (…); the interior rows of M a + K (u + τ v) vanish, the contact rows are
+        the nodal forces S(ω) W at the points the nodes occupy at t, and at t = jτ/samples
+        (τ = Δφ/|ω|) node i holds W at point i·samples − j·sign(ω). ``"central"``: u at
+        t − h, t, t + h (h = ``step``) give the explicit scheme's state at step t (β₂ = 1/2,
+        ``solver.newmark``): ṽ = (u(t) − u(t − h))/h, a = (u(t + h) − 2u(t) + u(t − h))/h²,
+        v = ṽ + h a/2, so that ``Simulation(initial_state=(u, v, a))`` with dt = h starts on
+        the discrete wave (``tests/test_travel_fe.py``)."""
         if self.inertia != "shift":
             raise ValueError("shift_state: the wave must be one of inertia='shift'")
         bl = self._bloch()
@@ -380,18 +407,30 @@ class FrameOperators:
         n = self.n
         chat = np.fft.fft(np.asarray(W, dtype=float).reshape(2, n), axis=1) / n  # (r, θ) x m
         R, alpha = bl["R"], bl["alpha"]
-        u, v, a = (np.zeros(self.problem.n_owned) for _ in range(3))
+        central = self.time_scheme == "central"
+        h = self.step(omega) if central else 0.0
+        times = (t - h, t, t + h) if central else (t,)
+        u_at = [np.zeros(self.problem.n_owned) for _ in times]
+        v, a = np.zeros(self.problem.n_owned), np.zeros(self.problem.n_owned)
         for m in range(n // 2 + 1):
             A = self._sector_operator(bl, m, omega)
             c = np.zeros(A.shape[0], dtype=complex)
             c[ci] = chat[:, m]
             c[ii] = -np.linalg.solve(A[np.ix_(ii, ii)], A[np.ix_(ii, ci)] @ chat[:, m])
-            field = np.exp(1j * m * alpha) * (R @ c) * np.exp(-1j * m * omega * t)
+            shape = np.exp(1j * m * alpha) * (R @ c)
             weight = 1.0 if m == 0 or 2 * m == n else 2.0  # ĉ_{−m} = conj(ĉ_m): W is real
-            u += weight * field.real
-            v += weight * (-1j * m * omega * field).real
-            a += weight * (-((m * omega) ** 2) * field).real
-        return u, v, a
+            for u, tj in zip(u_at, times, strict=True):
+                u += weight * (shape * np.exp(-1j * m * omega * tj)).real
+            if not central:
+                field = shape * np.exp(-1j * m * omega * t)
+                v += weight * (-1j * m * omega * field).real
+                a += weight * (-((m * omega) ** 2) * field).real
+        if central:
+            before, u, after = u_at
+            a = (after - 2.0 * u + before) / (h * h)
+            v = (u - before) / h + 0.5 * h * a
+            return u, v, a
+        return u_at[0], v, a
 
     def full_field(self, W: Array, omega: float) -> Array:
         """Owned dof array of w (clamped dofs 0) from the polar contact values W at ω."""
@@ -415,11 +454,12 @@ class FrameOperators:
 
 def frame_operators(problem: TubeProblem, damping: float = 0.0,
                     lumped: bool = False, inertia: str = "rotation",
-                    samples: int = 1) -> FrameOperators:
+                    samples: int = 1, time_scheme: str = "exact") -> FrameOperators:
     """Assemble G (and the damping, retardation time ``damping`` s), split the free dofs,
     order the contact nodes by θ (serial only). ``lumped``: G by the vertex rule
     (``forms.travelling.travelling_inertia``), the analogue of the transient's lumped mass.
-    ``samples``: contact points per mesh node (``inertia="shift"`` only, module doc)."""
+    ``samples``: contact points per mesh node, ``time_scheme``: "exact" or "central" (both
+    ``inertia="shift"`` only, module doc)."""
     import dolfinx
     import dolfinx.fem.petsc
     import ufl
@@ -434,6 +474,10 @@ def frame_operators(problem: TubeProblem, damping: float = 0.0,
     if not (isinstance(samples, int) and samples >= 1):
         raise ValueError(f"samples = {samples!r}: give a whole number ≥ 1 of contact points "
                          "per mesh node")
+    if time_scheme not in TIME_SCHEMES:
+        raise ValueError(f"time scheme {time_scheme!r}: use one of {', '.join(TIME_SCHEMES)}")
+    if time_scheme != "exact" and inertia != "shift":
+        raise ValueError(f"time scheme {time_scheme!r} needs inertia='shift'")
     if samples > 1 and inertia != "shift":
         raise ValueError(f"samples = {samples}: sub-node samples need inertia='shift' (the "
                          "continuous rotation has no node passage to sample)")
@@ -476,7 +520,8 @@ def frame_operators(problem: TubeProblem, damping: float = 0.0,
     points = theta if samples == 1 else np.arange(n * samples) * (dphi / samples)
     return FrameOperators(problem, K, G, contact, interior, points,
                           np.repeat(nd.ds_weight[order], samples), T, C,
-                          inertia=inertia, tau=float(damping), samples=samples)
+                          inertia=inertia, tau=float(damping), samples=samples,
+                          time_scheme=time_scheme)
 
 
 def circle_problem(ops: FrameOperators, scene: Scene | None = None,
