@@ -506,3 +506,19 @@ def test_transient_started_on_the_central_wave_stays_on_it(central132):
                     np.abs(ut[order] - wave.W_t[at]).max())
     assert rec["t"].size > 80
     assert worst < 1e-6 * prob.d, worst
+
+
+def test_samples_and_time_scheme_are_checked(setup36):
+    """Sub-node samples and the central scheme belong to the shift operator only; a bad value
+    is a one-line ValueError naming it."""
+    from studies.travel.frame import frame_operators
+
+    problem = setup36.ops.problem
+    with pytest.raises(ValueError, match="samples = 2"):
+        frame_operators(problem, 0.0, samples=2)
+    with pytest.raises(ValueError, match="samples = 0"):
+        frame_operators(problem, 0.0, inertia="shift", samples=0)
+    with pytest.raises(ValueError, match="'central' needs inertia='shift'"):
+        frame_operators(problem, 0.0, time_scheme="central")
+    with pytest.raises(ValueError, match="'implicit'"):
+        frame_operators(problem, 0.0, inertia="shift", time_scheme="implicit")

@@ -51,7 +51,23 @@ harmonic e^{imθ} is seen by the mesh nodes as the discrete harmonic m mod N at 
 hence m mod N) and the frequency mω. The contact law is applied at every point with the
 material rate over τ/s (``newton.rate_stencil``). As s → ∞ this is the transient's own
 travelling wave at N, continuous in time (the transient's limit as Δt → 0); s is the time
-resolution, N the space resolution (docs/travelling_waves.md, "Samples").
+resolution, N the space resolution (docs/travelling_waves.md, 2e).
+
+**Central scheme** (``time_scheme="central"``): the transient's own time discretisation with
+step h = τ/s, i.e. the explicit β-method at β₂ = 1/2 (``solver.newmark``):
+M(u⁺ − 2u + u⁻)/h² + K(u + τ_KV(u − u⁻)/h) = r, where r at step n is the force that puts the
+node where the contact law wants it at step n + 1 (the forward increment). Per harmonic
+(e^{−iνt}, ν = mω, e^{−iνh} one step) the interior operator becomes
+
+    A_m = (1 + τ_KV(1 − e^{iνh})/h) K − (2/h)² sin²(νh/2) M,
+
+and pairing the force with the position one step later multiplies the contact symbol by
+e^{iνh} (νh = ±2πm/(Ns): the shift by one point). A wave of this problem is a periodic orbit
+of the transient's discrete equations at dt = h: a run started on it (``shift_state``) stays
+on it to round-off (``tests/test_travel_fe.py``). The "exact" scheme differs at the landing:
+the node's velocity jumps there, and the exact-in-time inertia of the sampled history rings
+(the force at the points before the landing changes sign), so its fixed-status problem has
+no admissible wave at s ≥ 4 where the central one has exactly one (docs 2e).
 """
 
 from __future__ import annotations
