@@ -11,12 +11,14 @@ Its start is the probe history of RUN_DIR (a finished ``stickslip run`` of that 
 ``driver.probe_history``) or, without RUN_DIR, the previous level's wave carried to the new
 points (``driver.prolong``: nested iteration in N or S).
 
-One JSON line per level: N, S, h, the transient-equivalent dt/dt_crit, celerity, amplitude,
-sub-node ψ₁ and ψ₂, the residual, iterations, inequality margins, CPU; with RUN_DIR the run's
-own celerity and amplitude (``postprocess.analysis.analyse_run``). A level that fails is a line
-with its error; the exit status is 1 if any level failed. After three or more levels of one S
-(an N ladder) or one N (an S ladder), the observed order of the celerity from the last three,
-p = log2(|c₁ − c₂| / |c₂ − c₃|) (levels in the order given, each refining the last by 2).
+One JSON line per level: N, S, the step h and the node passage τ = S·h, celerity, amplitude,
+sub-node ψ₁ and ψ₂, the residual, iterations, the smallest inequality margin, CPU; with
+RUN_DIR the run's own celerity (``postprocess.analysis.analyse_run``) and time step. A level
+that fails is a line with its error; the exit status is 1 if any level failed. After three or
+more levels of one S (an N ladder) or one N (an S ladder), the observed order of the celerity
+from the last three, p = log2(|c₁ − c₂| / |c₂ − c₃|) (levels in the order given, each
+refining the last by 2).
+``--out`` gets the same lines, also after Ctrl-C (the levels finished; exit 130).
 """
 
 from __future__ import annotations
@@ -70,32 +72,40 @@ def main() -> int:
     except (SceneError, FileNotFoundError) as err:
         ap.error(f"{a.scene}: {err}")
     rows: list[dict] = []
-    W, failed = None, False
+    wave, failed = None, False
     try:
         for n, s, run in a.level:
-            row = _solve(base, a, n, s, run, W)
-            failed |= row.get("error") is not None
-            W = row.pop("_W", W)
+            row, solved = _solve(base, a, n, s, run, wave)
+            failed |= solved is None
+            wave = solved or wave
             rows.append(row)
             print(json.dumps(row), flush=True)
     except KeyboardInterrupt:
+        _write(a.out, rows)
         print(f"travel_discrete: interrupted after {len(rows)} of {len(a.level)} levels; the "
-              "lines above are complete", file=sys.stderr)
+              "lines above are complete" + (f" and in {a.out}" if a.out else ""),
+              file=sys.stderr)
         return 130
     order = _order(rows)
     if order is not None:
-        print(json.dumps({"observed_order": order}), flush=True)
-    if a.out:
-        from solver.atomic import atomic_write_text
-
-        lines = rows + ([{"observed_order": order}] if order is not None else [])
-        atomic_write_text(a.out, "".join(json.dumps(r) + "\n" for r in lines))
+        rows.append({"observed_order": order})
+        print(json.dumps(rows[-1]), flush=True)
+    _write(a.out, rows)
     return 1 if failed else 0
 
 
+def _write(out: Path | None, rows: list[dict]) -> None:
+    """The finished lines to ``out`` (atomic: a complete file or the old one)."""
+    if out and rows:
+        from solver.atomic import atomic_write_text
+
+        atomic_write_text(out, "".join(json.dumps(r) + "\n" for r in rows))
+
+
 def _solve(base, a: argparse.Namespace, n: int, s: int, run: Path | None,
-           W_prev: np.ndarray | None) -> dict:
-    """One level (module doc); the row carries the wave as ``_W`` for the next level."""
+           previous: tuple[np.ndarray, float] | None) -> tuple[dict, tuple | None]:
+    """One level (module doc): its row, and its wave (W, ω) for the next level (None if the
+    Newton failed)."""
     from studies.travel import driver as D
     from studies.travel.newton import NotConverged, solve_wave
 
@@ -110,12 +120,12 @@ def _solve(base, a: argparse.Namespace, n: int, s: int, run: Path | None,
         row.update(run=str(run), run_celerity_m_s=info["start_celerity_m_s"],
                    run_start=info["start"], run_dt_s=_run_dt(run))
     else:
-        W0, om0 = D.prolong(W_prev[0], st.prob.n), W_prev[1]
+        W0, om0 = D.prolong(previous[0], st.prob.n), previous[1]
     try:
         sol = solve_wave(st.prob, W0, om0, a.k, max_iter=a.max_iter)
     except NotConverged as err:
         row.update(error=str(err), cpu_s=round(time.process_time() - t0, 1))
-        return row
+        return row, None
     summary, _ = D.measure(st, sol, a.k)
     h = st.ops.step(sol.omega)
     row.update(celerity_m_s=sol.omega * R, amplitude_mm=summary["amplitude_m"] * 1e3,
@@ -123,8 +133,7 @@ def _solve(base, a: argparse.Namespace, n: int, s: int, run: Path | None,
                passage_s=h * s, residual=sol.residual, iterations=sol.iterations,
                violated=sol.violated, min_margin=min(sol.margins.values()),
                cpu_s=round(time.process_time() - t0, 1))
-    row["_W"] = (np.r_[sol.W_r, sol.W_t], sol.omega)
-    return row
+    return row, (np.r_[sol.W_r, sol.W_t], sol.omega)
 
 
 def _run_dt(run: Path) -> float | None:
@@ -133,11 +142,18 @@ def _run_dt(run: Path) -> float | None:
 
 
 def _order(rows: list[dict]) -> float | None:
-    """p from the last three converged levels' celerities (module doc), or None."""
-    c = [r["celerity_m_s"] for r in rows if "celerity_m_s" in r]
-    if len(c) < 3 or c[-2] == c[-1]:
+    """p from the last three converged levels' celerities (module doc), or None if they are
+    not a ladder: one S with N doubling, or one N with S doubling."""
+    last = [r for r in rows if "celerity_m_s" in r][-3:]
+    if len(last) < 3:
         return None
-    return math.log2(abs(c[-3] - c[-2]) / abs(c[-2] - c[-1]))
+    n, s = [r["N"] for r in last], [r["S"] for r in last]
+    halving = (len(set(s)) == 1 and n[1] == 2 * n[0] and n[2] == 2 * n[1]) or (
+        len(set(n)) == 1 and s[1] == 2 * s[0] and s[2] == 2 * s[1])
+    c = [r["celerity_m_s"] for r in last]
+    if not halving or c[1] == c[2]:
+        return None
+    return math.log2(abs(c[0] - c[1]) / abs(c[1] - c[2]))
 
 
 if __name__ == "__main__":

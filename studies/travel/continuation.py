@@ -63,8 +63,7 @@ def _follow(scene: Scene, args: argparse.Namespace, key: str, values: list[float
         try:
             if st is None or key not in REUSE_KEYS:
                 st = D.setup(sc, args.damping, rate=args.rate, inertia=args.inertia,
-                             samples=getattr(args, "samples", 1),
-                             time_scheme=getattr(args, "time_scheme", "exact"))
+                             samples=args.samples, time_scheme=args.time_scheme)
             else:
                 st = D.retarget(st, sc)
             if W is None:

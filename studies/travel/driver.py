@@ -123,8 +123,10 @@ def probe_history(samples: dict, omega: float, k: int, points: int) -> Array | N
         return None
     t, x = samples["probe_t"], samples["probe_data"][0]
     length = 2.0 * math.pi / k
+    if t.size < 8 or t[-1] - t[0] < length / abs(omega):
+        return None
     sel = t >= t[-1] - 1.02 * length / abs(omega)
-    if t.size < 2 or t[-1] - t[0] < length / abs(omega) or np.count_nonzero(sel) < 8:
+    if np.count_nonzero(sel) < 8:
         return None
     phase = np.mod(-omega * (t[sel] - t[-1]), length)
     at = np.mod(np.arange(points) * (2.0 * math.pi / points), length)
@@ -222,7 +224,7 @@ def measure(st: Setup, sol: TravelSolution, k: int) -> tuple[dict, dict[str, Arr
     sc, ops = st.scene, st.ops
     n, R, d = ops.n, sc.geometry.R, sc.geometry.d
     theta = ops.theta
-    dt = (2.0 * math.pi / n) / abs(sol.omega)
+    dt = ops.step(sol.omega)  # one point per dt: the wave's exact space-time record
     sign = 1 if sol.omega > 0 else -1
     shifts = np.arange(n)  # one full turn; at t_m the wave has moved m nodes
     idx = (np.arange(n)[None, :] - sign * shifts[:, None]) % n

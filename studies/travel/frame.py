@@ -436,10 +436,10 @@ class FrameOperators:
             c[ii] = -np.linalg.solve(A[np.ix_(ii, ii)], A[np.ix_(ii, ci)] @ chat[:, m])
             shape = np.exp(1j * m * alpha) * (R @ c)
             weight = 1.0 if m == 0 or 2 * m == n else 2.0  # ĉ_{−m} = conj(ĉ_m): W is real
-            for u, tj in zip(u_at, times, strict=True):
-                u += weight * (shape * np.exp(-1j * m * omega * tj)).real
-            if not central:
-                field = shape * np.exp(-1j * m * omega * t)
+            fields = [shape * np.exp(-1j * m * omega * tj) for tj in times]
+            for u, field in zip(u_at, fields, strict=True):
+                u += weight * field.real
+            if not central:  # times = (t,): the exact derivatives of the one field
                 v += weight * (-1j * m * omega * field).real
                 a += weight * (-((m * omega) ** 2) * field).real
         if central:
