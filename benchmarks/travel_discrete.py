@@ -6,7 +6,8 @@
 
 Each ``--level`` is one wave: the scene on ``mesh.n_inner=N`` with S contact points per node
 (the time step h = Δφ/(S|ω|) of the explicit central-difference scheme, β₂ = 1/2, and its
-first-order contact law), solved by the semismooth Newton with free ω (``newton.solve_wave``).
+first-order contact law), solved by the semismooth Newton with free ω (``driver.solve_free``:
+``newton.solve_wave`` on one wavelength when k divides N·S).
 Its start is the probe history of RUN_DIR (a finished ``stickslip run`` of that mesh,
 ``driver.probe_history``) or, without RUN_DIR, the previous level's wave carried to the new
 points (``driver.prolong``: nested iteration in N or S).
@@ -107,7 +108,7 @@ def _solve(base, a: argparse.Namespace, n: int, s: int, run: Path | None,
     """One level (module doc): its row, and its wave (W, ω) for the next level (None if the
     Newton failed)."""
     from studies.travel import driver as D
-    from studies.travel.newton import NotConverged, solve_wave
+    from studies.travel.newton import NotConverged
 
     t0 = time.process_time()
     scene = base.with_overrides(f"mesh.n_inner={n}")
@@ -122,7 +123,7 @@ def _solve(base, a: argparse.Namespace, n: int, s: int, run: Path | None,
     else:
         W0, om0 = D.prolong(previous[0], st.prob.n), previous[1]
     try:
-        sol = solve_wave(st.prob, W0, om0, a.k, max_iter=a.max_iter)
+        sol = D.solve_free(st, a.k, W0, om0, max_iter=a.max_iter)  # one wavelength if k | N·S
     except NotConverged as err:
         row.update(error=str(err), cpu_s=round(time.process_time() - t0, 1))
         return row, None

@@ -22,6 +22,13 @@ Stage 2 (existence): for each wavenumber k, fixed-ω travel solves (``newton.nea
 
 Every converged wave is measured (``driver.measure``, sub-node ψ) and its band of admissible
 speeds traced (``driver.band``). One JSON line per attempt in OUT/family.jsonl.
+
+``--samples S --time-scheme central``: the same starts on the transient's own discrete wave
+(``studies.travel.frame``, "Samples" and "Central scheme"; inertia "shift", bdf1 law). Its
+waves are isolated in ω (docs/travelling_waves.md, 2e), so each start gets the free-ω Newton
+only (on one wavelength when k divides N·S, ``driver.folded``), no fixed-ω scan and no band;
+the starts from a run are its probe history. Lines in OUT/family_central_sS.jsonl;
+``--table`` with the same options prints that table.
 """
 
 from __future__ import annotations
@@ -75,17 +82,24 @@ def stretched(W: np.ndarray, n: int, m: int, k: int) -> np.ndarray:
 
 
 def attempt(st, k: int, W0: np.ndarray, om0: float, label: str, known: list) -> dict:
-    """Fixed-ω nearest-speed solve from (W0, om0); band of a new wave (module doc)."""
+    """Fixed-ω nearest-speed solve from (W0, om0); band of a new wave (module doc). Central
+    scheme: the free-ω Newton only, no band (isolated waves)."""
     from studies.travel import driver as D
     from studies.travel.newton import NotConverged, nearest_wave
 
     R = st.scene.geometry.R
     c0 = om0 * R
+    central = st.ops.time_scheme == "central"
     rec = {"k": k, "start": label, "start_celerity_m_s": c0,
-           "scanned_m_s": sorted([c0 * (1 - REL_STEP * STEPS), c0 * (1 + REL_STEP * STEPS)])}
+           "scanned_m_s": [c0, c0] if central else
+           sorted([c0 * (1 - REL_STEP * STEPS), c0 * (1 + REL_STEP * STEPS)])}
     t0 = time.process_time()
     try:
-        sol = nearest_wave(st.prob, W0, om0, k, rel_step=REL_STEP, max_steps=STEPS, max_iter=30)
+        if central:
+            sol = D.solve_free(st, k, W0, om0, max_iter=40)
+        else:
+            sol = nearest_wave(st.prob, W0, om0, k, rel_step=REL_STEP, max_steps=STEPS,
+                               max_iter=30)
     except NotConverged as err:
         rec.update(status="none", last_residual=err.info.get("residual"),
                    violated=err.info.get("violated"), cpu_s=time.process_time() - t0)
@@ -96,8 +110,13 @@ def attempt(st, k: int, W0: np.ndarray, om0: float, label: str, known: list) -> 
                direction=summ["direction"], amplitude_m=summ["amplitude_m"],
                psi1=summ["psi1"], psi2=summ["psi2"], psi1_subnode=summ["psi1_subnode"],
                psi2_subnode=summ["psi2_subnode"], fractions=summ["fractions"])
+    rec.update(iterations=sol.iterations, residual=sol.residual)
     same = [b for b in known if b["celerity_m_s"][0] - 1e-9 <= c <= b["celerity_m_s"][1] + 1e-9]
-    if same:
+    if central:
+        rec["band"] = {"celerity_m_s": [c, c], "psi1": [summ["psi1_subnode"]] * 2,
+                       "psi2": [summ["psi2_subnode"]] * 2,
+                       "amplitude_m": [summ["amplitude_m"]] * 2, "members": 1}
+    elif same:
         rec["band"] = same[0]
         rec["band_from"] = "known"
     else:
@@ -107,13 +126,24 @@ def attempt(st, k: int, W0: np.ndarray, om0: float, label: str, known: list) -> 
     return rec
 
 
-def existence(out: Path, scene_name: str, runs: dict[int, dict], kmax: int) -> None:
-    """Stage 2 (module doc): append one JSON line per attempt to OUT/family.jsonl."""
+def family_file(out: Path, samples: int, time_scheme: str) -> Path:
+    """OUT/family.jsonl (one point per node, exact in time) or OUT/family_central_sS.jsonl."""
+    return out / ("family.jsonl" if time_scheme == "exact" and samples == 1
+                  else f"family_{time_scheme}_s{samples}.jsonl")
+
+
+def existence(out: Path, scene_name: str, runs: dict[int, dict], kmax: int,
+              samples: int = 1, time_scheme: str = "exact") -> None:
+    """Stage 2 (module doc): append one JSON line per attempt to ``family_file``."""
     from solver.scene import load_scene
     from studies.travel import driver as D
 
     scene = load_scene(f"scenes/{scene_name}.toml", [])
-    st = D.setup(scene, float(scene.damping.tau))
+    if time_scheme == "exact" and samples == 1:
+        st = D.setup(scene, float(scene.damping.tau))
+    else:
+        st = D.setup(scene, float(scene.damping.tau), rate="bdf1", inertia="shift",
+                     samples=samples, time_scheme=time_scheme)
     n = st.ops.n
     R = scene.geometry.R
     ends = {}
@@ -127,7 +157,7 @@ def existence(out: Path, scene_name: str, runs: dict[int, dict], kmax: int) -> N
     lc = [(s, e) for s, e in ends.items() if e[3]]
     bwd = next((e for s, e in sorted(lc, key=lambda x: x[0] != 4) if e[2] < 0), None)
     fwd = next((e for s, e in sorted(lc, key=lambda x: x[0] != 6) if e[2] > 0), None)
-    with open(out / "family.jsonl", "a") as fh:
+    with open(family_file(out, samples, time_scheme), "a") as fh:
         for k in range(1, kmax + 1):
             known: list = []
             starts = [(f"run seed {s}", W, om) for s, (m, W, om, _) in ends.items() if m == k]
@@ -158,12 +188,12 @@ def _fmt_band(b: dict) -> str:
             f"{1e3 * b['amplitude_m'][0]:.2f}–{1e3 * b['amplitude_m'][1]:.2f} mm")
 
 
-def table(out: Path, kmax: int) -> str:
+def table(out: Path, kmax: int, samples: int = 1, time_scheme: str = "exact") -> str:
     """Markdown table: per scene and k, the transient from seed k and the waves found at k."""
     from travel_mismatch import rigidity  # benchmarks/ (this script's folder)
 
     recs, seen = [], set()
-    for line in (out / "family.jsonl").read_text().splitlines():
+    for line in family_file(out, samples, time_scheme).read_text().splitlines():
         r = json.loads(line)
         key = (r["scene"], r["k"], r["start"], r["status"], r.get("celerity_m_s"))
         if key not in seen:  # a rerun appends the same attempt again
@@ -238,15 +268,19 @@ def main() -> None:
     ap.add_argument("--scene", nargs="*", default=list(SCENES))
     ap.add_argument("--dt-fraction", type=float, default=0.1125)
     ap.add_argument("--kmax", type=int, default=12)
+    ap.add_argument("--samples", type=int, default=1)
+    ap.add_argument("--time-scheme", choices=("exact", "central"), default="exact")
     ap.add_argument("--table", action="store_true", help="print the table from OUT and stop")
     a = ap.parse_args()
+    if a.samples < 1:
+        ap.error(f"--samples {a.samples}: give a whole number >= 1 of points per node")
     if a.table:
-        print(table(a.out, a.kmax))
+        print(table(a.out, a.kmax, a.samples, a.time_scheme))
         return
     a.out.mkdir(parents=True, exist_ok=True)
     for scene in a.scene:
         runs = transients(a.out, scene, a.dt_fraction, a.kmax)
-        existence(a.out, scene, runs, a.kmax)
+        existence(a.out, scene, runs, a.kmax, a.samples, a.time_scheme)
 
 
 if __name__ == "__main__":

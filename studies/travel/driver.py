@@ -29,13 +29,16 @@ from solver.scene import Scene
 from studies.travel.newton import (
     CircleProblem,
     TravelSolution,
+    fold_state,
     material_rate,
     solve_wave,
+    unfold,
     zone_lengths,
 )
 
 __all__ = ["TravelResult", "Setup", "band", "setup", "start_from_run", "start_from_reduced",
-           "probe_history", "prolong", "solve_scene", "measure", "member_amplitude"]
+           "probe_history", "prolong", "folded", "solve_free", "solve_scene", "measure",
+           "member_amplitude"]
 
 Array = NDArray[np.float64]
 
@@ -187,11 +190,34 @@ def prolong(W: Array, n_fine: int, how: str = "linear") -> Array:
     return ((1.0 - a) * parts[:, j % n] + a * parts[:, (j + 1) % n]).reshape(-1)
 
 
+def folded(st: Setup, k: int) -> Setup:
+    """``st`` on one wavelength when k > 1 divides its contact points (the k-periodic waves,
+    ``newton`` "Folding": S_k from the harmonics m ∈ kℤ), else ``st`` itself."""
+    from studies.travel.frame import circle_problem
+
+    if k <= 1 or st.prob.period != 1 or st.prob.n % k:
+        return st
+    return Setup(st.scene, st.ops, circle_problem(st.ops, st.scene, st.prob.rate, period=k))
+
+
+def solve_free(st: Setup, k: int, W0: Array, omega0: float, *, fold: bool = True,
+               **kw) -> TravelSolution:
+    """The free-ω Newton (``newton.solve_wave``, phase condition) from (W0, ω0), on one
+    wavelength when ``fold`` and k divides the points (``folded``); the wave on the whole
+    circle. Raises ``newton.NotConverged``."""
+    prob = (folded(st, k) if fold else st).prob
+    sol = solve_wave(prob, fold_state(W0, prob.period), omega0, k, **kw)
+    sol.how = "free omega (phase condition)"
+    return unfold(sol, prob.period)
+
+
 def solve_scene(st: Setup, k: int, W0: Array, omega0: float, *, free_omega: bool = True,
                 max_iter: int = 60, scan: float = 0.05, rel_step: float = 0.0025,
-                **kw) -> TravelSolution:
+                fold: bool = True, **kw) -> TravelSolution:
     """Newton for (W, ω) with the phase condition; if it fails, the fixed-ω wave nearest to
     ω0 (``newton.nearest_wave``: ω0(1 ± j·rel_step) up to ±``scan``). ``sol.how`` says which.
+    ``fold``: seek a k-periodic wave on one wavelength (``folded``; the start is the mean of
+    its k copies), returned on the whole circle.
 
     The step is 0.25 %: at N = 132 the admissible bands of a wave family are ~0.5 % of the
     speed wide (docs/travelling_waves.md), so steps of 1 % jump over them."""
@@ -200,13 +226,12 @@ def solve_scene(st: Setup, k: int, W0: Array, omega0: float, *, free_omega: bool
     first: NotConverged | None = None
     if free_omega:
         try:
-            sol = solve_wave(st.prob, W0, omega0, k, max_iter=max_iter, **kw)
-            sol.how = "free omega (phase condition)"
-            return sol
+            return solve_free(st, k, W0, omega0, fold=fold, max_iter=max_iter, **kw)
         except NotConverged as err:
             first = err
+    prob = (folded(st, k) if fold else st).prob
     try:
-        sol = nearest_wave(st.prob, W0, omega0, k, rel_step=rel_step,
+        sol = nearest_wave(prob, fold_state(W0, prob.period), omega0, k, rel_step=rel_step,
                            max_steps=max(0, int(round(scan / rel_step))),
                            max_iter=min(max_iter, 30), **kw)
     except NotConverged as err:
@@ -214,7 +239,7 @@ def solve_scene(st: Setup, k: int, W0: Array, omega0: float, *, free_omega: bool
             raise NotConverged(f"{first}; then {err}", err.info) from None
         raise
     sol.how = "fixed omega (nearest admissible speed to the start)"
-    return sol
+    return unfold(sol, prob.period)
 
 
 def measure(st: Setup, sol: TravelSolution, k: int) -> tuple[dict, dict[str, Array]]:

@@ -75,6 +75,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import partial
 
 import numpy as np
 import scipy.sparse as sp
@@ -83,7 +84,7 @@ from scipy.sparse.linalg import splu
 
 from solver.problem import TubeProblem
 from solver.scene import Scene
-from studies.travel.newton import CircleProblem
+from studies.travel.newton import CircleProblem, fold_operator
 
 __all__ = ["INERTIAS", "TIME_SCHEMES", "FrameOperators", "frame_operators", "circle_problem"]
 
@@ -121,8 +122,8 @@ class FrameOperators:
     tau: float = 0.0  # Kelvin–Voigt retardation time (s), for "shift"
     samples: int = 1  # contact points per mesh node ("shift" only; module doc, "Samples")
     time_scheme: str = "exact"  # "exact" in time, or "central": the transient's step h = τ/s
-    _cache: tuple | None = None
-    _static: tuple | None = None  # S(0): every solve reads it for its nodal stiffness scale
+    _cache: tuple | None = None  # ((ω, period), (S, dS, X)): the last evaluation
+    _static: dict | None = None  # period -> S(0): every solve reads it for its nodal scale
     _blocks: dict | None = None
     _evaluations: int = 0
 
@@ -162,9 +163,11 @@ class FrameOperators:
             b["B0"], b["B1"] = phi.T @ b["Kic"], phi.T @ b["Gic"]
         return b
 
-    def factor(self, omega: float, derivative: bool = True
+    def factor(self, omega: float, derivative: bool = True, period: int = 1
                ) -> tuple[Array, Array | None, Array | None]:
         """(S_polar, dS_polar/dω or None, X) at ω (module doc); the last result is cached.
+        ``period`` > 1: S and dS/dω on ``period``-periodic fields (``newton``, "Folding"),
+        from the harmonics m ∈ period·ℤ only for the shift operator; X is then None.
 
         After ``MODAL_AFTER`` evaluations, small interiors switch to the modal form (one dense
         generalised eigenproblem):
@@ -172,22 +175,38 @@ class FrameOperators:
         w_i = −ΦDB w_c, so each ω costs dense products only. Before that, and for large
         interiors, A_ii is factored (sparse LU) at each ω.
         """
-        if self._cache is not None and self._cache[0] == omega and (
+        if self.n % period:
+            raise ValueError(f"period {period}: must divide the {self.n} contact points")
+        key = (omega, period)
+        if self._cache is not None and self._cache[0] == key and (
                 self._cache[1][1] is not None or not derivative):
             return self._cache[1]
-        if omega == 0.0 and not derivative and self._static is not None:
-            return self._static
+        if self._static is None:
+            self._static = {}
+        if omega == 0.0 and not derivative and period in self._static:
+            return self._static[period]
         if self.inertia == "shift":
-            S = self._schur_shift(omega)
+            S = self._schur_shift(omega, period)
             dS = None
             if derivative:
                 h = 1e-6 * abs(omega)
-                dS = (self._schur_shift(omega + h) - self._schur_shift(omega - h)) / (2.0 * h)
+                dS = (self._schur_shift(omega + h, period)
+                      - self._schur_shift(omega - h, period)) / (2.0 * h)
             out = (S, dS, None)
-            self._cache = (omega, out)
-            if omega == 0.0:  # the nodal-stiffness scale, read by every solve
-                self._static = out
-            return out
+        else:
+            out = self._factor_frame(omega, derivative)
+            if period > 1:
+                out = (fold_operator(out[0], period),
+                       None if out[1] is None else fold_operator(out[1], period),
+                       None)
+        self._cache = (key, out)
+        if omega == 0.0:  # the nodal-stiffness scale, read by every solve
+            self._static[period] = (out[0], None, out[2])
+        return out
+
+    def _factor_frame(self, omega: float, derivative: bool
+                      ) -> tuple[Array, Array | None, Array | None]:
+        """``factor`` of the continuous-rotation operator K − ω²G − ωC (whole circle)."""
         b = self._split()
         w2 = omega * omega
         Acc = b["Kcc"] - w2 * b["Gcc"]
@@ -215,11 +234,7 @@ class FrameOperators:
         else:  # damped: A = K − ω²G − ωC is not symmetric (module doc)
             S, dS = self._schur_damped(omega, derivative)
             X = None
-        out = (T.T @ S @ T, None if dS is None else T.T @ dS @ T, X)
-        self._cache = (omega, out)
-        if omega == 0.0:
-            self._static = (out[0], None, out[2])
-        return out
+        return T.T @ S @ T, None if dS is None else T.T @ dS @ T, X
 
     def _schur_damped(self, omega: float, derivative: bool) -> tuple[Array, Array | None]:
         """S(ω) and dS/dω of the damped A = K − ω²G − ωC with one LU of A_ii (module doc)."""
@@ -297,19 +312,21 @@ class FrameOperators:
         self._blocks["bloch"] = out
         return out
 
-    def shift_symbols_bloch(self, omega: float) -> NDArray[np.complex128]:
-        """t_m, m = 0 … N/2, by the Bloch (one-sector) reduction of A_m (``_bloch``): the
-        harmonic-m subspace is invariant, so A_m restricted to it is Rᴴ diag(e^{−imα})
-        A_m diag(e^{imα}) R / N on 2 dofs per node orbit; its Schur complement on the contact
-        orbit's (r, θ) is t_m. Cost per m: a few dense sums and one solve of 2 n_rep unknowns
-        (n_rep = nodes per sector), no LU of the whole interior."""
+    def shift_symbols_bloch(self, omega: float, period: int = 1) -> NDArray[np.complex128]:
+        """t_m, m = 0 … P/2 (P points), by the Bloch (one-sector) reduction of A_m
+        (``_bloch``): the harmonic-m subspace is invariant, so A_m restricted to it is
+        Rᴴ diag(e^{−imα}) A_m diag(e^{imα}) R / N on 2 dofs per node orbit; its Schur
+        complement on the contact orbit's (r, θ) is t_m. Cost per m: a few dense sums and one
+        solve of 2 n_rep unknowns (n_rep = nodes per sector), no LU of the whole interior.
+        ``period`` = k: only m = 0, k, 2k, … (row j is t_{jk}; the k-periodic fields)."""
         bl = self._bloch()
         ci, ii = bl["c"], bl["i"]
-        n = self.n
+        n = self.n // period
         sym = np.zeros((n // 2 + 1, 2, 2), dtype=complex)
-        for m in range(n // 2 + 1):
+        for j in range(n // 2 + 1):
+            m = j * period
             A = self._sector_operator(bl, m, omega)
-            sym[m] = self.time_symbols(m, omega)[2] * (
+            sym[j] = self.time_symbols(m, omega)[2] * (
                 A[np.ix_(ci, ci)] - A[np.ix_(ci, ii)] @ np.linalg.solve(
                     A[np.ix_(ii, ii)], A[np.ix_(ii, ci)]))
         return sym
@@ -377,10 +394,12 @@ class FrameOperators:
             leak = max(leak, float(np.abs(SV - E @ t).max() / np.abs(SV).max()))
         return sym, leak
 
-    def _schur_shift(self, omega: float) -> Array:
-        """The block-circulant S of the transient's travelling operator (module doc)."""
-        n = self.n
-        sym = self.shift_symbols_bloch(omega)
+    def _schur_shift(self, omega: float, period: int = 1) -> Array:
+        """The block-circulant S of the transient's travelling operator (module doc). Folded
+        (``period`` = k, P/k points): S_k[j, l] = (1/(P/k)) Σ_m' t_{km'} e^{im'2π(j − l)k/P},
+        the circulant of the symbols t_{km'} (``newton``, "Folding")."""
+        n = self.n // period
+        sym = self.shift_symbols_bloch(omega, period)
         full = np.zeros((n, 2, 2), dtype=complex)
         full[: n // 2 + 1] = sym
         full[n // 2 + 1:] = np.conj(sym[1:(n + 1) // 2][::-1])  # t_{N−m} = conj(t_m)
@@ -395,8 +414,10 @@ class FrameOperators:
                 S[a * n:(a + 1) * n, bb * n:(bb + 1) * n] = col[idx, a, bb]
         return S
 
-    def stiffness(self, omega: float, derivative: bool = True) -> tuple[Array, Array | None]:
-        S, dS, _ = self.factor(omega, derivative)
+    def stiffness(self, omega: float, derivative: bool = True, period: int = 1
+                  ) -> tuple[Array, Array | None]:
+        """(S, dS/dω or None) at ω, on ``period``-periodic fields (``factor``)."""
+        S, dS, _ = self.factor(omega, derivative, period)
         return S, dS
 
     def shift_state(self, W: Array, omega: float, t: float = 0.0
@@ -542,13 +563,17 @@ def frame_operators(problem: TubeProblem, damping: float = 0.0,
 
 
 def circle_problem(ops: FrameOperators, scene: Scene | None = None,
-                   rate: str = "bdf2") -> CircleProblem:
+                   rate: str = "bdf2", period: int = 1) -> CircleProblem:
     """The condensed FE problem for ``studies.travel.newton.solve_wave`` (SI units).
 
     ``scene`` (default: the one the operators were built for) may change the loading and the
     mismatch only: K and G do not depend on them. ``rate``: the material-derivative scheme
-    (``newton.RATES``).
+    (``newton.RATES``). ``period`` = k: folded to one of k copies (``newton``, "Folding").
     """
     sc = ops.problem.scene if scene is None else scene
-    return CircleProblem(n=ops.n, d=sc.geometry.d, surface_speed=sc.geometry.R * sc.loading.omega,
-                         f=sc.loading.f, stiffness=ops.stiffness, rate=rate)
+    if period < 1 or ops.n % period:
+        raise ValueError(f"period {period}: must divide the {ops.n} contact points")
+    return CircleProblem(n=ops.n // period, d=sc.geometry.d,
+                         surface_speed=sc.geometry.R * sc.loading.omega, f=sc.loading.f,
+                         stiffness=partial(ops.stiffness, period=period), rate=rate,
+                         period=period)

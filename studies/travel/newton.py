@@ -50,6 +50,15 @@ active set (which nodes separate / stick / slip) C = 0 is linear in W for every 
 active set is admissible on an interval of ω. The phase condition selects one member; ω
 varies over the family by an amount that falls with N (measured in docs/travelling_waves.md).
 
+Folding. A wave of wavenumber k repeats every 2π/k. When k divides n the problem is solved on
+one wavelength: n/k points, the upstream index taken mod n/k, the step that of the whole
+circle (Δφ = 2π/n), and S replaced by its action on k-periodic fields,
+S_k[j, l] = Σ_c S[j, l + c n/k]. For the circulant FE operators only the harmonics m ∈ kℤ
+enter (``studies.travel.frame``), so folding divides the symbol work by k and the dense
+Newton by k³. ``CircleProblem.period`` = k marks a folded problem; ``fold_state`` carries a
+start to it, ``unfold`` the wave back. The law, the margins and the zones are node by node, so
+they are those of the whole circle.
+
 Generalised Jacobian (rows by the status ``project_contact`` returns):
 separation: C = λ; stick: C_n = c(W_r − d), C_t = c(W_θ − W_θ,up − RΩτ_h);
 slip: C_n = c(W_r − d), C_t = q − fσ(p − c(W_r − d)), σ = sign of the trial stick force.
@@ -69,8 +78,8 @@ from solver.contact import SEPARATION, SLIP, STICK, ContactArrays, project_conta
 
 __all__ = [
     "CircleProblem", "NotConverged", "RATES", "TravelSolution", "inequality_margins",
-    "material_rate", "nodal_stiffness", "rate_stencil", "solve_wave", "wave_amplitude",
-    "wave_of_active_set", "zone_lengths",
+    "fold_operator", "fold_state", "material_rate", "nodal_stiffness", "rate_stencil",
+    "solve_wave", "unfold", "wave_amplitude", "wave_of_active_set", "zone_lengths",
 ]
 
 Array = NDArray[np.float64]
@@ -114,13 +123,21 @@ class CircleProblem:
     f: float
     stiffness: StiffnessFn
     rate: str = "bdf2"  # material-derivative scheme (``RATES``, module doc)
+    period: int = 1  # the n points are one of ``period`` identical copies ("Folding")
 
     def __post_init__(self) -> None:
         check_rate(self.rate)
+        if not (isinstance(self.period, int) and self.period >= 1):
+            raise ValueError(f"period = {self.period!r}: a whole number >= 1 of copies")
 
     @property
     def theta(self) -> Array:
-        return np.arange(self.n) * (2.0 * math.pi / self.n)
+        return np.arange(self.n) * self.spacing
+
+    @property
+    def spacing(self) -> float:
+        """Δφ, the angle between two points: 2π/(n · period)."""
+        return 2.0 * math.pi / (self.n * self.period)
 
 
 @dataclass
@@ -155,24 +172,27 @@ def _upstream(n: int, omega: float) -> NDArray[np.intp]:
     return (np.arange(n) + (1 if omega > 0 else -1)) % n
 
 
-def rate_stencil(W_t: Array, omega: float, rate: str = "bdf2") -> tuple[Array, float]:
+def rate_stencil(W_t: Array, omega: float, rate: str = "bdf2", period: int = 1
+                 ) -> tuple[Array, float]:
     """(prev, step) of the upwind material derivative (module doc): the "previous position"
-    of the material now at each node and the time since, so −ω∂_φW_θ ≈ (W_θ − prev)/step."""
+    of the material now at each node and the time since, so −ω∂_φW_θ ≈ (W_θ − prev)/step.
+    ``period``: W_t is one of that many copies of the circle ("Folding"; upstream mod n)."""
     a1, a2, _ = RATES[rate]
     n = W_t.size
     up = _upstream(n, omega)
     prev = a1 * W_t[up] if a2 == 0.0 else a1 * W_t[up] + a2 * W_t[up[up]]
-    return prev, rate_step(n, omega, rate)
+    return prev, rate_step(n * period, omega, rate)
 
 
 def rate_step(n: int, omega: float, rate: str = "bdf2") -> float:
-    """The ``step`` of ``rate_stencil``: s · Δφ/|ω|, s from ``RATES``."""
+    """The ``step`` of ``rate_stencil``: s · Δφ/|ω|, Δφ = 2π/n (n points on the whole
+    circle), s from ``RATES``."""
     return RATES[rate][2] * (2.0 * math.pi / n) / abs(omega)
 
 
-def material_rate(W_t: Array, omega: float, rate: str = "bdf2") -> Array:
+def material_rate(W_t: Array, omega: float, rate: str = "bdf2", period: int = 1) -> Array:
     """Material time derivative −ω ∂_φ W_θ at the nodes, upwind in time (``rate_stencil``)."""
-    prev, step = rate_stencil(W_t, omega, rate)
+    prev, step = rate_stencil(W_t, omega, rate, period)
     return (W_t - prev) / step
 
 
@@ -193,7 +213,7 @@ class _Law:
     def __call__(self, W: Array, lam: Array, omega: float) -> tuple[Array, Array]:
         """(C, λ_projected); ``self.out.status`` holds the nodal statuses."""
         n, c, pr = self.n, self.c, self.prob
-        prev, step = rate_stencil(W[n:], omega, pr.rate)
+        prev, step = rate_stencil(W[n:], omega, pr.rate, pr.period)
         project_contact(
             W[:n] - lam[:n] / c, W[n:] - lam[n:] / c, prev, self.mass, 1.0, pr.d,
             pr.surface_speed * step, pr.f, self.out,
@@ -211,7 +231,7 @@ def inequality_margins(prob: CircleProblem, sol: TravelSolution, scale_force: fl
     st = sol.status
     sep, stick, slip = st == SEPARATION, st == STICK, st == SLIP
     contact = ~sep
-    s = prob.surface_speed - material_rate(sol.W_t, sol.omega, prob.rate)
+    s = prob.surface_speed - material_rate(sol.W_t, sol.omega, prob.rate, prob.period)
     big = np.inf
     return {
         "gap_separation": float(np.min((sol.W_r[sep] - prob.d) / max(prob.d, 1e-300),
@@ -268,6 +288,9 @@ def solve_wave(
     sliding, or when a converged wave violates an inequality by more than ``margin_tol``.
     """
     n = prob.n
+    if k % prob.period:
+        raise ValueError(f"k = {k}: a problem folded to 1/{prob.period} of the circle holds "
+                         f"only waves whose k is a multiple of {prob.period}")
     theta = prob.theta
     c = nodal_stiffness(prob)
     law = _Law(prob, c)
@@ -358,7 +381,7 @@ def solve_wave(
     signal = (sol.W_r - prob.d) if sep else (sol.W_t - sol.W_t.mean())
     spec = np.abs(np.fft.rfft(signal))
     spec[0] = 0.0
-    mode = int(np.argmax(spec))
+    mode = int(np.argmax(spec)) * prob.period  # a folded circle holds one wavelength per k/period
     if mode != k:
         raise NotConverged(f"converged to a wave whose dominant mode is {mode}, not k = {k} "
                            "(a node-scale pattern, not the requested wave)", info | {"mode": mode})
@@ -401,19 +424,17 @@ def wave_of_active_set(prob: CircleProblem, status: NDArray[np.int8], sense: Arr
     c = nodal_stiffness(prob) if c is None else c
     if S is None:
         S, _ = prob.stiffness(omega, False)
-    if period > 1:  # rows of one wavelength, columns summed over the k copies: S on
-        # n0-periodic fields, so the law's rows (upstream node taken mod n0) are those of a
-        # circle of n0 nodes; the stick step stays that of the N-node mesh
-        rows = np.r_[np.arange(n0), n + np.arange(n0)]
-        S = S[rows].reshape(2 * n0, 2, period, n0).sum(axis=2).reshape(2 * n0, 2 * n0)
+    if period > 1:  # S on n0-periodic fields, so the law's rows (upstream node taken mod
+        # n0) are those of a circle of n0 nodes; the stick step stays that of the N-node mesh
+        S = fold_operator(S, period)
         status, sgn = status[:n0], sgn[:n0]
-    A = _law_rows(replace(prob, n=n0), status, sgn, c, S, omega)
+    A = _law_rows(replace(prob, n=n0, period=prob.period * period), status, sgn, c, S, omega)
     b = np.zeros(2 * n0)  # the constant parts of C (Alart-Curnier form, module doc)
     contact = np.flatnonzero(status != SEPARATION)
     stick = np.flatnonzero(status == STICK)
     slip = np.flatnonzero(status == SLIP)
     b[contact] = c * prob.d  # C_r = c (W_r − d)
-    b[n0 + stick] = c * prob.surface_speed * rate_step(n, omega, prob.rate)
+    b[n0 + stick] = c * prob.surface_speed * rate_step(n * prob.period, omega, prob.rate)
     b[n0 + slip] = prob.f * sgn[slip] * c * prob.d  # λ_θ − f sgn (λ_r − c (W_r − d))
     w = np.linalg.solve(A, b)
     lam = S @ w  # one wavelength's forces
@@ -421,6 +442,34 @@ def wave_of_active_set(prob: CircleProblem, status: NDArray[np.int8], sense: Arr
     return TravelSolution(omega=omega, W_r=W[:n], W_t=W[n:], p=lam[:n], q=lam[n:],
                           status=np.tile(status, period), iterations=1,
                           residual=0.0, how="fixed active set")
+
+
+def fold_operator(S: Array, period: int) -> Array:
+    """S on ``period``-periodic polar fields (W_r block, W_θ block): the rows of one copy, the
+    columns of the copies of each unknown summed, S_k[j, l] = Σ_c S[j, l + c n/k]
+    ("Folding")."""
+    n = S.shape[0] // 2
+    n0 = n // period
+    rows = np.r_[np.arange(n0), n + np.arange(n0)]
+    return S[rows].reshape(2 * n0, 2, period, n0).sum(axis=2).reshape(2 * n0, 2 * n0)
+
+
+def fold_state(W: Array, period: int) -> Array:
+    """(W_r, W_θ) on n points carried to one of ``period`` copies (n/period points each): the
+    mean of the copies, the L² projection onto ``period``-periodic fields ("Folding")."""
+    W = np.asarray(W, dtype=float)
+    n = W.size // 2
+    if W.size != 2 * n or n % period:
+        raise ValueError(f"fold_state: {W.size} values are not 2 × a multiple of {period}")
+    return W.reshape(2, period, n // period).mean(axis=1).reshape(-1)
+
+
+def unfold(sol: TravelSolution, period: int) -> TravelSolution:
+    """A folded problem's wave tiled ``period`` times round the whole circle ("Folding")."""
+    if period == 1:
+        return sol
+    return replace(sol, **{name: np.tile(getattr(sol, name), period)
+                           for name in ("W_r", "W_t", "p", "q", "status")})
 
 
 def wave_amplitude(prob: CircleProblem, sol: TravelSolution) -> float:
@@ -473,7 +522,7 @@ def _jacobian(
     J[idx[st != SEPARATION], 2 * n] = 0.0  # C_r = c (W_r − d): no ω
     stick = idx[st == STICK]
     # d/dω of −c RΩ step, step ∝ 1/|ω|
-    J[n + stick, 2 * n] = c * prob.surface_speed * rate_step(n, om, prob.rate) / om
+    J[n + stick, 2 * n] = c * prob.surface_speed * rate_step(n * prob.period, om, prob.rate) / om
     slip = idx[st == SLIP]
     J[n + slip, 2 * n] = dlam_w[n + slip] - f * sgn[slip] * dlam_w[slip]
     J[2 * n, n: 2 * n] = fscale * phase_row / max(prob.d, 1e-300)
@@ -501,7 +550,7 @@ def zone_lengths(prob: CircleProblem, sol: TravelSolution) -> dict[str, float]:
     if np.all(st == st[0]):
         return {name: float(np.all(st == code)) for code, name in
                 enumerate(("separation", "stick", "slip"))} | {"boundaries": 0}
-    s = (prob.surface_speed - material_rate(sol.W_t, sol.omega, prob.rate))[order]
+    s = (prob.surface_speed - material_rate(sol.W_t, sol.omega, prob.rate, prob.period))[order]
     p, q, gap = sol.p[order], sol.q[order], (sol.W_r - prob.d)[order]
     cone = prob.f * p - np.abs(q)
     start = int(np.flatnonzero(st != np.roll(st, 1))[0])  # a run boundary
