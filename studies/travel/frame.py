@@ -294,8 +294,15 @@ class FrameOperators:
         # A couples a node to its neighbours only, so α_col − α_row takes a few values s (mod
         # 2π): RᵀA_m R = Σ_s e^{ims} RᵀA_s R, each RᵀA_s R (2 n_rep square) formed once
         mats = {}
+        free_dof = np.zeros(self.problem.n_owned, dtype=bool)
+        free_dof[2 * free_nodes], free_dof[2 * free_nodes + 1] = True, True
         for name, M in (("K", self.K), ("M", sp.diags(self.problem.mass).tocsr())):
             C = M.tocoo()
+            # R has no rows at the clamped dofs: their entries (the zeros the boundary
+            # condition leaves in the pattern among them) would only add empty shifts s,
+            # one per clamped neighbour's sector (N of them; 8 s per S(ω) at N = 1056)
+            keep = free_dof[C.row] & free_dof[C.col] & (C.data != 0.0)
+            C = sp.coo_matrix((C.data[keep], (C.row[keep], C.col[keep])), shape=C.shape)
             dal = np.mod(ph_dof[C.col] - ph_dof[C.row], 2.0 * math.pi)
             key = np.round(dal / dphi).astype(np.intp) % n
             parts = []
