@@ -15,7 +15,8 @@ Prints, each with its wall time:
 5. the issue's two targets as whole ``stickslip travel`` processes (start-up and imports
    included, CPU = user + sys of the child): one wave at N = 132 from RUN_DIR (target < 2 s),
    and a 40-point continuation in loading.omega = 40 … 50 rad/s at N = 132 from the same run
-   (target < 60 s).
+   (target < 60 s); each by the rotation frame (``--fixed-omega``) and by the transient's
+   own discrete wave (``--inertia shift --samples 6 --time-scheme central``).
 """
 
 from __future__ import annotations
@@ -104,24 +105,30 @@ def main() -> None:
     sc = load_scene("scenes/figure1.toml", ["mesh.n_inner=36"])
     args = SimpleNamespace(k=4, damping=0.0, from_run=None, celerity=-2300.0,
                            fixed_omega=True, max_iter=40, plot=False, rate="bdf2",
-                           inertia="rotation")
+                           inertia="rotation", samples=1, time_scheme="exact")
     out = Path("/tmp/travel_speed_cont")
     out.mkdir(exist_ok=True)
     t0 = time.perf_counter()
     run_continuation(sc, args, "loading.omega", list(np.linspace(30.0, 50.0, 40)), out, t0)
     print(f"FE continuation N=36, 40 points: {time.perf_counter() - t0:.2f} s")
 
-    # 5. the targets as whole processes
+    # 5. the targets as whole processes, two routes: the one-point-per-node rotation frame
+    # (fixed ω, band member) and the transient's own discrete wave (central scheme, S = 6,
+    # free ω on one wavelength; docs/travelling_waves.md 2e)
     if (run_dir / "samples.npz").exists():
-        base = ["stickslip", "travel", "scenes/figure1_n132_damped.toml", "--k", "4",
-                "--from", str(run_dir), "--fixed-omega", "--force"]
-        for what, extra, target in (
-                ("one wave", ["-o", "/tmp/travel_speed_one"], 2.0),
-                ("40-point continuation", ["--continue", "loading.omega=40:50:40",
-                                           "-o", "/tmp/travel_speed_c132"], 60.0)):
-            wall, cpu, rc = _child_cost(base + extra)
-            print(f"whole process, N=132, {what}: {wall:.2f} s wall, {cpu:.2f} s CPU "
-                  f"(target {target:g} s), exit {rc}")
+        common = ["stickslip", "travel", "scenes/figure1_n132_damped.toml", "--k", "4",
+                  "--from", str(run_dir), "--force"]
+        routes = {"rotation --fixed-omega": ["--fixed-omega"],
+                  "central S=6": ["--inertia", "shift", "--samples", "6",
+                                  "--time-scheme", "central"]}
+        for route, flags in routes.items():
+            for what, extra, target in (
+                    ("one wave", ["-o", "/tmp/travel_speed_one"], 2.0),
+                    ("40-point continuation", ["--continue", "loading.omega=40:50:40",
+                                               "-o", "/tmp/travel_speed_c132"], 60.0)):
+                wall, cpu, rc = _child_cost(common + flags + extra)
+                print(f"whole process, N=132, {route}, {what}: {wall:.2f} s wall, "
+                      f"{cpu:.2f} s CPU (target {target:g} s), exit {rc}")
 
 
 def _child_cost(cmd: list[str]) -> tuple[float, float, int]:
