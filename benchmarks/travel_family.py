@@ -188,12 +188,12 @@ def _fmt_band(b: dict) -> str:
             f"{1e3 * b['amplitude_m'][0]:.2f}–{1e3 * b['amplitude_m'][1]:.2f} mm")
 
 
-def table(out: Path, kmax: int, samples: int = 1, time_scheme: str = "exact") -> str:
+def table(out: Path, kmax: int) -> str:
     """Markdown table: per scene and k, the transient from seed k and the waves found at k."""
     from travel_mismatch import rigidity  # benchmarks/ (this script's folder)
 
     recs, seen = [], set()
-    for line in family_file(out, samples, time_scheme).read_text().splitlines():
+    for line in (out / "family.jsonl").read_text().splitlines():
         r = json.loads(line)
         key = (r["scene"], r["k"], r["start"], r["status"], r.get("celerity_m_s"))
         if key not in seen:  # a rerun appends the same attempt again
@@ -262,6 +262,72 @@ def table(out: Path, kmax: int, samples: int = 1, time_scheme: str = "exact") ->
     return "\n".join(rows)
 
 
+def central_table(out: Path, kmax: int, samples: int) -> str:
+    """Markdown table of the central-scheme run (module doc): per scene and k, the transient
+    from seed k, the waves the free-ω Newton found at k (roots within 0.5 % of each other
+    merged into one cluster, with the number of distinct roots), and which seeds' transients
+    end on mode k with their speed minus the nearest wave's."""
+    from travel_mismatch import rigidity  # benchmarks/ (this script's folder)
+
+    recs = [json.loads(line) for line in
+            family_file(out, samples, "central").read_text().splitlines()]
+    short = {"figure1_n132_damped": "Figure 1", "figure3_n132_damped": "Figure 3"}
+    reg = {"stick-slip-separation": "SSS", "stick-slip": "SS", "slip-separation": "slip-sep"}
+    rows = ["| case | k | transient from a mode-k seed: regime, k, c (m/s), amplitude (mm); "
+            f"frame spread | waves found at k (central scheme, S = {samples}): c (m/s), "
+            "amplitude (mm), ψ₁/ψ₂; from | transients that end on mode k: seed, c − wave's c "
+            "(m/s) | starts without a wave (start c, m/s) |", "|---|---|---|---|---|---|"]
+    for scene in SCENES:
+        sub = [r for r in recs if r.get("scene") == scene]
+        if not sub:
+            continue
+        runs = {}
+        for seed in range(1, kmax + 1):
+            p = out / f"{scene}_seed{seed}" / "summary.json"
+            if p.exists():
+                runs[seed] = json.loads(p.read_text())
+                rig = rigidity(p.parent)
+                runs[seed]["spread"] = max(rig["frame_spread_u_r"], rig["frame_spread_u_theta"])
+        for k in range(1, kmax + 1):
+            a = runs.get(k)
+            tr = "–" if a is None else (
+                f"{reg.get(a['regime'], a['regime'])}, k = {a['mode']}, "
+                f"{a['celerity_m_s']:.1f}, {1e3 * a['amplitude_m']:.2f}; "
+                f"{100 * a['spread']:.1f} %" + ("" if a["spread"] < RIGID else " (not rigid)"))
+            found = sorted((r for r in sub if r["k"] == k and r["status"] == "converged"),
+                           key=lambda r: r["celerity_m_s"])
+            clusters: list[list[dict]] = []
+            for r in found:
+                if clusters and abs(r["celerity_m_s"] - clusters[-1][0]["celerity_m_s"]) < (
+                        0.005 * abs(r["celerity_m_s"])):
+                    clusters[-1].append(r)
+                else:
+                    clusters.append([r])
+            waves = []
+            for cl in clusters:
+                c = [r["celerity_m_s"] for r in cl]
+                amp = [1e3 * r["amplitude_m"] for r in cl]
+                roots = len({round(x, 2) for x in c})
+                speed = f"{c[0]:.1f}" if roots == 1 else f"{min(c):.1f} … {max(c):.1f}"
+                size = f"{amp[0]:.2f}" if roots == 1 else f"{min(amp):.2f} – {max(amp):.2f}"
+                waves.append(f"{speed}, {size}, {cl[0]['psi1_subnode']:.3f}/"
+                             f"{cl[0]['psi2_subnode']:.3f}"
+                             + (f" ({roots} roots)" if roots > 1 else "")
+                             + f"; from {', '.join(r['start'] for r in cl)}")
+            ends = []
+            for seed, a2 in runs.items():
+                if a2.get("mode") == k and found:
+                    near = min(found, key=lambda r: abs(r["celerity_m_s"] - a2["celerity_m_s"]))
+                    ends.append(f"{seed}: {a2['celerity_m_s'] - near['celerity_m_s']:+.2f}")
+                elif a2.get("mode") == k:
+                    ends.append(f"{seed}: no wave")
+            none = [f"{r['start']} ({r['start_celerity_m_s']:.0f})" for r in sub
+                    if r["k"] == k and r["status"] != "converged"]
+            rows.append(f"| {short[scene]} | {k} | {tr} | {'<br>'.join(waves) or 'none found'} "
+                        f"| {'; '.join(ends) or '–'} | {'; '.join(none) or '–'} |")
+    return "\n".join(rows)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("out", type=Path)
@@ -275,7 +341,8 @@ def main() -> None:
     if a.samples < 1:
         ap.error(f"--samples {a.samples}: give a whole number >= 1 of points per node")
     if a.table:
-        print(table(a.out, a.kmax, a.samples, a.time_scheme))
+        print(central_table(a.out, a.kmax, a.samples) if a.time_scheme == "central"
+              else table(a.out, a.kmax))
         return
     a.out.mkdir(parents=True, exist_ok=True)
     for scene in a.scene:
