@@ -27,8 +27,9 @@ speeds traced (``driver.band``). One JSON line per attempt in OUT/family.jsonl.
 (``studies.travel.frame``, "Samples" and "Central scheme"; inertia "shift", bdf1 law). Its
 waves are isolated in ω (docs/travelling_waves.md, 2e), so each start gets the free-ω Newton
 only (on one wavelength when k divides N·S, ``driver.folded``), no fixed-ω scan and no band;
-the starts from a run are its probe history. Lines in OUT/family_central_sS.jsonl;
-``--table`` with the same options prints that table.
+the starts from a run are its probe history. Lines in OUT/family_central_sS.jsonl, each
+wave in OUT/waves/SCENE_kK_I.npz (``benchmarks/travel_wave_seeds.py`` starts transients next
+to them); ``--table`` with the same options prints that table.
 """
 
 from __future__ import annotations
@@ -81,9 +82,10 @@ def stretched(W: np.ndarray, n: int, m: int, k: int) -> np.ndarray:
     return np.concatenate(out)
 
 
-def attempt(st, k: int, W0: np.ndarray, om0: float, label: str, known: list) -> dict:
+def attempt(st, k: int, W0: np.ndarray, om0: float, label: str, known: list,
+            save: Path | None = None) -> dict:
     """Fixed-ω nearest-speed solve from (W0, om0); band of a new wave (module doc). Central
-    scheme: the free-ω Newton only, no band (isolated waves)."""
+    scheme: the free-ω Newton only, no band (isolated waves), the wave saved to ``save``."""
     from studies.travel import driver as D
     from studies.travel.newton import NotConverged, nearest_wave
 
@@ -111,6 +113,12 @@ def attempt(st, k: int, W0: np.ndarray, om0: float, label: str, known: list) -> 
                psi1=summ["psi1"], psi2=summ["psi2"], psi1_subnode=summ["psi1_subnode"],
                psi2_subnode=summ["psi2_subnode"], fractions=summ["fractions"])
     rec.update(iterations=sol.iterations, residual=sol.residual)
+    if central and save is not None:  # the wave itself, for travel_wave_seeds.py
+        save.mkdir(exist_ok=True)
+        path = save / f"{st.scene.name}_k{k}_{len(list(save.glob('*.npz')))}.npz"
+        np.savez(path, scene=st.scene.name, k=k, samples=st.ops.samples, omega=sol.omega,
+                 W=np.r_[sol.W_r, sol.W_t], start=label)
+        rec["wave_file"] = str(path)
     same = [b for b in known if b["celerity_m_s"][0] - 1e-9 <= c <= b["celerity_m_s"][1] + 1e-9]
     if central:
         rec["band"] = {"celerity_m_s": [c, c], "psi1": [summ["psi1_subnode"]] * 2,
@@ -171,7 +179,7 @@ def existence(out: Path, scene_name: str, runs: dict[int, dict], kmax: int,
                     m, W, om, _ = src
                     starts.append((f"{name} (mode {m})", stretched(W, n, m, k), om * m / k))
             for label, W0, om0 in starts:
-                rec = attempt(st, k, W0, om0, label, known)
+                rec = attempt(st, k, W0, om0, label, known, save=out / "waves")
                 rec["scene"] = scene_name
                 fh.write(json.dumps(rec) + "\n")
                 fh.flush()

@@ -115,12 +115,35 @@ def _scene(fam: dict):
     return scene.with_overrides(*fam["overrides"]) if fam["overrides"] else scene
 
 
+def analyse_windows(rec: dict, scene, window: float) -> list[dict]:
+    """``postprocess.analysis.analyse`` over consecutive windows of ``window`` seconds of a
+    run's inner-circle record ``rec`` (``InnerCircleRecorder.arrays``): mode, speed,
+    amplitude, ψ and regime per window."""
+    from postprocess.analysis import analyse
+
+    t = rec["t"]
+    windows = []  # the last sample lies within one sample interval before end_time
+    last = t[-1] + scene.output.sample_interval
+    for end in np.arange(window, last, window):
+        sel = (t > end - window - 1e-12) & (t <= end + 1e-12)
+        if np.count_nonzero(sel) < 8:
+            continue
+        w = analyse(t[sel], rec["theta"], rec["u_r"][sel], rec["u_theta"][sel],
+                    rec["status"][sel], d=scene.geometry.d, radius=scene.geometry.R,
+                    window=window)
+        windows.append({"t_end_s": round(float(end), 4), "mode": w.mode,
+                        "c_m_s": round(w.celerity_m_s, 2),
+                        "amplitude_mm": round(w.amplitude_m * 1e3, 3),
+                        "psi1": round(w.psi1, 4), "psi2": round(w.psi2, 4),
+                        "regime": w.regime})
+    return windows
+
+
 def run_member(st, k: int, member: dict, end_time: float, window: float) -> dict:
     """Re-solve ``member`` on the wave-frame setup ``st`` (``driver.setup``, inertia "shift"),
     start a transient of ``st.scene`` on it, measure it window by window."""
     from mpi4py import MPI
 
-    from postprocess.analysis import analyse
     from solver.run import Simulation
     from studies.travel.family import zone_pattern
     from studies.travel.newton import (
@@ -142,21 +165,7 @@ def run_member(st, k: int, member: dict, end_time: float, window: float) -> dict
     t0 = time.perf_counter()
     sim = Simulation(run_scene, MPI.COMM_SELF, initial_state=state)
     sim.proceed()
-    rec = sim.recorder.arrays()
-    t = rec["t"]
-    windows = []  # the last sample lies within one sample interval before end_time
-    last = t[-1] + scene.output.sample_interval
-    for end in np.arange(window, last, window):
-        sel = (t > end - window - 1e-12) & (t <= end + 1e-12)
-        if np.count_nonzero(sel) < 8:
-            continue
-        w = analyse(t[sel], rec["theta"], rec["u_r"][sel], rec["u_theta"][sel],
-                    rec["status"][sel], d=scene.geometry.d, radius=R, window=window)
-        windows.append({"t_end_s": round(float(end), 4), "mode": w.mode,
-                        "c_m_s": round(w.celerity_m_s, 2),
-                        "amplitude_mm": round(w.amplitude_m * 1e3, 3),
-                        "psi1": round(w.psi1, 4), "psi2": round(w.psi2, 4),
-                        "regime": w.regime})
+    windows = analyse_windows(sim.recorder.arrays(), scene, window)
     return {"member": {"c_m_s": member["c_m_s"], "zones": member["zones"],
                        "amplitude_mm": round(wave_amplitude(prob, sol) * 1e3, 3),
                        "psi1": round(member["psi1"], 4), "psi2": round(member["psi2"], 4),
