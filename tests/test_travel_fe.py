@@ -555,3 +555,49 @@ def test_samples_and_time_scheme_are_checked(setup36):
         frame_operators(problem, 0.0, time_scheme="central")
     with pytest.raises(ValueError, match="'implicit'"):
         frame_operators(problem, 0.0, inertia="shift", time_scheme="implicit")
+
+
+@pytest.mark.slow
+def test_central_wave_converges_under_mesh_refinement(tmp_path):
+    """Mesh rung (issue 14 item 3; docs/travelling_waves.md 2e): the central-scheme wave at
+    S = 2 (h = node passage / 2, so h halves with Δφ) on N = 264, 528, 1056. N = 264 starts
+    from the probe history of a short transient (dt = 0.45 dt_crit, 0.15 s: settled, −2577.5
+    m/s), 528 and 1056 from the coarser wave prolonged (nested; on one wavelength, 265 – 1057
+    unknowns). Documented (from each mesh's own transient): −2576.828, −2586.757, −2589.793
+    m/s; the nested roots lie within 0.1 m/s of them (at N = 1056, S = 2 the admissible active
+    sets form clusters ~0.1 m/s wide): asserted within 0.5 m/s (2e-4). Observed order
+    p = log₂((c₅₂₈ − c₂₆₄)/(c₁₀₅₆ − c₅₂₈)): documented 1.71, measured 1.71 – 1.76 over the
+    starts; asserted 1.5 < p < 2.0 (a cluster-width shift of 0.1 m/s moves p by 0.05). The
+    amplitude converges monotonically (4.73, 4.46, 4.41 mm). The N = 264 wave agrees with its
+    transient (dt = 5.67 µs against h = 4.62 µs) to 0.1 % (measured 0.025 %)."""
+    from solver.scene import load_scene
+    from studies.travel import driver as D
+
+    run = tmp_path / "run264"
+    assert main(["run", "scenes/figure1_n132_damped.toml", "--set", "mesh.n_inner=264",
+                 "--set", "time.dt_fraction=0.45", "--set", "time.end_time=0.15",
+                 "-o", str(run)]) == 0
+    r = json.loads((run / "summary.json").read_text())
+    assert r["mode"] == 4 and r["limit_cycle"]
+    base = load_scene("scenes/figure1_n132_damped.toml")
+    waves, W, om = [], None, None
+    for n in (264, 528, 1056):
+        scene = base.with_overrides(f"mesh.n_inner={n}")
+        st = D.setup(scene, float(scene.damping.tau), rate="bdf1", inertia="shift",
+                     samples=2, time_scheme="central")
+        if W is None:
+            W, om, _ = D.start_from_run(run, st)
+        else:
+            W = D.prolong(W, st.prob.n)
+        sol = D.solve_free(st, 4, W, om, max_iter=40)
+        assert sol.violated is None and sol.residual <= 1e-10
+        W, om = np.r_[sol.W_r, sol.W_t], sol.omega
+        waves.append((sol.omega * scene.geometry.R, sol.W_r.max() - scene.geometry.d))
+    c = [w[0] for w in waves]
+    for got, doc in zip(c, (-2576.828, -2586.757, -2589.793), strict=True):
+        assert abs(got - doc) < 0.5, (c, doc)
+    p = np.log2((c[1] - c[0]) / (c[2] - c[1]))
+    assert 1.5 < p < 2.0, (c, p)
+    amp = [w[1] for w in waves]
+    assert amp[0] > amp[1] > amp[2] and (amp[0] - amp[1]) > (amp[1] - amp[2]) > 0
+    assert abs(c[0] / r["celerity_m_s"] - 1.0) < 1e-3
