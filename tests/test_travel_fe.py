@@ -480,10 +480,10 @@ def test_folded_operator_and_newton_equal_the_whole_circle(central132):
     one wavelength equals the whole circle's S(ω) with the columns of the 4 copies summed, to
     1e-12 of its largest entry (two exact routes: 50 vs 199 inverse DFT terms; round-off),
     and dS/dω to 1e-9 (a central difference with step 1e-6 ω amplifies the round-off of S by
-    ~1e6; measured 7e-11). The Newton on one wavelength (99 points) and on the whole circle (396), from
-    the same start (the fixture wave with W scaled by 1.02 about the mismatch and ω moved by
-    0.1 %), converge to the same wave: W to 1e-9 d, ω to 1e-10 (measured ~3e-12 d, 2e-14 on
-    the S = 6 wave of docs 2e)."""
+    ~1e6; measured 7e-11). The Newton on one wavelength (99 points) and on the whole circle
+    (396), from the same start (the fixture wave with W scaled by 1.02 about the mismatch and
+    ω moved by 0.1 %), converge to the same wave: W to 1e-9 d, ω to 1e-10 (measured ~3e-12 d,
+    2e-14 on the S = 6 wave of docs 2e)."""
     from studies.travel import driver as D
     from studies.travel.newton import fold_operator
 
