@@ -196,10 +196,22 @@ def _fmt_band(b: dict) -> str:
             f"{1e3 * b['amplitude_m'][0]:.2f}–{1e3 * b['amplitude_m'][1]:.2f} mm")
 
 
-def table(out: Path, kmax: int) -> str:
-    """Markdown table: per scene and k, the transient from seed k and the waves found at k."""
+def seeded_runs(out: Path, scene: str, kmax: int) -> dict[int, dict]:
+    """{seed: the transient's summary with its frame spread} for the seeds 1 … kmax in OUT."""
     from travel_mismatch import rigidity  # benchmarks/ (this script's folder)
 
+    runs = {}
+    for seed in range(1, kmax + 1):
+        p = out / f"{scene}_seed{seed}" / "summary.json"
+        if p.exists():
+            runs[seed] = json.loads(p.read_text())
+            rig = rigidity(p.parent)
+            runs[seed]["spread"] = max(rig["frame_spread_u_r"], rig["frame_spread_u_theta"])
+    return runs
+
+
+def table(out: Path, kmax: int) -> str:
+    """Markdown table: per scene and k, the transient from seed k and the waves found at k."""
     recs, seen = [], set()
     for line in (out / "family.jsonl").read_text().splitlines():
         r = json.loads(line)
@@ -219,13 +231,7 @@ def table(out: Path, kmax: int) -> str:
         sub = [r for r in recs if r["scene"] == scene]
         if not sub:
             continue
-        runs = {}
-        for s in range(1, kmax + 1):
-            p = out / f"{scene}_seed{s}" / "summary.json"
-            if p.exists():
-                runs[s] = json.loads(p.read_text())
-                rig = rigidity(p.parent)
-                runs[s]["spread"] = max(rig["frame_spread_u_r"], rig["frame_spread_u_theta"])
+        runs = seeded_runs(out, scene, kmax)
         for k in range(1, kmax + 1):
             a = runs.get(k, {})
             tr = (f"{reg.get(a.get('regime'), a.get('regime'))}, k = {a.get('mode')}, "
@@ -275,7 +281,6 @@ def central_table(out: Path, kmax: int, samples: int) -> str:
     from seed k, the waves the free-ω Newton found at k (roots within 0.5 % of each other
     merged into one cluster, with the number of distinct roots), and which seeds' transients
     end on mode k with their speed minus the nearest wave's."""
-    from travel_mismatch import rigidity  # benchmarks/ (this script's folder)
 
     recs = [json.loads(line) for line in
             family_file(out, samples, "central").read_text().splitlines()]
@@ -289,13 +294,7 @@ def central_table(out: Path, kmax: int, samples: int) -> str:
         sub = [r for r in recs if r.get("scene") == scene]
         if not sub:
             continue
-        runs = {}
-        for seed in range(1, kmax + 1):
-            p = out / f"{scene}_seed{seed}" / "summary.json"
-            if p.exists():
-                runs[seed] = json.loads(p.read_text())
-                rig = rigidity(p.parent)
-                runs[seed]["spread"] = max(rig["frame_spread_u_r"], rig["frame_spread_u_theta"])
+        runs = seeded_runs(out, scene, kmax)
         for k in range(1, kmax + 1):
             a = runs.get(k)
             tr = "–" if a is None else (
