@@ -7,14 +7,15 @@ WAVE.npz: a central-scheme wave saved by ``benchmarks/travel_family.py --time-sc
 (scene name, k, samples S, ω, W on the N·S contact points). Its whole-mesh state
 (``FrameOperators.shift_state``) is a periodic orbit of the transient at dt = h = Δφ/(S|ω|)
 (``tests/test_travel_fe.py``). The transient of the scene is started on it, with dt = h and
-a radial bump of ``eps``·d with equal parts of the modes 1 … 12 added (fixed phases 2πm/12,
-shaped like the scene's ``[initial]`` bump, ``TubeProblem.radial_field``), and measured over
+a radial bump eps·d·mean_m cos(mθ + 2πm/12), m = 1 … 12, added (through the tube's radial
+profile, ``TubeProblem.radial_field``, as the scene's ``[initial]`` bump), and measured over
 consecutive windows (``travel_member_seeds.analyse_windows``). A wave that the transient
 keeps (same mode and speed in the last window) is stable to that perturbation; one that it
 leaves is not an attractor, and the last window names the wave it goes to.
 
-One JSON line per wave: the wave (k, speed, amplitude), dt, and the windows. Exit status 1
-if a transient stopped before ``--end-time``.
+One JSON line per wave: the wave (k, speed, amplitude), dt, and the windows; ``--out``
+gets them appended, also after Ctrl-C (the waves finished; exit 130). Exit status 1 if a
+transient stopped before ``--end-time``.
 """
 
 from __future__ import annotations
@@ -43,16 +44,28 @@ def main() -> int:
     for w in a.waves:
         if not w.is_file():
             ap.error(f"{w}: no such wave file (run travel_family.py --time-scheme central)")
-    lines = []
-    for w in a.waves:
-        lines.append(seed_next_to(w, a.eps, a.end_time, a.window))
-        print(json.dumps(lines[-1]), flush=True)
-    if a.out:
+    lines: list[dict] = []
+    try:
+        for w in a.waves:
+            lines.append(seed_next_to(w, a.eps, a.end_time, a.window))
+            print(json.dumps(lines[-1]), flush=True)
+    except KeyboardInterrupt:
+        _append(a.out, lines)
+        print(f"travel_wave_seeds: interrupted after {len(lines)} of {len(a.waves)} waves; the "
+              "lines above are complete" + (f" and appended to {a.out}" if a.out else ""),
+              file=sys.stderr)
+        return 130
+    _append(a.out, lines)
+    return 1 if any(x["status"] != "end_time" for x in lines) else 0
+
+
+def _append(out: Path | None, lines: list[dict]) -> None:
+    """Append the finished lines to ``out`` (atomic: the old file plus them, or the old one)."""
+    if out and lines:
         from solver.atomic import atomic_write_text
 
-        old = a.out.read_text() if a.out.exists() else ""
-        atomic_write_text(a.out, old + "".join(json.dumps(x) + "\n" for x in lines))
-    return 1 if any(x["status"] != "end_time" for x in lines) else 0
+        old = out.read_text() if out.exists() else ""
+        atomic_write_text(out, old + "".join(json.dumps(x) + "\n" for x in lines))
 
 
 def seed_next_to(path: Path, eps: float, end_time: float, window: float) -> dict:

@@ -74,7 +74,7 @@ central one has one, isolated to 0.05 m/s at s = 6 (docs 2e).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import partial
 
 import numpy as np
@@ -123,7 +123,7 @@ class FrameOperators:
     samples: int = 1  # contact points per mesh node ("shift" only; module doc, "Samples")
     time_scheme: str = "exact"  # "exact" in time, or "central": the transient's step h = τ/s
     _cache: tuple | None = None  # ((ω, period), (S, dS, X)): the last evaluation
-    _static: dict | None = None  # period -> S(0): every solve reads it for its nodal scale
+    _static: dict = field(default_factory=dict)  # period -> S(0): every solve's nodal scale
     _blocks: dict | None = None
     _evaluations: int = 0
 
@@ -181,8 +181,6 @@ class FrameOperators:
         if self._cache is not None and self._cache[0] == key and (
                 self._cache[1][1] is not None or not derivative):
             return self._cache[1]
-        if self._static is None:
-            self._static = {}
         if omega == 0.0 and not derivative and period in self._static:
             return self._static[period]
         if self.inertia == "shift":
@@ -465,11 +463,11 @@ class FrameOperators:
             shape = np.exp(1j * m * alpha) * (R @ c)
             weight = 1.0 if m == 0 or 2 * m == n else 2.0  # ĉ_{−m} = conj(ĉ_m): W is real
             fields = [shape * np.exp(-1j * m * omega * tj) for tj in times]
-            for u, field in zip(u_at, fields, strict=True):
-                u += weight * field.real
-            if not central:  # times = (t,): the exact derivatives of the one field
-                v += weight * (-1j * m * omega * field).real
-                a += weight * (-((m * omega) ** 2) * field).real
+            for u, term in zip(u_at, fields, strict=True):
+                u += weight * term.real
+            if not central:  # times = (t,): the exact derivatives of the one term
+                v += weight * (-1j * m * omega * term).real
+                a += weight * (-((m * omega) ** 2) * term).real
         if central:
             before, u, after = u_at
             a = (after - 2.0 * u + before) / (h * h)

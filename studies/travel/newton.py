@@ -139,6 +139,10 @@ class CircleProblem:
         """Δφ, the angle between two points: 2π/(n · period)."""
         return 2.0 * math.pi / (self.n * self.period)
 
+    def step(self, omega: float) -> float:
+        """The ``step`` of ``rate_stencil`` on this circle (``rate_step`` of its Δφ)."""
+        return rate_step(self.n * self.period, omega, self.rate)
+
 
 @dataclass
 class TravelSolution:
@@ -434,7 +438,7 @@ def wave_of_active_set(prob: CircleProblem, status: NDArray[np.int8], sense: Arr
     stick = np.flatnonzero(status == STICK)
     slip = np.flatnonzero(status == SLIP)
     b[contact] = c * prob.d  # C_r = c (W_r − d)
-    b[n0 + stick] = c * prob.surface_speed * rate_step(n * prob.period, omega, prob.rate)
+    b[n0 + stick] = c * prob.surface_speed * prob.step(omega)
     b[n0 + slip] = prob.f * sgn[slip] * c * prob.d  # λ_θ − f sgn (λ_r − c (W_r − d))
     w = np.linalg.solve(A, b)
     lam = S @ w  # one wavelength's forces
@@ -522,7 +526,7 @@ def _jacobian(
     J[idx[st != SEPARATION], 2 * n] = 0.0  # C_r = c (W_r − d): no ω
     stick = idx[st == STICK]
     # d/dω of −c RΩ step, step ∝ 1/|ω|
-    J[n + stick, 2 * n] = c * prob.surface_speed * rate_step(n * prob.period, om, prob.rate) / om
+    J[n + stick, 2 * n] = c * prob.surface_speed * prob.step(om) / om
     slip = idx[st == SLIP]
     J[n + slip, 2 * n] = dlam_w[n + slip] - f * sgn[slip] * dlam_w[slip]
     J[2 * n, n: 2 * n] = fscale * phase_row / max(prob.d, 1e-300)
