@@ -47,6 +47,11 @@ RUN useradd --create-home --uid 1000 stickslip && mkdir -p /work/runs && chown s
 # Behind a TLS-inspecting proxy, hand pip the host's CA bundle (used for this step only):
 #   docker build --target dev --secret id=hostca,src=/etc/ssl/certs/ca-certificates.crt ...
 FROM stack AS dev
+COPY docker/dev-packages.txt /tmp/dev-packages.txt
+RUN apt-get update \
+ && sed -e 's/#.*//' -e 's/[[:space:]]//g' /tmp/dev-packages.txt | grep -v '^$' \
+    | xargs apt-get install -y --no-install-recommends \
+ && apt-get clean && rm -rf /var/lib/apt/lists/*
 COPY docker/dev-requirements.txt /tmp/dev-requirements.txt
 RUN --mount=type=secret,id=hostca,required=false \
     if [ -s /run/secrets/hostca ]; then export PIP_CERT=/run/secrets/hostca; fi \
