@@ -85,6 +85,7 @@ COMMAND_MODULES = (
     "cli.flutter_fe",  # flutter-fe
     "cli.continuum",  # flutter-exact (issue 13)
     "cli.travel",  # travel (issue 14)
+    "cli.attractors",  # attractors
 )
 
 

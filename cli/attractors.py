@@ -1,0 +1,112 @@
+"""``stickslip attractors``: the census of a scene point (its attractors and their basins)."""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+from pathlib import Path
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    from studies.attractors.classify import CELERITY_TOL, SPREAD_TOL
+    from studies.attractors.starts import DEFAULT_AMPLITUDE, DEFAULT_N_MODES, DEFAULT_SEED
+
+    p = sub.add_parser(
+        "attractors",
+        help="census of a scene point: its attractors, their basin shares and values per mesh",
+        description=(
+            "Run M random starts (and, with --structured, mode-k starts) of SCENE at each "
+            "mesh of a ladder, classify every end state (rigid travelling wave, modulated "
+            "cycle, unsettled, steady sliding, diverged, failed), group the waves into "
+            "members (k, direction, regime, celerity), and report each member's basin share "
+            "with a 95 %% Wilson interval, its values and their change along the ladder "
+            "(docs/attractors.md). Runs under mpirun; rerunning resumes."),
+    )
+    p.add_argument("scene", help="scene file (TOML) or shipped scene name")
+    p.add_argument("--starts", type=int, default=16, metavar="M",
+                   help="random starts per mesh (default 16)")
+    p.add_argument("--meshes", default=None, metavar="N1,N2,...",
+                   help="contact-node counts of the ladder (default: the scene's mesh.n_inner)")
+    p.add_argument("--structured", default=None, metavar="K1:K2",
+                   help="also run the mode-k starts k = K1..K2 (reported apart)")
+    p.add_argument("--end-time", type=float, default=None, metavar="T",
+                   help="simulated time of every start (s; default: the scene's)")
+    p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                   help="override a scene key (repeatable), as for `stickslip run`")
+    p.add_argument("--seed", type=int, default=DEFAULT_SEED, metavar="S",
+                   help=f"random start i has seed S + i (default {DEFAULT_SEED})")
+    p.add_argument("--n-modes", type=int, default=DEFAULT_N_MODES, metavar="K",
+                   help=f"random starts mix modes 1..K (default {DEFAULT_N_MODES})")
+    p.add_argument("--amplitude", type=float, default=DEFAULT_AMPLITUDE, metavar="A",
+                   help=f"start amplitude in units of d (default {DEFAULT_AMPLITUDE})")
+    p.add_argument("--celerity-tol", type=float, default=CELERITY_TOL, metavar="TOL",
+                   help=f"relative celerity gap within one member (default {CELERITY_TOL})")
+    p.add_argument("--spread-tol", type=float, default=SPREAD_TOL, metavar="TOL",
+                   help=f"frame spread of a rigid wave (default {SPREAD_TOL})")
+    p.add_argument("-o", "--output", help="census directory (default "
+                   "$STICKSLIP_OUTPUT/attractors/<scene name>)")
+    p.add_argument("--force", action="store_true",
+                   help="use a directory that holds another census (its starts run again)")
+    p.add_argument("--no-certify", action="store_true",
+                   help="skip the direct travelling-wave solver's certificates")
+    p.add_argument("--backend", choices=("cpu", "gpu"), default="cpu",
+                   help="batched integrator backend (where the scenes can be batched)")
+    p.add_argument("--progress", choices=("auto", "live", "lines"), default="auto")
+    p.add_argument("--plot", action="store_true", help="draw the census figures")
+    p.add_argument("--json", action="store_true",
+                   help="print attractors.json instead of the summary")
+    p.set_defaults(func=_attractors)
+
+
+def _fail(msg: str, rank: int) -> int:
+    if rank == 0:
+        print(f"error: {msg}", file=sys.stderr, flush=True)
+    return 2
+
+
+def _attractors(args: argparse.Namespace) -> int:
+    os.environ.setdefault("OMPI_MCA_osc", "^ucx")  # as `stickslip sweep`: one atomic counter
+    from mpi4py import MPI
+
+    from solver.scene import SceneError, load_scene
+    from studies.attractors.census import Census, CensusError, default_dir, run_census
+    from studies.attractors.starts import StartDistribution, parse_meshes, parse_structured
+
+    comm = MPI.COMM_WORLD
+    if args.starts < 1:
+        return _fail(f"--starts {args.starts}: give M >= 1 random starts per mesh", comm.rank)
+    overrides = list(args.set)
+    if args.end_time is not None:
+        if not args.end_time > 0:
+            return _fail(f"--end-time {args.end_time}: give a time > 0 (s)", comm.rank)
+        overrides.append(f"time.end_time={args.end_time!r}")
+    try:
+        scene = load_scene(args.scene, overrides)
+        meshes = (parse_meshes(args.meshes) if args.meshes is not None
+                  else (scene.mesh.n_inner,))
+        dist = StartDistribution(starts=args.starts, seed=args.seed, n_modes=args.n_modes,
+                                 amplitude=args.amplitude,
+                                 structured=parse_structured(args.structured))
+        for name, tol in (("--celerity-tol", args.celerity_tol),
+                          ("--spread-tol", args.spread_tol)):
+            if not 0 < tol < 1:
+                raise ValueError(f"{name} {tol}: give a fraction between 0 and 1")
+        census = Census(Path(args.scene), meshes, dist, tuple(overrides),
+                        args.celerity_tol, args.spread_tol)
+        census.base_scene()
+    except (SceneError, CensusError, ValueError) as err:
+        return _fail(str(err), comm.rank)
+    out = Path(args.output) if args.output else default_dir(scene)
+    stream = open(os.devnull, "w") if args.json else sys.stdout  # noqa: SIM115
+    rc = run_census(census, out, comm=comm, force=args.force, progress=args.progress,
+                    backend=args.backend, certify=not args.no_certify, stream=stream)
+    if comm.rank == 0 and rc in (0, 1, 130):
+        if args.json:
+            print((out / "attractors.json").read_text(), end="")
+        if args.plot:
+            from studies.attractors.plots import plot_census
+
+            for path in plot_census(out):
+                print(f"figure: {path}")
+    return rc

@@ -1,0 +1,291 @@
+"""The census of one scene point: every start a scene of a generated sweep, then the answer.
+
+``run_census`` (collective over MPI) writes ``DIR/base.toml`` (the scene with ``--set`` and
+the end time applied) and ``DIR/census.toml``, a sweep file with one ``[[points]]`` entry per
+start and mesh, and runs it with ``studies.sweep.run_sweep`` into DIR itself (batched where
+the scenes allow it, resumable: a finished start is never run again, a killed one is). Rank 0
+then reads every start's ``summary.json`` and samples, classifies the end states, groups them
+into members, computes the statistics and writes ``attractors.json``, ``attractors.csv`` (one
+row per start) and ``members.csv`` (one row per mesh and member of the random starts).
+
+A census directory holds one definition (scene + start distribution, in ``census.json``);
+another definition in the same directory is refused unless ``force``, and then every start
+whose resolved scene changed runs again (the sweep's own rule). Starts left over from a
+larger earlier census stay on disk and are not counted.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import math
+import re
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TextIO
+
+from solver.atomic import atomic_write_text
+from solver.scene import Scene, SceneError, load_scene, scene_to_dict, write_scene
+from studies.attractors.classify import (
+    CELERITY_TOL,
+    SPREAD_TOL,
+    group_members,
+    start_row,
+)
+from studies.attractors.starts import StartDistribution
+from studies.attractors.statistics import ladder, mesh_members
+
+KIND = "stickslip-attractors"
+ROW_FIELDS = ("id", "n_inner", "start", "seed", "start_mode", "status", "class", "member", "k",
+              "direction", "regime", "celerity_m_s", "frequency_hz", "fraction_separation",
+              "fraction_stick", "fraction_slip", "psi1", "psi2", "amplitude_m",
+              "rms_amplitude_m", "limit_cycle", "frame_spread", "dt_s", "steps",
+              "wall_time_s", "message", "run_dir")
+MEMBER_FIELDS = ("n_inner", "member", "class", "k", "direction", "regime", "count", "starts",
+                 "share", "share_lo", "share_hi", "celerity_m_s", "celerity_m_s_sd",
+                 "frequency_hz", "frequency_hz_sd", "fraction_separation",
+                 "fraction_separation_sd", "fraction_stick", "fraction_stick_sd",
+                 "fraction_slip", "fraction_slip_sd", "psi1", "psi1_sd", "psi2", "psi2_sd",
+                 "amplitude_m", "amplitude_m_sd", "rms_amplitude_m", "rms_amplitude_m_sd")
+
+
+class CensusError(ValueError):
+    """A census that cannot start (the message names the value and the fix)."""
+
+
+@dataclass(frozen=True)
+class Census:
+    """What a census computes: a scene point, a mesh ladder, a start distribution."""
+
+    scene: Path
+    meshes: tuple[int, ...]
+    distribution: StartDistribution
+    overrides: tuple[str, ...] = ()
+    celerity_tol: float = CELERITY_TOL
+    spread_tol: float = SPREAD_TOL
+
+    def base_scene(self) -> Scene:
+        try:
+            scene = load_scene(self.scene, self.overrides)
+            scene = scene.with_overrides(
+                f"initial.amplitude={self.distribution.amplitude!r}",
+                f"initial.n_modes={self.distribution.n_modes}")
+            for n in self.meshes:  # every start's scene must be valid before anything runs
+                for point in self.distribution.points((n,)):
+                    scene.with_overrides(*(f"{k}={json.dumps(v)}" for k, v in point.items()))
+        except SceneError as err:
+            raise CensusError(str(err)) from None
+        return scene
+
+    def definition(self, base: Scene) -> dict:
+        """What must match for two runs of the census to share a directory."""
+        d = self.distribution
+        return {"scene": scene_to_dict(base), "n_modes": d.n_modes, "amplitude": d.amplitude}
+
+
+def default_dir(scene: Scene) -> Path:
+    from studies.output import output_root
+
+    return output_root() / "attractors" / _slug(scene.name)
+
+
+def _slug(text: str) -> str:
+    return re.sub(r"[^A-Za-z0-9_.\-]", "_", text) or "census"
+
+
+def sweep_text(census: Census, name: str) -> str:
+    """The generated sweep file: base.toml plus one point per start and mesh."""
+    lines = [f'name = "{_slug(name)}-census"',
+             f'description = "attractor census: {census.distribution.describe()}"',
+             'base = "base.toml"', 'batch = "auto"', ""]
+    for point in census.distribution.points(census.meshes):
+        lines.append("[[points]]")
+        lines += [f'"{k}" = {json.dumps(v)}' for k, v in point.items()]
+        lines.append("")
+    return "\n".join(lines)
+
+
+def prepare(census: Census, out_dir: Path, force: bool) -> Path:
+    """Rank 0: check the directory, write base.toml, census.toml and census.json."""
+    base = census.base_scene()
+    definition = census.definition(base)
+    meta_path = out_dir / "census.json"
+    if meta_path.is_file():
+        try:
+            old = json.loads(meta_path.read_text())
+        except ValueError:
+            old = {}
+        if old.get("definition") != definition and not force:
+            raise CensusError(f"{out_dir} holds a census of another scene or start "
+                              "distribution; use another -o, or --force to rerun its starts")
+    elif out_dir.is_dir() and any(out_dir.iterdir()) and not force:
+        raise CensusError(f"{out_dir} exists and is not a census directory; use another -o "
+                          "or --force")
+    out_dir.mkdir(parents=True, exist_ok=True)
+    write_scene(base, out_dir / "base.toml")
+    path = out_dir / "census.toml"
+    atomic_write_text(path, sweep_text(census, base.name))
+    meta = {"kind": KIND, "definition": definition, "scene_file": str(census.scene),
+            "overrides": list(census.overrides), "meshes": list(census.meshes),
+            "distribution": census.distribution.to_dict(),
+            "celerity_tol": census.celerity_tol, "spread_tol": census.spread_tol}
+    atomic_write_text(meta_path, json.dumps(meta, indent=1) + "\n")
+    return path
+
+
+def run_census(census: Census, out_dir: str | Path, *, comm=None, force: bool = False,  # noqa: ANN001
+               progress: str = "auto", backend: str = "cpu", certify: bool = True,
+               stream: TextIO = sys.stdout) -> int:
+    """Run (or resume) the census into ``out_dir`` and write its answer; collective.
+
+    Returns 0 (every start final, none failed with an error), 1 (some start failed: counted
+    and shown), 2 (the census cannot start), 130 (interrupted: run the same command again).
+    """
+    from mpi4py import MPI
+
+    from studies.sweep import SweepError, load_sweep, run_sweep
+
+    comm = MPI.COMM_WORLD if comm is None else comm
+    out_dir = Path(out_dir)
+    err = None
+    if comm.rank == 0:
+        try:
+            prepare(census, out_dir, force)
+        except (CensusError, OSError) as e:
+            err = str(e)
+    err = comm.bcast(err, root=0)
+    if err:
+        if comm.rank == 0:
+            print(f"error: {err}", file=sys.stderr, flush=True)
+        return 2
+    try:
+        spec = load_sweep(out_dir / "census.toml")
+    except SweepError as e:
+        if comm.rank == 0:
+            print(f"error: {e}", file=sys.stderr, flush=True)
+        return 2
+    rc = run_sweep(spec, out_dir, comm=comm, stream=stream, progress=progress, batch="auto",
+                   backend=backend)
+    if comm.rank == 0 and rc != 2:
+        answer = collect(out_dir, certify=certify and rc == 0)
+        print(answer["text"], file=stream, flush=True)
+        if rc == 0 and answer["counts"].get("failed"):
+            rc = 1
+    return rc
+
+
+# ============================================================================ the answer
+
+
+def start_rows(out_dir: Path, spread_tol: float = SPREAD_TOL) -> list[dict]:
+    """One row per start of the census (every start, whatever its state)."""
+    from studies.sweep import load_sweep
+    from studies.sweep.table import _read_json, live_status
+
+    spec = load_sweep(out_dir / "census.toml")
+    rows = []
+    for task in spec.tasks:
+        run_dir = out_dir / "runs" / task.id
+        summary = _read_json(run_dir / "summary.json")
+        status = live_status(summary) if summary else "pending"
+        rows.append(start_row(run_dir, task.params, summary, status, spread_tol))
+    return rows
+
+
+def collect(out_dir: str | Path, *, certify: bool = False) -> dict:
+    """Rank 0: classify, group, count; write attractors.{json,csv} and members.csv."""
+    out_dir = Path(out_dir)
+    meta = json.loads((out_dir / "census.json").read_text())
+    rows = start_rows(out_dir, meta["spread_tol"])
+    meshes = sorted({r["n_inner"] for r in rows})
+    per_mesh, structured = {}, {}
+    for n in meshes:
+        mine = [r for r in rows if r["n_inner"] == n]
+        group_members(mine, meta["celerity_tol"])
+        per_mesh[n] = mesh_members([r for r in mine if r["start"] == "random"])
+        structured[n] = [r for r in mine if r["start"] == "mode"]
+    lad = ladder(per_mesh)
+    counts: dict[str, int] = {}
+    for r in rows:
+        counts[r["class"]] = counts.get(r["class"], 0) + 1
+    certificates = _certificates(out_dir, rows, per_mesh) if certify else {}
+    answer = {"kind": KIND, **{k: meta[k] for k in ("scene_file", "overrides", "meshes",
+                                                     "distribution", "celerity_tol",
+                                                     "spread_tol")},
+              "scene": meta["definition"]["scene"], "counts": counts,
+              "members": {str(n): per_mesh[n] for n in meshes},
+              "structured": {str(n): [_brief(r) for r in structured[n]] for n in meshes},
+              "ladder": lad, "certificates": certificates, "starts": rows}
+    from studies.attractors.report import summary_text
+
+    answer["text"] = summary_text(answer)
+    write_outputs(out_dir, answer)
+    return answer
+
+
+def _brief(row: dict) -> dict:
+    return {k: row[k] for k in ("start_mode", "class", "member", "k", "direction", "regime",
+                                "celerity_m_s", "frequency_hz", "psi1", "psi2",
+                                "rms_amplitude_m", "frame_spread")}
+
+
+def _certificates(out_dir: Path, rows: list[dict], per_mesh: dict[int, list[dict]]) -> dict:
+    """Per mesh and wave member: the certificate of its first run (cached by run mtime)."""
+    from studies.attractors.certify import available, certify
+
+    if not available():
+        return {"available": False}
+    cache_path = out_dir / "certificates.json"
+    try:
+        cache = json.loads(cache_path.read_text())
+    except (OSError, ValueError):
+        cache = {}
+    out: dict = {"available": True}
+    for n, members in per_mesh.items():
+        for m in members:
+            if m["class"] != "wave":
+                continue
+            run = next(r for r in rows if r["n_inner"] == n and r["member"] == m["member"])
+            stamp = (out_dir / "runs" / run["id"] / "summary.json").stat().st_mtime
+            key = f"{run['id']}@{stamp}"
+            if key not in cache:
+                cache[key] = certify(Path(run["run_dir"]))
+                atomic_write_text(cache_path, json.dumps(cache, indent=1, default=str))
+            out[f"{n}:{m['member']}"] = cache[key]
+    return out
+
+
+def _cell(v: object) -> object:
+    if v is None or (isinstance(v, float) and not math.isfinite(v)):
+        return ""
+    return v
+
+
+def _csv(fields: tuple[str, ...], rows: list[dict]) -> str:
+    buf = io.StringIO()
+    w = csv.DictWriter(buf, fieldnames=list(fields), lineterminator="\n", extrasaction="ignore")
+    w.writeheader()
+    for r in rows:
+        w.writerow({k: _cell(r.get(k)) for k in fields})
+    return buf.getvalue()
+
+
+def _json_safe(value):  # noqa: ANN001, ANN202
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    if isinstance(value, dict):
+        return {str(k): _json_safe(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_json_safe(v) for v in value]
+    return value
+
+
+def write_outputs(out_dir: Path, answer: dict) -> None:
+    """attractors.json, attractors.csv and members.csv (atomic writes)."""
+    atomic_write_text(out_dir / "attractors.json",
+                      json.dumps(_json_safe(answer), indent=1, default=str) + "\n")
+    atomic_write_text(out_dir / "attractors.csv", _csv(ROW_FIELDS, answer["starts"]))
+    members = [{"n_inner": int(n), **m} for n, ms in answer["members"].items() for m in ms]
+    atomic_write_text(out_dir / "members.csv", _csv(MEMBER_FIELDS, members))

@@ -1,0 +1,94 @@
+"""Certification of a member by the direct travelling-wave solver, through one adapter.
+
+``certify(run_dir)`` hands one of the member's runs to ``studies.travel.wave_from_run``: the
+transient's own discrete wave at the run's step (its residual, its celerity and the relative
+difference to the transient's), then with ``dt_limit=True`` the wave as Δt → 0 at that mesh,
+and, where ``studies.travel.wave_stability`` exists, whether a transient started next to the
+wave keeps it. When the travel solver is not installed the answer says "certification
+unavailable" and the census goes on; a run that is not a rigid wave (``NotRigidWave``) or a
+solver failure is reported, never raised.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+UNAVAILABLE = "certification unavailable"
+
+
+def _travel():  # noqa: ANN202
+    try:
+        import studies.travel as travel
+
+        return travel if hasattr(travel, "wave_from_run") else None
+    except ImportError:
+        return None
+
+
+def available() -> bool:
+    """True when the direct solver's ``wave_from_run`` can be called."""
+    return _travel() is not None
+
+
+def certify(run_dir: Path, *, stability: bool = True, stability_end_time: float = 0.05
+            ) -> dict:
+    """The member's certificate from one of its runs (module docstring); never raises."""
+    travel = _travel()
+    if travel is None:
+        return {"available": False, "message": f"{UNAVAILABLE}: studies.travel.wave_from_run "
+                "is not installed"}
+    out: dict = {"available": True, "run": str(run_dir)}
+    for label, dt_limit in (("at_dt", False), ("dt_to_0", True)):
+        try:
+            wave = travel.wave_from_run(run_dir, dt_limit=dt_limit)
+        except Exception as err:  # NotRigidWave or a solver failure: a fact of the member
+            out[label] = {"converged": False, "message": f"{type(err).__name__}: {err}"}
+            continue
+        out[label] = {key: _plain(wave.get(key)) for key in (
+            "converged", "message", "residual", "k", "direction", "regime", "celerity_m_s",
+            "frequency_hz", "psi1", "psi2", "amplitude_m", "frame_spread", "difference")}
+    if stability and hasattr(travel, "wave_stability"):
+        try:
+            st = travel.wave_stability(run_dir, end_time=stability_end_time)
+            out["stable"] = bool(st.get("stable"))
+            out["drift"] = _plain(st.get("drift"))
+        except Exception as err:  # reported, the census goes on
+            out["stable"] = None
+            out["stability_message"] = f"{type(err).__name__}: {err}"
+    return out
+
+
+def _plain(value):  # noqa: ANN001, ANN202
+    """JSON-safe scalars and dicts (numpy numbers -> float, non-finite -> None)."""
+    if isinstance(value, dict):
+        return {k: _plain(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_plain(v) for v in value]
+    if hasattr(value, "item"):
+        value = value.item()
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
+
+
+def certificate_line(cert: dict | None) -> str:
+    """One short line for the printed summary."""
+    if not cert:
+        return "not certified"
+    if not cert.get("available"):
+        return cert.get("message", UNAVAILABLE)
+    at = cert.get("at_dt", {})
+    if not at.get("converged"):
+        return f"direct solver: {at.get('message', 'no wave')}"
+    text = f"direct solver residual {at.get('residual', math.nan):.1e}"
+    diff = at.get("difference")
+    if isinstance(diff, dict) and diff.get("celerity") is not None:
+        text += f", celerity {100 * diff['celerity']:+.2f} % vs transient"
+    lim = cert.get("dt_to_0", {})
+    if lim.get("converged") and lim.get("celerity_m_s") is not None:
+        text += f"; Δt → 0: {lim['celerity_m_s']:+.1f} m/s"
+    if "stable" in cert:
+        text += {True: "; stable", False: "; unstable", None: "; stability unknown"}[
+            cert["stable"]]
+    return text
