@@ -124,6 +124,7 @@ def prepare(census: Census, out_dir: Path, force: bool) -> Path:
         raise CensusError(f"{out_dir} exists and is not a census directory; use another -o "
                           "or --force")
     out_dir.mkdir(parents=True, exist_ok=True)
+    clear_unstarted(out_dir)
     write_scene(base, out_dir / "base.toml")
     path = out_dir / "census.toml"
     atomic_write_text(path, sweep_text(census, base.name))
@@ -133,6 +134,29 @@ def prepare(census: Census, out_dir: Path, force: bool) -> Path:
             "celerity_tol": census.celerity_tol, "spread_tol": census.spread_tol}
     atomic_write_text(meta_path, json.dumps(meta, indent=1) + "\n")
     return path
+
+
+def clear_unstarted(out_dir: Path) -> list[Path]:
+    """Empty the start directories killed before their first summary was written.
+
+    A start killed (SIGKILL) while its directory was being made holds no ``summary.json``,
+    only ``scene.toml`` and/or half-written temporaries (``.NAME.PID.*.tmp``); a run
+    directory refuses to be reused as such. Only directories under ``runs/`` whose every
+    entry is one of those are emptied; anything else is left for the sweep to report.
+    """
+    from studies.rundir.directory import is_run_dir
+
+    cleared = []
+    for run in sorted((out_dir / "runs").glob("*/")) if (out_dir / "runs").is_dir() else []:
+        if is_run_dir(run):
+            continue
+        entries = list(run.iterdir())
+        if entries and all(e.is_file() and (e.name == "scene.toml" or (
+                e.name.startswith(".") and e.name.endswith(".tmp"))) for e in entries):
+            for e in entries:
+                e.unlink()
+            cleared.append(run)
+    return cleared
 
 
 def run_census(census: Census, out_dir: str | Path, *, comm=None, force: bool = False,  # noqa: ANN001

@@ -1,0 +1,105 @@
+"""``stickslip attractors --plot``: shares per mesh, member values against N, profiles.
+
+* ``basins.png``: each member's basin share per mesh with its 95 % Wilson interval;
+* ``members_vs_n.png``: celerity, frequency, ψ₁, ψ₂ and RMS amplitude of every member that
+  is a rigid wave, mean ± standard deviation over its starts, against N;
+* ``profile_<mesh>_<member>.png``: the paper's Figure-1 panels (U, V, P, Q over one
+  wavelength, ``postprocess.plotting.plot_uvpq``) of one run of each wave member.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+
+def plot_census(out_dir: str | Path) -> list[Path]:
+    """Draw the census figures of ``out_dir`` (its attractors.json); returns their paths."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    out_dir = Path(out_dir)
+    answer = json.loads((out_dir / "attractors.json").read_text())
+    paths = [_basins(out_dir, answer), _values(out_dir, answer)]
+    return [p for p in paths if p is not None] + _profiles(out_dir, answer)
+
+
+def _basins(out_dir: Path, answer: dict) -> Path | None:
+    import matplotlib.pyplot as plt
+
+    meshes = list(answer["members"])
+    names = sorted({m["member"] for ms in answer["members"].values() for m in ms})
+    if not names:
+        return None
+    fig, ax = plt.subplots(figsize=(max(6.0, 1.2 * len(names) + 2), 4.2),
+                           constrained_layout=True)
+    width = 0.8 / len(meshes)
+    x = np.arange(len(names))
+    for j, n in enumerate(meshes):
+        by = {m["member"]: m for m in answer["members"][n]}
+        share = np.array([by[s]["share"] if s in by else 0.0 for s in names])
+        lo = np.array([by[s]["share_lo"] if s in by else 0.0 for s in names])
+        hi = np.array([by[s]["share_hi"] if s in by else 0.0 for s in names])
+        starts = answer["members"][n][0]["starts"] if answer["members"][n] else 0
+        ax.bar(x + (j - (len(meshes) - 1) / 2) * width, share, width,
+               yerr=[share - lo, hi - share], capsize=3, label=f"N = {n} ({starts} starts)")
+    ax.set_xticks(x, names, rotation=30, ha="right", fontsize=8)
+    ax.set(ylabel="basin share (95 % Wilson interval)", ylim=(0, 1),
+           title=f"attractors of {answer['scene']['name']}")
+    ax.legend(fontsize=8)
+    return _save(fig, out_dir / "basins.png")
+
+
+def _values(out_dir: Path, answer: dict) -> Path | None:
+    import matplotlib.pyplot as plt
+
+    keys = (("celerity_m_s", "celerity (m/s)", 1.0), ("frequency_hz", "frequency (Hz)", 1.0),
+            ("psi1", "ψ₁", 1.0), ("psi2", "ψ₂", 1.0),
+            ("rms_amplitude_m", "RMS amplitude (mm)", 1e3))
+    waves = sorted({m["member"] for ms in answer["members"].values() for m in ms
+                    if m["class"] == "wave"})
+    if not waves:
+        return None
+    fig, axes = plt.subplots(1, len(keys), figsize=(3.2 * len(keys), 3.6),
+                             constrained_layout=True)
+    for i, name in enumerate(waves):
+        pts = [(int(n), m) for n, ms in answer["members"].items() for m in ms
+               if m["member"] == name]
+        ns = [n for n, _ in pts]
+        for ax, (key, label, scale) in zip(axes, keys, strict=True):
+            y = [scale * (m[key] if m[key] is not None else np.nan) for _, m in pts]
+            e = [scale * (m[f"{key}_sd"] or 0.0) for _, m in pts]
+            ax.errorbar(ns, y, yerr=e, marker="o", capsize=3, color=f"C{i}", label=name)
+            ax.set(xlabel="N (contact nodes)", ylabel=label)
+            ax.set_xscale("log", base=2)
+    axes[0].legend(fontsize=7)
+    fig.suptitle("wave members against the mesh (mean ± sd over the starts)", fontsize=10)
+    return _save(fig, out_dir / "members_vs_n.png")
+
+
+def _profiles(out_dir: Path, answer: dict) -> list[Path]:
+    from postprocess.plotting import plot_uvpq
+
+    paths = []
+    for n, members in answer["members"].items():
+        for m in members:
+            if m["class"] != "wave":
+                continue
+            run = next(r for r in answer["starts"]
+                       if str(r["n_inner"]) == n and r["member"] == m["member"])
+            png = out_dir / f"profile_{n}_{m['member'].replace('#', '_')}.png"
+            try:
+                paths.append(plot_uvpq(Path(run["run_dir"]), png, overlay=False))
+            except (OSError, ValueError, KeyError) as err:
+                print(f"profile of {m['member']} at N = {n} not drawn: {err}")
+    return paths
+
+
+def _save(fig, path: Path) -> Path:  # noqa: ANN001
+    import matplotlib.pyplot as plt
+
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path

@@ -1,0 +1,258 @@
+"""The attractor census (studies/attractors, ``stickslip attractors``, docs/attractors.md).
+
+Statistics and classification on closed forms and synthetic waves (no FE, milliseconds);
+one census of the tiny smoke scene (36 and 48 contact nodes, 0.05 s) for the bookkeeping:
+every start counted exactly once, also after SIGTERM and SIGKILL and a rerun.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy.stats import binom
+
+from studies.attractors.classify import classify, frame_spread, group_members, member_description
+from studies.attractors.starts import StartDistribution, parse_meshes, parse_structured
+from studies.attractors.statistics import (
+    Z95,
+    fisher_consistent,
+    ladder,
+    mean_spread,
+    mesh_members,
+    observed_order,
+    wilson,
+)
+
+REPO = Path(__file__).resolve().parents[1]
+SMOKE = REPO / "scenes" / "smoke.toml"
+
+# ------------------------------------------------------------------------------ statistics
+
+
+def test_wilson_interval_closed_forms_and_coverage():
+    z2 = Z95 * Z95
+    # x = 0 and x = n: the interval ends at 0 (1) and its other end is z²/(n + z²)
+    # (n/(n + z²)): the closed form of the score interval's boundary cases, to round-off.
+    assert wilson(0, 10) == pytest.approx((0.0, z2 / (10 + z2)), abs=1e-15)
+    assert wilson(10, 10) == pytest.approx((10 / (10 + z2), 1.0), abs=1e-15)
+    # 5/10: symmetric about 1/2; the tabulated value 0.2366-0.7634 (four digits).
+    lo, hi = wilson(5, 10)
+    assert lo + hi == pytest.approx(1.0, abs=1e-15)
+    assert (lo, hi) == pytest.approx((0.2366, 0.7634), abs=5e-5)
+    # Coverage P(lo <= p <= hi) summed exactly over the binomial law: the score interval
+    # keeps close to its nominal 95 % (within 0.93-0.98 for these n, p; Brown, Cai and
+    # DasGupta 2001, Fig. 4), where the Wald interval drops to ~0.6 for p = 0.05.
+    for n, p in ((20, 0.3), (64, 0.05), (64, 0.5)):
+        cover = sum(binom.pmf(x, n, p) for x in range(n + 1)
+                    if wilson(x, n)[0] <= p <= wilson(x, n)[1])
+        assert 0.93 <= cover <= 0.98, (n, p, cover)
+
+
+def test_fisher_order_and_spread():
+    # Equal counts: p = 1 exactly. 10/10 against 0/10: only the observed table is as extreme
+    # on either side, p = 2 / C(20, 10) (hypergeometric), to round-off.
+    assert fisher_consistent(4, 8, 4, 8) == pytest.approx(1.0)
+    assert fisher_consistent(10, 10, 0, 10) == pytest.approx(2 / math.comb(20, 10), rel=1e-9)
+    # q(N) = q* + C N^-2 on N = 66, 132, 264: the observed order is 2 to round-off.
+    ns = (66, 132, 264)
+    assert observed_order(ns, [1.0 + 5.0 / n**2 for n in ns]) == pytest.approx(2.0, rel=1e-9)
+    assert math.isnan(observed_order((66, 132, 396), [1.0, 2.0, 2.5]))  # two ratios: none
+    m, sd, n = mean_spread([1.0, 2.0, 3.0, None, math.nan])
+    assert (m, sd, n) == (2.0, 1.0, 3)
+
+
+def _row(seed, cls, k=None, direction=None, regime=None, c=None, n=132, **values):
+    return {"seed": seed, "class": cls, "k": k, "direction": direction, "regime": regime,
+            "celerity_m_s": c, "n_inner": n, "start": "random", "member": None,
+            **{key: values.get(key, 1.0) for key in (
+                "frequency_hz", "fraction_separation", "fraction_stick", "fraction_slip",
+                "psi1", "psi2", "amplitude_m", "rms_amplitude_m")}}
+
+
+def test_members_shares_and_ladder():
+    sss = "stick-slip-separation"
+    coarse = [_row(1, "wave", 11, "opposite", sss, -935.6), _row(2, "wave", 11, "opposite",
+              sss, -936.0), _row(3, "wave", 11, "opposite", sss, -990.0),
+              _row(4, "wave", 8, "rotation", sss, 1930.0), _row(5, "diverged")]
+    group_members(coarse, celerity_tol=0.02)
+    # -935.6 and -936.0 are 0.04 % apart (one member), -990 is 5.8 % away (a second one)
+    assert [r["member"] for r in coarse] == ["k11-opposite-SSS", "k11-opposite-SSS",
+                                             "k11-opposite-SSS#2", "k8-rotation-SSS",
+                                             "diverged"]
+    assert member_description("k8-rotation-SSS") == \
+        "k = 8 with the rotation, stick-slip-separation"
+    table = mesh_members(coarse)
+    assert sum(m["share"] for m in table) == pytest.approx(1.0)  # diverged counted too
+    top = table[0]
+    assert (top["member"], top["count"], top["starts"]) == ("k11-opposite-SSS", 2, 5)
+    assert top["celerity_m_s"] == pytest.approx(-935.8)
+    assert top["celerity_m_s_sd"] == pytest.approx(0.4 / math.sqrt(2))
+    fine = [_row(i, "wave", 11, "opposite", sss, -929.0, n=264) for i in range(1, 6)]
+    group_members(fine)
+    lad = ladder({132: table, 264: mesh_members(fine)})
+    assert lad["members"]["k11-opposite-SSS"]["differences"]["celerity_m_s"][0] == \
+        pytest.approx((-929.0 + 935.8) / 935.8)
+    assert lad["sets"][264] == ["k11-opposite-SSS"]
+    assert lad["stable_from"] is None  # the set changes from 132 to 264: nothing to say
+
+
+def test_start_distribution_and_arguments():
+    dist = StartDistribution(starts=3, seed=5, structured=(4, 5))
+    pts = dist.points((132, 264))
+    assert len(pts) == 10 and pts[0] == {"mesh.n_inner": 132, "initial.perturbation": "random",
+                                          "initial.seed": 5}
+    assert pts[4]["initial.mode"] == 5 and "seeds 5..7" in dist.describe()
+    assert parse_structured("1:12") == tuple(range(1, 13))
+    assert parse_meshes("264,132") == (132, 264)
+    for bad in ("", "132,132", "a"):
+        with pytest.raises(ValueError, match="--meshes"):
+            parse_meshes(bad)
+
+
+# ----------------------------------------------------------------------- classification
+
+
+def _waves(n=64, samples=400, k=5, omega=-300.0, second=0.0):
+    theta = 2 * np.pi * np.arange(n) / n
+    t = np.linspace(0.0, 0.02, samples)
+    phase = k * (theta[None, :] - omega * t[:, None])
+    u_theta = 1e-3 * np.cos(phase) + 2e-4  # + an axisymmetric part, which is not the wave
+    u_r = 1e-3 + 3e-4 * np.sin(phase)
+    if second:  # a second wave, turning two turns per 0.01 s in the first one's frame
+        rel = 400.0 * np.pi / 3.0  # 3 rel 0.01 s = 4 pi
+        u_theta = u_theta + second * 1e-3 * np.cos(
+            3 * (theta[None, :] - (omega + rel) * t[:, None]))
+    return t, theta, u_r, u_theta
+
+
+def test_frame_spread_rigid_and_modulated():
+    t, theta, u_r, u_theta = _waves()
+    spread, rms = frame_spread(t, theta, u_r, u_theta, -300.0, t[-1] / 2)
+    # A band-limited rigid wave is shifted exactly by the Fourier shift: round-off only.
+    assert spread < 1e-12
+    # RMS of the travelling part: sqrt((1e-3)² / 2 + (3e-4)² / 2), exact on a uniform grid.
+    assert rms == pytest.approx(math.sqrt(0.5 * (1e-6 + 9e-8)), rel=1e-12)
+    # A second wave of half the amplitude at another speed: in the first wave's frame it
+    # turns (by two whole turns over the window, so its mean is zero to O(1/samples)), so
+    # spread = its RMS over the first's: 0.5 / sqrt(1 + 0.09) (the u_r part has no second
+    # wave). Tolerance 1 %: the window's part-turn, 200 samples.
+    t, theta, u_r, u_theta = _waves(second=0.5)
+    spread, _ = frame_spread(t, theta, u_r, u_theta, -300.0, 0.01)
+    assert spread == pytest.approx(0.5 / math.sqrt(1.09), rel=1e-2)
+
+
+def test_classes():
+    wave = {"regime": "stick-slip", "limit_cycle": True}
+    assert classify("completed", wave, 0.05) == "wave"
+    assert classify("completed", wave, 0.3) == "modulated"
+    assert classify("completed", dict(wave, limit_cycle=False), 0.0) == "unsettled"
+    assert classify("completed", {"regime": "steady-sliding"}, math.nan) == "steady-sliding"
+    assert classify("diverged", {}, math.nan) == "diverged"
+    assert classify("failed", {}, math.nan) == "failed"
+    assert classify("completed", {}, math.nan) == "failed"  # no analysis: shown, not dropped
+
+
+# ----------------------------------------------------------------------------- the command
+
+
+def _env() -> dict[str, str]:
+    env = dict(os.environ)
+    env["PYTHONPATH"] = str(REPO) + os.pathsep + env.get("PYTHONPATH", "")
+    for key in list(env):  # a parent under mpirun must not leak its job into the child
+        if key.startswith(("PMIX_", "OMPI_COMM_WORLD", "PMI_")):
+            del env[key]
+    return env
+
+
+def _cmd(out: Path, *extra: str) -> list[str]:
+    # Stick-slip physics on the smoke mesh (Omega = 20 rad/s, delta = 5e-3; its sweep test
+    # measures a stick-slip wave there), long enough to be killed in flight.
+    return [sys.executable, "-m", "cli.main", "attractors", str(SMOKE), "--starts", "3",
+            "--meshes", "36,48", "--structured", "4:4", "--end-time", "0.05",
+            "--set", "loading.omega=20", "--set", "geometry.delta=0.005", "-o", str(out),
+            "--no-certify", *extra]
+
+
+def _starts(out: Path) -> dict[str, int]:
+    return {p.stem: p.read_text().count("== start") for p in (out / "logs").glob("*.log")}
+
+
+def _kill_after(cmd: list[str], out: Path, sig: int, log: Path, timeout: float = 120.0) -> None:
+    """Start ``cmd``, send ``sig`` once some start is finished (or running, for SIGKILL)."""
+    with open(log, "w") as fh:
+        proc = subprocess.Popen(cmd, cwd=REPO, env=_env(), stdout=fh, stderr=subprocess.STDOUT)
+        t0 = time.time()
+        try:
+            want = '"completed"' if sig == signal.SIGTERM else '"running"'
+            while time.time() - t0 < timeout and proc.poll() is None:
+                if any(want in p.read_text() for p in out.glob("runs/*/summary.json")):
+                    break
+                time.sleep(0.02)
+            proc.send_signal(sig)
+            proc.wait(timeout=60)
+        finally:
+            if proc.poll() is None:
+                proc.kill()
+
+
+def test_census_killed_and_rerun_counts_every_start_once(tmp_path):
+    """SIGTERM, then SIGKILL, then a rerun: every start once in the answer, none lost."""
+    pytest.importorskip("dolfinx")
+    out = tmp_path / "census"
+    for sig in (signal.SIGTERM, signal.SIGKILL):
+        _kill_after(_cmd(out), out, sig, tmp_path / f"killed{sig}.log")
+    res = subprocess.run(_cmd(out, "--json"), cwd=REPO, env=_env(), capture_output=True,
+                         text=True, timeout=300)
+    assert res.returncode == 0, res.stdout + res.stderr
+    answer = json.loads(res.stdout)
+    rows = answer["starts"]
+    ids = [r["id"] for r in rows]
+    assert len(ids) == len(set(ids)) == 8  # 3 random + 1 structured on each of 2 meshes
+    assert all(r["class"] in ("wave", "modulated", "unsettled", "steady-sliding", "diverged",
+                              "failed") for r in rows)
+    for n, members in answer["members"].items():  # random starts only, every one counted
+        assert sum(m["count"] for m in members) == 3, n
+        assert sum(m["share"] for m in members) == pytest.approx(1.0)
+        for m in members:
+            assert m["share_lo"] <= m["share"] <= m["share_hi"]
+    assert [len(v) for v in answer["structured"].values()] == [1, 1]
+    for r in rows:  # a wave's member carries its own k, direction and regime
+        if r["class"] == "wave":
+            assert r["member"].startswith(f"k{r['k']}-{r['direction']}-")
+            assert r["frame_spread"] <= answer["spread_tol"]
+    starts = _starts(out)
+    assert set(starts) == set(ids) and all(1 <= v <= 3 for v in starts.values())
+    assert len((out / "attractors.csv").read_text().splitlines()) == 1 + 8
+    assert (out / "members.csv").is_file()
+    # A rerun of a finished census runs nothing and gives the same answer.
+    again = subprocess.run(_cmd(out, "--json"), cwd=REPO, env=_env(), capture_output=True,
+                           text=True, timeout=300)
+    assert again.returncode == 0 and _starts(out) == starts
+    assert json.loads(again.stdout)["members"] == answer["members"]
+
+
+@pytest.mark.parametrize("args, words", [
+    (["--starts", "0"], "--starts 0"),
+    (["--meshes", ""], "ladder is empty"),
+    (["--meshes", "4"], "mesh.n_inner = 4"),  # no such mesh
+    (["--meshes", "20"], "n_modes"),  # modes 1..16 of the random start: not on 20 nodes
+    (["--structured", "5:2"], "--structured"),
+    (["--end-time", "-1"], "--end-time"),
+])
+def test_bad_arguments_one_line_exit_2(tmp_path, capsys, args, words):
+    pytest.importorskip("mpi4py")
+    from cli.main import main
+
+    rc = main(["attractors", str(SMOKE), "-o", str(tmp_path / "c"), *args])
+    err = capsys.readouterr().err.strip()
+    assert rc == 2 and len(err.splitlines()) == 1 and words in err, err
+    assert not (tmp_path / "c").exists()  # nothing created
