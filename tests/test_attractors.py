@@ -256,3 +256,31 @@ def test_bad_arguments_one_line_exit_2(tmp_path, capsys, args, words):
     err = capsys.readouterr().err.strip()
     assert rc == 2 and len(err.splitlines()) == 1 and words in err, err
     assert not (tmp_path / "c").exists()  # nothing created
+
+
+def test_sweep_with_an_attractors_table_maps_every_point(tmp_path, capsys):
+    """``[attractors] starts = 2`` in a sweep file: 2 random starts at each of 2 points."""
+    pytest.importorskip("dolfinx")
+    from cli.main import main
+    from studies.sweep import SweepError, load_sweep
+    from studies.attractors.maps import expand
+
+    body = (f'name = "amap"\nbase = "{SMOKE}"\nset = ["time.end_time=0.02"]\n'
+            '[grid]\n"loading.omega" = [20.0, 50.0]\n[map]\nx = "loading.omega"\n')
+    sweep = tmp_path / "amap.toml"
+    sweep.write_text(body + "[attractors]\nstarts = 2\nseed = 7\n")
+    spec = expand(load_sweep(sweep))
+    assert [t.id for t in spec.tasks] == ["omega-20.0_seed-7", "omega-20.0_seed-8",
+                                          "omega-50.0_seed-7", "omega-50.0_seed-8"]
+    out = tmp_path / "out"
+    assert main(["sweep", str(sweep), "-o", str(out)]) == 0
+    points = json.loads((out / "attractors_map.json").read_text())["points"]
+    assert [p["point"] for p in points] == ["omega-20.0", "omega-50.0"]
+    for p in points:  # both starts of each point counted, the interval holds the estimate
+        assert p["starts"] == p["finished"] == 2
+        assert p["p_sss_lo"] <= p["p_sss"] <= p["p_sss_hi"]
+    assert "attractors" in capsys.readouterr().out
+    bad = tmp_path / "bad.toml"
+    bad.write_text(body + "[attractors]\nstart = 2\n")
+    with pytest.raises(SweepError, match="attractors.start"):
+        expand(load_sweep(bad))

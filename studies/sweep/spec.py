@@ -14,6 +14,8 @@ A sweep file names a base scene and the parameters to vary (dotted scene keys, a
     "geometry.delta" = [2e-4, 1e-3]
     [[points]]                               # and/or an explicit list (x grid if both)
     "initial.seed" = 3
+    [attractors]                             # optional: a census of M starts at every point
+    starts = 16                              # (studies/attractors/maps.py)
     [map]                                    # regime map (``stickslip plot SWEEP_DIR``)
     x = "loading.omega"
     y = "geometry.delta"
@@ -44,7 +46,7 @@ FINAL_STATUSES = ("completed", "diverged", "failed", "stopped")
 REGIMES = ("steady-sliding", "stick-slip", "slip-separation", "stick-slip-separation",
            "diverged")
 _TOP_KEYS = ("name", "description", "base", "group_size", "output", "set", "grid", "points",
-             "map", "batch", "backend")
+             "map", "batch", "backend", "attractors")
 _MAP_KEYS = ("x", "y", "xscale", "yscale", "semianalytic", "k", "junctions")
 #: Scene keys that enter the reduced model (semi-analytical existence boundary).
 _SEMIANALYTIC_KEYS = ("loading.omega", "loading.f", "geometry.delta", "geometry.d",
@@ -105,6 +107,7 @@ class SweepSpec:
     map: MapSpec = field(default_factory=MapSpec)
     batch: str = "off"  # "off", "auto" or a batch size (studies/sweep/batch.py)
     backend: str = "cpu"  # batched integrator on "cpu" or "gpu" (CuPy)
+    attractors: dict = field(default_factory=dict)  # census per point (studies/attractors)
 
 
 def _toml_value(v: Any) -> str:
@@ -267,8 +270,10 @@ def load_sweep(path: str | Path) -> SweepSpec:
     junctions = raw_map.get("junctions", ["impact"])
     if not set(junctions) <= {"impact", "smooth"}:
         raise SweepError(f"{p}: map.junctions must be a subset of ['impact', 'smooth']")
+    if not isinstance(data.get("attractors", {}), dict):
+        raise SweepError(f"{p}: [attractors] must be a table (starts = M, ...)")
     spec = SweepSpec(
-        name=name, path=p.resolve(), base=base, base_scene=base_scene, set=fixed,
+        attractors=dict(data.get("attractors", {})), name=name, path=p.resolve(), base=base, base_scene=base_scene, set=fixed,
         keys=tuple(keys), tasks=tuple(tasks), group_size=group_size, batch=str(batch),
         backend=backend,
         output=p.parent / str(data["output"]) if data.get("output") else None,
