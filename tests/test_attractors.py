@@ -262,8 +262,8 @@ def test_sweep_with_an_attractors_table_maps_every_point(tmp_path, capsys):
     """``[attractors] starts = 2`` in a sweep file: 2 random starts at each of 2 points."""
     pytest.importorskip("dolfinx")
     from cli.main import main
-    from studies.sweep import SweepError, load_sweep
     from studies.attractors.maps import expand
+    from studies.sweep import SweepError, load_sweep
 
     body = (f'name = "amap"\nbase = "{SMOKE}"\nset = ["time.end_time=0.02"]\n'
             '[grid]\n"loading.omega" = [20.0, 50.0]\n[map]\nx = "loading.omega"\n')

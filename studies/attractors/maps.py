@@ -29,8 +29,12 @@ from typing import TextIO
 
 from solver.atomic import atomic_write_text
 from studies.attractors.classify import CELERITY_TOL, SPREAD_TOL, group_members, start_row
-from studies.attractors.starts import DEFAULT_AMPLITUDE, DEFAULT_N_MODES, DEFAULT_SEED, \
-    StartDistribution
+from studies.attractors.starts import (
+    DEFAULT_AMPLITUDE,
+    DEFAULT_N_MODES,
+    DEFAULT_SEED,
+    StartDistribution,
+)
 from studies.attractors.statistics import COUNTED, mesh_members, wilson
 
 _KEYS = ("starts", "seed", "n_modes", "amplitude", "celerity_tol", "spread_tol")

@@ -273,9 +273,9 @@ def load_sweep(path: str | Path) -> SweepSpec:
     if not isinstance(data.get("attractors", {}), dict):
         raise SweepError(f"{p}: [attractors] must be a table (starts = M, ...)")
     spec = SweepSpec(
-        attractors=dict(data.get("attractors", {})), name=name, path=p.resolve(), base=base, base_scene=base_scene, set=fixed,
+        name=name, path=p.resolve(), base=base, base_scene=base_scene, set=fixed,
         keys=tuple(keys), tasks=tuple(tasks), group_size=group_size, batch=str(batch),
-        backend=backend,
+        backend=backend, attractors=dict(data.get("attractors", {})),
         output=p.parent / str(data["output"]) if data.get("output") else None,
         description=str(data.get("description", "")),
         map=MapSpec(x=raw_map.get("x"), y=raw_map.get("y"),
