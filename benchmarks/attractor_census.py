@@ -1,0 +1,87 @@
+"""Attractor census timing: end to end, and the scene-steps per second it achieves.
+
+    ./dev python3 benchmarks/attractor_census.py [--scene figure1_n132_damped]
+        [--starts 64] [--meshes 132,264] [--end-time 0.3] [--ranks 1] [-o DIR]
+    ./dev python3 benchmarks/attractor_census.py --from DIR   # a finished census directory
+
+Runs ``stickslip attractors`` (under ``mpirun -n RANKS``) into a fresh directory (or reads
+DIR) and prints one JSON line: the command's wall time (start-up, every start, the analysis),
+the sweep loop's own time (``last_session`` of sweep.json; the session that finished the
+census), the number of starts and their scene-steps (Σ steps over the starts) per mesh, and
+scene-steps per second = Σ steps / Σ per-start wall time (the rate of the runs themselves) and
+Σ steps / the loop's time (the census's rate, all ranks together; the one to quote: a
+batched start carries its whole batch's wall time, so the first rate undercounts batches).
+Target: a 64-start census at N = 132 and 264 (0.3 s each, 128 runs) end to end in
+≤ 2 minutes on a 2-core machine.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+def measure(out: Path) -> dict:
+    """Scene-steps and times of a census directory (its attractors.json and sweep.json)."""
+    answer = json.loads((out / "attractors.json").read_text())
+    sweep = json.loads((out / "sweep.json").read_text())
+    per_mesh: dict[str, dict] = {}
+    for r in answer["starts"]:
+        m = per_mesh.setdefault(str(r["n_inner"]), {"starts": 0, "steps": 0, "run_s": 0.0})
+        m["starts"] += 1
+        m["steps"] += int(r["steps"] or 0)
+        m["run_s"] += float(r["wall_time_s"] or 0.0)
+    for m in per_mesh.values():
+        m["steps_per_s"] = m["steps"] / m["run_s"] if m["run_s"] else None
+    session = sweep.get("last_session") or {}
+    loop_s = (session.get("finished", 0.0) - session.get("started", 0.0)) or None
+    steps = sum(m["steps"] for m in per_mesh.values())
+    run_s = sum(m["run_s"] for m in per_mesh.values())
+    return {"census": str(out), "starts": len(answer["starts"]), "scene_steps": steps,
+            "runs_s": run_s, "scene_steps_per_s_runs": steps / run_s if run_s else None,
+            "loop_s": loop_s, "ranks": session.get("ranks"),
+            "scene_steps_per_s_loop": steps / loop_s if loop_s else None,
+            "pending_at_last_session": session.get("pending_at_start"),
+            "counts": answer["counts"], "per_mesh": per_mesh}
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--scene", default="figure1_n132_damped")
+    ap.add_argument("--starts", type=int, default=64)
+    ap.add_argument("--meshes", default="132,264")
+    ap.add_argument("--end-time", type=float, default=0.3)
+    ap.add_argument("--ranks", type=int, default=1)
+    ap.add_argument("-o", "--output", help="census directory (default: a fresh temporary one)")
+    ap.add_argument("--from", dest="existing", help="measure a finished census directory")
+    args = ap.parse_args()
+    if args.existing:
+        print(json.dumps(measure(Path(args.existing))))
+        return
+    out = Path(args.output) if args.output else Path(tempfile.mkdtemp(prefix="census-"))
+    cmd = [sys.executable, "-m", "cli.main", "attractors", args.scene, "--starts",
+           str(args.starts), "--meshes", args.meshes, "--end-time", str(args.end_time),
+           "-o", str(out / "census"), "--progress", "lines"]
+    if args.ranks > 1:
+        cmd = ["mpirun", "-n", str(args.ranks), *cmd]
+    env = dict(os.environ, PYTHONPATH=str(REPO))
+    t0 = time.perf_counter()
+    res = subprocess.run(cmd, cwd=REPO, env=env, capture_output=True, text=True)
+    wall = time.perf_counter() - t0
+    if res.returncode not in (0, 1):
+        sys.exit(f"census failed ({res.returncode}): {res.stderr.strip()[-500:]}")
+    rec = measure(out / "census")
+    rec.update(wall_s=wall, command=" ".join(cmd[cmd.index("attractors"):]))
+    print(json.dumps(rec))
+
+
+if __name__ == "__main__":
+    main()
