@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
 import signal
 import subprocess
 import sys
@@ -19,6 +18,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from scipy.stats import binom
+from test_sweep import _env, _starts  # the child's environment; '== start' lines per run
 
 from studies.attractors.classify import classify, frame_spread, group_members, member_description
 from studies.attractors.starts import StartDistribution, parse_meshes, parse_structured
@@ -164,15 +164,6 @@ def test_classes():
 # ----------------------------------------------------------------------------- the command
 
 
-def _env() -> dict[str, str]:
-    env = dict(os.environ)
-    env["PYTHONPATH"] = str(REPO) + os.pathsep + env.get("PYTHONPATH", "")
-    for key in list(env):  # a parent under mpirun must not leak its job into the child
-        if key.startswith(("PMIX_", "OMPI_COMM_WORLD", "PMI_")):
-            del env[key]
-    return env
-
-
 def _cmd(out: Path, *extra: str) -> list[str]:
     # Stick-slip physics on the smoke mesh (Omega = 20 rad/s, delta = 5e-3; its sweep test
     # measures a stick-slip wave there), long enough to be killed in flight.
@@ -180,10 +171,6 @@ def _cmd(out: Path, *extra: str) -> list[str]:
             "--meshes", "36,48", "--structured", "4:4", "--end-time", "0.05",
             "--set", "loading.omega=20", "--set", "geometry.delta=0.005", "-o", str(out),
             "--no-certify", *extra]
-
-
-def _starts(out: Path) -> dict[str, int]:
-    return {p.stem: p.read_text().count("== start") for p in (out / "logs").glob("*.log")}
 
 
 def _kill_after(cmd: list[str], out: Path, sig: int, log: Path, timeout: float = 120.0) -> None:
