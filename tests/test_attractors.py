@@ -271,3 +271,31 @@ def test_sweep_with_an_attractors_table_maps_every_point(tmp_path, capsys):
     bad.write_text(body + "[attractors]\nstart = 2\n")
     with pytest.raises(SweepError, match="attractors.start"):
         expand(load_sweep(bad))
+
+
+def test_certification_adapter(monkeypatch, tmp_path):
+    """Without the direct solver: "unavailable"; with one: its numbers, or its refusal."""
+    import studies.travel as travel
+    from studies.attractors.certify import certificate_line, certify
+
+    monkeypatch.delattr(travel, "wave_from_run", raising=False)
+    cert = certify(tmp_path)
+    assert cert["available"] is False and "unavailable" in certificate_line(cert)
+
+    class NotRigidWave(ValueError):
+        pass
+
+    def wave_from_run(run_dir, *, dt_limit=False):
+        if dt_limit:
+            raise NotRigidWave("frame spread 0.45")
+        return {"converged": True, "residual": 1e-11, "celerity_m_s": -935.6,
+                "difference": {"celerity": 0.001}, "k": 11}
+
+    monkeypatch.setattr(travel, "wave_from_run", wave_from_run, raising=False)
+    monkeypatch.setattr(travel, "wave_stability",
+                        lambda run_dir, *, end_time=0.05: {"stable": True, "drift": 1e-4},
+                        raising=False)
+    cert = certify(tmp_path)
+    assert cert["at_dt"]["residual"] == 1e-11 and cert["stable"] is True
+    assert "NotRigidWave" in cert["dt_to_0"]["message"]
+    assert certificate_line(cert).startswith("direct solver residual 1.0e-11, celerity +0.10 %")
