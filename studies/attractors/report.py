@@ -24,11 +24,16 @@ def _member_phrase(m: dict) -> str:
 def mesh_lines(n: str, members: list[dict], structured: list[dict]) -> list[str]:
     waves = [m for m in members if m["class"] == "wave"]
     others = [m for m in members if m["class"] != "wave"]
-    head = f"N = {n}: {len(waves)} attractor{'s' if len(waves) != 1 else ''}"
+    n_starts = members[0]["starts"] if members else 0
+    head = (f"N = {n} ({n_starts} random starts): {len(waves)} attractor"
+            f"{'s' if len(waves) != 1 else ''} (rigid waves)")
     if not members:
-        head += " (no random start finished yet)"
-    lines = [head + (":" if members else "")]
-    lines += [f"  {_member_phrase(m)}" for m in waves + others]
+        head += "; no random start finished yet"
+    lines = [head + (":" if waves else "")]
+    lines += [f"  {_member_phrase(m)}" for m in waves]
+    if others:
+        lines.append("  other end states:")
+        lines += [f"    {_member_phrase(m)}" for m in others]
     if structured:
         lines.append("  structured: " + "; ".join(
             f"mode {r['start_mode']} -> {r['member'] or r['class']}" for r in structured))
