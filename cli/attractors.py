@@ -23,7 +23,8 @@ def register(sub: argparse._SubParsersAction) -> None:
             "with a 95 %% Wilson interval, its values and their change along the ladder "
             "(docs/attractors.md). Runs under mpirun; rerunning resumes."),
     )
-    p.add_argument("scene", help="scene file (TOML) or shipped scene name")
+    p.add_argument("scene", help="scene file (TOML) or shipped scene name; or a census "
+                   "directory, to read (and --plot) its answer as it stands, running nothing")
     p.add_argument("--starts", type=int, default=16, metavar="M",
                    help="random starts per mesh (default 16)")
     p.add_argument("--meshes", default=None, metavar="N1,N2,...",
@@ -74,6 +75,8 @@ def _attractors(args: argparse.Namespace) -> int:
     from studies.attractors.starts import StartDistribution, parse_meshes, parse_structured
 
     comm = MPI.COMM_WORLD
+    if (Path(args.scene) / "census.json").is_file():
+        return _read(Path(args.scene), args) if comm.rank == 0 else 0
     if args.starts < 1:
         return _fail(f"--starts {args.starts}: give M >= 1 random starts per mesh", comm.rank)
     overrides = list(args.set)
@@ -102,11 +105,26 @@ def _attractors(args: argparse.Namespace) -> int:
     rc = run_census(census, out, comm=comm, force=args.force, progress=args.progress,
                     backend=args.backend, certify=not args.no_certify, stream=stream)
     if comm.rank == 0 and rc in (0, 1, 130):
-        if args.json:
-            print((out / "attractors.json").read_text(), end="")
-        if args.plot:
-            from studies.attractors.plots import plot_census
-
-            for path in plot_census(out):
-                print(f"figure: {path}")
+        _show(out, args)
     return rc
+
+
+def _read(out: Path, args: argparse.Namespace) -> int:
+    """The answer of an existing census directory, as it stands (nothing runs)."""
+    from studies.attractors.census import collect
+
+    answer = collect(out, certify=False)
+    if not args.json:
+        print(answer["text"])
+    _show(out, args)
+    return 0
+
+
+def _show(out: Path, args: argparse.Namespace) -> None:
+    if args.json:
+        print((out / "attractors.json").read_text(), end="")
+    if args.plot:
+        from studies.attractors.plots import plot_census
+
+        for path in plot_census(out):
+            print(f"figure: {path}")

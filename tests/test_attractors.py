@@ -225,6 +225,9 @@ def test_census_killed_and_rerun_counts_every_start_once(tmp_path):
                            text=True, timeout=300)
     assert again.returncode == 0 and _starts(out) == starts
     assert json.loads(again.stdout)["members"] == answer["members"]
+    from cli.main import main  # the directory itself: its answer, nothing runs
+
+    assert main(["attractors", str(out)]) == 0 and _starts(out) == starts
 
 
 @pytest.mark.parametrize("args, words", [
