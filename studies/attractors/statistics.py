@@ -30,6 +30,8 @@ VALUE_KEYS = ("celerity_m_s", "frequency_hz", "fraction_separation", "fraction_s
 #: The classes counted in a basin-share denominator (pending/interrupted starts are not).
 COUNTED = ("wave", "modulated", "unsettled", "steady-sliding", "diverged", "failed")
 ALPHA = 0.05
+#: The classes whose members make up "the set of attractors" of a mesh (settled cycles).
+SETTLED = ("wave", "modulated")
 
 
 def wilson(successes: int, n: int, z: float = Z95) -> tuple[float, float]:
@@ -103,9 +105,11 @@ def ladder(per_mesh: dict[int, list[dict]]) -> dict:
 
     Returns ``members`` (per member: its values per mesh, successive relative differences,
     observed orders), ``tests`` (Fisher's test per member and pair of successive meshes),
-    ``sets`` (the members reached per mesh) and ``stable_from`` (the smallest mesh from which
-    the set of members with starts is the same on every finer mesh and every share test
-    passes; None if no such mesh short of the finest, where nothing can be said).
+    ``sets`` (the settled members, waves and modulated cycles, reached per mesh) and
+    ``stable_from`` (the smallest mesh from which that set is the same on every finer mesh
+    and every share test passes; None if no such mesh short of the finest, where nothing can
+    be said). A member reached by a single start on one mesh only changes the set: the table
+    shows which.
     """
     meshes = sorted(per_mesh)
     names = sorted({e["member"] for es in per_mesh.values() for e in es})
@@ -135,7 +139,8 @@ def ladder(per_mesh: dict[int, list[dict]]) -> dict:
             tests.append({"member": name, "mesh_a": a, "mesh_b": b, "count_a": xa,
                           "starts_a": na, "count_b": xb, "starts_b": nb, "p_value": p,
                           "consistent": bool(p >= ALPHA) if math.isfinite(p) else None})
-    sets = {n: sorted(table[n]) for n in meshes}
+    sets = {n: sorted(m for m, e in table[n].items() if e["class"] in SETTLED)
+            for n in meshes}
     stable_from = None
     for i, n in enumerate(meshes[:-1]):
         finer = meshes[i:]
