@@ -53,7 +53,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="skip the direct travelling-wave solver's certificates")
     p.add_argument("--backend", choices=("cpu", "gpu"), default="cpu",
                    help="batched integrator backend (where the scenes can be batched)")
-    p.add_argument("--progress", choices=("auto", "live", "lines"), default="auto")
+    p.add_argument("--progress", choices=("auto", "live", "lines"), default="auto",
+                   help="live status line (TTY) or one line per finished start")
     p.add_argument("--plot", action="store_true", help="draw the census figures")
     p.add_argument("--json", action="store_true",
                    help="print attractors.json instead of the summary")
@@ -98,7 +99,11 @@ def _attractors(args: argparse.Namespace) -> int:
         census = Census(Path(args.scene), meshes, dist, tuple(overrides),
                         args.celerity_tol, args.spread_tol)
         census.base_scene()
-    except (SceneError, CensusError, ValueError) as err:
+        if args.backend == "gpu":
+            from solver.ensemble import array_namespace
+
+            array_namespace("gpu")
+    except (SceneError, CensusError, ValueError, ImportError) as err:
         return _fail(str(err), comm.rank)
     out = Path(args.output) if args.output else default_dir(scene)
     stream = open(os.devnull, "w") if args.json else sys.stdout  # noqa: SIM115
