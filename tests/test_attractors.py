@@ -20,7 +20,13 @@ import pytest
 from scipy.stats import binom
 from test_sweep import _env, _starts  # the child's environment; '== start' lines per run
 
-from studies.attractors.classify import classify, frame_spread, group_members, member_description
+from studies.attractors.classify import (
+    classify,
+    frame_spread,
+    group_members,
+    member_description,
+    spread_trend,
+)
 from studies.attractors.starts import StartDistribution, parse_meshes, parse_structured
 from studies.attractors.statistics import (
     Z95,
@@ -90,6 +96,8 @@ def test_members_shares_and_ladder():
                                              "diverged"]
     assert member_description("k8-rotation-SSS") == \
         "k = 8 with the rotation, stick-slip-separation"
+    assert member_description("unsettled-k13-opposite-SSS#2") == ("unsettled k = 13 against "
+        "the rotation, stick-slip-separation (celerity cluster 2)")
     table = mesh_members(coarse)
     assert sum(m["share"] for m in table) == pytest.approx(1.0)  # diverged counted too
     top = table[0]
@@ -148,12 +156,20 @@ def test_frame_spread_rigid_and_modulated():
     t, theta, u_r, u_theta = _waves(second=0.5)
     spread, _ = frame_spread(t, theta, u_r, u_theta, -300.0, 0.01)
     assert spread == pytest.approx(0.5 / math.sqrt(1.09), rel=1e-2)
+    # The same second wave decaying as exp(-t / 0.01): over a 0.01 s window its RMS in the
+    # second half is exp(-0.5) of the first half's (to O(1 %): the halves' mean decay), so
+    # the spread trend is exp(-0.5) - 1 = -0.39: a cycle still settling.
+    decaying = _waves()[3] + (u_theta - _waves()[3]) * np.exp(-t / 0.01)[:, None]
+    trend = spread_trend(t, theta, u_r, decaying, -300.0, 0.01)
+    assert trend == pytest.approx(math.exp(-0.5) - 1.0, rel=0.05)
 
 
 def test_classes():
     wave = {"regime": "stick-slip", "limit_cycle": True}
     assert classify("completed", wave, 0.05) == "wave"
     assert classify("completed", wave, 0.3) == "modulated"
+    assert classify("completed", wave, 0.3, trend=-0.02) == "modulated"  # not decaying
+    assert classify("completed", wave, 0.3, trend=-0.11) == "unsettled"  # still decaying
     assert classify("completed", dict(wave, limit_cycle=False), 0.0) == "unsettled"
     assert classify("completed", {"regime": "steady-sliding"}, math.nan) == "steady-sliding"
     assert classify("diverged", {}, math.nan) == "diverged"

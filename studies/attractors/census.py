@@ -41,7 +41,7 @@ KIND = "stickslip-attractors"
 ROW_FIELDS = ("id", "n_inner", "start", "seed", "start_mode", "status", "class", "member", "k",
               "direction", "regime", "celerity_m_s", "frequency_hz", "fraction_separation",
               "fraction_stick", "fraction_slip", "psi1", "psi2", "amplitude_m",
-              "rms_amplitude_m", "limit_cycle", "frame_spread", "dt_s", "steps",
+              "rms_amplitude_m", "limit_cycle", "frame_spread", "spread_trend", "dt_s", "steps",
               "wall_time_s", "message", "run_dir")
 MEMBER_FIELDS = ("n_inner", "member", "class", "k", "direction", "regime", "count", "starts",
                  "share", "share_lo", "share_hi", "celerity_m_s", "celerity_m_s_sd",

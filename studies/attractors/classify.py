@@ -8,7 +8,12 @@ Classes (``classify``), from a run's ``summary.json`` and samples:
   zone fractions over two consecutive blocks of three periods, ``postprocess.analysis``);
 * ``wave``: a settled cycle whose frame spread is at most ``SPREAD_TOL``: a rigidly
   travelling wave u(θ, t) = W(θ − ωt);
-* ``modulated``: a settled cycle with a larger frame spread (it is not one rigid wave).
+* ``modulated``: a settled cycle with a larger frame spread that does not decay: the frame
+  spread of the second half of the analysis window is not below the first half's by more
+  than ``DECAY_TOL`` (relative); it is not one rigid wave;
+* a larger frame spread that still decays is ``unsettled`` too: the modulation (side-bands
+  of the dominant mode) is dying out more slowly than the run lasted, which the envelope
+  test alone does not see.
 
 Frame spread (``frame_spread``): over the analysis window, each sample of (u_r, u_θ) on the
 contact circle is shifted back by ω(t − t_end) (exact Fourier shift, ω the measured angular
@@ -20,7 +25,8 @@ modulated cycles at N = 66 – 264 (docs/travelling_waves.md), hence ``SPREAD_TO
 Members (``group_members``): waves (and, separately, modulated cycles) with the same
 (k, direction, regime), whose celerities sorted in order differ by at most ``celerity_tol``
 (relative) from their neighbour, form one member. A member's id reads, e.g.,
-``k11-opposite-SSS`` (``#2`` … for a second celerity cluster of the same key).
+``k11-opposite-SSS`` (``#2`` … for a second celerity cluster of the same key); modulated and
+unsettled end states are grouped the same way under ``modulated-…`` and ``unsettled-…``.
 """
 
 from __future__ import annotations
@@ -33,6 +39,9 @@ import numpy as np
 
 #: Frame spread at or below which a settled cycle is a rigidly travelling wave.
 SPREAD_TOL = 0.10
+#: Relative decrease of the frame spread over the analysis window above which a cycle that is
+#: not rigid is still settling (``unsettled``), not ``modulated``.
+DECAY_TOL = 0.05
 #: Relative celerity gap within which end states of one (k, direction, regime) are a member.
 CELERITY_TOL = 0.02
 #: The classes, in the order tables list them.
@@ -68,8 +77,20 @@ def frame_spread(t: np.ndarray, theta: np.ndarray, u_r: np.ndarray, u_theta: np.
     return spread, math.sqrt(amp_sq)
 
 
-def classify(status: str, summary: dict, spread: float, spread_tol: float = SPREAD_TOL) -> str:
-    """The class of one end state (module docstring); ``status`` is the run's status."""
+def spread_trend(t: np.ndarray, theta: np.ndarray, u_r: np.ndarray, u_theta: np.ndarray,
+                 omega: float, window: float) -> float:
+    """Frame spread of the window's second half over its first half's, minus 1 (< 0: the
+    modulation decays); NaN where either half cannot be measured."""
+    first = t <= t[-1] - 0.5 * window
+    early, _ = frame_spread(t[first], theta, u_r[first], u_theta[first], omega, 0.5 * window)
+    late, _ = frame_spread(t, theta, u_r, u_theta, omega, 0.5 * window)
+    return late / early - 1.0 if early > 0.0 and math.isfinite(early) else math.nan
+
+
+def classify(status: str, summary: dict, spread: float, spread_tol: float = SPREAD_TOL,
+             trend: float = math.nan) -> str:
+    """The class of one end state (module docstring); ``status`` is the run's status,
+    ``trend`` the relative change of the frame spread over the window (``spread_trend``)."""
     if status in ("diverged", "failed"):
         return status
     regime = summary.get("regime")
@@ -79,7 +100,9 @@ def classify(status: str, summary: dict, spread: float, spread_tol: float = SPRE
         return "steady-sliding"
     if not summary.get("limit_cycle"):
         return "unsettled"
-    return "wave" if spread <= spread_tol else "modulated"
+    if spread <= spread_tol:
+        return "wave"
+    return "unsettled" if trend < -DECAY_TOL else "modulated"
 
 
 def start_row(run_dir: Path, params: dict, summary: dict | None, status: str,
@@ -91,34 +114,36 @@ def start_row(run_dir: Path, params: dict, summary: dict | None, status: str,
         "start": params.get("initial.perturbation"), "seed": params.get("initial.seed"),
         "start_mode": params.get("initial.mode"), "status": status,
     }
-    spread = rms = math.nan
+    spread = rms = trend = math.nan
     if status == "completed" and s.get("regime") not in (None, "steady-sliding"):
-        spread, rms = _spread_of_run(run_dir, s)
+        spread, rms, trend = _spread_of_run(run_dir, s)
     fr = s.get("fractions") or {}
     row.update({
-        "class": classify(status, s, spread, spread_tol) if status in (
+        "class": classify(status, s, spread, spread_tol, trend) if status in (
             "completed", "diverged", "failed") else status,
         "k": s.get("mode"), "direction": s.get("direction"), "regime": s.get("regime"),
         "celerity_m_s": s.get("celerity_m_s"), "frequency_hz": s.get("frequency_hz"),
         "fraction_separation": fr.get("separation"), "fraction_stick": fr.get("stick"),
         "fraction_slip": fr.get("slip"), "psi1": s.get("psi1"), "psi2": s.get("psi2"),
         "amplitude_m": s.get("amplitude_m"), "rms_amplitude_m": rms,
-        "limit_cycle": s.get("limit_cycle"), "frame_spread": spread,
+        "limit_cycle": s.get("limit_cycle"), "frame_spread": spread, "spread_trend": trend,
         "dt_s": s.get("dt_s"), "steps": s.get("steps"), "wall_time_s": s.get("wall_time_s"),
         "message": s.get("message"), "run_dir": str(run_dir), "member": None,
     })
     return row
 
 
-def _spread_of_run(run_dir: Path, summary: dict) -> tuple[float, float]:
+def _spread_of_run(run_dir: Path, summary: dict) -> tuple[float, float, float]:
+    """(frame spread, RMS amplitude, spread trend) of a run over its analysis window."""
     try:
         with np.load(run_dir / "samples.npz") as z:
             t, theta, u_r, u_theta = z["t"], z["theta"], z["u_r"], z["u_theta"]
     except (OSError, KeyError, ValueError):
-        return math.nan, math.nan
+        return math.nan, math.nan, math.nan
     omega = float(summary["celerity_m_s"]) / _radius(run_dir)
     window = float(summary.get("analysis_window_s") or (t[-1] - t[0]) / 3.0)
-    return frame_spread(t, theta, u_r, u_theta, omega, window)
+    spread, rms = frame_spread(t, theta, u_r, u_theta, omega, window)
+    return spread, rms, spread_trend(t, theta, u_r, u_theta, omega, window)
 
 
 def _radius(run_dir: Path) -> float:
@@ -147,12 +172,13 @@ class MemberKey:
 def group_members(rows: list[dict], celerity_tol: float = CELERITY_TOL) -> None:
     """Give every classified row of one mesh its ``member`` id (in place).
 
-    Waves and modulated cycles: by (k, direction, regime), then celerity clusters (neighbours
-    in sorted order within ``celerity_tol`` relative). Other classes: the class name.
+    Waves, modulated and unsettled cycles: by (k, direction, regime), then celerity clusters
+    (neighbours in sorted order within ``celerity_tol`` relative). Other classes: the class
+    name.
     """
     keyed: dict[MemberKey, list[dict]] = {}
     for r in rows:
-        if r["class"] in ("wave", "modulated"):
+        if r["class"] in ("wave", "modulated") or (r["class"] == "unsettled" and r["k"]):
             keyed.setdefault(MemberKey(r["class"], int(r["k"]), r["direction"], r["regime"]),
                              []).append(r)
         elif r["class"] in CLASSES:
@@ -170,15 +196,16 @@ def group_members(rows: list[dict], celerity_tol: float = CELERITY_TOL) -> None:
 
 def member_description(member: str) -> str:
     """``k11-opposite-SSS`` -> "k = 11 against the rotation, stick-slip-separation"."""
-    if not member.startswith(("k", "modulated-k")):
+    prefix = next((p for p in ("modulated-", "unsettled-") if member.startswith(p)), "")
+    if not member.removeprefix(prefix).startswith("k"):
         return member
-    body = member.removeprefix("modulated-")
+    body = member.removeprefix(prefix)
     parts = body.split("#")[0].split("-", 2)
     sense = {"opposite": "against the rotation", "rotation": "with the rotation"}
     regime = {v: k for k, v in REGIME_SHORT.items()}.get(parts[2], parts[2])
     text = f"k = {parts[0][1:]} {sense.get(parts[1], parts[1])}, {regime}"
-    if member.startswith("modulated-"):
-        text = "modulated " + text
+    if prefix:
+        text = f"{prefix[:-1]} {text}"
     if "#" in member:
         text += f" (celerity cluster {member.split('#')[1]})"
     return text

@@ -34,6 +34,9 @@ def mesh_lines(n: str, members: list[dict], structured: list[dict]) -> list[str]
     if others:
         lines.append("  other end states:")
         lines += [f"    {_member_phrase(m)}" for m in others]
+    if any(m["class"] == "unsettled" for m in members):
+        lines.append("  (unsettled: not yet a limit cycle, or its modulation still decays; "
+                     "a longer --end-time settles them)")
     if structured:
         lines.append("  structured: " + "; ".join(
             f"mode {r['start_mode']} -> {r['member'] or r['class']}" for r in structured))
