@@ -14,7 +14,7 @@ def _pct(x: float) -> str:
 
 def _member_phrase(m: dict) -> str:
     text = f"{member_description(m['member'])}"
-    if m["class"] in ("wave", "modulated") and m.get("celerity_m_s") is not None \
+    if m.get("k") is not None and m.get("celerity_m_s") is not None \
             and math.isfinite(m["celerity_m_s"]):
         text += f" {m['celerity_m_s']:+.1f} m/s, {m['frequency_hz']:.1f} Hz"
     return (f"{text} ({m['count']}/{m['starts']} = {_pct(m['share'])}, "
