@@ -1,10 +1,11 @@
 """``stickslip attractors --plot``: shares per mesh, member values against N, profiles.
 
 * ``basins.png``: each member's basin share per mesh with its 95 % Wilson interval;
-* ``members_vs_n.png``: celerity, frequency, ψ₁, ψ₂ and RMS amplitude of every member that
-  is a rigid wave, mean ± standard deviation over its starts, against N;
+* ``members_vs_n.png``: celerity, frequency, ψ₁, ψ₂ and RMS amplitude of every member of
+  the random starts with a wavenumber, mean ± standard deviation over its starts, against N;
 * ``profile_<mesh>_<member>.png``: the paper's Figure-1 panels (U, V, P, Q over one
-  wavelength, ``postprocess.plotting.plot_uvpq``) of one run of each wave member.
+  wavelength, ``postprocess.plotting.plot_uvpq``) of one run of each rigid-wave member,
+  random or structured start.
 """
 
 from __future__ import annotations
@@ -59,7 +60,7 @@ def _values(out_dir: Path, answer: dict) -> Path | None:
             ("psi1", "ψ₁", 1.0), ("psi2", "ψ₂", 1.0),
             ("rms_amplitude_m", "RMS amplitude (mm)", 1e3))
     waves = sorted({m["member"] for ms in answer["members"].values() for m in ms
-                    if m["class"] == "wave"})
+                    if m["k"] is not None})
     if not waves:
         return None
     fig, axes = plt.subplots(1, len(keys), figsize=(3.2 * len(keys), 3.6),
@@ -68,32 +69,34 @@ def _values(out_dir: Path, answer: dict) -> Path | None:
         pts = [(int(n), m) for n, ms in answer["members"].items() for m in ms
                if m["member"] == name]
         ns = [n for n, _ in pts]
+        style = "-" if pts[0][1]["class"] == "wave" else ":"
         for ax, (key, label, scale) in zip(axes, keys, strict=True):
             y = [scale * (m[key] if m[key] is not None else np.nan) for _, m in pts]
             e = [scale * (m[f"{key}_sd"] or 0.0) for _, m in pts]
-            ax.errorbar(ns, y, yerr=e, marker="o", capsize=3, color=f"C{i}", label=name)
+            ax.errorbar(ns, y, yerr=e, marker="o", capsize=3, color=f"C{i % 10}", ls=style,
+                        label=name)
             ax.set(xlabel="N (contact nodes)", ylabel=label)
             ax.set_xscale("log", base=2)
     axes[0].legend(fontsize=7)
-    fig.suptitle("wave members against the mesh (mean ± sd over the starts)", fontsize=10)
+    fig.suptitle("members of the random starts against the mesh (mean ± sd over the starts; "
+                 "solid: rigid waves, dotted: modulated or unsettled)", fontsize=10)
     return _save(fig, out_dir / "members_vs_n.png")
 
 
 def _profiles(out_dir: Path, answer: dict) -> list[Path]:
     from postprocess.plotting import plot_uvpq
 
-    paths = []
-    for n, members in answer["members"].items():
-        for m in members:
-            if m["class"] != "wave":
-                continue
-            run = next(r for r in answer["starts"]
-                       if str(r["n_inner"]) == n and r["member"] == m["member"])
-            png = out_dir / f"profile_{n}_{m['member'].replace('#', '_')}.png"
-            try:
-                paths.append(plot_uvpq(Path(run["run_dir"]), png, overlay=False))
-            except (OSError, ValueError, KeyError) as err:
-                print(f"profile of {m['member']} at N = {n} not drawn: {err}")
+    paths, seen = [], set()
+    for run in answer["starts"]:  # one run of each wave member per mesh, any start
+        key = (run["n_inner"], run["member"])
+        if run["class"] != "wave" or key in seen:
+            continue
+        seen.add(key)
+        png = out_dir / f"profile_{run['n_inner']}_{run['member'].replace('#', '_')}.png"
+        try:
+            paths.append(plot_uvpq(Path(run["run_dir"]), png, overlay=False))
+        except (OSError, ValueError, KeyError) as err:
+            print(f"profile of {run['member']} at N = {run['n_inner']} not drawn: {err}")
     return paths
 
 
