@@ -77,6 +77,11 @@ def _values(out_dir: Path, answer: dict) -> Path | None:
                         label=name)
             ax.set(xlabel="N (contact nodes)", ylabel=label)
             ax.set_xscale("log", base=2)
+    meshes = sorted(int(n) for n in answer["members"])
+    for ax in axes:
+        ax.set_xticks(meshes, [str(n) for n in meshes])
+        ax.minorticks_off()
+        ax.set_xlim(meshes[0] / 1.3, meshes[-1] * 1.3)
     axes[0].legend(fontsize=7)
     fig.suptitle("members of the random starts against the mesh (mean ± sd over the starts; "
                  "solid: rigid waves, dotted: modulated or unsettled)", fontsize=10)
