@@ -37,7 +37,6 @@ import tempfile
 import time
 from collections import Counter
 from pathlib import Path
-from types import SimpleNamespace
 
 import numpy as np
 
@@ -509,12 +508,16 @@ def stage_report(args) -> None:
         if r["target"] == "cpu" and (key(r) not in best_cpu or r["scene_steps_per_s"]
                                      > best_cpu[key(r)]["scene_steps_per_s"]):
             best_cpu[key(r)] = r
+    kernel_rate = {(r["N"], r["target"], r["B"]): r["scene_steps_per_s"] for r in rates
+                   if r["path"] == "kernel"}
     rows = []
     for r in sorted(rates, key=lambda r: (r["N"], r["path"], r["every"], r["target"] != "gpu",
                                        r["B"])):
         cpu = best_cpu.get(key(r))
         r["ratio_to_best_cpu_core"] = (r["scene_steps_per_s"] / cpu["scene_steps_per_s"]
                                        if cpu else None)
+        k = kernel_rate.get((r["N"], r["target"], r["B"]))
+        r["kernel_over_this"] = k / r["scene_steps_per_s"] if k else None
         r["fraction_of_peak"] = r["implied_gb_s"] / peak if peak and r["target"] == "gpu" \
             else None
         rows.append(r)
@@ -540,13 +543,14 @@ def _table(s: dict, peak) -> str:
              f"{env.get('cpu', '?')}; peak bandwidth {_fmt(peak, '.0f')} GB/s, copy "
              f"{_fmt(env.get('copy_bandwidth_gb_s'), '.0f')} GB/s", "",
              "| N | target | path | B | every | steps | scene-steps/s | µs/scene-step | "
-             "x best CPU core | implied GB/s | of peak |",
-             "|---|---|---|---|---|---|---|---|---|---|---|"]
+             "CPU µs/scene-step | kernel / this | x best CPU core | implied GB/s | of peak |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in s["rates"]:
         target = r["target"] + (" (emulated)" if r.get("emulated") else "")
         lines.append(
             f"| {r['N']} | {target} | {r['path']} | {r['B']} | {r['every']} | {r['steps']} | "
             f"{r['scene_steps_per_s']:.3g} | {r['us_per_scene_step']:.4g} | "
+            f"{r['cpu_us_per_scene_step']:.4g} | {_fmt(r['kernel_over_this'], '.3g')} | "
             f"{_fmt(r['ratio_to_best_cpu_core'], '.3g')} | {r['implied_gb_s']:.3g} | "
             f"{_fmt(r['fraction_of_peak'], '.0%')} |")
     for c in s["checks"]:

@@ -54,6 +54,10 @@ if [ "$mode" = gpu ] || [ "$mode" = dry ]; then
   STEPS=4000; OSTEPS=800; SECONDS_CAP=8; CHECK_B=(4096 1024); CHECK_STEPS=200
   CENSUS=(--B 4096 --end-time 0.3 --sample-interval 1e-3)
   CLI=(--starts 4096 --end-time 0.3 --backend gpu)
+elif [ "$mode" = cpu ]; then  # the CPU half: the same batch sizes, seconds per stage
+  B132=0; B528=0; CPU132="64 256"; CPU528="16 64"
+  STEPS=2000; OSTEPS=2000; SECONDS_CAP=5; CHECK_B=(0 0); CHECK_STEPS=0
+  CENSUS=(); CLI=(--starts 2 --end-time 0.002 --sample-interval 2e-4 --backend cpu)
 else  # rehearsal sizes: seconds each on a shared 2-core machine
   B132=16; B528=4; CPU132="16"; CPU528="4"
   STEPS=60; OSTEPS=60; SECONDS_CAP=4; CHECK_B=(16 4); CHECK_STEPS=40
