@@ -7,18 +7,20 @@ needs numpy, numba and CuPy only::
 
     ./dev python3 benchmarks/gpu_bench.py prepare build/gpu_suite       # here, once
     python3 benchmarks/gpu_bench.py env --json J
-    python3 benchmarks/gpu_bench.py rate --npz P --target gpu --B 4096 --path kernel --json J
+    python3 benchmarks/gpu_bench.py rate --npz P --target gpu --B 4096 --json J
     python3 benchmarks/gpu_bench.py check --npz P --B 4096 --json J
     python3 benchmarks/gpu_bench.py census --npz build/gpu_suite/census_n132.npz --json J
     python3 benchmarks/gpu_bench.py report J --out DIR
 
-Paths (``--path``), as the sweep's batch loop (studies/sweep/batch.py) runs them:
+Paths (``rate --paths``, timed in turn in one process), as the sweep's batch loop
+(studies/sweep/batch.py) runs them:
 
 * ``kernel``: the step alone, every step lean (v, a, K u not stored: an unsampled step);
 * ``observed``: the whole loop body: lean steps, a full step on each sampled level, the
-  probes every step, the samples (fields, status, energies) every ``every`` steps and the
-  health check; the record spooled to disk on the GPU and kept in memory on the CPU, as the
-  sweep does.
+  probes every step, the samples (fields, status, energies) and the health check every
+  ``every`` steps (the sweep's sample_interval, 1e-4 s); the record spooled to disk on the
+  GPU and kept in memory on the CPU, as the sweep does;
+* ``coarse``: the same at a coarse cadence (``--coarse-interval``, 1e-3 s).
 
 ``--target cpu`` is the batched numba kernel on one core (the best CPU path), ``gpu`` the
 CUDA kernel through CuPy. ``--emulate`` replaces CuPy by benchmarks/gpu_emulate.py (the CUDA
@@ -43,6 +45,8 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
+#: The timed paths (``rate --paths``), in the report's order.
+PATHS = ("kernel", "observed", "coarse")
 #: The census point: the paper's Figure-3 scene (undamped, as a batch is), random starts.
 CENSUS_SCENE = "scenes/figure3_n132.toml"
 
@@ -235,56 +239,70 @@ def _device_facts(xp) -> dict:
 
 
 def stage_rate(args) -> None:
-    """Scene-steps per second of one path on one target at one B: a warm-up block (compile),
-    then blocks of steps until ``--steps`` are done or ``--seconds`` have passed."""
+    """Scene-steps per second of the ``--paths`` on one target at one B, side by side: one
+    batch per path, a warm-up block each (compile), then rounds of one ``--block`` per path
+    in turn until ``--steps`` are done or ``--seconds`` have passed, so that a drift of the
+    machine's speed falls on every path alike. One record per path."""
     xp = namespace(args.target, args.emulate)
     bp, extra = load(args.npz)
-    every = cadence(args, bp, extra)
     kernel = "numba" if args.target == "cpu" else "cuda"
-    block = max(1, args.block // every) * every
-    warm = block
-    observe = None
-    spool = None
-    if args.path == "observed":
-        if xp is not np:  # the sweep spools a GPU batch's record to disk
-            spool = Path(tempfile.mkdtemp(prefix="gpu-bench-spool-", dir=args.spool_dir))
-        total = warm + args.steps + block + 1  # the last block may pass --steps
-        observe = {"every": every, "max_samples": total // every + 2, "max_steps": total,
-                   "probe_nodes": [probe_slot(bp)], "spool_dir": spool}
-    B = args.B
+    every = {"kernel": int(extra["every"]), "observed": cadence(args, bp, extra),
+             "coarse": max(1, int(round(args.coarse_interval / bp.dt)))}
+    block, B = args.block, args.B
+    total = 2 * block + args.steps + 1  # warm-up, the timed steps, a last block past --steps
+    spools, runs = [], {}
     try:
-        integ, rec, advance = ensemble(bp, tile(extra["d"], B), tile(extra["slide"], B),
-                                       tile(extra["f"], B), tile(extra["u0"], B), xp=xp,
-                                       kernel=kernel, observe=observe)
-        t0 = time.perf_counter()
-        advance(warm)
-        synchronize(xp)
-        first = time.perf_counter() - t0
-        steps = 0
-        t0, c0 = time.perf_counter(), time.process_time()
-        while steps < args.steps and (steps == 0 or time.perf_counter() - t0 < args.seconds):
-            advance(block)
+        for path in args.paths:
+            observe = None
+            if path != "kernel":
+                spool = None
+                if xp is not np:  # the sweep spools a GPU batch's record to disk
+                    spool = Path(tempfile.mkdtemp(prefix="gpu-bench-spool-", dir=args.spool_dir))
+                    spools.append(spool)
+                observe = {"every": every[path], "max_samples": total // every[path] + 2,
+                           "max_steps": total, "probe_nodes": [probe_slot(bp)],
+                           "spool_dir": spool}
+            run = ensemble(bp, tile(extra["d"], B), tile(extra["slide"], B),
+                           tile(extra["f"], B), tile(extra["u0"], B), xp=xp, kernel=kernel,
+                           observe=observe)
+            t0 = time.perf_counter()
+            run[2](block)
             synchronize(xp)
-            steps += block
-        seconds = time.perf_counter() - t0
-        cpu = time.process_time() - c0
-        active = int(np.sum(integ.active))
-        finite = bool(np.all(np.isfinite(host(integ.u))))
-        if rec is not None:
-            rec.close()
+            runs[path] = {"run": run, "first": time.perf_counter() - t0, "steps": 0,
+                          "seconds": 0.0, "cpu": 0.0}
+        t_start = time.perf_counter()
+        while min(r["steps"] for r in runs.values()) < args.steps and (
+                time.perf_counter() - t_start < args.seconds or not runs[args.paths[0]]["steps"]):
+            for r in runs.values():
+                t0, c0 = time.perf_counter(), time.process_time()
+                r["run"][2](block)
+                synchronize(xp)
+                r["seconds"] += time.perf_counter() - t0
+                r["cpu"] += time.process_time() - c0
+                r["steps"] += block
+        for r in runs.values():
+            integ, rec, _ = r["run"]
+            r["active"] = int(np.sum(integ.active))
+            r["finite"] = bool(np.all(np.isfinite(host(integ.u))))
+            if rec is not None:
+                rec.close()
     finally:
-        if spool is not None:
+        for spool in spools:
             shutil.rmtree(spool, ignore_errors=True)
     n, m = bp.n, int(bp.cx.size)
-    rate = B * steps / seconds
-    bytes_ss = dram_bytes_per_scene_step(n, m, every, args.path == "observed")
-    emit(args.json, {
-        "stage": "rate", "target": args.target, "emulated": bool(getattr(xp, "EMULATED", 0)),
-        "path": args.path, "N": m, "n": n, "B": B, "every": every, "steps": steps,
-        "seconds": seconds, "warmup_s": first, "scene_steps_per_s": rate,
-        "us_per_scene_step": 1e6 / rate, "cpu_us_per_scene_step": 1e6 * cpu / (B * steps),
-        "dram_bytes_per_scene_step": bytes_ss, "implied_gb_s": bytes_ss * rate / 1e9,
-        "active_scenes": active, "finite": finite})
+    for path, r in runs.items():
+        rate = B * r["steps"] / r["seconds"]
+        bytes_ss = dram_bytes_per_scene_step(n, m, every[path], path != "kernel")
+        emit(args.json, {
+            "stage": "rate", "target": args.target,
+            "emulated": bool(getattr(xp, "EMULATED", False)), "path": path, "N": m, "n": n,
+            "B": B, "every": every[path] if path != "kernel" else None, "steps": r["steps"],
+            "seconds": r["seconds"], "warmup_s": r["first"], "scene_steps_per_s": rate,
+            "us_per_scene_step": 1e6 / rate,
+            "cpu_us_per_scene_step": 1e6 * r["cpu"] / (B * r["steps"]),
+            "dram_bytes_per_scene_step": bytes_ss, "implied_gb_s": bytes_ss * rate / 1e9,
+            "active_scenes": r["active"], "finite": r["finite"],
+            "side_by_side": list(args.paths)})
 
 
 def stage_check(args) -> None:
@@ -501,7 +519,7 @@ def stage_report(args) -> None:
     rates = [r for r in records if r["stage"] == "rate"]
     peak = env.get("peak_bandwidth_gb_s")
     def key(r: dict) -> tuple:
-        return r["N"], r["path"], r["every"] if r["path"] == "observed" else 0
+        return r["N"], r["path"], r["every"]
 
     best_cpu = {}  # (N, path, cadence) -> the CPU run with the most scene-steps/s (its best B)
     for r in rates:
@@ -511,8 +529,8 @@ def stage_report(args) -> None:
     kernel_rate = {(r["N"], r["target"], r["B"]): r["scene_steps_per_s"] for r in rates
                    if r["path"] == "kernel"}
     rows = []
-    for r in sorted(rates, key=lambda r: (r["N"], r["path"], r["every"], r["target"] != "gpu",
-                                       r["B"])):
+    for r in sorted(rates, key=lambda r: (r["N"], r["target"] != "gpu", r["B"],
+                                       PATHS.index(r["path"]))):
         cpu = best_cpu.get(key(r))
         r["ratio_to_best_cpu_core"] = (r["scene_steps_per_s"] / cpu["scene_steps_per_s"]
                                        if cpu else None)
@@ -548,7 +566,8 @@ def _table(s: dict, peak) -> str:
     for r in s["rates"]:
         target = r["target"] + (" (emulated)" if r.get("emulated") else "")
         lines.append(
-            f"| {r['N']} | {target} | {r['path']} | {r['B']} | {r['every']} | {r['steps']} | "
+            f"| {r['N']} | {target} | {r['path']} | {r['B']} | {r['every'] or '-'} | "
+            f"{r['steps']} | "
             f"{r['scene_steps_per_s']:.3g} | {r['us_per_scene_step']:.4g} | "
             f"{r['cpu_us_per_scene_step']:.4g} | {_fmt(r['kernel_over_this'], '.3g')} | "
             f"{_fmt(r['ratio_to_best_cpu_core'], '.3g')} | {r['implied_gb_s']:.3g} | "
@@ -595,13 +614,18 @@ def main(argv: list[str] | None = None) -> None:
     p = sub.add_parser("rate", parents=[common], help="scene-steps/s of one path")
     p.add_argument("--npz", type=Path, required=True)
     p.add_argument("--target", choices=("cpu", "gpu"), required=True)
-    p.add_argument("--path", choices=("kernel", "observed"), required=True)
+    p.add_argument("--paths", nargs="+", choices=("kernel", "observed", "coarse"),
+                   default=["kernel", "observed", "coarse"],
+                   help="kernel alone; with the observers at the sweep's cadence; at the "
+                        "coarse cadence (timed in turn, side by side)")
     p.add_argument("--B", type=int, required=True)
-    p.add_argument("--steps", type=int, default=2000, help="timed steps at most")
+    p.add_argument("--steps", type=int, default=2000, help="timed steps per path at most")
     p.add_argument("--seconds", type=float, default=20.0, help="timed seconds at most")
-    p.add_argument("--block", type=int, default=100, help="steps between synchronisations")
+    p.add_argument("--block", type=int, default=100, help="steps per path and round")
     p.add_argument("--sample-interval", type=float, default=0.0,
                    help="s between samples (default: the npz's, the sweep's 1e-4 s)")
+    p.add_argument("--coarse-interval", type=float, default=1e-3,
+                   help="s between samples of the coarse path")
     p = sub.add_parser("check", parents=[common], help="GPU against CPU, observed path")
     p.add_argument("--npz", type=Path, required=True)
     p.add_argument("--B", type=int, default=4096)

@@ -51,16 +51,19 @@ if command -v taskset >/dev/null; then ONE_CORE+=(taskset -c 0); fi
 # sizes: (B of the GPU at N = 132, at N = 528), CPU batch sizes, timed steps, census
 if [ "$mode" = gpu ] || [ "$mode" = dry ]; then
   B132=4096; B528=1024; CPU132="64 256"; CPU528="16 64"
-  STEPS=4000; OSTEPS=800; SECONDS_CAP=8; CHECK_B=(4096 1024); CHECK_STEPS=200
+  STEPS=1000; BLOCK=100; CPU_BLOCK=20; SECONDS_CAP=24; CPU_SECONDS=15
+  CHECK_B=(4096 1024); CHECK_STEPS=200
   CENSUS=(--B 4096 --end-time 0.3 --sample-interval 1e-3)
   CLI=(--starts 4096 --end-time 0.3 --backend gpu)
 elif [ "$mode" = cpu ]; then  # the CPU half: the same batch sizes, seconds per stage
   B132=0; B528=0; CPU132="64 256"; CPU528="16 64"
-  STEPS=2000; OSTEPS=2000; SECONDS_CAP=5; CHECK_B=(0 0); CHECK_STEPS=0
+  STEPS=1000; BLOCK=0; CPU_BLOCK=20; SECONDS_CAP=0; CPU_SECONDS=15
+  CHECK_B=(0 0); CHECK_STEPS=0
   CENSUS=(); CLI=(--starts 2 --end-time 0.002 --sample-interval 2e-4 --backend cpu)
 else  # rehearsal sizes: seconds each on a shared 2-core machine
   B132=16; B528=4; CPU132="16"; CPU528="4"
-  STEPS=60; OSTEPS=60; SECONDS_CAP=4; CHECK_B=(16 4); CHECK_STEPS=40
+  STEPS=60; BLOCK=20; CPU_BLOCK=20; SECONDS_CAP=6; CPU_SECONDS=6
+  CHECK_B=(16 4); CHECK_STEPS=40
   CENSUS=(--B 16 --end-time 0.01 --sample-interval 2e-4 --scenes 4 --workers 2)
   CLI=(--starts 2 --end-time 0.002 --sample-interval 2e-4 --backend cpu)
 fi
@@ -118,17 +121,12 @@ stage gpu "check N=132" 90 "${BENCH[@]}" check --npz "$P132" --B "${CHECK_B[0]}"
   --steps "$CHECK_STEPS" "${J[@]}"
 for n in 132 528; do
   if [ $n = 132 ]; then P=$P132; BG=$B132; BC=$CPU132; else P=$P528; BG=$B528; BC=$CPU528; fi
-  for path in "kernel" "observed" "observed coarse"; do
-    extra=(--path "${path% coarse}")
-    [ "$path" = "observed coarse" ] && extra+=(--sample-interval 1e-3)
-    steps=$STEPS; [ "$path" != kernel ] && steps=$OSTEPS
-    stage gpu "gpu $path N=$n B=$BG" 60 "${BENCH[@]}" rate --npz "$P" --target gpu \
-      --B "$BG" --steps "$steps" --seconds "$SECONDS_CAP" "${extra[@]}" "${J[@]}"
-    for b in $BC; do
-      stage cpu "cpu $path N=$n B=$b" 40 "${ONE_CORE[@]}" "${BENCH[@]}" rate --npz "$P" \
-        --target cpu --B "$b" --steps "$steps" --seconds "$SECONDS_CAP" "${extra[@]}" \
-        "${J[@]}"
-    done
+  # the kernel alone, with the observers at the sweep's and at a coarse cadence: in turn
+  stage gpu "gpu N=$n B=$BG" 90 "${BENCH[@]}" rate --npz "$P" --target gpu --B "$BG" \
+    --steps "$STEPS" --block "$BLOCK" --seconds "$SECONDS_CAP" "${J[@]}"
+  for b in $BC; do
+    stage cpu "cpu N=$n B=$b" 60 "${ONE_CORE[@]}" "${BENCH[@]}" rate --npz "$P" --target cpu \
+      --B "$b" --steps "$STEPS" --block "$CPU_BLOCK" --seconds "$CPU_SECONDS" "${J[@]}"
   done
 done
 stage gpu "check N=528" 90 "${BENCH[@]}" check --npz "$P528" --B "${CHECK_B[1]}" \

@@ -200,7 +200,7 @@ def test_suite_rate_stages_and_report_give_the_ratio_table(suite_npz, tmp_path):
 
     out = tmp_path / "stages.jsonl"
     for target in ("gpu", "cpu"):
-        main(["rate", "--npz", str(suite_npz), "--target", target, "--emulate", "--path",
+        main(["rate", "--npz", str(suite_npz), "--target", target, "--emulate", "--paths",
               "observed", "--B", "4", "--steps", "6", "--block", "3", "--json", str(out)])
     main(["report", str(out), "--out", str(tmp_path / "report")])
     summary = json.loads((tmp_path / "report" / "gpu_suite.json").read_text())
@@ -221,9 +221,8 @@ def test_suite_script_plan_has_the_issue_sizes_and_refuses_bad_use():
     plan = subprocess.run(["bash", str(script), "--dry-run"], capture_output=True, text=True)
     assert plan.returncode == 0, plan.stderr
     text = plan.stdout
-    for stage in ("gpu kernel N=132 B=4096", "gpu observed N=132 B=4096",
-                  "gpu kernel N=528 B=1024", "gpu observed N=528 B=1024",
-                  "cpu observed N=132 B=256", "cpu kernel N=528 B=16", "census N=132"):
+    for stage in ("gpu N=132 B=4096", "gpu N=528 B=1024", "cpu N=132 B=256",
+                  "cpu N=528 B=16", "census N=132"):
         assert stage in text, stage
     assert "taskset -c 0" in text and "--B 4096 --end-time 0.3" in text
     bad = subprocess.run(["bash", str(script), "--frobnicate"], capture_output=True,
