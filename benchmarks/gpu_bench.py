@@ -54,13 +54,16 @@ CENSUS_SCENE = "scenes/figure3_n132.toml"
 # ------------------------------------------------------------------ the ensemble's API, once
 
 
-def ensemble(bp, d, slide, f, u0, *, xp, kernel: str, observe: dict | None = None):
+def ensemble(bp, d, slide, f, u0, *, xp, kernel: str, observe: dict | None = None,
+             diag: bool = False):
     """The batch of ``solver.ensemble`` and, with ``observe``, its ``BatchRecorder``.
 
     The one place that calls the ensemble's public classes (``BatchedExplicit``,
-    ``BatchRecorder``). ``observe``: {every, max_samples, max_steps, probe_nodes, spool_dir}.
-    Returns ``(integ, rec, advance)``: ``advance(k)`` runs k steps of the path, the body of
-    the sweep's batch loop (studies/sweep/batch.py) with ``rec``, lean steps without it.
+    ``BatchRecorder``; benchmarks/ensemble.py's npz mode uses it too). ``observe``: {every,
+    max_samples, max_steps, probe_nodes (contact slots), spool_dir}. Returns ``(integ, rec,
+    advance)``: ``advance(k)`` runs k steps of the path, the body of the sweep's batch loop
+    (studies/sweep/batch.py) with ``rec``, lean steps without it; ``diag``: store v, a, K u
+    at every step (as a sampled step).
     """
     from solver.ensemble import BatchedExplicit
     from solver.ensemble_observers import BatchRecorder
@@ -70,7 +73,7 @@ def ensemble(bp, d, slide, f, u0, *, xp, kernel: str, observe: dict | None = Non
     if observe is None:
         def advance(k: int) -> None:
             for _ in range(k):
-                integ.step(diag=False)
+                integ.step(diag=diag)
 
         return integ, None, advance
     perm = np.argsort(bp.theta)
@@ -85,7 +88,7 @@ def ensemble(bp, d, slide, f, u0, *, xp, kernel: str, observe: dict | None = Non
 
     def advance(k: int) -> None:
         for _ in range(k):
-            integ.step(diag=rec.due(integ.step_count))
+            integ.step(diag=diag or rec.due(integ.step_count))
             rec.record_probes()
             if rec.due(integ.step_count - 1):
                 kin, strain, wcyl = rec.sample()
@@ -616,7 +619,7 @@ def main(argv: list[str] | None = None) -> None:
     p = sub.add_parser("prepare", help="write the npz problems (needs dolfinx)")
     p.add_argument("directory", type=Path)
     p.add_argument("--n", type=int, nargs="+", default=[132, 528])
-    p.add_argument("--starts", type=int, default=64, help="census starts")
+    p.add_argument("--starts", type=int, default=256, help="census starts")
     sub.add_parser("env", parents=[common], help="device and host facts")
     p = sub.add_parser("rate", parents=[common], help="scene-steps/s of one path")
     p.add_argument("--npz", type=Path, required=True)
