@@ -479,6 +479,23 @@ def stage_cli(args) -> None:
     shutil.rmtree(out_dir, ignore_errors=True)
 
 
+def stage_pytest(args) -> None:
+    """tests/test_gpu.py on this node, from the npz problem (``STICKSLIP_GPU_NPZ``): the
+    CUDA kernel through CuPy bitwise against numba, and the CPU emulation's tests."""
+    import subprocess
+
+    env = dict(os.environ, STICKSLIP_GPU_NPZ=str(args.npz.resolve()))
+    t0 = time.perf_counter()
+    proc = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider",
+                           "tests/test_gpu.py"], capture_output=True, text=True, cwd=REPO,
+                          env=env)
+    lines = proc.stdout.strip().splitlines()
+    emit(args.json, {"stage": "pytest", "rc": proc.returncode,
+                     "seconds": time.perf_counter() - t0,
+                     "summary": lines[-1] if lines else proc.stderr.strip()[-300:],
+                     "failures": [ln for ln in lines if ln.startswith(("FAILED", "ERROR"))]})
+
+
 def stage_prepare(args) -> None:
     """Write DIR/problem_nN.npz (8 scenes of the map, benchmarks/ensemble.py) and
     DIR/census_n132.npz (``--starts`` random starts at the census point); needs dolfinx."""
@@ -551,6 +568,7 @@ def stage_report(args) -> None:
                "checks": [r for r in records if r["stage"] == "check"],
                "census": [r for r in records if r["stage"] == "census"],
                "cli": [r for r in records if r["stage"] == "cli"],
+               "pytest": [r for r in records if r["stage"] == "pytest"],
                "skipped": [r for r in records if r["stage"] == "skipped"]}
     args.out.mkdir(parents=True, exist_ok=True)
     (args.out / "gpu_suite.json").write_text(json.dumps(summary, indent=1))
@@ -599,6 +617,8 @@ def _table(s: dict, peak) -> str:
         lines.append(f"\nCLI: `{c['command']}`: exit {c['rc']}, {c['seconds']:.1f} s, shares "
                      f"{c['shares']}; stderr: {c['stderr_lines']} line(s), last "
                      f"{c['stderr_last']!r}")
+    for c in s["pytest"]:
+        lines.append(f"\ntests/test_gpu.py: exit {c['rc']}, {c['summary']} {c['failures']}")
     for c in s["skipped"]:
         lines.append(f"\nskipped {c['what']}: {c['why']}")
     return "\n".join(lines) + "\n"
@@ -658,12 +678,15 @@ def main(argv: list[str] | None = None) -> None:
     p.add_argument("--end-time", type=float, default=0.3)
     p.add_argument("--sample-interval", type=float, default=1e-3)
     p.add_argument("--backend", choices=("cpu", "gpu"), default="gpu")
+    p = sub.add_parser("pytest", parents=[common], help="tests/test_gpu.py on this node")
+    p.add_argument("--npz", type=Path, required=True)
     p = sub.add_parser("report", help="gpu_suite.json + gpu_suite.md from the records")
     p.add_argument("jsonl", type=Path, nargs="+")
     p.add_argument("--out", type=Path, required=True)
     args = ap.parse_args(argv)
     {"prepare": stage_prepare, "env": stage_env, "rate": stage_rate, "check": stage_check,
-     "census": stage_census, "cli": stage_cli, "report": stage_report}[args.stage](args)
+     "census": stage_census, "cli": stage_cli, "pytest": stage_pytest,
+     "report": stage_report}[args.stage](args)
 
 
 if __name__ == "__main__":

@@ -133,6 +133,7 @@ stage gpu "check N=528" 90 "${BENCH[@]}" check --npz "$P528" --B "${CHECK_B[1]}"
   --steps "$((CHECK_STEPS / 2))" "${J[@]}"
 stage gpu "census N=132" 180 "${BENCH[@]}" census --npz "$data/census_n132.npz" \
   "${CENSUS[@]}" "${J[@]}"
+stage gpu "pytest tests/test_gpu.py" 120 "${BENCH[@]}" pytest --npz "$P132" "${J[@]}"
 # the census from the command line needs the FE stack (steady states, meshes) on this node
 if [ "$mode" = dry ] || "$PY" -c "import dolfinx" 2>/dev/null; then
   if [ "$mode" = gpu ] || [ "$mode" = dry ]; then
