@@ -169,7 +169,7 @@ def suite_npz(tmp_path, monkeypatch):
     monkeypatch.setitem(sys.modules, "cupy", gpu_emulate.cupy_module())
     bp, u0, d, slide, f = _problem()
     path = tmp_path / "problem.npz"
-    bp.save(path, u0=u0, d=d, slide=slide, f=f, every=np.array(3))
+    bp.save(path, u0=u0, d=d, slide=slide, f=f, every=np.array(3), radius=np.array(1.0))
     return path
 
 
@@ -211,6 +211,24 @@ def test_suite_rate_stages_and_report_give_the_ratio_table(suite_npz, tmp_path):
     assert cpu["ratio_to_best_cpu_core"] == 1.0
     table = (tmp_path / "report" / "gpu_suite.md").read_text()
     assert "| gpu (emulated) | observed | 4 | 3 | 6 |" in table
+
+
+def test_suite_census_stage_classifies_every_scene_and_agrees_with_the_cpu(suite_npz,
+                                                                          tmp_path):
+    """The census stage, emulated: 6 scenes (the 3 starts twice) for 60 steps with the
+    observers, each classified; the shares sum to 1 and the first 3 scenes run again on
+    the CPU end bitwise equal with the same members."""
+    from benchmarks.gpu_bench import load, main
+
+    bp, _ = load(suite_npz)
+    out = tmp_path / "stages.jsonl"
+    main(["census", "--npz", str(suite_npz), "--emulate", "--B", "6", "--end-time",
+          str(60 * bp.dt), "--sample-interval", str(3 * bp.dt), "--scenes", "3",
+          "--workers", "1", "--json", str(out)])
+    r = json.loads(out.read_text())
+    assert r["steps"] == 60 and r["scene_steps"] == 360
+    assert sum(r["gpu"]["shares"].values()) == pytest.approx(1.0, abs=1e-12)
+    assert r["subsample_same_bits"] and r["subsample_same_members"], r
 
 
 def test_suite_script_plan_has_the_issue_sizes_and_refuses_bad_use():
