@@ -12,8 +12,8 @@ needs numpy, numba and CuPy only::
     python3 benchmarks/gpu_bench.py census --npz build/gpu_suite/census_n132.npz --json J
     python3 benchmarks/gpu_bench.py report J --out DIR
 
-Paths (``rate --paths``, timed in turn in one process), as the sweep's batch loop
-(studies/sweep/batch.py) runs them:
+Paths (``rate --paths``, timed in turn in one process), as a sweep's batch
+(``solver.ensemble_run.BatchSimulation`` in ``solver.run.run_loop``) runs them:
 
 * ``kernel``: the step alone, every step lean (v, a, K u not stored: an unsampled step);
 * ``observed``: the whole loop body: lean steps, a full step on each sampled level, the
@@ -61,9 +61,11 @@ def ensemble(bp, d, slide, f, u0, *, xp, kernel: str, observe: dict | None = Non
     The one place that calls the ensemble's public classes (``BatchedExplicit``,
     ``BatchRecorder``; benchmarks/ensemble.py's npz mode uses it too). ``observe``: {every,
     max_samples, max_steps, probe_nodes (contact slots), spool_dir}. Returns ``(integ, rec,
-    advance)``: ``advance(k)`` runs k steps of the path, the body of the sweep's batch loop
-    (studies/sweep/batch.py) with ``rec``, lean steps without it; ``diag``: store v, a, K u
-    at every step (as a sampled step).
+    advance)``: ``advance(k)`` runs k steps of the path, lean steps without ``rec``; with it,
+    step for step what a sweep's batch does (``BatchSimulation``: v, a, K u stored on the
+    sampled levels, its probe hook after every step, its sampling observer with the energy
+    guard on the sampled levels). ``solver.run.run_loop`` itself is not called: it imports
+    mpi4py, which a GPU node need not have. ``diag``: store v, a, K u at every step.
     """
     from solver.ensemble import BatchedExplicit
     from solver.ensemble_observers import BatchRecorder
