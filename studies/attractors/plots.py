@@ -30,6 +30,8 @@ def plot_census(out_dir: str | Path) -> list[Path]:
 def _basins(out_dir: Path, answer: dict) -> Path | None:
     import matplotlib.pyplot as plt
 
+    from studies.attractors.statistics import wilson
+
     meshes = list(answer["members"])
     names = sorted({m["member"] for ms in answer["members"].values() for m in ms})
     if not names:
@@ -40,10 +42,11 @@ def _basins(out_dir: Path, answer: dict) -> Path | None:
     x = np.arange(len(names))
     for j, n in enumerate(meshes):
         by = {m["member"]: m for m in answer["members"][n]}
-        share = np.array([by[s]["share"] if s in by else 0.0 for s in names])
-        lo = np.array([by[s]["share_lo"] if s in by else 0.0 for s in names])
-        hi = np.array([by[s]["share_hi"] if s in by else 0.0 for s in names])
         starts = answer["members"][n][0]["starts"] if answer["members"][n] else 0
+        none = wilson(0, starts)  # a member no start reached: 0 with its interval
+        share = np.array([by[s]["share"] if s in by else 0.0 for s in names])
+        lo = np.array([by[s]["share_lo"] if s in by else none[0] for s in names])
+        hi = np.array([by[s]["share_hi"] if s in by else none[1] for s in names])
         ax.bar(x + (j - (len(meshes) - 1) / 2) * width, share, width,
                yerr=[share - lo, hi - share], capsize=3, label=f"N = {n} ({starts} starts)")
     ax.set_xticks(x, names, rotation=30, ha="right", fontsize=8)
