@@ -53,6 +53,12 @@ def ladder_lines(answer: dict) -> list[str]:
     lines.append(f"set of attractors: the same, shares consistent (Fisher p ≥ 0.05), from "
                  f"N = {stable} on" if stable is not None else
                  "set of attractors: still changing within the ladder (refine further)")
+    differ = [t for t in lad["tests"] if t["consistent"] is False]
+    if differ:
+        lines.append("  shares that differ (Fisher's exact test, p < 0.05): " + "; ".join(
+            f"{t['member']} {t['count_a']}/{t['starts_a']} at N = {t['mesh_a']} vs "
+            f"{t['count_b']}/{t['starts_b']} at N = {t['mesh_b']} (p = {t['p_value']:.2g})"
+            for t in differ))
     for name, m in lad["members"].items():
         if len(m["meshes"]) < 2 or name in ("diverged", "failed", "unsettled",
                                             "steady-sliding"):
