@@ -35,7 +35,7 @@ from __future__ import annotations
 import importlib
 from typing import Any
 
-from solver import __version__
+from solver import __version__ as __version__
 
 #: Public name -> the module that defines it (imported on first access).
 _EXPORTS = {

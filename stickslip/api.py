@@ -66,7 +66,8 @@ def load_scene(scene: str | Path | Scene, overrides: Overrides = None) -> Scene:
         >>> s.loading.omega, s.mesh.n_inner
         (40.0, 132)
     """
-    from solver.scene import Scene, load_scene as _load
+    from solver.scene import Scene
+    from solver.scene import load_scene as _load
 
     texts = _override_strings(overrides)
     if isinstance(scene, Scene):
@@ -182,7 +183,8 @@ def sweep(spec: str | Path, out_dir: str | Path | None = None, *, batch: str | N
         ['completed']
     """
     from studies.output import output_root
-    from studies.sweep import load_sweep, plot_sweep as _plot, read_table, run_sweep
+    from studies.sweep import load_sweep, read_table, run_sweep
+    from studies.sweep import plot_sweep as _plot
     from studies.sweep.batch import parse_batch
 
     s = load_sweep(spec)
