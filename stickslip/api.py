@@ -139,7 +139,7 @@ def analyse(run_dir: str | Path, window: float | None = None) -> WaveSummary:
 
     Returns:
         ``postprocess.analysis.WaveSummary``: ``regime``, ``mode`` k, ``celerity_m_s``
-        (signed, + = the rotation's sense), ``frequency_hz`` = |c| k / (2 pi R),
+        (signed, + = the rotation's sense), ``frequency_hz`` = abs(c) k / (2 pi R),
         ``fractions`` of separation / stick / slip, ``psi1``, ``psi2``, ``limit_cycle``.
 
     Example:
