@@ -16,7 +16,7 @@ beta2 = 0.6, 0.3 s: about 10 s), then reads the samples and draws the wave.
 # ``stickslip.run`` takes a scene file or the name of a shipped scene, writes a run directory
 # and returns its ``summary.json`` as a dict. The wave is measured over the last third of the
 # record.
-import tempfile
+import os
 from pathlib import Path
 
 import matplotlib.pyplot as plt
@@ -24,8 +24,10 @@ import numpy as np
 
 import stickslip
 
-run_dir = Path(tempfile.mkdtemp()) / "figure3_n132"
-summary = stickslip.run("figure3_n132", run_dir, quiet=True)
+# Outputs go to $STICKSLIP_OUTPUT/demos (default runs/demos).
+out = Path(os.environ.get("STICKSLIP_OUTPUT", "runs")) / "demos"
+run_dir = out / "figure3_n132"
+summary = stickslip.run("figure3_n132", run_dir, force=True, quiet=True)
 for key in ("status", "regime", "mode", "celerity_m_s", "frequency_hz", "fractions",
             "limit_cycle"):
     print(f"{key:>14}: {summary[key]}")

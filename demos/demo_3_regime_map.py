@@ -15,14 +15,15 @@ per scene; about 15 s in all). For a real map use N >= 132 and ``mpirun``::
 # The sweep file
 # --------------
 # A base scene, overrides for every scene (``set``), and the grid of dotted scene keys.
-import tempfile
+import os
 from pathlib import Path
 
 import matplotlib.pyplot as plt
 
 import stickslip
 
-work = Path(tempfile.mkdtemp())
+work = Path(os.environ.get("STICKSLIP_OUTPUT", "runs")) / "demos" / "regime_map"
+work.mkdir(parents=True, exist_ok=True)
 sweep_file = work / "demo_map.toml"
 sweep_file.write_text('''
 name = "demo_map"

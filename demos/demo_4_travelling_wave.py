@@ -15,6 +15,9 @@ cylinder's speed Omega changes (about 10 s).
 # ``stickslip.travel`` returns the summary (the keys of a run's summary.json, plus the
 # Newton residual) and the profiles over one wavelength. ``fixed_omega=True`` keeps the
 # nearest admissible speed to the start.
+import os
+from pathlib import Path
+
 import matplotlib.pyplot as plt
 import numpy as np
 
@@ -51,10 +54,9 @@ fig.tight_layout()
 # operators). The branch ends where a solve fails; its row says which inequality failed.
 # With ``fixed_omega`` the speed stays at the start's -2300 m/s and the amplitude follows
 # Omega: the discrete waves form bands of admissible speeds, not isolated points.
-import tempfile  # noqa: E402
-
 omegas = [40.0, 42.5, 45.0, 47.5, 50.0]
-rows = stickslip.travel_branch(scene, 4, "loading.omega", omegas, tempfile.mkdtemp(),
+out = Path(os.environ.get("STICKSLIP_OUTPUT", "runs")) / "demos" / "branch_k4"
+rows = stickslip.travel_branch(scene, 4, "loading.omega", omegas, out,
                                celerity=-2300.0, fixed_omega=True, force=True)
 ok = [r for r in rows if r["status"] == "converged"]
 fig, ax = plt.subplots(figsize=(6, 3.5))

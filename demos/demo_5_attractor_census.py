@@ -13,7 +13,7 @@ attractors`` command runs such a census in batches and on several meshes.
 # %%
 # Six starts
 # ----------
-import tempfile
+import os
 from collections import Counter
 from pathlib import Path
 
@@ -25,10 +25,11 @@ scene = stickslip.load_scene("figure3_n132_damped", {"mesh.n_inner": 66})
 starts = {f"mode {k}": {"initial.perturbation": "mode", "initial.mode": k} for k in (2, 3, 4)}
 starts |= {f"random {s}": {"initial.perturbation": "random", "initial.seed": s}
            for s in (1, 2, 3)}
-work = Path(tempfile.mkdtemp())
+work = Path(os.environ.get("STICKSLIP_OUTPUT", "runs")) / "demos" / "census"
 reached = {}
 for name, start in starts.items():
-    s = stickslip.run(scene, work / name.replace(" ", "_"), overrides=start, quiet=True)
+    s = stickslip.run(scene, work / name.replace(" ", "_"), overrides=start, force=True,
+                      quiet=True)
     reached[name] = (s["mode"], s["direction"], s["regime"])
     print(f"{name:>9}: k = {s['mode']:2d}, {s['direction']:8}, {s['regime']}, "
           f"{s['frequency_hz']:.0f} Hz, limit cycle {s['limit_cycle']}")
