@@ -42,6 +42,7 @@ exclude_patterns = ["_build", "demos/*.md5", "demos/*.py", "demos/*.ipynb", "dem
                     "demos/*.json", "**/*.jsonl"]
 
 myst_heading_anchors = 3
+smartquotes = False  # keep "--set" and quotes as typed (commands and TOML)
 myst_enable_extensions = ["colon_fence"]
 suppress_warnings = ["myst.header"]  # pages that start below level 1 (kept from the notes)
 
@@ -52,7 +53,8 @@ napoleon_numpy_docstring = False
 
 html_theme = "sphinx_rtd_theme"
 html_title = f"stickslip {release}"
-html_static_path: list[str] = []
+html_static_path = ["_static"]
+html_css_files = ["stickslip.css"]
 html_theme_options = {"navigation_depth": 3, "collapse_navigation": False}
 
 sphinx_gallery_conf = {

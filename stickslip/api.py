@@ -91,10 +91,10 @@ def run(scene: str | Path | Scene, run_dir: str | Path | None = None, *,
         check_resources: refuse a scene that needs more memory or disk than the machine has.
 
     Returns:
-        The contents of ``summary.json``: ``status`` (completed, diverged, stopped,
-        interrupted, failed), ``regime``, ``mode``, ``celerity_m_s``, ``frequency_hz``,
-        ``fractions``, ... (reference: "Output files"). ``EXIT_CODES[status]`` is the exit
-        status the command would give.
+        The run's summary, the contents of ``summary.json``, with ``status`` (completed,
+        diverged, stopped, interrupted, failed), ``regime``, ``mode``, ``celerity_m_s``,
+        ``frequency_hz``, ``fractions``, ... (reference: "Output files").
+        ``EXIT_CODES[status]`` is the exit status the command would give.
 
     Example:
         >>> summary = stickslip.run("smoke", "/tmp/smoke", force=True, quiet=True)
@@ -174,8 +174,9 @@ def sweep(spec: str | Path, out_dir: str | Path | None = None, *, batch: str | N
         quiet: do not print the progress lines.
 
     Returns:
-        The sweep table (``sweep.json``): its meta data and ``rows``, one per scene with
-        the scene's parameters, ``status``, ``regime``, ``mode``, ``celerity_m_s``, ...
+        The sweep table, the contents of ``sweep.json``, with its meta data and ``rows``,
+        one per scene with the scene's parameters, ``status``, ``regime``, ``mode``,
+        ``celerity_m_s``, ...
 
     Example:
         >>> table = stickslip.sweep("sweeps/smoke4.toml", "/tmp/smoke4", quiet=True)
@@ -348,7 +349,7 @@ def travel_branch(scene: str | Path | Scene, k: int, key: str, values: Sequence[
         out_dir: where ``branch.json`` and ``branch.csv`` (and ``branch.png``) go.
 
     Returns:
-        The rows of ``branch.json``: ``value``, ``status`` (converged, failed, error) and,
+        The rows of ``branch.json``, each with ``value``, ``status`` (converged, failed, error) and,
         where converged, ``celerity_m_s``, ``amplitude_m``, ``psi1``, ``psi2``, ``regime``.
 
     Example:

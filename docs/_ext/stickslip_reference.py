@@ -26,7 +26,7 @@ REPO = Path(__file__).resolve().parents[2]
 def _cell(text: str) -> str:
     """Text for one Markdown table cell (no raw HTML, no stray emphasis)."""
     text = " ".join(str(text).split())
-    for raw, escaped in (("|", "\\|"), ("*", "\\*"), ("<", "&lt;"), (">", "&gt;")):
+    for raw, escaped in (("|", "\\|"), ("*", "\\*"), ("<", "&lt;")):
         text = text.replace(raw, escaped)
     return text
 
@@ -71,10 +71,11 @@ def cli_markdown() -> str:
            _cell(parser.description or ""), ""]
     for name, sub in _subcommands(parser).items():
         sub.prog = f"stickslip {name}"
+        rows = _option_rows(sub)
+        table = (["| argument | meaning | default | choices |", "|---|---|---|---|", *rows]
+                 if rows else ["No arguments."])
         out += [f"## `stickslip {name}`", "", _cell(sub.description or ""), "",
-                "```text", sub.format_usage().strip(), "```", "",
-                "| argument | meaning | default | choices |", "|---|---|---|---|",
-                *_option_rows(sub), ""]
+                "```text", sub.format_usage().strip(), "```", "", *table, ""]
     return "\n".join(out) + "\n"
 
 
@@ -149,6 +150,8 @@ def _default(f) -> str:
         return f'"{value}"'
     if isinstance(value, tuple):
         return "[" + ", ".join(repr(v) for v in value) + "]"
+    if isinstance(value, float) and value != 0 and not 1e-3 <= abs(value) < 1e5:
+        return f"{value:.6g}"  # 1e+09, not 1000000000.0
     return repr(value)
 
 
