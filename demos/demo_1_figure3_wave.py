@@ -28,9 +28,10 @@ import stickslip
 out = Path(os.environ.get("STICKSLIP_OUTPUT", "runs")) / "demos"
 run_dir = out / "figure3_n132"
 summary = stickslip.run("figure3_n132", run_dir, force=True, quiet=True)
-for key in ("status", "regime", "mode", "celerity_m_s", "frequency_hz", "fractions",
-            "limit_cycle"):
-    print(f"{key:>14}: {summary[key]}")
+print(f"{summary['status']}: {summary['regime']}, k = {summary['mode']}, "
+      f"celerity {summary['celerity_m_s']:.1f} m/s, {summary['frequency_hz']:.1f} Hz, "
+      f"limit cycle {summary['limit_cycle']}")
+print("zone fractions:", {zone: round(share, 3) for zone, share in summary["fractions"].items()})
 
 # %%
 # The samples
@@ -47,10 +48,11 @@ print("samples:", {k: v.shape for k, v in s.items() if k in ("t", "theta", "u_r"
 # %%
 # Space-time map
 # --------------
-# The last 20 ms: the gap u_r - d (the tube lifts off the cylinder where it is positive) and
-# the contact status. A travelling wave is a set of parallel stripes; k = 4 stripes per turn
-# that lean to smaller angles as time grows: the wave travels *against* the rotation.
-last = t >= t[-1] - 0.02
+# The last 5 ms (about 8 periods): the gap u_r - d (the tube lifts off the cylinder where it
+# is positive) and the contact status. A travelling wave is a set of parallel stripes; k = 4
+# stripes per turn that lean to smaller angles as time grows: the wave travels *against* the
+# rotation.
+last = t >= t[-1] - 0.005
 fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(10, 4), sharey=True)
 extent = (0, 360, t[last][0] * 1e3, t[-1] * 1e3)
 im = ax1.imshow((s["u_r"][last] - d) * 1e3, aspect="auto", origin="lower", extent=extent,
@@ -59,7 +61,7 @@ fig.colorbar(im, ax=ax1, label="u_r - d (mm)")
 ax2.imshow(s["status"][last], aspect="auto", origin="lower", extent=extent,
            cmap=plt.matplotlib.colors.ListedColormap(["white", "tab:blue", "tab:orange"]))
 ax1.set(xlabel="theta (degree)", ylabel="t (ms)", title="gap")
-ax2.set(xlabel="theta (degree)", title="separation / stick / slip")
+ax2.set(xlabel="theta (degree)", title="separation (white), stick (blue), slip (orange)")
 fig.tight_layout()
 
 # %%
