@@ -21,18 +21,31 @@ if TYPE_CHECKING:
     from solver.scene import Scene
     from studies.flutter_fe.cea import CEAResult
 
-__all__ = ["EXIT_CODES", "STATUS_CODES", "analyse", "cea", "cea_friction_sweep", "load_run",
+__all__ = ["analyse", "cea", "cea_friction_sweep", "load_run",
            "load_scene", "plot_run", "plot_sweep", "reduced_waves", "run", "sweep", "travel",
            "travel_branch"]
 
 SceneLike = "str | Path | Scene"
 Overrides = Mapping[str, Any] | Sequence[str] | None
 
-#: The contact status of a node in ``samples.npz["status"]`` (and every other status array).
-STATUS_CODES = {0: "separation", 1: "stick", 2: "slip"}
 
-#: Exit status of ``stickslip run`` by the ``status`` of ``summary.json``.
-EXIT_CODES = {"completed": 0, "diverged": 1, "failed": 2, "stopped": 3, "interrupted": 130}
+def __getattr__(name: str) -> Any:
+    """The constants, from the one place that defines each (imported on first access):
+
+    * ``STATUS_CODES``: ``{code: name}`` of the contact status in ``samples.npz["status"]``
+      and every other status array (``solver.contact``: 0 separation, 1 stick, 2 slip);
+    * ``EXIT_CODES``: the exit status of ``stickslip run`` by the ``status`` of
+      ``summary.json`` (``studies.rundir``).
+    """
+    if name == "STATUS_CODES":
+        from solver.contact import STATUS_NAMES
+
+        return dict(enumerate(STATUS_NAMES))
+    if name == "EXIT_CODES":
+        from studies.rundir import EXIT_CODES
+
+        return dict(EXIT_CODES)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def _override_strings(overrides: Overrides) -> list[str]:
