@@ -7,7 +7,8 @@ Build (inside ./dev, which has Sphinx, MyST, sphinx-gallery and the RTD theme):
 The pages are MyST Markdown. ``_ext/stickslip_reference.py`` writes the command and
 scene-key references from the code when the build starts; sphinx-gallery runs the literate
 demos of ``demos/`` and renders them with their figures into ``docs/demos/``.
-``STICKSLIP_DOCS_DEMOS=0`` skips running the demos (their pages then show the code only).
+``STICKSLIP_DOCS_DEMOS=0`` skips running the demos (their pages then show the code only);
+``STICKSLIP_DOCS_RERUN=1`` runs every demo, also those unchanged since the last build.
 """
 
 from __future__ import annotations
@@ -62,6 +63,8 @@ sphinx_gallery_conf = {
     "gallery_dirs": str(DOCS / "demos"),
     "filename_pattern": r"/demo_",
     "plot_gallery": os.environ.get("STICKSLIP_DOCS_DEMOS", "1") != "0",
+    # CI runs every demo on every build (not only the changed ones): they test the API
+    "run_stale_examples": os.environ.get("STICKSLIP_DOCS_RERUN", "0") == "1",
     "abort_on_example_error": True,
     "only_warn_on_example_error": False,
     "download_all_examples": False,

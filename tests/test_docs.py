@@ -115,7 +115,8 @@ def test_the_site_builds_with_warnings_as_errors_and_runs_the_demos(tmp_path):
     pytest.importorskip("dolfinx")
     pytest.importorskip("sphinx_gallery")
     out = tmp_path / "html"
-    env = dict(os.environ, STICKSLIP_OUTPUT=str(tmp_path / "runs"), MPLBACKEND="Agg")
+    env = dict(os.environ, STICKSLIP_OUTPUT=str(tmp_path / "runs"), MPLBACKEND="Agg",
+               STICKSLIP_DOCS_RERUN="1", STICKSLIP_DOCS_DEMOS="1")
     res = subprocess.run([sys.executable, "-m", "sphinx", "-W", "--keep-going", "-q", "-b",
                           "html", "-d", str(tmp_path / "doctrees"), str(DOCS), str(out)],
                          cwd=REPO, env=env, capture_output=True, text=True, timeout=900)
