@@ -1,4 +1,4 @@
-"""FE <-> semi-analytical verification: ``stickslip compare RUN_DIR`` (issue 5).
+"""FE <-> semi-analytical verification: ``stickslip compare RUN_DIR``.
 
 * ``compare_run``: the FE wave of a run directory (``postprocess.analysis.analyse_run``: k, signed
   celerity, frequency, psi1, psi2, amplitudes, zone order) side by side with every travelling
