@@ -403,10 +403,11 @@ def band_eigenvalues(
 # --------------------------------------------------------------------------------- modes
 
 #: A mode whose wavelength on the contact circle spans fewer element edges than this
-#: (``|k| > N / MESH_SCALE_ELEMENTS``) is not resolved by the mesh: at N = 132, f = 0.7 the
-#: FE per-k growth follows the exact continuum up to k ≈ 20 (6.6 elements a wavelength) and
-#: departs from it above (docs/continuum.md, section 4).
-MESH_SCALE_ELEMENTS = 6.0
+#: (``|k| > N / MESH_SCALE_ELEMENTS``) is not resolved by the mesh. At N = 132, f = 0.7 the
+#: FE per-k growth approaches the exact continuum from below up to k = 20 (6.6 elements a
+#: wavelength) and exceeds the continuum's largest growth from k = 22 (6.0) on
+#: (docs/continuum.md, section 4); 8 elements leaves a margin (P1 frequency error ~3 %).
+MESH_SCALE_ELEMENTS = 8.0
 
 
 def damped_exponents(mu: np.ndarray, tau: float) -> np.ndarray:
@@ -483,7 +484,7 @@ class CEAResult:
     def mesh_scale_reason(self) -> str:
         """One line: why the flagged modes are not resolved by the mesh."""
         kmax = int(self.n_contact / MESH_SCALE_ELEMENTS)
-        return (f"mesh-scale: wavelength < {MESH_SCALE_ELEMENTS:g} elements on the contact "
+        return (f"mesh-scale modes: wavelength < {MESH_SCALE_ELEMENTS:g} elements on the contact "
                 f"circle (|k| > {kmax} at N = {self.n_contact}); the FE growth of such modes "
                 "departs from the exact continuum (docs/continuum.md)")
 
