@@ -130,9 +130,9 @@ def flutter_fe_command(args: argparse.Namespace) -> int:
         from studies.flutter_fe.shapes import write_mode_shapes
 
         resolved, mesh = _listed(res, args.top)
-        picked = {id(m) for m in resolved + mesh}
+        where = {id(m): i for i, m in enumerate(res.modes)}
         written = write_mode_shapes(problem, ops, res, args.modes,
-                                    [i for i, m in enumerate(res.modes) if id(m) in picked])
+                                    [where[id(m)] for m in resolved + mesh])
     ops.destroy()
     reduced = reduced_model_flutter(scene, args.kmax)
     if not rank0:

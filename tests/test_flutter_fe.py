@@ -457,3 +457,34 @@ def test_cea_refuses_a_regularised_friction_law(capsys):
                  "--set", "friction.relaxation_time=1e-4"]) == 2
     err = capsys.readouterr().err.strip()
     assert err.count("\n") == 0 and "friction.regularization" in err and "flutter-exact" in err
+
+
+def test_cli_table_lists_resolved_modes_first_and_writes_mode_shapes(capsys, tmp_path):
+    """The table has the damping ratio, signed k and direction; mesh-scale modes come after the
+    resolved ones with the reason. --modes writes modes.csv (the listed modes), contact.csv and
+    one VTX folder per mode; the exported ψ_θ on the contact circle has the table's signed
+    wavenumber as its dominant Fourier component (exact: the same eigenvector)."""
+    _fe()
+    from cli.main import main
+
+    out_dir = tmp_path / "modes"
+    assert main(["flutter-fe", "figure3_n36", "--fmax-hz", "3000", "--top", "4",
+                 "--modes", str(out_dir)]) == 0
+    text = capsys.readouterr().out
+    assert "zeta" in text and "no damping" in text and "time.beta2 = 0.6" in text
+    body = text.split("per k")[0]
+    assert body.index("resolved by the mesh") < body.index("mesh-scale modes: wavelength < 8")
+    rows = (out_dir / "modes.csv").read_text().splitlines()
+    assert len(rows) == 1 + 4 + 3  # header, 4 resolved, 3 mesh-scale
+    first = rows[1].split(",")
+    assert first[8] == "false" and rows[-1].split(",")[8] == "true"
+    assert float(first[3]) < 0 and (out_dir / first[9]).is_dir()
+    table = np.genfromtxt(out_dir / "contact.csv", delimiter=",", skip_header=1)
+    one = table[table[:, 0] == 1]
+    assert one.shape[0] == 36 and np.max(one[:, 4]) == pytest.approx(1.0, rel=1e-12)
+    psi = one[:, 2] + 1j * one[:, 3]
+    kk = np.arange(-18, 19)
+    power = np.abs(np.exp(-1j * np.outer(kk, np.radians(one[:, 1]))) @ psi)
+    assert kk[np.argmax(power)] == int(first[4])
+    assert main(["flutter-fe", "figure3_n36", "--modes", str(out_dir)]) == 2
+    assert "not empty" in capsys.readouterr().err

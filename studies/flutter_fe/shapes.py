@@ -6,7 +6,7 @@ A mode is the real motion ``u(t) = Re(ψ e^{λt})`` (``studies.flutter_fe.cea``)
   phases ``φ`` of one period, time stamps ``φ / ω`` (s), so ParaView's play button animates the
   wave; without growth (the growth factor is left out, or one frame would dwarf the others).
 * ``modes.csv``: the table (frequency, growth, damping ratio, k, direction, speed, purity,
-  mesh-scale flag, file), most unstable first, the same order as ``NN``.
+  mesh-scale flag, file) in the order of ``NN`` (``flutter-fe``: its table's order).
 * ``contact.csv``: ``ψ_θ`` on the contact circle (``ψ_r = 0`` there: the sliding
   linearisation holds the contact nodes on the cylinder), per mode and node, by angle.
 
@@ -92,8 +92,8 @@ def _write_vtx(problem: TubeProblem, path: Path, u: np.ndarray, frequency_hz: fl
 
 def write_mode_shapes(problem: TubeProblem, ops: CEAOperators, res: CEAResult,
                       out_dir: str | Path, indices: list[int] | None = None) -> dict[str, Any]:
-    """Write the modes ``indices`` of ``res.modes`` (default: every unstable mode kept with
-    ``shapes=True``) as described in the module docstring, most unstable first.
+    """Write the modes ``indices`` of ``res.modes``, in that order (default: every unstable
+    mode kept with ``shapes=True``, most unstable first), as the module docstring describes.
 
     Collective (every rank calls it); rank 0 writes the CSV files. Returns
     ``{"dir", "count", "files"}``.
@@ -105,8 +105,10 @@ def write_mode_shapes(problem: TubeProblem, ops: CEAOperators, res: CEAResult,
     if comm.rank == 0:
         out.mkdir(parents=True, exist_ok=True)
     comm.barrier()
-    wanted = res.shapes if indices is None else [i for i in indices if i in res.shapes]
-    order = sorted(wanted, key=lambda i: -res.modes[i].growth_rate)
+    if indices is None:
+        order = sorted(res.shapes, key=lambda i: -res.modes[i].growth_rate)
+    else:
+        order = [i for i in indices if i in res.shapes]
     table = ["index,frequency_hz,growth_rate_per_s,zeta,k,direction,phase_speed_m_s,purity,"
              "mesh_scale,file"]
     contact = ["index,theta_deg,re_psi_theta,im_psi_theta,abs_psi_theta"]
