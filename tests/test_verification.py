@@ -1,4 +1,4 @@
-"""FE <-> semi-analytical verification in CI (issue 5; docs/verification.md).
+"""FE <-> semi-analytical verification in CI (docs/verification.md).
 
 One FE run of the paper's Figure-3 case (scenes/figure3_n132: N = 132, beta2 = 0.6, seeded in
 mode 4, 0.3 s; ~3 s) is compared with the reduced model. Two kinds of assertions:
