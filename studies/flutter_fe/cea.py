@@ -465,7 +465,7 @@ class CEAResult:
     tau: float = 0.0  # Kelvin–Voigt retardation time of the damping τA [s]
     friction: str = "nodal"  # friction law on the reactions: 'nodal' or '1-2-1'
     n_contact: int = 0  # contact nodes N
-    #: owned free-dof eigenvectors of the unstable modes (index in ``modes``), on request
+    #: owned free-dof shapes ψ of the unstable modes (index in ``modes``), on request
     shapes: dict[int, np.ndarray] = field(default_factory=dict, repr=False)
 
     def unstable(self, rel_tol: float = 1e-7) -> list[CEAMode]:
@@ -515,24 +515,33 @@ def _modes(
 ) -> tuple[list[CEAMode], list[int]]:
     """Growth, frequency, damping ratio, wavenumber and direction from the eigenvalues ``μ``
     and contact ψ_θ; also each mode's index in ``mu``. Modes sorted by frequency."""
-    comm = ops.comm
-    n_c = ops.n_contact
-    kk = np.arange(-(n_c // 2), n_c // 2 + 1)
     real = np.abs(mu.imag) <= REAL_TOL * np.abs(mu)
     index = np.flatnonzero(real | (mu.imag > 0))  # one eigenvalue of each conjugate pair
     mu, psi, real = mu[index], psi[index], real[index]
     lam = damped_exponents(np.where(real, mu.real + 0j, mu), tau)
-    growth = lam.real
-    omega = np.abs(lam.imag)
     # growing motion with positive frequency has shape conj(φ) (Im μ > 0), see module doc
     shape = np.where(real[:, None], psi, np.conj(psi))
+    modes = _classify(lam, shape, real, mu, ops)
+    order = sorted(range(len(modes)), key=lambda i: (modes[i].frequency_hz,
+                                                     -modes[i].growth_rate))
+    return [modes[i] for i in order], [int(index[i]) for i in order]
+
+
+def _classify(lam: np.ndarray, shape: np.ndarray, real: np.ndarray, mu: np.ndarray,
+              ops: CEAOperators) -> list[CEAMode]:
+    """One ``CEAMode`` per motion ``Re(ψ e^{λt})``: ``lam`` its exponent, ``shape`` its ψ_θ at
+    the owned contact nodes (the positive-frequency motion), ``real`` a non-oscillating
+    eigenvalue (standing or divergence), ``mu`` the ``ω²`` recorded with it."""
+    n_c = ops.n_contact
+    kk = np.arange(-(n_c // 2), n_c // 2 + 1)
+    growth, omega = lam.real, np.abs(lam.imag)
     basis = np.exp(-1j * np.outer(ops.theta, kk))  # owned nodes × k
-    local = shape @ basis if shape.size else np.zeros((mu.size, kk.size), dtype=complex)
+    local = shape @ basis if shape.size else np.zeros((lam.size, kk.size), dtype=complex)
     coeff = np.zeros_like(local)
-    comm.Allreduce(local, coeff)
+    ops.comm.Allreduce(local, coeff)
     power = np.abs(coeff) ** 2
     modes = []
-    for i in range(mu.size):
+    for i in range(lam.size):
         p = power[i]
         j = int(np.argmax(p))
         k = int(kk[j])
@@ -540,7 +549,7 @@ def _modes(
         pair = p[j] + (p[kk == -k][0] if k != 0 else 0.0)
         purity = float(pair / total) if total > 0 else 0.0
         if real[i]:
-            direction = "divergence" if mu[i].real < 0 else "standing"
+            direction = "divergence" if growth[i] > 0 and omega[i] == 0 else "standing"
             k, speed = abs(k), 0.0
         else:
             speed = -omega[i] * ops.radius / k if k != 0 else 0.0
@@ -555,9 +564,7 @@ def _modes(
             elements_per_wavelength=float(per_wave),
             mesh_scale=bool(per_wave < MESH_SCALE_ELEMENTS),
         ))
-    order = sorted(range(len(modes)), key=lambda i: (modes[i].frequency_hz,
-                                                     -modes[i].growth_rate))
-    return [modes[i] for i in order], [int(index[i]) for i in order]
+    return modes
 
 
 def _unstable_mu(tau: float) -> Callable[[complex], bool]:
@@ -633,10 +640,11 @@ def complex_eigenvalue_analysis(
     t2 = time.perf_counter()
     modes, index = _modes(mu, psi, ops, tau)
     in_band = [i for i, m in enumerate(modes) if m.frequency_hz <= fmax_hz]
-    kept = {}
+    kept = {}  # the shape ψ of the positive-frequency motion: conj(φ) for complex μ
     for new, i in enumerate(in_band):
         if index[i] in vectors:
-            kept[new] = vectors[index[i]]
+            vec = vectors[index[i]]
+            kept[new] = np.conj(vec) if modes[i].omega2_imag > 0 else vec
     t3 = time.perf_counter()
     res = CEAResult(
         f=f, fmax_hz=fmax_hz, mass=ops.mass_kind, n_free=ops.n_free,

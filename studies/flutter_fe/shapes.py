@@ -24,7 +24,7 @@ import numpy as np
 
 if TYPE_CHECKING:
     from solver.problem import TubeProblem
-    from studies.flutter_fe.cea import CEAMode, CEAOperators, CEAResult
+    from studies.flutter_fe.cea import CEAOperators, CEAResult
 
 PHASES = 16  # frames of one period in each VTX file
 
@@ -42,14 +42,12 @@ def modes_dir_problem(path: str | Path) -> str | None:
     return None
 
 
-def _displacement(ops: CEAOperators, problem: TubeProblem, free_vec: np.ndarray,
-                  mode: CEAMode) -> np.ndarray:
-    """Owned (x, y) dof values of ψ from an owned free-dof eigenvector (rotated frame).
-
-    Complex ``μ``: the growing motion of positive frequency has shape ``conj(φ)``."""
+def _displacement(ops: CEAOperators, problem: TubeProblem, free_vec: np.ndarray
+                  ) -> np.ndarray:
+    """Owned (x, y) dof values of ψ from its owned free-dof values (rotated frame)."""
     nd = problem.nodes
     rot = np.zeros(problem.n_owned, dtype=complex)
-    rot[ops.free] = np.conj(free_vec) if mode.omega2_imag > 0 else free_vec
+    rot[ops.free] = free_vec
     u = rot.copy()
     ur, ut = rot[nd.dofs_x], rot[nd.dofs_y]
     u[nd.dofs_x] = nd.cos_t * ur - nd.sin_t * ut  # u = T ũ
@@ -64,11 +62,10 @@ def _normalise(u: np.ndarray, psi_theta_all: np.ndarray) -> tuple[np.ndarray, np
     return u * scale, psi_theta_all * scale
 
 
-def _gather_contact(comm: Any, ops: CEAOperators, free_vec: np.ndarray, mode: CEAMode
+def _gather_contact(comm: Any, ops: CEAOperators, free_vec: np.ndarray
                     ) -> tuple[np.ndarray, np.ndarray]:
     """Angles and ψ_θ of every contact node (all ranks), sorted by angle."""
     psi = free_vec[ops.pos_theta]
-    psi = np.conj(psi) if mode.omega2_imag > 0 else psi
     theta = np.concatenate(comm.allgather(np.asarray(ops.theta, dtype=float)))
     psi_all = np.concatenate(comm.allgather(psi))
     order = np.argsort(theta, kind="stable")
@@ -115,8 +112,8 @@ def write_mode_shapes(problem: TubeProblem, ops: CEAOperators, res: CEAResult,
     files = []
     for n, i in enumerate(order, start=1):
         m = res.modes[i]
-        theta, psi_theta = _gather_contact(comm, ops, res.shapes[i], m)
-        u, psi_theta = _normalise(_displacement(ops, problem, res.shapes[i], m), psi_theta)
+        theta, psi_theta = _gather_contact(comm, ops, res.shapes[i])
+        u, psi_theta = _normalise(_displacement(ops, problem, res.shapes[i]), psi_theta)
         name = f"mode_{n:02d}.bp"
         _write_vtx(problem, out / name, u, m.frequency_hz)
         files.append(name)
