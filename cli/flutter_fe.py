@@ -16,6 +16,7 @@ from studies.flutter_fe.cea import (
     CEAResult,
     build_operators,
     complex_eigenvalue_analysis,
+    friction_relaxation_time,
     unrepresented_terms,
 )
 from studies.flutter_fe.plots import _distinct, plot_cea_diagram, plot_spectrum
@@ -102,7 +103,7 @@ def flutter_fe_command(args: argparse.Namespace) -> int:
         return fail(str(err))
     if not (math.isfinite(args.fmax_hz) and args.fmax_hz > 0):
         return fail(f"--fmax-hz {args.fmax_hz!r} is out of range: need a frequency > 0 (Hz)")
-    refused = unrepresented_terms(scene)
+    refused = unrepresented_terms(friction_relaxation_time(scene), args.mass, comm.size)
     if refused:
         return fail(refused)
     if args.modes:

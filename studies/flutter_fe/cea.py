@@ -400,6 +400,126 @@ def band_eigenvalues(
     return mu_arr[keep], V[keep], stats
 
 
+# --------------------------------------------------------------------------------- regularised
+
+
+def _scipy(mat: PETSc.Mat) -> Any:
+    from scipy.sparse import csr_matrix
+
+    indptr, indices, data = mat.getValuesCSR()
+    return csr_matrix((data, indices, indptr), shape=mat.getSize())
+
+
+def regularised_band(
+    ops: CEAOperators, f: float, tau: float, t_star: float, fmax_hz: float, *,
+    tol: float = 1e-10, keep_vector: bool = False,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, BandStats]:
+    """Every exponent ``λ`` with ``|λ| ≤ 1.05 ω_max`` of the sliding system with a regularised
+    friction bound (SLEPc PEP, TOAR, shift-and-invert at 0, one rank).
+
+    The friction force of contact node ``i`` is ``f s_i``, and its bound relaxes towards the
+    (filtered) normal reaction: ``t* ṡ = p̃ − s`` (``solver.contact.EffectivePressure``
+    linearised; ``p̃ = H(u + τu̇)``, ``H = −K_f`` on the contact θ-rows). With ``G`` the
+    injection of ``s_i`` into the θ-row of node ``i``, ``(u, s)`` obeys the quadratic problem
+
+        ``λ² [[M, 0], [0, 0]] + λ [[τK, 0], [−τH, t* I]] + [[K, −f G], [−H, I]]``
+
+    (``t* → 0`` gives back ``λ²M + (1 + τλ)(K + f K_f)``). Scaled to ``λ = ω_max λ̂`` and
+    ``s = κ ŝ`` (``κ`` = the mean diagonal of ``K``) so that the blocks are O(1). Krylov with
+    shift-and-invert returns the eigenvalues nearest 0 first, so ``nev`` doubles until the
+    last one returned lies beyond the band radius; each accepted pair's backward error must
+    be < 1e-8. Returns ``λ``, ψ_θ at the contact nodes (rows), the free-dof ``u`` parts
+    (if ``keep_vector``) and statistics.
+    """
+    import scipy.sparse as sp
+    from petsc4py import PETSc
+    from slepc4py import SLEPc
+
+    t0 = time.perf_counter()
+    stats = BandStats()
+    K, Kf = _scipy(ops.Kt), _scipy(ops.Kf)
+    M = sp.diags(ops.B.getDiagonal().getArray().copy())
+    n, pos = K.shape[0], ops.pos_theta
+    n_c = pos.size
+    w0 = 2.0 * math.pi * fmax_hz
+    kappa = float(np.mean(np.abs(K.diagonal())))
+    H = -Kf[pos, :] / kappa  # p̃ / κ
+    G = sp.csr_matrix((np.full(n_c, kappa), (pos, np.arange(n_c))), shape=(n, n_c))
+    eye, zero = sp.identity(n_c), sp.csr_matrix((n_c, n_c))
+    blocks = (
+        sp.bmat([[K, -f * G], [-H, eye]]),
+        sp.bmat([[tau * w0 * K, None], [-tau * w0 * H, t_star * w0 * eye]]),
+        sp.bmat([[w0 * w0 * M, None], [None, zero]]),
+    )
+    mats = []
+    for b in blocks:
+        b = b.tocsr()
+        b.sort_indices()
+        mats.append(PETSc.Mat().createAIJ(size=b.shape, csr=(b.indptr, b.indices, b.data),
+                                          comm=PETSc.COMM_SELF))
+    radius = 1.05
+    nev = min(64, 2 * n + n_c)
+    while True:
+        pep = SLEPc.PEP().create(PETSc.COMM_SELF)
+        pep.setOptionsPrefix(_PREFIX)
+        pep.setOperators(mats)
+        pep.setProblemType(SLEPc.PEP.ProblemType.GENERAL)
+        pep.setType(SLEPc.PEP.Type.TOAR)
+        pep.setTarget(0.0)
+        pep.setWhichEigenpairs(SLEPc.PEP.Which.TARGET_MAGNITUDE)
+        st = pep.getST()
+        st.setType(SLEPc.ST.Type.SINVERT)
+        ksp = st.getKSP()
+        ksp.setType("preonly")
+        ksp.getPC().setType("lu")
+        ksp.getPC().setFactorSolverType("mumps")
+        PETSc.Options().setValue(f"{_PREFIX}st_mat_mumps_cntl_1", 0.5)
+        pep.setFromOptions()
+        pep.setDimensions(nev, min(2 * (n + n_c), max(2 * nev, nev + 32)), PETSc.DECIDE)
+        pep.setTolerances(tol, 1000)
+        pep.solve()
+        stats.solves += 1
+        nconv = pep.getConverged()
+        lam = np.array([complex(pep.getEigenpair(i)) for i in range(nconv)])
+        finite = np.isfinite(lam)
+        done = finite.sum() >= nev and np.sort(np.abs(lam[finite]))[nev - 1] > radius
+        if done or nev >= 2 * n + n_c:
+            break
+        pep.destroy()
+        nev = min(2 * nev, 2 * n + n_c)
+    everything = nev >= 2 * n + n_c  # the whole finite spectrum
+    rho = math.inf if everything else float(np.sort(np.abs(lam[finite]))[nev - 1])
+    xr, xi = mats[0].createVecRight(), mats[0].createVecRight()
+    # the band is the disc |λ| < 1.05 ω_max (a mode of frequency ≤ f_max outside it would
+    # grow faster than 0.3 ω); outside it lie the relaxation modes near −1/t* and the
+    # infinite eigenvalues of the massless s-block (returned as huge finite numbers)
+    keep = [i for i in range(nconv) if np.isfinite(lam[i]) and abs(lam[i]) < min(rho, radius)
+            and lam[i].imag >= -REAL_TOL * abs(lam[i])]
+    psi, full = [], []
+    for i in keep:
+        err = pep.computeError(i, SLEPc.PEP.ErrorType.BACKWARD)
+        stats.max_residual = max(stats.max_residual, err)
+        if err > 1e-8:
+            raise RuntimeError(f"regularised eigenpair {lam[i] * w0} has backward error "
+                               f"{err:.2g}")
+        pep.getEigenpair(i, xr, xi)
+        x = xr.getArray()[:n] + 1j * xi.getArray()[:n]
+        psi.append(x[pos])
+        if keep_vector:
+            full.append(x)
+    stats.converged, stats.slices = nconv, 1
+    stats.seconds = time.perf_counter() - t0
+    pep.destroy()
+    for m in (*mats, xr, xi):
+        m.destroy()
+    if rho <= radius:
+        raise RuntimeError(f"regularised CEA: only {nconv} eigenvalues converged, up to "
+                           f"{rho * fmax_hz:.0f} Hz < the band {fmax_hz:g} Hz; lower --fmax-hz")
+    lam_keep = lam[keep] * w0
+    psi_arr = np.array(psi).reshape(len(keep), n_c)
+    return lam_keep, psi_arr, (np.array(full) if keep_vector else None), stats
+
+
 # --------------------------------------------------------------------------------- modes
 
 #: A mode whose wavelength on the contact circle spans fewer element edges than this
@@ -465,6 +585,7 @@ class CEAResult:
     tau: float = 0.0  # Kelvin–Voigt retardation time of the damping τA [s]
     friction: str = "nodal"  # friction law on the reactions: 'nodal' or '1-2-1'
     n_contact: int = 0  # contact nodes N
+    t_star: float = 0.0  # relaxation time of a regularised friction bound [s] (0: Coulomb)
     #: owned free-dof shapes ψ of the unstable modes (index in ``modes``), on request
     shapes: dict[int, np.ndarray] = field(default_factory=dict, repr=False)
 
@@ -494,6 +615,7 @@ class CEAResult:
         return {
             "scene": self.scene, "f": self.f, "fmax_hz": self.fmax_hz, "mass": self.mass,
             "damping_tau_s": self.tau, "friction": self.friction,
+            "friction_relaxation_time_s": self.t_star,
             "n_contact": self.n_contact, "free_dofs": self.n_free,
             "modes_in_band": len(self.modes), "unstable_count": len(uns),
             "unstable_resolved_count": len(resolved),
@@ -579,20 +701,35 @@ def _unstable_mu(tau: float) -> Callable[[complex], bool]:
     return unstable
 
 
-def unrepresented_terms(scene: Any) -> str | None:
-    """Why CEA cannot linearise ``scene`` (one line), or None.
+def friction_relaxation_time(scene: Any) -> float:
+    """``t*`` of the scene's regularised friction bound, linearised about steady sliding
+    (0: Coulomb). Prakash–Clifton ``dσ/dt = −(|V| + V*)/L (σ − p)`` with the steady slip rate
+    ``|V| = R|Ω|`` (the perturbation of ``|V|`` multiplies ``σ − p = 0``): ``t* = L/(R|Ω| +
+    V*)``; constant-time: ``t* = relaxation_time``."""
+    fr = scene.friction
+    if fr.regularization == "prakash-clifton":
+        speed = scene.geometry.R * abs(scene.loading.omega)
+        return fr.slip_length / (speed + fr.reference_velocity)
+    if fr.regularization == "constant-time":
+        return fr.relaxation_time
+    return 0.0
+
+
+def unrepresented_terms(t_star: float, mass: str = "lumped", ranks: int = 1) -> str | None:
+    """Why CEA cannot linearise a scene whose friction bound relaxes in ``t_star`` seconds
+    (0: Coulomb) with this mass on this many ranks (one line), or None.
 
     Represented: elasticity, the lumped or consistent mass, Coulomb friction on the nodal
-    or 1-2-1 filtered reactions, Kelvin–Voigt damping. Not represented: a regularised
-    friction bound (``friction.regularization``), whose relaxation state ``σ_eff`` per node
-    would make the problem rational in ``λ``; the exact continuum includes it.
+    or 1-2-1 filtered reactions, Kelvin–Voigt damping, and a regularised friction bound
+    (its relaxation state per node, :func:`regularised_band`) with the lumped mass on one
+    rank.
     """
-    fr = scene.friction
-    if fr.enabled:
-        return (f"friction.regularization = {fr.regularization!r} is not in the CEA (its "
-                "relaxation state per node is not linearised here): use `stickslip "
-                "flutter-exact SCENE` for the continuum with it, or --set "
-                "friction.regularization=none for the Coulomb limit")
+    if t_star > 0 and mass != "lumped":
+        return (f"a regularised friction bound (t* = {t_star:.3g} s) with --mass {mass}: the "
+                "regularised CEA uses the solver's lumped mass; drop --mass")
+    if t_star > 0 and ranks > 1:
+        return (f"a regularised friction bound (t* = {t_star:.3g} s): the regularised CEA "
+                f"runs on one rank (got {ranks}); run it without mpirun")
     return None
 
 
@@ -606,26 +743,54 @@ def complex_eigenvalue_analysis(
     nev_slice: int = 64,
     tol: float = 1e-10,
     tau: float | None = None,
+    t_star: float | None = None,
     shapes: bool = False,
 ) -> CEAResult:
     """CEA of ``problem``'s steady sliding at friction ``f`` (default: the scene's) up to
     ``fmax_hz``: every eigenvalue with frequency ≤ fmax, growth rates, damping ratios,
     wavenumbers. ``tau``: Kelvin–Voigt retardation time (default: the scene's
-    ``damping.tau``; the damping matrix is ``τA``, see the module docstring). ``shapes``:
-    keep the eigenvectors of the unstable modes (``CEAResult.shapes``).
+    ``damping.tau``; the damping matrix is ``τA``, see the module docstring). ``t_star``:
+    relaxation time of a regularised friction bound (default: the scene's,
+    :func:`friction_relaxation_time`; > 0 solves :func:`regularised_band`). ``shapes``:
+    keep the shapes of the unstable modes (``CEAResult.shapes``).
     """
     t0 = time.perf_counter()
-    refused = unrepresented_terms(problem.scene)
-    if refused:
-        raise ValueError(refused)
     f = problem.scene.loading.f if f is None else float(f)
     tau = problem.scene.damping.tau if tau is None else float(tau)
-    if not (math.isfinite(tau) and tau >= 0.0):
-        raise ValueError(f"tau = {tau!r}: need a retardation time >= 0 (s)")
+    t_star = friction_relaxation_time(problem.scene) if t_star is None else float(t_star)
+    for name, value in (("tau", tau), ("t_star", t_star)):
+        if not (math.isfinite(value) and value >= 0.0):
+            raise ValueError(f"{name} = {value!r}: need a time >= 0 (s)")
     own = ops is None
     if ops is None:
         ops = build_operators(problem, mass, problem.scene.friction.filter)
+    refused = unrepresented_terms(t_star, ops.mass_kind, problem.comm.size)
+    if refused:
+        if own:
+            ops.destroy()
+        raise ValueError(refused)
     t1 = time.perf_counter()
+    if t_star > 0:
+        modes, kept, stats = _regularised_modes(ops, f, tau, t_star, fmax_hz, tol, shapes)
+    else:
+        modes, kept, stats = _coulomb_modes(ops, f, tau, fmax_hz, nev_slice, tol, shapes)
+    t2 = time.perf_counter()
+    res = CEAResult(
+        f=f, fmax_hz=fmax_hz, mass=ops.mass_kind, n_free=ops.n_free, modes=modes,
+        stats=stats, scene=problem.scene.name,
+        timings={"operators": t1 - t0, "eigensolve": stats.seconds,
+                 "modes": t2 - t1 - stats.seconds},
+        tau=tau, friction=ops.friction, n_contact=ops.n_contact, shapes=kept, t_star=t_star,
+    )
+    if own:
+        ops.destroy()
+    return res
+
+
+def _coulomb_modes(ops: CEAOperators, f: float, tau: float, fmax_hz: float, nev_slice: int,
+                   tol: float, shapes: bool
+                   ) -> tuple[list[CEAMode], dict[int, np.ndarray], BandStats]:
+    """Coulomb friction: the pencil ``A φ = μ M φ`` by slices, then ``λ`` per ``μ``."""
     A, B = ops.operator(f), ops.mass(f)
     w_max = 2.0 * math.pi * fmax_hz
     # damping lowers the frequency: |Im λ| = √(μ − (τμ/2)²) for real μ; widen the band so
@@ -637,7 +802,9 @@ def complex_eigenvalue_analysis(
         A, B, mu_max * 1.0001, nev_slice=nev_slice, tol=tol, contact_pos=ops.pos_theta,
         keep_vector=_unstable_mu(tau) if shapes else None, vectors=vectors,
     )
-    t2 = time.perf_counter()
+    A.destroy()
+    if B is not ops.B:
+        B.destroy()
     modes, index = _modes(mu, psi, ops, tau)
     in_band = [i for i, m in enumerate(modes) if m.frequency_hz <= fmax_hz]
     kept = {}  # the shape ψ of the positive-frequency motion: conj(φ) for complex μ
@@ -645,19 +812,27 @@ def complex_eigenvalue_analysis(
         if index[i] in vectors:
             vec = vectors[index[i]]
             kept[new] = np.conj(vec) if modes[i].omega2_imag > 0 else vec
-    t3 = time.perf_counter()
-    res = CEAResult(
-        f=f, fmax_hz=fmax_hz, mass=ops.mass_kind, n_free=ops.n_free,
-        modes=[modes[i] for i in in_band], stats=stats, scene=problem.scene.name,
-        timings={"operators": t1 - t0, "eigensolve": t2 - t1, "modes": t3 - t2},
-        tau=tau, friction=ops.friction, n_contact=ops.n_contact, shapes=kept,
-    )
-    A.destroy()
-    if B is not ops.B:
-        B.destroy()
-    if own:
-        ops.destroy()
-    return res
+    return [modes[i] for i in in_band], kept, stats
+
+
+def _regularised_modes(ops: CEAOperators, f: float, tau: float, t_star: float,
+                       fmax_hz: float, tol: float, shapes: bool
+                       ) -> tuple[list[CEAMode], dict[int, np.ndarray], BandStats]:
+    """Regularised friction: ``λ`` directly (:func:`regularised_band`). Every motion of
+    positive frequency is listed (the growing wave and the decaying one of each pair);
+    ``omega2_*`` record ``−λ²``."""
+    lam, psi, full, stats = regularised_band(ops, f, tau, t_star, fmax_hz, tol=tol,
+                                             keep_vector=shapes)
+    real = np.abs(lam.imag) <= REAL_TOL * np.abs(lam)
+    lam = np.where(real, lam.real + 0j, lam)
+    modes = _classify(lam, psi, real, -lam * lam, ops)
+    order = sorted((i for i, m in enumerate(modes) if m.frequency_hz <= fmax_hz),
+                   key=lambda i: (modes[i].frequency_hz, -modes[i].growth_rate))
+    kept = {}
+    if full is not None:
+        kept = {new: full[i] for new, i in enumerate(order)
+                if _is_unstable(modes[i].growth_rate, modes[i].frequency_hz)}
+    return [modes[i] for i in order], kept, stats
 
 
 def sweep_friction(
