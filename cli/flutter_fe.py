@@ -49,9 +49,11 @@ def register(sub: argparse._SubParsersAction) -> None:
             "Linearise the FE system about discrete steady sliding (contact nodes stay in "
             "contact, tangential force = f x normal reaction), with the scene's Kelvin-Voigt "
             "damping C = tau (K + K_f) and friction filter: lambda^2 M + lambda C + K + K_f, "
-            "solved exactly through (K + K_f) phi = mu M phi (SLEPc shift-and-invert). Lists "
-            "the unstable (flutter) modes: frequency, growth rate, damping ratio zeta, "
-            "wavenumber k, direction; mesh-scale modes last. Works under mpirun."
+            "solved exactly through (K + K_f) phi = mu M phi (SLEPc shift-and-invert); with a "
+            "regularised friction bound, the quadratic problem with its relaxation state "
+            "(SLEPc PEP, one rank). Lists the unstable (flutter) modes: frequency, growth "
+            "rate, damping ratio zeta, wavenumber k, direction; mesh-scale modes last. Works "
+            "under mpirun (Coulomb friction)."
         ),
     )
     p.add_argument("scene", help="scene TOML file, or the name of a scene in scenes/")
@@ -206,9 +208,11 @@ def _print_table(res: CEAResult, reduced: list[dict], top: int, plot: str | None
     mesh = [m for m in uns if m.mesh_scale]
     damping = (f"Kelvin-Voigt tau = {res.tau:.3g} s (C = tau (K + K_f))" if res.tau > 0
                else "no damping (scene has none)")
+    law = (f"regularised bound, t* = {res.t_star:.3g} s" if res.t_star > 0 else "Coulomb")
     lines = [
         f"CEA of steady sliding: scene '{res.scene}', f = {res.f:g}, {res.mass} mass, "
-        f"friction {res.friction}, {damping}; {res.n_free} free dofs, N = {res.n_contact}",
+        f"friction {res.friction} ({law}), {damping}; {res.n_free} free dofs, "
+        f"N = {res.n_contact}",
         f"{len(res.modes)} modes up to {res.fmax_hz:g} Hz: {len(uns)} unstable "
         f"({len(resolved)} resolved, {len(mesh)} mesh-scale); eigensolve "
         f"{res.timings['eigensolve']:.2f} s ({res.stats.slices} slices)",
