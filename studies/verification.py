@@ -320,13 +320,19 @@ def fe_modes(scene, kmax: int = 16, n_eig: int = 80,
     speed (from the balance of e^{+ik theta} and e^{-ik theta} in the complex eigenvector,
     time factor e^{-i w t}). Flutter (condition d): the contact nodes keep u_r = d, their
     radial reaction is r_r = (K u)_r and the friction force r_theta = f r_r (sliding, q = f p,
-    the cylinder dragging along +theta), i.e. M u'' + (K - f E K_r) u = 0 on the free dofs.
+    the cylinder dragging along +theta), i.e. M u'' + (K - f E K_r) u = 0 on the free dofs,
+    with the scene's Kelvin-Voigt damping applied to the flutter exponents
+    (``studies.flutter_fe.cea.damped_exponents``); the natural frequencies of (a)-(c) are
+    the undamped ones.
     """
     import scipy.sparse as sp
     import scipy.sparse.linalg as spla
     from mpi4py import MPI
 
     from solver.problem import build_problem
+    from studies.flutter_fe.cea import damped_exponents
+
+    tau = scene.damping.tau
 
     prob = build_problem(scene, MPI.COMM_SELF)
     indptr, indices, data = prob.K.getValuesCSR()
@@ -387,9 +393,16 @@ def fe_modes(scene, kmax: int = 16, n_eig: int = 80,
                      "frequency_hz": float(abs(w.real) / (2 * math.pi)),
                      "radial_share": radial_share}
             if cond == "flutter":
-                entry["growth_rate_per_s"] = float(w.imag)
+                # the scene's Kelvin-Voigt damping tau (K + K_f): lambda^2 + tau mu lambda + mu
+                # = 0 for mu = w^2 (studies.flutter_fe.cea); tau = 0: lambda = -i w
+                lam_d = complex(damped_exponents(np.array([lam[j]]), tau)[0])
+                w_d = math.copysign(abs(lam_d.imag), w.real)
+                entry["omega_rad_s"] = abs(w_d)
+                entry["frequency_hz"] = abs(w_d) / (2 * math.pi)
+                entry["growth_rate_per_s"] = float(lam_d.real)
+                entry["damping_tau_s"] = tau
                 # e^{i(+-k theta - w_r t)}: phase speed +-w_r / k (signed w_r)
-                entry["phase_speed_m_s"] = float(sense * w.real * R / max(kk, 1))
+                entry["phase_speed_m_s"] = float(sense * w_d * R / max(kk, 1))
             modes.append(entry)
         out[cond] = modes
     return out
