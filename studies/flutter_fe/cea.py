@@ -410,38 +410,17 @@ def _scipy(mat: PETSc.Mat) -> Any:
     return csr_matrix((data, indices, indptr), shape=mat.getSize())
 
 
-def regularised_band(
-    ops: CEAOperators, f: float, tau: float, t_star: float, fmax_hz: float, *,
-    tol: float = 1e-10, keep_vector: bool = False,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, BandStats]:
-    """Every exponent ``λ`` with ``|λ| ≤ 1.05 ω_max`` of the sliding system with a regularised
-    friction bound (SLEPc PEP, TOAR, shift-and-invert at 0, one rank).
-
-    The friction force of contact node ``i`` is ``f s_i``, and its bound relaxes towards the
-    (filtered) normal reaction: ``t* ṡ = p̃ − s`` (``solver.contact.EffectivePressure``
-    linearised; ``p̃ = H(u + τu̇)``, ``H = −K_f`` on the contact θ-rows). With ``G`` the
-    injection of ``s_i`` into the θ-row of node ``i``, ``(u, s)`` obeys the quadratic problem
-
-        ``λ² [[M, 0], [0, 0]] + λ [[τK, 0], [−τH, t* I]] + [[K, −f G], [−H, I]]``
-
-    (``t* → 0`` gives back ``λ²M + (1 + τλ)(K + f K_f)``). Scaled to ``λ = ω_max λ̂`` and
-    ``s = κ ŝ`` (``κ`` = the mean diagonal of ``K``) so that the blocks are O(1). Krylov with
-    shift-and-invert returns the eigenvalues nearest 0 first, so ``nev`` doubles until the
-    last one returned lies beyond the band radius; each accepted pair's backward error must
-    be < 1e-8. Returns ``λ``, ψ_θ at the contact nodes (rows), the free-dof ``u`` parts
-    (if ``keep_vector``) and statistics.
-    """
+def _regularised_matrices(ops: CEAOperators, f: float, tau: float, t_star: float,
+                          w0: float) -> list[PETSc.Mat]:
+    """``[A₀, A₁, A₂]`` of the (u, ŝ) quadratic problem in ``λ̂ = λ/w0`` (see
+    :func:`regularised_band`), ``s = κ ŝ`` with ``κ`` the mean diagonal of ``K``."""
     import scipy.sparse as sp
     from petsc4py import PETSc
-    from slepc4py import SLEPc
 
-    t0 = time.perf_counter()
-    stats = BandStats()
     K, Kf = _scipy(ops.Kt), _scipy(ops.Kf)
     M = sp.diags(ops.B.getDiagonal().getArray().copy())
     n, pos = K.shape[0], ops.pos_theta
     n_c = pos.size
-    w0 = 2.0 * math.pi * fmax_hz
     kappa = float(np.mean(np.abs(K.diagonal())))
     H = -Kf[pos, :] / kappa  # p̃ / κ
     G = sp.csr_matrix((np.full(n_c, kappa), (pos, np.arange(n_c))), shape=(n, n_c))
@@ -457,44 +436,82 @@ def regularised_band(
         b.sort_indices()
         mats.append(PETSc.Mat().createAIJ(size=b.shape, csr=(b.indptr, b.indices, b.data),
                                           comm=PETSc.COMM_SELF))
-    radius = 1.05
-    nev = min(64, 2 * n + n_c)
+    return mats
+
+
+def _pep_solve(mats: list[PETSc.Mat], nev: int, tol: float) -> Any:
+    """SLEPc PEP (TOAR, shift-and-invert at 0 with MUMPS): the ``nev`` eigenvalues nearest 0."""
+    from petsc4py import PETSc
+    from slepc4py import SLEPc
+
+    pep = SLEPc.PEP().create(PETSc.COMM_SELF)
+    pep.setOptionsPrefix(_PREFIX)
+    pep.setOperators(mats)
+    pep.setProblemType(SLEPc.PEP.ProblemType.GENERAL)
+    pep.setType(SLEPc.PEP.Type.TOAR)
+    pep.setTarget(0.0)
+    pep.setWhichEigenpairs(SLEPc.PEP.Which.TARGET_MAGNITUDE)
+    st = pep.getST()
+    st.setType(SLEPc.ST.Type.SINVERT)
+    ksp = st.getKSP()
+    ksp.setType("preonly")
+    ksp.getPC().setType("lu")
+    ksp.getPC().setFactorSolverType("mumps")
+    PETSc.Options().setValue(f"{_PREFIX}st_mat_mumps_cntl_1", 0.5)  # as in _slice_solve
+    pep.setFromOptions()
+    size = mats[0].getSize()[0]
+    pep.setDimensions(nev, min(2 * size, max(2 * nev, nev + 32)), PETSc.DECIDE)
+    pep.setTolerances(tol, 1000)
+    pep.solve()
+    return pep
+
+
+def regularised_band(
+    ops: CEAOperators, f: float, tau: float, t_star: float, fmax_hz: float, *,
+    tol: float = 1e-10, keep_vector: bool = False,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, BandStats]:
+    """Every exponent ``λ`` with ``|λ| < 1.05 ω_max`` of the sliding system with a regularised
+    friction bound (SLEPc PEP, one rank).
+
+    The friction force of contact node ``i`` is ``f s_i``, and its bound relaxes towards the
+    (filtered) normal reaction: ``t* ṡ = p̃ − s`` (``solver.contact.EffectivePressure``
+    linearised; ``p̃ = H(u + τu̇)``, ``H = −K_f`` on the contact θ-rows). With ``G`` the
+    injection of ``s_i`` into the θ-row of node ``i``, ``(u, s)`` obeys the quadratic problem
+
+        ``λ² [[M, 0], [0, 0]] + λ [[τK, 0], [−τH, t* I]] + [[K, −f G], [−H, I]]``
+
+    (``t* → 0`` gives back ``λ²M + (1 + τλ)(K + f K_f)``), scaled to ``λ = ω_max λ̂`` and
+    ``s = κ ŝ`` so that the blocks are O(1). Krylov with shift-and-invert at 0 returns the
+    eigenvalues nearest 0 first, so ``nev`` doubles until the last one returned lies beyond
+    the band (or the whole finite spectrum, ``2n + n_c``, is in); each accepted pair's
+    backward error must be < 1e-8. The band is the disc: a mode of frequency ≤ f_max outside
+    it would grow faster than 0.3 ω. Outside lie the relaxation modes near ``−1/t*`` (when
+    ``1/t* > 1.05 ω_max``) and the infinite eigenvalues of the massless ``s`` block
+    (returned as huge finite numbers). Returns ``λ`` (``Im λ ≥ 0``), ψ_θ at the contact
+    nodes (rows), the free-dof ``u`` parts (if ``keep_vector``) and statistics.
+    """
+    from slepc4py import SLEPc
+
+    t0 = time.perf_counter()
+    stats = BandStats(slices=1)
+    w0 = 2.0 * math.pi * fmax_hz
+    mats = _regularised_matrices(ops, f, tau, t_star, w0)
+    n, pos = ops.n_free, ops.pos_theta
+    finite_count = 2 * n + pos.size
+    radius, nev = 1.05, min(64, finite_count)
     while True:
-        pep = SLEPc.PEP().create(PETSc.COMM_SELF)
-        pep.setOptionsPrefix(_PREFIX)
-        pep.setOperators(mats)
-        pep.setProblemType(SLEPc.PEP.ProblemType.GENERAL)
-        pep.setType(SLEPc.PEP.Type.TOAR)
-        pep.setTarget(0.0)
-        pep.setWhichEigenpairs(SLEPc.PEP.Which.TARGET_MAGNITUDE)
-        st = pep.getST()
-        st.setType(SLEPc.ST.Type.SINVERT)
-        ksp = st.getKSP()
-        ksp.setType("preonly")
-        ksp.getPC().setType("lu")
-        ksp.getPC().setFactorSolverType("mumps")
-        PETSc.Options().setValue(f"{_PREFIX}st_mat_mumps_cntl_1", 0.5)
-        pep.setFromOptions()
-        pep.setDimensions(nev, min(2 * (n + n_c), max(2 * nev, nev + 32)), PETSc.DECIDE)
-        pep.setTolerances(tol, 1000)
-        pep.solve()
+        pep = _pep_solve(mats, nev, tol)
         stats.solves += 1
         nconv = pep.getConverged()
         lam = np.array([complex(pep.getEigenpair(i)) for i in range(nconv)])
-        finite = np.isfinite(lam)
-        done = finite.sum() >= nev and np.sort(np.abs(lam[finite]))[nev - 1] > radius
-        if done or nev >= 2 * n + n_c:
+        size = np.sort(np.abs(lam[np.isfinite(lam)]))
+        if (size.size >= nev and size[nev - 1] > radius) or nev >= finite_count:
             break
         pep.destroy()
-        nev = min(2 * nev, 2 * n + n_c)
-    everything = nev >= 2 * n + n_c  # the whole finite spectrum
-    rho = math.inf if everything else float(np.sort(np.abs(lam[finite]))[nev - 1])
-    xr, xi = mats[0].createVecRight(), mats[0].createVecRight()
-    # the band is the disc |λ| < 1.05 ω_max (a mode of frequency ≤ f_max outside it would
-    # grow faster than 0.3 ω); outside it lie the relaxation modes near −1/t* and the
-    # infinite eigenvalues of the massless s-block (returned as huge finite numbers)
-    keep = [i for i in range(nconv) if np.isfinite(lam[i]) and abs(lam[i]) < min(rho, radius)
+        nev = min(2 * nev, finite_count)
+    keep = [i for i in range(nconv) if abs(lam[i]) < radius
             and lam[i].imag >= -REAL_TOL * abs(lam[i])]
+    xr, xi = mats[0].createVecRight(), mats[0].createVecRight()
     psi, full = [], []
     for i in keep:
         err = pep.computeError(i, SLEPc.PEP.ErrorType.BACKWARD)
@@ -507,17 +524,12 @@ def regularised_band(
         psi.append(x[pos])
         if keep_vector:
             full.append(x)
-    stats.converged, stats.slices = nconv, 1
-    stats.seconds = time.perf_counter() - t0
+    stats.converged, stats.seconds = nconv, time.perf_counter() - t0
     pep.destroy()
     for m in (*mats, xr, xi):
         m.destroy()
-    if rho <= radius:
-        raise RuntimeError(f"regularised CEA: only {nconv} eigenvalues converged, up to "
-                           f"{rho * fmax_hz:.0f} Hz < the band {fmax_hz:g} Hz; lower --fmax-hz")
-    lam_keep = lam[keep] * w0
-    psi_arr = np.array(psi).reshape(len(keep), n_c)
-    return lam_keep, psi_arr, (np.array(full) if keep_vector else None), stats
+    psi_arr = np.array(psi, dtype=complex).reshape(len(keep), pos.size)
+    return lam[keep] * w0, psi_arr, (np.array(full) if keep_vector else None), stats
 
 
 # --------------------------------------------------------------------------------- modes
