@@ -118,9 +118,9 @@ def main() -> None:
     if (run_dir / "samples.npz").exists():
         common = ["stickslip", "travel", "scenes/figure1_n132_damped.toml", "--k", "4",
                   "--from", str(run_dir), "--force"]
-        routes = {"rotation --fixed-omega": ["--fixed-omega"],
-                  "central S=6": ["--inertia", "shift", "--samples", "6",
-                                  "--time-scheme", "central"]}
+        routes = {"rotation --fixed-omega": ["--inertia", "rotation", "--fixed-omega"],
+                  "central S=6": ["--samples", "6"],
+                  "default (matched S)": []}
         for route, flags in routes.items():
             for what, extra, target in (
                     ("one wave", ["-o", "/tmp/travel_speed_one"], 2.0),

@@ -109,6 +109,8 @@ def test_damped_schur_derivative_matches_a_central_difference(setup36):
     ("argv", "needle"),
     [
         (["--k", "0"], "--k 0"),
+        ([], "--k: give the wavenumber"),
+        (["--k", "4", "--inertia", "rotation", "--dt-limit"], "--dt-limit"),
         (["--k", "4", "--continue", "loading.omega=50"], "KEY=A:B:N"),
         (["--k", "4", "--continue", "loading.nope=1:2:3"], "nope"),
         (["--k", "4", "--from", "/nonexistent"], "samples.npz"),
@@ -128,7 +130,8 @@ def test_travel_failure_exits_1_and_writes_no_wave(tmp_path):
     out = tmp_path / "fail"
     proc = subprocess.run(
         [sys.executable, "-m", "cli.main", "travel", SCENE, "--set", "mesh.n_inner=36",
-         "--k", "4", "--celerity", "-1000", "--fixed-omega", "--max-iter", "2", "-o", str(out)],
+         "--k", "4", "--inertia", "rotation", "--celerity", "-1000", "--fixed-omega",
+         "--max-iter", "2", "-o", str(out)],
         capture_output=True, text=True, check=False)
     assert proc.returncode == 1, proc.stderr
     assert "residual" in proc.stderr
@@ -153,8 +156,9 @@ def test_interrupted_continuation_keeps_the_points_solved(tmp_path, monkeypatch,
 
     monkeypatch.setattr(D, "solve_scene", interrupt_third)
     out = tmp_path / "branch"
-    rc = main(["travel", SCENE, "--set", "mesh.n_inner=36", "--k", "4", "--celerity", "-2300",
-               "--fixed-omega", "--continue", "loading.omega=40:42:5", "-o", str(out)])
+    rc = main(["travel", SCENE, "--set", "mesh.n_inner=36", "--k", "4", "--inertia", "rotation",
+               "--celerity", "-2300", "--fixed-omega", "--continue", "loading.omega=40:42:5",
+               "-o", str(out)])
     assert rc == 130
     assert "interrupted after 2 of 5 points" in capsys.readouterr().err
     rows = json.loads((out / "branch.json").read_text())
@@ -164,8 +168,9 @@ def test_interrupted_continuation_keeps_the_points_solved(tmp_path, monkeypatch,
 
 def test_travel_converged_wave_summary(tmp_path):
     out = tmp_path / "ok"
-    rc = main(["travel", SCENE, "--set", "mesh.n_inner=36", "--k", "4", "--celerity",
-               "-2300", "--fixed-omega", "--max-iter", "40", "--band", "-o", str(out)])
+    rc = main(["travel", SCENE, "--set", "mesh.n_inner=36", "--k", "4", "--inertia", "rotation",
+               "--celerity", "-2300", "--fixed-omega", "--max-iter", "40", "--band",
+               "-o", str(out)])
     assert rc == 0
     s = json.loads((out / "summary.json").read_text())
     for key in ("regime", "mode", "celerity_m_s", "frequency_hz", "fractions", "psi1", "psi2",
@@ -194,8 +199,8 @@ def test_travel_reads_the_scene_damping_and_converges_damped(tmp_path):
     scene = "scenes/figure1_n132_damped.toml"
     tau = load_scene(scene, []).damping.tau
     out = tmp_path / "w"
-    rc = main(["travel", scene, "--set", "mesh.n_inner=36", "--k", "4", "--celerity", "-2300",
-               "--fixed-omega", "-o", str(out)])
+    rc = main(["travel", scene, "--set", "mesh.n_inner=36", "--k", "4", "--inertia", "rotation",
+               "--celerity", "-2300", "--fixed-omega", "-o", str(out)])
     assert rc == 0
     s = json.loads((out / "summary.json").read_text())
     assert s["damping_s"] == pytest.approx(tau, rel=1e-12)  # the scene's τ, not 0
@@ -223,7 +228,8 @@ def test_travel_agrees_with_the_damped_transient_at_n132(tmp_path):
     r = json.loads((run / "summary.json").read_text())
     assert r["mode"] == 4 and r["limit_cycle"]
     out = tmp_path / "travel"
-    assert main(["travel", scene, "--k", "4", "--from", str(run), "--fixed-omega", "--band",
+    assert main(["travel", scene, "--k", "4", "--from", str(run), "--inertia", "rotation",
+                 "--fixed-omega", "--band",
                  "-o", str(out)]) == 0
     t = json.loads((out / "summary.json").read_text())
     assert t["inequalities"]["all_satisfied"]
