@@ -104,7 +104,7 @@ def solve(out: Path, dt_limit: bool) -> int:
         if not (run / "samples.npz").is_file():
             continue
         t0 = time.process_time()
-        row: dict = {"set": run.parent.parent.name, "run": run.name}
+        row: dict = {"set": run.parent.parent.name, "run_dir": run.name}
         try:
             row.update(wave_from_run(run, dt_limit=dt_limit))
         except NotRigidWave as err:
@@ -123,7 +123,7 @@ def solve(out: Path, dt_limit: bool) -> int:
 
 
 def _short(row: dict) -> dict:
-    keys = ("set", "run", "converged", "k", "celerity_m_s", "samples", "frame_spread",
+    keys = ("set", "run_dir", "converged", "k", "celerity_m_s", "samples", "frame_spread",
             "difference", "cpu_s", "message")
     return {k: row.get(k) for k in keys}
 

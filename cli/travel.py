@@ -120,6 +120,7 @@ def _import_dolfinx_without_numba() -> None:
 
 def _check_args(args: argparse.Namespace) -> str | None:
     """The first bad argument as a one-line message, or None; fills the route's defaults."""
+    _import_dolfinx_without_numba()
     from studies.travel.frame import INERTIAS
     from studies.travel.newton import RATES
 
@@ -165,7 +166,6 @@ def _travel(args: argparse.Namespace) -> int:
     bad = _check_args(args)
     if bad:
         return _err(bad)
-    _import_dolfinx_without_numba()
     try:
         scene = load_scene(args.scene, args.overrides)
         cont = parse_continue(args.cont) if args.cont else None

@@ -88,12 +88,13 @@ def retarget(st: Setup, scene: Scene) -> Setup:
     return Setup(scene, st.ops, circle_problem(st.ops, scene, rate=st.prob.rate))
 
 
-def start_from_run(run_dir: Path, st: Setup) -> tuple[Array, float, dict]:
+def start_from_run(run_dir: Path, st: Setup, run=None) -> tuple[Array, float, dict]:
     """(W0, ω0, info) from a transient run directory's last sample (module doc); with sub-node
-    samples, from its probe's every-step history (``probe_history``) where it has one."""
+    samples, from its probe's every-step history (``probe_history``) where it has one.
+    ``run``: the directory's ``postprocess.analysis.RunData`` if already loaded."""
     from postprocess.analysis import analyse_run, load_run
 
-    run = load_run(run_dir)
+    run = run if run is not None else load_run(run_dir)
     s = run.samples
     order = np.argsort(s["theta"])
     ops = st.ops

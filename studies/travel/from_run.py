@@ -62,6 +62,7 @@ class RunEndState:
     scene: object  # solver.scene.Scene
     summary: dict
     samples: dict
+    data: object  # postprocess.analysis.RunData (scene table, summary, samples)
     k: int
     omega: float  # measured angular speed of the wave, rad/s
     dt: float  # the run's time step, s
@@ -75,18 +76,17 @@ class RunEndState:
 
 def frame_spread(samples: dict, omega: float, window_s: float) -> tuple[float, float]:
     """(spread, ω*): the frame spread of the samples over the last ``window_s`` (module doc)
-    at the angular speed ω* within ±0.5 % of ``omega`` that minimises it. The measured ω
-    carries an error δω that turns the frame by kδω·window over the window (at k = 12, 900
-    m/s and 1e-4 relative error, 0.1 rad over 0.1 s: a spread of ~0.05 on a rigid wave), so
-    the spread is that of the best frame."""
-    from scipy.optimize import minimize_scalar
-
+    in the frame turning at ω*. The measured ω carries an error δω that turns the frame by
+    kδω·window over the window (at k = 12, 900 m/s and 1e-4 relative error, 0.1 rad over
+    0.1 s: a spread of ~0.05 on a rigid wave), so ω* is fitted: in the frame of ``omega`` the
+    dominant harmonic m of the samples turns at the rate m(ω − ω*), whose least-squares slope
+    of the unwrapped phase gives ω*. The smaller of the spreads at ω and ω* is returned."""
     order = np.argsort(samples["theta"])
     n = order.size
     t = samples["t"]
     sel = t >= t[-1] - window_s
+    lag = t[sel] - t[-1]
     m = np.fft.rfftfreq(n, 1.0 / n)
-    lag = (t[sel] - t[-1])[:, None] * m[None, :]
     spectra = []
     for comp in ("u_r", "u_theta"):
         F = np.fft.rfft(samples[comp][sel][:, order], axis=1)
@@ -95,19 +95,21 @@ def frame_spread(samples: dict, omega: float, window_s: float) -> tuple[float, f
 
     def spread(om: float) -> float:
         worst = 0.0
+        turn = np.exp(1j * om * np.outer(lag, m))
         for F in spectra:  # Parseval: the spread in Fourier space
-            back = F * np.exp(1j * om * lag)
+            back = F * turn
             mean = back.mean(axis=0)
             dev = float(np.sum(np.abs(back - mean) ** 2)) / back.shape[0]
             worst = max(worst, math.sqrt(dev / max(float(np.sum(np.abs(mean) ** 2)), 1e-300)))
         return worst
 
-    grid = omega * (1.0 + np.linspace(-5e-3, 5e-3, 21))
-    best = grid[int(np.argmin([spread(om) for om in grid]))]
-    step = 5e-4 * abs(omega)
-    res = minimize_scalar(spread, bounds=(best - step, best + step), method="bounded",
-                          options={"xatol": 1e-7 * abs(omega)})
-    return float(res.fun), float(res.x)
+    F = spectra[1]
+    dom = int(np.argmax(np.mean(np.abs(F) ** 2, axis=0)))
+    best = omega
+    if dom > 0 and lag.size > 2:
+        phase = np.unwrap(np.angle(F[:, dom] * np.exp(1j * omega * dom * lag)))
+        best = omega - float(np.polyfit(lag, phase, 1)[0]) / dom
+    return min((spread(omega), omega), (spread(best), best))
 
 
 def matched_samples(node_passage: float, dt: float) -> int:
@@ -148,7 +150,7 @@ def read_end_state(run_dir: Path, tolerance: float | None = None) -> RunEndState
         t = run.samples["probe_t"]
         dt = float(t[1] - t[0])
     scene = load_scene(str(run_dir / "scene.toml"))
-    return RunEndState(run_dir, scene, summ, run.samples, int(wave.mode),
+    return RunEndState(run_dir, scene, summ, run.samples, run, int(wave.mode),
                        float(wave.angular_speed_rad_s), dt, spread)
 
 
@@ -176,7 +178,7 @@ def solve_matched(end: RunEndState, samples: int | None = None, max_iter: int = 
 
     s = samples or matched_samples(end.node_passage, end.dt)
     st = _setup(end, s)
-    W_hist, om0, info = D.start_from_run(end.path, st)
+    W_hist, om0, info = D.start_from_run(end.path, st, end.data)
     starts = [(W_hist, info["start"])]
     if info["start"] == "run (probe history)":
         s_ = end.samples
