@@ -104,7 +104,7 @@ def parse_continue(text: str) -> tuple[str, list[float]]:
 
 
 def _import_dolfinx_without_numba() -> None:
-    """Import dolfinx with numba hidden (issue 14's speed target). ``dolfinx.utils`` imports
+    """Import dolfinx with numba hidden (the speed target). ``dolfinx.utils`` imports
     numba and LLVM at import time for its numba helpers only. ``travel`` runs no compiled
     kernel, and that import is 0.2-0.3 s of the command's ~2 s of CPU (docs/
     travelling_waves.md, "Speed"). numba is importable again afterwards; only dolfinx's

@@ -329,7 +329,7 @@ def band(st: Setup, sol: TravelSolution, k: int) -> dict:
     p2 = [z["separation"] + z["stick"] for z in zs]
     amp = [member_amplitude(st, m) for m in members]
     # members in order of celerity (m/s): the selection question is where on this list the
-    # transient's wave sits (docs/travelling_waves.md, "selection")
+    # transient's wave sits (archive/travel/travelling_waves_history.md, "selection")
     table = sorted(zip([m.omega * R for m in members], amp, p1, p2, strict=True))
     return {"celerity_m_s": [min(lo * R, hi * R), max(lo * R, hi * R)],
             "members": len(members),

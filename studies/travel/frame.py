@@ -1,4 +1,4 @@
-"""The FE tube in the wave's frame: K − ω²G condensed on the contact nodes (issue 14).
+"""The FE tube in the wave's frame: K − ω²G condensed on the contact nodes.
 
 ``forms.travelling`` gives the wave-frame operator A(ω) = K − ω²G (K: the transient's
 stiffness, ``solver.problem.build_problem``; G: travelling inertia). The outer circle is
@@ -51,7 +51,7 @@ harmonic e^{imθ} is seen by the mesh nodes as the discrete harmonic m mod N at 
 hence m mod N) and the frequency mω. The contact law is applied at every point with the
 material rate over τ/s (``newton.rate_stencil``). As s → ∞ this is the transient's own
 travelling wave at N, continuous in time (the transient's limit as Δt → 0); s is the time
-resolution, N the space resolution (docs/travelling_waves.md, 2e).
+resolution, N the space resolution (archive/travel/travelling_waves_history.md 2e).
 
 **Central scheme** (``time_scheme="central"``): the transient's own time discretisation with
 step h = τ/s, i.e. the explicit β-method at β₂ = 1/2 (``solver.newmark``):
