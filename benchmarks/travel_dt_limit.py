@@ -23,15 +23,28 @@ from pathlib import Path
 import numpy as np
 
 
-def transient_on(end, samples: int, dt: float, end_time: float) -> dict:
-    """The run's scene at ``dt``, started on its wave at ``samples`` points per node."""
+def nested_waves(end, s: int) -> list:
+    """(Setup, wave) at S, 2S, 4S: the matched wave from the run, each next one from the last
+    prolonged (as ``from_run.dt_limit_wave``)."""
+    from studies.travel import driver as D
+    from studies.travel.from_run import _setup, solve_matched
+
+    st, sol, _ = solve_matched(end, s)
+    out = [(st, sol)]
+    for f in (2, 4):
+        st = _setup(end, f * s)
+        sol = D.solve_free(st, end.k, D.prolong(np.r_[sol.W_r, sol.W_t], st.ops.n), sol.omega,
+                           max_iter=40)
+        out.append((st, sol))
+    return out
+
+
+def transient_on(end, st, sol, dt: float, end_time: float) -> dict:
+    """The run's scene at ``dt``, started on the wave ``sol`` of the frame ``st``."""
     from mpi4py import MPI
 
     from postprocess.analysis import analyse
     from solver.run import Simulation
-    from studies.travel.from_run import solve_matched
-
-    st, sol, _ = solve_matched(end, samples)
     u, v, a = st.ops.shift_state(np.r_[sol.W_r, sol.W_t], sol.omega)
     scene = end.scene.with_overrides(f"time.dt={float(dt)!r}", f"time.end_time={end_time!r}",
                                      "output.progress=false")
@@ -69,7 +82,9 @@ def main() -> int:
         s = matched_samples(end.node_passage, end.dt)
         tr = [{"dt_s": end.dt, "k": end.k, "celerity_m_s": end.summary["celerity_m_s"],
                "amplitude_m": end.summary["amplitude_m"], "status": "run"}]
-        tr += [transient_on(end, f * s, end.dt / f, a.end_time) for f in (2, 4)]
+        waves = nested_waves(end, s)
+        tr += [transient_on(end, *waves[j], end.dt / f, a.end_time)
+               for j, f in ((1, 2), (2, 4))]
         c_lim, p = extrapolate([x["celerity_m_s"] for x in tr])
         a_lim, _ = extrapolate([x["amplitude_m"] for x in tr])
         lim = w["dt_limit"]

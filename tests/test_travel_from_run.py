@@ -95,3 +95,49 @@ def test_frame_spread_is_zero_for_a_rigid_wave_and_large_for_two_waves():
     two = dict(rigid)
     two["u_r"] = rigid["u_r"] + 0.3 * np.cos(5 * (theta[None, :] - 1500.0 * t[:, None]))
     assert frame_spread(two, om, 0.03)[0] > 2 * RIGID_TOLERANCE
+
+
+def test_the_runs_wave_is_stable_to_a_small_bump(figure3_run):
+    """``wave_stability``: the transient started on the k = 12 wave (dt = h) plus a 0.02 d
+    bump of the modes 1 … 12 keeps it over 0.05 s: same k, celerity within 0.1 % (measured
+    0.017 %) and amplitude within 5 % (measured 0.4 %) of the wave, as the run itself did."""
+    from studies.travel import wave_stability
+
+    s = wave_stability(figure3_run)
+    assert s["stable"] and s["end_k"] == 12 and s["status"] == "end_time", s
+    assert abs(s["drift"]["celerity_rel"]) < 1e-3 and abs(s["drift"]["amplitude_rel"]) < 0.05
+
+
+def test_a_pseudo_arclength_step_lands_on_the_natural_branch(figure3_run):
+    """``arclength_step`` from the waves at δ = 4e-4 and 4.5e-4 (the run's k = 12 wave at
+    S = 2, one wavelength) along their secant: its λ is an unknown, so it lands about one
+    secant further on (measured δ = 5.54e-4; the secant is measured in W/d, ω/ω₀, λ/λ₀, and W
+    moves more than δ does); the natural-parameter Newton at that λ, started from the
+    δ = 4.5e-4 wave, finds the same wave (ω to 1e-8 relative, W to 1e-6 d: both residuals
+    are ≤ 1e-10 c·d)."""
+    from studies.travel import driver as D
+    from studies.travel.arclength import arclength_step, phase_row_of, problem_at
+    from studies.travel.from_run import read_end_state, solve_matched
+    from studies.travel.newton import fold_state
+
+    end = read_end_state(figure3_run)
+    st, sol, _ = solve_matched(end)
+    R = st.scene.geometry.R
+    prob0 = D.folded(st, 12).prob
+    x = [np.r_[fold_state(np.r_[sol.W_r, sol.W_t], 12), sol.omega, 4e-4]]
+    st2 = D.retarget(st, st.scene.with_overrides("geometry.delta=4.5e-4"))
+    w2 = D.solve_free(st2, 12, np.r_[sol.W_r, sol.W_t], sol.omega)
+    x.append(np.r_[fold_state(np.r_[w2.W_r, w2.W_t], 12), w2.omega, 4.5e-4])
+    n = prob0.n
+    scale = np.r_[np.full(2 * n, prob0.d), abs(sol.omega), 4e-4]
+    t = (x[1] - x[0]) / scale
+    ds = float(np.linalg.norm(t))
+    x3, w3 = arclength_step(lambda lam: problem_at(prob0, "geometry.delta", lam, R), 12, x[1],
+                            t / ds, ds, scale, phase_row_of(x[1][n: 2 * n], prob0.theta, 12))
+    lam = float(x3[-1])
+    assert 4.6e-4 < lam < 6e-4 and w3.violated is None  # forward, about one secant on
+    st3 = D.retarget(st, st.scene.with_overrides(f"geometry.delta={lam!r}"))
+    ref = D.solve_free(st3, 12, np.r_[w2.W_r, w2.W_t], w2.omega)
+    assert abs(ref.omega / w3.omega - 1.0) < 1e-8
+    W_ref = fold_state(np.r_[ref.W_r, ref.W_t], 12)
+    assert np.abs(W_ref - x3[: 2 * n]).max() < 1e-6 * st.scene.geometry.d

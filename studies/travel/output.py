@@ -138,7 +138,7 @@ def plot_branch(path: Path, rows: list[dict], key: str) -> Path:
     axes[2].legend()
     axes[2].set_ylabel("ψ (fraction of a period)")
     axes[2].set_xlabel(key_label(key))
-    bad = [r for r in rows if r["status"] != "converged"]
+    bad = [r for r in rows if r["status"] != "converged" and r.get("value") is not None]
     if bad:
         for ax in axes:
             ax.axvline(bad[0]["value"], color="r", ls="--")
