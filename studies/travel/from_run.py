@@ -39,7 +39,8 @@ import numpy as np
 
 __all__ = ["RIGID_TOLERANCE", "NotRigidWave", "RunEndState", "frame_spread", "matched_samples",
            "read_end_state", "solve_matched", "wave_from_run", "dt_limit_wave",
-           "wave_stability", "compare_with_run", "scene_time_step", "dt_limit_scene"]
+           "wave_stability", "transient_next_to", "compare_with_run", "scene_time_step",
+           "dt_limit_scene"]
 
 #: Largest frame spread of a rigid travelling wave. A run started exactly on a solved discrete
 #: wave (``FrameOperators.shift_state``) measures 0 where each sample lies a whole number of
@@ -352,22 +353,28 @@ def _extrapolate(setup, k: int, s: int, W: np.ndarray, omega: float) -> dict:
 
 
 def wave_stability(run_dir: Path, *, end_time: float = 0.05, eps: float = 0.02) -> dict:
-    """Is the run's wave an attractor of the transient? The wave of ``wave_from_run`` (its
-    whole-mesh state, ``FrameOperators.shift_state``, a periodic orbit of the transient at
-    dt = h) plus a radial bump eps·d·mean_m cos(mθ + 2πm/12), m = 1 … 12, is run for
-    ``end_time`` at dt = h, and its last quarter (at least 8 samples) is analysed like a run.
-    ``stable``: same k and celerity within 0.1 % (the wave's own distance to the run at the
-    matched step is of that order) and an amplitude within 5 % of the wave; ``drift``: the
-    last window's celerity and amplitude relative to the wave."""
+    """Is the run's wave an attractor of the transient? ``transient_next_to`` the wave of
+    ``wave_from_run`` (the matched step)."""
+    end = read_end_state(Path(run_dir))
+    st, sol, _ = solve_matched(end)
+    return transient_next_to(st, sol, end.k, end_time=end_time, eps=eps)
+
+
+def transient_next_to(st, sol, k: int, *, end_time: float = 0.05, eps: float = 0.02) -> dict:
+    """The transient of ``st.scene`` started next to the central-scheme wave ``sol``: its
+    whole-mesh state (``FrameOperators.shift_state``, a periodic orbit of the transient at
+    dt = h) plus a radial bump eps·d·mean_m cos(mθ + 2πm/12), m = 1 … 12, run for
+    ``end_time`` at dt = h; its last quarter (at least 8 samples) is analysed like a run.
+    ``stable``: same k, celerity within 0.1 % and amplitude within 5 % of the wave (a wave
+    the transient leaves drifts by more within a few periods); ``drift``: the last window's
+    celerity and amplitude relative to the wave."""
     from mpi4py import MPI
 
     from postprocess.analysis import analyse
     from solver.run import Simulation
     from studies.travel import driver as D
 
-    end = read_end_state(Path(run_dir))
-    st, sol, _ = solve_matched(end)
-    scene, ops = end.scene, st.ops
+    scene, ops = st.scene, st.ops
     d, R = scene.geometry.d, scene.geometry.R
     u, v, a = ops.shift_state(np.r_[sol.W_r, sol.W_t], sol.omega)
     modes = np.arange(1, 13)
@@ -386,13 +393,14 @@ def wave_stability(run_dir: Path, *, end_time: float = 0.05, eps: float = 0.02) 
     sel = t >= t[-1] - window
     w = analyse(t[sel], rec["theta"], rec["u_r"][sel], rec["u_theta"][sel], rec["status"][sel],
                 d=d, radius=R, window=window)
-    summ, _ = D.measure(st, sol, end.k)
+    summ, _ = D.measure(st, sol, k)
     drift = {"celerity_rel": (w.celerity_m_s / (sol.omega * R) - 1.0) if w.celerity_m_s
              else None,
              "amplitude_rel": w.amplitude_m / summ["amplitude_m"] - 1.0}
-    stable = bool(sim.stop_reason == "end_time" and w.mode == end.k
+    stable = bool(sim.stop_reason == "end_time" and w.mode == k
                   and drift["celerity_rel"] is not None and abs(drift["celerity_rel"]) < 1e-3
                   and abs(drift["amplitude_rel"]) < 0.05)
-    return {"stable": stable, "drift": drift, "k": end.k, "end_k": w.mode,
+    return {"stable": stable, "drift": drift, "k": k, "end_k": w.mode,
             "celerity_m_s": sol.omega * R, "end_celerity_m_s": w.celerity_m_s,
+            "amplitude_m": summ["amplitude_m"], "end_amplitude_m": w.amplitude_m,
             "dt_s": h, "end_time_s": end_time, "eps": eps, "status": sim.stop_reason}
