@@ -198,3 +198,20 @@ def test_a_beta2_wave_is_a_periodic_orbit_of_the_beta2_transient(figure3_run):
                     np.abs(ut[order] - wave.W_t[at]).max())
     assert rec["t"].size > 30
     assert worst < 1e-6 * end.scene.geometry.d, worst
+
+
+def test_without_a_run_the_step_is_the_one_stickslip_run_uses(tmp_path):
+    """No --from: S = round(node passage / dt) with dt the scene's own (``stickslip run``'s:
+    0.9 dt_crit) and the node passage of the start speed; the wave then converges on that
+    route (damped Figure-1 physics at N = 36, start −2300 m/s: measured −2392.2 m/s, S = 1)."""
+    from solver.scene import load_scene
+    from studies.travel.from_run import matched_samples, scene_time_step
+
+    out = tmp_path / "w"
+    argv = ["scenes/figure1_n132_damped.toml", "--set", "mesh.n_inner=36"]
+    assert main(["travel", *argv, "--k", "4", "--celerity", "-2300", "-o", str(out)]) == 0
+    s = json.loads((out / "summary.json").read_text())
+    dt = scene_time_step(load_scene(argv[0], ["mesh.n_inner=36"]))
+    assert s["time_scheme"] == "central"
+    assert s["samples_per_node"] == matched_samples(2 * math.pi / (36 * 2300.0), dt)
+    assert s["inequalities"]["all_satisfied"] and s["mode"] == 4
