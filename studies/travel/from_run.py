@@ -164,7 +164,7 @@ def scene_time_step(scene, problem=None) -> float:
 
 
 def _setup(end: RunEndState, samples: int):
-    from studies.travel import driver as D
+    import studies.travel.driver as D
 
     return D.setup(end.scene, float(end.scene.damping.tau), rate="bdf1", inertia="shift",
                    samples=samples, time_scheme="central")
@@ -174,7 +174,7 @@ def solve_matched(end: RunEndState, samples: int | None = None, max_iter: int = 
     """(Setup, TravelSolution, start) of the central-scheme wave at S = ``samples`` (default:
     the matched S) from the run (module doc: probe history, then last sample).
     Raises ``newton.NotConverged`` when both starts fail."""
-    from studies.travel import driver as D
+    import studies.travel.driver as D
     from studies.travel.newton import NotConverged
 
     s = samples or matched_samples(end.node_passage, end.dt)
@@ -236,7 +236,7 @@ def wave_from_run(run_dir: Path, *, dt_limit: bool = False) -> dict:
     cpu_s; with ``dt_limit``, ``dt_limit`` (the Δt → 0 wave, ``dt_limit_wave``). Raises
     ``NotRigidWave`` when the run's end state is not a rigidly travelling wave, ``ValueError``
     when the directory is not a finished run."""
-    from studies.travel import driver as D
+    import studies.travel.driver as D
     from studies.travel.newton import NotConverged
 
     t0 = time.process_time()
@@ -288,7 +288,7 @@ def compare_with_run(end: RunEndState, st, sol, summary: dict) -> dict:
 
 def _halved_step_change(end: RunEndState, st, sol) -> float | None:
     """Relative celerity change of the wave from S = 1 to S = 2 (h halved), or None."""
-    from studies.travel import driver as D
+    import studies.travel.driver as D
     from studies.travel.newton import NotConverged
 
     fine = _setup(end, 2 * st.ops.samples)
@@ -311,7 +311,7 @@ def dt_limit_wave(end: RunEndState, s: int, W: np.ndarray, omega: float) -> dict
 def dt_limit_scene(st, k: int, W: np.ndarray, omega: float) -> dict:
     """The Δt → 0 wave of the setup ``st`` (central scheme, S points per node) from its wave
     (W, ω) (``_extrapolate``); ``run_dt_error`` None (no run)."""
-    from studies.travel import driver as D
+    import studies.travel.driver as D
 
     def setup(ss: int):
         return D.setup(st.scene, st.ops.tau, rate="bdf1", inertia="shift", samples=ss,
@@ -326,7 +326,7 @@ def _extrapolate(setup, k: int, s: int, W: np.ndarray, omega: float) -> dict:
     x₀ = x_4S + (x_4S − x_2S)/(2ᵖ − 1) for the celerity, amplitude and sub-node ψ. Without an
     asymptotic range (ratio ≤ 1) the finest level is returned and ``order`` is None.
     ``setup(S)`` builds the central-scheme frame with S points per node."""
-    from studies.travel import driver as D
+    import studies.travel.driver as D
 
     levels = []
     for j, ss in enumerate((s, 2 * s, 4 * s)):
@@ -370,9 +370,9 @@ def transient_next_to(st, sol, k: int, *, end_time: float = 0.05, eps: float = 0
     celerity and amplitude relative to the wave."""
     from mpi4py import MPI
 
+    import studies.travel.driver as D
     from postprocess.analysis import analyse
     from solver.run import Simulation
-    from studies.travel import driver as D
 
     scene, ops = st.scene, st.ops
     d, R = scene.geometry.d, scene.geometry.R
