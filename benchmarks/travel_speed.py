@@ -15,8 +15,9 @@ Prints, each with its wall time:
 5. the issue's two targets as whole ``stickslip travel`` processes (start-up and imports
    included, CPU = user + sys of the child): one wave at N = 132 from RUN_DIR (target < 2 s),
    and a 40-point continuation in loading.omega = 40 … 50 rad/s at N = 132 from the same run
-   (target < 60 s); each by the rotation frame (``--fixed-omega``) and by the transient's
-   own discrete wave (``--inertia shift --samples 6 --time-scheme central``).
+   (target < 60 s); each by the rotation frame (``--inertia rotation --fixed-omega``), by
+   the transient's own discrete wave at S = 6 (``--samples 6``) and by the default route
+   (the matched S).
 """
 
 from __future__ import annotations
