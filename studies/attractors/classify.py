@@ -21,6 +21,9 @@ speed) into the wave's frame; the spread is the RMS deviation of the shifted sam
 their mean over the RMS of the mean, both components together, axisymmetric part excluded.
 A rigid wave gives 0 up to sampling; measured 0.2 – 6 % for waves and 28 – 46 % for
 modulated cycles at N = 66 – 264 (docs/travelling_waves.md), hence ``SPREAD_TOL`` = 10 %.
+Both components enter one ratio (not the larger of two ratios): in a stick-slip wave u_r = d
+on the whole circle, so u_r's non-axisymmetric part is round-off and its own ratio is noise
+(a rigid k = 6 stick-slip wave of the smoke mesh: 0.07 together, 24.6 for u_r alone).
 
 Members (``group_members``): waves (and, separately, modulated cycles) with the same
 (k, direction, regime), whose celerities sorted in order differ by at most ``celerity_tol``
