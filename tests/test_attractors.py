@@ -305,10 +305,9 @@ def test_certification_adapter(monkeypatch, tmp_path):
         pass
 
     def wave_from_run(run_dir, *, dt_limit=False):
-        if dt_limit:
-            raise NotRigidWave("frame spread 0.45")
-        return {"converged": True, "residual": 1e-11, "celerity_m_s": -935.6,
-                "difference": {"celerity": 0.001}, "k": 11}
+        return {"converged": True, "residual": 1e-11, "celerity_m_s": -935.6, "k": 11,
+                "difference": {"celerity_rel": 0.001},
+                "dt_limit": {"celerity_m_s": -925.0, "run_dt_error": 0.0115, "levels": []}}
 
     monkeypatch.setattr(travel, "wave_from_run", wave_from_run, raising=False)
     monkeypatch.setattr(travel, "wave_stability",
@@ -316,5 +315,13 @@ def test_certification_adapter(monkeypatch, tmp_path):
                         raising=False)
     cert = certify(tmp_path)
     assert cert["at_dt"]["residual"] == 1e-11 and cert["stable"] is True
-    assert "NotRigidWave" in cert["dt_to_0"]["message"]
-    assert certificate_line(cert).startswith("direct solver residual 1.0e-11, celerity +0.10 %")
+    assert certificate_line(cert) == ("direct solver residual 1.0e-11, -935.6 m/s (+0.10 % vs "
+                                      "the transient); Δt → 0: -925.0 m/s (the run's Δt error "
+                                      "+1.15 %); stable")
+
+    def not_rigid(run_dir, *, dt_limit=False):
+        raise NotRigidWave("frame spread 0.45")
+
+    monkeypatch.setattr(travel, "wave_from_run", not_rigid)
+    cert = certify(tmp_path)
+    assert "NotRigidWave: frame spread 0.45" in certificate_line(cert)

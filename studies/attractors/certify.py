@@ -1,12 +1,12 @@
 """Certification of a member by the direct travelling-wave solver, through one adapter.
 
-``certify(run_dir)`` hands one of the member's runs to ``studies.travel.wave_from_run``: the
-transient's own discrete wave at the run's step (its residual, its celerity and the relative
-difference to the transient's), then with ``dt_limit=True`` the wave as Δt → 0 at that mesh,
-and, where ``studies.travel.wave_stability`` exists, whether a transient started next to the
-wave keeps it. When the travel solver is not installed the answer says "certification
-unavailable" and the census goes on; a run that is not a rigid wave (``NotRigidWave``) or a
-solver failure is reported, never raised.
+``certify(run_dir)`` hands one of the member's runs to ``studies.travel.wave_from_run`` with
+``dt_limit=True``: the transient's own discrete wave at the run's step (its residual, its
+celerity and the relative difference to the transient's) and the wave as Δt → 0 at that mesh
+(with the run's own Δt error), and, where ``studies.travel.wave_stability`` exists, whether
+a transient started next to the wave keeps it. When the travel solver is not installed the
+answer says "certification unavailable" and the census goes on; a run that is not a rigid
+wave (``NotRigidWave``) or a solver failure is reported, never raised.
 """
 
 from __future__ import annotations
@@ -39,16 +39,18 @@ def certify(run_dir: Path, *, stability: bool = True, stability_end_time: float 
         return {"available": False, "message": f"{UNAVAILABLE}: studies.travel.wave_from_run "
                 "is not installed"}
     out: dict = {"available": True, "run": str(run_dir)}
-    for label, dt_limit in (("at_dt", False), ("dt_to_0", True)):
-        try:
-            wave = travel.wave_from_run(run_dir, dt_limit=dt_limit)
-        except Exception as err:  # NotRigidWave or a solver failure: a fact of the member
-            out[label] = {"converged": False, "message": f"{type(err).__name__}: {err}"}
-            continue
-        out[label] = {key: _plain(wave.get(key)) for key in (
-            "converged", "message", "residual", "k", "direction", "regime", "celerity_m_s",
-            "frequency_hz", "psi1", "psi2", "amplitude_m", "frame_spread", "difference")}
-    if stability and hasattr(travel, "wave_stability"):
+    try:  # one solve: the wave at the run's step, and from it the Δt → 0 wave
+        wave = travel.wave_from_run(run_dir, dt_limit=True)
+    except Exception as err:  # NotRigidWave or a solver failure: a fact of the member
+        out["at_dt"] = {"converged": False, "message": f"{type(err).__name__}: {err}"}
+        return out
+    out["at_dt"] = {key: _plain(wave.get(key)) for key in (
+        "converged", "message", "residual", "k", "direction", "regime", "celerity_m_s",
+        "frequency_hz", "psi1", "psi2", "amplitude_m", "frame_spread", "samples",
+        "difference", "run")}
+    if wave.get("dt_limit") is not None:
+        out["dt_to_0"] = _plain({k: v for k, v in wave["dt_limit"].items() if k != "levels"})
+    if stability and wave.get("converged") and hasattr(travel, "wave_stability"):
         try:
             st = travel.wave_stability(run_dir, end_time=stability_end_time)
             out["stable"] = bool(st.get("stable"))
@@ -81,13 +83,16 @@ def certificate_line(cert: dict | None) -> str:
     at = cert.get("at_dt", {})
     if not at.get("converged"):
         return f"direct solver: {at.get('message', 'no wave')}"
-    text = f"direct solver residual {at.get('residual', math.nan):.1e}"
+    text = (f"direct solver residual {at.get('residual') or math.nan:.1e}, "
+            f"{at.get('celerity_m_s') or math.nan:+.1f} m/s")
     diff = at.get("difference")
-    if isinstance(diff, dict) and diff.get("celerity") is not None:
-        text += f", celerity {100 * diff['celerity']:+.2f} % vs transient"
-    lim = cert.get("dt_to_0", {})
-    if lim.get("converged") and lim.get("celerity_m_s") is not None:
+    if isinstance(diff, dict) and diff.get("celerity_rel") is not None:
+        text += f" ({100 * diff['celerity_rel']:+.2f} % vs the transient)"
+    lim = cert.get("dt_to_0") or {}
+    if lim.get("celerity_m_s") is not None:
         text += f"; Δt → 0: {lim['celerity_m_s']:+.1f} m/s"
+        if lim.get("run_dt_error") is not None:
+            text += f" (the run's Δt error {100 * lim['run_dt_error']:+.2f} %)"
     if "stable" in cert:
         text += {True: "; stable", False: "; unstable", None: "; stability unknown"}[
             cert["stable"]]
