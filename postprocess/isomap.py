@@ -170,7 +170,8 @@ def _draw_panel(pl, pv, p: dict, mag: float, clim: list[float]) -> None:  # noqa
     pl.add_text(
         f"{sc['name']}: N = {sc['mesh']['n_inner']} contact nodes, t = {MS * p['t_end']:.1f} ms\n"
         f"{p['wave']}\n"
-        f"wave displacement u − u_steady x{mag:.0f}; black: cylinder (r = R + d)\n"
+        f"colour: u_r − d w(r) (= u_r − d on the contact circle)\n"
+        f"mesh: wave displacement u − u_steady x{mag:.0f}; black: cylinder (r = R + d)\n"
         f"dots: contact status at t = {MS * p['t_status']:.1f} ms",
         position="upper_left", font_size=10, color="black")
     pl.view_xy()

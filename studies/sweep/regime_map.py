@@ -5,11 +5,13 @@ from __future__ import annotations
 
 import itertools
 import json
+import math
 import time
 from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import Any
 
+from postprocess.style import REGIME_COLORS
 from solver.atomic import atomic_write_text
 from solver.scene import (
     Scene,
@@ -169,14 +171,41 @@ def _semianalytic_overlay(sweep_dir: Path, meta: dict, base: Scene, xkey: str, x
     return res
 
 
-_REGIME_COLORS = {
-    "steady-sliding": "#d9d9d9",
-    "stick-slip": "#4c9be8",
-    "slip-separation": "#f5b041",
-    "stick-slip-separation": "#d64541",
-    "diverged": "#222222",
-    "failed": "#ffffff",
-}
+def cell_label(row: dict) -> tuple[str | None, str]:
+    """(regime category, text) of a map cell: what the cell's run found.
+
+    A wave reads "k = 4, −2507 m/s" (+ a star when no limit cycle was reached by t_end),
+    steady sliding reads "steady sliding", a failed or diverged run says so, and a run that has
+    not finished shows its status.
+    """
+    status, regime = row.get("status"), row.get("regime")
+    if status == "diverged":
+        return "diverged", "diverged"
+    if status == "failed":
+        return "failed", "error"
+    if status != "completed" or regime is None:
+        return None, str(status or "pending")
+    if regime == "steady-sliding":
+        return regime, "steady\nsliding"
+    star = "" if row.get("limit_cycle") in (True, None) else "*"
+    return regime, f"k = {row.get('mode')}{star}\n{row.get('celerity_m_s', math.nan):+.0f} m/s"
+
+
+def _fixed_subtitle(sc: Scene, swept: Iterable[str]) -> str:
+    """The scene parameters that no cell of the sweep changes (a swept key is never named)."""
+    swept = set(swept)
+    damping = (f"Kelvin–Voigt τ = {1e6 * sc.damping.tau:.3g} µs" if sc.damping.enabled
+               else "no damping")
+    items = (("loading.omega", f"Ω = {sc.loading.omega:g} rad/s"),
+             ("geometry.delta", f"δ = {sc.geometry.delta:g}"),
+             ("loading.f", f"f = {sc.loading.f:g}"),
+             ("mesh.n_inner", f"N = {sc.mesh.n_inner}"),
+             ("time.beta2", f"β₂ = {sc.time.beta2:g}"),
+             ("damping", damping),
+             ("initial.mode", f"seed mode {sc.initial.mode}"),
+             ("time.end_time", f"t_end = {sc.time.end_time:g} s"))
+    return ", ".join(text for key, text in items
+                     if not any(k == key or k.startswith(key + ".") for k in swept))
 
 
 def plot_sweep(sweep_dir: str | Path) -> list[Path]:
@@ -212,7 +241,7 @@ def plot_sweep(sweep_dir: str | Path) -> list[Path]:
     others = [k for k in varying if k not in (xkey, ykey)]
     base = _map_base(sweep_dir, meta)
     categories = [*REGIMES, "failed"]
-    cmap = ListedColormap([_REGIME_COLORS[c] for c in categories])
+    cmap = ListedColormap([REGIME_COLORS[c] for c in categories])
     cmap.set_bad("white")
     norm = BoundaryNorm(np.arange(len(categories) + 1) - 0.5, cmap.N)
     outputs = []
@@ -234,20 +263,13 @@ def plot_sweep(sweep_dir: str | Path) -> list[Path]:
         for r in sel:
             i = ys.index(_hashable(r[ykey])) if ykey else 0
             j = xs.index(_hashable(r[xkey]))
-            st, regime = r.get("status"), r.get("regime")
-            cat = ("diverged" if st == "diverged" else
-                   "failed" if st == "failed" else regime if st == "completed" else None)
-            if cat not in categories:
-                continue
-            codes[i, j] = categories.index(cat)
+            cat, text = cell_label(r)
+            if cat in categories:
+                codes[i, j] = categories.index(cat)
             dark = cat in ("diverged", "stick-slip-separation")
-            if st == "completed" and r.get("mode") is not None:
-                text = f"k={r['mode']}\n{r['celerity_m_s']:+.0f}"
-            else:
-                text = {"diverged": "div.", "failed": "error"}.get(cat, "")
             ax.text(xpos[j], ypos[i], text, ha="center", va="center", fontsize=7,
                     color="white" if dark else "black",
-                    bbox={"boxstyle": "round,pad=0.2", "fc": _REGIME_COLORS[cat],
+                    bbox={"boxstyle": "round,pad=0.2", "fc": REGIME_COLORS.get(cat, "white"),
                           "ec": "none", "alpha": 0.9})
         xe = _edges(xpos, xscale) if numeric else list(np.arange(len(xs) + 1) - 0.5)
         ye = (_edges(ypos, yscale) if numeric and ykey else
@@ -257,23 +279,24 @@ def plot_sweep(sweep_dir: str | Path) -> list[Path]:
         ax.set_xscale(xscale)
         ax.set_yscale(yscale)
         ax.minorticks_off()
-        ax.set_xticks(xpos, [f"{v:g}" if numeric else str(v) for v in xs])
-        ax.set_yticks(ypos, [f"{v:g}" if numeric else str(v) for v in ys])
+        ax.set_xticks(xpos, [_fmt(v) for v in xs])
+        ax.set_yticks(ypos, [_fmt(v) for v in ys])
         ax.set_xlabel(_label(xkey))
         ax.set_ylabel(_label(ykey) if ykey else "")
         if not ykey:
             ax.set_yticks([])
-        handles = [Patch(facecolor=_REGIME_COLORS[c], edgecolor="0.5", label=c)
+        handles = [Patch(facecolor=REGIME_COLORS[c], edgecolor="0.5", label=c)
                    for c in categories if c in {categories[int(v)] for v in
                                                 codes[np.isfinite(codes)].ravel()}]
         note = ""
         ks = tuple(mp.get("k") or sorted({int(r["mode"]) for r in sel
                                           if r.get("status") == "completed"
+                                          and r.get("regime") not in (None, "steady-sliding")
                                           and r.get("mode") is not None})[:4])
         if (mp.get("semianalytic", True) and numeric and ykey and ks
                 and (xkey in _SEMIANALYTIC_KEYS or ykey in _SEMIANALYTIC_KEYS)):
-            sa = _semianalytic_overlay(sweep_dir, meta, base, xkey, [float(v) for v in xs],
-                                       xscale, ykey, [float(v) for v in ys], yscale, fixed, ks)
+            sa = _semianalytic_overlay(sweep_dir, meta, base, xkey, list(xs), xscale, ykey,
+                                       list(ys), yscale, fixed, ks)
             for name, style, hatch, what in (("stick-slip", "-", "//", "solid"),
                                              ("stick-slip-separation", "--", "\\\\", "dashed")):
                 g = sa[name]
@@ -296,12 +319,14 @@ def plot_sweep(sweep_dir: str | Path) -> list[Path]:
                                           label=f"no admissible semi-analytical {name} wave "
                                                 f"on this grid (k ∈ {{{kset}}})"))
             note = f"; boundaries: reduced model, junction {'/'.join(sa['junctions'])}"
-        fixed_txt = ", ".join(f"{_label(k)} = {v}" for k, v in fixed.items())
+        fixed_txt = ", ".join(f"{_label(k)} = {_fmt(v)}" for k, v in fixed.items())
         sc = base.with_overrides(*(f"{k}={_toml_value(v)}" for k, v in fixed.items()))
-        ax.set_title(f"sweep {meta['name']}: FE regime, k and celerity (m/s)"
-                     + (f"\n{fixed_txt}" if fixed_txt else "")
-                     + f"\nf = {sc.loading.f:g}, N = {sc.mesh.n_inner}, "
-                       f"t_end = {sc.time.end_time:g} s{note}", fontsize=8)
+        stars = any(cell_label(r)[1].split("\n")[0].endswith("*") for r in sel)
+        ax.set_title(f"sweep {meta['name']}: FE regime, k and celerity (m/s, + = rotation)"
+                     + (f"\nthis map: {fixed_txt}" if fixed_txt else "")
+                     + f"\n{_fixed_subtitle(sc, params)}{note}"
+                     + ("\n* no limit cycle by t_end (transient)" if stars else ""),
+                     fontsize=8)
         ax.legend(handles=handles, fontsize=7, loc="upper center", frameon=False, ncol=2,
                   bbox_to_anchor=(0.5, -0.13 if len(ys) > 3 else -0.25))
         suffix = "".join(f"_{k.rsplit('.', 1)[-1]}-{_slug_value(v)}" for k, v in fixed.items())
@@ -327,6 +352,17 @@ def _map_base(sweep_dir: Path, meta: dict) -> Scene:
 
 def _hashable(v: Any) -> Any:
     return tuple(v) if isinstance(v, list) else v
+
+
+def _fmt(v: Any) -> str:
+    """A swept value as a tick or title label (numbers %g, booleans and strings as in TOML)."""
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, int | float):
+        return f"{v:g}"
+    if isinstance(v, list | tuple):
+        return "[" + ", ".join(_fmt(x) for x in v) + "]"
+    return str(v)
 
 
 def _sortkey(v: Any) -> tuple:
