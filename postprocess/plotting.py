@@ -21,6 +21,7 @@ Colours and units come from ``postprocess.style`` (mm, MPa, m/s, Hz, ms, J/m).
 from __future__ import annotations
 
 import argparse
+import functools
 import re
 import warnings
 from pathlib import Path
@@ -285,15 +286,13 @@ def reduced_curves(scene: dict, k: int, admissible_only: bool = True,
     ``v_theta`` = −c U' RΩ, −c V' RΩ (m/s), ``p``, ``q`` (Pa), ``zone``.
     """
     from semianalytic.coefficients import coefficients, gamma_from_physical, reaction_scale
-    from semianalytic.waves import find_waves
 
     mat, geo, load = scene["material"], scene["geometry"], scene["loading"]
     c0 = float(mat.get("wave_speed") or np.sqrt(mat["E"] / mat["rho"]))
     R, om = float(geo["R"]), float(load["omega"])
     co = coefficients(float(mat["nu"]), float(geo["xi"]), gamma_from_physical(c0, R, om))
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)
-        waves = find_waves(co, float(load["f"]), int(k), float(geo["delta"]))
+    waves = _reduced_waves(float(mat["nu"]), float(geo["xi"]), co.gamma, float(load["f"]),
+                           int(k), float(geo["delta"]))
     E = float(mat.get("E", 1e9))
     out = []
     for w in waves:
@@ -310,6 +309,17 @@ def reduced_curves(scene: dict, k: int, admissible_only: bool = True,
                  + ("" if w.admissible else " (NOT admissible)"))
         out.append((label, cur))
     return out
+
+
+@functools.lru_cache(maxsize=8)
+def _reduced_waves(nu: float, xi: float, gamma: float, f: float, k: int, delta: float) -> tuple:
+    """``find_waves`` once per parameter set (the phase and u-v-p-q figures share it)."""
+    from semianalytic.coefficients import coefficients
+    from semianalytic.waves import find_waves
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        return tuple(find_waves(coefficients(nu, xi, gamma), f, k, delta))
 
 
 # ---------------------------------------------------------------------------------------------

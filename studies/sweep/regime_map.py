@@ -87,7 +87,8 @@ def existence_grid(base: Scene, xkey: str, xs: Sequence[float], ykey: str, ys: S
     of ``ks`` has an admissible wave. Stick-slip waves: c sqrt(gamma) and psi depend only on
     (nu, xi, f, k) (docs/semianalytic.md), so the multistart runs once per (nu, xi, f, k)
     and each grid point is one Newton step (``refine_wave``) with its own admissibility check;
-    stick-slip-separation waves: one multistart per point and k.
+    stick-slip-separation waves: one multistart per point and k. Points that differ only in
+    keys the reduced model does not see (mesh, seed, time step...) are computed once.
     """
     import warnings
 
@@ -96,6 +97,7 @@ def existence_grid(base: Scene, xkey: str, xs: Sequence[float], ykey: str, ys: S
 
     ks = tuple(ks)
     searched: dict[tuple, list] = {}
+    seen_points: dict[tuple, int] = {}
     out = []
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
@@ -107,6 +109,10 @@ def existence_grid(base: Scene, xkey: str, xs: Sequence[float], ykey: str, ys: S
                 nu, xi, gamma, f, delta, _ = _reduced_params(scene)
                 if f <= 0 or delta <= 0:
                     row.append(0)
+                    continue
+                point = (nu, xi, gamma, f, delta)  # all the reduced model sees of the scene
+                if point in seen_points:  # an axis the reduced model does not see
+                    row.append(seen_points[point])
                     continue
                 co = coefficients(nu, xi, gamma)
                 ok = False
@@ -126,6 +132,7 @@ def existence_grid(base: Scene, xkey: str, xs: Sequence[float], ykey: str, ys: S
                         ok = any(w.admissible for w in waves)
                     if ok:
                         break
+                seen_points[point] = int(ok)
                 row.append(int(ok))
             out.append(row)
     return out
