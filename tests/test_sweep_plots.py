@@ -14,7 +14,6 @@ from pathlib import Path
 import pytest
 
 from studies.sweep import load_sweep, plot_sweep
-from studies.sweep.regime_map import _fixed_subtitle, cell_label
 from studies.sweep.schedule import _Monitor
 from studies.sweep.table import write_table
 
@@ -68,6 +67,7 @@ def test_every_key_type_is_swept_and_plotted(tmp_path, grid):
 
 def test_subtitle_names_only_the_parameters_that_are_not_swept():
     from solver.scene import load_scene
+    from studies.sweep.regime_map import _fixed_subtitle
 
     scene = load_scene(SMOKE)
     text = _fixed_subtitle(scene, ["loading.f", "geometry.delta"])
@@ -79,6 +79,8 @@ def test_subtitle_names_only_the_parameters_that_are_not_swept():
 
 
 def test_cells_say_what_their_run_found():
+    from studies.sweep.regime_map import cell_label
+
     assert cell_label(STEADY) == ("steady-sliding", "steady\nsliding")
     assert cell_label(WAVE) == ("stick-slip-separation", "k = 4\n-2507 m/s")
     assert cell_label({**WAVE, "limit_cycle": False})[1] == "k = 4*\n-2507 m/s"
