@@ -89,7 +89,7 @@ def isomap_pair(run_dirs: list[Path], out_png: Path, magnify: float | None = Non
     """Iso-values of u_r − d on the deformed tube for 1 or 2 runs side by side.
 
     One colour range for both panels; the displacement of the wave (module docstring) is
-    magnified so that its largest value is 8 % of R (or by ``magnify``).
+    magnified so that its largest value (at least d/1000) is 8 % of R (or by ``magnify``).
     """
     ensure_display()
     import pyvista as pv
@@ -98,8 +98,9 @@ def isomap_pair(run_dirs: list[Path], out_png: Path, magnify: float | None = Non
 
     pv.OFF_SCREEN = True
     panels = [_panel(Path(rd), load_run) for rd in run_dirs]
-    umax = max(float(np.abs(p["disp"]).max()) for p in panels)
-    mag = magnify if magnify is not None else 0.08 * panels[0]["radius"] / max(umax, 1e-300)
+    # below d/1000 there is no wave to see (steady sliding): do not magnify round-off
+    umax = max(max(float(np.abs(p["disp"]).max()), 1e-3 * p["d"]) for p in panels)
+    mag = magnify if magnify is not None else 0.08 * panels[0]["radius"] / umax
     clim = [min(float(p["ur"].min()) for p in panels), max(float(p["ur"].max()) for p in panels)]
     n = len(panels)
     pl = pv.Plotter(shape=(1, n), off_screen=True, window_size=(760 * n, 860), border=False)
@@ -134,7 +135,7 @@ def _panel(run_dir: Path, load_run) -> dict:  # noqa: ANN001
     gap = np.abs(((theta_nodes[:, None] - theta_samples[None, :] + np.pi) % (2 * np.pi)) - np.pi)
     status = np.asarray(s["status"][-1])[np.argmin(gap, axis=1)]
     return {"points": pts, "cells": cells, "types": types, "disp": disp, "ur": MM * ur,
-            "ring": ring, "status": status, "radius": run.radius, "t_end": t_end,
+            "ring": ring, "status": status, "radius": run.radius, "d": run.d, "t_end": t_end,
             "t_status": float(s["t"][-1]), "scene": run.scene,
             "wave": wave_title(run.summary)}
 

@@ -8,9 +8,9 @@
 * ``energy.png``: every term of the energy balance (``postprocess.energy_balance``): kinetic
   and strain energy, the work of the cylinder, the frictional, impact and viscous
   dissipation, and the residual (the algorithmic dissipation of β₂ > ½);
-* ``uvpq.png``: one period of the FE wave in its co-moving coordinate, u_r − d, u_θ (zones
-  shaded, time order), phase diagrams, and the contact pressures p, q when the run recorded
-  nodal forces; reduced-model waves dashed;
+* ``uvpq.png`` (a run that found a wave): one period of the FE wave in its co-moving
+  coordinate, u_r − d, u_θ (zones shaded, time order), phase diagrams, and the contact
+  pressures p, q when the run recorded nodal forces; reduced-model waves dashed;
 * ``isomap.png``: iso-values of u_r − d on the deformed tube (``postprocess.isomap``).
 
 Colours and units come from ``postprocess.style`` (mm, MPa, m/s, Hz, ms, J/m).
@@ -99,20 +99,16 @@ def spacetime_window(t: np.ndarray, frequency_hz: float | None,
     return start, caption
 
 
-def _load(run_dir: Path) -> Any:
-    from postprocess.analysis import load_run
-
-    return load_run(run_dir)
-
-
 def plot_run(run_dir: Path, window: tuple[float, str] | None | str = DEFAULT_WINDOW
              ) -> list[Path]:
     """Draw and save every figure of a run directory; returns the PNG paths."""
     import matplotlib
 
+    from postprocess.analysis import load_run
+
     matplotlib.use("Agg")
     run_dir = Path(run_dir)
-    run = _load(run_dir)
+    run = load_run(run_dir)
     if isinstance(window, str):
         window = parse_window(window)
     out = [
@@ -120,8 +116,9 @@ def plot_run(run_dir: Path, window: tuple[float, str] | None | str = DEFAULT_WIN
         _save(profile_figure(run), run_dir / "profile.png"),
         _save(phase_figure(run), run_dir / "phase.png"),
         _save(energy_figure(run), run_dir / "energy.png"),
-        plot_uvpq(run_dir, run_dir / "uvpq.png"),
     ]
+    if run.summary.get("regime") not in (None, "steady-sliding"):  # one period of a wave
+        out.append(plot_uvpq(run_dir, run_dir / "uvpq.png"))
     if (run_dir / "final_field.npz").exists():
         out.append(isomap_pair([run_dir], run_dir / "isomap.png"))
     return out
