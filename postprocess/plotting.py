@@ -234,7 +234,7 @@ def energy_figure(run: Any) -> Any:
              ("friction_dissipation", "− frictional dissipation D_f", "C3", "-"),
              ("impact_dissipation", "− impact dissipation D_n (normal contact)", "C4", "-"),
              ("viscous_dissipation", "− viscous dissipation D_v (Kelvin–Voigt)"
-              + ("" if terms["viscous_dissipation"].any() else ": none, no damping"), "C5", "-"),
+              + ("" if terms["viscous_dissipation"].any() else ": none, no damping"), "C5", "--"),
              ("residual", residual_name, "C7", "-"))
     ax = axes[1]
     for key, label, color, ls in flows:
