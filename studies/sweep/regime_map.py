@@ -230,7 +230,6 @@ def plot_sweep(sweep_dir: str | Path) -> list[Path]:
     import matplotlib.pyplot as plt
     import numpy as np
     from matplotlib.colors import BoundaryNorm, ListedColormap
-    from matplotlib.lines import Line2D
     from matplotlib.patches import Patch
 
     sweep_dir = Path(sweep_dir)
@@ -304,27 +303,7 @@ def plot_sweep(sweep_dir: str | Path) -> list[Path]:
                 and (xkey in _SEMIANALYTIC_KEYS or ykey in _SEMIANALYTIC_KEYS)):
             sa = _semianalytic_overlay(sweep_dir, meta, base, xkey, list(xs), xscale, ykey,
                                        list(ys), yscale, fixed, ks)
-            for name, style, hatch, what in (("stick-slip", "-", "//", "solid"),
-                                             ("stick-slip-separation", "--", "\\\\", "dashed")):
-                g = sa[name]
-                z = np.asarray(g["admissible"], dtype=float)
-                found = bool(z.any())
-                if found and not z.all():
-                    ax.contour(g["x"], g["y"], z, levels=[0.5], colors="k", linestyles=style,
-                               linewidths=1.8)
-                if found:
-                    ax.contourf(g["x"], g["y"], z, levels=[0.5, 1.5], colors="none",
-                                hatches=[hatch])
-                kset = ", ".join(map(str, ks))
-                if found:
-                    handles.append(Patch(facecolor="none", edgecolor="k", hatch=hatch,
-                                         linestyle=style,
-                                         label=f"semi-analytical {name} wave exists "
-                                               f"(k ∈ {{{kset}}}; {what} boundary)"))
-                else:
-                    handles.append(Line2D([], [], color="0.6", linestyle=style,
-                                          label=f"no admissible semi-analytical {name} wave "
-                                                f"on this grid (k ∈ {{{kset}}})"))
+            handles += _draw_boundaries(ax, sa, ks)
             note = f"; boundaries: reduced model, junction {'/'.join(sa['junctions'])}"
         fixed_txt = ", ".join(f"{_label(k)} = {_fmt(v)}" for k, v in fixed.items())
         sc = base.with_overrides(*(f"{k}={_toml_value(v)}" for k, v in fixed.items()))
@@ -338,10 +317,40 @@ def plot_sweep(sweep_dir: str | Path) -> list[Path]:
                   bbox_to_anchor=(0.5, -0.13 if len(ys) > 3 else -0.25))
         suffix = "".join(f"_{k.rsplit('.', 1)[-1]}-{_slug_value(v)}" for k, v in fixed.items())
         path = sweep_dir / f"regime_map{suffix}.png"
-        fig.savefig(path, dpi=130, bbox_inches="tight")
+        tmp = path.with_name(f".{path.stem}.tmp.png")  # a reader never sees half a PNG
+        fig.savefig(tmp, dpi=130, bbox_inches="tight")
         plt.close(fig)
+        tmp.replace(path)
         outputs.append(path)
     return outputs
+
+
+def _draw_boundaries(ax, sa: dict, ks: tuple[int, ...]) -> list:  # noqa: ANN001
+    """Hatch where the reduced model has an admissible wave (``_semianalytic_overlay``),
+    outline its boundary; returns the legend entries (also for a wave found nowhere)."""
+    import numpy as np
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch
+
+    handles = []
+    kset = ", ".join(map(str, ks))
+    for name, style, hatch, what in (("stick-slip", "-", "//", "solid"),
+                                     ("stick-slip-separation", "--", "\\\\", "dashed")):
+        g = sa[name]
+        z = np.asarray(g["admissible"], dtype=float)
+        if not z.any():
+            handles.append(Line2D([], [], color="0.6", linestyle=style,
+                                  label=f"no admissible semi-analytical {name} wave "
+                                        f"on this grid (k ∈ {{{kset}}})"))
+            continue
+        if not z.all():
+            ax.contour(g["x"], g["y"], z, levels=[0.5], colors="k", linestyles=style,
+                       linewidths=1.8)
+        ax.contourf(g["x"], g["y"], z, levels=[0.5, 1.5], colors="none", hatches=[hatch])
+        handles.append(Patch(facecolor="none", edgecolor="k", hatch=hatch, linestyle=style,
+                             label=f"semi-analytical {name} wave exists "
+                                   f"(k ∈ {{{kset}}}; {what} boundary)"))
+    return handles
 
 
 def _map_base(sweep_dir: Path, meta: dict) -> Scene:
