@@ -38,8 +38,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=_run)
 
     p = sub.add_parser("plot", help="draw the figures of a run or sweep directory (PNG)",
-                       description="Space-time map of u_r, zone map, final profile, phase "
-                                   "diagram and energies of a run directory, as PNG files.")
+                       description="The figures of a run directory, as PNG files: space-time "
+                                   "maps of u_r - d and the contact status (last periods, "
+                                   "--window), final profile, phase diagrams, energy balance, "
+                                   "one period of the wave, iso-map on the deformed tube.")
     p.add_argument("run_dir", help="a run directory (`stickslip run`) or a sweep directory "
                    "(`stickslip sweep`: draws the regime map)")
     _window_option(p)
