@@ -373,7 +373,7 @@ def plot_uvpq(run_dir: Path, out_png: Path, overlay: bool = True) -> Path:
                        title="Q: tangential traction")
     for j, (label, cur) in enumerate(curves):
         xs = cur["s"] / T
-        col = f"C{j + 1}"
+        col = f"C{j + 2}"  # C0, C1 are the stick and slip colours
         axes[0, 0].plot(xs, MM * cur["u_r"], "--", color=col, label=label)
         axes[1, 0].plot(xs, MM * cur["u_theta"], "--", color=col, label=label)
         axes[0, 1].plot(MM * cur["u_r"], cur["v_r"], "--", color=col, label=label)
