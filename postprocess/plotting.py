@@ -224,8 +224,8 @@ def energy_figure(run: Any) -> Any:
     fig, axes = plt.subplots(2, 1, figsize=(8.5, 6.6), sharex=True, constrained_layout=True)
     ax = axes[0]
     ax.plot(ms, terms["total"], color="k", label="E = K + U")
-    ax.plot(ms, terms["kinetic"], color="C0", lw=0.8, label="kinetic K")
-    ax.plot(ms, terms["strain"], color="C1", lw=0.8, label="strain U")
+    ax.plot(ms, terms["kinetic"], color="C9", lw=0.8, label="kinetic K")  # not the zone colours
+    ax.plot(ms, terms["strain"], color="C8", lw=0.8, label="strain U")
     ax.set(ylabel="energy (J/m)", title="stored energy")
     ax.legend(fontsize=8, loc="upper left")
     residual_name = ("residual r = algorithmic dissipation of β₂ > ½ (+ O(Δt²))"
