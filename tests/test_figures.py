@@ -263,3 +263,33 @@ def test_plot_command_refuses_a_bad_window(run_dir, capsys):
     assert exc.value.code == 2
     assert "number of periods (5T)" in capsys.readouterr().err
     assert json.loads((run_dir / "summary.json").read_text())["status"] == "completed"
+
+
+def test_travel_profiles_use_the_same_colours_and_units(tmp_path, monkeypatch):
+    """``stickslip travel --plot``'s profiles: zones in the one colour code, mm and MPa."""
+    import matplotlib.colors as mc
+    import matplotlib.pyplot as plt
+
+    from postprocess.style import STATUS_COLORS, STATUS_LABELS
+    from studies.travel.output import plot_profiles
+
+    phi = np.linspace(0.0, np.pi / 2, 40, endpoint=False)
+    status = np.repeat([0, 1, 2, 1], 10)
+    prof = {"phi": phi, "status": status, "U": 1e-3 * np.sin(4 * phi) ** 2,
+            "V": 1e-3 * np.cos(4 * phi), "P": 1e8 + 1e6 * np.sin(phi), "Q": 7e5 * phi}
+    summary = {"regime": "stick-slip-separation", "k": 4, "celerity_m_s": -2507.0,
+               "psi1_subnode": 0.69, "psi2_subnode": 0.85}
+    kept = []
+    monkeypatch.setattr(plt, "close", lambda fig: kept.append(fig))
+    plot_profiles(tmp_path, prof, summary)
+    (fig,) = kept
+    code = {lab: mc.to_rgb(c) for lab, c in zip(STATUS_LABELS, STATUS_COLORS, strict=True)}
+    spans = [(p.get_label(), mc.to_rgb(p.get_facecolor())) for p in fig.axes[0].patches]
+    assert {lab for lab, _ in spans if lab in code} == set(STATUS_LABELS)
+    assert all(rgb == code[lab] for lab, rgb in spans if lab in code)
+    assert [ax.get_ylabel() for ax in fig.axes] == ["u_r − d (mm)", "u_θ (mm)", "p (MPa)",
+                                                    "q (MPa)"]
+    # p in MPa without an offset: 1e8 Pa reads as 100 MPa
+    assert fig.axes[2].lines[0].get_ydata().max() == pytest.approx(101.0, rel=1e-3)
+    monkeypatch.undo()
+    plt.close(fig)
