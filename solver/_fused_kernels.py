@@ -183,10 +183,22 @@ def half_product4(indices, data, u, p, r, end, b0):
 def single_step(indptr, indices, data, n_rows, u, u_next, v, vp, a, ku, nim,
                 c_v, c_w, c_p, b2_half, dt, kappa, inv_kappa,
                 cx, ph_re, ph_im, pc_re, pc_im, cmass, cinv,
-                d, slide, f, r_pol, r_xy, status, zprev, work):
-    # K u_n and a*_n = -M^{-1} K u_n (owned rows; columns may be ghosts)
+                d, slide, f, r_pol, r_xy, status, zprev, work, u_tau, tau):
+    """One explicit step of one scene (``solver.fused`` docstring). With Kelvin-Voigt
+    damping (``tau > 0``, ``solver.newmark.DampedNewmark``) the internal force is K w_n,
+    w_n = u_n + tau v~_n, formed in ``u_tau`` (owned rows; a caller with ghosts has set
+    them), ``ku`` receives K w_n, and work[3] accumulates the damping work's per-step part
+    1/2 (K w_n . u_{n+1} - K w_n . u_{n-1}) (``solver.observers.DampingWork``), read from
+    ``u_next`` before it is overwritten (it holds u_{n-1}). Undamped (``tau = 0``) the
+    product reads ``u`` and the arithmetic is the plain step's."""
+    damped = tau > 0.0
+    src = u_tau if damped else u
+    if damped:  # w_n = u_n + tau v~_n (DampedNewmark: v~ tau, then + u)
+        for i in range(n_rows):
+            u_tau[i] = vp[i] * tau + u[i]
+    # K u_n (K w_n damped) and a*_n = -M^{-1} K u_n (owned rows; columns may be ghosts)
     for i in range(0, n_rows, 2):
-        s0, s1 = pair_product(indptr, indices, data, u, i)
+        s0, s1 = pair_product(indptr, indices, data, src, i)
         ku[i] = s0
         ku[i + 1] = s1
         a[i] = s0 * nim[i]
@@ -206,13 +218,29 @@ def single_step(indptr, indices, data, n_rows, u, u_next, v, vp, a, ku, nim,
         a[ix] = a[ix] + rx * cinv[j]
         a[iy] = a[iy] + ry * cinv[j]
     # Newmark: v_n, w, u_{n+1}, v~_{n+1}
-    for i in range(n_rows):
-        ai = a[i]
-        vi = ai * c_v + vp[i]
-        v[i] = vi
-        w = ai * c_w + vi
-        u_next[i] = w * dt + u[i]
-        vp[i] = w if b2_half else w + ai * c_p
+    if damped:  # the same update, plus K w_n . u_{n+1} and K w_n . u_{n-1} in row order
+        s_new = 0.0
+        s_old = 0.0
+        for i in range(n_rows):
+            ai = a[i]
+            vi = ai * c_v + vp[i]
+            v[i] = vi
+            w = ai * c_w + vi
+            un = w * dt + u[i]
+            kwi = ku[i]
+            s_new += kwi * un
+            s_old += kwi * u_next[i]
+            u_next[i] = un
+            vp[i] = w if b2_half else w + ai * c_p
+        work[3] += 0.5 * (s_new - s_old)
+    else:
+        for i in range(n_rows):
+            ai = a[i]
+            vi = ai * c_v + vp[i]
+            v[i] = vi
+            w = ai * c_w + vi
+            u_next[i] = w * dt + u[i]
+            vp[i] = w if b2_half else w + ai * c_p
     # contact work with the centred increment u_{n+1} - u_{n-1} (EnergyAccumulator)
     sc = 0.0
     st_ = 0.0
@@ -277,7 +305,7 @@ def batched_step(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
                  c_v, c_w, c_p, b2_half, dt, kappa, inv_kappa,
                  cx, ph_re, ph_im, pc_re, pc_im, cmass, cinv,
                  d, slide, f, r_r, r_t, r_x, r_y, status, zprev, work, acc, cslot,
-                 diag, keep, mass, energy):
+                 diag, keep, mass, energy, u_tau, tau, dsum):
     """The same step on (n, B) arrays: column b is scene b (per-scene d, slide, f).
 
     One pass over the nodes, in blocks of ``NODE_BLOCK`` nodes: the (x, y) rows of K u for
@@ -296,9 +324,19 @@ def batched_step(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
     B or the block size. On a ``diag`` step the sampled energies are summed too, while the
     block is in cache: ``energy`` (2, B) = Σ_i m_i v_i² and Σ_i u_i (K u)_i over the rows in
     ascending order (``batch_energies``; the observers halve them).
+
+    Kelvin-Voigt damping (``tau > 0``, shared by the batch): as ``single_step``, K reads
+    w_n = u_n + tau v~_n, formed in ``u_tau`` (n, B) before the pass (a block's update
+    overwrites v~ that later blocks' products read); ``ku`` holds K w_n at every row (the
+    damping work needs it), and ``dsum`` (2, B) sums K w_n . u_{n+1} and K w_n . u_{n-1} per
+    scene in row order, as ``single_step``: work[3] += 1/2 (dsum[0] - dsum[1]). On a damped
+    ``diag`` step ``energy[1]`` is u . K w, not the strain energy: the caller refreshes K u_n
+    (``stiffness_product_cols``) and sums it (``column_dots``).
     """
     n_rows, nb = u.shape
     nb4 = nb - nb % 4
+    damped = tau > 0.0
+    src = u_tau if damped else u
     if diag:
         for b in range(nb):
             energy[0, b] = 0.0
@@ -310,6 +348,8 @@ def batched_step(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
     v_f = v.reshape(-1)
     a_f = a.reshape(-1)
     acc_f = acc.reshape(-1)
+    if damped:
+        form_kelvin_voigt(u_f, vp_f, u_tau.reshape(-1), tau, dsum)
     for g0 in range(0, n_nodes, NODE_BLOCK):
         g1 = min(g0 + NODE_BLOCK, n_nodes)
         for node in range(g0, g1):
@@ -320,22 +360,23 @@ def batched_step(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
             n0 = nim[i]
             n1 = nim[i + 1]
             write = diag or keep[node] != 0
+            kstore = write or damped  # damped: K w_n at every row, for the damping work
             for b0 in range(0, nb4, 4):  # 4 scenes at a time, their sums in registers
                 bu = numba.uint64(b0)
                 # pair_product's order: even terms, odd terms, then their sum
-                e = half_product4(indices, data, u, a0, a1, a1, bu)  # row i: a0 .. a1 - 1
-                o = half_product4(indices, data, u, a0 + U1, a1 + U1, a1, bu)
+                e = half_product4(indices, data, src, a0, a1, a1, bu)  # row i: a0 .. a1 - 1
+                o = half_product4(indices, data, src, a0 + U1, a1 + U1, a1, bu)
                 for m in range(4):
                     s0 = e[m] + o[m]
                     s1 = e[4 + m] + o[4 + m]
-                    if write:
+                    if kstore:
                         ku[i, b0 + m] = s0
                         ku[i + 1, b0 + m] = s1
                     acc[k, b0 + m] = s0 * n0
                     acc[k + 1, b0 + m] = s1 * n1
             for b in range(nb4, nb):  # the last nb % 4 scenes one by one
-                s0, s1 = pair_product_col(indices, data, u, a0, a1, numba.uint64(b))
-                if write:
+                s0, s1 = pair_product_col(indices, data, src, a0, a1, numba.uint64(b))
+                if kstore:
                     ku[i, b] = s0
                     ku[i + 1, b] = s1
                 acc[k, b] = s0 * n0
@@ -365,7 +406,13 @@ def batched_step(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
         # Newmark on the block's rows: v_n, w, u_{n+1}, v~_{n+1} (elementwise, one flat loop;
         # unsigned q: a signed index's wrap-around test would stop it vectorising, 3.7x)
         q0 = numba.uint64(2 * g0 * nb)
-        if diag:
+        if damped:
+            damped_update(u, u_next, v, vp, a, ku, acc, 2 * g0, 2 * g1, c_v, c_w, c_p,
+                          b2_half, dt, diag, dsum)
+            if diag:
+                for row in range(2 * g0, 2 * g1):
+                    batch_energies(u, v, ku, mass, energy, row, nb)
+        elif diag:
             for t in range(2 * (g1 - g0) * nb):
                 q = q0 + numba.uint64(t)
                 ai = acc_f[t]
@@ -385,6 +432,44 @@ def batched_step(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
                 un_f[q] = w * dt + u_f[q]
                 vp_f[q] = w if b2_half else w + ai * c_p
     batched_contact_work(u, u_next, cx, pc_re, pc_im, r_x, r_y, r_t, zprev, work, slide, f)
+    if damped:
+        for b in range(nb):
+            work[3, b] += 0.5 * (dsum[0, b] - dsum[1, b])
+
+
+@inline
+def form_kelvin_voigt(u_f, vp_f, w_f, tau, dsum):
+    """w_n = u_n + tau v~_n on flat (n B) views (``single_step``'s operations), and the
+    damping sums ``dsum`` set to 0."""
+    for q in range(u_f.size):
+        w_f[q] = vp_f[q] * tau + u_f[q]
+    for b in range(dsum.shape[1]):
+        dsum[0, b] = 0.0
+        dsum[1, b] = 0.0
+
+
+@inline
+def damped_update(u, u_next, v, vp, a, ku, acc, r0, r1, c_v, c_w, c_p, b2_half, dt, diag,
+                  dsum):
+    """Newmark on rows r0 .. r1 - 1 (a_n in ``acc`` rows 0 ..) of every scene, with the
+    damping sums K w_n . u_{n+1} (dsum[0]) and K w_n . u_{n-1} (dsum[1]; ``u_next`` holds
+    u_{n-1} until it is overwritten): ``single_step``'s damped loop, row by row."""
+    nb = u.shape[1]
+    for row in range(r0, r1):
+        k = row - r0
+        for b in range(nb):
+            ai = acc[k, b]
+            vi = ai * c_v + vp[row, b]
+            if diag:
+                a[row, b] = ai
+                v[row, b] = vi
+            w = ai * c_w + vi
+            un = w * dt + u[row, b]
+            kwi = ku[row, b]
+            dsum[0, b] += kwi * un
+            dsum[1, b] += kwi * u_next[row, b]
+            u_next[row, b] = un
+            vp[row, b] = w if b2_half else w + ai * c_p
 
 
 @jit
@@ -392,7 +477,7 @@ def batched_step_long(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
                       c_v, c_w, c_p, b2_half, dt, kappa, inv_kappa,
                       cx, ph_re, ph_im, pc_re, pc_im, cmass, cinv,
                       d, slide, f, r_r, r_t, r_x, r_y, status, zprev, work, acc, cslot,
-                      diag, keep, mass, energy):
+                      diag, keep, mass, energy, u_tau, tau, dsum):
     """``batched_step`` for long batches (B >= LONG_B; ``acc`` (4, B) at least): same
     arguments, same operations in the same order per scene, hence the same bits.
 
@@ -412,9 +497,14 @@ def batched_step_long(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
     nodes with ``keep[node] != 0`` (probes); otherwise they stay in the (4, B) scratch
     ``acc``: 3 of the 6 (n, B) arrays the step would write are not touched, and the
     batch's working set (u_n, u_{n+1}, v~, K) is half as large. Same operations in the same
-    order either way: the state's bits do not depend on ``diag``.
+    order either way: the state's bits do not depend on ``diag``. Kelvin-Voigt damping as
+    in ``batched_step`` (K w_n in ``ku`` at every row, the sums in ``dsum``).
     """
     n_rows, nb = u.shape
+    damped = tau > 0.0
+    src = u_tau if damped else u
+    if damped:
+        form_kelvin_voigt(u.reshape(-1), vp.reshape(-1), u_tau.reshape(-1), tau, dsum)
     # scratch rows of the node's two dofs: even-term partial sums, then a_n (e0, e1);
     # odd-term partial sums (o0, o1). 2-D indexing only: a row view (u[col]) would cost a
     # reference-count update per use
@@ -438,18 +528,18 @@ def batched_step_long(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
             d1 = data[a1 + t]
             if t % 2 == 0:
                 for b in range(nb):
-                    ub = u[col, b]
+                    ub = src[col, b]
                     e0[b] += d0 * ub
                     e1[b] += d1 * ub
             else:
                 for b in range(nb):
-                    ub = u[col, b]
+                    ub = src[col, b]
                     o0[b] += d0 * ub
                     o1[b] += d1 * ub
         n0 = nim[i]
         n1 = nim[i + 1]
         write = diag or keep[i // 2] != 0
-        if write:
+        if write or damped:  # damped: K w_n at every row, for the damping work
             for b in range(nb):
                 s0 = e0[b] + o0[b]
                 s1 = e1[b] + o1[b]
@@ -476,6 +566,13 @@ def batched_step_long(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
                 r_y[j, b] = ry
                 e0[b] = e0[b] + rx * inv_m
                 e1[b] = e1[b] + ry * inv_m
+        if damped:
+            damped_update(u, u_next, v, vp, a, ku, acc, i, i + 2, c_v, c_w, c_p, b2_half,
+                          dt, write, dsum)
+            if diag:
+                for row in range(i, i + 2):
+                    batch_energies(u, v, ku, mass, energy, row, nb)
+            continue
         for r in range(2):  # a_n of row i + r is acc[r] (e0, e1)
             row = i + r
             if write:
@@ -496,15 +593,61 @@ def batched_step_long(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
                     u_next[row, b] = w * dt + u[row, b]
                     vp[row, b] = w if b2_half else w + ai * c_p
     batched_contact_work(u, u_next, cx, pc_re, pc_im, r_x, r_y, r_t, zprev, work, slide, f)
+    if damped:
+        for b in range(nb):
+            work[3, b] += 0.5 * (dsum[0, b] - dsum[1, b])
+
+
+@jit
+def stiffness_product(indptr, indices, data, n_rows, u, out):
+    """out = K u on the owned rows (``pair_product``'s order: the bits of the step's K u)."""
+    for i in range(0, n_rows, 2):
+        s0, s1 = pair_product(indptr, indices, data, u, i)
+        out[i] = s0
+        out[i + 1] = s1
+
+
+@jit
+def stiffness_product_cols(indptr, indices, data, u, out):
+    """out = K u for every column of an (n, B) u, each in ``pair_product``'s order (the
+    bits of ``stiffness_product`` on that column alone)."""
+    n_rows, nb = u.shape
+    for i in range(0, n_rows, 2):
+        a0 = numba.uint64(indptr[i])
+        a1 = numba.uint64(indptr[i + 1])
+        for b in range(nb):
+            s0, s1 = pair_product_col(indices, data, u, a0, a1, numba.uint64(b))
+            out[i, b] = s0
+            out[i + 1, b] = s1
+
+
+@jit
+def sequential_dot(x, y):
+    """Σ_i x_i y_i in index order from 0.0 (``column_dots`` of one column: the same bits)."""
+    s = 0.0
+    for i in range(x.size):
+        s += x[i] * y[i]
+    return s
+
+
+@jit
+def column_dots(x, y, out):
+    """out[b] = Σ_i x[i, b] y[i, b] in row order from 0.0, per column of (n, B) arrays."""
+    n_rows, nb = x.shape
+    for b in range(nb):
+        out[b] = 0.0
+    for i in range(n_rows):
+        for b in range(nb):
+            out[b] += x[i, b] * y[i, b]
 
 
 @jit
 def advance(n_max, t_stop, clock, indptr, indices, data, n_rows, u_a, u_b, v, vp, a, ku, nim,
             c_v, c_w, c_p, b2_half, dt, kappa, inv_kappa,
             cx, ph_re, ph_im, pc_re, pc_im, cmass, cinv,
-            d, slide, f, r_pol, r_xy, status, zprev, work,
+            d, slide, f, r_pol, r_xy, status, zprev, work, u_tau, tau,
             probe_dof, probe_t, probe_u, probe_v, probe_count):
-    """Up to ``n_max`` steps of ``single_step`` (same arguments, from ``indptr`` to ``work``) in
+    """Up to ``n_max`` steps of ``single_step`` (same arguments, from ``indptr`` to ``tau``) in
     one call (one rank), stopping before a step once ``clock[0] >= t_stop``; after each step
     the probes record time level n as ``solver.observers.ProbeRecorder.record`` does (t_n,
     u_n and v_n at ``probe_dof`` (x dof; y = x + 1) while rows are left). ``u_a`` holds u_n
@@ -517,7 +660,7 @@ def advance(n_max, t_stop, clock, indptr, indices, data, n_rows, u_a, u_b, v, vp
         single_step(indptr, indices, data, n_rows, u_a, u_b, v, vp, a, ku, nim,
                     c_v, c_w, c_p, b2_half, dt, kappa, inv_kappa,
                     cx, ph_re, ph_im, pc_re, pc_im, cmass, cinv,
-                    d, slide, f, r_pol, r_xy, status, zprev, work)
+                    d, slide, f, r_pol, r_xy, status, zprev, work, u_tau, tau)
         clock[0] += dt
         i = probe_count[0]
         if i < cap:
@@ -536,7 +679,7 @@ def advance(n_max, t_stop, clock, indptr, indices, data, n_rows, u_a, u_b, v, vp
 @jit
 def record_sample(i, t_n, u, v, ku, mass, node_x, perm, r_r, r_t, status,
                   out_t, out_ux, out_uy, out_vx, out_vy, out_rr, out_rt, out_status,
-                  energies, e_local, work):
+                  energies, e_local, work, damping_work):
     """One rank: ``InnerCircleRecorder._record_single`` as one compiled pass.
 
     Kinetic 1/2 v.Mv and strain 1/2 u.Ku energies (sequential sums: round-off against the
@@ -545,7 +688,8 @@ def record_sample(i, t_n, u, v, ku, mass, node_x, perm, r_r, r_t, status,
     by e^{-i theta} later with numpy's complex multiply, so that every polar value has the
     bits of the step-by-step path), the contact forces and statuses taken through
     ``perm``; energies = (kinetic, strain, work_contact, work_cylinder,
-    friction_dissipation, damping_work = 0: the fused step is undamped).
+    friction_dissipation, damping_work: W_d of ``solver.fused.FusedDampingWork``, 0 for an
+    undamped step). A damped step passes ``ku`` = K u_n (``FusedNewmark.refresh_ku``).
     """
     kin = 0.0
     for k in range(v.size):
@@ -555,7 +699,7 @@ def record_sample(i, t_n, u, v, ku, mass, node_x, perm, r_r, r_t, status,
         strain += u[k] * ku[k]
     e_local[0] = 0.5 * kin
     e_local[1] = 0.5 * strain
-    e_local[2] = 0.0
+    e_local[2] = damping_work
     out_t[i] = t_n
     for j in range(node_x.size):
         ix = node_x[j]
@@ -572,4 +716,4 @@ def record_sample(i, t_n, u, v, ku, mass, node_x, perm, r_r, r_t, status,
     energies[i, 2] = work[0]
     energies[i, 3] = work[1]
     energies[i, 4] = work[2]
-    energies[i, 5] = 0.0
+    energies[i, 5] = damping_work

@@ -114,11 +114,18 @@ class BatchedExplicit(HookedStepper):
     """
 
     def __init__(self, bp: BatchedProblem, d: np.ndarray, slide: np.ndarray, f: np.ndarray,
-                 xp: Any = np, kernel: str = "numba") -> None:
+                 xp: Any = np, kernel: str = "numba", tau: float = 0.0) -> None:
         if kernel not in KERNELS:
             raise ValueError(f"kernel = {kernel!r}: use one of {KERNELS}")
         if kernel == "numba" and xp is not np:
             raise ValueError("the numba kernel runs on numpy arrays (backend cpu)")
+        if not (math.isfinite(tau) and tau >= 0.0):
+            raise ValueError(f"damping tau = {tau} must be a finite number >= 0 (s)")
+        if kernel == "cuda" and tau > 0.0:
+            raise ValueError(f"damping tau = {tau:g} s: the CUDA kernel has no Kelvin-Voigt "
+                             "damping yet; run damped scenes with the numba kernel (cpu)")
+        self.tau = float(tau)
+        self.damped = self.tau > 0.0
         self.xp, self.kernel, self.bp = xp, kernel, bp
         n, B, m = bp.n, int(np.size(d)), int(bp.cx.size)
         self.B, self.n, self.m = B, n, m
@@ -146,7 +153,14 @@ class BatchedExplicit(HookedStepper):
         self.r_r, self.r_t, self.r_x, self.r_y = z(m, B), z(m, B), z(m, B), z(m, B)
         self.status = xp.zeros((m, B), dtype=np.int8)
         self.zprev = z(m, 2, B)
-        self.work = z(3, B)
+        # contact work, cylinder work, friction dissipation, the damping work's step sum
+        self.work = z(4, B)
+        # damped: w_n = u_n + tau v~_n (the argument of K), the kernels' two damping sums,
+        # and u_0 . K u_0 per scene (``damping_work_totals``)
+        self.u_tau = z(n, B) if self.damped else z(0, B)
+        self.dsum = z(2, B)
+        self.u0_ku0 = np.zeros(B)
+        self._dots = np.zeros(B)
         self.mass = dev(bp.mass)
         self.energy = z(2, B)  # numba kernels, sampled steps: Σ m v², Σ u K u (x 2 energies)
         self.energy_summed = False  # True after a numba step that summed ``energy``
@@ -195,21 +209,28 @@ class BatchedExplicit(HookedStepper):
         self.v[...] = xp.asarray(v0)
         self.v_pred[...] = self.v
         self.a.fill(0.0)
+        # u_{-1} := u_0 in the spare half of the double buffer: the damped step reads it as
+        # u_{n-1} before it writes u_{n+1} there (``solver.observers.DampingWork``)
+        self.u_prev[...] = self.u
         cx = self.cx.astype(np.int64)
         self.zprev[:, 0, :] = self.u[cx]
         self.zprev[:, 1, :] = self.u[cx + 1]
+        if self.damped:
+            ku0 = xp.zeros_like(self.u)
+            self._stiffness(self.u, ku0)
+            self.u0_ku0 = self._column_dots(self.u, ku0).copy()
 
     def mask(self, b: int) -> None:
         """Take scene ``b`` out of the batch: zero state and no contact (stays at rest)."""
         self.active[b] = False
-        for arr in (*self._u, self.v, self.v_pred, self.a, self.ku, self.zprev):
+        for arr in (*self._u, self.v, self.v_pred, self.a, self.ku, self.zprev, self.u_tau):
             arr[..., b] = 0.0
         self.d[b] = 0.0
 
     def facts(self) -> dict:
         """Scheme facts of every scene of the batch (``solver.schemes.protocol.Stepper``)."""
-        return {"scheme": "explicit", "beta1": 0.0, "beta2": self.beta2, "damping_tau_s": 0.0,
-                "contact_s": 0.0, "kernel": f"batched-{self.kernel}",
+        return {"scheme": "explicit", "beta1": 0.0, "beta2": self.beta2,
+                "damping_tau_s": self.tau, "contact_s": 0.0, "kernel": f"batched-{self.kernel}",
                 "kernel_first_call_s": self.compile_s}
 
     def advance(self, n: int, t_stop: float = math.inf) -> int:
@@ -228,7 +249,39 @@ class BatchedExplicit(HookedStepper):
     def work_totals(self) -> np.ndarray:
         """(3, B) host array: work_contact, work_cylinder, friction_dissipation."""
         w = self.work if self.work.ndim == 2 else self.work.sum(axis=1)
-        return np.asarray(w.get() if hasattr(w, "get") else w)
+        return np.asarray(w.get() if hasattr(w, "get") else w)[:3]
+
+    # ------------------------------------------------------------------- Kelvin-Voigt
+    def _stiffness(self, u, out) -> None:
+        """out = K u per column, in the fused kernels' order (numba) or scipy's (xp)."""
+        if self.kernel == "numba":
+            from solver.fused import kernel
+
+            kernel("stiffness_product_cols")(self.indptr, self.indices, self.data, u, out)
+        else:
+            out[...] = self.K @ u
+
+    def _column_dots(self, x, y) -> np.ndarray:
+        """Σ_i x[i, b] y[i, b] per column (numba: in row order, the bits of a single scene's
+        ``sequential_dot``)."""
+        if self.kernel == "numba":
+            from solver.fused import kernel
+
+            kernel("column_dots")(x, y, self._dots)
+            return self._dots
+        return self.xp.einsum("ib,ib->b", x, y)
+
+    def refresh_ku(self) -> None:
+        """ku = K u_n (u_n is ``u_prev`` after a step; the damped step applies K w_n) and the
+        strain sums energy[1] = Σ_i u_i (K u)_i of it: what the samples read."""
+        self._stiffness(self.u_prev, self.ku)
+        self.energy[1] = self._column_dots(self.u_prev, self.ku)
+
+    def damping_work_totals(self) -> np.ndarray:
+        """(B,) W_d of every scene, as ``solver.fused.FusedDampingWork`` (needs
+        ``refresh_ku``): work[3] - 1/2 (u_{n+1} . K u_n - u_0 . K u_0)."""
+        dots = self._column_dots(self.u, self.ku)
+        return self.work[3] - 0.5 * (dots - self.xp.asarray(self.u0_ku0))
 
     # -------------------------------------------------------------------------------- step
     def keep_nodes(self, nodes: np.ndarray) -> None:
@@ -253,7 +306,7 @@ class BatchedExplicit(HookedStepper):
                     self.ph_re, self.ph_im, self.pc_re, self.pc_im, self.cmass, self.cinv,
                     self.d, self.slide, self.f, self.r_r, self.r_t, self.r_x, self.r_y,
                     self.status, self.zprev, self.work, self.acc, self.cslot, bool(diag),
-                    self.keep, self.mass, self.energy)
+                    self.keep, self.mass, self.energy, self.u_tau, self.tau, self.dsum)
             if self.step_count == 0:
                 with slp_vectorize():
                     timed_first_call(self._name, self._fn, *args)
@@ -287,7 +340,12 @@ class BatchedExplicit(HookedStepper):
         xp, dt, b2, kappa = self.xp, self.dt, self.beta2, self.kappa
         ix, iy = self._ix, self._ix + 1
         pcr, pci = self.pc_re[:, None], self.pc_im[:, None]
-        self.ku[...] = self.K @ u
+        if self.damped:  # K w_n, w_n = u_n + tau v~_n (DampedNewmark)
+            xp.multiply(self.v_pred, self.tau, out=self.u_tau)
+            self.u_tau += u
+            self.ku[...] = self.K @ self.u_tau
+        else:
+            self.ku[...] = self.K @ u
         xp.multiply(self.ku, self.nim[:, None], out=self.a)
         a = self.a
         ux, uy = u[ix], u[iy]
@@ -315,6 +373,9 @@ class BatchedExplicit(HookedStepper):
         a[iy] = a[iy] + self.r_y * self.cinv[:, None]
         self.v[...] = a * (b2 * dt) + self.v_pred
         w = a * (0.5 * dt) + self.v
+        if self.damped:  # u_next holds u_{n-1} until it is overwritten
+            self.work[3] += 0.5 * (xp.einsum("ib,ib->b", self.ku, w * dt + u)
+                                   - xp.einsum("ib,ib->b", self.ku, u_next))
         u_next[...] = w * dt + u
         self.v_pred[...] = w if b2 == 0.5 else w + a * ((0.5 - b2) * dt)
         dzx = u_next[ix] - self.zprev[:, 0]
@@ -338,6 +399,7 @@ class BatchedExplicit(HookedStepper):
         self.cslot = self.cslot.astype(np.int32)
         self.keep = cupy.zeros(nodes, dtype=np.int8)
         self.work = cupy.zeros((3, self.m, self.B))  # per (node, scene): no atomics
+        # (undamped only: __init__ refuses tau > 0 for this kernel)
         self._threads = 128
         self._blocks = (nodes * self.B + self._threads - 1) // self._threads
 
