@@ -186,6 +186,8 @@ class BatchedExplicit(HookedStepper):
             self._name = _kernels().batched_kernel_name(B, k_bytes)
             self._fn = get_kernel(self._name)
             self.acc = z(max(4, 2 * _kernels().NODE_BLOCK), B)
+            self._product = get_kernel("stiffness_product_cols")  # K u_n, damped samples
+            self._dots_fn = get_kernel("column_dots")
         elif kernel == "cuda":
             self._cuda_setup()
         else:
@@ -255,9 +257,7 @@ class BatchedExplicit(HookedStepper):
     def _stiffness(self, u, out) -> None:
         """out = K u per column, in the fused kernels' order (numba) or scipy's (xp)."""
         if self.kernel == "numba":
-            from solver.fused import kernel
-
-            kernel("stiffness_product_cols")(self.indptr, self.indices, self.data, u, out)
+            self._product(self.indptr, self.indices, self.data, u, out)
         else:
             out[...] = self.K @ u
 
@@ -265,9 +265,7 @@ class BatchedExplicit(HookedStepper):
         """Σ_i x[i, b] y[i, b] per column (numba: in row order, the bits of a single scene's
         ``sequential_dot``)."""
         if self.kernel == "numba":
-            from solver.fused import kernel
-
-            kernel("column_dots")(x, y, self._dots)
+            self._dots_fn(x, y, self._dots)
             return self._dots
         return self.xp.einsum("ib,ib->b", x, y)
 

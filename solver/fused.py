@@ -238,6 +238,7 @@ class FusedNewmark(ExplicitStart):
         self.step_count = 0
         self._fn = kernel("single_step")
         self._advance = kernel("advance") if self._ghosted is None else None
+        self._product = kernel("stiffness_product")  # K u_n at a damped step's samples
         self._clock = np.zeros(1)  # the time, as the kernel accumulates it (time += dt)
         self.compile_s = 0.0
         self.contact = None
@@ -307,8 +308,8 @@ class FusedNewmark(ExplicitStart):
 
             self._ghosted[index].ghostUpdate(PETSc.InsertMode.INSERT,
                                              PETSc.ScatterMode.FORWARD)
-        kernel("stiffness_product")(self.indptr, self.indices, self.data, self.nim.size,
-                                    self._full[index], out)
+        self._product(self.indptr, self.indices, self.data, self.nim.size, self._full[index],
+                      out)
 
     def refresh_ku(self) -> None:
         """ku = K u_n (u_n is ``u_prev`` after a step): the damped step applies K w_n, so the
