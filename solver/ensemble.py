@@ -121,9 +121,6 @@ class BatchedExplicit(HookedStepper):
             raise ValueError("the numba kernel runs on numpy arrays (backend cpu)")
         if not (math.isfinite(tau) and tau >= 0.0):
             raise ValueError(f"damping tau = {tau} must be a finite number >= 0 (s)")
-        if kernel == "cuda" and tau > 0.0:
-            raise ValueError(f"damping tau = {tau:g} s: the CUDA kernel has no Kelvin-Voigt "
-                             "damping yet; run damped scenes with the numba kernel (cpu)")
         self.tau = float(tau)
         self.damped = self.tau > 0.0
         self.xp, self.kernel, self.bp = xp, kernel, bp
@@ -225,7 +222,8 @@ class BatchedExplicit(HookedStepper):
     def mask(self, b: int) -> None:
         """Take scene ``b`` out of the batch: zero state and no contact (stays at rest)."""
         self.active[b] = False
-        for arr in (*self._u, self.v, self.v_pred, self.a, self.ku, self.zprev, self.u_tau):
+        for arr in (*self._u, self.v, self.v_pred, self.a, self.ku, self.zprev, self.u_tau,
+                    *([self.dwork] if self.kernel == "cuda" else [])):
             arr[..., b] = 0.0
         self.d[b] = 0.0
 
@@ -279,7 +277,8 @@ class BatchedExplicit(HookedStepper):
         """(B,) W_d of every scene, as ``solver.fused.FusedDampingWork`` (needs
         ``refresh_ku``): work[3] - 1/2 (u_{n+1} . K u_n - u_0 . K u_0)."""
         dots = self._column_dots(self.u, self.ku)
-        return self.work[3] - 0.5 * (dots - self.xp.asarray(self.u0_ku0))
+        step_sum = self.work[3] if self.work.ndim == 2 else self.dwork.sum(axis=0)
+        return step_sum - 0.5 * (dots - self.xp.asarray(self.u0_ku0))
 
     # -------------------------------------------------------------------------------- step
     def keep_nodes(self, nodes: np.ndarray) -> None:
@@ -390,20 +389,32 @@ class BatchedExplicit(HookedStepper):
     # ------------------------------------------------------------------------ CUDA kernel
     def _cuda_setup(self) -> None:  # pragma: no cover - GPU only
         import cupy
+        import cupyx.scipy.sparse as sp
 
         self._module = cupy.RawModule(code=CUDA_SOURCE, options=("--fmad=false",))
-        self._kern = self._module.get_function("fused_step")
+        self._kern = self._module.get_function("fused_step_damped" if self.damped
+                                                else "fused_step")
+        self._kern_w = self._module.get_function("kelvin_voigt_argument")
         nodes = self.n // 2
         self.cslot = self.cslot.astype(np.int32)
         self.keep = cupy.zeros(nodes, dtype=np.int8)
         self.work = cupy.zeros((3, self.m, self.B))  # per (node, scene): no atomics
-        # (undamped only: __init__ refuses tau > 0 for this kernel)
+        # damped: the damping work's step sum per (node, scene); K for the samples' K u_n
+        self.dwork = cupy.zeros((nodes, self.B))
+        self.K = sp.csr_matrix((self.data, self.indices.astype(np.int32),
+                                self.indptr.astype(np.int32)), shape=(self.n, self.n))
         self._threads = 128
         self._blocks = (nodes * self.B + self._threads - 1) // self._threads
 
     def _cuda_step(self, u, u_next, diag: bool) -> None:  # pragma: no cover - GPU only
         dt, b2 = self.dt, self.beta2
         f64 = np.float64
+        damped = ()
+        if self.damped:  # w_n = u_n + tau v~_n first: the step overwrites v~
+            count = self.n * self.B
+            self._kern_w(((count + self._threads - 1) // self._threads,), (self._threads,),
+                         (u, self.v_pred, self.u_tau, f64(self.tau), np.int64(count)))
+            damped = (self.u_tau, self.dwork)
         self._kern((self._blocks,), (self._threads,), (
             self.indptr, self.indices, self.data, u, u_next, self.v, self.v_pred, self.a,
             self.ku, self.nim, self.cslot, self.ph_re, self.ph_im, self.pc_re, self.pc_im,
@@ -411,4 +422,4 @@ class BatchedExplicit(HookedStepper):
             self.r_y, self.status, self.zprev, self.work, f64(b2 * dt), f64(0.5 * dt),
             f64((0.5 - b2) * dt), np.int32(b2 == 0.5), f64(dt), f64(self.kappa),
             f64(1.0 / self.kappa), np.int32(self.n // 2), np.int32(self.B), np.int32(self.m),
-            np.int32(diag), self.keep))
+            np.int32(diag), self.keep, *damped))

@@ -236,12 +236,9 @@ def make_batched_stepper(problem, laws: list[ContactLaw], backend: str = "cpu",
     """The batched explicit stepper of scenes that share ``problem`` (K, M, the contact
     nodes), dt, beta_2 and the Kelvin-Voigt time ``tau`` (0: undamped), each with its own
     contact law: numba on the CPU, the CUDA kernel through CuPy on the GPU
-    (``solver.ensemble``; undamped scenes only)."""
+    (``solver.ensemble``)."""
     from solver.ensemble import BatchedExplicit, BatchedProblem, array_namespace
 
-    if backend == "gpu" and tau > 0.0:
-        raise ValueError(f"damping tau = {tau:g} s: the GPU batch has no Kelvin-Voigt "
-                         "damping yet; run damped scenes with --backend cpu")
     law0 = laws[0]
     bp = BatchedProblem.from_problem(problem, law0.dt, law0.beta2)
     return BatchedExplicit(
