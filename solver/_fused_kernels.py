@@ -406,13 +406,9 @@ def batched_step(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
         # Newmark on the block's rows: v_n, w, u_{n+1}, v~_{n+1} (elementwise, one flat loop;
         # unsigned q: a signed index's wrap-around test would stop it vectorising, 3.7x)
         q0 = numba.uint64(2 * g0 * nb)
-        if damped:
-            damped_update(u, u_next, v, vp, a, ku, acc, 2 * g0, 2 * g1, c_v, c_w, c_p,
-                          b2_half, dt, diag, dsum)
-            if diag:
-                for row in range(2 * g0, 2 * g1):
-                    batch_energies(u, v, ku, mass, energy, row, nb)
-        elif diag:
+        if damped:  # K w_n . u_{n-1} of the block's rows, before u_{n+1} overwrites it
+            damping_sums(ku, u_next, 2 * g0, 2 * g1, dsum, 1)
+        if diag:
             for t in range(2 * (g1 - g0) * nb):
                 q = q0 + numba.uint64(t)
                 ai = acc_f[t]
@@ -431,6 +427,8 @@ def batched_step(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
                 w = ai * c_w + (ai * c_v + vp_f[q])
                 un_f[q] = w * dt + u_f[q]
                 vp_f[q] = w if b2_half else w + ai * c_p
+        if damped:  # K w_n . u_{n+1}
+            damping_sums(ku, u_next, 2 * g0, 2 * g1, dsum, 0)
     batched_contact_work(u, u_next, cx, pc_re, pc_im, r_x, r_y, r_t, zprev, work, slide, f)
     if damped:
         for b in range(nb):
@@ -449,27 +447,15 @@ def form_kelvin_voigt(u_f, vp_f, w_f, tau, dsum):
 
 
 @inline
-def damped_update(u, u_next, v, vp, a, ku, acc, r0, r1, c_v, c_w, c_p, b2_half, dt, diag,
-                  dsum):
-    """Newmark on rows r0 .. r1 - 1 (a_n in ``acc`` rows 0 ..) of every scene, with the
-    damping sums K w_n . u_{n+1} (dsum[0]) and K w_n . u_{n-1} (dsum[1]; ``u_next`` holds
-    u_{n-1} until it is overwritten): ``single_step``'s damped loop, row by row."""
+def damping_sums(ku, u, r0, r1, dsum, slot):
+    """dsum[slot, b] += Σ_row (K w_n)[row, b] u[row, b] over rows r0 .. r1 - 1 in order:
+    per scene the running sum of ``single_step``'s damped loop (K w_n . u_{n+1} in slot 0,
+    K w_n . u_{n-1} in slot 1; each sum is its own chain, so taking them in two passes
+    keeps the bits)."""
     nb = u.shape[1]
     for row in range(r0, r1):
-        k = row - r0
         for b in range(nb):
-            ai = acc[k, b]
-            vi = ai * c_v + vp[row, b]
-            if diag:
-                a[row, b] = ai
-                v[row, b] = vi
-            w = ai * c_w + vi
-            un = w * dt + u[row, b]
-            kwi = ku[row, b]
-            dsum[0, b] += kwi * un
-            dsum[1, b] += kwi * u_next[row, b]
-            u_next[row, b] = un
-            vp[row, b] = w if b2_half else w + ai * c_p
+            dsum[slot, b] += ku[row, b] * u[row, b]
 
 
 @jit
@@ -566,13 +552,8 @@ def batched_step_long(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
                 r_y[j, b] = ry
                 e0[b] = e0[b] + rx * inv_m
                 e1[b] = e1[b] + ry * inv_m
-        if damped:
-            damped_update(u, u_next, v, vp, a, ku, acc, i, i + 2, c_v, c_w, c_p, b2_half,
-                          dt, write, dsum)
-            if diag:
-                for row in range(i, i + 2):
-                    batch_energies(u, v, ku, mass, energy, row, nb)
-            continue
+        if damped:  # K w_n . u_{n-1}, before u_{n+1} overwrites it
+            damping_sums(ku, u_next, i, i + 2, dsum, 1)
         for r in range(2):  # a_n of row i + r is acc[r] (e0, e1)
             row = i + r
             if write:
@@ -592,6 +573,8 @@ def batched_step_long(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
                     w = ai * c_w + (ai * c_v + vp[row, b])
                     u_next[row, b] = w * dt + u[row, b]
                     vp[row, b] = w if b2_half else w + ai * c_p
+        if damped:  # K w_n . u_{n+1}
+            damping_sums(ku, u_next, i, i + 2, dsum, 0)
     batched_contact_work(u, u_next, cx, pc_re, pc_im, r_x, r_y, r_t, zprev, work, slide, f)
     if damped:
         for b in range(nb):
@@ -610,12 +593,21 @@ def stiffness_product(indptr, indices, data, n_rows, u, out):
 @jit
 def stiffness_product_cols(indptr, indices, data, u, out):
     """out = K u for every column of an (n, B) u, each in ``pair_product``'s order (the
-    bits of ``stiffness_product`` on that column alone)."""
+    bits of ``stiffness_product`` on that column alone): 4 columns per register pass
+    (``half_product4``) and the last B mod 4 one by one, as ``batched_step``."""
     n_rows, nb = u.shape
+    nb4 = nb - nb % 4
     for i in range(0, n_rows, 2):
         a0 = numba.uint64(indptr[i])
         a1 = numba.uint64(indptr[i + 1])
-        for b in range(nb):
+        for b0 in range(0, nb4, 4):
+            bu = numba.uint64(b0)
+            e = half_product4(indices, data, u, a0, a1, a1, bu)
+            o = half_product4(indices, data, u, a0 + U1, a1 + U1, a1, bu)
+            for m in range(4):
+                out[i, b0 + m] = e[m] + o[m]
+                out[i + 1, b0 + m] = e[4 + m] + o[4 + m]
+        for b in range(nb4, nb):
             s0, s1 = pair_product_col(indices, data, u, a0, a1, numba.uint64(b))
             out[i, b] = s0
             out[i + 1, b] = s1

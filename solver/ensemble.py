@@ -185,6 +185,7 @@ class BatchedExplicit(HookedStepper):
             self.acc = z(max(4, 2 * _kernels().NODE_BLOCK), B)
             self._product = get_kernel("stiffness_product_cols")  # K u_n, damped samples
             self._dots_fn = get_kernel("column_dots")
+            self._first_product = True  # compiled with the SLP vectoriser (register passes)
         elif kernel == "cuda":
             self._cuda_setup()
         else:
@@ -255,6 +256,13 @@ class BatchedExplicit(HookedStepper):
     def _stiffness(self, u, out) -> None:
         """out = K u per column, in the fused kernels' order (numba) or scipy's (xp)."""
         if self.kernel == "numba":
+            if self._first_product:
+                from solver.fused import slp_vectorize
+
+                self._first_product = False
+                with slp_vectorize():
+                    self._product(self.indptr, self.indices, self.data, u, out)
+                return
             self._product(self.indptr, self.indices, self.data, u, out)
         else:
             out[...] = self.K @ u
