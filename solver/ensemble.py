@@ -9,6 +9,10 @@ length B) and the initial state. Everything else is solver/fused.py's step, colu
     a*_n = -M^{-1} K u_n,  trial = u_n + dt v~_n + kappa a*_n,  r_n = project(trial; d, slide, f)
     a_n = a*_n + M^{-1} r_n,  v_n = v~_n + beta_2 dt a_n,  u_{n+1} = u_n + dt (v_n + dt/2 a_n)
 
+With Kelvin-Voigt damping (``tau`` > 0, the same for the whole batch: it sets dt) K acts on
+w_n = u_n + tau v~_n instead of u_n, and the damping work is summed as in the fused step
+(``damping_work_totals``; the samples refresh K u_n, ``refresh_ku``).
+
 Backends (``kernel``):
 
 * ``"numba"`` (CPU default): ``solver._fused_kernels.batched_step`` (short batches: 4-scene
@@ -108,9 +112,11 @@ class BatchedExplicit(HookedStepper):
 
     A ``solver.schemes.protocol.Stepper``. After ``step()``: ``u`` is u_{n+1}; ``u_prev``,
     ``v``, ``a``, ``ku``, ``r_r``, ``r_t``, ``status`` are time level n (as
-    ``solver.newmark.Newmark``); ``work`` (3, B) holds [work_contact, work_cylinder,
-    friction_dissipation] (``work_totals()``). ``advance`` writes v_n, a_n and K u_n in full
-    only at the levels ``full_state_at(level)`` names (the sampled ones), see ``step``.
+    ``solver.newmark.Newmark``); ``work`` (4, B) holds [work_contact, work_cylinder,
+    friction_dissipation] (``work_totals()``) and the damping work's step sum (``tau`` > 0,
+    ``damping_work_totals()``; ``ku`` is then K w_n until ``refresh_ku``). ``advance``
+    writes v_n, a_n and K u_n in full only at the levels ``full_state_at(level)`` names (the
+    sampled ones), see ``step``.
     """
 
     def __init__(self, bp: BatchedProblem, d: np.ndarray, slide: np.ndarray, f: np.ndarray,

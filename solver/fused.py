@@ -14,6 +14,13 @@ paper's explicit scheme (solver/newmark.py docstring):
     v_n    = v~_n + beta_2 dt a_n,   w = v_n + dt/2 a_n
     u_{n+1} = u_n + dt w,            v~_{n+1} = w + (1/2 - beta_2) dt a_n
 
+With Kelvin-Voigt damping C = tau K (``solver.newmark.DampedNewmark``) the internal force
+is K w_n, w_n = u_n + tau v~_n, in place of K u_n (one product), the contact step is
+unchanged, and the kernel also sums the damping work's per-step part
+1/2 (K w_n . u_{n+1} - K w_n . u_{n-1}) (``solver.observers.DampingWork``; u_{n-1} is the
+spare half of the double buffer before u_{n+1} overwrites it); ``FusedDampingWork`` closes
+it at the samples with K u_n.
+
 Only the summation order of K u (CSR order here, PETSc's order in MatMult) and of the work
 sums (sequential here, BLAS in ``np.vdot``) differ, so the two kernels agree to round-off
 (tests/test_fused.py). The single-scene and the batched kernel share the per-node functions
@@ -181,6 +188,10 @@ class FusedNewmark(ExplicitStart):
     (``solver.contact.ContactProjection``), so every observer works unchanged. ``advance``
     runs the steps between two observations as one compiled call when its only step hook is
     the probe recorder and the run has one rank.
+
+    ``tau > 0``: Kelvin-Voigt damping, ``DampedNewmark``'s step (``damped``; ``kw`` = K w_n
+    applied, ``ku`` = K u_n after ``refresh_ku``, work[3] the damping work's step sum, which
+    ``FusedDampingWork`` reads).
     """
 
     kernel = "numba"
