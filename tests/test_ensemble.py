@@ -460,14 +460,6 @@ def test_damped_sweep_batched_equals_the_sweep_without_batches(tmp_path):
 
 
 _DAMPED_EMULATOR = r"""
-#include <cmath>
-#include <cstddef>
-struct Dim { unsigned int x; };
-static Dim blockIdx, blockDim, threadIdx;
-#define __global__
-using std::copysign;
-using std::fabs;
-%(source)s
 extern "C" void emulate_step(int blocks, int threads, %(params)s, const double* w,
                              double* dwork) {
     blockDim.x = threads;
@@ -499,14 +491,17 @@ def test_damped_cuda_kernel_source_equals_the_numba_kernel_on_the_cpu(tmp_path):
     import shutil
     import subprocess
 
+    from test_gpu import _EMULATOR  # its header: the CUDA names for a C++ compiler
+
     from solver.ensemble_cuda import _STEP_ARGS, _STEP_PARAMS, CUDA_SOURCE
 
+    header = _EMULATOR[:_EMULATOR.index("%(source)s")]
     cxx = shutil.which("g++") or shutil.which("c++")
     if cxx is None:
         pytest.skip("no C++ compiler")
     # the w kernel's extent rides on two globals set before each call
-    src = _DAMPED_EMULATOR % {"source": "static double tau_; static long long count_;\n"
-                              + CUDA_SOURCE, "params": _STEP_PARAMS, "args": _STEP_ARGS}
+    src = (header + "static double tau_; static long long count_;\n" + CUDA_SOURCE
+           + _DAMPED_EMULATOR % {"params": _STEP_PARAMS, "args": _STEP_ARGS})
     (tmp_path / "emu.cpp").write_text(src + 'extern "C" void set_w(double t, long long c) '
                                       "{ tau_ = t; count_ = c; }\n")
     lib = tmp_path / "emu.so"

@@ -33,6 +33,9 @@ def run(scene, kernel: str, comm=SELF, steps: int = STEPS):
     return sim
 
 
+#: Kelvin-Voigt damping on the smoke scene: tau = 2 us, zeta = tau w / 2 ~ 2 % at 15 kHz
+DAMPED = "damping.retardation_time=2e-6"
+
 SCENES = {  # overrides, steps
     "p1-triangles": ((), STEPS),
     "quadrilaterals": (('mesh.cell="quadrilateral"',), STEPS),
@@ -71,22 +74,25 @@ def test_fused_step_equals_the_numpy_step_to_round_off(name):
         assert len(np.unique(a["status"])) >= 2, "the scene must change contact statuses"
 
 
-def test_compiled_time_loop_equals_the_step_by_step_loop(monkeypatch):
+@pytest.mark.parametrize("damping", [(), (DAMPED,)], ids=["undamped", "damped"])
+def test_compiled_time_loop_equals_the_step_by_step_loop(monkeypatch, damping):
     """One rank: ``proceed`` runs the steps between two samples as one ``advance`` call and
     takes the samples with ``record_sample``. Against the same fused step called once per
     step with the Python observers: the state, the samples, statuses, probes and work are
     bitwise equal (``advance`` calls ``single_step``; the samples are rotated to polar by
     the same numpy complex multiply); the kinetic and strain energies agree to 1e-13
-    relative (sequential sums against BLAS dot over 312 dofs: a few ulp per term)."""
+    relative (sequential sums against BLAS dot over 312 dofs: a few ulp per term). Damped,
+    both take K u_n for the samples from ``refresh_ku`` and W_d from ``FusedDampingWork``:
+    W_d bitwise too."""
     from solver.fused import FusedNewmark
 
-    sc = smoke('initial.perturbation="random"', "initial.seed=3")
+    sc = smoke('initial.perturbation="random"', "initial.seed=3", *damping)
     fast = run(sc, "numba", steps=STEPS + 3)  # ends between two samples (every = 4)
     assert fast.recorder._compiled is not None
     monkeypatch.setattr(FusedNewmark, "compiled_loop", property(lambda self: False))
     slow = run(sc, "numba", steps=STEPS + 3)
     assert slow.recorder._compiled is None
-    for name in ("u", "v", "a"):
+    for name in ("u", "v", "a", "v_pred", "ku", "kw"):
         np.testing.assert_array_equal(getattr(fast.integrator, name),
                                       getattr(slow.integrator, name))
     assert fast.integrator.time == slow.integrator.time
@@ -171,9 +177,6 @@ def test_fused_step_with_ghosts_equals_the_numpy_step():
         assert np.max(np.abs(a["u_theta"] - b["u_theta"])) < 1e-11 * scale
 
 
-#: Kelvin-Voigt damping on the smoke scene: tau = 2 us, zeta = tau w / 2 ~ 2 % at 15 kHz
-DAMPED = "damping.retardation_time=2e-6"
-
 
 @pytest.mark.parametrize("beta2", [0.6, 0.5])
 def test_damped_fused_step_equals_damped_newmark_to_round_off(beta2):
@@ -200,29 +203,6 @@ def test_damped_fused_step_equals_damped_newmark_to_round_off(beta2):
     assert ea[-1, 5] > 0.01 * (ea[-1, 0] + ea[-1, 1])  # the damping does work
     np.testing.assert_allclose(eb, ea, rtol=1e-9, atol=1e-9 * np.abs(ea).max())
     assert fused.facts()["scheme"]["damping_tau_s"] == 2e-6
-
-
-def test_damped_compiled_time_loop_equals_the_step_by_step_loop(monkeypatch):
-    """Damped, one rank: the compiled loop (``advance`` + ``record_sample`` after a refresh
-    of K u_n) against the same fused step called once per step with the Python observers:
-    state, samples, works and W_d bitwise; kinetic and strain energies to 1e-13 relative
-    (sequential sums against BLAS dot, as undamped)."""
-    from solver.fused import FusedNewmark
-
-    sc = smoke(DAMPED, 'initial.perturbation="random"', "initial.seed=3")
-    fast = run(sc, "numba", steps=STEPS + 3)
-    monkeypatch.setattr(FusedNewmark, "compiled_loop", property(lambda self: False))
-    slow = run(sc, "numba", steps=STEPS + 3)
-    assert fast.recorder._compiled is not None and slow.recorder._compiled is None
-    for name in ("u", "v", "v_pred", "ku", "kw"):
-        np.testing.assert_array_equal(getattr(fast.integrator, name),
-                                      getattr(slow.integrator, name))
-    a, b = fast.recorder.arrays(), slow.recorder.arrays()
-    for key in ("t", "u_r", "u_theta", "v_r", "v_theta", "r_r", "r_theta", "status"):
-        np.testing.assert_array_equal(a[key], b[key])
-    np.testing.assert_array_equal(a["energies"][:, 2:], b["energies"][:, 2:])
-    np.testing.assert_allclose(a["energies"][:, :2], b["energies"][:, :2], rtol=1e-13,
-                               atol=0.0)
 
 
 def test_damped_scenes_get_the_fused_kernel_and_regularised_friction_does_not():
