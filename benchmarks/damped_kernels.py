@@ -2,7 +2,7 @@
 side in one process.
 
     ./dev python3 benchmarks/damped_kernels.py [--scene scenes/figure1_n132_damped.toml]
-        [--steps 2000] [--batch 16] [--repeat 3]
+        [--steps 2000] [--batch 16] [--repeat 3] [--set KEY=VALUE ...]
 
 The scene (default: the damped Figure-1 scene, N = 132, beta2 = 1/2, loss factor 2 % at
 1.6 kHz, 0.9 dt_crit) runs ``--steps`` steps from its start, with its samples every
@@ -47,6 +47,8 @@ def main() -> None:
     ap.add_argument("--steps", type=int, default=2000)
     ap.add_argument("--batch", type=int, default=16)
     ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                    help="scene override, e.g. --set mesh.n_inner=264 (repeatable)")
     args = ap.parse_args()
 
     from mpi4py import MPI
@@ -56,7 +58,7 @@ def main() -> None:
     from solver.scene import load_scene
 
     base = load_scene(args.scene, ["output.progress=false", f"time.max_steps={args.steps}",
-                                   "time.end_time=10.0"])
+                                   "time.end_time=10.0", *args.set])
     if base.damping.tau <= 0.0:
         raise SystemExit(f"{args.scene}: no [damping] (tau = 0); pick a damped scene")
     starts = [base.with_overrides('initial.perturbation="random"', f"initial.seed={k}")

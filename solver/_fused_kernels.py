@@ -305,7 +305,7 @@ def batched_step(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
                  c_v, c_w, c_p, b2_half, dt, kappa, inv_kappa,
                  cx, ph_re, ph_im, pc_re, pc_im, cmass, cinv,
                  d, slide, f, r_r, r_t, r_x, r_y, status, zprev, work, acc, cslot,
-                 diag, keep, mass, energy, u_tau, tau, dsum):
+                 diag, keep, mass, energy, u_tau, u_tau_next, tau, dsum):
     """The same step on (n, B) arrays: column b is scene b (per-scene d, slide, f).
 
     One pass over the nodes, in blocks of ``NODE_BLOCK`` nodes: the (x, y) rows of K u for
@@ -326,10 +326,12 @@ def batched_step(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
     ascending order (``batch_energies``; the observers halve them).
 
     Kelvin-Voigt damping (``tau > 0``, shared by the batch): as ``single_step``, K reads
-    w_n = u_n + tau v~_n, formed in ``u_tau`` (n, B) before the pass (a block's update
-    overwrites v~ that later blocks' products read); ``ku`` holds K w_n at every row (the
-    damping work needs it), and ``dsum`` (2, B) sums K w_n . u_{n+1} and K w_n . u_{n-1} per
-    scene in row order, as ``single_step``: work[3] += 1/2 (dsum[0] - dsum[1]). On a damped
+    w_n = u_n + tau v~_n, from ``u_tau`` (n, B), which the previous step wrote (a block's
+    update overwrites v~ that later blocks' products read, so w_n cannot be formed in the
+    pass); each block writes w_{n+1} into ``u_tau_next`` (the caller alternates the two, as
+    u) with ``single_step``'s operations. ``ku`` holds K w_n at every row (the damping work
+    needs it), and ``dsum`` (2, B) sums K w_n . u_{n+1} and K w_n . u_{n-1} per scene in row
+    order, as ``single_step``: work[3] += 1/2 (dsum[0] - dsum[1]). On a damped
     ``diag`` step ``energy[1]`` is u . K w, not the strain energy: the caller refreshes K u_n
     (``stiffness_product_cols``) and sums it (``column_dots``).
     """
@@ -349,7 +351,7 @@ def batched_step(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
     a_f = a.reshape(-1)
     acc_f = acc.reshape(-1)
     if damped:
-        form_kelvin_voigt(u_f, vp_f, u_tau.reshape(-1), tau, dsum)
+        dsum[:] = 0.0
     for g0 in range(0, n_nodes, NODE_BLOCK):
         g1 = min(g0 + NODE_BLOCK, n_nodes)
         for node in range(g0, g1):
@@ -427,23 +429,12 @@ def batched_step(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
                 w = ai * c_w + (ai * c_v + vp_f[q])
                 un_f[q] = w * dt + u_f[q]
                 vp_f[q] = w if b2_half else w + ai * c_p
-        if damped:  # K w_n . u_{n+1}
-            damping_sums(ku, u_next, 2 * g0, 2 * g1, dsum, 0)
+        if damped:  # K w_n . u_{n+1}, and w_{n+1}
+            damping_sums_next(ku, u_next, vp, u_tau_next, tau, 2 * g0, 2 * g1, dsum)
     batched_contact_work(u, u_next, cx, pc_re, pc_im, r_x, r_y, r_t, zprev, work, slide, f)
     if damped:
         for b in range(nb):
             work[3, b] += 0.5 * (dsum[0, b] - dsum[1, b])
-
-
-@inline
-def form_kelvin_voigt(u_f, vp_f, w_f, tau, dsum):
-    """w_n = u_n + tau v~_n on flat (n B) views (``single_step``'s operations), and the
-    damping sums ``dsum`` set to 0."""
-    for q in range(u_f.size):
-        w_f[q] = vp_f[q] * tau + u_f[q]
-    for b in range(dsum.shape[1]):
-        dsum[0, b] = 0.0
-        dsum[1, b] = 0.0
 
 
 @inline
@@ -458,12 +449,24 @@ def damping_sums(ku, u, r0, r1, dsum, slot):
             dsum[slot, b] += ku[row, b] * u[row, b]
 
 
+@inline
+def damping_sums_next(ku, u_next, vp, w_next, tau, r0, r1, dsum):
+    """``damping_sums`` of K w_n . u_{n+1} (slot 0) over rows r0 .. r1 - 1, and there
+    w_{n+1} = u_{n+1} + tau v~_{n+1} (``single_step``'s operations) for the next step."""
+    nb = u_next.shape[1]
+    for row in range(r0, r1):
+        for b in range(nb):
+            un = u_next[row, b]
+            dsum[0, b] += ku[row, b] * un
+            w_next[row, b] = vp[row, b] * tau + un
+
+
 @jit
 def batched_step_long(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
                       c_v, c_w, c_p, b2_half, dt, kappa, inv_kappa,
                       cx, ph_re, ph_im, pc_re, pc_im, cmass, cinv,
                       d, slide, f, r_r, r_t, r_x, r_y, status, zprev, work, acc, cslot,
-                      diag, keep, mass, energy, u_tau, tau, dsum):
+                      diag, keep, mass, energy, u_tau, u_tau_next, tau, dsum):
     """``batched_step`` for long batches (B >= LONG_B; ``acc`` (4, B) at least): same
     arguments, same operations in the same order per scene, hence the same bits.
 
@@ -484,13 +487,14 @@ def batched_step_long(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
     ``acc``: 3 of the 6 (n, B) arrays the step would write are not touched, and the
     batch's working set (u_n, u_{n+1}, v~, K) is half as large. Same operations in the same
     order either way: the state's bits do not depend on ``diag``. Kelvin-Voigt damping as
-    in ``batched_step`` (K w_n in ``ku`` at every row, the sums in ``dsum``).
+    in ``batched_step`` (w_n from ``u_tau``, w_{n+1} into ``u_tau_next``, K w_n in ``ku`` at
+    every row, the sums in ``dsum``).
     """
     n_rows, nb = u.shape
     damped = tau > 0.0
     src = u_tau if damped else u
     if damped:
-        form_kelvin_voigt(u.reshape(-1), vp.reshape(-1), u_tau.reshape(-1), tau, dsum)
+        dsum[:] = 0.0
     # scratch rows of the node's two dofs: even-term partial sums, then a_n (e0, e1);
     # odd-term partial sums (o0, o1). 2-D indexing only: a row view (u[col]) would cost a
     # reference-count update per use
@@ -573,8 +577,8 @@ def batched_step_long(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
                     w = ai * c_w + (ai * c_v + vp[row, b])
                     u_next[row, b] = w * dt + u[row, b]
                     vp[row, b] = w if b2_half else w + ai * c_p
-        if damped:  # K w_n . u_{n+1}
-            damping_sums(ku, u_next, i, i + 2, dsum, 0)
+        if damped:  # K w_n . u_{n+1}, and w_{n+1}
+            damping_sums_next(ku, u_next, vp, u_tau_next, tau, i, i + 2, dsum)
     batched_contact_work(u, u_next, cx, pc_re, pc_im, r_x, r_y, r_t, zprev, work, slide, f)
     if damped:
         for b in range(nb):

@@ -160,7 +160,8 @@ class BatchedExplicit(HookedStepper):
         self.work = z(4, B)
         # damped: w_n = u_n + tau v~_n (the argument of K), the kernels' two damping sums,
         # and u_0 . K u_0 per scene (``damping_work_totals``)
-        self.u_tau = z(n, B) if self.damped else z(0, B)
+        # w_n and w_{n+1}, alternating as u (the numba kernels write w_{n+1} in the pass)
+        self._w = [z(n, B), z(n, B)] if self.damped else [z(0, B)] * 2
         self.dsum = z(2, B)
         self.u0_ku0 = np.zeros(B)
         self._dots = np.zeros(B)
@@ -206,6 +207,11 @@ class BatchedExplicit(HookedStepper):
     def u_prev(self):
         return self._u[1 - self.cur]
 
+    @property
+    def u_tau(self):
+        """w_n = u_n + tau v~_n before a step (damped; the argument of K)."""
+        return self._w[self.cur]
+
     def set_state(self, u0: np.ndarray, v0: np.ndarray, a0: np.ndarray | None = None) -> None:
         """(n, B) initial displacement and velocity (predictor v~_0 = v_0: a start at rest)."""
         if a0 is not None:
@@ -222,6 +228,8 @@ class BatchedExplicit(HookedStepper):
         self.zprev[:, 0, :] = self.u[cx]
         self.zprev[:, 1, :] = self.u[cx + 1]
         if self.damped:
+            xp.multiply(self.v_pred, self.tau, out=self.u_tau)  # the kernels' w_n, bitwise
+            self.u_tau[...] += self.u
             ku0 = xp.zeros_like(self.u)
             self._stiffness(self.u, ku0)
             self.u0_ku0 = self._column_dots(self.u, ku0).copy()
@@ -229,7 +237,7 @@ class BatchedExplicit(HookedStepper):
     def mask(self, b: int) -> None:
         """Take scene ``b`` out of the batch: zero state and no contact (stays at rest)."""
         self.active[b] = False
-        for arr in (*self._u, self.v, self.v_pred, self.a, self.ku, self.zprev, self.u_tau,
+        for arr in (*self._u, self.v, self.v_pred, self.a, self.ku, self.zprev, *self._w,
                     *([self.dwork] if self.kernel == "cuda" else [])):
             arr[..., b] = 0.0
         self.d[b] = 0.0
@@ -317,7 +325,8 @@ class BatchedExplicit(HookedStepper):
                     self.ph_re, self.ph_im, self.pc_re, self.pc_im, self.cmass, self.cinv,
                     self.d, self.slide, self.f, self.r_r, self.r_t, self.r_x, self.r_y,
                     self.status, self.zprev, self.work, self.acc, self.cslot, bool(diag),
-                    self.keep, self.mass, self.energy, self.u_tau, self.tau, self.dsum)
+                    self.keep, self.mass, self.energy, self._w[cur], self._w[nxt], self.tau,
+                    self.dsum)
             if self.step_count == 0:
                 with slp_vectorize():
                     timed_first_call(self._name, self._fn, *args)
@@ -352,9 +361,10 @@ class BatchedExplicit(HookedStepper):
         ix, iy = self._ix, self._ix + 1
         pcr, pci = self.pc_re[:, None], self.pc_im[:, None]
         if self.damped:  # K w_n, w_n = u_n + tau v~_n (DampedNewmark)
-            xp.multiply(self.v_pred, self.tau, out=self.u_tau)
-            self.u_tau += u
-            self.ku[...] = self.K @ self.u_tau
+            w = self.u_tau
+            xp.multiply(self.v_pred, self.tau, out=w)
+            w += u
+            self.ku[...] = self.K @ w
         else:
             self.ku[...] = self.K @ u
         xp.multiply(self.ku, self.nim[:, None], out=self.a)
