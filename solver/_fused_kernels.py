@@ -14,8 +14,10 @@ import numpy as np
 from solver.contact.law import SEPARATION, SLIP, STICK  # the law's codes, frozen at compile
 
 U1, U2, U3 = np.uint64(1), np.uint64(2), np.uint64(3)  # unsigned offsets: no wrap-around test
-#: nodes per block of ``batched_step``: its scratch ``acc`` is (2 NODE_BLOCK, B) at least
+#: nodes per block of ``batched_step``: its scratch ``acc`` is (2 NODE_BLOCK, B) at least,
+#: (4 NODE_BLOCK, B) with damping (K w_n of the block from row KW_ROW on)
 NODE_BLOCK = 32
+KW_ROW = 2 * NODE_BLOCK
 #: from this B on the batch runs ``batched_step_long`` (B-long vector loops) instead of
 #: ``batched_step`` (4-scene register passes): at N = 528 the passes are 1.7x faster at
 #: B = 8 and 1.2x slower at B = 16 (benchmarks/batched_step_ab.py; docs/performance.md)
@@ -329,9 +331,10 @@ def batched_step(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
     w_n = u_n + tau v~_n, from ``u_tau`` (n, B), which the previous step wrote (a block's
     update overwrites v~ that later blocks' products read, so w_n cannot be formed in the
     pass); each block writes w_{n+1} into ``u_tau_next`` (the caller alternates the two, as
-    u) with ``single_step``'s operations. ``ku`` holds K w_n at every row (the damping work
-    needs it), and ``dsum`` (2, B) sums K w_n . u_{n+1} and K w_n . u_{n-1} per scene in row
-    order, as ``single_step``: work[3] += 1/2 (dsum[0] - dsum[1]). On a damped
+    u) with ``single_step``'s operations. K w_n of the block's rows is kept in ``acc`` from
+    row ``KW_ROW`` on (the damping work needs it), and ``dsum`` (2, B) sums K w_n . u_{n+1}
+    and K w_n . u_{n-1} per scene in row order, as ``single_step``:
+    work[3] += 1/2 (dsum[0] - dsum[1]). On a damped
     ``diag`` step ``energy[1]`` is u . K w, not the strain energy: the caller refreshes K u_n
     (``stiffness_product_cols``) and sums it (``column_dots``).
     """
@@ -362,7 +365,7 @@ def batched_step(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
             n0 = nim[i]
             n1 = nim[i + 1]
             write = diag or keep[node] != 0
-            kstore = write or damped  # damped: K w_n at every row, for the damping work
+            kw = KW_ROW + k  # damped: K w_n of the node's rows in acc, for the damping work
             for b0 in range(0, nb4, 4):  # 4 scenes at a time, their sums in registers
                 bu = numba.uint64(b0)
                 # pair_product's order: even terms, odd terms, then their sum
@@ -371,16 +374,22 @@ def batched_step(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
                 for m in range(4):
                     s0 = e[m] + o[m]
                     s1 = e[4 + m] + o[4 + m]
-                    if kstore:
+                    if write:
                         ku[i, b0 + m] = s0
                         ku[i + 1, b0 + m] = s1
+                    if damped:
+                        acc[kw, b0 + m] = s0
+                        acc[kw + 1, b0 + m] = s1
                     acc[k, b0 + m] = s0 * n0
                     acc[k + 1, b0 + m] = s1 * n1
             for b in range(nb4, nb):  # the last nb % 4 scenes one by one
                 s0, s1 = pair_product_col(indices, data, src, a0, a1, numba.uint64(b))
-                if kstore:
+                if write:
                     ku[i, b] = s0
                     ku[i + 1, b] = s1
+                if damped:
+                    acc[kw, b] = s0
+                    acc[kw + 1, b] = s1
                 acc[k, b] = s0 * n0
                 acc[k + 1, b] = s1 * n1
             j = cslot[node]
@@ -409,7 +418,7 @@ def batched_step(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
         # unsigned q: a signed index's wrap-around test would stop it vectorising, 3.7x)
         q0 = numba.uint64(2 * g0 * nb)
         if damped:  # K w_n . u_{n-1} of the block's rows, before u_{n+1} overwrites it
-            damping_sums(ku, u_next, 2 * g0, 2 * g1, dsum, 1)
+            damping_sums(acc, KW_ROW, u_next, 2 * g0, 2 * g1, dsum, 1)
         if diag:
             for t in range(2 * (g1 - g0) * nb):
                 q = q0 + numba.uint64(t)
@@ -430,7 +439,8 @@ def batched_step(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
                 un_f[q] = w * dt + u_f[q]
                 vp_f[q] = w if b2_half else w + ai * c_p
         if damped:  # K w_n . u_{n+1}, and w_{n+1}
-            damping_sums_next(ku, u_next, vp, u_tau_next, tau, 2 * g0, 2 * g1, dsum)
+            damping_sums_next(acc, KW_ROW, u_next, vp, u_tau_next, tau, 2 * g0, 2 * g1,
+                              dsum)
     batched_contact_work(u, u_next, cx, pc_re, pc_im, r_x, r_y, r_t, zprev, work, slide, f)
     if damped:
         for b in range(nb):
@@ -438,26 +448,28 @@ def batched_step(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
 
 
 @inline
-def damping_sums(ku, u, r0, r1, dsum, slot):
-    """dsum[slot, b] += Σ_row (K w_n)[row, b] u[row, b] over rows r0 .. r1 - 1 in order:
-    per scene the running sum of ``single_step``'s damped loop (K w_n . u_{n+1} in slot 0,
-    K w_n . u_{n-1} in slot 1; each sum is its own chain, so taking them in two passes
-    keeps the bits)."""
+def damping_sums(kw, k0, u, r0, r1, dsum, slot):
+    """dsum[slot, b] += Σ_row (K w_n)[row, b] u[row, b] over rows r0 .. r1 - 1 in order,
+    K w_n of row r in ``kw`` row k0 + r - r0: per scene the running sum of
+    ``single_step``'s damped loop (K w_n . u_{n+1} in slot 0, K w_n . u_{n-1} in slot 1;
+    each sum is its own chain, so taking them in two passes keeps the bits)."""
     nb = u.shape[1]
     for row in range(r0, r1):
+        k = k0 + row - r0
         for b in range(nb):
-            dsum[slot, b] += ku[row, b] * u[row, b]
+            dsum[slot, b] += kw[k, b] * u[row, b]
 
 
 @inline
-def damping_sums_next(ku, u_next, vp, w_next, tau, r0, r1, dsum):
-    """``damping_sums`` of K w_n . u_{n+1} (slot 0) over rows r0 .. r1 - 1, and there
+def damping_sums_next(kw, k0, u_next, vp, w_next, tau, r0, r1, dsum):
+    """``damping_sums`` of K w_n . u_{n+1} (slot 0), and there
     w_{n+1} = u_{n+1} + tau v~_{n+1} (``single_step``'s operations) for the next step."""
     nb = u_next.shape[1]
     for row in range(r0, r1):
+        k = k0 + row - r0
         for b in range(nb):
             un = u_next[row, b]
-            dsum[0, b] += ku[row, b] * un
+            dsum[0, b] += kw[k, b] * un
             w_next[row, b] = vp[row, b] * tau + un
 
 
@@ -487,8 +499,8 @@ def batched_step_long(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
     ``acc``: 3 of the 6 (n, B) arrays the step would write are not touched, and the
     batch's working set (u_n, u_{n+1}, v~, K) is half as large. Same operations in the same
     order either way: the state's bits do not depend on ``diag``. Kelvin-Voigt damping as
-    in ``batched_step`` (w_n from ``u_tau``, w_{n+1} into ``u_tau_next``, K w_n in ``ku`` at
-    every row, the sums in ``dsum``).
+    in ``batched_step`` (w_n from ``u_tau``, w_{n+1} into ``u_tau_next``, K w_n of the node's
+    rows in ``ku`` when stored, else in ``acc[4]``, ``acc[5]``, the sums in ``dsum``).
     """
     n_rows, nb = u.shape
     damped = tau > 0.0
@@ -529,7 +541,7 @@ def batched_step_long(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
         n0 = nim[i]
         n1 = nim[i + 1]
         write = diag or keep[i // 2] != 0
-        if write or damped:  # damped: K w_n at every row, for the damping work
+        if write:
             for b in range(nb):
                 s0 = e0[b] + o0[b]
                 s1 = e1[b] + o1[b]
@@ -537,10 +549,19 @@ def batched_step_long(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
                 ku[i + 1, b] = s1
                 e0[b] = s0 * n0
                 e1[b] = s1 * n1
+        elif damped:  # K w_n of the two rows in acc[4], acc[5], for the damping work
+            for b in range(nb):
+                s0 = e0[b] + o0[b]
+                s1 = e1[b] + o1[b]
+                acc[4, b] = s0
+                acc[5, b] = s1
+                e0[b] = s0 * n0
+                e1[b] = s1 * n1
         else:
             for b in range(nb):
                 e0[b] = (e0[b] + o0[b]) * n0
                 e1[b] = (e1[b] + o1[b]) * n1
+        kw_src, kw_row = (ku, i) if write else (acc, 4)  # where K w_n of the rows is
         j = cslot[i // 2]
         if j >= 0:
             inv_m = cinv[j]
@@ -557,7 +578,7 @@ def batched_step_long(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
                 e0[b] = e0[b] + rx * inv_m
                 e1[b] = e1[b] + ry * inv_m
         if damped:  # K w_n . u_{n-1}, before u_{n+1} overwrites it
-            damping_sums(ku, u_next, i, i + 2, dsum, 1)
+            damping_sums(kw_src, kw_row, u_next, i, i + 2, dsum, 1)
         for r in range(2):  # a_n of row i + r is acc[r] (e0, e1)
             row = i + r
             if write:
@@ -578,7 +599,7 @@ def batched_step_long(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
                     u_next[row, b] = w * dt + u[row, b]
                     vp[row, b] = w if b2_half else w + ai * c_p
         if damped:  # K w_n . u_{n+1}, and w_{n+1}
-            damping_sums_next(ku, u_next, vp, u_tau_next, tau, i, i + 2, dsum)
+            damping_sums_next(kw_src, kw_row, u_next, vp, u_tau_next, tau, i, i + 2, dsum)
     batched_contact_work(u, u_next, cx, pc_re, pc_im, r_x, r_y, r_t, zprev, work, slide, f)
     if damped:
         for b in range(nb):

@@ -114,7 +114,7 @@ class BatchedExplicit(HookedStepper):
     ``v``, ``a``, ``ku``, ``r_r``, ``r_t``, ``status`` are time level n (as
     ``solver.newmark.Newmark``); ``work`` (4, B) holds [work_contact, work_cylinder,
     friction_dissipation] (``work_totals()``) and the damping work's step sum (``tau`` > 0,
-    ``damping_work_totals()``; ``ku`` is then K w_n until ``refresh_ku``). ``advance``
+    ``damping_work_totals()``; ``ku`` is K u_n only after ``refresh_ku``). ``advance``
     writes v_n, a_n and K u_n in full only at the levels ``full_state_at(level)`` names (the
     sampled ones), see ``step``.
     """
@@ -189,7 +189,7 @@ class BatchedExplicit(HookedStepper):
             k_bytes = int(bp.data.nbytes + bp.indices.nbytes)
             self._name = _kernels().batched_kernel_name(B, k_bytes)
             self._fn = get_kernel(self._name)
-            self.acc = z(max(4, 2 * _kernels().NODE_BLOCK), B)
+            self.acc = z(max(6, (4 if self.damped else 2) * _kernels().NODE_BLOCK), B)
             self._product = get_kernel("stiffness_product_cols")  # K u_n, damped samples
             self._dots_fn = get_kernel("column_dots")
             self._first_product = True  # compiled with the SLP vectoriser (register passes)
