@@ -61,11 +61,52 @@ def project(tr, tt, now_t, stiff, d, slide, f):
 
 
 @inline
+def project_regularised(tr, tt, now_t, stiff, d, slide, f, reg, sigma, ut_last, j, b,
+                        rate_slip, rate_base, dt, first):
+    """``project`` with the Prakash-Clifton bound f sigma_eff (reg = 1; reg = 2: constant
+    time), the operations of ``solver.contact.nodal.project_contact_regularized``: the
+    normal force, then sigma_eff[j, b] relaxed exactly towards p over dt with the rate of
+    the last step's slip (``EffectivePressure.update``; sigma_eff = p and the last u_theta
+    = u_theta,n at the first step), then the tangential projection inside f sigma_eff
+    (zero off contact)."""
+    rr = d - tr
+    if rr < 0.0:
+        rr = 0.0
+    rr = rr * stiff
+    inc = rr > 0.0
+    if first:
+        sigma[j, b] = rr
+        ut_last[j, b] = now_t
+    if reg == 1:  # (|V| + V*) / L, V = (u_theta,n - u_theta,{n-1} - R Omega dt) / dt
+        rate = now_t - ut_last[j, b]
+        rate = rate - slide
+        rate = abs(rate) * rate_slip
+        rate = rate + rate_base
+    else:  # 1 / t*
+        rate = rate_base
+    decay = math.exp(rate * -dt)
+    sg = sigma[j, b] - rr
+    sg = sg * decay
+    sg = sg + rr
+    sigma[j, b] = sg
+    ut_last[j, b] = now_t
+    cone = sg * f
+    cone = cone * (1.0 if inc else 0.0)
+    rt = now_t + slide
+    rt = rt - tt
+    rt = rt * stiff
+    if abs(rt) > cone:
+        return rr, math.copysign(cone, rt), SLIP if inc else SEPARATION
+    return rr, rt, STICK if inc else SEPARATION
+
+
+@inline
 def contact_reaction(ux, uy, vx, vy, ax, ay, c_re, c_im, h_re, h_im, dt, kappa, stiff,
-                     d, slide, f):
+                     d, slide, f, reg, sigma, ut_last, j, b, rate_slip, rate_base, first):
     """Forward-increment contact at one node of one scene, from u_n = (ux, uy), v~_n and
     a*_n: the trial position u_n + dt v~_n + κ a*_n turned to polar components by
-    (c_re, c_im) = e^{-iθ}, the nodal law ``project``, and the reaction turned back by
+    (c_re, c_im) = e^{-iθ}, the nodal law ``project`` (``project_regularised`` with a
+    Prakash-Clifton state, reg > 0), and the reaction turned back by
     (h_re, h_im) = e^{iθ}. Returns (r_r, r_t, status, r_x, r_y). Shared by ``single_step``,
     ``batched_step`` and ``batched_step_long`` so that they run the same operations."""
     now_r = ux * c_re - uy * c_im
@@ -74,7 +115,11 @@ def contact_reaction(ux, uy, vx, vy, ax, ay, c_re, c_im, h_re, h_im, dt, kappa, 
     ty = vy * dt + ay * kappa
     tr = (tx * c_re - ty * c_im) + now_r
     tt = (tx * c_im + ty * c_re) + now_t
-    rr, rt, st = project(tr, tt, now_t, stiff, d, slide, f)
+    if reg == 0:
+        rr, rt, st = project(tr, tt, now_t, stiff, d, slide, f)
+    else:
+        rr, rt, st = project_regularised(tr, tt, now_t, stiff, d, slide, f, reg, sigma,
+                                         ut_last, j, b, rate_slip, rate_base, dt, first)
     rx = rr * h_re - rt * h_im
     ry = rr * h_im + rt * h_re
     return rr, rt, st, rx, ry
@@ -185,14 +230,17 @@ def half_product4(indices, data, u, p, r, end, b0):
 def single_step(indptr, indices, data, n_rows, u, u_next, v, vp, a, ku, nim,
                 c_v, c_w, c_p, b2_half, dt, kappa, inv_kappa,
                 cx, ph_re, ph_im, pc_re, pc_im, cmass, cinv,
-                d, slide, f, r_pol, r_xy, status, zprev, work, u_tau, tau):
+                d, slide, f, r_pol, r_xy, status, zprev, work, u_tau, tau,
+                reg, sigma, ut_last, rate_slip, rate_base, started):
     """One explicit step of one scene (``solver.fused`` docstring). With Kelvin-Voigt
     damping (``tau > 0``, ``solver.newmark.DampedNewmark``) the internal force is K w_n,
     w_n = u_n + tau v~_n, formed in ``u_tau`` (owned rows; a caller with ghosts has set
     them), ``ku`` receives K w_n, and work[3] accumulates the damping work's per-step part
     1/2 (K w_n . u_{n+1} - K w_n . u_{n-1}) (``solver.observers.DampingWork``), read from
     ``u_next`` before it is overwritten (it holds u_{n-1}). Undamped (``tau = 0``) the
-    product reads ``u`` and the arithmetic is the plain step's."""
+    product reads ``u`` and the arithmetic is the plain step's. A regularised friction
+    bound (``reg`` > 0) keeps its per-node state in ``sigma``, ``ut_last`` (m, 1);
+    ``started[0]`` = 0 before the first step (``project_regularised``)."""
     damped = tau > 0.0
     src = u_tau if damped else u
     if damped:  # w_n = u_n + tau v~_n (DampedNewmark: v~ tau, then + u)
@@ -211,7 +259,8 @@ def single_step(indptr, indices, data, n_rows, u, u_next, v, vp, a, ku, nim,
         iy = ix + 1
         rr, rt, st, rx, ry = contact_reaction(
             u[ix], u[iy], vp[ix], vp[iy], a[ix], a[iy], pc_re[j], pc_im[j], ph_re[j],
-            ph_im[j], dt, kappa, cmass[j] * inv_kappa, d, slide, f)
+            ph_im[j], dt, kappa, cmass[j] * inv_kappa, d, slide, f, reg, sigma, ut_last, j,
+            0, rate_slip, rate_base, started[0] == 0)
         r_pol[2 * j] = rr
         r_pol[2 * j + 1] = rt
         status[j] = st
@@ -219,6 +268,7 @@ def single_step(indptr, indices, data, n_rows, u, u_next, v, vp, a, ku, nim,
         r_xy[2 * j + 1] = ry
         a[ix] = a[ix] + rx * cinv[j]
         a[iy] = a[iy] + ry * cinv[j]
+    started[0] = 1
     # Newmark: v_n, w, u_{n+1}, v~_{n+1}
     if damped:  # the same update, plus K w_n . u_{n+1} and K w_n . u_{n-1} in row order
         s_new = 0.0
@@ -307,7 +357,8 @@ def batched_step(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
                  c_v, c_w, c_p, b2_half, dt, kappa, inv_kappa,
                  cx, ph_re, ph_im, pc_re, pc_im, cmass, cinv,
                  d, slide, f, r_r, r_t, r_x, r_y, status, zprev, work, acc, cslot,
-                 diag, keep, mass, energy, u_tau, u_tau_next, tau, dsum):
+                 diag, keep, mass, energy, u_tau, u_tau_next, tau, dsum,
+                 reg, sigma, ut_last, rate_slip, rate_base, started):
     """The same step on (n, B) arrays: column b is scene b (per-scene d, slide, f).
 
     One pass over the nodes, in blocks of ``NODE_BLOCK`` nodes: the (x, y) rows of K u for
@@ -341,6 +392,7 @@ def batched_step(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
     n_rows, nb = u.shape
     nb4 = nb - nb % 4
     damped = tau > 0.0
+    first = started[0] == 0  # a regularised bound's first step: sigma_eff = p
     src = u_tau if damped else u
     if diag:
         for b in range(nb):
@@ -400,7 +452,8 @@ def batched_step(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
                     rr, rt, st, rx, ry = contact_reaction(
                         u[i, b], u[i + 1, b], vp[i, b], vp[i + 1, b], acc[k, b],
                         acc[k + 1, b], pc_re[j], pc_im[j], ph_re[j], ph_im[j], dt, kappa,
-                        stiff, d[b], slide[b], f[b])
+                        stiff, d[b], slide[b], f[b], reg, sigma, ut_last, j, b, rate_slip,
+                        rate_base, first)
                     r_r[j, b] = rr
                     r_t[j, b] = rt
                     status[j, b] = st
@@ -442,6 +495,7 @@ def batched_step(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
             damping_sums_next(acc, KW_ROW, u_next, vp, u_tau_next, tau, 2 * g0, 2 * g1,
                               dsum)
     batched_contact_work(u, u_next, cx, pc_re, pc_im, r_x, r_y, r_t, zprev, work, slide, f)
+    started[0] = 1
     if damped:
         for b in range(nb):
             work[3, b] += 0.5 * (dsum[0, b] - dsum[1, b])
@@ -478,7 +532,8 @@ def batched_step_long(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
                       c_v, c_w, c_p, b2_half, dt, kappa, inv_kappa,
                       cx, ph_re, ph_im, pc_re, pc_im, cmass, cinv,
                       d, slide, f, r_r, r_t, r_x, r_y, status, zprev, work, acc, cslot,
-                      diag, keep, mass, energy, u_tau, u_tau_next, tau, dsum):
+                      diag, keep, mass, energy, u_tau, u_tau_next, tau, dsum,
+                      reg, sigma, ut_last, rate_slip, rate_base, started):
     """``batched_step`` for long batches (B >= LONG_B; ``acc`` (4, B) at least): same
     arguments, same operations in the same order per scene, hence the same bits.
 
@@ -504,6 +559,7 @@ def batched_step_long(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
     """
     n_rows, nb = u.shape
     damped = tau > 0.0
+    first = started[0] == 0  # a regularised bound's first step: sigma_eff = p
     src = u_tau if damped else u
     if damped:
         dsum[:] = 0.0
@@ -569,7 +625,8 @@ def batched_step_long(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
             for b in range(nb):
                 rr, rt, st, rx, ry = contact_reaction(
                     u[i, b], u[i + 1, b], vp[i, b], vp[i + 1, b], e0[b], e1[b], pc_re[j],
-                    pc_im[j], ph_re[j], ph_im[j], dt, kappa, stiff, d[b], slide[b], f[b])
+                    pc_im[j], ph_re[j], ph_im[j], dt, kappa, stiff, d[b], slide[b], f[b],
+                    reg, sigma, ut_last, j, b, rate_slip, rate_base, first)
                 r_r[j, b] = rr
                 r_t[j, b] = rt
                 status[j, b] = st
@@ -601,6 +658,7 @@ def batched_step_long(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
         if damped:  # K w_n . u_{n+1}, and w_{n+1}
             damping_sums_next(kw_src, kw_row, u_next, vp, u_tau_next, tau, i, i + 2, dsum)
     batched_contact_work(u, u_next, cx, pc_re, pc_im, r_x, r_y, r_t, zprev, work, slide, f)
+    started[0] = 1
     if damped:
         for b in range(nb):
             work[3, b] += 0.5 * (dsum[0, b] - dsum[1, b])
@@ -663,8 +721,9 @@ def advance(n_max, t_stop, clock, indptr, indices, data, n_rows, u_a, u_b, v, vp
             c_v, c_w, c_p, b2_half, dt, kappa, inv_kappa,
             cx, ph_re, ph_im, pc_re, pc_im, cmass, cinv,
             d, slide, f, r_pol, r_xy, status, zprev, work, u_tau, tau,
+            reg, sigma, ut_last, rate_slip, rate_base, started,
             probe_dof, probe_t, probe_u, probe_v, probe_count):
-    """Up to ``n_max`` steps of ``single_step`` (same arguments, from ``indptr`` to ``tau``) in
+    """Up to ``n_max`` steps of ``single_step`` (same arguments, ``indptr`` to ``started``) in
     one call (one rank), stopping before a step once ``clock[0] >= t_stop``; after each step
     the probes record time level n as ``solver.observers.ProbeRecorder.record`` does (t_n,
     u_n and v_n at ``probe_dof`` (x dof; y = x + 1) while rows are left). ``u_a`` holds u_n
@@ -677,7 +736,8 @@ def advance(n_max, t_stop, clock, indptr, indices, data, n_rows, u_a, u_b, v, vp
         single_step(indptr, indices, data, n_rows, u_a, u_b, v, vp, a, ku, nim,
                     c_v, c_w, c_p, b2_half, dt, kappa, inv_kappa,
                     cx, ph_re, ph_im, pc_re, pc_im, cmass, cinv,
-                    d, slide, f, r_pol, r_xy, status, zprev, work, u_tau, tau)
+                    d, slide, f, r_pol, r_xy, status, zprev, work, u_tau, tau,
+                    reg, sigma, ut_last, rate_slip, rate_base, started)
         clock[0] += dt
         i = probe_count[0]
         if i < cap:

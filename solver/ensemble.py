@@ -120,7 +120,8 @@ class BatchedExplicit(HookedStepper):
     """
 
     def __init__(self, bp: BatchedProblem, d: np.ndarray, slide: np.ndarray, f: np.ndarray,
-                 xp: Any = np, kernel: str = "numba", tau: float = 0.0) -> None:
+                 xp: Any = np, kernel: str = "numba", tau: float = 0.0,
+                 bound: tuple[int, float, float] = (0, 0.0, 0.0)) -> None:
         if kernel not in KERNELS:
             raise ValueError(f"kernel = {kernel!r}: use one of {KERNELS}")
         if kernel == "numba" and xp is not np:
@@ -129,6 +130,11 @@ class BatchedExplicit(HookedStepper):
             raise ValueError(f"damping tau = {tau} must be a finite number >= 0 (s)")
         self.tau = float(tau)
         self.damped = self.tau > 0.0
+        # the friction bound (``solver.fused.friction_bound``): regularised in numba only
+        self.reg, self.rate_slip, self.rate_base = bound
+        if self.reg and kernel != "numba":
+            raise ValueError(f"kernel = {kernel!r} has no regularised friction bound "
+                             "(friction.regularization): run these scenes on the CPU")
         self.xp, self.kernel, self.bp = xp, kernel, bp
         n, B, m = bp.n, int(np.size(d)), int(bp.cx.size)
         self.B, self.n, self.m = B, n, m
@@ -163,6 +169,9 @@ class BatchedExplicit(HookedStepper):
         # w_n and w_{n+1}, alternating as u (the numba kernels write w_{n+1} in the pass)
         self._w = [z(n, B), z(n, B)] if self.damped else [z(0, B)] * 2
         self.dsum = z(2, B)
+        # a regularised bound's per-node state (sigma_eff, the last u_theta), (m, B)
+        self.sigma, self.ut_last = (z(m, B), z(m, B)) if self.reg else (z(0, B), z(0, B))
+        self._started = np.zeros(1, dtype=np.int64)  # 0 until the first step
         self.u0_ku0 = np.zeros(B)
         self._dots = np.zeros(B)
         self.mass = dev(bp.mass)
@@ -326,7 +335,8 @@ class BatchedExplicit(HookedStepper):
                     self.d, self.slide, self.f, self.r_r, self.r_t, self.r_x, self.r_y,
                     self.status, self.zprev, self.work, self.acc, self.cslot, bool(diag),
                     self.keep, self.mass, self.energy, self._w[cur], self._w[nxt], self.tau,
-                    self.dsum)
+                    self.dsum, self.reg, self.sigma, self.ut_last, self.rate_slip,
+                    self.rate_base, self._started)
             if self.step_count == 0:
                 with slp_vectorize():
                     timed_first_call(self._name, self._fn, *args)

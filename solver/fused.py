@@ -94,6 +94,26 @@ def _kernels():
     return _fused_kernels
 
 
+REGULARISATIONS = {"": 0, "prakash-clifton": 1, "constant-time": 2}
+"""The kernels' code of a friction bound (``ContactLaw.regularisation``): 0 is f p."""
+
+
+def friction_bound(law) -> tuple[int, float, float]:
+    """(code, rate_slip, rate_base) of ``law``'s friction bound for the kernels: the
+    relaxation rate of sigma_eff is |V dt| rate_slip + rate_base, with the constants of
+    ``solver.contact.nodal.EffectivePressure`` (1 / (dt L) and V* / L for Prakash-Clifton;
+    0 and 1 / t* for a constant time). The 1-2-1 filtered bound is not in the kernels."""
+    if law.filtered:
+        raise ValueError(f"friction variant {law.variant!r}: the 1-2-1 filtered bound runs "
+                         "with the numpy step (time.kernel = \"numpy\")")
+    code = REGULARISATIONS[law.regularisation]
+    if code == 1:
+        return code, 1.0 / (law.dt * law.slip_length), law.reference_velocity / law.slip_length
+    if code == 2:
+        return code, 0.0, 1.0 / law.relaxation_time
+    return 0, 0.0, 0.0
+
+
 def kernel(name: str):
     """The compiled kernel ``name`` ("single_step", "batched_step", "batched_step_long")."""
     return getattr(_kernels(), name)
@@ -245,6 +265,16 @@ class FusedNewmark(ExplicitStart):
         self.r_pol = p.r_polar.view(np.float64)  # (r_r, r_t) interleaved: the projection's
         self.r_xy = p.r_xy.view(np.float64)
         self.zprev = np.zeros(2 * self.cx.size)  # u_{n-1} at the contact nodes (x, y)
+        # a regularised friction bound: its per-node state is the projection's own
+        # (``EffectivePressure``: sigma_eff, the last u_theta), updated by the kernel
+        self.reg, self.rate_slip, self.rate_base = friction_bound(p.law)
+        m = self.cx.size
+        if self.reg:
+            self.sigma = p.effective.sigma.reshape(m, 1)
+            self.ut_last = p.effective.u_t_last.reshape(m, 1)
+        else:
+            self.sigma = self.ut_last = np.zeros((0, 1))
+        self._started = np.zeros(1, dtype=np.int64)  # 0 until the first step
         self.time = 0.0
         self.step_count = 0
         self._fn = kernel("single_step")
@@ -282,7 +312,9 @@ class FusedNewmark(ExplicitStart):
                 self.v_pred, self.a, self.kw, self.nim, b2 * dt, 0.5 * dt, (0.5 - b2) * dt,
                 b2 == 0.5, dt, self.kappa, 1.0 / self.kappa, self.cx, self.ph_re, self.ph_im,
                 self.pc_re, self.pc_im, self.cmass, self.cinv, p.d, p.slide, p.f, self.r_pol,
-                self.r_xy, p.out.status, self.zprev, self.work, self._u_tau, self.tau)
+                self.r_xy, p.out.status, self.zprev, self.work, self._u_tau, self.tau,
+                self.reg, self.sigma, self.ut_last, self.rate_slip, self.rate_base,
+                self._started)
 
     def step(self) -> None:
         """u_n -> u_{n+1}: one ghost update (MPI) and one kernel call. Damped, the ghosts

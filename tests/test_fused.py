@@ -205,14 +205,46 @@ def test_damped_fused_step_equals_damped_newmark_to_round_off(beta2):
     assert fused.facts()["scheme"]["damping_tau_s"] == 2e-6
 
 
-def test_damped_scenes_get_the_fused_kernel_and_regularised_friction_does_not():
+def test_damped_and_regularised_scenes_get_the_fused_kernel_and_the_filter_does_not():
     from solver.schemes import select
 
-    assert select.resolve_kernel(smoke(DAMPED)) == "numba"
-    assert select.batchable(smoke(DAMPED))
+    for extra in ((DAMPED,), PRAKASH_CLIFTON, CONSTANT_TIME):
+        assert select.resolve_kernel(smoke(*extra)) == "numba"
+        assert select.batchable(smoke(*extra))
     assert select.resolve_kernel(smoke(DAMPED, 'time.kernel="numpy"')) == "numpy"
     filtered = smoke(DAMPED, 'friction.filter="1-2-1"')
     assert select.resolve_kernel(filtered) == "numpy" and not select.batchable(filtered)
+
+
+#: regularised friction bounds (``solver.contact.nodal.EffectivePressure``): a slip length
+#: comparable to the slip per period, and a relaxation time of 5 steps
+PRAKASH_CLIFTON = ('friction.regularization="prakash-clifton"', "friction.slip_length=2e-5",
+                   "friction.reference_velocity=1.0")
+CONSTANT_TIME = ('friction.regularization="constant-time"', "friction.relaxation_time=4e-4")
+
+
+@pytest.mark.parametrize("extra", [PRAKASH_CLIFTON, CONSTANT_TIME, (*PRAKASH_CLIFTON, DAMPED)],
+                         ids=["prakash-clifton", "constant-time", "prakash-clifton-damped"])
+def test_regularised_fused_step_equals_the_numpy_step_to_round_off(extra):
+    """The regularised friction bound f sigma_eff in the fused kernel against the numpy
+    projection (``RegularizedContactProjection``), 300 steps: the same operations but for
+    the sum orders and exp (numpy's SIMD exp against libm's, both within 1 ulp). u and the
+    samples to 1e-11 of max|u| as the Coulomb scenes, statuses exactly, the energies and
+    the effective pressure (the kernel updates the projection's own ``EffectivePressure``
+    arrays) to 1e-9 relative (measured 5e-13)."""
+    sc = smoke(*extra)
+    ref, fused = run(sc, "numpy"), run(sc, "numba")
+    assert fused.integrator.reg > 0 and fused.integrator.compiled_loop
+    scale = np.max(np.abs(ref.integrator.u))
+    assert np.max(np.abs(ref.integrator.u - fused.integrator.u)) < 1e-11 * scale
+    a, b = ref.recorder.arrays(), fused.recorder.arrays()
+    np.testing.assert_array_equal(a["status"], b["status"])
+    assert np.max(np.abs(a["u_r"] - b["u_r"])) < 1e-11 * scale
+    ea, eb = a["energies"], b["energies"]
+    np.testing.assert_allclose(eb, ea, rtol=1e-9, atol=1e-9 * np.abs(ea).max())
+    sa, sb = ref.projection.effective.sigma, fused.projection.effective.sigma
+    assert np.abs(sa).max() > 0.0
+    np.testing.assert_allclose(sb, sa, rtol=0, atol=1e-9 * np.abs(sa).max())
 
 
 @pytest.mark.parallel

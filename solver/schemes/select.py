@@ -154,18 +154,18 @@ def resolve_kernel(scene: Scene) -> str:
 
     * the implicit scheme (time.beta1 > 0) has no fused step: "numpy" (it is not a stiffness
       product; ``time.kernel`` is ignored there);
-    * physics the fused kernel does not implement (any contact variant but the nodal
-      Coulomb law: a ``[friction]`` regularisation or filter) falls back to "numpy";
-      Kelvin-Voigt ``[damping]`` is in the fused and batched kernels (``DampedNewmark``'s
-      step, to round-off);
+    * physics the fused kernel does not implement (the 1-2-1 filtered friction bound)
+      falls back to "numpy"; Kelvin-Voigt ``[damping]`` and the regularised bounds
+      (Prakash-Clifton, constant time) are in the fused and batched kernels (the numpy
+      step's operations, to round-off);
     * ``time.kernel = "auto"``: "numba" when numba imports, else "numpy";
     * ``time.kernel = "numba"`` without numba: ValueError naming the fix.
     """
     ts = scene.time
     if ts.beta1 > 0.0:
         return "numpy"
-    if ContactLaw.variant_of(scene) != "nodal":
-        return "numpy"  # the regularised or filtered projections
+    if ContactLaw.variant_of(scene).startswith("1-2-1"):
+        return "numpy"  # the filtered projection
     requested = ts.kernel
     if requested == "numpy":
         return "numpy"
@@ -238,13 +238,14 @@ def make_batched_stepper(problem, laws: list[ContactLaw], backend: str = "cpu",
     contact law: numba on the CPU, the CUDA kernel through CuPy on the GPU
     (``solver.ensemble``)."""
     from solver.ensemble import BatchedExplicit, BatchedProblem, array_namespace
+    from solver.fused import friction_bound
 
     law0 = laws[0]
     bp = BatchedProblem.from_problem(problem, law0.dt, law0.beta2)
     return BatchedExplicit(
         bp, d=np.array([law.d for law in laws]), slide=np.array([law.slide for law in laws]),
         f=np.array([law.f for law in laws]), xp=array_namespace(backend),
-        kernel="numba" if backend == "cpu" else "cuda", tau=tau)
+        kernel="numba" if backend == "cpu" else "cuda", tau=tau, bound=friction_bound(law0))
 
 
 def contact_work_observer(stepper, projection, with_friction: bool, u0):
