@@ -149,23 +149,27 @@ def numba_available() -> bool:
     return available()
 
 
+#: The friction variants (``ContactLaw.variant``) that the fused and batched kernels have.
+KERNEL_VARIANTS = ("nodal", "prakash-clifton", "constant-time")
+
+
 def resolve_kernel(scene: Scene) -> str:
     """The step kernel a scene runs with: ``"numba"`` or ``"numpy"``. THE fallback rule.
 
     * the implicit scheme (time.beta1 > 0) has no fused step: "numpy" (it is not a stiffness
       product; ``time.kernel`` is ignored there);
-    * physics the fused kernel does not implement (the 1-2-1 filtered friction bound)
-      falls back to "numpy"; Kelvin-Voigt ``[damping]`` and the regularised bounds
-      (Prakash-Clifton, constant time) are in the fused and batched kernels (the numpy
-      step's operations, to round-off);
+    * physics the fused kernel does not implement (a friction variant not in
+      ``KERNEL_VARIANTS``: the 1-2-1 filtered bound) falls back to "numpy"; Kelvin-Voigt
+      ``[damping]`` and the regularised bounds (Prakash-Clifton, constant time) are in the
+      fused and batched kernels (the numpy step's operations, to round-off);
     * ``time.kernel = "auto"``: "numba" when numba imports, else "numpy";
     * ``time.kernel = "numba"`` without numba: ValueError naming the fix.
     """
     ts = scene.time
     if ts.beta1 > 0.0:
         return "numpy"
-    if ContactLaw.variant_of(scene).startswith("1-2-1"):
-        return "numpy"  # the filtered projection
+    if ContactLaw.variant_of(scene) not in KERNEL_VARIANTS:
+        return "numpy"  # the filtered projection, or a variant the kernels do not know
     requested = ts.kernel
     if requested == "numpy":
         return "numpy"
