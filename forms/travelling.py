@@ -1,4 +1,4 @@
-"""Inertia of a wave that is stationary in a frame turning at ω (issue 14, ``stickslip travel``).
+"""Inertia of a wave that is stationary in a frame turning at ω (``stickslip travel``).
 
 A wave turning rigidly at angular speed ω is u(x, t) = Q(ωt) w(Q(ωt)ᵀx), Q(α) = exp(αJ),
 J = [[0, −1], [1, 0]] the quarter turn. With y = Qᵀx, dy/dα = −Jy and ∇w·(−Jy) = −∂_θ w
