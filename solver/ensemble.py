@@ -277,8 +277,12 @@ class BatchedExplicit(HookedStepper):
 
     # ------------------------------------------------------------------- Kelvin-Voigt
     def _stiffness(self, u, out) -> None:
-        """out = K u per column, in the fused kernels' order (numba) or scipy's (xp)."""
-        if self.kernel == "numba":
+        """out = K u per column, in the fused kernels' order (numba, CUDA) or scipy's (xp)."""
+        if self.kernel == "cuda":  # pragma: no cover - GPU (or its CPU emulation)
+            self._kern_k((self._blocks,), (self._threads,), (
+                self.indptr, self.indices, self.data, u, out, np.int32(self.n // 2),
+                np.int32(self.B)))
+        elif self.kernel == "numba":
             if self._first_product:
                 from solver.fused import slp_vectorize
 
@@ -423,20 +427,18 @@ class BatchedExplicit(HookedStepper):
     # ------------------------------------------------------------------------ CUDA kernel
     def _cuda_setup(self) -> None:  # pragma: no cover - GPU only
         import cupy
-        import cupyx.scipy.sparse as sp
 
         self._module = cupy.RawModule(code=CUDA_SOURCE, options=("--fmad=false",))
         self._kern = self._module.get_function("fused_step_damped" if self.damped
                                                 else "fused_step")
         self._kern_w = self._module.get_function("kelvin_voigt_argument")
+        self._kern_k = self._module.get_function("stiffness_product")
         nodes = self.n // 2
         self.cslot = self.cslot.astype(np.int32)
         self.keep = cupy.zeros(nodes, dtype=np.int8)
         self.work = cupy.zeros((3, self.m, self.B))  # per (node, scene): no atomics
-        # damped: the damping work's step sum per (node, scene); K for the samples' K u_n
+        # damped: the damping work's step sum per (node, scene)
         self.dwork = cupy.zeros((nodes, self.B))
-        self.K = sp.csr_matrix((self.data, self.indices.astype(np.int32),
-                                self.indptr.astype(np.int32)), shape=(self.n, self.n))
         self._threads = 128
         self._blocks = (nodes * self.B + self._threads - 1) // self._threads
 
@@ -447,7 +449,7 @@ class BatchedExplicit(HookedStepper):
         if self.damped:  # w_n = u_n + tau v~_n first: the step overwrites v~
             count = self.n * self.B
             self._kern_w(((count + self._threads - 1) // self._threads,), (self._threads,),
-                         (u, self.v_pred, self.u_tau, f64(self.tau), np.int64(count)))
+                         (u, self.v_pred, self.u_tau, f64(self.tau), np.int32(count)))
             damped = (self.u_tau, self.dwork)
         self._kern((self._blocks,), (self._threads,), (
             self.indptr, self.indices, self.data, u, u_next, self.v, self.v_pred, self.a,

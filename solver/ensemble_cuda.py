@@ -41,14 +41,12 @@ CUDA_SOURCE = _CODES + r"""
 // projection when the node is on the contact circle, the Newmark update and the contact
 // work (and the damping work's share when dwork is given). Arrays are (rows, B) row-major:
 // consecutive threads are consecutive scenes, so every load is coalesced.
-static __device__ void explicit_step_node(""" + _STEP_PARAMS + r""",
-    const double* src, double* dwork)
+// Rows i, i + 1 of K src for scene b: (even terms) + (odd terms) of the CSR order, as
+// pair_product in solver/_fused_kernels.py.
+static __device__ void pair_rows(const unsigned int* indptr, const unsigned int* indices,
+    const double* data, const double* src, const int i, const int b, const int B,
+    double* k0, double* k1)
 {
-    long long tid = (long long)blockIdx.x * blockDim.x + threadIdx.x;
-    if (tid >= (long long)n_nodes * B) return;
-    const int p = (int)(tid / B);
-    const int b = (int)(tid % B);
-    const int i = 2 * p;
     const unsigned int a0 = indptr[i], a1 = indptr[i + 1];
     const unsigned int ln = a1 - a0;
     double s0e = 0.0, s0o = 0.0, s1e = 0.0, s1o = 0.0;
@@ -66,8 +64,21 @@ static __device__ void explicit_step_node(""" + _STEP_PARAMS + r""",
         s0e += data[a0 + t] * c0;
         s1e += data[a1 + t] * c0;
     }
+    *k0 = s0e + s0o;
+    *k1 = s1e + s1o;
+}
+
+static __device__ void explicit_step_node(""" + _STEP_PARAMS + r""",
+    const double* src, double* dwork)
+{
+    long long tid = (long long)blockIdx.x * blockDim.x + threadIdx.x;
+    if (tid >= (long long)n_nodes * B) return;
+    const int p = (int)(tid / B);
+    const int b = (int)(tid % B);
+    const int i = 2 * p;
     const size_t ix = (size_t)i * B + b, iy = (size_t)(i + 1) * B + b;
-    const double k0 = s0e + s0o, k1 = s1e + s1o;
+    double k0, k1;
+    pair_rows(indptr, indices, data, src, i, b, B, &k0, &k1);
     // v_n, a_n, K u_n are read only by the observers: written on sample steps (diag) and at
     // the probe nodes (keep); u_{n+1}, v~_{n+1} (the state) always
     const bool write = diag || keep[p];
@@ -160,10 +171,25 @@ extern "C" __global__ void fused_step_damped(""" + _STEP_PARAMS + r""",
 
 // w = u + tau v~ over the count = rows x B entries (the numba kernels' operations)
 extern "C" __global__ void kelvin_voigt_argument(const double* u, const double* vp, double* w,
-                                                 const double tau, const long long count)
+                                                 const double tau, const int count)
 {
     long long tid = (long long)blockIdx.x * blockDim.x + threadIdx.x;
-    if (tid >= count) return;
+    if (tid >= (long long)count) return;
     w[tid] = vp[tid] * tau + u[tid];
+}
+
+// out = K u for every (node, scene), in the step's order (the samples' K u_n when damped)
+extern "C" __global__ void stiffness_product(const unsigned int* indptr,
+    const unsigned int* indices, const double* data, const double* u, double* out,
+    const int n_nodes, const int B)
+{
+    long long tid = (long long)blockIdx.x * blockDim.x + threadIdx.x;
+    if (tid >= (long long)n_nodes * B) return;
+    const int b = (int)(tid % B);
+    const int i = 2 * (int)(tid / B);
+    double k0, k1;
+    pair_rows(indptr, indices, data, u, i, b, B, &k0, &k1);
+    out[(size_t)i * B + b] = k0;
+    out[(size_t)(i + 1) * B + b] = k1;
 }
 """

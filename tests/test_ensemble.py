@@ -492,86 +492,37 @@ def test_damped_sweep_batched_equals_the_sweep_without_batches(tmp_path):
     assert 3 in sizes
 
 
-_DAMPED_EMULATOR = r"""
-extern "C" void emulate_step(int blocks, int threads, %(params)s, const double* w,
-                             double* dwork) {
-    blockDim.x = threads;
-    for (unsigned int g = 0; g < (unsigned int)blocks; ++g) {
-        blockIdx.x = g;
-        for (unsigned int t = 0; t < (unsigned int)threads; ++t) {
-            threadIdx.x = t;
-            kelvin_voigt_argument(u, vp, (double*)w, tau_, count_);
-        }
-    }
-    for (unsigned int g = 0; g < (unsigned int)blocks; ++g) {
-        blockIdx.x = g;
-        for (unsigned int t = 0; t < (unsigned int)threads; ++t) {
-            threadIdx.x = t;
-            fused_step_damped(%(args)s, w, dwork);
-        }
-    }
-}
-"""
-
-
-def test_damped_cuda_kernel_source_equals_the_numba_kernel_on_the_cpu(tmp_path):
-    """The damped CUDA kernels (``kelvin_voigt_argument`` then ``fused_step_damped``),
-    compiled as C++ without fused multiply-adds (as nvcc --fmad=false) and run thread by
-    thread, give the damped numba batch's state bitwise over 120 steps (u, v~, statuses);
-    the damping work's step sum, kept per (node, scene) there, to 1e-9 relative (the
-    per-node sums are added in another order)."""
-    import ctypes
+def test_damped_cuda_kernels_equal_the_numba_kernel_on_the_cpu(monkeypatch):
+    """The damped CUDA path (``kelvin_voigt_argument``, ``fused_step_damped``, and
+    ``stiffness_product`` for the samples' K u_n), with CuPy replaced by its CPU emulation
+    (benchmarks/gpu_emulate.py: the source compiled as C++ without fused multiply-adds, as
+    nvcc --fmad=false, run thread by thread): over 120 steps the state (u, v~, statuses) and
+    K u_n are the damped numba batch's bits; the contact works and W_d to 1e-9 relative
+    (per-node partial sums added in another order, einsum dot products)."""
     import shutil
-    import subprocess
+    import sys
 
-    from test_gpu import _EMULATOR  # its header: the CUDA names for a C++ compiler
+    from benchmarks import gpu_emulate
 
-    from solver.ensemble_cuda import _STEP_ARGS, _STEP_PARAMS, CUDA_SOURCE
-
-    header = _EMULATOR[:_EMULATOR.index("%(source)s")]
-    cxx = shutil.which("g++") or shutil.which("c++")
-    if cxx is None:
+    if shutil.which("g++") is None and shutil.which("c++") is None:
         pytest.skip("no C++ compiler")
-    # the w kernel's extent rides on two globals set before each call
-    src = (header + "static double tau_; static long long count_;\n" + CUDA_SOURCE
-           + _DAMPED_EMULATOR % {"params": _STEP_PARAMS, "args": _STEP_ARGS})
-    (tmp_path / "emu.cpp").write_text(src + 'extern "C" void set_w(double t, long long c) '
-                                      "{ tau_ = t; count_ = c; }\n")
-    lib = tmp_path / "emu.so"
-    subprocess.run([cxx, "-O2", "-ffp-contract=off", "-shared", "-fPIC", "-o", str(lib),
-                    str(tmp_path / "emu.cpp")], check=True)
-    emu_lib = ctypes.CDLL(str(lib))
+    emulated = gpu_emulate.cupy_module()
+    monkeypatch.setitem(sys.modules, "cupy", emulated)
+    from solver.ensemble import BatchedExplicit
+
     ref, _ = _batch(VARIANTS[:3], common=DAMPED)
-    emu, _ = _batch(VARIANTS[:3], common=DAMPED)
-    nodes, B, m = emu.n // 2, emu.B, emu.m
-    cslot = emu.cslot.astype(np.int32)
-    keep = np.zeros(nodes, dtype=np.int8)
-    work = np.zeros((3, m, B))
-    dwork = np.zeros((nodes, B))
-    u_tau = np.zeros((emu.n, B))
-    threads = 64
-    blocks = (emu.n * B + threads - 1) // threads  # enough threads for the w kernel too
-    emu_lib.set_w(ctypes.c_double(emu.tau), ctypes.c_longlong(emu.n * B))
-    P = ctypes.c_void_p
-    dt, b2, kappa = emu.dt, emu.beta2, emu.kappa
-    for _ in range(120):
-        ref.step()
-        cur, nxt = emu.cur, 1 - emu.cur
-        pointers = (P(x.ctypes.data) for x in (
-            emu.indptr, emu.indices, emu.data, emu._u[cur], emu._u[nxt], emu.v, emu.v_pred,
-            emu.a, emu.ku, emu.nim, cslot, emu.ph_re, emu.ph_im, emu.pc_re, emu.pc_im,
-            emu.cmass, emu.cinv, emu.d, emu.slide, emu.f, emu.r_r, emu.r_t, emu.r_x, emu.r_y,
-            emu.status, emu.zprev, work))
-        emu_lib.emulate_step(
-            ctypes.c_int(blocks), ctypes.c_int(threads), *pointers,
-            ctypes.c_double(b2 * dt), ctypes.c_double(0.5 * dt),
-            ctypes.c_double((0.5 - b2) * dt), ctypes.c_int(int(b2 == 0.5)),
-            ctypes.c_double(dt), ctypes.c_double(kappa), ctypes.c_double(1.0 / kappa),
-            ctypes.c_int(nodes), ctypes.c_int(B), ctypes.c_int(m), ctypes.c_int(1),
-            P(keep.ctypes.data), P(u_tau.ctypes.data), P(dwork.ctypes.data))
-        emu.cur = nxt
-    np.testing.assert_array_equal(emu.u, ref.u)
-    np.testing.assert_array_equal(emu.v_pred, ref.v_pred)
-    np.testing.assert_array_equal(emu.status, ref.status)
-    np.testing.assert_allclose(work.sum(axis=1), ref.work[:3], rtol=1e-9, atol=1e-30)
-    np.testing.assert_allclose(dwork.sum(axis=0), ref.work[3], rtol=1e-9, atol=0)
+    cuda = BatchedExplicit(ref.bp, ref.d, ref.slide, ref.f, xp=emulated, kernel="cuda",
+                           tau=ref.tau)
+    cuda.set_state(ref.u.copy(), np.zeros_like(ref.u))
+    for n in range(120):
+        ref.step(diag=n % 5 == 0)
+        cuda.step(diag=n % 5 == 0)
+    np.testing.assert_array_equal(cuda.u, ref.u)
+    np.testing.assert_array_equal(cuda.v_pred, ref.v_pred)
+    np.testing.assert_array_equal(cuda.status, ref.status)
+    np.testing.assert_allclose(cuda.work_totals(), ref.work_totals(), rtol=1e-9, atol=1e-30)
+    for it in (ref, cuda):
+        it.refresh_ku()
+    np.testing.assert_array_equal(cuda.ku, ref.ku)
+    np.testing.assert_allclose(cuda.damping_work_totals(), ref.damping_work_totals(),
+                               rtol=1e-9, atol=0)
