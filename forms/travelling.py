@@ -48,6 +48,7 @@ def travelling_transport(u: ufl.Argument, v: ufl.Argument, rho: float) -> ufl.Fo
     C = τK applied to the frame velocity; ``studies.travel.frame.frame_operators``). Only first
     derivatives of w appear. The direct form τ∫σ((∂_θ − J)w):ε(v) would differentiate ∇w once
     more inside each cell, which P1 cannot: it loses the leading term τ∂_θ ε(w) and gives
-    ~−0.03 of the damping on a travelling harmonic (docs/travelling_waves.md, 2d)."""
+    ~−0.03 of the damping on a travelling harmonic (archive/travel/travelling_waves_history.md
+    2d)."""
     x = ufl.SpatialCoordinate(u.ufl_function_space().mesh)
     return rho * ufl.inner(frame_derivative(u, x), v) * ufl.dx
