@@ -28,24 +28,13 @@ def output_file_problem(path: str | Path, flag: str) -> str | None:
     return None
 
 
-def samples_problem(run_dir: str | Path, need: int = 0) -> str | None:
-    """Why ``RUN_DIR/samples.npz`` cannot be used (missing, corrupt, too short), or None."""
-    import zipfile
+def samples_problem(run_dir: str | Path, need: int = 1) -> str | None:
+    """Why the run directory ``run_dir`` cannot be read back (a missing, corrupt, edited or
+    too short file: ``studies.rundir.readers``), or None."""
+    from studies.rundir.readers import ReadError, check_run_dir
 
-    import numpy as np
-
-    f = Path(run_dir) / "samples.npz"
-    if not f.exists():
-        return f"{run_dir} has no samples.npz (not a finished run directory)"
     try:
-        with np.load(f) as data:
-            n = int(data["t"].size)
-            data["u_r"]  # noqa: B018 - read it: a truncated member fails here
-    except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as err:
-        return (f"{f} is not a readable samples file ({type(err).__name__}: "
-                f"{str(err)[:80]}); run the scene again")
-    if n < need:
-        return (f"{run_dir} is too short: {n} samples, the wave analysis needs at least "
-                f"{need}; run longer (time.end_time) or sample more often "
-                "(output.sample_interval)")
+        check_run_dir(run_dir, need)
+    except ReadError as err:
+        return str(err)
     return None

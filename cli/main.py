@@ -137,6 +137,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"error: {_last_resort(err)}", file=sys.stderr, flush=True)
         _end_all_ranks(2)
         return 2
+    except ValueError as err:  # a file read back that is corrupt, truncated or edited
+        readers = sys.modules.get("studies.rundir.readers")
+        if readers is None or not isinstance(err, readers.ReadError):
+            raise
+        print(f"error: {err}", file=sys.stderr, flush=True)
+        _end_all_ranks(2)
+        return 2
 
 
 if __name__ == "__main__":

@@ -40,7 +40,7 @@ def digest(run_dir: Path) -> str | None:
         return None
     h = hashlib.sha256()
     for f in sorted(run_dir.rglob("*")):
-        if f.is_file():
+        if f.is_file() and f.name != ".stickslip.lock":  # names the live holder, not data
             h.update(f.name.encode())
             h.update(f.read_bytes())
     return h.hexdigest()

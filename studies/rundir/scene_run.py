@@ -148,8 +148,8 @@ def run_scene(scene: Scene, run_dir: Path, *, force: bool = False,
                    "no final field)", wall_time_s=time.perf_counter() - t0)
         if _disk_status(rd.work) not in (None, "running"):
             return  # another rank marked the run (failed) before mpirun's signal came
-        if sim_ is None and rd.replacing:
-            discard_run_dir(rd)
+        if rd.replacing and (sim_ is None or not replace_on_failure):
+            discard_run_dir(rd)  # an interrupted rerun keeps the earlier run
             return
         if sim_ is not None:
             atomic_save_npz(rd.work / "samples.npz", sim_.recorder.arrays(), compress=False)
@@ -200,62 +200,65 @@ def run_scene(scene: Scene, run_dir: Path, *, force: bool = False,
     sim = None
     error = None
     status = "failed"
-    with RunSignals(hard_stop, rescue=rescue if rank0 and comm.size > 1 else None,
-                    on_death=tidy) as signals:
-        try:
-            signals.start()
-            first_files()
-            say(f"stickslip {__version__}: scene '{scene.name}' on {comm.size} rank(s)")
-            if est is not None:
-                say(f"  {est.line()}")
-            for warning in scene_warnings(scene):
-                say(f"  warning: {warning}")
-            sim = Simulation(scene, comm, prof, output_dir=work)
-            say(f"  {sim.problem.n_global_dofs} dofs, {sim.recorder.n_nodes} contact nodes, "
-                f"dt = {sim.dt:.4g} s ({sim.dt / sim.dt_crit:.2f} dt_crit), "
-                f"{sim.planned_steps()} steps to t = {scene.time.end_time} s")
-            phase[0] = "the time loop"
-            state["sim"] = sim
-            signals.sim, signals.mode = sim, "flag"
-            if signals.requested:  # a signal between the last check and now
-                sim.stop_requested = True
-            reason = sim.proceed()
-            status = {"signal": "interrupted", "max_wall_time": "stopped"}.get(reason,
-                                                                              "completed")
-            if reason == "signal":
-                error = f"interrupted by {_signame(signals.requested)}"
-            elif reason == "max_wall_time":
-                error = (f"stopped by time.max_wall_time = {scene.time.max_wall_time} s at "
-                         f"t = {sim.integrator.time:.6g} s of {scene.time.end_time} s")
-        except KeyboardInterrupt:
-            status = "interrupted"
-            error = f"interrupted by {_signame(signals.requested)} during {phase[0]}"
-        except RunDirError:
-            signals.mode = "done"
-            raise
-        except Diverged as err:
-            status, error = "diverged", str(err)
-        except StepTooLarge as err:  # same on every rank (omega_max is reduced): collective
-            status, error = "failed", f"{type(err).__name__}: {err}"
-        except Exception as err:  # noqa: BLE001 - recorded; under MPI every rank must end
-            status, error = "failed", f"{type(err).__name__}: {err}"
-            if comm.size > 1:
+    try:
+        with RunSignals(hard_stop, rescue=rescue if rank0 and comm.size > 1 else None,
+                        on_death=tidy) as signals:
+            try:
+                signals.start()
+                first_files()
+                say(f"stickslip {__version__}: scene '{scene.name}' on {comm.size} rank(s)")
+                if est is not None:
+                    say(f"  {est.line()}")
+                for warning in scene_warnings(scene):
+                    say(f"  warning: {warning}")
+                sim = Simulation(scene, comm, prof, output_dir=work)
+                say(f"  {sim.problem.n_global_dofs} dofs, {sim.recorder.n_nodes} contact nodes, "
+                    f"dt = {sim.dt:.4g} s ({sim.dt / sim.dt_crit:.2f} dt_crit), "
+                    f"{sim.planned_steps()} steps to t = {scene.time.end_time} s")
+                phase[0] = "the time loop"
+                state["sim"] = sim
+                signals.sim, signals.mode = sim, "flag"
+                if signals.requested:  # a signal between the last check and now
+                    sim.stop_requested = True
+                reason = sim.proceed()
+                status = {"signal": "interrupted", "max_wall_time": "stopped"}.get(reason,
+                                                                                  "completed")
+                if reason == "signal":
+                    error = f"interrupted by {_signame(signals.requested)}"
+                elif reason == "max_wall_time":
+                    error = (f"stopped by time.max_wall_time = {scene.time.max_wall_time} s at "
+                             f"t = {sim.integrator.time:.6g} s of {scene.time.end_time} s")
+            except KeyboardInterrupt:
+                status = "interrupted"
+                error = f"interrupted by {_signame(signals.requested)} during {phase[0]}"
+            except RunDirError:
                 signals.mode = "done"
-                print(f"error (rank {comm.rank}): {error}", file=sys.stderr, flush=True)
-                mark("failed", f"rank {comm.rank}: {error}")
-                comm.Abort(EXIT_CODES["failed"])
-        finally:
-            state["status"], state["error"] = status, error
-            if signals.mode != "done":
-                signals.mode = "defer"
-                phase[0] = "the final save"
-        if sim is not None:
-            sim.status = status
-        summary = _save(sim, rd, scene, status, error, prof, t0, comm, signals,
-                        keep_previous=(status == "failed" or sim is None)
-                        and not replace_on_failure)
-        signals.mode = "done"
-        deferred = signals.requested if status != "interrupted" else 0
+                raise
+            except Diverged as err:
+                status, error = "diverged", str(err)
+            except StepTooLarge as err:  # same on every rank (omega_max is reduced): collective
+                status, error = "failed", f"{type(err).__name__}: {err}"
+            except Exception as err:  # noqa: BLE001 - recorded; under MPI every rank must end
+                status, error = "failed", f"{type(err).__name__}: {err}"
+                if comm.size > 1:
+                    signals.mode = "done"
+                    print(f"error (rank {comm.rank}): {error}", file=sys.stderr, flush=True)
+                    mark("failed", f"rank {comm.rank}: {error}")
+                    comm.Abort(EXIT_CODES["failed"])
+            finally:
+                state["status"], state["error"] = status, error
+                if signals.mode != "done":
+                    signals.mode = "defer"
+                    phase[0] = "the final save"
+            if sim is not None:
+                sim.status = status
+            summary = _save(sim, rd, scene, status, error, prof, t0, comm, signals,
+                            keep_previous=(status in ("failed", "interrupted") or sim is None)
+                            and not replace_on_failure)
+            signals.mode = "done"
+            deferred = signals.requested if status != "interrupted" else 0
+    finally:
+        rd.release()  # the directory is no longer live
     if rank0:
         summary["profile_s"] = {k: round(v, 4) for k, v in prof.seconds.items()}
         _print_summary(summary, run_dir, stream, profile)
@@ -290,30 +293,25 @@ def _save(sim: Simulation | None, rd: RunDir, scene: Scene, status: str, error: 
         if not rank0:
             return {}
         signals.wait_rescue()
+        summary = sim.facts() if sim is not None else {"scene": scene.name, "status": status}
+        if keep_previous and rd.replacing:
+            discard_run_dir(rd)
+            summary.update(status=status, message=f"{error or status}; the earlier run in "
+                           f"{rd.final} is kept unchanged")
+            return _finish(summary, t0, None, prof)
         if rd.replacing and not rd.work.exists():  # the rescue writer swapped it in
             rd.work = rd.final
         work = rd.work
         if status in ("interrupted", "failed") and _disk_status(work) == "failed":
             # another rank failed and marked the run before mpirun's signal reached us
             return json.loads((work / "summary.json").read_text())
-        summary = sim.facts() if sim is not None else {"scene": scene.name, "status": status}
         if sim is not None:  # until the second write below: a kill in between is visible
             summary["analysis"] = "pending"
 
         def finish(s: dict) -> dict:
-            s["wall_time_s"] = time.perf_counter() - t0
-            if error:
-                s["message"] = error
-            s["peak_rss_mb"] = peak_rss_mb()
-            s["profile_s"] = {k: round(v, 4) for k, v in prof.seconds.items()}
-            return s
+            return _finish(s, t0, error, prof)
 
         finish(summary)
-        if keep_previous and rd.replacing:
-            discard_run_dir(rd)
-            summary["message"] = (summary.get("message", status) + f"; the earlier run in "
-                                  f"{rd.final} is kept unchanged")
-            return summary
         try:
             if sim is not None:
                 arrays = sim.recorder.arrays()
@@ -345,6 +343,16 @@ def _save(sim: Simulation | None, rd: RunDir, scene: Scene, status: str, error: 
                 summary["message"] = (f"{summary.get('message', '')}; " if summary.get(
                     "message") else "") + f"could not add the wave analysis to summary.json: {err}"
     return summary
+
+
+def _finish(s: dict, t0: float, error: str | None, prof: Profile) -> dict:
+    """Add the wall time, the message, the peak memory and the profile to summary ``s``."""
+    s["wall_time_s"] = time.perf_counter() - t0
+    if error:
+        s["message"] = error
+    s["peak_rss_mb"] = peak_rss_mb()
+    s["profile_s"] = {k: round(v, 4) for k, v in prof.seconds.items()}
+    return s
 
 
 def peak_rss_mb() -> float:

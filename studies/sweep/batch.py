@@ -174,7 +174,7 @@ def run_batch(spec: SweepSpec, tasks: list[Task], out_dir: Path, world_rank: int
     run_dirs = [out_dir / "runs" / t.id for t in tasks]
     logs = []
     for t, sc, rd in zip(tasks, scenes, run_dirs, strict=True):
-        prepare_run_dir(rd, True, comm)
+        prepare_run_dir(rd, True, comm, in_place=True).release()
         write_scene(sc, rd / "scene.toml")
         atomic_write_text(rd / "summary.json",
                           json.dumps({"scene": sc.name, "status": "running"}, indent=2))

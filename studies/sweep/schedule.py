@@ -233,15 +233,8 @@ def _run_one(spec: SweepSpec, task: Task, out_dir: Path, group: MPI.Comm,
                 tb = traceback.format_exc()
                 assert log is not None
                 log.write(tb)
-                run_dir.mkdir(parents=True, exist_ok=True)
-                if not (run_dir / "scene.toml").exists():  # resume compares against it
-                    write_scene(scene_for(spec, task), run_dir / "scene.toml")
-                prev = _read_json(run_dir / "summary.json") or {}
-                prev.update({"scene": f"{spec.name}.{task.id}", "status": "failed",
-                             "message": f"{type(err).__name__}: {err}",
-                             "traceback": tb.splitlines()[-6:],
-                             "wall_time_s": time.perf_counter() - t0, "ranks": group.size})
-                atomic_write_text(run_dir / "summary.json", json.dumps(prev, indent=2))
+                _record_failure(spec, task, run_dir, err, tb,
+                                time.perf_counter() - t0, group.size)
         if group.size > 1:
             status = group.bcast(status, root=0)
     finally:
@@ -249,6 +242,29 @@ def _run_one(spec: SweepSpec, task: Task, out_dir: Path, group: MPI.Comm,
             log.write(f"== end {status}\n")
             log.close()
     return status
+
+
+def _record_failure(spec: SweepSpec, task: Task, run_dir: Path, err: Exception, tb: str,
+                    wall: float, ranks: int) -> None:
+    """Write a ``failed`` summary for a scene whose run raised, into its run directory only if
+    that is stickslip's (or new): a user's folder under ``runs/`` is never written (the
+    table shows it as ``foreign``; the log has the error)."""
+    from studies.rundir.ownership import OwnershipError, claim, owned
+
+    if isinstance(err, OwnershipError):
+        return
+    if not owned(run_dir, "run"):
+        try:
+            claim(run_dir, "run", force=True, in_place=True).release()
+        except OwnershipError:
+            return
+    if not (run_dir / "scene.toml").exists():  # resume compares against it
+        write_scene(scene_for(spec, task), run_dir / "scene.toml")
+    prev = _read_json(run_dir / "summary.json") or {}
+    prev.update({"scene": f"{spec.name}.{task.id}", "status": "failed",
+                 "message": f"{type(err).__name__}: {err}", "traceback": tb.splitlines()[-6:],
+                 "wall_time_s": wall, "ranks": ranks})
+    atomic_write_text(run_dir / "summary.json", json.dumps(prev, indent=2))
 
 
 _PETSC_WORLD: list = []  # the group communicator PETSc was initialised on (kept alive)
@@ -295,17 +311,15 @@ def _prepare(out_dir: Path, spec: SweepSpec, retry_failed: bool) -> tuple[list[T
 
 
 def _lock(out_dir: Path):  # noqa: ANN202
-    """Exclusive lock on the sweep directory (a second sweep on it refuses to start)."""
-    import fcntl
+    """Claim the sweep directory (``studies.rundir.ownership``, kind ``sweep``): a new one,
+    or a sweep directory to resume; a live one (another sweep), a user's folder or another
+    kind of directory is refused in one line."""
+    from studies.rundir.ownership import OwnershipError, claim
 
-    fh = open(out_dir / ".lock", "w")  # noqa: SIM115
     try:
-        fcntl.flock(fh, fcntl.LOCK_EX | fcntl.LOCK_NB)
-    except OSError:
-        fh.close()
-        raise SweepError(f"another sweep is running in {out_dir} (lock {out_dir / '.lock'})"
-                         ) from None
-    return fh
+        return claim(out_dir, "sweep", reuse=True)
+    except OwnershipError as err:
+        raise SweepError(str(err)) from None
 
 
 def _run_unit(spec: SweepSpec, unit: list[Task], out_dir: Path, group: MPI.Comm,
@@ -350,7 +364,6 @@ def run_sweep(spec: SweepSpec, out_dir: str | Path, *, comm: MPI.Comm | None = N
     t_start = time.time()
     if rank0:
         try:
-            out_dir.mkdir(parents=True, exist_ok=True)
             lock = _lock(out_dir)
             pending, n_done = _prepare(out_dir, spec, retry_failed)
             from studies.sweep.batch import plan_units
@@ -364,7 +377,7 @@ def run_sweep(spec: SweepSpec, out_dir: str | Path, *, comm: MPI.Comm | None = N
         if rank0:
             print(f"error: {info}", file=sys.stderr, flush=True)
             if lock is not None:
-                lock.close()
+                lock.release()
         return 2
     by_id = {t.id: t for t in spec.tasks}
     units = [[by_id[i] for i in u] for u in info[0]]
@@ -438,9 +451,9 @@ def run_sweep(spec: SweepSpec, out_dir: str | Path, *, comm: MPI.Comm | None = N
               + ("  (interrupted: run the same command again to resume)" if interrupted else ""),
               file=stream, flush=True)
         if lock is not None:
-            lock.close()
+            lock.release()
         if not interrupted:
-            rc = 1 if counts.get("failed") else 0
+            rc = 1 if counts.get("failed") or counts.get("foreign") else 0
     if not interrupted:
         rc = comm.bcast(rc, root=0)
     return rc
