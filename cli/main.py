@@ -137,6 +137,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"error: {_last_resort(err)}", file=sys.stderr, flush=True)
         _end_all_ranks(2)
         return 2
+    except RecursionError:  # a scene or sweep file with arrays nested thousands deep
+        print("error: an input file is nested too deeply to be a scene or sweep file "
+              "(RecursionError); check the file given", file=sys.stderr, flush=True)
+        _end_all_ranks(2)
+        return 2
     except ValueError as err:  # a file read back that is corrupt, truncated or edited
         readers = sys.modules.get("studies.rundir.readers")
         if readers is None or not isinstance(err, readers.ReadError):
