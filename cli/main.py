@@ -7,6 +7,7 @@ dolfinx, ``stickslip run`` never imports pyvista unless it plots.
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from collections.abc import Sequence
 
@@ -127,6 +128,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if not getattr(args, "func", None):
         parser.print_help()
+        return 2
+    from cli.checks import environment_problem
+
+    problem = environment_problem()
+    if problem:  # before MPI starts; under mpirun every rank ends, rank 0 says why
+        if os.environ.get("OMPI_COMM_WORLD_RANK", os.environ.get("PMIX_RANK", "0")) == "0":
+            print(f"error: {problem}", file=sys.stderr, flush=True)
         return 2
     try:
         return int(args.func(args) or 0)

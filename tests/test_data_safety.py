@@ -523,3 +523,33 @@ run_scene(load_scene("smoke", {SHORT!r}), {str(tmp_path / 'k')!r}, comm=MPI.COMM
     assert s["status"] == "failed" and "killed outright" in s["message"]
     assert "the final save" in s["message"]
     assert not leftovers(tmp_path / "k")
+
+
+# --------------------------------------------------------------------------- environment
+
+
+@pytest.mark.parametrize(("env", "words"), [
+    ({"HOME": None}, "HOME is not set"),
+    ({"HOME": "/proc/nohome"}, "HOME=/proc/nohome is not a writable directory"),
+    ({"TMPDIR": "/proc/notmp"}, "TMPDIR=/proc/notmp is not a writable directory"),
+])
+@pytest.mark.parametrize("command", [["info"], ["wave", "--omega", "10"],
+                                     ["run", "smoke", "-o", "/tmp/never-made"]])
+def test_an_unusable_environment_is_one_line(monkeypatch, capsys, env, words, command):
+    """HOME unset made every MPI command die in MPI_Init with ~20 lines; an unwritable
+    TMPDIR gave a PETSc SEGV. Now: one line naming the variable and the fix, exit 2."""
+    for key, value in env.items():
+        if value is None:
+            monkeypatch.delenv(key, raising=False)
+        else:
+            monkeypatch.setenv(key, value)
+    rc, err = cli(capsys, *command)
+    assert rc == 2 and err.count("\n") == 1 and words in err and "export" in err, err
+    assert not Path("/tmp/never-made").exists()
+
+
+def test_a_run_shorter_than_one_step_is_failed_not_completed(tmp_path):
+    """geometry.xi = 1e6 gave dt = 0.05 s > end_time and a `completed` run of one step."""
+    pytest.importorskip("dolfinx")
+    s = run(tmp_path / "r", "geometry.xi=1e6")
+    assert s["status"] == "failed" and "shorter than one time step" in s["message"]

@@ -212,6 +212,11 @@ def run_scene(scene: Scene, run_dir: Path, *, force: bool = False,
                 for warning in scene_warnings(scene):
                     say(f"  warning: {warning}")
                 sim = Simulation(scene, comm, prof, output_dir=work)
+                if sim.dt > scene.time.end_time:  # same on every rank: collective
+                    raise StepTooLarge(
+                        f"time.end_time = {scene.time.end_time:g} s is shorter than one time "
+                        f"step (dt = {sim.dt:.4g} s): the run would end before its first "
+                        "sample; raise time.end_time or lower time.dt")
                 say(f"  {sim.problem.n_global_dofs} dofs, {sim.recorder.n_nodes} contact nodes, "
                     f"dt = {sim.dt:.4g} s ({sim.dt / sim.dt_crit:.2f} dt_crit), "
                     f"{sim.planned_steps()} steps to t = {scene.time.end_time} s")
