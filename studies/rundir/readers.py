@@ -24,6 +24,7 @@ Light (standard library and numpy; the scene reader imports ``solver.scene`` on 
 from __future__ import annotations
 
 import json
+import tomllib
 import zipfile
 from pathlib import Path
 from typing import Any
@@ -83,18 +84,25 @@ def read_summary(run_dir: str | Path) -> dict:
 
 def read_scene_file(path: str | Path) -> Any:
     """The :class:`solver.scene.Scene` in ``path`` (a saved ``scene.toml``)."""
-    from solver.scene import SceneError, load_scene
+    from solver.scene import SceneError, load_scene, scene_to_dict
 
     p = Path(path)
     if not p.is_file():
         raise ReadError(p, "missing")
     try:
-        return load_scene(p)
+        scene = load_scene(p)
+        written = tomllib.loads(p.read_text(encoding="utf-8"))
     except SceneError as err:
         raise ReadError(p, f"not a valid scene ({str(err).removeprefix(f'{p}: ')[:120]})") \
             from None
     except (RecursionError, MemoryError):
         raise ReadError(p, "nested too deeply to be a scene") from None
+    missing = [k for k, v in scene_to_dict(scene).items() if isinstance(v, dict)
+               and k not in written]
+    if missing:  # stickslip writes every section; defaults would stand in for them
+        raise ReadError(p, f"has no [{'], ['.join(missing)}] (not the resolved scene "
+                           "stickslip writes; edited or truncated)")
+    return scene
 
 
 def _load_npz(p: Path, keys: tuple[str, ...]) -> dict[str, np.ndarray]:
