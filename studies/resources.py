@@ -1,4 +1,4 @@
-"""What a scene will cost, estimated before anything is meshed (issue 12, item 10).
+"""What a scene will cost, estimated before anything is meshed.
 
 Dofs, steps, memory, output size and run time follow from the scene alone (no dolfinx):
 
@@ -14,8 +14,9 @@ Dofs, steps, memory, output size and run time follow from the scene alone (no do
   (3e-4 s + 8e-8 s x dofs) on one rank (measured on this project's 2-core machine).
 
 The numbers are order-of-magnitude guards, not promises: a run is refused when the memory
-exceeds what the machine has available or the samples exceed the free disk, unless the user
-says ``--yes-i-know``.
+exceeds what the machine has available, the samples exceed the free disk, or the run time on
+the ranks given (perfect scaling assumed) exceeds ``MAX_SECONDS`` without a
+``time.max_wall_time`` that bounds it, unless the user says ``--yes-i-know``.
 """
 
 from __future__ import annotations
@@ -33,6 +34,8 @@ __all__ = ["Estimate", "ResourceError", "available_memory", "check_resources", "
 OMEGA_MAX_C = 2.8
 BASE_MEMORY = 250e6
 BYTES_PER_DOF = 3e3
+#: Longest estimated run accepted without --yes-i-know or time.max_wall_time (two days).
+MAX_SECONDS = 2 * 86400.0
 
 
 class ResourceError(ValueError):
@@ -95,7 +98,8 @@ def available_memory() -> float:
 
 
 def check_resources(scene: Scene, run_dir: Path, ranks: int = 1) -> Estimate:
-    """The estimate, or :class:`ResourceError` if it exceeds the memory or the disk."""
+    """The estimate, or :class:`ResourceError` if it exceeds the memory, the disk or the
+    time (``MAX_SECONDS``, where ``time.max_wall_time`` does not bound the run)."""
     est = estimate(scene, ranks)
     mem = available_memory()
     fix = ("reduce mesh.n_inner, time.end_time or raise output.sample_interval, or pass "
@@ -105,6 +109,12 @@ def check_resources(scene: Scene, run_dir: Path, ranks: int = 1) -> Estimate:
             f"scene '{scene.name}' needs about {_bytes(est.memory_bytes)} of memory "
             f"({est.dofs} dofs, {est.samples} samples, {est.steps} steps) but "
             f"{_bytes(mem)} is available: {fix}")
+    wall = est.seconds / max(1, ranks)
+    if wall > MAX_SECONDS and not scene.time.max_wall_time:
+        raise ResourceError(
+            f"scene '{scene.name}' would take about {_duration(wall)} on {ranks} rank(s) "
+            f"({est.dofs} dofs, {est.steps} steps): reduce mesh.n_inner or time.end_time, "
+            "bound it with time.max_wall_time, or pass --yes-i-know to run anyway")
     free = _free_disk(run_dir)
     if est.output_bytes > free:
         raise ResourceError(
