@@ -476,7 +476,7 @@ def test_read_only_output_directory_is_refused_in_one_line():
         res = subprocess.run(
             [sys.executable, "-m", "cli.main", "run", "smoke", "-o", str(ro / "x")],
             cwd=REPO, capture_output=True, text=True, timeout=120,
-            env={**os.environ, "HOME": str(ro)}, preexec_fn=lambda: os.setuid(65534))
+            env={**os.environ, "HOME": "/tmp"}, preexec_fn=lambda: os.setuid(65534))
         assert res.returncode == 2, res.stderr
         assert res.stderr.count("\n") == 1
         assert f"cannot create {ro / 'x'}: {ro} is not a writable directory" in res.stderr
