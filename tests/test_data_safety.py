@@ -489,7 +489,7 @@ def test_read_only_output_directory_is_refused_in_one_line():
 def test_a_run_killed_outright_is_marked_and_tidied(tmp_path):
     """Cases 3 and 6 under SIGKILL (out of memory, a batch system) in the middle of writing
     samples.npz: nothing can run in the process, so its watchdog removes the temporary file
-    and marks the summary `failed` (never a stale `running`)."""
+    and marks the summary `crashed` (never a stale `running`; a resumed sweep reruns it)."""
     pytest.importorskip("dolfinx")
     driver = tmp_path / "driver.py"
     driver.write_text(f"""
@@ -520,7 +520,7 @@ run_scene(load_scene("smoke", {SHORT!r}), {str(tmp_path / 'k')!r}, comm=MPI.COMM
         if s["status"] != "running":
             break
         time.sleep(0.1)
-    assert s["status"] == "failed" and "killed outright" in s["message"]
+    assert s["status"] == "crashed" and "killed outright" in s["message"]
     assert "the final save" in s["message"]
     assert not leftovers(tmp_path / "k")
 

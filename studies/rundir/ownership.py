@@ -65,7 +65,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 __all__ = ["KINDS", "LOCK", "MARKER", "Claim", "OwnershipError", "claim", "foreign_entries",
-           "holder", "marker", "owned", "refusal", "register_kind"]
+           "holder", "marker", "owned", "recover", "refusal", "register_kind", "user_entries"]
 
 MARKER = ".stickslip"
 LOCK = ".stickslip.lock"
@@ -114,6 +114,16 @@ def owned(path: str | Path, kind: str | None = None) -> bool:
     """True if ``path`` carries stickslip's marker (of ``kind``, if given)."""
     m = marker(path)
     return m is not None and (kind is None or m["kind"] == kind)
+
+
+def user_entries(path: str | Path) -> list[str]:
+    """Entries of ``path`` other than the marker, the lock and their temporaries (those of
+    a command killed while claiming): a directory without any is empty for a new claim."""
+    try:
+        names = os.listdir(path)
+    except OSError:
+        return []
+    return sorted(n for n in names if not any(fnmatch.fnmatchcase(n, p) for p in _ALWAYS))
 
 
 def foreign_entries(path: str | Path, kind: str) -> list[str]:
@@ -169,10 +179,10 @@ def refusal(path: str | Path, kind: str, *, force: bool = False, reuse: bool = F
             who = f"pid {live.get('pid', '?')} on {live.get('host', '?')}"
             return f"{p} is in use by a running stickslip command ({who}); wait for it, or {fix}"
         try:
-            entries = os.listdir(p)
+            os.listdir(p)
         except OSError as err:
             return f"cannot read {p}: {err.strerror}; {fix}"
-        if [e for e in entries if e not in (LOCK, MARKER)]:
+        if user_entries(p):
             m = marker(p)
             if m is None:
                 return (f"{p} is not a stickslip {kind} directory (no {MARKER} marker) and is not "
@@ -309,11 +319,12 @@ def _fresh(path: Path, kind: str, parents: bool) -> int | None:
     """Create (or take an empty) ``path`` and lock it; None if another command got it first."""
     path.mkdir(parents=parents, exist_ok=True)
     fd = _lock_into(path, kind)
-    if fd is None:
-        return None
-    if [e for e in os.listdir(path) if e not in (LOCK, MARKER)] and not owned(path):
+    if fd is None:  # a lock file exists: a live claim (refused), or a killed one's (taken)
+        fd = _take_existing(path)
+        if fd is None:
+            return None
+    if user_entries(path) and not owned(path):
         os.close(fd)  # a user's file appeared meanwhile: not ours after all
-        (path / LOCK).unlink(missing_ok=True)
         return None
     _write_marker(path, kind)
     return fd

@@ -301,13 +301,21 @@ class RunDirectory:
         atomic_write_text(rd.work / "summary.json", json.dumps(out, indent=2))
         commit_run_dir(rd)
 
-    def tidy(self, pid: int, rescued: bool, where: str) -> None:
+    def tidy(self, pid: int, rescued: bool, where: str, signum: int = 0) -> None:
         """The run's process died outright (SIGKILL, out of memory; in the watchdog): remove
-        its temporary files and, on rank 0, turn a ``running`` summary into ``failed`` (or
-        drop an unfinished replacement). The rescue writer, if any, owns the status."""
+        its temporary files and, on rank 0, turn a ``running`` summary into ``crashed``, or
+        ``interrupted`` if a SIGINT/SIGTERM came first (mpirun's SIGKILL follows its SIGTERM
+        within a second), or drop an unfinished replacement. Neither status is final: a
+        resumed sweep runs the scene again. The rescue writer, if any, owns the status."""
         from solver.atomic import remove_temporaries
 
         rd = self.rd
+        status, message = "crashed", (f"the process was killed outright (SIGKILL: out of "
+                                      f"memory, or mpirun/batch system) during {where}")
+        if signum:
+            status, message = "interrupted", (
+                f"{_signame(signum)} during {where}, then the process was killed (mpirun's "
+                "SIGKILL) before it could save: nothing of this run was kept")
         for folder in {rd.work, rd.final}:
             remove_temporaries(folder, pid)
         if not self.rank0 or rescued:
@@ -319,8 +327,7 @@ class RunDirectory:
                 discard_run_dir(rd)
             else:
                 atomic_write_text(folder / "summary.json", json.dumps(dict(
-                    self.started, status="failed", message=f"the process was killed "
-                    f"outright (SIGKILL: out of memory, or mpirun/batch system) during {where}",
+                    self.started, status=status, message=message,
                     wall_time_s=time.perf_counter() - self.t0), indent=2))
 
 

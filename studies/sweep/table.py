@@ -22,7 +22,7 @@ from solver.scene import (
     load_scene,
     scene_to_dict,
 )
-from studies.rundir.ownership import owned
+from studies.rundir.ownership import owned, user_entries
 from studies.rundir.readers import ReadError, read_json_object, read_summary, read_sweep_table
 from studies.sweep.spec import (
     _TABLE_FIELDS,
@@ -58,10 +58,7 @@ def run_summary(run_dir: Path) -> dict | None:
 
 def _foreign(run_dir: Path) -> bool:
     """A non-empty ``runs/ID`` without stickslip's marker: a user's folder, never written."""
-    try:
-        return any(run_dir.iterdir()) and not owned(run_dir, "run")
-    except OSError:
-        return False
+    return bool(user_entries(run_dir)) and not owned(run_dir, "run")
 
 
 def is_sweep_dir(path: str | Path) -> bool:
