@@ -148,9 +148,10 @@ def _travel(args: argparse.Namespace) -> int:
         return _err(str(err))
     if args.damping is None:  # same physics as the transient: the scene's Kelvin-Voigt tau
         args.damping = float(scene.damping.tau)
-    if args.from_run and not (Path(args.from_run) / "samples.npz").exists():
-        return _err(f"--from {args.from_run}: no samples.npz there (not a finished run "
-                    "directory of `stickslip run`)")
+    from cli.checks import samples_problem
+
+    if args.from_run and (problem := samples_problem(args.from_run)):
+        return _err(f"--from: {problem}")
     out = Path(args.output) if args.output else output_root() / f"{scene.name}_travel_k{args.k}"
     from studies.travel.output import prepare_dir
 

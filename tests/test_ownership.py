@@ -244,9 +244,10 @@ def test_a_killed_replacement_is_tidied_and_the_old_run_restored(finished, tmp_p
     ("samples-foreign", "samples.npz: has no t, theta"),
     ("samples-empty", "ended before its first sample period"),
 ])
-@pytest.mark.parametrize("command", ["plot", "compare"])
+@pytest.mark.parametrize("command", ["plot", "compare", "travel"])
 def test_damaged_run_files_give_one_line(finished, tmp_path, capsys, damage, words, command):
-    """plot and compare on a damaged run directory: one line naming the file, exit 2."""
+    """plot, compare and travel --from on a damaged run directory: one line naming the file,
+    exit 2 (tracebacks before)."""
     d = copy_run(finished, tmp_path / "r")
     what, _, how = damage.partition("-")
     if what == "summary":
@@ -270,7 +271,11 @@ def test_damaged_run_files_give_one_line(finished, tmp_path, capsys, damage, wor
             arrays = {k: (v[:0] if k in ("t", "u_r", "u_theta", "status") else v)
                       for k, v in arrays.items()}
         np.savez(d / "samples.npz", **arrays)
-    rc, err = cli(capsys, command, d)
+    if command == "travel":
+        rc, err = cli(capsys, "travel", SMOKE, "--k", "4", "--from", d, "-o", tmp_path / "t")
+        assert not (tmp_path / "t").exists()
+    else:
+        rc, err = cli(capsys, command, d)
     one_line(rc, err, words)
 
 

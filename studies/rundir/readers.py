@@ -201,8 +201,6 @@ def check_run_dir(run_dir: str | Path, need: int = 1) -> None:
     """Every file a command reads from a run directory: summary, scene, samples (``need``),
     and the final field where there is one. Raises :class:`ReadError` for the first fault."""
     d = Path(run_dir)
-    if not d.is_dir():
-        raise ReadError(d, "not a directory", "give a run directory of `stickslip run`")
     if not (d / "samples.npz").exists():
         raise ReadError(d, "has no samples.npz (not a finished run directory)",
                         "give a run directory of `stickslip run`")
