@@ -309,3 +309,13 @@ def test_sweep_resume_reruns_a_scene_with_a_damaged_summary(tmp_path, damage):
         (run_dir / "summary.json").write_text(text)
     assert task_state(tmp_path / "out", spec, spec.tasks[0]) == "pending"
     claim(run_dir, "run", force=True, in_place=True).release()  # and it may be rerun
+
+
+def test_a_sweep_of_months_is_refused_before_anything_is_written(tmp_path, capsys):
+    """A sweep was accepted whatever its size; now its estimated time is checked first."""
+    spec = tmp_path / "s.toml"
+    spec.write_text(f'base = "{SMOKE}"\nset = ["time.end_time=1e5"]\n'
+                    '[grid]\n"loading.omega" = [2.0, 3.0]\n')
+    rc, err = cli(capsys, "sweep", spec, "-o", tmp_path / "out")
+    one_line(rc, err, "2 pending scenes would take about", "--yes-i-know")
+    assert not (tmp_path / "out").exists()

@@ -19,6 +19,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import shutil
 import sys
 import threading
 import time
@@ -32,6 +33,7 @@ from solver.scene import (
     write_scene,
 )
 from studies.output import process_alive
+from studies.rundir.ownership import user_entries
 from studies.sweep.spec import FINAL_STATUSES, SweepError, SweepSpec, Task, _cost, scene_for
 from studies.sweep.table import _read_json, task_state, write_table
 
@@ -290,13 +292,15 @@ def _init_petsc(group: MPI.Comm) -> None:
     from slepc4py import SLEPc  # noqa: F401
 
 
-def _prepare(out_dir: Path, spec: SweepSpec, retry_failed: bool) -> tuple[list[Task], int]:
-    """Rank 0: create the sweep directory, classify the scenes, write the initial table."""
-    (out_dir / "runs").mkdir(parents=True, exist_ok=True)
-    (out_dir / "logs").mkdir(exist_ok=True)
-    atomic_write_text(out_dir / "sweep.toml", spec.path.read_text())
+def _classify(out_dir: Path, spec: SweepSpec, retry_failed: bool
+              ) -> tuple[list[Task], int, float]:
+    """Rank 0, writing nothing: the pending scenes (largest first), the number already done,
+    and the estimated one-rank seconds of the pending ones (``studies.resources``)."""
+    from studies.resources import estimate
+
     pending: list[tuple[float, int, Task]] = []
     n_done = 0
+    seconds = 0.0
     for i, task in enumerate(spec.tasks):
         scene = scene_for(spec, task)
         state = task_state(out_dir, spec, task, scene)
@@ -305,9 +309,30 @@ def _prepare(out_dir: Path, spec: SweepSpec, retry_failed: bool) -> tuple[list[T
             n_done += 1
         else:
             pending.append((-_cost(scene), i, task))
+            seconds += estimate(scene, spec.group_size).seconds
     pending.sort(key=lambda x: (x[0], x[1]))
+    return [t for _, _, t in pending], n_done, seconds
+
+
+def _cost_problem(spec: SweepSpec, n_pending: int, seconds: float, n_groups: int,
+                  group_size: int) -> str | None:
+    """Why the pending scenes are too long to start without ``--yes-i-know``, or None."""
+    from studies.resources import MAX_SECONDS, _duration
+
+    wall = seconds / max(1, n_groups * group_size)
+    if wall <= MAX_SECONDS:
+        return None
+    return (f"sweep {spec.name}: {n_pending} pending scenes would take about "
+            f"{_duration(wall)} on {n_groups} group(s) of {group_size} rank(s) (estimate); "
+            "use fewer points or a shorter time.end_time, more ranks, or pass --yes-i-know")
+
+
+def _prepare(out_dir: Path, spec: SweepSpec) -> None:
+    """Rank 0: the sweep directory's folders, its copy of the sweep file, the initial table."""
+    (out_dir / "runs").mkdir(parents=True, exist_ok=True)
+    (out_dir / "logs").mkdir(exist_ok=True)
+    atomic_write_text(out_dir / "sweep.toml", spec.path.read_text())
     write_table(out_dir, spec)
-    return [t for _, _, t in pending], n_done
 
 
 def _lock(out_dir: Path):  # noqa: ANN202
@@ -339,8 +364,12 @@ def _run_unit(spec: SweepSpec, unit: list[Task], out_dir: Path, group: MPI.Comm,
 def run_sweep(spec: SweepSpec, out_dir: str | Path, *, comm: MPI.Comm | None = None,
               group_size: int | None = None, retry_failed: bool = False,
               stream: TextIO = sys.stdout, progress: str = "auto", batch: str | None = None,
-              backend: str | None = None) -> int:
+              backend: str | None = None, check_cost: bool = True) -> int:
     """Run every pending scene of ``spec`` into ``out_dir``; collective over ``comm``.
+
+    ``check_cost``: refuse (exit 2, before anything is written) pending scenes whose
+    estimated time on the groups exceeds ``studies.resources.MAX_SECONDS``
+    (``--yes-i-know``: False).
 
     ``batch`` ("off", "auto" or a size B): scenes sharing mesh, material, dt and scheme run
     as batches of ``solver.ensemble`` (studies/sweep/batch.py) on ``backend`` (cpu, gpu);
@@ -365,7 +394,15 @@ def run_sweep(spec: SweepSpec, out_dir: str | Path, *, comm: MPI.Comm | None = N
     if rank0:
         try:
             lock = _lock(out_dir)
-            pending, n_done = _prepare(out_dir, spec, retry_failed)
+            pending, n_done, seconds = _classify(out_dir, spec, retry_failed)
+            n_groups = (comm.size + g - 1) // g
+            problem = _cost_problem(spec, len(pending), seconds, n_groups, g) \
+                if check_cost else None
+            if problem:
+                if lock.created and not user_entries(out_dir):
+                    shutil.rmtree(out_dir, ignore_errors=True)  # made for nothing
+                raise SweepError(problem)
+            _prepare(out_dir, spec)
             from studies.sweep.batch import plan_units
 
             units = plan_units(spec, pending, batch, (comm.size + g - 1) // g, g)
