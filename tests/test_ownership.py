@@ -319,3 +319,16 @@ def test_a_sweep_of_months_is_refused_before_anything_is_written(tmp_path, capsy
     rc, err = cli(capsys, "sweep", spec, "-o", tmp_path / "out")
     one_line(rc, err, "2 pending scenes would take about", "--yes-i-know")
     assert not (tmp_path / "out").exists()
+
+
+def test_force_replaces_a_run_with_what_stickslip_added_later(finished, tmp_path):
+    """plot's figures and compare's table are stickslip's too: --force replaces them."""
+    from studies.rundir.ownership import KINDS
+
+    d = copy_run(finished, tmp_path / "r")
+    for name in ("spacetime.png", "phase.png", "isomap.png", "compare.json"):
+        assert name in KINDS["run"]
+        (d / name).write_text("old")
+    s = run(d, "initial.amplitude=0.2", force=True)
+    assert s["status"] == "completed" and not (d / "compare.json").exists()
+    assert not leftovers(d)
