@@ -28,11 +28,15 @@ contact force), so it stays at rest at no risk to the others; the caller records
 
 from __future__ import annotations
 
+import math
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
 
+from solver.contact.law import SEPARATION, SLIP, STICK, forward_increment_factor
 from solver.ensemble_cuda import CUDA_SOURCE
+from solver.schemes.protocol import HookedStepper
 
 KERNELS = ("numba", "cuda", "xp")
 
@@ -99,12 +103,14 @@ class BatchedProblem:
             return cls(**{k: z[k] for k in z.files})
 
 
-class BatchedExplicit:
+class BatchedExplicit(HookedStepper):
     """Explicit Newmark + forward-increment contact on (n, B) arrays (column b = scene b).
 
-    After ``step()``: ``u`` is u_{n+1}; ``u_prev``, ``v``, ``a``, ``ku``, ``r_r``, ``r_t``,
-    ``status`` are time level n (as ``solver.newmark.Newmark``); ``work`` (3, B) holds
-    [work_contact, work_cylinder, friction_dissipation] (``work_totals()``).
+    A ``solver.schemes.protocol.Stepper``. After ``step()``: ``u`` is u_{n+1}; ``u_prev``,
+    ``v``, ``a``, ``ku``, ``r_r``, ``r_t``, ``status`` are time level n (as
+    ``solver.newmark.Newmark``); ``work`` (3, B) holds [work_contact, work_cylinder,
+    friction_dissipation] (``work_totals()``). ``advance`` writes v_n, a_n and K u_n in full
+    only at the levels ``full_state_at(level)`` names (the sampled ones), see ``step``.
     """
 
     def __init__(self, bp: BatchedProblem, d: np.ndarray, slide: np.ndarray, f: np.ndarray,
@@ -118,7 +124,7 @@ class BatchedExplicit:
         self.B, self.n, self.m = B, n, m
         self.dt, self.beta2 = bp.dt, bp.beta2
         self.beta1 = 0.0
-        self.kappa = (bp.beta2 + 0.5) * bp.dt * bp.dt
+        self.kappa = forward_increment_factor(bp.beta2, bp.dt)
         dev = xp.asarray
         self.indptr, self.indices, self.data = dev(bp.indptr), dev(bp.indices), dev(bp.data)
         self.nim = dev(-bp.inv_mass)
@@ -149,6 +155,9 @@ class BatchedExplicit:
         self.step_count = 0
         self.compile_s = 0.0
         self.active = np.ones(B, dtype=bool)
+        self._init_hooks()
+        #: levels whose v_n, a_n, K u_n ``advance`` writes in full (every level by default)
+        self.full_state_at: Callable[[int], bool] = lambda level: True
         slot = -np.ones(n // 2, dtype=np.int64)
         slot[bp.cx // 2] = np.arange(m)
         self.cslot = dev(slot)  # contact index of each node, -1 off the contact circle
@@ -177,8 +186,10 @@ class BatchedExplicit:
     def u_prev(self):
         return self._u[1 - self.cur]
 
-    def set_state(self, u0: np.ndarray, v0: np.ndarray) -> None:
+    def set_state(self, u0: np.ndarray, v0: np.ndarray, a0: np.ndarray | None = None) -> None:
         """(n, B) initial displacement and velocity (predictor v~_0 = v_0: a start at rest)."""
+        if a0 is not None:
+            raise NotImplementedError("a batch starts at rest: v~_0 = v_0, no a_0")
         xp = self.xp
         self.u[...] = xp.asarray(u0)
         self.v[...] = xp.asarray(v0)
@@ -194,6 +205,25 @@ class BatchedExplicit:
         for arr in (*self._u, self.v, self.v_pred, self.a, self.ku, self.zprev):
             arr[..., b] = 0.0
         self.d[b] = 0.0
+
+    def facts(self) -> dict:
+        """Scheme facts of every scene of the batch (``solver.schemes.protocol.Stepper``)."""
+        return {"scheme": "explicit", "beta1": 0.0, "beta2": self.beta2, "damping_tau_s": 0.0,
+                "contact_s": 0.0, "kernel": f"batched-{self.kernel}",
+                "kernel_first_call_s": self.compile_s}
+
+    def advance(self, n: int, t_stop: float = math.inf) -> int:
+        """Up to ``n`` steps (stopping before a step once ``time >= t_stop``), each followed
+        by the step hooks; a step writes v_n, a_n, K u_n in full when ``full_state_at``
+        names its level."""
+        hooks, full = self.hooks, self.full_state_at
+        taken = 0
+        while taken < n and not self.time >= t_stop:  # a NaN t_stop never stops
+            self.step(diag=full(self.step_count))
+            for hook in hooks:
+                hook.after_step(self)
+            taken += 1
+        return taken
 
     def work_totals(self) -> np.ndarray:
         """(3, B) host array: work_contact, work_cylinder, friction_dissipation."""
@@ -276,7 +306,7 @@ class BatchedExplicit:
         rt = xp.where(slip, xp.copysign(cone, rt), rt)
         frictionless = (self.f == 0.0)[None, :]
         rt = xp.where(frictionless, 0.0, rt)
-        self.status[...] = xp.where(inc, xp.where(slip | frictionless, 2, 1), 0)
+        self.status[...] = xp.where(inc, xp.where(slip | frictionless, SLIP, STICK), SEPARATION)
         self.r_r[...] = rr
         self.r_t[...] = rt
         self.r_x[...] = rr * self.ph_re[:, None] - rt * self.ph_im[:, None]

@@ -1,7 +1,16 @@
 """The CUDA source of the batched explicit step (``solver.ensemble``, backend "cuda"): one
-thread per (node, scene), the arithmetic of ``solver._fused_kernels`` in the same order."""
+thread per (node, scene), the arithmetic of ``solver._fused_kernels`` in the same order.
+The status codes come from the contact law (``solver.contact.law``), as #defines."""
 
-CUDA_SOURCE = r"""
+from solver.contact.law import SEPARATION, SLIP, STICK
+
+_CODES = f"""
+#define SEPARATION {SEPARATION}
+#define STICK {STICK}
+#define SLIP {SLIP}
+"""
+
+CUDA_SOURCE = _CODES + r"""
 // One explicit step for one (node, scene): the (x, y) rows of K u (even/odd partial sums, as
 // solver/_fused_kernels.py), the contact projection when the node is on the contact circle,
 // the Newmark update and the contact work. Arrays are (rows, B) row-major: consecutive
@@ -70,14 +79,14 @@ extern "C" __global__ void fused_step(
         const double fb = f[b];
         if (fb == 0.0) {
             rt = 0.0;
-            st = inc ? 2 : 0;
+            st = inc ? SLIP : SEPARATION;
         } else {
             rt = now_t + slide[b];
             rt = rt - tt;
             rt = rt * stiff;
             const double cone = rr * fb;
-            if (fabs(rt) > cone) { rt = copysign(cone, rt); st = inc ? 2 : 0; }
-            else { st = inc ? 1 : 0; }
+            if (fabs(rt) > cone) { rt = copysign(cone, rt); st = inc ? SLIP : SEPARATION; }
+            else { st = inc ? STICK : SEPARATION; }
         }
         const size_t jb = (size_t)j * B + b;
         r_r[jb] = rr;

@@ -9,6 +9,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from solver.errors import blown_up, blowup_message, energy_bound
+
 if TYPE_CHECKING:  # pragma: no cover
     from solver.ensemble import BatchedExplicit
 
@@ -206,19 +208,15 @@ class BatchRecorder:
         finite = np.isfinite(total)
         first = active & finite & np.isnan(self.initial)  # a scene's first sample: its scale
         self.initial[first] = total[first]
-        self.bound[first] = 1e4 * np.maximum(total[first], 1e-300)
+        self.bound[first] = energy_bound(total[first])
         fed = self.initial + np.abs(w_cyl)
-        blown = active & finite & ~first & (total > self.bound) & (total > 10.0 * fed)
+        blown = active & finite & ~first & blown_up(total, self.bound, fed)
         out: dict[int, str] = {}
         for b in np.flatnonzero(active & (~finite | blown)):  # none, nearly always
             if not finite[b]:
                 out[int(b)] = f"non-finite energy at t = {time_now:.6g} s"
             else:
-                out[int(b)] = (
-                    f"energy {float(total[b]):.3g} J/m exceeds 1e4 x the initial energy and "
-                    f"10 x the energy fed by the cylinder ({float(fed[b]):.3g} J/m) at "
-                    f"t = {time_now:.6g} s: the time scheme is unstable here; reduce "
-                    "time.dt_fraction")
+                out[int(b)] = blowup_message(float(total[b]), float(fed[b]), time_now)
         return out
 
     def close(self) -> None:

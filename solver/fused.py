@@ -3,7 +3,7 @@ in one compiled pass (numba), for one scene (``FusedNewmark``) and for a batch o
 share K and M (``batched_step``, used by ``solver.ensemble``).
 
 The arithmetic is the one of the numpy reference (``solver.newmark.Newmark`` +
-``solver.problem.ContactProjection`` + ``solver.contact.project_contact`` +
+``solver.contact.ContactProjection`` + ``solver.contact.project_contact`` +
 ``solver.observers.EnergyAccumulator``), element by element, with beta_2 and kappa of the
 paper's explicit scheme (solver/newmark.py docstring):
 
@@ -31,6 +31,7 @@ a read-only package directory). ``COMPILE_SECONDS`` records the cost of the firs
 
 from __future__ import annotations
 
+import math
 import os
 import tempfile
 import time
@@ -40,7 +41,9 @@ from pathlib import Path
 
 import numpy as np
 
-SEPARATION, STICK, SLIP = 0, 1, 2
+from solver.contact.law import forward_increment_factor
+from solver.newmark import ExplicitStart
+
 COMPILE_SECONDS: dict[str, float] = {}
 """Wall time of the first (compiling or cache-loading) call of each kernel, seconds."""
 
@@ -72,34 +75,6 @@ def numba_available() -> bool:
     except ImportError:
         return False
     return True
-
-
-def resolve_kernel(scene) -> str:
-    """The step kernel a scene runs with: ``"numba"`` or ``"numpy"``. THE fallback rule.
-
-    * the implicit scheme (time.beta1 > 0) has no fused step: "numpy" (it is not a stiffness
-      product; ``time.kernel`` is ignored there);
-    * physics the fused kernel does not implement (Kelvin-Voigt ``[damping]`` with tau > 0,
-      a ``[friction]`` regularisation, a ``[friction] filter`` other than "nodal") falls
-      back to "numpy";
-    * ``time.kernel = "auto"``: "numba" when numba imports, else "numpy";
-    * ``time.kernel = "numba"`` without numba: ValueError naming the fix.
-    """
-    ts = scene.time
-    if ts.beta1 > 0.0:
-        return "numpy"
-    fr = scene.friction
-    if scene.damping.enabled or fr.enabled or fr.filtered:  # [damping] tau > 0, [friction]
-        return "numpy"  # regularisation or filter (issue 13): DampedNewmark / make_projection
-    requested = ts.kernel
-    if requested == "numpy":
-        return "numpy"
-    if numba_available():
-        return "numba"
-    if requested == "numba":
-        raise ValueError("time.kernel = \"numba\" but numba does not import: install "
-                         "python3-numba (apt) or set time.kernel = \"numpy\"")
-    return "numpy"
 
 
 # ------------------------------------------------------------------------------ kernels
@@ -196,14 +171,16 @@ def local_csr(problem) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
 # ------------------------------------------------------------------------------ single scene
 
 
-class FusedNewmark:
+class FusedNewmark(ExplicitStart):
     """Explicit Newmark + forward-increment contact as ONE compiled call per step.
 
-    Same interface as ``solver.newmark.Newmark`` (``step``, ``set_state``, ``u``, ``u_prev``,
-    ``v``, ``a``, ``ku``, ``time``, ``dt``, ``step_count``, ``beta1``, ``beta2``, ``kappa``)
-    plus ``work`` = [work_contact, work_cylinder, friction_dissipation] of the owned contact
-    nodes (``FusedEnergy`` reads it). The contact forces and statuses are written into the
-    ``projection``'s arrays (``ContactProjection``), so every observer works unchanged.
+    A ``solver.schemes.protocol.Stepper`` with the arrays of ``solver.newmark.Newmark``
+    (``u``, ``u_prev``, ``v``, ``a``, ``ku``, ``kappa``) plus ``work`` = [work_contact,
+    work_cylinder, friction_dissipation] of the owned contact nodes (``FusedEnergy`` reads
+    it). The contact forces and statuses are written into the ``projection``'s arrays
+    (``solver.contact.ContactProjection``), so every observer works unchanged. ``advance``
+    runs the steps between two observations as one compiled call when its only step hook is
+    the probe recorder and the run has one rank.
     """
 
     kernel = "numba"
@@ -212,7 +189,7 @@ class FusedNewmark:
         if not 0.5 <= beta2 <= 1.0:
             raise ValueError(f"time.beta2 = {beta2} must be in [0.5, 1]")
         self.beta1, self.beta2, self.dt = 0.0, beta2, dt
-        self.kappa = (beta2 + 0.5) * dt * dt
+        self.kappa = forward_increment_factor(beta2, dt)
         self.p = projection
         self.comm = problem.comm
         n = problem.n_owned
@@ -250,6 +227,7 @@ class FusedNewmark:
         self._clock = np.zeros(1)  # the time, as the kernel accumulates it (time += dt)
         self.compile_s = 0.0
         self.contact = None
+        self._init_hooks()
 
     @property
     def u(self) -> np.ndarray:
@@ -263,9 +241,7 @@ class FusedNewmark:
 
     def set_state(self, u: np.ndarray, v: np.ndarray, a0: np.ndarray | None = None) -> None:
         """As ``Newmark.set_state``; also u_{n-1} := u_0 for the contact work."""
-        from solver.newmark import Newmark
-
-        Newmark.set_state(self, u, v, a0)  # the same predictor start, on this class's arrays
+        super().set_state(u, v, a0)
         cx = self.cx.astype(np.intp)
         self.zprev[0::2] = self.u[cx]
         self.zprev[1::2] = self.u[cx + 1]
@@ -296,18 +272,28 @@ class FusedNewmark:
         self.time += self.dt
         self.step_count += 1
 
-    @property
-    def can_advance(self) -> bool:
-        """``advance`` is available: one rank (several ranks need a ghost update per step)."""
-        return self._ghosted is None
+    def facts(self) -> dict:
+        """Scheme facts for the run summary (``solver.schemes.protocol.Stepper``)."""
+        return {"scheme": "explicit", "beta1": 0.0, "beta2": self.beta2, "damping_tau_s": 0.0,
+                "contact_s": 0.0, "kernel": "numba", "kernel_first_call_s": self.compile_s}
 
-    def advance(self, n_max: int, t_stop: float, probes) -> int:
-        """Up to ``n_max`` steps in ONE compiled call (``_fused_kernels.advance``), recording
-        the ``probes`` (``ProbeRecorder``) every step as ``probes.record`` would; stops before
-        a step once ``time >= t_stop``. The same arithmetic as ``n_max`` calls of ``step``
-        (bitwise: the kernel calls ``single_step``). Returns the number of steps taken."""
-        if self._ghosted is not None:
-            raise RuntimeError("FusedNewmark.advance runs on one rank; use step()")
+    @property
+    def compiled_loop(self) -> bool:
+        """``advance`` runs as one compiled call: one rank (several ranks need a ghost update
+        per step) and no step hook but the probe recorder, which the kernel records."""
+        hooks = self.hooks
+        return self._ghosted is None and (len(hooks) == 1
+                                          and hasattr(hooks[0], "kernel_buffers"))
+
+    def advance(self, n: int, t_stop: float = math.inf) -> int:
+        """Up to ``n`` steps, stopping before a step once ``time >= t_stop``; returns the
+        steps taken. With ``compiled_loop`` they are ONE call of ``_fused_kernels.advance``,
+        which records the probes every step as ``ProbeRecorder.after_step`` would: the same
+        arithmetic as ``n`` calls of ``step`` (bitwise: the kernel calls ``single_step``)."""
+        if not self.compiled_loop:
+            return super().advance(n, t_stop)
+        probes = self.hooks[0]
+        n_max = n
         self._clock[0] = self.time
         taken = timed_first_call(
             "advance", self._advance, n_max, t_stop, self._clock,
@@ -322,9 +308,8 @@ class FusedNewmark:
 
 
 class FusedEnergy:
-    """``EnergyAccumulator`` for ``FusedNewmark``: the kernel accumulates the work itself."""
-
-    per_step = False  # ``after_step`` does nothing: the time loop skips the call
+    """``EnergyAccumulator`` for ``FusedNewmark``: the kernel accumulates the work itself,
+    so this is no step hook; it only reads the kernel's sums."""
 
     def __init__(self, integrator: FusedNewmark, projection) -> None:
         self.integ = integrator
@@ -341,9 +326,6 @@ class FusedEnergy:
     @property
     def friction_dissipation(self) -> float:
         return float(self.integ.work[2])
-
-    def after_step(self, u_next: np.ndarray) -> None:
-        """Nothing to do: the kernel accumulated this step's work."""
 
     def totals(self, comm) -> tuple[float, float, float]:
         """(work_contact, work_cylinder, friction_dissipation) summed over ranks."""

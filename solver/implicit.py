@@ -77,6 +77,7 @@ from petsc4py import PETSc
 from solver.active_set import ActiveSetSolver, ContactSolveError
 from solver.contact import SEPARATION, SLIP, ContactArrays, NodalFrames
 from solver.errors import Diverged
+from solver.schemes.protocol import HookedStepper
 
 OPTIONS_PREFIX = "stickslip_implicit_"  # PETSc options of the K_eff solver
 SCHUR_BLOCK = 64  # columns of E per KSP.matSolve (bounds the dense work array)
@@ -99,21 +100,18 @@ class ImplicitContact(NodalFrames):
     """Contact/friction of the implicit scheme on the owned contact nodes.
 
     Exposes what the observers read, with the same meaning as in
-    ``solver.problem.ContactProjection``: ``out`` (r_r, r_t, status), ``r_xy``, ``slide``,
+    ``solver.contact.ContactProjection``: ``out`` (r_r, r_t, status), ``r_xy``, ``slide``,
     ``nodes``, ``node_index``, ``phase_conj``, ``complex_view``, ``polar_at_nodes`` and
     ``_polar``; ``out`` and ``r_xy`` belong to the exposed time level n (module docstring).
     Nodal values are complex z = u_x + i u_y, z e^{-i theta} = u_r + i u_theta.
     """
 
     def __init__(self, nodes, d: float, f: float, surface_speed: float, comm: MPI.Comm) -> None:
-        self.nodes, self.d, self.f, self.comm = nodes, d, f, comm
+        super().__init__(nodes)
+        self.d, self.f, self.comm = d, f, comm
         self.surface_speed = surface_speed  # R Omega
         self.slide = 0.0  # R Omega dt, set with dt by ImplicitNewmark.set_dt
         n = nodes.dofs_x.size
-        self.node_index = np.asarray(nodes.nodes, dtype=np.intp)
-        self.phase = np.exp(1j * nodes.theta)
-        self.phase_conj = np.conj(self.phase)
-        self._views: dict[int, np.ndarray] = {}
         self._exposed, self._next = _Level(n), _Level(n)
         self.z = np.zeros(n, dtype=complex)
         counts = np.array(comm.allgather(n))
@@ -274,7 +272,7 @@ class ImplicitContact(NodalFrames):
 # The integrator
 
 
-class ImplicitNewmark:
+class ImplicitNewmark(HookedStepper):
     """Implicit Newmark on owned-dof numpy arrays; linear solves by PETSc KSP (LU, see above).
 
     Parameters
@@ -325,6 +323,7 @@ class ImplicitNewmark:
         self.factor_seconds = 0.0  # K_eff assembly + factorisation + Schur complement
         self.ksp: PETSc.KSP | None = None
         self.K_eff: PETSc.Mat | None = None
+        self._init_hooks()
         self.set_dt(dt)
 
     def _vec(self, array: np.ndarray) -> PETSc.Vec:
@@ -479,6 +478,10 @@ class ImplicitNewmark:
         np.multiply(self.ku, g, out=self.kvd)
         self.kvd -= self.kb
         self.damping_work_local += 0.5 * self.tau * (w_old + float(np.dot(self.du, self.kvd)))
+
+    def facts(self) -> dict:
+        """Scheme facts for the run summary (``solver.schemes.protocol.Stepper``)."""
+        return self.iteration_stats()
 
     def iteration_stats(self) -> dict:
         """Active-set iterations per step (mean, max) and the time split of the scheme."""

@@ -40,6 +40,9 @@ from collections.abc import Callable
 
 import numpy as np
 
+from solver.contact.law import forward_increment_factor
+from solver.schemes.protocol import HookedStepper
+
 ContactStep = Callable[[np.ndarray, np.ndarray, np.ndarray], None]
 """contact(u_n, v~_n, a): the forward-increment constraint, in place on ``a``.
 
@@ -80,7 +83,34 @@ def critical_time_step(omega_max: float, beta1: float, beta2: float, tau: float 
     return 1.0 / (omega_max * math.sqrt(beta2 / 2.0 - beta1))
 
 
-class Newmark:
+class ExplicitStart(HookedStepper):
+    """The start of the explicit Newmark step, shared by ``Newmark`` and
+    ``solver.fused.FusedNewmark``: the arrays u, v, a, the predictor v~ and the clock."""
+
+    u: np.ndarray
+    v: np.ndarray
+    a: np.ndarray
+    v_pred: np.ndarray
+    beta2: float
+    dt: float
+
+    def set_state(self, u: np.ndarray, v: np.ndarray, a0: np.ndarray | None = None) -> None:
+        """Initial displacement, velocity and (optionally) acceleration.
+
+        The first step computes v_0 = v~_0 + beta_2 dt a_0, so the predictor is set to
+        v~_0 = v_0 - beta_2 dt a_0 when a_0 is known; without it v~_0 = v_0, exact when a_0 = 0
+        (e.g. a start from the steady state) and an O(dt) start-up error otherwise, which
+        makes the whole run first order.
+        """
+        self.u[:] = u
+        self.v[:] = v
+        self.v_pred[:] = v
+        if a0 is not None:
+            self.v_pred -= self.beta2 * self.dt * np.asarray(a0)
+        self.a.fill(0.0)
+
+
+class Newmark(ExplicitStart):
     """Explicit Newmark (beta_1 = 0) on owned-dof numpy arrays.
 
     The only global operation per step is ``stiffness_mult(u, ku)`` (one PETSc MatMult);
@@ -111,12 +141,12 @@ class Newmark:
             raise NotImplementedError(
                 f"time.beta1 = {beta1}: Newmark is the explicit scheme (beta1 = 0) driven by a "
                 "stiffness product; beta1 > 0 needs the factorised K_eff: use "
-                "solver.implicit.ImplicitNewmark (solver.schemes.make_integrator picks it)"
+                "solver.implicit.ImplicitNewmark (solver.schemes.select.make_stepper picks it)"
             )
         if not 0.5 <= beta2 <= 1.0:
             raise ValueError(f"time.beta2 = {beta2} must be in [0.5, 1]")
         self.beta1, self.beta2, self.dt = beta1, beta2, dt
-        self.kappa = (beta2 + 0.5) * dt * dt
+        self.kappa = forward_increment_factor(beta2, dt)
         self._mult = stiffness_mult
         self.inv_mass = inv_mass
         self.contact = contact
@@ -131,21 +161,14 @@ class Newmark:
         self._neg_inv_mass = -inv_mass
         self.time = 0.0
         self.step_count = 0
+        self._init_hooks()
 
-    def set_state(self, u: np.ndarray, v: np.ndarray, a0: np.ndarray | None = None) -> None:
-        """Initial displacement, velocity and (optionally) acceleration.
-
-        The first step computes v_0 = v~_0 + beta_2 dt a_0, so the predictor is set to
-        v~_0 = v_0 - beta_2 dt a_0 when a_0 is known; without it v~_0 = v_0, exact when a_0 = 0
-        (e.g. a start from the steady state) and an O(dt) start-up error otherwise, which
-        makes the whole run first order.
-        """
-        self.u[:] = u
-        self.v[:] = v
-        self.v_pred[:] = v
-        if a0 is not None:
-            self.v_pred -= self.beta2 * self.dt * np.asarray(a0)
-        self.a.fill(0.0)
+    def facts(self) -> dict:
+        """Scheme facts for the run summary (``solver.schemes.protocol.Stepper``)."""
+        return {"scheme": "explicit", "beta1": self.beta1, "beta2": self.beta2,
+                "damping_tau_s": getattr(self, "tau", 0.0),
+                "contact_s": float(getattr(self.contact, "seconds", 0.0)),
+                "kernel": "numpy"}
 
     def _elastic_acceleration(self, u: np.ndarray, v_pred: np.ndarray, a: np.ndarray) -> None:
         """a*_n = -M^{-1} K u_n (K u_n kept in ``ku`` for the energies)."""

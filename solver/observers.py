@@ -1,7 +1,14 @@
 """Observers of the time loop: sampled diagnostics on the inner circle, energies, progress.
 
-Observers are called by ``solver.run.Simulation`` after a step; each decides cheaply whether it
-has work to do (a sample is due). Arrays are preallocated for the whole run on rank 0.
+Two kinds, as Dedalus' file handlers:
+
+* observers with a ``Cadence`` (``every`` time levels, from a sim-time interval): the time
+  loop (``solver.run.Simulation.proceed``) advances the stepper to the next level at which one
+  is due and calls ``observe(stepper)`` on each that is (the ``Observer`` protocol);
+* step hooks, which need every step (the probes, the work of the contact forces and of the
+  damping): attached to the stepper (``solver.schemes.protocol.StepHook``).
+
+Arrays are preallocated for the whole run on rank 0.
 """
 
 from __future__ import annotations
@@ -9,9 +16,43 @@ from __future__ import annotations
 import math
 import sys
 import time
+from dataclasses import dataclass
+from typing import Protocol, runtime_checkable
 
 import numpy as np
 from mpi4py import MPI
+
+
+@dataclass(frozen=True)
+class Cadence:
+    """An observer's pace: every ``every`` time levels (level 0, every, 2 every, ...)."""
+
+    every: int
+
+    @classmethod
+    def from_interval(cls, interval: float, dt: float) -> Cadence:
+        """The cadence of a sim-time interval at step dt (at least every level)."""
+        return cls(max(1, int(round(interval / dt))))
+
+    def at(self, level: int) -> bool:
+        return level % self.every == 0
+
+    def next_level(self, level: int) -> int:
+        """The first level >= ``level`` on this cadence."""
+        return level + (-level % self.every)
+
+
+@runtime_checkable
+class Observer(Protocol):
+    """What the time loop asks of an observer with a cadence."""
+
+    cadence: Cadence
+
+    def due(self, level: int) -> bool:
+        """True when time level ``level`` (just completed by the stepper) is to be observed."""
+
+    def observe(self, stepper) -> str:
+        """Observe time level n = ``stepper.step_count - 1``; return "" or why to stop."""
 
 ENERGY_FIELDS = (
     "kinetic",
@@ -52,9 +93,10 @@ class EnergyAccumulator:
         self.friction_dissipation = 0.0
         self._exact_work = hasattr(projection, "work_totals")  # implicit scheme (checked once)
 
-    def after_step(self, u_next: np.ndarray) -> None:
+    def after_step(self, stepper) -> None:
+        """Accumulate the work of r_n with the centred increment (u_{n+1} - u_{n-1}) / 2."""
         p = self.p
-        p.complex_view(u_next).take(p.node_index, out=self.z_next, mode="clip")
+        p.complex_view(stepper.u).take(p.node_index, out=self.z_next, mode="clip")
         np.subtract(self.z_next, self.z_prev, out=self.dz)
         self.work_contact += 0.5 * np.vdot(p.r_xy, self.dz).real
         if self.with_friction:
@@ -389,7 +431,7 @@ class ProbeRecorder:
         self.count[0] = self.n
         return self._buffers
 
-    def record(self, integrator) -> None:
+    def after_step(self, integrator) -> None:
         """Record time level n (u_prev = u_n, v = v_n) after a step: two ``take`` calls."""
         i = self.n
         if i >= self.t.size:

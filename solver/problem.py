@@ -1,7 +1,8 @@
 """The discrete problem: tube mesh -> P1/P2 vector space -> stiffness, lumped mass, contact nodes.
 
 Everything here is built once per run. The time loop (``solver.newmark``) then only needs
-``stiffness_mult`` (one PETSc MatMult), the inverse lumped mass and the contact projection.
+``stiffness_mult`` (one PETSc MatMult), the inverse lumped mass and the contact projection
+(``solver.contact.projection``).
 """
 
 from __future__ import annotations
@@ -19,15 +20,6 @@ from petsc4py import PETSc
 from forms.elasticity import Material, lumped_mass, stiffness
 from forms.polar import ContactNodes, contact_nodes
 from meshes.annulus import INNER_TAG, OUTER_TAG, TubeMesh, annulus_mesh
-from solver.contact import (
-    ContactArrays,
-    EffectivePressure,
-    NeighbourFilter,
-    NodalFrames,
-    project_contact,
-    project_contact_filtered,
-    project_contact_regularized,
-)
 from solver.scene import Scene
 
 
@@ -141,118 +133,6 @@ def build_problem(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD) -> TubeProblem:
     inv_mass[clamped] = 0.0
     nodes = contact_nodes(V, tube.facet_tags, INNER_TAG)
     return TubeProblem(scene, tube, V, material, K, mass, inv_mass, clamped, nodes, comm)
-
-
-class ContactProjection(NodalFrames):
-    """The forward-increment contact step of ``Newmark`` for the tube's inner circle.
-
-    Rotating to and from the nodes' polar frames is done with complex numbers: an owned
-    blocked array (x0, y0, x1, y1, ...) viewed as complex128 holds z_i = x_i + i y_i per node,
-    and z_i e^{-i theta_i} = u_r + i u_theta. So each conversion is one ``take`` and one
-    multiply over the contact nodes. Calls ``solver.contact.project_contact`` (the nodal law)
-    and writes the nodal forces back at the contact dofs. Each node is owned by exactly one
-    rank, so nothing is double counted in parallel. All arrays are preallocated.
-    """
-
-    def __init__(self, problem: TubeProblem, kappa: float, dt: float) -> None:
-        sc = problem.scene
-        nd = problem.nodes
-        self.nodes = nd
-        self.node_index = np.asarray(nd.nodes, dtype=np.intp)
-        self.kappa = kappa
-        self.dt = dt
-        self.d = sc.geometry.d
-        self.f = sc.loading.f
-        self.slide = sc.geometry.R * sc.loading.omega * dt  # cylinder surface travel per step
-        self.mass = problem.mass[nd.dofs_x].copy()
-        self.inv_mass = 1.0 / self.mass
-        self.phase = np.exp(1j * nd.theta)  # e^{i theta}: polar -> (x, y)
-        self.phase_conj = np.conj(self.phase)  # (x, y) -> polar
-        n = nd.dofs_x.size
-        self.z_now = np.zeros(n, dtype=complex)  # u_n at the nodes, polar
-        self.z_trial = np.zeros(n, dtype=complex)  # trial u_{n+1}, (x, y) then polar
-        self.z_work = np.zeros(n, dtype=complex)
-        self.r_polar = np.zeros(n, dtype=complex)  # r_r + i r_theta
-        self.r_xy = np.zeros(n, dtype=complex)  # r_x + i r_y
-        self.out = ContactArrays(n, r_r=self.r_polar.real, r_t=self.r_polar.imag)
-        self._views: dict[int, np.ndarray] = {}
-
-    def _project(self, u_r_trial: np.ndarray, u_t_trial: np.ndarray,
-                 u_t_now: np.ndarray) -> None:
-        """The nodal law (Coulomb): ``solver.contact.project_contact``."""
-        project_contact(u_r_trial, u_t_trial, u_t_now, self.mass, self.kappa, self.d,
-                        self.slide, self.f, self.out)
-
-    def __call__(self, u_now: np.ndarray, v_pred: np.ndarray, accel: np.ndarray) -> None:
-        """The ``Newmark`` contact step (see ``solver.newmark.ContactStep``)."""
-        idx, trial, work = self.node_index, self.z_trial, self.z_work
-        now = self.polar_at_nodes(u_now, self.z_now)
-        # trial u_{n+1} = u_n + dt v~_n + kappa a*_n at the nodes only, (x, y) then polar
-        a_c = self.complex_view(accel)
-        self.complex_view(v_pred).take(idx, out=trial)
-        trial *= self.dt
-        a_c.take(idx, out=work)
-        work *= self.kappa
-        trial += work
-        trial *= self.phase_conj
-        trial += now
-        self._project(trial.real, trial.imag, now.imag)
-        # back to (x, y): r_x + i r_y = (r_r + i r_t) e^{i theta}; a_n = a*_n + r / m
-        np.multiply(self.r_polar, self.phase, out=self.r_xy)
-        a_c.take(idx, out=work)
-        np.multiply(self.r_xy, self.inv_mass, out=trial)
-        work += trial
-        np.put(a_c, idx, work)
-
-
-class RegularizedContactProjection(ContactProjection):
-    """``ContactProjection`` with the Prakash-Clifton friction bound (scene ``[friction]``):
-    ``solver.contact.project_contact_regularized`` and the per-node state
-    ``solver.contact.EffectivePressure`` (allocated once)."""
-
-    def __init__(self, problem: TubeProblem, kappa: float, dt: float) -> None:
-        super().__init__(problem, kappa, dt)
-        fr = problem.scene.friction
-        self.effective = EffectivePressure(
-            self.mass.size, fr.regularization, dt, slip_length=fr.slip_length,
-            reference_velocity=fr.reference_velocity, relaxation_time=fr.relaxation_time)
-
-    def _project(self, u_r_trial: np.ndarray, u_t_trial: np.ndarray,
-                 u_t_now: np.ndarray) -> None:
-        project_contact_regularized(u_r_trial, u_t_trial, u_t_now, self.mass, self.kappa,
-                                    self.d, self.slide, self.f, self.effective, self.out)
-
-
-class FilteredContactProjection(ContactProjection):
-    """``ContactProjection`` with the 1-2-1 filtered friction bound (``[friction] filter =
-    "1-2-1"``): ``solver.contact.project_contact_filtered`` with a ``NeighbourFilter`` over
-    the angle-ordered contact nodes (Allgather of the N nodal p's under MPI), composed with
-    the Prakash-Clifton state when the scene also regularises."""
-
-    def __init__(self, problem: TubeProblem, kappa: float, dt: float) -> None:
-        super().__init__(problem, kappa, dt)
-        nd, fr = problem.nodes, problem.scene.friction
-        self.filter = NeighbourFilter(nd.global_node_index, nd.n_global, problem.comm)
-        self.effective = None
-        if fr.enabled:
-            self.effective = EffectivePressure(
-                self.mass.size, fr.regularization, dt, slip_length=fr.slip_length,
-                reference_velocity=fr.reference_velocity, relaxation_time=fr.relaxation_time)
-
-    def _project(self, u_r_trial: np.ndarray, u_t_trial: np.ndarray,
-                 u_t_now: np.ndarray) -> None:
-        project_contact_filtered(u_r_trial, u_t_trial, u_t_now, self.mass, self.kappa, self.d,
-                                 self.slide, self.f, self.filter, self.out, self.effective)
-
-
-def make_projection(problem: TubeProblem, kappa: float, dt: float) -> ContactProjection:
-    """The explicit contact step for the scene's friction law (Coulomb, filtered and/or
-    regularised)."""
-    if problem.scene.friction.filtered:
-        return FilteredContactProjection(problem, kappa, dt)
-    if problem.scene.friction.enabled:
-        return RegularizedContactProjection(problem, kappa, dt)
-    return ContactProjection(problem, kappa, dt)
 
 
 def omega_max(problem: TubeProblem) -> float:

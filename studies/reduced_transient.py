@@ -22,7 +22,7 @@ and its two eigenvalues over m = 0..N−1 are *all* the eigenvalues ω² of M⁻
 (:func:`eigenfrequencies`; the test checks them against scipy's ``eigsh``). ω_max gives
 dt_crit = √(2/β₂)/ω_max (:func:`solver.newmark.critical_time_step`).
 
-Contact adapter (:class:`GridContact`, the grid analogue of ``solver.problem.ContactProjection``):
+Contact adapter (:class:`GridContact`, the grid analogue of ``solver.contact.ContactProjection``):
 radial displacement = U, tangential = V, mismatch d = δ, cylinder travel per step slide = 1·dt,
 nodal mass = Δθ. ``project_contact`` then enforces [2]'s U ≥ δ, P ≥ 0, P(U − δ) = 0 and
 Coulomb's law with the stick condition V̇ = 1, exactly as the FE solver does on its inner circle.
@@ -49,7 +49,14 @@ from scipy.linalg import expm
 from postprocess.analysis import angular_speed, classify, dominant_mode, mode_coefficients
 from semianalytic.coefficients import Coefficients
 from semianalytic.waves import TravellingWave, _sep_matrix, _slip_matrix
-from solver.contact import SEPARATION, SLIP, STICK, ContactArrays, project_contact
+from solver.contact import (
+    SEPARATION,
+    SLIP,
+    STICK,
+    ContactArrays,
+    forward_increment_factor,
+    project_contact,
+)
 from solver.newmark import Newmark, critical_time_step
 
 __all__ = [
@@ -192,7 +199,7 @@ class ReducedModel:
         def mult(u: Array, out: Array) -> None:
             out[:] = K @ u
 
-        kappa = (beta2 + 0.5) * self.dt**2
+        kappa = forward_increment_factor(beta2, self.dt)
         self.contact = GridContact(n, kappa, self.dt, delta, f)
         self.integ = Newmark(mult, 1.0 / self.mass, self.dt, 0.0, beta2, self.contact)
 

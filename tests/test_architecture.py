@@ -147,3 +147,68 @@ def test_the_checker_sees_a_circle_and_an_upward_import(tmp_path):
     found = _imports("solver.run", src)
     assert "studies.rundir" in found and _project("studies.rundir") == "studies.rundir"
     assert "solver" in found or "solver.x" in found
+
+
+#: The one module that decides which time scheme and kernel a scene runs with
+#: (solver.schemes.select); the scene package may validate ``time.beta1`` (its own input).
+SCHEME_CHOICE = "solver.schemes.select"
+
+
+def _scheme_decisions(tree: ast.AST) -> list[str]:
+    """Decisions on a scene's scheme: a comparison reading ``<x>.time.beta1``, ``ts.beta1`` or
+    ``<x>.time.kernel``, and any call of ``resolve_kernel``."""
+    found = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Compare):
+            for part in (node.left, *node.comparators):
+                if (isinstance(part, ast.Attribute) and part.attr in ("beta1", "kernel")
+                        and ((isinstance(part.value, ast.Attribute)
+                              and part.value.attr == "time")
+                             or (isinstance(part.value, ast.Name)
+                                 and part.value.id == "ts"))):
+                    found.append(f"line {node.lineno}: compares {ast.unparse(part)}")
+        elif isinstance(node, ast.Call):
+            fn = node.func
+            name = fn.attr if isinstance(fn, ast.Attribute) else getattr(fn, "id", "")
+            if name == "resolve_kernel":
+                found.append(f"line {node.lineno}: calls resolve_kernel")
+    return found
+
+
+def test_only_the_selection_module_chooses_the_scheme():
+    """Every branch on a scene's beta1 (explicit or implicit) and kernel lives in
+    solver/schemes/select.py; the scene package validates its own input there too."""
+    offenders = {}
+    for name, path in MODULES.items():
+        if name == SCHEME_CHOICE or name.startswith("solver.scene"):
+            continue
+        if name.split(".")[0] not in ("solver", "studies", "cli", "postprocess"):
+            continue
+        hits = _scheme_decisions(ast.parse(path.read_text(), filename=str(path)))
+        if hits:
+            offenders[name] = hits
+    assert not offenders, f"scheme decisions outside {SCHEME_CHOICE}: {offenders}"
+    select = MODULES[SCHEME_CHOICE]
+    assert _scheme_decisions(ast.parse(select.read_text())), "the checker finds nothing"
+
+
+def test_every_scheme_follows_the_stepper_protocol():
+    """The five schemes implement ``solver.schemes.protocol.Stepper`` (checked at run time
+    on the classes' attributes: set_state, step, advance, facts)."""
+    pytest.importorskip("dolfinx")
+    from solver.ensemble import BatchedExplicit
+    from solver.fused import FusedNewmark
+    from solver.implicit import ImplicitNewmark
+    from solver.newmark import DampedNewmark, Newmark
+    from solver.schemes.protocol import Stepper
+
+    for cls in (Newmark, DampedNewmark, FusedNewmark, ImplicitNewmark, BatchedExplicit):
+        for method in ("set_state", "step", "advance", "facts", "attach"):
+            assert callable(getattr(cls, method, None)), f"{cls.__name__}.{method}"
+    import numpy as np
+
+    stepper = Newmark(lambda u, out: np.multiply(u, 1.0, out=out), np.ones(4), 0.1)
+    assert isinstance(stepper, Stepper)
+    stepper.set_state(np.ones(4), np.zeros(4))
+    assert stepper.advance(3) == 3 and stepper.step_count == 3
+    assert stepper.facts()["scheme"] == "explicit"

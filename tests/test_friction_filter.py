@@ -18,8 +18,9 @@ from solver.contact import (
     project_contact,
     project_contact_filtered,
 )
-from solver.fused import numba_available, resolve_kernel
+from solver.fused import numba_available
 from solver.scene import SceneError, load_scene
+from solver.schemes import resolve_kernel
 
 
 def test_filter_is_the_periodic_1_2_1_stencil_in_angle_order():
@@ -113,7 +114,7 @@ pytest.importorskip("dolfinx")
 
 from mpi4py import MPI  # noqa: E402
 
-from solver.problem import ContactProjection, FilteredContactProjection  # noqa: E402
+from solver.contact import ContactProjection, FilteredContactProjection  # noqa: E402
 from solver.run import Simulation  # noqa: E402
 
 SMALL = ["output.progress=false", "mesh.n_inner=72", "mesh.n_radial=0", 'time.kernel="numpy"']

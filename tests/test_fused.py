@@ -83,7 +83,7 @@ def test_compiled_time_loop_equals_the_step_by_step_loop(monkeypatch):
     sc = smoke('initial.perturbation="random"', "initial.seed=3")
     fast = run(sc, "numba", steps=STEPS + 3)  # ends between two samples (every = 4)
     assert fast.recorder._compiled is not None
-    monkeypatch.setattr(FusedNewmark, "can_advance", property(lambda self: False))
+    monkeypatch.setattr(FusedNewmark, "compiled_loop", property(lambda self: False))
     slow = run(sc, "numba", steps=STEPS + 3)
     assert slow.recorder._compiled is None
     for name in ("u", "v", "a"):
@@ -112,21 +112,21 @@ def test_summary_reports_the_kernel_and_its_first_call_time(tmp_path):
 
 
 def test_fallback_rule():
-    from solver import fused
+    from solver.schemes import select
 
-    assert fused.resolve_kernel(smoke()) == "numba"
-    assert fused.resolve_kernel(smoke('time.kernel="numpy"')) == "numpy"
+    assert select.resolve_kernel(smoke()) == "numba"
+    assert select.resolve_kernel(smoke('time.kernel="numpy"')) == "numpy"
     implicit = smoke("time.beta1=0.25", "time.beta2=0.5", "time.dt_fraction=2")
-    assert fused.resolve_kernel(implicit) == "numpy"
+    assert select.resolve_kernel(implicit) == "numpy"
 
 
 def test_numba_requested_without_numba_is_an_error(monkeypatch):
-    from solver import fused
+    from solver.schemes import select
 
-    monkeypatch.setattr(fused, "numba_available", lambda: False)
-    assert fused.resolve_kernel(smoke()) == "numpy"  # auto falls back
+    monkeypatch.setattr(select, "numba_available", lambda: False)
+    assert select.resolve_kernel(smoke()) == "numpy"  # auto falls back
     with pytest.raises(ValueError, match="numba"):
-        fused.resolve_kernel(smoke('time.kernel="numba"'))
+        select.resolve_kernel(smoke('time.kernel="numba"'))
 
 
 def test_read_only_package_dir_gets_a_writable_numba_cache(monkeypatch, tmp_path):

@@ -114,11 +114,11 @@ def test_run_directory_summary_and_refusal_to_overwrite(tmp_path):
 
 def test_divergence_is_reported_not_hidden(tmp_path, monkeypatch):
     """A blow-up stops the run, keeps the diagnostics and writes status 'diverged'."""
-    import solver.schemes
+    import solver.schemes.select
 
-    real = solver.schemes.critical_time_step
+    real = solver.schemes.select.critical_time_step
     monkeypatch.setattr(
-        solver.schemes, "critical_time_step",
+        solver.schemes.select, "critical_time_step",
         lambda w, b1, b2, tau=0.0: 1.6 * real(w, b1, b2, tau)
     )
     s = run_scene(smoke(), tmp_path / "div", comm=SELF, stream=open("/dev/null", "w"))

@@ -153,7 +153,7 @@ class Time(_Section):
     """Wall-clock limit [s]; 0 = unlimited."""
     kernel: str = _opt("auto", "str")
     """Explicit step: "numpy" (reference), "numba" (fused, solver.fused), "auto" (numba if it
-    imports). Same results to round-off; see solver.fused.resolve_kernel."""
+    imports). Same results to round-off; see solver.schemes.select.resolve_kernel."""
 
     def _check(self) -> None:
         _require(

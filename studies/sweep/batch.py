@@ -3,7 +3,8 @@
 ``stickslip sweep --batch off|auto|B``. ``plan_units`` groups the pending scenes by
 ``batch_key`` (the scene without what only the contact law and the initial state see: Omega,
 f, delta, the initial perturbation, the name) and cuts each group into batches of at most B
-scenes; ``run_batch`` runs one batch with ``solver.ensemble.BatchedExplicit`` on one rank.
+scenes; ``run_batch`` runs one batch as a ``solver.ensemble_run.BatchSimulation`` on one rank
+and writes each scene's run directory.
 
 Each scene keeps what ``stickslip run`` gives it: its run directory (scene.toml, summary.json
 with status ``running`` while the batch runs, samples.npz, final_field.npz), its log, its
@@ -13,9 +14,9 @@ others go on; a scene whose set-up fails (e.g. no steady sliding) is ``failed`` 
 The numbers are the ones of the single-scene run with the numba kernel, bitwise
 (tests/test_ensemble.py): the batched kernel sums in the same order.
 
-Scenes that cannot be batched run one by one, as before: the implicit scheme (beta1 > 0),
-field output (``output.fields``), ``time.kernel = "numpy"`` (the reference step), groups of
-more than one rank per scene, and groups of a single scene.
+Scenes that cannot be batched (``solver.schemes.select.batchable``: the implicit scheme,
+field output, ``time.kernel = "numpy"``, physics the kernel lacks) run one by one, as do groups
+of more than one rank per scene and groups of a single scene.
 """
 
 from __future__ import annotations
@@ -24,15 +25,10 @@ import json
 import math
 import os
 import shutil
-import tempfile
 import time
 import traceback
-from dataclasses import replace
 from pathlib import Path
-from types import SimpleNamespace
 from typing import TextIO
-
-import numpy as np
 
 from solver.atomic import atomic_write_text
 from solver.scene import Scene, scene_to_dict, write_scene
@@ -53,14 +49,9 @@ SPOOL_MEMORY_FRACTION = 0.1
 def batch_key(scene: Scene) -> str | None:
     """The grouping key of ``scene`` (equal keys: same K, M, dt, scheme), or None if the
     scene must run alone (see the module docstring)."""
-    from solver.fused import resolve_kernel
+    from solver.schemes.select import batchable
 
-    if scene.time.beta1 > 0.0 or scene.output.fields:
-        return None
-    try:
-        if resolve_kernel(scene) != "numba":
-            return None
-    except ValueError:
+    if not batchable(scene):
         return None
     d = scene_to_dict(scene)
     for section, keys in PER_SCENE.items():
@@ -136,45 +127,23 @@ def parse_batch(value: str) -> str:
 # ------------------------------------------------------------------------------ one batch
 
 
-def _member(sim_cls, scene: Scene, problem, base) -> object:
-    """A ``Simulation`` shell for one scene of the batch (its facts, field, perturbation)."""
-    member = sim_cls.__new__(sim_cls)
-    member.scene, member.comm = scene, base.comm
-    member.problem = replace(problem, scene=scene)
-    member.profile = base.profile
-    member.dt, member.dt_crit, member.omega_max = base.dt, base.dt_crit, base.omega_max
-    member.status, member.stop_reason = "running", ""
-    member.writer = None
-    return member
-
-
 def run_batch(spec: SweepSpec, tasks: list[Task], out_dir: Path, world_rank: int,
               backend: str = "cpu", stream: TextIO | None = None) -> list[str]:
-    """Run ``tasks`` (same ``batch_key``) as one batch on this rank; returns their statuses."""
+    """Run ``tasks`` (same ``batch_key``) as one batch on this rank; returns their statuses.
+
+    The batch is a ``solver.ensemble_run.BatchSimulation``; this function only prepares each
+    scene's run directory and log, and writes each scene's files when the batch is done."""
     from mpi4py import MPI
 
-    from solver.ensemble import BatchedExplicit, BatchedProblem, array_namespace
-    from solver.ensemble_observers import BatchRecorder
-    from solver.observers import InnerCircleRecorder, ProbeRecorder
-    from solver.problem import ContactProjection, build_problem, omega_max
-    from solver.run import Profile, Simulation
-    from solver.schemes import time_step
-    from solver.steady import solve_steady_sliding
-    from studies.rundir import (
-        _print_summary,
-        atomic_save_npz,
-        peak_rss_mb,
-        prepare_run_dir,
-        summarise,
-    )
+    from solver.run import Profile
+    from studies.rundir import prepare_run_dir
 
-    comm = MPI.COMM_SELF
     t0 = time.perf_counter()
     scenes = [scene_for(spec, t) for t in tasks]
     run_dirs = [out_dir / "runs" / t.id for t in tasks]
     logs = []
     for t, sc, rd in zip(tasks, scenes, run_dirs, strict=True):
-        prepare_run_dir(rd, True, comm, in_place=True).release()
+        prepare_run_dir(rd, True, MPI.COMM_SELF, in_place=True).release()
         write_scene(sc, rd / "scene.toml")
         atomic_write_text(rd / "summary.json",
                           json.dumps({"scene": sc.name, "status": "running"}, indent=2))
@@ -183,200 +152,102 @@ def run_batch(spec: SweepSpec, tasks: list[Task], out_dir: Path, world_rank: int
                   f"(1 rank(s)) pid {os.getpid()} batch of {len(tasks)} ({backend})\n")
         log.flush()
         logs.append(log)
-    statuses = ["failed"] * len(tasks)
-    messages: list[str | None] = [None] * len(tasks)
-
-    def fail(k: int, err: BaseException) -> None:
-        tb = traceback.format_exc()
-        logs[k].write(tb)
-        statuses[k] = "failed"
-        messages[k] = f"{type(err).__name__}: {err}"
-        atomic_write_text(run_dirs[k] / "summary.json", json.dumps({
-            "scene": scenes[k].name, "status": "failed", "message": messages[k],
-            "traceback": tb.splitlines()[-6:], "wall_time_s": time.perf_counter() - t0,
-            "ranks": 1}, indent=2))
-
-    members: list = []
-    live: list[int] = []
-    spools: list[Path] = []
+    files = _BatchFiles(scenes, run_dirs, logs, t0, len(tasks), backend)
+    profile = Profile()
     interrupted = False
+    batch = None
     try:
-        base = SimpleNamespace(comm=comm, profile=Profile())
-        with base.profile.phase("mesh+assembly"):
-            problem = build_problem(scenes[0], comm)
-        with base.profile.phase("stability"):
-            base.omega_max = omega_max(problem)
-        base.dt, base.dt_crit = time_step(scenes[0], base.omega_max)
-        dt = base.dt
-        u0s = []
-        for k, sc in enumerate(scenes):
-            m = _member(Simulation, sc, problem, base)
-            members.append(m)
-            try:
-                with base.profile.phase("steady-state"):
-                    m.steady = solve_steady_sliding(m.problem)
-                p = m.steady.pressure
-                m.steady_mean_pressure = float(p.sum()) / p.size
-                u0s.append(m.steady.u + m.perturbation())
-                live.append(k)
-            except Exception as err:  # this scene fails alone
-                fail(k, err)
-        if live:
-            statuses = _advance(spec, scenes, members, live, problem, base, dt, u0s, backend,
-                                logs, statuses, messages, BatchedProblem, BatchedExplicit,
-                                BatchRecorder, array_namespace, InnerCircleRecorder,
-                                ProbeRecorder, ContactProjection, out_dir, spools)
+        batch = _build_batch(scenes, backend, out_dir, profile, files)
+        if batch is not None and batch.live:
+            batch.proceed()
     except KeyboardInterrupt:
         interrupted = True
-    except Exception as err:  # the batch as a whole failed: every live scene is failed
-        for k in live or range(len(tasks)):
-            fail(k, err)
-        live = []
-    with base.profile.phase("output"):
-        for k in live:
-            m = members[k]
-            if not hasattr(m, "recorder"):  # interrupted before the batch was built
-                statuses[k] = "interrupted"
-                atomic_write_text(run_dirs[k] / "summary.json", json.dumps(
-                    {"scene": scenes[k].name, "status": "interrupted"}, indent=2))
-                continue
-            if interrupted:
-                m.status = "interrupted"
-                messages[k] = "interrupted"
-            summary = summarise(m)
-            summary["wall_time_s"] = time.perf_counter() - t0
-            if messages[k]:
-                summary["message"] = messages[k]
-            summary["batch"] = {"size": len(tasks), "backend": backend}
-            arrays = m.recorder.arrays()
-            arrays.update(m.probes.arrays() or {})
-            atomic_save_npz(run_dirs[k] / "samples.npz", arrays)
-            field = m.final_field()
-            if field is not None:
-                atomic_save_npz(run_dirs[k] / "final_field.npz", field)
-            summary["profile_s"] = {kk: round(v, 4) for kk, v in base.profile.seconds.items()}
-            summary["peak_rss_mb"] = peak_rss_mb()
-            atomic_write_text(run_dirs[k] / "summary.json", json.dumps(summary, indent=2))
-            _print_summary(summary, run_dirs[k], logs[k], False)
-            statuses[k] = m.status
-    for spool in spools:  # the batch's sample chunks, now in every scene's samples.npz
-        shutil.rmtree(spool, ignore_errors=True)
-    for log, st in zip(logs, statuses, strict=True):
-        log.write(f"== end {st}\n")
-        log.close()
+    except Exception as err:  # the batch as a whole failed: every scene still running fails
+        for k in range(len(tasks)):
+            if batch is None or batch.runs[k].status == "running" or k in batch.live:
+                files.fail(k, err)
+        batch = None
+    with profile.phase("output"):
+        if batch is not None:
+            files.write_runs(batch, interrupted, profile)
+        elif interrupted:
+            for k in range(len(tasks)):
+                files.interrupted(k)
+    if batch is not None and batch.spool_dir is not None:  # now in each samples.npz
+        shutil.rmtree(batch.spool_dir, ignore_errors=True)
+    files.close()
     if interrupted:
         raise KeyboardInterrupt
-    return statuses
+    return files.statuses
 
 
-class _MemberRecorder:
-    """``InnerCircleRecorder`` face of one scene of a ``BatchRecorder``."""
+def _build_batch(scenes, backend, out_dir, profile, files):
+    """The ``BatchSimulation``; scenes whose set-up failed are written ``failed`` at once.
 
-    def __init__(self, rec, b: int, n_nodes: int) -> None:
-        self.rec, self.b, self.n_nodes = rec, b, n_nodes
-        self.n = 0
-        self.n_probe = 0
+    The batch keeps its whole sample record in memory when it needs at most
+    ``SPOOL_MEMORY_FRACTION`` of the available memory (no file round trip in the time loop);
+    otherwise it spools it in chunks to a folder under the sweep directory, so that memory
+    does not grow with the run length."""
+    from solver.ensemble_run import BatchSimulation
 
-    def arrays(self) -> dict[str, np.ndarray]:
-        return self.rec.arrays(self.b, self.n)
-
-    def probe(self) -> SimpleNamespace:
-        return SimpleNamespace(arrays=lambda: self.rec.probe_arrays(self.b, self.n_probe))
-
-
-def _advance(spec, scenes, members, live, problem, base, dt, u0s, backend, logs, statuses,
-             messages, BatchedProblem, BatchedExplicit, BatchRecorder, array_namespace,
-             InnerCircleRecorder, ProbeRecorder, ContactProjection, out_dir,
-             spools) -> list[str]:
-    """Build the batch of the ``live`` scenes, step it to the end, fill the members."""
-    sc0 = scenes[live[0]]
-    ts = sc0.time
-    xp = array_namespace(backend)
-    bp = BatchedProblem.from_problem(problem, dt, ts.beta2)
-    g = [scenes[k] for k in live]
-    integ = BatchedExplicit(
-        bp, d=np.array([s.geometry.d for s in g]),
-        slide=np.array([s.geometry.R * s.loading.omega * dt for s in g]),
-        f=np.array([s.loading.f for s in g]), xp=xp,
-        kernel="numba" if backend == "cpu" else "cuda")
-    integ.set_state(np.stack(u0s, axis=1), np.zeros((bp.n, len(live))))
-    kappa = (ts.beta2 + 0.5) * dt * dt
-    projection = ContactProjection(problem, kappa, dt)
-    shape = InnerCircleRecorder(problem, projection, None, 1, max_samples=0)
-    probes = ProbeRecorder(problem, projection, sc0.output.probes_deg, 0)
-    every = max(1, int(round(sc0.output.sample_interval / dt)))
-    n_steps = members[live[0]].planned_steps()
-    # the record stays in memory when it fits (no file round trip in the time loop);
-    # otherwise it is spooled to disk in chunks, so memory does not grow with the run
-    n_probes = len(probes.index)
-    record = BatchRecorder.record_bytes(len(live), bp.cx.size, n_probes,
-                                        n_steps // every + 2, n_steps)
-    in_memory = xp is np and record <= SPOOL_MEMORY_FRACTION * available_memory()
-    spool = None if in_memory else Path(tempfile.mkdtemp(prefix=".batch-", dir=out_dir))
-    rec = BatchRecorder(
-        integ, mass=problem.mass, perm=shape.perm, theta=shape.theta, ds=shape.ds,
-        every=every, max_samples=n_steps // every + 2, max_steps=n_steps,
-        probe_nodes=np.asarray(probes.index), probe_pc=probes.phase_conj,
-        probe_deg=np.asarray(probes.angles), spool_dir=spool)
-    integ.keep_nodes(np.asarray(probes.index))
-    views = []
-    for b, k in enumerate(live):
-        m = members[k]
-        m.integrator = SimpleNamespace(step_count=0, time=0.0, beta1=0.0, beta2=ts.beta2,
-                                       kernel=f"batched-{integ.kernel}", compile_s=0.0,
-                                       contact_seconds=0.0, u=None)
-        view = _MemberRecorder(rec, b, shape.n_nodes)
-        m.recorder = view
-        m.probes = view.probe()
-        views.append(view)
-    end_time = ts.end_time
-    max_steps = ts.max_steps or None
-    max_wall = ts.max_wall_time or None
-    t_start = time.perf_counter()
-    stop = "end_time"
-    try:
-        with base.profile.phase("time-loop"):
-            while True:
-                if integ.time >= end_time - 1e-12 * end_time:
-                    stop = "end_time"
-                    break
-                if max_steps is not None and integ.step_count >= max_steps:
-                    stop = "max_steps"
-                    break
-                if not integ.active.any():
-                    break
-                integ.step(diag=rec.due(integ.step_count))
-                rec.record_probes()
-                if rec.due(integ.step_count - 1):
-                    kin, strain, wcyl = rec.sample()
-                    for b, msg in rec.check_health(kin, strain, wcyl, integ.time).items():
-                        _finish_member(members[live[b]], views[b], integ, rec, b, "diverged")
-                        messages[live[b]] = msg
-                        integ.mask(b)
-                    if max_wall is not None and time.perf_counter() - t_start > max_wall:
-                        stop = "max_wall_time"
-                        break
-    finally:
-        rec.close()
-        for b, k in enumerate(live):
-            if integ.active[b]:
-                _finish_member(members[k], views[b], integ, rec, b, "completed", stop)
-    out = list(statuses)
-    for k in live:
-        out[k] = members[k].status
-    if spool is not None:
-        spools.append(spool)
-    return out
+    batch = BatchSimulation(scenes, backend=backend, spool_parent=out_dir, profile=profile,
+                            memory_budget=SPOOL_MEMORY_FRACTION * available_memory())
+    for k, err in batch.failures.items():
+        files.fail(k, err)
+    return batch
 
 
-def _finish_member(m, view, integ, rec, b: int, status: str, stop: str = "") -> None:
-    """Freeze scene b's facts at this step (a diverged scene stops here, as alone)."""
-    m.status = status
-    m.stop_reason = stop
-    m.integrator.step_count = integ.step_count
-    m.integrator.time = integ.time
-    m.integrator.compile_s = integ.compile_s
-    u = integ.u[:, b]
-    m.integrator.u = np.array(u.get() if hasattr(u, "get") else u)
-    view.n = rec.n
-    view.n_probe = rec.n_probe
+class _BatchFiles:
+    """Each scene's run directory and log while and after its batch runs."""
+
+    def __init__(self, scenes, run_dirs, logs, t0: float, size: int, backend: str) -> None:
+        self.scenes, self.run_dirs, self.logs = scenes, run_dirs, logs
+        self.t0, self.size, self.backend = t0, size, backend
+        self.statuses = ["failed"] * len(scenes)
+
+    def fail(self, k: int, err: BaseException) -> None:
+        tb = "".join(traceback.format_exception(err))
+        self.logs[k].write(tb)
+        self.statuses[k] = "failed"
+        atomic_write_text(self.run_dirs[k] / "summary.json", json.dumps({
+            "scene": self.scenes[k].name, "status": "failed",
+            "message": f"{type(err).__name__}: {err}", "traceback": tb.splitlines()[-6:],
+            "wall_time_s": time.perf_counter() - self.t0, "ranks": 1}, indent=2))
+
+    def interrupted(self, k: int) -> None:
+        self.statuses[k] = "interrupted"
+        atomic_write_text(self.run_dirs[k] / "summary.json", json.dumps(
+            {"scene": self.scenes[k].name, "status": "interrupted"}, indent=2))
+
+    def write_runs(self, batch, interrupted: bool, profile) -> None:
+        """summary.json, samples.npz and final_field.npz of every scene that ran."""
+        from studies.rundir import _print_summary, atomic_save_npz, peak_rss_mb, summarise
+
+        for k in batch.live:
+            run = batch.runs[k]
+            if run.recorder is None:  # interrupted before the batch was built
+                self.interrupted(k)
+                continue
+            if interrupted:
+                run.status, run.message = "interrupted", "interrupted"
+            summary = summarise(run)
+            summary["wall_time_s"] = time.perf_counter() - self.t0
+            if run.message:
+                summary["message"] = run.message
+            summary["batch"] = {"size": self.size, "backend": self.backend}
+            arrays = run.recorder.arrays()
+            arrays.update(run.probes.arrays() or {})
+            atomic_save_npz(self.run_dirs[k] / "samples.npz", arrays)
+            field = run.final_field()
+            if field is not None:
+                atomic_save_npz(self.run_dirs[k] / "final_field.npz", field)
+            summary["profile_s"] = {kk: round(v, 4) for kk, v in profile.seconds.items()}
+            summary["peak_rss_mb"] = peak_rss_mb()
+            atomic_write_text(self.run_dirs[k] / "summary.json", json.dumps(summary, indent=2))
+            _print_summary(summary, self.run_dirs[k], self.logs[k], False)
+            self.statuses[k] = run.status
+
+    def close(self) -> None:
+        for log, st in zip(self.logs, self.statuses, strict=True):
+            log.write(f"== end {st}\n")
+            log.close()

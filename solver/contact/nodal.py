@@ -1,4 +1,4 @@
-"""Nodal unilateral-contact / Coulomb-friction projection (paper section 2 and eq. [2]).
+"""The nodal unilateral-contact / Coulomb-friction projection (paper section 2 and eq. [2]).
 
 These are plain numpy functions over arrays of contact nodes, independent of the time loop,
 so they can be tested on their own and reused by the FE solver and the reduced model.
@@ -28,13 +28,7 @@ from __future__ import annotations
 
 import numpy as np
 
-SEPARATION, STICK, SLIP = 0, 1, 2
-STATUS_NAMES = ("separation", "stick", "slip")
-
-
-def gap(u_r: np.ndarray, d: float) -> np.ndarray:
-    """Normal gap g = u_r - d between the tube and the cylinder (>= 0 when admissible)."""
-    return u_r - d
+from solver.contact.law import SEPARATION, SLIP, STICK
 
 
 def project_contact(
@@ -114,7 +108,7 @@ def project_tangential(u_t_trial: np.ndarray, u_t_prev: np.ndarray, slide: float
 
 
 # ---------------------------------------------------------------------------------------------
-# Regularised friction bound (Prakash-Clifton), issue 13
+# Regularised friction bound (Prakash-Clifton)
 
 
 def relax_effective_pressure(sigma: np.ndarray, p: np.ndarray, rate: np.ndarray, dt: float,
@@ -201,7 +195,7 @@ def project_contact_regularized(
 
 
 # ---------------------------------------------------------------------------------------------
-# Filtered friction bound (1-2-1 along the contact circle), issue 13 item 2
+# Filtered friction bound (1-2-1 along the contact circle)
 
 
 class NeighbourFilter:
@@ -301,39 +295,6 @@ class ContactArrays:
         self.cone = np.zeros(n)
         self.in_contact = np.zeros(n, dtype=bool)
         self.slipping = np.zeros(n, dtype=bool)
-
-
-class NodalFrames:
-    """(x, y) <-> (r, theta) at the contact nodes, with complex numbers.
-
-    An owned blocked array (x0, y0, x1, y1, ...) viewed as complex128 holds z_i = x_i + i y_i
-    per node, and z_i e^{-i theta_i} = u_r + i u_theta. Subclasses set ``node_index`` (local
-    node numbers of the contact nodes), ``phase_conj`` (e^{-i theta_i}) and ``_views`` ({}).
-    """
-
-    node_index: np.ndarray
-    phase_conj: np.ndarray
-    _views: dict
-
-    def complex_view(self, array: np.ndarray) -> np.ndarray:
-        """Cached complex128 view (one z per node) of an owned blocked array."""
-        key = id(array)  # the integrator's arrays live as long as the run (cheap key)
-        view = self._views.get(key)
-        if view is None:
-            view = self._views[key] = array.view(np.complex128)
-        return view
-
-    def polar_at_nodes(self, array: np.ndarray, out: np.ndarray) -> np.ndarray:
-        """u_r + i u_theta at the contact nodes, into the complex array ``out``."""
-        self.complex_view(array).take(self.node_index, out=out)  # method: no wrapper cost
-        out *= self.phase_conj
-        return out
-
-    def _polar(self, array: np.ndarray, radial: np.ndarray, tangential: np.ndarray) -> None:
-        """Radial and tangential components at the contact nodes (diagnostics, not hot)."""
-        z = self.polar_at_nodes(array, np.empty(self.node_index.size, dtype=complex))
-        radial[:] = z.real
-        tangential[:] = z.imag
 
 
 def zone_fractions(status: np.ndarray) -> dict[str, float]:

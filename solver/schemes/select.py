@@ -1,5 +1,7 @@
-"""Choice of the time scheme for a scene: time step and integrator + contact step.
+"""The one place that chooses the time scheme of a scene: time step, stepper, contact step.
 
+Every branch on ``time.beta1`` (explicit or implicit) and on the kernel (numpy, numba,
+batched) that decides what runs lives in this module (tests/test_architecture.py checks it).
 The scene's ``time`` table picks the scheme:
 
 * ``beta1 = 0``: the paper's explicit Newmark (``solver.newmark.Newmark``) with the
@@ -21,7 +23,10 @@ import math
 import sys
 from time import perf_counter
 
-from solver.errors import StepTooLarge  # noqa: F401  (raised here, caught above)
+import numpy as np
+
+from solver.contact import ContactLaw, make_projection
+from solver.errors import StepTooLarge
 from solver.newmark import Newmark, critical_time_step
 from solver.scene import Scene
 
@@ -137,9 +142,55 @@ def damping_advice(scene: Scene, omega_max: float) -> str | None:
             "--set time.beta2=0.5 --set time.dt_fraction=1")
 
 
+def numba_available() -> bool:
+    """True when numba imports (Debian's python3-numba is in the apt list)."""
+    from solver.fused import numba_available as available
+
+    return available()
+
+
+def resolve_kernel(scene: Scene) -> str:
+    """The step kernel a scene runs with: ``"numba"`` or ``"numpy"``. THE fallback rule.
+
+    * the implicit scheme (time.beta1 > 0) has no fused step: "numpy" (it is not a stiffness
+      product; ``time.kernel`` is ignored there);
+    * physics the fused kernel does not implement (Kelvin-Voigt ``[damping]`` with tau > 0,
+      any contact variant but the nodal Coulomb law: a ``[friction]`` regularisation or
+      filter) falls back to "numpy";
+    * ``time.kernel = "auto"``: "numba" when numba imports, else "numpy";
+    * ``time.kernel = "numba"`` without numba: ValueError naming the fix.
+    """
+    ts = scene.time
+    if ts.beta1 > 0.0:
+        return "numpy"
+    if scene.damping.enabled or ContactLaw.variant_of(scene) != "nodal":
+        return "numpy"  # DampedNewmark / the regularised or filtered projections
+    requested = ts.kernel
+    if requested == "numpy":
+        return "numpy"
+    if numba_available():
+        return "numba"
+    if requested == "numba":
+        raise ValueError("time.kernel = \"numba\" but numba does not import: install "
+                         "python3-numba (apt) or set time.kernel = \"numpy\"")
+    return "numpy"
+
+
+def batchable(scene: Scene) -> bool:
+    """True when ``scene`` can run as a column of the batched explicit step
+    (``solver.ensemble``): the explicit scheme with the fused numba kernel's physics, no field
+    output."""
+    if scene.time.beta1 > 0.0 or scene.output.fields:
+        return False
+    try:
+        return resolve_kernel(scene) == "numba"
+    except ValueError:
+        return False
+
+
 def make_explicit(problem, scene: Scene, dt: float):
-    """Explicit integrator for ``scene``: ``Newmark``, or ``DampedNewmark`` when the scene has
-    Kelvin-Voigt damping (the undamped step then stays exactly the plain one)."""
+    """The numpy explicit stepper of ``scene``: ``Newmark``, or ``DampedNewmark`` when the
+    scene has Kelvin-Voigt damping (the undamped step then stays exactly the plain one)."""
     ts, tau = scene.time, scene.damping.tau
     if tau > 0.0:
         from solver.newmark import DampedNewmark
@@ -149,47 +200,56 @@ def make_explicit(problem, scene: Scene, dt: float):
     return Newmark(problem.stiffness_mult(), problem.inv_mass, dt, ts.beta1, ts.beta2)
 
 
-def make_integrator(problem, scene: Scene, dt: float):
-    """(integrator, projection) for the scene's scheme.
+def make_stepper(problem, scene: Scene, dt: float):
+    """(stepper, contact) for the scene's scheme; both follow ``solver.schemes.protocol``.
 
-    The projection exposes ``out`` (ContactArrays: r_r, r_t, status), ``slide``, ``nodes`` and
-    ``_polar`` as used by the observers; the integrator exposes ``step()``, ``set_state``,
-    ``u``, ``u_prev``, ``v``, ``a``, ``ku``, ``time``, ``dt``, ``step_count``. After a step,
-    ``u`` is u_{n+1} and everything else (``u_prev``, ``v``, ``a``, ``ku``, ``out``) is time
-    level n, for both schemes. The implicit integrator also has ``iteration_stats()``.
+    The contact object exposes ``out`` (ContactArrays: r_r, r_t, status), ``slide``,
+    ``nodes`` and ``_polar`` as the observers use them; the stepper exposes ``u``, ``u_prev``,
+    ``v``, ``a``, ``ku``, ``time``, ``dt``, ``step_count``. After a step, ``u`` is u_{n+1}
+    and everything else (``u_prev``, ``v``, ``a``, ``ku``, ``out``) is time level n, for
+    every scheme.
     """
     ts = scene.time
+    law = ContactLaw.from_scene(scene, dt)
     if ts.beta1 > 0.0:
         from solver.implicit import ImplicitContact, ImplicitNewmark
 
-        g = scene.geometry
-        contact = ImplicitContact(problem.nodes, g.d, scene.loading.f,
-                                  g.R * scene.loading.omega, problem.comm)
-        integrator = ImplicitNewmark(problem.K, problem.mass, problem.clamped, dt, ts.beta1,
-                                     ts.beta2, contact, problem.comm, tau=scene.damping.tau)
-        return integrator, contact
-
-    from solver.fused import resolve_kernel
-    from solver.problem import ContactProjection, make_projection
-
-    kappa = (ts.beta2 + 0.5) * dt * dt
+        contact = ImplicitContact(problem.nodes, law.d, law.f, law.surface_speed,
+                                  problem.comm)
+        stepper = ImplicitNewmark(problem.K, problem.mass, problem.clamped, dt, ts.beta1,
+                                  ts.beta2, contact, problem.comm, tau=scene.damping.tau)
+        return stepper, contact
+    projection = make_projection(problem, law)
     if resolve_kernel(scene) == "numba":
         from solver.fused import FusedNewmark
 
-        projection = ContactProjection(problem, kappa, dt)
         return FusedNewmark(problem, dt, ts.beta2, projection), projection
-    integrator = make_explicit(problem, scene, dt)  # damped or plain numpy step
-    projection = make_projection(problem, integrator.kappa, dt)  # Coulomb or regularised
-    integrator.contact = TimedContact(projection)
-    return integrator, projection
+    stepper = make_explicit(problem, scene, dt)  # damped or plain numpy step
+    stepper.contact = TimedContact(projection)
+    return stepper, projection
 
 
-def make_energy(integrator, projection, with_friction: bool, u0):
-    """The contact-work observer: accumulated inside the fused kernel, or by numpy."""
-    if getattr(integrator, "kernel", "numpy") == "numba":
+def make_batched_stepper(problem, laws: list[ContactLaw], backend: str = "cpu"):
+    """The batched explicit stepper of scenes that share ``problem`` (K, M, the contact
+    nodes), dt and beta_2, each with its own contact law: numba on the CPU, the CUDA kernel
+    through CuPy on the GPU (``solver.ensemble``)."""
+    from solver.ensemble import BatchedExplicit, BatchedProblem, array_namespace
+
+    law0 = laws[0]
+    bp = BatchedProblem.from_problem(problem, law0.dt, law0.beta2)
+    return BatchedExplicit(
+        bp, d=np.array([law.d for law in laws]), slide=np.array([law.slide for law in laws]),
+        f=np.array([law.f for law in laws]), xp=array_namespace(backend),
+        kernel="numba" if backend == "cpu" else "cuda")
+
+
+def contact_work_observer(stepper, projection, with_friction: bool, u0):
+    """The contact-work observer: the fused kernel accumulates the work itself
+    (``FusedEnergy``), a numpy or implicit step needs ``EnergyAccumulator`` every step."""
+    if getattr(stepper, "kernel", "numpy") == "numba":
         from solver.fused import FusedEnergy
 
-        return FusedEnergy(integrator, projection)
+        return FusedEnergy(stepper, projection)
     from solver.observers import EnergyAccumulator
 
     return EnergyAccumulator(projection, with_friction, u0)
@@ -207,23 +267,3 @@ class TimedContact:
         t0 = perf_counter()
         self.projection(u_trial, u_now, force)
         self.seconds += perf_counter() - t0
-
-
-def contact_seconds(integrator) -> float:
-    """Wall time spent in the contact step so far (projection, or active set + gathers)."""
-    if hasattr(integrator, "contact_seconds"):
-        return float(integrator.contact_seconds)
-    return float(getattr(integrator.contact, "seconds", 0.0))
-
-
-def scheme_summary(integrator) -> dict:
-    """Scheme facts for a run summary: name, beta1/2, contact time, active-set iterations."""
-    if hasattr(integrator, "iteration_stats"):
-        return integrator.iteration_stats()
-    out = {"scheme": "explicit", "beta1": integrator.beta1, "beta2": integrator.beta2,
-           "damping_tau_s": getattr(integrator, "tau", 0.0),
-           "contact_s": contact_seconds(integrator),
-           "kernel": getattr(integrator, "kernel", "numpy")}
-    if hasattr(integrator, "compile_s"):
-        out["kernel_first_call_s"] = integrator.compile_s  # numba compile or cache load
-    return out

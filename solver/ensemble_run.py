@@ -1,0 +1,238 @@
+"""B scenes that share a mesh, a material, dt and the scheme, run as one batch.
+
+``BatchSimulation(scenes)`` builds what ``solver.run.Simulation`` builds for one scene, once for
+all: the problem and dt of the first scene, then each scene's steady sliding state and start,
+the batched stepper (``solver.ensemble.BatchedExplicit``, one (n, B) column per scene, each
+with its own ``solver.contact.ContactLaw``), the probes as a step hook and the samples as an
+observer. ``proceed`` is ``solver.run.run_loop``, the time loop of a single scene.
+
+A scene whose energy guard trips (``solver.errors.blown_up``) is masked out of the batch and
+recorded ``diverged`` at that step; the others go on. A scene whose steady state cannot be
+found is ``failed`` alone. ``runs`` holds one ``SceneRun`` per scene with what a run directory
+needs: ``facts()``, ``recorder.arrays()``, ``probes.arrays()``, ``final_field()``.
+"""
+
+from __future__ import annotations
+
+import math
+import tempfile
+import time
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+from mpi4py import MPI
+
+from solver.contact import ContactLaw
+from solver.observers import Cadence
+from solver.run import Profile, gather_final_field, run_facts, run_loop
+from solver.scene import Scene
+
+__all__ = ["BatchSimulation", "SceneRun"]
+
+
+class SceneRun:
+    """One scene of a batch: its problem view, steady state, status and records."""
+
+    def __init__(self, scene: Scene, problem, batch: BatchSimulation) -> None:
+        self.scene, self.comm = scene, batch.comm
+        self.problem = replace(problem, scene=scene)
+        self.dt, self.dt_crit, self.omega_max = batch.dt, batch.dt_crit, batch.omega_max
+        self.status, self.stop_reason, self.message = "running", "", ""
+        self.steps, self.sim_time = 0, 0.0
+        self.steady = None
+        self.steady_mean_pressure = float("nan")
+        self.u_final: np.ndarray | None = None
+        self.recorder: MemberRecords | None = None
+        self.probes: MemberProbes | None = None
+        self._scheme: dict = {}
+
+    def facts(self) -> dict:
+        """``Simulation.facts`` of this scene (frozen when it finished)."""
+        return run_facts(self, self._scheme)
+
+    def final_field(self) -> dict[str, np.ndarray] | None:
+        return gather_final_field(self.problem, self.u_final, self.comm, self.sim_time)
+
+    def finish(self, batch: BatchSimulation, b: int, status: str, stop: str = "") -> None:
+        """Freeze this scene's facts at the batch's current step (a masked scene stops here,
+        as it would alone)."""
+        st = batch.stepper
+        self.status, self.stop_reason = status, stop
+        self.steps, self.sim_time = st.step_count, st.time
+        self._scheme = st.facts()
+        u = st.u[:, b]
+        self.u_final = np.array(u.get() if hasattr(u, "get") else u)
+        self.recorder.n = batch.recorder.n
+        self.probes.n = batch.recorder.n_probe
+
+
+class MemberRecords:
+    """``InnerCircleRecorder`` face of scene b of a ``BatchRecorder``."""
+
+    def __init__(self, rec, b: int, n_nodes: int) -> None:
+        self.rec, self.b, self.n_nodes = rec, b, n_nodes
+        self.n = 0
+
+    def arrays(self) -> dict[str, np.ndarray]:
+        return self.rec.arrays(self.b, self.n)
+
+
+class MemberProbes:
+    """``ProbeRecorder`` face of scene b of a ``BatchRecorder``."""
+
+    def __init__(self, rec, b: int) -> None:
+        self.rec, self.b = rec, b
+        self.n = 0
+
+    def arrays(self) -> dict[str, np.ndarray]:
+        return self.rec.probe_arrays(self.b, self.n)
+
+
+class ProbeHook:
+    """Step hook: the batch's probes every step (``BatchRecorder.record_probes``)."""
+
+    def __init__(self, rec) -> None:
+        self.rec = rec
+
+    def after_step(self, stepper) -> None:
+        self.rec.record_probes()
+
+
+class BatchSampling:
+    """Observer: every scene's samples, the energy guard per scene (a blow-up masks that
+    scene: ``diverged``), and the wall-time limit. Stops the loop when no scene is left."""
+
+    def __init__(self, batch: BatchSimulation) -> None:
+        self.batch = batch
+        self.cadence = Cadence(batch.recorder.every)
+
+    def due(self, level: int) -> bool:
+        return self.batch.recorder.due(level)
+
+    def observe(self, stepper) -> str:
+        batch, rec = self.batch, self.batch.recorder
+        kin, strain, w_cyl = rec.sample()
+        for b, msg in rec.check_health(kin, strain, w_cyl, stepper.time).items():
+            run = batch.runs[batch.live[b]]
+            run.finish(batch, b, "diverged")
+            run.message = msg
+            stepper.mask(b)
+        if not stepper.active.any():
+            return "diverged"
+        wall = batch.max_wall
+        if wall is not None and time.perf_counter() - batch.t_start > wall:
+            return "max_wall_time"
+        return ""
+
+
+class BatchSimulation:
+    """``Simulation`` for B scenes on one rank (see the module docstring).
+
+    The batch's sample record stays whole in host memory when it needs at most
+    ``memory_budget`` bytes on the CPU; otherwise it is spooled in chunks to ``spool_dir``, a
+    new folder under ``spool_parent`` that the caller removes once the files are written."""
+
+    def __init__(self, scenes: list[Scene], backend: str = "cpu",
+                 spool_parent: Path | None = None, profile: Profile | None = None,
+                 memory_budget: float = math.inf) -> None:
+        from solver.problem import build_problem, omega_max
+        from solver.schemes.select import time_step
+
+        self.comm = MPI.COMM_SELF
+        self.scenes, self.backend = scenes, backend
+        self.profile = profile or Profile()
+        with self.profile.phase("mesh+assembly"):
+            self.problem = build_problem(scenes[0], self.comm)
+        with self.profile.phase("stability"):
+            self.omega_max = omega_max(self.problem)
+        self.dt, self.dt_crit = time_step(scenes[0], self.omega_max)
+        self.runs = [SceneRun(sc, self.problem, self) for sc in scenes]
+        self.live: list[int] = []  # runs in the batch, in column order
+        self.failures: dict[int, BaseException] = {}
+        u0s = [self._start(k) for k in range(len(scenes))]
+        self.stepper = self.recorder = None
+        self.spool_dir: Path | None = None
+        self.observers: list = []
+        self.t_start, self.max_wall = time.perf_counter(), None
+        if self.live:
+            self._build(np.stack([u0s[k] for k in self.live], axis=1), spool_parent,
+                        memory_budget)
+
+    def _start(self, k: int) -> np.ndarray | None:
+        """Scene k's steady state + its [initial] bump, or None (the scene fails alone)."""
+        from solver.run import initial_perturbation
+        from solver.steady import solve_steady_sliding
+
+        run = self.runs[k]
+        try:
+            with self.profile.phase("steady-state"):
+                run.steady = solve_steady_sliding(run.problem)
+            p = run.steady.pressure
+            run.steady_mean_pressure = float(p.sum()) / p.size
+            u0 = run.steady.u + initial_perturbation(run.problem, run.scene)
+        except Exception as err:  # this scene fails alone
+            self.failures[k] = err
+            run.status = "failed"
+            return None
+        self.live.append(k)
+        return u0
+
+    def planned_steps(self) -> int:
+        from solver.run import planned_steps
+
+        return planned_steps(self.scenes[self.live[0]], self.dt)
+
+    def _build(self, u0: np.ndarray, spool_parent: Path | None, memory_budget: float) -> None:
+        """The batched stepper, the recorder, the probe hook and the sampling observer."""
+        from solver.contact import ContactProjection
+        from solver.ensemble_observers import BatchRecorder
+        from solver.observers import InnerCircleRecorder, ProbeRecorder
+        from solver.schemes.select import make_batched_stepper
+
+        sc0 = self.scenes[self.live[0]]
+        laws = [ContactLaw.from_scene(self.scenes[k], self.dt) for k in self.live]
+        stepper = make_batched_stepper(self.problem, laws, self.backend)
+        stepper.set_state(u0, np.zeros_like(u0))
+        projection = ContactProjection(self.problem, laws[0])
+        shape = InnerCircleRecorder(self.problem, projection, None, 1, max_samples=0)
+        probes = ProbeRecorder(self.problem, projection, sc0.output.probes_deg, 0)
+        every = max(1, int(round(sc0.output.sample_interval / self.dt)))
+        n_steps = self.planned_steps()
+        record = BatchRecorder.record_bytes(len(self.live), stepper.m, len(probes.index),
+                                            n_steps // every + 2, n_steps)
+        if stepper.xp is not np or record > memory_budget:
+            self.spool_dir = Path(tempfile.mkdtemp(prefix=".batch-", dir=spool_parent))
+        rec = BatchRecorder(
+            stepper, mass=self.problem.mass, perm=shape.perm, theta=shape.theta, ds=shape.ds,
+            every=every, max_samples=n_steps // every + 2, max_steps=n_steps,
+            probe_nodes=np.asarray(probes.index), probe_pc=probes.phase_conj,
+            probe_deg=np.asarray(probes.angles), spool_dir=self.spool_dir)
+        stepper.keep_nodes(np.asarray(probes.index))
+        stepper.full_state_at = rec.due
+        stepper.attach(ProbeHook(rec))
+        for b, k in enumerate(self.live):
+            self.runs[k].recorder = MemberRecords(rec, b, shape.n_nodes)
+            self.runs[k].probes = MemberProbes(rec, b)
+        self.stepper, self.recorder = stepper, rec
+        self.observers = [BatchSampling(self)]
+
+    def proceed(self) -> str:
+        """Run every live scene to the end (``solver.run.run_loop``); returns the reason."""
+        sc0 = self.scenes[self.live[0]]
+        ts = sc0.time
+        end = ts.end_time
+        self.max_wall = ts.max_wall_time or None
+        self.t_start = time.perf_counter()
+        stop = "end_time"
+        try:
+            with self.profile.phase("time-loop"):
+                stop = run_loop(self.stepper, self.observers, end - 1e-12 * end,
+                                ts.max_steps or math.inf)
+        finally:
+            self.recorder.close()
+            for b, k in enumerate(self.live):
+                if self.stepper.active[b]:
+                    self.runs[k].finish(self, b, "completed",
+                                        "" if stop == "diverged" else stop)
+        return stop
