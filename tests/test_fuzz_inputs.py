@@ -219,3 +219,45 @@ def test_damaged_run_directories(finished, tmp_path_factory, capsys, name, how, 
     err = capsys.readouterr().err
     assert rc in (2, 0, 1), err
     assert (d / "mine.txt").read_text() == "the user's"
+
+
+RUN_OPTIONS = st.lists(st.one_of(
+    st.tuples(st.just("--set"), st.tuples(st.sampled_from(KEYS), VALUES).map("=".join)),
+    st.tuples(st.sampled_from(["--force", "--yes-i-know", "--profile"])),
+    st.tuples(st.just("-o"), st.sampled_from(["mine", "mine/sub", "new", "file.txt",
+                                              "new/deeper", ".", ""]))), max_size=3)
+
+
+@settings(FUZZ, max_examples=15)
+@given(RUN_OPTIONS)
+def test_run_option_strings(tmp_path_factory, capsys, options):
+    """`stickslip run` with any options (short runs): a run with its exit status, or exit 2
+    with one line; the user's folder and file are never changed."""
+    pytest.importorskip("dolfinx")
+    import os
+
+    from cli.main import main
+
+    cwd = tmp_path_factory.mktemp("runfuzz")
+    (cwd / "mine").mkdir()
+    (cwd / "mine" / "notes.txt").write_text("mine")
+    (cwd / "file.txt").write_text("mine")
+    argv = ["run", str(SMOKE), "--set", "time.end_time=0.002", "--set",
+            "output.progress=false", "-o", "default"]
+    for opt in options:
+        argv += list(opt)
+    old = os.getcwd()
+    os.chdir(cwd)
+    try:
+        rc = main(argv)
+    except SystemExit as stop:  # argparse
+        rc = stop.code
+    finally:
+        os.chdir(old)
+    err = capsys.readouterr().err
+    assert rc in (0, 1, 2, 3), (rc, err)
+    assert "Traceback" not in err
+    if rc == 2 and not err.startswith("usage:"):
+        assert err.count("\n") == 1, err
+    assert (cwd / "mine" / "notes.txt").read_text() == "mine"
+    assert (cwd / "file.txt").read_text() == "mine"

@@ -332,3 +332,22 @@ def test_force_replaces_a_run_with_what_stickslip_added_later(finished, tmp_path
     s = run(d, "initial.amplitude=0.2", force=True)
     assert s["status"] == "completed" and not (d / "compare.json").exists()
     assert not leftovers(d)
+
+
+@pytest.mark.parametrize("status", ["crashed", "interrupted", "running"])
+def test_a_killed_scene_is_run_again_on_resume(tmp_path, status):
+    """A sweep whose process was SIGKILLed left the scene `failed`, and a resume skipped it:
+    the watchdog now writes `crashed` (or `interrupted` after a signal), neither final."""
+    from studies.rundir.ownership import claim
+    from studies.sweep import load_sweep
+    from studies.sweep.schedule import _classify
+
+    spec_path = tmp_path / "s.toml"
+    spec_path.write_text(f'base = "{SMOKE}"\n[grid]\n"loading.omega" = [2.0]\n')
+    spec = load_sweep(spec_path)
+    run_dir = tmp_path / "out" / "runs" / spec.tasks[0].id
+    claim(run_dir, "run").release()
+    (run_dir / "summary.json").write_text(json.dumps({
+        "scene": "s", "status": status, "pid": 2**22 + 12345, "host": "elsewhere"}))
+    pending, n_done, _ = _classify(tmp_path / "out", spec, retry_failed=False)
+    assert [t.id for t in pending] == [spec.tasks[0].id] and n_done == 0
