@@ -1,4 +1,4 @@
-"""Throughput of the batched ensemble against today's per-scene sweep (issue 15).
+"""Throughput of the batched ensemble against today's per-scene sweep.
 
 CPU, side by side in one run (needs dolfinx; ~10 min on 2 busy cores)::
 
@@ -37,6 +37,7 @@ import argparse
 import json
 import os
 import resource
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -179,59 +180,35 @@ def dump(directory: Path, sizes: list[int], n_scenes: int = 8) -> None:
               f"dt = {bp.dt:.4g} s, {n_scenes} scenes", flush=True)
 
 
-def _tile(arr: np.ndarray, B: int) -> np.ndarray:
-    reps = -(-B // arr.shape[-1])
-    return np.tile(arr, (1,) * (arr.ndim - 1) + (reps,))[..., :B].copy()
-
-
 def run_npz(path: Path, B: int, steps: int, backend: str, kernel: str, observe: bool,
             check: int, full: bool = False) -> dict:
-    from solver.ensemble import BatchedExplicit, BatchedProblem, array_namespace
-    from solver.ensemble_observers import BatchRecorder
+    from benchmarks.gpu_bench import ensemble, host, load, probe_slot, synchronize, tile
+    from solver.ensemble import array_namespace
 
-    with np.load(path) as z:
-        extra = {k: z[k] for k in ("u0", "d", "slide", "f", "every")}
-    bp = BatchedProblem.load(path)
+    bp, extra = load(path)
     xp = array_namespace(backend)
-    u0 = _tile(extra["u0"], B)
-    integ = BatchedExplicit(bp, _tile(extra["d"], B), _tile(extra["slide"], B),
-                            _tile(extra["f"], B), xp=xp, kernel=kernel)
-    integ.set_state(u0, np.zeros_like(u0))
-    rec = None
-    if observe:
-        rec = BatchRecorder(integ, mass=bp.mass, perm=np.argsort(bp.theta), theta=bp.theta,
-                            ds=np.zeros(bp.cx.size), every=int(extra["every"]),
-                            max_samples=steps // int(extra["every"]) + 8, max_steps=steps + 8,
-                            probe_nodes=bp.cx[:1] // 2, probe_pc=np.ones(1),
-                            probe_deg=np.zeros(1),
-                            spool_dir=Path(tempfile.mkdtemp(prefix="ensemble-spool-")))
-
-    def sync() -> None:
-        if xp is not np:
-            xp.cuda.Device().synchronize()
-
-    if rec is not None:
-        integ.keep_nodes(bp.cx[:1] // 2)
-
-    def advance(k: int) -> None:
-        for _ in range(k):
-            integ.step(diag=full or (rec is not None and rec.due(integ.step_count)))
-            if rec is not None:
-                rec.record_probes()
-                if rec.due(integ.step_count - 1):
-                    rec.sample()
-
-    t0 = time.perf_counter()
-    advance(1)
-    sync()
-    first = time.perf_counter() - t0
-    advance(9)  # warm-up
-    sync()
-    t0, c0 = time.perf_counter(), time.process_time()
-    advance(steps)
-    sync()
-    seconds = time.perf_counter() - t0
-    cpu = time.process_time() - c0  # this process's CPU time: not its waits on a busy machine
+    every = int(extra["every"])
+    spool = Path(tempfile.mkdtemp(prefix="ensemble-spool-")) if observe else None
+    obs = {"every": every, "max_samples": steps // every + 8, "max_steps": steps + 8,
+           "probe_nodes": [probe_slot(bp)], "spool_dir": spool} if observe else None
+    try:
+        integ, _, advance = ensemble(bp, tile(extra["d"], B), tile(extra["slide"], B),
+                                     tile(extra["f"], B), tile(extra["u0"], B), xp=xp,
+                                     kernel=kernel, observe=obs, diag=full)
+        t0 = time.perf_counter()
+        advance(1)
+        synchronize(xp)
+        first = time.perf_counter() - t0
+        advance(9)  # warm-up
+        synchronize(xp)
+        t0, c0 = time.perf_counter(), time.process_time()
+        advance(steps)
+        synchronize(xp)
+        seconds = time.perf_counter() - t0
+        cpu = time.process_time() - c0  # this process's CPU time: not its waits on a busy VM
+    finally:
+        if spool is not None:
+            shutil.rmtree(spool, ignore_errors=True)
     out = {"backend": backend, "kernel": kernel, "n": bp.n, "nnz": int(bp.data.size), "B": B,
            "full": full, "steps": steps, "seconds": seconds, "first_s": first, "observe": observe,
            "scene_steps_per_s": B * steps / seconds,
@@ -239,15 +216,12 @@ def run_npz(path: Path, B: int, steps: int, backend: str, kernel: str, observe: 
            "cpu_us_per_scene_step": cpu / (B * steps) * 1e6}
     if check:
         s0 = min(B, extra["u0"].shape[1])
-        ref = BatchedExplicit(bp, extra["d"][:s0], extra["slide"][:s0], extra["f"][:s0],
-                              kernel="numba")
-        ref.set_state(extra["u0"][:, :s0], np.zeros_like(extra["u0"][:, :s0]))
-        for _ in range(integ.step_count):
-            ref.step()
-        u = integ.u[:, :s0]
-        u = np.asarray(u.get() if hasattr(u, "get") else u)
-        st = integ.status[:, :s0]
-        st = np.asarray(st.get() if hasattr(st, "get") else st)
+        ref, _, ref_advance = ensemble(bp, extra["d"][:s0], extra["slide"][:s0],
+                                       extra["f"][:s0], extra["u0"][:, :s0], xp=np,
+                                       kernel="numba", diag=True)
+        ref_advance(integ.step_count)
+        u = host(integ.u[:, :s0])
+        st = host(integ.status[:, :s0])
         scale = float(np.max(np.abs(ref.u)))
         out["check_max_abs_diff_rel"] = float(np.max(np.abs(u - ref.u))) / scale
         out["check_same_bits"] = bool(np.array_equal(u, ref.u))

@@ -1,11 +1,12 @@
-"""Is a transient's wave a member of the band of its own active set? (issue 14, selection)
+"""Is a transient's wave a member of the band of its own active set? (selection)
 
 ``./dev nice python3 benchmarks/travel_active_set.py RUN_DIR [--span S] [--speeds M]
 [--rate bdf1|bdf2] [--inertia rotation|shift] [--tol T] [--sample I]``
 
 The nodal statuses (separation / stick / slip) and slip senses of the run's last sample
 (``--sample I``: sample I) are held fixed. For a fixed active set the wave-frame contact
-law is linear in W at every ω (docs/travelling_waves.md, "The discrete waves come in
+law is linear in W at every ω (archive/travel/travelling_waves_history.md, "The discrete waves come
+in
 bands"):
 
     separated:  λ = S(ω) W = 0                    (both components)

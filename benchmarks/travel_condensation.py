@@ -1,4 +1,4 @@
-"""Cost of one damped wave-frame condensation (issue 14): ``OMP_NUM_THREADS=1 ./dev python3
+"""Cost of one damped wave-frame condensation: ``OMP_NUM_THREADS=1 ./dev python3
 benchmarks/travel_condensation.py [N ...]`` (default 264 528).
 
 For ``scenes/figure1_n132_damped.toml`` at N contact nodes (the scene's Kelvin–Voigt τ), the

@@ -1,5 +1,5 @@
 """The transient's own discrete travelling wave, solved directly: ladders in Δt and in N
-(issue 14 item 3; ``studies.travel.frame``, "Samples" and the central time scheme).
+(``studies.travel.frame``, "Samples" and the central time scheme).
 
 ``./dev nice python3 benchmarks/travel_discrete.py SCENE --k 4 --level N:S[:RUN_DIR] ...
 [--set key=value ...] [--out FILE.jsonl]``

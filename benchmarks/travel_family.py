@@ -1,8 +1,9 @@
-"""Family of FE travelling waves, k = 1 .. 12 (issue 14 item 4): what exists, what attracts.
+"""Family of FE travelling waves, k = 1 .. 12: what exists, what attracts.
 
 ``./dev nice python3 benchmarks/travel_family.py OUT [--scene NAME ...] [--dt-fraction F]``
 then ``./dev python3 benchmarks/travel_family.py OUT --table`` prints the markdown table of
-docs/travelling_waves.md ("Family of FE waves"), with each transient's frame spread
+archive/travel/travelling_waves_history.md ("Family of FE waves"), with each transient's frame
+spread
 (``travel_mismatch.rigidity``: is the limit cycle a rigidly turning wave at all?).
 
 Stage 1 (attractors): for each seed k = 1 .. 12 the transient
@@ -25,7 +26,8 @@ speeds traced (``driver.band``). One JSON line per attempt in OUT/family.jsonl.
 
 ``--samples S --time-scheme central``: the same starts on the transient's own discrete wave
 (``studies.travel.frame``, "Samples" and "Central scheme"; inertia "shift", bdf1 law). Its
-waves are isolated in ω (docs/travelling_waves.md, 2e), so each start gets the free-ω Newton
+waves are isolated in ω (archive/travel/travelling_waves_history.md 2e), so each start gets the
+free-ω Newton
 only (on one wavelength when k divides N·S, ``driver.folded``), no fixed-ω scan and no band;
 the starts from a run are its probe history. Lines in OUT/family_central_sS.jsonl, each
 wave in OUT/waves/SCENE_kK_I.npz (``benchmarks/travel_wave_seeds.py`` starts transients next

@@ -1,5 +1,5 @@
 """Every k-periodic wave of the stick · slip · separation · landing-slip topology, by
-enumeration of active sets (issue 14 items 3-4; ``studies.travel.family``).
+enumeration of active sets (``studies.travel.family``).
 
 ``./dev nice python3 benchmarks/travel_family_scan.py SCENE [--set key=value ...] --c FROM TO
 STEP --stick A B --slip A B [--land A B] [--k 4] [--rate bdf1] [--inertia shift]

@@ -1,4 +1,4 @@
-"""Which wave does the transient reach when it starts *on* a family member? (issue 14 item 4)
+"""Which wave does the transient reach when it starts *on* a family member?
 
 ``./dev nice python3 benchmarks/travel_member_seeds.py FAMILY.json [--pick 8] [--shard I/N]
 [--end-time 0.3] [--window 0.05] [--out FILE.jsonl]``

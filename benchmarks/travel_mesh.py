@@ -1,4 +1,4 @@
-"""Mesh convergence of the travelled wave against the transient (issue 14 item 3, third rung).
+"""Mesh convergence of the travelled wave against the transient (third rung).
 
 ``./dev nice python3 benchmarks/travel_mesh.py RUN_DIR [RUN_DIR ...] [--lumped] [--step S]``
 

@@ -1,5 +1,6 @@
-"""Is a transient's limit cycle a rigidly turning wave? (issue 14, item 3: why the travel
-solver finds no wave near the transient's speed at some N; docs/travelling_waves.md 2d).
+"""Is a transient's limit cycle a rigidly turning wave? (why the travel
+solver finds no wave near the transient's speed at some N;
+archive/travel/travelling_waves_history.md 2d).
 
 ``./dev python3 benchmarks/travel_mismatch.py RUN_DIR [RUN_DIR ...]``
 

@@ -1,4 +1,4 @@
-"""Which member of a band of travelling waves does the transient reach? (issue 14, item 4).
+"""Which member of a band of travelling waves does the transient reach?.
 
 ``./dev nice python3 benchmarks/travel_selection.py RUN_DIR [RUN_DIR ...] [--k K]``
 

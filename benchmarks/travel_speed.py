@@ -1,11 +1,11 @@
-"""Speed of ``stickslip travel`` (issue 14), one core: ``OMP_NUM_THREADS=1 python3
+"""Speed of ``stickslip travel``, one core: ``OMP_NUM_THREADS=1 python3
 benchmarks/travel_speed.py [RUN_DIR]``.
 
 Prints, each with its wall time:
 
 1. the reduced-model rung: one wave (k = 8 example, N = 256) from the closed-form start;
 2. a 40-point continuation in Ω of that reduced wave (50 ... 1000 rad/s);
-3. the FE problem at N = 132 (figure1_n132_damped, the scene's Kelvin–Voigt τ, issue 18):
+3. the FE problem at N = 132 (figure1_n132_damped, the scene's Kelvin–Voigt τ):
    mesh + K + G + D + one condensation (setup), then one wave from the transient run RUN_DIR
    (default runs/figure1_n132_damped; run ``stickslip run scenes/figure1_n132_damped.toml``
    first; fixed-ω nearest-speed route, as ``stickslip travel --fixed-omega``), wall and CPU
@@ -15,8 +15,9 @@ Prints, each with its wall time:
 5. the issue's two targets as whole ``stickslip travel`` processes (start-up and imports
    included, CPU = user + sys of the child): one wave at N = 132 from RUN_DIR (target < 2 s),
    and a 40-point continuation in loading.omega = 40 … 50 rad/s at N = 132 from the same run
-   (target < 60 s); each by the rotation frame (``--fixed-omega``) and by the transient's
-   own discrete wave (``--inertia shift --samples 6 --time-scheme central``).
+   (target < 60 s); each by the rotation frame (``--inertia rotation --fixed-omega``), by
+   the transient's own discrete wave at S = 6 (``--samples 6``) and by the default route
+   (the matched S).
 """
 
 from __future__ import annotations
@@ -114,13 +115,13 @@ def main() -> None:
 
     # 5. the targets as whole processes, two routes: the one-point-per-node rotation frame
     # (fixed ω, band member) and the transient's own discrete wave (central scheme, S = 6,
-    # free ω on one wavelength; docs/travelling_waves.md 2e)
+    # free ω on one wavelength; archive/travel/travelling_waves_history.md 2e)
     if (run_dir / "samples.npz").exists():
         common = ["stickslip", "travel", "scenes/figure1_n132_damped.toml", "--k", "4",
                   "--from", str(run_dir), "--force"]
-        routes = {"rotation --fixed-omega": ["--fixed-omega"],
-                  "central S=6": ["--inertia", "shift", "--samples", "6",
-                                  "--time-scheme", "central"]}
+        routes = {"rotation --fixed-omega": ["--inertia", "rotation", "--fixed-omega"],
+                  "central S=6": ["--samples", "6"],
+                  "default (matched S)": []}
         for route, flags in routes.items():
             for what, extra, target in (
                     ("one wave", ["-o", "/tmp/travel_speed_one"], 2.0),

@@ -1,4 +1,4 @@
-"""Is the wave-frame operator itself mesh-converged? Harmonic symbols of S(ω) (issue 14 item 3).
+"""Is the wave-frame operator itself mesh-converged? Harmonic symbols of S(ω).
 
 The contact nodes are Z_N symmetric, so the condensed wave-frame stiffness S(ω) (polar
 components, ``studies.travel.frame``) is block circulant and the discrete harmonic

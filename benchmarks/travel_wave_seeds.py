@@ -1,4 +1,4 @@
-"""Is a travelling wave an attractor? The transient started next to it (issue 14 item 4).
+"""Is a travelling wave an attractor? The transient started next to it.
 
 ``./dev nice python3 benchmarks/travel_wave_seeds.py WAVE.npz [WAVE.npz ...] [--eps 0.02]
 [--end-time 0.2] [--window 0.025] [--out FILE.jsonl]``

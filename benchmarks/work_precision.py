@@ -70,7 +70,6 @@ def run_point(scheme: str, n: int, fraction: float, extra: tuple[str, ...] = (),
     from postprocess.analysis import analyse
     from solver.run import Diverged, Simulation
     from solver.scene import load_scene
-    from solver.schemes import contact_seconds
 
     over = ["output.progress=false", f"time.end_time={t_end}", f"mesh.n_inner={n}",
             *SCHEMES[scheme], f"time.dt_fraction={fraction}", *extra]
@@ -95,7 +94,7 @@ def run_point(scheme: str, n: int, fraction: float, extra: tuple[str, ...] = (),
         "scheme": scheme, "N": n, "dt_fraction": fraction, "extra": list(extra),
         "dt_s": sim.dt, "steps": sim.integrator.step_count, "dofs": sim.problem.n_global_dofs,
         "setup_s": t1 - t0, "loop_s": t2 - t1, "wall_s": t2 - t0,
-        "contact_s": contact_seconds(sim.integrator),
+        "contact_s": sim.integrator.facts()["contact_s"],
         "regime": w.regime, "mode": w.mode, "celerity": w.celerity_m_s,
         "frequency": w.frequency_hz, "fractions": w.fractions, "amplitude": w.amplitude_m,
         "finite": bool(np.all(np.isfinite(sim.integrator.u))),
@@ -427,13 +426,14 @@ def lean() -> str:
     rows.append(_in_subprocess(
         "import time, numpy as np\n"
         "from mpi4py import MPI\n"
-        "from solver.problem import build_problem, ContactProjection\n"
+        "from solver.contact import ContactLaw, ContactProjection\n"
+        "from solver.problem import build_problem\n"
         "from solver.scene import load_scene\n"
         "res = {}\n"
         "for f in (0.0, 0.7):\n"
         "    sc = load_scene('scenes/smoke.toml', ['mesh.n_inner=528', f'loading.f={f}'])\n"
         "    pb = build_problem(sc, MPI.COMM_SELF)\n"
-        "    pr = ContactProjection(pb, 1e-9, 1e-6)\n"
+        "    pr = ContactProjection(pb, ContactLaw.from_scene(sc, 1e-6))\n"
         "    u = np.random.default_rng(0).normal(size=pb.n_owned) * 1e-3\n"
         "    out = np.zeros_like(u)\n"
         "    best = 1e9\n"

@@ -1,4 +1,4 @@
-"""``stickslip compare RUN_DIR``: the FE wave against the reduced model's waves (issue 5)."""
+"""``stickslip compare RUN_DIR``: the FE wave against the reduced model's waves."""
 
 from __future__ import annotations
 

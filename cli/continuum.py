@@ -1,4 +1,4 @@
-"""``stickslip flutter-exact``: exact continuum flutter of steady sliding (issue 13).
+"""``stickslip flutter-exact``: exact continuum flutter of steady sliding.
 
 Every branch (growth rate, frequency, direction) of the clamped annulus in linearised
 sliding per circumferential order n (``exact.sliding_flutter``), optionally with Kelvin-Voigt

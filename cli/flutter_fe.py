@@ -8,15 +8,17 @@ import json
 import math
 import sys
 import time
-from typing import TYPE_CHECKING
 
 import numpy as np
 
-if TYPE_CHECKING:
-
-    pass
-
-from studies.flutter_fe.cea import CEAResult, build_operators, complex_eigenvalue_analysis
+from studies.flutter_fe.cea import (
+    CEAMode,
+    CEAResult,
+    build_operators,
+    complex_eigenvalue_analysis,
+    friction_relaxation_time,
+    unrepresented_terms,
+)
 from studies.flutter_fe.plots import _distinct, plot_cea_diagram, plot_spectrum
 from studies.flutter_fe.references import reduced_model_flutter
 
@@ -45,9 +47,13 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="complex eigenvalue analysis (CEA) of FE steady sliding (SLEPc)",
         description=(
             "Linearise the FE system about discrete steady sliding (contact nodes stay in "
-            "contact, tangential force = f x normal reaction), solve (K + K_f) phi = w^2 M phi "
-            "with SLEPc shift-and-invert and list the unstable (flutter) modes: growth rate, "
-            "frequency, wavenumber k, propagation direction. Works under mpirun."
+            "contact, tangential force = f x normal reaction), with the scene's Kelvin-Voigt "
+            "damping C = tau (K + K_f) and friction filter: lambda^2 M + lambda C + K + K_f, "
+            "solved exactly through (K + K_f) phi = mu M phi (SLEPc shift-and-invert); with a "
+            "regularised friction bound, the quadratic problem with its relaxation state "
+            "(SLEPc PEP, one rank). Lists the unstable (flutter) modes: frequency, growth "
+            "rate, damping ratio zeta, wavenumber k, direction; mesh-scale modes last. Works "
+            "under mpirun (Coulomb friction)."
         ),
     )
     p.add_argument("scene", help="scene TOML file, or the name of a scene in scenes/")
@@ -57,10 +63,15 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="upper end of the frequency band (Hz, default 10000)")
     p.add_argument("--mass", choices=("lumped", "consistent"), default="lumped",
                    help="mass matrix: the explicit solver's lumped one (default) or consistent")
-    p.add_argument("--friction", choices=("nodal", "1-2-1"), default="nodal",
-                   help="friction force of node i: f x its nodal reaction (default, the "
-                        "transient's law) or f x the 1-2-1 filtered reactions of i-1, i, i+1 "
-                        "(removes the spurious mesh-scale branch, docs/continuum.md)")
+    p.add_argument("--friction", choices=("nodal", "1-2-1"), default=None,
+                   help="friction force of node i: f x its nodal reaction or f x the 1-2-1 "
+                        "filtered reactions of i-1, i, i+1 (removes the spurious mesh-scale "
+                        "branch, docs/friction_filter.md); default: the scene's "
+                        "friction.filter, the transient's law")
+    p.add_argument("--modes", metavar="DIR", default=None,
+                   help="write the unstable mode shapes to DIR: one VTX folder per mode "
+                        "(ParaView: one period of the motion), modes.csv (the table) and "
+                        "contact.csv (psi on the contact circle)")
     p.add_argument("--f-sweep", default=None, metavar="A:B:N|F1,F2,...",
                    help="also sweep the friction coefficient (CEA diagram with --plot)")
     p.add_argument("--kmax", type=int, default=12, help="reduced-model modes to compare (k<=)")
@@ -94,25 +105,46 @@ def flutter_fe_command(args: argparse.Namespace) -> int:
         return fail(str(err))
     if not (math.isfinite(args.fmax_hz) and args.fmax_hz > 0):
         return fail(f"--fmax-hz {args.fmax_hz!r} is out of range: need a frequency > 0 (Hz)")
+    refused = unrepresented_terms(friction_relaxation_time(scene), args.mass, comm.size)
+    if refused:
+        return fail(refused)
+    if args.modes:
+        from studies.flutter_fe.shapes import modes_dir_problem
+
+        bad_dir = modes_dir_problem(args.modes)
+        if bad_dir:
+            return fail(bad_dir)
     from solver.problem import build_problem
 
+    friction = args.friction or scene.friction.filter
     t0 = time.perf_counter()
     problem = build_problem(scene, comm)
     t_build = time.perf_counter() - t0
-    ops = build_operators(problem, args.mass, args.friction)
-    res = complex_eigenvalue_analysis(problem, None, args.fmax_hz, ops=ops)
+    ops = build_operators(problem, args.mass, friction)
+    res = complex_eigenvalue_analysis(problem, None, args.fmax_hz, ops=ops,
+                                      shapes=bool(args.modes))
     res.timings["mesh+assembly"] = t_build
     sweep = None
     if fs is not None:
         sweep = [complex_eigenvalue_analysis(problem, float(f), args.fmax_hz, ops=ops)
                  for f in fs]
+    written = None
+    if args.modes:
+        from studies.flutter_fe.shapes import write_mode_shapes
+
+        resolved, mesh = _listed(res, args.top)
+        where = {id(m): i for i, m in enumerate(res.modes)}
+        written = write_mode_shapes(problem, ops, res, args.modes,
+                                    [where[id(m)] for m in resolved + mesh])
     ops.destroy()
     reduced = reduced_model_flutter(scene, args.kmax)
     if not rank0:
         return 0
     out = res.to_dict()
-    out["friction"] = args.friction
     out["reduced_model"] = reduced
+    out["beta2_note"] = _beta2_note(scene)
+    if written:
+        out["mode_shapes"] = written
     if sweep is not None:
         out["f_sweep"] = [
             {"f": r.f, "max_growth_rate_per_s": (r.unstable()[0].growth_rate
@@ -121,38 +153,99 @@ def flutter_fe_command(args: argparse.Namespace) -> int:
             for r in sweep
         ]
     if args.plot:
-        if sweep is not None:
-            red = {float(f): reduced_model_flutter(scene.with_overrides(f"loading.f={f}"),
-                                                   args.kmax) for f in fs if f > 0}
-            plot_cea_diagram(sweep, args.plot, k_detail=args.k_detail, kmax=args.kmax,
-                             reduced=red, title=f"CEA of steady sliding: {scene.name} "
-                             f"({res.n_free} free dofs, {res.mass} mass, up to "
-                             f"{args.fmax_hz:g} Hz)")
-        else:
-            plot_spectrum(res, args.plot, reduced=reduced)
+        _plot(args, scene, res, sweep, fs, reduced)
     if args.json:
         print(json.dumps(out, indent=2))
     else:
-        _print_table(res, reduced, args.top, args.plot)
+        _print_table(res, reduced, args.top, args.plot, _beta2_note(scene), written)
     return 0
 
 
-def _print_table(res: CEAResult, reduced: list[dict], top: int, plot: str | None) -> None:
+def _plot(args: argparse.Namespace, scene, res: CEAResult, sweep: list[CEAResult] | None,
+          fs: np.ndarray | None, reduced: list[dict]) -> None:
+    if sweep is not None and fs is not None:
+        red = {float(f): reduced_model_flutter(scene.with_overrides(f"loading.f={f}"),
+                                               args.kmax) for f in fs if f > 0}
+        plot_cea_diagram(sweep, args.plot, k_detail=args.k_detail, kmax=args.kmax,
+                         reduced=red, title=f"CEA of steady sliding: {scene.name} "
+                         f"({res.n_free} free dofs, {res.mass} mass, up to "
+                         f"{args.fmax_hz:g} Hz)")
+    else:
+        plot_spectrum(res, args.plot, reduced=reduced)
+
+
+def _beta2_note(scene) -> str | None:
+    """The transient's algorithmic damping is a property of its time step, not of the scene's
+    physics: CEA is the dt -> 0 limit (``newmark_exponents`` maps it to a given dt)."""
+    b2 = scene.time.beta2
+    if b2 <= 0.5:
+        return None
+    return (f"time.beta2 = {b2:g} > 1/2 also damps the transient (algorithmic, dt-dependent): "
+            "not in this continuous-time CEA; studies.flutter_fe.newmark_exponents maps it")
+
+
+def _listed(res: CEAResult, top: int) -> tuple[list[CEAMode], list[CEAMode]]:
+    """The unstable modes the table lists: ``top`` resolved ones, then a few mesh-scale ones
+    (most unstable first in each group)."""
     uns = res.unstable()
+    resolved = [m for m in uns if not m.mesh_scale]
+    mesh = [m for m in uns if m.mesh_scale]
+    return resolved[:top], mesh[:max(3, top // 4)]
+
+
+def _mode_row(m: CEAMode) -> str:
+    flag = "  mesh-scale" if m.mesh_scale else ""
+    return (f"{m.frequency_hz:10.1f} {m.growth_rate:12.2f} {m.zeta:+9.5f} {m.k:+5d} "
+            f"{m.direction:>9} {m.phase_speed_m_s:11.1f} {m.purity:6.3f}{flag}")
+
+
+def _print_table(res: CEAResult, reduced: list[dict], top: int, plot: str | None,
+                 beta2_note: str | None = None, written: dict | None = None) -> None:
+    """The NVH engineer's CEA table: resolved unstable modes first (most unstable first),
+    then the mesh-scale ones with the reason; per-k branches against the reduced model."""
+    uns = res.unstable()
+    resolved = [m for m in uns if not m.mesh_scale]
+    mesh = [m for m in uns if m.mesh_scale]
+    damping = (f"Kelvin-Voigt tau = {res.tau:.3g} s (C = tau (K + K_f))" if res.tau > 0
+               else "no damping (scene has none)")
+    law = (f"regularised bound, t* = {res.t_star:.3g} s" if res.t_star > 0 else "Coulomb")
     lines = [
         f"CEA of steady sliding: scene '{res.scene}', f = {res.f:g}, {res.mass} mass, "
-        f"{res.n_free} free dofs",
-        f"{len(res.modes)} modes up to {res.fmax_hz:g} Hz, {len(uns)} unstable; "
-        f"eigensolve {res.timings['eigensolve']:.2f} s ({res.stats.slices} slices)",
-        f"{'freq (Hz)':>10} {'growth (1/s)':>12} {'k':>4} {'direction':>9} "
-        f"{'speed (m/s)':>11} {'purity':>6}",
+        f"friction {res.friction} ({law}), {damping}; {res.n_free} free dofs, "
+        f"N = {res.n_contact}",
+        f"{len(res.modes)} modes up to {res.fmax_hz:g} Hz: {len(uns)} unstable "
+        f"({len(resolved)} resolved, {len(mesh)} mesh-scale); eigensolve "
+        f"{res.timings['eigensolve']:.2f} s ({res.stats.slices} slices)",
     ]
-    for m in uns[:top]:
-        lines.append(f"{m.frequency_hz:10.1f} {m.growth_rate:12.2f} {m.wavenumber:4d} "
-                     f"{m.direction:>9} {m.phase_speed_m_s:11.1f} {m.purity:6.3f}")
-    lines.append("per k (Hz, 1/s, m/s; speed + = rotation sense):")
-    lines.append(f"{'k':>4} | {'FE lowest branch':^28} | {'FE most unstable':^28} | "
-                 f"{'reduced model eq. [2]':^28}")
+    if beta2_note:
+        lines.append(f"note: {beta2_note}")
+    head = (f"{'freq (Hz)':>10} {'growth (1/s)':>12} {'zeta':>9} {'k':>5} {'direction':>9} "
+            f"{'speed (m/s)':>11} {'purity':>6}")
+    lines.append("zeta = -Re(lambda)/|lambda| (< 0: unstable); k > 0 and speed < 0: against "
+                 "the rotation")
+    shown, shown_mesh = _listed(res, top)
+    lines.append(f"unstable modes resolved by the mesh (most unstable first, {top} at most):")
+    lines.append(head)
+    lines += [_mode_row(m) for m in shown]
+    if len(resolved) > len(shown):
+        lines.append(f"  ... {len(resolved) - len(shown)} more (--top, --json)")
+    if mesh:
+        lines.append(f"{len(mesh)} unstable {res.mesh_scale_reason()}; "
+                     f"the {len(shown_mesh)} fastest:")
+        lines += [_mode_row(m) for m in shown_mesh]
+    lines += _per_k_lines(res, reduced)
+    if plot:
+        lines.append(f"figure: {plot}")
+    if written:
+        lines.append(f"mode shapes of the {written['count']} modes listed above: "
+                     f"{written['dir']} (modes.csv, contact.csv, mode_NN.bp for ParaView)")
+    print("\n".join(lines))
+
+
+def _per_k_lines(res: CEAResult, reduced: list[dict]) -> list[str]:
+    lines = ["per k (Hz, 1/s, m/s; speed + = rotation sense):",
+             f"{'k':>4} | {'FE lowest branch':^28} | {'FE most unstable':^28} | "
+             f"{'reduced model eq. [2]':^28}"]
     red = {r["k"]: r for r in reduced}
     best = res.by_wavenumber()
     for k in sorted(best):
@@ -163,6 +256,6 @@ def _print_table(res: CEAResult, reduced: list[dict], top: int, plot: str | None
         cells.append((red[k]["frequency_hz"], red[k]["growth_rate_per_s"],
                       red[k]["phase_speed_m_s"]))
         lines.append(f"{k:4d} | " + " | ".join(f"{a:8.1f} {b:8.1f} {c:+9.1f}" for a, b, c in cells))
-    if plot:
-        lines.append(f"figure: {plot}")
-    print("\n".join(lines))
+    if res.tau > 0:
+        lines.append("(the reduced model of eq. [2] has no damping)")
+    return lines

@@ -102,7 +102,14 @@ def _sweep(args: argparse.Namespace) -> int:
         if backend == "gpu":
             from solver.ensemble import array_namespace
 
-            array_namespace("gpu")
+            xp = array_namespace("gpu")
+            try:  # CuPy imports without a driver or a device; the first allocation fails
+                devices, why = xp.cuda.runtime.getDeviceCount(), ""
+            except RuntimeError as err:
+                devices, why = 0, f" ({err})"
+            if devices < 1:
+                raise ValueError(f"--backend gpu: CuPy finds no CUDA device{why}; run on a "
+                                 "GPU node or use --backend cpu")
             if batch == "off":
                 raise ValueError("--backend gpu runs batches: add --batch auto or --batch B")
     except (ValueError, ImportError) as err:

@@ -1,4 +1,4 @@
-"""``stickslip travel SCENE --k K``: a travelling wave computed directly in its frame (issue 14).
+"""``stickslip travel SCENE [--from RUN]``: a travelling wave computed directly in its frame.
 
 Heavy imports (dolfinx, matplotlib) stay inside the handler.
 """
@@ -16,17 +16,27 @@ def register(sub: argparse._SubParsersAction) -> None:
         "travel",
         help="compute a travelling wave on the FE mesh in the wave's frame (Newton)",
         description=(
-            "Travelling wave u = Q(wt) w(Q(wt)^T x) of the scene's FE tube: K - w^2 G condensed "
-            "on the contact nodes, nodal contact law, semismooth Newton for (w, omega) with a "
-            "phase condition. Writes OUT/summary.json (keys of `stickslip run` + residual and "
-            "inequality margins) and OUT/profiles.npz (U, V, P, Q over one period). "
+            "Travelling wave of the scene's FE tube, solved in the wave's frame by a "
+            "semismooth Newton for (W, omega). By default the transient's own discrete wave: "
+            "the explicit scheme's step h = node passage / S with S = round(node passage / dt), "
+            "dt the run's (--from) or the one `stickslip run` uses for the scene, so the "
+            "wave is the one `stickslip run` computes. --dt-limit: the dt -> 0 wave on the "
+            "same mesh; --inertia rotation or --time-scheme exact: the continuum routes "
+            "(exact in time). Writes OUT/summary.json (keys of `stickslip run` + residual, "
+            "inequality margins, the run's values) and OUT/profiles.npz. "
             "docs/travelling_waves.md"
         ),
     )
     p.add_argument("scene", help="scene TOML file, or the name of a scene in scenes/")
-    p.add_argument("--k", type=int, required=True, help="wavenumber (waves per turn), >= 1")
+    p.add_argument("--k", type=int, default=None,
+                   help="wavenumber (waves per turn), >= 1 (default with --from: the run's)")
     p.add_argument("--from", dest="from_run", metavar="RUN_DIR",
-                   help="start from the last sample of a transient run directory")
+                   help="solve the wave of a finished `stickslip run` directory: its k, its "
+                        "time step, its probe history as the start; refused (exit 1) when "
+                        "its end state is not a rigidly travelling wave")
+    p.add_argument("--dt-limit", action="store_true",
+                   help="also solve the dt -> 0 wave on the same mesh (the waves at 2S and 4S "
+                        "extrapolated in the step; default route only)")
     p.add_argument("--start", choices=("auto", "reduced"), default="auto",
                    help="start without --from: the reduced model's wave at k (default)")
     p.add_argument("--continue", dest="cont", metavar="KEY=A:B:N",
@@ -47,17 +57,18 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "bdf2 (second order, default) or bdf1 (first order: what the transient "
                         "sees on a rigidly travelling P1 wave; the default, and the only "
                         "choice, with --time-scheme central)")
-    p.add_argument("--inertia", default="rotation", metavar="OPERATOR",
-                   help="wave-frame operator: rotation (K - w^2 G - w D, the continuous "
-                        "rotation, default) or shift (the transient's own travelling "
-                        "operator per discrete harmonic, lumped mass; docs/travelling_waves.md)")
-    p.add_argument("--samples", type=int, default=1, metavar="S",
+    p.add_argument("--inertia", default="shift", metavar="OPERATOR",
+                   help="wave-frame operator: shift (the transient's own travelling operator "
+                        "per discrete harmonic, lumped mass; default) or rotation (K - w^2 G - "
+                        "w D, the continuous rotation: a continuum route, exact in time)")
+    p.add_argument("--samples", type=int, default=None, metavar="S",
                    help="contact points per mesh node with --inertia shift: the node's history "
-                        "between node passages (default 1; docs/travelling_waves.md, Samples)")
-    p.add_argument("--time-scheme", default="exact", choices=("exact", "central"),
-                   help="with --inertia shift: exact in time (default) or the transient's "
-                        "explicit central-difference step h = node passage / samples (its own "
-                        "discrete travelling wave; docs/travelling_waves.md)")
+                        "between node passages (default: the matched S = round(node passage "
+                        "/ dt) with the central scheme, 1 with --time-scheme exact)")
+    p.add_argument("--time-scheme", default=None, choices=("exact", "central"),
+                   help="with --inertia shift: the transient's explicit central-difference "
+                        "step h = node passage / S (default: its own discrete wave) or exact "
+                        "in time (a continuum route, the dt -> 0 limit at large S)")
     p.add_argument("--max-iter", type=int, default=60, help="Newton iterations (default 60)")
     p.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
                    help="override a scene field (repeatable)")
@@ -93,7 +104,7 @@ def parse_continue(text: str) -> tuple[str, list[float]]:
 
 
 def _import_dolfinx_without_numba() -> None:
-    """Import dolfinx with numba hidden (issue 14's speed target). ``dolfinx.utils`` imports
+    """Import dolfinx with numba hidden (the speed target). ``dolfinx.utils`` imports
     numba and LLVM at import time for its numba helpers only. ``travel`` runs no compiled
     kernel, and that import is 0.2-0.3 s of the command's ~2 s of CPU (docs/
     travelling_waves.md, "Speed"). numba is importable again afterwards; only dolfinx's
@@ -107,38 +118,54 @@ def _import_dolfinx_without_numba() -> None:
         del sys.modules["numba"]
 
 
+def _check_args(args: argparse.Namespace) -> str | None:
+    """The first bad argument as a one-line message, or None; fills the route's defaults."""
+    _import_dolfinx_without_numba()
+    from studies.travel.frame import INERTIAS
+    from studies.travel.newton import RATES
+
+    if args.k is not None and args.k < 1:
+        return f"--k {args.k}: the wavenumber must be an integer >= 1"
+    if args.k is None and not args.from_run:
+        return "--k: give the wavenumber (or --from RUN_DIR, whose k is the default)"
+    if args.damping is not None and args.damping < 0:
+        return f"--damping {args.damping}: the retardation time must be >= 0"
+    if args.celerity is not None and args.celerity == 0.0:
+        return "--celerity 0: a travelling wave needs a non-zero speed (sign = sense)"
+    if args.max_iter < 1:
+        return f"--max-iter {args.max_iter}: must be >= 1"
+    if args.inertia not in INERTIAS:
+        return f"--inertia {args.inertia}: use {' or '.join(INERTIAS)}"
+    if args.time_scheme is None:
+        args.time_scheme = "central" if args.inertia == "shift" else "exact"
+    if args.rate is None:
+        args.rate = "bdf1" if args.time_scheme == "central" else "bdf2"
+    if args.time_scheme == "central" and args.rate != "bdf1":
+        return (f"--rate {args.rate}: the central time scheme is the transient's step, whose "
+                "contact law is first order (bdf1); drop --rate")
+    if args.rate not in RATES:
+        return (f"--rate {args.rate}: the material-derivative scheme must be one of "
+                f"{', '.join(RATES)}")
+    if args.samples is not None and (args.samples < 1 or (args.samples > 1
+                                                          and args.inertia != "shift")):
+        return (f"--samples {args.samples}: give a whole number >= 1; more than 1 needs "
+                "--inertia shift")
+    if args.time_scheme != "exact" and args.inertia != "shift":
+        return f"--time-scheme {args.time_scheme}: needs --inertia shift"
+    if args.dt_limit and (args.time_scheme != "central" or args.cont):
+        return ("--dt-limit: the dt -> 0 wave extrapolates the central scheme's step; drop "
+                "--inertia rotation / --time-scheme exact / --continue")
+    return None
+
+
 def _travel(args: argparse.Namespace) -> int:
     from solver.scene import SceneError, load_scene
     from studies.output import output_root
 
     t0 = time.perf_counter()
-    if args.k < 1:
-        return _err(f"--k {args.k}: the wavenumber must be an integer >= 1")
-    if args.damping is not None and args.damping < 0:
-        return _err(f"--damping {args.damping}: the retardation time must be >= 0")
-    if args.celerity is not None and args.celerity == 0.0:
-        return _err("--celerity 0: a travelling wave needs a non-zero speed (sign = sense)")
-    if args.max_iter < 1:
-        return _err(f"--max-iter {args.max_iter}: must be >= 1")
-    _import_dolfinx_without_numba()
-    from studies.travel.frame import INERTIAS
-    from studies.travel.newton import RATES
-
-    if args.rate is None:
-        args.rate = "bdf1" if args.time_scheme == "central" else "bdf2"
-    if args.time_scheme == "central" and args.rate != "bdf1":
-        return _err(f"--rate {args.rate}: the central time scheme is the transient's step, whose "
-                    "contact law is first order (bdf1); drop --rate")
-    if args.inertia not in INERTIAS:
-        return _err(f"--inertia {args.inertia}: use {' or '.join(INERTIAS)}")
-    if args.rate not in RATES:
-        return _err(f"--rate {args.rate}: the material-derivative scheme must be one of "
-                    f"{', '.join(RATES)}")
-    if args.samples < 1 or (args.samples > 1 and args.inertia != "shift"):
-        return _err(f"--samples {args.samples}: give a whole number >= 1; more than 1 needs "
-                    "--inertia shift")
-    if args.time_scheme != "exact" and args.inertia != "shift":
-        return _err(f"--time-scheme {args.time_scheme}: needs --inertia shift")
+    bad = _check_args(args)
+    if bad:
+        return _err(bad)
     try:
         scene = load_scene(args.scene, args.overrides)
         cont = parse_continue(args.cont) if args.cont else None
@@ -148,10 +175,26 @@ def _travel(args: argparse.Namespace) -> int:
         return _err(str(err))
     if args.damping is None:  # same physics as the transient: the scene's Kelvin-Voigt tau
         args.damping = float(scene.damping.tau)
-    from cli.checks import samples_problem
+    args.end = None
+    if args.from_run:
+        from cli.checks import samples_problem
+        from studies.travel.from_run import NotRigidWave, read_end_state
 
-    if args.from_run and (problem := samples_problem(args.from_run)):
-        return _err(f"--from: {problem}")
+        if problem := samples_problem(args.from_run):
+            return _err(f"--from: {problem}")
+        try:
+            args.end = read_end_state(Path(args.from_run))
+        except NotRigidWave as err:
+            print(f"error: {err}", file=sys.stderr)
+            return 1
+        except ValueError as err:
+            return _err(f"--from {err}")
+        if args.k is None:
+            args.k = args.end.k
+    try:
+        _matched_step(scene, args)
+    except ValueError as err:
+        return _err(str(err))
     out = Path(args.output) if args.output else output_root() / f"{scene.name}_travel_k{args.k}"
     from studies.travel.output import prepare_dir
 
@@ -166,20 +209,65 @@ def _travel(args: argparse.Namespace) -> int:
     return _one_wave(scene, args, out, t0)
 
 
+def _matched_step(scene, args: argparse.Namespace) -> None:
+    """``args.samples`` when not given: 1 for the exact-in-time route; for the central scheme
+    S = round(node passage / dt) (``studies.travel.from_run.matched_samples``) with the run's
+    dt and speed (--from), else the dt ``stickslip run`` uses for the scene and the start's
+    speed (``args.problem``, ``args.reduced``: the mesh and the start, reused)."""
+    import math
+
+    from studies.travel.from_run import matched_samples, scene_time_step
+
+    args.problem, args.reduced = None, None
+    if args.samples is not None:
+        return
+    if args.time_scheme != "central":
+        args.samples = 1
+        return
+    if args.end is not None and scene.mesh.n_inner == args.end.samples["theta"].size:
+        args.samples = matched_samples(args.end.node_passage, args.end.dt)
+        return
+    from solver.problem import build_problem
+    from studies.travel import driver as D
+
+    args.problem = build_problem(scene)
+    dt = scene_time_step(scene, args.problem)
+    if args.celerity is not None:
+        omega = args.celerity / scene.geometry.R
+    elif args.end is not None:
+        omega = args.end.omega
+    else:
+        args.reduced = D.reduced_start(scene, args.k)
+        omega = args.reduced[1]
+    n = args.problem.nodes.theta.size
+    args.samples = matched_samples(2.0 * math.pi / (n * abs(omega)), dt)
+
+
 def _one_wave(scene, args: argparse.Namespace, out: Path, t0: float) -> int:
     import json
+
+    import numpy as np
 
     from studies.travel import driver as D
     from studies.travel.newton import NotConverged
     from studies.travel.output import plot_profiles, write_failure, write_wave
 
+    matched = (args.end is not None and args.time_scheme == "central"
+               and args.celerity is None and not args.fixed_omega)
     try:
-        st = D.setup(scene, args.damping, rate=args.rate, inertia=args.inertia,
-                     samples=args.samples, time_scheme=args.time_scheme)
-        if args.from_run:
-            W0, om0, info = D.start_from_run(Path(args.from_run), st)
+        if matched:  # the run's own wave: its fallbacks (studies.travel.from_run)
+            from studies.travel.from_run import solve_matched
+
+            W0 = om0 = None
+            info = {"start": "run", "from": str(args.from_run)}
         else:
-            W0, om0, info = D.start_from_reduced(st, args.k)
+            st = D.setup(scene, args.damping, rate=args.rate, inertia=args.inertia,
+                         samples=args.samples, time_scheme=args.time_scheme,
+                         problem=args.problem)
+            if args.from_run:
+                W0, om0, info = D.start_from_run(Path(args.from_run), st)
+            else:
+                W0, om0, info = D.start_from_reduced(st, args.k, args.reduced)
     except ValueError as err:
         return _err(str(err))
     if args.celerity is not None:
@@ -187,8 +275,12 @@ def _one_wave(scene, args: argparse.Namespace, out: Path, t0: float) -> int:
         info["start_celerity_m_s"] = args.celerity
     t_setup = time.perf_counter() - t0
     try:
-        sol = D.solve_scene(st, args.k, W0, om0, max_iter=args.max_iter,
-                            free_omega=not args.fixed_omega)
+        if matched:
+            args.end.scene = scene  # the physics of the command line (--set applies)
+            st, sol, info["start"] = solve_matched(args.end, args.samples, args.max_iter)
+        else:
+            sol = D.solve_scene(st, args.k, W0, om0, max_iter=args.max_iter,
+                                free_omega=not args.fixed_omega)
     except NotConverged as err:
         summary = {"status": "failed", "reason": str(err), "k": args.k,
                    "last_residual": err.info.get("residual"),
@@ -205,6 +297,19 @@ def _one_wave(scene, args: argparse.Namespace, out: Path, t0: float) -> int:
         print(f"(summary: {out / 'summary.json'}; no wave written)", file=sys.stderr)
         return 1
     summary, profiles = D.measure(st, sol, args.k)
+    if args.end is not None:
+        from studies.travel.from_run import compare_with_run
+
+        summary["from_run"] = compare_with_run(args.end, st, sol, summary)
+        if args.dt_limit:
+            from studies.travel.from_run import dt_limit_wave
+
+            summary["dt_limit"] = dt_limit_wave(args.end, args.samples,
+                                                np.r_[sol.W_r, sol.W_t], sol.omega)
+    elif args.dt_limit:
+        from studies.travel.from_run import dt_limit_scene
+
+        summary["dt_limit"] = dt_limit_scene(st, args.k, np.r_[sol.W_r, sol.W_t], sol.omega)
     if args.band:
         summary["band"] = D.band(st, sol, args.k)
     summary.update(info, damping_s=args.damping, inertia=args.inertia, setup_time_s=t_setup,
@@ -222,6 +327,16 @@ def _one_wave(scene, args: argparse.Namespace, out: Path, t0: float) -> int:
               f"(sub-node); amplitude {summary['amplitude_m']:.4g} m; residual "
               f"{summary['residual']:.1e} in {summary['iterations']} iterations; "
               f"inequalities: all satisfied")
+        if "from_run" in summary:
+            print(f"against the run: {summary['from_run']['message']}")
+        if "dt_limit" in summary:
+            lim = summary["dt_limit"]
+            order = "no asymptotic range" if lim["order"] is None else f"order {lim['order']:.2f}"
+            print(f"dt -> 0 wave: celerity {lim['celerity_m_s']:.1f} m/s, amplitude "
+                  f"{lim['amplitude_m']:.4g} m (S = "
+                  f"{', '.join(str(v['samples']) for v in lim['levels'])}, {order})"
+                  + (f"; the run's dt error {lim['run_dt_error']:+.2%}"
+                     if lim.get("run_dt_error") is not None else ""))
         if "band" in summary:
             b = summary["band"]
             print(f"band: admissible for {b['celerity_m_s'][0]:.1f} ... "

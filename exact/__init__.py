@@ -1,4 +1,4 @@
-"""Exact continuum references (issue 13), dolfinx-free (numpy/scipy only).
+"""Exact continuum references, dolfinx-free (numpy/scipy only).
 
 * :mod:`exact.annulus`: plane-strain clamped annulus, Bessel potentials per circumferential
   order n (dynamic determinant at ``r = R``) and a Chebyshev collocation of the same problem;

@@ -1,4 +1,4 @@
-"""Inertia of a wave that is stationary in a frame turning at ω (issue 14, ``stickslip travel``).
+"""Inertia of a wave that is stationary in a frame turning at ω (``stickslip travel``).
 
 A wave turning rigidly at angular speed ω is u(x, t) = Q(ωt) w(Q(ωt)ᵀx), Q(α) = exp(αJ),
 J = [[0, −1], [1, 0]] the quarter turn. With y = Qᵀx, dy/dα = −Jy and ∇w·(−Jy) = −∂_θ w
@@ -48,6 +48,7 @@ def travelling_transport(u: ufl.Argument, v: ufl.Argument, rho: float) -> ufl.Fo
     C = τK applied to the frame velocity; ``studies.travel.frame.frame_operators``). Only first
     derivatives of w appear. The direct form τ∫σ((∂_θ − J)w):ε(v) would differentiate ∇w once
     more inside each cell, which P1 cannot: it loses the leading term τ∂_θ ε(w) and gives
-    ~−0.03 of the damping on a travelling harmonic (docs/travelling_waves.md, 2d)."""
+    ~−0.03 of the damping on a travelling harmonic (archive/travel/travelling_waves_history.md
+    2d)."""
     x = ufl.SpatialCoordinate(u.ufl_function_space().mesh)
     return rho * ufl.inner(frame_derivative(u, x), v) * ufl.dx

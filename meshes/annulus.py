@@ -59,11 +59,6 @@ class TubeMesh:
         """Number of cell edges on the contact circle."""
         return self.n_inner // self.degree
 
-    @property
-    def outer_radius(self) -> float:
-        """``R* = ξR``."""
-        return self.xi * self.R
-
 
 def auto_n_radial(xi: float, n_edges: int) -> int:
     """Layers giving ≈ square cells at r = R: ``round((ξ−1)·n_edges/(2π))``, at least 2."""

@@ -19,7 +19,7 @@ the exact identity
 
 so the normal contact force only removes energy (impacts), lift-off is free, and without contact
 the scheme is the trapezoidal rule. The textbook variant (force averaged over the step,
-(r_n + r_{n+1}) / 2) gains r_n . du / 2 at every lift-off and blew up in a first prototype
+(r_n + r_{n+1}) / 2) gains r_n . du / 2 at every lift-off, which makes the scheme unstable
 (docs/stability.md). The price: the contact force is first order in time, and the normal
 velocity of a node in persistent contact alternates in sign (bounded).
 

@@ -136,7 +136,8 @@ class Simulation:
 
     def _observers(self, output_dir: Path | None) -> list:
         """The observers with a cadence, in the order they see a level: field output (only
-        when the scene asks for it), then the samples with their checks."""
+        when the scene asks for it), the samples with the energy guard, the progress line,
+        the stop check."""
         from solver.observers import Progress
 
         sc = self.scene
@@ -148,7 +149,7 @@ class Simulation:
 
             self.writer = FieldWriter(self.problem, Path(output_dir) / "fields.xdmf")
             observers.append(FieldOutput(self, sc.output.field_interval))
-        observers.append(Sampling(self))
+        observers += [Sampling(self), ProgressLine(self), StopCheck(self)]
         return observers
 
     def planned_steps(self) -> int:
@@ -386,9 +387,8 @@ class FieldOutput:
 
 
 class Sampling:
-    """Observer: the inner-circle samples and energies, then at the same level the health
-    check (``Simulation._check_health``), a progress line when one is due, and the stop
-    check agreed by every rank (``Simulation._stop_now``)."""
+    """Observer: the inner-circle samples and energies at ``output.sample_interval``, then the
+    energy guard (``Simulation._check_health``) on them."""
 
     def __init__(self, sim: Simulation) -> None:
         self.sim = sim
@@ -399,10 +399,40 @@ class Sampling:
         return self.recorder.due(level)
 
     def observe(self, stepper) -> str:
-        sim, rec = self.sim, self.recorder
-        kin, strain = rec.sample(stepper)
-        sim._check_health(kin, strain)
-        if sim.comm.rank == 0 and sim.progress.due():
-            recent = zone_fractions(rec.recent_status(max(1, rec.n // 10)))
-            sim.progress.update(stepper.time, stepper.step_count, recent)
-        return sim._stop_now()
+        kin, strain = self.recorder.sample(stepper)
+        self.sim._check_health(kin, strain)
+        return ""
+
+
+class ProgressLine:
+    """Observer: one progress line on rank 0 at a sampled level once ``Progress.interval``
+    seconds of wall time have passed (the zone fractions of the recent samples)."""
+
+    def __init__(self, sim: Simulation) -> None:
+        self.progress, self.recorder = sim.progress, sim.recorder
+        self.cadence = Cadence(sim.recorder.every)
+        self.enabled = sim.comm.rank == 0
+
+    def due(self, level: int) -> bool:
+        return self.enabled and self.cadence.at(level) and self.progress.due()
+
+    def observe(self, stepper) -> str:
+        rec = self.recorder
+        recent = zone_fractions(rec.recent_status(max(1, rec.n // 10)))
+        self.progress.update(stepper.time, stepper.step_count, recent)
+        return ""
+
+
+class StopCheck:
+    """Observer: at each sampled level, whether to stop (a signal, the wall-time limit),
+    agreed by every rank (``Simulation._stop_now``: one integer allreduce)."""
+
+    def __init__(self, sim: Simulation) -> None:
+        self.sim, self.recorder = sim, sim.recorder
+        self.cadence = Cadence(sim.recorder.every)
+
+    def due(self, level: int) -> bool:
+        return self.recorder.due(level)
+
+    def observe(self, stepper) -> str:
+        return self.sim._stop_now()

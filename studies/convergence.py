@@ -1,4 +1,4 @@
-"""The convergence study of the FE limit cycle (issue 13): cases, one run, its measures.
+"""The convergence study of the FE limit cycle: cases, one run, its measures.
 
 A case is Figure-3 or Figure-1 physics ("fig3": Omega = 50 rad/s, delta = 4e-4, f = 0.7;
 "fig1": Omega = 40, delta = 1e-3, f = 0.7) at N contact nodes, beta2, dt = frac x dt_crit,

@@ -1,4 +1,4 @@
-"""FE <-> semi-analytical verification: ``stickslip compare RUN_DIR`` (issue 5).
+"""FE <-> semi-analytical verification: ``stickslip compare RUN_DIR``.
 
 * ``compare_run``: the FE wave of a run directory (``postprocess.analysis.analyse_run``: k, signed
   celerity, frequency, psi1, psi2, amplitudes, zone order) side by side with every travelling
@@ -85,7 +85,9 @@ def semianalytic_waves(p: dict[str, float], k: int) -> list[dict]:
 
     ``semianalytic.waves.find_waves`` (stick-slip and both stick-slip-separation closures),
     in physical units: celerity (m/s, signed), frequency (Hz), psi1, psi2 (time order, the
-    paper's layout), amplitude max(U) - delta and (max V - min V) / 2 in metres.
+    paper's layout), amplitude max(U) - delta and (max V - min V) / 2 in metres; ``branch``
+    names the root and how it was found, ``why_not`` says in words which inequality fails
+    and by how much (``violated``: its equation tag).
     """
     from semianalytic.waves import find_waves
 
@@ -101,8 +103,62 @@ def semianalytic_waves(p: dict[str, float], k: int) -> list[dict]:
             "amplitude_r_m": w.amplitude * p["R"], "amplitude_theta_m": w.v_amplitude * p["R"],
             "direction": "rotation" if w.c > 0 else "opposite",
             "admissible": bool(w.admissible), "violated": w.violated,
+            "branch": branch_description(w, s["celerity_m_s"]),
+            "why_not": violation_in_words(w, p["R"]) if w.violated else None,
         })
     return out
+
+
+#: How ``semianalytic.waves.find_waves`` finds each kind of root, and which junction
+#: conditions close it (docs/semianalytic.md).
+_SEARCH = {
+    "friction-bound": "multistart: minima of the residual on a (c, psi) grid, each refined by "
+                      "a hybrid Newton solve; closed by |Q| = fP at stick -> slip",
+    "impact": "multistart: minima of the residual on a (c, psi1, psi2) grid, Newton; "
+              "junctions: lift-off at P = 0, an impact at landing, |Q| = fP at stick -> slip",
+    "smooth": "multistart: minima of the residual on a (c, psi1, psi2) grid, Newton; "
+              "junctions: U, V, U', V' continuous at all three zone ends (the paper's count)",
+}
+
+
+def branch_description(w, celerity_m_s: float) -> str:
+    """The root (celerity, zone fractions, residual) and how it was found, in one line."""
+    root = f"c = {celerity_m_s:+.0f} m/s"
+    root += f", psi2 = {w.psi2:.3f}" if w.regime == "stick-slip" else \
+        f", psi1 = {w.psi1:.3f}, psi2 = {w.psi2:.3f}"
+    return f"root {root} (residual {w.residual:.1g}); {_SEARCH.get(w.junction, w.junction)}"
+
+
+def violation_in_words(w, R: float = 1.0) -> str:
+    """Which inequality of eqs. [5]-[7] (or of the landing impact) the wave ``w`` breaks, and
+    by how much, in words (``w.violated`` is its tag; the amounts from the wave's fields)."""
+    ev = w.evaluate_s(2000)
+    zone, P, Q = ev["zone"], ev["P"], ev["Q"]
+    stick, slip, sep = zone == 1, zone == 2, zone == 0
+    tag = w.violated or ""
+    if tag.startswith("[7]"):
+        pen = R * float(np.max(w.delta - ev["U"][sep]))
+        return (f"in its separation zone the tube passes into the cylinder, by up to "
+                f"{pen * 1e3:.3g} mm ({pen / (w.delta * R):.0%} of the mismatch d)")
+    if tag == "[6] |Q| < fP in stick":
+        ratio = float(np.max(np.abs(Q[stick]) / (w.f * P[stick])))
+        return f"to stick it needs a friction force up to {ratio:.2g} x the Coulomb bound fP"
+    if tag in ("[6] P >= 0 in stick", "[5] P >= 0 in slip"):
+        where = stick if "stick" in tag else slip
+        ratio = float(np.min(P[where]) / np.max(np.abs(P)))
+        return (f"in {'stick' if 'stick' in tag else 'slip'} the cylinder would have to pull "
+                f"the tube: the normal reaction P falls to {ratio:.2g} x its peak")
+    if tag.startswith("[5] 1 + cV'"):
+        rate = float(np.min(1.0 - abs(w.c) * ev["Vs"][slip]))
+        return (f"in slip the slip velocity reverses (down to {rate:.2g} x R Omega) while "
+                "friction still acts forward")
+    if tag == "impact: normal impulse >= 0":
+        return "at landing the impact impulse would pull the tube off the cylinder"
+    if tag == "impact: |J| <= f I":
+        i_n, i_t = w.info.get("impulse_normal", 0.0), w.info.get("impulse_tangential", 0.0)
+        ratio = abs(i_t) / (w.f * i_n) if i_n > 0 else math.inf
+        return f"at landing the tangential impulse is {ratio:.2g} x f times the normal one"
+    return tag
 
 
 # ---------------------------------------------------------------------------------------------
@@ -179,15 +235,17 @@ def _cell(col: dict, row: tuple) -> str:
 
 
 def format_table(result: dict, markdown: bool = False) -> str:
-    """The comparison as a text (or markdown) table: one column per wave."""
-    cols = [result["fe"]] + result["semianalytic"]
-    heads = ["quantity"] + [c["source"] for c in cols]
+    """The comparison as a text (or markdown) table: the FE wave, then one column R1, R2, ...
+    per reduced-model wave; a legend naming each R's branch and why it is inadmissible; the
+    reduced flutter mode; one concluding line."""
+    fe, red = result["fe"], result["semianalytic"]
+    cols = [fe] + red
+    labels = [f"R{i} {_short(c)}" for i, c in enumerate(red, start=1)]
+    heads = ["quantity", fe["source"]] + labels
     body = [[r[0]] + [_cell(c, r) for c in cols] for r in ROWS]
-    for c in result["semianalytic"]:
-        if c.get("violated"):
-            c.setdefault("zone_order", "")
-    violated = ["violated"] + ["–"] + [c.get("violated") or "–" for c in result["semianalytic"]]
-    body.append(violated)
+    for row in body:
+        if row[0] == "admissible":
+            row[2:] = ["yes" if c["admissible"] else "no" for c in red]
     p = result["parameters"]
     lines = [f"Omega = {p['omega']:g} rad/s, delta = {p['delta']:g}, f = {p['f']:g}, "
              f"nu = {p['nu']:g}, xi = {p['xi']:g}, R = {p['R']:g} m, "
@@ -200,6 +258,12 @@ def format_table(result: dict, markdown: bool = False) -> str:
         widths = [max(len(str(r[i])) for r in [heads, *body]) for i in range(len(heads))]
         for r in [heads, *body]:
             lines.append("  ".join(str(x).ljust(w) for x, w in zip(r, widths, strict=True)))
+    lines.append(f"{fe['source']}: transient, N = {fe.get('n_inner')}, beta2 = "
+                 f"{fe.get('beta2')}, seed {fe.get('seed')}, limit cycle {fe.get('limit_cycle')}")
+    for i, c in enumerate(red, start=1):
+        verdict = "admissible" if c["admissible"] else \
+            f"NOT admissible: {c.get('why_not') or c.get('violated')}"
+        lines.append(f"R{i} = {c['source']}, {c.get('branch', '')}. {verdict}.")
     for k, modes in result["reduced_modes"].items():
         lines.append(
             f"reduced model, k = {k}: flutter phase speed "
@@ -209,7 +273,37 @@ def format_table(result: dict, markdown: bool = False) -> str:
             f"{modes['free_tangential']['frequency_hz']:.0f} / "
             f"{modes['free_radial']['frequency_hz']:.0f} Hz, sliding "
             f"{modes['sliding']['frequency_hz']:.0f} Hz")
+    lines.append(conclusion(result))
     return "\n".join(lines)
+
+
+def _short(col: dict) -> str:
+    """Column label of a reduced wave: regime and closure in a few characters."""
+    if col["regime"] == "stick-slip":
+        return "stick-slip"
+    return f"st-sl-sep ({col['source'].split('(')[-1].rstrip(')')})"
+
+
+def conclusion(result: dict) -> str:
+    """One line: what the comparison concludes."""
+    fe = result["fe"]
+    same_k = [c for c in result["semianalytic"] if c["k"] == fe["k"]]
+    ok = [c for c in same_k if c["admissible"]]
+    sense = {"opposite": "against the rotation", "rotation": "with the rotation"}
+    head = (f"Conclusion: the FE wave is {fe['regime']} k = {fe['k']}, "
+            f"{sense.get(fe['direction'], fe['direction'])} at {fe['celerity_m_s']:+.0f} m/s")
+    why = ("docs/verification.md, 'Why the FE wave travels at ≈ −2500 m/s': the reduced "
+           "model's one-term radial ansatz X(r) cannot carry the tube's free radial flight")
+    if not ok:
+        return (f"{head}, while the reduced model has no admissible wave of k = {fe['k']} here "
+                f"(all {len(same_k)} roots break a contact inequality, above); see {why}.")
+    best = min(ok, key=lambda c: abs(c["celerity_m_s"] - fe["celerity_m_s"]))
+    n = result["semianalytic"].index(best) + 1
+    agree = "the same regime" if best["regime"] == fe["regime"] else \
+        f"a {best['regime']} wave"
+    return (f"{head}; the nearest admissible reduced wave R{n} is {agree} at "
+            f"{best['celerity_m_s']:+.0f} m/s (FE / reduced celerity "
+            f"{fe['celerity_m_s'] / best['celerity_m_s']:.2f}); see {why}.")
 
 
 # ---------------------------------------------------------------------------------------------
@@ -226,13 +320,19 @@ def fe_modes(scene, kmax: int = 16, n_eig: int = 80,
     speed (from the balance of e^{+ik theta} and e^{-ik theta} in the complex eigenvector,
     time factor e^{-i w t}). Flutter (condition d): the contact nodes keep u_r = d, their
     radial reaction is r_r = (K u)_r and the friction force r_theta = f r_r (sliding, q = f p,
-    the cylinder dragging along +theta), i.e. M u'' + (K - f E K_r) u = 0 on the free dofs.
+    the cylinder dragging along +theta), i.e. M u'' + (K - f E K_r) u = 0 on the free dofs,
+    with the scene's Kelvin-Voigt damping applied to the flutter exponents
+    (``studies.flutter_fe.cea.damped_exponents``); the natural frequencies of (a)-(c) are
+    the undamped ones.
     """
     import scipy.sparse as sp
     import scipy.sparse.linalg as spla
     from mpi4py import MPI
 
     from solver.problem import build_problem
+    from studies.flutter_fe.cea import damped_exponents
+
+    tau = scene.damping.tau
 
     prob = build_problem(scene, MPI.COMM_SELF)
     indptr, indices, data = prob.K.getValuesCSR()
@@ -293,9 +393,16 @@ def fe_modes(scene, kmax: int = 16, n_eig: int = 80,
                      "frequency_hz": float(abs(w.real) / (2 * math.pi)),
                      "radial_share": radial_share}
             if cond == "flutter":
-                entry["growth_rate_per_s"] = float(w.imag)
+                # the scene's Kelvin-Voigt damping tau (K + K_f): lambda^2 + tau mu lambda + mu
+                # = 0 for mu = w^2 (studies.flutter_fe.cea); tau = 0: lambda = -i w
+                lam_d = complex(damped_exponents(np.array([lam[j]]), tau)[0])
+                w_d = math.copysign(abs(lam_d.imag), w.real)
+                entry["omega_rad_s"] = abs(w_d)
+                entry["frequency_hz"] = abs(w_d) / (2 * math.pi)
+                entry["growth_rate_per_s"] = float(lam_d.real)
+                entry["damping_tau_s"] = tau
                 # e^{i(+-k theta - w_r t)}: phase speed +-w_r / k (signed w_r)
-                entry["phase_speed_m_s"] = float(sense * w.real * R / max(kk, 1))
+                entry["phase_speed_m_s"] = float(sense * w_d * R / max(kk, 1))
             modes.append(entry)
         out[cond] = modes
     return out

@@ -202,7 +202,8 @@ def test_seeded_transient_with_the_filter_grows_as_the_filtered_cea_predicts():
     problem = build_problem(scene, MPI.COMM_SELF)
     res = complex_eigenvalue_analysis(problem, None, 6000.0,
                                       ops=build_operators(problem, friction="1-2-1"))
-    nodal = complex_eigenvalue_analysis(problem, None, 3000.0)
+    nodal = complex_eigenvalue_analysis(problem, None, 3000.0,
+                                        ops=build_operators(problem, friction="nodal"))
     k4 = sorted(_distinct(m for m in res.modes if m.wavenumber == 4), key=lambda m: -m.growth_rate)
     k4n = sorted(_distinct(m for m in nodal.modes if m.wavenumber == 4),
                  key=lambda m: -m.growth_rate)

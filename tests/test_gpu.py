@@ -3,17 +3,26 @@
 The CUDA kernel is compiled with --fmad=false and sums K u in the CPU kernels' order, so its
 state is bitwise the numba kernel's; the plain CuPy path (cuSPARSE SpMM) agrees to round-off.
 Tests marked ``gpu`` skip without CuPy; the CUDA kernel's *source* is still checked on every
-machine with a C++ compiler, compiled for the CPU and run thread by thread.
+machine with a C++ compiler, compiled for the CPU and run thread by thread, and so is the GPU
+path of the benchmark suite (benchmarks/gpu_suite.sh) with CuPy replaced by that emulation.
+Without a GPU, ``stickslip sweep --backend gpu`` refuses in one line (exit 2).
 Runs from a problem built here (dolfinx) or, without dolfinx, from benchmarks/ensemble.py's
 npz dump (``STICKSLIP_GPU_NPZ=path/problem_n132.npz``).
 """
 
 from __future__ import annotations
 
+import json
 import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
+
+REPO = Path(__file__).resolve().parents[1]
 
 try:
     import cupy
@@ -73,51 +82,18 @@ def test_gpu_batch_equals_the_cpu_kernel(kernel):
 
 # ------------------------------------------------------------------------------------------
 # The CUDA kernel's logic without a GPU: its source compiled as C++ for the CPU and run
-# thread by thread (threads of one step are independent: each writes only its own node).
-
-_EMULATOR = r"""
-#include <cmath>
-#include <cstddef>
-struct Dim { unsigned int x; };
-static Dim blockIdx, blockDim, threadIdx;
-#define __global__
-using std::copysign;
-using std::fabs;
-%(source)s
-extern "C" void emulate(int blocks, int threads, %(params)s) {
-    blockDim.x = threads;
-    for (int b = 0; b < blocks; ++b) {
-        blockIdx.x = b;
-        for (int t = 0; t < threads; ++t) {
-            threadIdx.x = t;
-            fused_step(%(names)s);
-        }
-    }
-}
-"""
+# thread by thread (benchmarks/gpu_emulate.py; threads of one step are independent: each
+# writes only its own node).
 
 
 def _emulated_kernel(tmp_path):
-    import ctypes
-    import re
-    import shutil
-    import subprocess
-
+    from benchmarks.gpu_emulate import compile_kernel
     from solver.ensemble import CUDA_SOURCE
 
-    cxx = shutil.which("g++") or shutil.which("c++")
-    if cxx is None:
-        pytest.skip("no C++ compiler")
-    head = CUDA_SOURCE[CUDA_SOURCE.index("fused_step(") + len("fused_step("):]
-    params = head[: head.index(")")]
-    names = ", ".join(re.findall(r"(\w+)\s*(?:,|$)", params.replace("\n", " ")))
-    src = tmp_path / "emu.cpp"
-    src.write_text(_EMULATOR % {"source": CUDA_SOURCE, "params": params, "names": names})
-    lib = tmp_path / "emu.so"
-    # -ffp-contract=off: no fused multiply-add, as nvcc --fmad=false
-    subprocess.run([cxx, "-O2", "-ffp-contract=off", "-shared", "-fPIC", "-o", str(lib),
-                    str(src)], check=True)
-    return ctypes.CDLL(str(lib)).emulate
+    try:
+        return compile_kernel(CUDA_SOURCE, "fused_step", tmp_path)
+    except RuntimeError as err:  # no C++ compiler
+        pytest.skip(str(err))
 
 
 @pytest.mark.parametrize("diag", [True, False])
@@ -174,3 +150,130 @@ def test_cuda_kernel_source_equals_the_numba_kernel_on_the_cpu(tmp_path, diag):
         k = int(bp.cx[0])
         np.testing.assert_array_equal(emu.v[k:k + 2], ref.v[k:k + 2])
     assert np.allclose(work.sum(axis=1), ref.work_totals(), rtol=1e-9, atol=1e-30)
+
+
+# ------------------------------------------------------------------------------------------
+# The benchmark suite's plumbing (benchmarks/gpu_suite.sh, gpu_bench.py) on the CPU: the GPU
+# stages with CuPy replaced by its CPU emulation, at a few scenes and steps.
+
+
+@pytest.fixture
+def suite_npz(tmp_path, monkeypatch):
+    """The problem of ``_problem`` as a ``gpu_bench`` npz, and an emulated CuPy for this
+    test only (``import cupy`` is restored afterwards)."""
+    pytest.importorskip("numba")
+    if shutil.which("g++") is None and shutil.which("c++") is None:
+        pytest.skip("no C++ compiler")
+    from benchmarks import gpu_emulate
+
+    monkeypatch.setitem(sys.modules, "cupy", gpu_emulate.cupy_module())
+    bp, u0, d, slide, f = _problem()
+    path = tmp_path / "problem.npz"
+    bp.save(path, u0=u0, d=d, slide=slide, f=f, every=np.array(3), radius=np.array(1.0))
+    return path
+
+
+def test_suite_check_stage_gpu_path_with_observers_equals_the_cpu_path(suite_npz, tmp_path):
+    """The stage that checks the GPU on its node, run here on the emulated CUDA kernel: the
+    whole observed path (lean and sampled steps, probes, samples, energies) over 24 steps,
+    B = 5 scenes against the numba path on the first 3. State and statuses bitwise (same
+    operations in the same order); recorded fields and probes bitwise (the same numpy
+    products on both); energies and works to 1e-12: the CUDA path sums the energies with
+    ``einsum`` and the works per node, the numba kernel in row order (round-off, ~n eps)."""
+    from benchmarks.gpu_bench import main
+
+    out = tmp_path / "stages.jsonl"
+    main(["check", "--npz", str(suite_npz), "--emulate", "--B", "5", "--scenes", "3",
+          "--steps", "24", "--json", str(out)])
+    r = json.loads(out.read_text())
+    assert r["emulated"] and r["scenes_compared"] == 3
+    assert all(r["same_bits"].values()), r["same_bits"]
+    diff = r["max_rel_diff"]
+    assert diff["fields"] == 0.0 and diff["probes"] == 0.0
+    assert diff["energies"] < 1e-12 and diff["work"] < 1e-12
+
+
+def test_suite_rate_stages_and_report_give_the_ratio_table(suite_npz, tmp_path):
+    """Two rate stages (emulated GPU and CPU numba, the observed path) and the report: the
+    JSON holds both with the GPU's ratio to the CPU's rate, the table one row each."""
+    from benchmarks.gpu_bench import main
+
+    out = tmp_path / "stages.jsonl"
+    for target in ("gpu", "cpu"):
+        main(["rate", "--npz", str(suite_npz), "--target", target, "--emulate", "--paths",
+              "observed", "--B", "4", "--steps", "6", "--block", "3", "--json", str(out)])
+    main(["report", str(out), "--out", str(tmp_path / "report")])
+    summary = json.loads((tmp_path / "report" / "gpu_suite.json").read_text())
+    gpu, cpu = sorted(summary["rates"], key=lambda r: r["target"] != "gpu")
+    assert gpu["emulated"] and gpu["steps"] == cpu["steps"] == 6 and gpu["finite"]
+    assert gpu["ratio_to_best_cpu_core"] == pytest.approx(
+        gpu["scene_steps_per_s"] / cpu["scene_steps_per_s"], rel=1e-12)
+    assert cpu["ratio_to_best_cpu_core"] == 1.0
+    table = (tmp_path / "report" / "gpu_suite.md").read_text()
+    assert "| gpu (emulated) | observed | 4 | 3 | 6 |" in table
+
+
+def test_suite_census_stage_classifies_every_scene_and_agrees_with_the_cpu(suite_npz,
+                                                                          tmp_path):
+    """The census stage, emulated: 6 scenes (the 3 starts twice) for 60 steps with the
+    observers, each classified; the shares sum to 1 and the first 3 scenes run again on
+    the CPU end bitwise equal with the same members."""
+    from benchmarks.gpu_bench import load, main
+
+    bp, _ = load(suite_npz)
+    out = tmp_path / "stages.jsonl"
+    main(["census", "--npz", str(suite_npz), "--emulate", "--B", "6", "--end-time",
+          str(60 * bp.dt), "--sample-interval", str(3 * bp.dt), "--scenes", "3",
+          "--workers", "1", "--json", str(out)])
+    r = json.loads(out.read_text())
+    assert r["steps"] == 60 and r["scene_steps"] == 360
+    assert sum(r["gpu"]["shares"].values()) == pytest.approx(1.0, abs=1e-12)
+    assert r["subsample_same_bits"] and r["subsample_same_members"], r
+
+
+def test_suite_script_plan_has_the_issue_sizes_and_refuses_bad_use():
+    """``gpu_suite.sh --dry-run`` lists the GPU node's stages (N = 132 at B = 4096, N = 528
+    at B = 1024, the kernel alone and with the observers, each against one CPU core, and the
+    census of 4096 starts for 0.3 s); an unknown argument is one line and exit 2."""
+    script = REPO / "benchmarks" / "gpu_suite.sh"
+    plan = subprocess.run(["bash", str(script), "--dry-run"], capture_output=True, text=True)
+    assert plan.returncode == 0, plan.stderr
+    text = plan.stdout
+    for stage in ("gpu N=132 B=4096", "gpu N=528 B=1024", "cpu N=132 B=256",
+                  "cpu N=528 B=16", "census N=132"):
+        assert stage in text, stage
+    assert "taskset -c 0" in text and "--B 4096 --end-time 0.3" in text
+    bad = subprocess.run(["bash", str(script), "--frobnicate"], capture_output=True,
+                         text=True)
+    assert bad.returncode == 2 and len(bad.stderr.strip().splitlines()) == 1
+
+
+# ------------------------------------------------------------------------------------------
+# Without a GPU, `--backend gpu` is one line and exit 2, before any scene runs.
+
+
+class _NoDevice:
+    """A CuPy that imports but finds no device (no driver, or a machine without a GPU)."""
+
+    class cuda:  # noqa: N801 - CuPy's name
+        class runtime:  # noqa: N801
+            @staticmethod
+            def getDeviceCount():  # noqa: N802
+                raise RuntimeError("cudaErrorNoDevice: no CUDA-capable device is detected")
+
+
+@pytest.mark.skipif(cupy is not None, reason="CuPy is installed: the refusal is not reached")
+@pytest.mark.parametrize("cupy_module, words", [(None, "needs CuPy"),
+                                                 (_NoDevice, "finds no CUDA device")])
+def test_sweep_backend_gpu_without_a_gpu_is_one_line_and_exit_2(
+        tmp_path, capsys, monkeypatch, cupy_module, words):
+    pytest.importorskip("mpi4py")
+    from cli.main import main
+
+    monkeypatch.setitem(sys.modules, "cupy", cupy_module)  # None: ``import cupy`` fails
+    rc = main(["sweep", str(REPO / "sweeps" / "smoke4.toml"), "-o", str(tmp_path / "s"),
+               "--backend", "gpu", "--batch", "auto"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2
+    assert len(err) == 1 and err[0].startswith("error: ") and words in err[0], err
+    assert not (tmp_path / "s" / "runs").exists()  # nothing ran

@@ -1,4 +1,4 @@
-"""FE rung of ``stickslip travel`` (issue 14): wave-frame operators and the command's contract.
+"""FE rung of ``stickslip travel``: wave-frame operators and the command's contract.
 
 * ``forms.travelling``: (∂_θ − J) annihilates the linear fields x (uniform dilation) and Jx
   (rigid rotation), which P1 represents exactly, so G u = 0 to round-off (1e-9 of ‖G‖‖u‖);
@@ -109,6 +109,8 @@ def test_damped_schur_derivative_matches_a_central_difference(setup36):
     ("argv", "needle"),
     [
         (["--k", "0"], "--k 0"),
+        ([], "--k: give the wavenumber"),
+        (["--k", "4", "--inertia", "rotation", "--dt-limit"], "--dt-limit"),
         (["--k", "4", "--continue", "loading.omega=50"], "KEY=A:B:N"),
         (["--k", "4", "--continue", "loading.nope=1:2:3"], "nope"),
         (["--k", "4", "--from", "/nonexistent"], "samples.npz"),
@@ -128,7 +130,8 @@ def test_travel_failure_exits_1_and_writes_no_wave(tmp_path):
     out = tmp_path / "fail"
     proc = subprocess.run(
         [sys.executable, "-m", "cli.main", "travel", SCENE, "--set", "mesh.n_inner=36",
-         "--k", "4", "--celerity", "-1000", "--fixed-omega", "--max-iter", "2", "-o", str(out)],
+         "--k", "4", "--inertia", "rotation", "--celerity", "-1000", "--fixed-omega",
+         "--max-iter", "2", "-o", str(out)],
         capture_output=True, text=True, check=False)
     assert proc.returncode == 1, proc.stderr
     assert "residual" in proc.stderr
@@ -153,8 +156,9 @@ def test_interrupted_continuation_keeps_the_points_solved(tmp_path, monkeypatch,
 
     monkeypatch.setattr(D, "solve_scene", interrupt_third)
     out = tmp_path / "branch"
-    rc = main(["travel", SCENE, "--set", "mesh.n_inner=36", "--k", "4", "--celerity", "-2300",
-               "--fixed-omega", "--continue", "loading.omega=40:42:5", "-o", str(out)])
+    rc = main(["travel", SCENE, "--set", "mesh.n_inner=36", "--k", "4", "--inertia", "rotation",
+               "--celerity", "-2300", "--fixed-omega", "--continue", "loading.omega=40:42:5",
+               "-o", str(out)])
     assert rc == 130
     assert "interrupted after 2 of 5 points" in capsys.readouterr().err
     rows = json.loads((out / "branch.json").read_text())
@@ -164,8 +168,9 @@ def test_interrupted_continuation_keeps_the_points_solved(tmp_path, monkeypatch,
 
 def test_travel_converged_wave_summary(tmp_path):
     out = tmp_path / "ok"
-    rc = main(["travel", SCENE, "--set", "mesh.n_inner=36", "--k", "4", "--celerity",
-               "-2300", "--fixed-omega", "--max-iter", "40", "--band", "-o", str(out)])
+    rc = main(["travel", SCENE, "--set", "mesh.n_inner=36", "--k", "4", "--inertia", "rotation",
+               "--celerity", "-2300", "--fixed-omega", "--max-iter", "40", "--band",
+               "-o", str(out)])
     assert rc == 0
     s = json.loads((out / "summary.json").read_text())
     for key in ("regime", "mode", "celerity_m_s", "frequency_hz", "fractions", "psi1", "psi2",
@@ -184,7 +189,7 @@ def test_travel_converged_wave_summary(tmp_path):
 
 
 def test_travel_reads_the_scene_damping_and_converges_damped(tmp_path):
-    """Damped physics (issue 18): `travel` takes the scene's Kelvin–Voigt τ (the transient's
+    """Damped physics: `travel` takes the scene's Kelvin–Voigt τ (the transient's
     [damping]), so both methods solve the same equations. Figure-1 damped scene (η = 2 % at
     1.6 kHz, τ = 1.99 µs) at N = 36, start −2300 m/s: the nearest admissible wave converges
     (residual ≤ 1e-10 c·d, measured 6e-15 at −2254 m/s), is mode 4 stick-slip-separation and
@@ -194,8 +199,8 @@ def test_travel_reads_the_scene_damping_and_converges_damped(tmp_path):
     scene = "scenes/figure1_n132_damped.toml"
     tau = load_scene(scene, []).damping.tau
     out = tmp_path / "w"
-    rc = main(["travel", scene, "--set", "mesh.n_inner=36", "--k", "4", "--celerity", "-2300",
-               "--fixed-omega", "-o", str(out)])
+    rc = main(["travel", scene, "--set", "mesh.n_inner=36", "--k", "4", "--inertia", "rotation",
+               "--celerity", "-2300", "--fixed-omega", "-o", str(out)])
     assert rc == 0
     s = json.loads((out / "summary.json").read_text())
     assert s["damping_s"] == pytest.approx(tau, rel=1e-12)  # the scene's τ, not 0
@@ -208,11 +213,12 @@ def test_travel_reads_the_scene_damping_and_converges_damped(tmp_path):
 
 @pytest.mark.slow
 def test_travel_agrees_with_the_damped_transient_at_n132(tmp_path):
-    """Transient rung (issue 14 item 3, issue 18): damped Figure-1 scene at N = 132 (β₂ = 1/2,
+    """Transient rung : damped Figure-1 scene at N = 132 (β₂ = 1/2,
     η = 2 % at 1.6 kHz, mode-4 seed 0.1 d), transient at dt = 0.1125 dt_crit (its celerity is
     within 0.1 % of its dt → 0 value: −2498.9 at 0.225, −2496.7 at 0.1125) to t = 0.3 s;
     travel from its last sample, same damping (D = τ K M⁻¹B since 2026-11-23; the earlier
-    form was ~0 on P1, docs/travelling_waves.md 2d). Issue tolerances: celerity < 0.5 %
+    form was ~0 on P1, archive/travel/travelling_waves_history.md 2d). Issue tolerances: celerity <
+    0.5 %
     (measured 0.25 %: −2490.4 against −2496.7 m/s), amplitude < 2 % (1.1 %), ψ₁ within 2/N
     (sub-node ψ₁ 0.697 against 0.692). The band is [−2491.4, −2486.5] m/s: the transient
     lies 5.3 m/s (0.21 %) beyond its fast edge, asserted < 0.5 % (the edge-selection of the
@@ -223,7 +229,8 @@ def test_travel_agrees_with_the_damped_transient_at_n132(tmp_path):
     r = json.loads((run / "summary.json").read_text())
     assert r["mode"] == 4 and r["limit_cycle"]
     out = tmp_path / "travel"
-    assert main(["travel", scene, "--k", "4", "--from", str(run), "--fixed-omega", "--band",
+    assert main(["travel", scene, "--k", "4", "--from", str(run), "--inertia", "rotation",
+                 "--fixed-omega", "--band",
                  "-o", str(out)]) == 0
     t = json.loads((out / "summary.json").read_text())
     assert t["inequalities"]["all_satisfied"]
@@ -285,7 +292,8 @@ def test_frame_damping_is_kelvin_voigt_on_a_travelling_harmonic(setup36):
     144 (first order: the lumped projection of ∂_θ on the triangle mesh). Asserted: the error
     halves from N = 36 to 72 (ratio ≥ 1.8; measured 1.96) and is < 0.12 at N = 72. The direct
     form τ∫σ((∂_θ − J)w):ε(v) gave −0.06 (N = 36) and −0.03 (N = 132): P1 has no second
-    derivative in a cell (docs/travelling_waves.md 2d). The travelling inertia passes the same
+    derivative in a cell (archive/travel/travelling_waves_history.md 2d). The travelling inertia
+    passes the same
     check (wᴴGw / (m² wᴴMw) = 1.04, 1.02, 1.005, lumped M; asserted within 5 %)."""
     from solver.scene import load_scene
     from studies.travel import driver as D
@@ -314,7 +322,7 @@ def test_frame_damping_is_kelvin_voigt_on_a_travelling_harmonic(setup36):
 def shift132():
     """The transient's own travelling operator (``inertia="shift"``) with the first-order
     upwind law (bdf1), damped Figure-1 scene at N = 132: the pair that matches the transient
-    (docs/travelling_waves.md, 2d fourth attempt)."""
+    (archive/travel/travelling_waves_history.md 2d fourth attempt)."""
     from solver.scene import load_scene
     from studies.travel import driver as D
 
@@ -395,7 +403,7 @@ def test_shift_state_solves_the_transients_equations_on_the_wave(shift132):
 
 @pytest.mark.slow
 def test_transients_started_on_opposite_ends_of_the_family_reach_one_wave(shift132):
-    """Selection (issue 14 item 4). The N = 132 Figure-1 k = 4 family spans −2443.8 …
+    """Selection. The N = 132 Figure-1 k = 4 family spans −2443.8 …
     −2542.8 m/s and 5.6 – 14.2 mm. A transient (dt = 0.1125 dt_crit as the family table's,
     β₂ = 1/2, η = 2 %) started *on* its fastest member, (7,0,3) at −2541.76 m/s (6.0 mm), and
     on a slow one, (10,0,0) at −2445.76 m/s (12.6 mm), is after 0.04 s on one and the same
@@ -403,7 +411,8 @@ def test_transients_started_on_opposite_ends_of_the_family_reach_one_wave(shift1
     speeds within 0.05 % (they start 3.8 % apart; measured equal to 0.01 m/s) and of
     −2496.66 m/s, amplitudes within 1 % of each other and of 7.61 mm (measured 7.608 and
     7.608). So the members are not waves of the transient's dynamics; its attractor is one
-    wave (docs/travelling_waves.md, selection). (At the scene file's dt = 0.9 dt_crit both
+    wave (archive/travel/travelling_waves_history.md, selection). (At the scene file's dt = 0.9
+    dt_crit both
     go to that dt's wave, −2528.9 m/s, instead.)"""
     from mpi4py import MPI
 
@@ -439,7 +448,8 @@ def central132():
     explicit central-difference step h = Δφ/(3|ω|) (``time_scheme="central"``, frame.py
     "Samples"), damped Figure-1 scene at N = 132; and its k = 4 wave, the active set that the
     Newton from the dt = 0.1125 dt_crit transient's probe history converges to
-    (``benchmarks/travel_discrete.py``, docs/travelling_waves.md 2e): stick 25, slip 5,
+    (``benchmarks/travel_discrete.py``, archive/travel/travelling_waves_history.md 2e): stick 25,
+    slip 5,
     landing slip 1 of 99 points per wavelength at −2498.778131 m/s."""
     from solver.scene import load_scene
     from studies.travel import driver as D
@@ -559,7 +569,7 @@ def test_samples_and_time_scheme_are_checked(setup36):
 
 @pytest.mark.slow
 def test_central_wave_converges_under_mesh_refinement(tmp_path):
-    """Mesh rung (issue 14 item 3; docs/travelling_waves.md 2e): the central-scheme wave at
+    """Mesh rung (archive/travel/travelling_waves_history.md 2e): the central-scheme wave at
     S = 2 (h = node passage / 2, so h halves with Δφ) on N = 264, 528, 1056. N = 264 starts
     from the probe history of a short transient (dt = 0.45 dt_crit, 0.15 s: settled, −2577.5
     m/s), 528 and 1056 from the coarser wave prolonged (nested; on one wavelength, 265 – 1057

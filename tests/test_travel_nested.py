@@ -1,5 +1,5 @@
-"""Nested starts of the travelled wave (issue 14, item 3 "mesh convergence"; docs/
-travelling_waves.md 2d): the prolongation of a contact-circle state and the damped Schur
+"""Nested starts of the travelled wave ("mesh convergence"; archive/travel/
+travelling_waves_history.md 2d): the prolongation of a contact-circle state and the damped Schur
 complement that a finer mesh needs.
 
 * ``driver.prolong`` (linear): for 2N nodes the coarse values are kept at the even nodes and

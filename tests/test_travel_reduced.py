@@ -1,4 +1,4 @@
-"""Reduced-model rung of the travelling-wave ladder (docs/travelling_waves.md, issue 14).
+"""Reduced-model rung of the travelling-wave ladder (docs/travelling_waves.md).
 
 The wave-frame Newton solver of ``studies.travel`` applied to the reduced equations [2] on N
 nodes of the contact circle, started from the closed-form wave of ``semianalytic.waves``

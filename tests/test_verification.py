@@ -1,4 +1,4 @@
-"""FE <-> semi-analytical verification in CI (issue 5; docs/verification.md).
+"""FE <-> semi-analytical verification in CI (docs/verification.md).
 
 One FE run of the paper's Figure-3 case (scenes/figure3_n132: N = 132, beta2 = 0.6, seeded in
 mode 4, 0.3 s; ~3 s) is compared with the reduced model. Two kinds of assertions:
@@ -166,3 +166,48 @@ def test_celerity_follows_the_free_flight_law(fig3_compare) -> None:
     red = free_flight_celerity(None, fe["k"], fe["psi1"], 1.0,
                                reduced=fig3_compare["parameters"])
     assert red > 1.1 * pred  # ansatz radial stiffness ~15 % too high (Ritz upper bound)
+
+
+def test_compare_reads_as_a_comparison(fig3_compare) -> None:
+    """The table names each reduced column R1, R2, ... and its branch (root, search, closure);
+    an inadmissible one says in words what fails and by how much (no equation tags); the
+    last line states the conclusion. The amounts are the admissibility checker's own margins
+    in physical units: a separation zone's penetration is -margin x (delta + 1/|c|) x R
+    (``semianalytic.zones.check_admissible``, same 2000-point grid: equal to 1e-9)."""
+    from semianalytic.waves import find_waves
+    from studies.verification import _coeffs, format_table, violation_in_words
+
+    lines = format_table(fig3_compare).splitlines()
+    red = fig3_compare["semianalytic"]
+    assert len(red) >= 2
+    for i, col in enumerate(red, start=1):
+        assert f"R{i} " in lines[1]
+        legend = next(line for line in lines if line.startswith(f"R{i} = "))
+        assert f"root c = {col['celerity_m_s']:+.0f} m/s" in legend and "multistart" in legend
+        assert "NOT admissible: " in legend and not any(t in legend for t in ("[5]", "[6]", "[7]"))
+    last = lines[-1]
+    assert last.startswith("Conclusion: the FE wave is stick-slip-separation k = 4, against the "
+                           "rotation at -2507 m/s") and "no admissible wave of k = 4" in last
+    assert "one-term" in last and "docs/verification.md" in last
+    p = fig3_compare["parameters"]
+    checked = 0
+    for w in find_waves(_coeffs(p), p["f"], 4, p["delta"]):
+        if w.violated == "[7] U > delta in separation":
+            margin = w.info["margin [7] U > delta in separation"]
+            depth_mm = -margin * (w.delta + 1.0 / abs(w.c)) * p["R"] * 1e3
+            assert f"by up to {depth_mm:.3g} mm" in violation_in_words(w, p["R"])
+            checked += 1
+    assert checked >= 1
+
+
+def test_modal_flutter_row_includes_the_scene_damping() -> None:
+    """``compare --modal`` reports the flutter mode with the scene's Kelvin-Voigt damping: on
+    figure3_n132_damped the fastest k = 4 mode grows at 968.1 /s (2400.6 Hz), the damped CEA
+    of ``flutter-fe`` (the same discrete system solved by ARPACK instead of SLEPc: 1e-6),
+    not the undamped 1192.4 /s."""
+    from solver.scene import load_scene
+    from studies.verification import modal_table
+
+    row = modal_table(load_scene("figure3_n132_damped"), [4])["4"]
+    assert row["fe_flutter_growth_per_s"] == pytest.approx(968.0823, rel=1e-6)
+    assert row["fe_flutter_hz"] == pytest.approx(2400.5985, rel=1e-6)

@@ -1,7 +1,8 @@
 """Complex eigenvalue analysis of FE steady sliding (``stickslip flutter-fe``), docs/flutter.md.
 
-``cea`` (operators, sliced SLEPc solve, modes), ``references`` (exact and reduced-model
-spectra), ``transient`` (growth measured in a run), ``plots``.
+``cea`` (operators, sliced SLEPc solve, Kelvin–Voigt damping, the regularised friction
+bound, modes), ``shapes`` (mode shapes for ParaView and CSV), ``references`` (exact and
+reduced-model spectra), ``transient`` (growth measured in a run), ``plots``.
 """
 
 from studies.flutter_fe.cea import (
@@ -11,6 +12,8 @@ from studies.flutter_fe.cea import (
     band_eigenvalues,
     build_operators,
     complex_eigenvalue_analysis,
+    damped_exponents,
+    regularised_band,
     sweep_friction,
 )
 from studies.flutter_fe.plots import plot_cea_diagram, plot_spectrum
@@ -31,11 +34,13 @@ __all__ = [
     "band_eigenvalues",
     "build_operators",
     "complex_eigenvalue_analysis",
+    "damped_exponents",
     "matrix_pencil",
     "measure_transient_growth",
     "newmark_exponents",
     "plot_cea_diagram",
     "plot_spectrum",
     "reduced_model_flutter",
+    "regularised_band",
     "sweep_friction",
 ]

@@ -11,10 +11,24 @@ every contact node ``i`` stays in contact and slips forward, so in its rotated f
   ``K_f = −f E K̂`` (``E`` copies r-rows onto θ-rows).
 
 On the free dofs (outer circle clamped, contact radial dofs removed) this gives
-``(K + K_f) φ = ω² M φ`` (``M`` = the solver's lumped mass, or ``L TᵀM_cT`` with the
-consistent one). It does not depend on ``d`` or ``Ω``: only on the mesh, material and ``f``.
-With ``u = Re(ψ e^{λt})``, ``λ² = −ω²``: a complex pair ``ω², conj(ω²)`` is one growing
-travelling wave (growth ``Re λ > 0``) and one decaying wave travelling the other way.
+``A = K + K_f`` and ``(K + K_f) φ = μ M φ`` (``M`` = the solver's lumped mass, or
+``L TᵀM_cT`` with the consistent one). It does not depend on ``d`` or ``Ω``: only on the
+mesh, material and ``f``.
+
+Kelvin–Voigt damping ``C = τK`` (scene ``[damping]``, ``solver.newmark.DampedNewmark``):
+the transient's internal force is ``K(u + τu̇)`` on every dof, and the contact projection
+takes the normal reaction from it, so the viscous force enters ``λ_i`` and the friction
+force as well: the damping matrix of the linearised system is ``τA``, and
+
+    ``λ² M φ + τλ A φ + A φ = 0``  ⇔  ``A φ = μ M φ`` with ``λ² + τμλ + μ = 0``.
+
+The quadratic eigenproblem is therefore solved exactly through the undamped pencil: same
+eigenvectors, and each ``μ`` gives the root ``λ`` of ``λ² + τμλ + μ = 0`` with the larger
+real part (the growing or least damped motion); for small ``τ``,
+``Re λ ≈ Re λ₀ − τ Re μ / 2``. Undamped (``τ = 0``), ``λ = ±i√μ``: a complex pair
+``μ, conj(μ)`` is one growing travelling wave (growth ``Re λ > 0``) and one decaying wave
+travelling the other way. ``tests/test_flutter_fe.py`` checks this reduction against the
+dense quadratic eigenproblem.
 
 Solver: SLEPc Krylov-Schur, GNHEP, shift-and-invert (MUMPS LU, pivot threshold 0.5) with
 real targets ``σ = ω_t²`` marching through ``[0, (2π f_max)²]`` in slices; each slice is
@@ -26,6 +40,7 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from typing import TYPE_CHECKING, Any
 
@@ -59,6 +74,7 @@ class CEAOperators:
     n_contact: int  # contact nodes in total (all ranks)
     radius: float
     mass_kind: str
+    friction: str = "nodal"  # friction law on the reactions: 'nodal' or '1-2-1'
     consistent_friction_mass: PETSc.Mat | None = None  # −E M̂_c (consistent mass only)
     comm: Any = None
 
@@ -92,8 +108,9 @@ FRICTION_FILTERS = {"nodal": None, "1-2-1": (0.25, 0.5, 0.25)}
 
 def _friction_rows(K: PETSc.Mat, nd: Any, weights: tuple[float, float, float]) -> PETSc.Mat:
     """``E_s``: the θ-row of contact node i takes ``w₋ r-row(i−1) + w₀ r-row(i) + w₊ r-row(i+1)``
-    (neighbours in angle along the contact circle, across ranks). Issue 13 experiment: the
-    friction force on node i is f × the filtered nodal normal reactions (docs/continuum.md)."""
+    (neighbours in angle along the contact circle, across ranks): the friction force on node
+    i is f × the filtered nodal normal reactions (``friction.filter = "1-2-1"``,
+    docs/friction_filter.md)."""
     from petsc4py import PETSc
 
     comm = K.getComm().tompi4py()
@@ -136,8 +153,9 @@ def build_operators(
     ``mass="lumped"`` (default) is ``problem.mass``, the explicit solver's mass, so CEA and
     the transient describe the same discrete system; ``"consistent"`` uses ``∫ρφ_i·φ_j``.
     ``friction="nodal"`` (default, the transient's law) applies ``f λ_i`` at node i;
-    ``"1-2-1"`` applies ``f (λ_{i−1} + 2λ_i + λ_{i+1})/4`` (issue 13: removes the spurious
-    mesh-scale flutter branch; an O(h²) change; CEA only, not in the transient solver).
+    ``"1-2-1"`` applies ``f (λ_{i−1} + 2λ_i + λ_{i+1})/4``, the transient's law with
+    ``friction.filter = "1-2-1"`` (removes the spurious mesh-scale flutter branch; an O(h²)
+    change, docs/friction_filter.md).
     """
     import dolfinx
     import dolfinx.fem.petsc
@@ -209,6 +227,7 @@ def build_operators(
         Kt=Kt_f, Kf=Kf_f, B=B, free=free,
         pos_theta=np.searchsorted(free, nd.dofs_y), theta=nd.theta,
         n_contact=nd.n_global, radius=problem.scene.geometry.R, mass_kind=mass,
+        friction=friction,
         consistent_friction_mass=friction_mass, comm=comm,
     )
 
@@ -271,6 +290,8 @@ def band_eigenvalues(
     tol: float = 1e-10,
     contact_pos: np.ndarray | None = None,
     strip_safety: float = STRIP_SAFETY,
+    keep_vector: Callable[[complex], bool] | None = None,
+    vectors: dict[int, np.ndarray] | None = None,
 ) -> tuple[np.ndarray, np.ndarray, BandStats]:
     """All eigenvalues ``μ`` of ``A φ = μ B φ`` with ``Re μ ≤ mu_max`` (slices along Re μ).
 
@@ -284,7 +305,10 @@ def band_eigenvalues(
     ``0.7`` half-width above the covered end), and a slice that does not reach back to ``lo``
     is redone nearer. Each accepted pair's relative residual is checked (< 1e-6, recorded).
     Returns ``μ`` (complex), the eigenvectors at ``contact_pos`` (owned entries; rows =
-    eigenvalues) and statistics.
+    eigenvalues) and statistics. With ``keep_vector`` and ``vectors``, the whole owned
+    eigenvector of each ``μ`` with ``keep_vector(μ)`` goes into ``vectors`` under its index
+    in the returned array (for mode shapes: only the few wanted, the band may hold
+    thousands).
     """
     from slepc4py import SLEPc
 
@@ -293,6 +317,7 @@ def band_eigenvalues(
     n = A.getSize()[0]
     mus: list[complex] = []
     vecs: list[np.ndarray] = []
+    full: dict[int, np.ndarray] = {}
     pos = np.zeros(0, dtype=np.int64) if contact_pos is None else contact_pos
     vr, vi = A.createVecRight(), A.createVecRight()
     lo = -0.02 * mu_max
@@ -349,9 +374,11 @@ def band_eigenvalues(
                 if err > 1e-6:
                     raise RuntimeError(f"eigenpair {m} has relative residual {err:.2g}")
                 mus.append(m)
-                if contact_pos is not None:  # collective: every rank, even without nodes
+                if contact_pos is not None or keep_vector is not None:  # collective
                     eps.getEigenpair(int(i), vr, vi)
                     vecs.append(vr.getArray()[pos] + 1j * vi.getArray()[pos])
+                    if keep_vector is not None and keep_vector(m):
+                        full[len(mus) - 1] = vr.getArray() + 1j * vi.getArray()
         eps.destroy()
         stats.slices += 1
         stats.converged += nconv
@@ -367,10 +394,165 @@ def band_eigenvalues(
     width = pos.size if contact_pos is not None else 0
     V = np.array(vecs, dtype=complex).reshape(len(vecs), width) if vecs else \
         np.zeros((mu_arr.size, width), dtype=complex)
+    if vectors is not None:
+        new_index = np.cumsum(keep) - 1
+        vectors.update({int(new_index[i]): v for i, v in full.items() if keep[i]})
     return mu_arr[keep], V[keep], stats
 
 
+# --------------------------------------------------------------------------------- regularised
+
+
+def _scipy(mat: PETSc.Mat) -> Any:
+    from scipy.sparse import csr_matrix
+
+    indptr, indices, data = mat.getValuesCSR()
+    return csr_matrix((data, indices, indptr), shape=mat.getSize())
+
+
+def _regularised_matrices(ops: CEAOperators, f: float, tau: float, t_star: float,
+                          w0: float) -> list[PETSc.Mat]:
+    """``[A₀, A₁, A₂]`` of the (u, ŝ) quadratic problem in ``λ̂ = λ/w0`` (see
+    :func:`regularised_band`), ``s = κ ŝ`` with ``κ`` the mean diagonal of ``K``."""
+    import scipy.sparse as sp
+    from petsc4py import PETSc
+
+    K, Kf = _scipy(ops.Kt), _scipy(ops.Kf)
+    M = sp.diags(ops.B.getDiagonal().getArray().copy())
+    n, pos = K.shape[0], ops.pos_theta
+    n_c = pos.size
+    kappa = float(np.mean(np.abs(K.diagonal())))
+    H = -Kf[pos, :] / kappa  # p̃ / κ
+    G = sp.csr_matrix((np.full(n_c, kappa), (pos, np.arange(n_c))), shape=(n, n_c))
+    eye, zero = sp.identity(n_c), sp.csr_matrix((n_c, n_c))
+    blocks = (
+        sp.bmat([[K, -f * G], [-H, eye]]),
+        sp.bmat([[tau * w0 * K, None], [-tau * w0 * H, t_star * w0 * eye]]),
+        sp.bmat([[w0 * w0 * M, None], [None, zero]]),
+    )
+    mats = []
+    for b in blocks:
+        b = b.tocsr()
+        b.sort_indices()
+        mats.append(PETSc.Mat().createAIJ(size=b.shape, csr=(b.indptr, b.indices, b.data),
+                                          comm=PETSc.COMM_SELF))
+    return mats
+
+
+def _pep_solve(mats: list[PETSc.Mat], nev: int, tol: float) -> Any:
+    """SLEPc PEP (TOAR, shift-and-invert at 0 with MUMPS): the ``nev`` eigenvalues nearest 0."""
+    from petsc4py import PETSc
+    from slepc4py import SLEPc
+
+    pep = SLEPc.PEP().create(PETSc.COMM_SELF)
+    pep.setOptionsPrefix(_PREFIX)
+    pep.setOperators(mats)
+    pep.setProblemType(SLEPc.PEP.ProblemType.GENERAL)
+    pep.setType(SLEPc.PEP.Type.TOAR)
+    pep.setTarget(0.0)
+    pep.setWhichEigenpairs(SLEPc.PEP.Which.TARGET_MAGNITUDE)
+    st = pep.getST()
+    st.setType(SLEPc.ST.Type.SINVERT)
+    ksp = st.getKSP()
+    ksp.setType("preonly")
+    ksp.getPC().setType("lu")
+    ksp.getPC().setFactorSolverType("mumps")
+    PETSc.Options().setValue(f"{_PREFIX}st_mat_mumps_cntl_1", 0.5)  # as in _slice_solve
+    pep.setFromOptions()
+    size = mats[0].getSize()[0]
+    pep.setDimensions(nev, min(2 * size, max(2 * nev, nev + 32)), PETSc.DECIDE)
+    pep.setTolerances(tol, 1000)
+    pep.solve()
+    return pep
+
+
+def regularised_band(
+    ops: CEAOperators, f: float, tau: float, t_star: float, fmax_hz: float, *,
+    tol: float = 1e-10, keep_vector: bool = False,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, BandStats]:
+    """Every exponent ``λ`` with ``|λ| < 1.05 ω_max`` of the sliding system with a regularised
+    friction bound (SLEPc PEP, one rank).
+
+    The friction force of contact node ``i`` is ``f s_i``, and its bound relaxes towards the
+    (filtered) normal reaction: ``t* ṡ = p̃ − s`` (``solver.contact.EffectivePressure``
+    linearised; ``p̃ = H(u + τu̇)``, ``H = −K_f`` on the contact θ-rows). With ``G`` the
+    injection of ``s_i`` into the θ-row of node ``i``, ``(u, s)`` obeys the quadratic problem
+
+        ``λ² [[M, 0], [0, 0]] + λ [[τK, 0], [−τH, t* I]] + [[K, −f G], [−H, I]]``
+
+    (``t* → 0`` gives back ``λ²M + (1 + τλ)(K + f K_f)``), scaled to ``λ = ω_max λ̂`` and
+    ``s = κ ŝ`` so that the blocks are O(1). Krylov with shift-and-invert at 0 returns the
+    eigenvalues nearest 0 first, so ``nev`` doubles until the last one returned lies beyond
+    the band (or the whole finite spectrum, ``2n + n_c``, is in); each accepted pair's
+    backward error must be < 1e-8. The band is the disc: a mode of frequency ≤ f_max outside
+    it would grow faster than 0.3 ω. Outside lie the relaxation modes near ``−1/t*`` (when
+    ``1/t* > 1.05 ω_max``) and the infinite eigenvalues of the massless ``s`` block
+    (returned as huge finite numbers). Returns ``λ`` (``Im λ ≥ 0``), ψ_θ at the contact
+    nodes (rows), the free-dof ``u`` parts (if ``keep_vector``) and statistics.
+    """
+    from slepc4py import SLEPc
+
+    t0 = time.perf_counter()
+    stats = BandStats(slices=1)
+    w0 = 2.0 * math.pi * fmax_hz
+    mats = _regularised_matrices(ops, f, tau, t_star, w0)
+    n, pos = ops.n_free, ops.pos_theta
+    finite_count = 2 * n + pos.size
+    radius, nev = 1.05, min(64, finite_count)
+    while True:
+        pep = _pep_solve(mats, nev, tol)
+        stats.solves += 1
+        nconv = pep.getConverged()
+        lam = np.array([complex(pep.getEigenpair(i)) for i in range(nconv)])
+        size = np.sort(np.abs(lam[np.isfinite(lam)]))
+        if (size.size >= nev and size[nev - 1] > radius) or nev >= finite_count:
+            break
+        pep.destroy()
+        nev = min(2 * nev, finite_count)
+    keep = [i for i in range(nconv) if abs(lam[i]) < radius
+            and lam[i].imag >= -REAL_TOL * abs(lam[i])]
+    xr, xi = mats[0].createVecRight(), mats[0].createVecRight()
+    psi, full = [], []
+    for i in keep:
+        err = pep.computeError(i, SLEPc.PEP.ErrorType.BACKWARD)
+        stats.max_residual = max(stats.max_residual, err)
+        if err > 1e-8:
+            raise RuntimeError(f"regularised eigenpair {lam[i] * w0} has backward error "
+                               f"{err:.2g}")
+        pep.getEigenpair(i, xr, xi)
+        x = xr.getArray()[:n] + 1j * xi.getArray()[:n]
+        psi.append(x[pos])
+        if keep_vector:
+            full.append(x)
+    stats.converged, stats.seconds = nconv, time.perf_counter() - t0
+    pep.destroy()
+    for m in (*mats, xr, xi):
+        m.destroy()
+    psi_arr = np.array(psi, dtype=complex).reshape(len(keep), pos.size)
+    return lam[keep] * w0, psi_arr, (np.array(full) if keep_vector else None), stats
+
+
 # --------------------------------------------------------------------------------- modes
+
+#: A mode whose wavelength on the contact circle spans fewer element edges than this
+#: (``|k| > N / MESH_SCALE_ELEMENTS``) is not resolved by the mesh. At N = 132, f = 0.7 the
+#: FE per-k growth approaches the exact continuum from below up to k = 20 (6.6 elements a
+#: wavelength) and exceeds the continuum's largest growth from k = 22 (6.0) on
+#: (docs/continuum.md, section 4); 8 elements leaves a margin (P1 frequency error ~3 %).
+MESH_SCALE_ELEMENTS = 8.0
+
+
+def damped_exponents(mu: np.ndarray, tau: float) -> np.ndarray:
+    """``λ`` of each eigenvalue ``μ`` of ``A φ = μ M φ`` with Kelvin–Voigt damping ``τA``.
+
+    ``λ² + τμλ + μ = 0``; of its two roots the one with the larger real part (the growing,
+    or least damped, motion of the eigenvector). ``τ = 0``: ``λ = ±i√μ``, the root with
+    ``Re λ = |Im √μ| ≥ 0``.
+    """
+    mu = np.asarray(mu, dtype=complex)
+    disc = np.sqrt((tau * mu) ** 2 - 4.0 * mu)
+    first, second = 0.5 * (-tau * mu + disc), 0.5 * (-tau * mu - disc)
+    return np.where(first.real >= second.real, first, second)
 
 
 @dataclass(frozen=True)
@@ -380,17 +562,21 @@ class CEAMode:
     ``k`` is the signed dominant wavenumber of ``ψ_θ`` on the contact circle
     (``ψ_θ ≈ A e^{ikθ}``); the wave travels at ``−ω/k`` rad/s, so ``k < 0`` is the sense of
     rotation. Stable real eigenvalues (double, ``±k``) have ``direction = "standing"``.
+    ``zeta = −Re λ / |λ|`` is the damping ratio (negative: unstable).
     """
 
-    omega2_real: float  # Re ω² [rad²/s²]
-    omega2_imag: float  # Im ω² (>= 0: one member of each conjugate pair)
+    omega2_real: float  # Re μ [rad²/s²] (eigenvalue of the undamped pencil A φ = μ M φ)
+    omega2_imag: float  # Im μ (>= 0: one member of each conjugate pair)
     growth_rate: float  # Re λ [1/s], > 0 = unstable (flutter)
-    frequency_hz: float  # Im λ / 2π >= 0
+    frequency_hz: float  # |Im λ| / 2π >= 0
     k: int  # signed wavenumber of the growing motion's ψ_θ (contact circle DFT)
     wavenumber: int  # |k|
     purity: float  # share of the DFT power of ψ_θ in wavenumber ±|k|
     direction: str  # 'rotation' | 'opposite' | 'standing' | 'divergence'
     phase_speed_m_s: float  # −ω R / k (signed, + = rotation sense); 0 if standing
+    zeta: float = 0.0  # damping ratio −Re λ / |λ| (< 0: unstable)
+    elements_per_wavelength: float = math.inf  # N / |k| on the contact circle
+    mesh_scale: bool = False  # elements_per_wavelength < MESH_SCALE_ELEMENTS
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
@@ -408,13 +594,16 @@ class CEAResult:
     stats: BandStats
     scene: str = ""
     timings: dict[str, float] = field(default_factory=dict)
+    tau: float = 0.0  # Kelvin–Voigt retardation time of the damping τA [s]
+    friction: str = "nodal"  # friction law on the reactions: 'nodal' or '1-2-1'
+    n_contact: int = 0  # contact nodes N
+    t_star: float = 0.0  # relaxation time of a regularised friction bound [s] (0: Coulomb)
+    #: owned free-dof shapes ψ of the unstable modes (index in ``modes``), on request
+    shapes: dict[int, np.ndarray] = field(default_factory=dict, repr=False)
 
     def unstable(self, rel_tol: float = 1e-7) -> list[CEAMode]:
         """Modes with growth rate > rel_tol·ω (flutter), most unstable first."""
-        out = [
-            m for m in self.modes
-            if m.growth_rate > rel_tol * max(2 * math.pi * m.frequency_hz, 1.0)
-        ]
+        out = [m for m in self.modes if _is_unstable(m.growth_rate, m.frequency_hz, rel_tol)]
         return sorted(out, key=lambda m: -m.growth_rate)
 
     def by_wavenumber(self) -> dict[int, CEAMode]:
@@ -425,40 +614,68 @@ class CEAResult:
                 best[m.wavenumber] = m
         return dict(sorted(best.items()))
 
+    def mesh_scale_reason(self) -> str:
+        """One line: why the flagged modes are not resolved by the mesh."""
+        kmax = int(self.n_contact / MESH_SCALE_ELEMENTS)
+        return (f"mesh-scale modes: wavelength < {MESH_SCALE_ELEMENTS:g} elements on the contact "
+                f"circle (|k| > {kmax} at N = {self.n_contact}); the FE growth of such modes "
+                "departs from the exact continuum (docs/continuum.md)")
+
     def to_dict(self) -> dict[str, Any]:
         uns = self.unstable()
+        resolved = [m for m in uns if not m.mesh_scale]
         return {
             "scene": self.scene, "f": self.f, "fmax_hz": self.fmax_hz, "mass": self.mass,
-            "free_dofs": self.n_free, "modes_in_band": len(self.modes),
-            "unstable_count": len(uns),
+            "damping_tau_s": self.tau, "friction": self.friction,
+            "friction_relaxation_time_s": self.t_star,
+            "n_contact": self.n_contact, "free_dofs": self.n_free,
+            "modes_in_band": len(self.modes), "unstable_count": len(uns),
+            "unstable_resolved_count": len(resolved),
             "max_growth_rate_per_s": uns[0].growth_rate if uns else 0.0,
+            "max_resolved_growth_rate_per_s": resolved[0].growth_rate if resolved else 0.0,
+            "mesh_scale_rule": self.mesh_scale_reason(),
             "unstable": [m.to_dict() for m in uns],
             "most_unstable_per_k": {str(k): m.to_dict() for k, m in self.by_wavenumber().items()},
             "solver": asdict(self.stats), "timings_s": self.timings,
         }
 
 
-def _modes(mu: np.ndarray, psi: np.ndarray, ops: CEAOperators) -> list[CEAMode]:
-    """Growth, frequency, wavenumber and direction from eigenvalues and contact ψ_θ."""
-    comm = ops.comm
-    n_c = ops.n_contact
-    kk = np.arange(-(n_c // 2), n_c // 2 + 1)
+def _is_unstable(growth: float, frequency_hz: float, rel_tol: float = 1e-7) -> bool:
+    return growth > rel_tol * max(2 * math.pi * frequency_hz, 1.0)
+
+
+def _modes(
+    mu: np.ndarray, psi: np.ndarray, ops: CEAOperators, tau: float = 0.0
+) -> tuple[list[CEAMode], list[int]]:
+    """Growth, frequency, damping ratio, wavenumber and direction from the eigenvalues ``μ``
+    and contact ψ_θ; also each mode's index in ``mu``. Modes sorted by frequency."""
     real = np.abs(mu.imag) <= REAL_TOL * np.abs(mu)
-    keep = real | (mu.imag > 0)  # one eigenvalue of each conjugate pair
-    mu, psi = mu[keep], psi[keep]
-    real = real[keep]
-    root = np.sqrt(mu.astype(complex))  # a + i b, a >= 0
-    growth = np.where(real & (mu.real < 0), np.sqrt(np.abs(mu.real)), np.abs(root.imag))
-    omega = np.where(real & (mu.real < 0), 0.0, root.real)
+    index = np.flatnonzero(real | (mu.imag > 0))  # one eigenvalue of each conjugate pair
+    mu, psi, real = mu[index], psi[index], real[index]
+    lam = damped_exponents(np.where(real, mu.real + 0j, mu), tau)
     # growing motion with positive frequency has shape conj(φ) (Im μ > 0), see module doc
     shape = np.where(real[:, None], psi, np.conj(psi))
+    modes = _classify(lam, shape, real, mu, ops)
+    order = sorted(range(len(modes)), key=lambda i: (modes[i].frequency_hz,
+                                                     -modes[i].growth_rate))
+    return [modes[i] for i in order], [int(index[i]) for i in order]
+
+
+def _classify(lam: np.ndarray, shape: np.ndarray, real: np.ndarray, mu: np.ndarray,
+              ops: CEAOperators) -> list[CEAMode]:
+    """One ``CEAMode`` per motion ``Re(ψ e^{λt})``: ``lam`` its exponent, ``shape`` its ψ_θ at
+    the owned contact nodes (the positive-frequency motion), ``real`` a non-oscillating
+    eigenvalue (standing or divergence), ``mu`` the ``ω²`` recorded with it."""
+    n_c = ops.n_contact
+    kk = np.arange(-(n_c // 2), n_c // 2 + 1)
+    growth, omega = lam.real, np.abs(lam.imag)
     basis = np.exp(-1j * np.outer(ops.theta, kk))  # owned nodes × k
-    local = shape @ basis if shape.size else np.zeros((mu.size, kk.size), dtype=complex)
+    local = shape @ basis if shape.size else np.zeros((lam.size, kk.size), dtype=complex)
     coeff = np.zeros_like(local)
-    comm.Allreduce(local, coeff)
+    ops.comm.Allreduce(local, coeff)
     power = np.abs(coeff) ** 2
     modes = []
-    for i in range(mu.size):
+    for i in range(lam.size):
         p = power[i]
         j = int(np.argmax(p))
         k = int(kk[j])
@@ -466,18 +683,66 @@ def _modes(mu: np.ndarray, psi: np.ndarray, ops: CEAOperators) -> list[CEAMode]:
         pair = p[j] + (p[kk == -k][0] if k != 0 else 0.0)
         purity = float(pair / total) if total > 0 else 0.0
         if real[i]:
-            direction = "divergence" if mu[i].real < 0 else "standing"
+            direction = "divergence" if growth[i] > 0 and omega[i] == 0 else "standing"
             k, speed = abs(k), 0.0
         else:
             speed = -omega[i] * ops.radius / k if k != 0 else 0.0
             direction = "rotation" if speed > 0 else ("opposite" if speed < 0 else "standing")
+        per_wave = n_c / abs(k) if k != 0 else math.inf
         modes.append(CEAMode(
             omega2_real=float(mu[i].real), omega2_imag=float(abs(mu[i].imag)),
             growth_rate=float(growth[i]), frequency_hz=float(omega[i] / (2 * math.pi)),
             k=k, wavenumber=abs(k), purity=purity, direction=direction,
             phase_speed_m_s=float(speed),
+            zeta=float(-growth[i] / abs(lam[i])) if lam[i] != 0 else 0.0,
+            elements_per_wavelength=float(per_wave),
+            mesh_scale=bool(per_wave < MESH_SCALE_ELEMENTS),
         ))
-    return sorted(modes, key=lambda m: (m.frequency_hz, -m.growth_rate))
+    return modes
+
+
+def _unstable_mu(tau: float) -> Callable[[complex], bool]:
+    """Predicate on an eigenvalue ``μ``: is its motion (with damping ``τ``) growing?"""
+    def unstable(mu: complex) -> bool:
+        if mu.imag < 0:  # one member of each conjugate pair
+            return False
+        if abs(mu.imag) <= REAL_TOL * abs(mu):
+            mu = complex(mu.real)
+        lam = complex(damped_exponents(np.array([mu]), tau)[0])
+        return _is_unstable(lam.real, abs(lam.imag) / (2 * math.pi))
+    return unstable
+
+
+def friction_relaxation_time(scene: Any) -> float:
+    """``t*`` of the scene's regularised friction bound, linearised about steady sliding
+    (0: Coulomb). Prakash–Clifton ``dσ/dt = −(|V| + V*)/L (σ − p)`` with the steady slip rate
+    ``|V| = R|Ω|`` (the perturbation of ``|V|`` multiplies ``σ − p = 0``): ``t* = L/(R|Ω| +
+    V*)``; constant-time: ``t* = relaxation_time``."""
+    fr = scene.friction
+    if fr.regularization == "prakash-clifton":
+        speed = scene.geometry.R * abs(scene.loading.omega)
+        return fr.slip_length / (speed + fr.reference_velocity)
+    if fr.regularization == "constant-time":
+        return fr.relaxation_time
+    return 0.0
+
+
+def unrepresented_terms(t_star: float, mass: str = "lumped", ranks: int = 1) -> str | None:
+    """Why CEA cannot linearise a scene whose friction bound relaxes in ``t_star`` seconds
+    (0: Coulomb) with this mass on this many ranks (one line), or None.
+
+    Represented: elasticity, the lumped or consistent mass, Coulomb friction on the nodal
+    or 1-2-1 filtered reactions, Kelvin–Voigt damping, and a regularised friction bound
+    (its relaxation state per node, :func:`regularised_band`) with the lumped mass on one
+    rank.
+    """
+    if t_star > 0 and mass != "lumped":
+        return (f"a regularised friction bound (t* = {t_star:.3g} s) with --mass {mass}: the "
+                "regularised CEA uses the solver's lumped mass; drop --mass")
+    if t_star > 0 and ranks > 1:
+        return (f"a regularised friction bound (t* = {t_star:.3g} s): the regularised CEA "
+                f"runs on one rank (got {ranks}); run it without mpirun")
+    return None
 
 
 def complex_eigenvalue_analysis(
@@ -489,45 +754,107 @@ def complex_eigenvalue_analysis(
     ops: CEAOperators | None = None,
     nev_slice: int = 64,
     tol: float = 1e-10,
+    tau: float | None = None,
+    t_star: float | None = None,
+    shapes: bool = False,
 ) -> CEAResult:
     """CEA of ``problem``'s steady sliding at friction ``f`` (default: the scene's) up to
-    ``fmax_hz``: every eigenvalue with frequency ≤ fmax, growth rates, wavenumbers.
+    ``fmax_hz``: every eigenvalue with frequency ≤ fmax, growth rates, damping ratios,
+    wavenumbers. ``tau``: Kelvin–Voigt retardation time (default: the scene's
+    ``damping.tau``; the damping matrix is ``τA``, see the module docstring). ``t_star``:
+    relaxation time of a regularised friction bound (default: the scene's,
+    :func:`friction_relaxation_time`; > 0 solves :func:`regularised_band`). ``shapes``:
+    keep the shapes of the unstable modes (``CEAResult.shapes``).
     """
     t0 = time.perf_counter()
     f = problem.scene.loading.f if f is None else float(f)
+    tau = problem.scene.damping.tau if tau is None else float(tau)
+    t_star = friction_relaxation_time(problem.scene) if t_star is None else float(t_star)
+    for name, value in (("tau", tau), ("t_star", t_star)):
+        if not (math.isfinite(value) and value >= 0.0):
+            raise ValueError(f"{name} = {value!r}: need a time >= 0 (s)")
     own = ops is None
     if ops is None:
-        ops = build_operators(problem, mass)
+        ops = build_operators(problem, mass, problem.scene.friction.filter)
+    refused = unrepresented_terms(t_star, ops.mass_kind, problem.comm.size)
+    if refused:
+        if own:
+            ops.destroy()
+        raise ValueError(refused)
     t1 = time.perf_counter()
-    A, B = ops.operator(f), ops.mass(f)
-    mu_max = (2.0 * math.pi * fmax_hz) ** 2
-    mu, psi, stats = band_eigenvalues(
-        A, B, mu_max * 1.0001, nev_slice=nev_slice, tol=tol, contact_pos=ops.pos_theta
-    )
+    if t_star > 0:
+        modes, kept, stats = _regularised_modes(ops, f, tau, t_star, fmax_hz, tol, shapes)
+    else:
+        modes, kept, stats = _coulomb_modes(ops, f, tau, fmax_hz, nev_slice, tol, shapes)
     t2 = time.perf_counter()
-    modes = [m for m in _modes(mu, psi, ops) if m.frequency_hz <= fmax_hz]
-    t3 = time.perf_counter()
     res = CEAResult(
-        f=f, fmax_hz=fmax_hz, mass=ops.mass_kind, n_free=ops.n_free, modes=modes, stats=stats,
-        scene=problem.scene.name,
-        timings={"operators": t1 - t0, "eigensolve": t2 - t1, "modes": t3 - t2},
+        f=f, fmax_hz=fmax_hz, mass=ops.mass_kind, n_free=ops.n_free, modes=modes,
+        stats=stats, scene=problem.scene.name,
+        timings={"operators": t1 - t0, "eigensolve": stats.seconds,
+                 "modes": t2 - t1 - stats.seconds},
+        tau=tau, friction=ops.friction, n_contact=ops.n_contact, shapes=kept, t_star=t_star,
     )
-    A.destroy()
-    if B is not ops.B:
-        B.destroy()
     if own:
         ops.destroy()
     return res
 
 
+def _coulomb_modes(ops: CEAOperators, f: float, tau: float, fmax_hz: float, nev_slice: int,
+                   tol: float, shapes: bool
+                   ) -> tuple[list[CEAMode], dict[int, np.ndarray], BandStats]:
+    """Coulomb friction: the pencil ``A φ = μ M φ`` by slices, then ``λ`` per ``μ``."""
+    A, B = ops.operator(f), ops.mass(f)
+    w_max = 2.0 * math.pi * fmax_hz
+    # damping lowers the frequency: |Im λ| = √(μ − (τμ/2)²) for real μ; widen the band so
+    # every μ whose damped frequency is ≤ fmax is in it
+    zeta_max = min(0.5 * tau * w_max, 0.99)
+    mu_max = w_max * w_max / (1.0 - zeta_max * zeta_max)
+    vectors: dict[int, np.ndarray] = {}
+    mu, psi, stats = band_eigenvalues(
+        A, B, mu_max * 1.0001, nev_slice=nev_slice, tol=tol, contact_pos=ops.pos_theta,
+        keep_vector=_unstable_mu(tau) if shapes else None, vectors=vectors,
+    )
+    A.destroy()
+    if B is not ops.B:
+        B.destroy()
+    modes, index = _modes(mu, psi, ops, tau)
+    in_band = [i for i, m in enumerate(modes) if m.frequency_hz <= fmax_hz]
+    kept = {}  # the shape ψ of the positive-frequency motion: conj(φ) for complex μ
+    for new, i in enumerate(in_band):
+        if index[i] in vectors:
+            vec = vectors[index[i]]
+            kept[new] = np.conj(vec) if modes[i].omega2_imag > 0 else vec
+    return [modes[i] for i in in_band], kept, stats
+
+
+def _regularised_modes(ops: CEAOperators, f: float, tau: float, t_star: float,
+                       fmax_hz: float, tol: float, shapes: bool
+                       ) -> tuple[list[CEAMode], dict[int, np.ndarray], BandStats]:
+    """Regularised friction: ``λ`` directly (:func:`regularised_band`). Every motion of
+    positive frequency is listed (the growing wave and the decaying one of each pair);
+    ``omega2_*`` record ``−λ²``."""
+    lam, psi, full, stats = regularised_band(ops, f, tau, t_star, fmax_hz, tol=tol,
+                                             keep_vector=shapes)
+    real = np.abs(lam.imag) <= REAL_TOL * np.abs(lam)
+    lam = np.where(real, lam.real + 0j, lam)
+    modes = _classify(lam, psi, real, -lam * lam, ops)
+    order = sorted((i for i, m in enumerate(modes) if m.frequency_hz <= fmax_hz),
+                   key=lambda i: (modes[i].frequency_hz, -modes[i].growth_rate))
+    kept = {}
+    if full is not None:
+        kept = {new: full[i] for new, i in enumerate(order)
+                if _is_unstable(modes[i].growth_rate, modes[i].frequency_hz)}
+    return [modes[i] for i in order], kept, stats
+
+
 def sweep_friction(
-    problem: TubeProblem, fs: np.ndarray, fmax_hz: float, *, mass: str = "lumped"
+    problem: TubeProblem, fs: np.ndarray, fmax_hz: float, *, mass: str = "lumped",
+    tau: float | None = None,
 ) -> list[CEAResult]:
     """CEA for each friction coefficient of ``fs`` (operators built once)."""
-    ops = build_operators(problem, mass)
+    ops = build_operators(problem, mass, problem.scene.friction.filter)
     try:
-        return [complex_eigenvalue_analysis(problem, float(f), fmax_hz, ops=ops) for f in fs]
+        return [complex_eigenvalue_analysis(problem, float(f), fmax_hz, ops=ops, tau=tau)
+                for f in fs]
     finally:
         ops.destroy()
-
-

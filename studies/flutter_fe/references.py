@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 from typing import TYPE_CHECKING, Any
 
-from exact.annulus import annulus_sliding_frequencies  # the exact f = 0 reference (issue 13)
+from exact.annulus import annulus_sliding_frequencies  # the exact f = 0 reference
 
 if TYPE_CHECKING:
     from solver.scene import Scene

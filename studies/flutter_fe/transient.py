@@ -41,20 +41,27 @@ def matrix_pencil(
     return np.log(z) / dt, c
 
 
-def newmark_exponents(omega2: np.ndarray, dt: float, beta2: float) -> np.ndarray:
+def newmark_exponents(
+    omega2: np.ndarray, dt: float, beta2: float, tau: float = 0.0
+) -> np.ndarray:
     """Discrete exponents ``s = log(z)/dt`` of the explicit solver for eigenvalues ``ω²``.
 
     In the sliding regime the solver's forward-increment constraint keeps ``ũ_r = d`` exactly
     (the radial acceleration of a contact node then vanishes: ``a_{n+1} = a_n (β₂−½)/(β₂+½)``
     from ``a_0 = 0``), so the free dofs follow explicit Newmark (``β₁ = 0``, ``γ = β₂``) on
-    ``M ü + (K + K_f) u = 0``. Per eigenvalue (``Ω² = ω² dt²``) the amplification matrix
-    has ``z² − (2 − (β₂ + ½)Ω²) z + 1 − (β₂ − ½)Ω² = 0``. Returns the root of larger
-    ``|z|`` (the growing / less damped one) as ``s`` with ``Im s ≥ 0``; it tends to
-    ``λ`` as ``dt → 0``. For ``β₂ = ½`` (central differences) ``cosh(s dt) = 1 − ω²dt²/2``.
+    ``M ü + τA u̇ + A u = 0``, ``A = K + K_f``, with the damping force on the velocity
+    predictor (``solver.newmark.DampedNewmark``). Per eigenvalue (``W = ω² dt²``,
+    ``C = τω² dt``) the amplification matrix of ``(u_n, dt ṽ_n)`` has
+    ``z² − (2 − (β₂ + ½)W − C) z + 1 − C − (β₂ − ½)W = 0``. Returns the root of larger
+    ``|z|`` (the growing / less damped one) as ``s`` with ``Im s ≥ 0``; it tends to the CEA's
+    ``λ`` as ``dt → 0``. For ``β₂ = ½``, ``τ = 0`` (central differences)
+    ``cosh(s dt) = 1 − ω²dt²/2``.
     """
-    w2 = np.asarray(omega2, dtype=complex) * dt * dt
-    b = 2.0 - (beta2 + 0.5) * w2
-    c = 1.0 - (beta2 - 0.5) * w2
+    mu = np.asarray(omega2, dtype=complex)
+    w2 = mu * dt * dt
+    damp = tau * mu * dt
+    b = 2.0 - (beta2 + 0.5) * w2 - damp
+    c = 1.0 - damp - (beta2 - 0.5) * w2
     disc = np.sqrt(b * b - 4.0 * c)
     z1, z2 = 0.5 * (b + disc), 0.5 * (b - disc)
     z = np.where(np.abs(z1) >= np.abs(z2), z1, z2)

@@ -2,9 +2,12 @@
 
 Each value is one Newton solve started from the previous wave (the first from the usual
 start). Loading and mismatch keys (``loading.*``, ``geometry.delta``) reuse the condensed
-operators (K and G do not depend on them); any other key rebuilds the problem. The branch
-ends where a solve fails: the row names the last residual and the inequality that failed,
-and no wave is reported there.
+operators (K and G do not depend on them); any other key rebuilds the problem. Where a solve
+fails after two converged points, in Ω, f or δ, the branch is followed on by pseudo-arclength
+(``studies.travel.arclength``: λ an unknown, steps along the branch's secant), which turns
+around a fold; a fold (λ changes sense) is reported with its value. The branch ends where a
+solve fails: the row names the last residual and the inequality that failed, and no wave is
+reported there.
 """
 
 from __future__ import annotations
@@ -17,10 +20,64 @@ from pathlib import Path
 import numpy as np
 
 from solver.scene import Scene
+from studies.travel.arclength import ARCLENGTH_KEYS
 
 __all__ = ["run_continuation", "REUSE_KEYS"]
 
 REUSE_KEYS = ("loading.omega", "loading.f", "geometry.delta")
+
+
+def _arclength(st, k: int, key: str, last: list, values: list[float], rows: list[dict]
+               ) -> None:
+    """Follow the branch from its last two waves by pseudo-arclength (module doc), at most
+    as many steps as ``values``, until λ leaves their range or a step fails; one row per
+    wave (``arclength``: true; ``fold``: true where λ turned)."""
+    from studies.travel import driver as D
+    from studies.travel.arclength import arclength_step, phase_row_of, problem_at
+    from studies.travel.newton import NotConverged, fold_state, unfold
+
+    R = st.scene.geometry.R
+    prob0 = D.folded(st, k).prob
+    period = prob0.period
+    x = [np.r_[fold_state(W, period), om, lam] for lam, W, om in last]
+    n = prob0.n
+    scale = np.r_[np.full(2 * n, prob0.d), abs(x[1][2 * n]), abs(x[1][-1])]
+    tangent = (x[1] - x[0]) / scale
+    ds = float(np.linalg.norm(tangent))
+    tangent /= ds
+    phase_row = phase_row_of(x[1][n: 2 * n], prob0.theta, k)
+    lo, hi = min(values), max(values)
+    sense = np.sign(x[1][-1] - x[0][-1])
+    x_now = x[1]
+    print(f"{key}: pseudo-arclength from {key} = {x_now[-1]:g}")
+    for _ in range(len(values)):
+        try:
+            x_new, sol = arclength_step(lambda lam: problem_at(prob0, key, lam, R), k, x_now,
+                                        tangent, ds, scale, phase_row)
+        except NotConverged as err:
+            rows.append({"value": None, "status": "failed", "arclength": True,
+                         "residual": err.info.get("residual"),
+                         "violated": err.info.get("violated") or str(err)})
+            print(f"branch ends after {key} = {x_now[-1]:g}: {err}")
+            return
+        lam = float(x_new[-1])
+        fold = bool(np.sign(lam - x_now[-1]) != sense)
+        if fold:
+            sense = -sense
+            print(f"fold near {key} = {x_now[-1]:g}: the branch turns back")
+        summ, _ = D.measure(D.retarget(st, st.scene.with_overrides(f"{key}={lam!r}")),
+                            unfold(sol, period), k)
+        rows.append({"value": lam, "status": "converged", "arclength": True, "fold": fold,
+                     **{q: summ[q] for q in ("celerity_m_s", "amplitude_m", "psi1", "psi2",
+                                             "psi1_subnode", "psi2_subnode", "regime",
+                                             "residual")}, "violated": None})
+        print(f"{key} = {lam:g} (arclength): {summ['celerity_m_s']:.1f} m/s, amplitude "
+              f"{summ['amplitude_m']:.3g} m" + (" [fold passed]" if fold else ""))
+        tangent = (x_new - x_now) / scale
+        tangent /= float(np.linalg.norm(tangent))
+        x_now = x_new
+        if not lo - 1e-9 * abs(hi) <= lam <= hi + 1e-9 * abs(hi):
+            return
 
 
 def run_continuation(scene: Scene, args: argparse.Namespace, key: str, values: list[float],
@@ -57,6 +114,7 @@ def _follow(scene: Scene, args: argparse.Namespace, key: str, values: list[float
 
     st = None
     W, om = None, None
+    waves: list[tuple[float, np.ndarray, float]] = []  # (λ, W, ω) of the converged points
     for val in values:
         sc = scene.with_overrides(f"{key}={val}")
         row: dict = {"value": val}
@@ -81,6 +139,7 @@ def _follow(scene: Scene, args: argparse.Namespace, key: str, values: list[float
                 "regime", "residual")}, violated=None)
             W = np.concatenate([sol.W_r, sol.W_t])
             om = sol.omega
+            waves.append((val, W, om))
         except NotConverged as err:
             row.update(status="failed", residual=err.info.get("residual"),
                        violated=err.info.get("violated") or str(err))
@@ -93,3 +152,6 @@ def _follow(scene: Scene, args: argparse.Namespace, key: str, values: list[float
         if row["status"] != "converged" and rows[:-1] and rows[-2]["status"] == "converged":
             print(f"branch lost between {key} = {rows[-2]['value']:g} and {val:g}: "
                   f"{row.get('violated')}")
+            if key in ARCLENGTH_KEYS and len(waves) >= 2:
+                _arclength(st, args.k, key, waves[-2:], values, rows)
+                return

@@ -37,6 +37,7 @@ from studies.travel.newton import (
 )
 
 __all__ = ["TravelResult", "Setup", "band", "setup", "start_from_run", "start_from_reduced",
+           "reduced_start",
            "probe_history", "prolong", "folded", "solve_free", "solve_scene", "measure",
            "member_amplitude"]
 
@@ -63,8 +64,9 @@ class TravelResult:
 
 def setup(scene: Scene, damping: float = 0.0, lumped: bool = False,
           rate: str = "bdf2", inertia: str = "rotation", samples: int = 1,
-          time_scheme: str = "exact") -> Setup:
-    """Mesh, stiffness (``solver.problem``), travelling inertia (``lumped``: vertex rule,
+          time_scheme: str = "exact", problem=None) -> Setup:
+    """Mesh, stiffness (``solver.problem``; or ``problem``, already built for ``scene``),
+    travelling inertia (``lumped``: vertex rule,
     ``frame.frame_operators``; ``inertia="shift"``: the transient's own travelling operator,
     lumped M per discrete harmonic; ``samples``: contact points per node, ``time_scheme``:
     exact or central in time, both "shift" only) and the condensed problem (``rate``: the
@@ -74,7 +76,8 @@ def setup(scene: Scene, damping: float = 0.0, lumped: bool = False,
     from studies.travel.newton import check_rate
 
     check_rate(rate)
-    ops = frame_operators(build_problem(scene), damping, lumped, inertia, samples, time_scheme)
+    ops = frame_operators(problem or build_problem(scene), damping, lumped, inertia, samples,
+                          time_scheme)
     return Setup(scene, ops, circle_problem(ops, rate=rate))
 
 
@@ -85,12 +88,13 @@ def retarget(st: Setup, scene: Scene) -> Setup:
     return Setup(scene, st.ops, circle_problem(st.ops, scene, rate=st.prob.rate))
 
 
-def start_from_run(run_dir: Path, st: Setup) -> tuple[Array, float, dict]:
+def start_from_run(run_dir: Path, st: Setup, run=None) -> tuple[Array, float, dict]:
     """(W0, ω0, info) from a transient run directory's last sample (module doc); with sub-node
-    samples, from its probe's every-step history (``probe_history``) where it has one."""
+    samples, from its probe's every-step history (``probe_history``) where it has one.
+    ``run``: the directory's ``postprocess.analysis.RunData`` if already loaded."""
     from postprocess.analysis import analyse_run, load_run
 
-    run = load_run(run_dir)
+    run = run if run is not None else load_run(run_dir)
     s = run.samples
     order = np.argsort(s["theta"])
     ops = st.ops
@@ -136,30 +140,39 @@ def probe_history(samples: dict, omega: float, k: int, points: int) -> Array | N
     return np.concatenate([np.interp(at, phase, x[sel, c], period=length) for c in (0, 1)])
 
 
-def start_from_reduced(st: Setup, k: int) -> tuple[Array, float, dict]:
-    """(W0, ω0, info) from the reduced model's wave at k (module doc)."""
+def reduced_start(scene: Scene, k: int):
+    """(the reduced model's first wave at k or None, ω0): the start of ``start_from_reduced``
+    (module doc), before the frame is built (its speed sets the matched step)."""
     from semianalytic.coefficients import coefficients, gamma_from_physical
+    from semianalytic.flutter import flutter_modes
     from semianalytic.waves import find_waves
+
+    R, om = scene.geometry.R, scene.loading.omega
+    co = coefficients(scene.material.nu, scene.geometry.xi,
+                      gamma_from_physical(scene.material.wave_speed, R, om))
+    waves = find_waves(co, scene.loading.f, k, scene.geometry.delta)
+    if waves:
+        return waves[0], waves[0].c * om
+    return None, flutter_modes(co, scene.loading.f, kmax=k, kmin=k)[0].phase_speed * om
+
+
+def start_from_reduced(st: Setup, k: int, start=None) -> tuple[Array, float, dict]:
+    """(W0, ω0, info) from the reduced model's wave at k (module doc); ``start``: the result
+    of ``reduced_start`` if already computed."""
     from studies.reduced_transient import wave_fields
 
     sc = st.scene
-    R, om = sc.geometry.R, sc.loading.omega
-    co = coefficients(sc.material.nu, sc.geometry.xi,
-                      gamma_from_physical(sc.material.wave_speed, R, om))
-    waves = find_waves(co, sc.loading.f, k, sc.geometry.delta)
+    R = sc.geometry.R
+    w, om0 = start if start is not None else reduced_start(sc, k)
     theta = st.ops.theta
-    if waves:
-        w = waves[0]
+    if w is not None:
         ev = wave_fields(w, theta)
         W0 = R * np.concatenate([ev["U"], ev["V"]])
-        return W0, w.c * om, {"start": "reduced", "start_celerity_m_s": w.c * om * R,
-                              "start_regime": w.regime, "start_admissible": w.admissible}
-    from semianalytic.flutter import flutter_modes
-
-    c = flutter_modes(co, sc.loading.f, kmax=k, kmin=k)[0].phase_speed
+        return W0, om0, {"start": "reduced", "start_celerity_m_s": om0 * R,
+                         "start_regime": w.regime, "start_admissible": w.admissible}
     d = sc.geometry.d
     W0 = np.concatenate([np.full(theta.size, d), 0.2 * d * np.cos(k * theta)])
-    return W0, c * om, {"start": "flutter", "start_celerity_m_s": c * om * R}
+    return W0, om0, {"start": "flutter", "start_celerity_m_s": om0 * R}
 
 
 def prolong(W: Array, n_fine: int, how: str = "linear") -> Array:
@@ -316,7 +329,7 @@ def band(st: Setup, sol: TravelSolution, k: int) -> dict:
     p2 = [z["separation"] + z["stick"] for z in zs]
     amp = [member_amplitude(st, m) for m in members]
     # members in order of celerity (m/s): the selection question is where on this list the
-    # transient's wave sits (docs/travelling_waves.md, "selection")
+    # transient's wave sits (archive/travel/travelling_waves_history.md, "selection")
     table = sorted(zip([m.omega * R for m in members], amp, p1, p2, strict=True))
     return {"celerity_m_s": [min(lo * R, hi * R), max(lo * R, hi * R)],
             "members": len(members),

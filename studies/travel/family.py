@@ -1,4 +1,4 @@
-"""Every k-periodic wave of one zone topology, by enumerating active sets (issue 14).
+"""Every k-periodic wave of one zone topology, by enumerating active sets.
 
 For a fixed active set the wave-frame law is linear in W (``newton.wave_of_active_set``),
 so whether a wave with that active set exists at a speed ω is one linear solve and the

@@ -1,4 +1,4 @@
-"""The FE tube in the wave's frame: K − ω²G condensed on the contact nodes (issue 14).
+"""The FE tube in the wave's frame: K − ω²G condensed on the contact nodes.
 
 ``forms.travelling`` gives the wave-frame operator A(ω) = K − ω²G (K: the transient's
 stiffness, ``solver.problem.build_problem``; G: travelling inertia). The outer circle is
@@ -51,17 +51,20 @@ harmonic e^{imθ} is seen by the mesh nodes as the discrete harmonic m mod N at 
 hence m mod N) and the frequency mω. The contact law is applied at every point with the
 material rate over τ/s (``newton.rate_stencil``). As s → ∞ this is the transient's own
 travelling wave at N, continuous in time (the transient's limit as Δt → 0); s is the time
-resolution, N the space resolution (docs/travelling_waves.md, 2e).
+resolution, N the space resolution (archive/travel/travelling_waves_history.md 2e).
 
 **Central scheme** (``time_scheme="central"``): the transient's own time discretisation with
-step h = τ/s, i.e. the explicit β-method at β₂ = 1/2 (``solver.newmark``):
-M(u⁺ − 2u + u⁻)/h² + K(u + τ_KV(u − u⁻)/h) = r, where r at step n is the force that puts the
-node where the contact law wants it at step n + 1 (the forward increment). Per harmonic
-(e^{−iνt}, ν = mω, e^{−iνh} one step) the interior operator becomes
+step h = τ/s, the explicit β-method of ``solver.newmark`` at the scene's β₂:
+u_{n+1} = u_n + h v_n + h²a_n/2, v_n = ṽ_n + β₂h a_n, ṽ_{n+1} = v_n + (1 − β₂)h a_n and
+M a_n + τ_KV K ṽ_n + K u_n = r_n (Kelvin–Voigt on the predictor ṽ), where r_n is the force
+that puts the node where the contact law wants it at step n + 1 (the forward increment).
+Per harmonic (e^{−iνt}, ν = mω, z = e^{−iνh} one step) these give ṽ = (z − 1)u/(hD),
+a = (z − 1)²u/(h²D) with D = 1 + (β₂ + 1/2)(z − 1), so the interior operator is
 
-    A_m = (1 + τ_KV(1 − e^{iνh})/h) K − (2/h)² sin²(νh/2) M,
+    A_m = (1 + τ_KV(z − 1)/(hD)) K + ((z − 1)²/(h²D)) M,
 
-and pairing the force with the position one step later multiplies the contact symbol by
+at β₂ = 1/2 (D = z) the central difference (1 + τ_KV(1 − e^{iνh})/h) K − (2/h)² sin²(νh/2) M;
+pairing the force with the position one step later multiplies the contact symbol by
 e^{iνh} (νh = ±2πm/(Ns): the shift by one point). A wave of this problem is a periodic orbit
 of the transient's discrete equations at dt = h: a run started on it (``shift_state``) stays
 on it to round-off (``tests/test_travel_fe.py``). The "exact" scheme differs at the landing:
@@ -122,6 +125,7 @@ class FrameOperators:
     tau: float = 0.0  # Kelvin–Voigt retardation time (s), for "shift"
     samples: int = 1  # contact points per mesh node ("shift" only; module doc, "Samples")
     time_scheme: str = "exact"  # "exact" in time, or "central": the transient's step h = τ/s
+    beta2: float = 0.5  # the explicit scheme's β₂ ("central" only; the scene's time.beta2)
     _cache: tuple | None = None  # ((ω, period), (S, dS, X)): the last evaluation
     _static: dict = field(default_factory=dict)  # period -> S(0): every solve's nodal scale
     _blocks: dict | None = None
@@ -344,14 +348,23 @@ class FrameOperators:
         """(damping factor, inertia factor, contact factor) of harmonic m at ω, so that
         A_m = damping·K − inertia·M and the contact symbol is contact·(Schur complement).
 
-        exact:   1 − iντ,                 ν²,                 1          (ν = mω);
-        central: 1 + τ(1 − e^{iνh})/h,    (2/h)² sin²(νh/2),  e^{iνh}    (module doc)."""
+        exact:   1 − iντ,              ν²,               1         (ν = mω);
+        central: 1 + τ(z − 1)/(hD),    −(z − 1)²/(h²D),  e^{iνh}   (z = e^{−iνh},
+        D = 1 + (β₂ + 1/2)(z − 1); module doc)."""
         nu = m * omega
         if self.time_scheme == "exact" or omega == 0.0:  # ω = 0: the static S (no step)
             return 1.0 - 1j * nu * self.tau, nu * nu, 1.0
         h = self.step(omega)
-        return (1.0 + self.tau * (1.0 - np.exp(1j * nu * h)) / h,
-                (2.0 / h * math.sin(0.5 * nu * h)) ** 2, np.exp(1j * nu * h))
+        vel, acc = self.step_factors(m, omega)
+        return 1.0 + self.tau * vel, -acc, np.exp(1j * nu * h)
+
+    def step_factors(self, m: int, omega: float) -> tuple[complex, complex]:
+        """(ṽ/u, a/u) of harmonic m in the explicit scheme at step h (module doc):
+        (z − 1)/(hD) and (z − 1)²/(h²D), z = e^{−imωh}, D = 1 + (β₂ + 1/2)(z − 1)."""
+        h = self.step(omega)
+        zm1 = np.exp(-1j * m * omega * h) - 1.0
+        den = 1.0 + (self.beta2 + 0.5) * zm1
+        return zm1 / (h * den), zm1 * zm1 / (h * h * den)
 
     def _sector_operator(self, bl: dict, m: int, omega: float) -> NDArray[np.complex128]:
         """A_m = (1 − imωτ)K − (mω)²M (or the central scheme's, ``time_symbols``) restricted
@@ -438,11 +451,12 @@ class FrameOperators:
         e^{imα} is the discrete harmonic m mod N). ``time_scheme="exact"``: v = Σ −imω (…),
         a = Σ −(mω)² (…); the interior rows of M a + K (u + τ v) vanish, the contact rows are
         the nodal forces S(ω) W at the points the nodes occupy at t, and at t = jτ/samples
-        (τ = Δφ/|ω|) node i holds W at point i·samples − j·sign(ω). ``"central"``: u at
-        t − h, t, t + h (h = ``step``) give the explicit scheme's state at step t (β₂ = 1/2,
-        ``solver.newmark``): ṽ = (u(t) − u(t − h))/h, a = (u(t + h) − 2u(t) + u(t − h))/h²,
-        v = ṽ + h a/2, so that ``Simulation(initial_state=(u, v, a))`` with dt = h starts on
-        the discrete wave (``tests/test_travel_fe.py``)."""
+        (τ = Δφ/|ω|) node i holds W at point i·samples − j·sign(ω). ``"central"``: the
+        explicit scheme's state at step t (``solver.newmark``, module doc): per harmonic
+        a = (z − 1)²u/(h²D), v = ṽ + β₂h a with ṽ = (z − 1)u/(hD) (``step_factors``; at
+        β₂ = 1/2, ṽ = (u(t) − u(t − h))/h and a the central difference), so that
+        ``Simulation(initial_state=(u, v, a))`` with dt = h starts on the discrete wave
+        (``tests/test_travel_fe.py``)."""
         if self.inertia != "shift":
             raise ValueError("shift_state: the wave must be one of inertia='shift'")
         bl = self._bloch()
@@ -452,28 +466,23 @@ class FrameOperators:
         R, alpha = bl["R"], bl["alpha"]
         central = self.time_scheme == "central"
         h = self.step(omega) if central else 0.0
-        times = (t - h, t, t + h) if central else (t,)
-        u_at = [np.zeros(self.problem.n_owned) for _ in times]
-        v, a = np.zeros(self.problem.n_owned), np.zeros(self.problem.n_owned)
+        u, v, a = (np.zeros(self.problem.n_owned) for _ in range(3))
         for m in range(n // 2 + 1):
             A = self._sector_operator(bl, m, omega)
             c = np.zeros(A.shape[0], dtype=complex)
             c[ci] = chat[:, m]
             c[ii] = -np.linalg.solve(A[np.ix_(ii, ii)], A[np.ix_(ii, ci)] @ chat[:, m])
-            shape = np.exp(1j * m * alpha) * (R @ c)
+            term = np.exp(1j * m * alpha) * (R @ c) * np.exp(-1j * m * omega * t)
             weight = 1.0 if m == 0 or 2 * m == n else 2.0  # ĉ_{−m} = conj(ĉ_m): W is real
-            fields = [shape * np.exp(-1j * m * omega * tj) for tj in times]
-            for u, term in zip(u_at, fields, strict=True):
-                u += weight * term.real
-            if not central:  # times = (t,): the exact derivatives of the one term
-                v += weight * (-1j * m * omega * term).real
-                a += weight * (-((m * omega) ** 2) * term).real
-        if central:
-            before, u, after = u_at
-            a = (after - 2.0 * u + before) / (h * h)
-            v = (u - before) / h + 0.5 * h * a
-            return u, v, a
-        return u_at[0], v, a
+            if central:  # v_n = ṽ_n + β₂h a_n from the scheme's per-step factors
+                vel, acc = self.step_factors(m, omega)
+                dv, da = vel + self.beta2 * h * acc, acc
+            else:  # the exact derivatives
+                dv, da = -1j * m * omega, -((m * omega) ** 2)
+            u += weight * term.real
+            v += weight * (dv * term).real
+            a += weight * (da * term).real
+        return u, v, a
 
     def full_field(self, W: Array, omega: float) -> Array:
         """Owned dof array of w (clamped dofs 0) from the polar contact values W at ω."""
@@ -564,7 +573,7 @@ def frame_operators(problem: TubeProblem, damping: float = 0.0,
     return FrameOperators(problem, K, G, contact, interior, points,
                           np.repeat(nd.ds_weight[order], samples), T, C,
                           inertia=inertia, tau=float(damping), samples=samples,
-                          time_scheme=time_scheme)
+                          time_scheme=time_scheme, beta2=float(problem.scene.time.beta2))
 
 
 def circle_problem(ops: FrameOperators, scene: Scene | None = None,

@@ -99,6 +99,27 @@ def plot_profiles(path: Path, profiles: dict, summary: dict) -> Path:
     return out
 
 
+#: axis labels of continuation keys: symbol, scene key and unit
+KEY_LABELS = {
+    "loading.omega": "Ω, loading.omega (rad/s)",
+    "loading.f": "f, loading.f (–)",
+    "geometry.delta": "δ = d/R, geometry.delta (–)",
+    "geometry.xi": "ξ = R*/R, geometry.xi (–)",
+    "geometry.R": "R, geometry.R (m)",
+    "material.nu": "ν, material.nu (–)",
+    "material.E": "E, material.E (Pa)",
+    "material.wave_speed": "c_s, material.wave_speed (m/s)",
+    "damping.loss_factor": "η, damping.loss_factor (–)",
+    "damping.reference_frequency_hz": "f_ref, damping.reference_frequency_hz (Hz)",
+    "mesh.n_inner": "N, mesh.n_inner (contact nodes)",
+}
+
+
+def key_label(key: str) -> str:
+    """The axis label of a continuation key: ``KEY_LABELS``, else the key itself."""
+    return KEY_LABELS.get(key, key)
+
+
 def plot_branch(path: Path, rows: list[dict], key: str) -> Path:
     """Celerity, amplitude, ψ₁, ψ₂ against the continuation parameter (Figures 4–6)."""
     import matplotlib
@@ -116,8 +137,9 @@ def plot_branch(path: Path, rows: list[dict], key: str) -> Path:
     axes[2].plot(x, [r["psi1_subnode"] for r in ok], "o-", label="ψ1")
     axes[2].plot(x, [r["psi2_subnode"] for r in ok], "s-", label="ψ2")
     axes[2].legend()
-    axes[2].set_xlabel(key)
-    bad = [r for r in rows if r["status"] != "converged"]
+    axes[2].set_ylabel("ψ (fraction of a period)")
+    axes[2].set_xlabel(key_label(key))
+    bad = [r for r in rows if r["status"] != "converged" and r.get("value") is not None]
     if bad:
         for ax in axes:
             ax.axvline(bad[0]["value"], color="r", ls="--")

@@ -1,0 +1,709 @@
+"""The stages of the GPU benchmark suite (benchmarks/gpu_suite.sh runs them; docs/gpu.md).
+
+Each stage is one process that appends one JSON line per measurement to ``--json``; ``report``
+turns the lines into ``gpu_suite.json`` and the table ``gpu_suite.md``. The stages run from
+the npz problems of ``prepare`` (made where dolfinx is, e.g. ``./dev``), so the GPU node
+needs numpy, numba and CuPy only::
+
+    ./dev python3 benchmarks/gpu_bench.py prepare build/gpu_suite       # here, once
+    python3 benchmarks/gpu_bench.py env --json J
+    python3 benchmarks/gpu_bench.py rate --npz P --target gpu --B 4096 --json J
+    python3 benchmarks/gpu_bench.py check --npz P --B 4096 --json J
+    python3 benchmarks/gpu_bench.py census --npz build/gpu_suite/census_n132.npz --json J
+    python3 benchmarks/gpu_bench.py report J --out DIR
+
+Paths (``rate --paths``, timed in turn in one process), as a sweep's batch
+(``solver.ensemble_run.BatchSimulation`` in ``solver.run.run_loop``) runs them:
+
+* ``kernel``: the step alone, every step lean (v, a, K u not stored: an unsampled step);
+* ``observed``: the whole loop body: lean steps, a full step on each sampled level, the
+  probes every step, the samples (fields, status, energies) and the health check every
+  ``every`` steps (the sweep's sample_interval, 1e-4 s); the record spooled to disk on the
+  GPU and kept in memory on the CPU, as the sweep does;
+* ``coarse``: the same at a coarse cadence (``--coarse-interval``, 1e-3 s).
+
+``--target cpu`` is the batched numba kernel on one core (the best CPU path), ``gpu`` the
+CUDA kernel through CuPy. ``--emulate`` replaces CuPy by benchmarks/gpu_emulate.py (the CUDA
+source compiled for the CPU), so that every GPU stage runs here, slowly, as a rehearsal.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import shutil
+import sys
+import tempfile
+import time
+from collections import Counter
+from pathlib import Path
+
+import numpy as np
+
+REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO))
+
+#: The timed paths (``rate --paths``), in the report's order.
+PATHS = ("kernel", "observed", "coarse")
+#: The census point: the paper's Figure-3 scene (undamped, as a batch is), random starts.
+CENSUS_SCENE = "scenes/figure3_n132.toml"
+
+
+# ------------------------------------------------------------------ the ensemble's API, once
+
+
+def ensemble(bp, d, slide, f, u0, *, xp, kernel: str, observe: dict | None = None,
+             diag: bool = False):
+    """The batch of ``solver.ensemble`` and, with ``observe``, its ``BatchRecorder``.
+
+    The one place that calls the ensemble's public classes (``BatchedExplicit``,
+    ``BatchRecorder``; benchmarks/ensemble.py's npz mode uses it too). ``observe``: {every,
+    max_samples, max_steps, probe_nodes (contact slots), spool_dir}. Returns ``(integ, rec,
+    advance)``: ``advance(k)`` runs k steps of the path, lean steps without ``rec``; with it,
+    step for step what a sweep's batch does (``BatchSimulation``: v, a, K u stored on the
+    sampled levels, its probe hook after every step, its sampling observer with the energy
+    guard on the sampled levels). ``solver.run.run_loop`` itself is not called: it imports
+    mpi4py, which a GPU node need not have. ``diag``: store v, a, K u at every step.
+    """
+    from solver.ensemble import BatchedExplicit
+    from solver.ensemble_observers import BatchRecorder
+
+    integ = BatchedExplicit(bp, d, slide, f, xp=xp, kernel=kernel)
+    integ.set_state(u0, np.zeros_like(u0))
+    if observe is None:
+        def advance(k: int) -> None:
+            for _ in range(k):
+                integ.step(diag=diag)
+
+        return integ, None, advance
+    perm = np.argsort(bp.theta)
+    probes = np.asarray(observe["probe_nodes"], dtype=np.int64)  # contact slots
+    rec = BatchRecorder(
+        integ, mass=bp.mass, perm=perm, theta=bp.theta[perm], ds=np.zeros(bp.cx.size),
+        every=observe["every"], max_samples=observe["max_samples"],
+        max_steps=observe["max_steps"], probe_nodes=bp.cx[probes] // 2,
+        probe_pc=np.exp(-1j * bp.theta[probes]), probe_deg=np.degrees(bp.theta[probes]),
+        spool_dir=observe.get("spool_dir"))
+    integ.keep_nodes(bp.cx[probes] // 2)
+
+    def advance(k: int) -> None:
+        for _ in range(k):
+            integ.step(diag=diag or rec.due(integ.step_count))
+            rec.record_probes()
+            if rec.due(integ.step_count - 1):
+                kin, strain, wcyl = rec.sample()
+                for b in rec.check_health(kin, strain, wcyl, integ.time):
+                    integ.mask(b)
+
+    return integ, rec, advance
+
+
+# ----------------------------------------------------------------------------- helpers
+
+
+def namespace(target: str, emulate: bool):
+    """numpy for the CPU; CuPy (or its CPU emulation) for the GPU."""
+    if target == "cpu":
+        return np
+    if emulate:
+        from benchmarks import gpu_emulate
+
+        return gpu_emulate.install()
+    import cupy
+
+    return cupy
+
+
+def synchronize(xp) -> None:
+    if xp is not np:
+        xp.cuda.Device().synchronize()
+
+
+def host(a) -> np.ndarray:
+    return np.asarray(a.get() if hasattr(a, "get") else a)
+
+
+def load(path: Path):
+    """(BatchedProblem, extras) of an npz written by ``prepare``."""
+    from solver.ensemble import BatchedProblem
+
+    bp = BatchedProblem.load(path)
+    with np.load(path) as z:
+        extra = {k: z[k] for k in z.files if k not in bp.FIELDS}
+    return bp, extra
+
+
+def tile(arr: np.ndarray, B: int) -> np.ndarray:
+    """The last axis repeated to length B (columns 0..s-1, then again)."""
+    reps = -(-B // arr.shape[-1])
+    return np.tile(arr, (1,) * (arr.ndim - 1) + (reps,))[..., :B].copy()
+
+
+def cadence(args, bp, extra) -> int:
+    """Steps between samples: ``--sample-interval`` (s) when given, else the npz's (the
+    sweep's 1e-4 s)."""
+    if args.sample_interval:
+        return max(1, int(round(args.sample_interval / bp.dt)))
+    return int(extra["every"])
+
+
+def probe_slot(bp) -> int:
+    """The contact node nearest theta = 0 (the scenes' probes_deg = [0])."""
+    return int(np.argmin(np.abs((bp.theta + np.pi) % (2 * np.pi) - np.pi)))
+
+
+def dram_bytes_per_scene_step(n: int, m: int, every: int, observed: bool) -> float:
+    """Bytes the step must move to and from device memory per scene, each array element read
+    or written once (K is shared by the B scenes and stays in cache):
+
+        lean step  32 n + 113 m   reads u_n, v~_n; writes u_{n+1}, v~_{n+1} (4 x 8 n); contact
+                                  nodes: r_r, r_t, r_x, r_y, status written (33 m), z_prev read
+                                  and written (32 m), the 3 works read and written (48 m)
+        full step  + 24 n         v_n, a_n, K u_n written as well
+        sample     + 48 n + 65 m  energies: v m v (v read, scratch written and read, v read)
+                                  and u K u (u, K u read); fields (6 x 8 m), status (m),
+                                  gathers of u, v, r_r, r_t at the contact nodes (6 x 8 m read
+                                  counted as 16 m: the rows are short)
+
+    ``observed``: a full step and a sample every ``every`` steps, lean steps between (the probes,
+    4 doubles per step, are left out). The implied bandwidth is this times scene-steps/s.
+    """
+    lean = 32.0 * n + 113.0 * m
+    if not observed:
+        return lean
+    return lean + (24.0 * n + 48.0 * n + 65.0 * m) / max(1, every)
+
+
+def emit(path: Path | None, record: dict) -> None:
+    line = json.dumps(record)
+    print(line, flush=True)
+    if path is not None:
+        with open(path, "a") as fh:
+            fh.write(line + "\n")
+
+
+# ------------------------------------------------------------------------------ stages
+
+
+def stage_env(args) -> None:
+    """Device name and peak memory bandwidth (2 x memory clock x bus width / 8, from the
+    device's attributes), a device-to-device copy's bandwidth, the host CPU, versions."""
+    out = {"stage": "env", "python": platform.python_version(), "numpy": np.__version__,
+           "cpu": _cpu_model(), "cpu_count": os.cpu_count()}
+    try:
+        import numba
+
+        out["numba"] = numba.__version__
+    except ImportError as err:  # the CPU stages fail; check and census compare with "xp"
+        out["numba"] = f"does not import: {err}"
+    try:
+        xp = namespace("gpu", args.emulate)
+        out["emulated"] = bool(getattr(xp, "EMULATED", False))
+        out.update(_device_facts(xp))
+    except Exception as err:  # no CuPy or no device: the CPU stages still run
+        out["gpu_error"] = f"{type(err).__name__}: {err}"
+    emit(args.json, out)
+
+
+def _cpu_model() -> str:
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor()
+
+
+def _device_facts(xp) -> dict:
+    rt = xp.cuda.runtime
+    props = rt.getDeviceProperties(0)
+    name = props.get("name", b"?")
+    out = {"device": name.decode() if isinstance(name, bytes) else str(name),
+           "device_memory_gb": props.get("totalGlobalMem", 0) / 1e9,
+           "cupy": getattr(xp, "__version__", "emulated")}
+    # memory clock (kHz) and bus width (bits): cudaDevAttrMemoryClockRate = 36,
+    # cudaDevAttrGlobalMemoryBusWidth = 37 (properties first; CUDA 13 dropped the clock there)
+    try:
+        clock = props.get("memoryClockRate") or rt.deviceGetAttribute(36, 0)
+        width = props.get("memoryBusWidth") or rt.deviceGetAttribute(37, 0)
+    except Exception as err:  # the copy below still gives an achievable bandwidth
+        clock = width = 0
+        out["attribute_error"] = f"{type(err).__name__}: {err}"
+    out["memory_clock_khz"], out["memory_bus_bits"] = int(clock), int(width)
+    out["peak_bandwidth_gb_s"] = 2.0 * clock * 1e3 * width / 8 / 1e9 if clock and width else None
+    if not getattr(xp, "EMULATED", False):
+        a = xp.ones(1 << 28, dtype=np.uint8)  # 256 MiB
+        b = xp.empty_like(a)
+        b[...] = a
+        synchronize(xp)
+        t0 = time.perf_counter()
+        for _ in range(20):
+            b[...] = a
+        synchronize(xp)
+        out["copy_bandwidth_gb_s"] = 20 * 2 * a.nbytes / (time.perf_counter() - t0) / 1e9
+    return out
+
+
+def stage_rate(args) -> None:
+    """Scene-steps per second of the ``--paths`` on one target at one B, side by side: one
+    batch per path, a warm-up block each (compile), then rounds of one ``--block`` per path
+    in turn until ``--steps`` are done or ``--seconds`` have passed, so that a drift of the
+    machine's speed falls on every path alike. One record per path."""
+    xp = namespace(args.target, args.emulate)
+    bp, extra = load(args.npz)
+    kernel = "numba" if args.target == "cpu" else "cuda"
+    every = {"kernel": int(extra["every"]), "observed": cadence(args, bp, extra),
+             "coarse": max(1, int(round(args.coarse_interval / bp.dt)))}
+    block, B = args.block, args.B
+    total = 2 * block + args.steps + 1  # warm-up, the timed steps, a last block past --steps
+    spools, runs = [], {}
+    try:
+        for path in args.paths:
+            observe = None
+            if path != "kernel":
+                spool = None
+                if xp is not np:  # the sweep spools a GPU batch's record to disk
+                    spool = Path(tempfile.mkdtemp(prefix="gpu-bench-spool-", dir=args.spool_dir))
+                    spools.append(spool)
+                observe = {"every": every[path], "max_samples": total // every[path] + 2,
+                           "max_steps": total, "probe_nodes": [probe_slot(bp)],
+                           "spool_dir": spool}
+            run = ensemble(bp, tile(extra["d"], B), tile(extra["slide"], B),
+                           tile(extra["f"], B), tile(extra["u0"], B), xp=xp, kernel=kernel,
+                           observe=observe)
+            t0 = time.perf_counter()
+            run[2](block)
+            synchronize(xp)
+            runs[path] = {"run": run, "first": time.perf_counter() - t0, "steps": 0,
+                          "seconds": 0.0, "cpu": 0.0}
+        t_start = time.perf_counter()
+        while min(r["steps"] for r in runs.values()) < args.steps and (
+                time.perf_counter() - t_start < args.seconds or not runs[args.paths[0]]["steps"]):
+            for r in runs.values():
+                t0, c0 = time.perf_counter(), time.process_time()
+                r["run"][2](block)
+                synchronize(xp)
+                r["seconds"] += time.perf_counter() - t0
+                r["cpu"] += time.process_time() - c0
+                r["steps"] += block
+        for r in runs.values():
+            integ, rec, _ = r["run"]
+            r["active"] = int(np.sum(integ.active))
+            r["finite"] = bool(np.all(np.isfinite(host(integ.u))))
+            if rec is not None:
+                rec.close()
+    finally:
+        for spool in spools:
+            shutil.rmtree(spool, ignore_errors=True)
+    n, m = bp.n, int(bp.cx.size)
+    for path, r in runs.items():
+        rate = B * r["steps"] / r["seconds"]
+        bytes_ss = dram_bytes_per_scene_step(n, m, every[path], path != "kernel")
+        emit(args.json, {
+            "stage": "rate", "target": args.target,
+            "emulated": bool(getattr(xp, "EMULATED", False)), "path": path, "N": m, "n": n,
+            "B": B, "every": every[path] if path != "kernel" else None, "steps": r["steps"],
+            "seconds": r["seconds"], "warmup_s": r["first"], "scene_steps_per_s": rate,
+            "us_per_scene_step": 1e6 / rate,
+            "cpu_us_per_scene_step": 1e6 * r["cpu"] / (B * r["steps"]),
+            "dram_bytes_per_scene_step": bytes_ss, "implied_gb_s": bytes_ss * rate / 1e9,
+            "active_scenes": r["active"], "finite": r["finite"],
+            "side_by_side": list(args.paths)})
+
+
+def stage_check(args) -> None:
+    """The observed path on the GPU (B scenes) against the CPU numba path on the first
+    ``--scenes`` of them, ``--steps`` steps: state, statuses and recorded samples."""
+    xp = namespace("gpu", args.emulate)
+    bp, extra = load(args.npz)
+    every = cadence(args, bp, extra)
+    S = min(args.scenes, args.B)
+    total = args.steps + 1
+    observe = {"every": every, "max_samples": total // every + 2, "max_steps": total,
+               "probe_nodes": [probe_slot(bp)], "spool_dir": None}
+    runs = {}
+    ref = cpu_reference_kernel()
+    for target, B, x, kernel in (("gpu", args.B, xp, "cuda"), ("cpu", S, np, ref)):
+        integ, rec, advance = ensemble(bp, tile(extra["d"], B), tile(extra["slide"], B),
+                                       tile(extra["f"], B), tile(extra["u0"], B), xp=x,
+                                       kernel=kernel, observe=observe)
+        advance(args.steps)
+        synchronize(x)
+        rec.close()
+        runs[target] = (integ, rec)
+    (g, grec), (c, crec) = runs["gpu"], runs["cpu"]
+    u_g = host(g.u)[:, :S]
+    same = {"u": np.array_equal(u_g, c.u),
+            "v_pred": np.array_equal(host(g.v_pred)[:, :S], c.v_pred),
+            "status": np.array_equal(host(g.status)[:, :S], c.status)}
+    fields = max(_rel(grec.arrays(b)[k], crec.arrays(b)[k])
+                 for b in range(S) for k in ("u_r", "u_theta", "v_r", "v_theta", "r_r"))
+    energies = max(_rel(grec.arrays(b)["energies"][:, :2], crec.arrays(b)["energies"][:, :2])
+                   for b in range(S))
+    probes = max(_rel(grec.probe_arrays(b)["probe_data"], crec.probe_arrays(b)["probe_data"])
+                 for b in range(S))
+    work = _rel(g.work_totals()[:, :S], c.work_totals())
+    emit(args.json, {"stage": "check", "emulated": bool(getattr(xp, "EMULATED", False)),
+                     "N": int(bp.cx.size), "B": args.B, "scenes_compared": S, "reference": ref,
+                     "steps": args.steps, "same_bits": same,
+                     "max_rel_diff": {"fields": fields, "energies": energies,
+                                      "probes": probes, "work": work},
+                     "u_rel_diff": _rel(u_g, c.u)})
+
+
+def _rel(a: np.ndarray, b: np.ndarray) -> float:
+    """max |a - b| / max |b| (0 when both are zero)."""
+    scale = float(np.max(np.abs(b))) if b.size else 0.0
+    return float(np.max(np.abs(a - b))) / scale if scale > 0 else float(np.max(np.abs(a)))
+
+
+def stage_census(args) -> None:
+    """The census of ``--B`` starts (the npz's starts, tiled) for ``--end-time`` seconds on
+    the GPU with the observers, then the classification of every scene
+    (``postprocess.analysis.analyse``: regime, mode, direction), its members and shares,
+    and the first ``--scenes`` starts again on the CPU: state bitwise, same members."""
+    xp = namespace(args.target, args.emulate)
+    bp, extra = load(args.npz)
+    steps = int(round(args.end_time / bp.dt))
+    every = max(1, int(round(args.sample_interval / bp.dt)))
+    B = args.B
+    S = min(args.scenes, B, extra["u0"].shape[1])
+    out: dict = {"stage": "census", "target": args.target,
+                 "emulated": bool(getattr(xp, "EMULATED", False)), "N": int(bp.cx.size),
+                 "B": B, "starts": int(extra["u0"].shape[1]), "end_time": args.end_time,
+                 "steps": steps, "every": every, "scene_steps": B * steps}
+    kernel = "numba" if xp is np else "cuda"
+    labels, u, out[args.target] = _census_run(bp, extra, B, xp, kernel, steps, every, args)
+    if not args.skip_cpu:
+        try:  # the CPU's side must not cost the GPU's result
+            ref = cpu_reference_kernel()
+            lab_c, u_c, out["cpu-subsample"] = _census_run(bp, extra, S, np, ref, steps,
+                                                           every, args)
+            out["cpu-subsample"]["kernel"] = ref
+            out["subsample_same_bits"] = bool(np.array_equal(u[:, :S], u_c))
+            out["subsample_same_members"] = labels[:S] == lab_c
+        except Exception as err:
+            out["cpu_subsample_error"] = f"{type(err).__name__}: {err}"
+    emit(args.json, out)
+
+
+def _census_run(bp, extra, nb: int, xp, kernel: str, steps: int, every: int, args):
+    """One census batch of ``nb`` scenes: (members, final u on the host, timings/shares)."""
+    spool = Path(tempfile.mkdtemp(prefix="gpu-census-spool-", dir=args.spool_dir))
+    try:
+        observe = {"every": every, "max_samples": steps // every + 2, "max_steps": steps,
+                   "probe_nodes": [probe_slot(bp)], "spool_dir": spool if xp is not np else None}
+        t0 = time.perf_counter()
+        integ, rec, advance = ensemble(bp, tile(extra["d"], nb), tile(extra["slide"], nb),
+                                       tile(extra["f"], nb), tile(extra["u0"], nb), xp=xp,
+                                       kernel=kernel, observe=observe)
+        advance(steps)
+        synchronize(xp)
+        rec.close()
+        loop = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        labels = classify_all(rec, integ.active, tile(extra["d"], nb), float(extra["radius"]),
+                              args.workers)
+        classify = time.perf_counter() - t0
+        return labels, host(integ.u), {
+            "loop_s": loop, "classify_s": classify, "total_s": loop + classify,
+            "scene_steps_per_s": nb * steps / loop,
+            "shares": {k: v / nb for k, v in Counter(labels).most_common()}}
+    finally:
+        shutil.rmtree(spool, ignore_errors=True)
+
+
+def cpu_reference_kernel() -> str:
+    """The CPU path to compare with: the numba kernel (bitwise), or the numpy reference
+    step ("xp", round-off) where numba does not import."""
+    try:
+        import numba  # noqa: F401
+    except ImportError:
+        return "xp"
+    return "numba"
+
+
+_CLASSIFY: dict = {}  # the recorder and scene data, inherited by the forked workers
+
+
+def classify_all(rec, active: np.ndarray, d: np.ndarray, radius: float,
+                 workers: int) -> list[str]:
+    """Every scene's member, ``workers`` processes (fork: they read the record, host
+    arrays or the spool files, and never touch the device)."""
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+
+    _CLASSIFY.update(rec=rec, active=np.asarray(active), d=d, radius=radius)
+    scenes = range(d.size)
+    if workers <= 1:
+        return [_classify(b) for b in scenes]
+    ctx = multiprocessing.get_context("fork")
+    with ProcessPoolExecutor(workers, mp_context=ctx) as pool:
+        return list(pool.map(_classify, scenes, chunksize=max(1, d.size // (4 * workers))))
+
+
+def _classify(b: int) -> str:
+    """Scene b's member: regime, dominant mode k and direction of travel."""
+    from postprocess.analysis import analyse
+
+    c = _CLASSIFY
+    if not c["active"][b]:
+        return "diverged"
+    a = c["rec"].arrays(b)
+    try:
+        w = analyse(a["t"], a["theta"], a["u_r"], a["u_theta"], a["status"], d=float(c["d"][b]),
+                    radius=c["radius"])
+    except ValueError as err:
+        return f"unclassified ({err})"
+    return f"{w.regime} k={w.mode} {w.direction}"
+
+
+def stage_cli(args) -> None:
+    """The census from the command line: a sweep file of ``--starts`` seeds at the census
+    point, run by ``stickslip sweep --batch S --backend B``; its exit status, wall time, the
+    members' shares from sweep.json and the last line of its standard error."""
+    import subprocess
+
+    out_dir = Path(tempfile.mkdtemp(prefix="gpu-bench-cli-", dir=args.spool_dir))
+    sweep = out_dir / "census.toml"
+    sweep.write_text(
+        f'name = "census_{args.starts}"\nbase = "{REPO / CENSUS_SCENE}"\n'
+        f'set = ["time.end_time = {args.end_time}", \'initial.perturbation = "random"\', '
+        f'"output.sample_interval = {args.sample_interval}"]\n'
+        f'[grid]\n"initial.seed" = {list(range(args.starts))}\n[map]\nsemianalytic = false\n')
+    cmd = ["stickslip", "sweep", str(sweep), "-o", str(out_dir / "sweep"), "--batch",
+           str(args.starts), "--backend", args.backend, "--progress", "lines"]
+    t0 = time.perf_counter()
+    proc = subprocess.run(cmd, capture_output=True, text=True, cwd=REPO)
+    seconds = time.perf_counter() - t0
+    rows = []
+    table = out_dir / "sweep" / "sweep.json"
+    if table.exists():
+        data = json.loads(table.read_text())
+        rows = data.get("rows", data) if isinstance(data, dict) else data
+    members = Counter(f"{r.get('regime')} k={r.get('mode')}" for r in rows
+                      if isinstance(r, dict))
+    err = proc.stderr.strip().splitlines()
+    emit(args.json, {"stage": "cli", "command": " ".join(cmd[:2] + ["census.toml"] + cmd[3:]),
+                     "backend": args.backend, "starts": args.starts, "end_time": args.end_time,
+                     "rc": proc.returncode, "seconds": seconds,
+                     "stderr_lines": len(err), "stderr_last": err[-1] if err else "",
+                     "shares": {k: v / max(1, len(rows)) for k, v in members.most_common()}})
+    shutil.rmtree(out_dir, ignore_errors=True)
+
+
+def stage_pytest(args) -> None:
+    """tests/test_gpu.py on this node, from the npz problem (``STICKSLIP_GPU_NPZ``): the
+    CUDA kernel through CuPy bitwise against numba, and the CPU emulation's tests."""
+    import subprocess
+
+    env = dict(os.environ, STICKSLIP_GPU_NPZ=str(args.npz.resolve()))
+    t0 = time.perf_counter()
+    proc = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider",
+                           "tests/test_gpu.py"], capture_output=True, text=True, cwd=REPO,
+                          env=env)
+    lines = proc.stdout.strip().splitlines()
+    emit(args.json, {"stage": "pytest", "rc": proc.returncode,
+                     "seconds": time.perf_counter() - t0,
+                     "summary": lines[-1] if lines else proc.stderr.strip()[-300:],
+                     "failures": [ln for ln in lines if ln.startswith(("FAILED", "ERROR"))]})
+
+
+def stage_prepare(args) -> None:
+    """Write DIR/problem_nN.npz (8 scenes of the map, benchmarks/ensemble.py) and
+    DIR/census_n132.npz (``--starts`` random starts at the census point); needs dolfinx."""
+    from benchmarks.ensemble import dump
+
+    dump(args.directory, args.n)
+    _dump_census(args.directory / "census_n132.npz", args.starts)
+
+
+def _dump_census(path: Path, starts: int) -> None:
+    from mpi4py import MPI
+
+    from solver.ensemble import BatchedProblem
+    from solver.run import Simulation
+    from solver.scene import load_scene
+
+    u0 = []
+    sim = None
+    for seed in range(starts):
+        sc = load_scene(REPO / CENSUS_SCENE, ['initial.perturbation="random"',
+                                              f"initial.seed={seed}", "output.progress=false"])
+        if sim is None:
+            sim = Simulation(sc, MPI.COMM_SELF)
+            steady = sim.steady.u
+        sim.scene = sc  # the perturbation reads scene.initial; the problem is the same
+        u0.append(steady + sim.perturbation())
+    sc = sim.scene
+    bp = BatchedProblem.from_problem(sim.problem, sim.dt, sc.time.beta2)
+    bp.save(path, u0=np.stack(u0, axis=1), d=np.array([sc.geometry.d]),
+            slide=np.array([sc.geometry.R * sc.loading.omega * sim.dt]),
+            f=np.array([sc.loading.f]), radius=np.array(sc.geometry.R),
+            every=np.array(max(1, int(round(sc.output.sample_interval / sim.dt)))))
+    print(f"{path}: {starts} starts of {CENSUS_SCENE}, n = {bp.n} dofs, dt = {bp.dt:.4g} s",
+          flush=True)
+
+
+# ------------------------------------------------------------------------------ report
+
+
+def stage_report(args) -> None:
+    """``gpu_suite.json`` (every record, and the ratios) and ``gpu_suite.md`` (the table)."""
+    records = [json.loads(line) for p in args.jsonl if p.exists()
+               for line in p.read_text().splitlines() if line.strip()]
+    env = next((r for r in records if r["stage"] == "env"), {})
+    rates = [r for r in records if r["stage"] == "rate"]
+    peak = env.get("peak_bandwidth_gb_s")
+    def key(r: dict) -> tuple:
+        return r["N"], r["path"], r["every"]
+
+    best_cpu = {}  # (N, path, cadence) -> the CPU run with the most scene-steps/s (its best B)
+    for r in rates:
+        if r["target"] == "cpu" and (key(r) not in best_cpu or r["scene_steps_per_s"]
+                                     > best_cpu[key(r)]["scene_steps_per_s"]):
+            best_cpu[key(r)] = r
+    kernel = {(r["N"], r["target"], r["B"]): r for r in rates if r["path"] == "kernel"}
+    rows = []
+    for r in sorted(rates, key=lambda r: (r["N"], r["target"] != "gpu", r["B"],
+                                       PATHS.index(r["path"]))):
+        cpu = best_cpu.get(key(r))
+        r["ratio_to_best_cpu_core"] = (r["scene_steps_per_s"] / cpu["scene_steps_per_s"]
+                                       if cpu else None)
+        k = kernel.get((r["N"], r["target"], r["B"]))  # the observers' cost: wall, CPU time
+        r["time_over_kernel"] = k["scene_steps_per_s"] / r["scene_steps_per_s"] if k else None
+        r["cpu_time_over_kernel"] = (r["cpu_us_per_scene_step"] / k["cpu_us_per_scene_step"]
+                                     if k else None)
+        r["fraction_of_peak"] = r["implied_gb_s"] / peak if peak and r["target"] == "gpu" \
+            else None
+        rows.append(r)
+    summary = {"env": env, "rates": rows,
+               "checks": [r for r in records if r["stage"] == "check"],
+               "census": [r for r in records if r["stage"] == "census"],
+               "cli": [r for r in records if r["stage"] == "cli"],
+               "pytest": [r for r in records if r["stage"] == "pytest"],
+               "skipped": [r for r in records if r["stage"] == "skipped"]}
+    args.out.mkdir(parents=True, exist_ok=True)
+    (args.out / "gpu_suite.json").write_text(json.dumps(summary, indent=1))
+    text = _table(summary, peak)
+    (args.out / "gpu_suite.md").write_text(text)
+    print(text)
+
+
+def _fmt(x, spec: str) -> str:
+    return "-" if x is None else format(x, spec)
+
+
+def _table(s: dict, peak) -> str:
+    env = s["env"]
+    lines = [f"device: {env.get('device', env.get('gpu_error', '?'))}; host CPU: "
+             f"{env.get('cpu', '?')}; peak bandwidth {_fmt(peak, '.0f')} GB/s, copy "
+             f"{_fmt(env.get('copy_bandwidth_gb_s'), '.0f')} GB/s", "",
+             "| N | target | path | B | every | steps | scene-steps/s | µs/scene-step | "
+             "CPU µs/scene-step | this / kernel (wall, CPU) | x best CPU core | "
+             "implied GB/s | of peak |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    for r in s["rates"]:
+        target = r["target"] + (" (emulated)" if r.get("emulated") else "")
+        lines.append(
+            f"| {r['N']} | {target} | {r['path']} | {r['B']} | {r['every'] or '-'} | "
+            f"{r['steps']} | "
+            f"{r['scene_steps_per_s']:.3g} | {r['us_per_scene_step']:.4g} | "
+            f"{r['cpu_us_per_scene_step']:.4g} | {_fmt(r['time_over_kernel'], '.3g')}, "
+            f"{_fmt(r['cpu_time_over_kernel'], '.3g')} | "
+            f"{_fmt(r['ratio_to_best_cpu_core'], '.3g')} | {r['implied_gb_s']:.3g} | "
+            f"{_fmt(r['fraction_of_peak'], '.0%')} |")
+    for c in s["checks"]:
+        lines.append(f"\ncheck N = {c['N']}, B = {c['B']}, {c['steps']} steps, first "
+                     f"{c['scenes_compared']} scenes against the CPU ({c['reference']}): same bits "
+                     f"{c['same_bits']}; max rel. diff {c['max_rel_diff']}")
+    for c in s["census"]:
+        main = c.get(c["target"], {})
+        lines.append(f"\ncensus N = {c['N']}: {c['B']} scenes ({c['starts']} starts), "
+                     f"{c['end_time']} s, {c['scene_steps']:.3g} scene-steps on "
+                     f"{c['target']}: loop {_fmt(main.get('loop_s'), '.1f')} s + classify "
+                     f"{_fmt(main.get('classify_s'), '.1f')} s = "
+                     f"{_fmt(main.get('total_s'), '.1f')} s; shares {main.get('shares')}; "
+                     f"CPU subsample: same bits {c.get('subsample_same_bits')}, same members "
+                     f"{c.get('subsample_same_members')} {c.get('cpu_subsample_error', '')}")
+    for c in s["cli"]:
+        lines.append(f"\nCLI: `{c['command']}`: exit {c['rc']}, {c['seconds']:.1f} s, shares "
+                     f"{c['shares']}; stderr: {c['stderr_lines']} line(s), last "
+                     f"{c['stderr_last']!r}")
+    for c in s["pytest"]:
+        lines.append(f"\ntests/test_gpu.py: exit {c['rc']}, {c['summary']} {c['failures']}")
+    for c in s["skipped"]:
+        lines.append(f"\nskipped {c['what']}: {c['why']}")
+    return "\n".join(lines) + "\n"
+
+
+# -------------------------------------------------------------------------------- main
+
+
+def main(argv: list[str] | None = None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    sub = ap.add_subparsers(dest="stage", required=True)
+    common = argparse.ArgumentParser(add_help=False)
+    common.add_argument("--json", type=Path, help="append the records to this file")
+    common.add_argument("--emulate", action="store_true",
+                        help="the CUDA source compiled for the CPU instead of CuPy")
+    common.add_argument("--spool-dir", type=Path, default=None,
+                        help="where spooled records go (default: the temp directory)")
+    p = sub.add_parser("prepare", help="write the npz problems (needs dolfinx)")
+    p.add_argument("directory", type=Path)
+    p.add_argument("--n", type=int, nargs="+", default=[132, 528])
+    p.add_argument("--starts", type=int, default=256, help="census starts")
+    sub.add_parser("env", parents=[common], help="device and host facts")
+    p = sub.add_parser("rate", parents=[common], help="scene-steps/s of one path")
+    p.add_argument("--npz", type=Path, required=True)
+    p.add_argument("--target", choices=("cpu", "gpu"), required=True)
+    p.add_argument("--paths", nargs="+", choices=("kernel", "observed", "coarse"),
+                   default=["kernel", "observed", "coarse"],
+                   help="kernel alone; with the observers at the sweep's cadence; at the "
+                        "coarse cadence (timed in turn, side by side)")
+    p.add_argument("--B", type=int, required=True)
+    p.add_argument("--steps", type=int, default=2000, help="timed steps per path at most")
+    p.add_argument("--seconds", type=float, default=20.0, help="timed seconds at most")
+    p.add_argument("--block", type=int, default=100, help="steps per path and round")
+    p.add_argument("--sample-interval", type=float, default=0.0,
+                   help="s between samples (default: the npz's, the sweep's 1e-4 s)")
+    p.add_argument("--coarse-interval", type=float, default=1e-3,
+                   help="s between samples of the coarse path")
+    p = sub.add_parser("check", parents=[common], help="GPU against CPU, observed path")
+    p.add_argument("--npz", type=Path, required=True)
+    p.add_argument("--B", type=int, default=4096)
+    p.add_argument("--scenes", type=int, default=8)
+    p.add_argument("--steps", type=int, default=200)
+    p.add_argument("--sample-interval", type=float, default=0.0)
+    p = sub.add_parser("census", parents=[common], help="census loop + classification")
+    p.add_argument("--npz", type=Path, required=True)
+    p.add_argument("--target", choices=("cpu", "gpu"), default="gpu")
+    p.add_argument("--B", type=int, default=4096)
+    p.add_argument("--end-time", type=float, default=0.3)
+    p.add_argument("--sample-interval", type=float, default=1e-3,
+                   help="s between samples (coarse: the record of 4096 scenes must fit)")
+    p.add_argument("--scenes", type=int, default=8, help="CPU subsample")
+    p.add_argument("--skip-cpu", action="store_true")
+    p.add_argument("--workers", type=int, default=os.cpu_count() or 1,
+                   help="processes that classify the scenes")
+    p = sub.add_parser("cli", parents=[common], help="the census by `stickslip sweep`")
+    p.add_argument("--starts", type=int, default=4096)
+    p.add_argument("--end-time", type=float, default=0.3)
+    p.add_argument("--sample-interval", type=float, default=1e-3)
+    p.add_argument("--backend", choices=("cpu", "gpu"), default="gpu")
+    p = sub.add_parser("pytest", parents=[common], help="tests/test_gpu.py on this node")
+    p.add_argument("--npz", type=Path, required=True)
+    p = sub.add_parser("report", help="gpu_suite.json + gpu_suite.md from the records")
+    p.add_argument("jsonl", type=Path, nargs="+")
+    p.add_argument("--out", type=Path, required=True)
+    args = ap.parse_args(argv)
+    {"prepare": stage_prepare, "env": stage_env, "rate": stage_rate, "check": stage_check,
+     "census": stage_census, "cli": stage_cli, "pytest": stage_pytest,
+     "report": stage_report}[args.stage](args)
+
+
+if __name__ == "__main__":
+    main()
