@@ -351,3 +351,29 @@ def test_a_killed_scene_is_run_again_on_resume(tmp_path, status):
         "scene": "s", "status": status, "pid": 2**22 + 12345, "host": "elsewhere"}))
     pending, n_done, _ = _classify(tmp_path / "out", spec, retry_failed=False)
     assert [t.id for t in pending] == [spec.tasks[0].id] and n_done == 0
+
+
+def test_a_large_sweep_table_is_not_rewritten_at_every_scene(tmp_path, monkeypatch):
+    """A 10^6-point sweep rewrote its 474 MB sweep.json after every scene: a table of more
+    than TABLE_SMALL scenes is rewritten at most every TABLE_PERIOD s (and at the end)."""
+    from studies.sweep import load_sweep, schedule
+
+    spec_path = tmp_path / "s.toml"
+    spec_path.write_text(f'base = "{SMOKE}"\n[grid]\n"loading.omega" = [2.0, 3.0, 4.0]\n')
+    spec = load_sweep(spec_path)
+    writes = []
+    monkeypatch.setattr(schedule, "write_table", lambda *a, **k: writes.append(1))
+    monkeypatch.setattr(schedule, "TABLE_SMALL", 2)
+    out = tmp_path / "out"
+    mon = schedule._Monitor(out, spec, spec.tasks, 0, io.StringIO(), live=False)
+    for i, task in enumerate(spec.tasks):
+        from studies.rundir.ownership import claim
+
+        run_dir = out / "runs" / task.id
+        claim(run_dir, "run").release()
+        (run_dir / "summary.json").write_text(json.dumps({"scene": "s", "status": "completed"}))
+        mon.poll()
+        assert len(writes) == 1, i  # the first at once, then not within TABLE_PERIOD
+    mon.stop_event.set()
+    mon.poll()
+    assert len(writes) == 2  # the last scenes reach the table at the end

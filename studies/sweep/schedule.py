@@ -10,8 +10,9 @@ Resume and faults: a scene whose ``summary.json`` holds a final status (complete
 failed) for the same resolved scene is skipped; ``running``/``interrupted`` ones (killed in
 flight) run again. An exception inside a scene is recorded as status ``failed`` with its
 message and the sweep goes on. Rank 0 rebuilds the table ``SWEEP_DIR/sweep.{csv,json}``
-(atomically) from the summaries whenever a scene finishes, so a killed sweep loses at most
-the scenes in flight.
+(atomically) from the summaries whenever a scene finishes (a sweep of more than
+``TABLE_SMALL`` scenes at most every ``TABLE_PERIOD`` s), so a killed sweep's table lags by
+at most the scenes in flight (or that period); a resume rebuilds it from the summaries.
 """
 
 from __future__ import annotations
@@ -52,6 +53,10 @@ def _fmt_duration(seconds: float) -> str:
     return f"{h}h{m:02d}m" if h else (f"{m}m{s:02d}s" if m else f"{s}s")
 
 
+TABLE_SMALL = 1000  # scenes: up to this many, the table is rewritten at every finished one
+TABLE_PERIOD = 30.0  # s between rewrites of a larger table
+
+
 class _Monitor(threading.Thread):
     """Rank 0's progress and table keeper: polls the pending scenes' ``summary.json``.
 
@@ -76,6 +81,7 @@ class _Monitor(threading.Thread):
         self.cache: dict[str, tuple[float, dict | None]] = {}
         self.lock = threading.Lock()
         self._line_len = 0
+        self.table_written, self.table_dirty = 0.0, False
 
     def run(self) -> None:
         while not self.stop_event.wait(self.interval):
@@ -116,10 +122,19 @@ class _Monitor(threading.Thread):
                 self.finished[task.id] = s.get("status", "")
                 self.failed += s.get("status") in ("failed", "diverged")
                 self._say(self._scene_line(task, s))
-            if new:
+            self.table_dirty = self.table_dirty or bool(new)
+            if self.table_dirty and self._table_due():
                 write_table(self.out_dir, self.spec, cache=self.cache)
+                self.table_written, self.table_dirty = time.time(), False
             if self.live:
                 self._redraw()
+
+    def _table_due(self) -> bool:
+        """Rewrite the table at every finished scene while it is small; a large one (each
+        rewrite reads every summary and writes every row) at most every ``TABLE_PERIOD`` s.
+        The final table is always written (:func:`run_sweep`), and a resume rebuilds it."""
+        return (self.total <= TABLE_SMALL or self.stop_event.is_set()
+                or time.time() - self.table_written >= TABLE_PERIOD)
 
     def counts(self) -> tuple[int, int, int, float]:
         done = sum(1 for st in self.finished.values() if st != "interrupted")
