@@ -84,8 +84,8 @@ COMMAND_MODULES = (
     "cli.compare",  # compare
     "cli.sweep",  # sweep
     "cli.flutter_fe",  # flutter-fe
-    "cli.continuum",  # flutter-exact (issue 13)
-    "cli.travel",  # travel (issue 14)
+    "cli.continuum",  # flutter-exact
+    "cli.travel",  # travel
 )
 
 
@@ -102,7 +102,7 @@ def _register(sub: argparse._SubParsersAction, module: str) -> None:
 
 
 def _last_resort(err: BaseException) -> str:
-    """One line for an error no handler foresaw (issue 12: errors, not tracebacks)."""
+    """One line for an error no handler foresaw (errors, not tracebacks)."""
     if isinstance(err, MemoryError):
         return ("out of memory; reduce the problem (mesh.n_inner, time.end_time, "
                 "output.sample_interval) or use a machine with more memory")

@@ -1,4 +1,4 @@
-"""Fault injection for run directories (issue 12): a failing write (disk full) or a signal,
+"""Fault injection for run directories: a failing write (disk full) or a signal,
 at each phase of ``studies.rundir.run_scene``, and the invariant that must hold afterwards.
 
 Phases, in the order a run meets them::

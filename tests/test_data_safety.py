@@ -1,6 +1,6 @@
-"""Issue 12: never lose a user's data; errors, not tracebacks; a status that tells the truth.
+"""Never lose a user's data; errors, not tracebacks; a status that tells the truth.
 
-Each numbered case of the issue is a test here (./dev's item 5: tests/test_dev_paths.py).
+Each data-loss case is a test here (./dev's paths: tests/test_dev_paths.py).
 Runs use the smoke scene shortened to 0.005 s (65 steps, 50 samples: enough for the
 analysis) in this process on COMM_SELF, so a fault costs ~1 s; the CLI is called in-process
 through ``cli.main.main`` except where a separate process is the point (MPI, a hang).

@@ -1,4 +1,4 @@
-"""./dev shows the caller's paths inside the rootfs or refuses (issue 12, item 5).
+"""./dev shows every path a command writes inside the rootfs, or refuses it.
 
 ``./dev --mounts CMD...`` prints the host directories that CMD would get bind-mounted. A fake
 rootfs (a few directories and files under STICKSLIP_CACHE) stands in for the real one: the
