@@ -36,7 +36,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--plot", action="store_true",
                    help="draw the regime map (after the sweep, or of an existing SWEEP_DIR)")
     p.add_argument("--yes-i-know", dest="yes_i_know", action="store_true",
-                   help="run even if the pending scenes' estimated time exceeds two days")
+                   help="run even if the pending scenes' estimated time exceeds two days, or a "
+                        "scene's memory or output exceeds what this machine has")
     p.add_argument("--list", action="store_true",
                    help="list the scenes and their state; run nothing")
     p.add_argument("--batch", default=None, metavar="off|auto|B",

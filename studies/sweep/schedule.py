@@ -223,7 +223,7 @@ class _Counter:
 
 
 def _run_one(spec: SweepSpec, task: Task, out_dir: Path, group: MPI.Comm,
-             world_rank: int) -> str:
+             world_rank: int, check_cost: bool = True) -> str:
     """Run one scene on ``group``; exceptions become status ``failed``. Returns the status."""
     from studies.rundir import run_scene
 
@@ -239,7 +239,7 @@ def _run_one(spec: SweepSpec, task: Task, out_dir: Path, group: MPI.Comm,
             log.flush()
         try:
             summary = run_scene(scene_for(spec, task), run_dir, force=True, comm=group,
-                                replace_on_failure=True,
+                                replace_on_failure=True, check_resources=check_cost,
                                 stream=log if log is not None else sys.stdout)
             status = str(summary.get("status", "failed")) if leader else "?"
         except KeyboardInterrupt:
@@ -363,10 +363,10 @@ def _lock(out_dir: Path):  # noqa: ANN202
 
 
 def _run_unit(spec: SweepSpec, unit: list[Task], out_dir: Path, group: MPI.Comm,
-              world_rank: int, backend: str) -> str:
+              world_rank: int, backend: str, check_cost: bool = True) -> str:
     """One work unit: a single scene (``_run_one``) or a batch (``studies.sweep.batch``)."""
     if len(unit) == 1:
-        return _run_one(spec, unit[0], out_dir, group, world_rank)
+        return _run_one(spec, unit[0], out_dir, group, world_rank, check_cost)
     from studies.sweep.batch import run_batch
 
     try:
@@ -383,8 +383,8 @@ def run_sweep(spec: SweepSpec, out_dir: str | Path, *, comm: MPI.Comm | None = N
     """Run every pending scene of ``spec`` into ``out_dir``; collective over ``comm``.
 
     ``check_cost``: refuse (exit 2, before anything is written) pending scenes whose
-    estimated time on the groups exceeds ``studies.resources.MAX_SECONDS``
-    (``--yes-i-know``: False).
+    estimated time on the groups exceeds ``studies.resources.MAX_SECONDS``, and each scene
+    beyond the machine (``studies.resources.check_resources``); ``--yes-i-know``: False.
 
     ``batch`` ("off", "auto" or a size B): scenes sharing mesh, material, dt and scheme run
     as batches of ``solver.ensemble`` (studies/sweep/batch.py) on ``backend`` (cpu, gpu);
@@ -475,7 +475,8 @@ def run_sweep(spec: SweepSpec, out_dir: str | Path, *, comm: MPI.Comm | None = N
                 idx = group.bcast(idx, root=0)
             if idx >= len(units):
                 break
-            status = _run_unit(spec, units[idx], out_dir, group, comm.rank, backend)
+            status = _run_unit(spec, units[idx], out_dir, group, comm.rank, backend,
+                               check_cost)
             if status == "interrupted" or terminated[0]:
                 interrupted = True
                 break
