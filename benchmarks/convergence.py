@@ -1,4 +1,5 @@
-"""Convergence study of the FE limit cycle (issue 13): regenerates docs/convergence.md.
+"""Convergence study of the FE limit cycle: regenerates archive/convergence_report.md (the
+full tables; docs/convergence.md summarises them).
 
     ./dev python3 benchmarks/convergence.py [--quick] [--results FILE] [--report-only]
                                             [--max-n N] [--only SUBSTRING] [--budget S]
@@ -54,7 +55,7 @@ from studies.convergence import (  # noqa: E402
 )
 
 REPO = Path(__file__).resolve().parents[1]
-DEFAULT_RESULTS = REPO / "docs" / "convergence_runs.jsonl"
+DEFAULT_RESULTS = REPO / "archive" / "convergence_runs.jsonl"
 
 
 # ---------------------------------------------------------------------------------------------
@@ -387,9 +388,9 @@ def report(res: dict, out: Path, quick: bool, results_path: Path) -> None:
             lines.append(f"| {key} | {pw['mean_energy']:.4g} | {pw['cylinder']:.4g} | "
                          f"{pw['friction']:.4g} | {pw['damping']:.4g} | {pw['normal']:.4g} |")
     lines += accuracy_rows(res, ns)
-    fig = out.parent / "figures" / ("convergence_quick.png" if quick else "convergence.png")
+    fig = REPO / "docs" / "figures" / ("convergence_quick.png" if quick else "convergence.png")
     plot(res, fig, ns)
-    lines += ["", f"![convergence]({fig.relative_to(out.parent)})", ""]
+    lines += ["", f"![convergence]({os.path.relpath(fig, out.parent)})", ""]
     marker = "<!-- discussion -->"
     old = out.read_text() if out.exists() else ""
     tail = old[old.index(marker):] if marker in old else f"{marker}\n"
@@ -426,7 +427,7 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true")
     ap.add_argument("--results", type=Path, default=None)
-    ap.add_argument("--out", type=Path, default=REPO / "docs" / "convergence.md")
+    ap.add_argument("--out", type=Path, default=REPO / "archive" / "convergence_report.md")
     ap.add_argument("--report-only", action="store_true")
     ap.add_argument("--max-n", type=int, default=NS[-1])
     ap.add_argument("--only", default="", help="run only cases whose key contains this")
@@ -438,7 +439,7 @@ def main() -> int:
                     help="CPU time of the N = 1056 rows on one core (projected from 3000 steps)")
     ap.add_argument("--case", default=None, help=argparse.SUPPRESS)  # child process
     args = ap.parse_args()
-    results = args.results or (REPO / "docs" / ("convergence_runs_quick.jsonl" if args.quick
+    results = args.results or (REPO / "archive" / ("convergence_runs_quick.jsonl" if args.quick
                                                  else "convergence_runs.jsonl"))
     if args.speed:
         speed()

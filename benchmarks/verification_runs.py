@@ -9,7 +9,7 @@ Run (repository root): ``./dev python3 benchmarks/verification_runs.py`` — all
   (``scenes/figure{4,5,6}_*.toml``); into ``runs/verification/`` (git-ignored). Runs also
   record the nodal contact forces (for the P, Q panels of the Figure-1 style plot).
 * table: ``stickslip compare`` of every run, the FE modal analysis of the tube, and the
-  generated section of ``docs/verification.md`` (between the GENERATED markers) plus
+  generated section of ``archive/verification_tables.md`` (between the GENERATED markers) plus
   ``runs/verification/table.json``.
 * figures: ``docs/figures/fe_*.png`` (pyvista iso-value maps of u_r on two meshes, phase
   diagrams with the semi-analytical curves, Figure-1 style U, V, P, Q of the FE wave).
@@ -33,7 +33,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 OUT = ROOT / "runs" / "verification"
-DOC = ROOT / "docs" / "verification.md"
+DOC = ROOT / "archive" / "verification_tables.md"
 FIGS = ROOT / "docs" / "figures"
 
 #: case name -> (scene file, paper figure)
@@ -171,7 +171,7 @@ def _fmt(v, f: str) -> str:
 
 
 def write_doc_tables(results: dict) -> None:
-    """Regenerate the tables between the GENERATED markers of docs/verification.md."""
+    """Regenerate the tables between the GENERATED markers of archive/verification_tables.md."""
     lines: list[str] = []
     for case, (_, title) in CASES.items():
         lines += [f"#### {title}", "",

@@ -14,8 +14,10 @@ import numpy as np
 from solver.contact.law import SEPARATION, SLIP, STICK  # the law's codes, frozen at compile
 
 U1, U2, U3 = np.uint64(1), np.uint64(2), np.uint64(3)  # unsigned offsets: no wrap-around test
-#: nodes per block of ``batched_step``: its scratch ``acc`` is (2 NODE_BLOCK, B) at least
+#: nodes per block of ``batched_step``: its scratch ``acc`` is (2 NODE_BLOCK, B) at least,
+#: (4 NODE_BLOCK, B) with damping (K w_n of the block from row KW_ROW on)
 NODE_BLOCK = 32
+KW_ROW = 2 * NODE_BLOCK
 #: from this B on the batch runs ``batched_step_long`` (B-long vector loops) instead of
 #: ``batched_step`` (4-scene register passes): at N = 528 the passes are 1.7x faster at
 #: B = 8 and 1.2x slower at B = 16 (benchmarks/batched_step_ab.py; docs/performance.md)
@@ -59,11 +61,52 @@ def project(tr, tt, now_t, stiff, d, slide, f):
 
 
 @inline
+def project_regularised(tr, tt, now_t, stiff, d, slide, f, reg, sigma, ut_last, j, b,
+                        rate_slip, rate_base, dt, first):
+    """``project`` with the Prakash-Clifton bound f sigma_eff (reg = 1; reg = 2: constant
+    time), the operations of ``solver.contact.nodal.project_contact_regularized``: the
+    normal force, then sigma_eff[j, b] relaxed exactly towards p over dt with the rate of
+    the last step's slip (``EffectivePressure.update``; sigma_eff = p and the last u_theta
+    = u_theta,n at the first step), then the tangential projection inside f sigma_eff
+    (zero off contact)."""
+    rr = d - tr
+    if rr < 0.0:
+        rr = 0.0
+    rr = rr * stiff
+    inc = rr > 0.0
+    if first:
+        sigma[j, b] = rr
+        ut_last[j, b] = now_t
+    if reg == 1:  # (|V| + V*) / L, V = (u_theta,n - u_theta,{n-1} - R Omega dt) / dt
+        rate = now_t - ut_last[j, b]
+        rate = rate - slide
+        rate = abs(rate) * rate_slip
+        rate = rate + rate_base
+    else:  # 1 / t*
+        rate = rate_base
+    decay = math.exp(rate * -dt)
+    sg = sigma[j, b] - rr
+    sg = sg * decay
+    sg = sg + rr
+    sigma[j, b] = sg
+    ut_last[j, b] = now_t
+    cone = sg * f
+    cone = cone * (1.0 if inc else 0.0)
+    rt = now_t + slide
+    rt = rt - tt
+    rt = rt * stiff
+    if abs(rt) > cone:
+        return rr, math.copysign(cone, rt), SLIP if inc else SEPARATION
+    return rr, rt, STICK if inc else SEPARATION
+
+
+@inline
 def contact_reaction(ux, uy, vx, vy, ax, ay, c_re, c_im, h_re, h_im, dt, kappa, stiff,
-                     d, slide, f):
+                     d, slide, f, reg, sigma, ut_last, j, b, rate_slip, rate_base, first):
     """Forward-increment contact at one node of one scene, from u_n = (ux, uy), v~_n and
     a*_n: the trial position u_n + dt v~_n + κ a*_n turned to polar components by
-    (c_re, c_im) = e^{-iθ}, the nodal law ``project``, and the reaction turned back by
+    (c_re, c_im) = e^{-iθ}, the nodal law ``project`` (``project_regularised`` with a
+    Prakash-Clifton state, reg > 0), and the reaction turned back by
     (h_re, h_im) = e^{iθ}. Returns (r_r, r_t, status, r_x, r_y). Shared by ``single_step``,
     ``batched_step`` and ``batched_step_long`` so that they run the same operations."""
     now_r = ux * c_re - uy * c_im
@@ -72,7 +115,11 @@ def contact_reaction(ux, uy, vx, vy, ax, ay, c_re, c_im, h_re, h_im, dt, kappa, 
     ty = vy * dt + ay * kappa
     tr = (tx * c_re - ty * c_im) + now_r
     tt = (tx * c_im + ty * c_re) + now_t
-    rr, rt, st = project(tr, tt, now_t, stiff, d, slide, f)
+    if reg == 0:
+        rr, rt, st = project(tr, tt, now_t, stiff, d, slide, f)
+    else:
+        rr, rt, st = project_regularised(tr, tt, now_t, stiff, d, slide, f, reg, sigma,
+                                         ut_last, j, b, rate_slip, rate_base, dt, first)
     rx = rr * h_re - rt * h_im
     ry = rr * h_im + rt * h_re
     return rr, rt, st, rx, ry
@@ -183,10 +230,25 @@ def half_product4(indices, data, u, p, r, end, b0):
 def single_step(indptr, indices, data, n_rows, u, u_next, v, vp, a, ku, nim,
                 c_v, c_w, c_p, b2_half, dt, kappa, inv_kappa,
                 cx, ph_re, ph_im, pc_re, pc_im, cmass, cinv,
-                d, slide, f, r_pol, r_xy, status, zprev, work):
-    # K u_n and a*_n = -M^{-1} K u_n (owned rows; columns may be ghosts)
+                d, slide, f, r_pol, r_xy, status, zprev, work, u_tau, tau,
+                reg, sigma, ut_last, rate_slip, rate_base, started):
+    """One explicit step of one scene (``solver.fused`` docstring). With Kelvin-Voigt
+    damping (``tau > 0``, ``solver.newmark.DampedNewmark``) the internal force is K w_n,
+    w_n = u_n + tau v~_n, formed in ``u_tau`` (owned rows; a caller with ghosts has set
+    them), ``ku`` receives K w_n, and work[3] accumulates the damping work's per-step part
+    1/2 (K w_n . u_{n+1} - K w_n . u_{n-1}) (``solver.observers.DampingWork``), read from
+    ``u_next`` before it is overwritten (it holds u_{n-1}). Undamped (``tau = 0``) the
+    product reads ``u`` and the arithmetic is the plain step's. A regularised friction
+    bound (``reg`` > 0) keeps its per-node state in ``sigma``, ``ut_last`` (m, 1);
+    ``started[0]`` = 0 before the first step (``project_regularised``)."""
+    damped = tau > 0.0
+    src = u_tau if damped else u
+    if damped:  # w_n = u_n + tau v~_n (DampedNewmark: v~ tau, then + u)
+        for i in range(n_rows):
+            u_tau[i] = vp[i] * tau + u[i]
+    # K u_n (K w_n damped) and a*_n = -M^{-1} K u_n (owned rows; columns may be ghosts)
     for i in range(0, n_rows, 2):
-        s0, s1 = pair_product(indptr, indices, data, u, i)
+        s0, s1 = pair_product(indptr, indices, data, src, i)
         ku[i] = s0
         ku[i + 1] = s1
         a[i] = s0 * nim[i]
@@ -197,7 +259,8 @@ def single_step(indptr, indices, data, n_rows, u, u_next, v, vp, a, ku, nim,
         iy = ix + 1
         rr, rt, st, rx, ry = contact_reaction(
             u[ix], u[iy], vp[ix], vp[iy], a[ix], a[iy], pc_re[j], pc_im[j], ph_re[j],
-            ph_im[j], dt, kappa, cmass[j] * inv_kappa, d, slide, f)
+            ph_im[j], dt, kappa, cmass[j] * inv_kappa, d, slide, f, reg, sigma, ut_last, j,
+            0, rate_slip, rate_base, started[0] == 0)
         r_pol[2 * j] = rr
         r_pol[2 * j + 1] = rt
         status[j] = st
@@ -205,14 +268,31 @@ def single_step(indptr, indices, data, n_rows, u, u_next, v, vp, a, ku, nim,
         r_xy[2 * j + 1] = ry
         a[ix] = a[ix] + rx * cinv[j]
         a[iy] = a[iy] + ry * cinv[j]
+    started[0] = 1
     # Newmark: v_n, w, u_{n+1}, v~_{n+1}
-    for i in range(n_rows):
-        ai = a[i]
-        vi = ai * c_v + vp[i]
-        v[i] = vi
-        w = ai * c_w + vi
-        u_next[i] = w * dt + u[i]
-        vp[i] = w if b2_half else w + ai * c_p
+    if damped:  # the same update, plus K w_n . u_{n+1} and K w_n . u_{n-1} in row order
+        s_new = 0.0
+        s_old = 0.0
+        for i in range(n_rows):
+            ai = a[i]
+            vi = ai * c_v + vp[i]
+            v[i] = vi
+            w = ai * c_w + vi
+            un = w * dt + u[i]
+            kwi = ku[i]
+            s_new += kwi * un
+            s_old += kwi * u_next[i]
+            u_next[i] = un
+            vp[i] = w if b2_half else w + ai * c_p
+        work[3] += 0.5 * (s_new - s_old)
+    else:
+        for i in range(n_rows):
+            ai = a[i]
+            vi = ai * c_v + vp[i]
+            v[i] = vi
+            w = ai * c_w + vi
+            u_next[i] = w * dt + u[i]
+            vp[i] = w if b2_half else w + ai * c_p
     # contact work with the centred increment u_{n+1} - u_{n-1} (EnergyAccumulator)
     sc = 0.0
     st_ = 0.0
@@ -277,7 +357,8 @@ def batched_step(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
                  c_v, c_w, c_p, b2_half, dt, kappa, inv_kappa,
                  cx, ph_re, ph_im, pc_re, pc_im, cmass, cinv,
                  d, slide, f, r_r, r_t, r_x, r_y, status, zprev, work, acc, cslot,
-                 diag, keep, mass, energy):
+                 diag, keep, mass, energy, u_tau, u_tau_next, tau, dsum,
+                 reg, sigma, ut_last, rate_slip, rate_base, started):
     """The same step on (n, B) arrays: column b is scene b (per-scene d, slide, f).
 
     One pass over the nodes, in blocks of ``NODE_BLOCK`` nodes: the (x, y) rows of K u for
@@ -296,9 +377,23 @@ def batched_step(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
     B or the block size. On a ``diag`` step the sampled energies are summed too, while the
     block is in cache: ``energy`` (2, B) = Σ_i m_i v_i² and Σ_i u_i (K u)_i over the rows in
     ascending order (``batch_energies``; the observers halve them).
+
+    Kelvin-Voigt damping (``tau > 0``, shared by the batch): as ``single_step``, K reads
+    w_n = u_n + tau v~_n, from ``u_tau`` (n, B), which the previous step wrote (a block's
+    update overwrites v~ that later blocks' products read, so w_n cannot be formed in the
+    pass); each block writes w_{n+1} into ``u_tau_next`` (the caller alternates the two, as
+    u) with ``single_step``'s operations. K w_n of the block's rows is kept in ``acc`` from
+    row ``KW_ROW`` on (the damping work needs it), and ``dsum`` (2, B) sums K w_n . u_{n+1}
+    and K w_n . u_{n-1} per scene in row order, as ``single_step``:
+    work[3] += 1/2 (dsum[0] - dsum[1]). On a damped
+    ``diag`` step ``energy[1]`` is u . K w, not the strain energy: the caller refreshes K u_n
+    (``stiffness_product_cols``) and sums it (``column_dots``).
     """
     n_rows, nb = u.shape
     nb4 = nb - nb % 4
+    damped = tau > 0.0
+    first = started[0] == 0  # a regularised bound's first step: sigma_eff = p
+    src = u_tau if damped else u
     if diag:
         for b in range(nb):
             energy[0, b] = 0.0
@@ -310,6 +405,8 @@ def batched_step(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
     v_f = v.reshape(-1)
     a_f = a.reshape(-1)
     acc_f = acc.reshape(-1)
+    if damped:
+        dsum[:] = 0.0
     for g0 in range(0, n_nodes, NODE_BLOCK):
         g1 = min(g0 + NODE_BLOCK, n_nodes)
         for node in range(g0, g1):
@@ -320,24 +417,31 @@ def batched_step(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
             n0 = nim[i]
             n1 = nim[i + 1]
             write = diag or keep[node] != 0
+            kw = KW_ROW + k  # damped: K w_n of the node's rows in acc, for the damping work
             for b0 in range(0, nb4, 4):  # 4 scenes at a time, their sums in registers
                 bu = numba.uint64(b0)
                 # pair_product's order: even terms, odd terms, then their sum
-                e = half_product4(indices, data, u, a0, a1, a1, bu)  # row i: a0 .. a1 - 1
-                o = half_product4(indices, data, u, a0 + U1, a1 + U1, a1, bu)
+                e = half_product4(indices, data, src, a0, a1, a1, bu)  # row i: a0 .. a1 - 1
+                o = half_product4(indices, data, src, a0 + U1, a1 + U1, a1, bu)
                 for m in range(4):
                     s0 = e[m] + o[m]
                     s1 = e[4 + m] + o[4 + m]
                     if write:
                         ku[i, b0 + m] = s0
                         ku[i + 1, b0 + m] = s1
+                    if damped:
+                        acc[kw, b0 + m] = s0
+                        acc[kw + 1, b0 + m] = s1
                     acc[k, b0 + m] = s0 * n0
                     acc[k + 1, b0 + m] = s1 * n1
             for b in range(nb4, nb):  # the last nb % 4 scenes one by one
-                s0, s1 = pair_product_col(indices, data, u, a0, a1, numba.uint64(b))
+                s0, s1 = pair_product_col(indices, data, src, a0, a1, numba.uint64(b))
                 if write:
                     ku[i, b] = s0
                     ku[i + 1, b] = s1
+                if damped:
+                    acc[kw, b] = s0
+                    acc[kw + 1, b] = s1
                 acc[k, b] = s0 * n0
                 acc[k + 1, b] = s1 * n1
             j = cslot[node]
@@ -348,7 +452,8 @@ def batched_step(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
                     rr, rt, st, rx, ry = contact_reaction(
                         u[i, b], u[i + 1, b], vp[i, b], vp[i + 1, b], acc[k, b],
                         acc[k + 1, b], pc_re[j], pc_im[j], ph_re[j], ph_im[j], dt, kappa,
-                        stiff, d[b], slide[b], f[b])
+                        stiff, d[b], slide[b], f[b], reg, sigma, ut_last, j, b, rate_slip,
+                        rate_base, first)
                     r_r[j, b] = rr
                     r_t[j, b] = rt
                     status[j, b] = st
@@ -365,6 +470,8 @@ def batched_step(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
         # Newmark on the block's rows: v_n, w, u_{n+1}, v~_{n+1} (elementwise, one flat loop;
         # unsigned q: a signed index's wrap-around test would stop it vectorising, 3.7x)
         q0 = numba.uint64(2 * g0 * nb)
+        if damped:  # K w_n . u_{n-1} of the block's rows, before u_{n+1} overwrites it
+            damping_sums(acc, KW_ROW, u_next, 2 * g0, 2 * g1, dsum, 1)
         if diag:
             for t in range(2 * (g1 - g0) * nb):
                 q = q0 + numba.uint64(t)
@@ -384,7 +491,40 @@ def batched_step(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
                 w = ai * c_w + (ai * c_v + vp_f[q])
                 un_f[q] = w * dt + u_f[q]
                 vp_f[q] = w if b2_half else w + ai * c_p
+        if damped:  # K w_n . u_{n+1}, and w_{n+1}
+            damping_sums_next(acc, KW_ROW, u_next, vp, u_tau_next, tau, 2 * g0, 2 * g1,
+                              dsum)
     batched_contact_work(u, u_next, cx, pc_re, pc_im, r_x, r_y, r_t, zprev, work, slide, f)
+    started[0] = 1
+    if damped:
+        for b in range(nb):
+            work[3, b] += 0.5 * (dsum[0, b] - dsum[1, b])
+
+
+@inline
+def damping_sums(kw, k0, u, r0, r1, dsum, slot):
+    """dsum[slot, b] += Σ_row (K w_n)[row, b] u[row, b] over rows r0 .. r1 - 1 in order,
+    K w_n of row r in ``kw`` row k0 + r - r0: per scene the running sum of
+    ``single_step``'s damped loop (K w_n . u_{n+1} in slot 0, K w_n . u_{n-1} in slot 1;
+    each sum is its own chain, so taking them in two passes keeps the bits)."""
+    nb = u.shape[1]
+    for row in range(r0, r1):
+        k = k0 + row - r0
+        for b in range(nb):
+            dsum[slot, b] += kw[k, b] * u[row, b]
+
+
+@inline
+def damping_sums_next(kw, k0, u_next, vp, w_next, tau, r0, r1, dsum):
+    """``damping_sums`` of K w_n . u_{n+1} (slot 0), and there
+    w_{n+1} = u_{n+1} + tau v~_{n+1} (``single_step``'s operations) for the next step."""
+    nb = u_next.shape[1]
+    for row in range(r0, r1):
+        k = k0 + row - r0
+        for b in range(nb):
+            un = u_next[row, b]
+            dsum[0, b] += kw[k, b] * un
+            w_next[row, b] = vp[row, b] * tau + un
 
 
 @jit
@@ -392,7 +532,8 @@ def batched_step_long(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
                       c_v, c_w, c_p, b2_half, dt, kappa, inv_kappa,
                       cx, ph_re, ph_im, pc_re, pc_im, cmass, cinv,
                       d, slide, f, r_r, r_t, r_x, r_y, status, zprev, work, acc, cslot,
-                      diag, keep, mass, energy):
+                      diag, keep, mass, energy, u_tau, u_tau_next, tau, dsum,
+                      reg, sigma, ut_last, rate_slip, rate_base, started):
     """``batched_step`` for long batches (B >= LONG_B; ``acc`` (4, B) at least): same
     arguments, same operations in the same order per scene, hence the same bits.
 
@@ -412,9 +553,16 @@ def batched_step_long(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
     nodes with ``keep[node] != 0`` (probes); otherwise they stay in the (4, B) scratch
     ``acc``: 3 of the 6 (n, B) arrays the step would write are not touched, and the
     batch's working set (u_n, u_{n+1}, v~, K) is half as large. Same operations in the same
-    order either way: the state's bits do not depend on ``diag``.
+    order either way: the state's bits do not depend on ``diag``. Kelvin-Voigt damping as
+    in ``batched_step`` (w_n from ``u_tau``, w_{n+1} into ``u_tau_next``, K w_n of the node's
+    rows in ``ku`` when stored, else in ``acc[4]``, ``acc[5]``, the sums in ``dsum``).
     """
     n_rows, nb = u.shape
+    damped = tau > 0.0
+    first = started[0] == 0  # a regularised bound's first step: sigma_eff = p
+    src = u_tau if damped else u
+    if damped:
+        dsum[:] = 0.0
     # scratch rows of the node's two dofs: even-term partial sums, then a_n (e0, e1);
     # odd-term partial sums (o0, o1). 2-D indexing only: a row view (u[col]) would cost a
     # reference-count update per use
@@ -438,12 +586,12 @@ def batched_step_long(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
             d1 = data[a1 + t]
             if t % 2 == 0:
                 for b in range(nb):
-                    ub = u[col, b]
+                    ub = src[col, b]
                     e0[b] += d0 * ub
                     e1[b] += d1 * ub
             else:
                 for b in range(nb):
-                    ub = u[col, b]
+                    ub = src[col, b]
                     o0[b] += d0 * ub
                     o1[b] += d1 * ub
         n0 = nim[i]
@@ -457,10 +605,19 @@ def batched_step_long(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
                 ku[i + 1, b] = s1
                 e0[b] = s0 * n0
                 e1[b] = s1 * n1
+        elif damped:  # K w_n of the two rows in acc[4], acc[5], for the damping work
+            for b in range(nb):
+                s0 = e0[b] + o0[b]
+                s1 = e1[b] + o1[b]
+                acc[4, b] = s0
+                acc[5, b] = s1
+                e0[b] = s0 * n0
+                e1[b] = s1 * n1
         else:
             for b in range(nb):
                 e0[b] = (e0[b] + o0[b]) * n0
                 e1[b] = (e1[b] + o1[b]) * n1
+        kw_src, kw_row = (ku, i) if write else (acc, 4)  # where K w_n of the rows is
         j = cslot[i // 2]
         if j >= 0:
             inv_m = cinv[j]
@@ -468,7 +625,8 @@ def batched_step_long(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
             for b in range(nb):
                 rr, rt, st, rx, ry = contact_reaction(
                     u[i, b], u[i + 1, b], vp[i, b], vp[i + 1, b], e0[b], e1[b], pc_re[j],
-                    pc_im[j], ph_re[j], ph_im[j], dt, kappa, stiff, d[b], slide[b], f[b])
+                    pc_im[j], ph_re[j], ph_im[j], dt, kappa, stiff, d[b], slide[b], f[b],
+                    reg, sigma, ut_last, j, b, rate_slip, rate_base, first)
                 r_r[j, b] = rr
                 r_t[j, b] = rt
                 status[j, b] = st
@@ -476,6 +634,8 @@ def batched_step_long(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
                 r_y[j, b] = ry
                 e0[b] = e0[b] + rx * inv_m
                 e1[b] = e1[b] + ry * inv_m
+        if damped:  # K w_n . u_{n-1}, before u_{n+1} overwrites it
+            damping_sums(kw_src, kw_row, u_next, i, i + 2, dsum, 1)
         for r in range(2):  # a_n of row i + r is acc[r] (e0, e1)
             row = i + r
             if write:
@@ -495,16 +655,75 @@ def batched_step_long(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
                     w = ai * c_w + (ai * c_v + vp[row, b])
                     u_next[row, b] = w * dt + u[row, b]
                     vp[row, b] = w if b2_half else w + ai * c_p
+        if damped:  # K w_n . u_{n+1}, and w_{n+1}
+            damping_sums_next(kw_src, kw_row, u_next, vp, u_tau_next, tau, i, i + 2, dsum)
     batched_contact_work(u, u_next, cx, pc_re, pc_im, r_x, r_y, r_t, zprev, work, slide, f)
+    started[0] = 1
+    if damped:
+        for b in range(nb):
+            work[3, b] += 0.5 * (dsum[0, b] - dsum[1, b])
+
+
+@jit
+def stiffness_product(indptr, indices, data, n_rows, u, out):
+    """out = K u on the owned rows (``pair_product``'s order: the bits of the step's K u)."""
+    for i in range(0, n_rows, 2):
+        s0, s1 = pair_product(indptr, indices, data, u, i)
+        out[i] = s0
+        out[i + 1] = s1
+
+
+@jit
+def stiffness_product_cols(indptr, indices, data, u, out):
+    """out = K u for every column of an (n, B) u, each in ``pair_product``'s order (the
+    bits of ``stiffness_product`` on that column alone): 4 columns per register pass
+    (``half_product4``) and the last B mod 4 one by one, as ``batched_step``."""
+    n_rows, nb = u.shape
+    nb4 = nb - nb % 4
+    for i in range(0, n_rows, 2):
+        a0 = numba.uint64(indptr[i])
+        a1 = numba.uint64(indptr[i + 1])
+        for b0 in range(0, nb4, 4):
+            bu = numba.uint64(b0)
+            e = half_product4(indices, data, u, a0, a1, a1, bu)
+            o = half_product4(indices, data, u, a0 + U1, a1 + U1, a1, bu)
+            for m in range(4):
+                out[i, b0 + m] = e[m] + o[m]
+                out[i + 1, b0 + m] = e[4 + m] + o[4 + m]
+        for b in range(nb4, nb):
+            s0, s1 = pair_product_col(indices, data, u, a0, a1, numba.uint64(b))
+            out[i, b] = s0
+            out[i + 1, b] = s1
+
+
+@jit
+def sequential_dot(x, y):
+    """Σ_i x_i y_i in index order from 0.0 (``column_dots`` of one column: the same bits)."""
+    s = 0.0
+    for i in range(x.size):
+        s += x[i] * y[i]
+    return s
+
+
+@jit
+def column_dots(x, y, out):
+    """out[b] = Σ_i x[i, b] y[i, b] in row order from 0.0, per column of (n, B) arrays."""
+    n_rows, nb = x.shape
+    for b in range(nb):
+        out[b] = 0.0
+    for i in range(n_rows):
+        for b in range(nb):
+            out[b] += x[i, b] * y[i, b]
 
 
 @jit
 def advance(n_max, t_stop, clock, indptr, indices, data, n_rows, u_a, u_b, v, vp, a, ku, nim,
             c_v, c_w, c_p, b2_half, dt, kappa, inv_kappa,
             cx, ph_re, ph_im, pc_re, pc_im, cmass, cinv,
-            d, slide, f, r_pol, r_xy, status, zprev, work,
+            d, slide, f, r_pol, r_xy, status, zprev, work, u_tau, tau,
+            reg, sigma, ut_last, rate_slip, rate_base, started,
             probe_dof, probe_t, probe_u, probe_v, probe_count):
-    """Up to ``n_max`` steps of ``single_step`` (same arguments, from ``indptr`` to ``work``) in
+    """Up to ``n_max`` steps of ``single_step`` (same arguments, ``indptr`` to ``started``) in
     one call (one rank), stopping before a step once ``clock[0] >= t_stop``; after each step
     the probes record time level n as ``solver.observers.ProbeRecorder.record`` does (t_n,
     u_n and v_n at ``probe_dof`` (x dof; y = x + 1) while rows are left). ``u_a`` holds u_n
@@ -517,7 +736,8 @@ def advance(n_max, t_stop, clock, indptr, indices, data, n_rows, u_a, u_b, v, vp
         single_step(indptr, indices, data, n_rows, u_a, u_b, v, vp, a, ku, nim,
                     c_v, c_w, c_p, b2_half, dt, kappa, inv_kappa,
                     cx, ph_re, ph_im, pc_re, pc_im, cmass, cinv,
-                    d, slide, f, r_pol, r_xy, status, zprev, work)
+                    d, slide, f, r_pol, r_xy, status, zprev, work, u_tau, tau,
+                    reg, sigma, ut_last, rate_slip, rate_base, started)
         clock[0] += dt
         i = probe_count[0]
         if i < cap:
@@ -536,7 +756,7 @@ def advance(n_max, t_stop, clock, indptr, indices, data, n_rows, u_a, u_b, v, vp
 @jit
 def record_sample(i, t_n, u, v, ku, mass, node_x, perm, r_r, r_t, status,
                   out_t, out_ux, out_uy, out_vx, out_vy, out_rr, out_rt, out_status,
-                  energies, e_local, work):
+                  energies, e_local, work, damping_work):
     """One rank: ``InnerCircleRecorder._record_single`` as one compiled pass.
 
     Kinetic 1/2 v.Mv and strain 1/2 u.Ku energies (sequential sums: round-off against the
@@ -545,7 +765,8 @@ def record_sample(i, t_n, u, v, ku, mass, node_x, perm, r_r, r_t, status,
     by e^{-i theta} later with numpy's complex multiply, so that every polar value has the
     bits of the step-by-step path), the contact forces and statuses taken through
     ``perm``; energies = (kinetic, strain, work_contact, work_cylinder,
-    friction_dissipation, damping_work = 0: the fused step is undamped).
+    friction_dissipation, damping_work: W_d of ``solver.fused.FusedDampingWork``, 0 for an
+    undamped step). A damped step passes ``ku`` = K u_n (``FusedNewmark.refresh_ku``).
     """
     kin = 0.0
     for k in range(v.size):
@@ -555,7 +776,7 @@ def record_sample(i, t_n, u, v, ku, mass, node_x, perm, r_r, r_t, status,
         strain += u[k] * ku[k]
     e_local[0] = 0.5 * kin
     e_local[1] = 0.5 * strain
-    e_local[2] = 0.0
+    e_local[2] = damping_work
     out_t[i] = t_n
     for j in range(node_x.size):
         ix = node_x[j]
@@ -572,4 +793,4 @@ def record_sample(i, t_n, u, v, ku, mass, node_x, perm, r_r, r_t, status,
     energies[i, 2] = work[0]
     energies[i, 3] = work[1]
     energies[i, 4] = work[2]
-    energies[i, 5] = 0.0
+    energies[i, 5] = damping_work

@@ -9,6 +9,10 @@ length B) and the initial state. Everything else is solver/fused.py's step, colu
     a*_n = -M^{-1} K u_n,  trial = u_n + dt v~_n + kappa a*_n,  r_n = project(trial; d, slide, f)
     a_n = a*_n + M^{-1} r_n,  v_n = v~_n + beta_2 dt a_n,  u_{n+1} = u_n + dt (v_n + dt/2 a_n)
 
+With Kelvin-Voigt damping (``tau`` > 0, the same for the whole batch: it sets dt) K acts on
+w_n = u_n + tau v~_n instead of u_n, and the damping work is summed as in the fused step
+(``damping_work_totals``; the samples refresh K u_n, ``refresh_ku``).
+
 Backends (``kernel``):
 
 * ``"numba"`` (CPU default): ``solver._fused_kernels.batched_step`` (short batches: 4-scene
@@ -108,17 +112,29 @@ class BatchedExplicit(HookedStepper):
 
     A ``solver.schemes.protocol.Stepper``. After ``step()``: ``u`` is u_{n+1}; ``u_prev``,
     ``v``, ``a``, ``ku``, ``r_r``, ``r_t``, ``status`` are time level n (as
-    ``solver.newmark.Newmark``); ``work`` (3, B) holds [work_contact, work_cylinder,
-    friction_dissipation] (``work_totals()``). ``advance`` writes v_n, a_n and K u_n in full
-    only at the levels ``full_state_at(level)`` names (the sampled ones), see ``step``.
+    ``solver.newmark.Newmark``); ``work`` (4, B) holds [work_contact, work_cylinder,
+    friction_dissipation] (``work_totals()``) and the damping work's step sum (``tau`` > 0,
+    ``damping_work_totals()``; ``ku`` is K u_n only after ``refresh_ku``). ``advance``
+    writes v_n, a_n and K u_n in full only at the levels ``full_state_at(level)`` names (the
+    sampled ones), see ``step``.
     """
 
     def __init__(self, bp: BatchedProblem, d: np.ndarray, slide: np.ndarray, f: np.ndarray,
-                 xp: Any = np, kernel: str = "numba") -> None:
+                 xp: Any = np, kernel: str = "numba", tau: float = 0.0,
+                 bound: tuple[int, float, float] = (0, 0.0, 0.0)) -> None:
         if kernel not in KERNELS:
             raise ValueError(f"kernel = {kernel!r}: use one of {KERNELS}")
         if kernel == "numba" and xp is not np:
             raise ValueError("the numba kernel runs on numpy arrays (backend cpu)")
+        if not (math.isfinite(tau) and tau >= 0.0):
+            raise ValueError(f"damping tau = {tau} must be a finite number >= 0 (s)")
+        self.tau = float(tau)
+        self.damped = self.tau > 0.0
+        # the friction bound (``solver.fused.friction_bound``): regularised in numba only
+        self.reg, self.rate_slip, self.rate_base = bound
+        if self.reg and kernel != "numba":
+            raise ValueError(f"kernel = {kernel!r} has no regularised friction bound "
+                             "(friction.regularization): run these scenes on the CPU")
         self.xp, self.kernel, self.bp = xp, kernel, bp
         n, B, m = bp.n, int(np.size(d)), int(bp.cx.size)
         self.B, self.n, self.m = B, n, m
@@ -146,7 +162,18 @@ class BatchedExplicit(HookedStepper):
         self.r_r, self.r_t, self.r_x, self.r_y = z(m, B), z(m, B), z(m, B), z(m, B)
         self.status = xp.zeros((m, B), dtype=np.int8)
         self.zprev = z(m, 2, B)
-        self.work = z(3, B)
+        # contact work, cylinder work, friction dissipation, the damping work's step sum
+        self.work = z(4, B)
+        # damped: w_n = u_n + tau v~_n (the argument of K), the kernels' two damping sums,
+        # and u_0 . K u_0 per scene (``damping_work_totals``)
+        # w_n and w_{n+1}, alternating as u (the numba kernels write w_{n+1} in the pass)
+        self._w = [z(n, B), z(n, B)] if self.damped else [z(0, B)] * 2
+        self.dsum = z(2, B)
+        # a regularised bound's per-node state (sigma_eff, the last u_theta), (m, B)
+        self.sigma, self.ut_last = (z(m, B), z(m, B)) if self.reg else (z(0, B), z(0, B))
+        self._started = np.zeros(1, dtype=np.int64)  # 0 until the first step
+        self.u0_ku0 = np.zeros(B)
+        self._dots = np.zeros(B)
         self.mass = dev(bp.mass)
         self.energy = z(2, B)  # numba kernels, sampled steps: Σ m v², Σ u K u (x 2 energies)
         self.energy_summed = False  # True after a numba step that summed ``energy``
@@ -171,7 +198,10 @@ class BatchedExplicit(HookedStepper):
             k_bytes = int(bp.data.nbytes + bp.indices.nbytes)
             self._name = _kernels().batched_kernel_name(B, k_bytes)
             self._fn = get_kernel(self._name)
-            self.acc = z(max(4, 2 * _kernels().NODE_BLOCK), B)
+            self.acc = z(max(6, (4 if self.damped else 2) * _kernels().NODE_BLOCK), B)
+            self._product = get_kernel("stiffness_product_cols")  # K u_n, damped samples
+            self._dots_fn = get_kernel("column_dots")
+            self._first_product = True  # compiled with the SLP vectoriser (register passes)
         elif kernel == "cuda":
             self._cuda_setup()
         else:
@@ -186,6 +216,11 @@ class BatchedExplicit(HookedStepper):
     def u_prev(self):
         return self._u[1 - self.cur]
 
+    @property
+    def u_tau(self):
+        """w_n = u_n + tau v~_n before a step (damped; the argument of K)."""
+        return self._w[self.cur]
+
     def set_state(self, u0: np.ndarray, v0: np.ndarray, a0: np.ndarray | None = None) -> None:
         """(n, B) initial displacement and velocity (predictor v~_0 = v_0: a start at rest)."""
         if a0 is not None:
@@ -195,21 +230,31 @@ class BatchedExplicit(HookedStepper):
         self.v[...] = xp.asarray(v0)
         self.v_pred[...] = self.v
         self.a.fill(0.0)
+        # u_{-1} := u_0 in the spare half of the double buffer: the damped step reads it as
+        # u_{n-1} before it writes u_{n+1} there (``solver.observers.DampingWork``)
+        self.u_prev[...] = self.u
         cx = self.cx.astype(np.int64)
         self.zprev[:, 0, :] = self.u[cx]
         self.zprev[:, 1, :] = self.u[cx + 1]
+        if self.damped:
+            xp.multiply(self.v_pred, self.tau, out=self.u_tau)  # the kernels' w_n, bitwise
+            self.u_tau[...] += self.u
+            ku0 = xp.zeros_like(self.u)
+            self._stiffness(self.u, ku0)
+            self.u0_ku0 = self._column_dots(self.u, ku0).copy()
 
     def mask(self, b: int) -> None:
         """Take scene ``b`` out of the batch: zero state and no contact (stays at rest)."""
         self.active[b] = False
-        for arr in (*self._u, self.v, self.v_pred, self.a, self.ku, self.zprev):
+        for arr in (*self._u, self.v, self.v_pred, self.a, self.ku, self.zprev, *self._w,
+                    *([self.dwork] if self.kernel == "cuda" else [])):
             arr[..., b] = 0.0
         self.d[b] = 0.0
 
     def facts(self) -> dict:
         """Scheme facts of every scene of the batch (``solver.schemes.protocol.Stepper``)."""
-        return {"scheme": "explicit", "beta1": 0.0, "beta2": self.beta2, "damping_tau_s": 0.0,
-                "contact_s": 0.0, "kernel": f"batched-{self.kernel}",
+        return {"scheme": "explicit", "beta1": 0.0, "beta2": self.beta2,
+                "damping_tau_s": self.tau, "contact_s": 0.0, "kernel": f"batched-{self.kernel}",
                 "kernel_first_call_s": self.compile_s}
 
     def advance(self, n: int, t_stop: float = math.inf) -> int:
@@ -228,7 +273,47 @@ class BatchedExplicit(HookedStepper):
     def work_totals(self) -> np.ndarray:
         """(3, B) host array: work_contact, work_cylinder, friction_dissipation."""
         w = self.work if self.work.ndim == 2 else self.work.sum(axis=1)
-        return np.asarray(w.get() if hasattr(w, "get") else w)
+        return np.asarray(w.get() if hasattr(w, "get") else w)[:3]
+
+    # ------------------------------------------------------------------- Kelvin-Voigt
+    def _stiffness(self, u, out) -> None:
+        """out = K u per column, in the fused kernels' order (numba, CUDA) or scipy's (xp)."""
+        if self.kernel == "cuda":  # pragma: no cover - GPU (or its CPU emulation)
+            self._kern_k((self._blocks,), (self._threads,), (
+                self.indptr, self.indices, self.data, u, out, np.int32(self.n // 2),
+                np.int32(self.B)))
+        elif self.kernel == "numba":
+            if self._first_product:
+                from solver.fused import slp_vectorize
+
+                self._first_product = False
+                with slp_vectorize():
+                    self._product(self.indptr, self.indices, self.data, u, out)
+                return
+            self._product(self.indptr, self.indices, self.data, u, out)
+        else:
+            out[...] = self.K @ u
+
+    def _column_dots(self, x, y) -> np.ndarray:
+        """Σ_i x[i, b] y[i, b] per column (numba: in row order, the bits of a single scene's
+        ``sequential_dot``)."""
+        if self.kernel == "numba":
+            self._dots_fn(x, y, self._dots)
+            return self._dots
+        return self.xp.einsum("ib,ib->b", x, y)
+
+    def refresh_ku(self) -> None:
+        """ku = K u_n (u_n is ``u_prev`` after a step; the damped step applies K w_n) and the
+        strain sums energy[1] = Σ_i u_i (K u)_i of it: what the samples read."""
+        self._stiffness(self.u_prev, self.ku)
+        self.energy[1] = self._column_dots(self.u_prev, self.ku)
+
+    def damping_work_totals(self) -> np.ndarray:
+        """(B,) W_d of every scene, as ``solver.fused.FusedDampingWork`` (needs
+        ``refresh_ku``): work[3] - 1/2 (u_{n+1} . K u_n - u_0 . K u_0)."""
+        dots = self._column_dots(self.u, self.ku)
+        step_sum = self.work[3] if self.work.ndim == 2 else self.dwork.sum(axis=0)
+        return step_sum - 0.5 * (dots - self.xp.asarray(self.u0_ku0))
 
     # -------------------------------------------------------------------------------- step
     def keep_nodes(self, nodes: np.ndarray) -> None:
@@ -253,7 +338,9 @@ class BatchedExplicit(HookedStepper):
                     self.ph_re, self.ph_im, self.pc_re, self.pc_im, self.cmass, self.cinv,
                     self.d, self.slide, self.f, self.r_r, self.r_t, self.r_x, self.r_y,
                     self.status, self.zprev, self.work, self.acc, self.cslot, bool(diag),
-                    self.keep, self.mass, self.energy)
+                    self.keep, self.mass, self.energy, self._w[cur], self._w[nxt], self.tau,
+                    self.dsum, self.reg, self.sigma, self.ut_last, self.rate_slip,
+                    self.rate_base, self._started)
             if self.step_count == 0:
                 with slp_vectorize():
                     timed_first_call(self._name, self._fn, *args)
@@ -287,7 +374,13 @@ class BatchedExplicit(HookedStepper):
         xp, dt, b2, kappa = self.xp, self.dt, self.beta2, self.kappa
         ix, iy = self._ix, self._ix + 1
         pcr, pci = self.pc_re[:, None], self.pc_im[:, None]
-        self.ku[...] = self.K @ u
+        if self.damped:  # K w_n, w_n = u_n + tau v~_n (DampedNewmark)
+            w = self.u_tau
+            xp.multiply(self.v_pred, self.tau, out=w)
+            w += u
+            self.ku[...] = self.K @ w
+        else:
+            self.ku[...] = self.K @ u
         xp.multiply(self.ku, self.nim[:, None], out=self.a)
         a = self.a
         ux, uy = u[ix], u[iy]
@@ -315,6 +408,9 @@ class BatchedExplicit(HookedStepper):
         a[iy] = a[iy] + self.r_y * self.cinv[:, None]
         self.v[...] = a * (b2 * dt) + self.v_pred
         w = a * (0.5 * dt) + self.v
+        if self.damped:  # u_next holds u_{n-1} until it is overwritten
+            self.work[3] += 0.5 * (xp.einsum("ib,ib->b", self.ku, w * dt + u)
+                                   - xp.einsum("ib,ib->b", self.ku, u_next))
         u_next[...] = w * dt + u
         self.v_pred[...] = w if b2 == 0.5 else w + a * ((0.5 - b2) * dt)
         dzx = u_next[ix] - self.zprev[:, 0]
@@ -333,17 +429,28 @@ class BatchedExplicit(HookedStepper):
         import cupy
 
         self._module = cupy.RawModule(code=CUDA_SOURCE, options=("--fmad=false",))
-        self._kern = self._module.get_function("fused_step")
+        self._kern = self._module.get_function("fused_step_damped" if self.damped
+                                                else "fused_step")
+        self._kern_w = self._module.get_function("kelvin_voigt_argument")
+        self._kern_k = self._module.get_function("stiffness_product")
         nodes = self.n // 2
         self.cslot = self.cslot.astype(np.int32)
         self.keep = cupy.zeros(nodes, dtype=np.int8)
         self.work = cupy.zeros((3, self.m, self.B))  # per (node, scene): no atomics
+        # damped: the damping work's step sum per (node, scene)
+        self.dwork = cupy.zeros((nodes, self.B))
         self._threads = 128
         self._blocks = (nodes * self.B + self._threads - 1) // self._threads
 
     def _cuda_step(self, u, u_next, diag: bool) -> None:  # pragma: no cover - GPU only
         dt, b2 = self.dt, self.beta2
         f64 = np.float64
+        damped = ()
+        if self.damped:  # w_n = u_n + tau v~_n first: the step overwrites v~
+            count = self.n * self.B
+            self._kern_w(((count + self._threads - 1) // self._threads,), (self._threads,),
+                         (u, self.v_pred, self.u_tau, f64(self.tau), np.int32(count)))
+            damped = (self.u_tau, self.dwork)
         self._kern((self._blocks,), (self._threads,), (
             self.indptr, self.indices, self.data, u, u_next, self.v, self.v_pred, self.a,
             self.ku, self.nim, self.cslot, self.ph_re, self.ph_im, self.pc_re, self.pc_im,
@@ -351,4 +458,4 @@ class BatchedExplicit(HookedStepper):
             self.r_y, self.status, self.zprev, self.work, f64(b2 * dt), f64(0.5 * dt),
             f64((0.5 - b2) * dt), np.int32(b2 == 0.5), f64(dt), f64(self.kappa),
             f64(1.0 / self.kappa), np.int32(self.n // 2), np.int32(self.B), np.int32(self.m),
-            np.int32(diag), self.keep))
+            np.int32(diag), self.keep, *damped))

@@ -131,7 +131,7 @@ class BatchRecorder:
 
         self.fields = store("fields.f64", (6, m), np.float64, max_samples, chunk)
         self.status = store("status.i8", (m,), np.int8, max_samples, chunk)
-        # kinetic, strain, 3 works, damping work (0: batched scenes are undamped), as
+        # kinetic, strain, 3 works, the Kelvin-Voigt work W_d (0 undamped), as
         # solver.observers.ENERGY_FIELDS
         self.energies = store("energies.f64", (6,), np.float64, max_samples, chunk)
         self.probes = store("probes.f64", (4, npb), np.float64, max_steps + 1, 16 * chunk)
@@ -184,6 +184,8 @@ class BatchRecorder:
         row[:, 5] = it.r_t[self.perm].T
         self.status.row()[...] = it.status[self.perm].T
         e = self.energies.row()  # (B, 6): kinetic, strain, the three works (on the device)
+        if it.damped:  # the damped step applied K w_n: K u_n for the strain energy and W_d
+            it.refresh_ku()
         if it.energy_summed:  # the numba kernel summed them on this step, in row order
             e[:, :2] = it.energy.T
         else:
@@ -193,8 +195,8 @@ class BatchRecorder:
             e[:, 0] = xp.einsum("ib,ib->b", self.scratch, it.v)
             e[:, 1] = xp.einsum("ib,ib->b", it.u_prev, it.ku)
         e[:, :2] *= 0.5
-        e[:, 2:5] = (it.work if it.work.ndim == 2 else it.work.sum(axis=1)).T
-        e[:, 5] = 0.0
+        e[:, 2:5] = (it.work[:3] if it.work.ndim == 2 else it.work.sum(axis=1)).T
+        e[:, 5] = it.damping_work_totals() if it.damped else 0.0
         self.t[self.n] = it.time - it.dt
         self.n += 1
         host = e[:, :4].get() if hasattr(e, "get") else e[:, :4]  # one device -> host copy

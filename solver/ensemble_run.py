@@ -192,7 +192,7 @@ class BatchSimulation:
 
         sc0 = self.scenes[self.live[0]]
         laws = [ContactLaw.from_scene(self.scenes[k], self.dt) for k in self.live]
-        stepper = make_batched_stepper(self.problem, laws, self.backend)
+        stepper = make_batched_stepper(self.problem, laws, self.backend, sc0.damping.tau)
         stepper.set_state(u0, np.zeros_like(u0))
         projection = ContactProjection(self.problem, laws[0])
         shape = InnerCircleRecorder(self.problem, projection, None, 1, max_samples=0)

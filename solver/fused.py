@@ -14,6 +14,13 @@ paper's explicit scheme (solver/newmark.py docstring):
     v_n    = v~_n + beta_2 dt a_n,   w = v_n + dt/2 a_n
     u_{n+1} = u_n + dt w,            v~_{n+1} = w + (1/2 - beta_2) dt a_n
 
+With Kelvin-Voigt damping C = tau K (``solver.newmark.DampedNewmark``) the internal force
+is K w_n, w_n = u_n + tau v~_n, in place of K u_n (one product), the contact step is
+unchanged, and the kernel also sums the damping work's per-step part
+1/2 (K w_n . u_{n+1} - K w_n . u_{n-1}) (``solver.observers.DampingWork``; u_{n-1} is the
+spare half of the double buffer before u_{n+1} overwrites it); ``FusedDampingWork`` closes
+it at the samples with K u_n.
+
 Only the summation order of K u (CSR order here, PETSc's order in MatMult) and of the work
 sums (sequential here, BLAS in ``np.vdot``) differ, so the two kernels agree to round-off
 (tests/test_fused.py). The single-scene and the batched kernel share the per-node functions
@@ -85,6 +92,26 @@ def _kernels():
     from solver import _fused_kernels
 
     return _fused_kernels
+
+
+REGULARISATIONS = {"": 0, "prakash-clifton": 1, "constant-time": 2}
+"""The kernels' code of a friction bound (``ContactLaw.regularisation``): 0 is f p."""
+
+
+def friction_bound(law) -> tuple[int, float, float]:
+    """(code, rate_slip, rate_base) of ``law``'s friction bound for the kernels: the
+    relaxation rate of sigma_eff is |V dt| rate_slip + rate_base, with the constants of
+    ``solver.contact.nodal.EffectivePressure`` (1 / (dt L) and V* / L for Prakash-Clifton;
+    0 and 1 / t* for a constant time). The 1-2-1 filtered bound is not in the kernels."""
+    if law.filtered:
+        raise ValueError(f"friction variant {law.variant!r}: the 1-2-1 filtered bound runs "
+                         "with the numpy step (time.kernel = \"numpy\")")
+    code = REGULARISATIONS[law.regularisation]
+    if code == 1:
+        return code, 1.0 / (law.dt * law.slip_length), law.reference_velocity / law.slip_length
+    if code == 2:
+        return code, 0.0, 1.0 / law.relaxation_time
+    return 0, 0.0, 0.0
 
 
 def kernel(name: str):
@@ -181,14 +208,22 @@ class FusedNewmark(ExplicitStart):
     (``solver.contact.ContactProjection``), so every observer works unchanged. ``advance``
     runs the steps between two observations as one compiled call when its only step hook is
     the probe recorder and the run has one rank.
+
+    ``tau > 0``: Kelvin-Voigt damping, ``DampedNewmark``'s step (``damped``; ``kw`` = K w_n
+    applied, ``ku`` = K u_n after ``refresh_ku``, work[3] the damping work's step sum, which
+    ``FusedDampingWork`` reads).
     """
 
     kernel = "numba"
 
-    def __init__(self, problem, dt: float, beta2: float, projection) -> None:
+    def __init__(self, problem, dt: float, beta2: float, projection, tau: float = 0.0) -> None:
         if not 0.5 <= beta2 <= 1.0:
             raise ValueError(f"time.beta2 = {beta2} must be in [0.5, 1]")
+        if not (math.isfinite(tau) and tau >= 0.0):
+            raise ValueError(f"damping tau = {tau} must be a finite number >= 0 (s)")
         self.beta1, self.beta2, self.dt = 0.0, beta2, dt
+        self.tau = float(tau)
+        self.damped = self.tau > 0.0
         self.kappa = forward_increment_factor(beta2, dt)
         self.p = projection
         self.comm = problem.comm
@@ -197,20 +232,30 @@ class FusedNewmark(ExplicitStart):
         n_local = n + ghosts.size
         self._full = [np.zeros(n_local), np.zeros(n_local)]  # u_n, u_{n+1} (owned + ghosts)
         self._views = [f[:n] for f in self._full]
-        self._ghosted = None
+        # damped: w_n = u_n + tau v~_n, the argument of K (owned + ghosts); else unused
+        self._u_tau = np.zeros(n_local if self.damped else 0)
+        self._ghosted = self._ghosted_tau = None
         if self.comm.size > 1:
             from petsc4py import PETSc
 
-            self._ghosted = [PETSc.Vec().createGhostWithArray(
-                ghosts.astype(PETSc.IntType), f, size=(n, problem.n_global_dofs),
-                comm=self.comm) for f in self._full]
+            def ghosted(f):
+                return PETSc.Vec().createGhostWithArray(
+                    ghosts.astype(PETSc.IntType), f, size=(n, problem.n_global_dofs),
+                    comm=self.comm)
+
+            self._ghosted = [ghosted(f) for f in self._full]
+            if self.damped:
+                self._ghosted_tau = ghosted(self._u_tau)
         self.cur = 0
         self.v = np.zeros(n)
         self.a = np.zeros(n)
         self.v_pred = np.zeros(n)
-        self.ku = np.zeros(n)
+        self.ku = np.zeros(n)  # K u_n (damped: after ``refresh_ku``)
+        self.kw = np.zeros(n) if self.damped else self.ku  # the applied K w_n (damped)
         self.nim = -problem.inv_mass
-        self.work = np.zeros(3)
+        # contact work, cylinder work, friction dissipation, and the damping work's step sum
+        # Σ 1/2 K w_m . (u_{m+1} - u_{m-1}) (``FusedDampingWork``)
+        self.work = np.zeros(4)
         p = projection
         self.cx = np.ascontiguousarray(problem.nodes.dofs_x, dtype=np.uint32)
         self.ph_re, self.ph_im = p.phase.real.copy(), p.phase.imag.copy()
@@ -220,10 +265,21 @@ class FusedNewmark(ExplicitStart):
         self.r_pol = p.r_polar.view(np.float64)  # (r_r, r_t) interleaved: the projection's
         self.r_xy = p.r_xy.view(np.float64)
         self.zprev = np.zeros(2 * self.cx.size)  # u_{n-1} at the contact nodes (x, y)
+        # a regularised friction bound: its per-node state is the projection's own
+        # (``EffectivePressure``: sigma_eff, the last u_theta), updated by the kernel
+        self.reg, self.rate_slip, self.rate_base = friction_bound(p.law)
+        m = self.cx.size
+        if self.reg:
+            self.sigma = p.effective.sigma.reshape(m, 1)
+            self.ut_last = p.effective.u_t_last.reshape(m, 1)
+        else:
+            self.sigma = self.ut_last = np.zeros((0, 1))
+        self._started = np.zeros(1, dtype=np.int64)  # 0 until the first step
         self.time = 0.0
         self.step_count = 0
         self._fn = kernel("single_step")
         self._advance = kernel("advance") if self._ghosted is None else None
+        self._product = kernel("stiffness_product")  # K u_n at a damped step's samples
         self._clock = np.zeros(1)  # the time, as the kernel accumulates it (time += dt)
         self.compile_s = 0.0
         self.contact = None
@@ -240,8 +296,11 @@ class FusedNewmark(ExplicitStart):
         return self._views[1 - self.cur]
 
     def set_state(self, u: np.ndarray, v: np.ndarray, a0: np.ndarray | None = None) -> None:
-        """As ``Newmark.set_state``; also u_{n-1} := u_0 for the contact work."""
+        """As ``Newmark.set_state``; also u_{n-1} := u_0 for the contact work and, in the
+        spare half of the double buffer (which the damped step reads as u_{n-1} before it
+        writes u_{n+1} there), for the damping work (``DampingWork``'s u_{-1} := u_0)."""
         super().set_state(u, v, a0)
+        self.u_prev[:] = u
         cx = self.cx.astype(np.intp)
         self.zprev[0::2] = self.u[cx]
         self.zprev[1::2] = self.u[cx + 1]
@@ -250,18 +309,30 @@ class FusedNewmark(ExplicitStart):
         """``single_step``'s arguments from the CSR matrix on (same order, same values)."""
         p, dt, b2 = self.p, self.dt, self.beta2
         return (self.indptr, self.indices, self.data, self.nim.size, u, u_next, self.v,
-                self.v_pred, self.a, self.ku, self.nim, b2 * dt, 0.5 * dt, (0.5 - b2) * dt,
+                self.v_pred, self.a, self.kw, self.nim, b2 * dt, 0.5 * dt, (0.5 - b2) * dt,
                 b2 == 0.5, dt, self.kappa, 1.0 / self.kappa, self.cx, self.ph_re, self.ph_im,
                 self.pc_re, self.pc_im, self.cmass, self.cinv, p.d, p.slide, p.f, self.r_pol,
-                self.r_xy, p.out.status, self.zprev, self.work)
+                self.r_xy, p.out.status, self.zprev, self.work, self._u_tau, self.tau,
+                self.reg, self.sigma, self.ut_last, self.rate_slip, self.rate_base,
+                self._started)
 
     def step(self) -> None:
-        """u_n -> u_{n+1}: one ghost update (MPI) and one kernel call."""
+        """u_n -> u_{n+1}: one ghost update (MPI) and one kernel call. Damped, the ghosts
+        K reads are those of w_n = u_n + tau v~_n, formed here on the owned dofs with the
+        kernel's operations (the kernel forms the owned part again: the same bits)."""
         cur, nxt = self.cur, 1 - self.cur
         if self._ghosted is not None:
             from petsc4py import PETSc
 
-            self._ghosted[cur].ghostUpdate(PETSc.InsertMode.INSERT, PETSc.ScatterMode.FORWARD)
+            if self.damped:
+                n = self.nim.size
+                np.multiply(self.v_pred, self.tau, out=self._u_tau[:n])
+                self._u_tau[:n] += self._views[cur]
+                self._ghosted_tau.ghostUpdate(PETSc.InsertMode.INSERT,
+                                              PETSc.ScatterMode.FORWARD)
+            else:
+                self._ghosted[cur].ghostUpdate(PETSc.InsertMode.INSERT,
+                                               PETSc.ScatterMode.FORWARD)
         args = self._args(self._full[cur], self._full[nxt])
         if self.step_count == 0:
             timed_first_call("single_step", self._fn, *args)
@@ -272,9 +343,26 @@ class FusedNewmark(ExplicitStart):
         self.time += self.dt
         self.step_count += 1
 
+    def stiffness_of(self, index: int, out: np.ndarray) -> None:
+        """out = K u for the buffer ``index`` of the double buffer (owned rows; its ghosts
+        refreshed first on several ranks), in the kernel's summation order. Collective."""
+        if self._ghosted is not None:
+            from petsc4py import PETSc
+
+            self._ghosted[index].ghostUpdate(PETSc.InsertMode.INSERT,
+                                             PETSc.ScatterMode.FORWARD)
+        self._product(self.indptr, self.indices, self.data, self.nim.size, self._full[index],
+                      out)
+
+    def refresh_ku(self) -> None:
+        """ku = K u_n (u_n is ``u_prev`` after a step): the damped step applies K w_n, so the
+        strain energy at a sample needs this one extra product (``DampedNewmark``'s)."""
+        self.stiffness_of(1 - self.cur, self.ku)
+
     def facts(self) -> dict:
         """Scheme facts for the run summary (``solver.schemes.protocol.Stepper``)."""
-        return {"scheme": "explicit", "beta1": 0.0, "beta2": self.beta2, "damping_tau_s": 0.0,
+        return {"scheme": "explicit", "beta1": 0.0, "beta2": self.beta2,
+                "damping_tau_s": self.tau,
                 "contact_s": 0.0, "kernel": "numba", "kernel_first_call_s": self.compile_s}
 
     @property
@@ -335,5 +423,28 @@ class FusedEnergy:
         from mpi4py import MPI
 
         total = np.zeros(3)
-        comm.Allreduce(self.integ.work, total, op=MPI.SUM)
+        comm.Allreduce(self.integ.work[:3], total, op=MPI.SUM)
         return float(total[0]), float(total[1]), float(total[2])
+
+
+class FusedDampingWork:
+    """``solver.observers.DampingWork`` for a damped ``FusedNewmark``: the kernel sums
+    Σ_m 1/2 K w_m . (u_{m+1} - u_{m-1}) itself (``work[3]``), so this is no step hook and
+    the compiled time loop stays. At a sample (``ku`` = K u_n refreshed)
+
+        W_d = work[3] - 1/2 (u_{n+1} . K u_n - u_0 . K u_0)
+
+    on this rank's dofs, with the dot products summed in row order (``sequential_dot``; a
+    batch sums each column in the same order: ``BatchedExplicit.damping_work_totals``)."""
+
+    def __init__(self, integrator: FusedNewmark, u0: np.ndarray) -> None:
+        self.integ = integrator
+        ku0 = np.zeros(integrator.nim.size)
+        integrator.stiffness_of(integrator.cur, ku0)  # the buffer holding u_0 before a step
+        self._dot = kernel("sequential_dot")
+        self.u0_ku0 = float(self._dot(np.ascontiguousarray(u0), ku0))
+
+    def local_total(self, integrator: FusedNewmark) -> float:
+        """W_d up to level n on this rank's dofs; needs ``integrator.ku`` = K u_n."""
+        return float(integrator.work[3]) - 0.5 * (
+            float(self._dot(integrator.u, integrator.ku)) - self.u0_ku0)

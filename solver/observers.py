@@ -229,13 +229,14 @@ class InnerCircleRecorder:
 
     def use_compiled(self, record_sample) -> None:
         """Take the samples with the compiled ``record_sample`` (``solver._fused_kernels``):
-        one rank, undamped fused step, whose ``work`` holds the contact work (FusedEnergy).
+        one rank, fused step, whose ``work`` holds the contact work (FusedEnergy); a damped
+        step's K u_n is refreshed first and its W_d taken from ``damping`` (FusedDampingWork).
         The kernel stores Cartesian rows; ``_rotate_pending`` turns them polar on reading.
         A second call keeps the first (rows taken since then are still Cartesian)."""
         if self._compiled is not None:
             return
-        if not self.single or self.damping is not None:
-            raise RuntimeError("the compiled sample is for one rank and an undamped step")
+        if not self.single:
+            raise RuntimeError("the compiled sample is for one rank")
         self._compiled = (record_sample, np.ascontiguousarray(2 * self.idx_sorted,
                                                               dtype=np.uint32),
                           np.ascontiguousarray(self.perm, dtype=np.intp))
@@ -244,13 +245,17 @@ class InnerCircleRecorder:
     def _sample_compiled(self, integrator) -> None:
         fn, node_x, perm = self._compiled
         out = self.p.out
+        damping_work = 0.0
+        if self.damping is not None:
+            integrator.refresh_ku()  # the damped step forms K (u + tau v~), not K u
+            damping_work = self.damping.local_total(integrator)
         fn(self.n, integrator.time - integrator.dt, integrator.u_prev, integrator.v,
            integrator.ku, self.problem.mass, node_x, perm, out.r_r, out.r_t, out.status,
            self.t, self.u_r, self.u_t, self.v_r, self.v_t, self.r_r, self.r_t, self.status,
-           self.energies, self.e_local, integrator.work)
+           self.energies, self.e_local, integrator.work, damping_work)
         np.copyto(self.e_total, self.e_local)  # the sum over one rank
         w = integrator.work
-        self.last_work = (float(w[0]), float(w[1]), float(w[2]), 0.0)
+        self.last_work = (float(w[0]), float(w[1]), float(w[2]), damping_work)
 
     def _rotate_pending(self) -> None:
         """(x, y) rows of the compiled samples -> (r, theta): z e^{-i theta}, the same numpy

@@ -115,8 +115,8 @@ class Simulation:
     def _attach_step_hooks(self, u0: np.ndarray) -> None:
         """The observers that need every step: contact work (unless the kernel sums it), the
         Kelvin-Voigt work of a damped explicit step, the probes (in this order)."""
-        from solver.observers import DampingWork, InnerCircleRecorder, ProbeRecorder
-        from solver.schemes.select import contact_work_observer
+        from solver.observers import InnerCircleRecorder, ProbeRecorder
+        from solver.schemes.select import contact_work_observer, damping_work_observer
 
         sc, stepper = self.scene, self.integrator
         self.energy = contact_work_observer(stepper, self.projection, sc.loading.f > 0.0, u0)
@@ -126,9 +126,10 @@ class Simulation:
         every = max(1, int(round(sc.output.sample_interval / self.dt)))
         self.recorder = InnerCircleRecorder(self.problem, self.projection, self.energy, every,
                                             max_samples=n_steps // every + 2)
-        self.damping_work = None  # Kelvin-Voigt dissipation, only for damped explicit runs
-        if getattr(stepper, "damped", False):
-            self.damping_work = self.recorder.damping = DampingWork(stepper, u0)
+        # Kelvin-Voigt dissipation, only for damped explicit runs (a step hook unless the
+        # kernel sums it)
+        self.damping_work = self.recorder.damping = damping_work_observer(stepper, u0)
+        if hasattr(self.damping_work, "after_step"):
             stepper.attach(self.damping_work)
         self.probes = ProbeRecorder(self.problem, self.projection, sc.output.probes_deg,
                                     n_steps)

@@ -16,7 +16,8 @@ import pytest
 REPO = Path(__file__).resolve().parents[1]
 
 #: Rank of each package: a module may import only from packages of a lower rank (or its own).
-LAYERS = {"meshes": 0, "forms": 1, "solver": 2, "postprocess": 3, "studies": 4, "cli": 5}
+LAYERS = {"meshes": 0, "forms": 1, "solver": 2, "postprocess": 3, "studies": 4, "cli": 5,
+          "stickslip": 5}
 #: Leaves: import nothing of the project outside themselves, and no FE stack.
 LEAVES = ("semianalytic", "exact")
 FE_STACK = ("dolfinx", "ufl", "basix", "petsc4py", "slepc4py", "mpi4py", "gmsh", "pyvista")

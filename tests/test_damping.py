@@ -150,6 +150,36 @@ def test_energy_balance_with_damping_closes_at_second_order():
     assert 2.8 < res[0] / res[1] < 5.5  # ratio 3.6 measured; 4 is the O(dt^2) value
 
 
+def test_energy_balance_with_damping_closes_in_the_fused_and_batched_kernels():
+    """The damped scene of the test above at dt_fraction = 0.225, run by ``DampedNewmark``
+    (numpy), the fused kernel and a batch of two (with a second Omega): the fused and
+    batched runs record W_d and the other energies of the numpy run to round-off (1e-9 of
+    max E: ~400 steps of sums in other orders), so their balance
+    E_n - E_0 - W_contact + W_d closes as the numpy one does (0.8 % of max E measured)."""
+    from solver.ensemble_run import BatchSimulation
+
+    sc = smoke("time.beta2=0.5", "time.end_time=0.03", "time.dt_fraction=0.225",
+               "damping.retardation_time=2e-6")
+    energies = {}
+    for kernel in ("numpy", "numba"):
+        sim = Simulation(sc.with_overrides(f'time.kernel="{kernel}"'), SELF)
+        assert sim.integrator.facts()["kernel"] == kernel
+        sim.proceed()
+        energies[kernel] = sim.recorder.arrays()["energies"]
+    batch = BatchSimulation([sc, sc.with_overrides("loading.omega=30.0")])
+    assert batch.stepper.damped and batch.stepper.B == 2
+    batch.proceed()
+    energies["batch"] = batch.runs[0].recorder.arrays()["energies"]
+    ref = energies["numpy"]
+    scale = (ref[:, 0] + ref[:, 1]).max()
+    for kernel, e in energies.items():
+        assert e.shape == ref.shape, kernel
+        np.testing.assert_allclose(e, ref, rtol=0, atol=1e-9 * scale, err_msg=kernel)
+        r = e[:, 0] + e[:, 1] - e[0, 0] - e[0, 1] - (e[:, 2] - e[0, 2]) + (e[:, 5] - e[0, 5])
+        assert e[-1, 5] > 0.1 * scale
+        assert np.abs(r).max() < 0.02 * scale, kernel
+
+
 def test_undamped_step_is_the_plain_step():
     """No [damping]: the plain ``Newmark`` (one MatMult, no damping work, no extra arrays).
 

@@ -145,19 +145,22 @@ def test_resume_runs_nothing_that_is_final(two_sweeps):
     assert before == after
 
 
-def _batch(B_scenes, kernel="numba"):
+def _batch(B_scenes, kernel="numba", common=()):
     from solver.ensemble import BatchedExplicit, BatchedProblem
+    from solver.fused import friction_bound
     from solver.run import Simulation
     from solver.scene import load_scene
 
-    sims = [Simulation(load_scene("scenes/smoke.toml", ["output.progress=false", *o]), SELF)
+    sims = [Simulation(load_scene("scenes/smoke.toml", ["output.progress=false", *common,
+                                                         *o]), SELF)
             for o in B_scenes]
     s0 = sims[0]
     bp = BatchedProblem.from_problem(s0.problem, s0.dt, s0.scene.time.beta2)
     integ = BatchedExplicit(
         bp, d=[s.scene.geometry.d for s in sims],
         slide=[s.scene.geometry.R * s.scene.loading.omega * s.dt for s in sims],
-        f=[s.scene.loading.f for s in sims], kernel=kernel)
+        f=[s.scene.loading.f for s in sims], kernel=kernel, tau=s0.scene.damping.tau,
+        bound=friction_bound(s0.projection.law))
     u0 = np.stack([s.integrator.u for s in sims], axis=1)
     integ.set_state(u0, np.zeros_like(u0))
     return integ, sims
@@ -366,3 +369,160 @@ def test_slp_flag_is_set_for_the_first_call_only():
     with pytest.raises(RuntimeError), slp_vectorize():
         raise RuntimeError("compile failed")
     assert config.SLP_VECTORIZE == before
+
+
+#: Kelvin-Voigt damping shared by a batch (tau enters dt, so it is part of the batch key)
+DAMPED = ("damping.retardation_time=2e-6",)
+
+
+def test_damped_batch_equals_the_damped_single_scene_kernel_bitwise():
+    """Kelvin-Voigt damping: each column of a damped 4-scene batch (register passes), of the
+    same 4 scenes 12 times over (``batched_step_long``) and of the xp reference gives the
+    damped fused single-scene run: u, v~, statuses and the four works (contact, cylinder,
+    friction, the damping work's step sum) bitwise for the numba kernels, lean steps
+    included (K w_n is summed in the single kernel's order; the damping sums run in row
+    order per scene); the xp reference (scipy's K @ W, einsum) to 1e-12 of max|u| and 1e-9
+    relative in the works, as undamped."""
+    integ, sims = _batch(VARIANTS, common=DAMPED)
+    ref, _ = _batch(VARIANTS, kernel="xp", common=DAMPED)
+    from solver.ensemble import BatchedExplicit
+
+    reps = 12
+    big = BatchedExplicit(integ.bp, d=np.tile(integ.d, reps),
+                          slide=np.tile(integ.slide, reps), f=np.tile(integ.f, reps),
+                          tau=integ.tau)
+    big.set_state(np.tile(integ.u, reps), np.zeros((integ.n, 4 * reps)))
+    assert integ.damped and integ._name == "batched_step" and big._name == "batched_step_long"
+    for n in range(120):
+        for it in (integ, big):
+            it.step(diag=n % 5 == 0)
+        ref.step()
+        for s in sims:
+            s.integrator.step()
+    for b, s in enumerate(sims):
+        it = s.integrator
+        assert it.damped and it.work[3] != 0.0
+        for batch, col in ((integ, b), (big, b + 4 * (reps - 1))):
+            np.testing.assert_array_equal(batch.u[:, col], it.u)
+            np.testing.assert_array_equal(batch.v_pred[:, col], it.v_pred)
+            np.testing.assert_array_equal(batch.status[:, col], s.projection.out.status)
+            np.testing.assert_array_equal(batch.work[:, col], it.work)
+    assert np.max(np.abs(ref.u - integ.u)) < 1e-12 * np.max(np.abs(integ.u))
+    np.testing.assert_array_equal(ref.status, integ.status)
+    np.testing.assert_allclose(ref.work, integ.work, rtol=1e-9, atol=1e-30)
+
+
+def test_regularised_batch_equals_the_single_scene_kernel_bitwise():
+    """A Prakash-Clifton friction bound (with Kelvin-Voigt damping): each column of a
+    4-scene batch, and of the 4 scenes 12 times over (``batched_step_long``), gives the fused
+    single-scene run's u, v~, statuses, works and effective pressure bitwise, lean steps
+    included (``project_regularised`` is shared by the kernels)."""
+    pc = ('friction.regularization="prakash-clifton"', "friction.slip_length=2e-5",
+          "friction.reference_velocity=1.0", *DAMPED)
+    integ, sims = _batch(VARIANTS, common=pc)
+    from solver.ensemble import BatchedExplicit
+
+    reps = 12
+    big = BatchedExplicit(integ.bp, d=np.tile(integ.d, reps),
+                          slide=np.tile(integ.slide, reps), f=np.tile(integ.f, reps),
+                          tau=integ.tau, bound=(integ.reg, integ.rate_slip, integ.rate_base))
+    big.set_state(np.tile(integ.u, reps), np.zeros((integ.n, 4 * reps)))
+    assert integ.reg == 1 and big._name == "batched_step_long"
+    for n in range(120):
+        for it in (integ, big):
+            it.step(diag=n % 5 == 0)
+        for s in sims:
+            s.integrator.step()
+    for b, s in enumerate(sims):
+        it = s.integrator
+        for batch, col in ((integ, b), (big, b + 4 * (reps - 1))):
+            np.testing.assert_array_equal(batch.u[:, col], it.u)
+            np.testing.assert_array_equal(batch.v_pred[:, col], it.v_pred)
+            np.testing.assert_array_equal(batch.status[:, col], s.projection.out.status)
+            np.testing.assert_array_equal(batch.work[:, col], it.work)
+            np.testing.assert_array_equal(batch.sigma[:, col], it.sigma[:, 0])
+
+
+DAMPED_SWEEP = """
+name = "damped"
+base = "{base}"
+set = ["time.end_time = 0.01", "damping.retardation_time = 2e-6"]
+[grid]
+"loading.omega" = [20.0, 50.0]
+"loading.f" = [0.7, 0.0]
+"""
+
+
+def test_damped_sweep_batched_equals_the_sweep_without_batches(tmp_path):
+    """A damped sweep (4 scenes, tau = 2 us) with --batch off (the fused single-scene
+    kernel) and --batch 3: summaries, samples and final fields as the undamped sweep above
+    (bitwise, the energies' kinetic and strain terms to 1e-12), the Kelvin-Voigt work W_d
+    included, and the batched scenes do run in a batch."""
+    from pathlib import Path
+
+    from studies.sweep.schedule import run_sweep
+    from studies.sweep.spec import load_sweep
+
+    path = tmp_path / "damped.toml"
+    path.write_text(DAMPED_SWEEP.format(base=Path("scenes/smoke.toml").resolve()))
+    spec = load_sweep(path)
+    with open(os.devnull, "w") as quiet:
+        for batch in ("off", "3"):
+            assert run_sweep(spec, tmp_path / batch, comm=SELF, batch=batch, stream=quiet,
+                             progress="lines") == 0
+    sizes = []
+    for task in spec.tasks:
+        runs = [tmp_path / b / "runs" / task.id for b in ("off", "3")]
+        single, batched = (json.loads((r / "summary.json").read_text()) for r in runs)
+        assert single["scheme"]["kernel"] == "numba"
+        assert single["scheme"]["damping_tau_s"] == batched["scheme"]["damping_tau_s"] > 0
+        sizes.append(batched.get("batch", {}).get("size", 1))
+        assert _strip(batched) == _strip(single), task.id
+        _close_energies(single.get("energy"), batched.get("energy"))
+        assert single["energy"]["damping_dissipation_J_per_m"] > 0.0
+        a, b = (np.load(r / "samples.npz") for r in runs)
+        for key in a.files:
+            if key == "energies":
+                np.testing.assert_allclose(a[key], b[key], rtol=1e-12, atol=0)
+                np.testing.assert_array_equal(a[key][:, 2:], b[key][:, 2:])
+            else:
+                np.testing.assert_array_equal(a[key], b[key], err_msg=f"{task.id}: {key}")
+        fa, fb = (np.load(r / "final_field.npz") for r in runs)
+        np.testing.assert_array_equal(fa["u"], fb["u"])
+    assert 3 in sizes
+
+
+def test_damped_cuda_kernels_equal_the_numba_kernel_on_the_cpu(monkeypatch):
+    """The damped CUDA path (``kelvin_voigt_argument``, ``fused_step_damped``, and
+    ``stiffness_product`` for the samples' K u_n), with CuPy replaced by its CPU emulation
+    (benchmarks/gpu_emulate.py: the source compiled as C++ without fused multiply-adds, as
+    nvcc --fmad=false, run thread by thread): over 120 steps the state (u, v~, statuses) and
+    K u_n are the damped numba batch's bits; the contact works and W_d to 1e-9 relative
+    (per-node partial sums added in another order, einsum dot products)."""
+    import shutil
+    import sys
+
+    from benchmarks import gpu_emulate
+
+    if shutil.which("g++") is None and shutil.which("c++") is None:
+        pytest.skip("no C++ compiler")
+    emulated = gpu_emulate.cupy_module()
+    monkeypatch.setitem(sys.modules, "cupy", emulated)
+    from solver.ensemble import BatchedExplicit
+
+    ref, _ = _batch(VARIANTS[:3], common=DAMPED)
+    cuda = BatchedExplicit(ref.bp, ref.d, ref.slide, ref.f, xp=emulated, kernel="cuda",
+                           tau=ref.tau)
+    cuda.set_state(ref.u.copy(), np.zeros_like(ref.u))
+    for n in range(120):
+        ref.step(diag=n % 5 == 0)
+        cuda.step(diag=n % 5 == 0)
+    np.testing.assert_array_equal(cuda.u, ref.u)
+    np.testing.assert_array_equal(cuda.v_pred, ref.v_pred)
+    np.testing.assert_array_equal(cuda.status, ref.status)
+    np.testing.assert_allclose(cuda.work_totals(), ref.work_totals(), rtol=1e-9, atol=1e-30)
+    for it in (ref, cuda):
+        it.refresh_ku()
+    np.testing.assert_array_equal(cuda.ku, ref.ku)
+    np.testing.assert_allclose(cuda.damping_work_totals(), ref.damping_work_totals(),
+                               rtol=1e-9, atol=0)

@@ -97,16 +97,19 @@ def test_filter_option_is_validated():
 
 
 def test_kernel_falls_back_to_numpy_for_physics_the_fused_kernel_lacks():
-    """THE fallback rule uses this branch's real keys: a damped, a regularised or a filtered
-    scene never runs on the undamped nodal-Coulomb fused kernel."""
+    """THE fallback rule uses this branch's real keys: a filtered scene never runs on the
+    fused kernel; damped and regularised scenes do (the kernels have that physics)."""
+    fused = "numba" if numba_available() else "numpy"
     plain = load_scene("scenes/smoke.toml")
-    assert resolve_kernel(plain) == ("numba" if numba_available() else "numpy")
+    assert resolve_kernel(plain) == fused
     for ov in (["damping.retardation_time=2e-6"],
                ["damping.loss_factor=0.02", "damping.reference_frequency_hz=1600"],
                ['friction.regularization="constant-time"', "friction.relaxation_time=1e-4"],
                ['friction.regularization="prakash-clifton"', "friction.slip_length=1e-5",
-                "friction.reference_velocity=1"],
-               ['friction.filter="1-2-1"']):
+                "friction.reference_velocity=1"]):
+        assert resolve_kernel(load_scene("scenes/smoke.toml", ov)) == fused, ov
+    for ov in (['friction.filter="1-2-1"'],
+               ['friction.filter="1-2-1"', "damping.retardation_time=2e-6"]):
         assert resolve_kernel(load_scene("scenes/smoke.toml", ov)) == "numpy", ov
 
 

@@ -149,22 +149,27 @@ def numba_available() -> bool:
     return available()
 
 
+#: The friction variants (``ContactLaw.variant``) that the fused and batched kernels have.
+KERNEL_VARIANTS = ("nodal", "prakash-clifton", "constant-time")
+
+
 def resolve_kernel(scene: Scene) -> str:
     """The step kernel a scene runs with: ``"numba"`` or ``"numpy"``. THE fallback rule.
 
     * the implicit scheme (time.beta1 > 0) has no fused step: "numpy" (it is not a stiffness
       product; ``time.kernel`` is ignored there);
-    * physics the fused kernel does not implement (Kelvin-Voigt ``[damping]`` with tau > 0,
-      any contact variant but the nodal Coulomb law: a ``[friction]`` regularisation or
-      filter) falls back to "numpy";
+    * physics the fused kernel does not implement (a friction variant not in
+      ``KERNEL_VARIANTS``: the 1-2-1 filtered bound) falls back to "numpy"; Kelvin-Voigt
+      ``[damping]`` and the regularised bounds (Prakash-Clifton, constant time) are in the
+      fused and batched kernels (the numpy step's operations, to round-off);
     * ``time.kernel = "auto"``: "numba" when numba imports, else "numpy";
     * ``time.kernel = "numba"`` without numba: ValueError naming the fix.
     """
     ts = scene.time
     if ts.beta1 > 0.0:
         return "numpy"
-    if scene.damping.enabled or ContactLaw.variant_of(scene) != "nodal":
-        return "numpy"  # DampedNewmark / the regularised or filtered projections
+    if ContactLaw.variant_of(scene) not in KERNEL_VARIANTS:
+        return "numpy"  # the filtered projection, or a variant the kernels do not know
     requested = ts.kernel
     if requested == "numpy":
         return "numpy"
@@ -223,24 +228,28 @@ def make_stepper(problem, scene: Scene, dt: float):
     if resolve_kernel(scene) == "numba":
         from solver.fused import FusedNewmark
 
-        return FusedNewmark(problem, dt, ts.beta2, projection), projection
+        return (FusedNewmark(problem, dt, ts.beta2, projection, tau=scene.damping.tau),
+                projection)
     stepper = make_explicit(problem, scene, dt)  # damped or plain numpy step
     stepper.contact = TimedContact(projection)
     return stepper, projection
 
 
-def make_batched_stepper(problem, laws: list[ContactLaw], backend: str = "cpu"):
+def make_batched_stepper(problem, laws: list[ContactLaw], backend: str = "cpu",
+                         tau: float = 0.0):
     """The batched explicit stepper of scenes that share ``problem`` (K, M, the contact
-    nodes), dt and beta_2, each with its own contact law: numba on the CPU, the CUDA kernel
-    through CuPy on the GPU (``solver.ensemble``)."""
+    nodes), dt, beta_2 and the Kelvin-Voigt time ``tau`` (0: undamped), each with its own
+    contact law: numba on the CPU, the CUDA kernel through CuPy on the GPU
+    (``solver.ensemble``)."""
     from solver.ensemble import BatchedExplicit, BatchedProblem, array_namespace
+    from solver.fused import friction_bound
 
     law0 = laws[0]
     bp = BatchedProblem.from_problem(problem, law0.dt, law0.beta2)
     return BatchedExplicit(
         bp, d=np.array([law.d for law in laws]), slide=np.array([law.slide for law in laws]),
         f=np.array([law.f for law in laws]), xp=array_namespace(backend),
-        kernel="numba" if backend == "cpu" else "cuda")
+        kernel="numba" if backend == "cpu" else "cuda", tau=tau, bound=friction_bound(law0))
 
 
 def contact_work_observer(stepper, projection, with_friction: bool, u0):
@@ -253,6 +262,21 @@ def contact_work_observer(stepper, projection, with_friction: bool, u0):
     from solver.observers import EnergyAccumulator
 
     return EnergyAccumulator(projection, with_friction, u0)
+
+
+def damping_work_observer(stepper, u0):
+    """The Kelvin-Voigt work of a damped explicit stepper, None for any other: the fused
+    kernel sums it itself (``FusedDampingWork``, no step hook), the numpy step needs
+    ``DampingWork`` every step."""
+    if not getattr(stepper, "damped", False):
+        return None
+    if getattr(stepper, "kernel", "numpy") == "numba":
+        from solver.fused import FusedDampingWork
+
+        return FusedDampingWork(stepper, u0)
+    from solver.observers import DampingWork
+
+    return DampingWork(stepper, u0)
 
 
 class TimedContact:

@@ -1,0 +1,227 @@
+"""Sphinx extension: the command and scene-key references, generated from the code.
+
+* ``reference/cli.md``: every ``stickslip`` command with its usage, description and options,
+  read from the argparse parser (``cli.main.build_parser``);
+* ``reference/scene.md``: every scene key with its type, default, unit, range and meaning,
+  read from the scene dataclasses (``solver.scene.sections``): the attribute docstrings for
+  the meaning and unit, the ``_check`` methods for the ranges and allowed values.
+
+Both pages are written when the build starts (``builder-inited``) and are not kept in git.
+``python3 docs/_ext/stickslip_reference.py OUT_DIR`` writes them without Sphinx.
+"""
+
+from __future__ import annotations
+
+import argparse
+import ast
+import inspect
+import sys
+import textwrap
+from dataclasses import MISSING, fields
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[2]
+
+
+def _cell(text: str) -> str:
+    """Text for one Markdown table cell (no raw HTML, no stray emphasis)."""
+    text = " ".join(str(text).split())
+    for raw, escaped in (("|", "\\|"), ("*", "\\*"), ("<", "&lt;")):
+        text = text.replace(raw, escaped)
+    return text
+
+
+# ------------------------------------------------------------------------------ the CLI
+
+
+def _subcommands(parser: argparse.ArgumentParser) -> dict[str, argparse.ArgumentParser]:
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            return dict(action.choices)
+    return {}
+
+
+def _option_rows(parser: argparse.ArgumentParser) -> list[str]:
+    rows = []
+    for a in parser._actions:
+        if isinstance(a, argparse._HelpAction | argparse._SubParsersAction):
+            continue
+        names = ", ".join(f"`{s}`" for s in a.option_strings) or f"`{a.dest}`"
+        if a.option_strings and a.nargs != 0:
+            names += f" `{a.metavar or a.dest.upper()}`"
+        default = "" if a.default in (None, argparse.SUPPRESS, False, []) or not \
+            a.option_strings else f"`{a.default}`"
+        choices = ", ".join(f"`{c}`" for c in a.choices) if a.choices else ""
+        helptext = (a.help or "").replace("%(default)s", str(a.default))
+        rows.append(f"| {names} | {_cell(helptext)} | {default} | {choices} |")
+    return rows
+
+
+def cli_markdown() -> str:
+    """The command reference, one section per subcommand, from the argparse parser."""
+    sys.path.insert(0, str(REPO))
+    from cli.main import build_parser
+
+    parser = build_parser()
+    parser.prog = "stickslip"
+    out = ["# Command reference", "",
+           "Generated from the `stickslip` command's argparse parser: every command and "
+           "option. `stickslip COMMAND --help` prints the same text.", "",
+           "```text", parser.format_usage().strip(), "```", "",
+           _cell(parser.description or ""), ""]
+    for name, sub in _subcommands(parser).items():
+        sub.prog = f"stickslip {name}"
+        rows = _option_rows(sub)
+        table = (["| argument | meaning | default | choices |", "|---|---|---|---|", *rows]
+                 if rows else ["No arguments."])
+        out += [f"## `stickslip {name}`", "", _cell(sub.description or ""), "",
+                "```text", sub.format_usage().strip(), "```", "", *table, ""]
+    return "\n".join(out) + "\n"
+
+
+# ------------------------------------------------------------------------------ the scene
+
+
+def _attribute_docs(cls: type) -> dict[str, str]:
+    """``{field: docstring}`` from the string literal that follows each annotated field."""
+    tree = ast.parse(textwrap.dedent(inspect.getsource(cls)))
+    body = tree.body[0].body
+    docs = {}
+    for node, nxt in zip(body, body[1:], strict=False):
+        if isinstance(node, ast.AnnAssign) and isinstance(node.target, ast.Name) and \
+                isinstance(nxt, ast.Expr) and isinstance(nxt.value, ast.Constant) and \
+                isinstance(nxt.value.value, str):
+            docs[node.target.id] = " ".join(nxt.value.value.split())
+    return docs
+
+
+def _string(node: ast.AST) -> str | None:
+    if isinstance(node, ast.Constant) and isinstance(node.value, str):
+        return node.value
+    if isinstance(node, ast.JoinedStr):  # f-string: its literal parts
+        return "".join(v.value for v in node.values if isinstance(v, ast.Constant))
+    return None
+
+
+def _rules(cls: type, module) -> dict[str, list[str]]:
+    """``{field: [rule, ...]}`` read from ``cls._check``: ``_require(self._key("x"), v, ok,
+    "rule")``, ``_choice(self._key("x"), v, ALLOWED)`` and ``check_range(self._key(name))``
+    (``RANGES``), including the loop ``for name in (...)``."""
+    from solver.scene.values import RANGES
+
+    section = cls.SECTION
+    tree = ast.parse(textwrap.dedent(inspect.getsource(cls._check)))
+    rules: dict[str, list[str]] = {}
+    loop_names: list[str] = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.For) and isinstance(node.iter, ast.Tuple):
+            loop_names = [e.value for e in node.iter.elts if isinstance(e, ast.Constant)]
+        if not (isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.args):
+            continue
+        key = node.args[0]
+        names: list[str] = []
+        if isinstance(key, ast.Call) and key.args:
+            if isinstance(key.args[0], ast.Constant):
+                names = [key.args[0].value]
+            elif isinstance(key.args[0], ast.Name):
+                names = loop_names
+        fn = node.func.id
+        for name in names:
+            rule = None
+            if fn == "_require" and len(node.args) >= 4:
+                rule = _string(node.args[3])
+            elif fn == "_choice" and len(node.args) >= 3:
+                allowed = node.args[2]
+                values = (getattr(module, allowed.id) if isinstance(allowed, ast.Name) else
+                          ast.literal_eval(allowed))
+                rule = "one of " + ", ".join(repr(v) for v in values)
+            elif fn == "check_range" and f"{section}.{name}" in RANGES:
+                rule = RANGES[f"{section}.{name}"].rule
+            if rule and rule not in rules.setdefault(name, []):
+                rules[name].append(rule)
+    return rules
+
+
+def _default(f) -> str:
+    value = f.default if f.default is not MISSING else f.default_factory()  # type: ignore[misc]
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, str):
+        return f'"{value}"'
+    if isinstance(value, tuple):
+        return "[" + ", ".join(repr(v) for v in value) + "]"
+    if isinstance(value, float) and value != 0 and not 1e-3 <= abs(value) < 1e5:
+        return f"{value:.6g}"  # 1e+09, not 1000000000.0
+    return repr(value)
+
+
+def _kind(f) -> str:
+    return {"float": "number", "int": "integer", "str": "string", "bool": "boolean",
+            "floats": "list of numbers"}.get(f.metadata.get("kind", ""), "")
+
+
+def scene_markdown() -> str:
+    """The scene-key reference, one table per section, from the dataclasses."""
+    sys.path.insert(0, str(REPO))
+    import solver.scene.sections as sections
+    from solver.scene.model import Scene
+    from solver.scene.values import RANGES
+
+    out = ["# Scene keys", "",
+           "Generated from the scene dataclasses (`solver/scene/sections.py`). A scene is a "
+           "TOML file; every table and key is optional and takes the default below. Units "
+           "are SI. Unknown keys, wrong types and values out of range are refused when the "
+           "scene is loaded, with the key, the value and the rule. Override any key on the "
+           "command line with `--set section.key=value`, or in Python with "
+           "`stickslip.load_scene(scene, {\"section.key\": value})`.", "",
+           "## Top level", "", "| key | type | default | meaning |", "|---|---|---|---|"]
+    docs = {"description": "Free text saying what the scene is for.", **_attribute_docs(Scene)}
+    for name in ("name", "description"):
+        f = next(f for f in fields(Scene) if f.name == name)
+        out.append(f"| `{name}` | {_kind(f)} | `{_default(f)}` | {_cell(docs.get(name, ''))} |")
+    out.append("")
+    alternatives = {"material": "`rho` (kg/m³) may be given instead of `wave_speed`: "
+                    f"{RANGES['material.rho'].rule}.",
+                    "geometry": "`d` (m) may be given instead of `delta`: "
+                    f"{RANGES['geometry.d'].rule}."}
+    for section, cls in sections._SECTIONS.items():
+        docs = _attribute_docs(cls)
+        rules = _rules(cls, sections)
+        summary = " ".join((cls.__doc__ or "").split())
+        out += [f"## `[{section}]`", "", _cell(summary), "",
+                "| key | type | default | allowed | meaning |", "|---|---|---|---|---|"]
+        for f in fields(cls):
+            allowed = "; ".join(rules.get(f.name, []))
+            out.append(f"| `{section}.{f.name}` | {_kind(f)} | `{_default(f)}` | "
+                       f"{_cell(allowed)} | {_cell(docs.get(f.name, ''))} |")
+        if section in alternatives:
+            out += ["", alternatives[section]]
+        out.append("")
+    return "\n".join(out) + "\n"
+
+
+def write_pages(out_dir: Path) -> list[Path]:
+    """Write ``cli.md`` and ``scene.md`` into ``out_dir`` (only where the text changed, so
+    an unchanged page is not rebuilt)."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    written = []
+    for name, text in (("cli.md", cli_markdown()), ("scene.md", scene_markdown())):
+        path = out_dir / name
+        if not path.exists() or path.read_text() != text:
+            path.write_text(text)
+        written.append(path)
+    return written
+
+
+def _on_builder_inited(app) -> None:
+    write_pages(Path(app.srcdir) / "reference")
+
+
+def setup(app):
+    app.connect("builder-inited", _on_builder_inited)
+    return {"parallel_read_safe": True, "parallel_write_safe": True}
+
+
+if __name__ == "__main__":
+    for p in write_pages(Path(sys.argv[1] if len(sys.argv) > 1 else REPO / "docs" / "reference")):
+        print(p)

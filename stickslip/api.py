@@ -1,0 +1,411 @@
+"""The functions behind ``import stickslip``: thin wrappers over ``solver``, ``studies`` and
+``postprocess`` that take a scene (file, shipped name or ``Scene``) and return plain data.
+
+Every wrapper imports its implementation when called, so this module imports no FE stack.
+Under ``mpirun`` the FE functions are collective over ``MPI.COMM_WORLD`` (as the CLI is);
+files are written on rank 0 and the returned summaries are those of rank 0.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import sys
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from types import SimpleNamespace
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from postprocess.analysis import RunData, WaveSummary
+    from solver.scene import Scene
+    from studies.flutter_fe.cea import CEAResult
+
+__all__ = ["analyse", "cea", "cea_friction_sweep", "load_run",
+           "load_scene", "plot_run", "plot_sweep", "reduced_waves", "run", "sweep", "travel",
+           "travel_branch"]
+
+SceneLike = "str | Path | Scene"
+Overrides = Mapping[str, Any] | Sequence[str] | None
+
+
+def __getattr__(name: str) -> Any:
+    """The constants, from the one place that defines each (imported on first access):
+
+    * ``STATUS_CODES``: ``{code: name}`` of the contact status in ``samples.npz["status"]``
+      and every other status array (``solver.contact``: 0 separation, 1 stick, 2 slip);
+    * ``EXIT_CODES``: the exit status of ``stickslip run`` by the ``status`` of
+      ``summary.json`` (``studies.rundir``).
+    """
+    if name == "STATUS_CODES":
+        from solver.contact import STATUS_NAMES
+
+        return dict(enumerate(STATUS_NAMES))
+    if name == "EXIT_CODES":
+        from studies.rundir import EXIT_CODES
+
+        return dict(EXIT_CODES)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def _override_strings(overrides: Overrides) -> list[str]:
+    """``{"loading.omega": 40}`` or ``["loading.omega=40"]`` -> ``["loading.omega=40"]``."""
+    if not overrides:
+        return []
+    if isinstance(overrides, str):
+        return [overrides]
+    if isinstance(overrides, Mapping):
+        # JSON renders numbers, strings, booleans and lists as valid TOML values.
+        return [f"{key}={json.dumps(value)}" for key, value in overrides.items()]
+    return [str(text) for text in overrides]
+
+
+def load_scene(scene: str | Path | Scene, overrides: Overrides = None) -> Scene:
+    """A validated scene with overrides applied.
+
+    Args:
+        scene: a scene TOML file, the name of a shipped scene (``"figure3_n132"``, from
+            ``scenes/``) or a ``Scene``.
+        overrides: ``{"dotted.key": value}`` or ``["dotted.key=value", ...]``, the keys of
+            the scene reference (``loading.omega``, ``mesh.n_inner``, ...).
+
+    Returns:
+        The frozen ``solver.scene.Scene`` (SI units). A bad key or value raises
+        ``SceneError`` whose message names the key, the value and the allowed range.
+
+    Example:
+        >>> import stickslip
+        >>> s = stickslip.load_scene("figure3_n132", {"loading.omega": 40.0})
+        >>> s.loading.omega, s.mesh.n_inner
+        (40.0, 132)
+    """
+    from solver.scene import Scene
+    from solver.scene import load_scene as _load
+
+    texts = _override_strings(overrides)
+    if isinstance(scene, Scene):
+        return scene.with_overrides(*texts) if texts else scene
+    return _load(scene, texts)
+
+
+def run(scene: str | Path | Scene, run_dir: str | Path | None = None, *,
+        overrides: Overrides = None, force: bool = False, plot: bool = False,
+        quiet: bool = False, check_resources: bool = True) -> dict:
+    """Run one transient (``stickslip run``) into a run directory.
+
+    Args:
+        scene: a scene file, shipped scene name or ``Scene`` (see ``load_scene``).
+        run_dir: the run directory (default ``$STICKSLIP_OUTPUT/<scene name>``, else
+            ``runs/<scene name>``).
+        overrides: scene overrides, as for ``load_scene``.
+        force: replace an earlier run directory (atomically; kept if the new run fails).
+        plot: also draw the run's PNG figures into the directory.
+        quiet: do not print the estimate, progress and summary lines.
+        check_resources: refuse a scene that needs more memory or disk than the machine has.
+
+    Returns:
+        The run's summary, the contents of ``summary.json``, with ``status`` (completed,
+        diverged, stopped, interrupted, failed), ``regime``, ``mode``, ``celerity_m_s``,
+        ``frequency_hz``, ``fractions``, ... (reference: "Output files").
+        ``EXIT_CODES[status]`` is the exit status the command would give.
+
+    Example:
+        >>> summary = stickslip.run("smoke", "/tmp/smoke", force=True, quiet=True)
+        >>> summary["status"], summary["contact_nodes"]
+        ('completed', 36)
+    """
+    from studies.output import output_root
+    from studies.rundir import run_scene
+
+    sc = load_scene(scene, overrides)
+    path = Path(run_dir) if run_dir is not None else output_root() / sc.name
+    summary = run_scene(sc, path, force=force, check_resources=check_resources,
+                        stream=io.StringIO() if quiet else sys.stdout)
+    if plot and summary.get("status") in ("completed", "interrupted", "stopped"):
+        from postprocess.plotting import plot_run as _plot
+
+        _plot(path)
+    return summary
+
+
+def load_run(run_dir: str | Path) -> RunData:
+    """A run directory's ``scene.toml`` (dict), ``summary.json`` (dict) and ``samples.npz``
+    (dict of arrays), as ``postprocess.analysis.RunData``.
+
+    Example:
+        >>> data = stickslip.load_run("/tmp/smoke")
+        >>> data.samples["u_r"].shape == (data.samples["t"].size, data.samples["theta"].size)
+        True
+    """
+    from postprocess.analysis import load_run as _load
+
+    return _load(run_dir)
+
+
+def analyse(run_dir: str | Path, window: float | None = None) -> WaveSummary:
+    """Measure the wave of a run directory over its last ``window`` seconds.
+
+    Args:
+        run_dir: a run directory written by ``run`` (or ``stickslip run``).
+        window: seconds at the end of the record (default: the run's own analysis window,
+            the last third of the record).
+
+    Returns:
+        ``postprocess.analysis.WaveSummary``: ``regime``, ``mode`` k, ``celerity_m_s``
+        (signed, + = the rotation's sense), ``frequency_hz`` = abs(c) k / (2 pi R),
+        ``fractions`` of separation / stick / slip, ``psi1``, ``psi2``, ``limit_cycle``.
+
+    Example:
+        >>> w = stickslip.analyse("/tmp/smoke")
+        >>> w.mode, w.direction
+        (4, 'opposite')
+    """
+    from postprocess.analysis import analyse_run
+
+    return analyse_run(run_dir, window)
+
+
+def plot_run(run_dir: str | Path) -> list[Path]:
+    """Draw a run directory's figures (space-time map, zones, profile, phase diagram,
+    energies); returns the PNG paths."""
+    from postprocess.plotting import plot_run as _plot
+
+    return _plot(Path(run_dir))
+
+
+def sweep(spec: str | Path, out_dir: str | Path | None = None, *, batch: str | None = None,
+          plot: bool = False, quiet: bool = False) -> dict:
+    """Run a parameter study (``stickslip sweep``): every scene of a sweep file, resumable.
+
+    Args:
+        spec: a sweep TOML file (``sweeps/``).
+        out_dir: the sweep directory (default: the file's ``output``, else
+            ``$STICKSLIP_OUTPUT/sweeps/<name>``). Running again skips finished scenes.
+        batch: ``"off"``, ``"auto"`` or a batch size (scenes that share mesh, material,
+            dt and scheme advance together); default: the sweep file's.
+        plot: also draw the regime map (``regime_map.png``).
+        quiet: do not print the progress lines.
+
+    Returns:
+        The sweep table, the contents of ``sweep.json``, with its meta data and ``rows``,
+        one per scene with the scene's parameters, ``status``, ``regime``, ``mode``,
+        ``celerity_m_s``, ...
+
+    Example:
+        >>> table = stickslip.sweep("sweeps/smoke4.toml", "/tmp/smoke4", quiet=True)
+        >>> sorted({row["status"] for row in table["rows"]})
+        ['completed']
+    """
+    from studies.output import output_root
+    from studies.sweep import load_sweep, read_table, run_sweep
+    from studies.sweep import plot_sweep as _plot
+    from studies.sweep.batch import parse_batch
+
+    s = load_sweep(spec)
+    path = Path(out_dir) if out_dir is not None else (
+        s.output if s.output is not None else output_root() / "sweeps" / s.name)
+    run_sweep(s, path, batch=parse_batch(batch if batch is not None else s.batch),
+              progress="lines", stream=io.StringIO() if quiet else sys.stdout)
+    if plot:
+        _plot(path)
+    return read_table(path)
+
+
+def plot_sweep(sweep_dir: str | Path) -> list[Path]:
+    """Draw a sweep directory's regime map with the reduced model's existence boundaries."""
+    from studies.sweep import plot_sweep as _plot
+
+    return _plot(sweep_dir)
+
+
+def cea(scene: str | Path | Scene, *, overrides: Overrides = None, f: float | None = None,
+        fmax_hz: float = 10_000.0, mass: str = "lumped", friction: str = "nodal"
+        ) -> CEAResult:
+    """Complex eigenvalue analysis of FE steady sliding (``stickslip flutter-fe``).
+
+    Solves (K + K_f) phi = omega^2 M phi on the free dofs (contact nodes sliding forward,
+    tangential force = f x normal reaction), every eigenvalue up to ``fmax_hz``.
+
+    Args:
+        scene: scene file, shipped name or ``Scene``; only mesh, material and ``f`` matter.
+        overrides: scene overrides, as for ``load_scene``.
+        f: the friction coefficient (default: the scene's ``loading.f``).
+        fmax_hz: upper end of the frequency band [Hz].
+        mass: ``"lumped"`` (the explicit solver's) or ``"consistent"``.
+        friction: ``"nodal"`` (the transient's law) or ``"1-2-1"`` (filtered reactions).
+
+    Returns:
+        ``studies.flutter_fe.CEAResult``: ``modes`` (frequency_hz, growth_rate per s, k,
+        direction), ``unstable()`` sorted by growth rate, ``to_dict()``.
+
+    Example:
+        >>> res = stickslip.cea("smoke", fmax_hz=3000.0)
+        >>> top = res.unstable()[0]
+        >>> top.growth_rate > 0
+        True
+    """
+    return cea_friction_sweep(scene, [f], overrides=overrides, fmax_hz=fmax_hz, mass=mass,
+                              friction=friction)[0]
+
+
+def cea_friction_sweep(scene: str | Path | Scene, fs: Sequence[float | None], *,
+                       overrides: Overrides = None, fmax_hz: float = 10_000.0,
+                       mass: str = "lumped", friction: str = "nodal") -> list[CEAResult]:
+    """The CEA at each friction coefficient of ``fs`` (operators assembled once): the
+    growth rate of each branch against f, the data of a CEA diagram (``--f-sweep``).
+
+    Example:
+        >>> results = stickslip.cea_friction_sweep("smoke", [0.0, 0.3, 0.7], fmax_hz=3000.0)
+        >>> [len(r.unstable()) > 0 for r in results]
+        [False, True, True]
+    """
+    from solver.problem import build_problem
+    from studies.flutter_fe import build_operators, complex_eigenvalue_analysis
+
+    sc = load_scene(scene, overrides)
+    problem = build_problem(sc)
+    ops = build_operators(problem, mass, friction)
+    try:
+        return [complex_eigenvalue_analysis(problem, None if f is None else float(f), fmax_hz,
+                                            ops=ops) for f in fs]
+    finally:
+        ops.destroy()
+
+
+def _travel_options(k: int, from_run: str | Path | None, damping: float | None,
+                    celerity: float | None, scene: Scene, **kw: Any) -> SimpleNamespace:
+    """The options of ``stickslip travel`` with their defaults (one place for both)."""
+    opts = SimpleNamespace(k=int(k), from_run=str(from_run) if from_run else None,
+                           damping=float(scene.damping.tau) if damping is None else damping,
+                           celerity=celerity, rate="bdf2", inertia="rotation", samples=1,
+                           time_scheme="exact", max_iter=60, fixed_omega=False, plot=False)
+    for key, value in kw.items():
+        if not hasattr(opts, key):
+            raise TypeError(f"travel: unknown option {key!r} (options: {sorted(vars(opts))})")
+        setattr(opts, key, value)
+    return opts
+
+
+def travel(scene: str | Path | Scene, k: int, out_dir: str | Path | None = None, *,
+           overrides: Overrides = None, from_run: str | Path | None = None,
+           damping: float | None = None, celerity: float | None = None,
+           force: bool = False, **options: Any) -> tuple[dict, dict]:
+    """One travelling wave solved directly in its own frame (``stickslip travel``).
+
+    Semismooth Newton for the nodal displacements W(theta - omega t) and the angular speed
+    omega, with the contact law on the inner circle and the interior condensed.
+
+    Args:
+        scene: scene file, shipped name or ``Scene``.
+        k: wavenumber (waves per turn), >= 1.
+        out_dir: where to write ``scene.toml``, ``summary.json`` and ``profiles.npz``
+            (``None``: nothing is written).
+        overrides: scene overrides, as for ``load_scene``.
+        from_run: start from the last sample of this transient run directory (default: the
+            reduced model's wave at k, or a mode-k stick-slip guess).
+        damping: Kelvin-Voigt retardation time tau [s] (default: the scene's).
+        celerity: start speed [m/s] (signed, + = rotation sense).
+        force: overwrite ``out_dir``.
+        **options: the other options of ``stickslip travel``: ``rate``, ``inertia``,
+            ``samples``, ``time_scheme``, ``max_iter``, ``fixed_omega``.
+
+    Returns:
+        ``(summary, profiles)``: the summary has the keys of a run's ``summary.json``
+        (``regime``, ``mode``, ``celerity_m_s``, ``frequency_hz``, ``psi1``, ``psi2``, ...)
+        plus ``residual`` and ``iterations``; ``profiles`` holds arrays over one period.
+        A wave that is not found raises ``studies.travel.newton.NotConverged``.
+
+    Example:
+        >>> summary, _ = stickslip.travel("figure3_n132_damped", 12, from_run="runs/fig3")
+        >>> summary["mode"], summary["regime"]
+        (12, 'stick-slip-separation')
+    """
+    from studies.travel import driver as D
+
+    sc = load_scene(scene, overrides)
+    opts = _travel_options(k, from_run, damping, celerity, sc, **options)
+    st = D.setup(sc, opts.damping, rate=opts.rate, inertia=opts.inertia, samples=opts.samples,
+                 time_scheme=opts.time_scheme)
+    if opts.from_run:
+        W0, omega0, info = D.start_from_run(Path(opts.from_run), st)
+    else:
+        W0, omega0, info = D.start_from_reduced(st, opts.k)
+    if celerity is not None:
+        omega0 = celerity / sc.geometry.R
+    sol = D.solve_scene(st, opts.k, W0, omega0, max_iter=opts.max_iter,
+                        free_omega=not opts.fixed_omega)
+    summary, profiles = D.measure(st, sol, opts.k)
+    summary.update(info, damping_s=opts.damping, inertia=opts.inertia)
+    if out_dir is not None:
+        from studies.travel.output import prepare_dir, write_wave
+
+        prepare_dir(Path(out_dir), force)
+        write_wave(Path(out_dir), sc, summary, profiles)
+    return summary, profiles
+
+
+def travel_branch(scene: str | Path | Scene, k: int, key: str, values: Sequence[float],
+                  out_dir: str | Path, *, overrides: Overrides = None,
+                  from_run: str | Path | None = None, damping: float | None = None,
+                  celerity: float | None = None, force: bool = False, plot: bool = False,
+                  **options: Any) -> list[dict]:
+    """Follow a travelling wave in one scene key (``stickslip travel --continue``).
+
+    Each value is one Newton solve started from the previous wave; the branch ends where a
+    solve fails (its row names the residual and the inequality that failed).
+
+    Args:
+        scene, k, from_run, damping, celerity, options: as for ``travel``.
+        key: the dotted scene key (``loading.omega``, ``loading.f``, ``geometry.delta`` reuse
+            the operators; any other key rebuilds them).
+        values: the values of ``key``, in order.
+        out_dir: where ``branch.json`` and ``branch.csv`` (and ``branch.png``) go.
+
+    Returns:
+        The rows of ``branch.json``, each with ``value``, ``status`` (converged, failed, error) and,
+        where converged, ``celerity_m_s``, ``amplitude_m``, ``psi1``, ``psi2``, ``regime``.
+
+    Example:
+        >>> rows = stickslip.travel_branch("figure3_n132_damped", 12, "loading.omega",
+        ...                                [50.0, 60.0], "/tmp/branch", from_run="runs/fig3")
+        >>> [r["status"] for r in rows]
+        ['converged', 'converged']
+    """
+    import time
+
+    from studies.travel.continuation import run_continuation
+    from studies.travel.output import prepare_dir
+
+    sc = load_scene(scene, overrides)
+    sc.with_overrides(f"{key}={values[0]}")  # an unknown key fails here, before any work
+    opts = _travel_options(k, from_run, damping, celerity, sc, plot=plot, **options)
+    out = Path(out_dir)
+    prepare_dir(out, force)
+    run_continuation(sc, opts, key, [float(v) for v in values], out, time.perf_counter())
+    return json.loads((out / "branch.json").read_text())
+
+
+def reduced_waves(*, nu: float = 0.3, xi: float = 1.25, f: float = 0.7, k: int = 4,
+                  delta: float = 1e-3, omega: float = 50.0, wave_speed: float = 1000.0,
+                  radius: float = 1.0) -> list[dict]:
+    """The reduced model's travelling waves (paper eqs. 1-7) at one point: no FE, no mesh.
+
+    Args:
+        nu: Poisson ratio; xi: outer/inner radius ratio; f: friction coefficient.
+        k: wavenumber; delta: mismatch d/R; omega: the cylinder's speed [rad/s].
+        wave_speed: sqrt(E/rho) [m/s]; radius: R [m] (with omega they set gamma).
+
+    Returns:
+        One dict per wave (admissible ones first), the entries of ``stickslip wave --json``:
+        ``regime``, ``admissible``, ``celerity_m_s``, ``frequency_hz``, ``psi1``, ``psi2``, ...
+
+    Example:
+        >>> waves = stickslip.reduced_waves(f=0.7, k=4, delta=1e-3, omega=40.0)
+        >>> waves[0]["regime"]
+        'stick-slip'
+    """
+    from semianalytic.coefficients import coefficients, gamma_from_physical
+    from semianalytic.waves import find_waves
+
+    co = coefficients(nu, xi, gamma_from_physical(wave_speed, radius, omega))
+    return [w.summary(radius, omega) for w in find_waves(co, f, k, delta)] if f > 0 else []
