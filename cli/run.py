@@ -35,15 +35,28 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="run even if the estimated memory or output exceeds what this "
                         "machine has (the estimate is printed before meshing)")
     p.add_argument("--plot", action="store_true", help="draw the run's figures when done")
+    _window_option(p)
     p.add_argument("--profile", action="store_true", help="print where the time went")
     p.set_defaults(func=_run)
 
     p = sub.add_parser("plot", help="draw the figures of a run or sweep directory (PNG)",
-                       description="Space-time map of u_r, zone map, final profile, phase "
-                                   "diagram and energies of a run directory, as PNG files.")
+                       description="The figures of a run directory, as PNG files: space-time "
+                                   "maps of u_r - d and the contact status (last periods, "
+                                   "--window), final profile, phase diagrams, energy balance, "
+                                   "one period of the wave, iso-map on the deformed tube.")
     p.add_argument("run_dir", help="a run directory (`stickslip run`) or a sweep directory "
                    "(`stickslip sweep`: draws the regime map)")
+    _window_option(p)
     p.set_defaults(func=_plot)
+
+
+def _window_option(p: argparse.ArgumentParser) -> None:
+    from postprocess.plotting import DEFAULT_WINDOW, parse_window
+
+    p.add_argument("--window", type=parse_window, default=parse_window(DEFAULT_WINDOW),
+                   metavar="5T|4ms|0.01s|all",
+                   help="time window of the space-time maps: a number of wave periods at a "
+                        f"fixed point (nT), a duration (ms, s) or all (default {DEFAULT_WINDOW})")
 
 
 def _run(args: argparse.Namespace) -> int:
@@ -76,7 +89,7 @@ def _run(args: argparse.Namespace) -> int:
     if args.plot and comm.rank == 0 and status in ("completed", "interrupted", "stopped"):
         from postprocess.plotting import plot_run
 
-        for path in plot_run(run_dir):
+        for path in plot_run(run_dir, window=args.window):
             print(f"figure: {path}")
     return EXIT_CODES.get(status, 1)
 
@@ -99,6 +112,6 @@ def _plot(args: argparse.Namespace) -> int:
     if problem:
         print(f"error: {problem}", file=sys.stderr)
         return 2
-    for path in plot_run(run_dir):
+    for path in plot_run(run_dir, window=args.window):
         print(f"figure: {path}")
     return 0

@@ -175,9 +175,11 @@ def wave_command(args: argparse.Namespace) -> int:
         if target is None:
             print("error: --plot: no wave solution was found to draw", file=sys.stderr)
             return 1
+        from postprocess.style import STATUS_COLORS
         from semianalytic.plotting import plot_wave
 
-        plot_wave(target, args.plot, R=args.radius, omega=args.omega)
+        plot_wave(target, args.plot, zone_colours=STATUS_COLORS, R=args.radius,
+                  omega=args.omega)
     if args.json:
         print(json.dumps(out, indent=2))
         return 0

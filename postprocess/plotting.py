@@ -1,134 +1,257 @@
 """Figures of a run directory (matplotlib, Agg): the pictures of ``stickslip run --plot``.
 
-* ``spacetime.png``: iso-values of u_r - d over (theta, t) on the inner circle, and the contact
-  status map (separation / stick / slip) — the wave's travel direction is the slope;
-* ``profile.png``: u_r - d and u_theta along the circle at the last sample, zones shaded;
-* ``phase.png``: phase diagrams (u_r, du_r/dt) and (u_theta, du_theta/dt) at the first probe;
-* ``energy.png``: kinetic + strain energy and the contact work over time;
-* ``uvpq.png``: the paper's Figure-1 layout from the FE wave: u_r, u_theta over one period of
-  the co-moving coordinate (zones shaded, time order), phase diagrams, and the contact
+* ``spacetime.png``: iso-values of u_r − d over (θ, t) on the inner circle and the contact
+  status map (separation / stick / slip) over the last few periods (``--window``): the wave's
+  travel direction is the slope of the stripes;
+* ``profile.png``: u_r − d and u_θ along the circle at the last sample, zones shaded;
+* ``phase.png``: phase diagrams (u_r − d, du_r/dt) and (u_θ, du_θ/dt) at the first probe;
+* ``energy.png``: every term of the energy balance (``postprocess.energy_balance``): kinetic
+  and strain energy, the work of the cylinder, the frictional, impact and viscous
+  dissipation, and the residual (the algorithmic dissipation of β₂ > ½);
+* ``uvpq.png`` (a run that found a wave): one period of the FE wave in its co-moving
+  coordinate, u_r − d, u_θ (zones shaded, time order), phase diagrams, and the contact
   pressures p, q when the run recorded nodal forces; reduced-model waves dashed;
-* ``isomap.png``: pyvista off-screen iso-values of u_r on the deformed tube at the end of the
-  run, contact status on the inner circle (needs ``final_field.npz``).
+* ``isomap.png``: iso-values of u_r − d on the deformed tube (``postprocess.isomap``).
 
-``isomap_pair`` draws two runs (two mesh sizes) side by side like the paper's Figures 2-3;
-``phase_family`` overlays several runs' phase diagrams like Figures 4-6;
-``verification_figures`` makes the committed ``docs/figures/fe_*.png``. pyvista is imported
-only inside the pyvista functions; without a DISPLAY an Xvfb server is started (and stopped at
-exit) for off-screen rendering.
+Colours and units come from ``postprocess.style`` (mm, MPa, m/s, Hz, ms, J/m).
+``phase_family`` overlays several runs' phase diagrams like the paper's Figures 4-6;
+``verification_figures`` makes the committed ``docs/figures/fe_*.png``.
 """
 
 from __future__ import annotations
 
-import atexit
-import json
-import os
-import subprocess
-import tomllib
+import argparse
+import functools
+import re
 import warnings
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
-STATUS_COLORS = ("#d9d9d9", "#1f77b4", "#ff7f0e")  # separation, stick, slip
-STATUS_LABELS = ("separation", "stick", "slip")
+from postprocess.energy_balance import energy_terms
+from postprocess.isomap import isomap_pair
+from postprocess.style import (
+    FIELD_CMAP,
+    MM,
+    MPA,
+    MS,
+    STATUS_LABELS,
+    scene_title,
+    shade_zones,
+    status_cmap,
+    status_colorbar,
+    wave_title,
+)
+
+__all__ = ["plot_run", "parse_window", "spacetime_window", "spacetime_figure",
+           "energy_figure", "plot_uvpq", "phase_family", "isomap_pair", "reduced_curves",
+           "verification_figures", "DEFAULT_WINDOW"]
+
 PHASE_BINS = 90  # co-moving bins a period for the limit-cycle phase diagrams (~1 node each)
-DOT_COLORS = ("#8c8c8c", "#1f77b4", "#ff7f0e")  # status dots on white (pyvista)
+#: Space-time maps show the last DEFAULT_WINDOW of the run: a few periods are enough to read
+#: the slope (direction, celerity) and the zones; hundreds of periods alias into moiré.
+DEFAULT_WINDOW = "5T"
+_WINDOW = re.compile(r"^\s*([0-9]*\.?[0-9]+(?:[eE][-+]?[0-9]+)?)\s*(T|periods?|ms|s)\s*$")
 
 
-def plot_run(run_dir: Path) -> list[Path]:
+def parse_window(text: str) -> tuple[float, str] | None:
+    """A space-time window: ``5T`` (5 periods at a fixed point), ``4ms``, ``0.01s``, ``all``.
+
+    Returns (value, "T") for periods, (seconds, "s") for a duration, None for the whole run.
+    Raises ``argparse.ArgumentTypeError`` with the accepted forms (a one-line CLI error).
+    """
+    if text.strip().lower() == "all":
+        return None
+    m = _WINDOW.match(text)
+    if not m or float(m.group(1)) <= 0.0:
+        raise argparse.ArgumentTypeError(
+            f"window {text!r}: give a number of periods (5T), a duration (4ms, 0.01s) or all")
+    value, unit = float(m.group(1)), m.group(2)
+    if unit.startswith("T") or unit.startswith("period"):
+        return value, "T"
+    return (value * 1e-3 if unit == "ms" else value), "s"
+
+
+def spacetime_window(t: np.ndarray, frequency_hz: float | None,
+                     window: tuple[float, str] | None) -> tuple[float, str]:
+    """(start time, caption) of the space-time window over the samples' times ``t``.
+
+    A window in periods uses the frequency a fixed point sees; without a wave (no frequency)
+    it falls back to the whole run. At least 8 sample rows are kept.
+    """
+    t0, t1 = float(t[0]), float(t[-1])
+    dt = float(np.median(np.diff(t))) if t.size > 1 else 0.0
+    if window is None:
+        return t0, "whole run"
+    value, unit = window
+    if unit == "T":
+        if not frequency_hz or frequency_hz <= 0.0:
+            return t0, "whole run (no wave frequency to count periods)"
+        span = value / frequency_hz
+        caption = f"last {value:g} periods (T = {MS / frequency_hz:.3g} ms at a fixed point)"
+    else:
+        span = value
+        caption = f"last {MS * value:g} ms"
+    start = max(t0, t1 - max(span, 8 * dt))
+    if start <= t0:
+        caption = "whole run"
+    return start, caption
+
+
+def plot_run(run_dir: Path, window: tuple[float, str] | None | str = DEFAULT_WINDOW
+             ) -> list[Path]:
+    """Draw and save every figure of a run directory; returns the PNG paths."""
     import matplotlib
 
+    from postprocess.analysis import load_run
+
     matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    from matplotlib.colors import ListedColormap
-
     run_dir = Path(run_dir)
-    data = np.load(run_dir / "samples.npz")
-    scene = tomllib.loads((run_dir / "scene.toml").read_text())
-    summary = json.loads((run_dir / "summary.json").read_text())
-    d = scene["geometry"]["delta"] * scene["geometry"]["R"]
-    t, theta = data["t"], data["theta"]
-    ur, ut, st = data["u_r"] - d, data["u_theta"], data["status"]
-    deg = np.degrees(theta)
-    title = (f"{scene['name']}: Ω = {scene['loading']['omega']:g} rad/s, "
-             f"δ = {scene['geometry']['delta']:g}, f = {scene['loading']['f']:g}, "
-             f"N = {theta.size}")
-    wave = ""
-    if "regime" in summary:
-        wave = (f"{summary['regime']}, k = {summary['mode']}, "
-                f"c = {summary['celerity_m_s']:+.0f} m/s, {summary['frequency_hz']:.0f} Hz")
-    out: list[Path] = []
-
-    # Space-time iso-values and status map.
-    fig, axes = plt.subplots(1, 2, figsize=(11, 4.2), sharey=True, constrained_layout=True)
-    ms = 1e3 * t
-    im = axes[0].pcolormesh(deg, ms, 1e3 * ur, shading="nearest", cmap="viridis")
-    fig.colorbar(im, ax=axes[0], label="u_r − d (mm)")
-    axes[0].set(xlabel="θ (deg)", ylabel="t (ms)", title="radial displacement on r = R")
-    cmap = ListedColormap(STATUS_COLORS)
-    im2 = axes[1].pcolormesh(deg, ms, st, shading="nearest", cmap=cmap, vmin=-0.5, vmax=2.5)
-    cb = fig.colorbar(im2, ax=axes[1], ticks=[0, 1, 2])
-    cb.ax.set_yticklabels(["separation", "stick", "slip"])
-    axes[1].set(xlabel="θ (deg)", title="contact status")
-    fig.suptitle(f"{title}\n{wave}", fontsize=10)
-    out.append(_save(fig, run_dir / "spacetime.png"))
-
-    # Profile at the last sample.
-    fig, ax = plt.subplots(figsize=(8, 3.8), constrained_layout=True)
-    ax.plot(deg, 1e3 * ur[-1], label="u_r − d")
-    ax.plot(deg, 1e3 * (ut[-1] - ut[-1].mean()), label="u_θ − mean")
-    _shade_zones(ax, deg, st[-1])
-    ax.set(xlabel="θ (deg)", ylabel="displacement (mm)",
-           title=f"inner circle at t = {1e3 * t[-1]:.1f} ms   ({wave})")
-    ax.legend(loc="upper right", fontsize=8)
-    out.append(_save(fig, run_dir / "profile.png"))
-
-    # Phase diagrams at the first probe (every-step history), over the analysis window.
-    window = summary.get("analysis_window_s", (t[-1] - t[0]) / 3)
-    if "probe_data" in data.files and data["probe_data"].shape[1] > 0:
-        pt, pd = data["probe_t"], data["probe_data"][0]
-        sel = pt >= pt[-1] - min(window, 5.0 * _period(summary, pt))
-        pr, pth, pvr, pvt = pd[sel, 0] - d, pd[sel, 1], pd[sel, 2], pd[sel, 3]
-        probe_deg = float(data["probe_deg"][0])
-    else:
-        probe = scene["output"].get("probes_deg", [0.0])[0]
-        j = int(np.argmin(np.abs(((deg - probe + 180.0) % 360.0) - 180.0)))
-        sel = t >= t[-1] - window
-        pr, pth, pvr, pvt = ur[sel, j], ut[sel, j], data["v_r"][sel, j], data["v_theta"][sel, j]
-        probe_deg = float(deg[j])
-    fig, axes = plt.subplots(1, 2, figsize=(10, 4), constrained_layout=True)
-    axes[0].plot(1e3 * pr, pvr, lw=0.8)
-    axes[0].set(xlabel="u_r − d (mm)", ylabel="du_r/dt (m/s)", title="radial phase diagram")
-    axes[1].plot(1e3 * pth, pvt, lw=0.8, color="C1")
-    rw = scene["geometry"]["R"] * scene["loading"]["omega"]
-    axes[1].axhline(rw, color="k", ls="--", lw=0.8, label="RΩ (stick)")
-    axes[1].set(xlabel="u_θ (mm)", ylabel="du_θ/dt (m/s)", title="tangential phase diagram")
-    for j, (label, cur) in enumerate(reduced_curves(scene, summary.get("mode") or 4)):
-        axes[0].plot(1e3 * cur["u_r"], cur["v_r"], "--", color=f"C{j + 2}", lw=1.2,
-                     label=label)
-        axes[1].plot(1e3 * (cur["u_theta"] + pth.mean()), cur["v_theta"], "--",
-                     color=f"C{j + 2}", lw=1.2, label=label)
-    if axes[0].get_legend_handles_labels()[0]:
-        axes[0].legend(fontsize=8)
-    axes[1].legend(fontsize=8)
-    fig.suptitle(f"{title}, probe θ = {probe_deg:.1f}°", fontsize=10)
-    out.append(_save(fig, run_dir / "phase.png"))
-
-    # Energies.
-    e = data["energies"]
-    fig, ax = plt.subplots(figsize=(8, 3.8), constrained_layout=True)
-    ax.plot(ms, e[:, 0] + e[:, 1], label="kinetic + strain")
-    ax.plot(ms, e[:, 0], label="kinetic", lw=0.8)
-    ax.plot(ms, e[0, 0] + e[0, 1] + e[:, 2] - e[0, 2], "--", label="E(0) + contact work")
-    ax.set(xlabel="t (ms)", ylabel="energy (J/m)", title="energy balance")
-    ax.legend(fontsize=8)
-    out.append(_save(fig, run_dir / "energy.png"))
-
-    out.append(plot_uvpq(run_dir, run_dir / "uvpq.png"))
+    run = load_run(run_dir)
+    if isinstance(window, str):
+        window = parse_window(window)
+    out = [
+        _save(spacetime_figure(run, window), run_dir / "spacetime.png"),
+        _save(profile_figure(run), run_dir / "profile.png"),
+        _save(phase_figure(run), run_dir / "phase.png"),
+        _save(energy_figure(run), run_dir / "energy.png"),
+    ]
+    if run.summary.get("regime") not in (None, "steady-sliding"):  # one period of a wave
+        out.append(plot_uvpq(run_dir, run_dir / "uvpq.png"))
     if (run_dir / "final_field.npz").exists():
         out.append(isomap_pair([run_dir], run_dir / "isomap.png"))
     return out
+
+
+def spacetime_figure(run: Any, window: tuple[float, str] | None = (5.0, "T")) -> Any:
+    """u_r − d (mm) and the contact status over (θ, t) in the window (``spacetime_window``)."""
+    import matplotlib.pyplot as plt
+
+    s, summary = run.samples, run.summary
+    t, deg = s["t"], np.degrees(s["theta"])
+    start, caption = spacetime_window(t, summary.get("frequency_hz"), window)
+    sel = t >= start
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4.4), sharey=True, constrained_layout=True)
+    im = axes[0].pcolormesh(deg, MS * t[sel], MM * (s["u_r"][sel] - run.d), shading="nearest",
+                            cmap=FIELD_CMAP)
+    fig.colorbar(im, ax=axes[0], label="u_r − d (mm)")
+    axes[0].set(xlabel="θ (deg)", ylabel="t (ms)", title="u_r − d on the contact circle")
+    cmap, norm = status_cmap()
+    im2 = axes[1].pcolormesh(deg, MS * t[sel], s["status"][sel], shading="nearest", cmap=cmap,
+                             norm=norm)
+    status_colorbar(fig, im2, axes[1])
+    axes[1].set(xlabel="θ (deg)", title="contact status")
+    rows = int(sel.sum())
+    fig.suptitle(f"{scene_title(run.scene, deg.size)}\n{wave_title(summary)}\n"
+                 f"{caption}: {rows} samples every {MS * float(np.median(np.diff(t))):.3g} ms",
+                 fontsize=9)
+    return fig
+
+
+def profile_figure(run: Any) -> Any:
+    """u_r − d and u_θ − mean (mm) along the contact circle at the last sample, zones shaded."""
+    import matplotlib.pyplot as plt
+
+    s = run.samples
+    deg = np.degrees(s["theta"])
+    ur, ut = s["u_r"][-1] - run.d, s["u_theta"][-1]
+    fig, ax = plt.subplots(figsize=(8, 4.0), constrained_layout=True)
+    shade_zones(ax, deg, s["status"][-1])
+    ax.plot(deg, MM * ur, color="k", label="u_r − d")
+    ax.plot(deg, MM * (ut - ut.mean()), color="C3", label="u_θ − mean")
+    ax.set(xlabel="θ (deg)", ylabel="displacement (mm)", xlim=(deg.min(), deg.max()))
+    ax.legend(loc="upper right", fontsize=8, ncol=2)
+    ax.set_title(f"{scene_title(run.scene, deg.size)}\n{wave_title(run.summary)}; "
+                 f"contact circle at t = {MS * s['t'][-1]:.1f} ms", fontsize=9)
+    return fig
+
+
+def phase_figure(run: Any) -> Any:
+    """Phase diagrams at the first probe (every-step history) over the last periods."""
+    import matplotlib.pyplot as plt
+
+    s, summary, scene, d = run.samples, run.summary, run.scene, run.d
+    t = s["t"]
+    window = summary.get("analysis_window_s", (t[-1] - t[0]) / 3)
+    if "probe_data" in s and s["probe_data"].shape[0] > 0:
+        pt, pd = s["probe_t"], s["probe_data"][0]
+        sel = pt >= pt[-1] - min(window, 5.0 * _period(summary, pt))
+        pr, pth, pvr, pvt = pd[sel, 0] - d, pd[sel, 1], pd[sel, 2], pd[sel, 3]
+        probe_deg = float(s["probe_deg"][0])
+        shown = float(pt[-1] - pt[sel][0])
+    else:
+        deg = np.degrees(s["theta"])
+        probe = scene["output"].get("probes_deg", [0.0])[0]
+        j = int(np.argmin(np.abs(((deg - probe + 180.0) % 360.0) - 180.0)))
+        sel = t >= t[-1] - window
+        pr, pth = s["u_r"][sel, j] - d, s["u_theta"][sel, j]
+        pvr, pvt = s["v_r"][sel, j], s["v_theta"][sel, j]
+        probe_deg = float(deg[j])
+        shown = float(window)
+    fig, axes = plt.subplots(1, 2, figsize=(10, 4.2), constrained_layout=True)
+    axes[0].plot(MM * pr, pvr, lw=0.8, color="k", label="FE")
+    axes[0].set(xlabel="u_r − d (mm)", ylabel="du_r/dt (m/s)", title="radial phase diagram")
+    axes[1].plot(MM * pth, pvt, lw=0.8, color="k", label="FE")
+    rw = float(scene["geometry"]["R"]) * float(scene["loading"]["omega"])
+    axes[1].axhline(rw, color="0.4", ls=":", lw=0.8, label="RΩ (stick)")
+    axes[1].set(xlabel="u_θ (mm)", ylabel="du_θ/dt (m/s)", title="tangential phase diagram")
+    if summary.get("regime") not in (None, "steady-sliding"):
+        for j, (label, cur) in enumerate(reduced_curves(scene, summary.get("mode") or 4)):
+            axes[0].plot(MM * cur["u_r"], cur["v_r"], "--", color=f"C{j + 2}", lw=1.2,
+                         label=label)
+            axes[1].plot(MM * (cur["u_theta"] + pth.mean()), cur["v_theta"], "--",
+                         color=f"C{j + 2}", lw=1.2, label=label)
+    axes[0].legend(fontsize=8)
+    axes[1].legend(fontsize=8)
+    fig.suptitle(f"{scene_title(scene)}\n{wave_title(summary)}; probe θ = {probe_deg:.1f}°, "
+                 f"last {MS * shown:.3g} ms", fontsize=9)
+    return fig
+
+
+def energy_figure(run: Any) -> Any:
+    """Every term of the energy balance over time (``postprocess.energy_balance``).
+
+    Top: the stored energies K, U and E = K + U. Bottom: the accumulated flows, the work fed
+    by the cylinder and the frictional, impact and viscous dissipation, the residual r(t), and
+    E(t) − E(0) = W_cyl − D_f − D_n − D_v + r, whose terms sum to it exactly.
+    """
+    import matplotlib.pyplot as plt
+
+    terms = energy_terms(run.samples["energies"])
+    ms = MS * run.samples["t"]
+    beta2 = float(run.scene["time"]["beta2"])
+    fig, axes = plt.subplots(2, 1, figsize=(8.5, 6.6), sharex=True, constrained_layout=True)
+    ax = axes[0]
+    ax.plot(ms, terms["total"], color="k", label="E = K + U")
+    ax.plot(ms, terms["kinetic"], color="C9", lw=0.8, label="kinetic K")  # not the zone colours
+    ax.plot(ms, terms["strain"], color="C8", lw=0.8, label="strain U")
+    ax.set(ylabel="energy (J/m)", title="stored energy")
+    ax.legend(fontsize=8, loc="upper left")
+    residual_name = ("residual r = algorithmic dissipation of β₂ > ½ (+ O(Δt²))"
+                     if beta2 > 0.5 else "residual r (O(Δt²) at β₂ = ½)")
+    flows = (("work_cylinder", "work of the cylinder W_cyl", "C2", "-"),
+             ("friction_dissipation", "− frictional dissipation D_f", "C3", "-"),
+             ("impact_dissipation", "− impact dissipation D_n (normal contact)", "C4", "-"),
+             ("viscous_dissipation", "− viscous dissipation D_v (Kelvin–Voigt)"
+              + ("" if terms["viscous_dissipation"].any() else ": none, no damping"), "C5", "--"),
+             ("residual", residual_name, "C7", "-"))
+    ax = axes[1]
+    for key, label, color, ls in flows:
+        sign = 1.0 if key in ("work_cylinder", "residual") else -1.0
+        ax.plot(ms, sign * terms[key], color=color, ls=ls, lw=1.0, label=label)
+    ax.plot(ms, terms["total"] - terms["total"][0], color="k", lw=2.2, ls=":",
+            label="E(t) − E(0) = sum of the terms above")
+    ax.axhline(0.0, color="0.6", lw=0.6)
+    e0, wc, r = terms["total"][0], terms["work_cylinder"][-1], terms["residual"][-1]
+    share = f"{100 * r / wc:+.3g} % of W_cyl" if wc else "no work fed"
+    ax.set(xlabel="t (ms)", ylabel="accumulated (J/m)",
+           title=f"E(t) = E(0) + W_cyl − D_f − D_n − D_v + r;  E(0) = {e0:.4g} J/m, "
+                 f"r(end) = {r:.3g} J/m ({share})")
+    ax.title.set_fontsize(9)
+    ax.legend(fontsize=7.5, loc="upper left")
+    fig.suptitle(scene_title(run.scene), fontsize=9)
+    return fig
 
 
 def _period(summary: dict, t: np.ndarray) -> float:
@@ -137,20 +260,12 @@ def _period(summary: dict, t: np.ndarray) -> float:
     return 1.0 / freq if freq > 0 else float(t[-1] - t[0])
 
 
-def _shade_zones(ax, deg: np.ndarray, status: np.ndarray) -> None:
-    for code, color in enumerate(STATUS_COLORS):
-        mask = status == code
-        if mask.any():
-            ax.fill_between(deg, 0, 1, where=mask, color=color, alpha=0.35,
-                            transform=ax.get_xaxis_transform(), step="mid", lw=0,
-                            label=("separation", "stick", "slip")[code])
-
-
-def _save(fig, path: Path) -> Path:
+def _save(fig: Any, path: Path, dpi: int = 110) -> Path:
+    """Write a figure atomically (a temporary file renamed into place) and close it."""
     import matplotlib.pyplot as plt
 
     tmp = path.with_name(f".{path.stem}.tmp.png")
-    fig.savefig(tmp, dpi=110)
+    fig.savefig(tmp, dpi=dpi)
     plt.close(fig)
     tmp.replace(path)
     return path
@@ -168,15 +283,13 @@ def reduced_curves(scene: dict, k: int, admissible_only: bool = True,
     ``v_theta`` = −c U' RΩ, −c V' RΩ (m/s), ``p``, ``q`` (Pa), ``zone``.
     """
     from semianalytic.coefficients import coefficients, gamma_from_physical, reaction_scale
-    from semianalytic.waves import find_waves
 
     mat, geo, load = scene["material"], scene["geometry"], scene["loading"]
     c0 = float(mat.get("wave_speed") or np.sqrt(mat["E"] / mat["rho"]))
     R, om = float(geo["R"]), float(load["omega"])
     co = coefficients(float(mat["nu"]), float(geo["xi"]), gamma_from_physical(c0, R, om))
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)
-        waves = find_waves(co, float(load["f"]), int(k), float(geo["delta"]))
+    waves = _reduced_waves(float(mat["nu"]), float(geo["xi"]), co.gamma, float(load["f"]),
+                           int(k), float(geo["delta"]))
     E = float(mat.get("E", 1e9))
     out = []
     for w in waves:
@@ -195,12 +308,23 @@ def reduced_curves(scene: dict, k: int, admissible_only: bool = True,
     return out
 
 
+@functools.lru_cache(maxsize=8)
+def _reduced_waves(nu: float, xi: float, gamma: float, f: float, k: int, delta: float) -> tuple:
+    """``find_waves`` once per parameter set (the phase and u-v-p-q figures share it)."""
+    from semianalytic.coefficients import coefficients
+    from semianalytic.waves import find_waves
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        return tuple(find_waves(coefficients(nu, xi, gamma), f, k, delta))
+
+
 # ---------------------------------------------------------------------------------------------
-# Figure-1 layout from the FE
+# One period of the FE wave (the panels of the paper's Figure 1)
 
 
 def plot_uvpq(run_dir: Path, out_png: Path, overlay: bool = True) -> Path:
-    """The paper's Figure-1 panels from an FE run: one period of the co-moving wave.
+    """One period of an FE run's wave in the panels of the paper's Figure 1.
 
     u_r − d and u_θ (mean removed) against the time-ordered co-moving coordinate s/T (a
     material point meets s = 0 → 1 in this order; zones shaded), the phase diagrams
@@ -226,51 +350,50 @@ def plot_uvpq(run_dir: Path, out_png: Path, overlay: bool = True) -> Path:
     axes = np.atleast_2d(axes)
     zone = np.argmax(np.vstack([prof[f"frac_{z}"] for z in STATUS_LABELS]), axis=0)
     a = axes[0, 0]
-    a.plot(x, 1e3 * prof["u_r"], color="k", label="FE")
+    a.plot(x, MM * prof["u_r"], color="k", label="FE")
     a.set(xlabel="s / T (co-moving, time order)", ylabel="u_r − d (mm)", title="U: radial")
     a = axes[1, 0]
-    a.plot(x, 1e3 * prof["u_theta"], color="k", label="FE")
+    a.plot(x, MM * prof["u_theta"], color="k", label="FE")
     a.set(xlabel="s / T (co-moving, time order)", ylabel="u_θ − mean (mm)",
           title="V: tangential")
     a = axes[0, 1]
-    a.plot(1e3 * prof["u_r"], prof["v_r"], color="k", label="FE")
+    a.plot(MM * prof["u_r"], prof["v_r"], color="k", label="FE")
     a.set(xlabel="u_r − d (mm)", ylabel="du_r/dt (m/s)", title="radial phase diagram")
     a = axes[1, 1]
-    a.plot(1e3 * prof["u_theta"], prof["v_theta"], color="k", label="FE")
+    a.plot(MM * prof["u_theta"], prof["v_theta"], color="k", label="FE")
     rw = run.radius * float(run.scene["loading"]["omega"])
     a.axhline(rw, color="C0", ls=":", lw=0.8, label="RΩ (stick)")
     a.set(xlabel="u_θ − mean (mm)", ylabel="du_θ/dt (m/s)", title="tangential phase diagram")
     if has_pq:
-        axes[0, 2].plot(x, 1e-6 * prof["p"], color="k", label="FE")
+        axes[0, 2].plot(x, MPA * prof["p"], color="k", label="FE")
         axes[0, 2].set(xlabel="s / T (co-moving, time order)", ylabel="p (MPa)",
                        title="P: normal pressure")
-        axes[1, 2].plot(x, 1e-6 * prof["q"], color="k", label="FE")
+        axes[1, 2].plot(x, MPA * prof["q"], color="k", label="FE")
         axes[1, 2].set(xlabel="s / T (co-moving, time order)", ylabel="q (MPa)",
                        title="Q: tangential traction")
     for j, (label, cur) in enumerate(curves):
         xs = cur["s"] / T
-        col = f"C{j + 1}"
-        axes[0, 0].plot(xs, 1e3 * cur["u_r"], "--", color=col, label=label)
-        axes[1, 0].plot(xs, 1e3 * cur["u_theta"], "--", color=col, label=label)
-        axes[0, 1].plot(1e3 * cur["u_r"], cur["v_r"], "--", color=col, label=label)
-        axes[1, 1].plot(1e3 * cur["u_theta"], cur["v_theta"], "--", color=col, label=label)
+        col = f"C{j + 2}"  # C0, C1 are the stick and slip colours
+        axes[0, 0].plot(xs, MM * cur["u_r"], "--", color=col, label=label)
+        axes[1, 0].plot(xs, MM * cur["u_theta"], "--", color=col, label=label)
+        axes[0, 1].plot(MM * cur["u_r"], cur["v_r"], "--", color=col, label=label)
+        axes[1, 1].plot(MM * cur["u_theta"], cur["v_theta"], "--", color=col, label=label)
         if has_pq:
-            axes[0, 2].plot(xs, 1e-6 * cur["p"], "--", color=col, label=label)
-            axes[1, 2].plot(xs, 1e-6 * cur["q"], "--", color=col, label=label)
+            axes[0, 2].plot(xs, MPA * cur["p"], "--", color=col, label=label)
+            axes[1, 2].plot(xs, MPA * cur["q"], "--", color=col, label=label)
     for a in (axes[0, 0], axes[1, 0], *(axes[:, 2] if has_pq else ())):
-        _shade_zones(a, x, zone)
+        shade_zones(a, x, zone)
         a.set_xlim(0, 1)
     handles, labels = axes[0, 0].get_legend_handles_labels()
     uniq = dict(zip(labels, handles, strict=True))
     axes[0, 0].legend(uniq.values(), uniq.keys(), fontsize=7, loc="upper right")
     axes[1, 1].legend(fontsize=7, loc="lower right")
-    sc = run.scene
-    fig.suptitle(
-        f"FE wave, Figure-1 layout: Ω = {sc['loading']['omega']:g} rad/s, "
-        f"δ = {sc['geometry']['delta']:g}, f = {sc['loading']['f']:g}, "
-        f"N = {sc['mesh']['n_inner']}, β2 = {sc['time']['beta2']:g} — {wave.regime}, "
-        f"k = {wave.mode}, {wave.celerity_m_s:+.0f} m/s, ψ1 = {wave.psi1:.3f}, "
-        f"ψ2 = {wave.psi2:.3f} ({wave.zone_order.replace('->', ' → ')})", fontsize=10)
+    what = (f"one period of the FE wave in its co-moving coordinate: {wave.regime}, "
+            f"k = {wave.mode}, {wave.celerity_m_s:+.0f} m/s, ψ₁ = {wave.psi1:.3f}, "
+            f"ψ₂ = {wave.psi2:.3f} ({wave.zone_order.replace('->', ' → ')})"
+            if wave.regime != "steady-sliding" else
+            "steady sliding: no travelling wave (bin means of the sliding state)")
+    fig.suptitle(f"{scene_title(run.scene)}\n{what}", fontsize=10)
     return _save(fig, Path(out_png))
 
 
@@ -295,9 +418,10 @@ def phase_family(run_dirs: list[Path], colors: list[str], labels: list[str], out
     from postprocess.analysis import analyse_run, load_run, run_profile
 
     fig, axes = plt.subplots(1, 2, figsize=(12, 5.6), layout="constrained")
-    notes = []
+    notes, meshes = [], set()
     for i, (rd, col, lab) in enumerate(zip(run_dirs, colors, labels, strict=True)):
         run = load_run(rd)
+        meshes.add(int(run.scene["mesh"]["n_inner"]))
         wave = analyse_run(run)
         fe_lab = (f"{lab}: FE {wave.regime}, k = {wave.mode}, "
                   f"{wave.celerity_m_s:+.0f} m/s")
@@ -306,8 +430,8 @@ def phase_family(run_dirs: list[Path], colors: list[str], labels: list[str], out
             prof = run_profile(run, wave, nbins=PHASE_BINS)
             loop = [np.append(prof[key], prof[key][:1])
                     for key in ("u_r", "v_r", "u_theta", "v_theta")]
-            axes[0].plot(1e3 * loop[0], loop[1], color=col, lw=1.2, label=fe_lab)
-            axes[1].plot(1e3 * loop[2], loop[3], color=col, lw=1.2, label=fe_lab)
+            axes[0].plot(MM * loop[0], loop[1], color=col, lw=1.2, label=fe_lab)
+            axes[1].plot(MM * loop[2], loop[3], color=col, lw=1.2, label=fe_lab)
         else:
             notes.append(f"{lab}: FE {wave.regime} (no wave)")
         k = (k_reduced[i] if k_reduced else wave.mode)
@@ -315,9 +439,9 @@ def phase_family(run_dirs: list[Path], colors: list[str], labels: list[str], out
         if not curves:
             notes.append(f"{lab}: no admissible reduced wave (k = {k})")
         for label, cur in curves:
-            axes[0].plot(1e3 * cur["u_r"], cur["v_r"], "--", color=col, lw=1.6,
+            axes[0].plot(MM * cur["u_r"], cur["v_r"], "--", color=col, lw=1.6,
                          label=f"{lab}: {label}")
-            axes[1].plot(1e3 * cur["u_theta"], cur["v_theta"], "--", color=col, lw=1.6,
+            axes[1].plot(MM * cur["u_theta"], cur["v_theta"], "--", color=col, lw=1.6,
                          label=f"{lab}: {label}")
     axes[0].set(xlabel="u_r − d (mm)", ylabel="du_r/dt (m/s)",
                 title="radial phase diagram (one period, limit cycle)")
@@ -328,122 +452,10 @@ def phase_family(run_dirs: list[Path], colors: list[str], labels: list[str], out
     if notes:
         axes[1].text(0.02, 0.02, "\n".join(notes), transform=axes[1].transAxes, fontsize=7,
                      va="bottom")
-    fig.suptitle(title + "   (solid: FE, N = 132; dashed: reduced model, admissible only)",
+    n_txt = "/".join(str(n) for n in sorted(meshes))
+    fig.suptitle(f"{title}   (solid: FE, N = {n_txt}; dashed: reduced model, admissible only)",
                  fontsize=10)
     return _save(fig, Path(out_png))
-
-
-# ---------------------------------------------------------------------------------------------
-# pyvista iso-value maps (paper Figures 2-3)
-
-_XVFB: list[subprocess.Popen] = []
-
-
-def ensure_display() -> None:
-    """Give VTK an X display: keep $DISPLAY, else start a private Xvfb (stopped at exit).
-
-    ``Xvfb -displayfd`` picks a free display number, so parallel users do not collide.
-    """
-    if os.environ.get("DISPLAY") or _XVFB:
-        return
-    r, w = os.pipe()
-    proc = subprocess.Popen(
-        ["Xvfb", "-displayfd", str(w), "-screen", "0", "1920x1200x24", "-nolisten", "tcp"],
-        pass_fds=(w,), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    os.close(w)
-    with os.fdopen(r) as fh:
-        num = fh.readline().strip()
-    if not num:
-        proc.terminate()
-        raise RuntimeError("could not start Xvfb for off-screen rendering (is xvfb installed?)")
-    _XVFB.append(proc)
-    os.environ["DISPLAY"] = f":{num}"
-    atexit.register(_stop_xvfb)
-
-
-def _stop_xvfb() -> None:
-    while _XVFB:
-        proc = _XVFB.pop()
-        proc.terminate()
-        try:
-            proc.wait(timeout=5)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-
-
-def isomap_pair(run_dirs: list[Path], out_png: Path, magnify: float | None = None,
-                title: str | None = None) -> Path:
-    """Iso-values of u_r on the deformed tube (final_field.npz) for 1 or 2 runs side by side.
-
-    The displacement is magnified (default: 8 % of R over the largest |u|) and shown with one
-    colour range for both panels; the contact status of the last sample is drawn as coloured
-    dots just inside the inner circle (grey separation, blue stick, orange slip).
-    """
-    ensure_display()
-    import pyvista as pv
-
-    from postprocess.analysis import analyse_run, load_run
-
-    pv.OFF_SCREEN = True
-    grids, infos = [], []
-    for rd in run_dirs:
-        rd = Path(rd)
-        with np.load(rd / "final_field.npz") as ff:
-            pts, cells, types, u = ff["points"], ff["cells"], ff["cell_types"], ff["u"]
-            t_end = float(ff["time"])
-        run = load_run(rd)
-        r = np.hypot(pts[:, 0], pts[:, 1])
-        ur = (pts[:, 0] * u[:, 0] + pts[:, 1] * u[:, 1]) / r
-        grid = pv.UnstructuredGrid(cells.astype(np.int64), types.astype(np.uint8), pts.copy())
-        grid.point_data["u_r (mm)"] = 1e3 * ur
-        disp = np.zeros_like(pts)
-        disp[:, :2] = u
-        grid.point_data["disp"] = disp
-        grids.append(grid)
-        infos.append((run, analyse_run(run), t_end, np.abs(u).max()))
-    umax = max(i[3] for i in infos)
-    mag = magnify if magnify is not None else 0.08 * infos[0][0].radius / max(umax, 1e-300)
-    clim = [min(g.point_data["u_r (mm)"].min() for g in grids),
-            max(g.point_data["u_r (mm)"].max() for g in grids)]
-    n = len(grids)
-    pl = pv.Plotter(shape=(1, n), off_screen=True, window_size=(760 * n, 860), border=False)
-    for i, (grid, (run, wave, t_end, _)) in enumerate(zip(grids, infos, strict=True)):
-        pl.subplot(0, i)
-        warped = grid.warp_by_vector("disp", factor=mag)
-        pl.add_mesh(warped, scalars="u_r (mm)", cmap="viridis", clim=clim, show_edges=False,
-                    scalar_bar_args={"title": "u_r (mm)", "vertical": False,
-                                     "position_x": 0.2, "position_y": 0.04, "width": 0.6,
-                                     "height": 0.07, "title_font_size": 18,
-                                     "label_font_size": 15, "fmt": "%.1f"})
-        s = run.samples
-        theta, status = s["theta"], s["status"][-1]
-        R = run.radius
-        rr = 0.955 * R
-        for code, color in enumerate(DOT_COLORS):
-            m = status == code
-            if m.any():
-                dots = np.column_stack([rr * np.cos(theta[m]), rr * np.sin(theta[m]),
-                                        np.zeros(m.sum())])
-                pl.add_points(dots, color=color, point_size=9, render_points_as_spheres=True)
-        pl.add_legend([[lab, col] for lab, col in zip(STATUS_LABELS, DOT_COLORS, strict=True)],
-                      bcolor="white", size=(0.22, 0.13), loc="center", face="circle")
-        sc = run.scene
-        pl.add_text(
-            f"N = {sc['mesh']['n_inner']} contact nodes, t = {1e3 * t_end:.0f} ms\n"
-            f"{wave.regime}, k = {wave.mode}, {wave.celerity_m_s:+.0f} m/s\n"
-            f"displacement x{mag:.0f}", position="upper_left", font_size=11, color="black")
-        pl.view_xy()
-        pl.camera.zoom(1.15)
-    if title:
-        pl.subplot(0, n - 1)
-        pl.add_text(title, position="lower_right", font_size=11, color="black")
-    pl.set_background("white")
-    out_png = Path(out_png)
-    tmp = out_png.with_name(f".{out_png.stem}.tmp.png")
-    pl.screenshot(str(tmp))
-    pl.close()
-    tmp.replace(out_png)
-    return out_png
 
 
 # ---------------------------------------------------------------------------------------------

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -11,27 +12,32 @@ if TYPE_CHECKING:
 
 __all__ = ["plot_wave"]
 
-_ZONE_COLOURS = {0: ("#9ecae1", "separation"), 1: ("#fdae6b", "stick"), 2: ("#a1d99b", "slip")}
+_ZONE_NAMES = ("separation", "stick", "slip")
 
 
-def _shade(ax: object, phi: np.ndarray, zone: np.ndarray, T: float) -> None:
+def _shade(ax: object, phi: np.ndarray, zone: np.ndarray, T: float,
+           colours: Sequence[str]) -> None:
     edges = np.flatnonzero(np.diff(zone)) + 1
     starts = np.concatenate([[0], edges])
     ends = np.concatenate([edges, [zone.size]])
     for a, b in zip(starts, ends, strict=True):
         x0 = phi[a]
         x1 = phi[b] if b < zone.size else T
-        colour, _ = _ZONE_COLOURS[int(zone[a])]
+        colour = colours[int(zone[a])]
         ax.axvspan(x0, x1, color=colour, alpha=0.35, lw=0)  # type: ignore[attr-defined]
 
 
 def plot_wave(
-    wave: TravellingWave, path: str, *, R: float = 1.0, omega: float = 1.0, n: int = 2000
+    wave: TravellingWave, path: str, *, zone_colours: Sequence[str], R: float = 1.0,
+    omega: float = 1.0, n: int = 2000
 ) -> None:
     """Draw U, V, phase diagrams (U, U̇), (V, V̇) and P, Q over one period, zones shaded.
 
     Time derivatives are ``U̇ = dU/dt = −c U'`` (non-dimensional time ``Ωt``).
+    ``zone_colours``: colours of separation, stick, slip (the project's code,
+    ``postprocess.style.STATUS_COLORS``; this package imports nothing of the project).
     """
+    zones = dict(enumerate(zip(zone_colours, _ZONE_NAMES, strict=True)))
     import matplotlib
 
     matplotlib.use("Agg")
@@ -46,7 +52,7 @@ def plot_wave(
     T = wave.period
     fig, axs = plt.subplots(2, 3, figsize=(14, 8), constrained_layout=True)
     for ax, y, lab in ((axs[0, 0], U, "U = u(1)/R"), (axs[0, 1], V, "V = v(1)/R")):
-        _shade(ax, phi, zone, T)
+        _shade(ax, phi, zone, T, zone_colours)
         ax.plot(phi, y, "k-", lw=1.5)
         ax.set_xlabel("φ = θ − ct (rad)")
         ax.set_ylabel(lab)
@@ -55,7 +61,7 @@ def plot_wave(
     axs[0, 0].axhline(wave.delta, color="r", ls="--", lw=1, label="δ (contact)")
     axs[0, 0].legend(loc="best", fontsize=8)
     ax = axs[0, 2]
-    _shade(ax, phi, zone, T)
+    _shade(ax, phi, zone, T, zone_colours)
     ax.plot(phi, P, "b-", lw=1.5, label="P")
     ax.plot(phi, Q, "m-", lw=1.5, label="Q")
     ax.plot(phi, wave.f * P, "m:", lw=1, label="fP")
@@ -68,7 +74,7 @@ def plot_wave(
         (axs[1, 0], U, Ud, "U", "dU/dt (per unit Ωt)"),
         (axs[1, 1], V, Vd, "V", "dV/dt (per unit Ωt)"),
     ):
-        for zid, (colour, name) in _ZONE_COLOURS.items():
+        for zid, (colour, name) in zones.items():
             m = zone == zid
             if m.any():
                 ax.plot(x[m], y[m], ".", ms=2, color=colour, label=name)
@@ -104,7 +110,7 @@ def plot_wave(
         transform=ax.transAxes,
     )
     ax.legend(
-        handles=[Patch(color=c, alpha=0.5, label=n) for c, n in _ZONE_COLOURS.values()],
+        handles=[Patch(color=c, alpha=0.5, label=n) for c, n in zones.values()],
         loc="lower left",
         title="zones",
     )

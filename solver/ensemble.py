@@ -42,7 +42,8 @@ from solver.contact.law import SEPARATION, SLIP, STICK, forward_increment_factor
 from solver.ensemble_cuda import CUDA_SOURCE
 from solver.schemes.protocol import HookedStepper
 
-KERNELS = ("numba", "cuda", "xp")
+#: The batched stepper's implementations of one step (not the scene's ``time.kernel`` choice).
+BATCH_KERNELS = ("numba", "cuda", "xp")
 
 
 def array_namespace(backend: str) -> Any:
@@ -122,8 +123,8 @@ class BatchedExplicit(HookedStepper):
     def __init__(self, bp: BatchedProblem, d: np.ndarray, slide: np.ndarray, f: np.ndarray,
                  xp: Any = np, kernel: str = "numba", tau: float = 0.0,
                  bound: tuple[int, float, float] = (0, 0.0, 0.0)) -> None:
-        if kernel not in KERNELS:
-            raise ValueError(f"kernel = {kernel!r}: use one of {KERNELS}")
+        if kernel not in BATCH_KERNELS:
+            raise ValueError(f"kernel = {kernel!r}: use one of {BATCH_KERNELS}")
         if kernel == "numba" and xp is not np:
             raise ValueError("the numba kernel runs on numpy arrays (backend cpu)")
         if not (math.isfinite(tau) and tau >= 0.0):

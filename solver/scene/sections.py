@@ -101,7 +101,7 @@ class Loading(_Section):
 
 CELL_TYPES = ("triangle", "quadrilateral")
 PERTURBATIONS = ("none", "mode", "random")
-KERNELS = ("auto", "numpy", "numba")
+TIME_KERNELS = ("auto", "numpy", "numba")
 
 
 @dataclass(frozen=True)
@@ -200,7 +200,7 @@ class Time(_Section):
             self.max_wall_time >= 0,
             "max_wall_time >= 0 (s; 0 = unlimited)",
         )
-        _choice(self._key("kernel"), self.kernel, KERNELS)
+        _choice(self._key("kernel"), self.kernel, TIME_KERNELS)
 
 
 @dataclass(frozen=True)

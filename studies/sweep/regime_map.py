@@ -5,11 +5,13 @@ from __future__ import annotations
 
 import itertools
 import json
+import math
 import time
 from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import Any
 
+from postprocess.style import REGIME_COLORS
 from solver.atomic import atomic_write_text
 from solver.scene import (
     Scene,
@@ -85,7 +87,8 @@ def existence_grid(base: Scene, xkey: str, xs: Sequence[float], ykey: str, ys: S
     of ``ks`` has an admissible wave. Stick-slip waves: c sqrt(gamma) and psi depend only on
     (nu, xi, f, k) (docs/semianalytic.md), so the multistart runs once per (nu, xi, f, k)
     and each grid point is one Newton step (``refine_wave``) with its own admissibility check;
-    stick-slip-separation waves: one multistart per point and k.
+    stick-slip-separation waves: one multistart per point and k. Points that differ only in
+    keys the reduced model does not see (mesh, seed, time step...) are computed once.
     """
     import warnings
 
@@ -94,6 +97,7 @@ def existence_grid(base: Scene, xkey: str, xs: Sequence[float], ykey: str, ys: S
 
     ks = tuple(ks)
     searched: dict[tuple, list] = {}
+    seen_points: dict[tuple, int] = {}
     out = []
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
@@ -105,6 +109,10 @@ def existence_grid(base: Scene, xkey: str, xs: Sequence[float], ykey: str, ys: S
                 nu, xi, gamma, f, delta, _ = _reduced_params(scene)
                 if f <= 0 or delta <= 0:
                     row.append(0)
+                    continue
+                point = (nu, xi, gamma, f, delta)  # all the reduced model sees of the scene
+                if point in seen_points:  # an axis the reduced model does not see
+                    row.append(seen_points[point])
                     continue
                 co = coefficients(nu, xi, gamma)
                 ok = False
@@ -124,6 +132,7 @@ def existence_grid(base: Scene, xkey: str, xs: Sequence[float], ykey: str, ys: S
                         ok = any(w.admissible for w in waves)
                     if ok:
                         break
+                seen_points[point] = int(ok)
                 row.append(int(ok))
             out.append(row)
     return out
@@ -169,14 +178,41 @@ def _semianalytic_overlay(sweep_dir: Path, meta: dict, base: Scene, xkey: str, x
     return res
 
 
-_REGIME_COLORS = {
-    "steady-sliding": "#d9d9d9",
-    "stick-slip": "#4c9be8",
-    "slip-separation": "#f5b041",
-    "stick-slip-separation": "#d64541",
-    "diverged": "#222222",
-    "failed": "#ffffff",
-}
+def cell_label(row: dict) -> tuple[str | None, str]:
+    """(regime category, text) of a map cell: what the cell's run found.
+
+    A wave reads "k = 4, −2507 m/s" (+ a star when no limit cycle was reached by t_end),
+    steady sliding reads "steady sliding", a failed or diverged run says so, and a run that has
+    not finished shows its status.
+    """
+    status, regime = row.get("status"), row.get("regime")
+    if status == "diverged":
+        return "diverged", "diverged"
+    if status == "failed":
+        return "failed", "error"
+    if status != "completed" or regime is None:
+        return None, str(status or "pending")
+    if regime == "steady-sliding":
+        return regime, "steady\nsliding"
+    star = "" if row.get("limit_cycle") in (True, None) else "*"
+    return regime, f"k = {row.get('mode')}{star}\n{row.get('celerity_m_s', math.nan):+.0f} m/s"
+
+
+def _fixed_subtitle(sc: Scene, swept: Iterable[str]) -> str:
+    """The scene parameters that no cell of the sweep changes (a swept key is never named)."""
+    swept = set(swept)
+    damping = (f"Kelvin–Voigt τ = {1e6 * sc.damping.tau:.3g} µs" if sc.damping.enabled
+               else "no damping")
+    items = (("loading.omega", f"Ω = {sc.loading.omega:g} rad/s"),
+             ("geometry.delta", f"δ = {sc.geometry.delta:g}"),
+             ("loading.f", f"f = {sc.loading.f:g}"),
+             ("mesh.n_inner", f"N = {sc.mesh.n_inner}"),
+             ("time.beta2", f"β₂ = {sc.time.beta2:g}"),
+             ("damping", damping),
+             ("initial.mode", f"seed mode {sc.initial.mode}"),
+             ("time.end_time", f"t_end = {sc.time.end_time:g} s"))
+    return ", ".join(text for key, text in items
+                     if not any(k == key or k.startswith(key + ".") for k in swept))
 
 
 def plot_sweep(sweep_dir: str | Path) -> list[Path]:
@@ -194,7 +230,6 @@ def plot_sweep(sweep_dir: str | Path) -> list[Path]:
     import matplotlib.pyplot as plt
     import numpy as np
     from matplotlib.colors import BoundaryNorm, ListedColormap
-    from matplotlib.lines import Line2D
     from matplotlib.patches import Patch
 
     sweep_dir = Path(sweep_dir)
@@ -212,7 +247,7 @@ def plot_sweep(sweep_dir: str | Path) -> list[Path]:
     others = [k for k in varying if k not in (xkey, ykey)]
     base = _map_base(sweep_dir, meta)
     categories = [*REGIMES, "failed"]
-    cmap = ListedColormap([_REGIME_COLORS[c] for c in categories])
+    cmap = ListedColormap([REGIME_COLORS[c] for c in categories])
     cmap.set_bad("white")
     norm = BoundaryNorm(np.arange(len(categories) + 1) - 0.5, cmap.N)
     outputs = []
@@ -234,20 +269,13 @@ def plot_sweep(sweep_dir: str | Path) -> list[Path]:
         for r in sel:
             i = ys.index(_hashable(r[ykey])) if ykey else 0
             j = xs.index(_hashable(r[xkey]))
-            st, regime = r.get("status"), r.get("regime")
-            cat = ("diverged" if st == "diverged" else
-                   "failed" if st == "failed" else regime if st == "completed" else None)
-            if cat not in categories:
-                continue
-            codes[i, j] = categories.index(cat)
+            cat, text = cell_label(r)
+            if cat in categories:
+                codes[i, j] = categories.index(cat)
             dark = cat in ("diverged", "stick-slip-separation")
-            if st == "completed" and r.get("mode") is not None:
-                text = f"k={r['mode']}\n{r['celerity_m_s']:+.0f}"
-            else:
-                text = {"diverged": "div.", "failed": "error"}.get(cat, "")
             ax.text(xpos[j], ypos[i], text, ha="center", va="center", fontsize=7,
                     color="white" if dark else "black",
-                    bbox={"boxstyle": "round,pad=0.2", "fc": _REGIME_COLORS[cat],
+                    bbox={"boxstyle": "round,pad=0.2", "fc": REGIME_COLORS.get(cat, "white"),
                           "ec": "none", "alpha": 0.9})
         xe = _edges(xpos, xscale) if numeric else list(np.arange(len(xs) + 1) - 0.5)
         ye = (_edges(ypos, yscale) if numeric and ykey else
@@ -257,59 +285,72 @@ def plot_sweep(sweep_dir: str | Path) -> list[Path]:
         ax.set_xscale(xscale)
         ax.set_yscale(yscale)
         ax.minorticks_off()
-        ax.set_xticks(xpos, [f"{v:g}" if numeric else str(v) for v in xs])
-        ax.set_yticks(ypos, [f"{v:g}" if numeric else str(v) for v in ys])
+        ax.set_xticks(xpos, [_fmt(v) for v in xs])
+        ax.set_yticks(ypos, [_fmt(v) for v in ys])
         ax.set_xlabel(_label(xkey))
         ax.set_ylabel(_label(ykey) if ykey else "")
         if not ykey:
             ax.set_yticks([])
-        handles = [Patch(facecolor=_REGIME_COLORS[c], edgecolor="0.5", label=c)
+        handles = [Patch(facecolor=REGIME_COLORS[c], edgecolor="0.5", label=c)
                    for c in categories if c in {categories[int(v)] for v in
                                                 codes[np.isfinite(codes)].ravel()}]
         note = ""
         ks = tuple(mp.get("k") or sorted({int(r["mode"]) for r in sel
                                           if r.get("status") == "completed"
+                                          and r.get("regime") not in (None, "steady-sliding")
                                           and r.get("mode") is not None})[:4])
         if (mp.get("semianalytic", True) and numeric and ykey and ks
                 and (xkey in _SEMIANALYTIC_KEYS or ykey in _SEMIANALYTIC_KEYS)):
-            sa = _semianalytic_overlay(sweep_dir, meta, base, xkey, [float(v) for v in xs],
-                                       xscale, ykey, [float(v) for v in ys], yscale, fixed, ks)
-            for name, style, hatch, what in (("stick-slip", "-", "//", "solid"),
-                                             ("stick-slip-separation", "--", "\\\\", "dashed")):
-                g = sa[name]
-                z = np.asarray(g["admissible"], dtype=float)
-                found = bool(z.any())
-                if found and not z.all():
-                    ax.contour(g["x"], g["y"], z, levels=[0.5], colors="k", linestyles=style,
-                               linewidths=1.8)
-                if found:
-                    ax.contourf(g["x"], g["y"], z, levels=[0.5, 1.5], colors="none",
-                                hatches=[hatch])
-                kset = ", ".join(map(str, ks))
-                if found:
-                    handles.append(Patch(facecolor="none", edgecolor="k", hatch=hatch,
-                                         linestyle=style,
-                                         label=f"semi-analytical {name} wave exists "
-                                               f"(k ∈ {{{kset}}}; {what} boundary)"))
-                else:
-                    handles.append(Line2D([], [], color="0.6", linestyle=style,
-                                          label=f"no admissible semi-analytical {name} wave "
-                                                f"on this grid (k ∈ {{{kset}}})"))
+            sa = _semianalytic_overlay(sweep_dir, meta, base, xkey, list(xs), xscale, ykey,
+                                       list(ys), yscale, fixed, ks)
+            handles += _draw_boundaries(ax, sa, ks)
             note = f"; boundaries: reduced model, junction {'/'.join(sa['junctions'])}"
-        fixed_txt = ", ".join(f"{_label(k)} = {v}" for k, v in fixed.items())
+        fixed_txt = ", ".join(f"{_label(k)} = {_fmt(v)}" for k, v in fixed.items())
         sc = base.with_overrides(*(f"{k}={_toml_value(v)}" for k, v in fixed.items()))
-        ax.set_title(f"sweep {meta['name']}: FE regime, k and celerity (m/s)"
-                     + (f"\n{fixed_txt}" if fixed_txt else "")
-                     + f"\nf = {sc.loading.f:g}, N = {sc.mesh.n_inner}, "
-                       f"t_end = {sc.time.end_time:g} s{note}", fontsize=8)
+        stars = any(cell_label(r)[1].split("\n")[0].endswith("*") for r in sel)
+        ax.set_title(f"sweep {meta['name']}: FE regime, k and celerity (m/s, + = rotation)"
+                     + (f"\nthis map: {fixed_txt}" if fixed_txt else "")
+                     + f"\n{_fixed_subtitle(sc, params)}{note}"
+                     + ("\n* no limit cycle by t_end (transient)" if stars else ""),
+                     fontsize=8)
         ax.legend(handles=handles, fontsize=7, loc="upper center", frameon=False, ncol=2,
                   bbox_to_anchor=(0.5, -0.13 if len(ys) > 3 else -0.25))
         suffix = "".join(f"_{k.rsplit('.', 1)[-1]}-{_slug_value(v)}" for k, v in fixed.items())
         path = sweep_dir / f"regime_map{suffix}.png"
-        fig.savefig(path, dpi=130, bbox_inches="tight")
+        tmp = path.with_name(f".{path.stem}.tmp.png")  # a reader never sees half a PNG
+        fig.savefig(tmp, dpi=130, bbox_inches="tight")
         plt.close(fig)
+        tmp.replace(path)
         outputs.append(path)
     return outputs
+
+
+def _draw_boundaries(ax, sa: dict, ks: tuple[int, ...]) -> list:  # noqa: ANN001
+    """Hatch where the reduced model has an admissible wave (``_semianalytic_overlay``),
+    outline its boundary; returns the legend entries (also for a wave found nowhere)."""
+    import numpy as np
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch
+
+    handles = []
+    kset = ", ".join(map(str, ks))
+    for name, style, hatch, what in (("stick-slip", "-", "//", "solid"),
+                                     ("stick-slip-separation", "--", "\\\\", "dashed")):
+        g = sa[name]
+        z = np.asarray(g["admissible"], dtype=float)
+        if not z.any():
+            handles.append(Line2D([], [], color="0.6", linestyle=style,
+                                  label=f"no admissible semi-analytical {name} wave "
+                                        f"on this grid (k ∈ {{{kset}}})"))
+            continue
+        if not z.all():
+            ax.contour(g["x"], g["y"], z, levels=[0.5], colors="k", linestyles=style,
+                       linewidths=1.8)
+        ax.contourf(g["x"], g["y"], z, levels=[0.5, 1.5], colors="none", hatches=[hatch])
+        handles.append(Patch(facecolor="none", edgecolor="k", hatch=hatch, linestyle=style,
+                             label=f"semi-analytical {name} wave exists "
+                                   f"(k ∈ {{{kset}}}; {what} boundary)"))
+    return handles
 
 
 def _map_base(sweep_dir: Path, meta: dict) -> Scene:
@@ -327,6 +368,17 @@ def _map_base(sweep_dir: Path, meta: dict) -> Scene:
 
 def _hashable(v: Any) -> Any:
     return tuple(v) if isinstance(v, list) else v
+
+
+def _fmt(v: Any) -> str:
+    """A swept value as a tick or title label (numbers %g, booleans and strings as in TOML)."""
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, int | float):
+        return f"{v:g}"
+    if isinstance(v, list | tuple):
+        return "[" + ", ".join(_fmt(x) for x in v) + "]"
+    return str(v)
 
 
 def _sortkey(v: Any) -> tuple:

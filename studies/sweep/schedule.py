@@ -29,6 +29,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, TextIO
 
+from postprocess.style import wave_title
 from solver.atomic import atomic_write_text
 from solver.scene import (
     write_scene,
@@ -113,7 +114,10 @@ class _Monitor(threading.Thread):
                     continue
                 s = _read_json(path) or {}
                 status = s.get("status")
-                if status in FINAL_STATUSES or status == "interrupted":
+                if s.get("analysis") == "pending" and process_alive(s) is not False:
+                    # saved, its wave analysis comes next: report the scene with its result
+                    running += 1
+                elif status in FINAL_STATUSES or status == "interrupted":
                     new.append((task, s))
                 elif status == "running" and process_alive(s) is not False:
                     running += 1
@@ -153,9 +157,8 @@ class _Monitor(threading.Thread):
         done, _, _, eta = self.counts()
         status = s.get("status")
         what = status
-        if "regime" in s and status == "completed":
-            what = (f"{s['regime']}, k = {s.get('mode')}, "
-                    f"c = {s.get('celerity_m_s', math.nan):+.0f} m/s")
+        if status == "completed":
+            what = wave_title(s)
         elif s.get("message") and s["message"] != status:
             what = f"{status}: {str(s['message']).splitlines()[0][:120]}"
         return (f"[{self.n_done_before + done}/{self.total}] {task.id}: {what} "

@@ -78,17 +78,19 @@ def plot_profiles(path: Path, profiles: dict, summary: dict) -> Path:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    from postprocess.style import MM, MPA, shade_zones, status_handles
+
     phi = profiles["phi"]
     fig, axes = plt.subplots(4, 1, figsize=(7, 8), sharex=True)
-    colors = {0: "#dddddd", 1: "#ffd6a0", 2: "#ffffff"}
-    dphi = phi[1] - phi[0] if phi.size > 1 else 1.0
-    for ax, key, lab in zip(axes, ("U", "V", "P", "Q"),
-                            ("u_r − d (m)", "u_θ (m)", "p (Pa)", "q (Pa)"), strict=True):
-        for j, s in enumerate(profiles["status"]):
-            ax.axvspan(phi[j] - dphi / 2, phi[j] + dphi / 2, color=colors[int(s)], lw=0)
-        ax.plot(phi, profiles[key], "k.-", ms=3)
+    for ax, key, scale, lab in zip(axes, ("U", "V", "P", "Q"), (MM, MM, MPA, MPA),
+                                   ("u_r − d (mm)", "u_θ (mm)", "p (MPa)", "q (MPa)"),
+                                   strict=True):
+        shade_zones(ax, phi, np.asarray(profiles["status"]))
+        ax.plot(phi, scale * np.asarray(profiles[key]), "k.-", ms=3)
         ax.set_ylabel(lab)
-    axes[-1].set_xlabel("φ = θ − ωt (rad); grey separation, orange stick, white slip")
+        ax.ticklabel_format(axis="y", useOffset=False)
+    axes[0].legend(handles=status_handles(alpha=0.35), fontsize=7, loc="upper right", ncol=3)
+    axes[-1].set_xlabel("φ = θ − ωt (rad)")
     fig.suptitle(f"travel: {summary['regime']}, k = {summary['k']}, "
                  f"{summary['celerity_m_s']:.1f} m/s, ψ1 = {summary['psi1_subnode']:.3f}, "
                  f"ψ2 = {summary['psi2_subnode']:.3f}")
