@@ -377,3 +377,31 @@ def test_a_large_sweep_table_is_not_rewritten_at_every_scene(tmp_path, monkeypat
     mon.stop_event.set()
     mon.poll()
     assert len(writes) == 2  # the last scenes reach the table at the end
+
+
+def test_a_batched_sweep_never_writes_a_users_folder_under_runs(tmp_path):
+    """The batch path too: a user's folder under runs/ is left alone (named on the stream),
+    and the other scenes of its batch run."""
+    pytest.importorskip("dolfinx")
+    pytest.importorskip("numba")
+    from mpi4py import MPI
+
+    from studies.rundir.ownership import claim
+    from studies.sweep import load_sweep, run_sweep
+
+    spec_path = tmp_path / "s.toml"
+    spec_path.write_text(f'base = "{SMOKE}"\nset = ["time.end_time=0.005"]\n'
+                         '[grid]\n"loading.omega" = [2.0, 3.0, 4.0]\n')
+    spec = load_sweep(spec_path)
+    out = tmp_path / "out"
+    claim(out, "sweep").release()  # a sweep directory of stickslip's, not yet run
+    mine = out / "runs" / spec.tasks[0].id
+    mine.mkdir(parents=True)
+    (mine / "notes.txt").write_text("mine")
+    before = tree(mine)
+    stream = io.StringIO()
+    rc = run_sweep(spec, out, comm=MPI.COMM_SELF, stream=stream, batch="3")
+    assert rc == 1 and tree(mine) == before
+    rows = {r["id"]: r for r in json.loads((out / "sweep.json").read_text())["rows"]}
+    assert rows[spec.tasks[0].id]["status"] == "foreign"
+    assert all(rows[t.id]["status"] == "completed" for t in spec.tasks[1:])
