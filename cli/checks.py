@@ -8,7 +8,32 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-__all__ = ["output_file_problem", "samples_problem"]
+__all__ = ["environment_problem", "output_file_problem", "samples_problem"]
+
+
+def _writable_dir(path: str) -> bool:
+    return os.path.isdir(path) and os.access(path, os.W_OK | os.X_OK) \
+        and not os.path.realpath(path).startswith(("/proc", "/sys"))
+
+
+def environment_problem(env: dict | None = None) -> str | None:
+    """Why this process environment cannot run stickslip (one line, the variable and the
+    fix), or None. Open MPI's initialisation fails without a home directory (about 20 lines,
+    under mpirun on every rank), PETSc and Open MPI write temporary files in ``TMPDIR``."""
+    env = os.environ if env is None else env
+    home = env.get("HOME", "")
+    if not home:
+        return ("HOME is not set: Open MPI, PETSc and matplotlib need a writable home "
+                "directory; set it (export HOME=/tmp, or docker run -e HOME=/tmp)")
+    if not _writable_dir(home):
+        return (f"HOME={home} is not a writable directory: Open MPI, PETSc and matplotlib "
+                "write there; point HOME at a writable one (export HOME=/tmp)")
+    tmp = env.get("TMPDIR", "")
+    if tmp and not _writable_dir(tmp):
+        return (f"TMPDIR={tmp} is not a writable directory: Open MPI and PETSc write "
+                "temporary files there; unset TMPDIR or point it at a writable one "
+                "(export TMPDIR=/tmp)")
+    return None
 
 
 def output_file_problem(path: str | Path, flag: str) -> str | None:
@@ -28,24 +53,13 @@ def output_file_problem(path: str | Path, flag: str) -> str | None:
     return None
 
 
-def samples_problem(run_dir: str | Path, need: int = 0) -> str | None:
-    """Why ``RUN_DIR/samples.npz`` cannot be used (missing, corrupt, too short), or None."""
-    import zipfile
+def samples_problem(run_dir: str | Path, need: int = 1) -> str | None:
+    """Why the run directory ``run_dir`` cannot be read back (a missing, corrupt, edited or
+    too short file: ``studies.rundir.readers``), or None."""
+    from studies.rundir.readers import ReadError, check_run_dir
 
-    import numpy as np
-
-    f = Path(run_dir) / "samples.npz"
-    if not f.exists():
-        return f"{run_dir} has no samples.npz (not a finished run directory)"
     try:
-        with np.load(f) as data:
-            n = int(data["t"].size)
-            data["u_r"]  # noqa: B018 - read it: a truncated member fails here
-    except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as err:
-        return (f"{f} is not a readable samples file ({type(err).__name__}: "
-                f"{str(err)[:80]}); run the scene again")
-    if n < need:
-        return (f"{run_dir} is too short: {n} samples, the wave analysis needs at least "
-                f"{need}; run longer (time.end_time) or sample more often "
-                "(output.sample_interval)")
+        check_run_dir(run_dir, need)
+    except ReadError as err:
+        return str(err)
     return None

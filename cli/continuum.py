@@ -77,7 +77,13 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--omega", type=float, default=None,
                    help="rotation speed (rad/s): steady slip rate R|Omega| of Prakash-Clifton")
     p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.add_argument("--yes-i-know", action="store_true",
+                   help=f"run a costly case anyway (nu > {NU_COST_LIMIT})")
     p.set_defaults(func=flutter_exact_command)
+
+
+#: Above this Poisson ratio the continuum's root search slows down sharply (c_p / c_s > 22).
+NU_COST_LIMIT = 0.499
 
 
 def _finite(flag: str, value: float, lo: float, hi: float, *, lo_open: bool = False,
@@ -131,6 +137,12 @@ def _parse(args: argparse.Namespace) -> tuple[Any, list[float], list[int], Any, 
     v = _scene_values(args)
     _finite("E", v["E"], 0.0, 1e13, lo_open=True)
     _finite("nu", v["nu"], 0.0, 0.5, hi_open=True)
+    if v["nu"] > NU_COST_LIMIT and not args.yes_i_know:
+        raise InputError(
+            f"--nu {v['nu']!r}: near incompressibility the pressure waves are "
+            f"{math.sqrt(2 * (1 - v['nu']) / (1 - 2 * v['nu'])):.0f} x faster than the shear "
+            "waves and the root search takes minutes; use nu <= "
+            f"{NU_COST_LIMIT}, or --yes-i-know to wait")
     _finite("R", v["R"], 0.0, 1e3, lo_open=True)
     _finite("xi", v["xi"], 1.0, 10.0, lo_open=True)
     mat = Elastic(E=v["E"], rho=v["rho"], nu=v["nu"], R=v["R"], xi=v["xi"])

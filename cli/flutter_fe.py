@@ -25,6 +25,10 @@ from studies.flutter_fe.references import reduced_model_flutter
 # --------------------------------------------------------------------------------- CLI
 
 
+#: Friction values of one ``--f-sweep``: each is a whole CEA (seconds to minutes).
+F_SWEEP_MAX = 200
+
+
 def parse_f_sweep(text: str) -> np.ndarray:
     """``"start:stop:num"`` (inclusive linspace) or a comma list ``"0,0.3,0.7"``."""
     try:
@@ -37,6 +41,9 @@ def parse_f_sweep(text: str) -> np.ndarray:
         raise ValueError(f"--f-sweep {text!r}: use start:stop:num or a comma list") from err
     if vals.size == 0 or np.any(vals < 0) or not np.all(np.isfinite(vals)):
         raise ValueError(f"--f-sweep {text!r}: need finite friction coefficients >= 0")
+    if vals.size > F_SWEEP_MAX:
+        raise ValueError(f"--f-sweep {text!r}: {vals.size} values, each a full CEA; at most "
+                         f"{F_SWEEP_MAX} (a diagram needs a few tens)")
     return vals
 
 
@@ -105,6 +112,12 @@ def flutter_fe_command(args: argparse.Namespace) -> int:
         return fail(str(err))
     if not (math.isfinite(args.fmax_hz) and args.fmax_hz > 0):
         return fail(f"--fmax-hz {args.fmax_hz!r} is out of range: need a frequency > 0 (Hz)")
+    if args.plot:
+        from cli.checks import output_file_problem
+
+        bad_plot = output_file_problem(args.plot, "--plot")
+        if bad_plot:
+            return fail(bad_plot)
     refused = unrepresented_terms(friction_relaxation_time(scene), args.mass, comm.size)
     if refused:
         return fail(refused)

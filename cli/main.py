@@ -7,6 +7,7 @@ dolfinx, ``stickslip run`` never imports pyvista unless it plots.
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from collections.abc import Sequence
 
@@ -83,8 +84,8 @@ COMMAND_MODULES = (
     "cli.compare",  # compare
     "cli.sweep",  # sweep
     "cli.flutter_fe",  # flutter-fe
-    "cli.continuum",  # flutter-exact (issue 13)
-    "cli.travel",  # travel (issue 14)
+    "cli.continuum",  # flutter-exact
+    "cli.travel",  # travel
     "cli.attractors",  # attractors
 )
 
@@ -102,7 +103,7 @@ def _register(sub: argparse._SubParsersAction, module: str) -> None:
 
 
 def _last_resort(err: BaseException) -> str:
-    """One line for an error no handler foresaw (issue 12: errors, not tracebacks)."""
+    """One line for an error no handler foresaw (errors, not tracebacks)."""
     if isinstance(err, MemoryError):
         return ("out of memory; reduce the problem (mesh.n_inner, time.end_time, "
                 "output.sample_interval) or use a machine with more memory")
@@ -129,6 +130,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     if not getattr(args, "func", None):
         parser.print_help()
         return 2
+    from cli.checks import environment_problem
+
+    problem = environment_problem()
+    if problem:  # before MPI starts; under mpirun every rank ends, rank 0 says why
+        if os.environ.get("OMPI_COMM_WORLD_RANK", os.environ.get("PMIX_RANK", "0")) == "0":
+            print(f"error: {problem}", file=sys.stderr, flush=True)
+        return 2
     try:
         return int(args.func(args) or 0)
     except KeyboardInterrupt as stop:  # a handler may say what it kept (its message)
@@ -136,6 +144,18 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 130
     except (OSError, UnicodeDecodeError, MemoryError) as err:
         print(f"error: {_last_resort(err)}", file=sys.stderr, flush=True)
+        _end_all_ranks(2)
+        return 2
+    except RecursionError:  # a scene or sweep file with arrays nested thousands deep
+        print("error: an input file is nested too deeply to be a scene or sweep file "
+              "(RecursionError); check the file given", file=sys.stderr, flush=True)
+        _end_all_ranks(2)
+        return 2
+    except ValueError as err:  # a file read back that is corrupt, truncated or edited
+        readers = sys.modules.get("studies.rundir.readers")
+        if readers is None or not isinstance(err, readers.ReadError):
+            raise
+        print(f"error: {err}", file=sys.stderr, flush=True)
         _end_all_ranks(2)
         return 2
 

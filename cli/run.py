@@ -26,9 +26,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
                    help="override a scene field, e.g. --set mesh.n_inner=264 (repeatable)")
     p.add_argument("--force", action="store_true",
-                   help="replace an existing RUN DIRECTORY (one holding a stickslip "
-                        "summary.json; anything else is refused). The new run is built beside "
-                        "it and swapped in when it ends; if it fails, the old run is kept")
+                   help="replace an existing run directory that stickslip made (its "
+                        ".stickslip marker); a live run, a folder that is not stickslip's or "
+                        "one holding files stickslip did not write is refused. The new run is "
+                        "built beside it and swapped in when it ends; if it fails or is "
+                        "interrupted, the old run is kept")
     p.add_argument("--yes-i-know", dest="yes_i_know", action="store_true",
                    help="run even if the estimated memory or output exceeds what this "
                         "machine has (the estimate is printed before meshing)")

@@ -35,6 +35,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="run scenes that failed or diverged again")
     p.add_argument("--plot", action="store_true",
                    help="draw the regime map (after the sweep, or of an existing SWEEP_DIR)")
+    p.add_argument("--yes-i-know", dest="yes_i_know", action="store_true",
+                   help="run even if the pending scenes' estimated time exceeds two days, or a "
+                        "scene's memory or output exceeds what this machine has")
     p.add_argument("--list", action="store_true",
                    help="list the scenes and their state; run nothing")
     p.add_argument("--batch", default=None, metavar="off|auto|B",
@@ -130,7 +133,7 @@ def _sweep(args: argparse.Namespace) -> int:
         return rc
     rc = run_sweep(spec, out_dir, comm=comm, group_size=args.group_size,
                    retry_failed=args.retry_failed, progress=args.progress, batch=batch,
-                   backend=backend)
+                   backend=backend, check_cost=not args.yes_i_know)
     if args.plot and rc in (0, 1) and comm.rank == 0:
         for path in plot_sweep(out_dir):
             print(f"figure: {path}")

@@ -6,6 +6,7 @@ Heavy imports (dolfinx, matplotlib) stay inside the handler.
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 import time
 from pathlib import Path
@@ -85,6 +86,10 @@ def _err(msg: str) -> int:
     return 2
 
 
+#: Points of one ``--continue`` branch (each a Newton solve, about a second).
+CONTINUE_MAX = 2000
+
+
 def parse_continue(text: str) -> tuple[str, list[float]]:
     """``key=a:b:n`` -> (key, n values from a to b)."""
     import numpy as np
@@ -100,6 +105,11 @@ def parse_continue(text: str) -> tuple[str, list[float]]:
                          "integer N >= 2") from None
     if len(parts) != 3 or n < 2:
         raise ValueError(f"--continue {text!r}: N = {parts[-1]} must be an integer >= 2")
+    if n > CONTINUE_MAX:
+        raise ValueError(f"--continue {text!r}: N = {n} points, each a Newton solve; at most "
+                         f"{CONTINUE_MAX} (a branch needs a few tens)")
+    if not (math.isfinite(a) and math.isfinite(b)):
+        raise ValueError(f"--continue {text!r}: A and B must be finite numbers")
     return key.strip(), [float(v) for v in np.linspace(a, b, n)]
 
 
@@ -170,15 +180,19 @@ def _travel(args: argparse.Namespace) -> int:
         scene = load_scene(args.scene, args.overrides)
         cont = parse_continue(args.cont) if args.cont else None
         if cont:
-            scene.with_overrides(f"{cont[0]}={cont[1][0]}")  # validates the key early
+            for value in cont[1]:  # the key and every value of the branch, before solving
+                scene.with_overrides(f"{cont[0]}={value!r}")
     except (SceneError, FileNotFoundError, ValueError) as err:
         return _err(str(err))
     if args.damping is None:  # same physics as the transient: the scene's Kelvin-Voigt tau
         args.damping = float(scene.damping.tau)
     args.end = None
     if args.from_run:
+        from cli.checks import samples_problem
         from studies.travel.from_run import NotRigidWave, read_end_state
 
+        if problem := samples_problem(args.from_run):
+            return _err(f"--from: {problem}")
         try:
             args.end = read_end_state(Path(args.from_run))
         except NotRigidWave as err:

@@ -1,4 +1,4 @@
-"""What a scene will cost, estimated before anything is meshed (issue 12, item 10).
+"""What a scene will cost, estimated before anything is meshed.
 
 Dofs, steps, memory, output size and run time follow from the scene alone (no dolfinx):
 
@@ -9,13 +9,16 @@ Dofs, steps, memory, output size and run time follow from the scene alone (no do
   C = 2.8 measured (P1 triangles: 2.29 at N = 36, 2.67 at N = 132, 2.80 at N = 1056);
 * memory = 250 MB (Python, dolfinx, PETSc per rank) + 3 kB per dof (measured 2.4 kB: peak RSS
   222 MB at 1584 dofs, 439 MB at 90816 dofs) + the preallocated recorders (49 B per contact
-  node per sample, 40 B per probe per step);
+  node per sample; 180 B per probe per step at the peak: the history, its gather on rank 0
+  and the archive's copy, measured 583 MB for 500 probes over 6470 steps); the samples on
+  disk: 49 B per contact node per sample and 40 B per probe per step;
 * time = setup 48 s x (dofs / 90816)^1.5 (the SLEPc stability estimate dominates) + steps x
   (3e-4 s + 8e-8 s x dofs) on one rank (measured on this project's 2-core machine).
 
 The numbers are order-of-magnitude guards, not promises: a run is refused when the memory
-exceeds what the machine has available or the samples exceed the free disk, unless the user
-says ``--yes-i-know``.
+exceeds what the machine has available, the samples exceed the free disk, or the run time on
+the ranks given (perfect scaling assumed) exceeds ``MAX_SECONDS`` without a
+``time.max_wall_time`` that bounds it, unless the user says ``--yes-i-know``.
 """
 
 from __future__ import annotations
@@ -33,6 +36,9 @@ __all__ = ["Estimate", "ResourceError", "available_memory", "check_resources", "
 OMEGA_MAX_C = 2.8
 BASE_MEMORY = 250e6
 BYTES_PER_DOF = 3e3
+BYTES_PER_PROBE_STEP = 180.0  # peak memory of the probe histories (module docstring)
+#: Longest estimated run accepted without --yes-i-know or time.max_wall_time (two days).
+MAX_SECONDS = 2 * 86400.0
 
 
 class ResourceError(ValueError):
@@ -75,8 +81,10 @@ def estimate(scene: Scene, ranks: int = 1) -> Estimate:
     every = max(1, round(scene.output.sample_interval / dt))
     samples = steps // every + 2
     sample_bytes = samples * m.n_inner * 49.0
-    probe_bytes = (steps + 1) * (40.0 * len(scene.output.probes_deg) + 8.0)
-    memory = ranks * BASE_MEMORY + BYTES_PER_DOF * dofs + sample_bytes + probe_bytes
+    n_probes = len(scene.output.probes_deg)
+    probe_bytes = (steps + 1) * (40.0 * n_probes + 8.0)
+    probe_peak = (steps + 1) * (BYTES_PER_PROBE_STEP * n_probes + 8.0)
+    memory = ranks * BASE_MEMORY + BYTES_PER_DOF * dofs + sample_bytes + probe_peak
     seconds = 48.0 * (dofs / 90816.0) ** 1.5 + steps * (3e-4 + 8e-8 * dofs)
     return Estimate(dofs=dofs, steps=steps, samples=samples, memory_bytes=memory,
                     output_bytes=sample_bytes + probe_bytes, seconds=seconds)
@@ -95,7 +103,8 @@ def available_memory() -> float:
 
 
 def check_resources(scene: Scene, run_dir: Path, ranks: int = 1) -> Estimate:
-    """The estimate, or :class:`ResourceError` if it exceeds the memory or the disk."""
+    """The estimate, or :class:`ResourceError` if it exceeds the memory, the disk or the
+    time (``MAX_SECONDS``, where ``time.max_wall_time`` does not bound the run)."""
     est = estimate(scene, ranks)
     mem = available_memory()
     fix = ("reduce mesh.n_inner, time.end_time or raise output.sample_interval, or pass "
@@ -105,6 +114,12 @@ def check_resources(scene: Scene, run_dir: Path, ranks: int = 1) -> Estimate:
             f"scene '{scene.name}' needs about {_bytes(est.memory_bytes)} of memory "
             f"({est.dofs} dofs, {est.samples} samples, {est.steps} steps) but "
             f"{_bytes(mem)} is available: {fix}")
+    wall = est.seconds / max(1, ranks)
+    if wall > MAX_SECONDS and not scene.time.max_wall_time:
+        raise ResourceError(
+            f"scene '{scene.name}' would take about {_duration(wall)} on {ranks} rank(s) "
+            f"({est.dofs} dofs, {est.steps} steps): reduce mesh.n_inner or time.end_time, "
+            "bound it with time.max_wall_time, or pass --yes-i-know to run anyway")
     free = _free_disk(run_dir)
     if est.output_bytes > free:
         raise ResourceError(

@@ -1,4 +1,4 @@
-"""Fault injection for run directories (issue 12): a failing write (disk full) or a signal,
+"""Fault injection for run directories: a failing write (disk full) or a signal,
 at each phase of ``studies.rundir.run_scene``, and the invariant that must hold afterwards.
 
 Phases, in the order a run meets them::
@@ -40,7 +40,7 @@ def digest(run_dir: Path) -> str | None:
         return None
     h = hashlib.sha256()
     for f in sorted(run_dir.rglob("*")):
-        if f.is_file():
+        if f.is_file() and f.name != ".stickslip.lock":  # names the live holder, not data
             h.update(f.name.encode())
             h.update(f.read_bytes())
     return h.hexdigest()

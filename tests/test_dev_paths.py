@@ -1,4 +1,4 @@
-"""./dev shows the caller's paths inside the rootfs or refuses (issue 12, item 5).
+"""./dev shows every path a command writes inside the rootfs, or refuses it.
 
 ``./dev --mounts CMD...`` prints the host directories that CMD would get bind-mounted. A fake
 rootfs (a few directories and files under STICKSLIP_CACHE) stands in for the real one: the
@@ -107,3 +107,49 @@ def test_the_rootfs_path_execs_the_command():
     body = (REPO / "dev").read_text()
     run = body[body.index("run_in_rootfs() {"):body.index("main() {")]
     assert "exec unshare" in run and "exec chroot" in run
+
+
+def test_paths_with_whitespace_are_mounted(fake_cache, tmp_path):
+    """A -o path with whitespace outside /tmp and the repository got no bind mount."""
+    res = mounts(fake_cache, "stickslip", "run", "smoke", "-o", "/var/tmp/no such 12/x y")
+    assert res.returncode == 0 and res.stdout.split("\n")[:1] == ["/var/tmp"], res
+    res = mounts(fake_cache, "bash", "-c", "/bin/echo a b; ls /var/tmp")  # a snippet
+    assert res.returncode == 0 and res.stdout.strip() == "", res
+
+
+def test_the_rootfs_path_carries_submounts():
+    """Static check: /tmp and the repository are bound with their submounts (rbind)."""
+    body = (REPO / "dev").read_text()
+    run = body[body.index("run_in_rootfs() {"):body.index("main() {")]
+    assert 'mount --rbind /tmp "$root/tmp"' in run and 'mount --rbind "$repo"' in run
+    assert "mount --bind " not in run
+
+
+@pytest.mark.skipif(os.environ.get("STICKSLIP_DEV_ROOTFS") == "1" or os.geteuid() != 0
+                    or not (Path(os.environ.get("STICKSLIP_CACHE", "/var/cache/stickslip"))
+                            / "trixie" / "etc" / "stickslip-stamp").exists(),
+                    reason="needs the host side of ./dev (root, a built rootfs)")
+def test_writes_reach_a_tmpfs_under_tmp_and_a_path_with_spaces(tmp_path):
+    """On the host: a tmpfs mounted under /tmp, and a folder with spaces under /var/tmp,
+    both see what a command inside the rootfs writes there."""
+    import shutil
+    import tempfile
+
+    mnt = Path(tempfile.mkdtemp(prefix="devtmpfs-", dir="/tmp"))
+    spaced = Path(tempfile.mkdtemp(prefix="dev paths ", dir="/var/tmp"))
+    subprocess.run(["mount", "-t", "tmpfs", "none", str(mnt)], check=True)
+    try:
+        env = {k: v for k, v in os.environ.items() if k != "STICKSLIP_OUTPUT"}
+        env["STICKSLIP_FORCE_ROOTFS"] = "1"
+        for target in (mnt / "run1" / "f", spaced / "out dir" / "f"):
+            res = subprocess.run([str(REPO / "dev"), "python3", "-c",
+                                  "import sys, pathlib; p = pathlib.Path(sys.argv[1]); "
+                                  "p.parent.mkdir(parents=True); p.write_text('seen')",
+                                  str(target)], env=env, capture_output=True, text=True,
+                                 timeout=120)
+            assert res.returncode == 0, res.stderr
+            assert target.read_text() == "seen"
+    finally:
+        subprocess.run(["umount", str(mnt)], check=False)
+        shutil.rmtree(mnt, ignore_errors=True)
+        shutil.rmtree(spaced, ignore_errors=True)

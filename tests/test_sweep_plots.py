@@ -13,6 +13,7 @@ from pathlib import Path
 
 import pytest
 
+from studies.rundir.ownership import claim
 from studies.sweep import load_sweep, plot_sweep
 from studies.sweep.schedule import _Monitor
 from studies.sweep.table import write_table
@@ -37,7 +38,7 @@ def _sweep(tmp_path: Path, grid: str, summaries) -> tuple[object, Path]:
     out = tmp_path / "out"
     for task in spec.tasks:
         run = out / "runs" / task.id
-        run.mkdir(parents=True)
+        claim(run, "run").release()  # a run directory of stickslip's (its marker)
         (run / "summary.json").write_text(json.dumps(summaries(task)))
     write_table(out, spec)
     return spec, out

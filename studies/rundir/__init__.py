@@ -5,45 +5,41 @@
 the wave analysis of ``postprocess.analysis``). Only rank 0 writes files; every write is atomic
 (temporary file, then rename), so a run directory never holds a half-written file.
 
-``directory`` (refuse, replace, swap), ``signals`` (interrupts by phase), ``scene_run``
-(``run_scene``, the summary, the exit codes).
+``ownership`` (which directories stickslip may write or replace: every command),
+``readers`` (every file stickslip reads back, validated), ``directory`` (a run's directory),
+``signals`` (interrupts by phase), ``scene_run`` (``run_scene``, the summary, the exit codes).
+
+Names are imported on first use, so ``studies.rundir.ownership`` and ``readers`` stay light
+(no MPI, no dolfinx) for the commands that only read or check.
 """
 
-from solver.atomic import atomic_save_npz
-from studies.output import output_root, process_alive
-from studies.rundir.directory import (
-    RunDir,
-    RunDirError,
-    commit_run_dir,
-    discard_run_dir,
-    is_run_dir,
-    prepare_run_dir,
-)
-from studies.rundir.scene_run import (
-    EXIT_CODES,
-    _print_summary,
-    peak_rss_mb,
-    run_scene,
-    scene_warnings,
-    summarise,
-)
-from studies.rundir.signals import RunSignals
+from __future__ import annotations
 
-__all__ = [
-    "EXIT_CODES",
-    "RunDir",
-    "RunDirError",
-    "RunSignals",
-    "_print_summary",
-    "atomic_save_npz",
-    "commit_run_dir",
-    "discard_run_dir",
-    "is_run_dir",
-    "output_root",
-    "peak_rss_mb",
-    "prepare_run_dir",
-    "process_alive",
-    "run_scene",
-    "scene_warnings",
-    "summarise",
-]
+import importlib
+
+_WHERE = {
+    "atomic_save_npz": "solver.atomic",
+    "output_root": "studies.output",
+    "process_alive": "studies.output",
+    "RunDir": "studies.rundir.directory",
+    "RunDirError": "studies.rundir.directory",
+    "commit_run_dir": "studies.rundir.directory",
+    "discard_run_dir": "studies.rundir.directory",
+    "is_run_dir": "studies.rundir.directory",
+    "prepare_run_dir": "studies.rundir.directory",
+    "EXIT_CODES": "studies.rundir.scene_run",
+    "_print_summary": "studies.rundir.scene_run",
+    "peak_rss_mb": "studies.rundir.scene_run",
+    "run_scene": "studies.rundir.scene_run",
+    "scene_warnings": "studies.rundir.scene_run",
+    "summarise": "studies.rundir.scene_run",
+    "RunSignals": "studies.rundir.signals",
+}
+
+__all__ = sorted(_WHERE)
+
+
+def __getattr__(name: str):  # noqa: ANN202 - PEP 562 lazy attributes
+    if name in _WHERE:
+        return getattr(importlib.import_module(_WHERE[name]), name)
+    raise AttributeError(f"module 'studies.rundir' has no attribute {name!r}")

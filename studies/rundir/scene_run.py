@@ -73,118 +73,252 @@ def run_scene(scene: Scene, run_dir: Path, *, force: bool = False,
     the samples so far are saved), failed (an error, with its message). ``running`` is left
     only by a process that is really running (its ``pid`` and ``host`` are recorded) or was
     killed outright. With ``force`` an earlier run directory is replaced atomically, and kept
-    if the new run fails before its time loop (unless ``replace_on_failure``, for sweeps).
+    if the new run fails or is interrupted (unless ``replace_on_failure``, for sweeps).
     A signal that arrives while the files are written is honoured afterwards
     (KeyboardInterrupt on every rank). Resources are estimated before meshing and a scene
     beyond the machine is refused (:class:`studies.resources.ResourceError`) unless
-    ``check_resources`` is False.
+    ``check_resources`` is False. See :class:`RunDirectory`.
     """
-    from studies.resources import check_resources as _check
+    return RunDirectory(scene, run_dir, force=force, comm=comm, profile=profile,
+                        stream=stream, check_resources=check_resources,
+                        replace_on_failure=replace_on_failure).run()
 
-    prof = Profile()
-    rank0 = comm.rank == 0
-    stream = sys.stdout if stream is None else stream
 
-    def say(msg: str) -> None:
-        if rank0:
-            print(msg, file=stream, flush=True)
+class RunDirectory:
+    """One scene's run into its directory, from the claim to the final summary.
 
-    est = None
-    err, kind = None, None
-    if rank0:  # before anything is created: the place, then the resources
-        err, kind = _refusal(Path(run_dir), force), "dir"
-        if err is None and check_resources:
-            try:
-                est = _check(scene, run_dir, comm.size)
-            except ValueError as e:
-                err, kind = str(e), "resources"
-    err, kind = comm.bcast((err, kind), root=0)
-    if err:
+    :meth:`run` checks the place and the resources, claims the directory
+    (:func:`studies.rundir.directory.prepare_run_dir`), writes ``scene.toml`` and a
+    ``running`` summary, runs the :class:`solver.run.Simulation` under :class:`RunSignals`,
+    and saves (:func:`_save`). The other methods are the ways a run can end without the
+    normal save: :meth:`mark` (an error on one rank), :meth:`hard_stop` (a signal not
+    acknowledged in compiled code), :meth:`rescue` (the forked writer under mpirun) and
+    :meth:`tidy` (the process killed outright, seen by the watchdog).
+    """
+
+    def __init__(self, scene: Scene, run_dir: Path, *, force: bool = False,
+                 comm: MPI.Comm = MPI.COMM_WORLD, profile: bool = False, stream=None,
+                 check_resources: bool = True, replace_on_failure: bool = False) -> None:
+        self.scene, self.run_dir, self.force, self.comm = scene, Path(run_dir), force, comm
+        self.profile, self.check_resources = profile, check_resources
+        self.replace_on_failure = replace_on_failure
+        self.stream = sys.stdout if stream is None else stream
+        self.rank0 = comm.rank == 0
+        self.prof = Profile()
+        self.rd: RunDir | None = None
+        self.t0 = time.perf_counter()
+        self.started = {"scene": scene.name, "status": "running", "pid": os.getpid(),
+                        "host": socket.gethostname(),
+                        "started": time.strftime("%Y-%m-%dT%H:%M:%S%z")}
+        self.phase = "setup"
+        self.sim: Simulation | None = None
+        self.status, self.error = "failed", None
+        self.ended = False  # the outcome (status, error) is known
+
+    def say(self, msg: str) -> None:
+        if self.rank0:
+            print(msg, file=self.stream, flush=True)
+
+    # ------------------------------------------------------------------ the normal path
+
+    def run(self) -> dict:
+        """Claim, run, save; the summary (rank 0; ``{}`` elsewhere)."""
+        est = self._check_first()
+        self.rd = prepare_run_dir(self.run_dir, self.force, self.comm)
+        self.t0 = time.perf_counter()
+        comm = self.comm
+        try:
+            with RunSignals(self.hard_stop, rescue=self.rescue if self.rank0 and comm.size > 1
+                            else None, on_death=self.tidy) as signals:
+                self._execute(signals, est)
+                if self.sim is not None:
+                    self.sim.status = self.status
+                summary = _save(self.sim, self.rd, self.scene, self.status, self.error,
+                                self.prof, self.t0, comm, signals,
+                                keep_previous=(self.status in ("failed", "interrupted")
+                                               or self.sim is None)
+                                and not self.replace_on_failure)
+                signals.mode = "done"
+                deferred = signals.requested if self.status != "interrupted" else 0
+        finally:
+            self.rd.release()  # the directory is no longer live
+        if self.rank0:
+            summary["profile_s"] = {k: round(v, 4) for k, v in self.prof.seconds.items()}
+            _print_summary(summary, self.run_dir, self.stream, self.profile)
+        if comm.allreduce(deferred, op=MPI.MAX):
+            self.say(f"{_signame(deferred)} received while the files were written: they are "
+                     "complete; stopping now")
+            raise KeyboardInterrupt
+        return summary
+
+    def _check_first(self):  # noqa: ANN202 - an Estimate or None
+        """The place, then the resources, before anything is created (collective)."""
         from studies.resources import ResourceError
+        from studies.resources import check_resources as _check
 
-        raise (RunDirError if kind == "dir" else ResourceError)(err)
-    rd = prepare_run_dir(run_dir, force, comm)
-    work = rd.work
-    t0 = time.perf_counter()
-    started = {"scene": scene.name, "status": "running", "pid": os.getpid(),
-               "host": socket.gethostname(), "started": time.strftime("%Y-%m-%dT%H:%M:%S%z")}
-    phase = ["setup"]
+        est = None
+        err, kind = None, None
+        if self.rank0:
+            err, kind = _refusal(self.run_dir, self.force), "dir"
+            if err is None and self.check_resources:
+                try:
+                    est = _check(self.scene, self.run_dir, self.comm.size)
+                except ValueError as e:
+                    err, kind = str(e), "resources"
+        err, kind = self.comm.bcast((err, kind), root=0)
+        if err:
+            raise (RunDirError if kind == "dir" else ResourceError)(err)
+        return est
 
-    def mark(status: str, message: str) -> None:
+    def _execute(self, signals: RunSignals, est) -> None:  # noqa: ANN001
+        """Set up and run the simulation; the outcome goes to ``status`` and ``error``."""
+        comm = self.comm
+        try:
+            signals.start()
+            self.first_files()
+            self._simulate(signals, est)
+        except KeyboardInterrupt:
+            self.status = "interrupted"
+            self.error = f"interrupted by {_signame(signals.requested)} during {self.phase}"
+        except RunDirError:
+            signals.mode = "done"
+            raise
+        except Diverged as err:
+            self.status, self.error = "diverged", str(err)
+        except StepTooLarge as err:  # same on every rank (omega_max is reduced): collective
+            self.status, self.error = "failed", f"{type(err).__name__}: {err}"
+        except Exception as err:  # noqa: BLE001 - recorded; under MPI every rank must end
+            self.status, self.error = "failed", f"{type(err).__name__}: {err}"
+            if comm.size > 1:
+                signals.mode = "done"
+                print(f"error (rank {comm.rank}): {self.error}", file=sys.stderr, flush=True)
+                self.mark("failed", f"rank {comm.rank}: {self.error}")
+                comm.Abort(EXIT_CODES["failed"])
+        finally:
+            self.ended = True
+            if signals.mode != "done":
+                signals.mode = "defer"
+                self.phase = "the final save"
+
+    def _simulate(self, signals: RunSignals, est) -> None:  # noqa: ANN001
+        """Build the :class:`Simulation`, say what it is, and let it proceed."""
+        scene, comm = self.scene, self.comm
+        self.say(f"stickslip {__version__}: scene '{scene.name}' on {comm.size} rank(s)")
+        if est is not None:
+            self.say(f"  {est.line()}")
+        for warning in scene_warnings(scene):
+            self.say(f"  warning: {warning}")
+        sim = self.sim = Simulation(scene, comm, self.prof, output_dir=self.rd.work)
+        if sim.dt > scene.time.end_time:  # same on every rank: collective
+            raise StepTooLarge(
+                f"time.end_time = {scene.time.end_time:g} s is shorter than one time step "
+                f"(dt = {sim.dt:.4g} s): the run would end before its first sample; raise "
+                "time.end_time or lower time.dt")
+        self.say(f"  {sim.problem.n_global_dofs} dofs, {sim.recorder.n_nodes} contact nodes, "
+                 f"dt = {sim.dt:.4g} s ({sim.dt / sim.dt_crit:.2f} dt_crit), "
+                 f"{sim.planned_steps()} steps to t = {scene.time.end_time} s")
+        self.phase = "the time loop"
+        signals.sim, signals.mode = sim, "flag"
+        if signals.requested:  # a signal between the last check and now
+            sim.stop_requested = True
+        reason = sim.proceed()
+        self.status = {"signal": "interrupted", "max_wall_time": "stopped"}.get(reason,
+                                                                                "completed")
+        if reason == "signal":
+            self.error = f"interrupted by {_signame(signals.requested)}"
+        elif reason == "max_wall_time":
+            self.error = (f"stopped by time.max_wall_time = {scene.time.max_wall_time} s at "
+                          f"t = {sim.integrator.time:.6g} s of {scene.time.end_time} s")
+
+    def first_files(self) -> None:
+        """scene.toml and the ``running`` summary; a write error leaves nothing half-made."""
+        problem = None
+        rd = self.rd
+        if self.rank0:
+            try:
+                write_scene(self.scene, rd.work / "scene.toml")
+                atomic_write_text(rd.work / "summary.json", json.dumps(self.started, indent=2))
+            except OSError as err:
+                problem = (f"cannot write in {self.run_dir}: {err.strerror or err}; choose "
+                           "another -o")
+                if rd.replacing:
+                    discard_run_dir(rd)
+                else:  # our two files, and the folder if we made it
+                    for name in ("scene.toml", "summary.json"):
+                        (rd.work / name).unlink(missing_ok=True)
+                    if rd.created:
+                        shutil.rmtree(rd.work, ignore_errors=True)
+        problem = self.comm.bcast(problem, root=0)
+        if problem:
+            raise RunDirError(problem)
+
+    # ------------------------------------------------------------------ abnormal ends
+
+    def mark(self, status: str, message: str) -> None:
         """The run ended without the normal save (rank-local; a last resort). A final status
         already on disk (another rank's ``failed``) is the first truth: it stays."""
-        if _disk_status(work) not in (None, "running"):
+        rd = self.rd
+        if _disk_status(rd.work) not in (None, "running"):
             return
-        if rd.replacing and not replace_on_failure:
+        if rd.replacing and not self.replace_on_failure:
             discard_run_dir(rd)
             return
-        summary = dict(started, status=status, message=message,
-                       wall_time_s=time.perf_counter() - t0)
+        summary = dict(self.started, status=status, message=message,
+                       wall_time_s=time.perf_counter() - self.t0)
         summary.pop("pid", None)
         try:
-            atomic_write_text(work / "summary.json", json.dumps(summary, indent=2))
+            atomic_write_text(rd.work / "summary.json", json.dumps(summary, indent=2))
             if rd.replacing:
                 commit_run_dir(rd)
         except OSError:
             pass
 
-    def hard_stop(signum: int, where: str) -> None:
-        name = _signame(signum)
-        msg = f"{name} while in {where} (busy in compiled code: stopped without saving)"
+    def hard_stop(self, signum: int, where: str) -> None:
+        """The watchdog's last word before SIGKILL: a signal not acknowledged in time."""
+        msg = (f"{_signame(signum)} while in {where} (busy in compiled code: stopped without "
+               "saving)")
         print(f"stickslip: {msg}", file=sys.stderr, flush=True)
-        if rank0:
-            mark("interrupted", msg)
+        if self.rank0:
+            self.mark("interrupted", msg)
 
-    state: dict = {"sim": None, "status": None, "error": None}
-
-    def rescue() -> None:
+    def rescue(self) -> None:
         """The forked rescue writer (rank 0 under mpirun): save what rank 0 holds, now."""
-        sim_ = state["sim"]
-        status_ = state["status"] or "interrupted"
-        msg = state["error"] or f"interrupted during {phase[0]}"
-        out = sim_.facts() if sim_ is not None else dict(started)
+        rd = self.rd
+        sim = self.sim if self.phase != "setup" else None  # the time loop has started
+        status = self.status if self.ended else "interrupted"
+        msg = (self.error if self.ended else None) or f"interrupted during {self.phase}"
+        out = sim.facts() if sim is not None else dict(self.started)
         out.pop("pid", None)
-        out.update(status=status_, message=msg + " (saved by the rescue writer: no probes, "
-                   "no final field)", wall_time_s=time.perf_counter() - t0)
+        out.update(status=status, wall_time_s=time.perf_counter() - self.t0,
+                   message=msg + " (saved by the rescue writer: no probes, no final field)")
         if _disk_status(rd.work) not in (None, "running"):
             return  # another rank marked the run (failed) before mpirun's signal came
-        if sim_ is None and rd.replacing:
-            discard_run_dir(rd)
+        if rd.replacing and (sim is None or not self.replace_on_failure):
+            discard_run_dir(rd)  # an interrupted rerun keeps the earlier run
             return
-        if sim_ is not None:
-            atomic_save_npz(rd.work / "samples.npz", sim_.recorder.arrays(), compress=False)
+        if sim is not None:
+            atomic_save_npz(rd.work / "samples.npz", sim.recorder.arrays(), compress=False)
         atomic_write_text(rd.work / "summary.json", json.dumps(out, indent=2))
         commit_run_dir(rd)
 
-    def first_files() -> None:
-        """scene.toml and the ``running`` summary; a write error leaves nothing half-made."""
-        problem = None
-        if rank0:
-            try:
-                write_scene(scene, work / "scene.toml")
-                atomic_write_text(work / "summary.json", json.dumps(started, indent=2))
-            except OSError as err:
-                problem = f"cannot write in {run_dir}: {err.strerror or err}; choose another -o"
-                if rd.replacing:
-                    discard_run_dir(rd)
-                else:  # our two files, and the folder if we made it
-                    for name in ("scene.toml", "summary.json"):
-                        (work / name).unlink(missing_ok=True)
-                    if rd.created:
-                        shutil.rmtree(work, ignore_errors=True)
-        problem = comm.bcast(problem, root=0)
-        if problem:
-            raise RunDirError(problem)
-
-    def tidy(pid: int, rescued: bool, where: str) -> None:
+    def tidy(self, pid: int, rescued: bool, where: str, signum: int = 0) -> None:
         """The run's process died outright (SIGKILL, out of memory; in the watchdog): remove
-        its temporary files and, on rank 0, turn a ``running`` summary into ``failed`` (or
-        drop an unfinished replacement). The rescue writer, if any, owns the status."""
+        its temporary files and, on rank 0, turn a ``running`` summary into ``crashed``, or
+        ``interrupted`` if a SIGINT/SIGTERM came first (mpirun's SIGKILL follows its SIGTERM
+        within a second), or drop an unfinished replacement. Neither status is final: a
+        resumed sweep runs the scene again. The rescue writer, if any, owns the status."""
         from solver.atomic import remove_temporaries
 
+        rd = self.rd
+        status, message = "crashed", (f"the process was killed outright (SIGKILL: out of "
+                                      f"memory, or mpirun/batch system) during {where}")
+        if signum:
+            status, message = "interrupted", (
+                f"{_signame(signum)} during {where}, then the process was killed (mpirun's "
+                "SIGKILL) before it could save: nothing of this run was kept")
         for folder in {rd.work, rd.final}:
             remove_temporaries(folder, pid)
-        if not rank0 or rescued:
+        if not self.rank0 or rescued:
             return
         for folder in {rd.work, rd.final}:
             if _disk_status(folder) != "running":
@@ -193,77 +327,8 @@ def run_scene(scene: Scene, run_dir: Path, *, force: bool = False,
                 discard_run_dir(rd)
             else:
                 atomic_write_text(folder / "summary.json", json.dumps(dict(
-                    started, status="failed", message=f"the process was killed outright "
-                    f"(SIGKILL: out of memory, or mpirun/batch system) during {where}",
-                    wall_time_s=time.perf_counter() - t0), indent=2))
-
-    sim = None
-    error = None
-    status = "failed"
-    with RunSignals(hard_stop, rescue=rescue if rank0 and comm.size > 1 else None,
-                    on_death=tidy) as signals:
-        try:
-            signals.start()
-            first_files()
-            say(f"stickslip {__version__}: scene '{scene.name}' on {comm.size} rank(s)")
-            if est is not None:
-                say(f"  {est.line()}")
-            for warning in scene_warnings(scene):
-                say(f"  warning: {warning}")
-            sim = Simulation(scene, comm, prof, output_dir=work)
-            say(f"  {sim.problem.n_global_dofs} dofs, {sim.recorder.n_nodes} contact nodes, "
-                f"dt = {sim.dt:.4g} s ({sim.dt / sim.dt_crit:.2f} dt_crit), "
-                f"{sim.planned_steps()} steps to t = {scene.time.end_time} s")
-            phase[0] = "the time loop"
-            state["sim"] = sim
-            signals.sim, signals.mode = sim, "flag"
-            if signals.requested:  # a signal between the last check and now
-                sim.stop_requested = True
-            reason = sim.proceed()
-            status = {"signal": "interrupted", "max_wall_time": "stopped"}.get(reason,
-                                                                              "completed")
-            if reason == "signal":
-                error = f"interrupted by {_signame(signals.requested)}"
-            elif reason == "max_wall_time":
-                error = (f"stopped by time.max_wall_time = {scene.time.max_wall_time} s at "
-                         f"t = {sim.integrator.time:.6g} s of {scene.time.end_time} s")
-        except KeyboardInterrupt:
-            status = "interrupted"
-            error = f"interrupted by {_signame(signals.requested)} during {phase[0]}"
-        except RunDirError:
-            signals.mode = "done"
-            raise
-        except Diverged as err:
-            status, error = "diverged", str(err)
-        except StepTooLarge as err:  # same on every rank (omega_max is reduced): collective
-            status, error = "failed", f"{type(err).__name__}: {err}"
-        except Exception as err:  # noqa: BLE001 - recorded; under MPI every rank must end
-            status, error = "failed", f"{type(err).__name__}: {err}"
-            if comm.size > 1:
-                signals.mode = "done"
-                print(f"error (rank {comm.rank}): {error}", file=sys.stderr, flush=True)
-                mark("failed", f"rank {comm.rank}: {error}")
-                comm.Abort(EXIT_CODES["failed"])
-        finally:
-            state["status"], state["error"] = status, error
-            if signals.mode != "done":
-                signals.mode = "defer"
-                phase[0] = "the final save"
-        if sim is not None:
-            sim.status = status
-        summary = _save(sim, rd, scene, status, error, prof, t0, comm, signals,
-                        keep_previous=(status == "failed" or sim is None)
-                        and not replace_on_failure)
-        signals.mode = "done"
-        deferred = signals.requested if status != "interrupted" else 0
-    if rank0:
-        summary["profile_s"] = {k: round(v, 4) for k, v in prof.seconds.items()}
-        _print_summary(summary, run_dir, stream, profile)
-    if comm.allreduce(deferred, op=MPI.MAX):
-        say(f"{_signame(deferred)} received while the files were written: they are "
-            "complete; stopping now")
-        raise KeyboardInterrupt
-    return summary
+                    self.started, status=status, message=message,
+                    wall_time_s=time.perf_counter() - self.t0), indent=2))
 
 
 def _save(sim: Simulation | None, rd: RunDir, scene: Scene, status: str, error: str | None,
@@ -290,30 +355,25 @@ def _save(sim: Simulation | None, rd: RunDir, scene: Scene, status: str, error: 
         if not rank0:
             return {}
         signals.wait_rescue()
+        summary = sim.facts() if sim is not None else {"scene": scene.name, "status": status}
+        if keep_previous and rd.replacing:
+            discard_run_dir(rd)
+            summary.update(status=status, message=f"{error or status}; the earlier run in "
+                           f"{rd.final} is kept unchanged")
+            return _finish(summary, t0, None, prof)
         if rd.replacing and not rd.work.exists():  # the rescue writer swapped it in
             rd.work = rd.final
         work = rd.work
         if status in ("interrupted", "failed") and _disk_status(work) == "failed":
             # another rank failed and marked the run before mpirun's signal reached us
             return json.loads((work / "summary.json").read_text())
-        summary = sim.facts() if sim is not None else {"scene": scene.name, "status": status}
         if sim is not None:  # until the second write below: a kill in between is visible
             summary["analysis"] = "pending"
 
         def finish(s: dict) -> dict:
-            s["wall_time_s"] = time.perf_counter() - t0
-            if error:
-                s["message"] = error
-            s["peak_rss_mb"] = peak_rss_mb()
-            s["profile_s"] = {k: round(v, 4) for k, v in prof.seconds.items()}
-            return s
+            return _finish(s, t0, error, prof)
 
         finish(summary)
-        if keep_previous and rd.replacing:
-            discard_run_dir(rd)
-            summary["message"] = (summary.get("message", status) + f"; the earlier run in "
-                                  f"{rd.final} is kept unchanged")
-            return summary
         try:
             if sim is not None:
                 arrays = sim.recorder.arrays()
@@ -345,6 +405,16 @@ def _save(sim: Simulation | None, rd: RunDir, scene: Scene, status: str, error: 
                 summary["message"] = (f"{summary.get('message', '')}; " if summary.get(
                     "message") else "") + f"could not add the wave analysis to summary.json: {err}"
     return summary
+
+
+def _finish(s: dict, t0: float, error: str | None, prof: Profile) -> dict:
+    """Add the wall time, the message, the peak memory and the profile to summary ``s``."""
+    s["wall_time_s"] = time.perf_counter() - t0
+    if error:
+        s["message"] = error
+    s["peak_rss_mb"] = peak_rss_mb()
+    s["profile_s"] = {k: round(v, 4) for k, v in prof.seconds.items()}
+    return s
 
 
 def peak_rss_mb() -> float:

@@ -1,5 +1,5 @@
 """SIGINT/SIGTERM during a run, by phase, with a watchdog for compiled-code hangs and a
-rescue writer under mpirun (issue 12)."""
+rescue writer under mpirun."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ from studies.output import output_root, process_alive  # noqa: F401  (re-exporte
 
 
 class RunSignals:
-    """SIGINT/SIGTERM during a run, by phase (issue 12).
+    """SIGINT/SIGTERM during a run, by phase.
 
     * ``raise`` (setup: meshing, assembly, steady state): KeyboardInterrupt at once;
     * ``flag`` (time loop): ``sim.stop_requested``; every rank stops at the same sample
@@ -82,8 +82,9 @@ class RunSignals:
             os.set_blocking(sig_w, False)
             os.set_blocking(ack_w, False)
             parent = os.getpid()
-            pid = _fork(lambda: self._watch(sig_r, ack_r, parent), new_session=False,
-                        close=(sig_w, ack_w))
+            # in a session of its own: mpirun's SIGKILL of the rank's process group must not
+            # take the watchdog too, or a killed run would stay `running`
+            pid = _fork(lambda: self._watch(sig_r, ack_r, parent), close=(sig_w, ack_w))
             os.close(sig_r)
             os.close(ack_r)
             self.watchdog, self.sig_w, self.ack_w = pid, sig_w, ack_w
@@ -141,7 +142,8 @@ class RunSignals:
         """The watchdog process: signals in, acknowledgements in; hard stop if none comes.
 
         Ends when the acknowledgement pipe closes: after b"x" the run ended cleanly; without
-        it the process was killed outright and ``on_death(parent, rescued, phase)`` tidies.
+        it the process was killed outright and ``on_death(parent, rescued, phase, signum)``
+        tidies (``signum``: the last SIGINT/SIGTERM received before the death, or 0).
         """
         import select
 
@@ -172,7 +174,7 @@ class RunSignals:
                 data = os.read(ack_r, 64)
                 if not data:
                     if not clean and self.on_death is not None:
-                        self.on_death(parent, rescued, phase)
+                        self.on_death(parent, rescued, phase, last)
                     return
                 clean = clean or b"x" in data
                 rescued = rescued or b"r" in data

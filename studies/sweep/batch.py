@@ -139,11 +139,18 @@ def run_batch(spec: SweepSpec, tasks: list[Task], out_dir: Path, world_rank: int
     from studies.rundir import prepare_run_dir
 
     t0 = time.perf_counter()
+    mine = _claimable(tasks, out_dir, stream)
+    if len(mine) < len(tasks):  # a user's folder under runs/ is never written: run the rest
+        statuses = dict.fromkeys((t.id for t in tasks), "failed")
+        if mine:
+            done = run_batch(spec, mine, out_dir, world_rank, backend, stream)
+            statuses.update(zip((t.id for t in mine), done, strict=True))
+        return [statuses[t.id] for t in tasks]
     scenes = [scene_for(spec, t) for t in tasks]
     run_dirs = [out_dir / "runs" / t.id for t in tasks]
     logs = []
     for t, sc, rd in zip(tasks, scenes, run_dirs, strict=True):
-        prepare_run_dir(rd, True, MPI.COMM_SELF)
+        prepare_run_dir(rd, True, MPI.COMM_SELF, in_place=True).release()
         write_scene(sc, rd / "scene.toml")
         atomic_write_text(rd / "summary.json",
                           json.dumps({"scene": sc.name, "status": "running"}, indent=2))
@@ -179,6 +186,22 @@ def run_batch(spec: SweepSpec, tasks: list[Task], out_dir: Path, world_rank: int
     if interrupted:
         raise KeyboardInterrupt
     return files.statuses
+
+
+def _claimable(tasks: list[Task], out_dir: Path, stream: TextIO | None) -> list[Task]:
+    """The tasks whose ``runs/ID`` is stickslip's or new; the others (a user's folder) are
+    named on ``stream`` and left alone (the sweep table shows them as foreign)."""
+    from studies.rundir.ownership import refusal
+
+    out = []
+    for t in tasks:
+        why = refusal(out_dir / "runs" / t.id, "run", force=True)
+        if why is not None:
+            if stream is not None:
+                print(f"  {t.id}: not run: {why}", file=stream, flush=True)
+            continue
+        out.append(t)
+    return out
 
 
 def _build_batch(scenes, backend, out_dir, profile, files):

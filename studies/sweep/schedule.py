@@ -10,8 +10,9 @@ Resume and faults: a scene whose ``summary.json`` holds a final status (complete
 failed) for the same resolved scene is skipped; ``running``/``interrupted`` ones (killed in
 flight) run again. An exception inside a scene is recorded as status ``failed`` with its
 message and the sweep goes on. Rank 0 rebuilds the table ``SWEEP_DIR/sweep.{csv,json}``
-(atomically) from the summaries whenever a scene finishes, so a killed sweep loses at most
-the scenes in flight.
+(atomically) from the summaries whenever a scene finishes (a sweep of more than
+``TABLE_SMALL`` scenes at most every ``TABLE_PERIOD`` s), so a killed sweep's table lags by
+at most the scenes in flight (or that period); a resume rebuilds it from the summaries.
 """
 
 from __future__ import annotations
@@ -19,6 +20,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import shutil
 import sys
 import threading
 import time
@@ -33,6 +35,7 @@ from solver.scene import (
     write_scene,
 )
 from studies.output import process_alive
+from studies.rundir.ownership import user_entries
 from studies.sweep.spec import FINAL_STATUSES, SweepError, SweepSpec, Task, _cost, scene_for
 from studies.sweep.table import _read_json, task_state, write_table
 
@@ -49,6 +52,10 @@ def _fmt_duration(seconds: float) -> str:
     h, rem = divmod(seconds, 3600)
     m, s = divmod(rem, 60)
     return f"{h}h{m:02d}m" if h else (f"{m}m{s:02d}s" if m else f"{s}s")
+
+
+TABLE_SMALL = 1000  # scenes: up to this many, the table is rewritten at every finished one
+TABLE_PERIOD = 30.0  # s between rewrites of a larger table
 
 
 class _Monitor(threading.Thread):
@@ -75,6 +82,7 @@ class _Monitor(threading.Thread):
         self.cache: dict[str, tuple[float, dict | None]] = {}
         self.lock = threading.Lock()
         self._line_len = 0
+        self.table_written, self.table_dirty = 0.0, False
 
     def run(self) -> None:
         while not self.stop_event.wait(self.interval):
@@ -118,10 +126,19 @@ class _Monitor(threading.Thread):
                 self.finished[task.id] = s.get("status", "")
                 self.failed += s.get("status") in ("failed", "diverged")
                 self._say(self._scene_line(task, s))
-            if new:
+            self.table_dirty = self.table_dirty or bool(new)
+            if self.table_dirty and self._table_due():
                 write_table(self.out_dir, self.spec, cache=self.cache)
+                self.table_written, self.table_dirty = time.time(), False
             if self.live:
                 self._redraw()
+
+    def _table_due(self) -> bool:
+        """Rewrite the table at every finished scene while it is small; a large one (each
+        rewrite reads every summary and writes every row) at most every ``TABLE_PERIOD`` s.
+        The final table is always written (:func:`run_sweep`), and a resume rebuilds it."""
+        return (self.total <= TABLE_SMALL or self.stop_event.is_set()
+                or time.time() - self.table_written >= TABLE_PERIOD)
 
     def counts(self) -> tuple[int, int, int, float]:
         done = sum(1 for st in self.finished.values() if st != "interrupted")
@@ -209,7 +226,7 @@ class _Counter:
 
 
 def _run_one(spec: SweepSpec, task: Task, out_dir: Path, group: MPI.Comm,
-             world_rank: int) -> str:
+             world_rank: int, check_cost: bool = True) -> str:
     """Run one scene on ``group``; exceptions become status ``failed``. Returns the status."""
     from studies.rundir import run_scene
 
@@ -225,7 +242,7 @@ def _run_one(spec: SweepSpec, task: Task, out_dir: Path, group: MPI.Comm,
             log.flush()
         try:
             summary = run_scene(scene_for(spec, task), run_dir, force=True, comm=group,
-                                replace_on_failure=True,
+                                replace_on_failure=True, check_resources=check_cost,
                                 stream=log if log is not None else sys.stdout)
             status = str(summary.get("status", "failed")) if leader else "?"
         except KeyboardInterrupt:
@@ -236,15 +253,8 @@ def _run_one(spec: SweepSpec, task: Task, out_dir: Path, group: MPI.Comm,
                 tb = traceback.format_exc()
                 assert log is not None
                 log.write(tb)
-                run_dir.mkdir(parents=True, exist_ok=True)
-                if not (run_dir / "scene.toml").exists():  # resume compares against it
-                    write_scene(scene_for(spec, task), run_dir / "scene.toml")
-                prev = _read_json(run_dir / "summary.json") or {}
-                prev.update({"scene": f"{spec.name}.{task.id}", "status": "failed",
-                             "message": f"{type(err).__name__}: {err}",
-                             "traceback": tb.splitlines()[-6:],
-                             "wall_time_s": time.perf_counter() - t0, "ranks": group.size})
-                atomic_write_text(run_dir / "summary.json", json.dumps(prev, indent=2))
+                _record_failure(spec, task, run_dir, err, tb,
+                                time.perf_counter() - t0, group.size)
         if group.size > 1:
             status = group.bcast(status, root=0)
     finally:
@@ -252,6 +262,29 @@ def _run_one(spec: SweepSpec, task: Task, out_dir: Path, group: MPI.Comm,
             log.write(f"== end {status}\n")
             log.close()
     return status
+
+
+def _record_failure(spec: SweepSpec, task: Task, run_dir: Path, err: Exception, tb: str,
+                    wall: float, ranks: int) -> None:
+    """Write a ``failed`` summary for a scene whose run raised, into its run directory only if
+    that is stickslip's (or new): a user's folder under ``runs/`` is never written (the
+    table shows it as ``foreign``; the log has the error)."""
+    from studies.rundir.ownership import OwnershipError, claim, owned
+
+    if isinstance(err, OwnershipError):
+        return
+    if not owned(run_dir, "run"):
+        try:
+            claim(run_dir, "run", force=True, in_place=True).release()
+        except OwnershipError:
+            return
+    if not (run_dir / "scene.toml").exists():  # resume compares against it
+        write_scene(scene_for(spec, task), run_dir / "scene.toml")
+    prev = _read_json(run_dir / "summary.json") or {}
+    prev.update({"scene": f"{spec.name}.{task.id}", "status": "failed",
+                 "message": f"{type(err).__name__}: {err}", "traceback": tb.splitlines()[-6:],
+                 "wall_time_s": wall, "ranks": ranks})
+    atomic_write_text(run_dir / "summary.json", json.dumps(prev, indent=2))
 
 
 _PETSC_WORLD: list = []  # the group communicator PETSc was initialised on (kept alive)
@@ -277,13 +310,15 @@ def _init_petsc(group: MPI.Comm) -> None:
     from slepc4py import SLEPc  # noqa: F401
 
 
-def _prepare(out_dir: Path, spec: SweepSpec, retry_failed: bool) -> tuple[list[Task], int]:
-    """Rank 0: create the sweep directory, classify the scenes, write the initial table."""
-    (out_dir / "runs").mkdir(parents=True, exist_ok=True)
-    (out_dir / "logs").mkdir(exist_ok=True)
-    atomic_write_text(out_dir / "sweep.toml", spec.path.read_text())
+def _classify(out_dir: Path, spec: SweepSpec, retry_failed: bool
+              ) -> tuple[list[Task], int, float]:
+    """Rank 0, writing nothing: the pending scenes (largest first), the number already done,
+    and the estimated one-rank seconds of the pending ones (``studies.resources``)."""
+    from studies.resources import estimate
+
     pending: list[tuple[float, int, Task]] = []
     n_done = 0
+    seconds = 0.0
     for i, task in enumerate(spec.tasks):
         scene = scene_for(spec, task)
         state = task_state(out_dir, spec, task, scene)
@@ -292,30 +327,49 @@ def _prepare(out_dir: Path, spec: SweepSpec, retry_failed: bool) -> tuple[list[T
             n_done += 1
         else:
             pending.append((-_cost(scene), i, task))
+            seconds += estimate(scene, spec.group_size).seconds
     pending.sort(key=lambda x: (x[0], x[1]))
+    return [t for _, _, t in pending], n_done, seconds
+
+
+def _cost_problem(spec: SweepSpec, n_pending: int, seconds: float, n_groups: int,
+                  group_size: int) -> str | None:
+    """Why the pending scenes are too long to start without ``--yes-i-know``, or None."""
+    from studies.resources import MAX_SECONDS, _duration
+
+    wall = seconds / max(1, n_groups * group_size)
+    if wall <= MAX_SECONDS:
+        return None
+    return (f"sweep {spec.name}: {n_pending} pending scenes would take about "
+            f"{_duration(wall)} on {n_groups} group(s) of {group_size} rank(s) (estimate); "
+            "use fewer points or a shorter time.end_time, more ranks, or pass --yes-i-know")
+
+
+def _prepare(out_dir: Path, spec: SweepSpec) -> None:
+    """Rank 0: the sweep directory's folders, its copy of the sweep file, the initial table."""
+    (out_dir / "runs").mkdir(parents=True, exist_ok=True)
+    (out_dir / "logs").mkdir(exist_ok=True)
+    atomic_write_text(out_dir / "sweep.toml", spec.path.read_text())
     write_table(out_dir, spec)
-    return [t for _, _, t in pending], n_done
 
 
 def _lock(out_dir: Path):  # noqa: ANN202
-    """Exclusive lock on the sweep directory (a second sweep on it refuses to start)."""
-    import fcntl
+    """Claim the sweep directory (``studies.rundir.ownership``, kind ``sweep``): a new one,
+    or a sweep directory to resume; a live one (another sweep), a user's folder or another
+    kind of directory is refused in one line."""
+    from studies.rundir.ownership import OwnershipError, claim
 
-    fh = open(out_dir / ".lock", "w")  # noqa: SIM115
     try:
-        fcntl.flock(fh, fcntl.LOCK_EX | fcntl.LOCK_NB)
-    except OSError:
-        fh.close()
-        raise SweepError(f"another sweep is running in {out_dir} (lock {out_dir / '.lock'})"
-                         ) from None
-    return fh
+        return claim(out_dir, "sweep", reuse=True)
+    except OwnershipError as err:
+        raise SweepError(str(err)) from None
 
 
 def _run_unit(spec: SweepSpec, unit: list[Task], out_dir: Path, group: MPI.Comm,
-              world_rank: int, backend: str) -> str:
+              world_rank: int, backend: str, check_cost: bool = True) -> str:
     """One work unit: a single scene (``_run_one``) or a batch (``studies.sweep.batch``)."""
     if len(unit) == 1:
-        return _run_one(spec, unit[0], out_dir, group, world_rank)
+        return _run_one(spec, unit[0], out_dir, group, world_rank, check_cost)
     from studies.sweep.batch import run_batch
 
     try:
@@ -328,8 +382,12 @@ def _run_unit(spec: SweepSpec, unit: list[Task], out_dir: Path, group: MPI.Comm,
 def run_sweep(spec: SweepSpec, out_dir: str | Path, *, comm: MPI.Comm | None = None,
               group_size: int | None = None, retry_failed: bool = False,
               stream: TextIO = sys.stdout, progress: str = "auto", batch: str | None = None,
-              backend: str | None = None) -> int:
+              backend: str | None = None, check_cost: bool = True) -> int:
     """Run every pending scene of ``spec`` into ``out_dir``; collective over ``comm``.
+
+    ``check_cost``: refuse (exit 2, before anything is written) pending scenes whose
+    estimated time on the groups exceeds ``studies.resources.MAX_SECONDS``, and each scene
+    beyond the machine (``studies.resources.check_resources``); ``--yes-i-know``: False.
 
     ``batch`` ("off", "auto" or a size B): scenes sharing mesh, material, dt and scheme run
     as batches of ``solver.ensemble`` (studies/sweep/batch.py) on ``backend`` (cpu, gpu);
@@ -353,9 +411,16 @@ def run_sweep(spec: SweepSpec, out_dir: str | Path, *, comm: MPI.Comm | None = N
     t_start = time.time()
     if rank0:
         try:
-            out_dir.mkdir(parents=True, exist_ok=True)
             lock = _lock(out_dir)
-            pending, n_done = _prepare(out_dir, spec, retry_failed)
+            pending, n_done, seconds = _classify(out_dir, spec, retry_failed)
+            n_groups = (comm.size + g - 1) // g
+            problem = _cost_problem(spec, len(pending), seconds, n_groups, g) \
+                if check_cost else None
+            if problem:
+                if lock.created and not user_entries(out_dir):
+                    shutil.rmtree(out_dir, ignore_errors=True)  # made for nothing
+                raise SweepError(problem)
+            _prepare(out_dir, spec)
             from studies.sweep.batch import plan_units
 
             units = plan_units(spec, pending, batch, (comm.size + g - 1) // g, g)
@@ -367,7 +432,7 @@ def run_sweep(spec: SweepSpec, out_dir: str | Path, *, comm: MPI.Comm | None = N
         if rank0:
             print(f"error: {info}", file=sys.stderr, flush=True)
             if lock is not None:
-                lock.close()
+                lock.release()
         return 2
     by_id = {t.id: t for t in spec.tasks}
     units = [[by_id[i] for i in u] for u in info[0]]
@@ -413,7 +478,8 @@ def run_sweep(spec: SweepSpec, out_dir: str | Path, *, comm: MPI.Comm | None = N
                 idx = group.bcast(idx, root=0)
             if idx >= len(units):
                 break
-            status = _run_unit(spec, units[idx], out_dir, group, comm.rank, backend)
+            status = _run_unit(spec, units[idx], out_dir, group, comm.rank, backend,
+                               check_cost)
             if status == "interrupted" or terminated[0]:
                 interrupted = True
                 break
@@ -441,9 +507,9 @@ def run_sweep(spec: SweepSpec, out_dir: str | Path, *, comm: MPI.Comm | None = N
               + ("  (interrupted: run the same command again to resume)" if interrupted else ""),
               file=stream, flush=True)
         if lock is not None:
-            lock.close()
+            lock.release()
         if not interrupted:
-            rc = 1 if counts.get("failed") else 0
+            rc = 1 if counts.get("failed") or counts.get("foreign") else 0
     if not interrupted:
         rc = comm.bcast(rc, root=0)
     return rc

@@ -190,6 +190,9 @@ def load_sweep(path: str | Path) -> SweepSpec:
     for key in data:
         if key not in _TOP_KEYS:
             raise SweepError(f"{p}: unknown key {key!r} (allowed: {', '.join(_TOP_KEYS)})")
+    for table in ("grid", "map"):
+        if not isinstance(data.get(table, {}), dict):
+            raise SweepError(f"{p}: {table} = {data[table]!r} must be a table ([{table}])")
     name = str(data.get("name", p.stem))
     if not re.fullmatch(r"[A-Za-z0-9_.\-]+", name):
         raise SweepError(f"{p}: name = {name!r}: use letters, digits, '_', '-', '.'")

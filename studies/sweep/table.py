@@ -22,6 +22,8 @@ from solver.scene import (
     load_scene,
     scene_to_dict,
 )
+from studies.rundir.ownership import owned, user_entries
+from studies.rundir.readers import ReadError, read_json_object, read_summary, read_sweep_table
 from studies.sweep.spec import (
     _TABLE_FIELDS,
     FINAL_STATUSES,
@@ -36,10 +38,27 @@ from studies.sweep.spec import (
 
 
 def _read_json(path: Path) -> dict | None:
+    """The JSON object in ``path``, or None (missing, corrupt, not an object)."""
     try:
-        return json.loads(path.read_text())
-    except (OSError, ValueError):
+        return read_json_object(path)
+    except ReadError:
         return None
+
+
+def run_summary(run_dir: Path) -> dict | None:
+    """The scene's summary if ``run_dir`` is stickslip's run directory and its summary is
+    valid; None otherwise (a garbage, deleted or foreign summary: the scene runs again)."""
+    if not owned(run_dir, "run"):
+        return None
+    try:
+        return read_summary(run_dir)
+    except ReadError:
+        return None
+
+
+def _foreign(run_dir: Path) -> bool:
+    """A non-empty ``runs/ID`` without stickslip's marker: a user's folder, never written."""
+    return bool(user_entries(run_dir)) and not owned(run_dir, "run")
 
 
 def is_sweep_dir(path: str | Path) -> bool:
@@ -61,9 +80,9 @@ def task_state(out_dir: Path, spec: SweepSpec, task: Task, scene: Scene | None =
     """``pending``, ``changed`` (finished, but for another scene), ``unanalysed`` (saved, but
     killed before its wave analysis was added: run again), or the summary's status."""
     run_dir = out_dir / "runs" / task.id
-    summary = _read_json(run_dir / "summary.json")
+    summary = run_summary(run_dir)
     if summary is None:
-        return "pending"
+        return "foreign" if _foreign(run_dir) else "pending"
     status = str(summary.get("status", "pending"))
     if status in FINAL_STATUSES and not _same_scene(run_dir, scene or scene_for(spec, task)):
         return "changed"
@@ -89,12 +108,17 @@ def live_status(summary: dict) -> str:
     return status
 
 
-def _row(spec_keys: Sequence[str], task: Task, summary: dict | None, run_dir: str) -> dict:
+def _row(spec_keys: Sequence[str], task: Task, summary: dict | None, run_dir: str,
+         out_dir: Path | None = None) -> dict:
     row: dict[str, Any] = {"id": task.id}
     row.update({k: task.params.get(k) for k in spec_keys})
     s = summary or {}
-    fr = s.get("fractions") or {}
+    fr = s.get("fractions") if isinstance(s.get("fractions"), dict) else {}
     status = live_status(s) if s else "pending"
+    if not s and out_dir is not None and _foreign(out_dir / run_dir):
+        status = "foreign"
+        s = {"message": f"{run_dir} holds files stickslip did not write: move them out and "
+                        "run the sweep again"}
     row.update({
         "status": status,
         "regime": "diverged" if status == "diverged" else s.get("regime"),
@@ -147,8 +171,8 @@ def write_table(out_dir: Path, spec: SweepSpec, extra: dict | None = None,
         except OSError:
             mtime = -1.0
         if task.id not in cache or cache[task.id][0] != mtime:
-            cache[task.id] = (mtime, _read_json(path) if mtime >= 0 else None)
-        rows.append(_row(spec.keys, task, cache[task.id][1], f"runs/{task.id}"))
+            cache[task.id] = (mtime, run_summary(path.parent) if mtime >= 0 else None)
+        rows.append(_row(spec.keys, task, cache[task.id][1], f"runs/{task.id}", out_dir))
     counts: dict[str, int] = {}
     for r in rows:
         counts[r["status"]] = counts.get(r["status"], 0) + 1
@@ -168,10 +192,8 @@ def write_table(out_dir: Path, spec: SweepSpec, extra: dict | None = None,
 
 def read_table(sweep_dir: str | Path) -> dict:
     """The ``sweep.json`` of a sweep directory (meta plus ``rows``)."""
-    path = Path(sweep_dir) / "sweep.json"
-    meta = _read_json(path)
-    if not meta or meta.get("kind") != SWEEP_KIND:
-        raise SweepError(f"{sweep_dir} is not a sweep directory (no valid sweep.json)")
-    return meta
+    if not (Path(sweep_dir) / "sweep.json").is_file():
+        raise SweepError(f"{sweep_dir} is not a sweep directory (no sweep.json)")
+    return read_sweep_table(sweep_dir, SWEEP_KIND)
 
 

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import json
 import os
-import shutil
 from pathlib import Path
 
 import numpy as np
@@ -23,14 +22,16 @@ __all__ = ["prepare_dir", "write_wave", "write_failure", "write_branch", "plot_p
            "plot_branch"]
 
 
+_CLAIMS: list = []  # held (locked) until the process ends
+
+
 def prepare_dir(path: Path, force: bool) -> None:
-    """Create ``path``; refuse to overwrite a non-empty one unless ``force``."""
-    if path.exists() and any(path.iterdir()):
-        if not force:
-            raise FileExistsError(f"output directory {path} exists; use --force to overwrite it, "
-                                  "or -o to choose another")
-        shutil.rmtree(path)
-    path.mkdir(parents=True, exist_ok=True)
+    """Claim ``path`` (``studies.rundir.ownership``, kind travel): a new or empty directory,
+    or with ``force`` a travel directory whose own files are deleted first; anything else
+    raises ``OwnershipError`` (a ``FileExistsError``) with one line."""
+    from studies.rundir.ownership import claim
+
+    _CLAIMS.append(claim(path, "travel", force=force, in_place=True))
 
 
 def _json(obj) -> str:

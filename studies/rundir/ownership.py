@@ -1,0 +1,391 @@
+"""Which directories stickslip may write, replace or delete: one rule for every command.
+
+A directory is stickslip's when it holds the marker ``.stickslip`` that stickslip wrote, a
+JSON object with the directory's ``kind`` (run, sweep, travel, attractors, ...) and a random
+``id``. A ``summary.json`` alone, or any other file a user can write, is not enough.
+
+* **Claiming** (:func:`claim`) a directory for a command:
+
+  - a new directory is created atomically: the lock file is made beside it under a temporary
+    name, locked, and hard-linked into place (``link`` fails if the name exists), so of two
+    commands started together on the same new ``-o`` exactly one gets it and the other
+    refuses in one line;
+  - an existing empty directory is claimed the same way;
+  - a live directory (its ``.stickslip.lock`` is held with ``fcntl.flock`` by a running
+    command, whose pid and host the lock file names) is never touched: refused;
+  - a finished directory of the same kind is refused unless ``force`` (replace) or
+    ``reuse`` (resume a sweep);
+  - anything else (no marker, another kind, foreign files inside) is refused, even with
+    ``force``, in one line that names the foreign files.
+
+* **Replacing** (``force``): by default the new content is written into a hidden sibling
+  ``.NAME.new.PID`` (claimed like a new directory) and swapped in by :meth:`Claim.commit`;
+  :meth:`Claim.discard` drops it and the earlier directory stays as it was. So an
+  interrupted or failed ``--force`` rerun keeps the old run. ``in_place=True`` (a command
+  that writes into the final path itself) deletes only the files that the kind's writer
+  makes (:data:`KINDS`) before it starts.
+
+* The lock is held by the :class:`Claim` (rank 0's process) until :meth:`Claim.release` or
+  the end of the process; a process killed outright drops it, so its directory is no longer
+  live.
+
+For a new command that writes a directory (for example ``stickslip attractors``)::
+
+    from studies.rundir.ownership import OwnershipError, claim, register_kind
+
+    register_kind("attractors", ("attractors.json", "attractors.csv", "starts", "*.png"))
+    try:
+        owned = claim(out_dir, "attractors", force=args.force)
+    except OwnershipError as err:
+        print(f"error: {err}", file=sys.stderr)
+        return 2
+    try:
+        ...  # write into owned.work (atomic writes: solver.atomic)
+        owned.commit()  # a replacement is swapped in; a new directory is already in place
+    except BaseException:
+        owned.discard()  # a replacement is dropped and the earlier directory is kept
+        raise
+    finally:
+        owned.release()
+
+Standard library only: every command may import it without the FE stack.
+"""
+
+from __future__ import annotations
+
+import fcntl
+import fnmatch
+import json
+import os
+import shutil
+import socket
+import time
+import uuid
+from dataclasses import dataclass, field
+from pathlib import Path
+
+__all__ = ["KINDS", "LOCK", "MARKER", "Claim", "OwnershipError", "claim", "foreign_entries",
+           "holder", "marker", "owned", "recover", "refusal", "register_kind", "user_entries"]
+
+MARKER = ".stickslip"
+LOCK = ".stickslip.lock"
+
+#: The entries (file or folder names, fnmatch patterns, top level) that each kind's writer
+#: makes. ``--force`` deletes only these; any other entry is a user's and is never touched.
+KINDS: dict[str, tuple[str, ...]] = {
+    "run": ("scene.toml", "summary.json", "samples.npz", "final_field.npz", "fields.xdmf",
+            "fields.h5", "spacetime.png", "profile.png", "phase.png", "energy.png",
+            "uvpq.png", "isomap.png", "compare.json"),
+    "sweep": ("sweep.toml", "sweep.json", "sweep.csv", "runs", "logs", ".lock",
+              "regime_map*.png", "semianalytic.json"),
+    "travel": ("scene.toml", "summary.json", "profiles.npz", "branch.json", "branch.csv",
+               "travel_profiles.png", "branch.png"),
+}
+#: Written by every kind: the marker, the lock, atomic writes' temporaries.
+_ALWAYS = (MARKER, LOCK, f"{LOCK}.*", ".*.tmp", ".*.tmp.png", ".*.tmp.npz")
+
+
+class OwnershipError(FileExistsError):
+    """A directory that this command may not use: a one-line message with the fix."""
+
+
+def register_kind(kind: str, entries: tuple[str, ...]) -> None:
+    """Declare a new directory kind and the entries its writer makes (fnmatch patterns)."""
+    KINDS[kind] = tuple(entries)
+
+
+def _ours(name: str, kind: str) -> bool:
+    return any(fnmatch.fnmatchcase(name, p) for p in (*_ALWAYS, *KINDS.get(kind, ())))
+
+
+def marker(path: str | Path) -> dict | None:
+    """The marker of ``path`` (kind, id, ...), or None if it has no valid one."""
+    try:
+        m = json.loads((Path(path) / MARKER).read_text())
+    except (OSError, ValueError, UnicodeDecodeError):
+        return None
+    if not isinstance(m, dict) or not isinstance(m.get("kind"), str) \
+            or not isinstance(m.get("id"), str):
+        return None
+    return m
+
+
+def owned(path: str | Path, kind: str | None = None) -> bool:
+    """True if ``path`` carries stickslip's marker (of ``kind``, if given)."""
+    m = marker(path)
+    return m is not None and (kind is None or m["kind"] == kind)
+
+
+def user_entries(path: str | Path) -> list[str]:
+    """Entries of ``path`` other than the marker, the lock and their temporaries (those of
+    a command killed while claiming): a directory without any is empty for a new claim."""
+    try:
+        names = os.listdir(path)
+    except OSError:
+        return []
+    return sorted(n for n in names if not any(fnmatch.fnmatchcase(n, p) for p in _ALWAYS))
+
+
+def foreign_entries(path: str | Path, kind: str) -> list[str]:
+    """Entries of ``path`` that a ``kind`` writer does not make (a user's), sorted."""
+    try:
+        names = os.listdir(path)
+    except OSError:
+        return []
+    return sorted(n + ("/" if (Path(path) / n).is_dir() else "") for n in names
+                  if not _ours(n, kind))
+
+
+def holder(path: str | Path) -> dict | None:
+    """The pid/host of the live command holding ``path``'s lock, or None if none holds it."""
+    lock = Path(path) / LOCK
+    try:
+        fd = os.open(lock, os.O_RDONLY)
+    except OSError:
+        return None
+    try:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)
+        except OSError:
+            try:
+                info = json.loads(os.read(fd, 4096) or b"{}")
+            except ValueError:
+                info = {}
+            return info if isinstance(info, dict) else {}
+        fcntl.flock(fd, fcntl.LOCK_UN)
+        return None
+    finally:
+        os.close(fd)
+
+
+def _names(entries: list[str], most: int = 5) -> str:
+    more = f" and {len(entries) - most} more" if len(entries) > most else ""
+    return ", ".join(entries[:most]) + more
+
+
+def refusal(path: str | Path, kind: str, *, force: bool = False, reuse: bool = False,
+            flag: str = "-o") -> str | None:
+    """Why ``path`` cannot be claimed for ``kind`` (one line with the fix), or None.
+
+    No side effects; :func:`claim` asks again under the lock (the answer may change between).
+    """
+    p = Path(path)
+    fix = f"choose another {flag}"
+    if p.exists() and not p.is_dir():
+        return f"{flag} {p} is not a directory (a file or device); {fix}"
+    if p.is_dir():
+        live = holder(p)
+        if live is not None:
+            who = f"pid {live.get('pid', '?')} on {live.get('host', '?')}"
+            return f"{p} is in use by a running stickslip command ({who}); wait for it, or {fix}"
+        try:
+            os.listdir(p)
+        except OSError as err:
+            return f"cannot read {p}: {err.strerror}; {fix}"
+        if user_entries(p):
+            m = marker(p)
+            if m is None:
+                return (f"{p} is not a stickslip {kind} directory (no {MARKER} marker) and is not "
+                        f"empty; stickslip never writes into it: {fix}, or empty it yourself")
+            if m["kind"] != kind:
+                return f"{p} is a stickslip {m['kind']} directory, not a {kind} one; {fix}"
+            if not (force or reuse):
+                return (f"{kind} directory {p} exists; use --force to replace it (the new "
+                        f"one is built beside it and swapped in when done), or {fix}")
+            foreign = foreign_entries(p, kind)
+            if foreign and not reuse:
+                return (f"{p} holds files stickslip did not write ({_names(foreign)}); "
+                        f"--force replaces only its own: move them out, or {fix}")
+    parent = p.parent
+    while not parent.exists() and parent != parent.parent:
+        parent = parent.parent
+    if not parent.is_dir() or not os.access(parent, os.W_OK | os.X_OK) \
+            or str(parent.resolve()).startswith(("/proc", "/sys")):
+        return f"cannot create {p}: {parent} is not a writable directory; {fix}"
+    return None
+
+
+@dataclass
+class Claim:
+    """A directory claimed by this process: ``final`` is where it ends up, ``work`` where it
+    is written meanwhile (a hidden sibling when replacing, else ``final``)."""
+
+    final: Path
+    work: Path
+    kind: str
+    created: bool = False
+    locks: list[int] = field(default_factory=list)
+
+    @property
+    def replacing(self) -> bool:
+        return self.work != self.final
+
+    def commit(self) -> None:
+        """Swap a replacement in: ``final`` -> ``.NAME.old.PID``, ``work`` -> ``final``; then
+        the entries a user added to the old directory meanwhile move across and the rest of it
+        (stickslip's files only) is deleted."""
+        if not self.replacing or not self.work.exists():
+            return
+        old = self.final.parent / f".{self.final.name}.old.{os.getpid()}"
+        os.rename(self.final, old)
+        os.rename(self.work, self.final)
+        for name in foreign_entries(old, self.kind):
+            name = name.rstrip("/")
+            if not (self.final / name).exists():
+                os.rename(old / name, self.final / name)
+        _remove_ours(old, self.kind)
+        self.work = self.final
+
+    def discard(self) -> None:
+        """Drop an unfinished replacement; the earlier directory stays as it was."""
+        if self.replacing and self.work.exists():
+            shutil.rmtree(self.work, ignore_errors=True)
+
+    def release(self) -> None:
+        """Let go of the locks (the directory is no longer live)."""
+        for fd in self.locks:
+            try:
+                os.close(fd)
+            except OSError:
+                pass
+        self.locks.clear()
+
+
+def _remove_ours(path: Path, kind: str, keep: tuple[str, ...] = ()) -> None:
+    """Delete ``path`` if it holds only stickslip's entries, else only those entries
+    (except ``keep``: the marker and lock of a directory emptied in place)."""
+    if not foreign_entries(path, kind) and not keep:
+        shutil.rmtree(path, ignore_errors=True)
+        return
+    for name in os.listdir(path):
+        if _ours(name, kind) and name not in keep:
+            target = path / name
+            if target.is_dir() and not target.is_symlink():
+                shutil.rmtree(target, ignore_errors=True)
+            else:
+                target.unlink(missing_ok=True)
+
+
+def _lock_into(path: Path, kind: str) -> int | None:
+    """Make ``path/.stickslip.lock`` atomically, locked by us, and write the marker.
+
+    Returns the locked descriptor, or None if the lock file exists already (another claim).
+    """
+    tmp = path / f"{LOCK}.{os.getpid()}.{uuid.uuid4().hex[:8]}"
+    fd = os.open(tmp, os.O_RDWR | os.O_CREAT | os.O_EXCL, 0o666)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX)
+        os.write(fd, json.dumps({"pid": os.getpid(), "host": socket.gethostname(),
+                                 "since": time.strftime("%Y-%m-%dT%H:%M:%S%z")}).encode())
+        try:
+            os.link(tmp, path / LOCK)
+            linked = True
+        except FileExistsError:
+            linked = False
+    finally:
+        os.unlink(tmp)
+    if not linked:
+        os.close(fd)
+        return None
+    return fd
+
+
+def _write_marker(path: Path, kind: str) -> None:
+    from solver.atomic import atomic_write_text
+
+    atomic_write_text(path / MARKER, json.dumps({
+        "kind": kind, "id": uuid.uuid4().hex, "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+        "host": socket.gethostname()}, indent=1) + "\n")
+
+
+def _take_existing(path: Path) -> int | None:
+    """Lock an existing ``.stickslip.lock`` (None if a live command holds it)."""
+    try:
+        fd = os.open(path / LOCK, os.O_RDWR)
+    except FileNotFoundError:
+        return None
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError:
+        os.close(fd)
+        return None
+    os.ftruncate(fd, 0)
+    os.pwrite(fd, json.dumps({"pid": os.getpid(), "host": socket.gethostname(),
+                              "since": time.strftime("%Y-%m-%dT%H:%M:%S%z")}).encode(), 0)
+    return fd
+
+
+def _fresh(path: Path, kind: str, parents: bool) -> int | None:
+    """Create (or take an empty) ``path`` and lock it; None if another command got it first."""
+    path.mkdir(parents=parents, exist_ok=True)
+    fd = _lock_into(path, kind)
+    if fd is None:  # a lock file exists: a live claim (refused), or a killed one's (taken)
+        fd = _take_existing(path)
+        if fd is None:
+            return None
+    if user_entries(path) and not owned(path):
+        os.close(fd)  # a user's file appeared meanwhile: not ours after all
+        return None
+    _write_marker(path, kind)
+    return fd
+
+
+def recover(path: Path, kind: str) -> None:
+    """Tidy after a command killed while replacing ``path``: a lone ``.NAME.old.PID`` (killed
+    between the two renames of :meth:`Claim.commit`) goes back in place; a
+    ``.NAME.new.PID`` whose lock nobody holds is an unfinished replacement and is dropped."""
+    for old in sorted(path.parent.glob(f".{path.name}.old.*")):
+        if owned(old, kind) and holder(old) is None:
+            if not path.exists():
+                os.rename(old, path)
+            else:
+                _remove_ours(old, kind)
+    for new in sorted(path.parent.glob(f".{path.name}.new.*")):
+        if owned(new, kind) and holder(new) is None:
+            shutil.rmtree(new, ignore_errors=True)
+
+
+def claim(path: str | Path, kind: str, *, force: bool = False, reuse: bool = False,
+          in_place: bool = False, flag: str = "-o") -> Claim:
+    """Claim ``path`` for a ``kind`` command, or raise :class:`OwnershipError` (one line).
+
+    ``force``: replace a finished directory of the same kind (see the module docstring);
+    ``reuse``: write into a finished directory of the same kind (a sweep's resume);
+    ``in_place``: replace by deleting the kind's own entries first instead of the swap.
+    """
+    p = Path(path)
+    try:
+        recover(p, kind)
+        why = refusal(p, kind, force=force, reuse=reuse, flag=flag)
+        if why:
+            raise OwnershipError(why)
+        if not p.is_dir() or not owned(p):
+            fd = _fresh(p, kind, parents=True)
+            if fd is None:
+                raise OwnershipError(refusal(p, kind, force=force, reuse=reuse, flag=flag)
+                                     or f"{p} was taken by another command; choose another "
+                                        f"{flag}")
+            return Claim(p, p, kind, created=True, locks=[fd])
+        fd = _take_existing(p)
+        if fd is None:
+            raise OwnershipError(refusal(p, kind, force=force, reuse=reuse, flag=flag)
+                                 or f"{p} is in use by another command; choose another {flag}")
+        if reuse:
+            return Claim(p, p, kind, locks=[fd])
+        if in_place:
+            _remove_ours(p, kind, keep=(LOCK, MARKER))
+            return Claim(p, p, kind, locks=[fd])
+        work = p.parent / f".{p.name}.new.{os.getpid()}"
+        if work.exists():
+            shutil.rmtree(work)
+        work.mkdir()
+        new_fd = _fresh(work, kind, parents=False)
+        if new_fd is None:  # pragma: no cover - our own pid-named folder
+            os.close(fd)
+            raise OwnershipError(f"cannot prepare {work}; choose another {flag}")
+        return Claim(p, work, kind, created=True, locks=[fd, new_fd])
+    except OSError as err:
+        if isinstance(err, OwnershipError):
+            raise
+        raise OwnershipError(f"cannot create {p}: {err.strerror or err}; choose another "
+                             f"{flag}") from None

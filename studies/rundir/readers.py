@@ -1,0 +1,211 @@
+"""One validated reader for every file that stickslip reads back.
+
+Each reader checks what it reads: the file's type (a JSON object, a TOML scene, a numpy
+archive without pickles), the keys, shapes and value types the writer makes. A corrupt,
+truncated, foreign or edited file raises :class:`ReadError`, whose message is one line naming
+the file, what is wrong and the fix; ``cli.main`` prints it and exits 2.
+
+=====================  ==================================================================
+``read_summary``       ``summary.json`` of a run (or travel) directory: an object with a
+                       string ``scene`` and a known ``status``
+``read_scene_file``    ``scene.toml`` (a scene that loads and validates)
+``read_samples``       ``samples.npz``: ``t`` (n,), ``theta`` (m,), ``u_r``, ``u_theta``,
+                       ``status`` (n, m); finite times in increasing order
+``read_field``         ``final_field.npz``: ``points`` (p, >=2), ``u`` (p, 2), ``cells``,
+                       ``cell_types``, ``time``
+``read_sweep_table``   ``sweep.json``: the sweep kind, ``parameters`` and ``rows`` objects
+``read_profiles``      a travel ``profiles.npz``: ``phi`` (n,) and profiles of its length
+``check_run_dir``      every file of a run directory, before a command uses it
+=====================  ==================================================================
+
+Light (standard library and numpy; the scene reader imports ``solver.scene`` on use).
+"""
+
+from __future__ import annotations
+
+import json
+import tomllib
+import zipfile
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+__all__ = ["STATUSES", "ReadError", "check_run_dir", "read_field", "read_json_object",
+           "read_profiles", "read_samples", "read_scene_file", "read_summary",
+           "read_sweep_table"]
+
+#: Every status a summary may hold (``studies.rundir.scene_run``, the sweep's table).
+STATUSES = ("running", "completed", "diverged", "failed", "stopped", "interrupted",
+            "converged", "crashed")
+_RERUN = "run it again (or delete the directory)"
+
+
+class ReadError(ValueError):
+    """A file that stickslip wrote cannot be used as it is: one line, file, fault, fix."""
+
+    def __init__(self, path: str | Path, fault: str, fix: str = _RERUN) -> None:
+        super().__init__(f"{path}: {fault}; {fix}")
+        self.path = Path(path)
+
+
+def read_json_object(path: str | Path, fix: str = _RERUN) -> dict:
+    """The JSON object in ``path`` (a list, a number, bad JSON or bad UTF-8 is refused)."""
+    p = Path(path)
+    try:
+        text = p.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise ReadError(p, "missing", fix) from None
+    except UnicodeDecodeError as err:
+        raise ReadError(p, f"not UTF-8 text (byte {err.start})", fix) from None
+    except OSError as err:
+        raise ReadError(p, f"cannot be read ({err.strerror})", fix) from None
+    try:
+        data = json.loads(text)
+    except (ValueError, RecursionError) as err:
+        raise ReadError(p, f"not valid JSON ({str(err)[:60]})", fix) from None
+    if not isinstance(data, dict):
+        raise ReadError(p, f"holds a JSON {type(data).__name__}, not the object stickslip "
+                           "writes", fix)
+    return data
+
+
+def read_summary(run_dir: str | Path) -> dict:
+    """``RUN_DIR/summary.json``, checked: an object with a string ``scene`` and a status."""
+    p = Path(run_dir) / "summary.json"
+    s = read_json_object(p)
+    status = s.get("status")
+    if status not in STATUSES:
+        raise ReadError(p, f"status {status!r} is not one that stickslip writes")
+    if "scene" in s and not isinstance(s["scene"], str):
+        raise ReadError(p, "'scene' is not a scene name")
+    return s
+
+
+def read_scene_file(path: str | Path) -> Any:
+    """The :class:`solver.scene.Scene` in ``path`` (a saved ``scene.toml``)."""
+    from solver.scene import SceneError, load_scene, scene_to_dict
+
+    p = Path(path)
+    if not p.is_file():
+        raise ReadError(p, "missing")
+    try:
+        scene = load_scene(p)
+        written = tomllib.loads(p.read_text(encoding="utf-8"))
+    except SceneError as err:
+        raise ReadError(p, f"not a valid scene ({str(err).removeprefix(f'{p}: ')[:120]})") \
+            from None
+    except (RecursionError, MemoryError):
+        raise ReadError(p, "nested too deeply to be a scene") from None
+    missing = [k for k, v in scene_to_dict(scene).items() if isinstance(v, dict)
+               and k not in written]
+    if missing:  # stickslip writes every section; defaults would stand in for them
+        raise ReadError(p, f"has no [{'], ['.join(missing)}] (not the resolved scene "
+                           "stickslip writes; edited or truncated)")
+    return scene
+
+
+def _load_npz(p: Path, keys: tuple[str, ...]) -> dict[str, np.ndarray]:
+    """Every member of the archive ``p`` (no pickles), with ``keys`` required."""
+    if not p.is_file():
+        raise ReadError(p, "missing")
+    try:
+        with np.load(p, allow_pickle=False) as data:
+            missing = [k for k in keys if k not in data.files]
+            if missing:
+                raise ReadError(p, f"has no {', '.join(missing)} (not written by stickslip)")
+            return {k: data[k] for k in data.files}
+    except ReadError:
+        raise
+    except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile,
+            zipfile.LargeZipFile, NotImplementedError) as err:
+        raise ReadError(p, f"not a readable numpy archive ({type(err).__name__}: "
+                           f"{str(err)[:60]})") from None
+
+
+def _shape(p: Path, a: np.ndarray, name: str, shape: tuple) -> None:
+    """Shape ``shape`` (None: any length) and a real numeric dtype, else ReadError."""
+    ok = a.ndim == len(shape) and all(s is None or s == n for s, n in zip(shape, a.shape,
+                                                                          strict=True))
+    if not ok or not (np.issubdtype(a.dtype, np.number) and not np.iscomplexobj(a)):
+        want = "x".join("n" if s is None else str(s) for s in shape) or "scalar"
+        raise ReadError(p, f"{name} has shape {a.shape} and dtype {a.dtype}, not {want} "
+                           "numbers (edited or foreign)")
+
+
+def read_samples(run_dir: str | Path, need: int = 1) -> dict[str, np.ndarray]:
+    """``RUN_DIR/samples.npz``, checked (keys, shapes, times); at least ``need`` samples."""
+    p = Path(run_dir) / "samples.npz"
+    data = _load_npz(p, ("t", "theta", "u_r", "u_theta", "status"))
+    t, theta = data["t"], data["theta"]
+    _shape(p, t, "t", (None,))
+    _shape(p, theta, "theta", (None,))
+    for key in ("u_r", "u_theta", "status"):
+        _shape(p, data[key], key, (t.size, theta.size))
+    if t.size and (not np.all(np.isfinite(t)) or np.any(np.diff(t) <= 0)):
+        raise ReadError(p, "the sample times t are not finite and increasing (edited)")
+    if t.size < need:
+        fix = ("run longer (time.end_time) or sample more often (output.sample_interval)")
+        why = ("holds no sample: the run ended before its first sample period" if not t.size
+               else f"holds {t.size} samples, fewer than the {need} needed")
+        raise ReadError(p, why, fix)
+    return data
+
+
+def read_field(run_dir: str | Path) -> dict[str, np.ndarray]:
+    """``RUN_DIR/final_field.npz``, checked (points, displacement, cells, time)."""
+    p = Path(run_dir) / "final_field.npz"
+    data = _load_npz(p, ("points", "cells", "cell_types", "u", "time"))
+    pts = data["points"]
+    if pts.ndim != 2 or pts.shape[1] < 2:
+        raise ReadError(p, f"points has shape {pts.shape}, not n x 2 or n x 3 (edited)")
+    _shape(p, data["u"], "u", (pts.shape[0], 2))
+    _shape(p, data["time"], "time", ())
+    _shape(p, data["cells"], "cells", (None,))
+    return data
+
+
+def read_profiles(path: str | Path) -> dict[str, np.ndarray]:
+    """A travel ``profiles.npz`` (the file itself), checked: ``phi`` and profiles along it."""
+    p = Path(path)
+    data = _load_npz(p, ("phi",))
+    _shape(p, data["phi"], "phi", (None,))
+    for key, a in data.items():
+        if key != "phi" and a.ndim >= 1 and a.shape[-1] != data["phi"].size:
+            raise ReadError(p, f"{key} has {a.shape[-1]} points, phi {data['phi'].size}")
+    return data
+
+
+def read_sweep_table(sweep_dir: str | Path, kind: str) -> dict:
+    """``SWEEP_DIR/sweep.json`` of a ``kind`` sweep, checked (kind, parameters, rows)."""
+    p = Path(sweep_dir) / "sweep.json"
+    meta = read_json_object(p, "run the sweep again to rebuild its table")
+    fix = "run the sweep again to rebuild its table"
+    if meta.get("kind") != kind:
+        raise ReadError(p, f"kind {meta.get('kind')!r} is not {kind!r} (not a sweep table)",
+                        fix)
+    params, rows = meta.get("parameters"), meta.get("rows")
+    if not isinstance(params, list) or not all(isinstance(k, str) for k in params):
+        raise ReadError(p, "'parameters' is not a list of scene keys (edited)", fix)
+    if not isinstance(rows, list) or not all(isinstance(r, dict) and isinstance(
+            r.get("status"), str) and isinstance(r.get("id"), str) for r in rows):
+        raise ReadError(p, "'rows' is not a list of rows with an id and a status (edited)",
+                        fix)
+    m = meta.get("map")
+    if m is not None and not isinstance(m, dict):
+        raise ReadError(p, "'map' is not an object (edited)", fix)
+    return meta
+
+
+def check_run_dir(run_dir: str | Path, need: int = 1) -> None:
+    """Every file a command reads from a run directory: summary, scene, samples (``need``),
+    and the final field where there is one. Raises :class:`ReadError` for the first fault."""
+    d = Path(run_dir)
+    if not (d / "samples.npz").exists():
+        raise ReadError(d, "has no samples.npz (not a finished run directory)",
+                        "give a run directory of `stickslip run`")
+    read_samples(d, need)
+    read_summary(d)
+    read_scene_file(d / "scene.toml")
+    if (d / "final_field.npz").exists():
+        read_field(d)
