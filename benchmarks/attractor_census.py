@@ -32,7 +32,7 @@ REPO = Path(__file__).resolve().parents[1]
 def measure(out: Path) -> dict:
     """Scene-steps and times of a census directory (its attractors.json and sweep.json)."""
     answer = json.loads((out / "attractors.json").read_text())
-    sweep = json.loads((out / "sweep.json").read_text())
+    sweep = json.loads((out / "starts" / "sweep.json").read_text())
     per_mesh: dict[str, dict] = {}
     for r in answer["starts"]:
         m = per_mesh.setdefault(str(r["n_inner"]), {"starts": 0, "steps": 0, "run_s": 0.0})

@@ -197,7 +197,7 @@ def _kill_after(cmd: list[str], out: Path, sig: int, log: Path, timeout: float =
         try:
             want = '"completed"' if sig == signal.SIGTERM else '"running"'
             while time.time() - t0 < timeout and proc.poll() is None:
-                if any(want in p.read_text() for p in out.glob("runs/*/summary.json")):
+                if any(want in p.read_text() for p in out.glob("starts/runs/*/summary.json")):
                     break
                 time.sleep(0.02)
             proc.send_signal(sig)
@@ -232,7 +232,7 @@ def test_census_killed_and_rerun_counts_every_start_once(tmp_path, capsys):
         if r["class"] == "wave":
             assert r["member"].startswith(f"k{r['k']}-{r['direction']}-")
             assert r["frame_spread"] <= answer["spread_tol"]
-    starts = _starts(out)
+    starts = _starts(out / "starts")
     assert set(starts) == set(ids) and all(1 <= v <= 3 for v in starts.values())
     assert len((out / "attractors.csv").read_text().splitlines()) == 1 + 8
     assert (out / "members.csv").is_file()
@@ -241,9 +241,9 @@ def test_census_killed_and_rerun_counts_every_start_once(tmp_path, capsys):
     from cli.main import main
 
     capsys.readouterr()
-    assert main([*_cmd(out, "--json")[3:]]) == 0 and _starts(out) == starts
+    assert main([*_cmd(out, "--json")[3:]]) == 0 and _starts(out / "starts") == starts
     assert json.loads(capsys.readouterr().out)["members"] == answer["members"]
-    assert main(["attractors", str(out)]) == 0 and _starts(out) == starts
+    assert main(["attractors", str(out)]) == 0 and _starts(out / "starts") == starts
 
 
 @pytest.mark.parametrize("args, words", [

@@ -2,8 +2,9 @@
 
 ``run_census`` (collective over MPI) writes ``DIR/base.toml`` (the scene with ``--set`` and
 the end time applied) and ``DIR/census.toml``, a sweep file with one ``[[points]]`` entry per
-start and mesh, and runs it with ``studies.sweep.run_sweep`` into DIR itself (batched where
-the scenes allow it, resumable: a finished start is never run again, a killed one is). Rank 0
+start and mesh, and runs it with ``studies.sweep.run_sweep`` into ``DIR/starts`` (batched
+where the scenes allow it, resumable: a finished start is never run again, a killed one is).
+DIR is claimed as kind ``attractors`` (``studies.rundir.ownership``). Rank 0
 then reads every start's ``summary.json`` and samples, classifies the end states, groups them
 into members, computes the statistics and writes ``attractors.json``, ``attractors.csv`` (one
 row per start) and ``members.csv`` (one row per mesh and member of the random starts).
@@ -38,6 +39,11 @@ from studies.attractors.starts import StartDistribution
 from studies.attractors.statistics import ladder, mesh_members
 
 KIND = "stickslip-attractors"
+#: The census directory's own entries (``studies.rundir.ownership``); the starts are a sweep
+#: directory of their own, ``starts/``.
+ENTRIES = ("census.json", "census.toml", "base.toml", "attractors.json", "attractors.csv",
+           "members.csv", "certificates.json", "starts", "*.png")
+STARTS = "starts"
 ROW_FIELDS = ("id", "n_inner", "start", "seed", "start_mode", "status", "class", "member", "k",
               "direction", "regime", "celerity_m_s", "frequency_hz", "fraction_separation",
               "fraction_stick", "fraction_slip", "psi1", "psi2", "amplitude_m",
@@ -107,37 +113,48 @@ def sweep_text(census: Census, name: str) -> str:
     return "\n".join(lines)
 
 
-def prepare(census: Census, out_dir: Path, force: bool) -> Path:
-    """Rank 0: check the directory, write base.toml, census.toml and census.json."""
+def prepare(census: Census, out_dir: Path, force: bool):  # noqa: ANN201 - a Claim
+    """Rank 0: claim the directory, write base.toml, census.toml and census.json.
+
+    The directory is claimed as kind ``attractors`` (``studies.rundir.ownership``: a new or
+    empty one, or a census directory to resume; a live or foreign one is refused). The claim
+    (its lock) is returned and held until the census ends."""
+    from studies.rundir.ownership import OwnershipError, claim, register_kind
+
     base = census.base_scene()
     definition = census.definition(base)
-    meta_path = out_dir / "census.json"
-    if meta_path.is_file():
-        try:
-            old = json.loads(meta_path.read_text())
-        except ValueError:
-            old = {}
-        if old.get("definition") != definition and not force:
-            raise CensusError(f"{out_dir} holds a census of another scene or start "
-                              "distribution; use another -o, or --force to rerun its starts")
-    elif out_dir.is_dir() and any(out_dir.iterdir()) and not force:
-        raise CensusError(f"{out_dir} exists and is not a census directory; use another -o "
-                          "or --force")
-    out_dir.mkdir(parents=True, exist_ok=True)
-    clear_unstarted(out_dir)
-    write_scene(base, out_dir / "base.toml")
-    path = out_dir / "census.toml"
-    atomic_write_text(path, sweep_text(census, base.name))
-    meta = {"kind": KIND, "definition": definition, "scene_file": str(census.scene),
-            "overrides": list(census.overrides), "meshes": list(census.meshes),
-            "distribution": census.distribution.to_dict(),
-            "celerity_tol": census.celerity_tol, "spread_tol": census.spread_tol}
-    atomic_write_text(meta_path, json.dumps(meta, indent=1) + "\n")
-    return path
+    register_kind("attractors", ENTRIES)
+    try:
+        owned = claim(out_dir, "attractors", reuse=True)
+    except OwnershipError as err:
+        raise CensusError(str(err)) from None
+    try:
+        meta_path = out_dir / "census.json"
+        if meta_path.is_file():
+            try:
+                old = json.loads(meta_path.read_text())
+            except ValueError:
+                old = {}
+            if old.get("definition") != definition and not force:
+                raise CensusError(f"{out_dir} holds a census of another scene or start "
+                                  "distribution; use another -o, or --force to rerun its "
+                                  "starts")
+        clear_unstarted(out_dir / STARTS)
+        write_scene(base, out_dir / "base.toml")
+        atomic_write_text(out_dir / "census.toml", sweep_text(census, base.name))
+        meta = {"kind": KIND, "definition": definition, "scene_file": str(census.scene),
+                "overrides": list(census.overrides), "meshes": list(census.meshes),
+                "distribution": census.distribution.to_dict(),
+                "celerity_tol": census.celerity_tol, "spread_tol": census.spread_tol}
+        atomic_write_text(meta_path, json.dumps(meta, indent=1) + "\n")
+    except BaseException:
+        owned.release()
+        raise
+    return owned
 
 
 def clear_unstarted(out_dir: Path) -> list[Path]:
-    """Empty the start directories killed before their first summary was written.
+    """Empty the start directories (``out_dir/runs/*``) killed before their first summary.
 
     A start killed (SIGKILL) while its directory was being made holds no ``summary.json``,
     only ``scene.toml`` and/or half-written temporaries (``.NAME.PID.*.tmp``); a run
@@ -147,7 +164,8 @@ def clear_unstarted(out_dir: Path) -> list[Path]:
     from studies.rundir.directory import is_run_dir
 
     cleared = []
-    for run in sorted((out_dir / "runs").glob("*/")) if (out_dir / "runs").is_dir() else []:
+    runs = out_dir / "runs"
+    for run in sorted(runs.glob("*/")) if runs.is_dir() else []:
         if is_run_dir(run):
             continue
         entries = list(run.iterdir())
@@ -173,10 +191,10 @@ def run_census(census: Census, out_dir: str | Path, *, comm=None, force: bool = 
 
     comm = MPI.COMM_WORLD if comm is None else comm
     out_dir = Path(out_dir)
-    err = None
+    err, owned = None, None
     if comm.rank == 0:
         try:
-            prepare(census, out_dir, force)
+            owned = prepare(census, out_dir, force)
         except (CensusError, OSError) as e:
             err = str(e)
     err = comm.bcast(err, root=0)
@@ -190,13 +208,17 @@ def run_census(census: Census, out_dir: str | Path, *, comm=None, force: bool = 
         if comm.rank == 0:
             print(f"error: {e}", file=sys.stderr, flush=True)
         return 2
-    rc = run_sweep(spec, out_dir, comm=comm, stream=stream, progress=progress, batch="auto",
-                   backend=backend)
-    if comm.rank == 0 and rc != 2:
-        answer = collect(out_dir, certify=certify and rc == 0)
-        print(answer["text"], file=stream, flush=True)
-        if rc == 0 and answer["counts"].get("failed"):
-            rc = 1
+    try:
+        rc = run_sweep(spec, out_dir / STARTS, comm=comm, stream=stream, progress=progress,
+                       batch="auto", backend=backend)
+        if comm.rank == 0 and rc != 2:
+            answer = collect(out_dir, certify=certify and rc == 0)
+            print(answer["text"], file=stream, flush=True)
+            if rc == 0 and answer["counts"].get("failed"):
+                rc = 1
+    finally:
+        if owned is not None:
+            owned.release()
     return rc
 
 
@@ -211,7 +233,7 @@ def start_rows(out_dir: Path, spread_tol: float = SPREAD_TOL) -> list[dict]:
     spec = load_sweep(out_dir / "census.toml")
     rows = []
     for task in spec.tasks:
-        run_dir = out_dir / "runs" / task.id
+        run_dir = out_dir / STARTS / "runs" / task.id
         summary = _read_json(run_dir / "summary.json")
         status = live_status(summary) if summary else "pending"
         rows.append(start_row(run_dir, task.params, summary, status, spread_tol))
@@ -272,7 +294,7 @@ def _certificates(out_dir: Path, rows: list[dict], per_mesh: dict[int, list[dict
             if m["class"] != "wave":
                 continue
             run = next(r for r in rows if r["n_inner"] == n and r["member"] == m["member"])
-            stamp = (out_dir / "runs" / run["id"] / "summary.json").stat().st_mtime
+            stamp = (Path(run["run_dir"]) / "summary.json").stat().st_mtime
             key = f"{run['id']}@{stamp}"
             if key not in cache:
                 cache[key] = certify(Path(run["run_dir"]))

@@ -89,9 +89,12 @@ def run_map(spec, out_dir: Path, *, comm=None, stream: TextIO = sys.stdout,  # n
     """Run the census of every point (collective); rank 0 writes attractors_map.*."""
     from mpi4py import MPI
 
+    from studies.rundir.ownership import KINDS, register_kind
     from studies.sweep import SweepError, run_sweep
 
     comm = MPI.COMM_WORLD if comm is None else comm
+    if "attractors_map.*" not in KINDS["sweep"]:  # the map's files belong to its sweep
+        register_kind("sweep", (*KINDS["sweep"], "attractors_map.*"))
     try:
         expanded = expand(spec)
     except SweepError as err:
