@@ -23,8 +23,8 @@ A sweep file names a base scene and the parameters to vary (dotted scene keys, a
 from __future__ import annotations
 
 import itertools
-import math
 import json
+import math
 import re
 import tomllib
 from dataclasses import dataclass, field
