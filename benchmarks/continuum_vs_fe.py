@@ -1,4 +1,4 @@
-"""Tables of docs/continuum.md: exact continuum flutter against the FE CEA (issue 13).
+"""Tables of docs/continuum.md: exact continuum flutter against the FE CEA.
 
     ./dev python3 benchmarks/continuum_vs_fe.py PART [PART ...] [--out DIR] [--quick]
 

@@ -1,4 +1,4 @@
-"""Timings of the FE complex eigenvalue analysis (issue 8) on ONE core.
+"""Timings of the FE complex eigenvalue analysis on ONE core.
 
 Run: ``./dev python3 benchmarks/flutter_fe_speed.py`` (repository root on PYTHONPATH).
 Target: the unstable spectrum of scenes/figure3_n132 (N = 132, 1188 free dofs) up to

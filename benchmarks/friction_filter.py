@@ -1,5 +1,5 @@
-"""Linear-stage evidence and step cost of the 1-2-1 filtered friction bound (issue 13 item 2,
-docs/friction_filter.md).
+"""Linear-stage evidence and step cost of the 1-2-1 filtered friction bound
+(docs/friction_filter.md).
 
     ./dev python3 benchmarks/friction_filter.py
 

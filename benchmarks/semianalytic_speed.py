@@ -1,4 +1,4 @@
-"""Timings of the semi-analytical solver against issue 3's targets.
+"""Timings of the semi-analytical solver against their targets.
 
 Run: ``python3 benchmarks/semianalytic_speed.py`` (repository root on PYTHONPATH).
 Targets: one Newton solve (continuation step) < 50 ms; full multistart search at one

@@ -5,7 +5,7 @@
 Prints, per mesh: the bare loop (MatMult + the 6 Newmark vector updates, same matrix), the
 integrator step with contact, and the full time loop (observers: energy work, probes,
 samples), in microseconds per step and as a ratio to the bare loop; each is the minimum
-over ``--repeats`` interleaved blocks of ``--steps`` steps. Targets (issue 15, fused
+over ``--repeats`` interleaved blocks of ``--steps`` steps. Targets (fused
 step): loop/bare <= 1.3 at N = 132 and <= 1.1 at N >= 528. One process, one core.
 
 ``--kernel numpy numba`` (one or more of numpy, numba, auto; ``time.kernel``, solver/fused.py)

@@ -7,7 +7,7 @@ scene has the same cost: 36 contact nodes, 216 dofs, 1 s = 12939 steps), runs it
 each rank count into a fresh directory and prints: end-to-end wall time of the whole command
 (mpirun + Python start-up + every scene), the time of the sweep loop itself (from the table's
 ``last_session``), scenes per hour, the mean wall time of one scene, and the speed-up over the
-first rank count. Target (issue 7): >= 1.8x from 1 to 2 ranks on a 2-core machine.
+first rank count. Target: >= 1.8x from 1 to 2 ranks on a 2-core machine.
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Regenerate the FE <-> semi-analytical verification: runs, table, figures (issue 5).
+"""Regenerate the FE <-> semi-analytical verification: runs, table, figures.
 
 Run (repository root): ``./dev python3 benchmarks/verification_runs.py`` — all stages; or
 ``--stage runs|table|figures``, ``--quick`` (skip N = 528), ``--force`` (re-run finished runs).

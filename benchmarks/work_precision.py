@@ -1,4 +1,4 @@
-"""Error against run time (issue 6): explicit vs implicit Newmark, meshes N = 36...528.
+"""Error against run time: explicit vs implicit Newmark, meshes N = 36...528.
 
 One command regenerates the tables and the figure of archive/accuracy_undamped.md (and the
 stability table of docs/stability.md)::
@@ -408,7 +408,7 @@ def large_steps(cache: Cache) -> str:
 
 
 # ---------------------------------------------------------------------------------------------
-# leaving out what a scene does not need (issue 6, item 4)
+# leaving out what a scene does not need (item 4)
 
 
 def _in_subprocess(code: str) -> str:

@@ -1,4 +1,4 @@
-"""``stickslip wave`` and ``stickslip flutter`` subcommands (issue 3, section 6).
+"""``stickslip wave`` and ``stickslip flutter`` subcommands (section 6).
 
 The lead's ``solver/cli.py`` calls :func:`register` with its ``subparsers``. Handlers return
 the exit code: 0 on success, 2 on bad input (one ``error: ...`` line on stderr naming the

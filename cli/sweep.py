@@ -85,7 +85,7 @@ def _sweep(args: argparse.Namespace) -> int:
 
     comm = MPI.COMM_WORLD
     try:
-        spec = load_sweep(target)
+        spec = load_sweep(target, large=args.yes_i_know)
     except SweepError as err:
         if comm.rank == 0:
             print(f"error: {err}", file=sys.stderr)

@@ -210,14 +210,30 @@ def _travel(args: argparse.Namespace) -> int:
     from studies.travel.output import prepare_dir
 
     try:
-        prepare_dir(out, args.force)
+        claim = prepare_dir(out, args.force)
     except FileExistsError as err:
         return _err(str(err))
-    if cont:
-        from studies.travel.continuation import run_continuation
+    try:  # results go to claim.work; a replacement is swapped in only once written
+        if cont:
+            from studies.travel.continuation import run_continuation
 
-        return run_continuation(scene, args, cont[0], cont[1], out, t0)
-    return _one_wave(scene, args, out, t0)
+            rc = run_continuation(scene, args, cont[0], cont[1], claim.work, t0)
+        else:
+            rc = _one_wave(scene, args, claim.work, t0)
+    except KeyboardInterrupt as stop:
+        replacing = claim.replacing
+        claim.discard()
+        claim.release()
+        if replacing:  # a --force rerun cut short keeps the earlier result whole
+            raise KeyboardInterrupt(f"interrupted; the earlier {out} is kept") from stop
+        raise
+    except BaseException:
+        claim.discard()
+        claim.release()
+        raise
+    claim.commit()
+    claim.release()
+    return rc
 
 
 def _matched_step(scene, args: argparse.Namespace) -> None:
@@ -261,7 +277,7 @@ def _one_wave(scene, args: argparse.Namespace, out: Path, t0: float) -> int:
 
     from studies.travel import driver as D
     from studies.travel.newton import NotConverged
-    from studies.travel.output import plot_profiles, write_failure, write_wave
+    from studies.travel.output import plot_profiles, shown, write_failure, write_wave
 
     matched = (args.end is not None and args.time_scheme == "central"
                and args.celerity is None and not args.fixed_omega)
@@ -305,7 +321,7 @@ def _one_wave(scene, args: argparse.Namespace, out: Path, t0: float) -> int:
         print(f"error: travel did not find a wave: {err} [last residual "
               f"{res if res is None else f'{res:.3e}'}, violated inequality: "
               f"{err.info.get('violated') or 'none'}]", file=sys.stderr)
-        print(f"(summary: {out / 'summary.json'}; no wave written)", file=sys.stderr)
+        print(f"(summary: {shown(out) / 'summary.json'}; no wave written)", file=sys.stderr)
         return 1
     summary, profiles = D.measure(st, sol, args.k)
     if args.end is not None:
@@ -327,7 +343,7 @@ def _one_wave(scene, args: argparse.Namespace, out: Path, t0: float) -> int:
                    wall_time_s=time.perf_counter() - t0)
     write_wave(out, scene, summary, profiles)
     if args.plot:
-        print(f"figure: {plot_profiles(out, profiles, summary)}")
+        print(f"figure: {shown(plot_profiles(out, profiles, summary))}")
     if args.json:
         print(json.dumps(summary, indent=2, default=float))
     else:
@@ -354,5 +370,5 @@ def _one_wave(scene, args: argparse.Namespace, out: Path, t0: float) -> int:
                   f"{b['celerity_m_s'][1]:.1f} m/s; psi1 {b['psi1'][0]:.3f} ... "
                   f"{b['psi1'][1]:.3f}, psi2 {b['psi2'][0]:.3f} ... {b['psi2'][1]:.3f}, "
                   f"amplitude {b['amplitude_m'][0]:.3g} ... {b['amplitude_m'][1]:.3g} m")
-        print(f"-> {out}  ({summary['wall_time_s']:.2f} s)")
+        print(f"-> {shown(out)}  ({summary['wall_time_s']:.2f} s)")
     return 0

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# docker/test-image.sh -- build the stickslip image and run it for real (issue 16).
+# docker/test-image.sh -- build the stickslip image and run it for real.
 #
 #   docker/test-image.sh            (CI: .ci/run calls it after the tests)
 #

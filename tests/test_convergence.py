@@ -1,4 +1,4 @@
-"""Convergence of the FE limit cycle (issue 13, docs/convergence.md), at CI sizes.
+"""Convergence of the FE limit cycle (docs/convergence.md), at CI sizes.
 
 What the study established for Figure-3 physics with Kelvin-Voigt eta = 2 % at 1.6 kHz,
 beta2 = 1/2, from the mode-4 seed: the same member of the wave family (k = 12, against the

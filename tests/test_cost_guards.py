@@ -32,3 +32,17 @@ def one_line(capsys, *argv: str) -> str:
 def test_a_costly_or_impossible_request_is_refused_in_one_line(capsys, argv, words):
     pytest.importorskip("dolfinx")
     assert words in one_line(capsys, *argv)
+
+
+def test_a_million_point_sweep_is_refused_before_it_is_expanded(tmp_path, capsys):
+    """A 10^6-point sweep was accepted (--list took 96 s and 650 MB)."""
+    import time
+
+    spec = tmp_path / "big.toml"
+    values = ", ".join(str(10.0 + i) for i in range(1000))
+    spec.write_text(f'base = "scenes/smoke.toml"\n[grid]\n"loading.omega" = [{values}]\n'
+                    f'"loading.f" = [{", ".join(str(i / 1000) for i in range(1000))}]\n')
+    t0 = time.perf_counter()
+    err = one_line(capsys, "sweep", str(spec), "--list")
+    assert "1000000 scenes" in err and "--yes-i-know" in err
+    assert time.perf_counter() - t0 < 10.0  # refused before the grid is expanded

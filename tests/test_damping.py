@@ -1,4 +1,4 @@
-"""Kelvin-Voigt damping (issue 13): stability limit, energy balance, implicit decay, bad input.
+"""Kelvin-Voigt damping: stability limit, energy balance, implicit decay, bad input.
 
 The explicit damped scheme (``solver.newmark.DampedNewmark``) puts the damping force tau K v~_n
 on the velocity predictor; its limit (``critical_time_step`` docstring) is
@@ -183,7 +183,7 @@ def test_energy_balance_with_damping_closes_in_the_fused_and_batched_kernels():
 def test_undamped_step_is_the_plain_step():
     """No [damping]: the plain ``Newmark`` (one MatMult, no damping work, no extra arrays).
 
-    The undamped step is also bit-identical to the one before issue 13 (smoke scene, 300
+    The undamped step is also bit-identical to the plain explicit step's (smoke scene, 300
     steps, sha256 of u checked against commit b147d39 when this was written)."""
     sc = smoke("time.beta2=0.5")
     problem = build_problem(sc, SELF)

@@ -1,4 +1,4 @@
-"""The 1-2-1 filtered friction bound (issue 13 item 2, docs/friction_filter.md).
+"""The 1-2-1 filtered friction bound (docs/friction_filter.md).
 
 Law (``solver.contact.project_contact_filtered``): normal projection unchanged, then the
 tangential projection with bound f p~_i, p~_i = in_contact_i (p_{i-1} + 2 p_i + p_{i+1}) / 4

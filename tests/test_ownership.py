@@ -405,3 +405,31 @@ def test_a_batched_sweep_never_writes_a_users_folder_under_runs(tmp_path):
     rows = {r["id"]: r for r in json.loads((out / "sweep.json").read_text())["rows"]}
     assert rows[spec.tasks[0].id]["status"] == "foreign"
     assert all(rows[t.id]["status"] == "completed" for t in spec.tasks[1:])
+
+
+def test_an_interrupted_travel_force_rerun_keeps_the_earlier_result(tmp_path, capsys,
+                                                                     monkeypatch):
+    """travel --force built its new result in place: Ctrl-C during the solve lost the old."""
+    pytest.importorskip("dolfinx")
+    import cli.travel as travel_command
+    from studies.rundir.ownership import claim
+
+    out = tmp_path / "wave"
+    c = claim(out, "travel")
+    (out / "summary.json").write_text('{"status": "converged", "celerity_m_s": -892.6}')
+    c.release()
+    before = tree(out)
+
+    def solve_then_interrupt(scene, args, work, t0):  # noqa: ANN001
+        (work / "summary.json").write_text('{"status": "half"}')
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(travel_command, "_one_wave", solve_then_interrupt)
+    rc, _ = cli(capsys, "travel", SMOKE, "--k", "4", "-o", out, "--force")
+    assert rc == 130
+
+    def results(files: dict) -> dict:  # the lock names its last holder: not a result
+        return {k: v for k, v in files.items() if k != ".stickslip.lock"}
+
+    assert results(tree(out)) == results(before)
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".wave.")]

@@ -1,4 +1,4 @@
-"""Prakash-Clifton friction (issue 13): exact integration, constraints kept, Coulomb limit.
+"""Prakash-Clifton friction: exact integration, constraints kept, Coulomb limit.
 
 Law (``solver.contact.EffectivePressure``): bound f sigma_eff,
 d sigma_eff/dt = -(|V| + V*)/L (sigma_eff - p), or -(sigma_eff - p)/t* ("constant-time").

@@ -168,7 +168,7 @@ def test_section_must_be_table() -> None:
         ("geometry", "xi", 1.0, "xi > 1"),
         ("geometry", "R", 0.0, "R > 0"),
         ("geometry", "delta", -1e-3, "delta > 0"),
-        ("geometry", "delta", 0.0, "delta > 0"),  # issue 12: nothing to simulate
+        ("geometry", "delta", 0.0, "delta > 0"),  # nothing to simulate
         ("loading", "f", -0.1, "f >= 0"),
         ("loading", "omega", 0.0, "omega > 0"),
         ("mesh", "n_inner", 7, "n_inner >= 8"),

@@ -1,4 +1,4 @@
-"""CLI subcommands ``wave`` and ``flutter`` (issue 3, item 6), via a throwaway parser."""
+"""CLI subcommands ``wave`` and ``flutter`` (item 6), via a throwaway parser."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Coefficients of eq. [2], steady sliding (sections 2-3) and flutter (issue 3, items 1-3)."""
+"""Coefficients of eq. [2], steady sliding (sections 2-3) and flutter (items 1-3)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Travelling waves of the reduced model: eqs. [3]-[7] (issue 3, items 4-5)."""
+"""Travelling waves of the reduced model: eqs. [3]-[7] (items 4-5)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Stiff and extreme cases (issue 6): each runs with both schemes, documented outcome, no NaN.
+"""Stiff and extreme cases: each runs with both schemes, documented outcome, no NaN.
 
 Base: scenes/smoke.toml (Figure-3 physics, N = 36, 2 layers), 0.01 s of physical time unless
 stated; the implicit scheme is the trapezoidal rule (beta1 = 1/4, beta2 = 1/2) at dt_fraction 1
@@ -91,7 +91,7 @@ def test_case_runs_bounded_without_nan(case, scheme):
 
 def test_zero_mismatch_is_refused_with_a_clear_message():
     """delta = 0: the tube only touches the cylinder, no contact pressure, no friction. The
-    scene is refused at load time (issue 12), as the other ranges, before any meshing."""
+    scene is refused at load time, as the other ranges, before any meshing."""
     from solver.scene import SceneError
 
     with pytest.raises(SceneError, match=r"geometry.delta = 0(\.0)? is out of range: must "

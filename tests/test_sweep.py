@@ -1,4 +1,4 @@
-"""Batch sweeps (issue 7): sweep files, dynamic scheduling, faults, kill + resume, regime map.
+"""Batch sweeps: sweep files, dynamic scheduling, faults, kill + resume, regime map.
 
 Every FE scene here is scenes/smoke.toml (36 contact nodes, 2 layers, 216 dofs) run for a few
 hundredths of a second: ~0.2 s per scene after the first one of a process.
@@ -109,7 +109,7 @@ def test_shipped_omega_delta_sweep_is_valid():
 
 
 def test_shipped_damped_omega_delta_sweep_is_the_same_grid_on_the_damped_setting():
-    """Issue 13 item 6: same Omega x delta grid as omega_delta.toml, converged setting."""
+    """same Omega x delta grid as omega_delta.toml, converged setting."""
     spec = load_sweep(REPO / "sweeps" / "omega_delta_damped.toml")
     undamped = load_sweep(REPO / "sweeps" / "omega_delta.toml")
     assert [t.overrides for t in spec.tasks] == [t.overrides for t in undamped.tasks]

@@ -322,7 +322,7 @@ def test_frame_damping_is_kelvin_voigt_on_a_travelling_harmonic(setup36):
 def shift132():
     """The transient's own travelling operator (``inertia="shift"``) with the first-order
     upwind law (bdf1), damped Figure-1 scene at N = 132: the pair that matches the transient
-    (archive/travel/travelling_waves_history.md 2d fourth attempt)."""
+    (archive/travel/travelling_waves_history.md)."""
     from solver.scene import load_scene
     from studies.travel import driver as D
 

@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import itertools
 import json
+import math
 import re
 import tomllib
 from dataclasses import dataclass, field
@@ -178,7 +179,12 @@ def _resolve_base(base: str, sweep_path: Path) -> Path:
                      "the current directory, or a shipped scene name)")
 
 
-def load_sweep(path: str | Path) -> SweepSpec:
+#: Scenes of one sweep file above which ``load_sweep`` refuses unless told (``large``): each
+#: is a run directory of a few MB, and the table and its resume grow with the count.
+MAX_SCENES = 100_000
+
+
+def load_sweep(path: str | Path, large: bool = False) -> SweepSpec:
     """Parse and validate a sweep file; every scene is built once here (fail early)."""
     p = Path(path)
     if not p.is_file():
@@ -234,6 +240,10 @@ def load_sweep(path: str | Path) -> SweepSpec:
     keys: list[str] = []
     for d in [*points, grid]:
         keys += [k for k in d if k not in keys]
+    size = math.prod(len(v) for v in grid.values()) * max(1, len(points))
+    if size > MAX_SCENES and not large:
+        raise SweepError(f"{p}: {size} scenes ([grid] x [[points]]); at most {MAX_SCENES} per "
+                         "sweep file: split it, or pass --yes-i-know")
     combos = [dict(zip(grid, vals, strict=True)) for vals in itertools.product(*grid.values())]
     params_list: list[dict[str, Any]] = []
     for pt in points or [{}]:

@@ -84,7 +84,7 @@ def run_continuation(scene: Scene, args: argparse.Namespace, key: str, values: l
                      out: Path, t0: float) -> int:
     """Follow the branch; write branch.json/csv (+ branch.png); exit 0 if any point solved.
     Interrupted (Ctrl-C), it writes the points solved so far and re-raises."""
-    from studies.travel.output import plot_branch, write_branch
+    from studies.travel.output import plot_branch, shown, write_branch
 
     rows: list[dict] = []
     try:
@@ -94,12 +94,13 @@ def run_continuation(scene: Scene, args: argparse.Namespace, key: str, values: l
             raise
         write_branch(out, rows)
         raise KeyboardInterrupt(f"after {len(rows)} of {len(values)} points; those are in "
-                                f"{out / 'branch.json'}") from stop
+                                f"{shown(out) / 'branch.json'}") from stop
     write_branch(out, rows)
     if args.plot:
-        print(f"figure: {plot_branch(out, rows, key)}")
+        print(f"figure: {shown(plot_branch(out, rows, key))}")
     ok = sum(r["status"] == "converged" for r in rows)
-    print(f"{ok}/{len(rows)} points converged -> {out}  ({time.perf_counter() - t0:.1f} s)")
+    print(f"{ok}/{len(rows)} points converged -> {shown(out)}  "
+          f"({time.perf_counter() - t0:.1f} s)")
     if ok == 0:
         print("error: no point of the branch converged", file=sys.stderr)
         return 1

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 from pathlib import Path
 
 import numpy as np
@@ -22,16 +23,21 @@ __all__ = ["prepare_dir", "write_wave", "write_failure", "write_branch", "plot_p
            "plot_branch"]
 
 
-_CLAIMS: list = []  # held (locked) until the process ends
-
-
-def prepare_dir(path: Path, force: bool) -> None:
+def prepare_dir(path: Path, force: bool):
     """Claim ``path`` (``studies.rundir.ownership``, kind travel): a new or empty directory,
-    or with ``force`` a travel directory whose own files are deleted first; anything else
-    raises ``OwnershipError`` (a ``FileExistsError``) with one line."""
+    or with ``force`` a travel directory, replaced by a sibling that is swapped in by
+    ``Claim.commit`` once the results are written (``Claim.discard`` keeps the earlier one);
+    anything else raises ``OwnershipError`` (a ``FileExistsError``) with one line. Write into
+    ``claim.work``; the claim holds the directory's lock until released."""
     from studies.rundir.ownership import claim
 
-    _CLAIMS.append(claim(path, "travel", force=force, in_place=True))
+    return claim(path, "travel", force=force)
+
+
+def shown(path: Path) -> Path:
+    """``path`` as the user will find it: a replacement folder ``.NAME.new.PID`` is NAME."""
+    parts = [re.sub(r"^\.(.+)\.new\.\d+$", r"\1", part) for part in path.parts]
+    return Path(*parts)
 
 
 def _json(obj) -> str:
