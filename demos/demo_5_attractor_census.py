@@ -4,47 +4,57 @@ The attractors of a point
 
 Several travelling waves (members: wavenumber k, direction, regime) coexist at one scene
 point, and which one a transient reaches depends on its start. So the answer for a point is
-its set of attractors and the share of starts that reaches each. This demo takes a small
-census by hand on the damped Figure-3 scene at N = 66: six starts (mode bumps k = 2, 3, 4
-and three random perturbations), 0.3 s each (about 20 s in all). The ``stickslip
-attractors`` command runs such a census in batches and on several meshes.
+its set of attractors and the share of starts that reaches each. This demo runs a small
+census with ``stickslip.attractors`` (the ``stickslip attractors`` command) on the damped
+Figure-3 scene at N = 66: four random starts (a random superposition of the modes 1 ... 16
+with random phases, 0.1 d, seeds 1 ... 4) and the structured mode-4 start, 0.3 s each, run
+as one batch.
 """
 
 # %%
-# Six starts
+# The census
 # ----------
 import os
-from collections import Counter
 from pathlib import Path
 
 import matplotlib.pyplot as plt
 
 import stickslip
 
-scene = stickslip.load_scene("figure3_n132_damped", {"mesh.n_inner": 66})
-starts = {f"mode {k}": {"initial.perturbation": "mode", "initial.mode": k} for k in (2, 3, 4)}
-starts |= {f"random {s}": {"initial.perturbation": "random", "initial.seed": s}
-           for s in (1, 2, 3)}
 work = Path(os.environ.get("STICKSLIP_OUTPUT", "runs")) / "demos" / "census"
-reached = {}
-for name, start in starts.items():
-    s = stickslip.run(scene, work / name.replace(" ", "_"), overrides=start, force=True,
-                      quiet=True)
-    reached[name] = (s["mode"], s["direction"], s["regime"])
-    print(f"{name:>9}: k = {s['mode']:2d}, {s['direction']:8}, {s['regime']}, "
-          f"{s['frequency_hz']:.0f} Hz, limit cycle {s['limit_cycle']}")
+answer = stickslip.attractors("figure3_n132_damped", work, starts=4, structured=(4,),
+                              meshes=(66,), end_time=0.3, force=True, quiet=True)
+print(answer["text"])
+
+# %%
+# Each start's end state
+# ----------------------
+# Every start is classified: a rigidly travelling wave (the frame spread below the
+# tolerance), a modulated cycle, steady sliding, or not settled within the run. At 0.3 s
+# on this damped scene most random starts have not settled yet: a census for a result uses
+# a longer ``end_time`` (``docs/attractors.md``).
+for row in answer["starts"]:
+    which = f"seed {row['seed']}" if row["start"] == "random" else f"mode {row['start_mode']}"
+    print(f"{which:>8}: {row['class']:>14}  {row['member'] or ''}")
 
 # %%
 # The members and their shares
 # ----------------------------
-members = Counter(reached.values())
+# The share of the random starts that reaches each member, with its 95 % Wilson interval:
+# with four starts the intervals are wide, which is the point of counting.
+members = answer["members"]["66"]  # one row per member of the random starts
 fig, ax = plt.subplots(figsize=(6, 3))
-labels = [f"k = {k}, {direction}" for k, direction, _ in members]
-ax.bar(labels, [n / len(starts) for n in members.values()])
-ax.set(ylabel="share of starts", title="members reached at N = 66 (damped Figure 3)")
+shares = [m["share"] for m in members]
+low = [m["share"] - m["share_lo"] for m in members]
+high = [m["share_hi"] - m["share"] for m in members]
+ax.bar(range(len(members)), shares, yerr=[low, high], capsize=4)
+ax.set_xticks(range(len(members)), [m["member"] for m in members], rotation=20, ha="right",
+              fontsize=8)
+ax.set(ylabel="share of random starts", ylim=(0, 1),
+       title="members reached at N = 66 (damped Figure 3)")
 fig.tight_layout()
 
 # %%
-# A census is complete only when the set stops changing under refinement: repeat on N = 132,
-# 264 and 528. At coarse meshes members appear that finer meshes never reach, so report a
-# member with its start, N, dt, beta2 and damping.
+# A census is complete only when the set stops changing under refinement: give
+# ``meshes=(132, 264, 528)``. At coarse meshes members appear that finer meshes never reach,
+# so report a member with its start, N, dt, beta2 and damping.

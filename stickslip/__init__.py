@@ -51,6 +51,7 @@ _EXPORTS = {
     "travel": "stickslip.api",
     "travel_branch": "stickslip.api",
     "reduced_waves": "stickslip.api",
+    "attractors": "stickslip.api",
     "Scene": "solver.scene",
     "SceneError": "solver.scene",
     "STATUS_CODES": "stickslip.api",

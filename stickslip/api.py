@@ -211,6 +211,59 @@ def sweep(spec: str | Path, out_dir: str | Path | None = None, *, batch: str | N
     return read_table(path)
 
 
+def attractors(scene: str | Path, out_dir: str | Path | None = None, *, starts: int = 16,
+               meshes: Sequence[int] | None = None, structured: Sequence[int] = (),
+               end_time: float | None = None, overrides: Overrides = None, seed: int = 1,
+               certify: bool = False, force: bool = False, quiet: bool = False) -> dict:
+    """The attractors of a scene point (``stickslip attractors``): ``starts`` random starts
+    (and the mode-k bumps of ``structured``) on each mesh of ``meshes``, classified and grouped
+    into members with their basin shares (95 % Wilson intervals) and values. Resumable: the
+    same call again runs only the starts not finished.
+
+    Args:
+        scene: a scene file or the name of a shipped scene (``"figure1_n132_damped"``).
+        out_dir: the census directory (default ``$STICKSLIP_OUTPUT/<scene>_attractors``).
+        starts: random starts per mesh (the start distribution of ``docs/attractors.md``:
+            seeds ``seed`` ... ``seed + starts - 1``).
+        meshes: contact-circle node counts N of the ladder (default: the scene's).
+        structured: wavenumbers k of the structured mode-k starts, reported apart.
+        end_time: physical time of each start (s; default: the scene's).
+        overrides: scene overrides, as for ``load_scene``.
+        seed: the first seed.
+        certify: solve each member's wave directly and test it (``stickslip travel``).
+        force: replace an earlier census directory of another definition.
+        quiet: do not print the progress lines.
+
+    Returns:
+        The census's answer, the contents of ``attractors.json``: ``starts`` (one row per
+        start with its class and member), ``members`` per mesh (share, interval, mean and
+        spread of each value), ``structured``, ``ladder`` (the members across the meshes)
+        and ``text`` (the printed summary).
+
+    Example:
+        >>> answer = stickslip.attractors("smoke", "/tmp/census", starts=2, quiet=True)
+        >>> len(answer["starts"]), answer["meshes"]
+        (2, [36])
+    """
+    from studies.attractors.census import Census, default_dir, run_census
+    from studies.attractors.starts import StartDistribution
+
+    texts = list(_override_strings(overrides))
+    if end_time is not None:
+        texts.append(f"time.end_time={float(end_time)!r}")
+    base = load_scene(scene, texts)
+    census = Census(Path(scene), tuple(meshes) if meshes else (base.mesh.n_inner,),
+                    StartDistribution(starts=starts, seed=seed, structured=tuple(structured)),
+                    tuple(texts))
+    census.base_scene()
+    path = Path(out_dir) if out_dir is not None else default_dir(base)
+    rc = run_census(census, path, force=force, certify=certify,
+                    stream=io.StringIO() if quiet else sys.stdout)
+    if rc == 2:
+        raise ValueError(f"the census in {path} could not start (see the error above)")
+    return json.loads((path / "attractors.json").read_text())
+
+
 def plot_sweep(sweep_dir: str | Path) -> list[Path]:
     """Draw a sweep directory's regime map with the reduced model's existence boundaries."""
     from studies.sweep import plot_sweep as _plot
