@@ -231,3 +231,27 @@ def test_a_rigid_stick_slip_wave_has_a_small_frame_spread():
                "u_theta": 1e-4 * np.cos(6 * (theta[None, :] - om * t[:, None])) + 2e-5}
     spread, _ = frame_spread(samples, om, 0.01)
     assert spread < 1e-6 * RIGID_TOLERANCE
+
+
+@pytest.mark.parallel
+def test_the_wave_frame_solver_runs_on_one_rank_of_many():
+    """A census under ``mpirun`` certifies its members on rank 0 only: the wave-frame solver
+    builds its own mesh on that rank (a mesh on every rank's communicator would wait for the
+    others forever). Here rank 0 alone sets up the central-scheme frame of the smoke scene
+    and finds the run's step, then every rank meets at the barrier."""
+    pytest.importorskip("dolfinx")
+    from mpi4py import MPI
+    from petsc4py import PETSc  # noqa: F401  (PETSc and SLEPc start and end on every rank:
+    from slepc4py import SLEPc  # noqa: F401  their start and end are collective, as in a census)
+
+    from solver.scene import load_scene
+    from studies.travel import driver
+    from studies.travel.from_run import scene_time_step
+
+    comm = MPI.COMM_WORLD
+    if comm.rank == 0:
+        scene = load_scene("scenes/smoke.toml", [])
+        st = driver.setup(scene, 0.0, rate="bdf1", inertia="shift", samples=1,
+                          time_scheme="central")
+        assert st.ops is not None and scene_time_step(scene) > 0.0
+    comm.Barrier()

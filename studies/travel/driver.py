@@ -71,13 +71,16 @@ def setup(scene: Scene, damping: float = 0.0, lumped: bool = False,
     lumped M per discrete harmonic; ``samples``: contact points per node, ``time_scheme``:
     exact or central in time, both "shift" only) and the condensed problem (``rate``: the
     material-derivative scheme, ``newton.RATES``)."""
+    from mpi4py import MPI
+
     from solver.problem import build_problem
     from studies.travel.frame import circle_problem, frame_operators
     from studies.travel.newton import check_rate
 
     check_rate(rate)
-    ops = frame_operators(problem or build_problem(scene), damping, lumped, inertia, samples,
-                          time_scheme)
+    # the wave-frame solver runs on one rank: its own mesh (a census calls it on rank 0 only)
+    ops = frame_operators(problem or build_problem(scene, MPI.COMM_SELF), damping, lumped,
+                          inertia, samples, time_scheme)
     return Setup(scene, ops, circle_problem(ops, rate=rate))
 
 

@@ -160,10 +160,12 @@ def read_end_state(run_dir: Path, tolerance: float | None = None) -> RunEndState
 
 def scene_time_step(scene, problem=None) -> float:
     """The Δt that ``stickslip run`` uses for ``scene`` (``solver.schemes.time_step``)."""
+    from mpi4py import MPI
+
     from solver.problem import build_problem, omega_max
     from solver.schemes import time_step
 
-    return time_step(scene, omega_max(problem or build_problem(scene)))[0]
+    return time_step(scene, omega_max(problem or build_problem(scene, MPI.COMM_SELF)))[0]
 
 
 def _setup(end: RunEndState, samples: int):
