@@ -258,19 +258,6 @@ class BatchedExplicit(HookedStepper):
                 "damping_tau_s": self.tau, "contact_s": 0.0, "kernel": f"batched-{self.kernel}",
                 "kernel_first_call_s": self.compile_s}
 
-    def advance(self, n: int, t_stop: float = math.inf) -> int:
-        """Up to ``n`` steps (stopping before a step once ``time >= t_stop``), each followed
-        by the step hooks; a step writes v_n, a_n, K u_n in full when ``full_state_at``
-        names its level."""
-        hooks, full = self.hooks, self.full_state_at
-        taken = 0
-        while taken < n and not self.time >= t_stop:  # a NaN t_stop never stops
-            self.step(diag=full(self.step_count))
-            for hook in hooks:
-                hook.after_step(self)
-            taken += 1
-        return taken
-
     def work_totals(self) -> np.ndarray:
         """(3, B) host array: work_contact, work_cylinder, friction_dissipation."""
         w = self.work if self.work.ndim == 2 else self.work.sum(axis=1)
@@ -323,11 +310,15 @@ class BatchedExplicit(HookedStepper):
         keep[np.asarray(nodes, dtype=np.int64)] = 1
         self.keep = self.xp.asarray(keep)
 
-    def step(self, diag: bool = True) -> None:
+    def step(self, diag: bool | None = None) -> None:
         """One step. ``diag = False`` lets the numba and CUDA kernels skip writing v_n, a_n
         and K u_n (3 of the 6 (n, B) arrays a step writes) except at the ``keep_nodes``: the
         state u, v~ and the contact outputs are the same bits; pass True before a step whose
-        time level is sampled (``BatchRecorder.due``). The xp reference always writes."""
+        time level is sampled (``BatchRecorder.due``). By default ``full_state_at`` decides
+        (every level unless the owner set it), so the protocol's ``advance`` needs nothing
+        of its own. The xp reference always writes."""
+        if diag is None:
+            diag = self.full_state_at(self.step_count)
         cur, nxt = self.cur, 1 - self.cur
         if self.kernel == "numba":
             from solver.fused import slp_vectorize, timed_first_call
