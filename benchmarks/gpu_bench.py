@@ -20,7 +20,15 @@ Paths (``rate --paths``, timed in turn in one process), as a sweep's batch
   probes every step, the samples (fields, status, energies) and the health check every
   ``every`` steps (the sweep's sample_interval, 1e-4 s); the record spooled to disk on the
   GPU and kept in memory on the CPU, as the sweep does;
-* ``coarse``: the same at a coarse cadence (``--coarse-interval``, 1e-3 s).
+* ``observed-ram`` (GPU only): the same with the record kept in host memory, no file (the
+  cost of the disk, against ``observed``);
+* ``coarse``: the same as ``observed`` at a coarse cadence (``--coarse-interval``, 1e-3 s).
+
+On the GPU the observers copy their chunks to pinned host memory on a stream of their own
+and write them from a thread (``solver.ensemble_observers._DeviceSpool``): ``spool_wait_s``
+in a rate record is the time the loop waited for those copies and writes. Each timed block
+ends when its full chunks are on the host and written (``BatchRecorder.drain``), so that no
+path's disk work runs on in another path's time.
 
 ``--target cpu`` is the batched numba kernel on one core (the best CPU path), ``gpu`` the
 CUDA kernel through CuPy. ``--emulate`` replaces CuPy by benchmarks/gpu_emulate.py (the CUDA
@@ -46,7 +54,7 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
 #: The timed paths (``rate --paths``), in the report's order.
-PATHS = ("kernel", "observed", "coarse")
+PATHS = ("kernel", "observed", "observed-ram", "coarse")
 #: The census point: the paper's Figure-3 scene (undamped, as a batch is), random starts.
 CENSUS_SCENE = "scenes/figure3_n132.toml"
 
@@ -60,7 +68,7 @@ def ensemble(bp, d, slide, f, u0, *, xp, kernel: str, observe: dict | None = Non
 
     The one place that calls the ensemble's public classes (``BatchedExplicit``,
     ``BatchRecorder``; benchmarks/ensemble.py's npz mode uses it too). ``observe``: {every,
-    max_samples, max_steps, probe_nodes (contact slots), spool_dir}. Returns ``(integ, rec,
+    max_samples, max_steps, probe_nodes (contact slots), spool_dir, chunk (optional)}. Returns ``(integ, rec,
     advance)``: ``advance(k)`` runs k steps of the path, lean steps without ``rec``; with it,
     step for step what a sweep's batch does (``BatchSimulation``: v, a, K u stored on the
     sampled levels, its probe hook after every step, its sampling observer with the energy
@@ -85,7 +93,7 @@ def ensemble(bp, d, slide, f, u0, *, xp, kernel: str, observe: dict | None = Non
         every=observe["every"], max_samples=observe["max_samples"],
         max_steps=observe["max_steps"], probe_nodes=bp.cx[probes] // 2,
         probe_pc=np.exp(-1j * bp.theta[probes]), probe_deg=np.degrees(bp.theta[probes]),
-        spool_dir=observe.get("spool_dir"))
+        spool_dir=observe.get("spool_dir"), chunk=observe.get("chunk", 16))
     integ.keep_nodes(bp.cx[probes] // 2)
 
     def advance(k: int) -> None:
@@ -93,11 +101,16 @@ def ensemble(bp, d, slide, f, u0, *, xp, kernel: str, observe: dict | None = Non
             integ.step(diag=diag or rec.due(integ.step_count))
             rec.record_probes()
             if rec.due(integ.step_count - 1):
-                kin, strain, wcyl = rec.sample()
-                for b in rec.check_health(kin, strain, wcyl, integ.time):
+                for b in rec.observe(integ.time):
                     integ.mask(b)
 
     return integ, rec, advance
+
+
+def close(integ, rec) -> None:
+    """Write out the record; mask the scenes the guard found in its last chunks (GPU)."""
+    for b in rec.close():
+        integ.mask(b)
 
 
 # ----------------------------------------------------------------------------- helpers
@@ -257,15 +270,17 @@ def stage_rate(args) -> None:
     kernel = "numba" if args.target == "cpu" else "cuda"
     every = {"kernel": int(extra["every"]), "observed": cadence(args, bp, extra),
              "coarse": max(1, int(round(args.coarse_interval / bp.dt)))}
+    every["observed-ram"] = every["observed"]
+    paths = args.paths or [p for p in PATHS if p != "observed-ram" or args.target == "gpu"]
     block, B = args.block, args.B
     total = 2 * block + args.steps + 1  # warm-up, the timed steps, a last block past --steps
     spools, runs = [], {}
     try:
-        for path in args.paths:
+        for path in paths:
             observe = None
             if path != "kernel":
                 spool = None
-                if xp is not np:  # the sweep spools a GPU batch's record to disk
+                if xp is not np and path != "observed-ram":  # the sweep spools to disk
                     spool = Path(tempfile.mkdtemp(prefix="gpu-bench-spool-", dir=args.spool_dir))
                     spools.append(spool)
                 observe = {"every": every[path], "max_samples": total // every[path] + 2,
@@ -281,10 +296,12 @@ def stage_rate(args) -> None:
                           "seconds": 0.0, "cpu": 0.0}
         t_start = time.perf_counter()
         while min(r["steps"] for r in runs.values()) < args.steps and (
-                time.perf_counter() - t_start < args.seconds or not runs[args.paths[0]]["steps"]):
+                time.perf_counter() - t_start < args.seconds or not runs[paths[0]]["steps"]):
             for r in runs.values():
                 t0, c0 = time.perf_counter(), time.process_time()
                 r["run"][2](block)
+                if r["run"][1] is not None:  # the block's copies and writes are in its time
+                    r["run"][1].drain()
                 synchronize(xp)
                 r["seconds"] += time.perf_counter() - t0
                 r["cpu"] += time.process_time() - c0
@@ -294,7 +311,11 @@ def stage_rate(args) -> None:
             r["active"] = int(np.sum(integ.active))
             r["finite"] = bool(np.all(np.isfinite(host(integ.u))))
             if rec is not None:
-                rec.close()
+                t0 = time.perf_counter()
+                close(integ, rec)
+                r["close_s"] = time.perf_counter() - t0
+                r["spool_wait_s"] = rec.wait_s
+                r["active"] = int(np.sum(integ.active))
     finally:
         for spool in spools:
             shutil.rmtree(spool, ignore_errors=True)
@@ -311,7 +332,8 @@ def stage_rate(args) -> None:
             "cpu_us_per_scene_step": 1e6 * r["cpu"] / (B * r["steps"]),
             "dram_bytes_per_scene_step": bytes_ss, "implied_gb_s": bytes_ss * rate / 1e9,
             "active_scenes": r["active"], "finite": r["finite"],
-            "side_by_side": list(args.paths)})
+            "spool_wait_s": r.get("spool_wait_s"), "close_s": r.get("close_s"),
+            "side_by_side": list(paths)})
 
 
 def stage_check(args) -> None:
@@ -332,7 +354,7 @@ def stage_check(args) -> None:
                                        kernel=kernel, observe=observe)
         advance(args.steps)
         synchronize(x)
-        rec.close()
+        close(integ, rec)
         runs[target] = (integ, rec)
     (g, grec), (c, crec) = runs["gpu"], runs["cpu"]
     u_g = host(g.u)[:, :S]
@@ -402,7 +424,7 @@ def _census_run(bp, extra, nb: int, xp, kernel: str, steps: int, every: int, arg
                                        kernel=kernel, observe=observe)
         advance(steps)
         synchronize(xp)
-        rec.close()
+        close(integ, rec)
         loop = time.perf_counter() - t0
         t0 = time.perf_counter()
         labels = classify_all(rec, integ.active, tile(extra["d"], nb), float(extra["radius"]),
@@ -558,8 +580,8 @@ def stage_report(args) -> None:
     env = next((r for r in records if r["stage"] == "env"), {})
     rates = [r for r in records if r["stage"] == "rate"]
     peak = env.get("peak_bandwidth_gb_s")
-    def key(r: dict) -> tuple:
-        return r["N"], r["path"], r["every"]
+    def key(r: dict) -> tuple:  # the CPU keeps the observed record in memory: one path
+        return r["N"], r["path"].replace("observed-ram", "observed"), r["every"]
 
     best_cpu = {}  # (N, path, cadence) -> the CPU run with the most scene-steps/s (its best B)
     for r in rates:
@@ -660,10 +682,11 @@ def main(argv: list[str] | None = None) -> None:
     p = sub.add_parser("rate", parents=[common], help="scene-steps/s of one path")
     p.add_argument("--npz", type=Path, required=True)
     p.add_argument("--target", choices=("cpu", "gpu"), required=True)
-    p.add_argument("--paths", nargs="+", choices=("kernel", "observed", "coarse"),
-                   default=["kernel", "observed", "coarse"],
-                   help="kernel alone; with the observers at the sweep's cadence; at the "
-                        "coarse cadence (timed in turn, side by side)")
+    p.add_argument("--paths", nargs="+", choices=PATHS, default=None,
+                   help="kernel alone; with the observers at the sweep's cadence (record "
+                        "spooled to disk on the GPU; observed-ram: kept in host memory, GPU "
+                        "only); at the coarse cadence (timed in turn, side by side; default: "
+                        "all, observed-ram on the GPU only)")
     p.add_argument("--B", type=int, required=True)
     p.add_argument("--steps", type=int, default=2000, help="timed steps per path at most")
     p.add_argument("--seconds", type=float, default=20.0, help="timed seconds at most")

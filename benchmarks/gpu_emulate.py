@@ -102,12 +102,110 @@ class RawModule:
         return launch
 
 
+class Stream:
+    """``cupy.cuda.Stream``: the null stream (the compute stream) runs each operation at
+    once; another stream queues its operations (the emulated asynchronous copies) and runs
+    them only when the host waits for it or for one of its events (``Event.synchronize``,
+    an ``Event.done`` that answers True, ``wait_event``, ``synchronize``). A host that reads
+    a copy's target too early, or a device buffer rewritten before its copy ran, therefore
+    gives wrong data here, as on a GPU."""
+
+    _streams: list = []  # every stream made, for ``Device.synchronize``
+
+    def __init__(self, null: bool = False, non_blocking: bool = False) -> None:
+        self.is_null = null
+        self._queue: list = []
+        self._ran = 0  # operations run
+        Stream._streams.append(self)
+
+    def submit(self, op) -> None:
+        if self.is_null:
+            op()
+        else:
+            self._queue.append(op)
+
+    def run(self, upto: int | None = None) -> None:
+        """Run the queued operations, through the ``upto``-th one."""
+        upto = len(self._queue) if upto is None else upto
+        while self._ran < upto:
+            op, self._queue[self._ran] = self._queue[self._ran], None
+            self._ran += 1
+            op()
+
+    def record(self, event: Event | None = None) -> Event:
+        event = event or Event()
+        event.record(self)
+        return event
+
+    def wait_event(self, event: Event) -> None:
+        event.synchronize()  # the null stream runs at once: it must see the event's work
+
+    def synchronize(self) -> None:
+        self.run()
+
+    @property
+    def done(self) -> bool:
+        self.run()
+        return True
+
+
+Stream.null = Stream(null=True)
+
+
+class Event:
+    """``cupy.cuda.Event``: the operations queued on its stream before ``record``. ``done``
+    answers False at its first ``LAG`` queries (a copy still under way), then runs them and
+    answers True, so that both branches of a poll run and a copy can still be pending when
+    the loop has moved on by a few rows."""
+
+    LAG = 2
+
+    def __init__(self, block: bool = False, disable_timing: bool = False,
+                 interprocess: bool = False) -> None:
+        self._stream, self._upto, self._queries = None, 0, 0
+
+    def record(self, stream: Stream | None = None) -> None:
+        self._stream = stream or Stream.null
+        self._upto = len(self._stream._queue)
+
+    def synchronize(self) -> None:
+        if self._stream is not None:
+            self._stream.run(self._upto)
+
+    @property
+    def done(self) -> bool:
+        if self._queries < self.LAG and self._stream is not None and \
+                self._stream._ran < self._upto:
+            self._queries += 1
+            return False
+        self.synchronize()
+        return True
+
+
+def asnumpy(a, stream: Stream | None = None, order: str = "C", out=None, *,
+            blocking: bool = True) -> np.ndarray:
+    """``cupy.asnumpy``: a copy on ``stream`` (the null stream by default), queued there
+    when ``blocking`` is False."""
+    if out is None:
+        return np.array(a, order=order)
+    stream = stream or Stream.null
+
+    def copy() -> None:
+        out[...] = a
+
+    stream.submit(copy)
+    if blocking:
+        stream.synchronize()
+    return out
+
+
 class _Device:
     def __init__(self, index: int = 0) -> None:
         self.id = index
 
     def synchronize(self) -> None:
-        pass
+        for stream in Stream._streams:
+            stream.run()
 
 
 def _device_properties(index: int) -> dict:
@@ -115,18 +213,23 @@ def _device_properties(index: int) -> dict:
 
 
 def cupy_module() -> types.ModuleType:
-    """A module named ``cupy``: numpy's namespace plus ``RawModule``, ``asnumpy``,
-    ``cuda.Device`` and ``cuda.runtime.{getDeviceCount, getDeviceProperties}``."""
+    """A module named ``cupy``: numpy's namespace plus ``RawModule``, ``asnumpy`` (with
+    ``stream``, ``out``, ``blocking``), ``cuda.{Device, Stream, Event, get_current_stream,
+    alloc_pinned_memory}`` and ``cuda.runtime.{getDeviceCount, getDeviceProperties,
+    deviceGetAttribute}``."""
     mod = types.ModuleType("cupy", __doc__)
     mod.__getattr__ = lambda name: getattr(np, name)  # type: ignore[attr-defined]
     mod.RawModule = RawModule
-    mod.asnumpy = np.asarray
+    mod.asnumpy = asnumpy
     mod.EMULATED = True
     mod.__version__ = "emulated"
     runtime = types.SimpleNamespace(getDeviceCount=lambda: 1,
                                     getDeviceProperties=_device_properties,
                                     deviceGetAttribute=lambda attr, dev: 0)
-    mod.cuda = types.SimpleNamespace(Device=_Device, runtime=runtime)
+    mod.cuda = types.SimpleNamespace(
+        Device=_Device, runtime=runtime, Stream=Stream, Event=Event,
+        get_current_stream=lambda: Stream.null,
+        alloc_pinned_memory=bytearray)  # page-locked memory: plain host memory here
     return mod
 
 

@@ -1,11 +1,16 @@
 """Observers of a batch (``solver.ensemble``): per-scene samples and probes of B scenes,
 kept whole in host memory (``spool_dir = None`` on the CPU; the caller checks that the record
 fits, ``BatchRecorder.record_bytes``) or spooled to disk in chunks, so that memory does not
-grow with the run length."""
+grow with the run length. On a GPU the chunks are copied to the host asynchronously
+(``_DeviceSpool``) and the energy guard reads them there, so that the loop never waits for
+the device on a sample."""
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+import time
+from collections import deque
+from concurrent.futures import Future, ThreadPoolExecutor
+from typing import TYPE_CHECKING, Any, Callable
 
 import numpy as np
 
@@ -70,6 +75,143 @@ class _Spool:
         return np.array(data.reshape(-1, *self.inner)[:n])
 
 
+def _pinned(xp: Any, shape: tuple[int, ...], dtype) -> np.ndarray:
+    """A numpy array in page-locked host memory (``cupy.cuda.alloc_pinned_memory``): the
+    target of an asynchronous device-to-host copy."""
+    count = int(np.prod(shape))
+    mem = xp.cuda.alloc_pinned_memory(max(1, count * np.dtype(dtype).itemsize))
+    return np.frombuffer(mem, dtype=dtype, count=count).reshape(shape)
+
+
+def _copy_to_host_async(xp: Any, src, dst: np.ndarray, stream) -> None:
+    """dst[...] = src, queued on ``stream``; the host goes on at once (``dst`` pinned)."""
+    try:
+        xp.asnumpy(src, stream=stream, out=dst, blocking=False)
+    except TypeError:  # CuPy < 13: a copy on a given stream is asynchronous, no ``blocking``
+        xp.asnumpy(src, stream=stream, out=dst)
+
+
+class _DeviceSpool(_Spool):
+    """``_Spool`` for device arrays (CuPy), without a stall of the loop:
+
+    * two device chunk buffers in turn: the rows go into one while the other, full, is copied
+      to pinned host memory on its own stream (``non_blocking``: it does not wait for the
+      compute stream's kernels), after an event recorded on the compute stream when the
+      chunk was full; before its buffer takes rows again, the compute stream waits (on the
+      device, not the host) for that copy's event;
+    * a chunk whose copy has ended (``Event.done``, polled at every ``row``) goes to
+      ``on_host(first_row, chunk)`` on the loop's thread (the energy guard), then to one
+      writer thread: appended to the file (``path``; file writes release the GIL) or copied
+      into a numpy array kept in memory (``path = None``); a pinned buffer takes a new copy
+      only after its writer finished (the one wait of the loop, when the disk is slower
+      than the device).
+
+    Only this (the loop's) thread calls CUDA. ``read(b, n)`` and ``close()`` are
+    ``_Spool``'s; ``wait_s`` is the time the loop waited for copies and writes."""
+
+    def __init__(self, xp: Any, inner: tuple[int, ...], B: int, chunk: int, dtype,
+                 path=None, on_host: Callable[[int, np.ndarray], None] | None = None) -> None:
+        self.xp, self.inner, self.B, self.chunk, self.dtype = xp, inner, B, chunk, dtype
+        shape = (B, chunk, *inner)
+        self.dev = [xp.zeros(shape, dtype=dtype) for _ in range(2)]
+        self.host = [_pinned(xp, shape, dtype) for _ in range(2)]
+        self.buf = self.dev[0]
+        self.stream = xp.cuda.Stream(non_blocking=True)  # the copies
+        self.copied: list[Any] = [None, None]  # event: slot k's last copy ended
+        self.written: list[Future | None] = [None, None]  # the writer's job on host slot k
+        self.pending: deque[int] = deque()  # chunks copied (or copying), not handed over
+        self.writer = ThreadPoolExecutor(1, thread_name_prefix="spool-writer")
+        self.on_host = on_host
+        self.path = path
+        self.fh = open(path, "wb") if path is not None else None  # noqa: SIM115
+        self.mem: list[np.ndarray] = []
+        self.rows = 0
+        self.n_chunks = 0
+        self.wait_s = 0.0
+        self.closed = False
+
+    def row(self):
+        if self.pending:
+            self._hand_over(wait_through=-1)
+        return super().row()
+
+    def _rows_of(self, c: int) -> int:
+        return min(self.chunk, self.rows - c * self.chunk)
+
+    def _flush(self) -> None:
+        """Queue the copy of the full device buffer; the rows go on in the other one."""
+        c, k = self.n_chunks, self.n_chunks % 2
+        self._free(k)
+        compute = self.xp.cuda.get_current_stream()
+        self.stream.wait_event(compute.record())  # the chunk's rows are written
+        _copy_to_host_async(self.xp, self.dev[k], self.host[k], self.stream)
+        self.copied[k] = self.stream.record()
+        self.pending.append(c)
+        self.n_chunks += 1
+        other = 1 - k
+        if self.copied[other] is not None:  # its last copy ends before new rows land in it
+            compute.wait_event(self.copied[other])
+        self.buf = self.dev[other]
+
+    def _hand_over(self, wait_through: int) -> None:
+        """Chunks whose copy has ended, oldest first: ``on_host``, then the writer. Chunks up
+        to index ``wait_through`` are waited for; later ones only when already copied."""
+        while self.pending:
+            c = self.pending[0]
+            k = c % 2
+            event = self.copied[k]
+            if not event.done:
+                if c > wait_through:
+                    return
+                t0 = time.perf_counter()
+                event.synchronize()
+                self.wait_s += time.perf_counter() - t0
+            self.pending.popleft()
+            if self.on_host is not None:
+                self.on_host(c * self.chunk, self.host[k][:, :self._rows_of(c)])
+            self.written[k] = self.writer.submit(self._store, k)
+
+    def _store(self, k: int) -> None:
+        """The writer thread: host slot k to the file (whole, as ``read`` expects) or to a
+        numpy array in memory."""
+        if self.fh is not None:
+            self.host[k].tofile(self.fh)
+        else:
+            self.mem.append(self.host[k].copy())
+
+    def _free(self, k: int) -> None:
+        """Host slot k's last chunk handed over and written (errors of the write raise)."""
+        if any(c % 2 == k for c in self.pending):
+            self._hand_over(wait_through=max(c for c in self.pending if c % 2 == k))
+        job, self.written[k] = self.written[k], None
+        if job is not None:
+            t0 = time.perf_counter()
+            job.result()
+            self.wait_s += time.perf_counter() - t0
+
+    def drain(self) -> None:
+        """Wait until every full chunk so far is copied, handed over and written."""
+        self._hand_over(wait_through=self.n_chunks)
+        for k in (0, 1):
+            self._free(k)
+
+    def close(self) -> None:
+        """Copy the last (partial) chunk, hand over and write everything; then ``read``."""
+        if self.closed:
+            return
+        try:
+            if self.rows > self.n_chunks * self.chunk:
+                self._flush()
+            self.drain()
+        finally:
+            self.closed = True
+            self.writer.shutdown(wait=True)
+            if self.fh is not None:
+                self.fh.close()
+                self.fh = None
+            self.dev, self.host, self.buf = [], [], None  # device and pinned memory back
+
+
 class _Record:
     """One recorded field of a batch, whole and in host memory, scene-major:
     (B, rows, *inner). ``row()`` is a (B, *inner) view of the next row, the layout of
@@ -100,6 +242,14 @@ class BatchRecorder:
     strain, the three works); probes (every step): u_n and v_n (x, y) at the probe nodes.
     ``arrays(b)`` / ``probe_arrays(b)`` return exactly the dictionaries of
     ``InnerCircleRecorder.arrays`` / ``ProbeRecorder.arrays`` for scene b.
+
+    The energy guard (``observe``; ``check_health``): on the CPU every sample is checked as
+    it is taken. On a GPU (``xp`` not numpy) a sample stays on the device: the guard checks
+    each chunk of samples once its asynchronous copy has reached the host, row by row, each
+    blow-up reported at the time of its own sample; ``close()`` returns those of the last
+    chunks. A scene is then masked up to two chunks of samples later than on the CPU (its
+    record goes on past the blow-up until then); the scenes are independent columns, so no
+    other scene's bits change.
     """
 
     def __init__(self, integ: BatchedExplicit, *, mass: np.ndarray, perm: np.ndarray,
@@ -122,20 +272,31 @@ class BatchRecorder:
         self.t = np.zeros(max_samples)
         self.probe_t = np.zeros(max_steps + 1)
         npb = len(probe_nodes)
+        # the guard on the host copies of the energies (GPU): the clock of each sample (the
+        # stepper's time when it was taken), the scenes found, their messages not yet taken
+        self.deferred = xp is not np
+        self.clock = np.zeros(max_samples)
+        self.flagged = np.zeros(B, dtype=bool)
+        self.blowups: dict[int, str] = {}
 
-        def store(name: str, inner: tuple[int, ...], dtype, rows: int, chunk_rows: int):
+        def store(name: str, inner: tuple[int, ...], dtype, rows: int, chunk_rows: int,
+                  on_host=None):
             if spool_dir is None and xp is np:  # the whole record, in host memory
                 return _Record(inner, B, rows, dtype)
             path = None if spool_dir is None else spool_dir / name  # chunks (file or host)
-            return _Spool(xp, inner, B, chunk_rows, dtype, path)
+            if xp is np:
+                return _Spool(xp, inner, B, chunk_rows, dtype, path)
+            return _DeviceSpool(xp, inner, B, chunk_rows, dtype, path, on_host)
 
         self.fields = store("fields.f64", (6, m), np.float64, max_samples, chunk)
         self.status = store("status.i8", (m,), np.int8, max_samples, chunk)
         # kinetic, strain, 3 works, the Kelvin-Voigt work W_d (0 undamped), as
         # solver.observers.ENERGY_FIELDS
-        self.energies = store("energies.f64", (6,), np.float64, max_samples, chunk)
+        self.energies = store("energies.f64", (6,), np.float64, max_samples, chunk,
+                              self._guard_chunk)
         self.probes = store("probes.f64", (4, npb), np.float64, max_steps + 1, 16 * chunk)
         self.cx_sorted = integ.cx.astype(np.int64)[self.perm]
+        self.cy_sorted = self.cx_sorted + 1  # the y dofs, once (not one launch per sample)
         self.pc_sorted = xp.asarray(integ.phase_conj)[self.perm]
         self.z = xp.zeros((B, m), dtype=np.complex128)
         self.initial = np.full(B, np.nan)
@@ -165,8 +326,36 @@ class BatchRecorder:
         row[...] = self.probe_scratch.reshape(4, k2 // 2, -1).transpose(2, 0, 1)
         self.n_probe += 1
 
-    def sample(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Record time level n; returns host (kinetic, strain, work_cylinder) per scene."""
+    def observe(self, time_now: float) -> dict[int, str]:
+        """Record time level n (``sample``) and run the energy guard: {b: message} of the
+        blow-ups found now (CPU: in this sample; GPU: in the chunks of samples that reached
+        the host since the last call, see the class docstring). The caller masks them."""
+        energies = self.sample()
+        if energies is not None:
+            return self.check_health(*energies, time_now)
+        return self.take_blowups()
+
+    def take_blowups(self) -> dict[int, str]:
+        """The blow-ups the guard found on the host copies (GPU) and not yet returned."""
+        if isinstance(self.energies, _DeviceSpool) and self.energies.pending:
+            self.energies._hand_over(wait_through=-1)
+        found, self.blowups = self.blowups, {}
+        return found
+
+    def _guard_chunk(self, first: int, chunk: np.ndarray) -> None:
+        """``check_health`` on samples first, first + 1, ... of a host chunk (B, rows, 6),
+        in order, each at its own clock; a scene found is left out of later rows."""
+        for j in range(chunk.shape[1]):
+            e = chunk[:, j]
+            found = self.check_health(e[:, 0], e[:, 1], e[:, 3], float(self.clock[first + j]))
+            for b, msg in found.items():
+                self.flagged[b] = True
+                self.blowups[b] = msg
+
+    def sample(self) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+        """Record time level n; returns host (kinetic, strain, work_cylinder) per scene on
+        the CPU, None on a GPU (no device-to-host copy per sample: ``observe`` runs the
+        guard on the host chunks)."""
         it, xp = self.integ, self.xp
         cx = self.cx_sorted
         row = self.fields.row()  # (B, 6, m), scene-first
@@ -176,7 +365,7 @@ class BatchRecorder:
             # ``NodalFrames.polar_at_nodes``, hence the same bits (numpy's SIMD complex
             # multiply may fuse multiply-adds)
             z.real[...] = arr[cx].T
-            z.imag[...] = arr[cx + 1].T
+            z.imag[...] = arr[self.cy_sorted].T
             z *= self.pc_sorted
             row[:, k] = z.real
             row[:, k + 1] = z.imag
@@ -198,15 +387,17 @@ class BatchRecorder:
         e[:, 2:5] = (it.work[:3] if it.work.ndim == 2 else it.work.sum(axis=1)).T
         e[:, 5] = it.damping_work_totals() if it.damped else 0.0
         self.t[self.n] = it.time - it.dt
+        self.clock[self.n] = it.time
         self.n += 1
-        host = e[:, :4].get() if hasattr(e, "get") else e[:, :4]  # one device -> host copy
-        return host[:, 0], host[:, 1], host[:, 3]
+        if self.deferred:
+            return None
+        return e[:, 0], e[:, 1], e[:, 3]
 
     def check_health(self, kin: np.ndarray, strain: np.ndarray, w_cyl: np.ndarray,
                      time_now: float) -> dict[int, str]:
         """``Simulation._check_health`` for every active scene: {b: message} of new blow-ups."""
         total = kin + strain
-        active = self.integ.active
+        active = self.integ.active & ~self.flagged
         finite = np.isfinite(total)
         first = active & finite & np.isnan(self.initial)  # a scene's first sample: its scale
         self.initial[first] = total[first]
@@ -221,9 +412,31 @@ class BatchRecorder:
                 out[int(b)] = blowup_message(float(total[b]), float(fed[b]), time_now)
         return out
 
-    def close(self) -> None:
+    def close(self) -> dict[int, str]:
+        """Write out the record; returns the blow-ups the guard found in its last chunks
+        (GPU; ``{}`` on the CPU, which found them at their sample)."""
+        errors = []
         for s in (self.fields, self.status, self.energies, self.probes):
-            s.close()
+            try:  # every spool closes (its file, its writer thread), whatever another did
+                s.close()
+            except Exception as err:
+                errors.append(err)
+        if errors:
+            raise errors[0]
+        return self.take_blowups()
+
+    def drain(self) -> None:
+        """GPU: wait until the chunks filled so far are on the host and written (a timed
+        block of steps then holds all the work it queued); nothing on the CPU."""
+        for s in (self.fields, self.status, self.energies, self.probes):
+            if isinstance(s, _DeviceSpool):
+                s.drain()
+
+    @property
+    def wait_s(self) -> float:
+        """Seconds the loop waited for the GPU spools' copies and writes."""
+        return sum(getattr(s, "wait_s", 0.0)
+                   for s in (self.fields, self.status, self.energies, self.probes))
 
     def arrays(self, b: int, n: int | None = None) -> dict[str, np.ndarray]:
         """Scene b's ``InnerCircleRecorder.arrays()`` (its first n samples)."""

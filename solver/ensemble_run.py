@@ -111,13 +111,8 @@ class BatchSampling:
         return self.batch.recorder.due(level)
 
     def observe(self, stepper) -> str:
-        batch, rec = self.batch, self.batch.recorder
-        kin, strain, w_cyl = rec.sample()
-        for b, msg in rec.check_health(kin, strain, w_cyl, stepper.time).items():
-            run = batch.runs[batch.live[b]]
-            run.finish(batch, b, "diverged")
-            run.message = msg
-            stepper.mask(b)
+        batch = self.batch
+        batch.diverge(batch.recorder.observe(stepper.time))
         if not stepper.active.any():
             return "diverged"
         wall = batch.max_wall
@@ -178,6 +173,14 @@ class BatchSimulation:
         self.live.append(k)
         return u0
 
+    def diverge(self, found: dict[int, str]) -> None:
+        """Scenes {b: message} that the energy guard found: diverged, masked."""
+        for b, msg in found.items():
+            run = self.runs[self.live[b]]
+            run.finish(self, b, "diverged")
+            run.message = msg
+            self.stepper.mask(b)
+
     def planned_steps(self) -> int:
         from solver.run import planned_steps
 
@@ -230,7 +233,7 @@ class BatchSimulation:
                 stop = run_loop(self.stepper, self.observers, end - 1e-12 * end,
                                 ts.max_steps or math.inf)
         finally:
-            self.recorder.close()
+            self.diverge(self.recorder.close())  # the GPU's guard: the last chunks
             for b, k in enumerate(self.live):
                 if self.stepper.active[b]:
                     self.runs[k].finish(self, b, "completed",

@@ -193,6 +193,73 @@ def test_suite_check_stage_gpu_path_with_observers_equals_the_cpu_path(suite_npz
     assert diff["energies"] < 1e-12 and diff["work"] < 1e-12
 
 
+def _observed_run(bp, extra, xp, kernel: str, spool_dir, planted: int, at: int):
+    """68 steps of the observed path of 4 scenes (the npz's starts, tiled), sampled every 3rd
+    step, chunks of 2 samples and 32 probe rows (several chunks and a partial last one);
+    before step ``at``, 1e4 m/s is added to scene ``planted``'s velocity. Returns the
+    batch, its recorder, {scene: guard message} and {scene: samples taken when masked}."""
+    from benchmarks.gpu_bench import ensemble, probe_slot, tile
+
+    observe = {"every": 3, "max_samples": 25, "max_steps": 68, "chunk": 2,
+               "probe_nodes": [probe_slot(bp)], "spool_dir": spool_dir}
+    integ, rec, _ = ensemble(bp, *(tile(extra[k], 4) for k in ("d", "slide", "f", "u0")),
+                             xp=xp, kernel=kernel, observe=observe)
+    messages, masked_at = {}, {}
+
+    def mask(found: dict[int, str]) -> None:
+        for b, msg in found.items():
+            messages[b], masked_at[b] = msg, rec.n
+            integ.mask(b)
+
+    for _ in range(68):  # gpu_bench.ensemble's loop, with the planted kick
+        if integ.step_count == at:
+            integ.v_pred[:, planted] += 1e4
+        integ.step(diag=rec.due(integ.step_count))
+        rec.record_probes()
+        if rec.due(integ.step_count - 1):
+            mask(rec.observe(integ.time))
+    mask(rec.close())
+    return integ, rec, messages, masked_at
+
+
+@pytest.mark.parametrize("to_file", [False, True], ids=["in-memory", "spool-file"])
+def test_async_gpu_spool_records_the_cpu_samples_and_masks_a_planted_blowup(
+        suite_npz, tmp_path, to_file):
+    """The GPU path's observers (device chunks copied on a stream of their own to pinned host
+    memory, a writer thread, the energy guard on the host chunks), emulated, against the CPU
+    numba path: a scene kicked to 1e4 m/s is reported with the same message (same sample
+    time) and masked; every other scene ends bitwise equal and records bitwise the same
+    fields, statuses and probes, its energies to 1e-12 (the CUDA path sums them with
+    ``einsum``, numba in row order: round-off); the kicked scene's record is the CPU's up
+    to its blow-up (the GPU masks it later: its guard runs per chunk)."""
+    from benchmarks.gpu_bench import load
+
+    bp, extra = load(suite_npz)
+    planted = 1
+    spool = tmp_path / "spool" if to_file else None
+    if spool:
+        spool.mkdir()
+    gpu = _observed_run(bp, extra, sys.modules["cupy"], "cuda", spool, planted, at=30)
+    cpu = _observed_run(bp, extra, np, "numba", None, planted, at=30)
+    (g, grec, gmsg, gat), (c, crec, cmsg, cat) = gpu, cpu
+    assert set(cmsg) == {planted} and gmsg == cmsg, (gmsg, cmsg)
+    assert gat[planted] >= cat[planted] and not g.active[planted]
+    if to_file:
+        assert (spool / "fields.f64").stat().st_size == 12 * 4 * 2 * 6 * bp.cx.size * 8
+    for b in range(4):
+        n = cat[planted] if b == planted else grec.n
+        ga, ca = grec.arrays(b, n), crec.arrays(b, n)
+        for key in ("t", "u_r", "u_theta", "v_r", "v_theta", "r_r", "r_theta", "status"):
+            np.testing.assert_array_equal(ga[key], ca[key], err_msg=f"scene {b}: {key}")
+        e_g, e_c = ga["energies"], ca["energies"]
+        assert np.max(np.abs(e_g - e_c)) <= 1e-12 * np.max(np.abs(e_c)), b
+        if b != planted:
+            np.testing.assert_array_equal(grec.probe_arrays(b)["probe_data"],
+                                          crec.probe_arrays(b)["probe_data"])
+            np.testing.assert_array_equal(g.u[:, b], c.u[:, b])
+    assert grec.n == crec.n == 23 and grec.n_probe == crec.n_probe == 68
+
+
 def test_suite_rate_stages_and_report_give_the_ratio_table(suite_npz, tmp_path):
     """Two rate stages (emulated GPU and CPU numba, the observed path) and the report: the
     JSON holds both with the GPU's ratio to the CPU's rate, the table one row each."""
