@@ -68,11 +68,12 @@ def ensemble(bp, d, slide, f, u0, *, xp, kernel: str, observe: dict | None = Non
 
     The one place that calls the ensemble's public classes (``BatchedExplicit``,
     ``BatchRecorder``; benchmarks/ensemble.py's npz mode uses it too). ``observe``: {every,
-    max_samples, max_steps, probe_nodes (contact slots), spool_dir, chunk (optional)}. Returns ``(integ, rec,
-    advance)``: ``advance(k)`` runs k steps of the path, lean steps without ``rec``; with it,
-    step for step what a sweep's batch does (``BatchSimulation``: v, a, K u stored on the
-    sampled levels, its probe hook after every step, its sampling observer with the energy
-    guard on the sampled levels). ``solver.run.run_loop`` itself is not called: it imports
+    max_samples, max_steps, probe_nodes (contact slots), spool_dir, chunk (optional)}.
+    Returns ``(integ, rec, advance)``: ``advance(k)`` runs k steps of the path, lean steps
+    without ``rec``; with it, step for step what a sweep's batch does (``BatchSimulation``:
+    v, a, K u stored on the sampled levels, its probe hook after every step, its sampling
+    observer with the energy guard, ``BatchRecorder.observe``, on the sampled levels; after
+    the last step, ``close(integ, rec)``). ``solver.run.run_loop`` itself is not called: it imports
     mpi4py, which a GPU node need not have. ``diag``: store v, a, K u at every step.
     """
     from solver.ensemble import BatchedExplicit
