@@ -22,7 +22,8 @@ if TYPE_CHECKING:  # pragma: no cover
 
 
 class _Spool:
-    """One recorded field of a batch: rows of shape (B, *inner) in chunks of ``chunk`` rows.
+    """One recorded field of a batch on the host: rows of shape (B, *inner) in chunks of
+    ``chunk`` rows (``_DeviceSpool`` on a GPU).
 
     The chunk buffer is scene-major, (B, chunk, *inner): a row is a (B, *inner) view whose
     scene rows are contiguous (a row written scene-last, the scene index innermost, cost ~4x
@@ -52,9 +53,9 @@ class _Spool:
 
     def _flush(self) -> None:
         if self.fh is not None:
-            (self.buf.get() if hasattr(self.buf, "get") else self.buf).tofile(self.fh)
+            self.buf.tofile(self.fh)
         else:
-            self.mem.append(self.buf.get() if hasattr(self.buf, "get") else self.buf.copy())
+            self.mem.append(self.buf.copy())
         self.n_chunks += 1  # rows of a partial last chunk past ``rows`` are never read
 
     def close(self) -> None:
@@ -79,9 +80,8 @@ class _Spool:
 def _pinned(xp: Any, shape: tuple[int, ...], dtype) -> np.ndarray:
     """A numpy array in page-locked host memory (``cupy.cuda.alloc_pinned_memory``): the
     target of an asynchronous device-to-host copy."""
-    count = int(np.prod(shape))
-    mem = xp.cuda.alloc_pinned_memory(max(1, count * np.dtype(dtype).itemsize))
-    return np.frombuffer(mem, dtype=dtype, count=count).reshape(shape)
+    mem = xp.cuda.alloc_pinned_memory(max(1, int(np.prod(shape)) * np.dtype(dtype).itemsize))
+    return np.ndarray(shape, dtype=dtype, buffer=mem)  # as cupyx.empty_pinned
 
 
 def _copy_to_host_async(xp: Any, src, dst: np.ndarray, stream) -> None:
