@@ -639,6 +639,11 @@ def _table(s: dict, peak) -> str:
             f"{_fmt(r['cpu_time_over_kernel'], '.3g')} | "
             f"{_fmt(r['ratio_to_best_cpu_core'], '.3g')} | {r['implied_gb_s']:.3g} | "
             f"{_fmt(r['fraction_of_peak'], '.0%')} |")
+    waits = [f"N = {r['N']} {r['path']} {r['spool_wait_s']:.2f} s (close {r['close_s']:.2f} s)"
+             for r in s["rates"] if r["target"] == "gpu" and r.get("spool_wait_s") is not None]
+    if waits:
+        lines.append("\nGPU observers, the loop's waits for the chunks' copies and writes in "
+                     "the timed blocks: " + "; ".join(waits))
     for c in s["checks"]:
         lines.append(f"\ncheck N = {c['N']}, B = {c['B']}, {c['steps']} steps, first "
                      f"{c['scenes_compared']} scenes against the CPU ({c['reference']}): same bits "
