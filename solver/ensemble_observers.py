@@ -132,9 +132,13 @@ class _DeviceSpool(_Spool):
         self.closed = False
 
     def row(self):
+        self.poll()
+        return super().row()
+
+    def poll(self) -> None:
+        """Hand over the chunks whose copy has ended (no wait)."""
         if self.pending:
             self._hand_over(wait_through=-1)
-        return super().row()
 
     def _rows_of(self, c: int) -> int:
         return min(self.chunk, self.rows - c * self.chunk)
@@ -338,8 +342,8 @@ class BatchRecorder:
 
     def take_blowups(self) -> dict[int, str]:
         """The blow-ups the guard found on the host copies (GPU) and not yet returned."""
-        if isinstance(self.energies, _DeviceSpool) and self.energies.pending:
-            self.energies._hand_over(wait_through=-1)
+        if isinstance(self.energies, _DeviceSpool):
+            self.energies.poll()
         found, self.blowups = self.blowups, {}
         return found
 
