@@ -245,6 +245,16 @@ def collect(out_dir: str | Path, *, certify: bool = False) -> dict:
     out_dir = Path(out_dir)
     meta = json.loads((out_dir / "census.json").read_text())
     rows = start_rows(out_dir, meta["spread_tol"])
+    answer = answer_of(meta, rows, out_dir if certify else None)
+    write_outputs(out_dir, answer)
+    return answer
+
+
+def answer_of(meta: dict, rows: list[dict], certify_in: Path | None = None) -> dict:
+    """The census's answer from its definition (``census.json``) and one row per start
+    (``classify.start_row`` or ``classify.end_state_row``): members per mesh, structured
+    starts apart, the ladder, the counts, and (with ``certify_in``, the census directory)
+    the certificates."""
     meshes = sorted({r["n_inner"] for r in rows})
     per_mesh, structured = {}, {}
     for n in meshes:
@@ -256,7 +266,7 @@ def collect(out_dir: str | Path, *, certify: bool = False) -> dict:
     counts: dict[str, int] = {}
     for r in rows:
         counts[r["class"]] = counts.get(r["class"], 0) + 1
-    certificates = _certificates(out_dir, rows, per_mesh) if certify else {}
+    certificates = _certificates(certify_in, rows, per_mesh) if certify_in else {}
     answer = {"kind": KIND, **{k: meta[k] for k in ("scene_file", "overrides", "meshes",
                                                      "distribution", "celerity_tol",
                                                      "spread_tol")},
@@ -267,7 +277,6 @@ def collect(out_dir: str | Path, *, certify: bool = False) -> dict:
     from studies.attractors.report import summary_text
 
     answer["text"] = summary_text(answer)
-    write_outputs(out_dir, answer)
     return answer
 
 

@@ -110,30 +110,53 @@ def classify(status: str, summary: dict, spread: float, spread_tol: float = SPRE
 
 def start_row(run_dir: Path, params: dict, summary: dict | None, status: str,
               spread_tol: float = SPREAD_TOL) -> dict:
-    """One start's row of ``attractors.csv``: where it started, what it reached."""
+    """One start's row of ``attractors.csv`` from its run directory: where it started, what
+    it reached."""
     s = summary or {}
-    row = {
-        "id": run_dir.name, "n_inner": params.get("mesh.n_inner"),
-        "start": params.get("initial.perturbation"), "seed": params.get("initial.seed"),
-        "start_mode": params.get("initial.mode"), "status": status,
-    }
     spread = rms = trend = math.nan
     if status == "completed" and s.get("regime") not in (None, "steady-sliding"):
         spread, rms, trend = _spread_of_run(run_dir, s)
+    return end_state_row(run_dir.name, params, s, status, (spread, rms, trend), spread_tol,
+                         run_dir=str(run_dir))
+
+
+def end_state_row(start_id: str, params: dict, summary: dict, status: str,
+                  spread: tuple[float, float, float], spread_tol: float = SPREAD_TOL,
+                  run_dir: str = "") -> dict:
+    """One start's row from its run summary (``studies.rundir.scene_run.summarise``'s keys)
+    and its (frame spread, RMS amplitude, spread trend), wherever they were computed (a run
+    directory, or a batch's records on another machine)."""
+    s = summary
+    frame, rms, trend = spread
+    row = {
+        "id": start_id, "n_inner": params.get("mesh.n_inner"),
+        "start": params.get("initial.perturbation"), "seed": params.get("initial.seed"),
+        "start_mode": params.get("initial.mode"), "status": status,
+    }
     fr = s.get("fractions") or {}
     row.update({
-        "class": classify(status, s, spread, spread_tol, trend) if status in (
+        "class": classify(status, s, frame, spread_tol, trend) if status in (
             "completed", "diverged", "failed") else status,
         "k": s.get("mode"), "direction": s.get("direction"), "regime": s.get("regime"),
         "celerity_m_s": s.get("celerity_m_s"), "frequency_hz": s.get("frequency_hz"),
         "fraction_separation": fr.get("separation"), "fraction_stick": fr.get("stick"),
         "fraction_slip": fr.get("slip"), "psi1": s.get("psi1"), "psi2": s.get("psi2"),
         "amplitude_m": s.get("amplitude_m"), "rms_amplitude_m": rms,
-        "limit_cycle": s.get("limit_cycle"), "frame_spread": spread, "spread_trend": trend,
+        "limit_cycle": s.get("limit_cycle"), "frame_spread": frame, "spread_trend": trend,
         "dt_s": s.get("dt_s"), "steps": s.get("steps"), "wall_time_s": s.get("wall_time_s"),
-        "message": s.get("message"), "run_dir": str(run_dir), "member": None,
+        "message": s.get("message"), "run_dir": run_dir, "member": None,
     })
     return row
+
+
+def spread_of_samples(t: np.ndarray, theta: np.ndarray, u_r: np.ndarray, u_theta: np.ndarray,
+                      summary: dict, radius: float) -> tuple[float, float, float]:
+    """(frame spread, RMS amplitude, spread trend) over the summary's analysis window, in the
+    frame turning at the summary's celerity."""
+    omega = float(summary["celerity_m_s"]) / radius
+    window = float(summary.get("analysis_window_s") or (t[-1] - t[0]) / 3.0)
+    spread, rms = frame_spread(t, theta, u_r, u_theta, omega, window)
+    return spread, rms, spread_trend(t, theta, u_r, u_theta, omega, window)
 
 
 def _spread_of_run(run_dir: Path, summary: dict) -> tuple[float, float, float]:
@@ -143,10 +166,7 @@ def _spread_of_run(run_dir: Path, summary: dict) -> tuple[float, float, float]:
             t, theta, u_r, u_theta = z["t"], z["theta"], z["u_r"], z["u_theta"]
     except (OSError, KeyError, ValueError):
         return math.nan, math.nan, math.nan
-    omega = float(summary["celerity_m_s"]) / _radius(run_dir)
-    window = float(summary.get("analysis_window_s") or (t[-1] - t[0]) / 3.0)
-    spread, rms = frame_spread(t, theta, u_r, u_theta, omega, window)
-    return spread, rms, spread_trend(t, theta, u_r, u_theta, omega, window)
+    return spread_of_samples(t, theta, u_r, u_theta, summary, _radius(run_dir))
 
 
 def _radius(run_dir: Path) -> float:
