@@ -112,13 +112,24 @@ class BatchSampling:
 
     def observe(self, stepper) -> str:
         batch = self.batch
-        batch.diverge(batch.recorder.observe(stepper.time))
+        self.diverge(batch.recorder.observe(stepper.time), stepper)
         if not stepper.active.any():
             return "diverged"
         wall = batch.max_wall
         if wall is not None and time.perf_counter() - batch.t_start > wall:
             return "max_wall_time"
         return ""
+
+    def diverge(self, found: dict[int, str], stepper) -> None:
+        """Scenes {b: message} that the energy guard found: diverged, masked. After the
+        loop, ``diverge(recorder.close(), stepper)`` takes those a GPU's guard found in the
+        last chunks of samples."""
+        batch = self.batch
+        for b, msg in found.items():
+            run = batch.runs[batch.live[b]]
+            run.finish(batch, b, "diverged")
+            run.message = msg
+            stepper.mask(b)
 
 
 class BatchSimulation:
@@ -173,14 +184,6 @@ class BatchSimulation:
         self.live.append(k)
         return u0
 
-    def diverge(self, found: dict[int, str]) -> None:
-        """Scenes {b: message} that the energy guard found: diverged, masked."""
-        for b, msg in found.items():
-            run = self.runs[self.live[b]]
-            run.finish(self, b, "diverged")
-            run.message = msg
-            self.stepper.mask(b)
-
     def planned_steps(self) -> int:
         from solver.run import planned_steps
 
@@ -233,7 +236,7 @@ class BatchSimulation:
                 stop = run_loop(self.stepper, self.observers, end - 1e-12 * end,
                                 ts.max_steps or math.inf)
         finally:
-            self.diverge(self.recorder.close())  # the GPU's guard: the last chunks
+            self.observers[0].diverge(self.recorder.close(), self.stepper)
             for b, k in enumerate(self.live):
                 if self.stepper.active[b]:
                     self.runs[k].finish(self, b, "completed",
