@@ -8,6 +8,7 @@ the device on a sample."""
 from __future__ import annotations
 
 import time
+import warnings
 from collections import deque
 from collections.abc import Callable
 from concurrent.futures import Future, ThreadPoolExecutor
@@ -79,8 +80,16 @@ class _Spool:
 
 def _pinned(xp: Any, shape: tuple[int, ...], dtype) -> np.ndarray:
     """A numpy array in page-locked host memory (``cupy.cuda.alloc_pinned_memory``): the
-    target of an asynchronous device-to-host copy."""
-    mem = xp.cuda.alloc_pinned_memory(max(1, int(np.prod(shape)) * np.dtype(dtype).itemsize))
+    target of an asynchronous device-to-host copy. Where none can be had, a plain array
+    (with a warning): the copies are then synchronous for the host, the record the same."""
+    nbytes = max(1, int(np.prod(shape)) * np.dtype(dtype).itemsize)
+    try:
+        mem = xp.cuda.alloc_pinned_memory(nbytes)
+    except Exception as err:  # e.g. the page-locked memory is exhausted
+        warnings.warn(f"no pinned host memory for a {nbytes / 1e6:.0f} MB spool buffer "
+                      f"({type(err).__name__}: {err}): its copies wait for the device",
+                      RuntimeWarning, stacklevel=2)
+        return np.empty(shape, dtype=dtype)
     return np.ndarray(shape, dtype=dtype, buffer=mem)  # as cupyx.empty_pinned
 
 
