@@ -7,6 +7,8 @@
 #       --emulate   rehearsal on a CPU: the GPU stages with the CUDA source compiled for the
 #                   CPU (benchmarks/gpu_emulate.py), small sizes;
 #       --cpu-only  the CPU stages only (the GPU stages are listed as skipped);
+#       --quick     the GPU node, every stage with shorter timed spans and one CPU batch
+#                   size per N (a lease with a few minutes left);
 #       --dry-run   print the stages, their sizes and time limits; run nothing.
 #
 # Writes DIR/stages.jsonl (one line per measurement), DIR/gpu_suite.json and DIR/gpu_suite.md
@@ -30,6 +32,7 @@ budget=480
 while [ $# -gt 0 ]; do
   case "$1" in
     --emulate) mode=emulate ;;
+    --quick) mode=quick ;;
     --cpu-only) mode=cpu ;;
     --dry-run) mode=dry ;;
     --out) out="$2"; shift ;;
@@ -49,9 +52,10 @@ ONE_CORE=(env OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MKL_NUM_THREADS=1 NUMBA_N
 if command -v taskset >/dev/null; then ONE_CORE+=(taskset -c 0); fi
 
 # sizes: (B of the GPU at N = 132, at N = 528), CPU batch sizes, timed steps, census
-if [ "$mode" = gpu ] || [ "$mode" = dry ]; then
+if [ "$mode" = gpu ] || [ "$mode" = dry ] || [ "$mode" = quick ]; then
   B132=4096; B528=1024; CPU132="64 256"; CPU528="16 64"
   STEPS=1000; BLOCK=100; CPU_BLOCK=20; SECONDS_CAP=24; CPU_SECONDS=15
+  if [ "$mode" = quick ]; then CPU132="256"; CPU528="64"; SECONDS_CAP=5; CPU_SECONDS=4; fi
   CHECK_B=(4096 1024); CHECK_STEPS=200
   CENSUS=(--B 4096 --end-time 0.3 --sample-interval 1e-3)
   CLI=(--starts 4096 --end-time 0.3 --backend gpu)
@@ -136,7 +140,7 @@ stage gpu "census N=132" 180 "${BENCH[@]}" census --npz "$data/census_n132.npz" 
 stage gpu "pytest tests/test_gpu.py" 120 "${BENCH[@]}" pytest --npz "$P132" "${J[@]}"
 # the census from the command line needs the FE stack (steady states, meshes) on this node
 if [ "$mode" = dry ] || "$PY" -c "import dolfinx" 2>/dev/null; then
-  if [ "$mode" = gpu ] || [ "$mode" = dry ]; then
+  if [ "$mode" = gpu ] || [ "$mode" = dry ] || [ "$mode" = quick ]; then
     stage gpu "cli census" 120 "${BENCH[@]}" cli "${CLI[@]}" "${J[@]}"
   else  # rehearsal: the refusal without CuPy, and a small CPU census through the CLI
     stage cpu "cli --backend gpu" 60 "${BENCH[@]}" cli --starts 2 --end-time 0.002 \
