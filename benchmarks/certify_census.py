@@ -1,0 +1,302 @@
+"""Certify a census's wave members from single CPU runs, and run chosen starts longer.
+
+A census computed elsewhere (``benchmarks/gpu_census.py``: ``rows.jsonl``, one row per start,
+with the ``scene`` of each row) names its members per scene and mesh the way ``stickslip
+attractors`` does (``studies.attractors.classify.group_members`` over every row of one mesh,
+celerity tolerance ``CELERITY_TOL``). For every wave member this script
+
+1. reruns the member's first random start (lowest seed) as one ``stickslip run`` on the CPU,
+   the same scene, mesh, start and end time (the start is rebuilt from its seed by
+   ``solver.run.initial_perturbation``), and classifies it with ``classify.start_row``: its
+   class, member and celerity next to the census row's (relative difference);
+2. certifies that run with ``studies.attractors.certify.certify``: the direct solver's wave at
+   the run's step (residual, difference to the transient), its Δt → 0 value on that mesh and
+   whether a transient started next to it keeps it.
+
+``--extend SCENE:N:MEMBER=COUNT`` (repeatable) also runs the COUNT lowest-seed random starts
+of MEMBER (e.g. ``unsettled-k14-opposite-SSS``) at mesh N on to ``--extend-end-time`` and
+classifies their end states with the census's classifier.
+
+Results go to ``OUT/certificates.json`` (resumable: a finished run or certificate is not
+computed again) and are printed as Markdown tables::
+
+    ./dev python3 benchmarks/certify_census.py gpu_census_rows.jsonl --out runs/certify \\
+        --meshes 132,264,528 \\
+        --extend figure1_n132_damped:528:unsettled-k14-opposite-SSS=2 \\
+        --extend figure3_n132_damped:528:modulated-k11-opposite-SSS=1 \\
+        --extend figure3_n132_damped:528:unsettled-k11-opposite-SSS=1
+    ./dev python3 benchmarks/certify_census.py gpu_census_rows.jsonl --out runs/certify --table
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO))
+
+from studies.attractors.classify import CELERITY_TOL, group_members, start_row  # noqa: E402
+
+
+def load_rows(path: Path) -> dict[tuple[str, int], list[dict]]:
+    """The census rows by (scene, mesh), each mesh grouped into members as the census does."""
+    by_mesh: dict[tuple[str, int], list[dict]] = {}
+    for line in path.read_text().splitlines():
+        if line.strip():
+            row = json.loads(line)
+            by_mesh.setdefault((row["scene"], int(row["n_inner"])), []).append(row)
+    for rows in by_mesh.values():
+        group_members(rows, CELERITY_TOL)
+    return by_mesh
+
+
+def first_starts(rows: list[dict], member: str, count: int = 1) -> list[dict]:
+    """The ``count`` random starts of lowest seed whose end state is ``member``."""
+    mine = [r for r in rows if r["start"] == "random" and r["member"] == member]
+    return sorted(mine, key=lambda r: int(r["seed"]))[:count]
+
+
+def run_start(scene: str, n: int, seed: int, end_time: float, run_dir: Path) -> dict:
+    """One ``stickslip run`` of the random start ``seed`` (skipped if already finished)."""
+    summary_path = run_dir / "summary.json"
+    if summary_path.is_file():
+        summary = json.loads(summary_path.read_text())
+        if summary.get("status") == "completed" and abs(
+                float(summary.get("sim_time_s", 0.0)) - end_time) < 1e-3:
+            return summary
+    cmd = ["stickslip", "run", str(REPO / "scenes" / f"{scene}.toml"),
+           "--set", f"mesh.n_inner={n}", "--set", 'initial.perturbation="random"',
+           "--set", f"initial.seed={seed}", "--set", f"time.end_time={end_time!r}",
+           "-o", str(run_dir), "--force"]
+    print("$", " ".join(cmd), flush=True)
+    run_dir.parent.mkdir(parents=True, exist_ok=True)
+    subprocess.run(cmd, check=True)
+    return json.loads(summary_path.read_text())
+
+
+def cpu_row(run_dir: Path, n: int, seed: int, summary: dict) -> dict:
+    """The run's end state as a census row (``classify.start_row``), with its member."""
+    params = {"mesh.n_inner": n, "initial.perturbation": "random", "initial.seed": seed,
+              "initial.mode": None}
+    row = start_row(run_dir, params, summary, summary.get("status", "failed"))
+    group_members([row], CELERITY_TOL)
+    return row
+
+
+def relative(a: float | None, b: float | None) -> float | None:
+    if a is None or b is None or not b:
+        return None
+    return float(a) / float(b) - 1.0
+
+
+def staged_certificate(run_dir: Path, dt_limit: bool = True) -> dict:
+    """The certificate's three parts, each with its own outcome (``certify`` stops at the
+    first failure of its one solve and keeps no part): the wave at the run's step
+    (``wave_from_run``); its Δt → 0 value (``dt_limit_wave``: the waves at S, 2S, 4S);
+    the transient started next to it (``transient_next_to``). The matched step h = τ/S,
+    S = round(τ/Δt), can exceed the run's stability limit (h up to 1.5 Δt); the transient
+    then runs next to the wave at S' = ceil(τ/Δt) (h ≤ Δt), which the result names."""
+    from studies.attractors.certify import _plain
+    from studies.travel.from_run import (
+        dt_limit_wave,
+        read_end_state,
+        solve_matched,
+        transient_next_to,
+        wave_from_run,
+    )
+
+    out: dict = {"available": True, "run": str(run_dir), "staged": True}
+    try:
+        wave = wave_from_run(run_dir)
+    except Exception as err:  # NotRigidWave: a fact of the member
+        out["at_dt"] = {"converged": False, "message": f"{type(err).__name__}: {err}"}
+        return out
+    out["at_dt"] = _plain({k: wave.get(k) for k in (
+        "converged", "message", "residual", "k", "direction", "regime", "celerity_m_s",
+        "frequency_hz", "psi1", "psi2", "amplitude_m", "frame_spread", "samples",
+        "difference", "run", "node_passage_s", "dt_s")})
+    if not wave.get("converged"):
+        return out
+    end = read_end_state(run_dir)
+    st, sol, _ = solve_matched(end, wave["samples"])
+    if dt_limit:
+        try:
+            lim = dt_limit_wave(end, wave["samples"], np.r_[sol.W_r, sol.W_t], sol.omega)
+            out["dt_to_0"] = _plain({k: v for k, v in lim.items() if k != "levels"})
+        except Exception as err:  # a finer level without a wave: reported
+            out["dt_to_0"] = {"message": f"{type(err).__name__}: {err}"}
+    if st.ops.step(sol.omega) > end.dt:
+        s_stable = math.ceil(end.node_passage / end.dt)
+        st, sol, _ = solve_matched(end, s_stable)
+        out["stability_samples"] = s_stable
+    try:
+        stab = transient_next_to(st, sol, end.k)
+        out["stable"], out["drift"] = bool(stab["stable"]), _plain(stab["drift"])
+    except Exception as err:
+        out["stable"], out["stability_message"] = None, f"{type(err).__name__}: {err}"
+    return out
+
+
+def _left_open(cert: dict) -> bool:
+    """``certify`` raised after the wave at the run's step converged (a finer level of the
+    Δt → 0 wave), or its stability check failed to run."""
+    at = cert.get("at_dt", {})
+    if not at.get("converged"):
+        return at.get("message", "").startswith("NotConverged")
+    return cert.get("stable") is None
+
+
+def certify_member(scene: str, n: int, census_row: dict, end_time: float, out: Path,
+                   dt_limit: bool = True) -> dict:
+    """Rerun, classify and certify one member's first start (module docstring, 1 and 2):
+    ``certify``, and the staged certificate where ``certify`` leaves a part open or
+    ``dt_limit`` is off."""
+    from studies.attractors.certify import certify
+
+    seed = int(census_row["seed"])
+    run_dir = out / scene / f"n{n}_seed{seed}"
+    summary = run_start(scene, n, seed, end_time, run_dir)
+    row = cpu_row(run_dir, n, seed, summary)
+    t0 = time.perf_counter()
+    cert = certify(run_dir) if dt_limit else None
+    if cert is None or _left_open(cert):
+        cert = {"certify": cert, **staged_certificate(run_dir, dt_limit)}
+    return {"scene": scene, "n_inner": n, "seed": seed, "member": census_row["member"],
+            "census": _brief(census_row), "cpu": _brief(row),
+            "celerity_rel": relative(row["celerity_m_s"], census_row["celerity_m_s"]),
+            "spread_rel": relative(row["frame_spread"], census_row["frame_spread"]),
+            "dt_s": summary.get("dt_s"), "steps": summary.get("steps"),
+            "run_wall_s": summary.get("wall_time_s"),
+            "certify_wall_s": time.perf_counter() - t0, "certificate": cert}
+
+
+def extend_start(scene: str, n: int, census_row: dict, end_time: float, out: Path) -> dict:
+    """Run one start on to ``end_time`` and classify it (module docstring, ``--extend``)."""
+    seed = int(census_row["seed"])
+    run_dir = out / scene / f"n{n}_seed{seed}_t{end_time:g}"
+    summary = run_start(scene, n, seed, end_time, run_dir)
+    row = cpu_row(run_dir, n, seed, summary)
+    return {"scene": scene, "n_inner": n, "seed": seed, "end_time_s": end_time,
+            "census": _brief(census_row), "longer": _brief(row), "dt_s": summary.get("dt_s"),
+            "steps": summary.get("steps"), "run_wall_s": summary.get("wall_time_s")}
+
+
+def _brief(row: dict) -> dict:
+    return {k: row.get(k) for k in ("class", "member", "k", "direction", "regime",
+                                    "celerity_m_s", "frequency_hz", "psi1", "psi2",
+                                    "frame_spread", "spread_trend", "limit_cycle")}
+
+
+def _fmt(x: float | None, spec: str) -> str:
+    return "–" if x is None or (isinstance(x, float) and not math.isfinite(x)) else format(
+        x, spec)
+
+
+def certificate_table(results: list[dict]) -> str:
+    """Markdown: member, mesh, start, transient celerity census vs CPU, solver, Δt → 0."""
+    lines = ["| scene | N | member | seed | Δt (s) | c census (m/s) | c CPU − census | "
+             "c solver (m/s) | S | residual | solver − transient | c Δt→0 (m/s) | order | "
+             "run's Δt error | stable |", "|" + "---|" * 15]
+    for r in results:
+        cert = r["certificate"]
+        at, lim = cert.get("at_dt", {}), cert.get("dt_to_0", {})
+        diff = at.get("difference") or {}
+        stable = {True: "yes", False: "no"}.get(cert.get("stable"), "–")
+        if not at.get("converged"):
+            stable = at.get("message", "no wave")[:60]
+        lines.append(
+            f"| {r['scene'].split('_')[0]} | {r['n_inner']} | {r['member']} | {r['seed']} | "
+            f"{_fmt(r['dt_s'], '.4g')} | {_fmt(r['census']['celerity_m_s'], '.2f')} | "
+            f"{_fmt(r['celerity_rel'], '.1e')} | {_fmt(at.get('celerity_m_s'), '.2f')} | "
+            f"{at.get('samples', '–')} | {_fmt(at.get('residual'), '.1e')} | "
+            f"{_fmt(_pct(diff.get('celerity_rel')), '+.2f')} % | "
+            f"{_fmt(lim.get('celerity_m_s'), '.1f')} | {_fmt(lim.get('order'), '.2f')} | "
+            f"{_fmt(_pct(lim.get('run_dt_error')), '+.2f')} % | {stable} |")
+    return "\n".join(lines)
+
+
+def extend_table(results: list[dict]) -> str:
+    """Markdown: the longer runs' end states next to the census's."""
+    lines = ["| scene | N | seed | census (t_end 2 s): class, c, spread, trend | "
+             "t_end | longer run: class, member, c (m/s), spread, trend |", "|" + "---|" * 6]
+    for r in results:
+        c, g = r["census"], r["longer"]
+        lines.append(
+            f"| {r['scene'].split('_')[0]} | {r['n_inner']} | {r['seed']} | {c['member']}, "
+            f"{_fmt(c['celerity_m_s'], '.2f')}, {_fmt(c['frame_spread'], '.3f')}, "
+            f"{_fmt(_pct(c['spread_trend']), '+.0f')} % | {r['end_time_s']:g} s | "
+            f"{g['class']}, {g['member']}, {_fmt(g['celerity_m_s'], '.2f')}, "
+            f"{_fmt(g['frame_spread'], '.3f')}, {_fmt(_pct(g['spread_trend']), '+.0f')} % |")
+    return "\n".join(lines)
+
+
+def _pct(x: float | None) -> float | None:
+    return None if x is None else 100.0 * x
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("rows", type=Path, help="the census rows (JSON lines, with 'scene')")
+    p.add_argument("--out", type=Path, default=Path("runs/certify"), help="runs and results")
+    p.add_argument("--meshes", default="132,264,528", help="meshes whose members to certify")
+    p.add_argument("--end-time", type=float, default=2.0, help="the census's end time (s)")
+    p.add_argument("--dt-limit-max-n", type=int, default=10**9,
+                   help="finest mesh whose members get the Δt → 0 wave (its 4S level is a "
+                   "dense solve of size 8·N·S)")
+    p.add_argument("--extend", action="append", default=[], metavar="SCENE:N:MEMBER=COUNT",
+                   help="run the COUNT lowest-seed starts of MEMBER at mesh N on (repeatable)")
+    p.add_argument("--extend-end-time", type=float, default=4.0, help="their end time (s)")
+    p.add_argument("--table", action="store_true", help="only print the tables of OUT")
+    args = p.parse_args(argv)
+    results_path = args.out / "certificates.json"
+    done = json.loads(results_path.read_text()) if results_path.is_file() else {}
+    if not args.table:
+        by_mesh = load_rows(args.rows)
+        meshes = [int(n) for n in args.meshes.split(",") if n]
+        for (scene, n), rows in sorted(by_mesh.items(), key=lambda kv: (kv[0][1], kv[0][0])):
+            if n not in meshes:
+                continue
+            waves = sorted({r["member"] for r in rows if r["class"] == "wave"
+                            and r["start"] == "random"})
+            for member in waves:
+                key = f"{scene}:{n}:{member}"
+                if key not in done:
+                    row = first_starts(rows, member)[0]
+                    done[key] = certify_member(scene, n, row, args.end_time, args.out,
+                                               dt_limit=n <= args.dt_limit_max_n)
+                    _save(results_path, done)
+        for spec in args.extend:
+            where, count = spec.rsplit("=", 1)
+            scene, n, member = where.split(":", 2)
+            for row in first_starts(by_mesh[(scene, int(n))], member, int(count)):
+                key = f"extend:{scene}:{n}:{row['seed']}:{args.extend_end_time:g}"
+                if key not in done:
+                    done[key] = extend_start(scene, int(n), row, args.extend_end_time,
+                                             args.out)
+                    _save(results_path, done)
+    certs = [v for k, v in done.items() if not k.startswith("extend:")]
+    longer = [v for k, v in done.items() if k.startswith("extend:")]
+    print(certificate_table(certs))
+    if longer:
+        print()
+        print(extend_table(longer))
+    return 0
+
+
+def _save(path: Path, done: dict) -> None:
+    from solver.atomic import atomic_write_text
+
+    path.parent.mkdir(parents=True, exist_ok=True)
+    atomic_write_text(path, json.dumps(done, indent=1, default=str) + "\n")
+
+
+if __name__ == "__main__":
+    sys.exit(main())
