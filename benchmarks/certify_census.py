@@ -102,8 +102,9 @@ def staged_certificate(run_dir: Path, dt_limit: bool = True) -> dict:
     first failure of its one solve and keeps no part): the wave at the run's step
     (``wave_from_run``); its Δt → 0 value (``dt_limit_wave``: the waves at S, 2S, 4S);
     the transient started next to it (``transient_next_to``). The matched step h = τ/S,
-    S = round(τ/Δt), can exceed the run's stability limit (h up to 1.5 Δt); the transient
-    then runs next to the wave at S' = ceil(τ/Δt) (h ≤ Δt), which the result names."""
+    S = round(τ/Δt), can exceed the explicit stability limit Δt_crit (h up to 1.5 Δt); the
+    transient then runs next to the wave at S' = ceil(τ/Δt) (h ≤ Δt), which the result names
+    (``stability_samples``)."""
     from studies.attractors.certify import _plain
     from studies.travel.from_run import (
         dt_limit_wave,
@@ -133,7 +134,7 @@ def staged_certificate(run_dir: Path, dt_limit: bool = True) -> dict:
             out["dt_to_0"] = _plain({k: v for k, v in lim.items() if k != "levels"})
         except Exception as err:  # a finer level without a wave: reported
             out["dt_to_0"] = {"message": f"{type(err).__name__}: {err}"}
-    if st.ops.step(sol.omega) > end.dt:
+    if st.ops.step(sol.omega) > float(end.summary.get("dt_crit_s") or end.dt):
         s_stable = math.ceil(end.node_passage / end.dt)
         st, sol, _ = solve_matched(end, s_stable)
         out["stability_samples"] = s_stable
@@ -143,6 +144,17 @@ def staged_certificate(run_dir: Path, dt_limit: bool = True) -> dict:
     except Exception as err:
         out["stable"], out["stability_message"] = None, f"{type(err).__name__}: {err}"
     return out
+
+
+def finest_level_size(row: dict, radius: float = 1.0) -> int:
+    """Rows of the dense Newton system at the Δt → 0 wave's finest level (4S points per
+    node): 2·4S·N/p + 1, p = k where k divides 4S·N (the wave folded onto one wavelength,
+    ``studies.travel.driver.folded``), else 1; S = round(τ/Δt), τ = 2πR/(N|c|) the node
+    passage of the row's wave. Its cost grows as the cube."""
+    n, k = int(row["n_inner"]), int(row["k"])
+    tau = 2.0 * math.pi * radius / (n * abs(float(row["celerity_m_s"])))
+    points = 4 * max(1, round(tau / float(row["dt_s"]))) * n
+    return 2 * points // (k if points % k == 0 else 1) + 1
 
 
 def _left_open(cert: dict) -> bool:
@@ -168,7 +180,13 @@ def certify_member(scene: str, n: int, census_row: dict, end_time: float, out: P
     t0 = time.perf_counter()
     cert = certify(run_dir) if dt_limit else None
     if cert is None or _left_open(cert):
-        cert = {"certify": cert, **staged_certificate(run_dir, dt_limit)}
+        # certify's one solve failed after the wave at the run's step: at a finer level of
+        # the Δt → 0 wave, which the staged certificate need not solve again
+        failed_limit = cert is not None and not cert["at_dt"].get("converged")
+        staged = staged_certificate(run_dir, dt_limit and not failed_limit)
+        if failed_limit and staged["at_dt"].get("converged"):
+            staged["dt_to_0"] = {"message": cert["at_dt"]["message"]}
+        cert = {"certify": cert, **staged}
     return {"scene": scene, "n_inner": n, "seed": seed, "member": census_row["member"],
             "census": _brief(census_row), "cpu": _brief(row),
             "celerity_rel": relative(row["celerity_m_s"], census_row["celerity_m_s"]),
@@ -202,23 +220,30 @@ def _fmt(x: float | None, spec: str) -> str:
 
 def certificate_table(results: list[dict]) -> str:
     """Markdown: member, mesh, start, transient celerity census vs CPU, solver, Δt → 0."""
-    lines = ["| scene | N | member | seed | Δt (s) | c census (m/s) | c CPU − census | "
-             "c solver (m/s) | S | residual | solver − transient | c Δt→0 (m/s) | order | "
-             "run's Δt error | stable |", "|" + "---|" * 15]
-    for r in results:
+    lines = ["| scene | N | member | seed | c census (m/s) | CPU/census − 1 | c solver (m/s) | "
+             "S | residual | solver/transient − 1 | c Δt→0 (m/s), order | run's Δt error | "
+             "stable (celerity drift) |", "|" + "---|" * 13]
+    for r in sorted(results, key=lambda r: (r["scene"], r["n_inner"], r["member"])):
         cert = r["certificate"]
-        at, lim = cert.get("at_dt", {}), cert.get("dt_to_0", {})
+        at, lim = cert.get("at_dt", {}), cert.get("dt_to_0") or {}
         diff = at.get("difference") or {}
+        if lim.get("celerity_m_s") is not None:
+            limit = f"{lim['celerity_m_s']:.1f}, {_fmt(lim.get('order'), '.2f')}"
+        else:
+            limit = "no wave at 2S or 4S" if lim.get("message") else "not computed"
         stable = {True: "yes", False: "no"}.get(cert.get("stable"), "–")
+        if cert.get("drift"):
+            stable += f" ({cert['drift']['celerity_rel']:.0e})"
+        if cert.get("stability_samples"):
+            stable += f", S' = {cert['stability_samples']}"
         if not at.get("converged"):
             stable = at.get("message", "no wave")[:60]
         lines.append(
             f"| {r['scene'].split('_')[0]} | {r['n_inner']} | {r['member']} | {r['seed']} | "
-            f"{_fmt(r['dt_s'], '.4g')} | {_fmt(r['census']['celerity_m_s'], '.2f')} | "
-            f"{_fmt(r['celerity_rel'], '.1e')} | {_fmt(at.get('celerity_m_s'), '.2f')} | "
-            f"{at.get('samples', '–')} | {_fmt(at.get('residual'), '.1e')} | "
-            f"{_fmt(_pct(diff.get('celerity_rel')), '+.2f')} % | "
-            f"{_fmt(lim.get('celerity_m_s'), '.1f')} | {_fmt(lim.get('order'), '.2f')} | "
+            f"{_fmt(r['census']['celerity_m_s'], '.2f')} | {_fmt(r['celerity_rel'], '.0e')} | "
+            f"{_fmt(at.get('celerity_m_s'), '.2f')} | {at.get('samples', '–')} | "
+            f"{_fmt(at.get('residual'), '.0e')} | "
+            f"{_fmt(_pct(diff.get('celerity_rel')), '+.2f')} % | {limit} | "
             f"{_fmt(_pct(lim.get('run_dt_error')), '+.2f')} % | {stable} |")
     return "\n".join(lines)
 
@@ -248,9 +273,9 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--out", type=Path, default=Path("runs/certify"), help="runs and results")
     p.add_argument("--meshes", default="132,264,528", help="meshes whose members to certify")
     p.add_argument("--end-time", type=float, default=2.0, help="the census's end time (s)")
-    p.add_argument("--dt-limit-max-n", type=int, default=10**9,
-                   help="finest mesh whose members get the Δt → 0 wave (its 4S level is a "
-                   "dense solve of size 8·N·S)")
+    p.add_argument("--dt-limit-max-size", type=int, default=10**9,
+                   help="largest dense Newton system (finest_level_size) of the Δt → 0 "
+                   "wave's 4S level; members above it get the wave at the run's step only")
     p.add_argument("--extend", action="append", default=[], metavar="SCENE:N:MEMBER=COUNT",
                    help="run the COUNT lowest-seed starts of MEMBER at mesh N on (repeatable)")
     p.add_argument("--extend-end-time", type=float, default=4.0, help="their end time (s)")
@@ -270,8 +295,10 @@ def main(argv: list[str] | None = None) -> int:
                 key = f"{scene}:{n}:{member}"
                 if key not in done:
                     row = first_starts(rows, member)[0]
+                    size = finest_level_size(row)
                     done[key] = certify_member(scene, n, row, args.end_time, args.out,
-                                               dt_limit=n <= args.dt_limit_max_n)
+                                               dt_limit=size <= args.dt_limit_max_size)
+                    done[key]["finest_level_size"] = size
                     _save(results_path, done)
         for spec in args.extend:
             where, count = spec.rsplit("=", 1)
