@@ -43,7 +43,12 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from studies.attractors.classify import CELERITY_TOL, group_members, start_row  # noqa: E402
+from studies.attractors.classify import (  # noqa: E402
+    CELERITY_TOL,
+    _radius,
+    group_members,
+    start_row,
+)
 
 
 def load_rows(path: Path) -> dict[tuple[str, int], list[dict]]:
@@ -193,7 +198,8 @@ def certify_member(scene: str, n: int, census_row: dict, end_time: float, out: P
             "spread_rel": relative(row["frame_spread"], census_row["frame_spread"]),
             "dt_s": summary.get("dt_s"), "steps": summary.get("steps"),
             "run_wall_s": summary.get("wall_time_s"),
-            "certify_wall_s": time.perf_counter() - t0, "certificate": cert}
+            "certify_wall_s": time.perf_counter() - t0, "certificate": cert,
+            "radius": _radius(run_dir)}
 
 
 def extend_start(scene: str, n: int, census_row: dict, end_time: float, out: Path) -> dict:
@@ -221,7 +227,7 @@ def _fmt(x: float | None, spec: str) -> str:
 def certificate_table(results: list[dict]) -> str:
     """Markdown: member, mesh, start, transient celerity census vs CPU, solver, Δt → 0."""
     lines = ["| scene | N | member | seed | c census (m/s) | CPU/census − 1 | c solver (m/s), "
-             "S | residual | solver/run − 1 | c Δt→0 (m/s), order | run's Δt error | "
+             "S, h/Δt | residual | solver/run − 1 | c Δt→0 (m/s), order | run's Δt error | "
              "stable (drift) |", "|" + "---|" * 12]
     for r in sorted(results, key=lambda r: (r["scene"], r["n_inner"], r["member"])):
         cert = r["certificate"]
@@ -239,11 +245,16 @@ def certificate_table(results: list[dict]) -> str:
         if not at.get("converged"):
             stable = at.get("message", "no wave")[:60]
         rel = r["celerity_rel"]
+        # h/Δt = τ/(S Δt), τ = 2πR/(N|c|): the solver's step against the run's
+        tau = 2.0 * math.pi * r.get("radius", 1.0) / (
+            r["n_inner"] * abs(float(r["census"]["celerity_m_s"])))
+        ratio = tau / (at["samples"] * float(r["dt_s"])) if at.get("samples") else None
         lines.append(
             f"| {r['scene'].split('_')[0]} | {r['n_inner']} | {r['member']} | {r['seed']} | "
             f"{_fmt(r['census']['celerity_m_s'], '.2f')} | "
             f"{'0' if rel == 0.0 else _fmt(rel, '.0e')} | "
-            f"{_fmt(at.get('celerity_m_s'), '.2f')}, {at.get('samples', '–')} | "
+            f"{_fmt(at.get('celerity_m_s'), '.2f')}, {at.get('samples', '–')}, "
+            f"{_fmt(ratio, '.2f')} | "
             f"{_fmt(at.get('residual'), '.0e')} | "
             f"{_fmt(_pct(diff.get('celerity_rel')), '+.2f')} % | {limit} | "
             f"{_fmt(_pct(lim.get('run_dt_error')), '+.2f')} % | {stable} |")
@@ -251,17 +262,16 @@ def certificate_table(results: list[dict]) -> str:
 
 
 def extend_table(results: list[dict]) -> str:
-    """Markdown: the longer runs' end states next to the census's."""
-    lines = ["| scene | N | seed | census (t_end 2 s): class, c, spread, trend | "
-             "t_end | longer run: class, member, c (m/s), spread, trend |", "|" + "---|" * 6]
+    """Markdown: the longer runs' end states (member, celerity, frame spread and its trend)
+    next to the census's."""
+    lines = ["| scene | N | seed | census, 2 s: member, c (m/s), spread, trend | t_end | "
+             "longer run: member, c (m/s), spread, trend |", "|" + "---|" * 6]
     for r in results:
-        c, g = r["census"], r["longer"]
-        lines.append(
-            f"| {r['scene'].split('_')[0]} | {r['n_inner']} | {r['seed']} | {c['member']}, "
-            f"{_fmt(c['celerity_m_s'], '.2f')}, {_fmt(c['frame_spread'], '.3f')}, "
-            f"{_fmt(_pct(c['spread_trend']), '+.0f')} % | {r['end_time_s']:g} s | "
-            f"{g['class']}, {g['member']}, {_fmt(g['celerity_m_s'], '.2f')}, "
-            f"{_fmt(g['frame_spread'], '.3f')}, {_fmt(_pct(g['spread_trend']), '+.0f')} % |")
+        cells = [f"{x['member']}, {_fmt(x['celerity_m_s'], '.2f')}, "
+                 f"{_fmt(x['frame_spread'], '.3f')}, {_fmt(_pct(x['spread_trend']), '+.0f')} %"
+                 for x in (r["census"], r["longer"])]
+        lines.append(f"| {r['scene'].split('_')[0]} | {r['n_inner']} | {r['seed']} | "
+                     f"{cells[0]} | {r['end_time_s']:g} s | {cells[1]} |")
     return "\n".join(lines)
 
 
