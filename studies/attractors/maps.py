@@ -185,8 +185,8 @@ def census_cells(meta: dict) -> list[dict]:
 
     Per point: its swept values; the dominant member (``dominant``, with ``k``, ``direction``,
     ``regime``, ``class`` and its share with the Wilson interval); the number of attractors
-    (wave members); P(stick-slip-separation) with its Wilson interval; ``modes``, the k of
-    its members (for the reduced model's boundaries); and the cell's colour category
+    (wave members); P(stick-slip-separation) with its Wilson interval; ``modes``, the k each
+    start reached (for the reduced model's boundaries); and the cell's colour category
     (the dominant member's regime, or its class where it has none: steady sliding, diverged,
     failed), its ``text`` and the ``p_text`` of the P(SSS) panel.
     """
@@ -200,7 +200,7 @@ def census_cells(meta: dict) -> list[dict]:
                     share=p["dominant_share"], share_lo=p["dominant_lo"],
                     share_hi=p["dominant_hi"], p_sss=p["p_sss"], p_sss_lo=p["p_sss_lo"],
                     p_sss_hi=p["p_sss_hi"],
-                    modes=sorted({m["k"] for m in table if m["k"]}))
+                    modes=[m["k"] for m in table if m["k"] for _ in range(m["count"])])
         cell.update({key: top[key] if top else None
                      for key in ("k", "direction", "regime", "class")})
         cell["category"] = (top["regime"] if top["k"] else top["class"]) if top else None

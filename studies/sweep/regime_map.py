@@ -7,6 +7,7 @@ import itertools
 import json
 import math
 import time
+from collections import Counter
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -276,7 +277,8 @@ def _draw_cells(ax, grid: _Grid, cells: list[tuple], cmap, norm,  # noqa: ANN001
 def _map_rows(sweep_dir: Path, meta: dict) -> tuple[list[dict], list[str], dict | None]:
     """(rows, swept keys, census map) of a sweep directory: one row per run, or, for a sweep
     with an ``[attractors]`` table, one per grid point (``studies.attractors.maps``). Every
-    row carries its cell's ``category``, ``text`` and the ``modes`` it found."""
+    row carries its cell's ``category``, ``text`` and the ``modes`` its runs found (one k per
+    run)."""
     census = _read_json(sweep_dir / "attractors_map.json")
     if census is not None:
         from studies.attractors.maps import census_cells
@@ -298,17 +300,16 @@ def plot_sweep(sweep_dir: str | Path) -> list[Path]:
     coloured by the FE regime, annotated with the mode k and the celerity (m/s, + = rotation
     sense); lines mark the semi-analytical existence boundary of stick-slip (solid) and
     stick-slip-separation (dashed) waves for the wavenumbers of ``map.k`` (default: the
-    modes the FE runs selected). A sweep with an ``[attractors]`` table (a census at every
-    point) draws its census instead (``studies.attractors.maps.census_cells``): each cell
-    coloured by its dominant member's regime, with the member's k and direction, its share
-    and the number of attractors; a second panel gives P(stick-slip-separation) with its
-    95 % Wilson interval.
+    four modes that most FE runs selected). A sweep with an ``[attractors]`` table (a census
+    at every point) draws its census instead (``studies.attractors.maps.census_cells``):
+    each cell coloured by its dominant member's regime, with the member's k and direction,
+    its share and the number of attractors; a second panel gives P(stick-slip-separation)
+    with its 95 % Wilson interval.
     """
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    from matplotlib.patches import Patch
 
     sweep_dir = Path(sweep_dir)
     meta = read_table(sweep_dir)
@@ -336,7 +337,7 @@ def plot_sweep(sweep_dir: str | Path) -> list[Path]:
         axes = list(axes[0])
         cells = [(grid.ys.index(_hashable(r[ykey])) if ykey else 0,
                   grid.xs.index(_hashable(r[xkey])), r) for r in sel]
-        shown = _draw_regimes(axes[0], grid, cells)
+        handles = _draw_regimes(axes[0], grid, cells)
         if census:
             _draw_probability(fig, axes[1], grid, cells)
         for ax in axes:
@@ -344,10 +345,9 @@ def plot_sweep(sweep_dir: str | Path) -> list[Path]:
             if not ykey:
                 ax.set_yticks([])
         axes[0].set_ylabel(_label(ykey) if ykey else "")
-        handles = [Patch(facecolor=REGIME_COLORS[c], edgecolor="0.5", label=c)
-                   for c in MAP_CATEGORIES if c in shown]
         note = ""
-        ks = tuple(mp.get("k") or sorted({k for r in sel for k in r["modes"]})[:4])
+        reached = Counter(k for r in sel for k in r["modes"])  # runs (starts) per mode
+        ks = tuple(mp.get("k") or sorted(k for k, _ in reached.most_common(4)))
         if (mp.get("semianalytic", True) and grid.numeric and ykey and ks
                 and (xkey in _SEMIANALYTIC_KEYS or ykey in _SEMIANALYTIC_KEYS)):
             sa = _semianalytic_overlay(sweep_dir, meta, base, xkey, list(grid.xs),
@@ -365,19 +365,7 @@ def plot_sweep(sweep_dir: str | Path) -> list[Path]:
                                                     else "")
                  + f"\n{unswept}{note}"
                  + ("\n* no limit cycle by t_end (transient)" if stars else ""))
-        if census:
-            fig.suptitle(title, fontsize=8)
-            axes[0].set_title("dominant member: k (+ = with the rotation), its share of the "
-                              "finished starts,\nnumber of attractors (rigid waves)",
-                              fontsize=8)
-        else:
-            axes[0].set_title(title, fontsize=8)
-        if census:  # under both panels
-            fig.legend(handles=handles, fontsize=7, loc="outside lower center",
-                       frameon=False, ncol=2)
-        else:
-            axes[0].legend(handles=handles, fontsize=7, loc="upper center", frameon=False,
-                           ncol=2, bbox_to_anchor=(0.5, -0.13 if len(grid.ys) > 3 else -0.25))
+        _annotate(fig, axes, title, handles, bool(census), len(grid.ys))
         suffix = "".join(f"_{k.rsplit('.', 1)[-1]}-{_slug_value(v)}" for k, v in fixed.items())
         outputs.append(_save(fig, sweep_dir / f"regime_map{suffix}.png"))
     return outputs
@@ -387,11 +375,12 @@ def plot_sweep(sweep_dir: str | Path) -> list[Path]:
 MAP_CATEGORIES = (*REGIMES, "failed")
 
 
-def _draw_regimes(ax, grid: _Grid, cells: list[tuple]) -> set[str]:  # noqa: ANN001
+def _draw_regimes(ax, grid: _Grid, cells: list[tuple]) -> list:  # noqa: ANN001
     """The regime panel: cells coloured by ``category``, labelled with ``text``; returns the
-    categories shown."""
+    legend entries of the categories shown."""
     import numpy as np
     from matplotlib.colors import BoundaryNorm, ListedColormap
+    from matplotlib.patches import Patch
 
     cmap = ListedColormap([REGIME_COLORS[c] for c in MAP_CATEGORIES])
     cmap.set_bad("white")
@@ -401,7 +390,9 @@ def _draw_regimes(ax, grid: _Grid, cells: list[tuple]) -> set[str]:  # noqa: ANN
     _draw_cells(ax, grid, [(i, j, index.get(r["category"]), r["text"],
                             r["category"] in ("diverged", "stick-slip-separation"))
                            for i, j, r in cells], cmap, norm, face)
-    return {r["category"] for _, _, r in cells if r["category"] in index}
+    shown = {r["category"] for _, _, r in cells}
+    return [Patch(facecolor=REGIME_COLORS[c], edgecolor="0.5", label=c)
+            for c in MAP_CATEGORIES if c in shown]
 
 
 def _draw_probability(fig, ax, grid: _Grid, cells: list[tuple]) -> None:  # noqa: ANN001
@@ -414,6 +405,21 @@ def _draw_probability(fig, ax, grid: _Grid, cells: list[tuple]) -> None:  # noqa
     fig.colorbar(mesh, ax=ax, label="P(stick-slip-separation)")
     ax.set_title("P(stick-slip-separation) of the random starts\n[95 % Wilson interval]",
                  fontsize=8)
+
+
+def _annotate(fig, axes: list, title: str, handles: list, census: bool,  # noqa: ANN001
+              n_rows: int) -> None:
+    """Title and legend: over and under the map; for a census, over and under both panels,
+    each panel with its own title."""
+    if not census:
+        axes[0].set_title(title, fontsize=8)
+        axes[0].legend(handles=handles, fontsize=7, loc="upper center", frameon=False,
+                       ncol=2, bbox_to_anchor=(0.5, -0.13 if n_rows > 3 else -0.25))
+        return
+    fig.suptitle(title, fontsize=8)
+    axes[0].set_title("dominant member: k (+ = with the rotation), its share of the finished "
+                      "starts,\nnumber of attractors (rigid waves)", fontsize=8)
+    fig.legend(handles=handles, fontsize=7, loc="outside lower center", frameon=False, ncol=2)
 
 
 def _save(fig, path: Path) -> Path:  # noqa: ANN001
