@@ -50,7 +50,13 @@ import sys
 import time
 from pathlib import Path
 
-import numpy as np
+# The classification runs in one process per core (fork): each must use one BLAS thread, or
+# 16 processes x 16 OpenBLAS threads oversubscribe a GPU node's cores (set before numpy loads
+# its BLAS; a value given by the caller is kept).
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
+
+import numpy as np  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))

@@ -123,13 +123,14 @@ def _sweep(args: argparse.Namespace) -> int:
                 print(f"{task.id:40s} {task_state(out_dir, spec, task)}")
         return 0
     if spec.attractors:  # a census at every point (studies/attractors/maps.py)
-        from studies.attractors.maps import plot_map, run_map
+        from studies.attractors.maps import run_map
 
         rc = run_map(spec, out_dir, comm=comm, group_size=args.group_size,
                      retry_failed=args.retry_failed, progress=args.progress, batch=batch,
                      backend=backend)
         if args.plot and rc in (0, 1) and comm.rank == 0:
-            print(f"figure: {plot_map(out_dir)}")
+            for path in plot_sweep(out_dir):  # the census's regime map
+                print(f"figure: {path}")
         return rc
     rc = run_sweep(spec, out_dir, comm=comm, group_size=args.group_size,
                    retry_failed=args.retry_failed, progress=args.progress, batch=batch,

@@ -55,7 +55,7 @@ def array_namespace(backend: str) -> Any:
             import cupy
         except ImportError as err:  # pragma: no cover - depends on the machine
             raise ImportError("backend = \"gpu\" needs CuPy: pip install cupy-cuda12x (CUDA 12) "
-                              "or cupy-cuda13x (CUDA 13); see README, 'GPU extra'") from err
+                              "or cupy-cuda13x (CUDA 13); see docs/gpu.md") from err
         return cupy
     raise ValueError(f"backend = {backend!r}: use \"cpu\" or \"gpu\"")
 

@@ -279,17 +279,82 @@ def test_sweep_with_an_attractors_table_maps_every_point(tmp_path, capsys):
     assert [t.id for t in spec.tasks] == ["omega-20.0_seed-7", "omega-20.0_seed-8",
                                           "omega-50.0_seed-7", "omega-50.0_seed-8"]
     out = tmp_path / "out"
-    assert main(["sweep", str(sweep), "-o", str(out)]) == 0
+    assert main(["sweep", str(sweep), "-o", str(out), "--plot"]) == 0
     points = json.loads((out / "attractors_map.json").read_text())["points"]
     assert [p["point"] for p in points] == ["omega-20.0", "omega-50.0"]
     for p in points:  # both starts of each point counted, the interval holds the estimate
         assert p["starts"] == p["finished"] == 2
         assert p["p_sss_lo"] <= p["p_sss"] <= p["p_sss_hi"]
-    assert "attractors" in capsys.readouterr().out
+    printed = capsys.readouterr().out
+    assert "attractors" in printed and f"figure: {out / 'regime_map.png'}" in printed
+    _assert_census_map(out)
     bad = tmp_path / "bad.toml"
     bad.write_text(body + "[attractors]\nstart = 2\n")
     with pytest.raises(SweepError, match="attractors.start"):
         expand(load_sweep(bad))
+
+
+def test_census_cells_of_points_without_a_wave():
+    """A map cell whose dominant end state is no wave names its class; a point with no
+    finished start says so (its share and P(SSS) are null in attractors_map.json)."""
+    from studies.attractors.maps import census_cells
+
+    def point(name, dominant, table, p_sss):
+        return {"point": name, "loading.f": 0.5, "starts": 4, "finished": 4 if table else 0,
+                "attractors": 0, "dominant": dominant, "dominant_share": 0.75 if table else None,
+                "dominant_lo": 0.3, "dominant_hi": 0.95, "p_sss": p_sss, "p_sss_lo": 0.0,
+                "p_sss_hi": 0.49 if table else 1.0, "table": table}
+
+    sliding = {"member": "steady-sliding", "class": "steady-sliding", "k": None,
+               "direction": None, "regime": None}
+    cells = census_cells({"keys": ["loading.f"], "points": [
+        point("a", "steady-sliding", [sliding], 0.0), point("b", None, [], None)]})
+    assert [c["category"] for c in cells] == ["steady-sliding", None]
+    assert cells[0]["text"] == "steady sliding\n75 % of 4\n0 attractors"
+    assert cells[0]["p_text"] == "0 %\n[0, 49]" and cells[0]["modes"] == []
+    assert cells[1]["text"] == "pending\n0 of 4" and cells[1]["p_text"] == "no start\nfinished"
+
+
+def _assert_census_map(out: Path) -> None:
+    """The sweep's regime map of a census is one map over the grid (no map per seed), and
+    the cells it draws (``census_cells``) say what ``attractors_map.json`` says, which in
+    turn agrees with the runs' own rows in ``sweep.json``."""
+    from studies.attractors.maps import census_cells
+    from studies.sweep import plot_sweep
+
+    assert plot_sweep(out) == [out / "regime_map.png"]
+    assert (out / "regime_map.png").stat().st_size > 10_000  # a drawn figure, not a stub
+    assert not list(out.glob("regime_map_*.png"))
+    meta = json.loads((out / "attractors_map.json").read_text())
+    runs = json.loads((out / "sweep.json").read_text())["rows"]
+    cells = census_cells(meta)
+    assert [c["loading.omega"] for c in cells] == [20.0, 50.0]
+    for cell, point in zip(cells, meta["points"], strict=True):
+        assert (cell["dominant"], cell["attractors"]) == (point["dominant"], point["attractors"])
+        assert (cell["share"], cell["p_sss"], cell["p_sss_lo"], cell["p_sss_hi"]) == (
+            point["dominant_share"], point["p_sss"], point["p_sss_lo"], point["p_sss_hi"])
+        # The same numbers from the runs themselves: the share of the starts that end in
+        # stick-slip-separation and its Wilson interval (exact: the same closed form), and
+        # the dominant member's (k, direction = sign of the celerity, regime) is a most
+        # frequent one among the starts (ties are broken by the member's name).
+        mine = [r for r in runs if r["id"].startswith(cell["point"] + "_seed-")]
+        assert len(mine) == 2 and all(r["status"] == "completed" for r in mine)
+        n_sss = sum(r["regime"] == "stick-slip-separation" for r in mine)
+        assert cell["p_sss"] == n_sss / 2
+        assert (cell["p_sss_lo"], cell["p_sss_hi"]) == wilson(n_sss, 2)
+        keys = [(r["mode"], "rotation" if r["celerity_m_s"] > 0 else "opposite", r["regime"])
+                for r in mine]
+        top = max(keys.count(k) for k in keys)
+        assert (cell["k"], cell["direction"], cell["regime"]) in keys
+        assert keys.count((cell["k"], cell["direction"], cell["regime"])) == top
+        assert cell["share"] == top / 2 and cell["category"] == cell["regime"]
+        # The drawn text: member, share, attractors; P(SSS) with its interval in percent.
+        sign = "+" if cell["direction"] == "rotation" else "−"
+        assert cell["text"].startswith(f"k = {cell['k']} {sign}")
+        assert f"{100 * cell['share']:.0f} % of 2" in cell["text"]
+        assert f"{cell['attractors']} attractor" in cell["text"]
+        assert cell["p_text"] == (f"{100 * cell['p_sss']:.0f} %\n[{100 * cell['p_sss_lo']:.0f},"
+                                  f" {100 * cell['p_sss_hi']:.0f}]")
 
 
 def test_certification_adapter(monkeypatch, tmp_path):

@@ -13,7 +13,12 @@
 machinery (batched, resumable) and writes, per point, the census's answer
 (``attractors_map.{json,csv}``): the dominant member and its share, the number of wave
 members (attractors), and the probability of stick-slip-separation with its 95 % Wilson
-interval; ``plot_map`` draws the three over the map's axes.
+interval. ``census_cells`` says what each cell of the sweep's regime map shows for it
+(``studies.sweep.regime_map.plot_sweep`` draws them when the sweep directory holds
+``attractors_map.json``).
+
+The sweep machinery is imported from its modules (``spec``, ``schedule``, ``table``), not
+from the ``studies.sweep`` package, whose map imports this module.
 """
 
 from __future__ import annotations
@@ -37,6 +42,10 @@ from studies.attractors.starts import (
 )
 from studies.attractors.statistics import COUNTED, mesh_members, wilson
 
+#: The per-point table of a census map, in the sweep directory (``.csv`` beside it).
+MAP_FILE = "attractors_map.json"
+#: How a member's direction reads in a map cell: the celerity's sign, + = rotation sense.
+DIRECTION_SIGN = {"rotation": "+", "opposite": "−"}
 _KEYS = ("starts", "seed", "n_modes", "amplitude", "celerity_tol", "spread_tol")
 MAP_FIELDS = ("point", "starts", "finished", "attractors", "dominant", "dominant_share",
               "dominant_lo", "dominant_hi", "p_sss", "p_sss_lo", "p_sss_hi", "diverged",
@@ -45,7 +54,7 @@ MAP_FIELDS = ("point", "starts", "finished", "attractors", "dominant", "dominant
 
 def distribution(table: dict, where: str) -> tuple[StartDistribution, float, float]:
     """The ``[attractors]`` table -> (start distribution, celerity_tol, spread_tol)."""
-    from studies.sweep import SweepError
+    from studies.sweep.spec import SweepError
 
     unknown = set(table) - set(_KEYS)
     if unknown:
@@ -68,7 +77,7 @@ def distribution(table: dict, where: str) -> tuple[StartDistribution, float, flo
 def expand(spec):  # noqa: ANN001, ANN201 - SweepSpec -> SweepSpec
     """Every point of ``spec`` x the M random starts of its ``[attractors]`` table."""
     from solver.scene import SceneError
-    from studies.sweep import SweepError, Task, scene_for
+    from studies.sweep.spec import SweepError, Task, scene_for
 
     dist, _, _ = distribution(spec.attractors, str(spec.path))
     extra = {"initial.perturbation": "random", "initial.n_modes": dist.n_modes,
@@ -90,7 +99,8 @@ def run_map(spec, out_dir: Path, *, comm=None, stream: TextIO = sys.stdout,  # n
     from mpi4py import MPI
 
     from studies.rundir.ownership import KINDS, register_kind
-    from studies.sweep import SweepError, run_sweep
+    from studies.sweep.schedule import run_sweep
+    from studies.sweep.spec import SweepError
 
     comm = MPI.COMM_WORLD if comm is None else comm
     if "attractors_map.*" not in KINDS["sweep"]:  # the map's files belong to its sweep
@@ -155,13 +165,12 @@ def map_table(spec, expanded, out_dir: Path) -> list[dict]:  # noqa: ANN001
 
 
 def _write(out_dir: Path, spec, points: list[dict]) -> None:  # noqa: ANN001
-    from studies.attractors.census import _json_safe
-
+    """attractors_map.json (NaN and infinities as null) and attractors_map.csv."""
     meta = {"kind": "stickslip-attractor-map", "name": spec.name, "keys": list(spec.keys),
             "attractors": spec.attractors, "map": {"x": spec.map.x, "y": spec.map.y},
             "points": points}
-    atomic_write_text(out_dir / "attractors_map.json",
-                      json.dumps(_json_safe(meta), indent=1, default=str) + "\n")
+    finite = json.loads(json.dumps(meta, default=str), parse_constant=lambda _: None)
+    atomic_write_text(out_dir / MAP_FILE, json.dumps(finite, indent=1) + "\n")
     buf = io.StringIO()
     fields = [*spec.keys, *MAP_FIELDS]
     w = csv.DictWriter(buf, fieldnames=fields, lineterminator="\n", extrasaction="ignore")
@@ -171,39 +180,50 @@ def _write(out_dir: Path, spec, points: list[dict]) -> None:  # noqa: ANN001
     atomic_write_text(out_dir / "attractors_map.csv", buf.getvalue())
 
 
-def plot_map(out_dir: Path) -> Path | None:
-    """attractors_map.png: dominant member, number of attractors, P(SSS) over (x, y)."""
-    import matplotlib
+def census_cells(meta: dict) -> list[dict]:
+    """What the regime map draws at each point of ``meta`` (``attractors_map.json``).
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    Per point: its swept values; the dominant member (``dominant``, with ``k``, ``direction``,
+    ``regime``, ``class`` and its share with the Wilson interval); the number of attractors
+    (wave members); P(stick-slip-separation) with its Wilson interval; ``modes``, the k each
+    start reached (for the reduced model's boundaries); and the cell's colour category
+    (the dominant member's regime, or its class where it has none: steady sliding, diverged,
+    failed), its ``text`` and the ``p_text`` of the P(SSS) panel.
+    """
+    cells = []
+    for p in meta["points"]:
+        table = p.get("table") or []
+        top = next((m for m in table if m["member"] == p["dominant"]), None)
+        cell = {key: p[key] for key in meta["keys"]}
+        cell.update(point=p["point"], dominant=p["dominant"], attractors=p["attractors"],
+                    starts=p["starts"], finished=p["finished"],
+                    share=p["dominant_share"], share_lo=p["dominant_lo"],
+                    share_hi=p["dominant_hi"], p_sss=p["p_sss"], p_sss_lo=p["p_sss_lo"],
+                    p_sss_hi=p["p_sss_hi"],
+                    modes=[m["k"] for m in table if m["k"] for _ in range(m["count"])])
+        cell.update({key: top[key] if top else None
+                     for key in ("k", "direction", "regime", "class")})
+        cell["category"] = (top["regime"] if top["k"] else top["class"]) if top else None
+        cell["text"] = _cell_text(cell)
+        cell["p_text"] = ("no start\nfinished" if p["p_sss"] is None else
+                          f"{100 * p['p_sss']:.0f} %\n[{100 * p['p_sss_lo']:.0f}, "
+                          f"{100 * p['p_sss_hi']:.0f}]")
+        cells.append(cell)
+    return cells
 
-    meta = json.loads((Path(out_dir) / "attractors_map.json").read_text())
-    x, y = meta["map"]["x"] or (meta["keys"][0] if meta["keys"] else None), meta["map"]["y"]
-    if x is None:
-        return None
-    pts = meta["points"]
-    xs = [p[x] for p in pts]
-    ys = [p[y] for p in pts] if y else [0.0] * len(pts)
-    fig, axes = plt.subplots(1, 3, figsize=(15, 4.4), constrained_layout=True)
-    names = sorted({p["dominant"] or "none" for p in pts})
-    for name in names:
-        sel = [i for i, p in enumerate(pts) if (p["dominant"] or "none") == name]
-        axes[0].scatter([xs[i] for i in sel], [ys[i] for i in sel], s=80, label=name)
-    axes[0].legend(fontsize=7)
-    axes[0].set_title("dominant member")
-    sc = axes[1].scatter(xs, ys, c=[p["attractors"] for p in pts], s=80, cmap="viridis")
-    fig.colorbar(sc, ax=axes[1], label="attractors (wave members)")
-    axes[1].set_title("number of attractors")
-    sc = axes[2].scatter(xs, ys, c=[p["p_sss"] for p in pts], s=80, vmin=0, vmax=1,
-                         cmap="magma")
-    fig.colorbar(sc, ax=axes[2], label="P(stick-slip-separation)")
-    axes[2].set_title("probability of separation")
-    for ax in axes:
-        ax.set(xlabel=x, ylabel=y or "")
-    fig.suptitle(f"attractor map {meta['name']}: {meta['attractors'].get('starts')} random "
-                 "starts per point", fontsize=10)
-    path = Path(out_dir) / "attractors_map.png"
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return path
+
+def _cell_text(cell: dict) -> str:
+    """"k = 11 −\n58 % of 16\n2 attractors": the dominant member (k and the celerity's
+    sign, + = rotation; "mod." for a modulated cycle, "unsettled" for a cycle still settling),
+    its share of the finished starts, and the number of attractors."""
+    if cell["dominant"] is None:
+        return f"pending\n0 of {cell['starts']}"
+    if cell["k"]:
+        tag = {"wave": "", "modulated": " mod."}.get(cell["class"], f" {cell['class']}")
+        what = f"k = {cell['k']} {DIRECTION_SIGN.get(cell['direction'], '?')}{tag}"
+    else:
+        what = {"steady-sliding": "steady sliding", "failed": "error"}.get(cell["class"],
+                                                                           cell["class"])
+    plural = "" if cell["attractors"] == 1 else "s"
+    return (f"{what}\n{100 * cell['share']:.0f} % of {cell['finished']}\n"
+            f"{cell['attractors']} attractor{plural}")

@@ -7,7 +7,9 @@ import itertools
 import json
 import math
 import time
+from collections import Counter
 from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -215,6 +217,82 @@ def _fixed_subtitle(sc: Scene, swept: Iterable[str]) -> str:
                      if not any(k == key or k.startswith(key + ".") for k in swept))
 
 
+@dataclass(frozen=True)
+class _Grid:
+    """The cells of one map: swept values, their positions on the axes and the cell edges."""
+
+    xs: list
+    ys: list
+    xpos: list
+    ypos: list
+    xe: list
+    ye: list
+    xscale: str
+    yscale: str
+    numeric: bool
+
+
+def _grid(sel: list[dict], distinct: dict, xkey: str, ykey: str | None, mp: dict) -> _Grid:
+    """The grid of the rows ``sel``: numeric axes at their values (log where they span 20x),
+    other axes at 0, 1, 2 ... with their values as tick labels."""
+    import numpy as np
+
+    xs = [v for v in distinct[xkey] if any(_hashable(r[xkey]) == v for r in sel)]
+    ys = ([v for v in distinct[ykey] if any(_hashable(r[ykey]) == v for r in sel)]
+          if ykey else [0.0])
+    numeric = _numeric(xs) and _numeric(ys)
+    xscale = _axis_scale(xs, mp.get("xscale", "auto")) if numeric else "linear"
+    yscale = _axis_scale(ys, mp.get("yscale", "auto")) if numeric and ykey else "linear"
+    xpos = xs if numeric else list(range(len(xs)))
+    ypos = ys if numeric else list(range(len(ys)))
+    xe = _edges(xpos, xscale) if numeric else list(np.arange(len(xs) + 1) - 0.5)
+    ye = _edges(ypos, yscale) if numeric and ykey else list(np.arange(len(ys) + 1) - 0.5)
+    return _Grid(xs, ys, xpos, ypos, xe, ye, xscale, yscale, numeric)
+
+
+def _draw_cells(ax, grid: _Grid, cells: list[tuple], cmap, norm,  # noqa: ANN001
+                face: dict | None = None):  # noqa: ANN202 - the QuadMesh
+    """Colour and label the cells: ``cells`` = (i, j, value, text, dark) with value the
+    colour index (NaN: white); ``face`` maps a value to the label's box colour (white
+    otherwise); dark cells get white text."""
+    import numpy as np
+
+    values = np.full((len(grid.ys), len(grid.xs)), np.nan)
+    for i, j, value, text, dark in cells:
+        values[i, j] = np.nan if value is None else value
+        ax.text(grid.xpos[j], grid.ypos[i], text, ha="center", va="center", fontsize=7,
+                color="white" if dark else "black",
+                bbox={"boxstyle": "round,pad=0.2", "ec": "none", "alpha": 0.9,
+                      "fc": (face or {}).get(value, "white")})
+    mesh = ax.pcolormesh(grid.xe, grid.ye, np.ma.masked_invalid(values), cmap=cmap,
+                         norm=norm, edgecolors="white", linewidth=0.8)
+    ax.set_xscale(grid.xscale)
+    ax.set_yscale(grid.yscale)
+    ax.minorticks_off()
+    ax.set_xticks(grid.xpos, [_fmt(v) for v in grid.xs])
+    ax.set_yticks(grid.ypos, [_fmt(v) for v in grid.ys])
+    return mesh
+
+
+def _map_rows(sweep_dir: Path, meta: dict) -> tuple[list[dict], list[str], dict | None]:
+    """(rows, swept keys, census map) of a sweep directory: one row per run, or, for a sweep
+    with an ``[attractors]`` table, one per grid point (``studies.attractors.maps``). Every
+    row carries its cell's ``category``, ``text`` and the ``modes`` its runs found (one k per
+    run)."""
+    census = _read_json(sweep_dir / "attractors_map.json")
+    if census is not None:
+        from studies.attractors.maps import census_cells
+
+        return census_cells(census), list(census["keys"]), census
+    rows = []
+    for r in meta["rows"]:
+        category, text = cell_label(r)
+        wave = category not in (None, "steady-sliding", "diverged", "failed")
+        modes = [int(r["mode"])] if wave and r.get("mode") is not None else []
+        rows.append({**r, "category": category, "text": text, "modes": modes})
+    return rows, list(meta["parameters"]), None
+
+
 def plot_sweep(sweep_dir: str | Path) -> list[Path]:
     """Regime map(s) of a sweep directory: ``regime_map[_<other params>].png``.
 
@@ -222,20 +300,20 @@ def plot_sweep(sweep_dir: str | Path) -> list[Path]:
     coloured by the FE regime, annotated with the mode k and the celerity (m/s, + = rotation
     sense); lines mark the semi-analytical existence boundary of stick-slip (solid) and
     stick-slip-separation (dashed) waves for the wavenumbers of ``map.k`` (default: the
-    modes the FE runs selected).
+    four modes that most FE runs selected). A sweep with an ``[attractors]`` table (a census
+    at every point) draws its census instead (``studies.attractors.maps.census_cells``):
+    each cell coloured by its dominant member's regime, with the member's k and direction,
+    its share and the number of attractors; a second panel gives P(stick-slip-separation)
+    with its 95 % Wilson interval.
     """
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    import numpy as np
-    from matplotlib.colors import BoundaryNorm, ListedColormap
-    from matplotlib.patches import Patch
 
     sweep_dir = Path(sweep_dir)
     meta = read_table(sweep_dir)
-    rows = meta["rows"]
-    params = list(meta["parameters"])
+    rows, params, census = _map_rows(sweep_dir, meta)
     distinct = {k: sorted({_hashable(r[k]) for r in rows if r.get(k) is not None}, key=_sortkey)
                 for k in params}
     varying = [k for k in params if len(distinct[k]) > 1]
@@ -246,83 +324,113 @@ def plot_sweep(sweep_dir: str | Path) -> list[Path]:
         raise SweepError(f"{sweep_dir}: nothing was swept; no map to draw")
     others = [k for k in varying if k not in (xkey, ykey)]
     base = _map_base(sweep_dir, meta)
-    categories = [*REGIMES, "failed"]
-    cmap = ListedColormap([REGIME_COLORS[c] for c in categories])
-    cmap.set_bad("white")
-    norm = BoundaryNorm(np.arange(len(categories) + 1) - 0.5, cmap.N)
     outputs = []
-    combos = list(itertools.product(*(distinct[k] for k in others))) or [()]
-    for combo in combos:
+    for combo in list(itertools.product(*(distinct[k] for k in others))) or [()]:
         fixed = dict(zip(others, combo, strict=True))
         sel = [r for r in rows if all(_hashable(r.get(k)) == v for k, v in fixed.items())
                and r.get(xkey) is not None and (ykey is None or r.get(ykey) is not None)]
-        xs = [v for v in distinct[xkey] if any(_hashable(r[xkey]) == v for r in sel)]
-        ys = ([v for v in distinct[ykey] if any(_hashable(r[ykey]) == v for r in sel)]
-              if ykey else [0.0])
-        numeric = _numeric(xs) and _numeric(ys)
-        xscale = _axis_scale(xs, mp.get("xscale", "auto")) if numeric else "linear"
-        yscale = (_axis_scale(ys, mp.get("yscale", "auto")) if numeric and ykey else "linear")
-        xpos = xs if numeric else list(range(len(xs)))
-        ypos = ys if numeric else list(range(len(ys)))
-        codes = np.full((len(ys), len(xs)), np.nan)
-        fig, ax = plt.subplots(figsize=(2.0 + 1.15 * len(xs), 1.9 + 0.75 * len(ys)))
-        for r in sel:
-            i = ys.index(_hashable(r[ykey])) if ykey else 0
-            j = xs.index(_hashable(r[xkey]))
-            cat, text = cell_label(r)
-            if cat in categories:
-                codes[i, j] = categories.index(cat)
-            dark = cat in ("diverged", "stick-slip-separation")
-            ax.text(xpos[j], ypos[i], text, ha="center", va="center", fontsize=7,
-                    color="white" if dark else "black",
-                    bbox={"boxstyle": "round,pad=0.2", "fc": REGIME_COLORS.get(cat, "white"),
-                          "ec": "none", "alpha": 0.9})
-        xe = _edges(xpos, xscale) if numeric else list(np.arange(len(xs) + 1) - 0.5)
-        ye = (_edges(ypos, yscale) if numeric and ykey else
-              list(np.arange(len(ys) + 1) - 0.5))
-        ax.pcolormesh(xe, ye, np.ma.masked_invalid(codes), cmap=cmap, norm=norm,
-                      edgecolors="white", linewidth=0.8)
-        ax.set_xscale(xscale)
-        ax.set_yscale(yscale)
-        ax.minorticks_off()
-        ax.set_xticks(xpos, [_fmt(v) for v in xs])
-        ax.set_yticks(ypos, [_fmt(v) for v in ys])
-        ax.set_xlabel(_label(xkey))
-        ax.set_ylabel(_label(ykey) if ykey else "")
-        if not ykey:
-            ax.set_yticks([])
-        handles = [Patch(facecolor=REGIME_COLORS[c], edgecolor="0.5", label=c)
-                   for c in categories if c in {categories[int(v)] for v in
-                                                codes[np.isfinite(codes)].ravel()}]
+        grid = _grid(sel, distinct, xkey, ykey, mp)
+        panels = 2 if census else 1
+        fig, axes = plt.subplots(1, panels, squeeze=False, figsize=(
+            panels * (2.0 + 1.15 * len(grid.xs)) + (1.2 if census else 0.0),
+            1.9 + 0.75 * len(grid.ys)), layout="constrained" if census else None)
+        axes = list(axes[0])
+        cells = [(grid.ys.index(_hashable(r[ykey])) if ykey else 0,
+                  grid.xs.index(_hashable(r[xkey])), r) for r in sel]
+        handles = _draw_regimes(axes[0], grid, cells)
+        if census:
+            _draw_probability(fig, axes[1], grid, cells)
+        for ax in axes:
+            ax.set_xlabel(_label(xkey))
+            if not ykey:
+                ax.set_yticks([])
+        axes[0].set_ylabel(_label(ykey) if ykey else "")
         note = ""
-        ks = tuple(mp.get("k") or sorted({int(r["mode"]) for r in sel
-                                          if r.get("status") == "completed"
-                                          and r.get("regime") not in (None, "steady-sliding")
-                                          and r.get("mode") is not None})[:4])
-        if (mp.get("semianalytic", True) and numeric and ykey and ks
+        reached = Counter(k for r in sel for k in r["modes"])  # runs (starts) per mode
+        ks = tuple(mp.get("k") or sorted(k for k, _ in reached.most_common(4)))
+        if (mp.get("semianalytic", True) and grid.numeric and ykey and ks
                 and (xkey in _SEMIANALYTIC_KEYS or ykey in _SEMIANALYTIC_KEYS)):
-            sa = _semianalytic_overlay(sweep_dir, meta, base, xkey, list(xs), xscale, ykey,
-                                       list(ys), yscale, fixed, ks)
-            handles += _draw_boundaries(ax, sa, ks)
+            sa = _semianalytic_overlay(sweep_dir, meta, base, xkey, list(grid.xs),
+                                       grid.xscale, ykey, list(grid.ys), grid.yscale, fixed,
+                                       ks)
+            handles += [_draw_boundaries(ax, sa, ks) for ax in axes][0]
             note = f"; boundaries: reduced model, junction {'/'.join(sa['junctions'])}"
         fixed_txt = ", ".join(f"{_label(k)} = {_fmt(v)}" for k, v in fixed.items())
         sc = base.with_overrides(*(f"{k}={_toml_value(v)}" for k, v in fixed.items()))
-        stars = any(cell_label(r)[1].split("\n")[0].endswith("*") for r in sel)
-        ax.set_title(f"sweep {meta['name']}: FE regime, k and celerity (m/s, + = rotation)"
-                     + (f"\nthis map: {fixed_txt}" if fixed_txt else "")
-                     + f"\n{_fixed_subtitle(sc, params)}{note}"
-                     + ("\n* no limit cycle by t_end (transient)" if stars else ""),
-                     fontsize=8)
-        ax.legend(handles=handles, fontsize=7, loc="upper center", frameon=False, ncol=2,
-                  bbox_to_anchor=(0.5, -0.13 if len(ys) > 3 else -0.25))
+        stars = any(r["text"].split("\n")[0].endswith("*") for r in sel)
+        unswept = _fixed_subtitle(sc, [*params, *(["initial.mode"] if census else [])])
+        what = (f"census of {census['attractors'].get('starts')} random starts at every point"
+                if census else "FE regime, k and celerity (m/s, + = rotation)")
+        title = (f"sweep {meta['name']}: {what}" + (f"\nthis map: {fixed_txt}" if fixed_txt
+                                                    else "")
+                 + f"\n{unswept}{note}"
+                 + ("\n* no limit cycle by t_end (transient)" if stars else ""))
+        _annotate(fig, axes, title, handles, bool(census), len(grid.ys))
         suffix = "".join(f"_{k.rsplit('.', 1)[-1]}-{_slug_value(v)}" for k, v in fixed.items())
-        path = sweep_dir / f"regime_map{suffix}.png"
-        tmp = path.with_name(f".{path.stem}.tmp.png")  # a reader never sees half a PNG
-        fig.savefig(tmp, dpi=130, bbox_inches="tight")
-        plt.close(fig)
-        tmp.replace(path)
-        outputs.append(path)
+        outputs.append(_save(fig, sweep_dir / f"regime_map{suffix}.png"))
     return outputs
+
+
+#: The colour categories of a map cell, in legend order.
+MAP_CATEGORIES = (*REGIMES, "failed")
+
+
+def _draw_regimes(ax, grid: _Grid, cells: list[tuple]) -> list:  # noqa: ANN001
+    """The regime panel: cells coloured by ``category``, labelled with ``text``; returns the
+    legend entries of the categories shown."""
+    import numpy as np
+    from matplotlib.colors import BoundaryNorm, ListedColormap
+    from matplotlib.patches import Patch
+
+    cmap = ListedColormap([REGIME_COLORS[c] for c in MAP_CATEGORIES])
+    cmap.set_bad("white")
+    norm = BoundaryNorm(np.arange(len(MAP_CATEGORIES) + 1) - 0.5, cmap.N)
+    index = {c: n for n, c in enumerate(MAP_CATEGORIES)}
+    face = {n: REGIME_COLORS[c] for c, n in index.items()}
+    _draw_cells(ax, grid, [(i, j, index.get(r["category"]), r["text"],
+                            r["category"] in ("diverged", "stick-slip-separation"))
+                           for i, j, r in cells], cmap, norm, face)
+    shown = {r["category"] for _, _, r in cells}
+    return [Patch(facecolor=REGIME_COLORS[c], edgecolor="0.5", label=c)
+            for c in MAP_CATEGORIES if c in shown]
+
+
+def _draw_probability(fig, ax, grid: _Grid, cells: list[tuple]) -> None:  # noqa: ANN001
+    """The census's second panel: P(stick-slip-separation) per cell, with its 95 % Wilson
+    interval as the cell's text."""
+    from matplotlib.colors import Normalize
+
+    mesh = _draw_cells(ax, grid, [(i, j, r["p_sss"], r["p_text"], False)
+                                  for i, j, r in cells], "Reds", Normalize(0.0, 1.0))
+    fig.colorbar(mesh, ax=ax, label="P(stick-slip-separation)")
+    ax.set_title("P(stick-slip-separation) of the random starts\n[95 % Wilson interval]",
+                 fontsize=8)
+
+
+def _annotate(fig, axes: list, title: str, handles: list, census: bool,  # noqa: ANN001
+              n_rows: int) -> None:
+    """Title and legend: over and under the map; for a census, over and under both panels,
+    each panel with its own title."""
+    if not census:
+        axes[0].set_title(title, fontsize=8)
+        axes[0].legend(handles=handles, fontsize=7, loc="upper center", frameon=False,
+                       ncol=2, bbox_to_anchor=(0.5, -0.13 if n_rows > 3 else -0.25))
+        return
+    fig.suptitle(title, fontsize=8)
+    axes[0].set_title("dominant member: k (+ = with the rotation), its share of the finished "
+                      "starts,\nnumber of attractors (rigid waves)", fontsize=8)
+    fig.legend(handles=handles, fontsize=7, loc="outside lower center", frameon=False, ncol=2)
+
+
+def _save(fig, path: Path) -> Path:  # noqa: ANN001
+    """Write ``fig`` to ``path`` through a temporary file: a reader never sees half a PNG."""
+    import matplotlib.pyplot as plt
+
+    tmp = path.with_name(f".{path.stem}.tmp.png")
+    fig.savefig(tmp, dpi=130, bbox_inches="tight")
+    plt.close(fig)
+    tmp.replace(path)
+    return path
 
 
 def _draw_boundaries(ax, sa: dict, ks: tuple[int, ...]) -> list:  # noqa: ANN001
