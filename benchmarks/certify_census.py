@@ -11,7 +11,10 @@ celerity tolerance ``CELERITY_TOL``). For every wave member this script
    class, member and celerity next to the census row's (relative difference);
 2. certifies that run with ``studies.attractors.certify.certify``: the direct solver's wave at
    the run's step (residual, difference to the transient), its Δt → 0 value on that mesh and
-   whether a transient started next to it keeps it.
+   whether a transient started next to it keeps it. Where ``certify`` leaves a part open
+   (its one solve raises at a finer level of the Δt → 0 wave; its stability transient stops
+   because the matched step exceeds Δt_crit), ``staged_certificate`` computes the parts one
+   by one.
 
 ``--extend SCENE:N:MEMBER=COUNT`` (repeatable) also runs the COUNT lowest-seed random starts
 of MEMBER (e.g. ``unsettled-k14-opposite-SSS``) at mesh N on to ``--extend-end-time`` and
@@ -20,12 +23,13 @@ classifies their end states with the census's classifier.
 Results go to ``OUT/certificates.json`` (resumable: a finished run or certificate is not
 computed again) and are printed as Markdown tables::
 
-    ./dev python3 benchmarks/certify_census.py gpu_census_rows.jsonl --out runs/certify \\
-        --meshes 132,264,528 \\
+    ./dev python3 benchmarks/certify_census.py OUT/rows.jsonl --out runs/certify --meshes 132,264
+    ./dev python3 benchmarks/certify_census.py OUT/rows.jsonl --out runs/certify --meshes 528 \\
+        --dt-limit-max-size 2000 \\
         --extend figure1_n132_damped:528:unsettled-k14-opposite-SSS=2 \\
         --extend figure3_n132_damped:528:modulated-k11-opposite-SSS=1 \\
         --extend figure3_n132_damped:528:unsettled-k11-opposite-SSS=1
-    ./dev python3 benchmarks/certify_census.py gpu_census_rows.jsonl --out runs/certify --table
+    ./dev python3 benchmarks/certify_census.py OUT/rows.jsonl --out runs/certify --table
 """
 
 from __future__ import annotations
