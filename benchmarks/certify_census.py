@@ -11,10 +11,9 @@ celerity tolerance ``CELERITY_TOL``). For every wave member this script
    class, member and celerity next to the census row's (relative difference);
 2. certifies that run with ``studies.attractors.certify.certify``: the direct solver's wave at
    the run's step (residual, difference to the transient), its Δt → 0 value on that mesh and
-   whether a transient started next to it keeps it. Where ``certify`` leaves a part open
-   (its one solve raises at a finer level of the Δt → 0 wave; its stability transient stops
-   because the matched step exceeds Δt_crit), ``staged_certificate`` computes the parts one
-   by one.
+   whether a transient started next to it keeps it (where the finer levels of the Δt → 0
+   wave have none, the wave at the run's step stands; where the matched step exceeds
+   Δt_crit, stability is tested at S' = ceil(τ/Δt): ``certify``'s own rules).
 
 ``--extend SCENE:N:MEMBER=COUNT`` (repeatable) also runs the COUNT lowest-seed random starts
 of MEMBER (e.g. ``unsettled-k14-opposite-SSS``) at mesh N on to ``--extend-end-time`` and
@@ -41,8 +40,6 @@ import subprocess
 import sys
 import time
 from pathlib import Path
-
-import numpy as np
 
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
@@ -106,55 +103,6 @@ def relative(a: float | None, b: float | None) -> float | None:
     return float(a) / float(b) - 1.0
 
 
-def staged_certificate(run_dir: Path, dt_limit: bool = True) -> dict:
-    """The certificate's three parts, each with its own outcome (``certify`` stops at the
-    first failure of its one solve and keeps no part): the wave at the run's step
-    (``wave_from_run``); its Δt → 0 value (``dt_limit_wave``: the waves at S, 2S, 4S);
-    the transient started next to it (``transient_next_to``). The matched step h = τ/S,
-    S = round(τ/Δt), can exceed the explicit stability limit Δt_crit (h up to 1.5 Δt); the
-    transient then runs next to the wave at S' = ceil(τ/Δt) (h ≤ Δt), which the result names
-    (``stability_samples``)."""
-    from studies.attractors.certify import _plain
-    from studies.travel.from_run import (
-        dt_limit_wave,
-        read_end_state,
-        solve_matched,
-        transient_next_to,
-        wave_from_run,
-    )
-
-    out: dict = {"available": True, "run": str(run_dir), "staged": True}
-    try:
-        wave = wave_from_run(run_dir)
-    except Exception as err:  # NotRigidWave: a fact of the member
-        out["at_dt"] = {"converged": False, "message": f"{type(err).__name__}: {err}"}
-        return out
-    out["at_dt"] = _plain({k: wave.get(k) for k in (
-        "converged", "message", "residual", "k", "direction", "regime", "celerity_m_s",
-        "frequency_hz", "psi1", "psi2", "amplitude_m", "frame_spread", "samples",
-        "difference", "run", "node_passage_s", "dt_s")})
-    if not wave.get("converged"):
-        return out
-    end = read_end_state(run_dir)
-    st, sol, _ = solve_matched(end, wave["samples"])
-    if dt_limit:
-        try:
-            lim = dt_limit_wave(end, wave["samples"], np.r_[sol.W_r, sol.W_t], sol.omega)
-            out["dt_to_0"] = _plain({k: v for k, v in lim.items() if k != "levels"})
-        except Exception as err:  # a finer level without a wave: reported
-            out["dt_to_0"] = {"message": f"{type(err).__name__}: {err}"}
-    if st.ops.step(sol.omega) > float(end.summary.get("dt_crit_s") or end.dt):
-        s_stable = math.ceil(end.node_passage / end.dt)
-        st, sol, _ = solve_matched(end, s_stable)
-        out["stability_samples"] = s_stable
-    try:
-        stab = transient_next_to(st, sol, end.k)
-        out["stable"], out["drift"] = bool(stab["stable"]), _plain(stab["drift"])
-    except Exception as err:
-        out["stable"], out["stability_message"] = None, f"{type(err).__name__}: {err}"
-    return out
-
-
 def finest_level_size(row: dict, radius: float = 1.0) -> int:
     """Rows of the dense Newton system at the Δt → 0 wave's finest level (4S points per
     node): 2·4S·N/p + 1, p = k where k divides 4S·N (the wave folded onto one wavelength,
@@ -166,20 +114,9 @@ def finest_level_size(row: dict, radius: float = 1.0) -> int:
     return 2 * points // (k if points % k == 0 else 1) + 1
 
 
-def _left_open(cert: dict) -> bool:
-    """``certify`` raised after the wave at the run's step converged (a finer level of the
-    Δt → 0 wave), or its stability check failed to run."""
-    at = cert.get("at_dt", {})
-    if not at.get("converged"):
-        return at.get("message", "").startswith("NotConverged")
-    return cert.get("stable") is None
-
-
 def certify_member(scene: str, n: int, census_row: dict, end_time: float, out: Path,
                    dt_limit: bool = True) -> dict:
-    """Rerun, classify and certify one member's first start (module docstring, 1 and 2):
-    ``certify``, and the staged certificate where ``certify`` leaves a part open or
-    ``dt_limit`` is off."""
+    """Rerun, classify and certify one member's first start (module docstring, 1 and 2)."""
     from studies.attractors.certify import certify
 
     seed = int(census_row["seed"])
@@ -187,15 +124,7 @@ def certify_member(scene: str, n: int, census_row: dict, end_time: float, out: P
     summary = run_start(scene, n, seed, end_time, run_dir)
     row = cpu_row(run_dir, n, seed, summary)
     t0 = time.perf_counter()
-    cert = certify(run_dir) if dt_limit else None
-    if cert is None or _left_open(cert):
-        # certify's one solve failed after the wave at the run's step: at a finer level of
-        # the Δt → 0 wave, which the staged certificate need not solve again
-        failed_limit = cert is not None and not cert["at_dt"].get("converged")
-        staged = staged_certificate(run_dir, dt_limit and not failed_limit)
-        if failed_limit and staged["at_dt"].get("converged"):
-            staged["dt_to_0"] = {"message": cert["at_dt"]["message"]}
-        cert = {"certify": cert, **staged}
+    cert = certify(run_dir, dt_limit=dt_limit)
     return {"scene": scene, "n_inner": n, "seed": seed, "member": census_row["member"],
             "census": _brief(census_row), "cpu": _brief(row),
             "celerity_rel": relative(row["celerity_m_s"], census_row["celerity_m_s"]),

@@ -359,10 +359,17 @@ def _extrapolate(setup, k: int, s: int, W: np.ndarray, omega: float) -> dict:
 
 def wave_stability(run_dir: Path, *, end_time: float = 0.05, eps: float = 0.02) -> dict:
     """Is the run's wave an attractor of the transient? ``transient_next_to`` the wave of
-    ``wave_from_run`` (the matched step)."""
+    ``wave_from_run`` (the matched step h = τ/S, S = round(τ/Δt)). Where that h exceeds the
+    run's Δt_crit (S rounds down: h up to 1.5 Δt) a transient at h is unstable as a scheme,
+    so the neighbouring discrete wave at S' = ceil(τ/Δt) (h ≤ Δt) is tested instead; the
+    answer names it (``samples``)."""
     end = read_end_state(Path(run_dir))
-    st, sol, _ = solve_matched(end)
-    return transient_next_to(st, sol, end.k, end_time=end_time, eps=eps)
+    s = matched_samples(end.node_passage, end.dt)
+    st, sol, _ = solve_matched(end, s)
+    if st.ops.step(sol.omega) > float(end.summary.get("dt_crit_s") or end.dt):
+        s = math.ceil(end.node_passage / end.dt)
+        st, sol, _ = solve_matched(end, s)
+    return {**transient_next_to(st, sol, end.k, end_time=end_time, eps=eps), "samples": s}
 
 
 def transient_next_to(st, sol, k: int, *, end_time: float = 0.05, eps: float = 0.02) -> dict:
