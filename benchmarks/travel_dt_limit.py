@@ -78,6 +78,8 @@ def main() -> int:
 
     for run in a.runs:
         w = wave_from_run(run, dt_limit=True)
+        if w.get("dt_limit") is None:
+            raise SystemExit(f"{run}: {w.get('dt_limit_message') or w.get('message')}")
         end = read_end_state(run)
         s = matched_samples(end.node_passage, end.dt)
         tr = [{"dt_s": end.dt, "k": end.k, "celerity_m_s": end.summary["celerity_m_s"],

@@ -6,7 +6,7 @@ celerity and the relative difference to the transient's) and the wave as Δt →
 (with the run's own Δt error), and, where ``studies.travel.wave_stability`` exists, whether
 a transient started next to the wave keeps it. Where the finer levels of the Δt → 0 wave
 have no wave (the free-ω Newton stagnates with an inequality violated), the wave at the run's
-step still stands: it is solved alone and ``dt_to_0`` says why its limit is unknown. When the
+step still stands and ``dt_to_0`` says why its limit is unknown. When the
 travel solver is not installed the answer says "certification unavailable" and the census
 goes on; a run that is not a rigid wave (``NotRigidWave``) or a solver failure is reported,
 never raised.
@@ -44,18 +44,11 @@ def certify(run_dir: Path, *, stability: bool = True, stability_end_time: float 
         return {"available": False, "message": f"{UNAVAILABLE}: studies.travel.wave_from_run "
                 "is not installed"}
     out: dict = {"available": True, "run": str(run_dir)}
-    wave, limit_error = None, None if dt_limit else "not computed (dt_limit = False)"
-    if dt_limit:
-        try:  # one solve: the wave at the run's step, and from it the Δt → 0 wave
-            wave = travel.wave_from_run(run_dir, dt_limit=True)
-        except Exception as err:  # NotRigidWave, or no wave at the run's step or a finer one
-            limit_error = f"{type(err).__name__}: {err}"
-    if wave is None:
-        try:  # the wave at the run's step alone: it stands without the finer levels
-            wave = travel.wave_from_run(run_dir)
-        except Exception as err:  # NotRigidWave or a solver failure: a fact of the member
-            out["at_dt"] = {"converged": False, "message": f"{type(err).__name__}: {err}"}
-            return out
+    try:  # one solve: the wave at the run's step, and from it the Δt → 0 wave
+        wave = travel.wave_from_run(run_dir, dt_limit=dt_limit)
+    except Exception as err:  # NotRigidWave or a solver failure: a fact of the member
+        out["at_dt"] = {"converged": False, "message": f"{type(err).__name__}: {err}"}
+        return out
     out["at_dt"] = {key: _plain(wave.get(key)) for key in (
         "converged", "message", "residual", "k", "direction", "regime", "celerity_m_s",
         "frequency_hz", "psi1", "psi2", "amplitude_m", "frame_spread", "samples",
@@ -63,7 +56,8 @@ def certify(run_dir: Path, *, stability: bool = True, stability_end_time: float 
     if wave.get("dt_limit") is not None:
         out["dt_to_0"] = _plain({k: v for k, v in wave["dt_limit"].items() if k != "levels"})
     else:  # no wave at 2S or 4S, or not asked for: the Δt → 0 value is not known
-        out["dt_to_0"] = {"message": limit_error or "no Δt → 0 wave from this run"}
+        out["dt_to_0"] = {"message": wave.get("dt_limit_message") or (
+            "no Δt → 0 wave from this run" if dt_limit else "not computed (dt_limit = False)")}
     if stability and wave.get("converged") and hasattr(travel, "wave_stability"):
         try:
             st = travel.wave_stability(run_dir, end_time=stability_end_time)

@@ -238,7 +238,9 @@ def wave_from_run(run_dir: Path, *, dt_limit: bool = False) -> dict:
     Returns a dict: converged, message, residual, k, direction, regime, celerity_m_s,
     frequency_hz, fractions, psi1, psi2, amplitude_m, node_passage_s, dt_s, samples (S),
     frame_spread, run (the run's values of the same keys), difference (``difference``),
-    cpu_s; with ``dt_limit``, ``dt_limit`` (the Δt → 0 wave, ``dt_limit_wave``). Raises
+    cpu_s; with ``dt_limit``, ``dt_limit`` (the Δt → 0 wave, ``dt_limit_wave``; None, with
+    ``dt_limit_message``, where a finer level has no wave: the free-ω Newton stagnates with an
+    inequality violated, and the wave at the run's step stands). Raises
     ``NotRigidWave`` when the run's end state is not a rigidly travelling wave, ``ValueError``
     when the directory is not a finished run."""
     import studies.travel.driver as D
@@ -261,7 +263,11 @@ def wave_from_run(run_dir: Path, *, dt_limit: bool = False) -> dict:
                psi1_subnode=summary["psi1_subnode"], psi2_subnode=summary["psi2_subnode"],
                **compare_with_run(end, st, sol, summary))
     if dt_limit:
-        out["dt_limit"] = dt_limit_wave(end, s, np.r_[sol.W_r, sol.W_t], sol.omega)
+        try:
+            out["dt_limit"] = dt_limit_wave(end, s, np.r_[sol.W_r, sol.W_t], sol.omega)
+        except NotConverged as err:  # no wave at 2S or 4S: the wave at S stands without it
+            out["dt_limit"] = None
+            out["dt_limit_message"] = f"NotConverged: {err}"
     out["cpu_s"] = time.process_time() - t0
     return out
 
