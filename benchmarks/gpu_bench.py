@@ -460,18 +460,23 @@ _CLASSIFY: dict = {}  # the recorder and scene data, inherited by the forked wor
 
 def classify_all(rec, active: np.ndarray, d: np.ndarray, radius: float,
                  workers: int) -> list[str]:
-    """Every scene's member, ``workers`` processes (fork: they read the record, host
-    arrays or the spool files, and never touch the device)."""
+    """Every scene's member, ``workers`` processes (``forked_map``)."""
+    _CLASSIFY.update(rec=rec, active=np.asarray(active), d=d, radius=radius)
+    return forked_map(_classify, d.size, workers)
+
+
+def forked_map(fn, count: int, workers: int) -> list:
+    """[fn(0), …, fn(count − 1)] in ``workers`` forked processes, in this one where
+    ``workers`` ≤ 1. The workers inherit what ``fn`` reads (module state set before the
+    call: the records, host arrays or spool files) and never touch the device."""
     import multiprocessing
     from concurrent.futures import ProcessPoolExecutor
 
-    _CLASSIFY.update(rec=rec, active=np.asarray(active), d=d, radius=radius)
-    scenes = range(d.size)
     if workers <= 1:
-        return [_classify(b) for b in scenes]
+        return [fn(i) for i in range(count)]
     ctx = multiprocessing.get_context("fork")
     with ProcessPoolExecutor(workers, mp_context=ctx) as pool:
-        return list(pool.map(_classify, scenes, chunksize=max(1, d.size // (4 * workers))))
+        return list(pool.map(fn, range(count), chunksize=max(1, count // (4 * workers))))
 
 
 def _classify(b: int) -> str:

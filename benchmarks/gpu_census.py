@@ -294,27 +294,18 @@ def _row(b: int) -> dict:
 
 
 def classify_batch(rec, batch, facts: dict, spread_tol: float, workers: int) -> list[dict]:
-    import multiprocessing
-    from concurrent.futures import ProcessPoolExecutor
+    from benchmarks.gpu_bench import forked_map
 
     _ROWS.update(rec=rec, batch=batch, facts=facts, spread_tol=spread_tol)
-    scenes = range(len(batch.runs))
-    if workers <= 1:
-        return [_row(b) for b in scenes]
-    with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("fork")) as pool:
-        return list(pool.map(_row, scenes))
+    return forked_map(_row, len(batch.runs), workers)
 
 
 def namespace(args):
-    if args.target == "cpu":
-        return np, "numba"
-    if args.emulate:
-        from benchmarks import gpu_emulate
+    """(xp, kernel) of ``--target`` (``gpu_bench.namespace``)."""
+    from benchmarks.gpu_bench import namespace as array_namespace
 
-        return gpu_emulate.install(), "cuda"
-    import cupy
-
-    return cupy, "cuda"
+    kernel = "numba" if args.target == "cpu" else "cuda"
+    return array_namespace(args.target, args.emulate), kernel
 
 
 def stage_run(args) -> None:
@@ -333,10 +324,8 @@ def stage_run(args) -> None:
         census = json.loads((path.parent / "census.json").read_text())
         bp, arrays, facts = load_batch(path)
         steps = args.max_steps or facts["steps"]
+        facts["points"] = facts["points"][:args.max_starts or None]
         u0 = batch_starts(arrays, facts)
-        if args.max_starts:
-            u0 = u0[:, :args.max_starts]
-            facts["points"] = facts["points"][:args.max_starts]
         stepper, rec, batch, loop_s = run_batch(bp, arrays, facts, xp, kernel, u0, steps)
         facts["steps"] = steps
         t0 = time.perf_counter()
@@ -402,9 +391,6 @@ def stage_answer(args) -> None:
                 if r["scene"] == scene]
         if not mine:
             continue
-        for r in mine:  # JSON has no NaN: the rows' missing numbers come back as NaN
-            for k in ("frame_spread", "spread_trend", "rms_amplitude_m"):
-                r[k] = math.nan if r.get(k) is None else r[k]
         answer = answer_of(meta, mine)
         dest = args.into / scene
         dest.mkdir(parents=True, exist_ok=True)
