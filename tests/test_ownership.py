@@ -21,6 +21,16 @@ from faults import digest, leftovers
 
 REPO = Path(__file__).resolve().parents[1]
 SMOKE = REPO / "scenes" / "smoke.toml"
+
+
+def _smoke_sweep(tmp_path: Path, omegas: list[float], end_time: float | None = None):
+    """The sweep of the smoke scene over ``loading.omega`` (``tmp_path / "s.toml"``)."""
+    from studies.sweep import load_sweep
+
+    extra = f'set = ["time.end_time={end_time}"]\n' if end_time is not None else ""
+    spec_path = tmp_path / "s.toml"
+    spec_path.write_text(f'base = "{SMOKE}"\n{extra}[grid]\n"loading.omega" = {omegas}\n')
+    return load_sweep(spec_path)
 SHORT = ["time.end_time=0.005", "output.progress=false"]
 
 
@@ -148,12 +158,9 @@ def test_sweep_never_writes_a_users_folder_under_runs(tmp_path):
     pytest.importorskip("dolfinx")
     from mpi4py import MPI
 
-    from studies.sweep import load_sweep, run_sweep
+    from studies.sweep import run_sweep
 
-    spec_path = tmp_path / "s.toml"
-    spec_path.write_text(f'base = "{SMOKE}"\nset = ["time.end_time=0.005"]\n'
-                         '[grid]\n"loading.omega" = [2.0]\n')
-    spec = load_sweep(spec_path)
+    spec = _smoke_sweep(tmp_path, [2.0], end_time=0.005)
     out = tmp_path / "out"
     assert run_sweep(spec, out, comm=MPI.COMM_SELF, stream=io.StringIO()) == 0
     mine = out / "runs" / spec.tasks[0].id
@@ -296,12 +303,9 @@ def test_edited_sweep_table_gives_one_line(tmp_path, capsys):
 def test_sweep_resume_reruns_a_scene_with_a_damaged_summary(tmp_path, damage):
     """A resume recorded `failed` for a garbage or deleted summary.json instead of rerunning."""
     from studies.rundir.ownership import claim
-    from studies.sweep import load_sweep
     from studies.sweep.table import task_state
 
-    spec_path = tmp_path / "s.toml"
-    spec_path.write_text(f'base = "{SMOKE}"\n[grid]\n"loading.omega" = [2.0]\n')
-    spec = load_sweep(spec_path)
+    spec = _smoke_sweep(tmp_path, [2.0])
     run_dir = tmp_path / "out" / "runs" / spec.tasks[0].id
     claim(run_dir, "run").release()
     text = {"garbage": "\x00\x01", "list": "[]", "deleted": None}[damage]
@@ -339,12 +343,9 @@ def test_a_killed_scene_is_run_again_on_resume(tmp_path, status):
     """A sweep whose process was SIGKILLed left the scene `failed`, and a resume skipped it:
     the watchdog now writes `crashed` (or `interrupted` after a signal), neither final."""
     from studies.rundir.ownership import claim
-    from studies.sweep import load_sweep
     from studies.sweep.schedule import _classify
 
-    spec_path = tmp_path / "s.toml"
-    spec_path.write_text(f'base = "{SMOKE}"\n[grid]\n"loading.omega" = [2.0]\n')
-    spec = load_sweep(spec_path)
+    spec = _smoke_sweep(tmp_path, [2.0])
     run_dir = tmp_path / "out" / "runs" / spec.tasks[0].id
     claim(run_dir, "run").release()
     (run_dir / "summary.json").write_text(json.dumps({
@@ -356,11 +357,9 @@ def test_a_killed_scene_is_run_again_on_resume(tmp_path, status):
 def test_a_large_sweep_table_is_not_rewritten_at_every_scene(tmp_path, monkeypatch):
     """A 10^6-point sweep rewrote its 474 MB sweep.json after every scene: a table of more
     than TABLE_SMALL scenes is rewritten at most every TABLE_PERIOD s (and at the end)."""
-    from studies.sweep import load_sweep, schedule
+    from studies.sweep import schedule
 
-    spec_path = tmp_path / "s.toml"
-    spec_path.write_text(f'base = "{SMOKE}"\n[grid]\n"loading.omega" = [2.0, 3.0, 4.0]\n')
-    spec = load_sweep(spec_path)
+    spec = _smoke_sweep(tmp_path, [2.0, 3.0, 4.0])
     writes = []
     monkeypatch.setattr(schedule, "write_table", lambda *a, **k: writes.append(1))
     monkeypatch.setattr(schedule, "TABLE_SMALL", 2)
@@ -387,12 +386,9 @@ def test_a_batched_sweep_never_writes_a_users_folder_under_runs(tmp_path):
     from mpi4py import MPI
 
     from studies.rundir.ownership import claim
-    from studies.sweep import load_sweep, run_sweep
+    from studies.sweep import run_sweep
 
-    spec_path = tmp_path / "s.toml"
-    spec_path.write_text(f'base = "{SMOKE}"\nset = ["time.end_time=0.005"]\n'
-                         '[grid]\n"loading.omega" = [2.0, 3.0, 4.0]\n')
-    spec = load_sweep(spec_path)
+    spec = _smoke_sweep(tmp_path, [2.0, 3.0, 4.0], end_time=0.005)
     out = tmp_path / "out"
     claim(out, "sweep").release()  # a sweep directory of stickslip's, not yet run
     mine = out / "runs" / spec.tasks[0].id
