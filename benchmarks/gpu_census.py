@@ -22,7 +22,8 @@ splits the same computation in three:
     every step, samples, the energy guard, a blow-up masked and counted ``diverged``); every
     start's summary exactly as a run directory's (``postprocess.analysis.analyse``, as
     ``studies.rundir.scene_run.summarise``), its frame spread and trend, and its row
-    (``studies.attractors.classify.end_state_row``) to ``OUT/rows.jsonl``. ``--check``
+    (``studies.attractors.classify.end_state_row``) to ``OUT/rows.jsonl``, one write per
+    batch; a rerun (after a kill) skips the batches whose rows are there. ``--check``
     first runs a few starts of the first batch on the CUDA kernel and on the numba kernel
     and compares the states bit for bit.
 
@@ -60,6 +61,10 @@ import numpy as np  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
+
+
+class CensusOffloadError(Exception):
+    """Bad input of a stage (the message names the value and the fix)."""
 
 
 # ------------------------------------------------------------------------ the starts
@@ -305,17 +310,25 @@ def namespace(args):
     from benchmarks.gpu_bench import namespace as array_namespace
 
     kernel = "numba" if args.target == "cpu" else "cuda"
-    return array_namespace(args.target, args.emulate), kernel
+    try:
+        return array_namespace(args.target, args.emulate), kernel
+    except ImportError as err:
+        raise CensusOffloadError(f"--target {args.target}: {err}; on a machine without CuPy "
+                                 "use --target cpu, or --emulate to rehearse") from None
 
 
 def stage_run(args) -> None:
-    xp, kernel = namespace(args)
     args.out.mkdir(parents=True, exist_ok=True)
     rows_path = args.out / "rows.jsonl"
     log = args.out / "batches.jsonl"
     batches = sorted(args.directory.glob("*/batch_n*.npz"),
                      key=lambda p: (p.parent.name, int(p.stem.split("_n")[1])))
-    if args.check and batches:
+    if not batches:
+        raise CensusOffloadError(f"{args.directory}: no batch files (*/batch_nN.npz); make "
+                                 "them with 'gpu_census.py prepare' where dolfinx is")
+    done = _batches_done(rows_path)
+    xp, kernel = namespace(args)
+    if args.check:
         try:  # the check must not cost the census
             _check(batches[0], xp, args)
         except Exception as err:
@@ -323,6 +336,9 @@ def stage_run(args) -> None:
     for path in batches:
         census = json.loads((path.parent / "census.json").read_text())
         bp, arrays, facts = load_batch(path)
+        if (facts["scene"], facts["n_inner"]) in done:  # a rerun resumes after the last batch
+            print(f"{facts['scene']} N = {facts['n_inner']}: in {rows_path} already", flush=True)
+            continue
         steps = args.max_steps or facts["steps"]
         facts["points"] = facts["points"][:args.max_starts or None]
         u0 = batch_starts(arrays, facts)
@@ -331,9 +347,9 @@ def stage_run(args) -> None:
         t0 = time.perf_counter()
         rows = classify_batch(rec, batch, facts, census["spread_tol"], args.workers)
         classify_s = time.perf_counter() - t0
-        with open(rows_path, "a") as fh:
-            for r in rows:
-                fh.write(json.dumps({"scene": facts["scene"], **r}, default=_plain) + "\n")
+        with open(rows_path, "a") as fh:  # one write per batch: a batch's rows or none
+            fh.write("".join(json.dumps({"scene": facts["scene"], **r}, default=_plain) + "\n"
+                             for r in rows))
         record = {"scene": facts["scene"], "N": facts["n_inner"], "n": bp.n,
                   "B": u0.shape[1], "steps": steps, "dt": bp.dt, "loop_s": loop_s,
                   "classify_s": classify_s,
@@ -345,6 +361,20 @@ def stage_run(args) -> None:
             fh.write(json.dumps(record) + "\n")
         print(json.dumps(record), flush=True)
         del stepper, rec, batch
+
+
+def _batches_done(rows_path: Path) -> set[tuple[str, int]]:
+    """(scene, N) of the batches whose rows are in ``rows_path`` (whole lines only: a line
+    cut by a kill is not a row, and its batch runs again)."""
+    done = set()
+    if rows_path.is_file():
+        for line in rows_path.read_text().splitlines():
+            try:
+                r = json.loads(line)
+            except ValueError:
+                continue
+            done.add((r["scene"], r["n_inner"]))
+    return done
 
 
 def _check(path: Path, xp, args) -> None:
@@ -382,8 +412,11 @@ def _plain(value):
 def stage_answer(args) -> None:
     from studies.attractors.census import answer_of, write_outputs
 
-    rows = [json.loads(line) for line in (args.out / "rows.jsonl").read_text().splitlines()
-            if line.strip()]
+    rows_path = args.out / "rows.jsonl"
+    if not rows_path.is_file():
+        raise CensusOffloadError(f"{rows_path} not found: give the --out directory of "
+                                 "'gpu_census.py run'")
+    rows = [json.loads(line) for line in rows_path.read_text().splitlines() if line.strip()]
     for census_json in sorted(args.directory.glob("*/census.json")):
         scene = census_json.parent.name
         meta = json.loads(census_json.read_text())
@@ -426,7 +459,12 @@ def main(argv: list[str] | None = None) -> None:
     p.add_argument("out", type=Path)
     p.add_argument("--into", type=Path, required=True)
     args = ap.parse_args(argv)
-    {"prepare": stage_prepare, "run": stage_run, "answer": stage_answer}[args.stage](args)
+    stage = {"prepare": stage_prepare, "run": stage_run, "answer": stage_answer}[args.stage]
+    try:
+        stage(args)
+    except (CensusOffloadError, ImportError, ValueError, OSError) as err:  # exit 2
+        print(f"error: {err}", file=sys.stderr)
+        raise SystemExit(2) from None
 
 
 if __name__ == "__main__":

@@ -58,6 +58,9 @@ def test_offloaded_census_rows_equal_the_cli_census(tmp_path, capsys):
     for i, target in enumerate(targets):
         out = tmp_path / f"out{i}"
         gc.main(["run", str(prep), "--out", str(out), "--workers", "1", *target])
+        rows = (out / "rows.jsonl").read_text()
+        gc.main(["run", str(prep), "--out", str(out), "--workers", "1", *target])
+        assert (out / "rows.jsonl").read_text() == rows  # a rerun resumes: nothing twice
         gc.main(["answer", str(prep), str(out), "--into", str(tmp_path / f"answer{i}")])
         answers.append(_rows(tmp_path / f"answer{i}" / SCENE.stem / "attractors.json"))
     cli = tmp_path / "cli"
@@ -68,3 +71,14 @@ def test_offloaded_census_rows_equal_the_cli_census(tmp_path, capsys):
     assert len(reference) == 3
     for rows in answers:
         assert rows == reference
+
+
+def test_offloaded_census_bad_input_one_line_exit_2(tmp_path, capsys):
+    gc = _gpu_census()
+    for argv, words in ((["run", str(tmp_path), "--out", str(tmp_path / "o")], "no batch files"),
+                        (["answer", str(tmp_path), str(tmp_path / "o"), "--into",
+                          str(tmp_path / "a")], "rows.jsonl not found")):
+        with pytest.raises(SystemExit) as exc:
+            gc.main(argv)
+        err = capsys.readouterr().err
+        assert exc.value.code == 2 and words in err and len(err.strip().splitlines()) == 1
