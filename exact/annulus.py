@@ -22,7 +22,7 @@ Two independent discretisations of the same boundary-value problem:
       S/μ   = 2nF'/r − 2nF/r² − 2n²H/r² + 2H'/r + β² H
 
   The 4×4 determinant with rows ``U(R)``, ``S/μ + i f σ_rr/μ`` at ``R``, ``U(ξR)``, ``W(ξR)``
-  vanishes at the eigenfrequencies (:func:`sliding_determinant`).
+  vanishes at the eigenfrequencies (the determinant of :func:`sliding_matrix`).
 * **Chebyshev collocation** in r of the Navier equations in stress form
   (:func:`collocation_operators`): a dense matrix problem giving every eigenvalue in a band at
   once; its roots seed the Newton polish on the Bessel determinant, and the agreement of the
@@ -46,7 +46,6 @@ __all__ = [
     "bessel_columns",
     "chebyshev",
     "collocation_operators",
-    "sliding_determinant",
 ]
 
 
@@ -138,23 +137,6 @@ def sliding_matrix(
     fe = np.asarray(f_eff)[..., None]
     return np.stack([Ua * mat.R, (Sa + 1j * fe * sa) * mat.R**2, Ub * mat.R, Wb * mat.R],
                     axis=-2)
-
-
-def sliding_determinant(
-    omega: complex, n: int, f_eff: complex, mat: Elastic, tau: float = 0.0,
-    scale: np.ndarray | None = None,
-) -> complex:
-    """det of :func:`sliding_matrix` with constant column ``scale`` (analytic in ω)."""
-    M = sliding_matrix(omega, n, f_eff, mat, tau)
-    if scale is not None:
-        M = M * scale[None, :]
-    return complex(np.linalg.det(M))
-
-
-def column_scale(omega: complex, n: int, mat: Elastic, tau: float = 0.0) -> np.ndarray:
-    """Constant column scaling: 1 / the largest entry of each column at ``omega``."""
-    M = sliding_matrix(omega, n, 0.0, mat, tau)
-    return 1.0 / np.maximum(np.max(np.abs(M), axis=0), 1e-300)
 
 
 def annulus_sliding_frequencies(

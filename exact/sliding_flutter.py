@@ -4,7 +4,7 @@ Linearised sliding (every point of ``r = R`` stays in contact and slips forward)
 perturbation keeps ``u_r = 0`` and ``σ_rθ = f_eff(ω) σ_rr`` at ``r = R``; clamped at ``ξR``.
 This is the N → ∞ limit of ``stickslip flutter-fe`` (docs/flutter.md) and of the seeded
 transient in its linear phase. One scalar equation per order n in complex ω
-(:func:`exact.annulus.sliding_determinant`); its roots are found in two steps:
+(the determinant of :func:`exact.annulus.sliding_matrix`); its roots are found in two steps:
 
 1. **all** eigenvalues in the band from a Chebyshev collocation of the same boundary-value
    problem (a dense matrix problem: nothing is missed by a root search);
@@ -48,7 +48,6 @@ __all__ = [
     "collocation_roots",
     "polish",
     "sliding_branches",
-    "spectrum_table",
 ]
 
 
@@ -253,11 +252,3 @@ def sliding_branches(
     out.sort(key=lambda b: (b.frequency_hz, -b.growth_rate))
     return OrderSpectrum(n=n, f=f, band_hz=band, branches=out, collocation_points=npts)
 
-
-def spectrum_table(
-    ns: list[int], fs: list[float], mat: Elastic, *, fmax_hz: float = 3000.0,
-    speed_factor: float = 1.5, diss: Dissipation = ELASTIC,
-) -> dict[float, list[OrderSpectrum]]:
-    """:func:`sliding_branches` for every (f, n)."""
-    return {f: [sliding_branches(n, f, mat, fmax_hz=fmax_hz, speed_factor=speed_factor,
-                                 diss=diss) for n in ns] for f in fs}

@@ -29,7 +29,7 @@ from forms.elasticity import Material, stiffness
 from forms.polar import ContactNodes, contact_nodes
 from meshes.annulus import INNER_TAG, OUTER_TAG, TubeMesh
 
-__all__ = ["StaticSliding", "node_matrix", "solve_static_sliding", "static_sliding"]
+__all__ = ["StaticSliding", "node_matrix", "static_sliding"]
 
 
 @dataclass
@@ -144,13 +144,3 @@ def static_sliding(
         obj.destroy()
     return StaticSliding(u=u, contact=cn, normal_force=lam, pressure=lam / cn.ds_weight)
 
-
-def solve_static_sliding(
-    V: dolfinx.fem.FunctionSpace,
-    tube: TubeMesh,
-    material: Material,
-    delta_m: float,
-    f: float,
-) -> dolfinx.fem.Function:
-    """Discrete steady sliding displacement (initial condition of the solver); see module doc."""
-    return static_sliding(V, tube, material, delta_m, f).u

@@ -18,12 +18,11 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 from scipy.linalg import expm
-from scipy.optimize import least_squares
 
 from semianalytic.coefficients import Coefficients
 from semianalytic.waves import _scaled_coeffs, _sep_matrix, _slip_matrix
 
-__all__ = ["CLOSURES", "junction_residual", "nearest_point"]
+__all__ = ["CLOSURES", "junction_residual"]
 
 #: closures compared in docs/semianalytic.md (number of equations in brackets)
 CLOSURES: dict[str, tuple[str, ...]] = {
@@ -146,38 +145,3 @@ def junction_residual(
     x, *_ = np.linalg.lstsq(A, -b, rcond=None)
     return float(np.linalg.norm(A @ x + b)), x
 
-
-def nearest_point(
-    coeffs: Coefficients,
-    f: float,
-    k: int,
-    delta: float,
-    c0: float,
-    psi1: float,
-    psi2: float,
-    conditions: tuple[str, ...] | str = "smooth",
-    fix_psi1: bool = False,
-) -> dict[str, float]:
-    """Minimise the junction residual from ``(c0, ψ1, ψ2)``; returns the local minimum found."""
-    sg = math.sqrt(coeffs.gamma)
-    sign = 1.0 if c0 > 0 else -1.0
-
-    def fun(p: NDArray[np.float64]) -> NDArray[np.float64]:
-        ct, a1, a2 = (p[0], psi1, p[1]) if fix_psi1 else p
-        return np.array(
-            [junction_residual(coeffs, f, k, delta, sign * ct / sg, a1, a2, conditions)[0]]
-        )
-
-    x0 = [abs(c0) * sg, psi2] if fix_psi1 else [abs(c0) * sg, psi1, psi2]
-    lo = [1e-3, 0.0] if fix_psi1 else [1e-3, 0.0, 0.0]
-    hi = [5.0, 1.0] if fix_psi1 else [5.0, 1.0, 1.0]
-    sol = least_squares(fun, x0, bounds=(lo, hi), xtol=1e-14, ftol=1e-14, gtol=1e-14)
-    p = sol.x
-    ct, a1, a2 = (p[0], psi1, p[1]) if fix_psi1 else p
-    return {
-        "c_scaled": sign * ct,
-        "c": sign * ct / sg,
-        "psi1": a1,
-        "psi2": a2,
-        "residual": float(sol.fun[0]),
-    }

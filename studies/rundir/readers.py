@@ -14,7 +14,6 @@ the file, what is wrong and the fix; ``cli.main`` prints it and exits 2.
 ``read_field``         ``final_field.npz``: ``points`` (p, >=2), ``u`` (p, 2), ``cells``,
                        ``cell_types``, ``time``
 ``read_sweep_table``   ``sweep.json``: the sweep kind, ``parameters`` and ``rows`` objects
-``read_profiles``      a travel ``profiles.npz``: ``phi`` (n,) and profiles of its length
 ``check_run_dir``      every file of a run directory, before a command uses it
 =====================  ==================================================================
 
@@ -32,8 +31,7 @@ from typing import Any
 import numpy as np
 
 __all__ = ["STATUSES", "ReadError", "check_run_dir", "read_field", "read_json_object",
-           "read_profiles", "read_samples", "read_scene_file", "read_summary",
-           "read_sweep_table"]
+           "read_samples", "read_scene_file", "read_summary", "read_sweep_table"]
 
 #: Every status a summary may hold (``studies.rundir.scene_run``, the sweep's table).
 STATUSES = ("running", "completed", "diverged", "failed", "stopped", "interrupted",
@@ -162,17 +160,6 @@ def read_field(run_dir: str | Path) -> dict[str, np.ndarray]:
     _shape(p, data["u"], "u", (pts.shape[0], 2))
     _shape(p, data["time"], "time", ())
     _shape(p, data["cells"], "cells", (None,))
-    return data
-
-
-def read_profiles(path: str | Path) -> dict[str, np.ndarray]:
-    """A travel ``profiles.npz`` (the file itself), checked: ``phi`` and profiles along it."""
-    p = Path(path)
-    data = _load_npz(p, ("phi",))
-    _shape(p, data["phi"], "phi", (None,))
-    for key, a in data.items():
-        if key != "phi" and a.ndim >= 1 and a.shape[-1] != data["phi"].size:
-            raise ReadError(p, f"{key} has {a.shape[-1]} points, phi {data['phi'].size}")
     return data
 
 

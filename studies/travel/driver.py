@@ -18,7 +18,7 @@ what it means for ``stickslip run``.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -36,7 +36,7 @@ from studies.travel.newton import (
     zone_lengths,
 )
 
-__all__ = ["TravelResult", "Setup", "band", "setup", "start_from_run", "start_from_reduced",
+__all__ = ["Setup", "band", "setup", "start_from_run", "start_from_reduced",
            "reduced_start",
            "probe_history", "prolong", "folded", "solve_free", "solve_scene", "measure",
            "member_amplitude"]
@@ -52,14 +52,6 @@ class Setup:
     ops: Any  # studies.travel.frame.FrameOperators
     prob: CircleProblem
 
-
-@dataclass
-class TravelResult:
-    """A solved wave, its measured summary and the profiles over one period."""
-
-    solution: TravelSolution
-    summary: dict
-    profiles: dict[str, Array] = field(default_factory=dict)
 
 
 def setup(scene: Scene, damping: float = 0.0, lumped: bool = False,

@@ -29,7 +29,7 @@ from semianalytic.waves import TravellingWave
 from studies.reduced_transient import stiffness_matrix, wave_fields
 from studies.travel.newton import CircleProblem, TravelSolution, solve_wave
 
-__all__ = ["reduced_problem", "wave_start", "solve_reduced", "psi_fractions"]
+__all__ = ["reduced_problem", "wave_start", "solve_reduced"]
 
 Array = NDArray[np.float64]
 
@@ -62,8 +62,3 @@ def solve_reduced(
     """Solve the discrete reduced travelling-wave problem from (W0, c0)."""
     return solve_wave(reduced_problem(co, f, delta, n, rate), W0, c0, k, **kw)
 
-
-def psi_fractions(sol: TravelSolution) -> tuple[float, float]:
-    """(ψ₁, ψ₂) as in ``semianalytic.waves``: separation fraction, separation + stick."""
-    fr = sol.fractions
-    return fr["separation"], fr["separation"] + fr["stick"]
