@@ -146,10 +146,10 @@ class Simulation:
         self.writer = None
         observers: list = []
         if sc.output.fields and output_dir is not None:
-            from solver.writers import FieldWriter
+            from solver.field_output import FieldOutput
 
-            self.writer = FieldWriter(self.problem, Path(output_dir) / "fields.xdmf")
-            observers.append(FieldOutput(self, sc.output.field_interval))
+            observers.append(FieldOutput(self, Path(output_dir)))
+            self.writer = observers[-1].writer
         observers += [Sampling(self), ProgressLine(self), StopCheck(self)]
         return observers
 
@@ -369,22 +369,6 @@ def run_loop(stepper, observers: list, t_stop: float, step_stop: float) -> str:
                 stop = obs.observe(stepper) or stop
         if stop:
             return stop
-
-
-class FieldOutput:
-    """Observer: the displacement and statuses to XDMF every ``output.field_interval``."""
-
-    def __init__(self, sim: Simulation, interval: float) -> None:
-        self.sim = sim
-        self.cadence = Cadence.from_interval(interval, sim.dt)
-
-    def due(self, level: int) -> bool:
-        return self.cadence.at(level)
-
-    def observe(self, stepper) -> str:
-        with self.sim.profile.phase("output"):
-            self.sim.writer.write(stepper.time, stepper.u, self.sim.projection.out.status)
-        return ""
 
 
 class Sampling:

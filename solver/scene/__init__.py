@@ -11,7 +11,8 @@ A scene is a TOML file mapped onto frozen, validated dataclasses (SI units)::
     [initial]    perturbation, mode, amplitude, seed, n_modes
     [damping]    loss_factor + reference_frequency_hz | retardation_time   (default: none)
     [friction]   regularization, slip_length, reference_velocity, relaxation_time
-    [output]     sample_interval, probes_deg, fields, field_interval, progress
+    [output]     sample_interval, probes_deg, fields, field_interval, field_window,
+                 field_periods, field_format, progress
 
 Every table and key is optional (defaults below).  Unknown keys, wrong types and
 out-of-range values raise :class:`SceneError`, whose message names the dotted key,

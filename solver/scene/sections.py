@@ -285,6 +285,7 @@ class Damping(_Section):
                      "frequency of the Figure-3 wave)")
 
 
+FIELD_FORMATS = ("vtx", "xdmf")
 REGULARIZATIONS = ("none", "prakash-clifton", "constant-time")
 FRICTION_FILTERS = ("nodal", "1-2-1")
 
@@ -361,9 +362,18 @@ class Output(_Section):
     probes_deg: tuple[float, ...] = _opt((0.0,), "floats")
     """Probe angles [degrees] for time histories."""
     fields: bool = _opt(False, "bool")
-    """Write XDMF/VTX displacement and contact-status fields."""
+    """Write the fields for ParaView: displacement, velocity, polar stress and von Mises,
+    contact pressure, shear traction and status (solver.writers)."""
     field_interval: float = _opt(1.0e-3, "float")
-    """Seconds between field outputs."""
+    """Seconds between field outputs (the cadence)."""
+    field_window: float = _opt(0.0, "float")
+    """Seconds at the end of the run that are written; 0 = the last ``field_periods``
+    periods of the expected wave (solver.field_output)."""
+    field_periods: float = _opt(10.0, "float")
+    """Periods of the expected wave (the reduced model's flutter mode ``initial.mode``)
+    written at the end of the run when ``field_window`` = 0."""
+    field_format: str = _opt("vtx", "str")
+    """"vtx" (ADIOS2 fields.bp + stress.bp) or "xdmf" (fields.xdmf + fields.h5)."""
     progress: bool = _opt(True, "bool")
     """Print progress on long runs."""
 
@@ -380,6 +390,11 @@ class Output(_Section):
             self.field_interval > 0,
             "field_interval > 0 (s)",
         )
+        _require(self._key("field_window"), self.field_window, self.field_window >= 0,
+                 "field_window >= 0 (s; 0 = the last field_periods periods of the wave)")
+        _require(self._key("field_periods"), self.field_periods, self.field_periods > 0,
+                 "field_periods > 0 (periods of the expected wave written at the end)")
+        _choice(self._key("field_format"), self.field_format, FIELD_FORMATS)
 
 
 _SECTIONS: dict[str, type[_Section]] = {
