@@ -24,7 +24,7 @@ from pathlib import Path
 from solver.scene import Scene
 
 __all__ = ["FieldOutput", "WindowCadence", "expected_period", "field_cadence", "frame_count",
-           "window_seconds"]
+           "last_level_fields", "window_seconds"]
 
 
 def expected_period(scene: Scene) -> float:
@@ -101,3 +101,19 @@ class FieldOutput:
                               self.sim.projection.out)
         self.frames += 1
         return ""
+
+
+def last_level_fields(sim) -> tuple[dict, dict]:
+    """(point data, cell data) of the last completed level n of ``sim``, rank-local, for
+    ``solver.run.gather_final_field``: the contact pressure and shear traction [Pa] at the
+    points of the tube's Lagrange space, the polar stress and von Mises [Pa] per owned cell
+    (``solver.writers.FieldValues``). Computed once, at the end."""
+    from solver.writers import FieldValues
+
+    stepper = sim.integrator
+    values = FieldValues(sim.problem)
+    values.update(stepper.u_prev, stepper.v, sim.projection.out)
+    points = {"contact_pressure": values.pressure.x.array,
+              "contact_shear": values.shear.x.array}
+    dofs = values.stress[0].function_space.dofmap.list[: values.n_cells, 0]
+    return points, {fn.name: fn.x.array[dofs] for fn in values.stress}

@@ -35,7 +35,7 @@ import ufl
 
 from forms.stress import STRESS_COMPONENTS, cell_area, cell_average_stress
 
-__all__ = ["FIELD_FILES", "FieldFrames", "NODAL_FIELDS"]
+__all__ = ["FIELD_FILES", "FieldFrames", "FieldValues", "NODAL_FIELDS"]
 
 #: The nodal fields, in the order they are written.
 NODAL_FIELDS = ("displacement", "velocity", "contact_pressure", "contact_shear",
@@ -44,14 +44,14 @@ NODAL_FIELDS = ("displacement", "velocity", "contact_pressure", "contact_shear",
 FIELD_FILES = {"vtx": ("fields.bp", "stress.bp"), "xdmf": ("fields.xdmf", "fields.h5")}
 
 
-class FieldFrames:
-    """The fields of one time level (module docstring), and the files they are written to.
+class FieldValues:
+    """The fields of one time level (module docstring) as dolfinx Functions, no files.
 
-    ``write(time, u, v, contact)``: u, v the owned dofs of u_n, v_n; ``contact`` the contact
+    ``update(u, v, contact)``: u, v the owned dofs of u_n, v_n; ``contact`` the contact
     step's ``out`` (r_r, r_t, status at the owned contact nodes, in ``problem.nodes`` order).
     """
 
-    def __init__(self, problem, directory: Path, file_format: str = "vtx") -> None:
+    def __init__(self, problem) -> None:
         msh = problem.V.mesh
         self.problem = problem
         self.n_owned = problem.n_owned
@@ -71,30 +71,15 @@ class FieldFrames:
         self._stress_rhs = dolfinx.fem.form(
             cell_average_stress(self.u, problem.material, ufl.TestFunction(cells4)))
         area = dolfinx.fem.assemble_vector(dolfinx.fem.form(cell_area(ufl.TestFunction(cells))))
-        self._n_cells = cells.dofmap.index_map.size_local
-        self._inv_area = 1.0 / area.array[: self._n_cells]
+        self.n_cells = cells.dofmap.index_map.size_local
+        self._inv_area = 1.0 / area.array[: self.n_cells]
         self._stress_vec = dolfinx.fem.Function(cells4).x  # the assembly target, reused
         self.stress = [dolfinx.fem.Function(cells, name=n) for n in STRESS_COMPONENTS]
-        self.directory = Path(directory)
-        self.format = file_format
-        comm = msh.comm
-        nodal = [self.u, self.v, self.pressure, self.shear, self.status]
-        if file_format == "vtx":
-            policy = dolfinx.io.VTXMeshPolicy.reuse
-            self._files = [
-                dolfinx.io.VTXWriter(comm, str(self.directory / "fields.bp"), nodal,
-                                     engine="BP4", mesh_policy=policy),
-                dolfinx.io.VTXWriter(comm, str(self.directory / "stress.bp"), self.stress,
-                                     engine="BP4"),
-            ]
-            self._functions: list = []
-        elif file_format == "xdmf":
-            xdmf = dolfinx.io.XDMFFile(comm, str(self.directory / "fields.xdmf"), "w")
-            xdmf.write_mesh(msh)
-            self._files = [xdmf]
-            self._functions = [*nodal, *self.stress]
-        else:
-            raise ValueError(f"output.field_format={file_format!r}: use 'vtx' or 'xdmf'")
+
+    @property
+    def nodal(self) -> list:
+        """The nodal Functions, in the order of ``NODAL_FIELDS``."""
+        return [self.u, self.v, self.pressure, self.shear, self.status]
 
     def update(self, u: np.ndarray, v: np.ndarray, contact) -> None:
         """Fill the fields from u_n, v_n (owned dofs) and the contact step's ``out``."""
@@ -111,10 +96,34 @@ class FieldFrames:
         rhs.array[:] = 0.0
         dolfinx.fem.assemble_vector(rhs.array, self._stress_rhs)
         k = len(STRESS_COMPONENTS)
-        cellwise = rhs.array[: k * self._n_cells].reshape(-1, k)
+        cellwise = rhs.array[: k * self.n_cells].reshape(-1, k)
         for j, fn in enumerate(self.stress):
-            fn.x.array[: self._n_cells] = cellwise[:, j] * self._inv_area
+            fn.x.array[: self.n_cells] = cellwise[:, j] * self._inv_area
             fn.x.scatter_forward()
+
+
+class FieldFrames(FieldValues):
+    """``FieldValues`` written to the files of ``output.field_format`` (module docstring)."""
+
+    def __init__(self, problem, directory: Path, file_format: str = "vtx") -> None:
+        super().__init__(problem)
+        self.directory = Path(directory)
+        self.format = file_format
+        comm = problem.V.mesh.comm
+        if file_format == "vtx":
+            policy = dolfinx.io.VTXMeshPolicy.reuse
+            self._files = [
+                dolfinx.io.VTXWriter(comm, str(self.directory / "fields.bp"), self.nodal,
+                                     engine="BP4", mesh_policy=policy),
+                dolfinx.io.VTXWriter(comm, str(self.directory / "stress.bp"), self.stress,
+                                     engine="BP4"),
+            ]
+        elif file_format == "xdmf":
+            xdmf = dolfinx.io.XDMFFile(comm, str(self.directory / "fields.xdmf"), "w")
+            xdmf.write_mesh(problem.V.mesh)
+            self._files = [xdmf]
+        else:
+            raise ValueError(f"output.field_format={file_format!r}: use 'vtx' or 'xdmf'")
 
     def write(self, time: float, u: np.ndarray, v: np.ndarray, contact) -> None:
         """Update the fields (``update``) and write them at ``time`` (collective)."""
@@ -123,7 +132,7 @@ class FieldFrames:
             for f in self._files:
                 f.write(time)
         else:
-            for fn in self._functions:
+            for fn in (*self.nodal, *self.stress):
                 self._files[0].write_function(fn, time)
 
     def close(self) -> None:

@@ -54,7 +54,8 @@ def _run_steady(tmp_path: Path, extra: list[str]):
     out = _shared_dir(tmp_path)
     sim = Simulation(scene, MPI.COMM_WORLD, output_dir=out)
     sim.proceed()
-    sim.writer.close()
+    if sim.writer is not None:
+        sim.writer.close()
     return sim, out
 
 
@@ -126,21 +127,21 @@ def test_steady_fields_in_memory(tmp_path):
     # (36 x 2, 72 x 4, 144 x 8) cells, halving with h, and the mean over the cells within
     # 1.4 % here: the bounds are 15 % and 2 % on this 36 x 2 mesh.
     cells = w.stress[0].function_space
-    x = cells.tabulate_dof_coordinates()[: w._n_cells]
+    x = cells.tabulate_dof_coordinates()[: w.n_cells]
     ref = _closed_form_stress(sc, np.hypot(x[:, 0], x[:, 1]))
     top = max(np.max(np.abs(c)) for c in ref)
     for fn, exact in zip(w.stress[:3], ref, strict=True):
-        error = fn.x.array[: w._n_cells] - exact
+        error = fn.x.array[: w.n_cells] - exact
         assert np.max(np.abs(error)) < 0.15 * top
         assert abs(np.mean(error)) < 0.02 * top
-    s_rr, s_tt, s_rt = (fn.x.array[: w._n_cells] for fn in w.stress[:3])
+    s_rr, s_tt, s_rt = (fn.x.array[: w.n_cells] for fn in w.stress[:3])
     s_zz = sc.material.nu * (s_rr + s_tt)
     vm = np.sqrt(0.5 * ((s_rr - s_tt) ** 2 + (s_tt - s_zz) ** 2 + (s_zz - s_rr) ** 2)
                  + 3 * s_rt**2)
     # von Mises is invariant under the rotation to polar axes and constant per P1 cell, so
     # it equals the formula of the averaged components up to O(h²) of the frame's turn
     # across a cell (10° here: 1 %)
-    assert np.max(np.abs(w.stress[3].x.array[: w._n_cells] - vm)) < 0.01 * np.max(vm)
+    assert np.max(np.abs(w.stress[3].x.array[: w.n_cells] - vm)) < 0.01 * np.max(vm)
     # the pressure against the continuum's p_e E (paper section 2): the 36-node circle is
     # 0.5 % off (2.211 vs 2.222 MPa, 2.2215 at 144 nodes); bound 1 %
     g, m = sc.geometry, sc.material
@@ -281,3 +282,27 @@ def test_estimate_and_disk_guard_count_the_fields(tmp_path, monkeypatch):
     with pytest.raises(resources.ResourceError, match="output.field_interval"):
         resources.check_resources(with_fields, tmp_path)
     resources.check_resources(plain, tmp_path)  # the samples alone fit
+
+
+@pytest.mark.parallel
+def test_final_field_carries_stress_and_tractions(tmp_path):
+    """final_field.npz (what --plot's stress map reads) holds the last level's p, q at the
+    points (the steady pressure on r = R, 0 elsewhere) and the cell stress, over all ranks."""
+    sim, _ = _run_steady(tmp_path, ["output.fields=false"])
+    field = sim.final_field()
+    if MPI.COMM_WORLD.rank != 0:
+        assert field is None
+        return
+    n_cells = field["cell_types"].size
+    assert all(field[k].shape == (n_cells,) for k in ("sigma_rr", "sigma_tt", "sigma_rt",
+                                                     "von_mises"))
+    r = np.hypot(field["points"][:, 0], field["points"][:, 1])
+    on = np.abs(r - sim.scene.geometry.R) < 1e-9
+    p_mean = float(np.mean(sim.steady.pressure))  # uniform to 1e-6 (rotation-invariant mesh)
+    assert field["contact_pressure"][on] == pytest.approx(p_mean, rel=1e-6)
+    assert np.all(field["contact_pressure"][~on] == 0.0)
+    assert field["contact_shear"][on] == pytest.approx(sim.scene.loading.f * p_mean, rel=1e-6)
+    # the steady σ_rr is compressive everywhere (-p at the circle, 0 < p): no cell above 0
+    assert np.all(field["sigma_rr"] < 0.0)
+    assert float(field["fields_time"]) == pytest.approx(float(field["time"]) - sim.dt,
+                                                        rel=1e-12)
