@@ -3,7 +3,8 @@
 Dofs, steps, memory, output size and run time follow from the scene alone (no dolfinx):
 
 * nodes = n_inner x (layers x degree + 1), layers = mesh.n_radial or the mesher's automatic
-  choice round((xi - 1) n_edges / 2 pi) (>= 2); dofs = 2 nodes;
+  choice round((xi - 1) n_edges / 2 pi) (>= 2); dofs = 2 nodes; a user's ``mesh.file``
+  gives its own node and cell counts and shortest edge (read with gmsh, no dolfinx);
 * the explicit step: dt_crit = sqrt(2/beta2) / omega_max, omega_max ~ C c_p / h_min with
   c_p = wave_speed sqrt((1 - nu) / ((1 + nu)(1 - 2 nu))) and h_min the smallest node spacing;
   C = 2.8 measured (P1 triangles: 2.29 at N = 36, 2.67 at N = 132, 2.80 at N = 1056);
@@ -80,10 +81,16 @@ def estimate(scene: Scene, ranks: int = 1) -> Estimate:
     """Dofs, steps, memory (all ranks), output size and one-rank run time of ``scene``."""
     g, m, ts = scene.geometry, scene.mesh, scene.time
     n_edges = m.n_inner // m.degree
-    layers = m.n_radial or max(2, round((g.xi - 1.0) * n_edges / (2.0 * math.pi)))
-    nodes = m.n_inner * (layers * m.degree + 1)
+    if m.tube:
+        layers = m.n_radial or max(2, round((g.xi - 1.0) * n_edges / (2.0 * math.pi)))
+        nodes = m.n_inner * (layers * m.degree + 1)
+        cells = n_edges * layers * (2 if m.cell == "triangle" else 1)
+        h_min = min(2 * math.pi * g.R / m.n_inner, (g.xi - 1.0) * g.R / (layers * m.degree))
+    else:  # a user's mesh file: its own counts and shortest edge (meshes.user_mesh)
+        facts = m.file_facts(g.R)
+        nodes, cells = facts.n_nodes, facts.n_cells
+        h_min = facts.h_min / m.degree
     dofs = 2 * nodes
-    h_min = min(2 * math.pi * g.R / m.n_inner, (g.xi - 1.0) * g.R / (layers * m.degree))
     nu = scene.material.nu
     c_p = scene.material.wave_speed * math.sqrt((1 - nu) / ((1 + nu) * (1 - 2 * nu)))
     omega_max = OMEGA_MAX_C * c_p / h_min
@@ -103,7 +110,6 @@ def estimate(scene: Scene, ranks: int = 1) -> Estimate:
     if scene.output.fields:
         from solver.field_output import frame_count
 
-        cells = n_edges * layers * (2 if m.cell == "triangle" else 1)
         vertices = {("triangle", 1): 3, ("triangle", 2): 6, ("quadrilateral", 1): 4,
                     ("quadrilateral", 2): 9}[(m.cell, m.degree)]
         frames = frame_count(scene, dt, steps)

@@ -6,7 +6,7 @@ A scene is a TOML file mapped onto frozen, validated dataclasses (SI units)::
     [material]   E, wave_speed | rho, nu
     [geometry]   R, xi, delta | d
     [loading]    omega, f
-    [mesh]       n_inner, n_radial, cell, degree
+    [mesh]       n_inner, n_radial, cell, degree, file, contact_group, clamped_group
     [time]       beta1, beta2, dt, dt_fraction, end_time, max_steps, max_wall_time, kernel
     [initial]    perturbation, mode, amplitude, seed, n_modes
     [damping]    loss_factor + reference_frequency_hz | retardation_time   (default: none)
