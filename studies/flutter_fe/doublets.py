@@ -6,7 +6,8 @@ On the rotationally symmetric tube every wavenumber k ≥ 1 has two modes of one
 ...); an asymmetric one splits them all. With friction, the steady sliding operator couples
 the two members: a degenerate doublet becomes a flutter pair (μ and its conjugate), one motion
 growing, travelling one way, the other decaying; a pair split far enough by the geometry
-stays two stable standing modes. (The brake designer's mode splitting: docs/tutorial.)
+stays two stable standing modes (the brake designer's mode splitting; the demo "Your own
+geometry").
 
 ``doublets(res, kmax)`` reads a ``CEAResult`` (``studies.flutter_fe.cea``): for each
 k = 1 .. kmax, the lowest-frequency modes whose dominant wavenumber is k (purity ≥ 0.5),
