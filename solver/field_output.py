@@ -9,6 +9,7 @@
   ``initial.mode`` in the reduced model (``semianalytic.flutter``, paper section 3, with the
   scene's ν, ξ, γ = (RΩ/c₀)², f). For the paper's Figure-3 scene (k = 4) T = 0.94 ms
   (1.07 kHz; the limit cycle's wave, at 1.6 kHz, is faster: ten periods hold 16 of it).
+  For a user's cross-section (``mesh.file``) the rule uses the tube of the scene's R and ξ.
 
 The run's end is ``time.end_time`` (or ``time.max_steps`` Δt where that comes first); the
 window starts at ``max(0, end − window)``. A window longer than the run writes the whole run.
