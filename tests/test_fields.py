@@ -107,6 +107,7 @@ def test_window_rule_and_cadence():
     assert WindowCadence(5, 10).next_level(11) == 15
 
 
+@pytest.mark.parallel
 def test_steady_fields_in_memory(tmp_path):
     """The last frame of a steady run: p and q = f p at every contact node are the steady
     state's, all nodes slip, v = 0, and the cell stress is the closed form's (P1 error)."""
