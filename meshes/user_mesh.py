@@ -12,7 +12,9 @@ Checks, each a one-line :class:`MeshFileError` naming the value and the fix:
 * the mesh is 2D (no volume cells, every node at z = 0) and its cells are triangles or
   quadrilaterals of one kind and of the scene's degree (``mesh.cell``, ``mesh.degree``);
 * both physical groups exist (dimension 1);
-* every node of the contact group lies on r = R (to 1e-6 R; they are then put exactly on it);
+* every node of the contact group lies on r = R (to 1e-6 R; they are then put exactly on it)
+  and they go all around it (no gap wider than two mean spacings);
+* the clamped group holds an edge at least;
 * the contact group has exactly ``mesh.n_inner`` = N nodes.
 
 :func:`inspect_mesh_file` runs the checks and counts nodes and cells (gmsh only, no dolfinx:
@@ -135,6 +137,18 @@ def _check_model(gmsh, label: str, R: float, n_contact: int, cell: str, degree: 
             f"{label}: {int(off.sum())} of {r.size} nodes of the contact group "
             f"{contact_group!r} are not on r = R = {R:g} m (one at r = {worst:.9g}): the "
             "contact boundary must be the circle r = geometry.R centred at the origin")
+    angles = np.sort(np.arctan2(pts[:, 1], pts[:, 0]))
+    gap = float(np.max(np.diff(np.append(angles, angles[0] + 2 * np.pi)))) if r.size else 0.0
+    if r.size and gap > 2.0 * (2 * np.pi / r.size):
+        raise MeshFileError(
+            f"{label}: the contact group {contact_group!r} leaves a gap of "
+            f"{np.degrees(gap):.1f} degrees of the circle r = R without nodes: it must be the "
+            "whole circle (the cylinder turns under all of it)")
+    _, clamped_pts = gmsh.model.mesh.getNodesForPhysicalGroup(1, clamped_tag)
+    if len(clamped_pts) < 6:  # two nodes (x, y, z each): one clamped edge at least
+        raise MeshFileError(f"{label}: the clamped group {clamped_group!r} has no edge: "
+                            "clamp at least one edge of the outside (else the section "
+                            "turns freely with the cylinder)")
     if r.size != n_contact:
         raise MeshFileError(f"{label}: the contact group {contact_group!r} has {r.size} nodes, "
                             f"the scene says mesh.n_inner = {n_contact}: set mesh.n_inner = "

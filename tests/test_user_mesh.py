@@ -93,6 +93,7 @@ def _write(tmp_path: Path, text: str, name: str = "section.geo") -> Path:
     ("mixed", "of one kind"),
     ("degree", "set mesh.cell = 'triangle', mesh.degree = 1"),
     ("suffix", "not a gmsh file"),
+    ("arc", "leaves a gap of 90.0 degrees"),
 ])
 def test_each_bad_mesh_file_is_one_line(tmp_path, case, match):
     """Each check names the value and the fix in one line (a SceneError: exit status 2)."""
@@ -104,7 +105,10 @@ def test_each_bad_mesh_file_is_one_line(tmp_path, case, match):
             "volume": (_volume_msh(tmp_path), ()),
             "mixed": (_write(tmp_path, clamped_tube_geo(recombine_half=True), "m.geo"), ()),
             "degree": (good, ("mesh.degree=2",)),
-            "suffix": (_write(tmp_path, "x", "section.stl"), ())}[case]
+            "suffix": (_write(tmp_path, "x", "section.stl"), ()),
+            "arc": (_write(tmp_path, clamped_tube_geo().replace(
+                'Physical Curve("contact") = {10, 11, 12, 13}',
+                'Physical Curve("contact") = {10, 11, 12}'), "a.geo"), ("mesh.n_inner=19",))}[case]
     if case == "degree":  # a .geo is meshed at the scene's degree: use a first-order .msh
         args = (_msh_of(good), ("mesh.degree=2",))
     with pytest.raises(SceneError, match=match) as err:
