@@ -66,9 +66,10 @@ for name, (free, rough) in (("tube, N = 72", tube), ("four clamps, N = 72", clam
 # The frequencies of each doublet without friction: one dot per member. The tube's pairs sit
 # on each other; the clamps pull the even-k pairs apart.
 fig, ax = plt.subplots(figsize=(7, 3.6))
-for (free, _), label, marker in ((tube, "tube", "o"), (clamps, "four clamps", "s")):
+for (free, _), label, style, shift in ((tube, "tube", "oC0", -0.1),
+                                       (clamps, "four clamps", "sC3", 0.1)):
     for d in doublets(free, 7):
-        ax.plot([d.k] * len(d.frequencies_hz), d.frequencies_hz, marker, mfc="none",
+        ax.plot([d.k + shift] * len(d.frequencies_hz), d.frequencies_hz, style, mfc="none",
                 label=label if d.k == 1 else None)
 ax.set(xlabel="wavenumber k", ylabel="frequency (Hz)",
        title="±k doublets without friction (CEA, f = 0)")
