@@ -19,6 +19,7 @@ from studies.flutter_fe.cea import (
     friction_relaxation_time,
     unrepresented_terms,
 )
+from studies.flutter_fe.doublets import doublet_lines, doublets
 from studies.flutter_fe.plots import _distinct, plot_cea_diagram, plot_spectrum
 from studies.flutter_fe.references import reduced_model_flutter
 
@@ -155,6 +156,7 @@ def flutter_fe_command(args: argparse.Namespace) -> int:
         return 0
     out = res.to_dict()
     out["reduced_model"] = reduced
+    out["doublets"] = [d.to_dict() for d in doublets(res, args.kmax)]
     out["beta2_note"] = _beta2_note(scene)
     if written:
         out["mode_shapes"] = written
@@ -247,6 +249,7 @@ def _print_table(res: CEAResult, reduced: list[dict], top: int, plot: str | None
                      f"the {len(shown_mesh)} fastest:")
         lines += [_mode_row(m) for m in shown_mesh]
     lines += _per_k_lines(res, reduced)
+    lines += doublet_lines(res, max((r["k"] for r in reduced), default=8))
     if plot:
         lines.append(f"figure: {plot}")
     if written:

@@ -178,6 +178,9 @@ def _travel(args: argparse.Namespace) -> int:
         return _err(bad)
     try:
         scene = load_scene(args.scene, args.overrides)
+        from studies.travel.frame import require_rotational_symmetry
+
+        require_rotational_symmetry(scene)
         cont = parse_continue(args.cont) if args.cont else None
         if cont:
             for value in cont[1]:  # the key and every value of the branch, before solving

@@ -11,7 +11,8 @@
 * ``uvpq.png`` (a run that found a wave): one period of the FE wave in its co-moving
   coordinate, u_r − d, u_θ (zones shaded, time order), phase diagrams, and the contact
   pressures p, q when the run recorded nodal forces; reduced-model waves dashed;
-* ``isomap.png``: iso-values of u_r − d on the deformed tube (``postprocess.isomap``).
+* ``isomap.png``: iso-values of u_r − d on the deformed tube (``postprocess.isomap``);
+* ``stress.png``: von Mises and contact pressure at the end (``postprocess.stressmap``).
 
 Colours and units come from ``postprocess.style`` (mm, MPa, m/s, Hz, ms, J/m).
 ``phase_family`` overlays several runs' phase diagrams like the paper's Figures 4-6;
@@ -31,6 +32,7 @@ import numpy as np
 
 from postprocess.energy_balance import energy_terms
 from postprocess.isomap import isomap_pair
+from postprocess.stressmap import has_stress, stress_maps
 from postprocess.style import (
     FIELD_CMAP,
     MM,
@@ -121,6 +123,8 @@ def plot_run(run_dir: Path, window: tuple[float, str] | None | str = DEFAULT_WIN
         out.append(plot_uvpq(run_dir, run_dir / "uvpq.png"))
     if (run_dir / "final_field.npz").exists():
         out.append(isomap_pair([run_dir], run_dir / "isomap.png"))
+    if has_stress(run_dir):
+        out.append(stress_maps(run_dir, run_dir / "stress.png"))
     return out
 
 

@@ -1,4 +1,4 @@
-"""The discrete problem: tube mesh -> P1/P2 vector space -> stiffness, lumped mass, contact nodes.
+"""The discrete problem: mesh (tube or a user's file) -> P1/P2 space -> K, lumped mass, nodes.
 
 Everything here is built once per run. The time loop (``solver.newmark``) then only needs
 ``stiffness_mult`` (one PETSc MatMult), the inverse lumped mass and the contact projection
@@ -90,15 +90,17 @@ class TubeProblem:
     def radial_field(self, amplitude_of_theta) -> np.ndarray:
         """Owned dofs of u = A(theta) X(r) e_r, X(r) = (xi^2 R/r - r/R) / (xi^2 - 1) (eq. [1]).
 
-        X(R) = 1 and X(xi R) = 0, so the field is clamped on the outer circle. Defined from
-        coordinates, hence independent of the mesh partition.
+        X(R) = 1 and X(xi R) = 0, so the field is clamped on the outer circle; beyond xi R
+        (a user's cross-section) X is taken as 0, and the clamped dofs are set to 0. Defined
+        from coordinates, hence independent of the mesh partition.
         """
         R, xi = self.scene.geometry.R, self.scene.geometry.xi
 
         def expr(x: np.ndarray) -> np.ndarray:
             r = np.hypot(x[0], x[1])
             theta = np.arctan2(x[1], x[0])
-            radial = amplitude_of_theta(theta) * (xi**2 * R / r - r / R) / (xi**2 - 1.0)
+            shape = np.maximum((xi**2 * R / r - r / R) / (xi**2 - 1.0), 0.0)
+            radial = amplitude_of_theta(theta) * shape
             return np.vstack([radial * x[0] / r, radial * x[1] / r])
 
         fn = dolfinx.fem.Function(self.V)
@@ -108,12 +110,25 @@ class TubeProblem:
         return arr
 
 
+def cross_section(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD) -> TubeMesh:
+    """The scene's mesh: the tube (``meshes.annulus``) or the user's ``mesh.file``
+    (``meshes.user_mesh``: contact group -> ``INNER_TAG``, clamped group -> ``OUTER_TAG``)."""
+    g, m = scene.geometry, scene.mesh
+    if m.tube:
+        return annulus_mesh(comm, R=g.R, xi=g.xi, n_inner=m.n_inner, n_radial=m.n_radial,
+                            cell=m.cell, degree=m.degree)
+    from meshes.user_mesh import resolve, user_mesh
+    from solver.scene import SCENES_DIR
+
+    return user_mesh(comm, resolve(m.file, (SCENES_DIR,)), R=g.R, xi=g.xi,
+                     n_contact=m.n_inner, cell=m.cell, degree=m.degree,
+                     contact_group=m.contact_group, clamped_group=m.clamped_group)
+
+
 def build_problem(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD) -> TubeProblem:
     """Mesh, P1/P2 space, stiffness matrix, lumped mass and contact nodes for ``scene``."""
-    g, m = scene.geometry, scene.mesh
-    tube = annulus_mesh(
-        comm, R=g.R, xi=g.xi, n_inner=m.n_inner, n_radial=m.n_radial, cell=m.cell, degree=m.degree
-    )
+    m = scene.mesh
+    tube = cross_section(scene, comm)
     msh = tube.mesh
     V = dolfinx.fem.functionspace(msh, ("Lagrange", m.degree, (msh.geometry.dim,)))
     mat = scene.material

@@ -146,10 +146,10 @@ class Simulation:
         self.writer = None
         observers: list = []
         if sc.output.fields and output_dir is not None:
-            from solver.writers import FieldWriter
+            from solver.field_output import FieldOutput
 
-            self.writer = FieldWriter(self.problem, Path(output_dir) / "fields.xdmf")
-            observers.append(FieldOutput(self, sc.output.field_interval))
+            observers.append(FieldOutput(self, Path(output_dir)))
+            self.writer = observers[-1].writer
         observers += [Sampling(self), ProgressLine(self), StopCheck(self)]
         return observers
 
@@ -217,10 +217,18 @@ class Simulation:
         return self.stop_reason
 
     def final_field(self) -> dict[str, np.ndarray] | None:
-        """Displacement on the whole tube at the end, gathered to rank 0 (None elsewhere);
+        """Displacement on the whole tube at the end, with the stress and contact tractions
+        of the last completed level n at ``fields_time`` t_n
+        (``solver.field_output.last_level_fields``), gathered to rank 0 (None elsewhere);
         see ``gather_final_field``."""
-        return gather_final_field(self.problem, self.integrator.u, self.comm,
-                                  self.integrator.time)
+        from solver.field_output import last_level_fields
+
+        stepper = self.integrator
+        field = gather_final_field(self.problem, stepper.u, self.comm, stepper.time,
+                                   *last_level_fields(self))
+        if field is not None:
+            field["fields_time"] = np.array(stepper.time - stepper.dt)  # level n
+        return field
 
     @property
     def steps(self) -> int:
@@ -272,25 +280,33 @@ def initial_perturbation(problem, scene: Scene) -> np.ndarray:
     return problem.radial_field(shape)
 
 
-def gather_final_field(problem, u: np.ndarray, comm: MPI.Comm,
-                       time_s: float) -> dict[str, np.ndarray] | None:
+def gather_final_field(problem, u: np.ndarray, comm: MPI.Comm, time_s: float,
+                       point_data: dict[str, np.ndarray] | None = None,
+                       cell_data: dict[str, np.ndarray] | None = None,
+                       ) -> dict[str, np.ndarray] | None:
     """Displacement ``u`` (owned dofs) on the whole tube, gathered to rank 0 (None elsewhere).
 
     VTK-ready arrays for iso-value maps: ``points`` (n, 3), ``cells`` (flat VTK topology
     [nv, i0, ..., nv, ...]), ``cell_types``, ``u`` (n, 2) at the points. Each rank sends
     its local cells; ghost points are duplicated, which is harmless for plotting.
+    ``point_data`` (values at the rank's local dofs of the scalar space, ghosts included)
+    and ``cell_data`` (values at its owned cells) are gathered alongside, under their keys.
     """
     import dolfinx.plot
 
+    point_data, cell_data = point_data or {}, cell_data or {}
     fn = problem.to_function(u)
     topology, cell_types, geometry = dolfinx.plot.vtk_mesh(problem.V)
-    values = fn.x.array.reshape(-1, 2)[: geometry.shape[0]]
-    pieces = comm.gather((topology, cell_types, geometry, values), root=0)
+    n_points = geometry.shape[0]
+    values = fn.x.array.reshape(-1, 2)[:n_points]
+    extra = {k: np.asarray(v)[:n_points] for k, v in point_data.items()}
+    extra.update(cell_data)
+    pieces = comm.gather((topology, cell_types, geometry, values, extra), root=0)
     if comm.rank != 0:
         return None
     cells, types, points, us = [], [], [], []
     offset = 0
-    for top, ct, geo, val in pieces:
+    for top, ct, geo, val, _ in pieces:
         nv = int(top[0]) if top.size else 0
         blocks = top.reshape(-1, nv + 1).copy() if top.size else top.reshape(0, 1)
         blocks[:, 1:] += offset
@@ -299,13 +315,16 @@ def gather_final_field(problem, u: np.ndarray, comm: MPI.Comm,
         points.append(geo)
         us.append(val)
         offset += geo.shape[0]
-    return {
+    out = {
         "points": np.concatenate(points),
         "cells": np.concatenate(cells),
         "cell_types": np.concatenate(types),
         "u": np.concatenate(us),
         "time": np.array(time_s),
     }
+    for key in (*point_data, *cell_data):
+        out[key] = np.concatenate([piece[4][key] for piece in pieces])
+    return out
 
 
 def run_facts(run, scheme: dict) -> dict:
@@ -369,22 +388,6 @@ def run_loop(stepper, observers: list, t_stop: float, step_stop: float) -> str:
                 stop = obs.observe(stepper) or stop
         if stop:
             return stop
-
-
-class FieldOutput:
-    """Observer: the displacement and statuses to XDMF every ``output.field_interval``."""
-
-    def __init__(self, sim: Simulation, interval: float) -> None:
-        self.sim = sim
-        self.cadence = Cadence.from_interval(interval, sim.dt)
-
-    def due(self, level: int) -> bool:
-        return self.cadence.at(level)
-
-    def observe(self, stepper) -> str:
-        with self.sim.profile.phase("output"):
-            self.sim.writer.write(stepper.time, stepper.u, self.sim.projection.out.status)
-        return ""
 
 
 class Sampling:

@@ -3,7 +3,8 @@
 Dofs, steps, memory, output size and run time follow from the scene alone (no dolfinx):
 
 * nodes = n_inner x (layers x degree + 1), layers = mesh.n_radial or the mesher's automatic
-  choice round((xi - 1) n_edges / 2 pi) (>= 2); dofs = 2 nodes;
+  choice round((xi - 1) n_edges / 2 pi) (>= 2); dofs = 2 nodes; a user's ``mesh.file``
+  gives its own node and cell counts and shortest edge (read with gmsh, no dolfinx);
 * the explicit step: dt_crit = sqrt(2/beta2) / omega_max, omega_max ~ C c_p / h_min with
   c_p = wave_speed sqrt((1 - nu) / ((1 + nu)(1 - 2 nu))) and h_min the smallest node spacing;
   C = 2.8 measured (P1 triangles: 2.29 at N = 36, 2.67 at N = 132, 2.80 at N = 1056);
@@ -12,6 +13,13 @@ Dofs, steps, memory, output size and run time follow from the scene alone (no do
   node per sample; 180 B per probe per step at the peak: the history, its gather on rank 0
   and the archive's copy, measured 583 MB for 500 probes over 6470 steps); the samples on
   disk: 49 B per contact node per sample and 40 B per probe per step;
+* field output (``output.fields``, ``solver.writers``): per written frame
+  1.05 (105 B per node + (32 + 8 (v + 1)) B per cell) + 5 kB: per node the displacement and
+  velocity padded to 3 components, pressure, shear, status and the stress file's mesh
+  (points, original ids, ghost flags); per cell 4 stress values and the connectivity of its
+  v vertices; 5 % and 5 kB of ADIOS2 metadata. Frames = ``solver.field_output.frame_count``.
+  Measured 26 / 180 / 2758 kB per frame at N = 36 / 132 / 528 (P1), estimated 27 / 181 /
+  2776 kB (``benchmarks/field_output_cost.py``); 1 us per dof and frame of run time;
 * time = setup 48 s x (dofs / 90816)^1.5 (the SLEPc stability estimate dominates) + steps x
   (3e-4 s + 8e-8 s x dofs) on one rank (measured on this project's 2-core machine).
 
@@ -37,6 +45,8 @@ OMEGA_MAX_C = 2.8
 BASE_MEMORY = 250e6
 BYTES_PER_DOF = 3e3
 BYTES_PER_PROBE_STEP = 180.0  # peak memory of the probe histories (module docstring)
+FIELD_BYTES_PER_NODE = 105.0  # one field frame on disk (module docstring)
+FIELD_SECONDS_PER_DOF = 1e-6  # one frame's stress assembly and write (measured 0.5-0.7 us)
 #: Longest estimated run accepted without --yes-i-know or time.max_wall_time (two days).
 MAX_SECONDS = 2 * 86400.0
 
@@ -53,24 +63,34 @@ class Estimate:
     steps: int
     samples: int
     memory_bytes: float
-    output_bytes: float
+    output_bytes: float  # samples, probes and fields
     seconds: float
+    field_frames: int = 0
+    field_bytes: float = 0.0
 
     def line(self) -> str:
         """One line for the console."""
+        fields = (f" (fields: {self.field_frames} frames, {_bytes(self.field_bytes)})"
+                  if self.field_frames else "")
         return (f"estimate: {self.dofs} dofs, {self.steps} steps, {_bytes(self.memory_bytes)} "
-                f"memory, {_bytes(self.output_bytes)} of samples, ~{_duration(self.seconds)} "
-                "on one rank")
+                f"memory, {_bytes(self.output_bytes)} of output{fields}, "
+                f"~{_duration(self.seconds)} on one rank")
 
 
 def estimate(scene: Scene, ranks: int = 1) -> Estimate:
     """Dofs, steps, memory (all ranks), output size and one-rank run time of ``scene``."""
     g, m, ts = scene.geometry, scene.mesh, scene.time
     n_edges = m.n_inner // m.degree
-    layers = m.n_radial or max(2, round((g.xi - 1.0) * n_edges / (2.0 * math.pi)))
-    nodes = m.n_inner * (layers * m.degree + 1)
+    if m.tube:
+        layers = m.n_radial or max(2, round((g.xi - 1.0) * n_edges / (2.0 * math.pi)))
+        nodes = m.n_inner * (layers * m.degree + 1)
+        cells = n_edges * layers * (2 if m.cell == "triangle" else 1)
+        h_min = min(2 * math.pi * g.R / m.n_inner, (g.xi - 1.0) * g.R / (layers * m.degree))
+    else:  # a user's mesh file: its own counts and shortest edge (meshes.user_mesh)
+        facts = m.file_facts(g.R)
+        nodes, cells = facts.n_nodes, facts.n_cells
+        h_min = facts.h_min / m.degree
     dofs = 2 * nodes
-    h_min = min(2 * math.pi * g.R / m.n_inner, (g.xi - 1.0) * g.R / (layers * m.degree))
     nu = scene.material.nu
     c_p = scene.material.wave_speed * math.sqrt((1 - nu) / ((1 + nu) * (1 - 2 * nu)))
     omega_max = OMEGA_MAX_C * c_p / h_min
@@ -86,8 +106,19 @@ def estimate(scene: Scene, ranks: int = 1) -> Estimate:
     probe_peak = (steps + 1) * (BYTES_PER_PROBE_STEP * n_probes + 8.0)
     memory = ranks * BASE_MEMORY + BYTES_PER_DOF * dofs + sample_bytes + probe_peak
     seconds = 48.0 * (dofs / 90816.0) ** 1.5 + steps * (3e-4 + 8e-8 * dofs)
+    frames, field_bytes = 0, 0.0
+    if scene.output.fields:
+        from solver.field_output import frame_count
+
+        vertices = {("triangle", 1): 3, ("triangle", 2): 6, ("quadrilateral", 1): 4,
+                    ("quadrilateral", 2): 9}[(m.cell, m.degree)]
+        frames = frame_count(scene, dt, steps)
+        field_bytes = frames * (1.05 * (FIELD_BYTES_PER_NODE * nodes
+                                        + (32.0 + 8.0 * (vertices + 1)) * cells) + 5e3)
+        seconds += frames * FIELD_SECONDS_PER_DOF * dofs
     return Estimate(dofs=dofs, steps=steps, samples=samples, memory_bytes=memory,
-                    output_bytes=sample_bytes + probe_bytes, seconds=seconds)
+                    output_bytes=sample_bytes + probe_bytes + field_bytes, seconds=seconds,
+                    field_frames=frames, field_bytes=field_bytes)
 
 
 def available_memory() -> float:
@@ -107,8 +138,9 @@ def check_resources(scene: Scene, run_dir: Path, ranks: int = 1) -> Estimate:
     time (``MAX_SECONDS``, where ``time.max_wall_time`` does not bound the run)."""
     est = estimate(scene, ranks)
     mem = available_memory()
-    fix = ("reduce mesh.n_inner, time.end_time or raise output.sample_interval, or pass "
-           "--yes-i-know to run anyway")
+    fix = ("reduce mesh.n_inner, time.end_time or raise output.sample_interval (with "
+           "output.fields: raise output.field_interval or shorten output.field_window), or "
+           "pass --yes-i-know to run anyway")
     if est.memory_bytes > mem:
         raise ResourceError(
             f"scene '{scene.name}' needs about {_bytes(est.memory_bytes)} of memory "
@@ -123,7 +155,7 @@ def check_resources(scene: Scene, run_dir: Path, ranks: int = 1) -> Estimate:
     free = _free_disk(run_dir)
     if est.output_bytes > free:
         raise ResourceError(
-            f"scene '{scene.name}' would write about {_bytes(est.output_bytes)} of samples "
+            f"scene '{scene.name}' would write about {_bytes(est.output_bytes)} of output "
             f"but {_bytes(free)} is free under {run_dir}: {fix}")
     return est
 

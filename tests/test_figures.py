@@ -216,6 +216,7 @@ def test_one_colour_code_and_true_titles_in_every_run_figure(run_dir, run, monke
     names = {p.name for p in paths}
     assert {"spacetime.png", "profile.png", "phase.png", "energy.png", "uvpq.png"} <= names
     assert ("isomap.png" in names) == (run_dir / "final_field.npz").exists()
+    assert ("stress.png" in names) == (run_dir / "final_field.npz").exists()
     assert all(p.stat().st_size > 10_000 for p in paths)
     for fig_fn in (plotting.spacetime_figure, plotting.phase_figure, plotting.energy_figure):
         fig = fig_fn(run)

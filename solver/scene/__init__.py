@@ -6,12 +6,13 @@ A scene is a TOML file mapped onto frozen, validated dataclasses (SI units)::
     [material]   E, wave_speed | rho, nu
     [geometry]   R, xi, delta | d
     [loading]    omega, f
-    [mesh]       n_inner, n_radial, cell, degree
+    [mesh]       n_inner, n_radial, cell, degree, file, contact_group, clamped_group
     [time]       beta1, beta2, dt, dt_fraction, end_time, max_steps, max_wall_time, kernel
     [initial]    perturbation, mode, amplitude, seed, n_modes
     [damping]    loss_factor + reference_frequency_hz | retardation_time   (default: none)
     [friction]   regularization, slip_length, reference_velocity, relaxation_time
-    [output]     sample_interval, probes_deg, fields, field_interval, progress
+    [output]     sample_interval, probes_deg, fields, field_interval, field_window,
+                 field_periods, field_format, progress
 
 Every table and key is optional (defaults below).  Unknown keys, wrong types and
 out-of-range values raise :class:`SceneError`, whose message names the dotted key,

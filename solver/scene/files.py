@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import math
-import os
 import tomllib
 from collections.abc import Sequence
 from pathlib import Path
@@ -12,16 +11,9 @@ from typing import Any
 from solver.scene.model import _TOP_SCALARS, Scene, apply_overrides, scene_from_dict, scene_to_dict
 from solver.scene.sections import _SECTIONS
 from solver.scene.values import (
+    SCENES_DIR,
     SceneError,
 )
-
-#: Directory of the scenes shipped with the project: ``<repo>/scenes``, or ``$STICKSLIP_SCENES``
-#: where the project is installed away from its source tree (the Docker image).
-SCENES_DIR = Path(os.environ.get("STICKSLIP_SCENES")
-                  or Path(__file__).resolve().parents[2] / "scenes")
-
-
-
 
 # ----------------------------------------------------------------------------- files
 

@@ -82,6 +82,8 @@ class Scene(_Section):
                 f"(time.beta1 = 0; got {self.time.beta1}): the filtered bound couples "
                 "neighbouring nodes, which the implicit active set does not model; use "
                 'time.beta1 = 0 or friction.filter = "nodal"')
+        if self.mesh.file:  # a user's cross-section: read and checked (meshes.user_mesh)
+            self.mesh.file_facts(self.geometry.R)
         half = self.mesh.n_inner // 2
         why = f"mesh.n_inner // 2 = {half} (at least 2 contact nodes per wavelength)"
         if self.initial.perturbation == "mode":

@@ -7,6 +7,7 @@ from dataclasses import dataclass
 from typing import ClassVar
 
 from solver.scene.values import (
+    SCENES_DIR,
     SceneError,
     _choice,
     _opt,
@@ -106,18 +107,44 @@ TIME_KERNELS = ("auto", "numpy", "numba")
 
 @dataclass(frozen=True)
 class Mesh(_Section):
-    """Annulus mesh resolution and finite-element space."""
+    """The cross-section's mesh and finite-element space: the tube (annulus, default) or a
+    user's gmsh file (``file``, meshes.user_mesh)."""
 
     SECTION: ClassVar[str] = "mesh"
 
     n_inner: int = _opt(132, "int")
-    """Number of nodes on the inner (contact) circle."""
+    """Number of nodes on the inner (contact) circle (with ``file``: the stated count)."""
     n_radial: int = _opt(0, "int")
-    """Element layers through the thickness; 0 = automatic."""
+    """Element layers through the thickness; 0 = automatic (the tube only)."""
     cell: str = _opt("triangle", "str")
     """Cell type: "triangle" or "quadrilateral"."""
     degree: int = _opt(1, "int")
     """Lagrange degree: 1 (P1/Q1) or 2 (P2/Q2)."""
+    file: str = _opt("", "str")
+    """A gmsh .geo or .msh cross-section instead of the tube ("" = the tube); a relative
+    path is looked up in the working directory, then in the shipped scenes' folder."""
+    contact_group: str = _opt("contact", "str")
+    """Physical curve group of ``file`` on the contact circle r = R (N nodes)."""
+    clamped_group: str = _opt("clamped", "str")
+    """Physical curve group of ``file`` that is clamped (u = 0)."""
+
+    @property
+    def tube(self) -> bool:
+        """True for the built-in tube (no ``file``)."""
+        return not self.file
+
+    def file_facts(self, R: float):
+        """The checked facts of ``file`` (``meshes.user_mesh.inspect_mesh_file``) for the
+        contact radius R; ``SceneError`` (one line) when a check fails."""
+        from meshes.user_mesh import MeshFileError, inspect_mesh_file, resolve
+
+        try:
+            return inspect_mesh_file(resolve(self.file, (SCENES_DIR,)), R=R,
+                                     n_contact=self.n_inner, cell=self.cell,
+                                     degree=self.degree, contact_group=self.contact_group,
+                                     clamped_group=self.clamped_group)
+        except MeshFileError as err:
+            raise SceneError(str(err)) from None
 
     def _check(self) -> None:
         _require(self._key("n_inner"), self.n_inner, self.n_inner >= 8, "n_inner >= 8")
@@ -285,6 +312,7 @@ class Damping(_Section):
                      "frequency of the Figure-3 wave)")
 
 
+FIELD_FORMATS = ("vtx", "xdmf")
 REGULARIZATIONS = ("none", "prakash-clifton", "constant-time")
 FRICTION_FILTERS = ("nodal", "1-2-1")
 
@@ -361,9 +389,18 @@ class Output(_Section):
     probes_deg: tuple[float, ...] = _opt((0.0,), "floats")
     """Probe angles [degrees] for time histories."""
     fields: bool = _opt(False, "bool")
-    """Write XDMF/VTX displacement and contact-status fields."""
+    """Write the fields for ParaView: displacement, velocity, polar stress and von Mises,
+    contact pressure, shear traction and status (solver.writers)."""
     field_interval: float = _opt(1.0e-3, "float")
-    """Seconds between field outputs."""
+    """Seconds between field outputs (the cadence)."""
+    field_window: float = _opt(0.0, "float")
+    """Seconds at the end of the run that are written; 0 = the last ``field_periods``
+    periods of the expected wave (solver.field_output)."""
+    field_periods: float = _opt(10.0, "float")
+    """Periods of the expected wave (the reduced model's flutter mode ``initial.mode``)
+    written at the end of the run when ``field_window`` = 0."""
+    field_format: str = _opt("vtx", "str")
+    """"vtx" (ADIOS2 fields.bp + stress.bp) or "xdmf" (fields.xdmf + fields.h5)."""
     progress: bool = _opt(True, "bool")
     """Print progress on long runs."""
 
@@ -380,6 +417,11 @@ class Output(_Section):
             self.field_interval > 0,
             "field_interval > 0 (s)",
         )
+        _require(self._key("field_window"), self.field_window, self.field_window >= 0,
+                 "field_window >= 0 (s; 0 = the last field_periods periods of the wave)")
+        _require(self._key("field_periods"), self.field_periods, self.field_periods > 0,
+                 "field_periods > 0 (periods of the expected wave written at the end)")
+        _choice(self._key("field_format"), self.field_format, FIELD_FORMATS)
 
 
 _SECTIONS: dict[str, type[_Section]] = {

@@ -5,9 +5,16 @@ from __future__ import annotations
 
 import difflib
 import math
+import os
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, fields
+from pathlib import Path
 from typing import Any, ClassVar
+
+#: Directory of the scenes shipped with the project: ``<repo>/scenes``, or ``$STICKSLIP_SCENES``
+#: where the project is installed away from its source tree (the Docker image).
+SCENES_DIR = Path(os.environ.get("STICKSLIP_SCENES")
+                  or Path(__file__).resolve().parents[2] / "scenes")
 
 
 class SceneError(ValueError):

@@ -504,6 +504,18 @@ class FrameOperators:
         return out
 
 
+def require_rotational_symmetry(scene) -> None:
+    """ValueError (one line) unless the scene's mesh is invariant under the rotation by one
+    contact-edge angle 2π/(N/degree): the wave's frame turns the mesh onto itself. The tube
+    is; a user's ``mesh.file`` is checked (``meshes.user_mesh``)."""
+    m = scene.mesh
+    if m.tube or m.file_facts(scene.geometry.R).rotation_invariant:
+        return
+    raise ValueError(f"travel needs a rotationally symmetric cross-section (the wave's frame "
+                     f"turns the mesh onto itself by 2π/{m.n_inner // m.degree}); mesh.file = "
+                     f"{m.file!r} is not: use the tube (no mesh.file) or a symmetric mesh")
+
+
 def frame_operators(problem: TubeProblem, damping: float = 0.0,
                     lumped: bool = False, inertia: str = "rotation",
                     samples: int = 1, time_scheme: str = "exact") -> FrameOperators:
@@ -520,6 +532,7 @@ def frame_operators(problem: TubeProblem, damping: float = 0.0,
 
     if problem.comm.size > 1:
         raise ValueError("stickslip travel runs on one process: drop mpirun")
+    require_rotational_symmetry(problem.scene)
     if inertia not in INERTIAS:
         raise ValueError(f"inertia {inertia!r}: use 'rotation' (K − ω²G) or 'shift' (the "
                          "transient's travelling operator)")
