@@ -216,6 +216,58 @@ class Simulation:
         self.profile.seconds["contact (in time-loop)"] = float(stepper.facts()["contact_s"])
         return self.stop_reason
 
+    # ------------------------------------------------------------------ checkpoint
+
+    def _state_parts(self) -> dict:
+        """The objects whose state a continued run needs, by name: the stepper, the contact
+        step, the contact-work and (damped explicit) damping-work observers."""
+        parts = {"stepper": self.integrator, "contact": self.projection, "energy": self.energy}
+        if self.damping_work is not None:
+            parts["damping"] = self.damping_work
+        return parts
+
+    @property
+    def resumable(self) -> bool:
+        """True once ``proceed`` has returned: the run stands at a whole time level (every
+        observer has seen what it was due to see), so ``checkpoint`` can be continued."""
+        return bool(self.stop_reason)
+
+    def checkpoint(self) -> dict[str, np.ndarray]:
+        """This rank's checkpoint, flat ``{"part/name": array}``: each part's ``state()``
+        (``_state_parts``: the last level's vectors, the contact statuses, the work sums), and
+        under ``run/`` the energy guard's E(0) and bound, the steady pressure and the counts
+        of samples and probe steps taken. The cadences need nothing: they are fixed levels
+        (``Cadence``) and the step count is the stepper's. The records themselves are the
+        run's samples.npz (``restore``'s ``before``)."""
+        out = {f"{part}/{key}": value for part, obj in self._state_parts().items()
+               for key, value in obj.state().items()}
+        e0 = math.nan if self.initial_energy is None else self.initial_energy
+        out.update({"run/initial_energy": np.float64(e0),
+                    "run/energy_bound": np.float64(self.energy_bound),
+                    "run/steady_pressure": np.float64(self.steady_mean_pressure),
+                    "run/samples": np.int64(self.recorder.n),
+                    "run/probe_steps": np.int64(self.probes.n)})
+        return out
+
+    def restore(self, state: dict[str, np.ndarray],
+                before: dict[str, np.ndarray] | None = None) -> None:
+        """Continue from ``checkpoint()`` of the same scene on the same ranks (call before
+        ``proceed``). ``before``: the records taken up to the checkpoint (samples.npz, rank
+        0), which ``recorder.arrays()`` and ``probes.arrays()`` then put in front of the new
+        ones (``solver.observers.ContinuedRecords``)."""
+        from solver.observers import ContinuedRecords
+
+        for part, obj in self._state_parts().items():
+            head = f"{part}/"
+            obj.restore({k[len(head):]: v for k, v in state.items() if k.startswith(head)})
+        e0 = float(state["run/initial_energy"])
+        self.initial_energy = None if math.isnan(e0) else e0
+        self.energy_bound = float(state["run/energy_bound"])
+        self.steady_mean_pressure = float(state["run/steady_pressure"])
+        if before is not None:
+            self.recorder = ContinuedRecords(self.recorder, before, "t")
+            self.probes = ContinuedRecords(self.probes, before, "probe_t")
+
     def final_field(self) -> dict[str, np.ndarray] | None:
         """Displacement on the whole tube at the end, gathered to rank 0 (None elsewhere);
         see ``gather_final_field``."""

@@ -75,7 +75,7 @@ LOCK = ".stickslip.lock"
 KINDS: dict[str, tuple[str, ...]] = {
     "run": ("scene.toml", "summary.json", "samples.npz", "final_field.npz", "fields.xdmf",
             "fields.h5", "spacetime.png", "profile.png", "phase.png", "energy.png",
-            "uvpq.png", "isomap.png", "compare.json"),
+            "uvpq.png", "isomap.png", "compare.json", "checkpoint.npz"),
     "sweep": ("sweep.toml", "sweep.json", "sweep.csv", "runs", "logs", ".lock",
               "regime_map*.png", "semianalytic.json"),
     "travel": ("scene.toml", "summary.json", "profiles.npz", "branch.json", "branch.csv",
