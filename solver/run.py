@@ -242,7 +242,8 @@ class Simulation:
         out = {f"{part}/{key}": value for part, obj in self._state_parts().items()
                for key, value in obj.state().items()}
         e0 = math.nan if self.initial_energy is None else self.initial_energy
-        out.update({"run/initial_energy": np.float64(e0),
+        out.update({"run/partition": np.array(self.partition_id()),
+                    "run/initial_energy": np.float64(e0),
                     "run/energy_bound": np.float64(self.energy_bound),
                     "run/steady_pressure": np.float64(self.steady_mean_pressure),
                     "run/samples": np.int64(self.recorder.n),
@@ -257,6 +258,11 @@ class Simulation:
         ones (``solver.observers.ContinuedRecords``)."""
         from solver.observers import ContinuedRecords
 
+        mine = str(state["run/partition"]) == self.partition_id()
+        if not self.comm.allreduce(mine, op=MPI.LAND):
+            raise ValueError("the mesh partition differs from the checkpoint's (a partitioner "
+                             "that is not reproducible: is SCOTCH_PTHREAD_NUMBER set above "
+                             "1?); continue with the partition the run had")
         for part, obj in self._state_parts().items():
             head = f"{part}/"
             obj.restore({k[len(head):]: v for k, v in state.items() if k.startswith(head)})
@@ -267,6 +273,15 @@ class Simulation:
         if before is not None:
             self.recorder = ContinuedRecords(self.recorder, before, "t")
             self.probes = ContinuedRecords(self.probes, before, "probe_t")
+
+    def partition_id(self) -> str:
+        """This rank's part of the mesh, as a hash of its owned nodes' coordinates (sorted):
+        the same on every build of the same partition, whatever the local numbering."""
+        import hashlib
+
+        x = self.problem.V.tabulate_dof_coordinates()[: self.problem.n_owned // 2, :2]
+        ordered = np.ascontiguousarray(x[np.lexsort(x.T)])
+        return hashlib.sha256(ordered.tobytes()).hexdigest()
 
     def final_field(self) -> dict[str, np.ndarray] | None:
         """Displacement on the whole tube at the end, gathered to rank 0 (None elsewhere);
