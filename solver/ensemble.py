@@ -173,6 +173,7 @@ class BatchedExplicit(HookedStepper):
         # a regularised bound's per-node state (sigma_eff, the last u_theta), (m, B)
         self.sigma, self.ut_last = (z(m, B), z(m, B)) if self.reg else (z(0, B), z(0, B))
         self._started = np.zeros(1, dtype=np.int64)  # 0 until the first step
+        self._first_call = True  # of the kernel by this stepper
         self.u0_ku0 = np.zeros(B)
         self._dots = np.zeros(B)
         self.mass = dev(bp.mass)
@@ -371,7 +372,8 @@ class BatchedExplicit(HookedStepper):
                     self.keep, self.mass, self.energy, self._w[cur], self._w[nxt], self.tau,
                     self.dsum, self.reg, self.sigma, self.ut_last, self.rate_slip,
                     self.rate_base, self._started)
-            if self.step_count == 0:
+            if self._first_call:  # compiled (or loaded) here, with SLP, even when continued
+                self._first_call = False
                 with slp_vectorize():
                     timed_first_call(self._name, self._fn, *args)
                 from solver.fused import COMPILE_SECONDS

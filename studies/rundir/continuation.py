@@ -107,6 +107,13 @@ def _plan(run_dir: Path, until: float, ranks: int) -> _Plan:
     return _Plan(Path(run_dir), scene, ck, before)
 
 
+class Refused(ReadError):
+    """Rank 0's ``ReadError``, raised on the other ranks with the same line."""
+
+    def __init__(self, message: str) -> None:
+        ValueError.__init__(self, message)
+
+
 def _planned(run_dir: Path, until: float, comm: MPI.Comm) -> _Plan | None:
     """``_plan`` on rank 0; its refusal raised on every rank. The plan on rank 0, else None."""
     plan, error = None, None
@@ -115,9 +122,9 @@ def _planned(run_dir: Path, until: float, comm: MPI.Comm) -> _Plan | None:
             plan = _plan(Path(run_dir), float(until), comm.size)
         except ReadError as err:
             error = err
-    error = comm.bcast(error, root=0)
-    if error is not None:
-        raise error
+    message = comm.bcast(None if error is None else str(error), root=0)
+    if message is not None:
+        raise error if error is not None else Refused(message)
     return plan
 
 

@@ -1,0 +1,216 @@
+"""Continuation (``stickslip continue``, ``studies.rundir.continuation``): a run continued from
+its checkpoint gives bitwise the samples, final field and summary of one run straight to the
+end time, for every scheme and kernel, under MPI and for the members of a batch; the run
+directory is replaced atomically, and what cannot be continued is refused in one line.
+
+Tiny scenes: the smoke mesh (36 contact nodes), 0.0031 s then 0.0063 s (~40 + 40 steps),
+sampled every ~5th step (3.5e-4 s), so that both ends fall between two samples, with two
+probes (one per rank under mpirun)."""
+
+from __future__ import annotations
+
+import io
+import json
+import os
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+pytest.importorskip("dolfinx")
+
+from mpi4py import MPI  # noqa: E402
+
+SMOKE = Path(__file__).resolve().parents[1] / "scenes" / "smoke.toml"
+COMMON = ["output.progress=false", "output.sample_interval=3.5e-4",
+          "output.probes_deg=[0.0, 100.0]"]
+T_PART, T_FULL = 0.0031, 0.0063
+DAMPED = ["damping.loss_factor=0.02", "damping.reference_frequency_hz=1600"]
+IMPLICIT = ["time.beta1=0.25", "time.beta2=0.5", "time.dt_fraction=2"]
+CASES = {
+    "numba": [],
+    "numpy": ['time.kernel="numpy"'],
+    "implicit": IMPLICIT,
+    "damped-numba": DAMPED,
+    "damped-numpy": ['time.kernel="numpy"', *DAMPED],
+    "implicit-damped": [*IMPLICIT, *DAMPED],
+    "prakash-clifton-numba": ['friction.regularization="prakash-clifton"',
+                              "friction.slip_length=2e-5", "friction.reference_velocity=0.1"],
+}
+
+
+def _run(root: Path, name: str, extra: list[str], end: float, comm) -> dict:
+    from solver.scene import load_scene
+    from studies.rundir import run_scene
+
+    scene = load_scene(SMOKE, [*COMMON, *extra, f"time.end_time={end}"])
+    return run_scene(scene, root / name, force=True, comm=comm, stream=io.StringIO())
+
+
+def _same_files(a: Path, b: Path) -> None:
+    """samples.npz and final_field.npz: every array bitwise; scene.toml the same text."""
+    for name in ("samples.npz", "final_field.npz"):
+        with np.load(a / name) as x, np.load(b / name) as y:
+            assert sorted(x.files) == sorted(y.files), name
+            for key in x.files:
+                assert x[key].dtype == y[key].dtype and x[key].shape == y[key].shape, key
+                assert x[key].tobytes() == y[key].tobytes(), f"{name}: {key}"
+    assert (a / "scene.toml").read_text() == (b / "scene.toml").read_text()
+
+
+def _same_summary(a: dict, b: dict) -> None:
+    """Equal (floats bitwise: == on the JSON numbers) but for the wall-clock keys."""
+    from studies.rundir.continuation import WALL_CLOCK_KEYS
+
+    def strip(s: dict) -> dict:
+        s = json.loads(json.dumps(s))
+        for key in WALL_CLOCK_KEYS:
+            head, _, tail = key.partition(".")
+            (s.get(head, {}) if tail else s).pop(tail or head, None)
+        return s
+
+    assert strip(a) == strip(b)
+
+
+@pytest.mark.parallel
+@pytest.mark.parametrize("case", sorted(CASES))
+def test_continued_run_is_bitwise_the_run_straight_through(case, tmp_path):
+    """Run to 0.0031 s, continue in place to 0.0063 s: the same bits as one run to 0.0063 s
+    (serially, and under mpirun -n 2 on the same partition)."""
+    from studies.rundir import continue_run
+
+    comm = MPI.COMM_WORLD
+    root = Path(comm.bcast(str(tmp_path), root=0))
+    full = _run(root, "full", CASES[case], T_FULL, comm)
+    part = _run(root, "part", CASES[case], T_PART, comm)
+    cont = continue_run(root / "part", T_FULL, comm=comm, stream=io.StringIO())
+    if comm.rank == 0:
+        assert part["sim_time_s"] < T_FULL and part["status"] == "completed"
+        assert cont["status"] == "completed" and cont["steps"] > part["steps"]
+        _same_summary(full, cont)
+        _same_summary(full, json.loads((root / "part" / "summary.json").read_text()))
+        _same_files(root / "full", root / "part")
+        assert not list(root.glob(".part.*"))  # the replacement was swapped in
+
+
+def test_run_stopped_by_max_steps_continues_bitwise(tmp_path):
+    """A run stopped by time.max_steps (between two samples) continues to the end time,
+    with the step limit dropped: the run straight through, bitwise."""
+    from studies.rundir import continue_run
+
+    full = _run(tmp_path, "full", [], T_FULL, MPI.COMM_SELF)
+    part = _run(tmp_path, "part", ["time.max_steps=23"], T_FULL, MPI.COMM_SELF)
+    assert part["steps"] == 23 and part["stop_reason"] == "max_steps"
+    cont = continue_run(tmp_path / "part", T_FULL, tmp_path / "cont", comm=MPI.COMM_SELF,
+                        stream=io.StringIO())
+    _same_summary(full, cont)
+    _same_files(tmp_path / "full", tmp_path / "cont")
+
+
+BATCH = """
+name = "b"
+base = "{base}"
+set = ["time.end_time = {end}", "output.sample_interval = 3.5e-4",
+       "output.probes_deg = [0.0, 100.0]", "output.progress = false"]
+[[points]]
+"loading.f" = 0.7
+"initial.amplitude" = 0.1
+[[points]]
+"loading.f" = 0.5
+"initial.amplitude" = 0.3
+[[points]]
+"loading.f" = 0.6
+"initial.amplitude" = 0.2
+"""
+
+
+def test_batch_members_continue_bitwise_as_one_batch(tmp_path):
+    """Three scenes run as one batch to 0.0031 s and continued together to 0.0063 s (one
+    BatchSimulation again) equal the same batch run to 0.0063 s, bitwise (summaries but for
+    the wall-clock keys)."""
+    from studies.rundir import continue_batch
+    from studies.sweep.schedule import run_sweep
+    from studies.sweep.spec import load_sweep
+
+    dirs = {}
+    for end in (T_FULL, T_PART):
+        spec = tmp_path / f"{end}.toml"
+        spec.write_text(BATCH.format(base=SMOKE, end=end))
+        with open(os.devnull, "w") as quiet:
+            assert run_sweep(load_sweep(spec), tmp_path / str(end), comm=MPI.COMM_SELF,
+                             batch="3", stream=quiet, progress="lines") == 0
+        dirs[end] = sorted((tmp_path / str(end) / "runs").iterdir())
+    summaries = continue_batch(dirs[T_PART], T_FULL, stream=io.StringIO())
+    assert [s["batch"]["size"] for s in summaries] == [3, 3, 3]
+    for full, cont, summary in zip(dirs[T_FULL], dirs[T_PART], summaries, strict=True):
+        _same_files(full, cont)
+        _same_summary(json.loads((full / "summary.json").read_text()), summary)
+
+
+def test_interrupted_continuation_keeps_the_run_as_it_was(tmp_path, monkeypatch):
+    """A continuation interrupted in its time loop (KeyboardInterrupt from the loop, as a
+    signal's handler raises it) drops its replacement: every file of the run is unchanged
+    and no temporary sibling is left."""
+    from solver import run as run_module
+    from studies.rundir import continue_run
+
+    _run(tmp_path, "part", [], T_PART, MPI.COMM_SELF)
+    before = {p.name: p.read_bytes() for p in (tmp_path / "part").iterdir() if p.is_file()}
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(run_module, "run_loop", interrupted)
+    summary = continue_run(tmp_path / "part", T_FULL, comm=MPI.COMM_SELF,
+                           stream=io.StringIO())
+    assert summary["status"] == "interrupted" and "kept unchanged" in summary["message"]
+    after = {p.name: p.read_bytes() for p in (tmp_path / "part").iterdir() if p.is_file()}
+    assert after.keys() == before.keys()
+    assert all(after[k] == before[k] for k in before if k != ".stickslip.lock")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["part"]
+
+
+def _cli(*args: str) -> tuple[int, str]:
+    import contextlib
+
+    from cli.main import main
+
+    err = io.StringIO()
+    with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
+        rc = main(["continue", *args])
+    return rc, err.getvalue()
+
+
+def test_what_cannot_be_continued_is_refused_in_one_line(tmp_path):
+    """Exit status 2 and one line naming the fix: --until not beyond the run's time, a run
+    without a checkpoint, a checkpoint of another number of ranks, an -o that is another
+    run; the run is untouched each time, and -o leaves the original as it was."""
+    from solver.atomic import atomic_save_npz
+
+    _run(tmp_path, "part", [], T_PART, MPI.COMM_SELF)
+    run = tmp_path / "part"
+    rc, err = _cli(str(run), "--until", str(T_PART))
+    assert rc == 2 and "already at t = " in err and err.count("\n") == 1
+    shutil.copytree(run, tmp_path / "other")
+    rc, err = _cli(str(run), "--until", str(T_FULL), "-o", str(tmp_path / "other"))
+    assert rc == 2 and "--force" in err and err.count("\n") == 1
+    with np.load(run / "checkpoint.npz") as data:
+        arrays = {k: data[k] for k in data.files}
+    meta = json.loads(str(arrays["meta"]))
+    atomic_save_npz(run / "checkpoint.npz", dict(arrays, meta=np.array(json.dumps(
+        dict(meta, ranks=2)))))
+    rc, err = _cli(str(run), "--until", str(T_FULL))
+    assert rc == 2 and "written on 2 rank(s)" in err and "mpirun -n 2" in err
+    (run / "checkpoint.npz").unlink()
+    rc, err = _cli(str(run), "--until", str(T_FULL))
+    assert rc == 2 and "checkpoint.npz: missing" in err and "stickslip run" in err
+    assert json.loads((run / "summary.json").read_text())["sim_time_s"] < T_FULL
+    shutil.rmtree(run)
+    _run(tmp_path, "part", [], T_PART, MPI.COMM_SELF)
+    original = {p.name: p.read_bytes() for p in run.iterdir() if p.is_file()}
+    rc, _ = _cli(str(run), "--until", str(T_FULL), "-o", str(tmp_path / "longer"))
+    assert rc == 0
+    assert {p.name: p.read_bytes() for p in run.iterdir() if p.is_file()} == original
+    assert json.loads((tmp_path / "longer" / "summary.json").read_text())["sim_time_s"] \
+        >= T_FULL * (1 - 1e-12)
