@@ -265,8 +265,8 @@ class BatchSimulation:
             self.recorder.initial[b] = float(state["run/initial_energy"])
             self.recorder.bound[b] = float(state["run/energy_bound"])
             run.steady_mean_pressure = float(state["run/steady_pressure"])
-            run.recorder = ContinuedRecords(run.members[0], before, "t")
-            run.probes = ContinuedRecords(run.members[1], before, "probe_t")
+            run.recorder = ContinuedRecords(run.members[0], before, state["run/samples"])
+            run.probes = ContinuedRecords(run.members[1], before, state["run/probe_steps"])
 
     def proceed(self) -> str:
         """Run every live scene to the end (``solver.run.run_loop``); returns the reason."""

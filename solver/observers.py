@@ -17,10 +17,12 @@ import math
 import sys
 import time
 from dataclasses import dataclass
-from typing import Protocol, runtime_checkable
+from typing import TYPE_CHECKING, Protocol, runtime_checkable
 
 import numpy as np
-from mpi4py import MPI
+
+if TYPE_CHECKING:  # imported where a recorder talks to other ranks: the module loads without
+    from mpi4py import MPI
 
 
 @dataclass(frozen=True)
@@ -130,6 +132,8 @@ class EnergyAccumulator:
         if comm.size == 1:  # one rank: the sum is the local value (no Allreduce)
             total = [self.work_contact, self.work_cylinder, self.friction_dissipation]
         else:
+            from mpi4py import MPI
+
             local = np.array([self.work_contact, self.work_cylinder, self.friction_dissipation])
             total = np.zeros(3)
             comm.Allreduce(local, total, op=MPI.SUM)
@@ -191,6 +195,8 @@ class InnerCircleRecorder:
 
     def __init__(self, problem, projection, energy: EnergyAccumulator, every: int,
                  max_samples: int) -> None:
+        from mpi4py import MPI
+
         self.problem, self.p, self.energy = problem, projection, energy
         self.every = max(1, every)
         self.comm = problem.comm
@@ -342,6 +348,8 @@ class InnerCircleRecorder:
 
     def _record_gathered(self, integrator, p) -> None:
         """Several ranks: polar values of the owned nodes, one Gatherv each, sorted on rank 0."""
+        from mpi4py import MPI
+
         p._polar(integrator.u_prev, self.send[0], self.send[1])
         p._polar(integrator.v, self.send[2], self.send[3])
         self.send[4] = p.out.r_r
@@ -422,6 +430,8 @@ class ProbeRecorder:
     """
 
     def __init__(self, problem, projection, probes_deg, max_steps: int) -> None:
+        from mpi4py import MPI
+
         self.comm = problem.comm
         self.p = projection
         nd = problem.nodes
@@ -501,18 +511,18 @@ TIME_AXIS = {"t": 0, "u_r": 0, "u_theta": 0, "v_r": 0, "v_theta": 0, "status": 0
 
 
 class ContinuedRecords:
-    """The records of a continued run: those taken before its checkpoint (``before``, read
-    back from the run's samples.npz) followed by those of the live recorder ``live`` (an
-    ``InnerCircleRecorder``, a ``ProbeRecorder`` or a batch member's face of them).
+    """The records of a continued run: the ``n_before`` taken before its checkpoint
+    (``before``, read back from the run's samples.npz on rank 0; None elsewhere) followed by
+    those of the live recorder ``live`` (an ``InnerCircleRecorder``, a ``ProbeRecorder`` or
+    a batch member's face of them).
 
     ``arrays()`` joins the two along ``TIME_AXIS``; ``n`` is the count of both. Each
     recorded row is computed row by row (``InnerCircleRecorder._record_single``, the
     probes' rotation), so the joined arrays are bitwise those of one run straight through.
     Everything else is the live recorder's."""
 
-    def __init__(self, live, before: dict[str, np.ndarray], count_key: str) -> None:
-        self.live, self.before = live, before
-        self.n_before = int(np.shape(before[count_key])[TIME_AXIS[count_key]])
+    def __init__(self, live, before: dict[str, np.ndarray] | None, n_before: int) -> None:
+        self.live, self.before, self.n_before = live, before, int(n_before)
 
     @property
     def n(self) -> int:
@@ -525,8 +535,8 @@ class ContinuedRecords:
         """The live recorder's ``arrays()`` with the earlier records in front (None where
         the live one gives None: the ranks other than 0)."""
         now = self.live.arrays()
-        if now is None:
-            return None
+        if now is None or self.before is None:
+            return now
         out = dict(now)
         for key, axis in TIME_AXIS.items():
             if key in now and key in self.before:

@@ -11,9 +11,9 @@ import math
 import time
 from contextlib import contextmanager
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
-from mpi4py import MPI
 
 from solver import __version__
 from solver.contact import zone_fractions
@@ -26,6 +26,9 @@ from solver.errors import (  # noqa: F401  (StepTooLarge re-exported for scripts
 )
 from solver.observers import Cadence
 from solver.scene import Scene
+
+if TYPE_CHECKING:  # mpi4py is imported where a run uses it: ``run_loop`` runs without it
+    from mpi4py import MPI
 
 
 class Profile:
@@ -57,7 +60,7 @@ class Simulation:
     ``initial_state`` = (u, v, a or None) on the owned dofs (serial use: a wave of
     ``studies.travel.frame.FrameOperators.shift_state``)."""
 
-    def __init__(self, scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD,
+    def __init__(self, scene: Scene, comm: MPI.Comm | None = None,
                  profile: Profile | None = None,
                  output_dir: Path | None = None,
                  initial_state: tuple[np.ndarray, np.ndarray, np.ndarray | None] | None = None,
@@ -66,6 +69,10 @@ class Simulation:
         from solver.schemes.select import make_stepper, time_step
         from solver.steady import solve_steady_sliding
 
+        if comm is None:
+            from mpi4py import MPI
+
+            comm = MPI.COMM_WORLD
         self.scene, self.comm = scene, comm
         self.profile = profile or Profile()
         with self.profile.phase("mesh+assembly"):
@@ -188,6 +195,8 @@ class Simulation:
         if not code and max_wall is not None and time.perf_counter() - self._t_start > max_wall:
             code = 1
         if self.comm.size > 1:  # buffer Allreduce: no pickling (65 us vs 240 us measured)
+            from mpi4py import MPI
+
             self._stop_code[0] = code
             self.comm.Allreduce(MPI.IN_PLACE, self._stop_code, op=MPI.MAX)
             code = int(self._stop_code[0])
@@ -253,13 +262,13 @@ class Simulation:
     def restore(self, state: dict[str, np.ndarray],
                 before: dict[str, np.ndarray] | None = None) -> None:
         """Continue from ``checkpoint()`` of the same scene on the same ranks (call before
-        ``proceed``). ``before``: the records taken up to the checkpoint (samples.npz, rank
-        0), which ``recorder.arrays()`` and ``probes.arrays()`` then put in front of the new
-        ones (``solver.observers.ContinuedRecords``)."""
+        ``proceed``). ``before``: the records taken up to the checkpoint (samples.npz, on
+        rank 0; None elsewhere), which ``recorder.arrays()`` and ``probes.arrays()`` then put
+        in front of the new ones (``solver.observers.ContinuedRecords``)."""
         from solver.observers import ContinuedRecords
 
         mine = str(state["run/partition"]) == self.partition_id()
-        if not self.comm.allreduce(mine, op=MPI.LAND):
+        if not all(self.comm.allgather(mine)):
             raise ValueError("the mesh partition differs from the checkpoint's (a partitioner "
                              "that is not reproducible: is SCOTCH_PTHREAD_NUMBER set above "
                              "1?); continue with the partition the run had")
@@ -270,9 +279,8 @@ class Simulation:
         self.initial_energy = None if math.isnan(e0) else e0
         self.energy_bound = float(state["run/energy_bound"])
         self.steady_mean_pressure = float(state["run/steady_pressure"])
-        if before is not None:
-            self.recorder = ContinuedRecords(self.recorder, before, "t")
-            self.probes = ContinuedRecords(self.probes, before, "probe_t")
+        self.recorder = ContinuedRecords(self.recorder, before, state["run/samples"])
+        self.probes = ContinuedRecords(self.probes, before, state["run/probe_steps"])
 
     def partition_id(self) -> str:
         """This rank's part of the mesh, as a hash of its owned nodes' coordinates (sorted):

@@ -48,19 +48,26 @@ def _run(root: Path, name: str, extra: list[str], end: float, comm) -> dict:
     return run_scene(scene, root / name, force=True, comm=comm, stream=io.StringIO())
 
 
-def _same_files(a: Path, b: Path) -> None:
-    """samples.npz and final_field.npz: every array bitwise; scene.toml the same text."""
+def _same_files(a: Path, b: Path, rtol: float = 0.0) -> None:
+    """samples.npz and final_field.npz: every array bitwise (``rtol`` > 0: floats to rtol of
+    the array's largest value, the rest exactly); scene.toml the same text."""
     for name in ("samples.npz", "final_field.npz"):
         with np.load(a / name) as x, np.load(b / name) as y:
             assert sorted(x.files) == sorted(y.files), name
             for key in x.files:
-                assert x[key].dtype == y[key].dtype and x[key].shape == y[key].shape, key
-                assert x[key].tobytes() == y[key].tobytes(), f"{name}: {key}"
+                u, v = x[key], y[key]
+                assert u.dtype == v.dtype and u.shape == v.shape, key
+                if rtol and u.dtype.kind == "f":
+                    scale = float(np.max(np.abs(u), initial=0.0))
+                    assert np.allclose(u, v, rtol=0.0, atol=rtol * scale), f"{name}: {key}"
+                else:
+                    assert u.tobytes() == v.tobytes(), f"{name}: {key}"
     assert (a / "scene.toml").read_text() == (b / "scene.toml").read_text()
 
 
-def _same_summary(a: dict, b: dict) -> None:
-    """Equal (floats bitwise: == on the JSON numbers) but for the wall-clock keys."""
+def _same_summary(a: dict, b: dict, rtol: float = 0.0) -> None:
+    """Equal (floats bitwise: == on the JSON numbers; ``rtol`` > 0: to rtol) but for the
+    wall-clock keys."""
     from studies.rundir.continuation import WALL_CLOCK_KEYS
 
     def strip(s: dict) -> dict:
@@ -70,14 +77,27 @@ def _same_summary(a: dict, b: dict) -> None:
             (s.get(head, {}) if tail else s).pop(tail or head, None)
         return s
 
-    assert strip(a) == strip(b)
+    def close(x, y) -> bool:
+        if isinstance(x, dict):
+            return isinstance(y, dict) and x.keys() == y.keys() and all(
+                close(x[k], y[k]) for k in x)
+        if isinstance(x, float) and isinstance(y, float) and rtol:
+            return abs(x - y) <= rtol * max(abs(x), abs(y)) or x == y
+        return x == y
+
+    assert close(strip(a), strip(b)), (strip(a), strip(b))
 
 
 @pytest.mark.parallel
 @pytest.mark.parametrize("case", sorted(CASES))
 def test_continued_run_is_bitwise_the_run_straight_through(case, tmp_path):
-    """Run to 0.0031 s, continue in place to 0.0063 s: the same bits as one run to 0.0063 s
-    (serially, and under mpirun -n 2 on the same partition)."""
+    """Run to 0.0031 s, continue in place to 0.0063 s: the same bits as one run to 0.0063 s.
+    Under mpirun the straight runs themselves are not reproducible bit for bit (about one
+    in ten differs from the next at 1e-14 relative, on the same mesh partition and dof
+    numbering: a reduction order in the parallel linear algebra), so there the numbers are
+    compared to 1e-9 of each array's scale (round-off grown over ~80 steps, far below any
+    physical change) and the statuses exactly; the restore itself is checked bitwise on
+    two ranks by ``test_restore_reproduces_every_rank_state_bitwise``."""
     from studies.rundir import continue_run
 
     comm = MPI.COMM_WORLD
@@ -85,13 +105,35 @@ def test_continued_run_is_bitwise_the_run_straight_through(case, tmp_path):
     full = _run(root, "full", CASES[case], T_FULL, comm)
     part = _run(root, "part", CASES[case], T_PART, comm)
     cont = continue_run(root / "part", T_FULL, comm=comm, stream=io.StringIO())
+    rtol = 1e-9 if comm.size > 1 else 0.0
     if comm.rank == 0:
         assert part["sim_time_s"] < T_FULL and part["status"] == "completed"
         assert cont["status"] == "completed" and cont["steps"] > part["steps"]
-        _same_summary(full, cont)
-        _same_summary(full, json.loads((root / "part" / "summary.json").read_text()))
-        _same_files(root / "full", root / "part")
+        _same_summary(full, cont, rtol)
+        _same_summary(full, json.loads((root / "part" / "summary.json").read_text()), rtol)
+        _same_files(root / "full", root / "part", rtol)
         assert not list(root.glob(".part.*"))  # the replacement was swapped in
+
+
+@pytest.mark.parallel
+@pytest.mark.parametrize("case", ["numba", "implicit-damped"])
+def test_restore_reproduces_every_rank_state_bitwise(case):
+    """A Simulation restored from another's checkpoint (same scene, same ranks) holds the
+    same state, bit for bit, on every rank: its own checkpoint equals the one it came from
+    (stepper, contact, work sums, energy guard, counts)."""
+    from solver.run import Simulation
+    from solver.scene import load_scene
+
+    scene = load_scene(SMOKE, [*COMMON, *CASES[case], f"time.end_time={T_PART}"])
+    first = Simulation(scene, MPI.COMM_WORLD)
+    first.proceed()
+    state = first.checkpoint()
+    second = Simulation(scene, MPI.COMM_WORLD)
+    second.restore(state)
+    again = second.checkpoint()
+    assert again.keys() == state.keys()
+    for key, value in state.items():
+        assert np.asarray(again[key]).tobytes() == np.asarray(value).tobytes(), key
 
 
 def test_run_stopped_by_max_steps_continues_bitwise(tmp_path):
