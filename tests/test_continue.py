@@ -150,6 +150,31 @@ def test_run_stopped_by_max_steps_continues_bitwise(tmp_path):
     _same_files(tmp_path / "full", tmp_path / "cont")
 
 
+def test_run_interrupted_by_a_signal_writes_its_checkpoint_and_continues(tmp_path,
+                                                                      monkeypatch):
+    """A signal's stop (``Simulation.stop_requested``, seen at a sample) ends the run
+    ``interrupted`` at a whole level with its checkpoint; continued, it is the run straight
+    through, bitwise. The flag is set by the loop itself at step 23 (no clock, no signal)."""
+    from solver import run as run_module
+    from studies.rundir import continue_run
+
+    full = _run(tmp_path, "full", [], T_FULL, MPI.COMM_SELF)
+    observe = run_module.StopCheck.observe
+
+    def signal_at_step_23(self, stepper):  # noqa: ANN001
+        self.sim.stop_requested = stepper.step_count >= 23
+        return observe(self, stepper)
+
+    monkeypatch.setattr(run_module.StopCheck, "observe", signal_at_step_23)
+    part = _run(tmp_path, "part", [], T_FULL, MPI.COMM_SELF)
+    monkeypatch.undo()
+    assert part["status"] == "interrupted" and part["sim_time_s"] < T_FULL
+    assert (tmp_path / "part" / "checkpoint.npz").is_file()
+    cont = continue_run(tmp_path / "part", T_FULL, comm=MPI.COMM_SELF, stream=io.StringIO())
+    _same_summary(full, cont)
+    _same_files(tmp_path / "full", tmp_path / "part")
+
+
 BATCH = """
 name = "b"
 base = "{base}"
