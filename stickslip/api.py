@@ -150,6 +150,8 @@ def continue_run(run_dir: str | Path, until: float, out_dir: str | Path | None =
     Raises:
         ValueError: the run cannot be continued (no checkpoint, ``until`` not later, another
             number of ranks, ...), with the fix in one line.
+        FileExistsError: ``out_dir`` is not free (``force`` replaces a run there), or the
+            run is in use by a running command.
 
     Example:
         >>> s = stickslip.run("smoke", "/tmp/smoke", force=True, quiet=True)

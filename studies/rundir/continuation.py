@@ -167,10 +167,19 @@ def continue_run(run_dir: str | Path, until: float, out_dir: str | Path | None =
             raise ValueError(f"the run stepped with the {kernel or 'implicit'} kernel, this "
                              f"machine builds {built or 'implicit'} for its scene: install "
                              "the same (python3-numba) to continue it bitwise")
-        sim.restore(state, before)
+        try:
+            sim.restore(state, before)
+        except KeyError as err:  # every key is written by this format: an edited file
+            raise ValueError(f"checkpoint.npz has no {err}: not written by this version of "
+                             "stickslip (or edited); run the scene again to T") from None
 
     target = run_dir if out_dir is None else Path(out_dir)
     in_place = target.resolve() == run_dir.resolve()
+    if plan is not None:
+        meta = plan.checkpoint.meta
+        print(f"continuing {run_dir} from t = {meta['time']:.6g} s (step {meta['step']}) to "
+              f"{until:g} s" + ("" if in_place else f" into {target}"),
+              file=sys.stdout if stream is None else stream, flush=True)
     return RunDirectory(scene, target, force=force or in_place, comm=comm, stream=stream,
                         check_resources=check_resources, resume=resume).run()
 
