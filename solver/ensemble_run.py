@@ -74,10 +74,6 @@ class SceneRun:
         if status == "completed" and batch.at_level:  # not a masked (diverged) scene
             self.state = batch.checkpoint(b, self)
 
-    def resumable(self) -> bool:
-        """True when the scene ended at a whole level with a checkpoint (``state``)."""
-        return self.state is not None
-
 
 class MemberRecords:
     """``InnerCircleRecorder`` face of scene b of a ``BatchRecorder``."""
@@ -242,13 +238,14 @@ class BatchSimulation:
     def checkpoint(self, b: int, run: SceneRun) -> dict[str, np.ndarray]:
         """Column b's checkpoint, flat as ``Simulation.checkpoint``'s: the stepper's column
         (``BatchedExplicit.state``), the energy guard's E(0) and bound of that scene, its
-        steady pressure and its counts of samples and probe steps."""
+        steady pressure and its counts of samples and probe steps (those before a
+        continuation included)."""
         out = {f"stepper/{k}": v for k, v in self.stepper.state(b).items()}
         out.update({"run/initial_energy": np.float64(self.recorder.initial[b]),
                     "run/energy_bound": np.float64(self.recorder.bound[b]),
                     "run/steady_pressure": np.float64(run.steady_mean_pressure),
-                    "run/samples": np.int64(self.recorder.n),
-                    "run/probe_steps": np.int64(self.recorder.n_probe)})
+                    "run/samples": np.int64(run.recorder.n),
+                    "run/probe_steps": np.int64(run.probes.n)})
         return out
 
     def restore(self, states: list[dict[str, np.ndarray]],
