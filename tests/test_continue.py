@@ -181,7 +181,7 @@ BATCH = """
 name = "b"
 base = "{base}"
 set = ["time.end_time = {end}", "output.sample_interval = 3.5e-4",
-       "output.probes_deg = [0.0, 100.0]", "output.progress = false"]
+       "output.probes_deg = [0.0, 100.0]", "output.progress = false"{extra}]
 [[points]]
 "loading.f" = 0.7
 "initial.amplitude" = 0.1
@@ -194,10 +194,12 @@ set = ["time.end_time = {end}", "output.sample_interval = 3.5e-4",
 """
 
 
-def test_batch_members_continue_bitwise_as_one_batch(tmp_path):
+@pytest.mark.parametrize("damped", [False, True], ids=["undamped", "damped"])
+def test_batch_members_continue_bitwise_as_one_batch(damped, tmp_path):
     """Three scenes run as one batch to 0.0031 s and continued together to 0.0047 s, then
     to 0.0063 s (one BatchSimulation again each time) equal the same batch run to 0.0063 s,
-    bitwise (summaries but for the wall-clock keys)."""
+    bitwise (summaries but for the wall-clock keys); with Kelvin-Voigt damping too (the
+    kernel's damping sums and w_{n+1} are part of the state)."""
     from studies.rundir import continue_batch
     from studies.sweep.schedule import run_sweep
     from studies.sweep.spec import load_sweep
@@ -205,7 +207,8 @@ def test_batch_members_continue_bitwise_as_one_batch(tmp_path):
     dirs = {}
     for end in (T_FULL, T_PART):
         spec = tmp_path / f"{end}.toml"
-        spec.write_text(BATCH.format(base=SMOKE, end=end))
+        extra = "".join(f', "{kv.replace("=", " = ")}"' for kv in DAMPED) if damped else ""
+        spec.write_text(BATCH.format(base=SMOKE, end=end, extra=extra))
         with open(os.devnull, "w") as quiet:
             assert run_sweep(load_sweep(spec), tmp_path / str(end), comm=MPI.COMM_SELF,
                              batch="3", stream=quiet, progress="lines") == 0
@@ -213,6 +216,7 @@ def test_batch_members_continue_bitwise_as_one_batch(tmp_path):
     continue_batch(dirs[T_PART], T_MID, stream=io.StringIO())  # twice: a census extends
     summaries = continue_batch(dirs[T_PART], T_FULL, stream=io.StringIO())  # step by step
     assert [s["batch"]["size"] for s in summaries] == [3, 3, 3]
+    assert (summaries[0]["scheme"]["damping_tau_s"] > 0.0) == damped
     for full, cont, summary in zip(dirs[T_FULL], dirs[T_PART], summaries, strict=True):
         _same_files(full, cont)
         _same_summary(json.loads((full / "summary.json").read_text()), summary)
