@@ -92,13 +92,13 @@ def _same_summary(a: dict, b: dict, rtol: float = 0.0) -> None:
 @pytest.mark.parametrize("case", sorted(CASES))
 def test_continued_run_is_bitwise_the_run_straight_through(case, tmp_path):
     """Run to 0.0031 s, continue in place to 0.0047 s and on to 0.0063 s: the same bits as
-    one run to 0.0063 s.
-    Under mpirun the straight runs themselves are not reproducible bit for bit (about one
-    in ten differs from the next at 1e-14 relative, on the same mesh partition and dof
-    numbering: a reduction order in the parallel linear algebra), so there the numbers are
-    compared to 1e-9 of each array's scale (round-off grown over ~80 steps, far below any
-    physical change) and the statuses exactly; the restore itself is checked bitwise on
-    two ranks by ``test_restore_reproduces_every_rank_state_bitwise``."""
+    one run to 0.0063 s. Under mpirun the straight runs themselves are not reproducible bit
+    for bit: about one in ten differs from the next at 1e-14 relative from its first sample
+    on, on the same partition and dof numbering (the steady state's parallel MUMPS solve),
+    so there the numbers are compared to 1e-9 of each array's scale (round-off grown over
+    ~80 steps, far below any physical change) and the statuses exactly; the restore itself
+    is checked bitwise on two ranks by ``test_restore_reproduces_every_rank_state_bitwise``.
+    """
     from studies.rundir import continue_run
 
     comm = MPI.COMM_WORLD
