@@ -78,6 +78,9 @@ def _plan(run_dir: Path, until: float, ranks: int) -> _Plan:
         raise ReadError(run_dir, "not a stickslip run directory (no .stickslip marker of a "
                                  "run)", "give the directory that `stickslip run` wrote")
     status = read_summary(run_dir)["status"]
+    if status == "running":
+        raise ReadError(run_dir, "the run is still running (or its process was killed)",
+                        "wait for it to end, or run the scene again")
     if status not in RESUMABLE:
         raise ReadError(run_dir, f"the run ended {status}: there is no whole time level to "
                                  "continue from", "fix the scene and run it again")
