@@ -257,9 +257,10 @@ def _cli(*args: str) -> tuple[int, str]:
 
 
 def test_what_cannot_be_continued_is_refused_in_one_line(tmp_path):
-    """Exit status 2 and one line naming the fix: --until not beyond the run's time, a run
-    without a checkpoint, a checkpoint of another number of ranks, an -o that is another
-    run; the run is untouched each time, and -o leaves the original as it was."""
+    """Exit status 2 and one line naming the fix: --until not beyond the run's time, an -o
+    that is another run, a scene.toml edited since the checkpoint, a checkpoint of another
+    number of ranks, a run without a checkpoint; the run is untouched each time, and -o
+    leaves the original as it was."""
     from solver.atomic import atomic_save_npz
 
     _run(tmp_path, "part", [], T_PART, MPI.COMM_SELF)
@@ -269,6 +270,11 @@ def test_what_cannot_be_continued_is_refused_in_one_line(tmp_path):
     shutil.copytree(run, tmp_path / "other")
     rc, err = _cli(str(run), "--until", str(T_FULL), "-o", str(tmp_path / "other"))
     assert rc == 2 and "--force" in err and err.count("\n") == 1
+    scene_text = (run / "scene.toml").read_text()
+    (run / "scene.toml").write_text(scene_text.replace("f = 0.7", "f = 0.6"))
+    rc, err = _cli(str(run), "--until", str(T_FULL))
+    assert rc == 2 and "not the scene its checkpoint was written with" in err
+    (run / "scene.toml").write_text(scene_text)
     with np.load(run / "checkpoint.npz") as data:
         arrays = {k: data[k] for k in data.files}
     meta = json.loads(str(arrays["meta"]))

@@ -7,7 +7,8 @@ atomically (``solver.atomic``). It holds only the state of the last level, not a
 =========================  ===============================================================
 ``meta``                   JSON: ``format``, ``kind`` (``run``: one ``Simulation`` on
                            ``ranks`` ranks; ``batch``: a member of a ``BatchSimulation``,
-                           with its ``backend``), ``kernel``, ``scene``, ``status``,
+                           with its ``backend``), ``kernel``, ``scene`` (name),
+                           ``scene_sha256`` (``scene_fingerprint``), ``status``,
                            ``step``, ``time``, ``samples``, ``probe_steps``
 ``rank<r>/stepper/...``    rank r's stepper state (``Stepper.state``): u_{n+1}, u_n, the
                            velocity predictor or v_{n+1}, the kernel's contact sums, the
@@ -22,11 +23,12 @@ atomically (``solver.atomic``). It holds only the state of the last level, not a
 
 The samples and probe histories taken so far are the run's ``samples.npz``; the checkpoint's
 counts must match it. The observers' cadences need nothing: they are fixed time levels and
-the step count is the stepper's. Light: numpy and the standard library.
+the step count is the stepper's. Light: numpy, the standard library and ``solver.scene``.
 """
 
 from __future__ import annotations
 
+import hashlib
 import json
 import zipfile
 from dataclasses import dataclass
@@ -35,9 +37,25 @@ from pathlib import Path
 import numpy as np
 
 from solver.atomic import atomic_save_npz
+from solver.scene import Scene, scene_to_dict
 from studies.rundir.readers import ReadError
 
-__all__ = ["CHECKPOINT", "FORMAT", "Checkpoint", "read_checkpoint", "write_checkpoint"]
+__all__ = ["CHECKPOINT", "FORMAT", "Checkpoint", "read_checkpoint", "scene_fingerprint",
+           "write_checkpoint"]
+
+#: Scene keys a continuation may change: when and how long it runs, and what it prints.
+CONTINUATION_KEYS = {"time": ("end_time", "max_steps", "max_wall_time"),
+                     "output": ("progress",)}
+
+
+def scene_fingerprint(scene: Scene) -> str:
+    """A hash of ``scene`` without ``CONTINUATION_KEYS``: a continuation runs the scene
+    that wrote the checkpoint (a scene.toml edited since is refused)."""
+    d = scene_to_dict(scene)
+    for section, keys in CONTINUATION_KEYS.items():
+        for key in keys:
+            d.get(section, {}).pop(key, None)
+    return hashlib.sha256(json.dumps(d, sort_keys=True).encode()).hexdigest()
 
 CHECKPOINT = "checkpoint.npz"
 FORMAT = 1
@@ -56,12 +74,13 @@ class Checkpoint:
 
 
 def write_checkpoint(folder: str | Path, states: list[dict[str, np.ndarray]], *, kind: str,
-                     scene: str, status: str, kernel: str, backend: str = "cpu") -> Path:
+                     scene: Scene, status: str, kernel: str, backend: str = "cpu") -> Path:
     """Write ``folder/checkpoint.npz`` (atomically) from the per-rank states of
     ``Simulation.checkpoint`` (gathered, rank order) or one ``BatchSimulation.checkpoint``."""
     first = states[0]
     meta = {"format": FORMAT, "kind": kind, "ranks": len(states), "kernel": kernel,
-            "backend": backend, "scene": scene, "status": status,
+            "backend": backend, "scene": scene.name,
+            "scene_sha256": scene_fingerprint(scene), "status": status,
             "step": int(first["stepper/step_count"]), "time": float(first["stepper/time"]),
             "samples": int(first["run/samples"]), "probe_steps": int(first["run/probe_steps"])}
     arrays: dict[str, np.ndarray] = {"meta": np.array(json.dumps(meta))}

@@ -38,7 +38,7 @@ import numpy as np
 from mpi4py import MPI
 
 from solver.scene import Scene, write_scene
-from studies.rundir.checkpoint import Checkpoint, read_checkpoint
+from studies.rundir.checkpoint import Checkpoint, read_checkpoint, scene_fingerprint
 from studies.rundir.directory import prepare_run_dir
 from studies.rundir.ownership import owned
 from studies.rundir.readers import ReadError, read_samples, read_scene_file, read_summary
@@ -95,6 +95,10 @@ def _plan(run_dir: Path, until: float, ranks: int) -> _Plan:
         raise ReadError(run_dir, f"--until {until!r}: the run is already at t = "
                                  f"{ck.time:.9g} s", "give a later time")
     scene = read_scene_file(run_dir / "scene.toml")
+    if scene_fingerprint(scene) != ck.meta.get("scene_sha256"):
+        raise ReadError(run_dir / "scene.toml", "is not the scene its checkpoint was written "
+                        "with (edited since?)", "continue with the scene as it ran, or run "
+                        "the edited scene from the start")
     if scene.output.fields:
         raise ReadError(run_dir, "the run writes fields (output.fields = true), whose XDMF "
                                  "series is not continued", "run the scene again to T")

@@ -394,7 +394,7 @@ def _save(sim: Simulation | None, rd: RunDir, scene: Scene, status: str, error: 
                 if field is not None:
                     atomic_save_npz(work / "final_field.npz", field)
                 if states is not None:
-                    write_checkpoint(work, states, kind="run", scene=scene.name,
+                    write_checkpoint(work, states, kind="run", scene=scene,
                                      status=status, kernel=summary["scheme"].get("kernel", ""))
             atomic_write_text(work / "summary.json", json.dumps(summary, indent=2))
             commit_run_dir(rd)
@@ -435,7 +435,7 @@ def write_batch_member(run, folder: Path, extra: dict, prof: Profile, backend: s
     if field is not None:
         atomic_save_npz(folder / "final_field.npz", field)
     if run.state is not None:
-        write_checkpoint(folder, [run.state], kind="batch", scene=run.scene.name,
+        write_checkpoint(folder, [run.state], kind="batch", scene=run.scene,
                          status=run.status, kernel=summary["scheme"]["kernel"],
                          backend=backend)
     summary["profile_s"] = {k: round(v, 4) for k, v in prof.seconds.items()}
