@@ -80,6 +80,7 @@ def build_parser() -> argparse.ArgumentParser:
 # (dolfinx, PETSc, matplotlib, pyvista) inside its handlers.
 COMMAND_MODULES = (
     "cli.run",  # run, plot
+    "cli.continue_run",  # continue
     "cli.semianalytic",  # wave, flutter
     "cli.compare",  # compare
     "cli.sweep",  # sweep

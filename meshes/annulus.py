@@ -21,6 +21,7 @@ Lagrange space of degree ``degree`` (= geometry degree):
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass
 
 import dolfinx
@@ -161,6 +162,11 @@ def annulus_mesh(
     (initialised and finalised here unless the caller had already initialised it).
     """
     _check(R, xi, n_inner, n_radial, cell, degree)
+    # PT-Scotch partitions with several threads by default, and then not reproducibly: the
+    # same mesh on the same ranks gets another partition from one build to the next (and
+    # an MPI run other bits). One thread makes it the same every time, which a continued
+    # run needs (studies.rundir.continuation); the variable is read at each partitioning.
+    os.environ.setdefault("SCOTCH_PTHREAD_NUMBER", "1")
     n_edges = n_inner // degree
     n_radial = n_radial or auto_n_radial(xi, n_edges)
     root = 0

@@ -40,7 +40,7 @@ import numpy as np
 
 from solver.contact.law import SEPARATION, SLIP, STICK, forward_increment_factor
 from solver.ensemble_cuda import CUDA_SOURCE
-from solver.schemes.protocol import HookedStepper
+from solver.schemes.protocol import HookedStepper, copy_state, put_state
 
 #: The batched stepper's implementations of one step (not the scene's ``time.kernel`` choice).
 BATCH_KERNELS = ("numba", "cuda", "xp")
@@ -173,6 +173,7 @@ class BatchedExplicit(HookedStepper):
         # a regularised bound's per-node state (sigma_eff, the last u_theta), (m, B)
         self.sigma, self.ut_last = (z(m, B), z(m, B)) if self.reg else (z(0, B), z(0, B))
         self._started = np.zeros(1, dtype=np.int64)  # 0 until the first step
+        self._first_call = True  # of the kernel by this stepper
         self.u0_ku0 = np.zeros(B)
         self._dots = np.zeros(B)
         self.mass = dev(bp.mass)
@@ -243,6 +244,44 @@ class BatchedExplicit(HookedStepper):
             ku0 = xp.zeros_like(self.u)
             self._stiffness(self.u, ku0)
             self.u0_ku0 = self._column_dots(self.u, ku0).copy()
+
+    def _state_names(self) -> tuple[str, ...]:
+        """What the next step reads, per column (the last axis is the scene): u_{n+1}, u_n
+        (a damped step's u_{n-1}), v~_{n+1}, u_n at the contact nodes, the work sums, a
+        regularised bound's state, d (0 once masked) and, damped, w_{n+1} (and the CUDA
+        kernel's per-node damping sums)."""
+        names = ("u", "u_prev", "v_pred", "zprev", "work", "sigma", "ut_last", "d")
+        if self.damped:
+            names += ("u_tau", "u0_ku0") + (("dwork",) if self.kernel == "cuda" else ())
+        return names
+
+    def state(self, b: int) -> dict[str, np.ndarray]:
+        """Scene ``b``'s checkpoint: its column of every array of ``_state_names`` (host
+        copies), the clock and the kernel; ``restore`` stacks such columns into a batch of
+        any size (the scenes are independent columns: the same bits)."""
+        out = {name: value[..., b].copy()
+               for name, value in copy_state(self, self._state_names()).items()}
+        out.update(time=np.float64(self.time), step_count=np.int64(self.step_count),
+                   kernel=np.array(self.kernel))
+        return out
+
+    def restore(self, states: list[dict[str, np.ndarray]]) -> None:
+        """Continue the columns from ``states`` (one ``state(b)`` per column, all at the same
+        step and of this kernel; ValueError otherwise) after ``set_state``."""
+        if len(states) != self.B:
+            raise ValueError(f"{len(states)} checkpoints for a batch of {self.B} scenes")
+        steps = {(int(s["step_count"]), float(s["time"])) for s in states}
+        kernels = {str(s["kernel"]) for s in states}
+        if len(steps) != 1 or kernels != {self.kernel}:
+            raise ValueError(f"the checkpoints are at steps {sorted(steps)} of kernels "
+                             f"{sorted(kernels)}: a batch continues scenes at one step of "
+                             f"the {self.kernel!r} kernel")
+        names = self._state_names()
+        stacked = {name: np.stack([s[name] for s in states], axis=-1) for name in names}
+        step, time = steps.pop()
+        put_state(self, dict(stacked, time=np.float64(time), step_count=np.int64(step)),
+                  names)
+        self._started[0] = int(step > 0)
 
     def mask(self, b: int) -> None:
         """Take scene ``b`` out of the batch: zero state and no contact (stays at rest)."""
@@ -333,7 +372,8 @@ class BatchedExplicit(HookedStepper):
                     self.keep, self.mass, self.energy, self._w[cur], self._w[nxt], self.tau,
                     self.dsum, self.reg, self.sigma, self.ut_last, self.rate_slip,
                     self.rate_base, self._started)
-            if self.step_count == 0:
+            if self._first_call:  # compiled (or loaded) here, with SLP, even when continued
+                self._first_call = False
                 with slp_vectorize():
                     timed_first_call(self._name, self._fn, *args)
                 from solver.fused import COMPILE_SECONDS

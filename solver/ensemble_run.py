@@ -24,7 +24,7 @@ import numpy as np
 from mpi4py import MPI
 
 from solver.contact import ContactLaw
-from solver.observers import Cadence
+from solver.observers import Cadence, ContinuedRecords
 from solver.run import Profile, gather_final_field, run_facts, run_loop
 from solver.scene import Scene
 
@@ -43,8 +43,13 @@ class SceneRun:
         self.steady = None
         self.steady_mean_pressure = float("nan")
         self.u_final: np.ndarray | None = None
-        self.recorder: MemberRecords | None = None
-        self.probes: MemberProbes | None = None
+        #: what the outputs read: this scene's records (with the earlier ones in front
+        #: when continued, ``solver.observers.ContinuedRecords``)
+        self.recorder: MemberRecords | ContinuedRecords | None = None
+        self.probes: MemberProbes | ContinuedRecords | None = None
+        self.members: tuple[MemberRecords, MemberProbes] | None = None  # the live records
+        #: this scene's checkpoint when it finished at a whole level (``finish``), else None
+        self.state: dict[str, np.ndarray] | None = None
         self._scheme: dict = {}
 
     def facts(self) -> dict:
@@ -63,8 +68,11 @@ class SceneRun:
         self._scheme = st.facts()
         u = st.u[:, b]
         self.u_final = np.array(u.get() if hasattr(u, "get") else u)
-        self.recorder.n = batch.recorder.n
-        self.probes.n = batch.recorder.n_probe
+        records, probes = self.members
+        records.n = batch.recorder.n
+        probes.n = batch.recorder.n_probe
+        if status == "completed" and batch.at_level:  # not a masked (diverged) scene
+            self.state = batch.checkpoint(b, self)
 
 
 class MemberRecords:
@@ -161,6 +169,7 @@ class BatchSimulation:
         self.spool_dir: Path | None = None
         self.observers: list = []
         self.t_start, self.max_wall = time.perf_counter(), None
+        self.at_level = False  # ``proceed`` returned: every scene stands at a whole level
         if self.live:
             self._build(np.stack([u0s[k] for k in self.live], axis=1), spool_parent,
                         memory_budget)
@@ -218,10 +227,43 @@ class BatchSimulation:
         stepper.full_state_at = rec.due
         stepper.attach(ProbeHook(rec))
         for b, k in enumerate(self.live):
-            self.runs[k].recorder = MemberRecords(rec, b, shape.n_nodes)
-            self.runs[k].probes = MemberProbes(rec, b)
+            run = self.runs[k]
+            run.members = (MemberRecords(rec, b, shape.n_nodes), MemberProbes(rec, b))
+            run.recorder, run.probes = run.members
         self.stepper, self.recorder = stepper, rec
         self.observers = [BatchSampling(self)]
+
+    # ------------------------------------------------------------------ checkpoint
+
+    def checkpoint(self, b: int, run: SceneRun) -> dict[str, np.ndarray]:
+        """Column b's checkpoint, flat as ``Simulation.checkpoint``'s: the stepper's column
+        (``BatchedExplicit.state``), the energy guard's E(0) and bound of that scene, its
+        steady pressure and its counts of samples and probe steps (those before a
+        continuation included)."""
+        out = {f"stepper/{k}": v for k, v in self.stepper.state(b).items()}
+        out.update({"run/initial_energy": np.float64(self.recorder.initial[b]),
+                    "run/energy_bound": np.float64(self.recorder.bound[b]),
+                    "run/steady_pressure": np.float64(run.steady_mean_pressure),
+                    "run/samples": np.int64(run.recorder.n),
+                    "run/probe_steps": np.int64(run.probes.n)})
+        return out
+
+    def restore(self, states: list[dict[str, np.ndarray]],
+                befores: list[dict[str, np.ndarray]]) -> None:
+        """Continue every scene from its checkpoint (``checkpoint``, in the order of
+        ``scenes``; every one must be live and at the same step) with its earlier records
+        ``befores`` (samples.npz) in front of the new ones. Call before ``proceed``."""
+        if self.live != list(range(len(self.scenes))):
+            raise ValueError("a continued batch needs every scene live (a steady state failed)")
+        head = "stepper/"
+        self.stepper.restore([{k[len(head):]: v for k, v in s.items() if k.startswith(head)}
+                              for s in states])
+        for b, (run, state, before) in enumerate(zip(self.runs, states, befores, strict=True)):
+            self.recorder.initial[b] = float(state["run/initial_energy"])
+            self.recorder.bound[b] = float(state["run/energy_bound"])
+            run.steady_mean_pressure = float(state["run/steady_pressure"])
+            run.recorder = ContinuedRecords(run.members[0], before, state["run/samples"])
+            run.probes = ContinuedRecords(run.members[1], before, state["run/probe_steps"])
 
     def proceed(self) -> str:
         """Run every live scene to the end (``solver.run.run_loop``); returns the reason."""
@@ -231,10 +273,12 @@ class BatchSimulation:
         self.max_wall = ts.max_wall_time or None
         self.t_start = time.perf_counter()
         stop = "end_time"
+        self.at_level = False
         try:
             with self.profile.phase("time-loop"):
                 stop = run_loop(self.stepper, self.observers, end - 1e-12 * end,
                                 ts.max_steps or math.inf)
+            self.at_level = True  # not interrupted inside a step: the scenes can continue
         finally:
             self.observers[0].diverge(self.recorder.close(), self.stepper)
             for b, k in enumerate(self.live):

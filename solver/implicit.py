@@ -77,7 +77,7 @@ from petsc4py import PETSc
 from solver.active_set import ActiveSetSolver, ContactSolveError
 from solver.contact import SEPARATION, SLIP, ContactArrays, NodalFrames
 from solver.errors import Diverged
-from solver.schemes.protocol import HookedStepper
+from solver.schemes.protocol import HookedStepper, copy_state, put_state
 
 OPTIONS_PREFIX = "stickslip_implicit_"  # PETSc options of the K_eff solver
 SCHUR_BLOCK = 64  # columns of E per KSP.matSolve (bounds the dense work array)
@@ -263,6 +263,28 @@ class ImplicitContact(NodalFrames):
         self.comm.Allreduce(self.work_exposed if exposed else self.work, total, op=MPI.SUM)
         return float(total[0]), float(total[1])
 
+    def state(self) -> dict[str, np.ndarray]:
+        """The checkpoint: the forces and statuses of the level computed last (the next
+        step exposes them), the work sums and, on rank 0, the active set (its warm start)."""
+        lev = self._next
+        out = {"r_polar": lev.r_polar.copy(), "r_xy": lev.r_xy.copy(),
+               "status": lev.out.status.copy(), "work": self.work.copy(),
+               "work_exposed": self.work_exposed.copy()}
+        if self.solver is not None:
+            out["mode"] = self.solver.mode.copy()
+        return out
+
+    def restore(self, state: dict[str, np.ndarray]) -> None:
+        """Continue from ``state()``."""
+        lev = self._next
+        lev.r_polar[:] = state["r_polar"]
+        lev.r_xy[:] = state["r_xy"]
+        lev.out.status[:] = state["status"]
+        self.work[:] = state["work"]
+        self.work_exposed[:] = state["work_exposed"]
+        if self.solver is not None:
+            self.solver.mode[:] = state["mode"]
+
     def swap(self) -> None:
         """Expose the level computed last (internal) as level n; recycle the other arrays."""
         self._exposed, self._next = self._next, self._exposed
@@ -388,6 +410,25 @@ class ImplicitNewmark(HookedStepper):
         if self.contact is not None:
             self._mult(self.u, self.ku)
             self.contact.initial(self.u, self.ku)
+
+    def _state_names(self) -> tuple[str, ...]:
+        """What the next step reads: u_{n+1}, u_n, v_{n+1}, a*_{n+1} and, damped, the
+        K (g u~ - v~) and K v^d of the last step."""
+        return ("u", "u_prev", "v_next", "a_next") + (("kb", "kvd") if self.tau > 0.0 else ())
+
+    def state(self) -> dict[str, np.ndarray]:
+        """The checkpoint (``solver.schemes.protocol.Stepper.state``), with the damping
+        work and the active-set iterations of every step so far (the run's facts)."""
+        out = copy_state(self, self._state_names(), clock=True)
+        out["damping_work_local"] = np.float64(self.damping_work_local)
+        out["iterations"] = np.asarray(self.iterations, dtype=np.int32)
+        return out
+
+    def restore(self, state: dict[str, np.ndarray]) -> None:
+        """Continue from ``state()`` (``solver.schemes.protocol.Stepper.restore``)."""
+        put_state(self, state, self._state_names())
+        self.damping_work_local = float(state["damping_work_local"])
+        self.iterations = [int(i) for i in state["iterations"]]
 
     def step(self) -> None:
         """Advance one step; afterwards ``u`` = u_{n+1} and the exposed level is n."""

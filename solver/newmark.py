@@ -41,7 +41,7 @@ from collections.abc import Callable
 import numpy as np
 
 from solver.contact.law import forward_increment_factor
-from solver.schemes.protocol import HookedStepper
+from solver.schemes.protocol import HookedStepper, copy_state, put_state
 
 ContactStep = Callable[[np.ndarray, np.ndarray, np.ndarray], None]
 """contact(u_n, v~_n, a): the forward-increment constraint, in place on ``a``.
@@ -93,6 +93,16 @@ class ExplicitStart(HookedStepper):
     v_pred: np.ndarray
     beta2: float
     dt: float
+    #: What the next step reads: u_{n+1}, u_n (a damped step's u_{n-1}) and v~_{n+1}.
+    STATE: tuple[str, ...] = ("u", "u_prev", "v_pred")
+
+    def state(self) -> dict[str, np.ndarray]:
+        """The checkpoint of the stepper (``solver.schemes.protocol.Stepper.state``)."""
+        return copy_state(self, self.STATE, clock=True)
+
+    def restore(self, state: dict[str, np.ndarray]) -> None:
+        """Continue from ``state()`` (``solver.schemes.protocol.Stepper.restore``)."""
+        put_state(self, state, self.STATE)
 
     def set_state(self, u: np.ndarray, v: np.ndarray, a0: np.ndarray | None = None) -> None:
         """Initial displacement, velocity and (optionally) acceleration.

@@ -17,10 +17,12 @@ import math
 import sys
 import time
 from dataclasses import dataclass
-from typing import Protocol, runtime_checkable
+from typing import TYPE_CHECKING, Protocol, runtime_checkable
 
 import numpy as np
-from mpi4py import MPI
+
+if TYPE_CHECKING:  # imported where a recorder talks to other ranks: the module loads without
+    from mpi4py import MPI
 
 
 @dataclass(frozen=True)
@@ -93,6 +95,19 @@ class EnergyAccumulator:
         self.friction_dissipation = 0.0
         self._exact_work = hasattr(projection, "work_totals")  # implicit scheme (checked once)
 
+    def state(self) -> dict[str, np.ndarray]:
+        """The checkpoint: u_n, u_{n+1} at the nodes and the three sums (after a step)."""
+        return {"z_prev": self.z_prev.copy(), "z_now": self.z_now.copy(),
+                "sums": np.array([self.work_contact, self.work_cylinder,
+                                  self.friction_dissipation])}
+
+    def restore(self, state: dict[str, np.ndarray]) -> None:
+        """Continue from ``state()``."""
+        self.z_prev[:] = state["z_prev"]
+        self.z_now[:] = state["z_now"]
+        self.work_contact, self.work_cylinder, self.friction_dissipation = (
+            float(x) for x in state["sums"])
+
     def after_step(self, stepper) -> None:
         """Accumulate the work of r_n with the centred increment (u_{n+1} - u_{n-1}) / 2."""
         p = self.p
@@ -117,6 +132,8 @@ class EnergyAccumulator:
         if comm.size == 1:  # one rank: the sum is the local value (no Allreduce)
             total = [self.work_contact, self.work_cylinder, self.friction_dissipation]
         else:
+            from mpi4py import MPI
+
             local = np.array([self.work_contact, self.work_cylinder, self.friction_dissipation])
             total = np.zeros(3)
             comm.Allreduce(local, total, op=MPI.SUM)
@@ -147,6 +164,16 @@ class DampingWork:
         self.u0_ku0 = float(np.dot(u0, ku0))
         self.sum_kw = 0.0
 
+    def state(self) -> dict[str, np.ndarray]:
+        """The checkpoint: u_{n-1}, u_0 . K u_0 and the step sum."""
+        return {"u_older": self.u_older.copy(),
+                "sums": np.array([self.u0_ku0, self.sum_kw])}
+
+    def restore(self, state: dict[str, np.ndarray]) -> None:
+        """Continue from ``state()``."""
+        self.u_older[:] = state["u_older"]
+        self.u0_ku0, self.sum_kw = (float(x) for x in state["sums"])
+
     def after_step(self, integrator) -> None:
         """Accumulate K w_n . (u_{n+1} - u_{n-1}) / 2 (integrator.u = u_{n+1}, u_prev = u_n)."""
         kw = integrator.kw
@@ -168,6 +195,8 @@ class InnerCircleRecorder:
 
     def __init__(self, problem, projection, energy: EnergyAccumulator, every: int,
                  max_samples: int) -> None:
+        from mpi4py import MPI
+
         self.problem, self.p, self.energy = problem, projection, energy
         self.every = max(1, every)
         self.comm = problem.comm
@@ -319,6 +348,8 @@ class InnerCircleRecorder:
 
     def _record_gathered(self, integrator, p) -> None:
         """Several ranks: polar values of the owned nodes, one Gatherv each, sorted on rank 0."""
+        from mpi4py import MPI
+
         p._polar(integrator.u_prev, self.send[0], self.send[1])
         p._polar(integrator.v, self.send[2], self.send[3])
         self.send[4] = p.out.r_r
@@ -399,6 +430,8 @@ class ProbeRecorder:
     """
 
     def __init__(self, problem, projection, probes_deg, max_steps: int) -> None:
+        from mpi4py import MPI
+
         self.comm = problem.comm
         self.p = projection
         nd = problem.nodes
@@ -469,3 +502,43 @@ class ProbeRecorder:
                 data[slot] = arr[k]
                 deg[slot] = angles[k]
         return {"probe_t": t, "probe_deg": deg, "probe_data": data}
+
+
+#: The axis along which each recorded array grows with time (samples.npz's keys); the keys
+#: not listed (theta, ds, probe_deg) are the same at every time.
+TIME_AXIS = {"t": 0, "u_r": 0, "u_theta": 0, "v_r": 0, "v_theta": 0, "status": 0,
+             "energies": 0, "r_r": 0, "r_theta": 0, "probe_t": 0, "probe_data": 1}
+
+
+class ContinuedRecords:
+    """The records of a continued run: the ``n_before`` taken before its checkpoint
+    (``before``, read back from the run's samples.npz on rank 0; None elsewhere) followed by
+    those of the live recorder ``live`` (an ``InnerCircleRecorder``, a ``ProbeRecorder`` or
+    a batch member's face of them).
+
+    ``arrays()`` joins the two along ``TIME_AXIS``; ``n`` is the count of both. Each
+    recorded row is computed row by row (``InnerCircleRecorder._record_single``, the
+    probes' rotation), so the joined arrays are bitwise those of one run straight through.
+    Everything else is the live recorder's."""
+
+    def __init__(self, live, before: dict[str, np.ndarray] | None, n_before: int) -> None:
+        self.live, self.before, self.n_before = live, before, int(n_before)
+
+    @property
+    def n(self) -> int:
+        return self.n_before + self.live.n
+
+    def __getattr__(self, name: str):
+        return getattr(self.live, name)
+
+    def arrays(self) -> dict[str, np.ndarray] | None:
+        """The live recorder's ``arrays()`` with the earlier records in front (None where
+        the live one gives None: the ranks other than 0)."""
+        now = self.live.arrays()
+        if now is None or self.before is None:
+            return now
+        out = dict(now)
+        for key, axis in TIME_AXIS.items():
+            if key in now and key in self.before:
+                out[key] = np.concatenate([self.before[key], now[key]], axis=axis)
+        return out

@@ -11,9 +11,9 @@ import math
 import time
 from contextlib import contextmanager
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
-from mpi4py import MPI
 
 from solver import __version__
 from solver.contact import zone_fractions
@@ -26,6 +26,9 @@ from solver.errors import (  # noqa: F401  (StepTooLarge re-exported for scripts
 )
 from solver.observers import Cadence
 from solver.scene import Scene
+
+if TYPE_CHECKING:  # mpi4py is imported where a run uses it: ``run_loop`` runs without it
+    from mpi4py import MPI
 
 
 class Profile:
@@ -57,7 +60,7 @@ class Simulation:
     ``initial_state`` = (u, v, a or None) on the owned dofs (serial use: a wave of
     ``studies.travel.frame.FrameOperators.shift_state``)."""
 
-    def __init__(self, scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD,
+    def __init__(self, scene: Scene, comm: MPI.Comm | None = None,
                  profile: Profile | None = None,
                  output_dir: Path | None = None,
                  initial_state: tuple[np.ndarray, np.ndarray, np.ndarray | None] | None = None,
@@ -66,6 +69,10 @@ class Simulation:
         from solver.schemes.select import make_stepper, time_step
         from solver.steady import solve_steady_sliding
 
+        if comm is None:
+            from mpi4py import MPI
+
+            comm = MPI.COMM_WORLD
         self.scene, self.comm = scene, comm
         self.profile = profile or Profile()
         with self.profile.phase("mesh+assembly"):
@@ -188,6 +195,8 @@ class Simulation:
         if not code and max_wall is not None and time.perf_counter() - self._t_start > max_wall:
             code = 1
         if self.comm.size > 1:  # buffer Allreduce: no pickling (65 us vs 240 us measured)
+            from mpi4py import MPI
+
             self._stop_code[0] = code
             self.comm.Allreduce(MPI.IN_PLACE, self._stop_code, op=MPI.MAX)
             code = int(self._stop_code[0])
@@ -215,6 +224,72 @@ class Simulation:
             self.stop_reason = run_loop(stepper, observers, t_stop, step_stop)
         self.profile.seconds["contact (in time-loop)"] = float(stepper.facts()["contact_s"])
         return self.stop_reason
+
+    # ------------------------------------------------------------------ checkpoint
+
+    def _state_parts(self) -> dict:
+        """The objects whose state a continued run needs, by name: the stepper, the contact
+        step, the contact-work and (damped explicit) damping-work observers."""
+        parts = {"stepper": self.integrator, "contact": self.projection, "energy": self.energy}
+        if self.damping_work is not None:
+            parts["damping"] = self.damping_work
+        return parts
+
+    @property
+    def resumable(self) -> bool:
+        """True once ``proceed`` has returned: the run stands at a whole time level (every
+        observer has seen what it was due to see), so ``checkpoint`` can be continued."""
+        return bool(self.stop_reason)
+
+    def checkpoint(self) -> dict[str, np.ndarray]:
+        """This rank's checkpoint, flat ``{"part/name": array}``: each part's ``state()``
+        (``_state_parts``: the last level's vectors, the contact statuses, the work sums), and
+        under ``run/`` the energy guard's E(0) and bound, the steady pressure and the counts
+        of samples and probe steps taken. The cadences need nothing: they are fixed levels
+        (``Cadence``) and the step count is the stepper's. The records themselves are the
+        run's samples.npz (``restore``'s ``before``)."""
+        out = {f"{part}/{key}": value for part, obj in self._state_parts().items()
+               for key, value in obj.state().items()}
+        e0 = math.nan if self.initial_energy is None else self.initial_energy
+        out.update({"run/partition": np.array(self.partition_id()),
+                    "run/initial_energy": np.float64(e0),
+                    "run/energy_bound": np.float64(self.energy_bound),
+                    "run/steady_pressure": np.float64(self.steady_mean_pressure),
+                    "run/samples": np.int64(self.recorder.n),
+                    "run/probe_steps": np.int64(self.probes.n)})
+        return out
+
+    def restore(self, state: dict[str, np.ndarray],
+                before: dict[str, np.ndarray] | None = None) -> None:
+        """Continue from ``checkpoint()`` of the same scene on the same ranks (call before
+        ``proceed``). ``before``: the records taken up to the checkpoint (samples.npz, on
+        rank 0; None elsewhere), which ``recorder.arrays()`` and ``probes.arrays()`` then put
+        in front of the new ones (``solver.observers.ContinuedRecords``)."""
+        from solver.observers import ContinuedRecords
+
+        mine = str(state["run/partition"]) == self.partition_id()
+        if not all(self.comm.allgather(mine)):
+            raise ValueError("the mesh partition differs from the checkpoint's (a partitioner "
+                             "that is not reproducible: is SCOTCH_PTHREAD_NUMBER set above "
+                             "1?); continue with the partition the run had")
+        for part, obj in self._state_parts().items():
+            head = f"{part}/"
+            obj.restore({k[len(head):]: v for k, v in state.items() if k.startswith(head)})
+        e0 = float(state["run/initial_energy"])
+        self.initial_energy = None if math.isnan(e0) else e0
+        self.energy_bound = float(state["run/energy_bound"])
+        self.steady_mean_pressure = float(state["run/steady_pressure"])
+        self.recorder = ContinuedRecords(self.recorder, before, state["run/samples"])
+        self.probes = ContinuedRecords(self.probes, before, state["run/probe_steps"])
+
+    def partition_id(self) -> str:
+        """This rank's part of the mesh, as a hash of its owned nodes' coordinates (sorted):
+        the same on every build of the same partition, whatever the local numbering."""
+        import hashlib
+
+        x = self.problem.V.tabulate_dof_coordinates()[: self.problem.n_owned // 2, :2]
+        ordered = np.ascontiguousarray(x[np.lexsort(x.T)])
+        return hashlib.sha256(ordered.tobytes()).hexdigest()
 
     def final_field(self) -> dict[str, np.ndarray] | None:
         """Displacement on the whole tube at the end, with the stress and contact tractions

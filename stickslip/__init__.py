@@ -13,6 +13,7 @@ The public API, one import for a notebook or a study script::
 =====================  ===============================================================
 ``load_scene``         a scene file (or shipped scene name) with overrides -> ``Scene``
 ``run``                one transient run into a run directory -> its summary
+``continue_run``       a run continued from its checkpoint to a later time -> its summary
 ``analyse``            the wave measured in a run directory -> ``WaveSummary``
 ``load_run``           a run directory's scene, summary and samples -> ``RunData``
 ``sweep``              a parameter study (sweep file) -> its table
@@ -41,6 +42,7 @@ from solver import __version__ as __version__
 _EXPORTS = {
     "load_scene": "stickslip.api",
     "run": "stickslip.api",
+    "continue_run": "stickslip.api",
     "analyse": "stickslip.api",
     "load_run": "stickslip.api",
     "sweep": "stickslip.api",

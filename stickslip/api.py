@@ -21,7 +21,7 @@ if TYPE_CHECKING:
     from solver.scene import Scene
     from studies.flutter_fe.cea import CEAResult
 
-__all__ = ["analyse", "cea", "cea_friction_sweep", "load_run",
+__all__ = ["analyse", "cea", "cea_friction_sweep", "continue_run", "load_run",
            "load_scene", "plot_run", "plot_sweep", "reduced_waves", "run", "sweep", "travel",
            "travel_branch"]
 
@@ -126,6 +126,43 @@ def run(scene: str | Path | Scene, run_dir: str | Path | None = None, *,
 
         _plot(path)
     return summary
+
+
+def continue_run(run_dir: str | Path, until: float, out_dir: str | Path | None = None, *,
+                 force: bool = False, quiet: bool = False,
+                 check_resources: bool = True) -> dict:
+    """Continue a run from its checkpoint to ``until`` seconds (``stickslip continue``).
+
+    Args:
+        run_dir: a run directory with a ``checkpoint.npz`` (every run that ended at a whole
+            time level writes one: completed, stopped, interrupted; a batch member).
+        until: the new end time (s), beyond the run's current time.
+        out_dir: where the continued run goes; None extends ``run_dir`` in place,
+            atomically (kept as it was if the continuation fails or is interrupted).
+        force: replace an earlier run directory at ``out_dir``.
+        quiet: do not print the estimate, progress and summary lines.
+        check_resources: refuse a continuation beyond the machine's memory or disk.
+
+    Returns:
+        The continued run's summary: that of one run straight to ``until``, bit for bit,
+        but for the wall-clock keys (``studies.rundir.continuation.WALL_CLOCK_KEYS``).
+
+    Raises:
+        ValueError: the run cannot be continued (no checkpoint, ``until`` not later, another
+            number of ranks, ...), with the fix in one line.
+        FileExistsError: ``out_dir`` is not free (``force`` replaces a run there), or the
+            run is in use by a running command.
+
+    Example:
+        >>> s = stickslip.run("smoke", "/tmp/smoke", force=True, quiet=True)
+        >>> stickslip.continue_run("/tmp/smoke", 0.03, quiet=True)["sim_time_s"] >= 0.03
+        True
+    """
+    from studies.rundir import continue_run as _continue
+
+    return _continue(run_dir, until, out_dir, force=force,
+                     stream=io.StringIO() if quiet else sys.stdout,
+                     check_resources=check_resources)
 
 
 def load_run(run_dir: str | Path) -> RunData:

@@ -75,6 +75,9 @@ class ContactProjection(NodalFrames):
     rank, so nothing is double counted in parallel. All arrays are preallocated.
     """
 
+    #: A regularised friction bound's per-node state (the subclasses that have one).
+    effective: EffectivePressure | None = None
+
     def __init__(self, problem, law: ContactLaw) -> None:
         nd = problem.nodes
         super().__init__(nd)
@@ -120,6 +123,27 @@ class ContactProjection(NodalFrames):
         np.multiply(self.r_xy, self.inv_mass, out=trial)
         work += trial
         np.put(a_c, idx, work)
+
+
+    def state(self) -> dict[str, np.ndarray]:
+        """The checkpoint: the statuses of the last level and, for a regularised bound,
+        sigma_eff and the last u_theta (the step reads those)."""
+        out = {"status": self.out.status.copy()}
+        if self.effective is not None:
+            eff = self.effective
+            out.update(sigma=eff.sigma.copy(), u_t_last=eff.u_t_last.copy(),
+                       rate=eff.rate.copy(), started=np.int8(eff.started))
+        return out
+
+    def restore(self, state: dict[str, np.ndarray]) -> None:
+        """Continue from ``state()`` (in place: a compiled step holds views of the arrays)."""
+        self.out.status[:] = state["status"]
+        if self.effective is not None:
+            eff = self.effective
+            eff.sigma[:] = state["sigma"]
+            eff.u_t_last[:] = state["u_t_last"]
+            eff.rate[:] = state["rate"]
+            eff.started = bool(state["started"])
 
 
 class RegularizedContactProjection(ContactProjection):

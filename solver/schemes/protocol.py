@@ -23,7 +23,7 @@ from typing import Protocol, runtime_checkable
 
 import numpy as np
 
-__all__ = ["Stepper", "StepHook", "HookedStepper"]
+__all__ = ["Stepper", "StepHook", "HookedStepper", "copy_state", "put_state"]
 
 
 @runtime_checkable
@@ -54,6 +54,47 @@ class Stepper(Protocol):
     def facts(self) -> dict:
         """The scheme's facts for the run summary: name, beta1, beta2, damping, kernel,
         contact time and the scheme's own counters."""
+
+    def state(self) -> dict[str, np.ndarray]:
+        """What the next step reads, as host copies (the clock ``time``, ``step_count`` and
+        the arrays of the last level): a checkpoint that ``restore`` continues bitwise."""
+
+    def restore(self, state: dict[str, np.ndarray]) -> None:
+        """Take up ``state`` (of ``state()``, same scene and ranks) after ``set_state``."""
+
+
+def copy_state(obj, names: tuple[str, ...], clock: bool = False) -> dict[str, np.ndarray]:
+    """Host copies of ``obj``'s arrays ``names`` (a device array is copied to the host), and
+    with ``clock`` a stepper's ``time`` and ``step_count``: a ``state()``."""
+    out = {name: np.array(_host(getattr(obj, name))) for name in names}
+    if clock:
+        out["time"] = np.float64(obj.time)
+        out["step_count"] = np.int64(obj.step_count)
+    return out
+
+
+def put_state(obj, state: dict[str, np.ndarray], names: tuple[str, ...]) -> None:
+    """Write ``state[name]`` into ``obj``'s array ``name`` in place, for each of ``names``,
+    and set its clock; the shapes must match (a checkpoint of another mesh or partition is
+    refused with ValueError)."""
+    for name in names:
+        target = getattr(obj, name)
+        value = np.asarray(state[name])
+        if value.shape != target.shape:
+            raise ValueError(f"checkpoint array {name!r} has shape {value.shape}, the run "
+                             f"{target.shape}: not this scene's mesh or partition")
+        if isinstance(target, np.ndarray):
+            target[...] = value
+        else:  # a CuPy array: one host-to-device copy
+            target.set(np.ascontiguousarray(value, dtype=target.dtype))
+    if "step_count" in state:
+        obj.time = float(state["time"])
+        obj.step_count = int(state["step_count"])
+
+
+def _host(array):
+    """A numpy view or copy of a numpy or CuPy array."""
+    return array.get() if hasattr(array, "get") else array
 
 
 class HookedStepper:

@@ -7,7 +7,9 @@ the wave analysis of ``postprocess.analysis``). Only rank 0 writes files; every 
 
 ``ownership`` (which directories stickslip may write or replace: every command),
 ``readers`` (every file stickslip reads back, validated), ``directory`` (a run's directory),
-``signals`` (interrupts by phase), ``scene_run`` (``run_scene``, the summary, the exit codes).
+``signals`` (interrupts by phase), ``scene_run`` (``run_scene``, the summary, the exit codes),
+``checkpoint`` (a run's checkpoint.npz), ``continuation`` (``continue_run``,
+``continue_batch``: a run or batch members continued from their checkpoints).
 
 Names are imported on first use, so ``studies.rundir.ownership`` and ``readers`` stay light
 (no MPI, no dolfinx) for the commands that only read or check.
@@ -33,6 +35,11 @@ _WHERE = {
     "run_scene": "studies.rundir.scene_run",
     "scene_warnings": "studies.rundir.scene_run",
     "summarise": "studies.rundir.scene_run",
+    "write_batch_member": "studies.rundir.scene_run",
+    "CHECKPOINT": "studies.rundir.checkpoint",
+    "read_checkpoint": "studies.rundir.checkpoint",
+    "continue_batch": "studies.rundir.continuation",
+    "continue_run": "studies.rundir.continuation",
     "RunSignals": "studies.rundir.signals",
 }
 

@@ -15,6 +15,7 @@ import shutil
 import socket
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 from mpi4py import MPI
@@ -25,6 +26,7 @@ from solver.errors import Diverged, StepTooLarge
 from solver.run import Profile, Simulation
 from solver.scene import Scene, write_scene
 from studies.output import output_root, process_alive  # noqa: F401  (re-exported)
+from studies.rundir.checkpoint import write_checkpoint
 from studies.rundir.directory import (
     RunDir,
     RunDirError,
@@ -98,8 +100,12 @@ class RunDirectory:
 
     def __init__(self, scene: Scene, run_dir: Path, *, force: bool = False,
                  comm: MPI.Comm = MPI.COMM_WORLD, profile: bool = False, stream=None,
-                 check_resources: bool = True, replace_on_failure: bool = False) -> None:
+                 check_resources: bool = True, replace_on_failure: bool = False,
+                 resume: Callable[[Simulation], None] | None = None) -> None:
+        """``resume(sim)``, if given, restores the built ``Simulation`` from a checkpoint
+        before it proceeds (``studies.rundir.continuation``)."""
         self.scene, self.run_dir, self.force, self.comm = scene, Path(run_dir), force, comm
+        self.resume = resume
         self.profile, self.check_resources = profile, check_resources
         self.replace_on_failure = replace_on_failure
         self.stream = sys.stdout if stream is None else stream
@@ -209,6 +215,8 @@ class RunDirectory:
         for warning in scene_warnings(scene):
             self.say(f"  warning: {warning}")
         sim = self.sim = Simulation(scene, comm, self.prof, output_dir=self.rd.work)
+        if self.resume is not None:
+            self.resume(sim)
         if sim.dt > scene.time.end_time:  # same on every rank: collective
             raise StepTooLarge(
                 f"time.end_time = {scene.time.end_time:g} s is shorter than one time step "
@@ -350,6 +358,9 @@ def _save(sim: Simulation | None, rd: RunDir, scene: Scene, status: str, error: 
     with prof.phase("output"):
         probe_arrays = sim.probes.arrays() if sim is not None else None
         field = sim.final_field() if sim is not None else None
+        # the checkpoint of a run that stands at a whole level (not failed or diverged)
+        states = comm.gather(sim.checkpoint(), root=0) \
+            if sim is not None and sim.resumable else None
         if sim is not None and sim.writer is not None:
             sim.writer.close()
         if not rank0:
@@ -382,6 +393,9 @@ def _save(sim: Simulation | None, rd: RunDir, scene: Scene, status: str, error: 
                                 compress=status != "interrupted")
                 if field is not None:
                     atomic_save_npz(work / "final_field.npz", field)
+                if states is not None:
+                    write_checkpoint(work, states, kind="run", scene=scene,
+                                     status=status, kernel=summary["scheme"].get("kernel", ""))
             atomic_write_text(work / "summary.json", json.dumps(summary, indent=2))
             commit_run_dir(rd)
         except OSError as err:
@@ -404,6 +418,29 @@ def _save(sim: Simulation | None, rd: RunDir, scene: Scene, status: str, error: 
             except OSError as err:
                 summary["message"] = (f"{summary.get('message', '')}; " if summary.get(
                     "message") else "") + f"could not add the wave analysis to summary.json: {err}"
+    return summary
+
+
+def write_batch_member(run, folder: Path, extra: dict, prof: Profile, backend: str) -> dict:
+    """A finished batch member's files into ``folder`` (``solver.ensemble_run.SceneRun``):
+    samples.npz, final_field.npz, its checkpoint (when it ended at a whole level), then
+    summary.json (the facts, the wave analysis, ``extra``, the profile and peak memory).
+    Returns the summary. Used by a batched sweep and by a continued batch."""
+    summary = summarise(run)
+    summary.update(extra)
+    arrays = run.recorder.arrays()
+    arrays.update(run.probes.arrays() or {})
+    atomic_save_npz(folder / "samples.npz", arrays)
+    field = run.final_field()
+    if field is not None:
+        atomic_save_npz(folder / "final_field.npz", field)
+    if run.state is not None:
+        write_checkpoint(folder, [run.state], kind="batch", scene=run.scene,
+                         status=run.status, kernel=summary["scheme"]["kernel"],
+                         backend=backend)
+    summary["profile_s"] = {k: round(v, 4) for k, v in prof.seconds.items()}
+    summary["peak_rss_mb"] = peak_rss_mb()
+    atomic_write_text(folder / "summary.json", json.dumps(summary, indent=2))
     return summary
 
 

@@ -243,8 +243,9 @@ class _BatchFiles:
             {"scene": self.scenes[k].name, "status": "interrupted"}, indent=2))
 
     def write_runs(self, batch, interrupted: bool, profile) -> None:
-        """summary.json, samples.npz and final_field.npz of every scene that ran."""
-        from studies.rundir import _print_summary, atomic_save_npz, peak_rss_mb, summarise
+        """summary.json, samples.npz, final_field.npz and checkpoint.npz of every scene that
+        ran (``studies.rundir.write_batch_member``)."""
+        from studies.rundir import _print_summary, write_batch_member
 
         for k in batch.live:
             run = batch.runs[k]
@@ -253,20 +254,11 @@ class _BatchFiles:
                 continue
             if interrupted:
                 run.status, run.message = "interrupted", "interrupted"
-            summary = summarise(run)
-            summary["wall_time_s"] = time.perf_counter() - self.t0
+            extra = {"wall_time_s": time.perf_counter() - self.t0}
             if run.message:
-                summary["message"] = run.message
-            summary["batch"] = {"size": self.size, "backend": self.backend}
-            arrays = run.recorder.arrays()
-            arrays.update(run.probes.arrays() or {})
-            atomic_save_npz(self.run_dirs[k] / "samples.npz", arrays)
-            field = run.final_field()
-            if field is not None:
-                atomic_save_npz(self.run_dirs[k] / "final_field.npz", field)
-            summary["profile_s"] = {kk: round(v, 4) for kk, v in profile.seconds.items()}
-            summary["peak_rss_mb"] = peak_rss_mb()
-            atomic_write_text(self.run_dirs[k] / "summary.json", json.dumps(summary, indent=2))
+                extra["message"] = run.message
+            extra["batch"] = {"size": self.size, "backend": self.backend}
+            summary = write_batch_member(run, self.run_dirs[k], extra, profile, self.backend)
             _print_summary(summary, self.run_dirs[k], self.logs[k], False)
             self.statuses[k] = run.status
 

@@ -1,0 +1,289 @@
+"""Continue runs from their checkpoints: ``stickslip continue RUN --until T [-o DIR]``.
+
+A run that ended at a whole time level left ``checkpoint.npz`` (``studies.rundir.checkpoint``):
+its last level's state and its observers' sums. ``continue_run`` builds the same scene with
+``time.end_time = T`` (and no ``time.max_steps``), restores the checkpoint into the
+``solver.run.Simulation`` (``Simulation.restore``) and lets it proceed through the one time
+loop (``solver.run.run_loop``); the samples taken before are read back from samples.npz and
+put in front of the new ones. The continued run's samples, final field and summary are
+bitwise those of one run straight to T, except the wall-clock keys (``WALL_CLOCK_KEYS``).
+
+``continue_batch`` does the same for many run directories at once: the members of a batch
+(``solver.ensemble_run.BatchSimulation``, e.g. a census's starts) that share mesh, material,
+dt, scheme and their checkpoint's step are continued as one batch again (``BatchSimulation``
++ ``restore``, the same ``run_loop``); single runs are continued one by one.
+
+Where the result goes:
+
+* without ``out_dir`` the run directory is extended in place, atomically: the continued run
+  is written into a hidden sibling claimed by ``studies.rundir.ownership`` and swapped in
+  when it ends; a continuation that fails or is interrupted leaves the run as it was;
+* with ``out_dir`` the original is not touched and ``out_dir`` becomes a run directory of its
+  own (``force`` replaces an earlier one there).
+
+Refused in one line (``studies.rundir.readers.ReadError``, exit status 2): ``until`` not
+beyond the checkpoint's time, a run without a checkpoint (older, failed or diverged), a
+checkpoint of another number of ranks, a checkpoint that does not match the run's samples,
+a run that writes fields (``output.fields``: the XDMF series is not continued).
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from mpi4py import MPI
+
+from solver.scene import Scene, write_scene
+from studies.rundir.checkpoint import Checkpoint, read_checkpoint, scene_fingerprint
+from studies.rundir.directory import prepare_run_dir
+from studies.rundir.ownership import owned
+from studies.rundir.readers import ReadError, read_samples, read_scene_file, read_summary
+from studies.rundir.scene_run import RunDirectory, _print_summary, write_batch_member
+
+__all__ = ["RESUMABLE", "WALL_CLOCK_KEYS", "continue_batch", "continue_run"]
+
+#: The final statuses whose runs stand at a whole level and wrote a checkpoint.
+RESUMABLE = ("completed", "stopped", "interrupted")
+
+#: Summary keys that measure the machine, not the run: they differ between a continued run
+#: and one run straight to T (wall time, peak memory, the time per phase, the kernels'
+#: compile time and the contact and linear solves' wall time) and between any two runs.
+WALL_CLOCK_KEYS = ("wall_time_s", "peak_rss_mb", "profile_s", "scheme.kernel_first_call_s",
+                   "scheme.contact_s", "scheme.factorisation_s", "scheme.linear_solves_s")
+
+
+@dataclass
+class _Plan:
+    """What a continuation of ``run_dir`` needs (rank 0): the scene to T, the checkpoint and
+    the records taken so far."""
+
+    run_dir: Path
+    scene: Scene
+    checkpoint: Checkpoint
+    before: dict[str, np.ndarray]
+
+    @property
+    def kind(self) -> str:
+        return str(self.checkpoint.meta["kind"])
+
+
+def _plan(run_dir: Path, until: float, ranks: int) -> _Plan:
+    """Check that ``run_dir`` can be continued to ``until`` on ``ranks`` ranks; ReadError
+    (one line with the fix) if not."""
+    if not owned(run_dir, "run"):
+        raise ReadError(run_dir, "not a stickslip run directory (no .stickslip marker of a "
+                                 "run)", "give the directory that `stickslip run` wrote")
+    status = read_summary(run_dir)["status"]
+    if status == "running":
+        raise ReadError(run_dir, "the run is still running (or its process was killed)",
+                        "wait for it to end, or run the scene again")
+    if status not in RESUMABLE:
+        raise ReadError(run_dir, f"the run ended {status}: there is no whole time level to "
+                                 "continue from", "fix the scene and run it again")
+    ck = read_checkpoint(run_dir)
+    written = int(ck.meta["ranks"])
+    if written != ranks:
+        raise ReadError(run_dir / "checkpoint.npz",
+                        f"written on {written} rank(s), continued on {ranks}",
+                        f"continue it under `mpirun -n {written}` (the partition must match)"
+                        if written > 1 else "continue it without mpirun (one rank)")
+    if not (math.isfinite(until) and until * (1.0 - 1e-12) > ck.time):
+        raise ReadError(run_dir, f"--until {until!r}: the run is already at t = "
+                                 f"{ck.time:.9g} s", "give a later time")
+    scene = read_scene_file(run_dir / "scene.toml")
+    if scene_fingerprint(scene) != ck.meta.get("scene_sha256"):
+        raise ReadError(run_dir / "scene.toml", "is not the scene its checkpoint was written "
+                        "with (edited since?)", "continue with the scene as it ran, or run "
+                        "the edited scene from the start")
+    if scene.output.fields:
+        raise ReadError(run_dir, "the run writes fields (output.fields = true), whose XDMF "
+                                 "series is not continued", "run the scene again to T")
+    before = read_samples(run_dir, need=0)
+    counts = {"samples": before["t"].size,
+              "probe_steps": before["probe_t"].size if "probe_t" in before else 0}
+    for key, found in counts.items():
+        if found != int(ck.meta[key]):
+            raise ReadError(run_dir / "samples.npz", f"holds {found} {key.replace('_', ' ')}, "
+                            f"its checkpoint {ck.meta[key]} (not the same run)",
+                            "run the scene again to T")
+    scene = scene.with_overrides(f"time.end_time={until!r}", "time.max_steps=0")
+    return _Plan(Path(run_dir), scene, ck, before)
+
+
+class Refused(ReadError):
+    """Rank 0's ``ReadError``, raised on the other ranks with the same line."""
+
+    def __init__(self, message: str) -> None:
+        ValueError.__init__(self, message)
+
+
+def _planned(run_dir: Path, until: float, comm: MPI.Comm) -> _Plan | None:
+    """``_plan`` on rank 0; its refusal raised on every rank. The plan on rank 0, else None."""
+    plan, error = None, None
+    if comm.rank == 0:
+        try:
+            plan = _plan(Path(run_dir), float(until), comm.size)
+        except ReadError as err:
+            error = err
+    message = comm.bcast(None if error is None else str(error), root=0)
+    if message is not None:
+        raise error if error is not None else Refused(message)
+    return plan
+
+
+def continue_run(run_dir: str | Path, until: float, out_dir: str | Path | None = None, *,
+                 force: bool = False, comm: MPI.Comm = MPI.COMM_WORLD, stream=None,
+                 check_resources: bool = True) -> dict:
+    """Continue the run in ``run_dir`` from its checkpoint to ``until`` seconds (collective).
+
+    Args:
+        run_dir: a run directory with a checkpoint (a run or a batch member).
+        until: the new end time (s), beyond the checkpoint's time.
+        out_dir: where the continued run goes; None: ``run_dir`` itself, swapped in
+            atomically when the continuation ends (kept as it was if it fails or is
+            interrupted).
+        force: replace an earlier run directory at ``out_dir``.
+        comm: the ranks; the same number as the run's (its partition).
+        stream: where the progress and summary lines go (default stdout).
+        check_resources: refuse a continuation beyond the machine's memory or disk.
+
+    Returns:
+        The continued run's summary (rank 0; ``{}`` elsewhere), as ``run_scene``'s.
+
+    Raises:
+        studies.rundir.readers.ReadError: the run cannot be continued (one line, the fix).
+        studies.rundir.RunDirError: ``out_dir`` is not free, or the run is live.
+    """
+    run_dir = Path(run_dir)
+    plan = _planned(run_dir, until, comm)
+    if comm.bcast(plan.kind if plan is not None else None, root=0) == "batch":
+        return continue_batch([run_dir], until, None if out_dir is None else [out_dir],
+                              force=force, stream=stream)[0]
+    scene = comm.bcast(plan.scene if plan is not None else None, root=0)
+    state = comm.scatter(plan.checkpoint.states if plan is not None else None, root=0)
+    before = plan.before if plan is not None else None
+    kernel = comm.bcast(plan.checkpoint.meta["kernel"] if plan is not None else None, root=0)
+
+    def resume(sim) -> None:  # noqa: ANN001 - a solver.run.Simulation
+        built = sim.integrator.facts().get("kernel", "")
+        if built != kernel:
+            raise ValueError(f"the run stepped with the {kernel or 'implicit'} kernel, this "
+                             f"machine builds {built or 'implicit'} for its scene: install "
+                             "the same (python3-numba) to continue it bitwise")
+        try:
+            sim.restore(state, before)
+        except KeyError as err:  # every key is written by this format: an edited file
+            raise ValueError(f"checkpoint.npz has no {err}: not written by this version of "
+                             "stickslip (or edited); run the scene again to T") from None
+
+    target = run_dir if out_dir is None else Path(out_dir)
+    in_place = target.resolve() == run_dir.resolve()
+    if plan is not None:
+        meta = plan.checkpoint.meta
+        print(f"continuing {run_dir} from t = {meta['time']:.6g} s (step {meta['step']}) to "
+              f"{until:g} s" + ("" if in_place else f" into {target}"),
+              file=sys.stdout if stream is None else stream, flush=True)
+    return RunDirectory(scene, target, force=force or in_place, comm=comm, stream=stream,
+                        check_resources=check_resources, resume=resume).run()
+
+
+def continue_batch(run_dirs: list[str | Path], until: float,
+                   out_dirs: list[str | Path] | None = None, *, force: bool = False,
+                   stream=None) -> list[dict]:
+    """Continue many runs of one rank each to ``until``: the members of batches that share a
+    mesh, material, dt, scheme, backend and checkpoint step as one ``BatchSimulation`` (one
+    time loop for all of them), single runs one by one (``continue_run``).
+
+    Args:
+        run_dirs: run directories with checkpoints (batch members or one-rank runs).
+        until: the new end time (s), beyond every checkpoint's time.
+        out_dirs: one output directory per run (None: each run extended in place, as
+            ``continue_run``).
+        force: replace earlier run directories at ``out_dirs``.
+        stream: where the summary lines go (default stdout).
+
+    Returns:
+        The continued runs' summaries, in the order of ``run_dirs``.
+
+    Raises:
+        studies.rundir.readers.ReadError: a run cannot be continued (checked for every run
+            before any starts).
+    """
+    from studies.sweep.batch import batch_key
+
+    comm = MPI.COMM_SELF
+    dirs = [Path(d) for d in run_dirs]
+    outs = [None] * len(dirs) if out_dirs is None else [Path(d) for d in out_dirs]
+    plans = [_plan(d, float(until), 1) for d in dirs]
+    summaries: list[dict] = [{} for _ in dirs]
+    groups: dict[tuple, list[int]] = {}
+    for i, plan in enumerate(plans):
+        meta = plan.checkpoint.meta
+        if plan.kind == "batch":
+            key = (meta["step"], meta["backend"], batch_key(plan.scene))
+            groups.setdefault(key, []).append(i)
+    for i, plan in enumerate(plans):
+        if plan.kind != "batch":
+            summaries[i] = continue_run(dirs[i], until, outs[i], force=force, comm=comm,
+                                        stream=stream)
+    for (_, backend, _), members in groups.items():
+        done = _continue_members([plans[i] for i in members], [outs[i] for i in members],
+                                 backend, force, sys.stdout if stream is None else stream)
+        for i, summary in zip(members, done, strict=True):
+            summaries[i] = summary
+    return summaries
+
+
+def _continue_members(plans: list[_Plan], outs: list[Path | None], backend: str,
+                      force: bool, stream) -> list[dict]:
+    """One ``BatchSimulation`` of batch members at the same step, continued and written; an
+    error or interrupt drops every replacement (the runs stay as they were)."""
+    import shutil
+    import time
+
+    from solver.ensemble_run import BatchSimulation
+    from solver.run import Profile
+    from studies.resources import available_memory
+    from studies.sweep.batch import SPOOL_MEMORY_FRACTION
+
+    t0 = time.perf_counter()
+    claims = []
+    batch = None
+    try:
+        for plan, out in zip(plans, outs, strict=True):
+            target = plan.run_dir if out is None else out
+            in_place = target.resolve() == plan.run_dir.resolve()
+            claims.append(prepare_run_dir(target, force or in_place, MPI.COMM_SELF))
+        profile = Profile()
+        batch = BatchSimulation([p.scene for p in plans], backend=backend,
+                                spool_parent=plans[0].run_dir.parent, profile=profile,
+                                memory_budget=SPOOL_MEMORY_FRACTION * available_memory())
+        if batch.failures:
+            raise next(iter(batch.failures.values()))
+        batch.restore([p.checkpoint.states[0] for p in plans], [p.before for p in plans])
+        batch.proceed()
+        summaries = []
+        for claim, run in zip(claims, batch.runs, strict=True):
+            write_scene(run.scene, claim.work / "scene.toml")
+            extra = {"wall_time_s": time.perf_counter() - t0}
+            if run.message:
+                extra["message"] = run.message
+            extra["batch"] = {"size": len(plans), "backend": backend}
+            summary = write_batch_member(run, claim.work, extra, profile, backend)
+            claim.commit()
+            _print_summary(summary, claim.final, stream, False)
+            summaries.append(summary)
+        return summaries
+    except BaseException:
+        for claim in claims:
+            claim.discard()
+        raise
+    finally:
+        for claim in claims:
+            claim.release()
+        if batch is not None and batch.spool_dir is not None:
+            shutil.rmtree(batch.spool_dir, ignore_errors=True)
