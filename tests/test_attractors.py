@@ -97,7 +97,7 @@ def test_members_shares_and_ladder():
     assert member_description("k8-rotation-SSS") == \
         "k = 8 with the rotation, stick-slip-separation"
     assert member_description("unsettled-k13-opposite-SSS#2") == ("unsettled k = 13 against "
-        "the rotation, stick-slip-separation (celerity cluster 2)")
+        "the rotation, stick-slip-separation (group 2)")
     table = mesh_members(coarse)
     assert sum(m["share"] for m in table) == pytest.approx(1.0)  # diverged counted too
     top = table[0]
@@ -167,8 +167,8 @@ def test_frame_spread_rigid_and_modulated():
 def test_classes():
     wave = {"regime": "stick-slip", "limit_cycle": True}
     assert classify("completed", wave, 0.05) == "wave"
-    assert classify("completed", wave, 0.3) == "modulated"
-    assert classify("completed", wave, 0.3, trend=-0.02) == "modulated"  # not decaying
+    assert classify("completed", wave, 0.3) == "multi-wave"
+    assert classify("completed", wave, 0.3, trend=-0.02) == "multi-wave"  # not decaying
     assert classify("completed", wave, 0.3, trend=-0.11) == "unsettled"  # still decaying
     assert classify("completed", dict(wave, limit_cycle=False), 0.0) == "unsettled"
     assert classify("completed", {"regime": "steady-sliding"}, math.nan) == "steady-sliding"

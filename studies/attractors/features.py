@@ -185,7 +185,7 @@ def _peaks(t: np.ndarray, a_r: np.ndarray, a_t: np.ndarray, floor: float) -> lis
         for j in np.nonzero(half.max(axis=0) >= floor**2 * top)[0]:
             i = int(np.argmax(half[:, j]))
             f, p = _refine((a_r[:, j], a_t[:, j]), w, t, float(freqs[i]), bin_hz)
-            out.append({"k": j + 1, "f": f, "amplitude": math.sqrt(p) / w.sum()})
+            out.append({"k": int(j) + 1, "f": f, "amplitude": math.sqrt(p) / float(w.sum())})
     return out
 
 
