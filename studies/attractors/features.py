@@ -383,8 +383,8 @@ def describe(comps: tuple[Component, ...] | list[Component]) -> str:
     if top.aliased:
         text += " (aliased)"
     rest = []
-    for c in listed[1:]:
-        sense = "" if c.direction == top.direction else f" {_SENSE[c.direction]}"
+    for c in listed[1:]:  # an aliased component's direction is not known: not named
+        sense = "" if c.direction == top.direction or c.aliased else f" {_SENSE[c.direction]}"
         tag = ", aliased" if c.aliased else ""
         rest.append(f"k = {c.k}{sense} ({100 * c.share:.0f} %{tag})")
     if rest:
