@@ -96,6 +96,9 @@ def test_components_celerities_shares_harmonics_and_aliases():
     assert math.isnan(folded.frequency_hz)
     assert describe(comps) == ("k = 12 against the rotation, with k = 13 (21 %) and "
                                "k = 30 (15 %, aliased)")
+    # attractors.json keeps them as they are (plain JSON types, the flags included)
+    text = json.dumps(Features(comps).to_dict())
+    assert json.dumps(Features.from_dict(json.loads(text)).to_dict()) == text
 
 
 def test_without_probes_only_harmonics_and_the_nyquist_edge_are_flagged():

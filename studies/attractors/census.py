@@ -45,7 +45,7 @@ KIND = "stickslip-attractors"
 #: The census directory's own entries (``studies.rundir.ownership``); the starts are a sweep
 #: directory of their own, ``starts/``.
 ENTRIES = ("census.json", "census.toml", "base.toml", "attractors.json", "attractors.csv",
-           "members.csv", "certificates.json", "starts", "*.png")
+           "members.csv", "certificates.json", "cea.json", "starts", "*.png")
 STARTS = "starts"
 ROW_FIELDS = ("id", "n_inner", "start", "seed", "start_mode", "status", "class", "member",
               "name", "n_components", "components", "unsettled_because", "k",

@@ -298,8 +298,9 @@ def group_members(rows: list[dict], celerity_tol: float = CELERITY_TOL,
 
     Settled rows: connected groups under ``features.match`` (``tol``, or the defaults with
     ``celerity_tol``). Unsettled rows with a wavenumber: (k, direction, regime), then celerity
-    clusters (neighbours in sorted order within ``celerity_tol``). Other classes: the class
-    name.
+    clusters (neighbours in sorted order within ``celerity_tol``); each also gets
+    ``approaching``, the settled member its last window matches (None if none). Other
+    classes: the class name.
     """
     tol = tol or Tolerances(celerity=celerity_tol)
     settled = sorted((r for r in rows if r["class"] in SETTLED),
@@ -327,8 +328,14 @@ def group_members(rows: list[dict], celerity_tol: float = CELERITY_TOL,
             used[base] = used.get(base, 0) + 1
             names[g] = base + ("" if used[base] == 1 else f"#{used[base]}")
         r["member"] = names[g]
+    firsts = {}
+    for i, r in enumerate(settled):
+        firsts.setdefault(r["member"], feats[i])
     keyed: dict[MemberKey, list[dict]] = {}
     for r in rows:
+        if r["class"] == "unsettled" and r.get("features"):  # its last window already there?
+            mine = row_features(r)
+            r["approaching"] = next((m for m, f in firsts.items() if match(mine, f, tol)), None)
         if r["class"] == "unsettled" and r["k"]:
             keyed.setdefault(MemberKey(r["class"], int(r["k"]), r["direction"], r["regime"]),
                              []).append(r)

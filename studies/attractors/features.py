@@ -197,13 +197,13 @@ def _parent(p: dict, bases: list[dict], fs: float, tol_hz: float) -> tuple[dict 
         m = p["k"] // b["k"]
         if p["k"] % b["k"] == 0 and m >= 2 and not b["aliased"] \
                 and abs(_fold(p["f"] - m * b["f"], fs)) <= tol_hz:
-            return b, {"aliased": abs(m * b["f"]) >= 0.5 * fs, "of": f"×{m}"}
+            return b, {"aliased": bool(abs(m * b["f"]) >= 0.5 * fs), "of": f"×{m}"}
     big = [b for b in bases if b["amplitude"] >= p["amplitude"] and not b["aliased"]]
     for i, a in enumerate(big):
         for b in big[i:]:
             if a["k"] + b["k"] == p["k"] and abs(_fold(p["f"] - a["f"] - b["f"], fs)) <= tol_hz:
                 first, second = (a, b) if a["amplitude"] >= b["amplitude"] else (b, a)
-                return first, {"aliased": abs(a["f"] + b["f"]) >= 0.5 * fs,
+                return first, {"aliased": bool(abs(a["f"] + b["f"]) >= 0.5 * fs),
                                "of": f"{first['k']}+{second['k']}"}
     return None, {}
 
@@ -240,9 +240,10 @@ def travelling_components(t: np.ndarray, theta: np.ndarray, u_r: np.ndarray,
             parent["harmonics"].append({"k": p["k"], "amplitude": p["amplitude"],
                                         "aliased": label["aliased"], "of": label["of"]})
             continue
-        aliased = abs(p["f"]) >= 0.5 * fs - bin_hz
+        aliased = bool(abs(p["f"]) >= 0.5 * fs - bin_hz)
         if not aliased and probe is not None and probe_t is not None and probe_t.size >= 8:
-            aliased = _probe_amplitude(probe_t, probe, p["f"]) < PROBE_FRACTION * p["amplitude"]
+            aliased = bool(_probe_amplitude(probe_t, probe, p["f"])
+                           < PROBE_FRACTION * p["amplitude"])
         bases.append({**p, "aliased": aliased, "harmonics": []})
     for b in bases:
         b["total"] = math.sqrt(b["amplitude"] ** 2 + sum(

@@ -26,8 +26,13 @@ def _member_phrase(m: dict) -> str:
             text += " (" + ", ".join(
                 f"k = {c['k']}: " + ("aliased" if c["aliased"] else
                                      f"{c['celerity_m_s']:+.1f} m/s") for c in comps) + ")"
-    return (f"{text} [{m['member']}] ({m['count']}/{m['starts']} = {_pct(m['share'])}, "
+    text = (f"{text} [{m['member']}] ({m['count']}/{m['starts']} = {_pct(m['share'])}, "
             f"95 % CI {_pct(m['share_lo'])}–{_pct(m['share_hi'])})")
+    near = m.get("approaching") or {}
+    if near:
+        text += "; in its last window " + ", ".join(
+            f"{c} of them match {name}" for name, c in near.items())
+    return text
 
 
 def _regime(m: dict) -> str:
@@ -98,9 +103,12 @@ def ladder_lines(answer: dict) -> list[str]:
         if tv:
             lines.append("    change (total variation) " + ", ".join(f"{x:.2f}" for x in tv))
         wc = coarse["weighted_celerity_m_s"]
+        vals = wc["values"]
+        steps = [b - a for a, b in zip(vals, vals[1:], strict=False)
+                 if math.isfinite(a) and math.isfinite(b)]
         lines.append("  basin-weighted celerity: " + " → ".join(
-            f"{v:+.1f}" if math.isfinite(v) else "–" for v in wc["values"]) + " m/s"
-            + _diff_text(wc))
+            f"{v:+.1f}" if math.isfinite(v) else "–" for v in vals) + " m/s"
+            + (" (change " + ", ".join(f"{d:+.1f} m/s" for d in steps) + ")" if steps else ""))
     return lines
 
 
@@ -119,11 +127,6 @@ def _steps(meshes: list[int], ch: dict) -> str:
 
 def _share_steps(values: list[float]) -> str:
     return " → ".join(_pct(v) if math.isfinite(v) else "–" for v in values)
-
-
-def _diff_text(ch: dict) -> str:
-    diffs = [d for d in ch["differences"] if math.isfinite(d)]
-    return (" (" + ", ".join(f"{100 * d:+.2f} %" for d in diffs) + ")") if diffs else ""
 
 
 def summary_text(answer: dict) -> str:

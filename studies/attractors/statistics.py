@@ -70,13 +70,22 @@ def mesh_members(rows: list[dict]) -> list[dict]:
                  "direction": group[0]["direction"], "regime": group[0]["regime"],
                  "count": len(group), "starts": n, "share": len(group) / n,
                  "share_lo": lo, "share_hi": hi, "seeds": [r["seed"] for r in group],
-                 **member_components(group)}
+                 "approaching": _approaching(group), **member_components(group)}
         for key in VALUE_KEYS:
             m, sd, _ = mean_spread([r[key] for r in group])
             entry[key] = m
             entry[f"{key}_sd"] = sd
         out.append(entry)
     out.sort(key=lambda e: (-e["count"], e["member"]))
+    return out
+
+
+def _approaching(rows: list[dict]) -> dict:
+    """How many of an unsettled member's rows already match each settled member."""
+    out: dict[str, int] = {}
+    for r in rows:
+        if r.get("approaching"):
+            out[r["approaching"]] = out.get(r["approaching"], 0) + 1
     return out
 
 
