@@ -65,6 +65,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="batched integrator backend (where the scenes can be batched)")
     p.add_argument("--progress", choices=("auto", "live", "lines"), default="auto",
                    help="live status line (TTY) or one line per finished start")
+    p.add_argument("--along", default=None, metavar="KEY=A:B:M",
+                   help="a census at each of M values of KEY from A to B (or KEY=V1,V2,...), "
+                   "attractors matched between neighbouring values by features; resumable")
     p.add_argument("--plot", action="store_true", help="draw the census figures")
     p.add_argument("--json", action="store_true",
                    help="print attractors.json instead of the summary")
@@ -116,6 +119,8 @@ def _attractors(args: argparse.Namespace) -> int:
     except (SceneError, CensusError, ValueError, ImportError) as err:
         return _fail(str(err), comm.rank)
     out = Path(args.output) if args.output else default_dir(scene)
+    if args.along:
+        return _along(census, out, args, comm)
     stream = open(os.devnull, "w") if args.json else sys.stdout  # noqa: SIM115
     if not (args.cea_fmax_hz > 0):
         return _fail(f"--cea-fmax-hz {args.cea_fmax_hz}: give a frequency > 0 (Hz)", comm.rank)
@@ -124,6 +129,21 @@ def _attractors(args: argparse.Namespace) -> int:
                     dt_limit=args.dt_limit, stream=stream)
     if comm.rank == 0 and rc in (0, 1, 130):
         _show(out, args)
+    return rc
+
+
+def _along(census, out: Path, args: argparse.Namespace, comm) -> int:  # noqa: ANN001
+    from studies.attractors.along import parse_along, plot_along, run_along
+
+    try:
+        key, values = parse_along(args.along)
+    except ValueError as err:
+        return _fail(str(err), comm.rank)
+    rc = run_along(census, key, values, out, comm=comm, force=args.force,
+                   progress=args.progress, backend=args.backend,
+                   certify=not args.no_certify, dt_limit=args.dt_limit)
+    if comm.rank == 0 and args.plot and rc in (0, 1) and (out / "along.json").is_file():
+        print(f"figure: {plot_along(out)}")
     return rc
 
 

@@ -210,3 +210,64 @@ def test_small_census_counts_multi_wave_attractors(tmp_path):
     settled = [m for m in members if m["class"] in ("wave", "multi-wave")]
     assert f"{len(settled)} attractor" in answer["text"]
     assert sum(m["count"] for m in members) == 2
+
+
+def test_parse_along():
+    from studies.attractors.along import parse_along
+
+    assert parse_along("loading.omega=30:100:8") == (
+        "loading.omega", [30.0, 40.0, 50.0, 60.0, 70.0, 80.0, 90.0, 100.0])
+    assert parse_along("loading.f=0.5,0.6") == ("loading.f", [0.5, 0.6])
+    for bad in ("omega=30:100:8", "loading.omega=30:100:1", "loading.omega=1,1", "x"):
+        with pytest.raises(ValueError, match="--along"):
+            parse_along(bad)
+
+
+def test_along_matches_neighbouring_points_by_features():
+    """An attractor whose celerity moves 5 % and a companion's share 10 points between two
+    points is one chain; one that appears at the second point is marked."""
+    from studies.attractors.along import ALONG_TOLERANCES
+    from studies.attractors.features import Tolerances
+    from studies.attractors.statistics import align, member_components
+
+    def member(name, feats):
+        e = {"member": name, "class": "multi-wave", "fraction_separation": 0.7,
+             "fraction_stick": 0.14, "fraction_slip": 0.16}
+        e.update(member_components([{"features": feats.to_dict()}]))
+        return e
+
+    first = [member("k12-opposite-SSS+k13", _features({12: 1.0, 13: 0.21}))]
+    second = [member("k12-opposite-SSS+k13", _features({12: 1.0, 13: 0.31}, celerity=-945.0)),
+              member("k8-opposite-SSS", _features({8: 1.0}))]
+    per = {0: first, 1: second}
+    align(per, Tolerances(**ALONG_TOLERANCES))
+    assert second[0]["ladder_id"] == first[0]["ladder_id"] == "k12-opposite-SSS+k13"
+    assert second[1]["ladder_id"] == "k8-opposite-SSS"
+    # with the mesh ladder's tolerances (celerity within 5 %) a 6 % move is another attractor
+    per = {0: [dict(first[0])], 1: [member("x", _features({12: 1.0, 13: 0.21},
+                                                           celerity=-900 * 1.06))]}
+    align(per)
+    assert per[1][0]["ladder_id"] == "x"
+
+
+def test_along_runs_a_census_per_point_and_resumes(tmp_path, capsys):
+    """``--along loading.omega=20,30``: one census per value, along.json with both points;
+    a rerun runs no start again."""
+    pytest.importorskip("dolfinx")
+    from test_sweep import _starts
+
+    from cli.main import main
+
+    out = tmp_path / "along"
+    cmd = ["attractors", str(REPO / "scenes" / "smoke.toml"), "--starts", "1", "--meshes",
+           "36", "--end-time", "0.1", "--set", "geometry.delta=0.005", "--along",
+           "loading.omega=20,30", "-o", str(out), "--no-certify", "--plot"]
+    assert main(cmd) == 0
+    table = json.loads((out / "along.json").read_text())
+    assert table["values"] == [20.0, 30.0] and len(table["points"]) == 2
+    assert (out / "along.png").stat().st_size > 10_000  # a drawn figure, not a stub
+    runs = {p.name: _starts(p / "starts") for p in (out / "points").iterdir()}
+    assert sorted(runs) == ["omega-20", "omega-30"]
+    assert "attractors along loading.omega = 20, 30" in capsys.readouterr().out
+    assert main(cmd) == 0
+    assert {p.name: _starts(p / "starts") for p in (out / "points").iterdir()} == runs

@@ -155,7 +155,7 @@ def summary_text(answer: dict) -> str:
     for key, cert in certs.items():
         lines.append(f"  certificate {key}: {member_line(cert)}")
     timing = answer.get("timing") or {}
-    if timing.get("certification_s") is not None and timing.get("sweep_s"):
+    if certs and timing.get("certification_s") is not None and timing.get("sweep_s"):
         total = sum(v for v in timing.values() if v)
         lines.append(f"time: runs {timing['sweep_s']:.1f} s, features "
                      f"{timing.get('features_s') or 0:.1f} s, certificates "

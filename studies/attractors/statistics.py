@@ -160,14 +160,15 @@ def member_features(entry: dict):  # noqa: ANN201 - features.Features
     return Features(comps, fr)
 
 
-def align(per_mesh: dict[int, list[dict]]) -> None:
+def align(per_mesh: dict[int, list[dict]], tol=None) -> None:  # noqa: ANN001
     """Give every member entry its ``ladder_id`` (in place): a settled member that matches a
-    settled member of the next coarser mesh (same dominant k and direction, ``features.match``
-    with ``LADDER_TOLERANCES``) takes its id; otherwise its own name (``@N`` added where
-    that name is already taken on the ladder). Other entries keep their name."""
+    settled member of the previous key (the next coarser mesh; same dominant k and
+    direction, ``features.match`` with ``tol``, default ``LADDER_TOLERANCES``) takes its id;
+    otherwise its own name (``@N`` added where that name is already taken). Other entries
+    keep their name."""
     from studies.attractors.features import Tolerances, match
 
-    tol = Tolerances(**LADDER_TOLERANCES)
+    tol = tol or Tolerances(**LADDER_TOLERANCES)
     meshes = sorted(per_mesh)
     taken: set[str] = set()
     for i, n in enumerate(meshes):
@@ -203,7 +204,8 @@ def _changes(meshes: list[int], vals: list[float]) -> dict:
 def coarse_observables(per_mesh: dict[int, list[dict]]) -> dict:
     """Per mesh: the distribution of the dominant component (``"k8+"``, + with the
     rotation) over the counted random starts, and the basin-weighted celerity
-    Σ x_m c_m / Σ x_m over the settled members m (x_m starts, c_m the dominant celerity);
+    Σ x_m c_m / Σ x_m over the members m with a dominant component, settled or not (x_m
+    starts, c_m the dominant celerity: where each start ends, averaged over the starts);
     along the ladder: the total-variation distance ½ Σ |p_a − p_b| between successive
     distributions and the change of the weighted celerity."""
     meshes = sorted(per_mesh)
@@ -218,7 +220,7 @@ def coarse_observables(per_mesh: dict[int, list[dict]]) -> dict:
             counts[label] = counts.get(label, 0) + e["count"]
             total += e["count"]
             c = e.get("celerity_m_s")
-            if e["class"] in SETTLED and c is not None and math.isfinite(c):
+            if e.get("k") and c is not None and math.isfinite(c):
                 num += e["count"] * c
                 den += e["count"]
         dist[n] = {k: v / total for k, v in sorted(counts.items())} if total else {}
