@@ -7,6 +7,7 @@ from __future__ import annotations
 import json
 import math
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -148,6 +149,16 @@ def test_match_rule_and_its_tolerances():
         "k = 11 against the rotation in one only"]
     assert not match(a, _features({12: 1.0, 13: 0.21, 11: 0.20},
                                   fractions={"separation": 0.75, "stick": 0.1, "slip": 0.15}))
+    # k = 6 at f₅ + f₁ is a sum tone: attached to k = 5 in one end state (its amplitude just
+    # below both parents') and listed in the other (just above one of them): the same peak
+    listed = _features({13: 1.0, 5: 0.15, 1: 0.16, 6: 0.13})
+    five = next(c for c in listed.components if c.k == 5)
+    attached = _features({13: 1.0, 5: 0.15, 1: 0.16})
+    attached = Features(tuple(replace(c, harmonics=({"k": 6, "share": 0.12, "aliased": False,
+                                                     "of": "5+1", "direction": "opposite"},))
+                              if c.k == five.k else c for c in attached.components),
+                        attached.fractions)
+    assert match(listed, attached)
 
 
 def test_stationarity_and_classes():

@@ -18,7 +18,8 @@ u_r(θ_j, t_n), u_θ(θ_j, t_n) (N nodes uniform in θ, S samples every Δt_s) b
 * Harmonics: a peak at wavenumber m k (m ≥ 2) whose frequency is m times the frequency of a
   component at k (folded into [−f_s/2, f_s/2) where m f is above the Nyquist frequency f_s/2)
   travels at k's phase speed: it belongs to k (listed as k's harmonic; its amplitude adds to
-  k's as sqrt(Σ A²)), within ``HARMONIC_BINS`` bins.
+  k's as sqrt(Σ A²)), within ``HARMONIC_BINS`` bins. So does a sum tone k₁ + k₂ at
+  f₁ + f₂ of two components larger than it (to the larger; its amplitude is not added).
 * Components: the remaining peaks. Each has a frequency f_k = k c/2π (signed, + with the
   rotation), a celerity R c = 2π R f_k / k and a **share**: its amplitude (with its
   harmonics) over the largest component's (the dominant: share 1). Components of share
@@ -34,7 +35,8 @@ u_r(θ_j, t_n), u_θ(θ_j, t_n) (N nodes uniform in θ, S samples every Δt_s) b
 ``match(a, b)`` is the one rule that says two feature sets are the same state: between two
 starts (grouping into attractors) and between two consecutive windows of one start
 (stationarity: a settled end state). It asks for the same listed components (k and
-direction; a component listed in one needs at least a ``weak`` one in the other), each
+direction; a component listed in one needs at least a ``weak`` one, or the same peak
+attached as a harmonic or sum tone, in the other), each
 celerity within ``CELERITY_TOL`` (relative), each share within ``SHARE_TOL_REL`` (relative,
 at least ``SHARE_TOL_ABS``), and the zone fractions within ``FRACTION_TOL``. The tolerances
 and the spreads measured behind them: docs/attractors.md.
@@ -80,7 +82,8 @@ class Component:
     celerity_m_s: float  # 2π R f / k, NaN if aliased
     aliased: bool = False
     weak: bool = False  # share between SHARE_TOL / 2 and SHARE_TOL
-    harmonics: tuple[dict, ...] = ()  # {"k", "share", "aliased"} of its harmonics
+    harmonics: tuple[dict, ...] = ()  # its harmonics and sum tones: {"k", "share",
+    # "aliased", "of" ("×m" or "k1+k2"), "direction"}
 
     @property
     def key(self) -> tuple[int, str]:
@@ -237,8 +240,10 @@ def travelling_components(t: np.ndarray, theta: np.ndarray, u_r: np.ndarray,
     for p in peaks:  # ascending k: a harmonic's or a sum's parents come first
         parent, label = _parent(p, bases, fs, HARMONIC_BINS * bin_hz)
         if parent is not None:
+            sense = -p["f"] if not label["aliased"] else -parent["f"]
             parent["harmonics"].append({"k": p["k"], "amplitude": p["amplitude"],
-                                        "aliased": label["aliased"], "of": label["of"]})
+                                        "aliased": label["aliased"], "of": label["of"],
+                                        "direction": "rotation" if sense > 0 else "opposite"})
             continue
         aliased = bool(abs(p["f"]) >= 0.5 * fs - bin_hz)
         if not aliased and probe is not None and probe_t is not None and probe_t.size >= 8:
@@ -263,8 +268,8 @@ def travelling_components(t: np.ndarray, theta: np.ndarray, u_r: np.ndarray,
             celerity_m_s=math.nan if b["aliased"] else 2 * math.pi * radius * f_lab / b["k"],
             aliased=b["aliased"], weak=share < share_tol,
             harmonics=tuple({"k": h["k"], "share": h["amplitude"] / top,
-                             "aliased": h["aliased"], "of": h["of"]}
-                            for h in b["harmonics"])))
+                             "aliased": h["aliased"], "of": h["of"],
+                             "direction": h["direction"]} for h in b["harmonics"])))
     return tuple(comps)
 
 
@@ -336,7 +341,14 @@ def differences(a: Features, b: Features, tol: Tolerances = DEFAULT_TOLERANCES) 
         ca, cb = mine.get(key), theirs.get(key)
         name = f"k = {key[0]} {_SENSE[key[1]]}"
         if ca is None or cb is None:
-            why.append(f"{name} in one only")
+            # a peak found attached in one (a harmonic or a sum tone of two components) and
+            # listed in the other is there in both: compare its share only
+            sa = ca.share if ca is not None else _attached_share(a, key)
+            sb = cb.share if cb is not None else _attached_share(b, key)
+            if sa is None or sb is None:
+                why.append(f"{name} in one only")
+            elif abs(sa - sb) > max(tol.share_rel * max(sa, sb), tol.share_abs):
+                why.append(f"{name} share {100 * sa:.0f} vs {100 * sb:.0f} %")
             continue
         if ca.aliased != cb.aliased:
             why.append(f"{name} aliased in one only")
@@ -350,6 +362,15 @@ def differences(a: Features, b: Features, tol: Tolerances = DEFAULT_TOLERANCES) 
         if abs(a.fractions[zone] - b.fractions[zone]) > tol.fraction:
             why.append(f"{zone} fraction {a.fractions[zone]:.3f} vs {b.fractions[zone]:.3f}")
     return why
+
+
+def _attached_share(f: Features, key: tuple[int, str]) -> float | None:
+    """The share of the peak (k, direction) where ``f`` has it attached to a component."""
+    for c in f.components:
+        for h in c.harmonics:
+            if (h["k"], h.get("direction")) == key:
+                return float(h["share"])
+    return None
 
 
 def match(a: Features, b: Features, tol: Tolerances = DEFAULT_TOLERANCES) -> bool:
