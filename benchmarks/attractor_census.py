@@ -65,7 +65,8 @@ def _feature_values(features: dict) -> dict:
     """{(k, direction): (celerity, share)} of the listed components, and the fractions."""
     comps = {(c["k"], c["direction"]): (c["celerity_m_s"], c["share"])
              for c in features["components"] if not c["weak"]}
-    return {"components": comps, "fractions": features.get("fractions") or {}}
+    return {"components": comps, "fractions": features.get("fractions") or {},
+            "rms": features.get("rms_amplitude_m")}
 
 
 def _spread(values: list[dict]) -> dict:
@@ -84,7 +85,9 @@ def _spread(values: list[dict]) -> dict:
         fs = [v["fractions"][zone] for v in values if zone in v["fractions"]]
         if len(fs) > 1:
             frac = max(frac, max(fs) - min(fs))
-    return {"celerity_rel": cel, "share_abs": share, "fraction_abs": frac}
+    rms = [v["rms"] for v in values if v.get("rms")]
+    rms_rel = (max(rms) - min(rms)) / max(rms) if len(rms) > 1 else 0.0
+    return {"celerity_rel": cel, "share_abs": share, "fraction_abs": frac, "rms_rel": rms_rel}
 
 
 def spreads(out: Path) -> dict:
@@ -107,7 +110,8 @@ def spreads(out: Path) -> dict:
                             _feature_values(r["features"])])
                    for r in rows if r["class"] in classes and r.get("features_before")]
             windows[label] = {q: max((p[q] for p in per), default=None)
-                              for q in ("celerity_rel", "share_abs", "fraction_abs")}
+                              for q in ("celerity_rel", "share_abs", "fraction_abs",
+                                        "rms_rel")}
             windows[label]["starts"] = len(per)
         gaps = []
         by_dominant: dict[tuple, list[dict]] = {}
