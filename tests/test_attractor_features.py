@@ -282,3 +282,48 @@ def test_along_runs_a_census_per_point_and_resumes(tmp_path, capsys):
     assert "attractors along loading.omega = 20, 30" in capsys.readouterr().out
     assert main(cmd) == 0
     assert {p.name: _starts(p / "starts") for p in (out / "points").iterdir()} == runs
+
+
+def test_certificates_reproducibility_persistence_and_an_unstable_wave(tmp_path, monkeypatch):
+    """A multi-wave member: reproduced by its 2 starts, persistent, with the spreads; a rigid
+    wave that the direct solver calls unstable is a transient, not an attractor."""
+    import studies.attractors.certify as certify_module
+    from studies.attractors.census import answer_of
+
+    def row(seed, feats, before, cls):
+        run = tmp_path / f"s{seed}"
+        run.mkdir()
+        (run / "summary.json").write_text("{}")
+        return {"id": f"s{seed}", "n_inner": 132, "start": "random", "seed": seed,
+                "start_mode": None, "class": cls, "k": feats.dominant.k,
+                "direction": "opposite", "regime": "stick-slip-separation",
+                "celerity_m_s": feats.dominant.celerity_m_s, "run_dir": str(run),
+                "features": feats.to_dict(), "features_before": before.to_dict(),
+                **{k: 0.5 for k in ("frequency_hz", "fraction_separation", "fraction_stick",
+                                    "fraction_slip", "psi1", "psi2", "amplitude_m",
+                                    "rms_amplitude_m", "frame_spread")}}
+
+    multi = _features({12: 1.0, 13: 0.21, 11: 0.20})
+    rigid = _features({8: 1.0}, celerity=-1000.0)
+    rows = [row(1, multi, _features({12: 1.0, 13: 0.22, 11: 0.20}), "multi-wave"),
+            row(2, _features({12: 1.0, 13: 0.23, 11: 0.20}), multi, "multi-wave"),
+            row(3, rigid, rigid, "wave")]
+    monkeypatch.setattr(certify_module, "certify", lambda run_dir, *, dt_limit=False: {
+        "available": True, "at_dt": {"converged": True}, "stable": False})
+    meta = {"celerity_tol": 0.02, "spread_tol": 0.1, "scene_file": "x", "overrides": [],
+            "meshes": [132], "definition": {"scene": {"name": "x"}},
+            "distribution": {"starts": 3, "seed": 1, "n_modes": 16, "amplitude": 0.1}}
+    answer = answer_of(meta, rows, tmp_path, timing={"sweep_s": 10.0, "features_s": 1.0})
+    certs = answer["certificates"]
+    multi_cert = certs["132:k12-opposite-SSS+k13+k11"]
+    assert multi_cert["reproduced"] and multi_cert["starts"] == 2
+    # shares 0.21 and 0.23 across the starts (2 points); 0.22 -> 0.21, 0.21 -> 0.23 between
+    # the windows of each start (the larger, 2 points, is reported)
+    assert multi_cert["spread_between_starts"]["share"] == pytest.approx(0.02)
+    assert multi_cert["change_between_windows"]["share"] == pytest.approx(0.02)
+    assert certs["132:k8-opposite-SSS"]["stable"] is False
+    classes = {m["member"]: m["class"] for m in answer["members"]["132"]}
+    assert classes == {"k12-opposite-SSS+k13+k11": "multi-wave",
+                       "k8-opposite-SSS": "transient"}
+    assert "N = 132 (3 random starts): 1 attractor (0 rigid, 1 multi-wave)" in answer["text"]
+    assert "certificates" in answer["text"].splitlines()[-1]  # the time shares are printed

@@ -396,7 +396,8 @@ def test_certification_adapter(monkeypatch, tmp_path):
     assert cert["at_dt"]["residual"] == 1e-11 and cert["stable"] is True
     assert cert["dt_to_0"] == {"message": "NotConverged: no wave at 4S"}
     assert cert["stability_samples"] == 3  # tested at S' = ceil(tau / dt)
-    assert certificate_line(cert).endswith("(+0.10 % vs the transient); stable")
+    assert certificate_line(cert).endswith("(+0.10 % vs the transient); Δt → 0 wave not "
+                                           "found (NotConverged); stable")
 
     def not_rigid(run_dir, *, dt_limit=False):
         raise NotRigidWave("frame spread 0.45")

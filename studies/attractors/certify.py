@@ -188,6 +188,8 @@ def certificate_line(cert: dict | None) -> str:
         text += f"; Δt → 0: {lim['celerity_m_s']:+.1f} m/s"
         if lim.get("run_dt_error") is not None:
             text += f" (the run's Δt error {100 * lim['run_dt_error']:+.2f} %)"
+    elif lim.get("message") and not lim["message"].startswith("not computed"):
+        text += f"; Δt → 0 wave not found ({lim['message'].split(':')[0]})"
     if "stable" in cert:
         text += {True: "; stable", False: "; unstable", None: "; stability unknown"}[
             cert["stable"]]
