@@ -327,3 +327,28 @@ def test_certificates_reproducibility_persistence_and_an_unstable_wave(tmp_path,
                        "k8-opposite-SSS": "transient"}
     assert "N = 132 (3 random starts): 1 attractor (0 rigid, 1 multi-wave)" in answer["text"]
     assert "certificates" in answer["text"].splitlines()[-1]  # the time shares are printed
+
+
+def test_cea_mode_shares_and_who_wins():
+    """The starts whose attractor holds an unstable mode's (k, direction) as dominant or
+    companion; the fastest mode wins only when it dominates more starts than any other."""
+    from studies.attractors.cea import cea_lines, mode_shares
+
+    def row(feats, cls="multi-wave"):
+        return {"class": cls, "features": feats.to_dict()}
+
+    rows = [row(_features({12: 1.0, 13: 0.21, 11: 0.20})),
+            row(_features({12: 1.0, 11: 0.30})), row(_features({13: 1.0}), "wave"),
+            row(_features({13: 1.0}), "unsettled")]  # unsettled: no attractor, not counted
+    modes = [{"k": 13, "direction": "opposite", "growth_rate_per_s": 900.0, "zeta": -0.07,
+              "frequency_hz": 1900.0, "phase_speed_m_s": -900.0},
+             {"k": 12, "direction": "opposite", "growth_rate_per_s": 800.0, "zeta": -0.07,
+              "frequency_hz": 1800.0, "phase_speed_m_s": -900.0}]
+    t = mode_shares(modes, rows)
+    assert [(m["dominant"], m["companion"], m["starts"]) for m in t["modes"]] == [
+        (1, 1, 4), (2, 0, 4)]
+    assert not t["fastest_wins"] and t["most_reached"] == {"k": 12, "direction": "opposite"}
+    assert cea_lines({"132": t})[-1] == ("  the fastest-growing mode (k = 13 against Ω) does "
+                                         "not win: k = 12 against Ω is the dominant "
+                                         "component of the most starts")
+    assert mode_shares(modes[1:], rows)["fastest_wins"]

@@ -24,6 +24,8 @@ from solver.atomic import atomic_write_text
 from studies.attractors.statistics import COUNTED, SETTLED, wilson
 
 CACHE = "cea.json"
+#: The printed table shows the fastest-growing modes and every mode a start ends on.
+FASTEST_SHOWN = 5
 
 
 def unstable_modes(scene_file: Path, n_inner: int, fmax_hz: float) -> list[dict]:
@@ -89,7 +91,7 @@ def mode_shares(modes: list[dict], rows: list[dict]) -> dict:
     fastest = table[0] if table else None
     wins = bool(fastest and fastest["dominant"] > 0 and all(
         e["dominant"] < fastest["dominant"] for e in table[1:]))
-    return {"modes": table, "fastest_wins": wins,
+    return {"modes": table, "fastest_wins": wins, "settled": sum(1 for h in held if h),
             "most_reached": None if winner is None or not winner["dominant"] else
             {"k": winner["k"], "direction": winner["direction"]}}
 
@@ -103,18 +105,25 @@ def cea_lines(table: dict) -> list[str]:
         lines.append(f"N = {n}: {len(modes)} resolved unstable mode(s) of steady sliding "
                      "(most unstable first); share of the random starts ending with it as "
                      "the dominant / a companion component:")
-        for m in modes:
+        shown = [m for i, m in enumerate(modes)
+                 if i < FASTEST_SHOWN or m["dominant"] or m["companion"]]
+        for m in shown:
             lo, hi = m["dominant_ci"]
             lines.append(
                 f"  k = {m['k']:>2} {sense.get(m['direction'], m['direction']):>7} Ω, "
                 f"growth {m['growth_rate_per_s']:8.1f} /s, ζ = {m['zeta']:+.4f}, "
                 f"{m['frequency_hz']:7.1f} Hz: dominant {m['dominant']}/{m['starts']} "
                 f"({_pct(lo)}–{_pct(hi)}), companion {m['companion']}/{m['starts']}")
+        if len(shown) < len(modes):
+            lines.append(f"  … and {len(modes) - len(shown)} slower mode(s) that no start "
+                         "ends on (cea.json)")
         if modes:
             top = modes[0]
             lines.append(
                 f"  the fastest-growing mode (k = {top['k']} {sense.get(top['direction'])} Ω) "
-                + ("wins: it is the dominant component of the most starts" if t["fastest_wins"]
+                + ("cannot be compared: no start has settled on an attractor at this mesh"
+                   if not t.get("settled") else
+                   "wins: it is the dominant component of the most starts" if t["fastest_wins"]
                    else "does not win" + (
                        f": k = {t['most_reached']['k']} "
                        f"{sense.get(t['most_reached']['direction'])} Ω is the dominant "
