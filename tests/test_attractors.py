@@ -89,11 +89,16 @@ def test_members_shares_and_ladder():
     coarse = [_row(1, "wave", 11, "opposite", sss, -935.6), _row(2, "wave", 11, "opposite",
               sss, -936.0), _row(3, "wave", 11, "opposite", sss, -990.0),
               _row(4, "wave", 8, "rotation", sss, 1930.0), _row(5, "diverged")]
-    group_members(coarse, celerity_tol=0.02)
-    # -935.6 and -936.0 are 0.04 % apart (one member), -990 is 5.8 % away (a second one)
+    stationary_cycle = _row(6, "multi-wave", 11, "opposite", sss, -935.7)
+    group_members([*coarse, stationary_cycle], celerity_tol=0.02)
+    # -935.6 and -936.0 are 0.04 % apart (one member), -990 is 5.8 % away (a second one);
+    # rows without features: a non-rigid cycle at the same celerity is not the rigid wave
     assert [r["member"] for r in coarse] == ["k11-opposite-SSS", "k11-opposite-SSS",
                                              "k11-opposite-SSS#2", "k8-rotation-SSS",
                                              "diverged"]
+    assert stationary_cycle["member"] == "multi-wave-k11-opposite-SSS"
+    assert member_description("multi-wave-k11-opposite-SSS") == (
+        "multi-wave k = 11 against the rotation, stick-slip-separation")
     assert member_description("k8-rotation-SSS") == \
         "k = 8 with the rotation, stick-slip-separation"
     assert member_description("unsettled-k13-opposite-SSS#2") == ("unsettled k = 13 against "

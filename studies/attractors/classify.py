@@ -317,7 +317,8 @@ def group_members(rows: list[dict], celerity_tol: float = CELERITY_TOL,
 
     for i in range(len(settled)):
         for j in range(i):
-            if root(i) != root(j) and match(feats[i], feats[j], tol):
+            if root(i) != root(j) and settled[i]["class"] == settled[j]["class"] \
+                    and match(feats[i], feats[j], tol):
                 group[root(i)] = root(j)
     used: dict[str, int] = {}
     names: dict[int, str] = {}
@@ -325,6 +326,8 @@ def group_members(rows: list[dict], celerity_tol: float = CELERITY_TOL,
         g = root(i)
         if g not in names:
             base = member_key(feats[g].components, settled[g]["regime"])
+            if settled[g]["class"] == "multi-wave" and not settled[g].get("features"):
+                base = f"multi-wave-{base}"  # known by its frame spread only
             used[base] = used.get(base, 0) + 1
             names[g] = base + ("" if used[base] == 1 else f"#{used[base]}")
         r["member"] = names[g]
@@ -355,7 +358,7 @@ def group_members(rows: list[dict], celerity_tol: float = CELERITY_TOL,
 def member_description(member: str) -> str:
     """``k11-opposite-SSS+k12`` -> "k = 11 against the rotation, stick-slip-separation, with
     k = 12"; the readable name with shares comes from the features (``features.describe``)."""
-    prefix = "unsettled-" if member.startswith("unsettled-") else ""
+    prefix = next((p for p in ("unsettled-", "multi-wave-") if member.startswith(p)), "")
     body = member.removeprefix(prefix)
     if not body.startswith("k"):
         return member
