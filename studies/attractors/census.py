@@ -324,12 +324,12 @@ def answer_of(meta: dict, rows: list[dict], certify_in: Path | None = None, *,
 
 
 def _tolerance_facts(tol: Tolerances) -> dict:
-    from studies.attractors import features as f
+    from studies.attractors.features import AMPLITUDE_TOL, HARMONIC_BINS, SHARE_TOL
 
-    return {"share_listed": f.SHARE_TOL, "celerity_rel": tol.celerity,
+    return {"share_listed": SHARE_TOL, "celerity_rel": tol.celerity,
             "share_rel": tol.share_rel, "share_abs": tol.share_abs,
-            "fraction_abs": tol.fraction, "amplitude_rel_between_windows": f.AMPLITUDE_TOL,
-            "harmonic_bins": f.HARMONIC_BINS}
+            "fraction_abs": tol.fraction, "amplitude_rel_between_windows": AMPLITUDE_TOL,
+            "harmonic_bins": HARMONIC_BINS}
 
 
 def _brief(row: dict) -> dict:
