@@ -171,6 +171,11 @@ def test_stationarity_and_classes():
     assert classify_features("completed", sss, earlier, earlier) == ("multi-wave", [])
     rigid = _features({12: 1.0, 13: 0.06})
     assert classify_features("completed", sss, rigid, rigid) == ("wave", [])
+    # one listed component, but weak companions that leave a frame spread above 10 %: not a
+    # rigid wave (the direct solver would refuse it), named with its weak companions
+    assert classify_features("completed", sss, rigid, rigid, spread=0.13) == ("multi-wave", [])
+    assert describe(rigid.named(False), with_weak=True) == (
+        "k = 12 against the rotation, with k = 13 (6 %)")
     grown = Features(rigid.components, rigid.fractions, rms_amplitude_m=1.1e-3)
     assert stationary(Features(rigid.components, rigid.fractions, 1.0e-3), grown) == [
         "RMS amplitude 0.001 vs 0.0011 m"]

@@ -10,12 +10,14 @@ over two consecutive windows of length W, the run's analysis window (the last th
 * ``unsettled``: the features of the two windows differ (``features.stationary``: a
   component appears or vanishes, a celerity, share or zone fraction moves beyond its
   tolerance, or the RMS amplitude by more than 5 %);
-* ``wave``: settled, one listed component (with its harmonics): a rigidly travelling wave
-  u(θ, t) = W(θ − ωt);
+* ``wave``: settled, one listed component (with its harmonics) and a frame spread at most
+  ``SPREAD_TOL``: a rigidly travelling wave u(θ, t) = W(θ − ωt);
 * ``multi-wave``: settled, several components each travelling at its own celerity (a
-  torus, a relative periodic orbit): an attractor that is not one rigid wave.
+  torus, a relative periodic orbit): an attractor that is not one rigid wave; also one
+  listed component whose weak companions (5 – 10 % each) together leave a frame spread
+  above ``SPREAD_TOL`` (named with them).
 
-Frame spread (``frame_spread``), kept as a feature: over the analysis window, each sample of
+Frame spread (``frame_spread``), a feature: over the analysis window, each sample of
 (u_r, u_θ) on the contact circle is shifted back by ω(t − t_end) (exact Fourier shift, ω the
 dominant component's angular speed) into its frame; the spread is the RMS deviation of the
 shifted samples from their mean over the RMS of the mean, both components together,
@@ -120,10 +122,11 @@ def classify(status: str, summary: dict, spread: float, spread_tol: float = SPRE
 
 
 def classify_features(status: str, summary: dict, earlier: Features | None,
-                      later: Features | None, tol: Tolerances = DEFAULT_TOLERANCES
+                      later: Features | None, tol: Tolerances = DEFAULT_TOLERANCES,
+                      spread: float = math.nan, spread_tol: float = SPREAD_TOL
                       ) -> tuple[str, list[str]]:
     """(class, why unsettled) of an end state from its features over two consecutive
-    windows (module docstring)."""
+    windows and its frame spread (module docstring)."""
     early = _early_class(status, summary)
     if early:
         return early, []
@@ -132,7 +135,8 @@ def classify_features(status: str, summary: dict, earlier: Features | None,
     why = stationary(earlier, later, tol) if earlier is not None else ["one window only"]
     if why:
         return "unsettled", why
-    return ("wave" if later.rigid else "multi-wave"), []
+    rigid = later.rigid and not spread > spread_tol
+    return ("wave" if rigid else "multi-wave"), []
 
 
 def _early_class(status: str, summary: dict) -> str:
@@ -198,7 +202,7 @@ def end_state_row(start_id: str, params: dict, summary: dict, status: str,
     known = status in ("completed", "diverged", "failed")
     why: list[str] = []
     if features is not None and known:
-        cls, why = classify_features(status, s, *features, tol)
+        cls, why = classify_features(status, s, *features, tol, frame, spread_tol)
     else:
         cls = classify(status, s, frame, spread_tol, trend) if known else status
     row.update({
@@ -217,8 +221,9 @@ def end_state_row(start_id: str, params: dict, summary: dict, status: str,
     if features is not None and features[1].dominant is not None:
         earlier, later = features
         top = later.dominant
-        row.update(k=top.k, direction=top.direction, n_components=len(later.listed),
-                   name=describe(later.components),
+        named = later.named(cls != "multi-wave")
+        row.update(k=top.k, direction=top.direction, n_components=len(named),
+                   name=describe(named, with_weak=True),
                    components=_components_cell(later.components),
                    features=later.to_dict(), features_before=earlier.to_dict())
         if not top.aliased:
@@ -325,7 +330,8 @@ def group_members(rows: list[dict], celerity_tol: float = CELERITY_TOL,
     for i, r in enumerate(settled):
         g = root(i)
         if g not in names:
-            base = member_key(feats[g].components, settled[g]["regime"])
+            base = member_key(feats[g].named(settled[g]["class"] == "wave"),
+                              settled[g]["regime"], with_weak=True)
             if settled[g]["class"] == "multi-wave" and not settled[g].get("features"):
                 base = f"multi-wave-{base}"  # known by its frame spread only
             used[base] = used.get(base, 0) + 1

@@ -111,8 +111,16 @@ class Features:
 
     @property
     def rigid(self) -> bool:
-        """One listed component (its harmonics included): a rigidly travelling wave."""
+        """One listed component (its harmonics included): a rigidly travelling wave, where
+        its weak companions leave the frame spread small (``classify``)."""
         return len(self.listed) == 1
+
+    def named(self, rigid: bool) -> tuple[Component, ...]:
+        """The components a name gives: the listed ones, and the weak ones too where one
+        listed component is not a rigid wave (its weak companions together are not small)."""
+        if rigid or len(self.listed) != 1:
+            return self.listed
+        return self.components
 
     def to_dict(self) -> dict:
         d = asdict(self)
@@ -395,9 +403,10 @@ def stationary(earlier: Features, later: Features, tol: Tolerances = DEFAULT_TOL
 _SENSE = {"rotation": "with the rotation", "opposite": "against the rotation"}
 
 
-def describe(comps: tuple[Component, ...] | list[Component]) -> str:
-    """"k = 12 against the rotation, with k = 13 (21 %) and k = 11 (20 %)"."""
-    listed = [c for c in comps if not c.weak]
+def describe(comps: tuple[Component, ...] | list[Component], with_weak: bool = False) -> str:
+    """"k = 12 against the rotation, with k = 13 (21 %) and k = 11 (20 %)": the listed
+    components (``with_weak``: the weak ones too)."""
+    listed = [c for c in comps if with_weak or not c.weak]
     if not listed:
         return "no travelling component"
     top = listed[0]
@@ -415,11 +424,12 @@ def describe(comps: tuple[Component, ...] | list[Component]) -> str:
     return text
 
 
-def member_key(comps: tuple[Component, ...] | list[Component], regime: str | None) -> str:
-    """Short id of a state from its listed components: ``k12-opposite-SSS`` (rigid),
-    ``k12-opposite-SSS+k13+k11`` (companions; ``k5r``/``k5o`` where a companion travels the
-    other way than the dominant)."""
-    listed = [c for c in comps if not c.weak]
+def member_key(comps: tuple[Component, ...] | list[Component], regime: str | None,
+               with_weak: bool = False) -> str:
+    """Short id of a state from its listed components (``with_weak``: the weak ones too):
+    ``k12-opposite-SSS`` (rigid), ``k12-opposite-SSS+k13+k11`` (companions; ``k5r``/``k5o``
+    where a companion travels the other way than the dominant)."""
+    listed = [c for c in comps if with_weak or not c.weak]
     if not listed:
         return "none"
     top = listed[0]

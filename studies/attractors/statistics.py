@@ -111,8 +111,9 @@ def member_components(rows: list[dict]) -> dict:
                       amplitude_m=e["amplitude_m"], frequency_hz=e["frequency_hz"],
                       celerity_m_s=e["celerity_m_s"], aliased=e["aliased"], weak=e["weak"])
             for e in comps]
-    return {"components": comps, "name": describe(mean),
-            "n_components": sum(not e["weak"] for e in comps)}
+    named = Features(tuple(mean)).named(rows[0].get("class") != "multi-wave")
+    return {"components": comps, "name": describe(named, with_weak=True),
+            "n_components": len(named)}
 
 
 def fisher_consistent(x_a: int, n_a: int, x_b: int, n_b: int) -> float:
