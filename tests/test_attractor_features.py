@@ -176,6 +176,14 @@ def test_stationarity_and_classes():
     assert classify_features("completed", sss, rigid, rigid, spread=0.13) == ("multi-wave", [])
     assert describe(rigid.named(False), with_weak=True) == (
         "k = 12 against the rotation, with k = 13 (6 %)")
+    # weak companions still decaying: the frame spread moves 0.30 -> 0.20 (33 % > 10 %) while
+    # the listed components stay; below the rigid threshold (0.08 -> 0.066) it no longer counts
+    def spread(f, x):
+        return replace(f, frame_spread=x)
+
+    assert stationary(spread(earlier, 0.30), spread(earlier, 0.20)) == [
+        "frame spread 0.300 vs 0.200"]
+    assert stationary(spread(rigid, 0.08), spread(rigid, 0.066)) == []
     grown = Features(rigid.components, rigid.fractions, rms_amplitude_m=1.1e-3)
     assert stationary(Features(rigid.components, rigid.fractions, 1.0e-3), grown) == [
         "RMS amplitude 0.001 vs 0.0011 m"]

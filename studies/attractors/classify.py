@@ -45,18 +45,18 @@ from studies.attractors.features import (
     CELERITY_TOL,
     DEFAULT_TOLERANCES,
     REGIME_SHORT,
+    SPREAD_TOL,
     Component,
     Features,
     Tolerances,
     consecutive_features,
     describe,
+    frame_spread,
     match,
     member_key,
     stationary,
 )
 
-#: Frame spread at or below which a cycle is a rigid wave, for rows without features.
-SPREAD_TOL = 0.10
 #: Relative decrease of the frame spread over the analysis window above which a cycle that is
 #: not rigid is still settling, for rows without features.
 DECAY_TOL = 0.05
@@ -66,33 +66,6 @@ CLASSES = ("wave", "multi-wave", "transient", "unsettled", "steady-sliding", "di
            "failed")
 #: The classes of an attractor.
 SETTLED = ("wave", "multi-wave")
-
-
-def frame_spread(t: np.ndarray, theta: np.ndarray, u_r: np.ndarray, u_theta: np.ndarray,
-                 omega: float, window: float) -> tuple[float, float]:
-    """(frame spread, RMS amplitude in m) over the last ``window`` s (module docstring).
-
-    The RMS amplitude is sqrt(mean over samples and nodes of |u − ū(t)|²), u = (u_r, u_θ)
-    on the contact circle, ū(t) its circle mean: the size of the travelling part.
-    """
-    order = np.argsort(theta)
-    n = order.size
-    sel = t >= t[-1] - window
-    if sel.sum() < 2:
-        return math.nan, math.nan
-    k = np.fft.rfftfreq(n, 1.0 / n)
-    shift = np.exp(1j * k[None, :] * omega * (t[sel] - t[-1])[:, None])
-    dev = mean_sq = amp_sq = 0.0
-    for comp in (u_r, u_theta):
-        spectrum = np.fft.rfft(comp[sel][:, order], axis=1)
-        spectrum[:, 0] = 0.0  # the axisymmetric part (steady sliding) is not the wave
-        amp_sq += float(np.mean(np.fft.irfft(spectrum, n, axis=1) ** 2))
-        back = np.fft.irfft(spectrum * shift, n, axis=1)
-        mean = back.mean(axis=0)
-        dev += float(np.mean((back - mean) ** 2))
-        mean_sq += float(np.mean(mean**2))
-    spread = math.sqrt(dev / mean_sq) if mean_sq > 0.0 else math.inf
-    return spread, math.sqrt(amp_sq)
 
 
 def spread_trend(t: np.ndarray, theta: np.ndarray, u_r: np.ndarray, u_theta: np.ndarray,
@@ -132,7 +105,8 @@ def classify_features(status: str, summary: dict, earlier: Features | None,
         return early, []
     if later is None or not later.listed:
         return "unsettled", ["no travelling component"]
-    why = stationary(earlier, later, tol) if earlier is not None else ["one window only"]
+    why = (stationary(earlier, later, tol, spread_tol=spread_tol) if earlier is not None
+           else ["one window only"])
     if why:
         return "unsettled", why
     rigid = later.rigid and not spread > spread_tol

@@ -65,6 +65,12 @@ FRACTION_TOL = 0.02
 HARMONIC_BINS = 2.0
 #: Relative change of the RMS amplitude between two windows above which a start is unsettled.
 AMPLITUDE_TOL = 0.05
+#: Frame spread at or below which one listed component is a rigid wave (``classify``).
+SPREAD_TOL = 0.10
+#: Change of the frame spread between two windows above which a start is unsettled
+#: (relative, and its floor): weak companions that still decay or grow.
+SPREAD_CHANGE_REL = 0.10
+SPREAD_CHANGE_ABS = 0.01
 #: A component whose probe amplitude at its frequency is below this fraction of its own is
 #: folded from another frequency (``aliased``).
 PROBE_FRACTION = 0.5
@@ -100,6 +106,7 @@ class Features:
     window: tuple[float, float] = (math.nan, math.nan)
     nyquist_hz: float = math.nan
     resolution_hz: float = math.nan
+    frame_spread: float = math.nan  # in the frame of the dominant component
 
     @property
     def listed(self) -> tuple[Component, ...]:
@@ -133,7 +140,8 @@ class Features:
                       for c in d.get("components") or ())
         return cls(comps, dict(d.get("fractions") or {}),
                    _num(d.get("rms_amplitude_m")), tuple(_num(x) for x in d["window"]),
-                   _num(d.get("nyquist_hz")), _num(d.get("resolution_hz")))
+                   _num(d.get("nyquist_hz")), _num(d.get("resolution_hz")),
+                   _num(d.get("frame_spread")))
 
 
 def _num(x: object) -> float:
@@ -281,6 +289,34 @@ def travelling_components(t: np.ndarray, theta: np.ndarray, u_r: np.ndarray,
     return tuple(comps)
 
 
+def frame_spread(t: np.ndarray, theta: np.ndarray, u_r: np.ndarray, u_theta: np.ndarray,
+                 omega: float, window: float) -> tuple[float, float]:
+    """(frame spread, RMS amplitude in m) over the last ``window`` s (``classify``
+    module docstring).
+
+    The RMS amplitude is sqrt(mean over samples and nodes of |u − ū(t)|²), u = (u_r, u_θ)
+    on the contact circle, ū(t) its circle mean: the size of the travelling part.
+    """
+    order = np.argsort(theta)
+    n = order.size
+    sel = t >= t[-1] - window
+    if sel.sum() < 2:
+        return math.nan, math.nan
+    k = np.fft.rfftfreq(n, 1.0 / n)
+    shift = np.exp(1j * k[None, :] * omega * (t[sel] - t[-1])[:, None])
+    dev = mean_sq = amp_sq = 0.0
+    for comp in (u_r, u_theta):
+        spectrum = np.fft.rfft(comp[sel][:, order], axis=1)
+        spectrum[:, 0] = 0.0  # the axisymmetric part (steady sliding) is not the wave
+        amp_sq += float(np.mean(np.fft.irfft(spectrum, n, axis=1) ** 2))
+        back = np.fft.irfft(spectrum * shift, n, axis=1)
+        mean = back.mean(axis=0)
+        dev += float(np.mean((back - mean) ** 2))
+        mean_sq += float(np.mean(mean**2))
+    spread = math.sqrt(dev / mean_sq) if mean_sq > 0.0 else math.inf
+    return spread, math.sqrt(amp_sq)
+
+
 def _fractions(status: np.ndarray | None) -> dict:
     if status is None or status.size == 0:
         return {}
@@ -309,9 +345,14 @@ def window_features(samples: dict, radius: float, t0: float, t1: float, *,
            for c in ("u_r", "u_theta")]
     rms = math.sqrt(sum(float(np.mean(d**2)) for d in dev)) if ts.size else math.nan
     dt_s = (ts[-1] - ts[0]) / (ts.size - 1) if ts.size > 1 else math.nan
+    spread = math.nan
+    if comps and not comps[0].aliased:
+        spread, _ = frame_spread(ts, samples["theta"], samples["u_r"][sel],
+                                 samples["u_theta"][sel], comps[0].celerity_m_s / radius,
+                                 float(t1 - t0))
     return Features(comps, _fractions(status[sel] if status is not None else None), rms,
                     (float(t0), float(t1)), 0.5 / dt_s,
-                    1.0 / (ts.size * dt_s) if ts.size > 1 else math.nan)
+                    1.0 / (ts.size * dt_s) if ts.size > 1 else math.nan, spread)
 
 
 def consecutive_features(samples: dict, radius: float, window: float, *,
@@ -387,13 +428,21 @@ def match(a: Features, b: Features, tol: Tolerances = DEFAULT_TOLERANCES) -> boo
 
 
 def stationary(earlier: Features, later: Features, tol: Tolerances = DEFAULT_TOLERANCES,
-               amplitude_tol: float = AMPLITUDE_TOL) -> list[str]:
+               amplitude_tol: float = AMPLITUDE_TOL, spread_tol: float = SPREAD_TOL
+               ) -> list[str]:
     """Why the features of two consecutive windows of one start differ ([] = stationary):
-    ``differences`` plus the RMS amplitude within ``amplitude_tol`` (relative)."""
+    ``differences``, the RMS amplitude within ``amplitude_tol`` (relative), and, where the
+    later window is not a rigid wave (frame spread above ``spread_tol``), the frame spread
+    (all that is not the dominant wave, weak companions included) within
+    ``SPREAD_CHANGE_REL`` (relative, at least ``SPREAD_CHANGE_ABS``)."""
     why = differences(earlier, later, tol)
     ra, rb = earlier.rms_amplitude_m, later.rms_amplitude_m
     if math.isfinite(ra) and math.isfinite(rb) and abs(rb - ra) > amplitude_tol * max(ra, rb):
         why.append(f"RMS amplitude {ra:.3g} vs {rb:.3g} m")
+    sa, sb = earlier.frame_spread, later.frame_spread
+    if math.isfinite(sa) and math.isfinite(sb) and sb > spread_tol and abs(sb - sa) > max(
+            SPREAD_CHANGE_REL * max(sa, sb), SPREAD_CHANGE_ABS):
+        why.append(f"frame spread {sa:.3f} vs {sb:.3f}")
     return why
 
 
