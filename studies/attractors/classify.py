@@ -132,12 +132,21 @@ def start_row(run_dir: Path, params: dict, summary: dict | None, status: str,
     if status == "completed" and s.get("regime") not in (None, "steady-sliding"):
         samples = _samples(run_dir)
         if samples is not None:
-            features = features_of_samples(samples, s, _radius(run_dir))
-            spread = spread_of_samples(samples["t"], samples["theta"], samples["u_r"],
-                                       samples["u_theta"], _with_dominant(s, features[1]),
-                                       _radius(run_dir))
+            features, spread = end_state_features(samples, s, _radius(run_dir))
     return end_state_row(run_dir.name, params, s, status, spread, spread_tol,
                          run_dir=str(run_dir), features=features, tol=tol)
+
+
+def end_state_features(samples: dict, summary: dict, radius: float
+                       ) -> tuple[tuple[Features, Features], tuple[float, float, float]]:
+    """(features of the two consecutive windows, (frame spread, RMS amplitude, spread
+    trend) in the dominant component's frame) of a run's samples (``samples.npz``'s arrays,
+    with the every-step probe where recorded): what ``end_state_row`` classifies."""
+    features = features_of_samples(samples, summary, radius)
+    spread = spread_of_samples(samples["t"], samples["theta"], samples["u_r"],
+                               samples["u_theta"], _with_dominant(summary, features[1]),
+                               radius)
+    return features, spread
 
 
 def features_of_samples(samples: dict, summary: dict, radius: float
