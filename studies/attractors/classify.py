@@ -49,6 +49,7 @@ from studies.attractors.features import (
     Component,
     Features,
     Tolerances,
+    components_text,
     consecutive_features,
     describe,
     frame_spread,
@@ -207,17 +208,11 @@ def end_state_row(start_id: str, params: dict, summary: dict, status: str,
         named = later.named(cls != "multi-wave")
         row.update(k=top.k, direction=top.direction, n_components=len(named),
                    name=describe(named, with_weak=True),
-                   components=_components_cell(later.components),
+                   components=components_text(later.components),
                    features=later.to_dict(), features_before=earlier.to_dict())
         if not top.aliased:
             row.update(celerity_m_s=top.celerity_m_s, frequency_hz=abs(top.frequency_hz))
     return row
-
-
-def _components_cell(comps: tuple[Component, ...]) -> str:
-    from studies.attractors.features import components_text
-
-    return components_text(comps)
 
 
 def row_features(row: dict) -> Features:

@@ -38,7 +38,9 @@ starts (grouping into attractors) and between two consecutive windows of one sta
 direction; a component listed in one needs at least a ``weak`` one, or the same peak
 attached as a harmonic or sum tone, in the other), each
 celerity within ``CELERITY_TOL`` (relative), each share within ``SHARE_TOL_REL`` (relative,
-at least ``SHARE_TOL_ABS``), and the zone fractions within ``FRACTION_TOL``. The tolerances
+at least ``SHARE_TOL_ABS``), and the zone fractions within ``FRACTION_TOL``. ``stationary``
+adds, between two windows, the RMS amplitude within ``AMPLITUDE_TOL`` and, where the later
+window is not a rigid wave, the frame spread within ``SPREAD_CHANGE_REL``. The tolerances
 and the spreads measured behind them: docs/attractors.md.
 """
 
