@@ -287,7 +287,8 @@ def answer_of(meta: dict, rows: list[dict], certify_in: Path | None = None, *,
     take that class."""
     meshes = sorted({r["n_inner"] for r in rows})
     for n in meshes:
-        group_members([r for r in rows if r["n_inner"] == n], tol=tolerances(meta))
+        group_members([r for r in rows if r["n_inner"] == n], meta["celerity_tol"],
+                      tol=tolerances(meta))
     timing = dict(timing or {})
     certificates: dict = {}
     if certify_in:
