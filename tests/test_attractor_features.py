@@ -234,6 +234,16 @@ def test_small_census_counts_multi_wave_attractors(tmp_path):
     settled = [m for m in members if m["class"] in ("wave", "multi-wave")]
     assert f"{len(settled)} attractor" in answer["text"]
     assert sum(m["count"] for m in members) == 2
+    # every featurised start is kept in features.json: reading the census again reads no
+    # samples and gives the same rows
+    from studies.attractors.census import collect
+
+    cached = json.loads((out / "features.json").read_text())
+    assert len(cached) == sum(1 for r in answer["starts"] if r["features"])
+    (out / "starts" / "runs" / answer["starts"][0]["id"] / "samples.npz").unlink()
+    again = collect(out)
+    assert [(r["class"], r["components"]) for r in again["starts"]] == [
+        (r["class"], r["components"]) for r in answer["starts"]]
 
 
 def test_parse_along():

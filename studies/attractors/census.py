@@ -35,6 +35,7 @@ from studies.attractors.classify import (
     SETTLED,
     SPREAD_TOL,
     group_members,
+    row_cache,
     start_row,
 )
 from studies.attractors.features import DEFAULT_TOLERANCES, Tolerances
@@ -45,7 +46,10 @@ KIND = "stickslip-attractors"
 #: The census directory's own entries (``studies.rundir.ownership``); the starts are a sweep
 #: directory of their own, ``starts/``.
 ENTRIES = ("census.json", "census.toml", "base.toml", "attractors.json", "attractors.csv",
-           "members.csv", "certificates.json", "cea.json", "starts", "*.png")
+           "members.csv", "certificates.json", "cea.json", "features.json", "starts",
+           "*.png")
+#: Every completed start's features, by start and summary time (read once).
+FEATURES = "features.json"
 STARTS = "starts"
 ROW_FIELDS = ("id", "n_inner", "start", "seed", "start_mode", "status", "class", "member",
               "name", "n_components", "components", "unsettled_because", "k",
@@ -243,12 +247,26 @@ def start_rows(out_dir: Path, spread_tol: float = SPREAD_TOL,
     from studies.sweep.table import _read_json, live_status
 
     spec = load_sweep(out_dir / "census.toml")
-    rows = []
+    cache_path = out_dir / FEATURES
+    try:
+        cache = json.loads(cache_path.read_text())
+    except (OSError, ValueError):
+        cache = {}
+    rows, kept = [], {}
     for task in spec.tasks:
         run_dir = out_dir / STARTS / "runs" / task.id
         summary = _read_json(run_dir / "summary.json")
         status = live_status(summary) if summary else "pending"
-        rows.append(start_row(run_dir, task.params, summary, status, spread_tol, tol))
+        key = None
+        if status == "completed":  # a start's features, until its summary is rewritten
+            key = f"{task.id}@{(run_dir / 'summary.json').stat().st_mtime_ns}"
+        row = start_row(run_dir, task.params, summary, status, spread_tol, tol,
+                        cached=cache.get(key))
+        rows.append(row)
+        if key and row.get("features"):
+            kept[key] = row_cache(row)
+    if kept != cache:
+        atomic_write_text(cache_path, json.dumps(_json_safe(kept)) + "\n")
     return rows
 
 

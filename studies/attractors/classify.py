@@ -124,18 +124,32 @@ def _early_class(status: str, summary: dict) -> str:
 
 
 def start_row(run_dir: Path, params: dict, summary: dict | None, status: str,
-              spread_tol: float = SPREAD_TOL, tol: Tolerances = DEFAULT_TOLERANCES) -> dict:
+              spread_tol: float = SPREAD_TOL, tol: Tolerances = DEFAULT_TOLERANCES,
+              cached: dict | None = None) -> dict:
     """One start's row of ``attractors.csv`` from its run directory: where it started, what
-    it reached."""
+    it reached. ``cached``: its features as an earlier row stored them (``row_cache``), so
+    the samples are not read again."""
     s = summary or {}
     spread = (math.nan, math.nan, math.nan)
     features = None
     if status == "completed" and s.get("regime") not in (None, "steady-sliding"):
-        samples = _samples(run_dir)
-        if samples is not None:
-            features, spread = end_state_features(samples, s, _radius(run_dir))
+        if cached and cached.get("features"):
+            features = (Features.from_dict(cached["features_before"]),
+                        Features.from_dict(cached["features"]))
+            spread = tuple(math.nan if v is None else float(v) for v in cached["spread"])
+        else:
+            samples = _samples(run_dir)
+            if samples is not None:
+                features, spread = end_state_features(samples, s, _radius(run_dir))
     return end_state_row(run_dir.name, params, s, status, spread, spread_tol,
                          run_dir=str(run_dir), features=features, tol=tol)
+
+
+def row_cache(row: dict) -> dict:
+    """What ``start_row(cached=...)`` needs of a row to rebuild it without its samples."""
+    return {"features": row.get("features"), "features_before": row.get("features_before"),
+            "spread": [row.get("frame_spread"), row.get("rms_amplitude_m"),
+                       row.get("spread_trend")]}
 
 
 def end_state_features(samples: dict, summary: dict, radius: float

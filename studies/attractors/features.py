@@ -138,7 +138,9 @@ class Features:
 
     @classmethod
     def from_dict(cls, d: dict) -> Features:
-        comps = tuple(Component(**{**c, "harmonics": tuple(c.get("harmonics") or ())})
+        numeric = ("share", "amplitude_m", "frequency_hz", "celerity_m_s")  # null: NaN
+        comps = tuple(Component(**{**c, **{q: _num(c.get(q)) for q in numeric},
+                                   "harmonics": tuple(c.get("harmonics") or ())})
                       for c in d.get("components") or ())
         return cls(comps, dict(d.get("fractions") or {}),
                    _num(d.get("rms_amplitude_m")), tuple(_num(x) for x in d["window"]),
