@@ -133,11 +133,16 @@ def _attractors(args: argparse.Namespace) -> int:
 
 
 def _along(census, out: Path, args: argparse.Namespace, comm) -> int:  # noqa: ANN001
+    from dataclasses import replace
+
     from studies.attractors.along import parse_along, plot_along, run_along
+    from studies.attractors.census import CensusError
 
     try:
         key, values = parse_along(args.along)
-    except ValueError as err:
+        for v in values:  # every point's scene must be valid before anything is written
+            replace(census, overrides=(*census.overrides, f"{key}={v!r}")).base_scene()
+    except (ValueError, CensusError) as err:
         return _fail(str(err), comm.rank)
     rc = run_along(census, key, values, out, comm=comm, force=args.force,
                    progress=args.progress, backend=args.backend,

@@ -258,6 +258,10 @@ def test_census_killed_and_rerun_counts_every_start_once(tmp_path, capsys):
     (["--meshes", "20"], "n_modes"),  # modes 1..16 of the random start: not on 20 nodes
     (["--structured", "5:2"], "--structured"),
     (["--end-time", "-1"], "--end-time"),
+    (["--along", "omega=30:100:8"], "--along"),  # not a dotted scene key
+    (["--along", "loading.omegaa=30,40"], "omegaa"),  # no such scene key
+    (["--along", "loading.f=-1,0.5"], "loading.f"),  # a value out of range
+    (["--cea-fmax-hz", "0"], "--cea-fmax-hz"),
 ])
 def test_bad_arguments_one_line_exit_2(tmp_path, capsys, args, words):
     pytest.importorskip("mpi4py")
