@@ -277,6 +277,10 @@ def test_along_matches_neighbouring_points_by_features():
     align(per, Tolerances(**ALONG_TOLERANCES))
     assert second[0]["ladder_id"] == first[0]["ladder_id"] == "k12-opposite-SSS+k13"
     assert second[1]["ladder_id"] == "k8-opposite-SSS"
+    # one that vanishes at the middle point and comes back is the same chain (lookback)
+    gone = {0: [dict(first[0])], 1: [dict(second[1])], 2: [dict(second[0])]}
+    align(gone, Tolerances(**ALONG_TOLERANCES), lookback=True)
+    assert gone[2][0]["ladder_id"] == gone[0][0]["ladder_id"]
     # with the mesh ladder's tolerances (celerity within 5 %) a 6 % move is another attractor
     per = {0: [dict(first[0])], 1: [member("x", _features({12: 1.0, 13: 0.21},
                                                            celerity=-900 * 1.06))]}

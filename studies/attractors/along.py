@@ -4,8 +4,9 @@
 (``census.run_census``, the same starts and meshes) at each of the 8 values 30 … 100
 (``parse_along``: ``A:B:M`` is M equally spaced values from A to B, or ``V1,V2,...``) into
 ``DIR/points/<key>-<value>``, each resumable as any census (a finished start is never run
-again). On the finest mesh, the attractors (settled members) of neighbouring points are
-matched by their features (``statistics.align`` with ``ALONG_TOLERANCES``: the same
+again). On the finest mesh, the attractors (settled members) are matched by their features
+with the nearest earlier point that has them (``statistics.align`` with ``lookback`` and
+``ALONG_TOLERANCES``: the same
 dominant component and the same listed companions, celerities within 15 %, shares within
 20 points), in the spirit of Attractors.jl's ``global_continuation``. Each chain of matched
 attractors is one curve: its basin share with the 95 % Wilson interval and its dominant
@@ -125,7 +126,7 @@ def along_table(out_dir: Path, key: str, values: list[float]) -> dict:
                            answer["members"][mesh][0]["starts"]
                            if answer and answer["members"][mesh] else 0)})
     per = {i: p["members"] for i, p in enumerate(points)}
-    align(per, Tolerances(**ALONG_TOLERANCES))
+    align(per, Tolerances(**ALONG_TOLERANCES), lookback=True)
     chains: dict[str, dict] = {}
     for i, p in enumerate(points):
         for m in p["members"]:
@@ -134,10 +135,11 @@ def along_table(out_dir: Path, key: str, values: list[float]) -> dict:
             c["points"][i] = {"share": m["share"], "share_lo": m["share_lo"],
                               "share_hi": m["share_hi"], "count": m["count"],
                               "celerity_m_s": m["celerity_m_s"], "member": m["member"]}
-    for c in chains.values():
-        idx = sorted(c["points"])
-        c["appears"] = values[idx[0]] if idx[0] > 0 else None
-        c["vanishes"] = values[idx[-1] + 1] if idx[-1] < len(values) - 1 else None
+    for c in chains.values():  # where it appears or vanishes inside the range
+        have = [i in c["points"] for i in range(len(values))]
+        c["appears"] = [values[i] for i in range(1, len(values)) if have[i] and not have[i - 1]]
+        c["vanishes"] = [values[i] for i in range(1, len(values))
+                         if have[i - 1] and not have[i]]
     table = {"kind": KIND, "key": key, "values": values,
              "points": [{k: p[k] for k in ("value", "mesh", "starts")} for p in points],
              "chains": {name: {**c, "points": {str(i): v for i, v in c["points"].items()}}
@@ -161,7 +163,8 @@ def along_lines(table: dict) -> list[str]:
     """The printed curve: per attractor, its share and celerity at each point."""
     values = table["values"]
     lines = [f"attractors along {table['key']} = " + ", ".join(f"{v:g}" for v in values)
-             + " (finest mesh; matched between neighbouring points by features)"]
+             + " (finest mesh; matched by features with the nearest earlier point that has"
+             " the attractor)"]
     if not table["chains"]:
         lines.append("  no attractor at any point")
     for name, c in table["chains"].items():
@@ -170,18 +173,17 @@ def along_lines(table: dict) -> list[str]:
             p = c["points"].get(str(i))
             cells.append(f"{v:g}: –" if p is None else
                          f"{v:g}: {100 * p['share']:.0f} % ({p['celerity_m_s']:+.0f} m/s)")
-        marks = []
-        if c["appears"] is not None:
-            marks.append(f"appears at {c['appears']:g}")
-        if c["vanishes"] is not None:
-            marks.append(f"vanishes at {c['vanishes']:g}")
+        marks = [text for _, text in sorted(
+            [(v, f"appears at {v:g}") for v in c["appears"]]
+            + [(v, f"vanishes at {v:g}") for v in c["vanishes"]])]
         lines.append(f"  {c['name']} [{name}]" + (f" ({', '.join(marks)})" if marks else ""))
         lines.append("    " + "; ".join(cells))
     return lines
 
 
 def plot_along(out_dir: Path) -> Path:
-    """along.png: stacked basin shares with Wilson bands, and celerity, against the value."""
+    """along.png: stacked basin shares (bars, 95 % Wilson error bars) and each attractor's
+    dominant celerity against the value; ▲/▼ where a chain appears or vanishes."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -190,35 +192,39 @@ def plot_along(out_dir: Path) -> Path:
 
     table = json.loads((out_dir / "along.json").read_text())
     x = np.array(table["values"])
-    fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(7.5, 7), sharex=True,
+    n = len(table["chains"])
+    fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(7.5, 7.5 + 0.22 * n), sharex=True,
                                    constrained_layout=True)
+    width = 0.6 * float(np.min(np.diff(np.sort(x))))
     base = np.zeros_like(x)
     for j, (name, c) in enumerate(table["chains"].items()):
-        share = np.array([c["points"].get(str(i), {}).get("share") or 0.0
-                          for i in range(len(x))])
-        lo = np.array([c["points"].get(str(i), {}).get("share_lo") or 0.0
-                       for i in range(len(x))])
-        hi = np.array([c["points"].get(str(i), {}).get("share_hi") or 0.0
-                       for i in range(len(x))])
+        def at(key: str, c: dict = c) -> np.ndarray:
+            return np.array([(c["points"].get(str(i)) or {}).get(key) or 0.0
+                             for i in range(len(x))])
+
+        share, lo, hi = at("share"), at("share_lo"), at("share_hi")
         colour = f"C{j % 10}"
-        ax1.fill_between(x, base, base + share, color=colour, alpha=0.6, label=c["name"])
         have = share > 0
+        ax1.bar(x[have], share[have], width, bottom=base[have], color=colour, alpha=0.75,
+                label=c["name"])
         ax1.errorbar(x[have], (base + share)[have],
                      yerr=np.vstack([(share - lo)[have], (hi - share)[have]]), fmt="none",
-                     ecolor=colour, capsize=3)
+                     ecolor="k", elinewidth=0.8, capsize=3)
         base = base + share
-        cel = np.array([c["points"].get(str(i), {}).get("celerity_m_s") or np.nan
-                        for i in range(len(x))])
+        cel = np.where(have, at("celerity_m_s"), np.nan)
         ax2.plot(x, cel, "o-", color=colour, label=name)
-        for at, marker in ((c["appears"], "^"), (c["vanishes"], "v")):
-            if at is not None:
-                i = int(np.argmin(np.abs(x - at)))
-                k = i if marker == "^" else i - 1
+        for values, marker, step in ((c["appears"], "^", 0), (c["vanishes"], "v", -1)):
+            for v in values:
+                k = int(np.argmin(np.abs(x - v))) + step
                 ax2.plot(x[k], cel[k], marker, ms=12, mfc="none", color=colour)
+    counted = np.array([p["starts"] > 0 for p in table["points"]])
+    ax1.bar(x[counted], (1.0 - base)[counted], width, bottom=base[counted], color="0.85",
+            label="no attractor (unsettled, transient, steady sliding, ...)")
     ax1.set(ylabel="basin share (stacked; 95 % Wilson bars)", ylim=(0, 1.05),
             title="attractors along " + table["key"])
     if table["chains"]:
-        ax1.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.0, 1.0))
+        fig.legend(*ax1.get_legend_handles_labels(), fontsize=7, loc="outside lower center",
+                   ncol=1, frameon=False)
     else:
         ax1.text(0.5, 0.5, "no attractor at any point", ha="center", transform=ax1.transAxes)
     ax2.set(xlabel=table["key"], ylabel="dominant celerity (m/s; + with the rotation)")

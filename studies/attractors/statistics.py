@@ -161,19 +161,22 @@ def member_features(entry: dict):  # noqa: ANN201 - features.Features
     return Features(comps, fr)
 
 
-def align(per_mesh: dict[int, list[dict]], tol=None) -> None:  # noqa: ANN001
+def align(per_mesh: dict[int, list[dict]], tol=None, lookback: bool = False  # noqa: ANN001
+          ) -> None:
     """Give every member entry its ``ladder_id`` (in place): a settled member that matches a
     settled member of the previous key (the next coarser mesh; same dominant k and
     direction, ``features.match`` with ``tol``, default ``LADDER_TOLERANCES``) takes its id;
-    otherwise its own name (``@N`` added where that name is already taken). Other entries
-    keep their name."""
+    with ``lookback`` also one of an earlier key, the most recent first (an attractor that
+    vanishes and comes back along a parameter); otherwise its own name (``@N`` added where
+    that name is already taken). Other entries keep their name."""
     from studies.attractors.features import Tolerances, match
 
     tol = tol or Tolerances(**LADDER_TOLERANCES)
     meshes = sorted(per_mesh)
     taken: set[str] = set()
     for i, n in enumerate(meshes):
-        coarse = [e for e in per_mesh[meshes[i - 1]] if e["class"] in SETTLED] if i else []
+        earlier = meshes[i - 1::-1] if lookback and i else meshes[i - 1:i] if i else []
+        coarse = [e for m in earlier for e in per_mesh[m] if e["class"] in SETTLED]
         used: set[str] = set()
         for e in per_mesh[n]:
             if e["class"] not in SETTLED:
