@@ -67,7 +67,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="live status line (TTY) or one line per finished start")
     p.add_argument("--along", default=None, metavar="KEY=A:B:M",
                    help="a census at each of M values of KEY from A to B (or KEY=V1,V2,...), "
-                   "attractors matched between neighbouring values by features; resumable")
+                   "attractors matched across the values by features; resumable")
     p.add_argument("--plot", action="store_true", help="draw the census figures")
     p.add_argument("--json", action="store_true",
                    help="print attractors.json instead of the summary")

@@ -6,13 +6,13 @@
 ``DIR/points/<key>-<value>``, each resumable as any census (a finished start is never run
 again). On the finest mesh, the attractors (settled members) are matched by their features
 with the nearest earlier point that has them (``statistics.align`` with ``lookback`` and
-``ALONG_TOLERANCES``: the same
-dominant component and the same listed companions, celerities within 15 %, shares within
-20 points), in the spirit of Attractors.jl's ``global_continuation``. Each chain of matched
+``ALONG_TOLERANCES``: the same dominant component and the same listed companions,
+celerities within 15 %, shares within 20 points), in the spirit of Attractors.jl's
+``global_continuation``. Each chain of matched
 attractors is one curve: its basin share with the 95 % Wilson interval and its dominant
 celerity at every point it exists; where it appears or vanishes inside the range is marked.
 ``DIR/along.json`` holds the table; ``--plot`` draws ``along.png`` (stacked basin shares with
-Wilson bands; celerity against the parameter).
+95 % Wilson bars; celerity against the parameter).
 """
 
 from __future__ import annotations
