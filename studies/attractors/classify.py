@@ -100,7 +100,8 @@ def classify_features(status: str, summary: dict, earlier: Features | None,
                       spread: float = math.nan, spread_tol: float = SPREAD_TOL
                       ) -> tuple[str, list[str]]:
     """(class, why unsettled) of an end state from its features over two consecutive
-    windows and its frame spread (module docstring)."""
+    windows (``features.window_features`` of any two windows) and its frame spread
+    (default: the later window's own, ``Features.frame_spread``); module docstring."""
     early = _early_class(status, summary)
     if early:
         return early, []
@@ -110,6 +111,7 @@ def classify_features(status: str, summary: dict, earlier: Features | None,
            else ["one window only"])
     if why:
         return "unsettled", why
+    spread = later.frame_spread if math.isnan(spread) else spread
     rigid = later.rigid and not spread > spread_tol
     return ("wave" if rigid else "multi-wave"), []
 
