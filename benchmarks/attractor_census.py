@@ -3,6 +3,7 @@
     ./dev python3 benchmarks/attractor_census.py [--scene figure1_n132_damped]
         [--starts 64] [--meshes 132,264] [--end-time 0.3] [--ranks 1] [-o DIR]
     ./dev python3 benchmarks/attractor_census.py --from DIR   # a finished census directory
+    ./dev python3 benchmarks/attractor_census.py --spreads DIR [DIR ...]   # feature spreads
 
 Runs ``stickslip attractors`` (under ``mpirun -n RANKS``) into a fresh directory (or reads
 DIR) and prints one JSON line: the command's wall time (start-up, every start, the analysis),
@@ -13,6 +14,13 @@ scene-steps per second = Σ steps / Σ per-start wall time (the rate of the runs
 batched start carries its whole batch's wall time, so the first rate undercounts batches).
 Target: a 64-start census at N = 132 and 264 (0.3 s each, 128 runs) end to end in
 ≤ 2 minutes on a 2-core machine.
+
+``--spreads`` prints the measured spreads behind the grouping tolerances
+(``studies.attractors.features``): per mesh and settled member reached by two or more
+starts, the largest spread across its starts of each listed component's celerity
+(relative) and share (absolute) and of the zone fractions; per start, the largest change of
+the same between its two consecutive windows, for the settled and for the unsettled starts;
+and the gaps between members of one mesh that share the dominant component.
 """
 
 from __future__ import annotations
@@ -53,6 +61,74 @@ def measure(out: Path) -> dict:
             "counts": answer["counts"], "per_mesh": per_mesh}
 
 
+def _feature_values(features: dict) -> dict:
+    """{(k, direction): (celerity, share)} of the listed components, and the fractions."""
+    comps = {(c["k"], c["direction"]): (c["celerity_m_s"], c["share"])
+             for c in features["components"] if not c["weak"]}
+    return {"components": comps, "fractions": features.get("fractions") or {},
+            "rms": features.get("rms_amplitude_m")}
+
+
+def _spread(values: list[dict]) -> dict:
+    """Largest relative celerity spread, absolute share spread, absolute fraction spread."""
+    cel = share = frac = 0.0
+    keys = set().union(*(v["components"] for v in values))
+    for key in keys:
+        have = [v["components"][key] for v in values if key in v["components"]]
+        cs = [c for c, _ in have if c is not None]
+        if len(cs) > 1:
+            cel = max(cel, (max(cs) - min(cs)) / abs(sum(cs) / len(cs)))
+        ss = [s for _, s in have]
+        if len(ss) > 1:
+            share = max(share, max(ss) - min(ss))
+    for zone in ("separation", "stick", "slip"):
+        fs = [v["fractions"][zone] for v in values if zone in v["fractions"]]
+        if len(fs) > 1:
+            frac = max(frac, max(fs) - min(fs))
+    rms = [v["rms"] for v in values if v.get("rms")]
+    rms_rel = (max(rms) - min(rms)) / max(rms) if len(rms) > 1 else 0.0
+    return {"celerity_rel": cel, "share_abs": share, "fraction_abs": frac, "rms_rel": rms_rel}
+
+
+def spreads(out: Path) -> dict:
+    """The measured spreads behind the tolerances (module docstring) of one census."""
+    answer = json.loads((out / "attractors.json").read_text())
+    res: dict = {"census": str(out), "meshes": {}}
+    for n in answer["members"]:
+        rows = [r for r in answer["starts"] if str(r["n_inner"]) == n and r.get("features")]
+        members: dict[str, list[dict]] = {}
+        for r in rows:
+            if r["class"] in ("wave", "multi-wave", "transient"):
+                members.setdefault(r["member"], []).append(r)
+        across = {m: {"starts": len(rs), **_spread([_feature_values(r["features"])
+                                                     for r in rs])}
+                  for m, rs in members.items() if len(rs) > 1}
+        windows: dict[str, dict] = {}
+        for label, classes in (("settled", ("wave", "multi-wave", "transient")),
+                               ("unsettled", ("unsettled",))):
+            per = [_spread([_feature_values(r["features_before"]),
+                            _feature_values(r["features"])])
+                   for r in rows if r["class"] in classes and r.get("features_before")]
+            windows[label] = {q: max((p[q] for p in per), default=None)
+                              for q in ("celerity_rel", "share_abs", "fraction_abs",
+                                        "rms_rel")}
+            windows[label]["starts"] = len(per)
+        gaps = []
+        by_dominant: dict[tuple, list[dict]] = {}
+        for rs in members.values():
+            top = rs[0]["features"]["components"][0]
+            by_dominant.setdefault((top["k"], top["direction"]), []).append(rs[0])
+        for key, firsts in by_dominant.items():
+            for i, a in enumerate(firsts):
+                for b in firsts[i + 1:]:
+                    gaps.append({"dominant": f"k{key[0]} {key[1]}", "members": [
+                        a["member"], b["member"]], **_spread([_feature_values(a["features"]),
+                                                              _feature_values(b["features"])])})
+        res["meshes"][n] = {"across_starts": across, "between_windows": windows,
+                            "between_members": gaps}
+    return res
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--scene", default="figure1_n132_damped")
@@ -62,7 +138,13 @@ def main() -> None:
     ap.add_argument("--ranks", type=int, default=1)
     ap.add_argument("-o", "--output", help="census directory (default: a fresh temporary one)")
     ap.add_argument("--from", dest="existing", help="measure a finished census directory")
+    ap.add_argument("--spreads", nargs="+", metavar="DIR",
+                    help="print the feature spreads of finished census directories")
     args = ap.parse_args()
+    if args.spreads:
+        for d in args.spreads:
+            print(json.dumps(spreads(Path(d)), indent=1))
+        return
     if args.existing:
         print(json.dumps(measure(Path(args.existing))))
         return

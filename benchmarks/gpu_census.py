@@ -268,13 +268,14 @@ _ROWS: dict = {}  # the records of a batch, inherited by forked classifying work
 
 def _row(b: int) -> dict:
     from postprocess.analysis import analyse
-    from studies.attractors.classify import end_state_row, spread_of_samples
+    from studies.attractors.classify import end_state_features, end_state_row
 
     c = _ROWS
     facts, start = c["facts"], c["batch"].runs[b]
     point = facts["points"][b]
     summary = {"dt_s": facts["dt"], "steps": start.steps or facts["steps"]}
     spread = (math.nan, math.nan, math.nan)
+    features = None
     status = start.status
     if status == "completed":
         a = c["rec"].arrays(b)
@@ -286,15 +287,15 @@ def _row(b: int) -> dict:
                            amplitude_m=w.amplitude_m, limit_cycle=w.limit_cycle,
                            analysis_window_s=w.window_s, psi1=w.psi1, psi2=w.psi2,
                            direction=w.direction)
-            if w.regime != "steady-sliding":
-                spread = spread_of_samples(a["t"], a["theta"], a["u_r"], a["u_theta"],
-                                           summary, facts["R"])
+            if w.regime != "steady-sliding":  # the census's features, probe included
+                features, spread = end_state_features({**a, **c["rec"].probe_arrays(b)},
+                                                      summary, facts["R"])
         except ValueError as err:
             status, summary["message"] = "failed", f"analysis: {err}"
     else:
         summary["message"] = start.message or "energy guard: blow-up"
     row = end_state_row(facts["ids"][b], {"mesh.n_inner": facts["n_inner"], **point},
-                        summary, status, spread, c["spread_tol"])
+                        summary, status, spread, c["spread_tol"], features=features)
     return row
 
 

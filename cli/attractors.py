@@ -17,11 +17,12 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="census of a scene point: its attractors, their basin shares and values per mesh",
         description=(
             "Run M random starts (and, with --structured, mode-k starts) of SCENE at each "
-            "mesh of a ladder, classify every end state (rigid travelling wave, modulated "
-            "cycle, unsettled, steady sliding, diverged, failed), group the waves into "
-            "members (k, direction, regime, celerity), and report each member's basin share "
-            "with a 95 %% Wilson interval, its values and their change along the ladder "
-            "(docs/attractors.md). Runs under mpirun; rerunning resumes."),
+            "mesh of a ladder, describe every end state by its travelling components "
+            "(wavenumber, direction, share, celerity from the space-time spectrum), class it "
+            "(rigid wave, multi-wave, unsettled, steady sliding, diverged, failed), group the "
+            "settled ones into attractors by those features, and report each attractor's "
+            "basin share with a 95 %% Wilson interval, its values and their change along the "
+            "ladder (docs/attractors.md). Runs under mpirun; rerunning resumes."),
     )
     p.add_argument("scene", help="scene file (TOML) or shipped scene name; or a census "
                    "directory, to read (and --plot) its answer as it stands, running nothing")
@@ -44,17 +45,29 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--celerity-tol", type=float, default=CELERITY_TOL, metavar="TOL",
                    help=f"relative celerity gap within one member (default {CELERITY_TOL})")
     p.add_argument("--spread-tol", type=float, default=SPREAD_TOL, metavar="TOL",
-                   help=f"frame spread of a rigid wave (default {SPREAD_TOL})")
+                   help=f"frame spread of a rigid wave, for rows without features (default "
+                   f"{SPREAD_TOL})")
     p.add_argument("-o", "--output", help="census directory (default "
                    "$STICKSLIP_OUTPUT/attractors/<scene name>)")
     p.add_argument("--force", action="store_true",
                    help="use a directory that holds another census (its starts run again)")
     p.add_argument("--no-certify", action="store_true",
-                   help="skip the direct travelling-wave solver's certificates")
+                   help="skip the certificates (reproducibility, persistence, the direct "
+                   "travelling-wave solver for rigid waves)")
+    p.add_argument("--dt-limit", action="store_true",
+                   help="certificates of rigid waves also solve the Δt → 0 ladder (costly)")
+    p.add_argument("--cea", action="store_true",
+                   help="also print the CEA's resolved unstable modes of steady sliding per "
+                   "mesh and the share of starts ending on each (dominant or companion)")
+    p.add_argument("--cea-fmax-hz", type=float, default=10_000.0, metavar="F",
+                   help="upper end of the CEA's frequency band (default 10000 Hz)")
     p.add_argument("--backend", choices=("cpu", "gpu"), default="cpu",
                    help="batched integrator backend (where the scenes can be batched)")
     p.add_argument("--progress", choices=("auto", "live", "lines"), default="auto",
                    help="live status line (TTY) or one line per finished start")
+    p.add_argument("--along", default=None, metavar="KEY=A:B:M",
+                   help="a census at each of M values of KEY from A to B (or KEY=V1,V2,...), "
+                   "attractors matched across the values by features; resumable")
     p.add_argument("--plot", action="store_true", help="draw the census figures")
     p.add_argument("--json", action="store_true",
                    help="print attractors.json instead of the summary")
@@ -106,11 +119,36 @@ def _attractors(args: argparse.Namespace) -> int:
     except (SceneError, CensusError, ValueError, ImportError) as err:
         return _fail(str(err), comm.rank)
     out = Path(args.output) if args.output else default_dir(scene)
+    if args.along:
+        return _along(census, out, args, comm)
     stream = open(os.devnull, "w") if args.json else sys.stdout  # noqa: SIM115
+    if not (args.cea_fmax_hz > 0):
+        return _fail(f"--cea-fmax-hz {args.cea_fmax_hz}: give a frequency > 0 (Hz)", comm.rank)
     rc = run_census(census, out, comm=comm, force=args.force, progress=args.progress,
-                    backend=args.backend, certify=not args.no_certify, stream=stream)
+                    backend=args.backend, certify=not args.no_certify,
+                    dt_limit=args.dt_limit, stream=stream)
     if comm.rank == 0 and rc in (0, 1, 130):
         _show(out, args)
+    return rc
+
+
+def _along(census, out: Path, args: argparse.Namespace, comm) -> int:  # noqa: ANN001
+    from dataclasses import replace
+
+    from studies.attractors.along import parse_along, plot_along, run_along
+    from studies.attractors.census import CensusError
+
+    try:
+        key, values = parse_along(args.along)
+        for v in values:  # every point's scene must be valid before anything is written
+            replace(census, overrides=(*census.overrides, f"{key}={v!r}")).base_scene()
+    except (ValueError, CensusError) as err:
+        return _fail(str(err), comm.rank)
+    rc = run_along(census, key, values, out, comm=comm, force=args.force,
+                   progress=args.progress, backend=args.backend,
+                   certify=not args.no_certify, dt_limit=args.dt_limit)
+    if comm.rank == 0 and args.plot and rc in (0, 1) and (out / "along.json").is_file():
+        print(f"figure: {plot_along(out)}")
     return rc
 
 
@@ -118,7 +156,7 @@ def _read(out: Path, args: argparse.Namespace) -> int:
     """The answer of an existing census directory, as it stands (nothing runs)."""
     from studies.attractors.census import collect
 
-    answer = collect(out, certify=False)
+    answer = collect(out, certify="cached")
     if not args.json:
         print(answer["text"])
     _show(out, args)
@@ -128,6 +166,14 @@ def _read(out: Path, args: argparse.Namespace) -> int:
 def _show(out: Path, args: argparse.Namespace) -> None:
     if args.json:
         print((out / "attractors.json").read_text(), end="")
+    if args.cea:
+        import json
+
+        from studies.attractors.cea import cea_lines, cea_table
+
+        answer = json.loads((out / "attractors.json").read_text())
+        for line in cea_lines(cea_table(out, answer, args.cea_fmax_hz)):
+            print(line)
     if args.plot:
         from studies.attractors.plots import plot_census
 

@@ -2,8 +2,9 @@
 The attractors of a point
 =========================
 
-Several travelling waves (members: wavenumber k, direction, regime) coexist at one scene
-point, and which one a transient reaches depends on its start. So the answer for a point is
+Several attractors coexist at one scene point: rigidly travelling waves, and multi-wave
+states (a dominant wave carrying companions of other wavenumbers, each travelling at its own
+speed). Which one a transient reaches depends on its start. So the answer for a point is
 its set of attractors and the share of starts that reaches each. This demo runs a small
 census with ``stickslip.attractors`` (the ``stickslip attractors`` command) on the damped
 Figure-3 scene at N = 66: four random starts (a random superposition of the modes 1 ... 16
@@ -29,13 +30,15 @@ print(answer["text"])
 # %%
 # Each start's end state
 # ----------------------
-# Every start is classified: a rigidly travelling wave (the frame spread below the
-# tolerance), a modulated cycle, steady sliding, or not settled within the run. At 0.3 s
-# on this damped scene most random starts have not settled yet: a census for a result uses
-# a longer ``end_time`` (``docs/attractors.md``).
+# Every start is described by its travelling components over the last two windows (the
+# space-time spectrum of the contact circle: wavenumber, direction, share of the dominant's
+# amplitude, celerity) and classified: a rigid wave (one component), a multi-wave state
+# (several), steady sliding, or unsettled (its components still change between the two
+# windows). At 0.3 s on this damped scene many random starts have not settled yet: a census
+# for a result uses a longer ``end_time`` (``docs/attractors.md``).
 for row in answer["starts"]:
     which = f"seed {row['seed']}" if row["start"] == "random" else f"mode {row['start_mode']}"
-    print(f"{which:>8}: {row['class']:>14}  {row['member'] or ''}")
+    print(f"{which:>8}: {row['class']:>10}  {row['name'] or row['member'] or ''}")
 
 # %%
 # The members and their shares
@@ -56,5 +59,6 @@ fig.tight_layout()
 
 # %%
 # A census is complete only when the set stops changing under refinement: give
-# ``meshes=(132, 264, 528)``. At coarse meshes members appear that finer meshes never reach,
-# so report a member with its start, N, dt, beta2 and damping.
+# ``meshes=(132, 264, 528)``: attractors are matched across meshes by their components, and
+# the change of each celerity and share is reported. At coarse meshes attractors appear that
+# finer meshes never reach, so report one with its start, N, dt, beta2 and damping.

@@ -89,15 +89,20 @@ def test_members_shares_and_ladder():
     coarse = [_row(1, "wave", 11, "opposite", sss, -935.6), _row(2, "wave", 11, "opposite",
               sss, -936.0), _row(3, "wave", 11, "opposite", sss, -990.0),
               _row(4, "wave", 8, "rotation", sss, 1930.0), _row(5, "diverged")]
-    group_members(coarse, celerity_tol=0.02)
-    # -935.6 and -936.0 are 0.04 % apart (one member), -990 is 5.8 % away (a second one)
+    stationary_cycle = _row(6, "multi-wave", 11, "opposite", sss, -935.7)
+    group_members([*coarse, stationary_cycle], celerity_tol=0.02)
+    # -935.6 and -936.0 are 0.04 % apart (one member), -990 is 5.8 % away (a second one);
+    # rows without features: a non-rigid cycle at the same celerity is not the rigid wave
     assert [r["member"] for r in coarse] == ["k11-opposite-SSS", "k11-opposite-SSS",
                                              "k11-opposite-SSS#2", "k8-rotation-SSS",
                                              "diverged"]
+    assert stationary_cycle["member"] == "multi-wave-k11-opposite-SSS"
+    assert member_description("multi-wave-k11-opposite-SSS") == (
+        "multi-wave k = 11 against the rotation, stick-slip-separation")
     assert member_description("k8-rotation-SSS") == \
         "k = 8 with the rotation, stick-slip-separation"
     assert member_description("unsettled-k13-opposite-SSS#2") == ("unsettled k = 13 against "
-        "the rotation, stick-slip-separation (celerity cluster 2)")
+        "the rotation, stick-slip-separation (group 2)")
     table = mesh_members(coarse)
     assert sum(m["share"] for m in table) == pytest.approx(1.0)  # diverged counted too
     top = table[0]
@@ -167,8 +172,8 @@ def test_frame_spread_rigid_and_modulated():
 def test_classes():
     wave = {"regime": "stick-slip", "limit_cycle": True}
     assert classify("completed", wave, 0.05) == "wave"
-    assert classify("completed", wave, 0.3) == "modulated"
-    assert classify("completed", wave, 0.3, trend=-0.02) == "modulated"  # not decaying
+    assert classify("completed", wave, 0.3) == "multi-wave"
+    assert classify("completed", wave, 0.3, trend=-0.02) == "multi-wave"  # not decaying
     assert classify("completed", wave, 0.3, trend=-0.11) == "unsettled"  # still decaying
     assert classify("completed", dict(wave, limit_cycle=False), 0.0) == "unsettled"
     assert classify("completed", {"regime": "steady-sliding"}, math.nan) == "steady-sliding"
@@ -253,6 +258,10 @@ def test_census_killed_and_rerun_counts_every_start_once(tmp_path, capsys):
     (["--meshes", "20"], "n_modes"),  # modes 1..16 of the random start: not on 20 nodes
     (["--structured", "5:2"], "--structured"),
     (["--end-time", "-1"], "--end-time"),
+    (["--along", "omega=30:100:8"], "--along"),  # not a dotted scene key
+    (["--along", "loading.omegaa=30,40"], "omegaa"),  # no such scene key
+    (["--along", "loading.f=-1,0.5"], "loading.f"),  # a value out of range
+    (["--cea-fmax-hz", "0"], "--cea-fmax-hz"),
 ])
 def test_bad_arguments_one_line_exit_2(tmp_path, capsys, args, words):
     pytest.importorskip("mpi4py")
@@ -396,7 +405,8 @@ def test_certification_adapter(monkeypatch, tmp_path):
     assert cert["at_dt"]["residual"] == 1e-11 and cert["stable"] is True
     assert cert["dt_to_0"] == {"message": "NotConverged: no wave at 4S"}
     assert cert["stability_samples"] == 3  # tested at S' = ceil(tau / dt)
-    assert certificate_line(cert).endswith("(+0.10 % vs the transient); stable")
+    assert certificate_line(cert).endswith("(+0.10 % vs the transient); Δt → 0 wave not "
+                                           "found (NotConverged); stable")
 
     def not_rigid(run_dir, *, dt_limit=False):
         raise NotRigidWave("frame spread 0.45")

@@ -23,6 +23,7 @@ import json
 import math
 import re
 import sys
+import time
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TextIO
@@ -31,10 +32,13 @@ from solver.atomic import atomic_write_text
 from solver.scene import Scene, SceneError, load_scene, scene_to_dict, write_scene
 from studies.attractors.classify import (
     CELERITY_TOL,
+    SETTLED,
     SPREAD_TOL,
     group_members,
+    row_cache,
     start_row,
 )
+from studies.attractors.features import DEFAULT_TOLERANCES, Tolerances
 from studies.attractors.starts import StartDistribution
 from studies.attractors.statistics import ladder, mesh_members
 
@@ -42,14 +46,19 @@ KIND = "stickslip-attractors"
 #: The census directory's own entries (``studies.rundir.ownership``); the starts are a sweep
 #: directory of their own, ``starts/``.
 ENTRIES = ("census.json", "census.toml", "base.toml", "attractors.json", "attractors.csv",
-           "members.csv", "certificates.json", "starts", "*.png")
+           "members.csv", "certificates.json", "cea.json", "features.json", "starts",
+           "*.png")
+#: Every completed start's features, by start and summary time (read once).
+FEATURES = "features.json"
 STARTS = "starts"
-ROW_FIELDS = ("id", "n_inner", "start", "seed", "start_mode", "status", "class", "member", "k",
+ROW_FIELDS = ("id", "n_inner", "start", "seed", "start_mode", "status", "class", "member",
+              "name", "n_components", "components", "unsettled_because", "k",
               "direction", "regime", "celerity_m_s", "frequency_hz", "fraction_separation",
               "fraction_stick", "fraction_slip", "psi1", "psi2", "amplitude_m",
               "rms_amplitude_m", "limit_cycle", "frame_spread", "spread_trend", "dt_s", "steps",
               "wall_time_s", "message", "run_dir")
-MEMBER_FIELDS = ("n_inner", "member", "class", "k", "direction", "regime", "count", "starts",
+MEMBER_FIELDS = ("n_inner", "member", "class", "name", "n_components", "k", "direction",
+                 "regime", "count", "starts",
                  "share", "share_lo", "share_hi", "celerity_m_s", "celerity_m_s_sd",
                  "frequency_hz", "frequency_hz_sd", "fraction_separation",
                  "fraction_separation_sd", "fraction_stick", "fraction_stick_sd",
@@ -179,8 +188,11 @@ def clear_unstarted(out_dir: Path) -> list[Path]:
 
 def run_census(census: Census, out_dir: str | Path, *, comm=None, force: bool = False,  # noqa: ANN001
                progress: str = "auto", backend: str = "cpu", certify: bool = True,
-               stream: TextIO = sys.stdout) -> int:
+               dt_limit: bool = False, stream: TextIO = sys.stdout) -> int:
     """Run (or resume) the census into ``out_dir`` and write its answer; collective.
+
+    ``certify``: certify every member (``studies.attractors.certify``); ``dt_limit``: also the
+    rigid waves' Δt → 0 ladder (several Newton solves on finer levels; off by default).
 
     Returns 0 (every start final, none failed with an error), 1 (some start failed: counted
     and shown), 2 (the census cannot start), 130 (interrupted: run the same command again).
@@ -209,10 +221,13 @@ def run_census(census: Census, out_dir: str | Path, *, comm=None, force: bool = 
             print(f"error: {e}", file=sys.stderr, flush=True)
         return 2
     try:
+        t0 = time.perf_counter()
         rc = run_sweep(spec, out_dir / STARTS, comm=comm, stream=stream, progress=progress,
                        batch="auto", backend=backend)
+        sweep_s = time.perf_counter() - t0
         if comm.rank == 0 and rc != 2:
-            answer = collect(out_dir, certify=certify and rc == 0)
+            answer = collect(out_dir, certify="run" if certify and rc == 0 else "cached",
+                             dt_limit=dt_limit, sweep_s=sweep_s)
             print(answer["text"], file=stream, flush=True)
             if rc == 0 and answer["counts"].get("failed"):
                 rc = 1
@@ -225,90 +240,151 @@ def run_census(census: Census, out_dir: str | Path, *, comm=None, force: bool = 
 # ============================================================================ the answer
 
 
-def start_rows(out_dir: Path, spread_tol: float = SPREAD_TOL) -> list[dict]:
+def start_rows(out_dir: Path, spread_tol: float = SPREAD_TOL,
+               tol: Tolerances = DEFAULT_TOLERANCES) -> list[dict]:
     """One row per start of the census (every start, whatever its state)."""
     from studies.sweep import load_sweep
     from studies.sweep.table import _read_json, live_status
 
     spec = load_sweep(out_dir / "census.toml")
-    rows = []
+    cache_path = out_dir / FEATURES
+    try:
+        cache = json.loads(cache_path.read_text())
+    except (OSError, ValueError):
+        cache = {}
+    rows, kept = [], {}
     for task in spec.tasks:
         run_dir = out_dir / STARTS / "runs" / task.id
         summary = _read_json(run_dir / "summary.json")
         status = live_status(summary) if summary else "pending"
-        rows.append(start_row(run_dir, task.params, summary, status, spread_tol))
+        key = None
+        if status == "completed":  # a start's features, until its summary is rewritten
+            key = f"{task.id}@{(run_dir / 'summary.json').stat().st_mtime_ns}"
+        row = start_row(run_dir, task.params, summary, status, spread_tol, tol,
+                        cached=cache.get(key))
+        rows.append(row)
+        if key and row.get("features"):
+            kept[key] = row_cache(row)
+    if kept != cache:
+        atomic_write_text(cache_path, json.dumps(_json_safe(kept)) + "\n")
     return rows
 
 
-def collect(out_dir: str | Path, *, certify: bool = False) -> dict:
-    """Rank 0: classify, group, count; write attractors.{json,csv} and members.csv."""
+def collect(out_dir: str | Path, *, certify: str | bool = "cached", dt_limit: bool = False,
+            sweep_s: float | None = None) -> dict:
+    """Rank 0: featurise, classify, group, count; write attractors.{json,csv}, members.csv.
+
+    ``certify``: ``"run"`` (certify the members whose certificate is not cached in
+    ``certificates.json``), ``"cached"`` (show the cached ones only) or False.
+    ``sweep_s``: the wall time of the runs of this session, for the time shares."""
     out_dir = Path(out_dir)
     meta = json.loads((out_dir / "census.json").read_text())
-    rows = start_rows(out_dir, meta["spread_tol"])
-    answer = answer_of(meta, rows, out_dir if certify else None)
+    t0 = time.perf_counter()
+    rows = start_rows(out_dir, meta["spread_tol"], tolerances(meta))
+    features_s = time.perf_counter() - t0
+    mode = "run" if certify is True else certify
+    answer = answer_of(meta, rows, out_dir if mode else None, compute=mode == "run",
+                       dt_limit=dt_limit,
+                       timing={"sweep_s": sweep_s, "features_s": features_s})
     write_outputs(out_dir, answer)
     return answer
 
 
-def answer_of(meta: dict, rows: list[dict], certify_in: Path | None = None) -> dict:
+def tolerances(meta: dict) -> Tolerances:
+    """The grouping tolerances of a census definition (``census.json``)."""
+    return Tolerances(celerity=meta.get("celerity_tol", CELERITY_TOL))
+
+
+def answer_of(meta: dict, rows: list[dict], certify_in: Path | None = None, *,
+              compute: bool = True, dt_limit: bool = False, timing: dict | None = None) -> dict:
     """The census's answer from its definition (``census.json``) and one row per start
     (``classify.start_row`` or ``classify.end_state_row``): members per mesh, structured
     starts apart, the ladder, the counts, and (with ``certify_in``, the census directory)
-    the certificates."""
+    the certificates (``compute``: those not cached yet are computed). A rigid wave that its
+    certificate calls unstable is a ``transient``, not an attractor: its member and rows
+    take that class."""
     meshes = sorted({r["n_inner"] for r in rows})
+    for n in meshes:
+        group_members([r for r in rows if r["n_inner"] == n], meta["celerity_tol"],
+                      tol=tolerances(meta))
+    timing = dict(timing or {})
+    certificates: dict = {}
+    if certify_in:
+        t0 = time.perf_counter()
+        certificates = certify_members(certify_in, rows, compute=compute, dt_limit=dt_limit)
+        timing["certification_s"] = time.perf_counter() - t0
+        for key, cert in certificates.items():
+            if isinstance(cert, dict) and cert.get("stable") is False:
+                n, member = key.split(":", 1)
+                for r in rows:
+                    if str(r["n_inner"]) == n and r["member"] == member:
+                        r["class"] = "transient"
     per_mesh, structured = {}, {}
     for n in meshes:
         mine = [r for r in rows if r["n_inner"] == n]
-        group_members(mine, meta["celerity_tol"])
         per_mesh[n] = mesh_members([r for r in mine if r["start"] == "random"])
         structured[n] = [r for r in mine if r["start"] == "mode"]
     lad = ladder(per_mesh)
     counts: dict[str, int] = {}
     for r in rows:
         counts[r["class"]] = counts.get(r["class"], 0) + 1
-    certificates = _certificates(certify_in, rows, per_mesh) if certify_in else {}
     answer = {"kind": KIND, **{k: meta[k] for k in ("scene_file", "overrides", "meshes",
                                                      "distribution", "celerity_tol",
                                                      "spread_tol")},
+              "tolerances": _tolerance_facts(tolerances(meta)),
               "scene": meta["definition"]["scene"], "counts": counts,
               "members": {str(n): per_mesh[n] for n in meshes},
               "structured": {str(n): [_brief(r) for r in structured[n]] for n in meshes},
-              "ladder": lad, "certificates": certificates, "starts": rows}
+              "ladder": lad, "certificates": certificates, "timing": timing, "starts": rows}
     from studies.attractors.report import summary_text
 
     answer["text"] = summary_text(answer)
     return answer
 
 
+def _tolerance_facts(tol: Tolerances) -> dict:
+    from studies.attractors.features import AMPLITUDE_TOL, HARMONIC_BINS, SHARE_TOL
+
+    return {"share_listed": SHARE_TOL, "celerity_rel": tol.celerity,
+            "share_rel": tol.share_rel, "share_abs": tol.share_abs,
+            "fraction_abs": tol.fraction, "amplitude_rel_between_windows": AMPLITUDE_TOL,
+            "harmonic_bins": HARMONIC_BINS}
+
+
 def _brief(row: dict) -> dict:
-    return {k: row[k] for k in ("start_mode", "class", "member", "k", "direction", "regime",
-                                "celerity_m_s", "frequency_hz", "psi1", "psi2",
+    return {k: row[k] for k in ("start_mode", "class", "member", "name", "k", "direction",
+                                "regime", "celerity_m_s", "frequency_hz", "psi1", "psi2",
                                 "rms_amplitude_m", "frame_spread")}
 
 
-def _certificates(out_dir: Path, rows: list[dict], per_mesh: dict[int, list[dict]]) -> dict:
-    """Per mesh and wave member: the certificate of its first run (cached by run mtime)."""
-    from studies.attractors.certify import available, certify
+def certify_members(out_dir: Path, rows: list[dict], *, compute: bool = True,
+                    dt_limit: bool = False) -> dict:
+    """Per mesh and settled member (``"N:member"``): its certificate
+    (``studies.attractors.certify.certify_member``), cached in ``certificates.json`` by its
+    first run and that run's summary time; with ``compute`` False only cached ones."""
+    from studies.attractors.certify import certify_member
 
-    if not available():
-        return {"available": False}
     cache_path = out_dir / "certificates.json"
     try:
         cache = json.loads(cache_path.read_text())
     except (OSError, ValueError):
         cache = {}
-    out: dict = {"available": True}
-    for n, members in per_mesh.items():
-        for m in members:
-            if m["class"] != "wave":
+    out: dict = {}
+    members: dict[tuple, list[dict]] = {}
+    for r in rows:
+        if r["class"] in SETTLED and r["member"]:
+            members.setdefault((r["n_inner"], r["member"]), []).append(r)
+    for (n, member), group in sorted(members.items(), key=lambda kv: (kv[0][0], kv[0][1])):
+        first = group[0]
+        stamp = (Path(first["run_dir"]) / "summary.json").stat().st_mtime
+        key = f"{first['id']}@{stamp}@{'dt-limit' if dt_limit else 'run-dt'}@{len(group)}"
+        if key not in cache:
+            if not compute:
                 continue
-            run = next(r for r in rows if r["n_inner"] == n and r["member"] == m["member"])
-            stamp = (Path(run["run_dir"]) / "summary.json").stat().st_mtime
-            key = f"{run['id']}@{stamp}"
-            if key not in cache:
-                cache[key] = certify(Path(run["run_dir"]))
-                atomic_write_text(cache_path, json.dumps(cache, indent=1, default=str))
-            out[f"{n}:{m['member']}"] = cache[key]
+            cache[key] = certify_member(group, dt_limit=dt_limit)
+            atomic_write_text(cache_path, json.dumps(_json_safe(cache), indent=1,
+                                                     default=str))
+        out[f"{n}:{member}"] = cache[key]
     return out
 
 

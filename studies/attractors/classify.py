@@ -1,35 +1,36 @@
 """End states of a census's starts: classification, and grouping into members.
 
-Classes (``classify``), from a run's ``summary.json`` and samples:
+Each completed start is described by its features (``studies.attractors.features``: the
+travelling components of the space-time spectrum, the zone fractions, the RMS amplitude)
+over two consecutive windows of length W, the run's analysis window (the last third):
+[t_end − 2W, t_end − W] and [t_end − W, t_end]. Classes (``classify_features``):
 
 * ``diverged`` / ``failed``: the run's own status (a blow-up; an error);
 * ``steady-sliding``: no stick or separation zone above the analysis threshold;
-* ``unsettled``: a wave that fails the limit-cycle test (stationary mode-k envelope and
-  zone fractions over two consecutive blocks of three periods, ``postprocess.analysis``);
-* ``wave``: a settled cycle whose frame spread is at most ``SPREAD_TOL``: a rigidly
-  travelling wave u(θ, t) = W(θ − ωt);
-* ``modulated``: a settled cycle with a larger frame spread that does not decay: the frame
-  spread of the second half of the analysis window is not below the first half's by more
-  than ``DECAY_TOL`` (relative); it is not one rigid wave;
-* a larger frame spread that still decays is ``unsettled`` too: the modulation (side-bands
-  of the dominant mode) is dying out more slowly than the run lasted, which the envelope
-  test alone does not see.
+* ``unsettled``: the features of the two windows differ (``features.stationary``: a
+  component appears or vanishes, a celerity, share or zone fraction moves beyond its
+  tolerance, or the RMS amplitude by more than 5 %);
+* ``wave``: settled, one listed component (with its harmonics) and a frame spread at most
+  ``SPREAD_TOL``: a rigidly travelling wave u(θ, t) = W(θ − ωt);
+* ``multi-wave``: settled, several components each travelling at its own celerity (a
+  torus, a relative periodic orbit): an attractor that is not one rigid wave; also one
+  listed component whose weak companions (5 – 10 % each) together leave a frame spread
+  above ``SPREAD_TOL`` (named with them).
 
-Frame spread (``frame_spread``): over the analysis window, each sample of (u_r, u_θ) on the
-contact circle is shifted back by ω(t − t_end) (exact Fourier shift, ω the measured angular
-speed) into the wave's frame; the spread is the RMS deviation of the shifted samples from
-their mean over the RMS of the mean, both components together, axisymmetric part excluded.
-A rigid wave gives 0 up to sampling; measured 0.2 – 6 % for waves and 28 – 46 % for
-modulated cycles at N = 66 – 264 (docs/travelling_waves.md), hence ``SPREAD_TOL`` = 10 %.
-Both components enter one ratio (not the larger of two ratios): in a stick-slip wave u_r = d
-on the whole circle, so u_r's non-axisymmetric part is round-off and its own ratio is noise
-(a rigid k = 6 stick-slip wave of the smoke mesh: 0.07 together, 24.6 for u_r alone).
+Frame spread (``frame_spread``), a feature: over the analysis window, each sample of
+(u_r, u_θ) on the contact circle is shifted back by ω(t − t_end) (exact Fourier shift, ω the
+dominant component's angular speed) into its frame; the spread is the RMS deviation of the
+shifted samples from their mean over the RMS of the mean, both components together,
+axisymmetric part excluded. 0 for a rigid wave; about the companions' RMS share otherwise.
 
-Members (``group_members``): waves (and, separately, modulated cycles) with the same
-(k, direction, regime), whose celerities sorted in order differ by at most ``celerity_tol``
-(relative) from their neighbour, form one member. A member's id reads, e.g.,
-``k11-opposite-SSS`` (``#2`` … for a second celerity cluster of the same key); modulated and
-unsettled end states are grouped the same way under ``modulated-…`` and ``unsettled-…``.
+Members (``group_members``): the settled end states of one mesh are grouped by
+``features.match`` (same listed components, celerities, shares and zone fractions within
+their tolerances), transitively (single linkage, as a DBSCAN with one neighbour). A member's
+id is its first start's ``features.member_key`` (``k12-opposite-SSS`` for a rigid wave,
+``k12-opposite-SSS+k11+k13`` with companions; ``#2`` for a second group of the same id);
+unsettled end states are grouped by (k, direction, regime) of the dominant component and
+celerity (``unsettled-k12-opposite-SSS``). Rows from elsewhere that carry no features (a
+summary and a frame spread only) are classified by the frame spread (``classify``).
 """
 
 from __future__ import annotations
@@ -40,44 +41,32 @@ from pathlib import Path
 
 import numpy as np
 
-#: Frame spread at or below which a settled cycle is a rigidly travelling wave.
-SPREAD_TOL = 0.10
+from studies.attractors.features import (
+    CELERITY_TOL,
+    DEFAULT_TOLERANCES,
+    REGIME_SHORT,
+    SPREAD_TOL,
+    Component,
+    Features,
+    Tolerances,
+    components_text,
+    consecutive_features,
+    describe,
+    frame_spread,
+    match,
+    member_key,
+    stationary,
+)
+
 #: Relative decrease of the frame spread over the analysis window above which a cycle that is
-#: not rigid is still settling (``unsettled``), not ``modulated``.
+#: not rigid is still settling, for rows without features.
 DECAY_TOL = 0.05
-#: Relative celerity gap within which end states of one (k, direction, regime) are a member.
-CELERITY_TOL = 0.02
-#: The classes, in the order tables list them.
-CLASSES = ("wave", "modulated", "unsettled", "steady-sliding", "diverged", "failed")
-REGIME_SHORT = {"stick-slip-separation": "SSS", "stick-slip": "SS", "slip-separation": "SSep",
-                "steady-sliding": "sliding"}
-
-
-def frame_spread(t: np.ndarray, theta: np.ndarray, u_r: np.ndarray, u_theta: np.ndarray,
-                 omega: float, window: float) -> tuple[float, float]:
-    """(frame spread, RMS amplitude in m) over the last ``window`` s (module docstring).
-
-    The RMS amplitude is sqrt(mean over samples and nodes of |u − ū(t)|²), u = (u_r, u_θ)
-    on the contact circle, ū(t) its circle mean: the size of the travelling part.
-    """
-    order = np.argsort(theta)
-    n = order.size
-    sel = t >= t[-1] - window
-    if sel.sum() < 2:
-        return math.nan, math.nan
-    k = np.fft.rfftfreq(n, 1.0 / n)
-    shift = np.exp(1j * k[None, :] * omega * (t[sel] - t[-1])[:, None])
-    dev = mean_sq = amp_sq = 0.0
-    for comp in (u_r, u_theta):
-        spectrum = np.fft.rfft(comp[sel][:, order], axis=1)
-        spectrum[:, 0] = 0.0  # the axisymmetric part (steady sliding) is not the wave
-        amp_sq += float(np.mean(np.fft.irfft(spectrum, n, axis=1) ** 2))
-        back = np.fft.irfft(spectrum * shift, n, axis=1)
-        mean = back.mean(axis=0)
-        dev += float(np.mean((back - mean) ** 2))
-        mean_sq += float(np.mean(mean**2))
-    spread = math.sqrt(dev / mean_sq) if mean_sq > 0.0 else math.inf
-    return spread, math.sqrt(amp_sq)
+#: The classes, in the order tables list them (``transient``: a rigid wave that the direct
+#: solver certifies unstable, set on its member after certification).
+CLASSES = ("wave", "multi-wave", "transient", "unsettled", "steady-sliding", "diverged",
+           "failed")
+#: The classes of an attractor.
+SETTLED = ("wave", "multi-wave")
 
 
 def spread_trend(t: np.ndarray, theta: np.ndarray, u_r: np.ndarray, u_theta: np.ndarray,
@@ -92,40 +81,116 @@ def spread_trend(t: np.ndarray, theta: np.ndarray, u_r: np.ndarray, u_theta: np.
 
 def classify(status: str, summary: dict, spread: float, spread_tol: float = SPREAD_TOL,
              trend: float = math.nan) -> str:
-    """The class of one end state (module docstring); ``status`` is the run's status,
-    ``trend`` the relative change of the frame spread over the window (``spread_trend``)."""
+    """The class of an end state known only by its summary and frame spread (a row computed
+    elsewhere, without features): a settled cycle (the summary's limit-cycle test) is a
+    ``wave`` at a frame spread ≤ ``spread_tol``, else a ``multi-wave`` unless its spread
+    still decays by more than ``DECAY_TOL`` over the window (``trend``)."""
+    early = _early_class(status, summary)
+    if early:
+        return early
+    if not summary.get("limit_cycle"):
+        return "unsettled"
+    if spread <= spread_tol:
+        return "wave"
+    return "unsettled" if trend < -DECAY_TOL else "multi-wave"
+
+
+def classify_features(status: str, summary: dict, earlier: Features | None,
+                      later: Features | None, tol: Tolerances = DEFAULT_TOLERANCES,
+                      spread: float = math.nan, spread_tol: float = SPREAD_TOL
+                      ) -> tuple[str, list[str]]:
+    """(class, why unsettled) of an end state from its features over two consecutive
+    windows (``features.window_features`` of any two windows) and its frame spread
+    (default: the later window's own, ``Features.frame_spread``); module docstring."""
+    early = _early_class(status, summary)
+    if early:
+        return early, []
+    if later is None or not later.listed:
+        return "unsettled", ["no travelling component"]
+    why = (stationary(earlier, later, tol, spread_tol=spread_tol) if earlier is not None
+           else ["one window only"])
+    if why:
+        return "unsettled", why
+    spread = later.frame_spread if math.isnan(spread) else spread
+    rigid = later.rigid and not spread > spread_tol
+    return ("wave" if rigid else "multi-wave"), []
+
+
+def _early_class(status: str, summary: dict) -> str:
     if status in ("diverged", "failed"):
         return status
     regime = summary.get("regime")
     if regime is None:  # completed without an analysis (too few samples)
         return "failed"
-    if regime == "steady-sliding":
-        return "steady-sliding"
-    if not summary.get("limit_cycle"):
-        return "unsettled"
-    if spread <= spread_tol:
-        return "wave"
-    return "unsettled" if trend < -DECAY_TOL else "modulated"
+    return "steady-sliding" if regime == "steady-sliding" else ""
 
 
 def start_row(run_dir: Path, params: dict, summary: dict | None, status: str,
-              spread_tol: float = SPREAD_TOL) -> dict:
+              spread_tol: float = SPREAD_TOL, tol: Tolerances = DEFAULT_TOLERANCES,
+              cached: dict | None = None) -> dict:
     """One start's row of ``attractors.csv`` from its run directory: where it started, what
-    it reached."""
+    it reached. ``cached``: its features as an earlier row stored them (``row_cache``), so
+    the samples are not read again."""
     s = summary or {}
-    spread = rms = trend = math.nan
+    spread = (math.nan, math.nan, math.nan)
+    features = None
     if status == "completed" and s.get("regime") not in (None, "steady-sliding"):
-        spread, rms, trend = _spread_of_run(run_dir, s)
-    return end_state_row(run_dir.name, params, s, status, (spread, rms, trend), spread_tol,
-                         run_dir=str(run_dir))
+        if cached and cached.get("features"):
+            features = (Features.from_dict(cached["features_before"]),
+                        Features.from_dict(cached["features"]))
+            spread = tuple(math.nan if v is None else float(v) for v in cached["spread"])
+        else:
+            samples = _samples(run_dir)
+            if samples is not None:
+                features, spread = end_state_features(samples, s, _radius(run_dir))
+    return end_state_row(run_dir.name, params, s, status, spread, spread_tol,
+                         run_dir=str(run_dir), features=features, tol=tol)
+
+
+def row_cache(row: dict) -> dict:
+    """What ``start_row(cached=...)`` needs of a row to rebuild it without its samples."""
+    return {"features": row.get("features"), "features_before": row.get("features_before"),
+            "spread": [row.get("frame_spread"), row.get("rms_amplitude_m"),
+                       row.get("spread_trend")]}
+
+
+def end_state_features(samples: dict, summary: dict, radius: float
+                       ) -> tuple[tuple[Features, Features], tuple[float, float, float]]:
+    """(features of the two consecutive windows, (frame spread, RMS amplitude, spread
+    trend) in the dominant component's frame) of a run's samples (``samples.npz``'s arrays,
+    with the every-step probe where recorded): what ``end_state_row`` classifies."""
+    features = features_of_samples(samples, summary, radius)
+    spread = spread_of_samples(samples["t"], samples["theta"], samples["u_r"],
+                               samples["u_theta"], _with_dominant(summary, features[1]),
+                               radius)
+    return features, spread
+
+
+def features_of_samples(samples: dict, summary: dict, radius: float
+                        ) -> tuple[Features, Features]:
+    """The features of the two consecutive analysis windows of a run's samples."""
+    t = samples["t"]
+    window = float(summary.get("analysis_window_s") or (t[-1] - t[0]) / 3.0)
+    window = min(window, 0.5 * float(t[-1] - t[0]))
+    return consecutive_features(samples, radius, window)
+
+
+def _with_dominant(summary: dict, later: Features) -> dict:
+    """The summary with the dominant component's celerity (the frame of the frame spread)."""
+    top = later.dominant
+    if top is None or top.aliased:
+        return summary
+    return {**summary, "celerity_m_s": top.celerity_m_s}
 
 
 def end_state_row(start_id: str, params: dict, summary: dict, status: str,
                   spread: tuple[float, float, float], spread_tol: float = SPREAD_TOL,
-                  run_dir: str = "") -> dict:
-    """One start's row from its run summary (``studies.rundir.scene_run.summarise``'s keys)
-    and its (frame spread, RMS amplitude, spread trend), wherever they were computed (a run
-    directory, or a batch's records on another machine)."""
+                  run_dir: str = "", features: tuple[Features, Features] | None = None,
+                  tol: Tolerances = DEFAULT_TOLERANCES) -> dict:
+    """One start's row from its run summary (``studies.rundir.scene_run.summarise``'s keys),
+    its (frame spread, RMS amplitude, spread trend) and its features over two consecutive
+    windows, wherever they were computed (a run directory, or a batch's records on another
+    machine; without features the frame spread classifies it, ``classify``)."""
     s = summary
     frame, rms, trend = spread
     row = {
@@ -134,10 +199,15 @@ def end_state_row(start_id: str, params: dict, summary: dict, status: str,
         "start_mode": params.get("initial.mode"), "status": status,
     }
     fr = s.get("fractions") or {}
+    known = status in ("completed", "diverged", "failed")
+    why: list[str] = []
+    if features is not None and known:
+        cls, why = classify_features(status, s, *features, tol, frame, spread_tol)
+    else:
+        cls = classify(status, s, frame, spread_tol, trend) if known else status
     row.update({
-        "class": classify(status, s, frame, spread_tol, trend) if status in (
-            "completed", "diverged", "failed") else status,
-        "k": s.get("mode"), "direction": s.get("direction"), "regime": s.get("regime"),
+        "class": cls, "k": s.get("mode"), "direction": s.get("direction"),
+        "regime": s.get("regime"),
         "celerity_m_s": s.get("celerity_m_s"), "frequency_hz": s.get("frequency_hz"),
         "fraction_separation": fr.get("separation"), "fraction_stick": fr.get("stick"),
         "fraction_slip": fr.get("slip"), "psi1": s.get("psi1"), "psi2": s.get("psi2"),
@@ -145,8 +215,35 @@ def end_state_row(start_id: str, params: dict, summary: dict, status: str,
         "limit_cycle": s.get("limit_cycle"), "frame_spread": frame, "spread_trend": trend,
         "dt_s": s.get("dt_s"), "steps": s.get("steps"), "wall_time_s": s.get("wall_time_s"),
         "message": s.get("message"), "run_dir": run_dir, "member": None,
+        "components": "", "name": "", "n_components": None, "unsettled_because": "; ".join(why),
+        "features": None, "features_before": None,
     })
+    if features is not None and features[1].dominant is not None:
+        earlier, later = features
+        top = later.dominant
+        named = later.named(cls != "multi-wave")
+        row.update(k=top.k, direction=top.direction, n_components=len(named),
+                   name=describe(named, with_weak=True),
+                   components=components_text(later.components),
+                   features=later.to_dict(), features_before=earlier.to_dict())
+        if not top.aliased:
+            row.update(celerity_m_s=top.celerity_m_s, frequency_hz=abs(top.frequency_hz))
     return row
+
+
+def row_features(row: dict) -> Features:
+    """The features of a row (its last window), or one component from its summary values
+    where the row carries none."""
+    if row.get("features"):
+        return Features.from_dict(row["features"])
+    fr = {z: row[f"fraction_{z}"] for z in ("separation", "stick", "slip")
+          if row.get(f"fraction_{z}") is not None}
+    c = row.get("celerity_m_s")
+    comp = Component(k=int(row["k"]), direction=row["direction"], share=1.0,
+                     amplitude_m=row.get("rms_amplitude_m") or math.nan,
+                     frequency_hz=row.get("frequency_hz") or math.nan,
+                     celerity_m_s=float(c) if c is not None else math.nan)
+    return Features((comp,), fr)
 
 
 def spread_of_samples(t: np.ndarray, theta: np.ndarray, u_r: np.ndarray, u_theta: np.ndarray,
@@ -159,14 +256,16 @@ def spread_of_samples(t: np.ndarray, theta: np.ndarray, u_r: np.ndarray, u_theta
     return spread, rms, spread_trend(t, theta, u_r, u_theta, omega, window)
 
 
-def _spread_of_run(run_dir: Path, summary: dict) -> tuple[float, float, float]:
-    """(frame spread, RMS amplitude, spread trend) of a run over its analysis window."""
+SAMPLE_KEYS = ("t", "theta", "u_r", "u_theta", "status", "probe_t", "probe_data")
+
+
+def _samples(run_dir: Path) -> dict | None:
+    """The arrays of a run's samples.npz that the features need (None if unreadable)."""
     try:
         with np.load(run_dir / "samples.npz") as z:
-            t, theta, u_r, u_theta = z["t"], z["theta"], z["u_r"], z["u_theta"]
+            return {k: z[k] for k in SAMPLE_KEYS if k in z.files}
     except (OSError, KeyError, ValueError):
-        return math.nan, math.nan, math.nan
-    return spread_of_samples(t, theta, u_r, u_theta, summary, _radius(run_dir))
+        return None
 
 
 def _radius(run_dir: Path) -> float:
@@ -178,7 +277,7 @@ def _radius(run_dir: Path) -> float:
 
 @dataclass(frozen=True)
 class MemberKey:
-    """What makes two end states the same attractor (up to the celerity clustering)."""
+    """How unsettled end states are grouped: (k, direction, regime), then celerity."""
 
     cls: str
     k: int | None = None
@@ -192,24 +291,63 @@ class MemberKey:
         return f"{tag}k{self.k}-{self.direction}-{REGIME_SHORT.get(self.regime, self.regime)}"
 
 
-def group_members(rows: list[dict], celerity_tol: float = CELERITY_TOL) -> None:
-    """Give every classified row of one mesh its ``member`` id (in place).
+def group_members(rows: list[dict], celerity_tol: float = CELERITY_TOL,
+                  tol: Tolerances | None = None) -> None:
+    """Give every classified row of one mesh its ``member`` id (in place; module docstring).
 
-    Waves, modulated and unsettled cycles: by (k, direction, regime), then celerity clusters
-    (neighbours in sorted order within ``celerity_tol`` relative). Other classes: the class
-    name.
+    Settled rows: connected groups under ``features.match`` (``tol``, or the defaults with
+    ``celerity_tol``). Unsettled rows with a wavenumber: (k, direction, regime), then celerity
+    clusters (neighbours in sorted order within ``celerity_tol``); each also gets
+    ``approaching``, the settled member its last window matches (None if none). Other
+    classes: the class name.
     """
+    tol = tol or Tolerances(celerity=celerity_tol)
+    settled = sorted((r for r in rows if r["class"] in SETTLED),
+                     key=lambda r: (r.get("seed") is None, r.get("seed") or 0, r["id"]
+                                    if "id" in r else ""))
+    feats = [row_features(r) for r in settled]
+    group = list(range(len(settled)))  # union-find over the pairwise rule
+
+    def root(i: int) -> int:
+        while group[i] != i:
+            group[i] = group[group[i]]
+            i = group[i]
+        return i
+
+    for i in range(len(settled)):
+        for j in range(i):
+            if root(i) != root(j) and settled[i]["class"] == settled[j]["class"] \
+                    and match(feats[i], feats[j], tol):
+                group[root(i)] = root(j)
+    used: dict[str, int] = {}
+    names: dict[int, str] = {}
+    for i, r in enumerate(settled):
+        g = root(i)
+        if g not in names:
+            base = member_key(feats[g].named(settled[g]["class"] == "wave"),
+                              settled[g]["regime"], with_weak=True)
+            if settled[g]["class"] == "multi-wave" and not settled[g].get("features"):
+                base = f"multi-wave-{base}"  # known by its frame spread only
+            used[base] = used.get(base, 0) + 1
+            names[g] = base + ("" if used[base] == 1 else f"#{used[base]}")
+        r["member"] = names[g]
+    firsts = {}
+    for i, r in enumerate(settled):
+        firsts.setdefault(r["member"], feats[i])
     keyed: dict[MemberKey, list[dict]] = {}
     for r in rows:
-        if r["class"] in ("wave", "modulated") or (r["class"] == "unsettled" and r["k"]):
+        if r["class"] == "unsettled" and r.get("features"):  # its last window already there?
+            mine = row_features(r)
+            r["approaching"] = next((m for m, f in firsts.items() if match(mine, f, tol)), None)
+        if r["class"] == "unsettled" and r["k"]:
             keyed.setdefault(MemberKey(r["class"], int(r["k"]), r["direction"], r["regime"]),
                              []).append(r)
-        elif r["class"] in CLASSES:
+        elif r["class"] not in SETTLED and r["class"] in CLASSES:
             r["member"] = r["class"]
-    for key, group in keyed.items():
-        group.sort(key=lambda r: abs(float(r["celerity_m_s"])))
+    for key, grp in keyed.items():
+        grp.sort(key=lambda r: abs(float(r["celerity_m_s"])))
         cluster, prev = 1, None
-        for r in group:
+        for r in grp:
             c = abs(float(r["celerity_m_s"]))
             if prev is not None and c - prev > celerity_tol * max(prev, 1e-300):
                 cluster += 1
@@ -218,17 +356,22 @@ def group_members(rows: list[dict], celerity_tol: float = CELERITY_TOL) -> None:
 
 
 def member_description(member: str) -> str:
-    """``k11-opposite-SSS`` -> "k = 11 against the rotation, stick-slip-separation"."""
-    prefix = next((p for p in ("modulated-", "unsettled-") if member.startswith(p)), "")
-    if not member.removeprefix(prefix).startswith("k"):
-        return member
+    """``k11-opposite-SSS+k12`` -> "k = 11 against the rotation, stick-slip-separation, with
+    k = 12"; the readable name with shares comes from the features (``features.describe``)."""
+    prefix = next((p for p in ("unsettled-", "multi-wave-") if member.startswith(p)), "")
     body = member.removeprefix(prefix)
-    parts = body.split("#")[0].split("-", 2)
+    if not body.startswith("k"):
+        return member
+    main, _, cluster = body.partition("#")
+    head, *companions = main.split("+")
+    parts = head.split("-", 2)
     sense = {"opposite": "against the rotation", "rotation": "with the rotation"}
     regime = {v: k for k, v in REGIME_SHORT.items()}.get(parts[2], parts[2])
     text = f"k = {parts[0][1:]} {sense.get(parts[1], parts[1])}, {regime}"
+    if companions:
+        text += ", with " + ", ".join(f"k = {c[1:]}" for c in companions)
     if prefix:
         text = f"{prefix[:-1]} {text}"
-    if "#" in member:
-        text += f" (celerity cluster {member.split('#')[1]})"
+    if cluster:
+        text += f" (group {cluster})"
     return text

@@ -11,9 +11,10 @@
 ``expand`` turns every point of the sweep into M scenes (the point's values plus
 ``initial.perturbation = "random"`` and its seed); ``run_map`` runs them with the sweep
 machinery (batched, resumable) and writes, per point, the census's answer
-(``attractors_map.{json,csv}``): the dominant member and its share, the number of wave
-members (attractors), and the probability of stick-slip-separation with its 95 % Wilson
-interval. ``census_cells`` says what each cell of the sweep's regime map shows for it
+(``attractors_map.{json,csv}``): the dominant member and its share, the number of
+attractors (settled members, rigid or multi-wave), and the probability of
+stick-slip-separation with its 95 % Wilson interval. ``census_cells`` says what each
+cell of the sweep's regime map shows for it
 (``studies.sweep.regime_map.plot_sweep`` draws them when the sweep directory holds
 ``attractors_map.json``).
 
@@ -40,7 +41,7 @@ from studies.attractors.starts import (
     DEFAULT_SEED,
     StartDistribution,
 )
-from studies.attractors.statistics import COUNTED, mesh_members, wilson
+from studies.attractors.statistics import COUNTED, SETTLED, mesh_members, wilson
 
 #: The per-point table of a census map, in the sweep directory (``.csv`` beside it).
 MAP_FILE = "attractors_map.json"
@@ -145,12 +146,12 @@ def map_table(spec, expanded, out_dir: Path) -> list[dict]:  # noqa: ANN001
         members = mesh_members(rows)
         counted = [r for r in rows if r["class"] in COUNTED]
         n_sss = sum(r["regime"] == "stick-slip-separation" and r["class"] in (
-            "wave", "modulated", "unsettled") for r in counted)
+            "wave", "multi-wave", "transient", "unsettled") for r in counted)
         lo, hi = wilson(n_sss, len(counted))
         top = members[0] if members else None
         points.append({
             "point": task.id, **task.params, "starts": len(rows), "finished": len(counted),
-            "attractors": sum(m["class"] == "wave" for m in members),
+            "attractors": sum(m["class"] in SETTLED for m in members),
             "dominant": top["member"] if top else None,
             "dominant_share": top["share"] if top else math.nan,
             "dominant_lo": top["share_lo"] if top else math.nan,
@@ -185,7 +186,7 @@ def census_cells(meta: dict) -> list[dict]:
 
     Per point: its swept values; the dominant member (``dominant``, with ``k``, ``direction``,
     ``regime``, ``class`` and its share with the Wilson interval); the number of attractors
-    (wave members); P(stick-slip-separation) with its Wilson interval; ``modes``, the k each
+    (settled members); P(stick-slip-separation) with its Wilson interval; ``modes``, the k each
     start reached (for the reduced model's boundaries); and the cell's colour category
     (the dominant member's regime, or its class where it has none: steady sliding, diverged,
     failed), its ``text`` and the ``p_text`` of the P(SSS) panel.
@@ -214,12 +215,13 @@ def census_cells(meta: dict) -> list[dict]:
 
 def _cell_text(cell: dict) -> str:
     """"k = 11 −\n58 % of 16\n2 attractors": the dominant member (k and the celerity's
-    sign, + = rotation; "mod." for a modulated cycle, "unsettled" for a cycle still settling),
+    sign, + = rotation; "multi" for a multi-wave attractor, "unsettled" for a cycle still
+    settling),
     its share of the finished starts, and the number of attractors."""
     if cell["dominant"] is None:
         return f"pending\n0 of {cell['starts']}"
     if cell["k"]:
-        tag = {"wave": "", "modulated": " mod."}.get(cell["class"], f" {cell['class']}")
+        tag = {"wave": "", "multi-wave": " multi"}.get(cell["class"], f" {cell['class']}")
         what = f"k = {cell['k']} {DIRECTION_SIGN.get(cell['direction'], '?')}{tag}"
     else:
         what = {"steady-sliding": "steady sliding", "failed": "error"}.get(cell["class"],

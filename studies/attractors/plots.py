@@ -87,7 +87,7 @@ def _values(out_dir: Path, answer: dict) -> Path | None:
         ax.set_xlim(meshes[0] / 1.3, meshes[-1] * 1.3)
     axes[0].legend(fontsize=7)
     fig.suptitle("members of the random starts against the mesh (mean ± sd over the starts; "
-                 "solid: rigid waves, dotted: modulated or unsettled)", fontsize=10)
+                 "solid: rigid waves, dotted: multi-wave or unsettled)", fontsize=10)
     return _save(fig, out_dir / "members_vs_n.png")
 
 

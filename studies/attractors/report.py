@@ -4,8 +4,9 @@ from __future__ import annotations
 
 import math
 
-from studies.attractors.certify import certificate_line
+from studies.attractors.certify import member_line
 from studies.attractors.classify import member_description
+from studies.attractors.statistics import SETTLED
 
 
 def _pct(x: float) -> str:
@@ -13,29 +14,50 @@ def _pct(x: float) -> str:
 
 
 def _member_phrase(m: dict) -> str:
-    text = f"{member_description(m['member'])}"
+    settled = m["class"] in SETTLED or m["class"] == "transient"
+    text = (m.get("name") if settled else "") or member_description(m["member"])
+    if settled:
+        text += f", {_regime(m)}"
     if m.get("k") is not None and m.get("celerity_m_s") is not None \
             and math.isfinite(m["celerity_m_s"]):
-        text += f" {m['celerity_m_s']:+.1f} m/s, {m['frequency_hz']:.1f} Hz"
-    return (f"{text} ({m['count']}/{m['starts']} = {_pct(m['share'])}, "
+        text += f"; {m['celerity_m_s']:+.1f} m/s, {m['frequency_hz']:.1f} Hz"
+        comps = [c for c in m.get("components") or [] if not c["weak"]][1:] if settled else []
+        if comps:
+            text += " (" + ", ".join(
+                f"k = {c['k']}: " + ("aliased" if c["aliased"] else
+                                     f"{c['celerity_m_s']:+.1f} m/s") for c in comps) + ")"
+    text = (f"{text} [{m['member']}] ({m['count']}/{m['starts']} = {_pct(m['share'])}, "
             f"95 % CI {_pct(m['share_lo'])}–{_pct(m['share_hi'])})")
+    near = m.get("approaching") or {}
+    if near:
+        text += "; in its last window " + ", ".join(
+            f"{c} of them match {name}" for name, c in near.items())
+    return text
+
+
+def _regime(m: dict) -> str:
+    return m.get("regime") or "?"
 
 
 def mesh_lines(n: str, members: list[dict], structured: list[dict]) -> list[str]:
-    waves = [m for m in members if m["class"] == "wave"]
-    others = [m for m in members if m["class"] != "wave"]
+    settled = [m for m in members if m["class"] in SETTLED]
+    rigid = sum(m["class"] == "wave" for m in settled)
+    others = [m for m in members if m["class"] not in SETTLED]
     n_starts = members[0]["starts"] if members else 0
-    head = (f"N = {n} ({n_starts} random starts): {len(waves)} attractor"
-            f"{'s' if len(waves) != 1 else ''} (rigid waves)")
+    reached = sum(m["count"] for m in settled)
+    head = (f"N = {n} ({n_starts} random starts): {len(settled)} attractor"
+            f"{'s' if len(settled) != 1 else ''} ({rigid} rigid, {len(settled) - rigid} "
+            f"multi-wave), reached by {reached} of {n_starts} starts")
     if not members:
         head += "; no random start finished yet"
-    lines = [head + (":" if waves else "")]
-    lines += [f"  {_member_phrase(m)}" for m in waves]
+    lines = [head + (":" if settled else "")]
+    lines += [f"  {_member_phrase(m)}" for m in settled]
     if others:
-        lines.append("  other end states:")
-        lines += [f"    {_member_phrase(m)}" for m in others]
+        lines.append("  not attractors:")
+        lines += [f"    {m['class']}: {_member_phrase(m)}" if m["class"] == "transient"
+                  else f"    {_member_phrase(m)}" for m in others]
     if any(m["class"] == "unsettled" for m in members):
-        lines.append("  (unsettled: not yet a limit cycle, or its modulation still decays; "
+        lines.append("  (unsettled: its features still change between the last two windows; "
                      "a longer --end-time settles them)")
     if structured:
         lines.append("  structured: " + "; ".join(
@@ -60,28 +82,66 @@ def ladder_lines(answer: dict) -> list[str]:
             f"{t['count_b']}/{t['starts_b']} at N = {t['mesh_b']} (p = {t['p_value']:.2g})"
             for t in differ))
     for name, m in lad["members"].items():
-        if len(m["meshes"]) < 2 or name in ("diverged", "failed", "unsettled",
-                                            "steady-sliding"):
+        if len(m["meshes"]) < 2 or name in ("diverged", "failed", "steady-sliding") \
+                or name.startswith("unsettled"):
             continue
-        diffs = m["differences"]["celerity_m_s"]
-        text = ", ".join(f"{a}→{b}: {100 * d:+.2f} %" for a, b, d in
-                         zip(m["meshes"], m["meshes"][1:], diffs, strict=False))
-        orders = [p for p in m["order"]["celerity_m_s"] if math.isfinite(p)]
-        if orders:
-            text += f"; observed order {orders[-1]:.2f}"
-        lines.append(f"  {name}: celerity {text}")
+        parts = []
+        for label, comp in m.get("components", {}).items():
+            parts.append(f"{label} celerity {_steps(m['meshes'], comp['celerity_m_s'])}")
+            if len(m.get("components", {})) > 1:
+                parts.append(f"{label} share {_share_steps(comp['share']['values'])}")
+        if not parts:
+            parts.append(f"celerity {_steps(m['meshes'], _as_changes(m, 'celerity_m_s'))}")
+        lines.append(f"  {name}: " + "; ".join(parts))
+    coarse = lad.get("coarse") or {}
+    if coarse:
+        dist = coarse["dominant_k"]
+        lines.append("  dominant component of the starts: " + " → ".join(
+            f"N = {n}: " + ", ".join(f"{k} {_pct(p)}" for k, p in d.items())
+            for n, d in dist.items()))
+        tv = coarse["dominant_k_distance"]
+        if tv:
+            lines.append("    change (total variation) " + ", ".join(f"{x:.2f}" for x in tv))
+        wc = coarse["weighted_celerity_m_s"]
+        vals = wc["values"]
+        steps = [b - a for a, b in zip(vals, vals[1:], strict=False)
+                 if math.isfinite(a) and math.isfinite(b)]
+        lines.append("  basin-weighted celerity: " + " → ".join(
+            f"{v:+.1f}" if math.isfinite(v) else "–" for v in vals) + " m/s"
+            + (" (change " + ", ".join(f"{d:+.1f} m/s" for d in steps) + ")" if steps else ""))
     return lines
+
+
+def _as_changes(m: dict, key: str) -> dict:
+    return {"values": m[key], "differences": m["differences"][key], "order": m["order"][key]}
+
+
+def _steps(meshes: list[int], ch: dict) -> str:
+    text = ", ".join(f"{a}→{b}: {100 * d:+.2f} %" if math.isfinite(d) else f"{a}→{b}: –"
+                     for a, b, d in zip(meshes, meshes[1:], ch["differences"], strict=False))
+    orders = [p for p in ch["order"] if math.isfinite(p)]
+    if orders:
+        text += f" (observed order {orders[-1]:.2f})"
+    return text
+
+
+def _share_steps(values: list[float]) -> str:
+    return " → ".join(_pct(v) if math.isfinite(v) else "–" for v in values)
 
 
 def summary_text(answer: dict) -> str:
     """The printed summary (module docstring)."""
     dist = answer["distribution"]
     counts = answer["counts"]
+    tol = answer.get("tolerances") or {}
     head = (f"attractors of {answer['scene']['name']}: {dist['starts']} random start(s) "
             f"per mesh (K = {dist['n_modes']}, A = {dist['amplitude']:g} d, seeds "
-            f"{dist['seed']}..{dist['seed'] + dist['starts'] - 1}); members: same (k, "
-            f"direction, regime), celerity within {100 * answer['celerity_tol']:g} %, "
-            f"frame spread ≤ {100 * answer['spread_tol']:g} %")
+            f"{dist['seed']}..{dist['seed'] + dist['starts'] - 1}); an attractor: the same "
+            f"travelling components (share ≥ {100 * tol.get('share_listed', 0.1):g} % of "
+            f"the dominant's) in the last two windows and across starts, celerities within "
+            f"{100 * answer['celerity_tol']:g} %, shares within "
+            f"{100 * tol.get('share_rel', 0.1):g} % (≥ {100 * tol.get('share_abs', 0.02):g} "
+            "points)")
     lines = [head]
     left = {k: v for k, v in counts.items() if k in ("pending", "running", "interrupted",
                                                        "crashed", "unanalysed")}
@@ -92,9 +152,13 @@ def summary_text(answer: dict) -> str:
         lines += mesh_lines(n, members, answer["structured"].get(n, []))
     lines += ladder_lines(answer)
     certs = answer.get("certificates") or {}
-    if certs.get("available") is False:
-        lines.append("certification unavailable (studies.travel.wave_from_run not installed)")
     for key, cert in certs.items():
-        if key != "available":
-            lines.append(f"  certificate {key}: {certificate_line(cert)}")
+        lines.append(f"  certificate {key}: {member_line(cert)}")
+    timing = answer.get("timing") or {}
+    if certs and timing.get("certification_s") is not None and timing.get("sweep_s"):
+        total = sum(v for v in timing.values() if v)
+        lines.append(f"time: runs {timing['sweep_s']:.1f} s, features "
+                     f"{timing.get('features_s') or 0:.1f} s, certificates "
+                     f"{timing['certification_s']:.1f} s "
+                     f"({_pct(timing['certification_s'] / total)} of the census)")
     return "\n".join(lines)

@@ -28,10 +28,11 @@ Z95 = 1.959963984540054  # the 97.5 % quantile of the standard normal
 VALUE_KEYS = ("celerity_m_s", "frequency_hz", "fraction_separation", "fraction_stick",
               "fraction_slip", "psi1", "psi2", "amplitude_m", "rms_amplitude_m")
 #: The classes counted in a basin-share denominator (pending/interrupted starts are not).
-COUNTED = ("wave", "modulated", "unsettled", "steady-sliding", "diverged", "failed")
+COUNTED = ("wave", "multi-wave", "transient", "unsettled", "steady-sliding", "diverged",
+           "failed")
 ALPHA = 0.05
-#: The classes whose members make up "the set of attractors" of a mesh (settled cycles).
-SETTLED = ("wave", "modulated")
+#: The classes whose members make up "the set of attractors" of a mesh (settled end states).
+SETTLED = ("wave", "multi-wave")
 
 
 def wilson(successes: int, n: int, z: float = Z95) -> tuple[float, float]:
@@ -68,7 +69,8 @@ def mesh_members(rows: list[dict]) -> list[dict]:
         entry = {"member": member, "class": group[0]["class"], "k": group[0]["k"],
                  "direction": group[0]["direction"], "regime": group[0]["regime"],
                  "count": len(group), "starts": n, "share": len(group) / n,
-                 "share_lo": lo, "share_hi": hi, "seeds": [r["seed"] for r in group]}
+                 "share_lo": lo, "share_hi": hi, "seeds": [r["seed"] for r in group],
+                 "approaching": _approaching(group), **member_components(group)}
         for key in VALUE_KEYS:
             m, sd, _ = mean_spread([r[key] for r in group])
             entry[key] = m
@@ -76,6 +78,42 @@ def mesh_members(rows: list[dict]) -> list[dict]:
         out.append(entry)
     out.sort(key=lambda e: (-e["count"], e["member"]))
     return out
+
+
+def _approaching(rows: list[dict]) -> dict:
+    """How many of an unsettled member's rows already match each settled member."""
+    out: dict[str, int] = {}
+    for r in rows:
+        if r.get("approaching"):
+            out[r["approaching"]] = out.get(r["approaching"], 0) + 1
+    return out
+
+
+def member_components(rows: list[dict]) -> dict:
+    """The member's components (those of its first row's last window): per component the
+    mean and sample standard deviation over the rows of its celerity, share and frequency;
+    its readable ``name`` (``features.describe`` of the means) and ``n_components``."""
+    from studies.attractors.features import Component, Features, describe
+
+    have = [Features.from_dict(r["features"]) for r in rows if r.get("features")]
+    if not have:
+        return {"components": [], "name": "", "n_components": None}
+    comps = []
+    for c in have[0].components:
+        same = [next((d for d in f.components if d.key == c.key), None) for f in have]
+        same = [d for d in same if d is not None]
+        entry = {"k": c.k, "direction": c.direction, "aliased": c.aliased, "weak": c.weak,
+                 "starts": len(same), "harmonics": [h["k"] for h in c.harmonics]}
+        for key in ("celerity_m_s", "share", "frequency_hz", "amplitude_m"):
+            entry[key], entry[f"{key}_sd"], _ = mean_spread([getattr(d, key) for d in same])
+        comps.append(entry)
+    mean = [Component(k=e["k"], direction=e["direction"], share=e["share"],
+                      amplitude_m=e["amplitude_m"], frequency_hz=e["frequency_hz"],
+                      celerity_m_s=e["celerity_m_s"], aliased=e["aliased"], weak=e["weak"])
+            for e in comps]
+    named = Features(tuple(mean)).named(rows[0].get("class") != "multi-wave")
+    return {"components": comps, "name": describe(named, with_weak=True),
+            "n_components": len(named)}
 
 
 def fisher_consistent(x_a: int, n_a: int, x_b: int, n_b: int) -> float:
@@ -100,33 +138,140 @@ def observed_order(meshes: Sequence[int], values: Sequence[float]) -> float:
     return math.log(d1 / d2) / math.log(r1)
 
 
+#: How far a member may move between two meshes of the ladder and still be the same
+#: attractor (``features.match``): celerities move 0.3 – 2 % per mesh doubling (measured,
+#: docs/attractors.md), companions' shares by up to about 10 points.
+LADDER_TOLERANCES = {"celerity": 0.05, "share_rel": 0.5, "share_abs": 0.10, "fraction": 0.05}
+
+
+def member_features(entry: dict):  # noqa: ANN201 - features.Features
+    """The features of a member (``mesh_members`` entry): its mean components and zones."""
+    from studies.attractors.features import Component, Features
+
+    comps = tuple(Component(k=c["k"], direction=c["direction"], share=c["share"],
+                            amplitude_m=c["amplitude_m"], frequency_hz=c["frequency_hz"],
+                            celerity_m_s=c["celerity_m_s"], aliased=c["aliased"],
+                            weak=c["weak"]) for c in entry.get("components") or ())
+    if not comps and entry.get("k") is not None:  # a row set without features
+        comps = (Component(k=int(entry["k"]), direction=entry["direction"], share=1.0,
+                           amplitude_m=math.nan, frequency_hz=entry.get("frequency_hz"),
+                           celerity_m_s=entry.get("celerity_m_s")),)
+    fr = {z: entry[f"fraction_{z}"] for z in ("separation", "stick", "slip")
+          if entry.get(f"fraction_{z}") is not None and math.isfinite(entry[f"fraction_{z}"])}
+    return Features(comps, fr)
+
+
+def align(per_mesh: dict[int, list[dict]], tol=None, lookback: bool = False  # noqa: ANN001
+          ) -> None:
+    """Give every member entry its ``ladder_id`` (in place): a settled member that matches a
+    settled member of the previous key (the next coarser mesh; same dominant k and
+    direction, ``features.match`` with ``tol``, default ``LADDER_TOLERANCES``) takes its id;
+    with ``lookback`` also one of an earlier key, the most recent first (an attractor that
+    vanishes and comes back along a parameter); otherwise its own name (``@N`` added where
+    that name is already taken). Other entries keep their name."""
+    from studies.attractors.features import Tolerances, match
+
+    tol = tol or Tolerances(**LADDER_TOLERANCES)
+    meshes = sorted(per_mesh)
+    taken: set[str] = set()
+    for i, n in enumerate(meshes):
+        earlier = meshes[i - 1::-1] if lookback and i else meshes[i - 1:i] if i else []
+        coarse = [e for m in earlier for e in per_mesh[m] if e["class"] in SETTLED]
+        used: set[str] = set()
+        for e in per_mesh[n]:
+            if e["class"] not in SETTLED:
+                e["ladder_id"] = e["member"]
+                continue
+            mine = member_features(e)
+            found = next((c for c in coarse if c["ladder_id"] not in used
+                          and member_features(c).dominant is not None
+                          and mine.dominant is not None
+                          and member_features(c).dominant.key == mine.dominant.key
+                          and match(member_features(c), mine, tol)), None)
+            if found is not None:
+                e["ladder_id"] = found["ladder_id"]
+            else:
+                e["ladder_id"] = e["member"] if e["member"] not in taken else f"{e['member']}@{n}"
+            used.add(e["ladder_id"])
+        taken |= {e["ladder_id"] for e in per_mesh[n]}
+
+
+def _changes(meshes: list[int], vals: list[float]) -> dict:
+    """Values along the ladder, their successive relative differences and observed orders."""
+    return {"values": vals,
+            "differences": [(b - a) / abs(a) if a and math.isfinite(a) and math.isfinite(b)
+                            else math.nan for a, b in zip(vals, vals[1:], strict=False)],
+            "order": [observed_order(meshes[i:i + 3], vals[i:i + 3])
+                      for i in range(len(meshes) - 2)]}
+
+
+def coarse_observables(per_mesh: dict[int, list[dict]]) -> dict:
+    """Per mesh: the distribution of the dominant component (``"k8+"``, + with the
+    rotation) over the counted random starts, and the basin-weighted celerity
+    Σ x_m c_m / Σ x_m over the members m with a dominant component, settled or not (x_m
+    starts, c_m the dominant celerity: where each start ends, averaged over the starts);
+    along the ladder: the total-variation distance ½ Σ |p_a − p_b| between successive
+    distributions and the change of the weighted celerity."""
+    meshes = sorted(per_mesh)
+    dist, celerity = {}, {}
+    for n in meshes:
+        counts: dict[str, int] = {}
+        total = 0
+        num = den = 0.0
+        for e in per_mesh[n]:
+            label = (f"k{e['k']}{'+' if e['direction'] == 'rotation' else '-'}"
+                     if e.get("k") else e["class"])
+            counts[label] = counts.get(label, 0) + e["count"]
+            total += e["count"]
+            c = e.get("celerity_m_s")
+            if e.get("k") and c is not None and math.isfinite(c):
+                num += e["count"] * c
+                den += e["count"]
+        dist[n] = {k: v / total for k, v in sorted(counts.items())} if total else {}
+        celerity[n] = num / den if den else math.nan
+    tv = [0.5 * sum(abs(dist[a].get(k, 0.0) - dist[b].get(k, 0.0))
+                    for k in set(dist[a]) | set(dist[b]))
+          for a, b in zip(meshes, meshes[1:], strict=False)]
+    return {"dominant_k": {str(n): dist[n] for n in meshes},
+            "dominant_k_distance": tv,
+            "weighted_celerity_m_s": _changes(meshes, [celerity[n] for n in meshes])}
+
+
 def ladder(per_mesh: dict[int, list[dict]]) -> dict:
     """What the mesh ladder says (module docstring), from ``mesh_members`` per mesh.
 
-    Returns ``members`` (per member: its values per mesh, successive relative differences,
-    observed orders), ``tests`` (Fisher's test per member and pair of successive meshes),
-    ``sets`` (the settled members, waves and modulated cycles, reached per mesh) and
+    Members are matched across meshes by their features (``align``). Returns ``members``
+    (per ladder id: its values per mesh, successive relative differences, observed orders,
+    and the same per component: celerity and share), ``tests`` (Fisher's test per member
+    and pair of successive meshes), ``sets`` (the settled members reached per mesh),
     ``stable_from`` (the smallest mesh from which that set is the same on every finer mesh
     and every share test passes; None if no such mesh short of the finest, where nothing can
-    be said). A member reached by a single start on one mesh only changes the set: the table
-    shows which.
+    be said) and ``coarse`` (``coarse_observables``). A member reached by a single start on
+    one mesh only changes the set: the table shows which.
     """
+    align(per_mesh)
     meshes = sorted(per_mesh)
-    names = sorted({e["member"] for es in per_mesh.values() for e in es})
-    table = {n: {e["member"]: e for e in per_mesh[n]} for n in meshes}
+    names = sorted({e["ladder_id"] for es in per_mesh.values() for e in es})
+    table = {n: {e["ladder_id"]: e for e in per_mesh[n]} for n in meshes}
     members = {}
     for name in names:
         present = [n for n in meshes if name in table[n]]
-        entry: dict = {"meshes": present, "differences": {}, "order": {}}
+        entry: dict = {"meshes": present, "member": [table[n][name]["member"] for n in present],
+                       "differences": {}, "order": {}, "components": {}}
         for key in ("celerity_m_s", "frequency_hz", "psi1", "psi2", "rms_amplitude_m"):
-            vals = [table[n][name][key] for n in present]
-            entry[key] = vals
-            entry["differences"][key] = [
-                (b - a) / abs(a) if a and math.isfinite(a) and math.isfinite(b) else math.nan
-                for a, b in zip(vals, vals[1:], strict=False)]
-            orders = [observed_order(present[i:i + 3], vals[i:i + 3])
-                      for i in range(len(present) - 2)]
-            entry["order"][key] = orders
+            ch = _changes(present, [table[n][name][key] for n in present])
+            entry[key] = ch["values"]
+            entry["differences"][key] = ch["differences"]
+            entry["order"][key] = ch["order"]
+        first = table[present[0]][name].get("components") or []
+        for c in first:
+            label = f"k{c['k']}{'+' if c['direction'] == 'rotation' else '-'}"
+            at = [next((d for d in table[n][name].get("components") or []
+                        if (d["k"], d["direction"]) == (c["k"], c["direction"])), None)
+                  for n in present]
+            entry["components"][label] = {
+                q: _changes(present, [d[q] if d else math.nan for d in at])
+                for q in ("celerity_m_s", "share")}
         members[name] = entry
     tests = []
     for a, b in zip(meshes, meshes[1:], strict=False):
@@ -149,4 +294,5 @@ def ladder(per_mesh: dict[int, list[dict]]) -> dict:
         if same and passed:
             stable_from = n
             break
-    return {"members": members, "tests": tests, "sets": sets, "stable_from": stable_from}
+    return {"members": members, "tests": tests, "sets": sets, "stable_from": stable_from,
+            "coarse": coarse_observables(per_mesh)}
