@@ -33,7 +33,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--structured", default=None, metavar="K1:K2",
                    help="also run the mode-k starts k = K1..K2 (reported apart)")
     p.add_argument("--end-time", type=float, default=None, metavar="T",
-                   help="simulated time of every start (s; default: the scene's)")
+                   help="simulated time of every start's first leg (s; default: the "
+                   "scene's); its windows compared are a third of it")
+    p.add_argument("--max-time", type=float, default=None, metavar="T",
+                   help="continue each unsettled start from where it stopped, in legs of "
+                   "x1.5, up to T s (default 4.0; T = --end-time: no extension)")
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                    help="override a scene key (repeatable), as for `stickslip run`")
     p.add_argument("--seed", type=int, default=DEFAULT_SEED, metavar="S",
@@ -85,7 +89,13 @@ def _attractors(args: argparse.Namespace) -> int:
     from mpi4py import MPI
 
     from solver.scene import SceneError, load_scene
-    from studies.attractors.census import Census, CensusError, default_dir, run_census
+    from studies.attractors.census import (
+        DEFAULT_MAX_TIME,
+        Census,
+        CensusError,
+        default_dir,
+        run_census,
+    )
     from studies.attractors.starts import StartDistribution, parse_meshes, parse_structured
 
     comm = MPI.COMM_WORLD
@@ -109,8 +119,12 @@ def _attractors(args: argparse.Namespace) -> int:
                           ("--spread-tol", args.spread_tol)):
             if not 0 < tol < 1:
                 raise ValueError(f"{name} {tol}: give a fraction between 0 and 1")
+        if args.max_time is not None and not args.max_time >= scene.time.end_time:
+            raise ValueError(f"--max-time {args.max_time}: give a time >= the first leg's "
+                             f"end time {scene.time.end_time:g} s")
         census = Census(Path(args.scene), meshes, dist, tuple(overrides),
-                        args.celerity_tol, args.spread_tol)
+                        args.celerity_tol, args.spread_tol,
+                        DEFAULT_MAX_TIME if args.max_time is None else args.max_time)
         census.base_scene()
         if args.backend == "gpu":
             from solver.ensemble import array_namespace

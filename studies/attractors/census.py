@@ -4,8 +4,23 @@
 the end time applied) and ``DIR/census.toml``, a sweep file with one ``[[points]]`` entry per
 start and mesh, and runs it with ``studies.sweep.run_sweep`` into ``DIR/starts`` (batched
 where the scenes allow it, resumable: a finished start is never run again, a killed one is).
-DIR is claimed as kind ``attractors`` (``studies.rundir.ownership``). Rank 0
-then reads every start's ``summary.json`` and samples, classifies the end states, groups them
+DIR is claimed as kind ``attractors`` (``studies.rundir.ownership``).
+
+**Settle or extend** (``settle``): the sweep runs every start to the first leg's end time
+T₀ (``--end-time``). A start whose features still differ between its last two windows of
+length W = T₀/3 (``classify``: unsettled) is continued from its checkpoint, in place
+(``studies.rundir.continuation.continue_batch``: the starts of one batch go on as one
+batch; never from t = 0), to min(``GROWTH`` × T, T_max), and classified again, until every
+start is settled, steady sliding, diverged or at the cap T_max (``max_time``, default
+``DEFAULT_MAX_TIME``): only then is it "unsettled". Geometric legs cost log(T_max/T₀) /
+log(1.5) rounds (7 from 0.3 s to 4 s) and run at most half again as long as a start
+needed, while its settle time is read from the samples to one window W anyway
+(``features.settle_scan``). Under MPI each rank continues its share (balanced by the cost
+N³ × the time added), rank 0 classifies. A start continued beyond T₀ counts as done when
+the census is resumed (``studies.sweep.table``: a run continued past the sweep's end time
+is the sweep's run, and more).
+
+Rank 0 then reads every start's ``summary.json`` and samples, classifies the end states, groups them
 into members, computes the statistics and writes ``attractors.json``, ``attractors.csv`` (one
 row per start) and ``members.csv`` (one row per mesh and member of the random starts).
 
@@ -52,18 +67,27 @@ ENTRIES = ("census.json", "census.toml", "base.toml", "attractors.json", "attrac
 FEATURES = "features.json"
 STARTS = "starts"
 ROW_FIELDS = ("id", "n_inner", "start", "seed", "start_mode", "status", "class", "member",
-              "name", "n_components", "components", "unsettled_because", "k",
+              "name", "n_components", "components", "unsettled_because", "settle_time_s",
+              "sim_time_s", "k",
               "direction", "regime", "celerity_m_s", "frequency_hz", "fraction_separation",
               "fraction_stick", "fraction_slip", "psi1", "psi2", "amplitude_m",
               "rms_amplitude_m", "limit_cycle", "frame_spread", "spread_trend", "dt_s", "steps",
               "wall_time_s", "message", "run_dir")
 MEMBER_FIELDS = ("n_inner", "member", "class", "name", "n_components", "k", "direction",
-                 "regime", "count", "starts",
+                 "regime", "count", "starts", "settle_time_s", "settle_time_s_max",
                  "share", "share_lo", "share_hi", "celerity_m_s", "celerity_m_s_sd",
                  "frequency_hz", "frequency_hz_sd", "fraction_separation",
                  "fraction_separation_sd", "fraction_stick", "fraction_stick_sd",
                  "fraction_slip", "fraction_slip_sd", "psi1", "psi1_sd", "psi2", "psi2_sd",
                  "amplitude_m", "amplitude_m_sd", "rms_amplitude_m", "rms_amplitude_m_sd")
+
+
+#: The default cap T_max of settle-or-extend (s of simulated time): the slowest settlers
+#: measured on the damped paper scenes (N = 528, k = 14 against the rotation) settle
+#: between 2 and 4 s; the tutorial point's N = 264 starts settle by about 2 s.
+DEFAULT_MAX_TIME = 4.0
+#: Each leg of settle-or-extend takes an unsettled start from T to GROWTH × T.
+GROWTH = 1.5
 
 
 class CensusError(ValueError):
@@ -80,6 +104,12 @@ class Census:
     overrides: tuple[str, ...] = ()
     celerity_tol: float = CELERITY_TOL
     spread_tol: float = SPREAD_TOL
+    max_time: float | None = None  # the cap of settle-or-extend (None: DEFAULT_MAX_TIME)
+
+    def cap(self, base: Scene) -> float:
+        """T_max: ``max_time`` (default ``DEFAULT_MAX_TIME``), at least the first leg."""
+        wanted = DEFAULT_MAX_TIME if self.max_time is None else self.max_time
+        return max(float(wanted), float(base.time.end_time))
 
     def base_scene(self) -> Scene:
         try:
@@ -154,7 +184,8 @@ def prepare(census: Census, out_dir: Path, force: bool):  # noqa: ANN201 - a Cla
         meta = {"kind": KIND, "definition": definition, "scene_file": str(census.scene),
                 "overrides": list(census.overrides), "meshes": list(census.meshes),
                 "distribution": census.distribution.to_dict(),
-                "celerity_tol": census.celerity_tol, "spread_tol": census.spread_tol}
+                "celerity_tol": census.celerity_tol, "spread_tol": census.spread_tol,
+                "window_s": base.time.end_time / 3.0, "max_time_s": census.cap(base)}
         atomic_write_text(meta_path, json.dumps(meta, indent=1) + "\n")
     except BaseException:
         owned.release()
@@ -194,6 +225,9 @@ def run_census(census: Census, out_dir: str | Path, *, comm=None, force: bool = 
     ``certify``: certify every member (``studies.attractors.certify``); ``dt_limit``: also the
     rigid waves' Δt → 0 ladder (several Newton solves on finer levels; off by default).
 
+    Every unsettled start is continued up to the census's cap (``settle``, module
+    docstring).
+
     Returns 0 (every start final, none failed with an error), 1 (some start failed: counted
     and shown), 2 (the census cannot start), 130 (interrupted: run the same command again).
     """
@@ -224,6 +258,8 @@ def run_census(census: Census, out_dir: str | Path, *, comm=None, force: bool = 
         t0 = time.perf_counter()
         rc = run_sweep(spec, out_dir / STARTS, comm=comm, stream=stream, progress=progress,
                        batch="auto", backend=backend)
+        if rc in (0, 1):
+            rc = max(rc, settle(out_dir, comm, stream))
         sweep_s = time.perf_counter() - t0
         if comm.rank == 0 and rc != 2:
             answer = collect(out_dir, certify="run" if certify and rc == 0 else "cached",
@@ -237,12 +273,129 @@ def run_census(census: Census, out_dir: str | Path, *, comm=None, force: bool = 
     return rc
 
 
+# ========================================================================= settle or extend
+
+
+def settle(out_dir: Path, comm, stream: TextIO = sys.stdout) -> int:  # noqa: ANN001
+    """Continue the unsettled starts of the census in ``out_dir`` in legs until each is
+    settled or at the cap (module docstring); collective. Returns 0, or 130 (interrupted:
+    every start stands at its last whole leg; run the same command again)."""
+    import signal
+
+    refused: dict[str, str] = {}  # start id -> why it cannot be continued (rank 0)
+    reached: dict[str, float] = {}  # start id -> the time its last leg started from
+    previous = signal.signal(signal.SIGTERM, _raise_interrupt)
+    try:
+        while True:
+            shares = None
+            if comm.rank == 0:
+                legs = extension_legs(out_dir, refused)
+                for leg in [g for g in legs if reached.get(g["id"]) == g["from"]]:
+                    refused[leg["id"]] = f"its last leg ended at {leg['from']:g} s, not later"
+                    print(f"  settle: {leg['id']} not continued: {refused[leg['id']]}",
+                          file=stream, flush=True)
+                legs = [g for g in legs if g["id"] not in refused]
+                reached.update({g["id"]: g["from"] for g in legs})
+                shares = balanced_shares(legs, comm.size) if legs else None
+                if legs:
+                    _say_legs(legs, stream)
+            shares = comm.bcast(shares, root=0)
+            if not shares:
+                return 0
+            log = out_dir / STARTS / "logs" / f"settle-rank{comm.rank}.log"
+            failed, interrupted = continue_legs(shares[comm.rank], log)
+            results = comm.gather((failed, interrupted), root=0)
+            stop = None
+            if comm.rank == 0:
+                for why, _ in results:
+                    refused.update(why)
+                for start, message in (kv for why, _ in results for kv in why.items()):
+                    print(f"  settle: {start} not continued: {message}", file=stream,
+                          flush=True)
+                stop = any(flag for _, flag in results)
+            if comm.bcast(stop, root=0):
+                return 130
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
+def _raise_interrupt(signum, frame):  # noqa: ANN001, ANN202, ARG001
+    raise KeyboardInterrupt
+
+
+def extension_legs(out_dir: Path, refused: dict[str, str] | None = None) -> list[dict]:
+    """Rank 0: the next leg of every start to continue: unsettled, completed, below the cap
+    and not ``refused``: {"id", "run_dir", "from", "until", "cost"} (cost: N³ × the time
+    added, the relative work of the leg: N² unknowns, N/R steps per second)."""
+    meta = json.loads((out_dir / "census.json").read_text())
+    cap = float(meta.get("max_time_s") or 0.0)
+    rows = start_rows(out_dir, meta["spread_tol"], tolerances(meta), meta.get("window_s"))
+    legs = []
+    for r in rows:
+        t = float(r.get("sim_time_s") or 0.0)
+        if r["class"] != "unsettled" or r["status"] != "completed" or (refused or {}).get(
+                r["id"]) or not t < cap * (1.0 - 1e-9):
+            continue
+        until = min(cap, GROWTH * t)
+        legs.append({"id": r["id"], "run_dir": r["run_dir"], "from": t, "until": until,
+                     "cost": float(r["n_inner"]) ** 3 * (until - t)})
+    return legs
+
+
+def balanced_shares(legs: list[dict], ranks: int) -> list[list[dict]]:
+    """The legs shared over ``ranks``: the costliest first, each to the least loaded rank
+    (longest processing time first; within 4/3 of the best split)."""
+    shares: list[list[dict]] = [[] for _ in range(ranks)]
+    load = [0.0] * ranks
+    for leg in sorted(legs, key=lambda g: -g["cost"]):
+        i = load.index(min(load))
+        shares[i].append(leg)
+        load[i] += leg["cost"]
+    return shares
+
+
+def _say_legs(legs: list[dict], stream: TextIO) -> None:
+    spans = sorted({(round(g["from"], 6), round(g["until"], 6)) for g in legs})
+    print(f"settle: continuing {len(legs)} unsettled start(s) "
+          + ", ".join(f"{a:g} -> {b:g} s" for a, b in spans), file=stream, flush=True)
+
+
+def continue_legs(legs: list[dict], log: Path) -> tuple[dict[str, str], bool]:
+    """Continue this rank's legs in place (``continue_batch`` per end time: one batch per
+    batch of starts); ({start id: why not continued}, interrupted)."""
+    from studies.rundir import continue_batch
+    from studies.rundir.readers import ReadError
+
+    refused: dict[str, str] = {}
+    by_until: dict[float, list[dict]] = {}
+    for leg in legs:
+        by_until.setdefault(leg["until"], []).append(leg)
+    log.parent.mkdir(parents=True, exist_ok=True)
+    with open(log, "a") as fh:
+        try:
+            for until, group in by_until.items():
+                try:
+                    continue_batch([g["run_dir"] for g in group], until, stream=fh)
+                except (ReadError, ValueError, OSError, RuntimeError):
+                    for g in group:  # one by one: which start refuses, the others go on
+                        try:
+                            continue_batch([g["run_dir"]], until, stream=fh)
+                        except (ReadError, ValueError, OSError, RuntimeError) as err:
+                            refused[g["id"]] = str(err).splitlines()[0] if str(err) else \
+                                type(err).__name__
+        except KeyboardInterrupt:
+            return refused, True
+    return refused, False
+
+
 # ============================================================================ the answer
 
 
 def start_rows(out_dir: Path, spread_tol: float = SPREAD_TOL,
-               tol: Tolerances = DEFAULT_TOLERANCES) -> list[dict]:
-    """One row per start of the census (every start, whatever its state)."""
+               tol: Tolerances = DEFAULT_TOLERANCES, window: float | None = None
+               ) -> list[dict]:
+    """One row per start of the census (every start, whatever its state); ``window``: the
+    length W of the windows compared (``census.json``'s ``window_s``)."""
     from studies.sweep import load_sweep
     from studies.sweep.table import _read_json, live_status
 
@@ -259,9 +412,9 @@ def start_rows(out_dir: Path, spread_tol: float = SPREAD_TOL,
         status = live_status(summary) if summary else "pending"
         key = None
         if status == "completed":  # a start's features, until its summary is rewritten
-            key = f"{task.id}@{(run_dir / 'summary.json').stat().st_mtime_ns}"
+            key = f"{task.id}@{(run_dir / 'summary.json').stat().st_mtime_ns}@{window}"
         row = start_row(run_dir, task.params, summary, status, spread_tol, tol,
-                        cached=cache.get(key))
+                        cached=cache.get(key), window=window)
         rows.append(row)
         if key and row.get("features"):
             kept[key] = row_cache(row)
@@ -280,7 +433,7 @@ def collect(out_dir: str | Path, *, certify: str | bool = "cached", dt_limit: bo
     out_dir = Path(out_dir)
     meta = json.loads((out_dir / "census.json").read_text())
     t0 = time.perf_counter()
-    rows = start_rows(out_dir, meta["spread_tol"], tolerances(meta))
+    rows = start_rows(out_dir, meta["spread_tol"], tolerances(meta), meta.get("window_s"))
     features_s = time.perf_counter() - t0
     mode = "run" if certify is True else certify
     answer = answer_of(meta, rows, out_dir if mode else None, compute=mode == "run",

@@ -2,8 +2,10 @@
 
 Each completed start is described by its features (``studies.attractors.features``: the
 travelling components of the space-time spectrum, the zone fractions, the RMS amplitude)
-over two consecutive windows of length W, the run's analysis window (the last third):
-[t_end − 2W, t_end − W] and [t_end − W, t_end]. Classes (``classify_features``):
+over two consecutive windows of length W, [t_end − 2W, t_end − W] and [t_end − W, t_end]:
+in a census W is a third of its first leg (``--end-time``), elsewhere the run's analysis
+window (the last third). Its settle time (``features.settle_scan``) is the end of the first
+window pair from which the features stayed stationary. Classes (``classify_features``):
 
 * ``diverged`` / ``failed``: the run's own status (a blow-up; an error);
 * ``steady-sliding``: no stick or separation zone above the analysis threshold;
@@ -50,11 +52,11 @@ from studies.attractors.features import (
     Features,
     Tolerances,
     components_text,
-    consecutive_features,
     describe,
     frame_spread,
     match,
     member_key,
+    settle_scan,
     stationary,
 )
 
@@ -127,31 +129,40 @@ def _early_class(status: str, summary: dict) -> str:
 
 def start_row(run_dir: Path, params: dict, summary: dict | None, status: str,
               spread_tol: float = SPREAD_TOL, tol: Tolerances = DEFAULT_TOLERANCES,
-              cached: dict | None = None) -> dict:
+              cached: dict | None = None, window: float | None = None) -> dict:
     """One start's row of ``attractors.csv`` from its run directory: where it started, what
-    it reached. ``cached``: its features as an earlier row stored them (``row_cache``), so
-    the samples are not read again."""
+    it reached, and when it settled. ``cached``: its features as an earlier row stored them
+    (``row_cache``), so the samples are not read again. ``window``: the length W of the
+    windows compared (default: the run's analysis window, the last third)."""
     s = summary or {}
     spread = (math.nan, math.nan, math.nan)
     features = None
+    settle_time = math.nan
     if status == "completed" and s.get("regime") not in (None, "steady-sliding"):
         if cached and cached.get("features"):
             features = (Features.from_dict(cached["features_before"]),
                         Features.from_dict(cached["features"]))
             spread = tuple(math.nan if v is None else float(v) for v in cached["spread"])
+            settle_time = _float(cached.get("settle_time_s"))
         else:
             samples = _samples(run_dir)
             if samples is not None:
-                features, spread = end_state_features(samples, s, _radius(run_dir))
+                features, spread, settle_time = settled_features(
+                    samples, s, _radius(run_dir), window, tol, spread_tol)
     return end_state_row(run_dir.name, params, s, status, spread, spread_tol,
-                         run_dir=str(run_dir), features=features, tol=tol)
+                         run_dir=str(run_dir), features=features, tol=tol,
+                         settle_time=settle_time)
+
+
+def _float(x: object) -> float:
+    return math.nan if x is None else float(x)
 
 
 def row_cache(row: dict) -> dict:
     """What ``start_row(cached=...)`` needs of a row to rebuild it without its samples."""
     return {"features": row.get("features"), "features_before": row.get("features_before"),
             "spread": [row.get("frame_spread"), row.get("rms_amplitude_m"),
-                       row.get("spread_trend")]}
+                       row.get("spread_trend")], "settle_time_s": row.get("settle_time_s")}
 
 
 def end_state_features(samples: dict, summary: dict, radius: float
@@ -159,20 +170,24 @@ def end_state_features(samples: dict, summary: dict, radius: float
     """(features of the two consecutive windows, (frame spread, RMS amplitude, spread
     trend) in the dominant component's frame) of a run's samples (``samples.npz``'s arrays,
     with the every-step probe where recorded): what ``end_state_row`` classifies."""
-    features = features_of_samples(samples, summary, radius)
-    spread = spread_of_samples(samples["t"], samples["theta"], samples["u_r"],
-                               samples["u_theta"], _with_dominant(summary, features[1]),
-                               radius)
+    features, spread, _ = settled_features(samples, summary, radius)
     return features, spread
 
 
-def features_of_samples(samples: dict, summary: dict, radius: float
-                        ) -> tuple[Features, Features]:
-    """The features of the two consecutive analysis windows of a run's samples."""
+def settled_features(samples: dict, summary: dict, radius: float, window: float | None = None,
+                     tol: Tolerances = DEFAULT_TOLERANCES, spread_tol: float = SPREAD_TOL
+                     ) -> tuple[tuple[Features, Features], tuple[float, float, float], float]:
+    """``end_state_features`` over windows of length ``window`` (default: the run's
+    analysis window), and the settle time (``features.settle_scan``; NaN: unsettled)."""
     t = samples["t"]
-    window = float(summary.get("analysis_window_s") or (t[-1] - t[0]) / 3.0)
+    if window is None:
+        window = float(summary.get("analysis_window_s") or (t[-1] - t[0]) / 3.0)
     window = min(window, 0.5 * float(t[-1] - t[0]))
-    return consecutive_features(samples, radius, window)
+    earlier, later, settle_time = settle_scan(samples, radius, window, tol=tol,
+                                              spread_tol=spread_tol)
+    spread = spread_of_samples(t, samples["theta"], samples["u_r"], samples["u_theta"],
+                               _with_dominant(summary, later), radius, window)
+    return (earlier, later), spread, settle_time
 
 
 def _with_dominant(summary: dict, later: Features) -> dict:
@@ -186,11 +201,14 @@ def _with_dominant(summary: dict, later: Features) -> dict:
 def end_state_row(start_id: str, params: dict, summary: dict, status: str,
                   spread: tuple[float, float, float], spread_tol: float = SPREAD_TOL,
                   run_dir: str = "", features: tuple[Features, Features] | None = None,
-                  tol: Tolerances = DEFAULT_TOLERANCES) -> dict:
+                  tol: Tolerances = DEFAULT_TOLERANCES, settle_time: float = math.nan
+                  ) -> dict:
     """One start's row from its run summary (``studies.rundir.scene_run.summarise``'s keys),
     its (frame spread, RMS amplitude, spread trend) and its features over two consecutive
     windows, wherever they were computed (a run directory, or a batch's records on another
-    machine; without features the frame spread classifies it, ``classify``)."""
+    machine; without features the frame spread classifies it, ``classify``), and its settle
+    time (``features.settle_scan``: the end of the first window pair from which its
+    features stayed stationary; NaN where not settled)."""
     s = summary
     frame, rms, trend = spread
     row = {
@@ -213,6 +231,8 @@ def end_state_row(start_id: str, params: dict, summary: dict, status: str,
         "fraction_slip": fr.get("slip"), "psi1": s.get("psi1"), "psi2": s.get("psi2"),
         "amplitude_m": s.get("amplitude_m"), "rms_amplitude_m": rms,
         "limit_cycle": s.get("limit_cycle"), "frame_spread": frame, "spread_trend": trend,
+        "settle_time_s": settle_time if cls in ("wave", "multi-wave") else math.nan,
+        "sim_time_s": s.get("sim_time_s"),
         "dt_s": s.get("dt_s"), "steps": s.get("steps"), "wall_time_s": s.get("wall_time_s"),
         "message": s.get("message"), "run_dir": run_dir, "member": None,
         "components": "", "name": "", "n_components": None, "unsettled_because": "; ".join(why),
@@ -247,11 +267,13 @@ def row_features(row: dict) -> Features:
 
 
 def spread_of_samples(t: np.ndarray, theta: np.ndarray, u_r: np.ndarray, u_theta: np.ndarray,
-                      summary: dict, radius: float) -> tuple[float, float, float]:
-    """(frame spread, RMS amplitude, spread trend) over the summary's analysis window, in the
-    frame turning at the summary's celerity."""
+                      summary: dict, radius: float, window: float | None = None
+                      ) -> tuple[float, float, float]:
+    """(frame spread, RMS amplitude, spread trend) over the last ``window`` (default: the
+    summary's analysis window), in the frame turning at the summary's celerity."""
     omega = float(summary["celerity_m_s"]) / radius
-    window = float(summary.get("analysis_window_s") or (t[-1] - t[0]) / 3.0)
+    if window is None:
+        window = float(summary.get("analysis_window_s") or (t[-1] - t[0]) / 3.0)
     spread, rms = frame_spread(t, theta, u_r, u_theta, omega, window)
     return spread, rms, spread_trend(t, theta, u_r, u_theta, omega, window)
 

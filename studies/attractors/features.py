@@ -368,6 +368,41 @@ def consecutive_features(samples: dict, radius: float, window: float, *,
             window_features(samples, radius, t_end - window, t_end, share_tol=share_tol))
 
 
+def settle_scan(samples: dict, radius: float, window: float, *,
+                tol: Tolerances | None = None, spread_tol: float = SPREAD_TOL,
+                share_tol: float = SHARE_TOL) -> tuple[Features, Features, float]:
+    """The features of the last two windows and the **settle time** t_s of a run's samples.
+
+    Window pairs [t − 2W, t − W], [t − W, t] are taken at t = t_end, t_end − W, … (while
+    t − 2W ≥ t_0, the first sample); t_s is the smallest such t from which every later pair
+    is ``stationary``: the state has not changed since. NaN where the last pair is not
+    stationary (unsettled). Each window's features are computed once, from the end back
+    to the first pair that is not stationary, so a start that settled long before t_end
+    costs (t_end − t_s)/W + 2 windows.
+    """
+    tol = DEFAULT_TOLERANCES if tol is None else tol
+    t = samples["t"]
+    t_end, t_first = float(t[-1]), float(t[0])
+
+    def at(end: float) -> Features:
+        return window_features(samples, radius, end - window, end, share_tol=share_tol)
+
+    later, earlier = at(t_end), at(t_end - window)
+    last = (earlier, later)
+    settled_at = math.nan
+    end = t_end
+    # a float tolerance of a thousandth of a window: t_end − jW lands on t_0 up to round-off
+    while end - 2.0 * window >= t_first - 1e-3 * window:
+        if stationary(earlier, later, tol, spread_tol=spread_tol):
+            break
+        settled_at = end
+        end -= window
+        if end - 2.0 * window < t_first - 1e-3 * window:
+            break
+        later, earlier = earlier, at(end - window)
+    return (*last, settled_at)
+
+
 # ===================================================================== the one rule
 
 

@@ -28,6 +28,10 @@ def _member_phrase(m: dict) -> str:
                                      f"{c['celerity_m_s']:+.1f} m/s") for c in comps) + ")"
     text = (f"{text} [{m['member']}] ({m['count']}/{m['starts']} = {_pct(m['share'])}, "
             f"95 % CI {_pct(m['share_lo'])}–{_pct(m['share_hi'])})")
+    if settled and m.get("settle_time_s_max") is not None \
+            and math.isfinite(m["settle_time_s_max"]):
+        text += (f"; settled by {m['settle_time_s']:.2f} s (median), "
+                 f"{m['settle_time_s_max']:.2f} s (last)")
     near = m.get("approaching") or {}
     if near:
         text += "; in its last window " + ", ".join(
@@ -57,8 +61,8 @@ def mesh_lines(n: str, members: list[dict], structured: list[dict]) -> list[str]
         lines += [f"    {m['class']}: {_member_phrase(m)}" if m["class"] == "transient"
                   else f"    {_member_phrase(m)}" for m in others]
     if any(m["class"] == "unsettled" for m in members):
-        lines.append("  (unsettled: its features still change between the last two windows; "
-                     "a longer --end-time settles them)")
+        lines.append("  (unsettled: its features still change between the last two windows "
+                     "at the cap; a larger --max-time continues them)")
     if structured:
         lines.append("  structured: " + "; ".join(
             f"mode {r['start_mode']} -> {r['member'] or r['class']}" for r in structured))

@@ -23,6 +23,8 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 
+import numpy as np
+
 Z95 = 1.959963984540054  # the 97.5 % quantile of the standard normal
 #: Values averaged per member (row keys of ``attractors.csv``).
 VALUE_KEYS = ("celerity_m_s", "frequency_hz", "fraction_separation", "fraction_stick",
@@ -75,6 +77,10 @@ def mesh_members(rows: list[dict]) -> list[dict]:
             m, sd, _ = mean_spread([r[key] for r in group])
             entry[key] = m
             entry[f"{key}_sd"] = sd
+        settle = [float(r["settle_time_s"]) for r in group
+                  if r.get("settle_time_s") is not None and math.isfinite(r["settle_time_s"])]
+        entry["settle_time_s"] = float(np.median(settle)) if settle else math.nan
+        entry["settle_time_s_max"] = max(settle) if settle else math.nan
         out.append(entry)
     out.sort(key=lambda e: (-e["count"], e["member"]))
     return out

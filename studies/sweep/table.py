@@ -10,6 +10,7 @@ from __future__ import annotations
 import csv
 import io
 import json
+import math
 import time
 from collections.abc import Sequence
 from pathlib import Path
@@ -67,13 +68,29 @@ def is_sweep_dir(path: str | Path) -> bool:
     return bool(meta) and meta.get("kind") == SWEEP_KIND
 
 
-def _same_scene(run_dir: Path, scene: Scene) -> bool:
+def _same_scene(run_dir: Path, scene: Scene, summary: dict | None = None) -> bool:
+    """The run in ``run_dir`` ran ``scene``, or ran it and more (``_continued_past``)."""
     try:
         done = load_scene(run_dir / "scene.toml")
     except (SceneError, OSError):
         return False
     a, b = scene_to_dict(done), scene_to_dict(scene)
-    return a == b
+    return a == b or _continued_past(a, b, summary or {})
+
+
+def _continued_past(done: dict, wanted: dict, summary: dict) -> bool:
+    """A run continued beyond the wanted end time (``stickslip continue``, a census's
+    settle-or-extend: a later ``time.end_time``, no ``time.max_steps``), the rest of its
+    scene the wanted one, its summary at or past the wanted end: the wanted run, and more.
+    Run again from t = 0 it would lose the longer run."""
+    def rest(d: dict) -> dict:
+        return {**d, "time": {k: v for k, v in d.get("time", {}).items()
+                              if k not in ("end_time", "max_steps")}}
+
+    end = float(wanted.get("time", {}).get("end_time", math.inf))
+    return (rest(done) == rest(wanted) and not done.get("time", {}).get("max_steps")
+            and float(done.get("time", {}).get("end_time", 0.0)) >= end
+            and float(summary.get("sim_time_s") or 0.0) >= end * (1.0 - 1e-9))
 
 
 def task_state(out_dir: Path, spec: SweepSpec, task: Task, scene: Scene | None = None) -> str:
@@ -84,7 +101,8 @@ def task_state(out_dir: Path, spec: SweepSpec, task: Task, scene: Scene | None =
     if summary is None:
         return "foreign" if _foreign(run_dir) else "pending"
     status = str(summary.get("status", "pending"))
-    if status in FINAL_STATUSES and not _same_scene(run_dir, scene or scene_for(spec, task)):
+    if status in FINAL_STATUSES and not _same_scene(run_dir, scene or scene_for(spec, task),
+                                                    summary):
         return "changed"
     return live_status(summary)
 
