@@ -62,7 +62,7 @@ KIND = "stickslip-attractors"
 #: directory of their own, ``starts/``.
 ENTRIES = ("census.json", "census.toml", "base.toml", "attractors.json", "attractors.csv",
            "members.csv", "certificates.json", "cea.json", "features.json", "starts",
-           "*.png")
+           "settle-rank*.log", "*.png")
 #: Every completed start's features, by start and summary time (read once).
 FEATURES = "features.json"
 STARTS = "starts"
@@ -302,7 +302,7 @@ def settle(out_dir: Path, comm, stream: TextIO = sys.stdout) -> int:  # noqa: AN
             shares = comm.bcast(shares, root=0)
             if not shares:
                 return 0
-            log = out_dir / STARTS / "logs" / f"settle-rank{comm.rank}.log"
+            log = out_dir / f"settle-rank{comm.rank}.log"  # the continuations' lines
             failed, interrupted = continue_legs(shares[comm.rank], log)
             results = comm.gather((failed, interrupted), root=0)
             stop = None
@@ -374,6 +374,9 @@ def continue_legs(legs: list[dict], log: Path) -> tuple[dict[str, str], bool]:
     with open(log, "a") as fh:
         try:
             for until, group in by_until.items():
+                for g in group:
+                    fh.write(f"continuing {g['id']} from t = {g['from']!r} s to {until!r} s\n")
+                fh.flush()
                 try:
                     continue_batch([g["run_dir"] for g in group], until, stream=fh)
                 except (ReadError, ValueError, OSError, RuntimeError):
