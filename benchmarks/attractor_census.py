@@ -1,7 +1,8 @@
 """Attractor census timing: end to end, and the scene-steps per second it achieves.
 
     ./dev python3 benchmarks/attractor_census.py [--scene figure1_n132_damped]
-        [--starts 64] [--meshes 132,264] [--end-time 0.3] [--ranks 1] [-o DIR]
+        [--starts 64] [--meshes 132,264] [--end-time 0.3] [--max-time 4.0]
+        [--set KEY=VALUE ...] [--ranks 1] [--no-certify] [-o DIR]
     ./dev python3 benchmarks/attractor_census.py --from DIR   # a finished census directory
     ./dev python3 benchmarks/attractor_census.py --spreads DIR [DIR ...]   # feature spreads
 
@@ -12,8 +13,18 @@ census), the number of starts and their scene-steps (Σ steps over the starts) p
 scene-steps per second = Σ steps / Σ per-start wall time (the rate of the runs themselves) and
 Σ steps / the loop's time (the census's rate, all ranks together; the one to quote: a
 batched start carries its whole batch's wall time, so the first rate undercounts batches).
-Target: a 64-start census at N = 132 and 264 (0.3 s each, 128 runs) end to end in
-≤ 2 minutes on a 2-core machine.
+With settle-or-extend (the default) each record also gives per mesh the class counts, the
+simulated time the extension added, the settle times (median, largest), and the load
+average of the machine before and after (a shared machine makes a timing pessimistic).
+Targets on a 2-core machine (``--ranks 2``): the tutorial's census (16 starts, N = 132 and
+264, 0.3 s first leg, settle-or-extend, certificates) in ≤ 3 minutes:
+
+    ./dev python3 benchmarks/attractor_census.py --starts 16 --ranks 2
+
+and 64 starts of the public point in ≤ 10 minutes:
+
+    ./dev python3 benchmarks/attractor_census.py --starts 64 --ranks 2 \
+        --set loading.omega=60 --set geometry.delta=8e-4 --set loading.f=0.6
 
 ``--spreads`` prints the measured spreads behind the grouping tolerances
 (``studies.attractors.features``): per mesh and settled member reached by two or more
@@ -42,13 +53,23 @@ def measure(out: Path) -> dict:
     answer = json.loads((out / "attractors.json").read_text())
     sweep = json.loads((out / "starts" / "sweep.json").read_text())
     per_mesh: dict[str, dict] = {}
+    first_leg = float(answer["scene"]["time"]["end_time"])
     for r in answer["starts"]:
-        m = per_mesh.setdefault(str(r["n_inner"]), {"starts": 0, "steps": 0, "run_s": 0.0})
+        m = per_mesh.setdefault(str(r["n_inner"]), {"starts": 0, "steps": 0, "run_s": 0.0,
+                                                    "classes": {}, "extended_sim_s": 0.0,
+                                                    "settle_s": []})
         m["starts"] += 1
         m["steps"] += int(r["steps"] or 0)
         m["run_s"] += float(r["wall_time_s"] or 0.0)
+        m["classes"][r["class"]] = m["classes"].get(r["class"], 0) + 1
+        m["extended_sim_s"] += max(0.0, float(r.get("sim_time_s") or 0.0) - first_leg)
+        if r.get("settle_time_s") is not None:
+            m["settle_s"].append(float(r["settle_time_s"]))
     for m in per_mesh.values():
         m["steps_per_s"] = m["steps"] / m["run_s"] if m["run_s"] else None
+        settle = sorted(m.pop("settle_s"))
+        m["settle_s_median"] = settle[len(settle) // 2] if settle else None
+        m["settle_s_max"] = settle[-1] if settle else None
     session = sweep.get("last_session") or {}
     loop_s = (session.get("finished", 0.0) - session.get("started", 0.0)) or None
     steps = sum(m["steps"] for m in per_mesh.values())
@@ -58,7 +79,8 @@ def measure(out: Path) -> dict:
             "loop_s": loop_s, "ranks": session.get("ranks"),
             "scene_steps_per_s_loop": steps / loop_s if loop_s else None,
             "pending_at_last_session": session.get("pending_at_start"),
-            "counts": answer["counts"], "per_mesh": per_mesh}
+            "counts": answer["counts"], "timing": answer.get("timing"),
+            "per_mesh": per_mesh}
 
 
 def _feature_values(features: dict) -> dict:
@@ -135,6 +157,9 @@ def main() -> None:
     ap.add_argument("--starts", type=int, default=64)
     ap.add_argument("--meshes", default="132,264")
     ap.add_argument("--end-time", type=float, default=0.3)
+    ap.add_argument("--max-time", type=float, default=None)
+    ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
+    ap.add_argument("--no-certify", action="store_true")
     ap.add_argument("--ranks", type=int, default=1)
     ap.add_argument("-o", "--output", help="census directory (default: a fresh temporary one)")
     ap.add_argument("--from", dest="existing", help="measure a finished census directory")
@@ -152,16 +177,23 @@ def main() -> None:
     cmd = [sys.executable, "-m", "cli.main", "attractors", args.scene, "--starts",
            str(args.starts), "--meshes", args.meshes, "--end-time", str(args.end_time),
            "-o", str(out / "census"), "--progress", "lines"]
+    cmd += [a for kv in args.set for a in ("--set", kv)]
+    if args.max_time is not None:
+        cmd += ["--max-time", str(args.max_time)]
+    if args.no_certify:
+        cmd.append("--no-certify")
     if args.ranks > 1:
         cmd = ["mpirun", "-n", str(args.ranks), *cmd]
     env = dict(os.environ, PYTHONPATH=str(REPO))
+    load_before = os.getloadavg()
     t0 = time.perf_counter()
     res = subprocess.run(cmd, cwd=REPO, env=env, capture_output=True, text=True)
     wall = time.perf_counter() - t0
     if res.returncode not in (0, 1):
         sys.exit(f"census failed ({res.returncode}): {res.stderr.strip()[-500:]}")
     rec = measure(out / "census")
-    rec.update(wall_s=wall, command=" ".join(cmd[cmd.index("attractors"):]))
+    rec.update(wall_s=wall, command=" ".join(cmd[cmd.index("attractors"):]),
+               load_before=load_before, load_after=os.getloadavg(), cpus=os.cpu_count())
     print(json.dumps(rec))
 
 

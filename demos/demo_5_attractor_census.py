@@ -8,8 +8,9 @@ speed). Which one a transient reaches depends on its start. So the answer for a 
 its set of attractors and the share of starts that reaches each. This demo runs a small
 census with ``stickslip.attractors`` (the ``stickslip attractors`` command) on the damped
 Figure-3 scene at N = 66: four random starts (a random superposition of the modes 1 ... 16
-with random phases, 0.1 d, seeds 1 ... 4) and the structured mode-4 start, 0.3 s each, run
-as one batch.
+with random phases, 0.1 d, seeds 1 ... 4) and the structured mode-4 start, run as one batch
+to 0.3 s; each start still changing then is continued from where it stopped, in legs of
+x1.5, until it settles (up to 4 s).
 """
 
 # %%
@@ -34,11 +35,13 @@ print(answer["text"])
 # space-time spectrum of the contact circle: wavenumber, direction, share of the dominant's
 # amplitude, celerity) and classified: a rigid wave (one component), a multi-wave state
 # (several), steady sliding, or unsettled (its components still change between the two
-# windows). At 0.3 s on this damped scene many random starts have not settled yet: a census
-# for a result uses a longer ``end_time`` (``docs/attractors.md``).
+# windows of 0.1 s). A start is "unsettled" only if it still changes at the cap; its settle
+# time is the end of the first pair of windows from which its features stayed the same.
 for row in answer["starts"]:
     which = f"seed {row['seed']}" if row["start"] == "random" else f"mode {row['start_mode']}"
-    print(f"{which:>8}: {row['class']:>10}  {row['name'] or row['member'] or ''}")
+    settled = (f"settled by {row['settle_time_s']:.2f} s" if row["settle_time_s"] else
+               f"at {row['sim_time_s'] or 0:.2f} s")
+    print(f"{which:>8}: {row['class']:>10}  {settled:>18}  {row['name'] or row['member'] or ''}")
 
 # %%
 # The members and their shares
