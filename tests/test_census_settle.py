@@ -6,11 +6,14 @@ from __future__ import annotations
 
 import json
 import math
+import signal
+import subprocess
+import sys
 
 import numpy as np
 import pytest
-from test_attractors import SMOKE
-from test_sweep import _starts
+from test_attractors import REPO, SMOKE
+from test_sweep import _env, _starts
 
 from studies.attractors.features import settle_scan
 
@@ -142,3 +145,38 @@ def test_sweep_counts_a_run_continued_past_its_end_time_as_done():
     assert not _continued_past(other, wanted, {"sim_time_s": 0.45})  # another scene
     capped = {**longer, "time": {"end_time": 0.45, "max_steps": 10}}
     assert not _continued_past(capped, wanted, {"sim_time_s": 0.45})
+
+
+@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGKILL])
+def test_census_killed_while_settling_resumes_every_start_once(tmp_path, sig):
+    """Killed once it says it continues starts (its own marker line), then run again: every
+    start in the answer once, each run once from t = 0, none lost or half-continued."""
+    pytest.importorskip("dolfinx")
+    out = tmp_path / "census"
+    cmd = [sys.executable, "-m", "cli.main", "attractors", str(SMOKE), "--starts", "3",
+           "--meshes", "36", "--end-time", "0.05", "--max-time", "0.1",
+           "--set", "loading.omega=20", "--set", "geometry.delta=0.005", "-o", str(out),
+           "--no-certify", "--progress", "lines"]
+    proc = subprocess.Popen(cmd, cwd=REPO, env=_env(), stdout=subprocess.PIPE,
+                            stderr=subprocess.STDOUT, text=True)
+    try:
+        seen = ""
+        for line in proc.stdout:
+            seen += line
+            if line.startswith("settle: continuing"):
+                proc.send_signal(sig)
+                break
+        proc.wait(timeout=120)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert "settle: continuing" in seen, seen
+    res = subprocess.run([*cmd, "--json"], cwd=REPO, env=_env(), capture_output=True,
+                         text=True, timeout=300)
+    assert res.returncode == 0, res.stdout + res.stderr
+    rows = json.loads(res.stdout)["starts"]
+    assert sorted(r["id"] for r in rows) == sorted(_starts(out / "starts"))
+    assert set(_starts(out / "starts").values()) == {1}  # each run once from t = 0
+    assert all(r["class"] in ("wave", "multi-wave", "unsettled") for r in rows)
+    assert all(r["class"] != "unsettled" or r["sim_time_s"] >= 0.1 - 1e-9 for r in rows)
+    assert not [p for p in (out / "starts" / "runs").iterdir() if p.name.startswith(".")]
