@@ -278,8 +278,9 @@ def run_census(census: Census, out_dir: str | Path, *, comm=None, force: bool = 
 
 def settle(out_dir: Path, comm, stream: TextIO = sys.stdout) -> int:  # noqa: ANN001
     """Continue the unsettled starts of the census in ``out_dir`` in legs until each is
-    settled or at the cap (module docstring); collective. Returns 0, or 130 (interrupted:
-    every start stands at its last whole leg; run the same command again)."""
+    settled or at the cap (module docstring); collective. Returns 0, 1 (the census could not
+    be read) or 130 (interrupted: every start stands at its last whole leg; run the same
+    command again)."""
     import signal
 
     refused: dict[str, str] = {}  # start id -> why it cannot be continued (rank 0)
@@ -287,21 +288,19 @@ def settle(out_dir: Path, comm, stream: TextIO = sys.stdout) -> int:  # noqa: AN
     previous = signal.signal(signal.SIGTERM, _raise_interrupt)
     try:
         while True:
-            shares = None
+            shares: list | int | None = None
             if comm.rank == 0:
-                legs = extension_legs(out_dir, refused)
-                for leg in [g for g in legs if reached.get(g["id"]) == g["from"]]:
-                    refused[leg["id"]] = f"its last leg ended at {leg['from']:g} s, not later"
-                    print(f"  settle: {leg['id']} not continued: {refused[leg['id']]}",
-                          file=stream, flush=True)
-                legs = [g for g in legs if g["id"] not in refused]
-                reached.update({g["id"]: g["from"] for g in legs})
-                shares = balanced_shares(legs, comm.size) if legs else None
-                if legs:
-                    _say_legs(legs, stream)
+                try:
+                    legs = _next_legs(out_dir, refused, reached, stream)
+                    shares = balanced_shares(legs, comm.size) if legs else None
+                except KeyboardInterrupt:
+                    shares = 130
+                except (OSError, ValueError, KeyError) as err:  # an unreadable census
+                    print(f"error: settle: {err}", file=sys.stderr, flush=True)
+                    shares = 1
             shares = comm.bcast(shares, root=0)
-            if not shares:
-                return 0
+            if not shares or isinstance(shares, int):
+                return shares or 0
             log = out_dir / f"settle-rank{comm.rank}.log"  # the continuations' lines
             failed, interrupted = continue_legs(shares[comm.rank], log)
             results = comm.gather((failed, interrupted), root=0)
@@ -317,6 +316,22 @@ def settle(out_dir: Path, comm, stream: TextIO = sys.stdout) -> int:  # noqa: AN
                 return 130
     finally:
         signal.signal(signal.SIGTERM, previous)
+
+
+def _next_legs(out_dir: Path, refused: dict[str, str], reached: dict[str, float],
+               stream: TextIO) -> list[dict]:
+    """Rank 0: ``extension_legs``, less the starts whose last leg did not advance them
+    (refused from now on: a loop that cannot end otherwise); said on ``stream``."""
+    legs = extension_legs(out_dir, refused)
+    for leg in [g for g in legs if reached.get(g["id"]) == g["from"]]:
+        refused[leg["id"]] = f"its last leg ended at {leg['from']:g} s, not later"
+        print(f"  settle: {leg['id']} not continued: {refused[leg['id']]}", file=stream,
+              flush=True)
+    legs = [g for g in legs if g["id"] not in refused]
+    reached.update({g["id"]: g["from"] for g in legs})
+    if legs:
+        _say_legs(legs, stream)
+    return legs
 
 
 def _raise_interrupt(signum, frame):  # noqa: ANN001, ANN202, ARG001
