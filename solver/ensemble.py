@@ -211,6 +211,12 @@ class BatchedExplicit(HookedStepper):
 
     # -------------------------------------------------------------------------------- state
     @property
+    def host_records(self) -> bool:
+        """The arrays live in host memory (numpy): a batch's record may stay whole there; a
+        device's is spooled in chunks (``solver.ensemble_run.BatchSimulation``)."""
+        return self.xp is np
+
+    @property
     def u(self):
         return self._u[self.cur]
 

@@ -138,6 +138,9 @@ class Newmark(ExplicitStart):
         Optional forward-increment constraint, see ``ContactStep``.
     """
 
+    #: Kelvin-Voigt retardation time (``DampedNewmark``; 0: undamped)
+    tau: float = 0.0
+
     def __init__(
         self,
         stiffness_mult: Callable[[np.ndarray, np.ndarray], None],
@@ -176,7 +179,7 @@ class Newmark(ExplicitStart):
     def facts(self) -> dict:
         """Scheme facts for the run summary (``solver.schemes.protocol.Stepper``)."""
         return {"scheme": "explicit", "beta1": self.beta1, "beta2": self.beta2,
-                "damping_tau_s": getattr(self, "tau", 0.0),
+                "damping_tau_s": self.tau,
                 "contact_s": float(getattr(self.contact, "seconds", 0.0)),
                 "kernel": "numpy"}
 
