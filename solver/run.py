@@ -52,8 +52,9 @@ class Simulation:
     The objects, in the order they are built: the problem (mesh, K, M, contact nodes:
     ``solver.problem``), the steady sliding state (``solver.steady``), the scheme's parts
     (``solver.schemes.select.for_scene(scene).build``: the stepper, its contact step and its
-    work observers), the step hooks (the work observers that need them, the probes), and the observers with a cadence (field output,
-    the inner-circle samples with their health and stop checks). ``proceed`` is the one time
+    work observers), the step hooks (the work observers that need them, the probes), and the
+    observers with a cadence (field output, the inner-circle samples with their health and
+    stop checks). ``proceed`` is the one time
     loop: it advances the stepper to the next level an observer wants and asks them.
 
     It starts from steady sliding plus the scene's ``[initial]`` bump, or from
