@@ -248,9 +248,9 @@ def numba_available() -> bool:
 BACKENDS = {"cpu": "numba", "gpu": "cuda"}
 
 
-def check_backend(backend: str) -> None:
-    """Refuse a backend this machine cannot run (ValueError or ImportError naming the fix):
-    "gpu" needs CuPy and a CUDA device."""
+def check_backend(backend: str, batched: bool = True, device: bool = True) -> None:
+    """Refuse a backend this run cannot use (ValueError or ImportError naming the fix): "gpu"
+    needs CuPy, with ``device`` a CUDA device too, and runs batches only (``batched``)."""
     if backend not in BACKENDS:
         raise ValueError(f"backend = {backend!r}: use one of {tuple(BACKENDS)}")
     if BACKENDS[backend] != "cuda":
@@ -258,13 +258,16 @@ def check_backend(backend: str) -> None:
     from solver.ensemble import array_namespace
 
     xp = array_namespace(backend)
-    try:  # CuPy imports without a driver or a device; the first allocation fails
-        devices, why = xp.cuda.runtime.getDeviceCount(), ""
-    except RuntimeError as err:
-        devices, why = 0, f" ({err})"
-    if devices < 1:
-        raise ValueError(f"--backend gpu: CuPy finds no CUDA device{why}; run on a "
-                         "GPU node or use --backend cpu")
+    if device:
+        try:  # CuPy imports without a driver or a device; the first allocation fails
+            devices, why = xp.cuda.runtime.getDeviceCount(), ""
+        except RuntimeError as err:
+            devices, why = 0, f" ({err})"
+        if devices < 1:
+            raise ValueError(f"--backend gpu: CuPy finds no CUDA device{why}; run on a "
+                             "GPU node or use --backend cpu")
+    if not batched:
+        raise ValueError("--backend gpu runs batches: add --batch auto or --batch B")
 
 
 def make_explicit(problem, scene: Scene, dt: float):
