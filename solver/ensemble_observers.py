@@ -398,7 +398,7 @@ class BatchRecorder:
             e[:, 0] = xp.einsum("ib,ib->b", self.scratch, it.v)
             e[:, 1] = xp.einsum("ib,ib->b", it.u_prev, it.ku)
         e[:, :2] *= 0.5
-        e[:, 2:5] = (it.work[:3] if it.work.ndim == 2 else it.work.sum(axis=1)).T
+        e[:, 2:5] = it.work_sums().T
         e[:, 5] = it.damping_work_totals() if it.damped else 0.0
         self.t[self.n] = it.time - it.dt
         self.clock[self.n] = it.time

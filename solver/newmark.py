@@ -154,7 +154,7 @@ class Newmark(ExplicitStart):
             raise NotImplementedError(
                 f"time.beta1 = {beta1}: Newmark is the explicit scheme (beta1 = 0) driven by a "
                 "stiffness product; beta1 > 0 needs the factorised K_eff: use "
-                "solver.implicit.ImplicitNewmark (solver.schemes.select.make_stepper picks it)"
+                "solver.implicit.ImplicitNewmark (solver.schemes.select.for_scene picks it)"
             )
         if not 0.5 <= beta2 <= 1.0:
             raise ValueError(f"time.beta2 = {beta2} must be in [0.5, 1]")
