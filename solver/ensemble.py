@@ -32,6 +32,7 @@ contact force), so it stays at rest at no risk to the others; the caller records
 
 from __future__ import annotations
 
+import importlib
 import math
 from collections.abc import Callable
 from typing import Any
@@ -42,19 +43,19 @@ from solver.contact.law import SEPARATION, SLIP, STICK, forward_increment_factor
 from solver.ensemble_cuda import CUDA_SOURCE
 from solver.schemes.protocol import HookedStepper, copy_state, put_state
 
+#: The array module of each backend (``solver.schemes.select.BACKENDS`` names its kernel).
+ARRAY_MODULES = {"cpu": "numpy", "gpu": "cupy"}
+
 
 def array_namespace(backend: str) -> Any:
     """numpy for ``backend = "cpu"``, cupy for ``"gpu"`` (ImportError names the fix)."""
-    if backend == "cpu":
-        return np
-    if backend == "gpu":
-        try:
-            import cupy
-        except ImportError as err:  # pragma: no cover - depends on the machine
-            raise ImportError("backend = \"gpu\" needs CuPy: pip install cupy-cuda12x (CUDA 12) "
-                              "or cupy-cuda13x (CUDA 13); see docs/gpu.md") from err
-        return cupy
-    raise ValueError(f"backend = {backend!r}: use \"cpu\" or \"gpu\"")
+    if backend not in ARRAY_MODULES:
+        raise ValueError(f"backend = {backend!r}: use \"cpu\" or \"gpu\"")
+    try:
+        return importlib.import_module(ARRAY_MODULES[backend])
+    except ImportError as err:  # pragma: no cover - depends on the machine
+        raise ImportError(f"backend = {backend!r} needs CuPy: pip install cupy-cuda12x "
+                          "(CUDA 12) or cupy-cuda13x (CUDA 13); see docs/gpu.md") from err
 
 
 class BatchedProblem:
