@@ -24,8 +24,9 @@ from solver.errors import (  # noqa: F401  (StepTooLarge re-exported for scripts
     blowup_message,
     energy_bound,
 )
-from solver.observers import Cadence
+from solver.observers import Cadence, Observer
 from solver.scene import Scene
+from solver.schemes.protocol import Stepper
 
 if TYPE_CHECKING:  # mpi4py is imported where a run uses it: ``run_loop`` runs without it
     from mpi4py import MPI
@@ -440,7 +441,8 @@ def energy_balance(e: np.ndarray) -> dict[str, float]:
     }
 
 
-def run_loop(stepper, observers: list, t_stop: float, step_stop: float) -> str:
+def run_loop(stepper: Stepper, observers: list[Observer], t_stop: float,
+             step_stop: float) -> str:
     """THE time loop, for one scene or a batch: advance ``stepper`` to the next level an
     observer is due at, let the due observers observe, until ``t_stop``, ``step_stop`` or an
     observer's stop reason. Returns "end_time", "max_steps" or the observer's reason."""
