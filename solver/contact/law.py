@@ -79,6 +79,8 @@ class Regularisation:
     """The scene's ``friction.regularization`` ("" for none)."""
     code: ClassVar[int] = 0
     """The kernels' code of the bound (0: f p)."""
+    compiled: ClassVar[bool] = False
+    """The fused and batched kernels implement it (``ContactLaw.kernel_bound``)."""
 
     def rates(self, dt: float) -> tuple[float, float]:
         """(rate_slip, rate_base) at step ``dt`` (see the class docstring)."""
@@ -88,6 +90,8 @@ class Regularisation:
 @dataclass(frozen=True)
 class Instantaneous(Regularisation):
     """The classical bound f p (``friction.regularization = "none"``)."""
+
+    compiled: ClassVar[bool] = True
 
 
 @dataclass(frozen=True)
@@ -100,6 +104,7 @@ class PrakashClifton(Regularisation):
     """V* [m/s]."""
     name: ClassVar[str] = "prakash-clifton"
     code: ClassVar[int] = 1
+    compiled: ClassVar[bool] = True
 
     def rates(self, dt: float) -> tuple[float, float]:
         """(1 / (dt L), V* / L)."""
@@ -114,6 +119,7 @@ class ConstantTime(Regularisation):
     """t* [s]."""
     name: ClassVar[str] = "constant-time"
     code: ClassVar[int] = 2
+    compiled: ClassVar[bool] = True
 
     def rates(self, dt: float) -> tuple[float, float]:
         """(0, 1 / t*)."""
@@ -200,9 +206,13 @@ class ContactLaw:
 
     def kernel_bound(self) -> tuple[int, float, float]:
         """(code, rate_slip, rate_base) of the bound for the compiled kernels
-        (``Regularisation``); ValueError for a filtered bound, which they do not have."""
+        (``Regularisation``); ValueError for a bound they do not have (a filtered one, a
+        regularisation not ``compiled``)."""
+        reg = self.regularisation
         if self.filter is not SpatialFilter.NODAL:
             raise ValueError(f"friction variant {self.variant!r}: the 1-2-1 filtered bound "
                              "runs with the numpy step (time.kernel = \"numpy\")")
-        reg = self.regularisation
+        if not reg.compiled:
+            raise ValueError(f"friction variant {self.variant!r} runs with the numpy step "
+                             "(time.kernel = \"numpy\")")
         return (reg.code, *reg.rates(self.dt))
