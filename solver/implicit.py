@@ -297,18 +297,12 @@ class ImplicitContact(NodalFrames):
 class ImplicitNewmark(HookedStepper):
     """Implicit Newmark on owned-dof numpy arrays; linear solves by PETSc KSP (LU, see above).
 
-    Parameters
-    ----------
-    K
-        Assembled stiffness (PETSc Mat, no boundary conditions).
-    mass
-        Lumped mass per owned dof.
-    clamped
-        Owned local dof indices held at zero (outer circle).
-    dt, beta1, beta2
-        Time step and Newmark parameters (beta1 > 0).
-    contact
-        ``ImplicitContact`` or None (free vibration).
+    Args:
+        K: Assembled stiffness (PETSc Mat, no boundary conditions).
+        mass: Lumped mass per owned dof.
+        clamped: Owned local dof indices held at zero (outer circle).
+        dt, beta1, beta2: Time step and Newmark parameters (beta1 > 0).
+        contact: ``ImplicitContact`` or None (free vibration).
     """
 
     def __init__(self, K: PETSc.Mat, mass: np.ndarray, clamped: np.ndarray, dt: float,

@@ -126,16 +126,11 @@ class Newmark(ExplicitStart):
     The only global operation per step is ``stiffness_mult(u, ku)`` (one PETSc MatMult);
     everything else is in-place numpy on preallocated arrays.
 
-    Parameters
-    ----------
-    stiffness_mult
-        ``stiffness_mult(u, out)`` computes out = K u on owned arrays.
-    inv_mass
-        Inverse lumped mass per owned dof; 0 on clamped dofs (they never move).
-    dt, beta1, beta2
-        Time step and Newmark parameters (paper's notation).
-    contact
-        Optional forward-increment constraint, see ``ContactStep``.
+    Args:
+        stiffness_mult: ``stiffness_mult(u, out)`` computes out = K u on owned arrays.
+        inv_mass: Inverse lumped mass per owned dof; 0 on clamped dofs (they never move).
+        dt, beta1, beta2: Time step and Newmark parameters (paper's notation).
+        contact: Optional forward-increment constraint, see ``ContactStep``.
     """
 
     #: Kelvin-Voigt retardation time (``DampedNewmark``; 0: undamped)

@@ -52,26 +52,17 @@ def project_contact(
 ) -> None:
     """Contact/friction multipliers for one step, written into ``out`` (no allocation).
 
-    Parameters
-    ----------
-    u_r_trial, u_t_trial
-        Radial and tangential displacement of each contact node at t_{n+1} *without* contact
-        force (the Newmark predictor).
-    u_t_prev
-        Tangential displacement at t_n (stick = move with the cylinder from here).
-    mass
-        Lumped nodal mass (same for both components), kg/m (plane strain: per unit depth).
-    kappa
-        Newmark factor: a nodal force r changes u_{n+1} by kappa / m * r.
-    d
-        Mismatch (radius excess of the cylinder), m.
-    slide
-        Distance the cylinder surface travels in one step, R Omega dt.
-    f
-        Friction coefficient. With f == 0 the tangential work is skipped entirely.
-    out
-        ``r_r``, ``r_t`` (normal and tangential nodal force on the tube, N/m), ``status``
-        (SEPARATION, STICK, SLIP per node) and scratch arrays.
+    Args:
+        u_r_trial, u_t_trial: Radial and tangential displacement of each contact node at
+            t_{n+1} *without* contact force (the Newmark predictor).
+        u_t_prev: Tangential displacement at t_n (stick = move with the cylinder from here).
+        mass: Lumped nodal mass (same for both components), kg/m (plane strain: per unit depth).
+        kappa: Newmark factor: a nodal force r changes u_{n+1} by kappa / m * r.
+        d: Mismatch (radius excess of the cylinder), m.
+        slide: Distance the cylinder surface travels in one step, R Omega dt.
+        f: Friction coefficient. With f == 0 the tangential work is skipped entirely.
+        out: ``r_r``, ``r_t`` (normal and tangential nodal force on the tube, N/m), ``status``
+            (SEPARATION, STICK, SLIP per node) and scratch arrays.
     """
     project_normal(u_r_trial, mass, kappa, d, out)
     if f == 0.0:  # frictionless: contact nodes slip freely, no tangential force
