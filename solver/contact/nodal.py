@@ -160,10 +160,10 @@ class EffectivePressure:
             raise ValueError(f"friction.regularization = {kind!r}: not a regularised law")
         self.regularisation, self.dt = reg, dt
         # rate = |V dt| rate_slip + rate_base (``Regularisation``); a slip-independent rate
-        # (rate_slip = 0) is set once
+        # (rate_slip = 0) is set once, a slip-dependent one at each update
         self.rate_slip, self.rate_base = reg.rates(dt)
         self.sigma = np.zeros(n)
-        self.rate = np.full(n, self.rate_base)
+        self.rate = np.zeros(n) if self.rate_slip else np.full(n, self.rate_base)
         self.u_t_last = np.zeros(n)  # u_theta,{n-1}
         self.work = np.zeros(n)
         self.started = False
