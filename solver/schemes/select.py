@@ -341,20 +341,24 @@ class ExplicitNewmarkScheme:
         return _checked_step(scene, omega_max, dt_crit, dt_crit, ("explicit", rule, ""))
 
     def kernel(self, scene: Scene) -> str:
-        """``"numba"`` or ``"numpy"``. THE fallback rule:
+        """``"numba"`` or ``"numpy"`` (``law_kernel`` of the scene's contact law)."""
+        return self.law_kernel(scene.time.kernel, ContactLaw.from_scene(scene, 1.0))
+
+    def law_kernel(self, requested: str, law: ContactLaw) -> str:
+        """The kernel for ``time.kernel = requested`` and ``law``. THE fallback rule:
 
         * physics the fused kernel does not implement (a friction bound without
-          ``ContactLaw.kernel_bound``: the 1-2-1 filtered bound) falls back to "numpy"; Kelvin-Voigt
-          ``[damping]`` and the regularised bounds (Prakash-Clifton, constant time) are in
-          the fused and batched kernels (the numpy step's operations, to round-off);
+          ``ContactLaw.kernel_bound``: the 1-2-1 filtered bound) falls back to "numpy";
+          Kelvin-Voigt ``[damping]`` and the regularised bounds (Prakash-Clifton, constant
+          time) are in the fused and batched kernels (the numpy step's operations, to
+          round-off);
         * ``time.kernel = "auto"``: "numba" when numba imports, else "numpy";
         * ``time.kernel = "numba"`` without numba: ValueError naming the fix.
         """
         try:
-            ContactLaw.from_scene(scene, 1.0).kernel_bound()
+            law.kernel_bound()
         except ValueError:
             return "numpy"  # the filtered projection, or a bound the kernels do not know
-        requested = scene.time.kernel
         if requested == "numpy":
             return "numpy"
         if numba_available():
@@ -366,8 +370,9 @@ class ExplicitNewmarkScheme:
 
     def build(self, problem, scene: Scene, dt: float) -> SchemeParts:
         """The kernel's stepper (``EXPLICIT_KERNELS``) with ``make_projection``'s step."""
-        projection = make_projection(problem, ContactLaw.from_scene(scene, dt))
-        return EXPLICIT_KERNELS[self.kernel(scene)](problem, scene, dt, projection)
+        law = ContactLaw.from_scene(scene, dt)
+        kernel = self.law_kernel(scene.time.kernel, law)
+        return EXPLICIT_KERNELS[kernel](problem, scene, dt, make_projection(problem, law))
 
     def batchable(self, scene: Scene) -> bool:
         """The fused numba kernel's physics and no field output."""
