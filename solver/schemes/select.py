@@ -212,9 +212,10 @@ def batchable(scene: Scene) -> bool:
 
 
 def _checked_step(scene: Scene, omega_max: float, dt_crit: float, limit: float,
-                  why: str) -> tuple[float, float]:
+                  why: tuple[str, str, str]) -> tuple[float, float]:
     """(dt, dt_crit): ``time.dt`` or ``dt_fraction * dt_crit``, refused above ``limit``
-    (``why``: the limit's rule, named in the message), with the stability advice printed."""
+    (``why``: the scheme, the limit's rule and a fix, named in the message), with the
+    stability advice printed."""
     ts = scene.time
     dt = ts.dt if ts.dt > 0.0 else ts.dt_fraction * dt_crit
     if dt > limit:
