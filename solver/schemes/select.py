@@ -272,15 +272,19 @@ def check_backend(backend: str, batched: bool = True, device: bool = True) -> No
 
 
 def make_explicit(problem, scene: Scene, dt: float):
-    """The numpy explicit stepper of ``scene``: ``Newmark``, or ``DampedNewmark`` when the
-    scene has Kelvin-Voigt damping (the undamped step then stays exactly the plain one)."""
-    ts, tau = scene.time, scene.damping.tau
+    """The numpy explicit stepper of ``scene`` (``explicit_stepper``)."""
+    return explicit_stepper(problem, dt, scene.time.beta2, scene.damping.tau)
+
+
+def explicit_stepper(problem, dt: float, beta2: float, tau: float):
+    """The numpy explicit stepper: ``Newmark``, or ``DampedNewmark`` for a Kelvin-Voigt time
+    ``tau`` > 0 (the undamped step then stays exactly the plain one)."""
     if tau > 0.0:
         from solver.newmark import DampedNewmark
 
-        return DampedNewmark(problem.stiffness_mult(), problem.inv_mass, dt, ts.beta1,
-                             ts.beta2, tau=tau)
-    return Newmark(problem.stiffness_mult(), problem.inv_mass, dt, ts.beta1, ts.beta2)
+        return DampedNewmark(problem.stiffness_mult(), problem.inv_mass, dt, 0.0, beta2,
+                             tau=tau)
+    return Newmark(problem.stiffness_mult(), problem.inv_mass, dt, 0.0, beta2)
 
 
 def _numpy_work(stepper, contact, with_friction: bool, u0: np.ndarray) -> tuple[Any, Any]:
@@ -305,16 +309,18 @@ def _numba_work(stepper, contact, with_friction: bool, u0: np.ndarray) -> tuple[
             FusedDampingWork(stepper, u0) if stepper.damped else None)
 
 
-def _numpy_parts(problem, scene: Scene, dt: float, projection) -> SchemeParts:
-    stepper = make_explicit(problem, scene, dt)  # damped or plain numpy step
+def _numpy_parts(problem, law: ContactLaw, tau: float, projection) -> SchemeParts:
+    """The numpy step (damped or plain) with the projection timed as its contact step."""
+    stepper = explicit_stepper(problem, law.dt, law.beta2, tau)
     stepper.contact = TimedContact(projection)
     return SchemeParts(stepper, projection, _numpy_work)
 
 
-def _numba_parts(problem, scene: Scene, dt: float, projection) -> SchemeParts:
+def _numba_parts(problem, law: ContactLaw, tau: float, projection) -> SchemeParts:
+    """The fused numba step, which runs the projection's law inside its kernel."""
     from solver.fused import FusedNewmark
 
-    stepper = FusedNewmark(problem, dt, scene.time.beta2, projection, tau=scene.damping.tau)
+    stepper = FusedNewmark(problem, law.dt, law.beta2, projection, tau=tau)
     return SchemeParts(stepper, projection, _numba_work)
 
 
@@ -373,7 +379,8 @@ class ExplicitNewmarkScheme:
         """The kernel's stepper (``EXPLICIT_KERNELS``) with ``make_projection``'s step."""
         law = ContactLaw.from_scene(scene, dt)
         kernel = self.law_kernel(scene.time.kernel, law)
-        return EXPLICIT_KERNELS[kernel](problem, scene, dt, make_projection(problem, law))
+        return EXPLICIT_KERNELS[kernel](problem, law, scene.damping.tau,
+                                        make_projection(problem, law))
 
     def batchable(self, scene: Scene) -> bool:
         """The fused numba kernel's physics and no field output."""
