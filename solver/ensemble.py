@@ -49,7 +49,7 @@ ARRAY_MODULES = {"cpu": "numpy", "gpu": "cupy"}
 
 def array_namespace(backend: str) -> Any:
     """numpy for ``backend = "cpu"``, cupy for ``"gpu"`` (ImportError names the fix)."""
-    if backend not in ARRAY_MODULES:
+    if backend not in tuple(ARRAY_MODULES):
         raise ValueError(f"backend = {backend!r}: use \"cpu\" or \"gpu\"")
     try:
         return importlib.import_module(ARRAY_MODULES[backend])

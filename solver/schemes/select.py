@@ -252,7 +252,7 @@ BACKENDS = {"cpu": "numba", "gpu": "cuda"}
 def check_backend(backend: str, batched: bool = True, device: bool = True) -> None:
     """Refuse a backend this run cannot use (ValueError or ImportError naming the fix): "gpu"
     needs CuPy, with ``device`` a CUDA device too, and runs batches only (``batched``)."""
-    if backend not in BACKENDS:
+    if backend not in tuple(BACKENDS):
         raise ValueError(f"backend = {backend!r}: use one of {tuple(BACKENDS)}")
     if BACKENDS[backend] != "cuda":
         return

@@ -216,7 +216,7 @@ def load_sweep(path: str | Path, large: bool = False) -> SweepSpec:
     from solver.schemes.select import BACKENDS
 
     backend = data.get("backend", "cpu")
-    if backend not in BACKENDS:
+    if backend not in tuple(BACKENDS):  # a table or list given is refused too
         raise SweepError(f"{p}: backend = {backend!r} must be \"cpu\" or \"gpu\"")
     raw_set = data.get("set", [])
     if isinstance(raw_set, dict):
