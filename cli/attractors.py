@@ -112,10 +112,9 @@ def _attractors(args: argparse.Namespace) -> int:
         census = Census(Path(args.scene), meshes, dist, tuple(overrides),
                         args.celerity_tol, args.spread_tol)
         census.base_scene()
-        if args.backend == "gpu":
-            from solver.ensemble import array_namespace
+        from solver.schemes.select import check_backend
 
-            array_namespace("gpu")
+        check_backend(args.backend, device=False)
     except (SceneError, CensusError, ValueError, ImportError) as err:
         return _fail(str(err), comm.rank)
     out = Path(args.output) if args.output else default_dir(scene)

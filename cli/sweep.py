@@ -100,19 +100,9 @@ def _sweep(args: argparse.Namespace) -> int:
     backend = args.backend or spec.backend
     try:
         batch = parse_batch(args.batch if args.batch is not None else spec.batch)
-        if backend == "gpu":
-            from solver.ensemble import array_namespace
+        from solver.schemes.select import check_backend
 
-            xp = array_namespace("gpu")
-            try:  # CuPy imports without a driver or a device; the first allocation fails
-                devices, why = xp.cuda.runtime.getDeviceCount(), ""
-            except RuntimeError as err:
-                devices, why = 0, f" ({err})"
-            if devices < 1:
-                raise ValueError(f"--backend gpu: CuPy finds no CUDA device{why}; run on a "
-                                 "GPU node or use --backend cpu")
-            if batch == "off":
-                raise ValueError("--backend gpu runs batches: add --batch auto or --batch B")
+        check_backend(backend, batched=batch != "off")
     except (ValueError, ImportError) as err:
         if comm.rank == 0:
             print(f"error: {err}", file=sys.stderr)
