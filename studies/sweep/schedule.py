@@ -83,6 +83,13 @@ class _Monitor(threading.Thread):
         self.lock = threading.Lock()
         self._line_len = 0
         self.table_written, self.table_dirty = 0.0, False
+        # the summaries left by an earlier session (an interrupted scene's, say): each one's
+        # file identity now; a rerun replaces the file (atomic write), so only a new one
+        # tells this session's outcome
+        self.earlier = {t.id: _identity(self._summary(t)) for t in self.pending}
+
+    def _summary(self, task: Task) -> Path:
+        return self.out_dir / "runs" / task.id / "summary.json"
 
     def run(self) -> None:
         while not self.stop_event.wait(self.interval):
@@ -105,12 +112,9 @@ class _Monitor(threading.Thread):
             for task in self.pending:
                 if task.id in self.finished:
                     continue
-                path = self.out_dir / "runs" / task.id / "summary.json"
-                try:
-                    mtime = path.stat().st_mtime
-                except OSError:
-                    continue
-                if mtime < self.t0 - 1.0:  # left over from an earlier sweep
+                path = self._summary(task)
+                now = _identity(path)
+                if now is None or now == self.earlier[task.id]:  # none yet, or an earlier one
                     continue
                 s = _read_json(path) or {}
                 status = s.get("status")
@@ -176,6 +180,15 @@ class _Monitor(threading.Thread):
         self.stream.write("\r" + line + " " * pad)
         self.stream.flush()
         self._line_len = len(line)
+
+
+def _identity(path: Path) -> tuple[int, int, int] | None:
+    """Which file ``path`` is now (inode, change time, size), or None if there is none."""
+    try:
+        st = path.stat()
+    except OSError:
+        return None
+    return st.st_ino, st.st_ctime_ns, st.st_size
 
 
 def _want_live(mode: str, stream: TextIO) -> bool:
