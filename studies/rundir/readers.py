@@ -24,6 +24,7 @@ Light (standard library and numpy; the scene reader imports ``solver.scene`` on 
 from __future__ import annotations
 
 import json
+import os
 import tomllib
 import zipfile
 from pathlib import Path
@@ -49,11 +50,26 @@ class ReadError(ValueError):
         self.path = Path(path)
 
 
+def _no_link(p: Path, fix: str = _RERUN) -> None:
+    """Refuse a file that is a symbolic link: stickslip writes each file itself (atomic
+    rename), so a link is someone else's and may point anywhere."""
+    if p.is_symlink():
+        raise ReadError(p, "is a symbolic link, which stickslip never writes (replaced by "
+                           "hand?)", fix)
+
+
+def _read_bytes(p: Path) -> bytes:
+    """The bytes of ``p``, opened without following a symbolic link (OSError otherwise)."""
+    with os.fdopen(os.open(p, os.O_RDONLY | os.O_NOFOLLOW), "rb") as fh:
+        return fh.read()
+
+
 def read_json_object(path: str | Path, fix: str = _RERUN) -> dict:
     """The JSON object in ``path`` (a list, a number, bad JSON or bad UTF-8 is refused)."""
     p = Path(path)
+    _no_link(p, fix)
     try:
-        text = p.read_text(encoding="utf-8")
+        text = _read_bytes(p).decode("utf-8")
     except FileNotFoundError:
         raise ReadError(p, "missing", fix) from None
     except UnicodeDecodeError as err:
@@ -87,6 +103,7 @@ def read_scene_file(path: str | Path) -> Any:
     from solver.scene import SceneError, load_scene, scene_to_dict
 
     p = Path(path)
+    _no_link(p)
     if not p.is_file():
         raise ReadError(p, "missing")
     try:
@@ -107,10 +124,12 @@ def read_scene_file(path: str | Path) -> Any:
 
 def _load_npz(p: Path, keys: tuple[str, ...]) -> dict[str, np.ndarray]:
     """Every member of the archive ``p`` (no pickles), with ``keys`` required."""
+    _no_link(p)
     if not p.is_file():
         raise ReadError(p, "missing")
     try:
-        with np.load(p, allow_pickle=False) as data:
+        with os.fdopen(os.open(p, os.O_RDONLY | os.O_NOFOLLOW), "rb") as fh, \
+                np.load(fh, allow_pickle=False) as data:
             missing = [k for k in keys if k not in data.files]
             if missing:
                 raise ReadError(p, f"has no {', '.join(missing)} (not written by stickslip)")

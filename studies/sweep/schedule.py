@@ -245,7 +245,7 @@ def _run_one(spec: SweepSpec, task: Task, out_dir: Path, group: MPI.Comm,
 
     leader = group.rank == 0
     run_dir = out_dir / "runs" / task.id
-    log = open(out_dir / "logs" / f"{task.id}.log", "a") if leader else None  # noqa: SIM115
+    log = _open_log(out_dir / "logs" / f"{task.id}.log") if leader else None
     t0 = time.perf_counter()
     status = "failed"
     try:
@@ -275,6 +275,15 @@ def _run_one(spec: SweepSpec, task: Task, out_dir: Path, group: MPI.Comm,
             log.write(f"== end {status}\n")
             log.close()
     return status
+
+
+def _open_log(path: Path) -> TextIO:
+    """The scene's log, appended to; never through a symbolic link (a user's file): a link
+    in its place is set aside as ``NAME.link`` (kept, unfollowed) and a new log begun."""
+    if path.is_symlink():
+        os.replace(path, path.with_name(path.name + ".link"))
+    fd = os.open(path, os.O_WRONLY | os.O_APPEND | os.O_CREAT | os.O_NOFOLLOW, 0o666)
+    return os.fdopen(fd, "a")
 
 
 def _record_failure(spec: SweepSpec, task: Task, run_dir: Path, err: Exception, tb: str,
@@ -359,7 +368,14 @@ def _cost_problem(spec: SweepSpec, n_pending: int, seconds: float, n_groups: int
 
 
 def _prepare(out_dir: Path, spec: SweepSpec) -> None:
-    """Rank 0: the sweep directory's folders, its copy of the sweep file, the initial table."""
+    """Rank 0: the sweep directory's folders, its copy of the sweep file, the initial table.
+    A folder that is a symbolic link is refused (SweepError): stickslip writes no link's
+    target."""
+    for name in ("runs", "logs"):
+        if (out_dir / name).is_symlink():
+            raise SweepError(f"{out_dir / name} is a symbolic link, which stickslip never "
+                             "makes; it does not write through it: replace it with a folder, "
+                             "or choose another -o")
     (out_dir / "runs").mkdir(parents=True, exist_ok=True)
     (out_dir / "logs").mkdir(exist_ok=True)
     atomic_write_text(out_dir / "sweep.toml", spec.path.read_text())
@@ -394,7 +410,7 @@ def _run_unit(spec: SweepSpec, unit: list[Task], out_dir: Path, group: MPI.Comm,
 
 def run_sweep(spec: SweepSpec, out_dir: str | Path, *, comm: MPI.Comm | None = None,
               group_size: int | None = None, retry_failed: bool = False,
-              stream: TextIO = sys.stdout, progress: str = "auto", batch: str | None = None,
+              stream: TextIO | None = None, progress: str = "auto", batch: str | None = None,
               backend: str | None = None, check_cost: bool = True) -> int:
     """Run every pending scene of ``spec`` into ``out_dir``; collective over ``comm``.
 
@@ -414,6 +430,7 @@ def run_sweep(spec: SweepSpec, out_dir: str | Path, *, comm: MPI.Comm | None = N
     from mpi4py import MPI
 
     comm = MPI.COMM_WORLD if comm is None else comm
+    stream = sys.stdout if stream is None else stream  # the current one (a test's capture)
     batch = spec.batch if batch is None else batch
     backend = spec.backend if backend is None else backend
     out_dir = Path(out_dir)
