@@ -7,12 +7,15 @@ status 2, or records the true status, and never writes a file it did not make.
 
 from __future__ import annotations
 
+import json
 import os
 from pathlib import Path
 
 import pytest
 from faults import digest, leftovers
 from test_ownership import SMOKE, cli, copy_run, one_line, run
+
+from cli.main import main
 
 REPO = Path(__file__).resolve().parents[1]
 SHORT_SET = sum((["--set", s] for s in ("time.end_time=0.005", "output.progress=false")), [])
@@ -124,3 +127,124 @@ def test_a_sweep_refuses_a_symlinked_folder(tmp_path, capsys, name):
     rc, err = cli(capsys, "sweep", spec, "-o", out)
     one_line(rc, err, f"{out / name} is a symbolic link")
     assert digest(elsewhere) == before and (out / name).is_symlink()
+
+
+# ------------------------------------------------------------------ statuses
+
+
+def _one_point_sweep(tmp_path: Path, omegas: str = "[2.0, 3.0]") -> Path:
+    spec = tmp_path / "s.toml"
+    spec.write_text(f'base = "{SMOKE}"\nset = ["time.end_time=0.005", "output.progress=false"]'
+                    f'\n[grid]\n"loading.omega" = {omegas}\n')
+    return spec
+
+
+def _full_disk_for(monkeypatch, run_id: str, fit: int) -> None:
+    """Every write into ``runs/run_id`` after the first ``fit`` fails with ENOSPC, as on a
+    full disk (so the scene's own summary cannot record its failure)."""
+    import errno
+
+    import solver.atomic
+
+    real = solver.atomic.atomic_write
+    seen = []
+
+    def write(path, fill):  # noqa: ANN001, ANN202
+        if Path(path).parent.name.startswith((run_id, f".{run_id}.new")):
+            seen.append(Path(path).name)
+            if len(seen) > fit:
+                raise OSError(errno.ENOSPC, "No space left on device (injected)")
+        return real(path, fill)
+
+    monkeypatch.setattr(solver.atomic, "atomic_write", write)
+
+
+@pytest.mark.parametrize("fit", [1, 3, 5], ids=["scene.toml", "samples", "analysis"])
+def test_a_full_disk_fails_the_scene_in_the_table_and_the_exit_status(tmp_path, monkeypatch,
+                                                                      capsys, fit):
+    """A 2 MB tmpfs as -o: the scenes that hit ENOSPC read `unanalysed` in sweep.csv,
+    sweep.json and --list, and the sweep exited 0. Now `failed`, with the error, exit 1; a
+    resume keeps it failed and --retry-failed runs it again. ``fit``: the writes that fit
+    (the marker, scene.toml, the running summary, samples.npz, the pending summary)."""
+    pytest.importorskip("dolfinx")
+    import csv
+
+    spec, out = _one_point_sweep(tmp_path), tmp_path / "out"
+    _full_disk_for(monkeypatch, "omega-2.0", fit)
+    assert cli(capsys, "sweep", spec, "-o", out)[0] == 1
+    rows = {r["id"]: r for r in json.loads((out / "sweep.json").read_text())["rows"]}
+    assert rows["omega-2.0"]["status"] == "failed" and rows["omega-3.0"]["status"] == "completed"
+    assert "No space left" in rows["omega-2.0"]["message"]
+    with open(out / "sweep.csv") as fh:
+        assert {r["id"]: r["status"] for r in csv.DictReader(fh)} == {
+            "omega-2.0": "failed", "omega-3.0": "completed"}
+    monkeypatch.undo()  # space again
+    assert main(["sweep", str(spec), "-o", str(out), "--list"]) == 0
+    listed = dict(line.split() for line in capsys.readouterr().out.splitlines())
+    assert listed == {"omega-2.0": "failed", "omega-3.0": "completed"}
+    assert cli(capsys, "sweep", spec, "-o", out)[0] == 1  # resumed: still failed, not rerun
+    assert cli(capsys, "sweep", spec, "-o", out, "--retry-failed")[0] == 0
+    meta = json.loads((out / "sweep.json").read_text())
+    assert meta["counts"] == {"completed": 2} and meta["unrecorded_failures"] == {}
+
+
+def test_sighup_saves_like_sigterm(tmp_path, monkeypatch):
+    """SIGHUP (a closed terminal) ended a run in PETSc's MPI_ABORT, `crashed`, blamed on
+    "SIGKILL: out of memory", no samples. Now `interrupted` by SIGHUP, samples saved."""
+    pytest.importorskip("dolfinx")
+    from faults import check_after, inject
+
+    state = inject(monkeypatch, "SIGHUP", "loop")
+    s = run(tmp_path / "r")
+    assert state["fired"]
+    assert s["status"] == "interrupted" and s["message"] == "interrupted by SIGHUP"
+    assert check_after(tmp_path / "r", None) == "complete" and s["samples"] >= 2
+
+
+def test_sighup_stops_a_sweep_like_sigterm(tmp_path, monkeypatch, capsys):
+    """A sweep gets SIGHUP between scenes: interrupted (exit 130), resumable."""
+    pytest.importorskip("dolfinx")
+    import signal
+
+    import studies.sweep.schedule as schedule
+
+    real, calls = schedule._run_unit, []
+
+    def unit(*a, **k):  # noqa: ANN002, ANN003, ANN202
+        calls.append(1)
+        if len(calls) == 2:  # the first scene is done
+            os.kill(os.getpid(), signal.SIGHUP)
+        return real(*a, **k)
+
+    monkeypatch.setattr(schedule, "_run_unit", unit)
+    spec, out = _one_point_sweep(tmp_path), tmp_path / "out"
+    assert cli(capsys, "sweep", spec, "-o", out)[0] == 130
+    monkeypatch.undo()
+    assert main(["sweep", str(spec), "-o", str(out)]) == 0
+    assert "1 already done" in capsys.readouterr().out
+
+
+def test_sigterm_during_travel_continue_saves_like_sigint(tmp_path, monkeypatch, capsys):
+    """SIGTERM during `travel --continue` exited 143 and saved nothing (SIGINT saved)."""
+    pytest.importorskip("dolfinx")
+    import signal
+
+    from studies.travel import driver
+
+    calls = []
+
+    def hooked(real):  # noqa: ANN001, ANN202
+        def call(*a, **k):  # noqa: ANN002, ANN003, ANN202
+            calls.append(1)
+            if len(calls) == 2:  # the first point is solved and in the rows
+                os.kill(os.getpid(), signal.SIGTERM)
+            return real(*a, **k)
+        return call
+
+    monkeypatch.setattr(driver, "setup", hooked(driver.setup))
+    monkeypatch.setattr(driver, "retarget", hooked(driver.retarget))
+    out = tmp_path / "branch"
+    rc, err = cli(capsys, "travel", SMOKE, "--k", "4", "--continue", "loading.omega=20:22:3",
+                  "-o", out)
+    assert rc == 130 and "after 1 of 3 points" in err, err
+    assert len(json.loads((out / "branch.json").read_text())) == 1

@@ -12,7 +12,7 @@ from studies.output import output_root, process_alive  # noqa: F401  (re-exporte
 
 
 class RunSignals:
-    """SIGINT/SIGTERM during a run, by phase.
+    """SIGINT/SIGTERM/SIGHUP during a run, by phase.
 
     * ``raise`` (setup: meshing, assembly, steady state): KeyboardInterrupt at once;
     * ``flag`` (time loop): ``sim.stop_requested``; every rank stops at the same sample
@@ -34,7 +34,9 @@ class RunSignals:
     elsewhere (a test's thread) nothing is installed.
     """
 
-    SIGNALS = (signal.SIGINT, signal.SIGTERM)
+    #: Ctrl-C, a batch system's stop, a closed terminal (SIGHUP: PETSc's own handler would
+    #: abort the job with a stack dump and nothing saved)
+    SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
 
     def __init__(self, on_hard_stop, grace: float = 2.0, rescue=None,  # noqa: ANN001
                  on_death=None) -> None:  # noqa: ANN001

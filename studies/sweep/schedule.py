@@ -37,7 +37,7 @@ from solver.scene import (
 from studies.output import process_alive
 from studies.rundir.ownership import user_entries
 from studies.sweep.spec import FINAL_STATUSES, SweepError, SweepSpec, Task, _cost, scene_for
-from studies.sweep.table import _read_json, task_state, write_table
+from studies.sweep.table import _read_json, recorded_failures, task_state, write_table
 
 if TYPE_CHECKING:  # pragma: no cover
     from mpi4py import MPI
@@ -239,8 +239,13 @@ class _Counter:
 
 
 def _run_one(spec: SweepSpec, task: Task, out_dir: Path, group: MPI.Comm,
-             world_rank: int, check_cost: bool = True) -> str:
-    """Run one scene on ``group``; exceptions become status ``failed``. Returns the status."""
+             world_rank: int, check_cost: bool = True,
+             failures: dict[str, str] | None = None) -> str:
+    """Run one scene on ``group``; exceptions become status ``failed``. Returns the status.
+
+    A failure that the scene's summary does not show (its write failed too: a full disk), or
+    a summary that could not take the run's final word, goes into ``failures`` (id ->
+    message; leader only) for the table."""
     from studies.rundir import run_scene
 
     leader = group.rank == 0
@@ -258,6 +263,8 @@ def _run_one(spec: SweepSpec, task: Task, out_dir: Path, group: MPI.Comm,
                                 replace_on_failure=True, check_resources=check_cost,
                                 stream=log if log is not None else sys.stdout)
             status = str(summary.get("status", "failed")) if leader else "?"
+            if leader:
+                status = _check_recorded(run_dir, summary, failures, task.id)
         except KeyboardInterrupt:
             status = "interrupted"
         except Exception as err:  # recorded, the sweep goes on
@@ -266,8 +273,14 @@ def _run_one(spec: SweepSpec, task: Task, out_dir: Path, group: MPI.Comm,
                 tb = traceback.format_exc()
                 assert log is not None
                 log.write(tb)
-                _record_failure(spec, task, run_dir, err, tb,
-                                time.perf_counter() - t0, group.size)
+                message = f"{type(err).__name__}: {err}"
+                try:
+                    _record_failure(spec, task, run_dir, err, tb,
+                                    time.perf_counter() - t0, group.size)
+                except OSError as write_err:  # a full disk: the table records it
+                    message += f"; its summary could not be written ({write_err})"
+                _check_recorded(run_dir, {"status": "failed", "message": message}, failures,
+                                task.id)
         if group.size > 1:
             status = group.bcast(status, root=0)
     finally:
@@ -284,6 +297,23 @@ def _open_log(path: Path) -> TextIO:
         os.replace(path, path.with_name(path.name + ".link"))
     fd = os.open(path, os.O_WRONLY | os.O_APPEND | os.O_CREAT | os.O_NOFOLLOW, 0o666)
     return os.fdopen(fd, "a")
+
+
+def _check_recorded(run_dir: Path, summary: dict, failures: dict[str, str] | None,
+                    task_id: str) -> str:
+    """The scene's status, ``failed`` where its ``summary.json`` on disk does not hold the
+    run's final word (a write failed: a full disk); such a failure goes into ``failures``."""
+    from studies.sweep.table import live_status, run_summary
+
+    status = str(summary.get("status", "failed"))
+    disk = run_summary(run_dir)
+    on_disk = live_status(disk) if disk is not None else "missing"
+    if status in FINAL_STATUSES and on_disk != status:
+        if failures is not None:
+            failures[task_id] = str(summary.get("message") or (
+                f"the run ended {status} but its summary.json says {on_disk}"))
+        return "failed"
+    return status
 
 
 def _record_failure(spec: SweepSpec, task: Task, run_dir: Path, err: Exception, tb: str,
@@ -341,9 +371,10 @@ def _classify(out_dir: Path, spec: SweepSpec, retry_failed: bool
     pending: list[tuple[float, int, Task]] = []
     n_done = 0
     seconds = 0.0
+    failures = recorded_failures(out_dir)
     for i, task in enumerate(spec.tasks):
         scene = scene_for(spec, task)
-        state = task_state(out_dir, spec, task, scene)
+        state = task_state(out_dir, spec, task, scene, failures)
         redo = retry_failed and state in ("failed", "diverged")
         if state in FINAL_STATUSES and not redo:
             n_done += 1
@@ -395,10 +426,11 @@ def _lock(out_dir: Path):  # noqa: ANN202
 
 
 def _run_unit(spec: SweepSpec, unit: list[Task], out_dir: Path, group: MPI.Comm,
-              world_rank: int, backend: str, check_cost: bool = True) -> str:
+              world_rank: int, backend: str, check_cost: bool = True,
+              failures: dict[str, str] | None = None) -> str:
     """One work unit: a single scene (``_run_one``) or a batch (``studies.sweep.batch``)."""
     if len(unit) == 1:
-        return _run_one(spec, unit[0], out_dir, group, world_rank, check_cost)
+        return _run_one(spec, unit[0], out_dir, group, world_rank, check_cost, failures)
     from studies.sweep.batch import run_batch
 
     try:
@@ -497,9 +529,11 @@ def run_sweep(spec: SweepSpec, out_dir: str | Path, *, comm: MPI.Comm | None = N
         terminated[0] = True
         raise KeyboardInterrupt
 
-    previous = signal.signal(signal.SIGTERM, on_term)
+    stops = (signal.SIGTERM, signal.SIGHUP)  # a batch system's stop, a closed terminal
+    previous = {sig: signal.signal(sig, on_term) for sig in stops}
     counter = None
     interrupted = False
+    failures: dict[str, str] = {}  # this session's failures that no summary records
     try:
         counter = _Counter(comm)
         while True:
@@ -509,18 +543,21 @@ def run_sweep(spec: SweepSpec, out_dir: str | Path, *, comm: MPI.Comm | None = N
             if idx >= len(units):
                 break
             status = _run_unit(spec, units[idx], out_dir, group, comm.rank, backend,
-                               check_cost)
+                               check_cost, failures)
             if status == "interrupted" or terminated[0]:
                 interrupted = True
                 break
     except KeyboardInterrupt:
         interrupted = True
     finally:
-        signal.signal(signal.SIGTERM, previous)
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
     if not interrupted:  # collective clean-up only when every rank got here normally
         comm.Barrier()
         if counter is not None:
             counter.free()
+        for found in comm.gather(failures, root=0) or []:
+            failures.update(found)
     rc = 130
     if rank0:
         assert monitor is not None
@@ -528,7 +565,11 @@ def run_sweep(spec: SweepSpec, out_dir: str | Path, *, comm: MPI.Comm | None = N
         session = {"started": t_start, "finished": time.time(), "ranks": comm.size,
                    "groups": n_groups, "group_size": g, "pending_at_start": len(pending),
                    "interrupted": interrupted}
-        rows = write_table(out_dir, spec, extra={"last_session": session})
+        # the failures recorded before, less the scenes run again now, plus this session's
+        ran = {t.id for t in pending}
+        recorded = {k: v for k, v in recorded_failures(out_dir).items() if k not in ran}
+        rows = write_table(out_dir, spec, extra={"last_session": session},
+                           failures={**recorded, **failures})
         counts: dict[str, int] = {}
         for r in rows:
             counts[r["status"]] = counts.get(r["status"], 0) + 1
