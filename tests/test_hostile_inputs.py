@@ -248,3 +248,26 @@ def test_sigterm_during_travel_continue_saves_like_sigint(tmp_path, monkeypatch,
                   "-o", out)
     assert rc == 130 and "after 1 of 3 points" in err, err
     assert len(json.loads((out / "branch.json").read_text())) == 1
+
+
+# ------------------------------------------------------------------ results that cannot be right
+
+
+def test_samples_that_alias_the_wave_are_flagged(tmp_path, capsys):
+    """`run smoke --set time.end_time=60 --set output.sample_interval=0.01` reported a 6.7 Hz
+    limit cycle; the wave is 1601 Hz. Here 0.3 s: samples every 2 ms (Nyquist 250 Hz) show
+    an 80 Hz wave; the per-step probe sees ~1570 Hz, and the run says so."""
+    pytest.importorskip("dolfinx")
+    aliased = run(tmp_path / "a", "time.end_time=0.3", "output.sample_interval=0.002")
+    assert "aliased" in aliased["warning"] and aliased["probe_frequency_hz"] > 1000
+    assert aliased["nyquist_hz"] == pytest.approx(250, rel=0.01)  # 2 ms rounded to steps
+    saved = json.loads((tmp_path / "a" / "summary.json").read_text())
+    assert saved["warning"] == aliased["warning"]
+    rc = main(["run", str(SMOKE), "-o", str(tmp_path / "b"), "--set", "time.end_time=0.3",
+               "--set", "output.sample_interval=0.002"])
+    assert rc == 0 and "warning: aliased" in capsys.readouterr().out
+    fine = run(tmp_path / "c", "time.end_time=0.3")
+    assert "warning" not in fine
+    # Resolved, the probe and the samples see one wave: they agree within the probe's
+    # frequency bin, 1 / (analysis window 0.1 s) = 10 Hz.
+    assert fine["probe_frequency_hz"] == pytest.approx(fine["frequency_hz"], abs=10.0)
