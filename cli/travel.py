@@ -191,7 +191,7 @@ def _travel(args: argparse.Namespace) -> int:
         from cli.checks import samples_problem
         from studies.travel.from_run import NotRigidWave, read_end_state
 
-        if problem := samples_problem(args.from_run):
+        if problem := samples_problem(args.from_run) or _other_scene(scene, args.from_run):
             return _err(f"--from: {problem}")
         try:
             args.end = read_end_state(Path(args.from_run))
@@ -234,6 +234,19 @@ def _travel(args: argparse.Namespace) -> int:
     claim.commit()
     claim.release()
     return rc
+
+
+def _other_scene(scene, run_dir: str) -> str | None:  # noqa: ANN001
+    """Why the run in ``run_dir`` is not of ``scene``'s physics and mesh (the first key that
+    differs: a wave solved for one scene is no measure of another's run), or None."""
+    from solver.scene.files import scene_difference
+    from studies.rundir.readers import read_scene_file
+
+    differs = scene_difference(read_scene_file(Path(run_dir) / "scene.toml"), scene)
+    if differs is None:
+        return None
+    return (f"{run_dir} is a run of another problem: its {differs} here; give the run's "
+            f"own scene ({Path(run_dir) / 'scene.toml'}) or --set it")
 
 
 def _matched_step(scene, args: argparse.Namespace) -> None:

@@ -271,3 +271,36 @@ def test_samples_that_alias_the_wave_are_flagged(tmp_path, capsys):
     # Resolved, the probe and the samples see one wave: they agree within the probe's
     # frequency bin, 1 / (analysis window 0.1 s) = 10 Hz.
     assert fine["probe_frequency_hz"] == pytest.approx(fine["frequency_hz"], abs=10.0)
+
+
+@pytest.mark.parametrize(("change", "words"), [
+    ("loading.omega=60", "is not the scene the run used (edited after the run"),
+    ("name=figure3_n36", "is scene 'figure3_n36', but summary.json is of 'smoke' (swapped)"),
+    ("mesh.n_inner=48", "is not the scene the run used"),
+])
+@pytest.mark.parametrize("command", ["plot", "compare"])
+def test_a_run_whose_scene_was_edited_or_swapped_is_refused(finished, tmp_path, capsys,
+                                                             change, words, command):
+    """compare and plot on a run whose scene.toml was edited or swapped used it, exit 0."""
+    from solver.scene import load_scene, write_scene
+
+    d = copy_run(finished, tmp_path / "r")
+    write_scene(load_scene(d / "scene.toml", [change]), d / "scene.toml")
+    rc, err = cli(capsys, command, d)
+    one_line(rc, err, f"{d / 'scene.toml'}: {words}")
+
+
+@pytest.mark.parametrize(("change", "words"), [
+    ("loading.omega=60", "its loading.omega = 50.0, not 60.0 here"),
+    ("mesh.n_inner=48", "its mesh.n_inner = 36, not 48 here"),
+])
+def test_travel_from_a_run_of_another_scene_is_refused(finished, tmp_path, capsys, change,
+                                                       words):
+    """travel SCENE --from RUN solved SCENE's wave and reported it "against the run" of
+    another scene (exit 0); another number of contact nodes gave a traceback and left an
+    empty claimed directory."""
+    out = tmp_path / "t"
+    rc, err = cli(capsys, "travel", SMOKE, "--k", "4", "--set", change, "--from", finished,
+                  "-o", out)
+    one_line(rc, err, f"--from: {finished} is a run of another problem: {words}")
+    assert not out.exists()

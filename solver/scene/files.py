@@ -124,3 +124,28 @@ def write_scene(scene: Scene, path: str | Path) -> Path:
     from solver.atomic import atomic_write_text
 
     return atomic_write_text(path, dumps_toml(scene))
+
+
+#: The sections that fix the physical problem and its mesh, on which a run's wave depends;
+#: ``time``, ``initial`` and ``output`` say how it is computed, started and recorded.
+PHYSICS_SECTIONS = ("material", "geometry", "loading", "mesh", "damping", "friction")
+
+
+def scene_digest(scene: Scene) -> str:
+    """SHA-256 of the resolved scene's TOML (:func:`dumps_toml`): a run records it, so an
+    edited or swapped ``scene.toml`` is told from the one the run used."""
+    import hashlib
+
+    return hashlib.sha256(dumps_toml(scene).encode()).hexdigest()
+
+
+def scene_difference(a: Scene, b: Scene, sections: Sequence[str] = PHYSICS_SECTIONS
+                     ) -> str | None:
+    """The first ``section.key`` in ``sections`` where ``a`` and ``b`` differ, as
+    ``"section.key = A, not B"``; None if they agree there."""
+    da, db = scene_to_dict(a), scene_to_dict(b)
+    for sec in sections:
+        for key, va in da[sec].items():
+            if db[sec].get(key) != va:
+                return f"{sec}.{key} = {va!r}, not {db[sec].get(key)!r}"
+    return None

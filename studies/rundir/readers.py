@@ -15,7 +15,8 @@ the file, what is wrong and the fix; ``cli.main`` prints it and exits 2.
                        ``cell_types``, ``time``
 ``read_sweep_table``   ``sweep.json``: the sweep kind, ``parameters`` and ``rows`` objects
 ``read_profiles``      a travel ``profiles.npz``: ``phi`` (n,) and profiles of its length
-``check_run_dir``      every file of a run directory, before a command uses it
+``check_run_dir``      every file of a run directory, and that they agree, before a
+                       command uses it
 =====================  ==================================================================
 
 Light (standard library and numpy; the scene reader imports ``solver.scene`` on use).
@@ -33,7 +34,7 @@ from typing import Any
 import numpy as np
 
 __all__ = ["STATUSES", "ReadError", "check_run_dir", "read_field", "read_json_object",
-           "read_profiles", "read_samples", "read_scene_file", "read_summary",
+           "check_agreement", "read_profiles", "read_samples", "read_scene_file", "read_summary",
            "read_sweep_table"]
 
 #: Every status a summary may hold (``studies.rundir.scene_run``, the sweep's table).
@@ -223,8 +224,35 @@ def check_run_dir(run_dir: str | Path, need: int = 1) -> None:
     if not (d / "samples.npz").exists():
         raise ReadError(d, "has no samples.npz (not a finished run directory)",
                         "give a run directory of `stickslip run`")
-    read_samples(d, need)
-    read_summary(d)
-    read_scene_file(d / "scene.toml")
+    samples = read_samples(d, need)
+    summary = read_summary(d)
+    scene = read_scene_file(d / "scene.toml")
     if (d / "final_field.npz").exists():
         read_field(d)
+    check_agreement(d, summary, scene, samples)
+
+
+def check_agreement(run_dir: Path, summary: dict, scene: Any, samples: dict) -> None:
+    """The run's files tell of one run: the scene of ``scene.toml`` is the one the summary
+    names (and, where recorded, hashes), with the samples' number of contact nodes; else
+    :class:`ReadError` naming the first difference (an edited or swapped file)."""
+    from solver.scene.files import scene_digest
+
+    fix = "put the run's own files back, or run the scene again"
+    p = Path(run_dir) / "scene.toml"
+    if isinstance(summary.get("scene"), str) and summary["scene"] != scene.name:
+        raise ReadError(p, f"is scene {scene.name!r}, but summary.json is of "
+                           f"{summary['scene']!r} (swapped)", fix)
+    if summary.get("scene_sha256") not in (None, scene_digest(scene)):
+        raise ReadError(p, "is not the scene the run used (edited after the run: its hash "
+                           "differs from summary.json's scene_sha256)", fix)
+    nodes = samples["theta"].size
+    if scene.mesh.n_inner != nodes:
+        raise ReadError(p, f"has mesh.n_inner = {scene.mesh.n_inner}, but samples.npz has "
+                           f"{nodes} contact nodes", fix)
+    if summary.get("contact_nodes") not in (None, nodes):
+        raise ReadError(Path(run_dir) / "samples.npz", f"has {nodes} contact nodes, but "
+                        f"summary.json says {summary['contact_nodes']}", fix)
+    if isinstance(summary.get("samples"), int) and summary["samples"] != samples["t"].size:
+        raise ReadError(Path(run_dir) / "samples.npz", f"has {samples['t'].size} samples, "
+                        f"but summary.json says {summary['samples']}", fix)

@@ -60,6 +60,9 @@ def summarise(sim: Simulation, probes: dict | None = None) -> dict:
         )
         out.update(sampling_check(data["t"], probes, out))
         out["energy"] = energy
+    from solver.scene.files import scene_digest
+
+    out["scene_sha256"] = scene_digest(sim.scene)  # tells an edited scene.toml (readers)
     return out
 
 
