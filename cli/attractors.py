@@ -20,7 +20,7 @@ def register(sub: argparse._SubParsersAction) -> None:
             "mesh of a ladder, classify every end state (rigid travelling wave, modulated "
             "cycle, unsettled, steady sliding, diverged, failed), group the waves into "
             "members (k, direction, regime, celerity), and report each member's basin share "
-            "with a 95 %% Wilson interval, its values and their change along the ladder "
+            "with a 95 % Wilson interval, its values and their change along the ladder "
             "(docs/attractors.md). Runs under mpirun; rerunning resumes."),
     )
     p.add_argument("scene", help="scene file (TOML) or shipped scene name; or a census "

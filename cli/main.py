@@ -161,6 +161,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     from cli.checks import environment_problem
 
     problem = environment_problem()
+    for flag, value in (("-o", getattr(args, "output", None)), ("--plot", getattr(
+            args, "plot", None)), ("--json", getattr(args, "json", None))):
+        if value == "":  # `-o "$UNSET"`: never the default place in its stead
+            problem = problem or (f"{flag} is empty: give a path (is a shell variable unset?), "
+                                  f"or leave {flag} out")
     if problem:  # before MPI starts; under mpirun every rank ends, rank 0 says why
         if os.environ.get("OMPI_COMM_WORLD_RANK", os.environ.get("PMIX_RANK", "0")) == "0":
             print(f"error: {problem}", file=sys.stderr, flush=True)

@@ -202,6 +202,10 @@ def _travel(args: argparse.Namespace) -> int:
             return _err(f"--from {err}")
         if args.k is None:
             args.k = args.end.k
+    if args.k is not None and args.k > scene.mesh.n_inner // 2:
+        return _err(f"--k {args.k} is above the highest wavenumber of mesh.n_inner = "
+                    f"{scene.mesh.n_inner} contact nodes, N/2 = {scene.mesh.n_inner // 2} (a "
+                    "wave needs 2 nodes per wavelength): use a smaller --k or a finer mesh")
     try:
         _matched_step(scene, args)
     except ValueError as err:

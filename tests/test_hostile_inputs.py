@@ -304,3 +304,92 @@ def test_travel_from_a_run_of_another_scene_is_refused(finished, tmp_path, capsy
                   "-o", out)
     one_line(rc, err, f"--from: {finished} is a run of another problem: {words}")
     assert not out.exists()
+
+
+# ------------------------------------------------------------------ tracebacks, exit codes
+
+
+@pytest.mark.parametrize(("argv", "words"), [
+    (["flutter-fe", "smoke", "--fmax-hz", "1e12"], "--fmax-hz 1e+12 is far above the mesh's "
+                                                   "highest frequency"),
+    (["flutter-fe", "smoke", "--kmax", "-1"], "--kmax -1 is out of range: need 1 <= kmax"),
+    (["flutter-exact", "--wave-speed", "1e-300"], "--wave-speed 1e-300 gives the density"),
+    (["run", "smoke", "--set", "material.E=1e308", "-o", "OUT"], "material.E = 1e+308 is "
+                                                                  "out of range"),
+    (["run", "smoke", "-o", ""], "-o is empty: give a path"),
+    (["travel", "smoke", "--k", "1000", "-o", "OUT"], "--k 1000 is above the highest "
+                                                      "wavenumber of mesh.n_inner = 36"),
+    (["plot", "ONE"], "holds 1 samples, fewer than the 2 needed"),
+])
+def test_bad_input_is_one_line_with_exit_2(tmp_path, capsys, argv, words):
+    """Tracebacks (flutter-fe, flutter-exact), a 10-line SLEPc stack (E = 1e308), a silent
+    write to runs/ (-o ""), exit 1 after a solve (travel --k 1000 at N = 36), numpy warnings
+    and empty figures (plot of a one-sample run): now one line, exit 2, nothing written."""
+    pytest.importorskip("dolfinx")
+    if "ONE" in argv:
+        run(tmp_path / "one", "time.end_time=0.003", "output.sample_interval=0.003")
+    subs = {"OUT": str(tmp_path / "out"), "ONE": str(tmp_path / "one")}
+    before = sorted(Path.cwd().iterdir())
+    rc = main([subs.get(a, a) for a in argv])
+    captured = capsys.readouterr()
+    one_line(rc, captured.err, words)
+    assert "Warning" not in captured.out + captured.err
+    assert not (tmp_path / "out").exists() and sorted(Path.cwd().iterdir()) == before
+
+
+def test_help_and_reference_print_percent_once_and_keep_table_rows():
+    """`attractors --help` printed "95 %% Wilson"; the reference, "0.2 %%"; a `|` inside a
+    metavar (`5T|4ms|0.01s|all`, `off|auto|B`, `A:B:N|F1,F2,...`) split the reference's table
+    rows; the --window default was a Python tuple."""
+    import re
+    import sys
+
+    from cli.main import build_parser
+
+    sub = next(a for a in build_parser()._actions if hasattr(a, "choices") and a.choices)
+    assert "%%" not in sub.choices["attractors"].format_help()
+    sys.path.insert(0, str(REPO / "docs" / "_ext"))
+    from stickslip_reference import cli_markdown
+
+    text = cli_markdown()
+    assert "%%" not in text
+    for line in text.splitlines():
+        if line.startswith("| `"):  # argument | meaning | default | choices
+            assert len(re.findall(r"(?<!\\)\|", line)) == 5, line
+    window = next(ln for ln in text.splitlines() if ln.startswith("| `--window`"))
+    assert window.endswith("| `5T` |  |"), window
+
+
+def test_license_file_matches_pyproject():
+    import tomllib
+
+    meta = tomllib.loads((REPO / "pyproject.toml").read_text())["project"]
+    assert meta["license"] == {"text": "MIT"}
+    text = (REPO / "LICENSE").read_text()
+    assert text.startswith("MIT License") and "Copyright (c) stickslip maintainers" in text
+
+
+def test_a_scene_may_name_a_base_scene(tmp_path):
+    """Tutorial 2's custom "damped" scene silently got beta2 = 0.6: scenes had no `base =`."""
+    from solver.scene import SceneError, load_scene, scene_to_dict
+
+    (tmp_path / "damped.toml").write_text(
+        'base = "figure1_n132_damped"\n[mesh]\nn_inner = 36\n[material]\nrho = 2000.0\n')
+    scene, base = load_scene(tmp_path / "damped.toml"), load_scene("figure1_n132_damped")
+    assert scene.name == "damped" and scene.description == ""
+    assert scene.mesh.n_inner == 36
+    # rho is kept as wave_speed = sqrt(E / rho): one rounding each way
+    assert scene.material.rho == pytest.approx(2000.0, rel=1e-14)
+    mine, theirs = scene_to_dict(scene), scene_to_dict(base)
+    for section in ("time", "damping", "loading", "geometry", "friction"):
+        assert mine[section] == theirs[section], section  # beta2 = 0.5, the loss factor
+    (tmp_path / "b.toml").write_text(f'base = "{tmp_path / "damped.toml"}"\n'
+                                     '[loading]\nomega = 40.0\n')
+    chained = load_scene(tmp_path / "b.toml", ["loading.f=0.5"])
+    assert (chained.mesh.n_inner, chained.loading.omega, chained.loading.f) == (36, 40.0, 0.5)
+    (tmp_path / "c.toml").write_text('base = "c.toml"\n')
+    with pytest.raises(SceneError, match="a cycle of bases"):
+        load_scene(tmp_path / "c.toml")
+    (tmp_path / "d.toml").write_text('base = "nope"\n')
+    with pytest.raises(SceneError, match="base = 'nope' not found"):
+        load_scene(tmp_path / "d.toml")
