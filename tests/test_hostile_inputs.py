@@ -393,3 +393,41 @@ def test_a_scene_may_name_a_base_scene(tmp_path):
     (tmp_path / "d.toml").write_text('base = "nope"\n')
     with pytest.raises(SceneError, match="base = 'nope' not found"):
         load_scene(tmp_path / "d.toml")
+
+
+def test_a_killed_watchdog_does_not_take_the_run_down(tmp_path):
+    """SIGKILL of a run's watchdog: the run's next write to its pipe raised SIGPIPE, which
+    PETSc's handler turned into MPI_ABORT near the end (the run lost, `running` forever).
+    Now the run goes on and saves as ever."""
+    pytest.importorskip("dolfinx")
+    import subprocess
+    import sys
+
+    driver = tmp_path / "driver.py"
+    driver.write_text(f"""
+import io, os, signal, sys
+sys.path.insert(0, {str(REPO)!r})
+from pathlib import Path
+from mpi4py import MPI
+import solver.run
+from solver.scene import load_scene
+from studies.rundir import run_scene
+real, calls = solver.run.Simulation._check_health, []
+def check(self, kinetic, strain):
+    calls.append(1)
+    if len(calls) == 3:  # in the time loop: the watchdog is this process's only child
+        me = os.getpid()
+        for pid in Path(f"/proc/{{me}}/task/{{me}}/children").read_text().split():
+            os.kill(int(pid), signal.SIGKILL)
+    return real(self, kinetic, strain)
+solver.run.Simulation._check_health = check
+s = run_scene(load_scene("smoke", ["time.end_time=0.005", "output.progress=false"]),
+              {str(tmp_path / 'r')!r}, comm=MPI.COMM_SELF, stream=io.StringIO())
+print(s["status"], len(calls))
+""")
+    res = subprocess.run([sys.executable, str(driver)], cwd=REPO, capture_output=True,
+                         text=True, timeout=300)
+    assert res.returncode == 0, res.stdout + res.stderr
+    status, checks = res.stdout.split()
+    assert status == "completed" and int(checks) > 3
+    assert json.loads((tmp_path / "r" / "summary.json").read_text())["status"] == "completed"
