@@ -431,3 +431,21 @@ print(s["status"], len(calls))
     status, checks = res.stdout.split()
     assert status == "completed" and int(checks) > 3
     assert json.loads((tmp_path / "r" / "summary.json").read_text())["status"] == "completed"
+
+
+@pytest.mark.parametrize(("edit", "words"), [
+    ({"parameters": ["no.such.key"]}, "'parameters' names 'no.such.key', which its rows"),
+    ({"map": {"x": 5}}, "map.x = 5 is not one a sweep file allows"),
+    ({"map": {"junctions": [[1]]}}, "map.junctions = [[1]] is not one"),
+])
+def test_plot_of_an_edited_sweep_table_is_one_line(tmp_path, capsys, edit, words):
+    """plot on a sweep whose sweep.json was edited: a traceback (min() of nothing, KeyError)."""
+    from studies.sweep.spec import SWEEP_KIND
+
+    d = tmp_path / "sw"
+    d.mkdir()
+    rows = [{"id": "omega-2.0", "status": "completed", "loading.omega": 2.0}]
+    table = {"kind": SWEEP_KIND, "parameters": ["loading.omega"], "rows": rows, **edit}
+    (d / "sweep.json").write_text(json.dumps(table))
+    rc, err = cli(capsys, "plot", d)
+    one_line(rc, err, f"{d / 'sweep.json'}: {words}")

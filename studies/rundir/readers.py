@@ -211,10 +211,32 @@ def read_sweep_table(sweep_dir: str | Path, kind: str) -> dict:
             r.get("status"), str) and isinstance(r.get("id"), str) for r in rows):
         raise ReadError(p, "'rows' is not a list of rows with an id and a status (edited)",
                         fix)
+    missing = next((k for k in params for r in rows if k not in r), None)
+    if missing is not None:
+        raise ReadError(p, f"'parameters' names {missing!r}, which its rows do not have "
+                           "(edited)", fix)
     m = meta.get("map")
     if m is not None and not isinstance(m, dict):
         raise ReadError(p, "'map' is not an object (edited)", fix)
+    for key, value in (m or {}).items():
+        rule = _MAP_RULES.get(key, lambda v: True)
+        if not (rule(value) and (key not in ("x", "y") or value is None or value in params)):
+            raise ReadError(p, f"map.{key} = {value!r} is not one a sweep file allows "
+                               "(edited)", fix)
     return meta
+
+
+#: What a sweep file's ``[map]`` may say (``studies.sweep.spec``); ``x`` and ``y`` are also
+#: swept keys (``parameters``) or None.
+_MAP_RULES = {
+    "x": lambda v: v is None or isinstance(v, str),
+    "y": lambda v: v is None or isinstance(v, str),
+    "xscale": lambda v: v in ("auto", "linear", "log"),
+    "yscale": lambda v: v in ("auto", "linear", "log"),
+    "semianalytic": lambda v: isinstance(v, bool),
+    "k": lambda v: isinstance(v, list) and all(type(k) is int and k >= 1 for k in v),
+    "junctions": lambda v: isinstance(v, list) and all(j in ("impact", "smooth") for j in v),
+}
 
 
 def check_run_dir(run_dir: str | Path, need: int = 1) -> None:
