@@ -55,9 +55,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "(warm-started fixed-omega solves, steps of 0.2 %%)")
     p.add_argument("--rate", default=None, metavar="SCHEME",
                    help="material derivative in the contact law, upwind over node passages: "
-                        "bdf2 (second order, default) or bdf1 (first order: what the transient "
-                        "sees on a rigidly travelling P1 wave; the default, and the only "
-                        "choice, with --time-scheme central)")
+                        "bdf2 (second order) or bdf1 (first order: what the transient sees on "
+                        "a rigidly travelling P1 wave); default: bdf1 with --time-scheme "
+                        "central (its only choice), else bdf2")
     p.add_argument("--inertia", default="shift", metavar="OPERATOR",
                    help="wave-frame operator: shift (the transient's own travelling operator "
                         "per discrete harmonic, lumped mass; default) or rotation (K - w^2 G - "
