@@ -449,3 +449,30 @@ def test_plot_of_an_edited_sweep_table_is_one_line(tmp_path, capsys, edit, words
     (d / "sweep.json").write_text(json.dumps(table))
     rc, err = cli(capsys, "plot", d)
     one_line(rc, err, f"{d / 'sweep.json'}: {words}")
+
+
+def test_a_resumed_sweep_says_nothing_of_an_earlier_sessions_summary(tmp_path):
+    """A resumed sweep printed the stale "interrupted by SIGINT" line of the scene it was
+    rerunning (the summary was written less than a second before it started). Only a
+    summary written in this session is reported."""
+    import io
+
+    from studies.sweep import load_sweep
+    from studies.sweep.schedule import _Monitor
+
+    spec = load_sweep(_one_point_sweep(tmp_path, "[2.0]"))
+    run_dir = tmp_path / "out" / "runs" / "omega-2.0"
+    run_dir.mkdir(parents=True)
+    summary = {"scene": "s.omega-2.0", "status": "interrupted", "message":
+               "interrupted by SIGINT", "wall_time_s": 1.0}
+    (run_dir / "summary.json").write_text(json.dumps(summary))  # the killed session's
+    stream = io.StringIO()
+    monitor = _Monitor(tmp_path / "out", spec, spec.tasks, 0, stream, live=False)
+    monitor.poll()
+    assert stream.getvalue() == ""
+    tmp = run_dir / ".summary.json.tmp"  # this session's rerun, written as the runs write
+    tmp.write_text(json.dumps(dict(summary, status="failed", message="boom")))
+    os.replace(tmp, run_dir / "summary.json")
+    monitor.poll()
+    assert "omega-2.0: failed: boom" in stream.getvalue()
+    assert "interrupted" not in stream.getvalue()
