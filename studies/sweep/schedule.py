@@ -67,7 +67,8 @@ class _Monitor(threading.Thread):
     """
 
     def __init__(self, out_dir: Path, spec: SweepSpec, pending: Sequence[Task], n_done: int,
-                 stream: TextIO, live: bool, interval: float = 1.0) -> None:
+                 stream: TextIO, live: bool, interval: float = 1.0,
+                 failures: dict[str, str] | None = None) -> None:
         super().__init__(daemon=True, name="sweep-monitor")
         self.out_dir, self.spec, self.stream, self.live = out_dir, spec, stream, live
         self.pending = list(pending)
@@ -83,6 +84,7 @@ class _Monitor(threading.Thread):
         self.lock = threading.Lock()
         self._line_len = 0
         self.table_written, self.table_dirty = 0.0, False
+        self.failures = failures  # the sweep's, shared: the scenes no summary says failed
         # the summaries left by an earlier session (an interrupted scene's, say): each one's
         # file identity now; a rerun replaces the file (atomic write), so only a new one
         # tells this session's outcome
@@ -132,7 +134,7 @@ class _Monitor(threading.Thread):
                 self._say(self._scene_line(task, s))
             self.table_dirty = self.table_dirty or bool(new)
             if self.table_dirty and self._table_due():
-                write_table(self.out_dir, self.spec, cache=self.cache)
+                write_table(self.out_dir, self.spec, cache=self.cache, failures=self.failures)
                 self.table_written, self.table_dirty = time.time(), False
             if self.live:
                 self._redraw()
@@ -505,7 +507,12 @@ def run_sweep(spec: SweepSpec, out_dir: str | Path, *, comm: MPI.Comm | None = N
     group = comm.Split(color, comm.rank)
     _init_petsc(group)
     monitor = None
+    # the failures that no summary records (a full disk): those recorded before, less the
+    # scenes that run again now (rank 0), then this session's; the table shows them
+    failures: dict[str, str] = {}
     if rank0:
+        ran = {t.id for t in pending}
+        failures.update({k: v for k, v in recorded_failures(out_dir).items() if k not in ran})
         print(f"sweep {spec.name}: {len(spec.tasks)} scenes, {n_done} already done, "
               f"{len(pending)} to run on {n_groups} group(s) of {g} rank(s) -> {out_dir}",
               file=stream, flush=True)
@@ -518,7 +525,8 @@ def run_sweep(spec: SweepSpec, out_dir: str | Path, *, comm: MPI.Comm | None = N
         if comm.size % g:
             print(f"  note: {comm.size} ranks are not a multiple of group_size {g}; the last "
                   f"group has {comm.size % g} rank(s)", file=stream, flush=True)
-        monitor = _Monitor(out_dir, spec, pending, n_done, stream, _want_live(progress, stream))
+        monitor = _Monitor(out_dir, spec, pending, n_done, stream, _want_live(progress, stream),
+                           failures=failures)
         monitor.start()
 
     terminated = [False]
@@ -533,7 +541,6 @@ def run_sweep(spec: SweepSpec, out_dir: str | Path, *, comm: MPI.Comm | None = N
     previous = {sig: signal.signal(sig, on_term) for sig in stops}
     counter = None
     interrupted = False
-    failures: dict[str, str] = {}  # this session's failures that no summary records
     try:
         counter = _Counter(comm)
         while True:
@@ -565,11 +572,7 @@ def run_sweep(spec: SweepSpec, out_dir: str | Path, *, comm: MPI.Comm | None = N
         session = {"started": t_start, "finished": time.time(), "ranks": comm.size,
                    "groups": n_groups, "group_size": g, "pending_at_start": len(pending),
                    "interrupted": interrupted}
-        # the failures recorded before, less the scenes run again now, plus this session's
-        ran = {t.id for t in pending}
-        recorded = {k: v for k, v in recorded_failures(out_dir).items() if k not in ran}
-        rows = write_table(out_dir, spec, extra={"last_session": session},
-                           failures={**recorded, **failures})
+        rows = write_table(out_dir, spec, extra={"last_session": session}, failures=failures)
         counts: dict[str, int] = {}
         for r in rows:
             counts[r["status"]] = counts.get(r["status"], 0) + 1
