@@ -21,7 +21,7 @@ def register(sub: argparse._SubParsersAction) -> None:
             "(wavenumber, direction, share, celerity from the space-time spectrum), class it "
             "(rigid wave, multi-wave, unsettled, steady sliding, diverged, failed), group the "
             "settled ones into attractors by those features, and report each attractor's "
-            "basin share with a 95 %% Wilson interval, its values and their change along the "
+            "basin share with a 95 % Wilson interval, its values and their change along the "
             "ladder (docs/attractors.md). Runs under mpirun; rerunning resumes."),
     )
     p.add_argument("scene", help="scene file (TOML) or shipped scene name; or a census "

@@ -10,7 +10,7 @@ from pathlib import Path
 from studies.sweep.regime_map import plot_sweep
 from studies.sweep.schedule import run_sweep
 from studies.sweep.spec import SweepError, SweepSpec, load_sweep
-from studies.sweep.table import task_state
+from studies.sweep.table import recorded_failures, task_state
 
 # ============================================================================ CLI
 
@@ -109,8 +109,9 @@ def _sweep(args: argparse.Namespace) -> int:
         return 2
     if args.list:
         if comm.rank == 0:
+            failures = recorded_failures(out_dir)
             for task in spec.tasks:
-                print(f"{task.id:40s} {task_state(out_dir, spec, task)}")
+                print(f"{task.id:40s} {task_state(out_dir, spec, task, failures=failures)}")
         return 0
     if spec.attractors:  # a census at every point (studies/attractors/maps.py)
         from studies.attractors.maps import run_map
