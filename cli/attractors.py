@@ -21,7 +21,7 @@ def register(sub: argparse._SubParsersAction) -> None:
             "(wavenumber, direction, share, celerity from the space-time spectrum), class it "
             "(rigid wave, multi-wave, unsettled, steady sliding, diverged, failed), group the "
             "settled ones into attractors by those features, and report each attractor's "
-            "basin share with a 95 %% Wilson interval, its values and their change along the "
+            "basin share with a 95 % Wilson interval, its values and their change along the "
             "ladder (docs/attractors.md). Runs under mpirun; rerunning resumes."),
     )
     p.add_argument("scene", help="scene file (TOML) or shipped scene name; or a census "
@@ -126,10 +126,9 @@ def _attractors(args: argparse.Namespace) -> int:
                         args.celerity_tol, args.spread_tol,
                         DEFAULT_MAX_TIME if args.max_time is None else args.max_time)
         census.base_scene()
-        if args.backend == "gpu":
-            from solver.ensemble import array_namespace
+        from solver.schemes.select import check_backend
 
-            array_namespace("gpu")
+        check_backend(args.backend, device=False)
     except (SceneError, CensusError, ValueError, ImportError) as err:
         return _fail(str(err), comm.rank)
     out = Path(args.output) if args.output else default_dir(scene)

@@ -118,7 +118,11 @@ def _scene_values(args: argparse.Namespace) -> dict[str, Any]:
             v[key] = opt
     if args.wave_speed is not None:
         c0 = _finite("wave-speed", args.wave_speed, 0.0, 1e6, lo_open=True)
-        v["rho"] = v["E"] / c0**2
+        v["rho"] = v["E"] / c0**2 if c0**2 > 0 else math.inf
+        if not 0 < v["rho"] < math.inf:
+            raise InputError(f"--wave-speed {c0!r} gives the density E / wave_speed^2 = "
+                             f"{v['rho']:g} kg/m^3: need a finite, non-zero density (the "
+                             "reference material has 1000 m/s)")
     if args.regularization is not None:
         v["reg"] = args.regularization
     if args.slip_length is not None:

@@ -92,6 +92,14 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=flutter_fe_command)
 
 
+#: The largest wavenumber (``--kmax``, ``--k-detail``) and table length (``--top``) taken:
+#: as for ``stickslip flutter --kmax``.
+KMAX_LIMIT = 10_000
+#: ``--fmax-hz`` up to this many times the mesh's highest frequency is solved (measured:
+#: 250 times on the smoke mesh; 2.5e8 times ended in an eigenpair of residual 26).
+FMAX_FACTOR = 100.0
+
+
 def flutter_fe_command(args: argparse.Namespace) -> int:
     """Handler of ``stickslip flutter-fe``."""
     from mpi4py import MPI
@@ -113,6 +121,11 @@ def flutter_fe_command(args: argparse.Namespace) -> int:
         return fail(str(err))
     if not (math.isfinite(args.fmax_hz) and args.fmax_hz > 0):
         return fail(f"--fmax-hz {args.fmax_hz!r} is out of range: need a frequency > 0 (Hz)")
+    for flag, value, lo in (("--kmax", args.kmax, 1), ("--k-detail", args.k_detail, 1),
+                            ("--top", args.top, 0)):
+        if not lo <= value <= KMAX_LIMIT:
+            return fail(f"{flag} {value} is out of range: need {lo} <= {flag[2:]} <= "
+                        f"{KMAX_LIMIT}")
     if args.plot:
         from cli.checks import output_file_problem
 
@@ -134,6 +147,13 @@ def flutter_fe_command(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     problem = build_problem(scene, comm)
     t_build = time.perf_counter() - t0
+    from solver.problem import gershgorin_omega_max
+
+    f_top = gershgorin_omega_max(problem) / (2 * math.pi)  # no mode of the mesh above it
+    if args.fmax_hz > FMAX_FACTOR * f_top:
+        return fail(f"--fmax-hz {args.fmax_hz:g} is far above the mesh's highest frequency "
+                    f"({f_top:.4g} Hz, Gershgorin bound): no mode lies there, and the "
+                    f"eigensolver's shift fails; use --fmax-hz <= {f_top:.4g}")
     ops = build_operators(problem, args.mass, friction)
     res = complex_eigenvalue_analysis(problem, None, args.fmax_hz, ops=ops,
                                       shapes=bool(args.modes))

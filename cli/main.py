@@ -7,8 +7,11 @@ dolfinx, ``stickslip run`` never imports pyvista unless it plots.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import os
+import signal
 import sys
+import threading
 from collections.abc import Sequence
 
 from solver import __version__
@@ -124,6 +127,31 @@ def _end_all_ranks(code: int) -> None:
         mpi.COMM_WORLD.Abort(code)
 
 
+#: Signals that stop a command as Ctrl-C does: a batch system's stop, a closed terminal.
+STOP_SIGNALS = ("SIGTERM", "SIGHUP")
+
+
+@contextlib.contextmanager
+def _stops_as_interrupt():  # noqa: ANN202
+    """SIGTERM and SIGHUP raise KeyboardInterrupt, as SIGINT does, so every command saves
+    what it has done and exits 130 (their default is to die at once: exit 143 or 129, with
+    nothing saved). A command that handles them itself (``run``, ``sweep``) installs its
+    own handlers inside; the previous ones are restored at the end."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def stop(signum, frame):  # noqa: ANN001, ARG001
+        raise KeyboardInterrupt(f"by {signal.Signals(signum).name}")
+
+    previous = {name: signal.signal(getattr(signal, name), stop) for name in STOP_SIGNALS}
+    try:
+        yield
+    finally:
+        for name, handler in previous.items():
+            signal.signal(getattr(signal, name), handler)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point: the handler's exit status; 2 with one line for a foreseen error class."""
     parser = build_parser()
@@ -134,12 +162,18 @@ def main(argv: Sequence[str] | None = None) -> int:
     from cli.checks import environment_problem
 
     problem = environment_problem()
+    for flag, value in (("-o", getattr(args, "output", None)), ("--plot", getattr(
+            args, "plot", None)), ("--json", getattr(args, "json", None))):
+        if value == "":  # `-o "$UNSET"`: never the default place in its stead
+            problem = problem or (f"{flag} is empty: give a path (is a shell variable unset?), "
+                                  f"or leave {flag} out")
     if problem:  # before MPI starts; under mpirun every rank ends, rank 0 says why
         if os.environ.get("OMPI_COMM_WORLD_RANK", os.environ.get("PMIX_RANK", "0")) == "0":
             print(f"error: {problem}", file=sys.stderr, flush=True)
         return 2
     try:
-        return int(args.func(args) or 0)
+        with _stops_as_interrupt():
+            return int(args.func(args) or 0)
     except KeyboardInterrupt as stop:  # a handler may say what it kept (its message)
         print(f"stickslip: interrupted{f' {stop}' if str(stop) else ''}", file=sys.stderr)
         return 130

@@ -53,7 +53,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 def _window_option(p: argparse.ArgumentParser) -> None:
     from postprocess.plotting import DEFAULT_WINDOW, parse_window
 
-    p.add_argument("--window", type=parse_window, default=parse_window(DEFAULT_WINDOW),
+    p.add_argument("--window", type=parse_window, default=DEFAULT_WINDOW,  # parsed by argparse
                    metavar="5T|4ms|0.01s|all",
                    help="time window of the space-time maps: a number of wave periods at a "
                         f"fixed point (nT), a duration (ms, s) or all (default {DEFAULT_WINDOW})")
@@ -108,7 +108,7 @@ def _plot(args: argparse.Namespace) -> int:
         return 0
     from cli.checks import samples_problem
 
-    problem = samples_problem(run_dir)
+    problem = samples_problem(run_dir, need=2)  # a map, a profile in time: two at least
     if problem:
         print(f"error: {problem}", file=sys.stderr)
         return 2

@@ -10,7 +10,7 @@ from pathlib import Path
 from studies.sweep.regime_map import plot_sweep
 from studies.sweep.schedule import run_sweep
 from studies.sweep.spec import SweepError, SweepSpec, load_sweep
-from studies.sweep.table import task_state
+from studies.sweep.table import recorded_failures, task_state
 
 # ============================================================================ CLI
 
@@ -100,27 +100,18 @@ def _sweep(args: argparse.Namespace) -> int:
     backend = args.backend or spec.backend
     try:
         batch = parse_batch(args.batch if args.batch is not None else spec.batch)
-        if backend == "gpu":
-            from solver.ensemble import array_namespace
+        from solver.schemes.select import check_backend
 
-            xp = array_namespace("gpu")
-            try:  # CuPy imports without a driver or a device; the first allocation fails
-                devices, why = xp.cuda.runtime.getDeviceCount(), ""
-            except RuntimeError as err:
-                devices, why = 0, f" ({err})"
-            if devices < 1:
-                raise ValueError(f"--backend gpu: CuPy finds no CUDA device{why}; run on a "
-                                 "GPU node or use --backend cpu")
-            if batch == "off":
-                raise ValueError("--backend gpu runs batches: add --batch auto or --batch B")
+        check_backend(backend, batched=batch != "off")
     except (ValueError, ImportError) as err:
         if comm.rank == 0:
             print(f"error: {err}", file=sys.stderr)
         return 2
     if args.list:
         if comm.rank == 0:
+            failures = recorded_failures(out_dir)
             for task in spec.tasks:
-                print(f"{task.id:40s} {task_state(out_dir, spec, task)}")
+                print(f"{task.id:40s} {task_state(out_dir, spec, task, failures=failures)}")
         return 0
     if spec.attractors:  # a census at every point (studies/attractors/maps.py)
         from studies.attractors.maps import run_map

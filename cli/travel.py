@@ -55,9 +55,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "(warm-started fixed-omega solves, steps of 0.2 %%)")
     p.add_argument("--rate", default=None, metavar="SCHEME",
                    help="material derivative in the contact law, upwind over node passages: "
-                        "bdf2 (second order, default) or bdf1 (first order: what the transient "
-                        "sees on a rigidly travelling P1 wave; the default, and the only "
-                        "choice, with --time-scheme central)")
+                        "bdf2 (second order) or bdf1 (first order: what the transient sees on "
+                        "a rigidly travelling P1 wave); default: bdf1 with --time-scheme "
+                        "central (its only choice), else bdf2")
     p.add_argument("--inertia", default="shift", metavar="OPERATOR",
                    help="wave-frame operator: shift (the transient's own travelling operator "
                         "per discrete harmonic, lumped mass; default) or rotation (K - w^2 G - "
@@ -194,7 +194,7 @@ def _travel(args: argparse.Namespace) -> int:
         from cli.checks import samples_problem
         from studies.travel.from_run import NotRigidWave, read_end_state
 
-        if problem := samples_problem(args.from_run):
+        if problem := samples_problem(args.from_run) or _other_scene(scene, args.from_run):
             return _err(f"--from: {problem}")
         try:
             args.end = read_end_state(Path(args.from_run))
@@ -205,6 +205,10 @@ def _travel(args: argparse.Namespace) -> int:
             return _err(f"--from {err}")
         if args.k is None:
             args.k = args.end.k
+    if args.k is not None and args.k > scene.mesh.n_inner // 2:
+        return _err(f"--k {args.k} is above the highest wavenumber of mesh.n_inner = "
+                    f"{scene.mesh.n_inner} contact nodes, N/2 = {scene.mesh.n_inner // 2} (a "
+                    "wave needs 2 nodes per wavelength): use a smaller --k or a finer mesh")
     try:
         _matched_step(scene, args)
     except ValueError as err:
@@ -237,6 +241,19 @@ def _travel(args: argparse.Namespace) -> int:
     claim.commit()
     claim.release()
     return rc
+
+
+def _other_scene(scene, run_dir: str) -> str | None:  # noqa: ANN001
+    """Why the run in ``run_dir`` is not of ``scene``'s physics and mesh (the first key that
+    differs: a wave solved for one scene is no measure of another's run), or None."""
+    from solver.scene.files import scene_difference
+    from studies.rundir.readers import read_scene_file
+
+    differs = scene_difference(read_scene_file(Path(run_dir) / "scene.toml"), scene)
+    if differs is None:
+        return None
+    return (f"{run_dir} is a run of another problem: its {differs} here; give the run's "
+            f"own scene ({Path(run_dir) / 'scene.toml'}) or --set it")
 
 
 def _matched_step(scene, args: argparse.Namespace) -> None:

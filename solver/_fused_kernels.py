@@ -527,6 +527,10 @@ def damping_sums_next(kw, k0, u_next, vp, w_next, tau, r0, r1, dsum):
             w_next[row, b] = vp[row, b] * tau + un
 
 
+# Why two batched steps: the loop order that vectorises (4-scene register passes for short
+# B, B-long vector loops for long B) is fixed when numba compiles; both call the same
+# per-node functions in the same order, so tests/test_ensemble.py pins both bitwise to
+# ``single_step``.
 @jit
 def batched_step_long(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
                       c_v, c_w, c_p, b2_half, dt, kappa, inv_kappa,
@@ -540,8 +544,7 @@ def batched_step_long(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
     K u is formed term-outer: for each term of the node's two rows one B-long vector loop
     adds it to partial sums kept in ``acc``. With B long that loop's set-up is paid once per
     B scenes and its body vectorises; with B short (8) the set-up dominates and the
-    register passes of ``batched_step`` are faster (docs/performance.md, "Batches"). This is
-    the kernel ``batched_step`` was before (commit 171b587):
+    register passes of ``batched_step`` are faster (docs/performance.md, "Batches").
 
     One pass over the nodes: the (x, y) rows of K u for all B scenes (one read of the row
     for the whole batch), the contact projection if the node is a contact node

@@ -13,7 +13,7 @@ With Kelvin-Voigt damping (``tau`` > 0, the same for the whole batch: it sets dt
 w_n = u_n + tau v~_n instead of u_n, and the damping work is summed as in the fused step
 (``damping_work_totals``; the samples refresh K u_n, ``refresh_ku``).
 
-Backends (``kernel``):
+Backends (``kernel``: a strategy, ``BATCH_KERNELS``, chosen once by the constructor):
 
 * ``"numba"`` (CPU default): ``solver._fused_kernels.batched_step`` (short batches: 4-scene
   register passes) or ``batched_step_long`` (B-long vector loops; ``batched_kernel_name``
@@ -32,6 +32,7 @@ contact force), so it stays at rest at no risk to the others; the caller records
 
 from __future__ import annotations
 
+import importlib
 import math
 from collections.abc import Callable
 from typing import Any
@@ -42,22 +43,19 @@ from solver.contact.law import SEPARATION, SLIP, STICK, forward_increment_factor
 from solver.ensemble_cuda import CUDA_SOURCE
 from solver.schemes.protocol import HookedStepper, copy_state, put_state
 
-#: The batched stepper's implementations of one step (not the scene's ``time.kernel`` choice).
-BATCH_KERNELS = ("numba", "cuda", "xp")
+#: The array module of each backend (``solver.schemes.select.BACKENDS`` names its kernel).
+ARRAY_MODULES = {"cpu": "numpy", "gpu": "cupy"}
 
 
 def array_namespace(backend: str) -> Any:
     """numpy for ``backend = "cpu"``, cupy for ``"gpu"`` (ImportError names the fix)."""
-    if backend == "cpu":
-        return np
-    if backend == "gpu":
-        try:
-            import cupy
-        except ImportError as err:  # pragma: no cover - depends on the machine
-            raise ImportError("backend = \"gpu\" needs CuPy: pip install cupy-cuda12x (CUDA 12) "
-                              "or cupy-cuda13x (CUDA 13); see docs/gpu.md") from err
-        return cupy
-    raise ValueError(f"backend = {backend!r}: use \"cpu\" or \"gpu\"")
+    if backend not in tuple(ARRAY_MODULES):
+        raise ValueError(f"backend = {backend!r}: use \"cpu\" or \"gpu\"")
+    try:
+        return importlib.import_module(ARRAY_MODULES[backend])
+    except ImportError as err:  # pragma: no cover - depends on the machine
+        raise ImportError(f"backend = {backend!r} needs CuPy: pip install cupy-cuda12x "
+                          "(CUDA 12) or cupy-cuda13x (CUDA 13); see docs/gpu.md") from err
 
 
 class BatchedProblem:
@@ -124,16 +122,17 @@ class BatchedExplicit(HookedStepper):
                  xp: Any = np, kernel: str = "numba", tau: float = 0.0,
                  bound: tuple[int, float, float] = (0, 0.0, 0.0)) -> None:
         if kernel not in BATCH_KERNELS:
-            raise ValueError(f"kernel = {kernel!r}: use one of {BATCH_KERNELS}")
-        if kernel == "numba" and xp is not np:
-            raise ValueError("the numba kernel runs on numpy arrays (backend cpu)")
+            raise ValueError(f"kernel = {kernel!r}: use one of {tuple(BATCH_KERNELS)}")
+        columns = BATCH_KERNELS[kernel]
+        if columns.host_only and xp is not np:
+            raise ValueError(f"the {kernel} kernel runs on numpy arrays (backend cpu)")
         if not (math.isfinite(tau) and tau >= 0.0):
             raise ValueError(f"damping tau = {tau} must be a finite number >= 0 (s)")
         self.tau = float(tau)
         self.damped = self.tau > 0.0
         # the friction bound (``solver.fused.friction_bound``): regularised in numba only
         self.reg, self.rate_slip, self.rate_base = bound
-        if self.reg and kernel != "numba":
+        if self.reg and not columns.regularised:
             raise ValueError(f"kernel = {kernel!r} has no regularised friction bound "
                              "(friction.regularization): run these scenes on the CPU")
         self.xp, self.kernel, self.bp = xp, kernel, bp
@@ -191,25 +190,16 @@ class BatchedExplicit(HookedStepper):
         slot[bp.cx // 2] = np.arange(m)
         self.cslot = dev(slot)  # contact index of each node, -1 off the contact circle
         self.keep = xp.zeros(n // 2, dtype=np.int8)  # nodes whose v, a, K u are always stored
-        if kernel == "numba":
-            from solver.fused import _kernels
-            from solver.fused import kernel as get_kernel
-
-            # short batches: 4-scene register passes; long ones: B-long vector loops (same
-            # bits either way; solver._fused_kernels.batched_kernel_name)
-            k_bytes = int(bp.data.nbytes + bp.indices.nbytes)
-            self._name = _kernels().batched_kernel_name(B, k_bytes)
-            self._fn = get_kernel(self._name)
-            self.acc = z(max(6, (4 if self.damped else 2) * _kernels().NODE_BLOCK), B)
-            self._product = get_kernel("stiffness_product_cols")  # K u_n, damped samples
-            self._dots_fn = get_kernel("column_dots")
-            self._first_product = True  # compiled with the SLP vectoriser (register passes)
-        elif kernel == "cuda":
-            self._cuda_setup()
-        else:
-            self._xp_setup()
+        #: the step's implementation, chosen once (``BATCH_KERNELS``)
+        self.columns = columns(self)
 
     # -------------------------------------------------------------------------------- state
+    @property
+    def host_records(self) -> bool:
+        """The arrays live in host memory (numpy): a batch's record may stay whole there; a
+        device's is spooled in chunks (``solver.ensemble_run.BatchSimulation``)."""
+        return self.xp is np
+
     @property
     def u(self):
         return self._u[self.cur]
@@ -252,7 +242,7 @@ class BatchedExplicit(HookedStepper):
         kernel's per-node damping sums)."""
         names = ("u", "u_prev", "v_pred", "zprev", "work", "sigma", "ut_last", "d")
         if self.damped:
-            names += ("u_tau", "u0_ku0") + (("dwork",) if self.kernel == "cuda" else ())
+            names += ("u_tau", "u0_ku0", *self.columns.damping_state)
         return names
 
     def state(self, b: int) -> dict[str, np.ndarray]:
@@ -287,7 +277,7 @@ class BatchedExplicit(HookedStepper):
         """Take scene ``b`` out of the batch: zero state and no contact (stays at rest)."""
         self.active[b] = False
         for arr in (*self._u, self.v, self.v_pred, self.a, self.ku, self.zprev, *self._w,
-                    *([self.dwork] if self.kernel == "cuda" else [])):
+                    *(getattr(self, name) for name in self.columns.damping_state)):
             arr[..., b] = 0.0
         self.d[b] = 0.0
 
@@ -297,37 +287,24 @@ class BatchedExplicit(HookedStepper):
                 "damping_tau_s": self.tau, "contact_s": 0.0, "kernel": f"batched-{self.kernel}",
                 "kernel_first_call_s": self.compile_s}
 
+    def work_sums(self):
+        """(3, B) array (on the device): work_contact, work_cylinder, friction_dissipation."""
+        return self.columns.work_sums(self)
+
     def work_totals(self) -> np.ndarray:
         """(3, B) host array: work_contact, work_cylinder, friction_dissipation."""
-        w = self.work if self.work.ndim == 2 else self.work.sum(axis=1)
-        return np.asarray(w.get() if hasattr(w, "get") else w)[:3]
+        w = self.work_sums()
+        return np.asarray(w.get() if hasattr(w, "get") else w)
 
     # ------------------------------------------------------------------- Kelvin-Voigt
     def _stiffness(self, u, out) -> None:
         """out = K u per column, in the fused kernels' order (numba, CUDA) or scipy's (xp)."""
-        if self.kernel == "cuda":  # pragma: no cover - GPU (or its CPU emulation)
-            self._kern_k((self._blocks,), (self._threads,), (
-                self.indptr, self.indices, self.data, u, out, np.int32(self.n // 2),
-                np.int32(self.B)))
-        elif self.kernel == "numba":
-            if self._first_product:
-                from solver.fused import slp_vectorize
-
-                self._first_product = False
-                with slp_vectorize():
-                    self._product(self.indptr, self.indices, self.data, u, out)
-                return
-            self._product(self.indptr, self.indices, self.data, u, out)
-        else:
-            out[...] = self.K @ u
+        self.columns.stiffness(self, u, out)
 
     def _column_dots(self, x, y) -> np.ndarray:
         """Σ_i x[i, b] y[i, b] per column (numba: in row order, the bits of a single scene's
         ``sequential_dot``)."""
-        if self.kernel == "numba":
-            self._dots_fn(x, y, self._dots)
-            return self._dots
-        return self.xp.einsum("ib,ib->b", x, y)
+        return self.columns.column_dots(self, x, y)
 
     def refresh_ku(self) -> None:
         """ku = K u_n (u_n is ``u_prev`` after a step; the damped step applies K w_n) and the
@@ -339,7 +316,7 @@ class BatchedExplicit(HookedStepper):
         """(B,) W_d of every scene, as ``solver.fused.FusedDampingWork`` (needs
         ``refresh_ku``): work[3] - 1/2 (u_{n+1} . K u_n - u_0 . K u_0)."""
         dots = self._column_dots(self.u, self.ku)
-        step_sum = self.work[3] if self.work.ndim == 2 else self.dwork.sum(axis=0)
+        step_sum = self.columns.damping_step_sum(self)
         return step_sum - 0.5 * (dots - self.xp.asarray(self.u0_ku0))
 
     # -------------------------------------------------------------------------------- step
@@ -359,135 +336,220 @@ class BatchedExplicit(HookedStepper):
         if diag is None:
             diag = self.full_state_at(self.step_count)
         cur, nxt = self.cur, 1 - self.cur
-        if self.kernel == "numba":
-            from solver.fused import slp_vectorize, timed_first_call
-
-            dt, b2 = self.dt, self.beta2
-            args = (self.indptr, self.indices, self.data, self._u[cur], self._u[nxt], self.v,
-                    self.v_pred, self.a, self.ku, self.nim, b2 * dt, 0.5 * dt,
-                    (0.5 - b2) * dt, b2 == 0.5, dt, self.kappa, 1.0 / self.kappa, self.cx,
-                    self.ph_re, self.ph_im, self.pc_re, self.pc_im, self.cmass, self.cinv,
-                    self.d, self.slide, self.f, self.r_r, self.r_t, self.r_x, self.r_y,
-                    self.status, self.zprev, self.work, self.acc, self.cslot, bool(diag),
-                    self.keep, self.mass, self.energy, self._w[cur], self._w[nxt], self.tau,
-                    self.dsum, self.reg, self.sigma, self.ut_last, self.rate_slip,
-                    self.rate_base, self._started)
-            if self._first_call:  # compiled (or loaded) here, with SLP, even when continued
-                self._first_call = False
-                with slp_vectorize():
-                    timed_first_call(self._name, self._fn, *args)
-                from solver.fused import COMPILE_SECONDS
-
-                self.compile_s = COMPILE_SECONDS[self._name]
-            else:
-                self._fn(*args)
-            self.energy_summed = bool(diag)
-        elif self.kernel == "cuda":
-            self._cuda_step(self._u[cur], self._u[nxt], diag)
-        else:
-            self._xp_step(self._u[cur], self._u[nxt])
+        self.columns.step(self, self._u[cur], self._u[nxt], bool(diag))
         self.cur = nxt
         self.time += self.dt
         self.step_count += 1
 
-    # ---------------------------------------------------------------------- xp reference
-    def _xp_setup(self) -> None:
-        xp = self.xp
+
+# ------------------------------------------------------------------------------ kernels
+
+
+class ArrayColumns:
+    """The readable reference step: plain array operations on the namespace ``xp`` (numpy or
+    cupy), allocating temporaries; K u by scipy's (or cupyx's) sparse product."""
+
+    host_only = False
+    regularised = False
+    damping_state: tuple[str, ...] = ()
+    """The stepper's arrays of this kernel in a damped column's checkpoint."""
+
+    def __init__(self, st: BatchedExplicit) -> None:
+        xp = st.xp
         if xp is np:
             import scipy.sparse as sp
         else:  # pragma: no cover - GPU only
             import cupyx.scipy.sparse as sp
-        self.K = sp.csr_matrix((self.data, self.indices.astype(np.int32),
-                                self.indptr.astype(np.int32)), shape=(self.n, self.n))
-        self._ix = self.cx.astype(np.int64)
+        st.K = sp.csr_matrix((st.data, st.indices.astype(np.int32),
+                              st.indptr.astype(np.int32)), shape=(st.n, st.n))
+        st._ix = st.cx.astype(np.int64)
 
-    def _xp_step(self, u, u_next) -> None:
-        """The step as array operations (readable reference; allocates temporaries)."""
-        xp, dt, b2, kappa = self.xp, self.dt, self.beta2, self.kappa
-        ix, iy = self._ix, self._ix + 1
-        pcr, pci = self.pc_re[:, None], self.pc_im[:, None]
-        if self.damped:  # K w_n, w_n = u_n + tau v~_n (DampedNewmark)
-            w = self.u_tau
-            xp.multiply(self.v_pred, self.tau, out=w)
+    def stiffness(self, st: BatchedExplicit, u, out) -> None:
+        out[...] = st.K @ u
+
+    def column_dots(self, st: BatchedExplicit, x, y):
+        return st.xp.einsum("ib,ib->b", x, y)
+
+    def work_sums(self, st: BatchedExplicit):
+        return st.work[:3]
+
+    def damping_step_sum(self, st: BatchedExplicit):
+        return st.work[3]
+
+    def step(self, st: BatchedExplicit, u, u_next, diag: bool) -> None:
+        """The step as array operations (always writes v_n, a_n and K u_n: ``diag`` unused)."""
+        xp, dt, b2, kappa = st.xp, st.dt, st.beta2, st.kappa
+        ix, iy = st._ix, st._ix + 1
+        pcr, pci = st.pc_re[:, None], st.pc_im[:, None]
+        if st.damped:  # K w_n, w_n = u_n + tau v~_n (DampedNewmark)
+            w = st.u_tau
+            xp.multiply(st.v_pred, st.tau, out=w)
             w += u
-            self.ku[...] = self.K @ w
+            st.ku[...] = st.K @ w
         else:
-            self.ku[...] = self.K @ u
-        xp.multiply(self.ku, self.nim[:, None], out=self.a)
-        a = self.a
+            st.ku[...] = st.K @ u
+        xp.multiply(st.ku, st.nim[:, None], out=st.a)
+        a = st.a
         ux, uy = u[ix], u[iy]
         now_r = ux * pcr - uy * pci
         now_t = ux * pci + uy * pcr
-        tx = self.v_pred[ix] * dt + a[ix] * kappa
-        ty = self.v_pred[iy] * dt + a[iy] * kappa
+        tx = st.v_pred[ix] * dt + a[ix] * kappa
+        ty = st.v_pred[iy] * dt + a[iy] * kappa
         tr = (tx * pcr - ty * pci) + now_r
         tt = (tx * pci + ty * pcr) + now_t
-        stiff = (self.cmass * (1.0 / kappa))[:, None]
-        rr = xp.maximum(self.d[None, :] - tr, 0.0) * stiff
+        stiff = (st.cmass * (1.0 / kappa))[:, None]
+        rr = xp.maximum(st.d[None, :] - tr, 0.0) * stiff
         inc = rr > 0.0
-        rt = ((now_t + self.slide[None, :]) - tt) * stiff
-        cone = rr * self.f[None, :]
+        rt = ((now_t + st.slide[None, :]) - tt) * stiff
+        cone = rr * st.f[None, :]
         slip = xp.abs(rt) > cone
         rt = xp.where(slip, xp.copysign(cone, rt), rt)
-        frictionless = (self.f == 0.0)[None, :]
+        frictionless = (st.f == 0.0)[None, :]
         rt = xp.where(frictionless, 0.0, rt)
-        self.status[...] = xp.where(inc, xp.where(slip | frictionless, SLIP, STICK), SEPARATION)
-        self.r_r[...] = rr
-        self.r_t[...] = rt
-        self.r_x[...] = rr * self.ph_re[:, None] - rt * self.ph_im[:, None]
-        self.r_y[...] = rr * self.ph_im[:, None] + rt * self.ph_re[:, None]
-        a[ix] = a[ix] + self.r_x * self.cinv[:, None]
-        a[iy] = a[iy] + self.r_y * self.cinv[:, None]
-        self.v[...] = a * (b2 * dt) + self.v_pred
-        w = a * (0.5 * dt) + self.v
-        if self.damped:  # u_next holds u_{n-1} until it is overwritten
-            self.work[3] += 0.5 * (xp.einsum("ib,ib->b", self.ku, w * dt + u)
-                                   - xp.einsum("ib,ib->b", self.ku, u_next))
+        st.status[...] = xp.where(inc, xp.where(slip | frictionless, SLIP, STICK), SEPARATION)
+        st.r_r[...] = rr
+        st.r_t[...] = rt
+        st.r_x[...] = rr * st.ph_re[:, None] - rt * st.ph_im[:, None]
+        st.r_y[...] = rr * st.ph_im[:, None] + rt * st.ph_re[:, None]
+        a[ix] = a[ix] + st.r_x * st.cinv[:, None]
+        a[iy] = a[iy] + st.r_y * st.cinv[:, None]
+        st.v[...] = a * (b2 * dt) + st.v_pred
+        w = a * (0.5 * dt) + st.v
+        if st.damped:  # u_next holds u_{n-1} until it is overwritten
+            st.work[3] += 0.5 * (xp.einsum("ib,ib->b", st.ku, w * dt + u)
+                                 - xp.einsum("ib,ib->b", st.ku, u_next))
         u_next[...] = w * dt + u
-        self.v_pred[...] = w if b2 == 0.5 else w + a * ((0.5 - b2) * dt)
-        dzx = u_next[ix] - self.zprev[:, 0]
-        dzy = u_next[iy] - self.zprev[:, 1]
-        self.zprev[:, 0] = ux
-        self.zprev[:, 1] = uy
-        self.work[0] += 0.5 * (self.r_x * dzx + self.r_y * dzy).sum(axis=0)
-        wc = self.r_t.sum(axis=0) * self.slide
-        wt = 0.5 * (self.r_t * (dzx * pci + dzy * pcr)).sum(axis=0)
-        fr = self.f > 0.0
-        self.work[1] += xp.where(fr, wc, 0.0)
-        self.work[2] += xp.where(fr, wc - wt, 0.0)
+        st.v_pred[...] = w if b2 == 0.5 else w + a * ((0.5 - b2) * dt)
+        dzx = u_next[ix] - st.zprev[:, 0]
+        dzy = u_next[iy] - st.zprev[:, 1]
+        st.zprev[:, 0] = ux
+        st.zprev[:, 1] = uy
+        st.work[0] += 0.5 * (st.r_x * dzx + st.r_y * dzy).sum(axis=0)
+        wc = st.r_t.sum(axis=0) * st.slide
+        wt = 0.5 * (st.r_t * (dzx * pci + dzy * pcr)).sum(axis=0)
+        fr = st.f > 0.0
+        st.work[1] += xp.where(fr, wc, 0.0)
+        st.work[2] += xp.where(fr, wc - wt, 0.0)
 
-    # ------------------------------------------------------------------------ CUDA kernel
-    def _cuda_setup(self) -> None:  # pragma: no cover - GPU only
+
+class NumbaColumns(ArrayColumns):
+    """The numba kernels on the host: ``solver._fused_kernels.batched_step`` (short batches:
+    4-scene register passes) or ``batched_step_long`` (B-long vector loops), picked by B and
+    the size of K (``batched_kernel_name``), the single-scene kernel's arithmetic in the same
+    order; compiled with the SLP vectoriser (``solver.fused.slp_vectorize``)."""
+
+    host_only = True
+    regularised = True
+
+    def __init__(self, st: BatchedExplicit) -> None:
+        from solver.fused import _kernels
+        from solver.fused import kernel as get_kernel
+
+        # short batches: 4-scene register passes; long ones: B-long vector loops (same
+        # bits either way; solver._fused_kernels.batched_kernel_name)
+        k_bytes = int(st.bp.data.nbytes + st.bp.indices.nbytes)
+        st._name = _kernels().batched_kernel_name(st.B, k_bytes)
+        st._fn = get_kernel(st._name)  # the step (a benchmark may swap it)
+        self.first_call = True  # of the kernel by this stepper
+        st.acc = st.xp.zeros((max(6, (4 if st.damped else 2) * _kernels().NODE_BLOCK), st.B))
+        self.product = get_kernel("stiffness_product_cols")  # K u_n, damped samples
+        self.dots_fn = get_kernel("column_dots")
+        self.first_product = True  # compiled with the SLP vectoriser (register passes)
+
+    def stiffness(self, st: BatchedExplicit, u, out) -> None:
+        if self.first_product:
+            from solver.fused import slp_vectorize
+
+            self.first_product = False
+            with slp_vectorize():
+                self.product(st.indptr, st.indices, st.data, u, out)
+            return
+        self.product(st.indptr, st.indices, st.data, u, out)
+
+    def column_dots(self, st: BatchedExplicit, x, y):
+        self.dots_fn(x, y, st._dots)
+        return st._dots
+
+    def step(self, st: BatchedExplicit, u, u_next, diag: bool) -> None:
+        """One call of the compiled step; it sums the energies on a ``diag`` step."""
+        from solver.fused import slp_vectorize, timed_first_call
+
+        dt, b2 = st.dt, st.beta2
+        args = (st.indptr, st.indices, st.data, u, u_next, st.v, st.v_pred, st.a, st.ku,
+                st.nim, b2 * dt, 0.5 * dt, (0.5 - b2) * dt, b2 == 0.5, dt, st.kappa,
+                1.0 / st.kappa, st.cx, st.ph_re, st.ph_im, st.pc_re, st.pc_im, st.cmass,
+                st.cinv, st.d, st.slide, st.f, st.r_r, st.r_t, st.r_x, st.r_y, st.status,
+                st.zprev, st.work, st.acc, st.cslot, diag, st.keep, st.mass, st.energy,
+                st._w[st.cur], st._w[1 - st.cur], st.tau, st.dsum, st.reg, st.sigma,
+                st.ut_last, st.rate_slip, st.rate_base, st._started)
+        if self.first_call:  # compiled (or loaded) here, with SLP, even when continued
+            self.first_call = False
+            with slp_vectorize():
+                timed_first_call(st._name, st._fn, *args)
+            from solver.fused import COMPILE_SECONDS
+
+            st.compile_s = COMPILE_SECONDS[st._name]
+        else:
+            st._fn(*args)
+        st.energy_summed = diag
+
+
+class CudaColumns(ArrayColumns):
+    """One CUDA kernel per step through CuPy, thread per (node, scene), compiled with
+    ``--fmad=false`` and the numba kernels' summation order (``solver.ensemble_cuda``); the
+    work sums are kept per (node, scene) (no atomics) and summed when read."""
+
+    def __init__(self, st: BatchedExplicit) -> None:  # pragma: no cover - GPU only
         import cupy
 
-        self._module = cupy.RawModule(code=CUDA_SOURCE, options=("--fmad=false",))
-        self._kern = self._module.get_function("fused_step_damped" if self.damped
-                                                else "fused_step")
-        self._kern_w = self._module.get_function("kelvin_voigt_argument")
-        self._kern_k = self._module.get_function("stiffness_product")
-        nodes = self.n // 2
-        self.cslot = self.cslot.astype(np.int32)
-        self.keep = cupy.zeros(nodes, dtype=np.int8)
-        self.work = cupy.zeros((3, self.m, self.B))  # per (node, scene): no atomics
+        st._module = cupy.RawModule(code=CUDA_SOURCE, options=("--fmad=false",))
+        st._kern = st._module.get_function("fused_step_damped" if st.damped
+                                           else "fused_step")
+        st._kern_w = st._module.get_function("kelvin_voigt_argument")
+        st._kern_k = st._module.get_function("stiffness_product")
+        nodes = st.n // 2
+        st.cslot = st.cslot.astype(np.int32)
+        st.keep = cupy.zeros(nodes, dtype=np.int8)
+        st.work = cupy.zeros((3, st.m, st.B))  # per (node, scene): no atomics
         # damped: the damping work's step sum per (node, scene)
-        self.dwork = cupy.zeros((nodes, self.B))
-        self._threads = 128
-        self._blocks = (nodes * self.B + self._threads - 1) // self._threads
+        st.dwork = cupy.zeros((nodes, st.B))
+        st._threads = 128
+        st._blocks = (nodes * st.B + st._threads - 1) // st._threads
 
-    def _cuda_step(self, u, u_next, diag: bool) -> None:  # pragma: no cover - GPU only
-        dt, b2 = self.dt, self.beta2
+    @property
+    def damping_state(self) -> tuple[str, ...]:
+        return ("dwork",)
+
+    def stiffness(self, st: BatchedExplicit, u, out) -> None:  # pragma: no cover - GPU only
+        st._kern_k((st._blocks,), (st._threads,), (
+            st.indptr, st.indices, st.data, u, out, np.int32(st.n // 2), np.int32(st.B)))
+
+    def work_sums(self, st: BatchedExplicit):  # pragma: no cover - GPU only
+        return st.work.sum(axis=1)
+
+    def damping_step_sum(self, st: BatchedExplicit):  # pragma: no cover - GPU only
+        return st.dwork.sum(axis=0)
+
+    def step(self, st: BatchedExplicit, u, u_next, diag: bool) -> None:  # pragma: no cover
+        dt, b2 = st.dt, st.beta2
         f64 = np.float64
         damped = ()
-        if self.damped:  # w_n = u_n + tau v~_n first: the step overwrites v~
-            count = self.n * self.B
-            self._kern_w(((count + self._threads - 1) // self._threads,), (self._threads,),
-                         (u, self.v_pred, self.u_tau, f64(self.tau), np.int32(count)))
-            damped = (self.u_tau, self.dwork)
-        self._kern((self._blocks,), (self._threads,), (
-            self.indptr, self.indices, self.data, u, u_next, self.v, self.v_pred, self.a,
-            self.ku, self.nim, self.cslot, self.ph_re, self.ph_im, self.pc_re, self.pc_im,
-            self.cmass, self.cinv, self.d, self.slide, self.f, self.r_r, self.r_t, self.r_x,
-            self.r_y, self.status, self.zprev, self.work, f64(b2 * dt), f64(0.5 * dt),
-            f64((0.5 - b2) * dt), np.int32(b2 == 0.5), f64(dt), f64(self.kappa),
-            f64(1.0 / self.kappa), np.int32(self.n // 2), np.int32(self.B), np.int32(self.m),
-            np.int32(diag), self.keep, *damped))
+        if st.damped:  # w_n = u_n + tau v~_n first: the step overwrites v~
+            count = st.n * st.B
+            st._kern_w(((count + st._threads - 1) // st._threads,), (st._threads,),
+                       (u, st.v_pred, st.u_tau, f64(st.tau), np.int32(count)))
+            damped = (st.u_tau, st.dwork)
+        st._kern((st._blocks,), (st._threads,), (
+            st.indptr, st.indices, st.data, u, u_next, st.v, st.v_pred, st.a,
+            st.ku, st.nim, st.cslot, st.ph_re, st.ph_im, st.pc_re, st.pc_im,
+            st.cmass, st.cinv, st.d, st.slide, st.f, st.r_r, st.r_t, st.r_x,
+            st.r_y, st.status, st.zprev, st.work, f64(b2 * dt), f64(0.5 * dt),
+            f64((0.5 - b2) * dt), np.int32(b2 == 0.5), f64(dt), f64(st.kappa),
+            f64(1.0 / st.kappa), np.int32(st.n // 2), np.int32(st.B), np.int32(st.m),
+            np.int32(diag), st.keep, *damped))
+
+
+#: The batched step's implementations (a strategy of ``BatchedExplicit``, chosen once; the
+#: backend's kernel is ``solver.schemes.select.BACKENDS``).
+BATCH_KERNELS: dict[str, type[ArrayColumns]] = {
+    "numba": NumbaColumns, "cuda": CudaColumns, "xp": ArrayColumns}

@@ -288,17 +288,18 @@ class BatchRecorder:
         npb = len(probe_nodes)
         # the guard on the host copies of the energies (GPU): the clock of each sample (the
         # stepper's time when it was taken), the scenes found, their messages not yet taken
-        self.deferred = xp is not np
+        host = integ.host_records  # numpy arrays, or a device's
+        self.deferred = not host
         self.clock = np.zeros(max_samples)
         self.flagged = np.zeros(B, dtype=bool)
         self.blowups: dict[int, str] = {}
 
         def store(name: str, inner: tuple[int, ...], dtype, rows: int, chunk_rows: int,
                   on_host=None):
-            if spool_dir is None and xp is np:  # the whole record, in host memory
+            if spool_dir is None and host:  # the whole record, in host memory
                 return _Record(inner, B, rows, dtype)
             path = None if spool_dir is None else spool_dir / name  # chunks (file or host)
-            if xp is np:
+            if host:
                 return _Spool(xp, inner, B, chunk_rows, dtype, path)
             return _DeviceSpool(xp, inner, B, chunk_rows, dtype, path, on_host)
 
@@ -398,7 +399,7 @@ class BatchRecorder:
             e[:, 0] = xp.einsum("ib,ib->b", self.scratch, it.v)
             e[:, 1] = xp.einsum("ib,ib->b", it.u_prev, it.ku)
         e[:, :2] *= 0.5
-        e[:, 2:5] = (it.work[:3] if it.work.ndim == 2 else it.work.sum(axis=1)).T
+        e[:, 2:5] = it.work_sums().T
         e[:, 5] = it.damping_work_totals() if it.damped else 0.0
         self.t[self.n] = it.time - it.dt
         self.clock[self.n] = it.time

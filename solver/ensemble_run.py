@@ -151,7 +151,7 @@ class BatchSimulation:
                  spool_parent: Path | None = None, profile: Profile | None = None,
                  memory_budget: float = math.inf) -> None:
         from solver.problem import build_problem, omega_max
-        from solver.schemes.select import time_step
+        from solver.schemes.select import for_scene
 
         self.comm = MPI.COMM_SELF
         self.scenes, self.backend = scenes, backend
@@ -160,7 +160,8 @@ class BatchSimulation:
             self.problem = build_problem(scenes[0], self.comm)
         with self.profile.phase("stability"):
             self.omega_max = omega_max(self.problem)
-        self.dt, self.dt_crit = time_step(scenes[0], self.omega_max)
+        self.scheme = for_scene(scenes[0])  # the scheme registry, asked once
+        self.dt, self.dt_crit = self.scheme.time_step(scenes[0], self.omega_max)
         self.runs = [SceneRun(sc, self.problem, self) for sc in scenes]
         self.live: list[int] = []  # runs in the batch, in column order
         self.failures: dict[int, BaseException] = {}
@@ -203,11 +204,10 @@ class BatchSimulation:
         from solver.contact import ContactProjection
         from solver.ensemble_observers import BatchRecorder
         from solver.observers import InnerCircleRecorder, ProbeRecorder
-        from solver.schemes.select import make_batched_stepper
 
         sc0 = self.scenes[self.live[0]]
         laws = [ContactLaw.from_scene(self.scenes[k], self.dt) for k in self.live]
-        stepper = make_batched_stepper(self.problem, laws, self.backend, sc0.damping.tau)
+        stepper = self.scheme.build_batch(self.problem, laws, self.backend, sc0.damping.tau)
         stepper.set_state(u0, np.zeros_like(u0))
         projection = ContactProjection(self.problem, laws[0])
         shape = InnerCircleRecorder(self.problem, projection, None, 1, max_samples=0)
@@ -216,7 +216,7 @@ class BatchSimulation:
         n_steps = self.planned_steps()
         record = BatchRecorder.record_bytes(len(self.live), stepper.m, len(probes.index),
                                             n_steps // every + 2, n_steps)
-        if stepper.xp is not np or record > memory_budget:
+        if not stepper.host_records or record > memory_budget:
             self.spool_dir = Path(tempfile.mkdtemp(prefix=".batch-", dir=spool_parent))
         rec = BatchRecorder(
             stepper, mass=self.problem.mass, perm=shape.perm, theta=shape.theta, ds=shape.ds,

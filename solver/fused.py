@@ -94,24 +94,10 @@ def _kernels():
     return _fused_kernels
 
 
-REGULARISATIONS = {"": 0, "prakash-clifton": 1, "constant-time": 2}
-"""The kernels' code of a friction bound (``ContactLaw.regularisation``): 0 is f p."""
-
-
 def friction_bound(law) -> tuple[int, float, float]:
-    """(code, rate_slip, rate_base) of ``law``'s friction bound for the kernels: the
-    relaxation rate of sigma_eff is |V dt| rate_slip + rate_base, with the constants of
-    ``solver.contact.nodal.EffectivePressure`` (1 / (dt L) and V* / L for Prakash-Clifton;
-    0 and 1 / t* for a constant time). The 1-2-1 filtered bound is not in the kernels."""
-    if law.filtered:
-        raise ValueError(f"friction variant {law.variant!r}: the 1-2-1 filtered bound runs "
-                         "with the numpy step (time.kernel = \"numpy\")")
-    code = REGULARISATIONS[law.regularisation]
-    if code == 1:
-        return code, 1.0 / (law.dt * law.slip_length), law.reference_velocity / law.slip_length
-    if code == 2:
-        return code, 0.0, 1.0 / law.relaxation_time
-    return 0, 0.0, 0.0
+    """(code, rate_slip, rate_base) of ``law``'s friction bound for the kernels
+    (``solver.contact.ContactLaw.kernel_bound``; the 1-2-1 filtered bound is not in them)."""
+    return law.kernel_bound()
 
 
 def kernel(name: str):
@@ -383,6 +369,10 @@ class FusedNewmark(ExplicitStart):
         return self._ghosted is None and (len(hooks) == 1
                                           and hasattr(hooks[0], "kernel_buffers"))
 
+    def compiled_recorder(self):
+        """``_fused_kernels.record_sample`` while ``compiled_loop`` holds, else None."""
+        return kernel("record_sample") if self.compiled_loop else None
+
     def advance(self, n: int, t_stop: float = math.inf) -> int:
         """Up to ``n`` steps, stopping before a step once ``time >= t_stop``; returns the
         steps taken. With ``compiled_loop`` they are ONE call of ``_fused_kernels.advance``,
@@ -472,3 +462,8 @@ class FusedDampingWork:
         """W_d up to level n on this rank's dofs; needs ``integrator.ku`` = K u_n."""
         return float(integrator.work[3]) - 0.5 * (
             float(self._dot(integrator.u, integrator.ku)) - self.u0_ku0)
+
+    def at_sample(self, integrator: FusedNewmark) -> float:
+        """W_d up to level n on this rank's dofs, K u_n refreshed first."""
+        integrator.refresh_ku()  # the damped step forms K (u + tau v~), not K u
+        return self.local_total(integrator)

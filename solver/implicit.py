@@ -297,18 +297,12 @@ class ImplicitContact(NodalFrames):
 class ImplicitNewmark(HookedStepper):
     """Implicit Newmark on owned-dof numpy arrays; linear solves by PETSc KSP (LU, see above).
 
-    Parameters
-    ----------
-    K
-        Assembled stiffness (PETSc Mat, no boundary conditions).
-    mass
-        Lumped mass per owned dof.
-    clamped
-        Owned local dof indices held at zero (outer circle).
-    dt, beta1, beta2
-        Time step and Newmark parameters (beta1 > 0).
-    contact
-        ``ImplicitContact`` or None (free vibration).
+    Args:
+        K: Assembled stiffness (PETSc Mat, no boundary conditions).
+        mass: Lumped mass per owned dof.
+        clamped: Owned local dof indices held at zero (outer circle).
+        dt, beta1, beta2: Time step and Newmark parameters (beta1 > 0).
+        contact: ``ImplicitContact`` or None (free vibration).
     """
 
     def __init__(self, K: PETSc.Mat, mass: np.ndarray, clamped: np.ndarray, dt: float,
@@ -320,6 +314,7 @@ class ImplicitNewmark(HookedStepper):
             raise ValueError(f"time.beta2 = {beta2} must be in [0.5, 1]")
         self.K, self.mass, self.clamped = K, mass, np.asarray(clamped)
         self.tau = tau  # Kelvin-Voigt retardation time (0: undamped)
+        self.damped = tau > 0.0
         self.damping_work_local = 0.0  # damping work up to the exposed level n (this rank)
         self.beta1, self.beta2 = beta1, beta2
         self.contact = contact
@@ -538,6 +533,21 @@ class ImplicitNewmark(HookedStepper):
             "linear_solves_s": self.solve_seconds,
             "contact_s": self.contact_seconds,
         }
+
+
+class ImplicitDampingWork:
+    """The Kelvin-Voigt work of a damped ``ImplicitNewmark``: the stepper books it each step
+    (``damping_work_local``, in its checkpoint), so this is no step hook and has no state."""
+
+    def state(self) -> dict[str, np.ndarray]:
+        return {}
+
+    def restore(self, state: dict[str, np.ndarray]) -> None:
+        pass
+
+    def at_sample(self, integrator: ImplicitNewmark) -> float:
+        """W_d up to level n on this rank's dofs."""
+        return integrator.damping_work_local
 
 
 def amplification_eigenvalues(omega_dt: float, beta1: float, beta2: float) -> np.ndarray:

@@ -126,17 +126,15 @@ class Newmark(ExplicitStart):
     The only global operation per step is ``stiffness_mult(u, ku)`` (one PETSc MatMult);
     everything else is in-place numpy on preallocated arrays.
 
-    Parameters
-    ----------
-    stiffness_mult
-        ``stiffness_mult(u, out)`` computes out = K u on owned arrays.
-    inv_mass
-        Inverse lumped mass per owned dof; 0 on clamped dofs (they never move).
-    dt, beta1, beta2
-        Time step and Newmark parameters (paper's notation).
-    contact
-        Optional forward-increment constraint, see ``ContactStep``.
+    Args:
+        stiffness_mult: ``stiffness_mult(u, out)`` computes out = K u on owned arrays.
+        inv_mass: Inverse lumped mass per owned dof; 0 on clamped dofs (they never move).
+        dt, beta1, beta2: Time step and Newmark parameters (paper's notation).
+        contact: Optional forward-increment constraint, see ``ContactStep``.
     """
+
+    #: Kelvin-Voigt retardation time (``DampedNewmark``; 0: undamped)
+    tau: float = 0.0
 
     def __init__(
         self,
@@ -151,7 +149,7 @@ class Newmark(ExplicitStart):
             raise NotImplementedError(
                 f"time.beta1 = {beta1}: Newmark is the explicit scheme (beta1 = 0) driven by a "
                 "stiffness product; beta1 > 0 needs the factorised K_eff: use "
-                "solver.implicit.ImplicitNewmark (solver.schemes.select.make_stepper picks it)"
+                "solver.implicit.ImplicitNewmark (solver.schemes.select.for_scene picks it)"
             )
         if not 0.5 <= beta2 <= 1.0:
             raise ValueError(f"time.beta2 = {beta2} must be in [0.5, 1]")
@@ -176,7 +174,7 @@ class Newmark(ExplicitStart):
     def facts(self) -> dict:
         """Scheme facts for the run summary (``solver.schemes.protocol.Stepper``)."""
         return {"scheme": "explicit", "beta1": self.beta1, "beta2": self.beta2,
-                "damping_tau_s": getattr(self, "tau", 0.0),
+                "damping_tau_s": self.tau,
                 "contact_s": float(getattr(self.contact, "seconds", 0.0)),
                 "kernel": "numpy"}
 

@@ -80,7 +80,8 @@ class EnergyAccumulator:
     z = u_x + i u_y (see ``ContactProjection``), so r . Delta u = Re(conj(r_xy) Delta z).
     """
 
-    def __init__(self, projection, with_friction: bool, u0: np.ndarray) -> None:
+    def __init__(self, projection, with_friction: bool, u0: np.ndarray,
+                 exact_work: bool = False) -> None:
         self.p = projection
         self.with_friction = with_friction
         n = projection.node_index.size
@@ -93,7 +94,8 @@ class EnergyAccumulator:
         self.work_contact = 0.0
         self.work_cylinder = 0.0
         self.friction_dissipation = 0.0
-        self._exact_work = hasattr(projection, "work_totals")  # implicit scheme (checked once)
+        # the implicit scheme's contact solve keeps exact work sums (``work_totals``)
+        self._exact_work = exact_work
 
     def state(self) -> dict[str, np.ndarray]:
         """The checkpoint: u_n, u_{n+1} at the nodes and the three sums (after a step)."""
@@ -184,6 +186,11 @@ class DampingWork:
         """W_d up to level n on this rank's dofs; needs ``integrator.ku`` = K u_n (refreshed)."""
         return self.sum_kw - 0.5 * (float(np.dot(integrator.u, integrator.ku)) - self.u0_ku0)
 
+    def at_sample(self, integrator) -> float:
+        """W_d up to level n on this rank's dofs, K u_n refreshed first."""
+        integrator.refresh_ku()  # the damped step forms K (u + tau v~), not K u
+        return self.local_total(integrator)
+
 
 class InnerCircleRecorder:
     """Samples u_r(theta), u_theta(theta), velocities and contact status on the inner circle.
@@ -244,7 +251,8 @@ class InnerCircleRecorder:
         self.kin_scratch = np.zeros(problem.n_owned)
         self.e_local = np.zeros(3)  # kinetic, strain, damping work (local)
         self.e_total = np.zeros(3)
-        self.damping: DampingWork | None = None  # set by the run for damped scenes
+        #: the damping-work observer of a damped scene (``at_sample``), set by the run
+        self.damping = None
         self._compiled: tuple | None = None  # set by ``use_compiled`` (fused step, one rank)
 
     def _gatherv(self, local: np.ndarray, recv: np.ndarray | None, mpitype) -> None:
@@ -276,8 +284,7 @@ class InnerCircleRecorder:
         out = self.p.out
         damping_work = 0.0
         if self.damping is not None:
-            integrator.refresh_ku()  # the damped step forms K (u + tau v~), not K u
-            damping_work = self.damping.local_total(integrator)
+            damping_work = self.damping.at_sample(integrator)
         fn(self.n, integrator.time - integrator.dt, integrator.u_prev, integrator.v,
            integrator.ku, self.problem.mass, node_x, perm, out.r_r, out.r_t, out.status,
            self.t, self.u_r, self.u_t, self.v_r, self.v_t, self.r_r, self.r_t, self.status,
@@ -306,11 +313,8 @@ class InnerCircleRecorder:
             self.n += 1
             return float(self.e_total[0]), float(self.e_total[1])
         p = self.p
-        if self.damping is not None:
-            integrator.refresh_ku()  # the damped step forms K (u + tau v~), not K u
-            self.e_local[2] = self.damping.local_total(integrator)
-        elif hasattr(integrator, "damping_work_local"):  # implicit: booked by the scheme
-            self.e_local[2] = integrator.damping_work_local
+        if self.damping is not None:  # the scheme's damping-work observer
+            self.e_local[2] = self.damping.at_sample(integrator)
         np.multiply(integrator.v, self.problem.mass, out=self.kin_scratch)  # no allocation
         self.e_local[0] = 0.5 * float(np.dot(self.kin_scratch, integrator.v))
         self.e_local[1] = 0.5 * float(np.dot(integrator.u_prev, integrator.ku))

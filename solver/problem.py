@@ -99,8 +99,9 @@ class TubeProblem:
         def expr(x: np.ndarray) -> np.ndarray:
             r = np.hypot(x[0], x[1])
             theta = np.arctan2(x[1], x[0])
-            shape = np.maximum((xi**2 * R / r - r / R) / (xi**2 - 1.0), 0.0)
-            radial = amplitude_of_theta(theta) * shape
+            # the product in eq. [1]'s order (the tube's starts keep their bits); 0 beyond xi R
+            radial = np.where(r < xi * R, amplitude_of_theta(theta) * (xi**2 * R / r - r / R)
+                              / (xi**2 - 1.0), 0.0)
             return np.vstack([radial * x[0] / r, radial * x[1] / r])
 
         fn = dolfinx.fem.Function(self.V)

@@ -24,8 +24,9 @@ from solver.errors import (  # noqa: F401  (StepTooLarge re-exported for scripts
     blowup_message,
     energy_bound,
 )
-from solver.observers import Cadence
+from solver.observers import Cadence, Observer
 from solver.scene import Scene
+from solver.schemes.protocol import Stepper
 
 if TYPE_CHECKING:  # mpi4py is imported where a run uses it: ``run_loop`` runs without it
     from mpi4py import MPI
@@ -50,10 +51,11 @@ class Simulation:
     """One scene's run. Build with ``Simulation(scene)``, then ``proceed()``.
 
     The objects, in the order they are built: the problem (mesh, K, M, contact nodes:
-    ``solver.problem``), the steady sliding state (``solver.steady``), the stepper and its
-    contact step (``solver.schemes.select.make_stepper``), the step hooks (probes, contact and
-    damping work) attached to the stepper, and the observers with a cadence (field output,
-    the inner-circle samples with their health and stop checks). ``proceed`` is the one time
+    ``solver.problem``), the steady sliding state (``solver.steady``), the scheme's parts
+    (``solver.schemes.select.for_scene(scene).build``: the stepper, its contact step and its
+    work observers), the step hooks (the work observers that need them, the probes), and the
+    observers with a cadence (field output, the inner-circle samples with their health and
+    stop checks). ``proceed`` is the one time
     loop: it advances the stepper to the next level an observer wants and asks them.
 
     It starts from steady sliding plus the scene's ``[initial]`` bump, or from
@@ -66,7 +68,7 @@ class Simulation:
                  initial_state: tuple[np.ndarray, np.ndarray, np.ndarray | None] | None = None,
                  ) -> None:
         from solver.problem import build_problem, omega_max
-        from solver.schemes.select import make_stepper, time_step
+        from solver.schemes.select import for_scene
         from solver.steady import solve_steady_sliding
 
         if comm is None:
@@ -79,14 +81,16 @@ class Simulation:
             self.problem = build_problem(scene, comm)
         with self.profile.phase("stability"):
             self.omega_max = omega_max(self.problem)
-        self.dt, self.dt_crit = time_step(scene, self.omega_max)
+        scheme = for_scene(scene)  # the scheme registry, asked once
+        self.dt, self.dt_crit = scheme.time_step(scene, self.omega_max)
         with self.profile.phase("steady-state"):
             self.steady = solve_steady_sliding(self.problem)
             p = self.steady.pressure
             self.steady_mean_pressure = comm.allreduce(float(p.sum())) / comm.allreduce(p.size)
-        self.integrator, self.projection = make_stepper(self.problem, scene, self.dt)
+        parts = scheme.build(self.problem, scene, self.dt)
+        self.integrator, self.projection = parts.stepper, parts.contact
         u0 = self._start(initial_state)
-        self._attach_step_hooks(u0)
+        self._attach_step_hooks(parts, u0)
         self.observers = self._observers(output_dir)
         self.initial_energy: float | None = None
         self.energy_bound = math.inf
@@ -119,25 +123,19 @@ class Simulation:
             self.integrator.set_state(u0, v0, a0)
         return u0
 
-    def _attach_step_hooks(self, u0: np.ndarray) -> None:
-        """The observers that need every step: contact work (unless the kernel sums it), the
-        Kelvin-Voigt work of a damped explicit step, the probes (in this order)."""
+    def _attach_step_hooks(self, parts, u0: np.ndarray) -> None:
+        """The scheme's work observers (contact work; Kelvin-Voigt work of a damped scene:
+        step hooks unless the kernel sums them, ``SchemeParts.work_observers``), the samples'
+        recorder and the probes (a step hook, after the work observers)."""
         from solver.observers import InnerCircleRecorder, ProbeRecorder
-        from solver.schemes.select import contact_work_observer, damping_work_observer
 
         sc, stepper = self.scene, self.integrator
-        self.energy = contact_work_observer(stepper, self.projection, sc.loading.f > 0.0, u0)
-        if hasattr(self.energy, "after_step"):
-            stepper.attach(self.energy)
+        self.energy, self.damping_work = parts.work_observers(sc.loading.f > 0.0, u0)
         n_steps = self.planned_steps()
         every = max(1, int(round(sc.output.sample_interval / self.dt)))
         self.recorder = InnerCircleRecorder(self.problem, self.projection, self.energy, every,
                                             max_samples=n_steps // every + 2)
-        # Kelvin-Voigt dissipation, only for damped explicit runs (a step hook unless the
-        # kernel sums it)
-        self.damping_work = self.recorder.damping = damping_work_observer(stepper, u0)
-        if hasattr(self.damping_work, "after_step"):
-            stepper.attach(self.damping_work)
+        self.recorder.damping = self.damping_work
         self.probes = ProbeRecorder(self.problem, self.projection, sc.output.probes_deg,
                                     n_steps)
         stepper.attach(self.probes)
@@ -215,10 +213,9 @@ class Simulation:
         stepper, observers = self.integrator, self.observers
         t_stop = end_time - 1e-12 * end_time
         step_stop = max_steps if max_steps is not None else math.inf
-        if getattr(stepper, "compiled_loop", False):  # samples by the compiled recorder too
-            from solver.fused import kernel
-
-            self.recorder.use_compiled(kernel("record_sample"))
+        record_sample = stepper.compiled_recorder()  # a compiled loop samples compiled too
+        if record_sample is not None:
+            self.recorder.use_compiled(record_sample)
         self._t_start = time.perf_counter()
         with self.profile.phase("time-loop"):
             self.stop_reason = run_loop(stepper, observers, t_stop, step_stop)
@@ -444,7 +441,8 @@ def energy_balance(e: np.ndarray) -> dict[str, float]:
     }
 
 
-def run_loop(stepper, observers: list, t_stop: float, step_stop: float) -> str:
+def run_loop(stepper: Stepper, observers: list[Observer], t_stop: float,
+             step_stop: float) -> str:
     """THE time loop, for one scene or a batch: advance ``stepper`` to the next level an
     observer is due at, let the due observers observe, until ``t_stop``, ``step_stop`` or an
     observer's stop reason. Returns "end_time", "max_steps" or the observer's reason."""

@@ -137,3 +137,40 @@ def check_after(run_dir: Path, before: str | None) -> str:
         with np.load(run_dir / "samples.npz") as data:
             assert data["t"].size == summary["samples"] > 0
     return "complete"
+
+
+def wait_released(folder: Path, timeout: float = 120.0) -> None:
+    """Block until no process holds ``folder``'s ``.stickslip.lock``.
+
+    Every stickslip process that may still write a directory holds its lock: the command,
+    and the helpers it forks (the watchdog, mpirun's rescue writer), which inherit it and
+    outlive a rank that mpirun SIGKILLs. So once the lock is free, the directory's files are
+    final. ``timeout`` only guards against a hang; it is not part of the handshake.
+    """
+    import fcntl
+    import threading
+
+    fd = os.open(Path(folder) / ".stickslip.lock", os.O_RDONLY)
+    taken = threading.Event()
+
+    def take() -> None:
+        fcntl.flock(fd, fcntl.LOCK_SH)
+        taken.set()
+
+    threading.Thread(target=take, daemon=True).start()
+    try:
+        assert taken.wait(timeout), f"{folder} is still locked after {timeout} s (a hang)"
+    finally:
+        os.close(fd)
+
+
+def wait_for_file(path: Path, timeout: float = 120.0) -> str:
+    """The text of ``path`` once a program has written it (atomically), e.g. a readiness
+    marker; ``timeout`` only guards against a hang."""
+    import time
+
+    t0 = time.monotonic()
+    while not Path(path).exists():
+        assert time.monotonic() - t0 < timeout, f"{path} never appeared (a hang)"
+        time.sleep(0.02)
+    return Path(path).read_text()

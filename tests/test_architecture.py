@@ -150,47 +150,116 @@ def test_the_checker_sees_a_circle_and_an_upward_import(tmp_path):
     assert "solver" in found or "solver.x" in found
 
 
-#: The one module that decides which time scheme and kernel a scene runs with
-#: (solver.schemes.select); the scene package may validate ``time.beta1`` (its own input).
+#: The scheme registry (solver.schemes.select): the one module that branches on a scene's
+#: beta1, on the kernel and on the backend; the scene package may validate ``time.beta1``
+#: (its own input).
 SCHEME_CHOICE = "solver.schemes.select"
+#: The values a branch on the kernel or the backend compares with.
+KERNEL_NAMES = ("numpy", "numba", "cuda", "xp", "cpu", "gpu")
+#: The batched stepper, whose array strategy may ask whether its namespace is numpy.
+ARRAY_STRATEGY = "solver.ensemble"
+#: Names a stepper goes by in the code, and what duck-typing one would ask it.
+STEPPER_NAMES = ("stepper", "integrator", "integ", "it", "st")
+STEPPER_ATTRS = ("kernel", "damped", "compiled_loop", "tau", "xp", "work_totals",
+                 "damping_work_local", "refresh_ku", "after_step")
 
 
-def _scheme_decisions(tree: ast.AST) -> list[str]:
-    """Decisions on a scene's scheme: a comparison reading ``<x>.time.beta1``, ``ts.beta1`` or
-    ``<x>.time.kernel``, and any call of ``resolve_kernel``."""
+def _is_scene_choice(part: ast.AST) -> bool:
+    """``<x>.time.beta1``, ``ts.beta1``, ``<x>.time.kernel``, ``ts.kernel``."""
+    return (isinstance(part, ast.Attribute) and part.attr in ("beta1", "kernel")
+            and ((isinstance(part.value, ast.Attribute) and part.value.attr == "time")
+                 or (isinstance(part.value, ast.Name) and part.value.id == "ts")))
+
+
+def _last_name(node: ast.AST) -> str:
+    """``stepper`` for ``stepper``, ``self.stepper`` or ``batch.stepper``."""
+    if isinstance(node, ast.Attribute):
+        return node.attr
+    return node.id if isinstance(node, ast.Name) else ""
+
+
+def _scheme_decisions(tree: ast.AST, array_strategy: bool = False) -> list[str]:
+    """Decisions on a scene's scheme, kernel or backend, and duck-typed steppers:
+
+    * a comparison reading ``<x>.time.beta1``, ``ts.beta1`` or ``<x>.time.kernel``;
+    * an (in)equality with a kernel's or a backend's name (``KERNEL_NAMES``);
+    * ``xp is np`` / ``xp is not np`` (unless ``array_strategy``);
+    * a call of ``resolve_kernel``;
+    * ``getattr``/``hasattr`` on a stepper (``STEPPER_NAMES``) or asking for what only a
+      stepper of some kind has (``STEPPER_ATTRS``).
+    """
     found = []
     for node in ast.walk(tree):
         if isinstance(node, ast.Compare):
-            for part in (node.left, *node.comparators):
-                if (isinstance(part, ast.Attribute) and part.attr in ("beta1", "kernel")
-                        and ((isinstance(part.value, ast.Attribute)
-                              and part.value.attr == "time")
-                             or (isinstance(part.value, ast.Name)
-                                 and part.value.id == "ts"))):
-                    found.append(f"line {node.lineno}: compares {ast.unparse(part)}")
+            parts = (node.left, *node.comparators)
+            text = ast.unparse(node)
+            if any(_is_scene_choice(part) for part in parts):
+                found.append(f"line {node.lineno}: compares {text}")
+            elif (isinstance(node.ops[0], ast.Eq | ast.NotEq)
+                  and any(isinstance(part, ast.Constant) and part.value in KERNEL_NAMES
+                          for part in parts)):
+                found.append(f"line {node.lineno}: compares with a kernel: {text}")
+            elif (not array_strategy and isinstance(node.ops[0], ast.Is | ast.IsNot)
+                  and {_last_name(part) for part in parts} == {"xp", "np"}):
+                found.append(f"line {node.lineno}: branches on the array module: {text}")
         elif isinstance(node, ast.Call):
             fn = node.func
             name = fn.attr if isinstance(fn, ast.Attribute) else getattr(fn, "id", "")
             if name == "resolve_kernel":
                 found.append(f"line {node.lineno}: calls resolve_kernel")
+            if name in ("getattr", "hasattr") and len(node.args) >= 2:
+                obj, attr = node.args[0], node.args[1]
+                asked = attr.value if isinstance(attr, ast.Constant) else None
+                if _last_name(obj) in STEPPER_NAMES or asked in STEPPER_ATTRS:
+                    found.append(f"line {node.lineno}: duck-types {ast.unparse(node)}")
     return found
 
 
-def test_only_the_selection_module_chooses_the_scheme():
-    """Every branch on a scene's beta1 (explicit or implicit) and kernel lives in
-    solver/schemes/select.py; the scene package validates its own input there too."""
+def test_only_the_registry_chooses_the_scheme_kernel_and_backend():
+    """Every branch on a scene's beta1 (explicit or implicit), on the kernel and on the
+    backend lives in the scheme registry (solver/schemes/select.py), and nothing duck-types
+    a stepper (``getattr``/``hasattr``): callers use the ``Stepper`` protocol."""
     offenders = {}
     for name, path in MODULES.items():
         if name == SCHEME_CHOICE or name.startswith("solver.scene"):
             continue
-        if name.split(".")[0] not in ("solver", "studies", "cli", "postprocess"):
+        if name.split(".")[0] not in ("solver", "studies", "cli", "postprocess", "stickslip"):
             continue
-        hits = _scheme_decisions(ast.parse(path.read_text(), filename=str(path)))
+        hits = _scheme_decisions(ast.parse(path.read_text(), filename=str(path)),
+                                 array_strategy=name == ARRAY_STRATEGY)
         if hits:
             offenders[name] = hits
     assert not offenders, f"scheme decisions outside {SCHEME_CHOICE}: {offenders}"
     select = MODULES[SCHEME_CHOICE]
     assert _scheme_decisions(ast.parse(select.read_text())), "the checker finds nothing"
+
+
+def test_the_checker_sees_kernel_branches_and_duck_typing():
+    """Each kind of decision the architecture test forbids is found in a small source."""
+    src = ("if backend == 'gpu':\n    pass\n"
+           "k = 1 if getattr(stepper, 'kernel', 'numpy') == 'numba' else 0\n"
+           "if hasattr(self.integrator, 'damped'):\n    pass\n"
+           "if xp is not np:\n    pass\n"
+           "if scene.time.beta1 > 0.0:\n    pass\n")
+    hits = _scheme_decisions(ast.parse(src))
+    assert len(hits) == 6, hits  # the ternary holds two: the getattr and the comparison
+    assert not _scheme_decisions(ast.parse("if xp is np:\n    pass\n"), array_strategy=True)
+
+
+def test_a_scheme_is_registered_once_and_asked_once():
+    """The registry holds the explicit and the implicit Newmark; ``Simulation`` and
+    ``BatchSimulation`` ask it one question (``for_scene``) and nothing else of it."""
+    from solver.schemes.select import SCHEMES
+
+    assert list(SCHEMES) == ["explicit", "implicit"]
+    for name in ("solver.run", "solver.ensemble_run"):
+        tree = ast.parse(MODULES[name].read_text())
+        imported = {alias.name for node in ast.walk(tree) if isinstance(node, ast.ImportFrom)
+                    and node.module == SCHEME_CHOICE for alias in node.names}
+        assert imported == {"for_scene"}, (name, imported)
+        calls = [node for node in ast.walk(tree) if isinstance(node, ast.Call)
+                 and getattr(node.func, "id", "") == "for_scene"]
+        assert len(calls) == 1, name
 
 
 def test_every_scheme_follows_the_stepper_protocol():
@@ -204,7 +273,8 @@ def test_every_scheme_follows_the_stepper_protocol():
     from solver.schemes.protocol import Stepper
 
     for cls in (Newmark, DampedNewmark, FusedNewmark, ImplicitNewmark, BatchedExplicit):
-        for method in ("set_state", "step", "advance", "facts", "attach"):
+        for method in ("set_state", "step", "advance", "facts", "attach", "state", "restore",
+                       "compiled_recorder"):
             assert callable(getattr(cls, method, None)), f"{cls.__name__}.{method}"
     import numpy as np
 

@@ -70,3 +70,58 @@ def test_vectorised_mixed_statuses_and_coulomb_inequality():
     g = u_r + KAPPA / 2.0 * out.r_r - D
     assert np.all(g >= -1e-18)
     assert np.max(np.abs(out.r_r * g)) < 1e-12 * out.r_r.max() * D
+
+
+def test_the_bound_is_two_typed_parts_and_the_kernels_read_their_constants():
+    """The friction bound of ``ContactLaw`` is a ``SpatialFilter`` and a ``Regularisation``;
+    ``variant`` composes the same names as the scene keys, and ``kernel_bound`` gives the
+    kernels' constants of each regularisation (exact: the same float operations as the
+    numpy ``EffectivePressure``), refusing the filtered bound."""
+    from solver.contact import ContactLaw, SpatialFilter
+    from solver.contact.law import ConstantTime, PrakashClifton, regularisation_of
+
+    dt = 1e-6
+    pc = regularisation_of("prakash-clifton", slip_length=2e-5, reference_velocity=0.5,
+                           relaxation_time=9.0)
+    ct = regularisation_of("constant-time", slip_length=9.0, relaxation_time=4e-4)
+    assert pc == PrakashClifton(slip_length=2e-5, reference_velocity=0.5)
+    assert ct == ConstantTime(relaxation_time=4e-4)
+    law = ContactLaw(d=1e-5, f=0.3, surface_speed=1.0, dt=dt, beta2=0.5)
+    assert law.variant == "nodal" and law.kernel_bound() == (0, 0.0, 0.0)
+    assert ContactLaw(1e-5, 0.3, 1.0, dt, 0.5, regularisation=pc).kernel_bound() == (
+        1, 1.0 / (dt * 2e-5), 0.5 / 2e-5)
+    assert ContactLaw(1e-5, 0.3, 1.0, dt, 0.5, regularisation=ct).kernel_bound() == (
+        2, 0.0, 1.0 / 4e-4)
+    filtered = ContactLaw(1e-5, 0.3, 1.0, dt, 0.5, SpatialFilter.ONE_TWO_ONE, pc)
+    assert filtered.variant == "1-2-1+prakash-clifton"
+    assert ContactLaw(1e-5, 0.3, 1.0, dt, 0.5, SpatialFilter.ONE_TWO_ONE).variant == "1-2-1"
+    with pytest.raises(ValueError, match="1-2-1"):
+        filtered.kernel_bound()
+    with pytest.raises(ValueError, match="regularization"):
+        regularisation_of("rate-and-state")
+
+
+def test_a_registered_scheme_is_found_by_for_scene():
+    """``add_scheme`` puts a scheme object in ``SCHEMES``; ``for_scene`` asks each in turn
+    and returns the first that applies; no scheme for a scene is a ValueError."""
+    from types import SimpleNamespace
+
+    from solver.schemes.select import SCHEMES, add_scheme, for_scene
+
+    def scene(beta1):
+        return SimpleNamespace(time=SimpleNamespace(beta1=beta1))
+
+    assert for_scene(scene(0.0)).name == "explicit"
+    assert for_scene(scene(0.25)).name == "implicit"
+    with pytest.raises(ValueError, match="beta1"):
+        for_scene(scene(-1.0))
+
+    @add_scheme("test-negative")
+    class Negative:
+        def applies_to(self, sc) -> bool:
+            return sc.time.beta1 < 0.0
+
+    try:
+        assert isinstance(for_scene(scene(-1.0)), Negative)
+    finally:
+        SCHEMES.pop("test-negative")

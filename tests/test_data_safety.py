@@ -20,7 +20,15 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from faults import PHASES, check_after, digest, inject, leftovers
+from faults import (
+    PHASES,
+    check_after,
+    digest,
+    inject,
+    leftovers,
+    wait_for_file,
+    wait_released,
+)
 
 REPO = Path(__file__).resolve().parents[1]
 SHORT = ["time.end_time=0.005", "output.progress=false"]
@@ -324,20 +332,27 @@ def test_sigterm_to_mpirun_leaves_interrupted_and_samples(tmp_path):
     if shutil.which("mpirun") is None or "OMPI_COMM_WORLD_SIZE" in os.environ:
         pytest.skip("needs mpirun, outside mpirun")
     run_dir = tmp_path / "r"
+    # end_time 60 s at 1 ms samples: ~2.4 million steps, minutes of work on any machine, so
+    # the first progress line (5 s of wall time into the loop) always comes with most of
+    # the loop left; the line is the program's own sign that the time loop runs.
     proc = subprocess.Popen(["mpirun", "-n", "2", sys.executable, "-m", "cli.main", "run",
-                             "figure3_n132", "--set", "time.end_time=6", "-o", str(run_dir)],
+                             "figure3_n132", "--set", "time.end_time=60",
+                             "--set", "output.sample_interval=1e-3", "-o", str(run_dir)],
                             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
                             cwd=REPO)
-    # end_time 6 s: minutes of work even with the fused step, so the signal always lands in
-    # the time loop (1.5 s finished before the first progress line on a quiet machine)
+    seen = []
     for line in proc.stdout:  # wait for the time loop (its first progress line)
+        seen.append(line)
         if line.lstrip().startswith("t = "):
             break
+    assert proc.poll() is None, "".join(seen)  # still running: the signal lands in the loop
     proc.send_signal(signal.SIGTERM)
-    proc.communicate(timeout=60)
-    time.sleep(1.0)  # the rescue writer runs on after mpirun has gone
+    proc.communicate(timeout=120)
+    # The rescue writer (and the watchdog) hold the run's lock until its files are final:
+    # the handshake, however late mpirun's SIGKILL left them.
+    wait_released(run_dir)
     s = json.loads((run_dir / "summary.json").read_text())
-    assert s["status"] == "interrupted"
+    assert s["status"] == "interrupted", s
     with np.load(run_dir / "samples.npz") as data:
         assert data["t"].size > 0
 
@@ -347,32 +362,37 @@ def test_sigterm_while_stuck_in_compiled_code(tmp_path):
     The watcher ends the run 2 s later, marked `interrupted`, instead of ignoring SIGTERM."""
     pytest.importorskip("dolfinx")
     driver = tmp_path / "driver.py"
+    ready = tmp_path / "ready"
+    # libc's system() waits for its child in C and restarts the wait after a signal, so the
+    # Python handler cannot run until it returns: a stand-in for gmsh meshing a huge mesh.
+    # The child writes the readiness marker (its pid) once the parent is inside that call.
+    child = (f"echo $$ > {ready}.tmp && mv {ready}.tmp {ready} && "
+             "exec sleep 300 </dev/null >/dev/null 2>&1")
     driver.write_text(f"""
-import io, sys, time
+import ctypes, io, sys
 sys.path.insert(0, {str(REPO)!r})
 from mpi4py import MPI
-import numpy as np
 import solver.problem
 from solver.scene import load_scene
 from studies.rundir import run_scene
-def build(scene, comm):  # stands for gmsh meshing a huge mesh: minutes inside C
-    a = np.random.default_rng(0).random((4000, 4000))
-    print("meshing", flush=True)
-    for _ in range(50):
-        np.linalg.svd(a)
+def build(scene, comm):
+    ctypes.CDLL(None).system({child!r}.encode())
 solver.problem.build_problem = build
 run_scene(load_scene("smoke", {SHORT!r}), {str(tmp_path / 'm')!r}, comm=MPI.COMM_SELF,
           stream=io.StringIO())
 """)
-    proc = subprocess.Popen([sys.executable, str(driver)], stdout=subprocess.PIPE,
+    proc = subprocess.Popen([sys.executable, str(driver)], stdout=subprocess.DEVNULL,
                             stderr=subprocess.PIPE, text=True, cwd=REPO)
-    assert proc.stdout.readline().strip() == "meshing"
-    time.sleep(1.0)  # well inside the first SVD (> 10 s on one core)
-    t0 = time.time()
-    proc.send_signal(signal.SIGTERM)
-    _, err = proc.communicate(timeout=60)
-    assert proc.returncode == -signal.SIGKILL, err  # the watchdog ends it (shell: 137)
-    assert time.time() - t0 < 20  # grace 2 s; generous for a loaded 2-core machine
+    sleeper = int(wait_for_file(ready))
+    try:
+        t0 = time.time()
+        proc.send_signal(signal.SIGTERM)
+        _, err = proc.communicate(timeout=120)
+        assert proc.returncode == -signal.SIGKILL, err  # the watchdog ends it (shell: 137)
+        assert time.time() - t0 < 60  # grace 2 s; the bound only tells "ended" from "hung"
+    finally:
+        os.kill(sleeper, signal.SIGKILL)
+    wait_released(tmp_path / "m")  # the watchdog marks the run before its SIGKILL
     s = json.loads((tmp_path / "m" / "summary.json").read_text())
     assert s["status"] == "interrupted" and "SIGTERM while in setup" in s["message"]
 
@@ -515,11 +535,8 @@ run_scene(load_scene("smoke", {SHORT!r}), {str(tmp_path / 'k')!r}, comm=MPI.COMM
     res = subprocess.run([sys.executable, str(driver)], cwd=REPO, capture_output=True,
                          timeout=120)
     assert res.returncode == -signal.SIGKILL
-    for _ in range(50):  # the watchdog works on after its parent is gone
-        s = json.loads((tmp_path / "k" / "summary.json").read_text())
-        if s["status"] != "running":
-            break
-        time.sleep(0.1)
+    wait_released(tmp_path / "k")  # the watchdog works on after its parent is gone
+    s = json.loads((tmp_path / "k" / "summary.json").read_text())
     assert s["status"] == "crashed" and "killed outright" in s["message"]
     assert "the final save" in s["message"]
     assert not leftovers(tmp_path / "k")

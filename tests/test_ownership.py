@@ -107,15 +107,13 @@ def test_force_never_replaces_a_live_run(finished, tmp_path, capsys):
     assert digest(d) == before and not leftovers(d)
 
 
-def _claim_in_child(path: str, queue) -> None:  # noqa: ANN001
+def _claim_in_child(path: str, queue, answered) -> None:  # noqa: ANN001
     from studies.rundir.ownership import OwnershipError, claim
 
     try:
         c = claim(path, "run")
         queue.put("ok")
-        import time
-
-        time.sleep(0.3)  # still running while the others try
+        answered.wait(60)  # still running until every other command has tried
         c.release()
     except OwnershipError as err:
         queue.put(str(err))
@@ -127,13 +125,15 @@ def test_two_commands_never_share_a_new_directory(tmp_path):
     ctx = multiprocessing.get_context("fork")
     for trial in range(3):
         target = str(tmp_path / f"new{trial}" / "r")
-        queue = ctx.Queue()
-        procs = [ctx.Process(target=_claim_in_child, args=(target, queue)) for _ in range(4)]
+        queue, answered = ctx.Queue(), ctx.Event()
+        procs = [ctx.Process(target=_claim_in_child, args=(target, queue, answered))
+                 for _ in range(4)]
         for p in procs:
             p.start()
+        answers = [queue.get(timeout=60) for _ in procs]
+        answered.set()  # the winner lets go only now: a late starter met a live claim
         for p in procs:
-            p.join(10)
-        answers = [queue.get(timeout=5) for _ in procs]
+            p.join(60)
         assert answers.count("ok") == 1, answers
         assert all("in use" in a or "exists" in a for a in answers if a != "ok"), answers
 

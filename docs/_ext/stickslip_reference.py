@@ -34,6 +34,12 @@ def _cell(text: str) -> str:
 # ------------------------------------------------------------------------------ the CLI
 
 
+def _code(value: object) -> str:
+    """``value`` as inline code in a table cell: a ``|`` (``A|B`` metavars) escaped, as the
+    table syntax needs even inside code."""
+    return "`" + str(value).replace("|", "\\|") + "`"
+
+
 def _subcommands(parser: argparse.ArgumentParser) -> dict[str, argparse.ArgumentParser]:
     for action in parser._actions:
         if isinstance(action, argparse._SubParsersAction):
@@ -48,11 +54,12 @@ def _option_rows(parser: argparse.ArgumentParser) -> list[str]:
             continue
         names = ", ".join(f"`{s}`" for s in a.option_strings) or f"`{a.dest}`"
         if a.option_strings and a.nargs != 0:
-            names += f" `{a.metavar or a.dest.upper()}`"
+            names += f" {_code(a.metavar or a.dest.upper())}"
         default = "" if a.default in (None, argparse.SUPPRESS, False, []) or not \
-            a.option_strings else f"`{a.default}`"
+            a.option_strings else _code(a.default)
         choices = ", ".join(f"`{c}`" for c in a.choices) if a.choices else ""
-        helptext = (a.help or "").replace("%(default)s", str(a.default))
+        # what --help prints: argparse formats help strings (%(default)s, %% for %)
+        helptext = (a.help or "").replace("%(default)s", str(a.default)).replace("%%", "%")
         rows.append(f"| {names} | {_cell(helptext)} | {default} | {choices} |")
     return rows
 
@@ -173,7 +180,11 @@ def scene_markdown() -> str:
            "are SI. Unknown keys, wrong types and values out of range are refused when the "
            "scene is loaded, with the key, the value and the rule. Override any key on the "
            "command line with `--set section.key=value`, or in Python with "
-           "`stickslip.load_scene(scene, {\"section.key\": value})`.", "",
+           "`stickslip.load_scene(scene, {\"section.key\": value})`. A scene may start "
+           "from another, as a sweep file does: `base = \"figure1_n132_damped\"` (a path "
+           "relative to the file, or a shipped scene name) takes every key of that scene and "
+           "the file's own keys replace them one by one (its `name` and `description` are "
+           "not inherited).", "",
            "## Top level", "", "| key | type | default | meaning |", "|---|---|---|---|"]
     docs = {"description": "Free text saying what the scene is for.", **_attribute_docs(Scene)}
     for name in ("name", "description"):

@@ -1,7 +1,7 @@
 """Unilateral contact and Coulomb friction on the tube's inner circle.
 
-* ``law``: ``ContactLaw`` (d, f, the cylinder's travel per step, kappa, the friction variant)
-  and the status codes, defined once;
+* ``law``: ``ContactLaw`` (d, f, the cylinder's travel per step, kappa, the friction bound's
+  typed parts ``SpatialFilter`` and ``Regularisation``) and the status codes, defined once;
 * ``nodal``: the nodal projection as plain numpy functions (Coulomb, Prakash-Clifton, the
   1-2-1 filtered bound), independent of the mesh and of the time loop;
 * ``projection``: the explicit contact step at the contact nodes of a tube
@@ -13,7 +13,12 @@ from solver.contact.law import (
     SLIP,
     STATUS_NAMES,
     STICK,
+    ConstantTime,
     ContactLaw,
+    Instantaneous,
+    PrakashClifton,
+    Regularisation,
+    SpatialFilter,
     forward_increment_factor,
 )
 from solver.contact.nodal import (
@@ -38,6 +43,7 @@ from solver.contact.projection import (
 
 __all__ = [
     "SEPARATION", "STICK", "SLIP", "STATUS_NAMES", "ContactLaw", "forward_increment_factor",
+    "SpatialFilter", "Regularisation", "Instantaneous", "PrakashClifton", "ConstantTime",
     "ContactArrays", "EffectivePressure", "NeighbourFilter", "project_contact",
     "project_contact_filtered", "project_contact_regularized", "project_normal",
     "project_tangential", "relax_effective_pressure", "zone_fractions", "ContactProjection",

@@ -28,7 +28,15 @@ from __future__ import annotations
 
 import numpy as np
 
-from solver.contact.law import SEPARATION, SLIP, STICK
+from solver.contact.law import (
+    REGULARISATIONS,
+    SEPARATION,
+    SLIP,
+    STICK,
+    Instantaneous,
+    Regularisation,
+    regularisation_of,
+)
 
 
 def project_contact(
@@ -44,26 +52,17 @@ def project_contact(
 ) -> None:
     """Contact/friction multipliers for one step, written into ``out`` (no allocation).
 
-    Parameters
-    ----------
-    u_r_trial, u_t_trial
-        Radial and tangential displacement of each contact node at t_{n+1} *without* contact
-        force (the Newmark predictor).
-    u_t_prev
-        Tangential displacement at t_n (stick = move with the cylinder from here).
-    mass
-        Lumped nodal mass (same for both components), kg/m (plane strain: per unit depth).
-    kappa
-        Newmark factor: a nodal force r changes u_{n+1} by kappa / m * r.
-    d
-        Mismatch (radius excess of the cylinder), m.
-    slide
-        Distance the cylinder surface travels in one step, R Omega dt.
-    f
-        Friction coefficient. With f == 0 the tangential work is skipped entirely.
-    out
-        ``r_r``, ``r_t`` (normal and tangential nodal force on the tube, N/m), ``status``
-        (SEPARATION, STICK, SLIP per node) and scratch arrays.
+    Args:
+        u_r_trial, u_t_trial: Radial and tangential displacement of each contact node at
+            t_{n+1} *without* contact force (the Newmark predictor).
+        u_t_prev: Tangential displacement at t_n (stick = move with the cylinder from here).
+        mass: Lumped nodal mass (same for both components), kg/m (plane strain: per unit depth).
+        kappa: Newmark factor: a nodal force r changes u_{n+1} by kappa / m * r.
+        d: Mismatch (radius excess of the cylinder), m.
+        slide: Distance the cylinder surface travels in one step, R Omega dt.
+        f: Friction coefficient. With f == 0 the tangential work is skipped entirely.
+        out: ``r_r``, ``r_t`` (normal and tangential nodal force on the tube, N/m), ``status``
+            (SEPARATION, STICK, SLIP per node) and scratch arrays.
     """
     project_normal(u_r_trial, mass, kappa, d, out)
     if f == 0.0:  # frictionless: contact nodes slip freely, no tangential force
@@ -149,16 +148,22 @@ class EffectivePressure:
     steady sliding is a fixed point. All arrays are allocated once.
     """
 
-    def __init__(self, n: int, kind: str, dt: float, slip_length: float = 0.0,
-                 reference_velocity: float = 0.0, relaxation_time: float = 0.0) -> None:
-        if kind not in ("prakash-clifton", "constant-time"):
+    def __init__(self, n: int, kind: str | Regularisation, dt: float,
+                 slip_length: float = 0.0, reference_velocity: float = 0.0,
+                 relaxation_time: float = 0.0) -> None:
+        reg = kind
+        if not isinstance(kind, Regularisation):
+            known = REGULARISATIONS.get(kind, Instantaneous)
+            reg = regularisation_of(known.name, slip_length, reference_velocity,
+                                    relaxation_time)
+        if reg.code == 0:
             raise ValueError(f"friction.regularization = {kind!r}: not a regularised law")
-        self.kind, self.dt = kind, dt
-        self.L, self.v_ref, self.t_relax = slip_length, reference_velocity, relaxation_time
+        self.regularisation, self.dt = reg, dt
+        # rate = |V dt| rate_slip + rate_base (``Regularisation``); a slip-independent rate
+        # (rate_slip = 0) is set once, a slip-dependent one at each update
+        self.rate_slip, self.rate_base = reg.rates(dt)
         self.sigma = np.zeros(n)
-        self.rate = np.zeros(n)
-        if kind == "constant-time":
-            self.rate.fill(1.0 / relaxation_time)
+        self.rate = np.zeros(n) if self.rate_slip else np.full(n, self.rate_base)
         self.u_t_last = np.zeros(n)  # u_theta,{n-1}
         self.work = np.zeros(n)
         self.started = False
@@ -170,13 +175,13 @@ class EffectivePressure:
             self.sigma[:] = p
             self.u_t_last[:] = u_t_now  # at rest: slip rate R Omega, as in steady sliding
             self.started = True
-        if self.kind == "prakash-clifton":
-            # rate = (|V| + V*) / L with V = (u_theta,n - u_theta,{n-1} - slide) / dt
+        if self.rate_slip:
+            # Prakash-Clifton: rate = (|V| + V*) / L, V = (u_theta,n - u_theta,{n-1} - slide) / dt
             np.subtract(u_t_now, self.u_t_last, out=self.rate)
             self.rate -= slide
             np.abs(self.rate, out=self.rate)
-            self.rate *= 1.0 / (self.dt * self.L)
-            self.rate += self.v_ref / self.L
+            self.rate *= self.rate_slip
+            self.rate += self.rate_base
         relax_effective_pressure(self.sigma, p, self.rate, self.dt, self.work)
         self.u_t_last[:] = u_t_now
         np.multiply(self.sigma, f, out=out.cone)

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from solver.contact.law import ContactLaw
+from solver.contact.law import ContactLaw, SpatialFilter
 from solver.contact.nodal import (
     ContactArrays,
     EffectivePressure,
@@ -171,8 +171,8 @@ class FilteredContactProjection(ContactProjection):
         super().__init__(problem, law)
         nd = problem.nodes
         self.filter = NeighbourFilter(nd.global_node_index, nd.n_global, problem.comm)
-        self.effective = (_effective_pressure(self.mass.size, law) if law.regularisation
-                          else None)
+        self.effective = (_effective_pressure(self.mass.size, law)
+                          if law.regularisation.code else None)
 
     def _project(self, u_r_trial: np.ndarray, u_t_trial: np.ndarray,
                  u_t_now: np.ndarray) -> None:
@@ -182,15 +182,21 @@ class FilteredContactProjection(ContactProjection):
 
 def _effective_pressure(n: int, law: ContactLaw) -> EffectivePressure:
     """The per-node Prakash-Clifton state of ``law``'s regularisation (allocated once)."""
-    return EffectivePressure(n, law.regularisation, law.dt, slip_length=law.slip_length,
-                             reference_velocity=law.reference_velocity,
-                             relaxation_time=law.relaxation_time)
+    return EffectivePressure(n, law.regularisation, law.dt)
 
 
 def make_projection(problem, law: ContactLaw) -> ContactProjection:
-    """The explicit contact step of ``law``'s variant: Coulomb, filtered and/or regularised."""
-    if law.filtered:
-        return FilteredContactProjection(problem, law)
-    if law.regularisation:
-        return RegularizedContactProjection(problem, law)
-    return ContactProjection(problem, law)
+    """The explicit contact step of ``law``'s bound: by its spatial filter
+    (``PROJECTIONS``), then, nodal, Coulomb or regularised."""
+    projection = PROJECTIONS[law.filter]
+    if projection is ContactProjection and law.regularisation.code:
+        projection = RegularizedContactProjection
+    return projection(problem, law)
+
+
+#: The explicit contact step of each spatial filter of the bound (``SpatialFilter``); a
+#: filtered step composes the regularisation itself.
+PROJECTIONS: dict[SpatialFilter, type[ContactProjection]] = {
+    SpatialFilter.NODAL: ContactProjection,
+    SpatialFilter.ONE_TWO_ONE: FilteredContactProjection,
+}

@@ -43,9 +43,20 @@ def load_scene(path: str | Path, overrides: Sequence[str] = ()) -> Scene:
     A missing ``name`` defaults to the file stem.
     """
     p = _resolve(path)
+    data = _with_base(_read_toml(p), p, (p.resolve(),))
+    data.setdefault("name", p.stem)
+    data = apply_overrides(data, overrides)
+    try:
+        return scene_from_dict(data)
+    except SceneError as exc:
+        where = f"{p} with --set {' '.join(overrides)}" if overrides else str(p)
+        raise SceneError(f"{where}: {exc}") from exc
+
+
+def _read_toml(p: Path) -> dict:
     try:
         with p.open("rb") as fh:
-            data = tomllib.load(fh)
+            return tomllib.load(fh)
     except UnicodeDecodeError as exc:
         raise SceneError(f"{p}: not a text TOML file (byte {exc.start} is not UTF-8); "
                          "give a scene .toml file") from exc
@@ -54,13 +65,43 @@ def load_scene(path: str | Path, overrides: Sequence[str] = ()) -> Scene:
     except OSError as exc:
         raise SceneError(f"{p}: cannot read the scene file ({exc.strerror}); check the "
                          "path and its permissions") from exc
-    data.setdefault("name", p.stem)
-    data = apply_overrides(data, overrides)
-    try:
-        return scene_from_dict(data)
-    except SceneError as exc:
-        where = f"{p} with --set {' '.join(overrides)}" if overrides else str(p)
-        raise SceneError(f"{where}: {exc}") from exc
+
+
+def _with_base(data: dict, p: Path, chain: tuple[Path, ...]) -> dict:
+    """``data`` on top of its ``base = "..."`` scene (as in a sweep file: a path relative to
+    ``p``'s folder or the current one, or a shipped scene name), key by key; the base's
+    ``name`` and ``description`` are its own and are not inherited. ``chain``: the files
+    already on the way (a base that comes back to one of them is refused)."""
+    from solver.scene.model import _EXCLUSIVE
+
+    if "base" not in data:
+        return data
+    base = data.pop("base")
+    if not isinstance(base, str) or not base:
+        raise SceneError(f"{p}: base = {base!r}: give a scene file or a shipped scene name")
+    candidates = [c for c in (p.parent / base, Path(base)) if c.is_file()]
+    shipped = SCENES_DIR / f"{Path(base).stem}.toml"
+    if not candidates and Path(base).parent == Path(".") and shipped.is_file():
+        candidates = [shipped]
+    if not candidates:
+        raise SceneError(f"{p}: base = {base!r} not found (relative to the scene file, the "
+                         "current directory, or a shipped scene name)")
+    bp = candidates[0].resolve()
+    if bp in chain:
+        raise SceneError(f"{p}: base = {base!r} comes back to {bp} (a cycle of bases)")
+    merged = {k: v for k, v in _with_base(_read_toml(bp), bp, (*chain, bp)).items()
+              if k not in _TOP_SCALARS}
+    for key, value in data.items():
+        if isinstance(value, dict) and isinstance(merged.get(key), dict):
+            section = dict(merged[key])
+            for sec, a, b in _EXCLUSIVE:  # the file's rho replaces the base's wave_speed
+                if sec == key and (a in value or b in value):
+                    section.pop(a, None)
+                    section.pop(b, None)
+            merged[key] = {**section, **value}
+        else:
+            merged[key] = value
+    return merged
 
 
 def _toml_str(s: str) -> str:
@@ -116,3 +157,28 @@ def write_scene(scene: Scene, path: str | Path) -> Path:
     from solver.atomic import atomic_write_text
 
     return atomic_write_text(path, dumps_toml(scene))
+
+
+#: The sections that fix the physical problem and its mesh, on which a run's wave depends;
+#: ``time``, ``initial`` and ``output`` say how it is computed, started and recorded.
+PHYSICS_SECTIONS = ("material", "geometry", "loading", "mesh", "damping", "friction")
+
+
+def scene_digest(scene: Scene) -> str:
+    """SHA-256 of the resolved scene's TOML (:func:`dumps_toml`): a run records it, so an
+    edited or swapped ``scene.toml`` is told from the one the run used."""
+    import hashlib
+
+    return hashlib.sha256(dumps_toml(scene).encode()).hexdigest()
+
+
+def scene_difference(a: Scene, b: Scene, sections: Sequence[str] = PHYSICS_SECTIONS
+                     ) -> str | None:
+    """The first ``section.key`` in ``sections`` where ``a`` and ``b`` differ, as
+    ``"section.key = A, not B"``; None if they agree there."""
+    da, db = scene_to_dict(a), scene_to_dict(b)
+    for sec in sections:
+        for key, va in da[sec].items():
+            if db[sec].get(key) != va:
+                return f"{sec}.{key} = {va!r}, not {db[sec].get(key)!r}"
+    return None

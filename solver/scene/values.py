@@ -124,7 +124,9 @@ class Range:
 #: The physical ranges, in one place for the scenes and the reduced-model CLI (``wave``,
 #: ``flutter``): key -> range. Keys are dotted scene keys.
 RANGES: dict[str, Range] = {
-    "material.E": Range(lambda x: x > 0, "E > 0 (Pa)"),
+    "material.E": Range(lambda x: 0 < x <= 1e13,
+                        "E > 0 and E <= 1e13 (Pa; diamond is 1.2e12: above, the "
+                        "stiffness overflows the eigensolvers)"),
     "material.wave_speed": Range(lambda x: x > 0, "wave_speed > 0 (m/s)"),
     "material.rho": Range(lambda x: x > 0, "rho > 0 (kg/m^3)"),
     "material.nu": Range(

@@ -1,7 +1,8 @@
-"""Time schemes: the stepper protocol (``protocol``) and the one module that chooses a
-scene's scheme, time step and kernel (``select``). The schemes themselves are
-``solver.newmark`` (explicit numpy, damped), ``solver.fused`` (explicit numba),
-``solver.implicit`` (implicit Newmark) and ``solver.ensemble`` (B scenes at once).
+"""Time schemes: the stepper protocol (``protocol``) and the scheme registry (``select``:
+``SCHEMES``, ``add_scheme``, ``for_scene``), the one module that knows a scene's scheme, time
+step, kernel and backend. The steppers themselves are ``solver.newmark`` (explicit numpy,
+damped), ``solver.fused`` (explicit numba), ``solver.implicit`` (implicit Newmark) and
+``solver.ensemble`` (B scenes at once).
 
 The names of ``select`` are served lazily (PEP 562), so that a scheme module can import
 ``solver.schemes.protocol`` without importing ``select``, which imports the schemes.
@@ -10,8 +11,8 @@ The names of ``select`` are served lazily (PEP 562), so that a scheme module can
 from solver.schemes.protocol import HookedStepper, StepHook, Stepper
 
 __all__ = [
-    "HookedStepper", "StepHook", "Stepper", "STEP_WARNING", "batchable",
-    "contact_work_observer", "damping_advice", "make_explicit", "make_stepper",
+    "HookedStepper", "StepHook", "Stepper", "SCHEMES", "add_scheme", "for_scene",
+    "STEP_WARNING", "batchable", "check_backend", "damping_advice", "make_explicit",
     "resolve_kernel", "shortest_wave_period", "stability_advice", "time_step",
 ]
 

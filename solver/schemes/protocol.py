@@ -35,11 +35,34 @@ class StepHook(Protocol):
 
 @runtime_checkable
 class Stepper(Protocol):
-    """A time scheme as the time loop sees it."""
+    """A time scheme as its callers see it: the time loop (``solver.run.run_loop``), the
+    observers (the arrays of level n), the checkpoint and the run's facts."""
 
     dt: float
     time: float
     step_count: int
+    kernel: str
+    """The step's kernel as the summary names it ("numpy", "numba", "numba", "cuda", "xp")."""
+    damped: bool
+    """Kelvin-Voigt damping is on (the damping work is observed)."""
+    u: np.ndarray
+    """u_{n+1} after a step."""
+    u_prev: np.ndarray
+    """u_n after a step (with ``v``, ``a``, ``ku``: the level the observers record)."""
+    v: np.ndarray
+    ku: np.ndarray
+
+    @property
+    def compiled_loop(self) -> bool:
+        """``advance`` runs its steps as one compiled call (the samples then too:
+        ``compiled_recorder``)."""
+
+    def compiled_recorder(self):
+        """The compiled sample recorder of a stepper whose ``compiled_loop`` holds, else
+        None (``solver.observers.InnerCircleRecorder.use_compiled``)."""
+
+    def attach(self, hook: StepHook) -> None:
+        """Call ``hook.after_step(self)`` after every step taken by ``advance``."""
 
     def set_state(self, u: np.ndarray, v: np.ndarray, a0: np.ndarray | None = None) -> None:
         """Initial displacement, velocity and (if known) acceleration at t = 0."""
@@ -99,7 +122,16 @@ def _host(array):
 
 class HookedStepper:
     """The step hooks and the plain ``advance`` (``step`` then the hooks, n times) that the
-    schemes share; a scheme with a compiled loop overrides ``advance``."""
+    schemes share; a scheme with a compiled loop overrides ``advance``, ``compiled_loop``
+    and ``compiled_recorder``."""
+
+    kernel: str = "numpy"
+    damped: bool = False
+    compiled_loop: bool = False
+
+    def compiled_recorder(self):
+        """None: the plain loop samples with numpy."""
+        return None
 
     def _init_hooks(self) -> None:
         self.hooks: list[StepHook] = []

@@ -1,10 +1,23 @@
-"""The one place that chooses the time scheme of a scene: time step, stepper, contact step.
+"""The scheme registry: the one place that knows the time schemes, their kernels and backends.
 
-Every branch on ``time.beta1`` (explicit or implicit) and on the kernel (numpy, numba,
-batched) that decides what runs lives in this module (tests/test_architecture.py checks it).
-The scene's ``time`` table picks the scheme:
+As Dedalus' ``@add_scheme`` and ``timesteppers.schemes[name]``: each time scheme is an object
+in ``SCHEMES``, registered with ``add_scheme``. ``for_scene(scene)`` is the one question a run
+asks; the scheme it returns knows the rest (gusto's scheme objects handed to a timestepper):
 
-* ``beta1 = 0``: the paper's explicit Newmark (``solver.newmark.Newmark``) with the
+* ``time_step(scene, omega_max)``: its stability limit and the step (with advice);
+* ``build(problem, scene, dt)``: ``SchemeParts``, its stepper and contact step, and
+  ``work_observers`` (the contact and damping work, step hooks where the kernel does not sum
+  them);
+* ``batchable(scene)`` and ``build_batch(problem, laws, backend, tau)``: B scenes as the
+  columns of one stepper (the explicit scheme only);
+* ``kernel(scene)``: the step kernel, chosen once here and then a strategy inside the stepper.
+
+Every branch on ``time.beta1`` (explicit or implicit), on the kernel (numpy, numba, CUDA) and
+on the backend (cpu, gpu) that decides what runs lives in this module; tests/test_architecture.py
+checks that no other module branches on them or duck-types a stepper.
+
+* ``beta1 = 0``: the paper's explicit Newmark (``solver.newmark.Newmark``, the fused numba
+  step ``solver.fused.FusedNewmark``, the batch ``solver.ensemble.BatchedExplicit``) with the
   forward-increment (Carpenter-Taylor-Katona) nodal contact projection; stable for
   dt <= dt_crit = sqrt(2 / beta2) / omega_max, so ``0 < dt_fraction <= 1``;
 * ``beta1 > 0``: implicit Newmark (``solver.implicit.ImplicitNewmark``) with the active-set
@@ -21,7 +34,10 @@ from __future__ import annotations
 
 import math
 import sys
+from collections.abc import Callable
+from dataclasses import dataclass
 from time import perf_counter
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -29,6 +45,12 @@ from solver.contact import ContactLaw, make_projection
 from solver.errors import StepTooLarge
 from solver.newmark import Newmark, critical_time_step
 from solver.scene import Scene
+
+__all__ = [
+    "SCHEMES", "BACKENDS", "Scheme", "SchemeParts", "add_scheme", "for_scene", "check_backend",
+    "time_step", "resolve_kernel", "batchable", "make_explicit", "STEP_WARNING",
+    "shortest_wave_period", "stability_advice", "damping_advice",
+]
 
 STEP_WARNING = 1_000_000
 """Planned steps above which ``time_step`` suggests a cheaper setting."""
@@ -83,44 +105,6 @@ def _rank0() -> bool:
         return True
 
 
-def time_step(scene: Scene, omega_max: float) -> tuple[float, float]:
-    """(dt, dt_crit) for ``scene``: a fixed ``time.dt`` (checked) or ``dt_fraction * dt_crit``.
-
-    dt_crit is always the EXPLICIT limit sqrt(2 / beta2) / omega_max, the unit of
-    ``time.dt_fraction`` for both schemes; for an explicit scene with Kelvin-Voigt damping it
-    is the damped explicit limit (``critical_time_step``). Implicit schemes with
-    2 beta1 < beta2 are only conditionally stable: their own limit is checked too.
-    """
-    ts = scene.time
-    # explicit: the damped limit is the unit of dt_fraction; the implicit scheme treats the
-    # damping implicitly, so its unit stays the undamped explicit limit
-    tau = scene.damping.tau if ts.beta1 == 0.0 else 0.0
-    dt_crit = critical_time_step(omega_max, 0.0, ts.beta2, tau)
-    limit = critical_time_step(omega_max, ts.beta1, ts.beta2, tau)
-    dt = ts.dt if ts.dt > 0.0 else ts.dt_fraction * dt_crit
-    if dt > limit:
-        what = "explicit" if ts.beta1 == 0.0 else f"beta1 = {ts.beta1}, beta2 = {ts.beta2}"
-        rule = ("sqrt(2/beta2)/omega_max" if ts.beta1 == 0.0
-                else "1/(omega_max sqrt(beta2/2 - beta1))")
-        if ts.beta1 == 0.0 and tau > 0.0:
-            rule = "4/(omega_max^2 (tau + sqrt(tau^2 + 8 beta2/omega_max^2)))"
-        raise StepTooLarge(
-            f"time.dt = {dt:.4g} s is above the {what} stability limit "
-            f"dt_crit = {rule} = {limit:.4g} s "
-            f"(omega_max = {omega_max:.4g} rad/s, beta2 = {ts.beta2}). Use "
-            f"time.dt <= {limit:.4g}, or time.dt = 0 with time.dt_fraction <= "
-            f"{limit / dt_crit:.4g}"
-            + ("" if ts.beta1 == 0.0 else ", or 2 beta1 >= beta2 (unconditionally stable)")
-        )
-    advice = stability_advice(scene, dt, dt_crit)
-    damped = damping_advice(scene, omega_max)
-    if damped:
-        advice = f"{advice}\n{damped}" if advice else damped
-    if advice and _rank0():
-        print(advice, file=sys.stderr, flush=True)
-    return dt, dt_crit
-
-
 DAMPED_STEP_WARNING = 1e-3
 """Ratio damped / undamped explicit limit below which the implicit scheme is recommended."""
 
@@ -142,6 +126,118 @@ def damping_advice(scene: Scene, omega_max: float) -> str | None:
             "--set time.beta2=0.5 --set time.dt_fraction=1")
 
 
+
+# ------------------------------------------------------------------------------ registry
+
+#: The registered time schemes by name (``add_scheme``), in the order ``for_scene`` asks them.
+SCHEMES: dict[str, Scheme] = {}
+
+
+class Scheme(Protocol):
+    """What a registered time scheme offers a run (see the module docstring)."""
+
+    name: str
+
+    def applies_to(self, scene: Scene) -> bool:
+        """True when ``scene``'s ``[time]`` table selects this scheme."""
+
+    def time_step(self, scene: Scene, omega_max: float) -> tuple[float, float]:
+        """(dt, dt_crit): the step (checked against the scheme's limit) and the explicit
+        limit, the unit of ``time.dt_fraction``."""
+
+    def kernel(self, scene: Scene) -> str:
+        """The step kernel ``scene`` runs with ("numpy", "numba")."""
+
+    def build(self, problem, scene: Scene, dt: float) -> SchemeParts:
+        """The stepper, its contact step and its work observers."""
+
+    def batchable(self, scene: Scene) -> bool:
+        """True when ``scene`` can run as a column of a batch."""
+
+    def build_batch(self, problem, laws: list[ContactLaw], backend: str, tau: float):
+        """The batched stepper of scenes sharing ``problem``, dt, beta_2 and ``tau``."""
+
+
+def add_scheme(name: str) -> Callable[[type], type]:
+    """Class decorator: register an instance of the class as ``SCHEMES[name]``."""
+
+    def register(cls: type) -> type:
+        scheme = cls()
+        scheme.name = name
+        SCHEMES[name] = scheme
+        return cls
+
+    return register
+
+
+def for_scene(scene: Scene) -> Scheme:
+    """THE question a run asks: the registered scheme that ``scene``'s ``[time]`` selects."""
+    for scheme in SCHEMES.values():
+        if scheme.applies_to(scene):
+            return scheme
+    raise ValueError(f"no time scheme for time.beta1 = {scene.time.beta1}: use 0 (explicit) "
+                     "or > 0 (implicit)")
+
+
+@dataclass
+class SchemeParts:
+    """What a scheme builds for one scene: the stepper (``solver.schemes.protocol.Stepper``),
+    its contact step (``out``: r_r, r_t, status; ``slide``; the nodes' frames, as the
+    observers use them) and ``work``, which makes the contact-work and damping-work
+    observers and attaches those that need every step as step hooks."""
+
+    stepper: Any
+    contact: Any
+    work: Callable[[Any, Any, bool, np.ndarray], tuple[Any, Any]]
+
+    def work_observers(self, with_friction: bool, u0: np.ndarray) -> tuple[Any, Any]:
+        """(contact work, damping work or None) from u_0, the step hooks among them attached
+        to the stepper (contact work first)."""
+        return self.work(self.stepper, self.contact, with_friction, u0)
+
+
+def time_step(scene: Scene, omega_max: float) -> tuple[float, float]:
+    """(dt, dt_crit) of ``scene``'s scheme (``Scheme.time_step``)."""
+    return for_scene(scene).time_step(scene, omega_max)
+
+
+def resolve_kernel(scene: Scene) -> str:
+    """The step kernel of ``scene``'s scheme (``Scheme.kernel``)."""
+    return for_scene(scene).kernel(scene)
+
+
+def batchable(scene: Scene) -> bool:
+    """True when ``scene`` can run as a column of a batch (``Scheme.batchable``)."""
+    return for_scene(scene).batchable(scene)
+
+
+def _checked_step(scene: Scene, omega_max: float, dt_crit: float, limit: float,
+                  why: tuple[str, str, str]) -> tuple[float, float]:
+    """(dt, dt_crit): ``time.dt`` or ``dt_fraction * dt_crit``, refused above ``limit``
+    (``why``: the scheme, the limit's rule and a fix, named in the message), with the
+    stability advice printed."""
+    ts = scene.time
+    dt = ts.dt if ts.dt > 0.0 else ts.dt_fraction * dt_crit
+    if dt > limit:
+        what, rule, fix = why
+        raise StepTooLarge(
+            f"time.dt = {dt:.4g} s is above the {what} stability limit "
+            f"dt_crit = {rule} = {limit:.4g} s "
+            f"(omega_max = {omega_max:.4g} rad/s, beta2 = {ts.beta2}). Use "
+            f"time.dt <= {limit:.4g}, or time.dt = 0 with time.dt_fraction <= "
+            f"{limit / dt_crit:.4g}" + fix
+        )
+    advice = stability_advice(scene, dt, dt_crit)
+    damped = damping_advice(scene, omega_max)
+    if damped:
+        advice = f"{advice}\n{damped}" if advice else damped
+    if advice and _rank0():
+        print(advice, file=sys.stderr, flush=True)
+    return dt, dt_crit
+
+
+# ------------------------------------------------------------------------------ explicit
+
 def numba_available() -> bool:
     """True when numba imports (Debian's python3-numba is in the apt list)."""
     from solver.fused import numba_available as available
@@ -149,134 +245,218 @@ def numba_available() -> bool:
     return available()
 
 
-#: The friction variants (``ContactLaw.variant``) that the fused and batched kernels have.
-KERNEL_VARIANTS = ("nodal", "prakash-clifton", "constant-time")
+#: The batched step's kernel on each backend (``solver.ensemble.BATCH_KERNELS``).
+BACKENDS = {"cpu": "numba", "gpu": "cuda"}
 
 
-def resolve_kernel(scene: Scene) -> str:
-    """The step kernel a scene runs with: ``"numba"`` or ``"numpy"``. THE fallback rule.
+def check_backend(backend: str, batched: bool = True, device: bool = True) -> None:
+    """Refuse a backend this run cannot use (ValueError or ImportError naming the fix): "gpu"
+    needs CuPy, with ``device`` a CUDA device too, and runs batches only (``batched``)."""
+    if backend not in tuple(BACKENDS):
+        raise ValueError(f"backend = {backend!r}: use one of {tuple(BACKENDS)}")
+    if BACKENDS[backend] != "cuda":
+        return
+    from solver.ensemble import array_namespace
 
-    * the implicit scheme (time.beta1 > 0) has no fused step: "numpy" (it is not a stiffness
-      product; ``time.kernel`` is ignored there);
-    * physics the fused kernel does not implement (a friction variant not in
-      ``KERNEL_VARIANTS``: the 1-2-1 filtered bound) falls back to "numpy"; Kelvin-Voigt
-      ``[damping]`` and the regularised bounds (Prakash-Clifton, constant time) are in the
-      fused and batched kernels (the numpy step's operations, to round-off);
-    * ``time.kernel = "auto"``: "numba" when numba imports, else "numpy";
-    * ``time.kernel = "numba"`` without numba: ValueError naming the fix.
-    """
-    ts = scene.time
-    if ts.beta1 > 0.0:
-        return "numpy"
-    if ContactLaw.variant_of(scene) not in KERNEL_VARIANTS:
-        return "numpy"  # the filtered projection, or a variant the kernels do not know
-    requested = ts.kernel
-    if requested == "numpy":
-        return "numpy"
-    if numba_available():
-        return "numba"
-    if requested == "numba":
-        raise ValueError("time.kernel = \"numba\" but numba does not import: install "
-                         "python3-numba (apt) or set time.kernel = \"numpy\"")
-    return "numpy"
-
-
-def batchable(scene: Scene) -> bool:
-    """True when ``scene`` can run as a column of the batched explicit step
-    (``solver.ensemble``): the explicit scheme with the fused numba kernel's physics, no field
-    output."""
-    if scene.time.beta1 > 0.0 or scene.output.fields:
-        return False
-    try:
-        return resolve_kernel(scene) == "numba"
-    except ValueError:
-        return False
+    xp = array_namespace(backend)
+    if device:
+        try:  # CuPy imports without a driver or a device; the first allocation fails
+            devices, why = xp.cuda.runtime.getDeviceCount(), ""
+        except RuntimeError as err:
+            devices, why = 0, f" ({err})"
+        if devices < 1:
+            raise ValueError(f"--backend gpu: CuPy finds no CUDA device{why}; run on a "
+                             "GPU node or use --backend cpu")
+    if not batched:
+        raise ValueError("--backend gpu runs batches: add --batch auto or --batch B")
 
 
 def make_explicit(problem, scene: Scene, dt: float):
-    """The numpy explicit stepper of ``scene``: ``Newmark``, or ``DampedNewmark`` when the
-    scene has Kelvin-Voigt damping (the undamped step then stays exactly the plain one)."""
-    ts, tau = scene.time, scene.damping.tau
+    """The numpy explicit stepper of ``scene`` (``explicit_stepper``)."""
+    return explicit_stepper(problem, dt, scene.time.beta2, scene.damping.tau)
+
+
+def explicit_stepper(problem, dt: float, beta2: float, tau: float):
+    """The numpy explicit stepper: ``Newmark``, or ``DampedNewmark`` for a Kelvin-Voigt time
+    ``tau`` > 0 (the undamped step then stays exactly the plain one)."""
     if tau > 0.0:
         from solver.newmark import DampedNewmark
 
-        return DampedNewmark(problem.stiffness_mult(), problem.inv_mass, dt, ts.beta1,
-                             ts.beta2, tau=tau)
-    return Newmark(problem.stiffness_mult(), problem.inv_mass, dt, ts.beta1, ts.beta2)
+        return DampedNewmark(problem.stiffness_mult(), problem.inv_mass, dt, 0.0, beta2,
+                             tau=tau)
+    return Newmark(problem.stiffness_mult(), problem.inv_mass, dt, 0.0, beta2)
 
 
-def make_stepper(problem, scene: Scene, dt: float):
-    """(stepper, contact) for the scene's scheme; both follow ``solver.schemes.protocol``.
+def _numpy_work(stepper, contact, with_friction: bool, u0: np.ndarray) -> tuple[Any, Any]:
+    """The numpy step's work observers, both step hooks: ``EnergyAccumulator`` and, damped,
+    ``DampingWork``."""
+    from solver.observers import DampingWork, EnergyAccumulator
 
-    The contact object exposes ``out`` (ContactArrays: r_r, r_t, status), ``slide``,
-    ``nodes`` and ``_polar`` as the observers use them; the stepper exposes ``u``, ``u_prev``,
-    ``v``, ``a``, ``ku``, ``time``, ``dt``, ``step_count``. After a step, ``u`` is u_{n+1}
-    and everything else (``u_prev``, ``v``, ``a``, ``ku``, ``out``) is time level n, for
-    every scheme.
-    """
-    ts = scene.time
-    law = ContactLaw.from_scene(scene, dt)
-    if ts.beta1 > 0.0:
+    energy = EnergyAccumulator(contact, with_friction, u0)
+    stepper.attach(energy)
+    damping = DampingWork(stepper, u0) if stepper.damped else None
+    if damping is not None:
+        stepper.attach(damping)
+    return energy, damping
+
+
+def _numba_work(stepper, contact, with_friction: bool, u0: np.ndarray) -> tuple[Any, Any]:
+    """The fused step's work observers: the kernel sums both (``FusedEnergy``,
+    ``FusedDampingWork``), so neither is a step hook and the compiled loop stays."""
+    from solver.fused import FusedDampingWork, FusedEnergy
+
+    return (FusedEnergy(stepper, contact),
+            FusedDampingWork(stepper, u0) if stepper.damped else None)
+
+
+def _numpy_parts(problem, law: ContactLaw, tau: float, projection) -> SchemeParts:
+    """The numpy step (damped or plain) with the projection timed as its contact step."""
+    stepper = explicit_stepper(problem, law.dt, law.beta2, tau)
+    stepper.contact = TimedContact(projection)
+    return SchemeParts(stepper, projection, _numpy_work)
+
+
+def _numba_parts(problem, law: ContactLaw, tau: float, projection) -> SchemeParts:
+    """The fused numba step, which runs the projection's law inside its kernel."""
+    from solver.fused import FusedNewmark
+
+    stepper = FusedNewmark(problem, law.dt, law.beta2, projection, tau=tau)
+    return SchemeParts(stepper, projection, _numba_work)
+
+
+#: The explicit scheme's kernels: each builds the stepper and its work observers.
+EXPLICIT_KERNELS: dict[str, Callable[..., SchemeParts]] = {
+    "numpy": _numpy_parts, "numba": _numba_parts}
+
+
+@add_scheme("explicit")
+class ExplicitNewmarkScheme:
+    """The paper's explicit Newmark (beta_1 = 0) with the forward-increment contact step."""
+
+    name = "explicit"
+
+    def applies_to(self, scene: Scene) -> bool:
+        return scene.time.beta1 == 0.0
+
+    def time_step(self, scene: Scene, omega_max: float) -> tuple[float, float]:
+        """dt_crit = sqrt(2 / beta2) / omega_max, or with Kelvin-Voigt damping tau the damped
+        limit (``critical_time_step``): the unit of ``time.dt_fraction`` and the bound."""
+        tau, b2 = scene.damping.tau, scene.time.beta2
+        dt_crit = critical_time_step(omega_max, 0.0, b2, tau)
+        rule = ("4/(omega_max^2 (tau + sqrt(tau^2 + 8 beta2/omega_max^2)))" if tau > 0.0
+                else "sqrt(2/beta2)/omega_max")
+        return _checked_step(scene, omega_max, dt_crit, dt_crit, ("explicit", rule, ""))
+
+    def kernel(self, scene: Scene) -> str:
+        """``"numba"`` or ``"numpy"`` (``law_kernel`` of the scene's contact law)."""
+        return self.law_kernel(scene.time.kernel, ContactLaw.from_scene(scene, 1.0))
+
+    def law_kernel(self, requested: str, law: ContactLaw) -> str:
+        """The kernel for ``time.kernel = requested`` and ``law``. THE fallback rule:
+
+        * physics the fused kernel does not implement (a friction bound without
+          ``ContactLaw.kernel_bound``: the 1-2-1 filtered bound) falls back to "numpy";
+          Kelvin-Voigt ``[damping]`` and the regularised bounds (Prakash-Clifton, constant
+          time) are in the fused and batched kernels (the numpy step's operations, to
+          round-off);
+        * ``time.kernel = "auto"``: "numba" when numba imports, else "numpy";
+        * ``time.kernel = "numba"`` without numba: ValueError naming the fix.
+        """
+        try:
+            law.kernel_bound()
+        except ValueError:
+            return "numpy"  # the filtered projection, or a bound the kernels do not know
+        if requested == "numpy":
+            return "numpy"
+        if numba_available():
+            return "numba"
+        if requested == "numba":
+            raise ValueError("time.kernel = \"numba\" but numba does not import: install "
+                             "python3-numba (apt) or set time.kernel = \"numpy\"")
+        return "numpy"
+
+    def build(self, problem, scene: Scene, dt: float) -> SchemeParts:
+        """The kernel's stepper (``EXPLICIT_KERNELS``) with ``make_projection``'s step."""
+        law = ContactLaw.from_scene(scene, dt)
+        kernel = self.law_kernel(scene.time.kernel, law)
+        return EXPLICIT_KERNELS[kernel](problem, law, scene.damping.tau,
+                                        make_projection(problem, law))
+
+    def batchable(self, scene: Scene) -> bool:
+        """The fused numba kernel's physics and no field output."""
+        if scene.output.fields:
+            return False
+        try:
+            return self.kernel(scene) == "numba"
+        except ValueError:
+            return False
+
+    def build_batch(self, problem, laws: list[ContactLaw], backend: str, tau: float):
+        """``BatchedExplicit`` of the scenes of ``laws`` (one column each) on ``backend``:
+        numba on the CPU, the CUDA kernel through CuPy on the GPU (``BACKENDS``)."""
+        from solver.ensemble import BatchedExplicit, BatchedProblem, array_namespace
+        from solver.fused import friction_bound
+
+        law0 = laws[0]
+        bp = BatchedProblem.from_problem(problem, law0.dt, law0.beta2)
+        return BatchedExplicit(
+            bp, d=np.array([law.d for law in laws]),
+            slide=np.array([law.slide for law in laws]), f=np.array([law.f for law in laws]),
+            xp=array_namespace(backend), kernel=BACKENDS[backend], tau=tau,
+            bound=friction_bound(law0))
+
+
+# ------------------------------------------------------------------------------ implicit
+
+def _implicit_work(stepper, contact, with_friction: bool, u0: np.ndarray) -> tuple[Any, Any]:
+    """The implicit step's work: the contact work a step hook with the exact bookkeeping of
+    its contact solve, the damping work booked by the stepper itself."""
+    from solver.implicit import ImplicitDampingWork
+    from solver.observers import EnergyAccumulator
+
+    energy = EnergyAccumulator(contact, with_friction, u0, exact_work=True)
+    stepper.attach(energy)
+    return energy, ImplicitDampingWork() if stepper.damped else None
+
+
+@add_scheme("implicit")
+class ImplicitNewmarkScheme:
+    """Implicit Newmark (beta_1 > 0): the active-set contact solve on the Schur complement."""
+
+    name = "implicit"
+
+    def applies_to(self, scene: Scene) -> bool:
+        return scene.time.beta1 > 0.0
+
+    def time_step(self, scene: Scene, omega_max: float) -> tuple[float, float]:
+        """dt_crit is the undamped EXPLICIT limit (the unit of ``time.dt_fraction``; the
+        damping is implicit); with 2 beta1 < beta2 the scheme's own limit is checked."""
+        ts = scene.time
+        dt_crit = critical_time_step(omega_max, 0.0, ts.beta2)
+        limit = critical_time_step(omega_max, ts.beta1, ts.beta2)
+        why = (f"beta1 = {ts.beta1}, beta2 = {ts.beta2}", "1/(omega_max sqrt(beta2/2 - beta1))",
+               ", or 2 beta1 >= beta2 (unconditionally stable)")
+        return _checked_step(scene, omega_max, dt_crit, limit, why)
+
+    def kernel(self, scene: Scene) -> str:
+        """"numpy": no fused step (the step is a linear solve; ``time.kernel`` is ignored)."""
+        return "numpy"
+
+    def build(self, problem, scene: Scene, dt: float) -> SchemeParts:
         from solver.implicit import ImplicitContact, ImplicitNewmark
 
+        ts, law = scene.time, ContactLaw.from_scene(scene, dt)
         contact = ImplicitContact(problem.nodes, law.d, law.f, law.surface_speed,
                                   problem.comm)
         stepper = ImplicitNewmark(problem.K, problem.mass, problem.clamped, dt, ts.beta1,
                                   ts.beta2, contact, problem.comm, tau=scene.damping.tau)
-        return stepper, contact
-    projection = make_projection(problem, law)
-    if resolve_kernel(scene) == "numba":
-        from solver.fused import FusedNewmark
+        return SchemeParts(stepper, contact, _implicit_work)
 
-        return (FusedNewmark(problem, dt, ts.beta2, projection, tau=scene.damping.tau),
-                projection)
-    stepper = make_explicit(problem, scene, dt)  # damped or plain numpy step
-    stepper.contact = TimedContact(projection)
-    return stepper, projection
+    def batchable(self, scene: Scene) -> bool:
+        return False
 
-
-def make_batched_stepper(problem, laws: list[ContactLaw], backend: str = "cpu",
-                         tau: float = 0.0):
-    """The batched explicit stepper of scenes that share ``problem`` (K, M, the contact
-    nodes), dt, beta_2 and the Kelvin-Voigt time ``tau`` (0: undamped), each with its own
-    contact law: numba on the CPU, the CUDA kernel through CuPy on the GPU
-    (``solver.ensemble``)."""
-    from solver.ensemble import BatchedExplicit, BatchedProblem, array_namespace
-    from solver.fused import friction_bound
-
-    law0 = laws[0]
-    bp = BatchedProblem.from_problem(problem, law0.dt, law0.beta2)
-    return BatchedExplicit(
-        bp, d=np.array([law.d for law in laws]), slide=np.array([law.slide for law in laws]),
-        f=np.array([law.f for law in laws]), xp=array_namespace(backend),
-        kernel="numba" if backend == "cpu" else "cuda", tau=tau, bound=friction_bound(law0))
-
-
-def contact_work_observer(stepper, projection, with_friction: bool, u0):
-    """The contact-work observer: the fused kernel accumulates the work itself
-    (``FusedEnergy``), a numpy or implicit step needs ``EnergyAccumulator`` every step."""
-    if getattr(stepper, "kernel", "numpy") == "numba":
-        from solver.fused import FusedEnergy
-
-        return FusedEnergy(stepper, projection)
-    from solver.observers import EnergyAccumulator
-
-    return EnergyAccumulator(projection, with_friction, u0)
-
-
-def damping_work_observer(stepper, u0):
-    """The Kelvin-Voigt work of a damped explicit stepper, None for any other: the fused
-    kernel sums it itself (``FusedDampingWork``, no step hook), the numpy step needs
-    ``DampingWork`` every step."""
-    if not getattr(stepper, "damped", False):
-        return None
-    if getattr(stepper, "kernel", "numpy") == "numba":
-        from solver.fused import FusedDampingWork
-
-        return FusedDampingWork(stepper, u0)
-    from solver.observers import DampingWork
-
-    return DampingWork(stepper, u0)
+    def build_batch(self, problem, laws: list[ContactLaw], backend: str, tau: float):
+        raise ValueError("the implicit scheme runs one scene at a time (no batch)")
 
 
 class TimedContact:

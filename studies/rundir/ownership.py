@@ -102,7 +102,12 @@ def _ours(name: str, kind: str) -> bool:
 def marker(path: str | Path) -> dict | None:
     """The marker of ``path`` (kind, id, ...), or None if it has no valid one."""
     try:
-        m = json.loads((Path(path) / MARKER).read_text())
+        fd = os.open(Path(path) / MARKER, os.O_RDONLY | os.O_NOFOLLOW)
+    except OSError:  # none, or a symbolic link: stickslip writes the marker as a file
+        return None
+    try:
+        with os.fdopen(fd, "rb") as fh:
+            m = json.loads(fh.read(65536))
     except (OSError, ValueError, UnicodeDecodeError):
         return None
     if not isinstance(m, dict) or not isinstance(m.get("kind"), str) \
@@ -141,8 +146,8 @@ def holder(path: str | Path) -> dict | None:
     """The pid/host of the live command holding ``path``'s lock, or None if none holds it."""
     lock = Path(path) / LOCK
     try:
-        fd = os.open(lock, os.O_RDONLY)
-    except OSError:
+        fd = os.open(lock, os.O_RDONLY | os.O_NOFOLLOW)
+    except OSError:  # none, or a symbolic link (refused by refusal(), never opened)
         return None
     try:
         try:
@@ -172,6 +177,14 @@ def refusal(path: str | Path, kind: str, *, force: bool = False, reuse: bool = F
     """
     p = Path(path)
     fix = f"choose another {flag}"
+    if str(path) == "":
+        return f"{flag} is empty: give the directory to write, or leave {flag} out"
+    links = [q for q in (p, p / LOCK, p / MARKER) if q.is_symlink()]
+    if links:
+        what = ("is a symbolic link" if links[0] == p else
+                f"holds {links[0].name} as a symbolic link, which stickslip never makes")
+        return (f"{flag} {p} {what} (to {os.readlink(links[0])}); stickslip does not write "
+                f"through links: give the real directory, or {fix}")
     if p.exists() and not p.is_dir():
         return f"{flag} {p} is not a directory (a file or device); {fix}"
     if p.is_dir():
@@ -301,10 +314,13 @@ def _write_marker(path: Path, kind: str) -> None:
 
 def _take_existing(path: Path) -> int | None:
     """Lock an existing ``.stickslip.lock`` (None if a live command holds it)."""
-    try:
-        fd = os.open(path / LOCK, os.O_RDWR)
+    try:  # never through a symbolic link: it would write a user's file
+        fd = os.open(path / LOCK, os.O_RDWR | os.O_NOFOLLOW)
     except FileNotFoundError:
         return None
+    except OSError as err:
+        raise OwnershipError(f"{path / LOCK} cannot be opened as stickslip's lock file "
+                             f"({err.strerror}); remove it, or choose another -o") from None
     try:
         fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
     except OSError:

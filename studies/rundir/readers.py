@@ -14,7 +14,8 @@ the file, what is wrong and the fix; ``cli.main`` prints it and exits 2.
 ``read_field``         ``final_field.npz``: ``points`` (p, >=2), ``u`` (p, 2), ``cells``,
                        ``cell_types``, ``time``
 ``read_sweep_table``   ``sweep.json``: the sweep kind, ``parameters`` and ``rows`` objects
-``check_run_dir``      every file of a run directory, before a command uses it
+``check_run_dir``      every file of a run directory, and that they agree, before a
+                       command uses it
 =====================  ==================================================================
 
 Light (standard library and numpy; the scene reader imports ``solver.scene`` on use).
@@ -23,6 +24,7 @@ Light (standard library and numpy; the scene reader imports ``solver.scene`` on 
 from __future__ import annotations
 
 import json
+import os
 import tomllib
 import zipfile
 from pathlib import Path
@@ -31,7 +33,8 @@ from typing import Any
 import numpy as np
 
 __all__ = ["STATUSES", "ReadError", "check_run_dir", "read_field", "read_json_object",
-           "read_samples", "read_scene_file", "read_summary", "read_sweep_table"]
+           "check_agreement", "read_samples", "read_scene_file", "read_summary",
+           "read_sweep_table"]
 
 #: Every status a summary may hold (``studies.rundir.scene_run``, the sweep's table).
 STATUSES = ("running", "completed", "diverged", "failed", "stopped", "interrupted",
@@ -47,11 +50,26 @@ class ReadError(ValueError):
         self.path = Path(path)
 
 
+def _no_link(p: Path, fix: str = _RERUN) -> None:
+    """Refuse a file that is a symbolic link: stickslip writes each file itself (atomic
+    rename), so a link is someone else's and may point anywhere."""
+    if p.is_symlink():
+        raise ReadError(p, "is a symbolic link, which stickslip never writes (replaced by "
+                           "hand?)", fix)
+
+
+def _read_bytes(p: Path) -> bytes:
+    """The bytes of ``p``, opened without following a symbolic link (OSError otherwise)."""
+    with os.fdopen(os.open(p, os.O_RDONLY | os.O_NOFOLLOW), "rb") as fh:
+        return fh.read()
+
+
 def read_json_object(path: str | Path, fix: str = _RERUN) -> dict:
     """The JSON object in ``path`` (a list, a number, bad JSON or bad UTF-8 is refused)."""
     p = Path(path)
+    _no_link(p, fix)
     try:
-        text = p.read_text(encoding="utf-8")
+        text = _read_bytes(p).decode("utf-8")
     except FileNotFoundError:
         raise ReadError(p, "missing", fix) from None
     except UnicodeDecodeError as err:
@@ -85,6 +103,7 @@ def read_scene_file(path: str | Path) -> Any:
     from solver.scene import SceneError, load_scene, scene_to_dict
 
     p = Path(path)
+    _no_link(p)
     if not p.is_file():
         raise ReadError(p, "missing")
     try:
@@ -105,10 +124,12 @@ def read_scene_file(path: str | Path) -> Any:
 
 def _load_npz(p: Path, keys: tuple[str, ...]) -> dict[str, np.ndarray]:
     """Every member of the archive ``p`` (no pickles), with ``keys`` required."""
+    _no_link(p)
     if not p.is_file():
         raise ReadError(p, "missing")
     try:
-        with np.load(p, allow_pickle=False) as data:
+        with os.fdopen(os.open(p, os.O_RDONLY | os.O_NOFOLLOW), "rb") as fh, \
+                np.load(fh, allow_pickle=False) as data:
             missing = [k for k in keys if k not in data.files]
             if missing:
                 raise ReadError(p, f"has no {', '.join(missing)} (not written by stickslip)")
@@ -178,10 +199,32 @@ def read_sweep_table(sweep_dir: str | Path, kind: str) -> dict:
             r.get("status"), str) and isinstance(r.get("id"), str) for r in rows):
         raise ReadError(p, "'rows' is not a list of rows with an id and a status (edited)",
                         fix)
+    missing = next((k for k in params for r in rows if k not in r), None)
+    if missing is not None:
+        raise ReadError(p, f"'parameters' names {missing!r}, which its rows do not have "
+                           "(edited)", fix)
     m = meta.get("map")
     if m is not None and not isinstance(m, dict):
         raise ReadError(p, "'map' is not an object (edited)", fix)
+    for key, value in (m or {}).items():
+        rule = _MAP_RULES.get(key, lambda v: True)
+        if not (rule(value) and (key not in ("x", "y") or value is None or value in params)):
+            raise ReadError(p, f"map.{key} = {value!r} is not one a sweep file allows "
+                               "(edited)", fix)
     return meta
+
+
+#: What a sweep file's ``[map]`` may say (``studies.sweep.spec``); ``x`` and ``y`` are also
+#: swept keys (``parameters``) or None.
+_MAP_RULES = {
+    "x": lambda v: v is None or isinstance(v, str),
+    "y": lambda v: v is None or isinstance(v, str),
+    "xscale": lambda v: v in ("auto", "linear", "log"),
+    "yscale": lambda v: v in ("auto", "linear", "log"),
+    "semianalytic": lambda v: isinstance(v, bool),
+    "k": lambda v: isinstance(v, list) and all(type(k) is int and k >= 1 for k in v),
+    "junctions": lambda v: isinstance(v, list) and all(j in ("impact", "smooth") for j in v),
+}
 
 
 def check_run_dir(run_dir: str | Path, need: int = 1) -> None:
@@ -191,8 +234,35 @@ def check_run_dir(run_dir: str | Path, need: int = 1) -> None:
     if not (d / "samples.npz").exists():
         raise ReadError(d, "has no samples.npz (not a finished run directory)",
                         "give a run directory of `stickslip run`")
-    read_samples(d, need)
-    read_summary(d)
-    read_scene_file(d / "scene.toml")
+    samples = read_samples(d, need)
+    summary = read_summary(d)
+    scene = read_scene_file(d / "scene.toml")
     if (d / "final_field.npz").exists():
         read_field(d)
+    check_agreement(d, summary, scene, samples)
+
+
+def check_agreement(run_dir: Path, summary: dict, scene: Any, samples: dict) -> None:
+    """The run's files tell of one run: the scene of ``scene.toml`` is the one the summary
+    names (and, where recorded, hashes), with the samples' number of contact nodes; else
+    :class:`ReadError` naming the first difference (an edited or swapped file)."""
+    from solver.scene.files import scene_digest
+
+    fix = "put the run's own files back, or run the scene again"
+    p = Path(run_dir) / "scene.toml"
+    if isinstance(summary.get("scene"), str) and summary["scene"] != scene.name:
+        raise ReadError(p, f"is scene {scene.name!r}, but summary.json is of "
+                           f"{summary['scene']!r} (swapped)", fix)
+    if summary.get("scene_sha256") not in (None, scene_digest(scene)):
+        raise ReadError(p, "is not the scene the run used (edited after the run: its hash "
+                           "differs from summary.json's scene_sha256)", fix)
+    nodes = samples["theta"].size
+    if scene.mesh.n_inner != nodes:
+        raise ReadError(p, f"has mesh.n_inner = {scene.mesh.n_inner}, but samples.npz has "
+                           f"{nodes} contact nodes", fix)
+    if summary.get("contact_nodes") not in (None, nodes):
+        raise ReadError(Path(run_dir) / "samples.npz", f"has {nodes} contact nodes, but "
+                        f"summary.json says {summary['contact_nodes']}", fix)
+    if isinstance(summary.get("samples"), int) and summary["samples"] != samples["t"].size:
+        raise ReadError(Path(run_dir) / "samples.npz", f"has {samples['t'].size} samples, "
+                        f"but summary.json says {summary['samples']}", fix)

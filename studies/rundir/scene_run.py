@@ -39,9 +39,12 @@ from studies.rundir.directory import (
 from studies.rundir.signals import RunSignals, _signame
 
 
-def summarise(sim: Simulation) -> dict:
-    """Run summary (rank 0): the run's facts plus the wave analysis of the recorded samples."""
+def summarise(sim: Simulation, probes: dict | None = None) -> dict:
+    """Run summary (rank 0): the run's facts plus the wave analysis of the recorded samples;
+    with the gathered ``probes``, whether the samples resolve the wave
+    (:func:`postprocess.resolution.sampling_check`: a ``warning`` where they alias it)."""
     from postprocess.analysis import analyse
+    from postprocess.resolution import sampling_check
 
     out = sim.facts()
     data = sim.recorder.arrays()
@@ -57,7 +60,11 @@ def summarise(sim: Simulation) -> dict:
             analysis_window_s=wave.window_s, psi1=wave.psi1, psi2=wave.psi2,
             zone_order=wave.zone_order, direction=wave.direction,
         )
+        out.update(sampling_check(data["t"], probes, out))
         out["energy"] = energy
+    from solver.scene.files import scene_digest
+
+    out["scene_sha256"] = scene_digest(sim.scene)  # tells an edited scene.toml (readers)
     return out
 
 
@@ -411,7 +418,7 @@ def _save(sim: Simulation | None, rd: RunDir, scene: Scene, status: str, error: 
                     pass
             return summary
         if sim is not None:  # the run is saved and true; the analysis is a bonus on top
-            analysed = finish(summarise(sim))
+            analysed = finish(summarise(sim, probe_arrays))
             try:
                 atomic_write_text(rd.final / "summary.json", json.dumps(analysed, indent=2))
                 summary = analysed
@@ -494,6 +501,8 @@ def _print_summary(s: dict, run_dir: Path, stream, profile: bool) -> None:
             f"slip {fr['slip']:.3f}; amplitude {s['amplitude_m']:.3g} m; "
             f"limit cycle: {s['limit_cycle']}",
         ]
+    if s.get("warning"):
+        lines.append(f"warning: {s['warning']}")
     lines.append(f"steps {s.get('steps', 0)}, wall {s.get('wall_time_s', 0):.2f} s, "
                  f"peak RSS {s.get('peak_rss_mb', 0):.0f} MB -> {run_dir}")
     if profile:

@@ -12,7 +12,7 @@ from studies.output import output_root, process_alive  # noqa: F401  (re-exporte
 
 
 class RunSignals:
-    """SIGINT/SIGTERM during a run, by phase.
+    """SIGINT/SIGTERM/SIGHUP during a run, by phase.
 
     * ``raise`` (setup: meshing, assembly, steady state): KeyboardInterrupt at once;
     * ``flag`` (time loop): ``sim.stop_requested``; every rank stops at the same sample
@@ -34,7 +34,9 @@ class RunSignals:
     elsewhere (a test's thread) nothing is installed.
     """
 
-    SIGNALS = (signal.SIGINT, signal.SIGTERM)
+    #: Ctrl-C, a batch system's stop, a closed terminal (SIGHUP: PETSc's own handler would
+    #: abort the job with a stack dump and nothing saved)
+    SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
 
     def __init__(self, on_hard_stop, grace: float = 2.0, rescue=None,  # noqa: ANN001
                  on_death=None) -> None:  # noqa: ANN001
@@ -48,6 +50,7 @@ class RunSignals:
         self.active = threading.current_thread() is threading.main_thread()
         self.watchdog = 0
         self.sig_w = self.ack_w = -1
+        self.read_ends: tuple[int, ...] = ()
         self.old_wakeup = -1
 
     @property
@@ -85,8 +88,10 @@ class RunSignals:
             # in a session of its own: mpirun's SIGKILL of the rank's process group must not
             # take the watchdog too, or a killed run would stay `running`
             pid = _fork(lambda: self._watch(sig_r, ack_r, parent), close=(sig_w, ack_w))
-            os.close(sig_r)
-            os.close(ack_r)
+            # The read ends stay open here too: if the watchdog dies (SIGKILL), a write to a
+            # pipe without a reader would raise SIGPIPE, which PETSc's handler turns into
+            # MPI_ABORT; with them open, the writes just fill the pipe (and fail quietly).
+            self.read_ends = (sig_r, ack_r)
             self.watchdog, self.sig_w, self.ack_w = pid, sig_w, ack_w
             for sig in self.SIGNALS:
                 self.previous[sig] = signal.signal(sig, self._handler)
@@ -108,9 +113,10 @@ class RunSignals:
         for sig, handler in self.previous.items():
             signal.signal(sig, handler)
         self._tell(b"x")  # a clean end: the watchdog has nothing to tidy
-        os.close(self.sig_w)
-        os.close(self.ack_w)
+        for fd in (self.sig_w, self.ack_w, *self.read_ends):
+            os.close(fd)
         self.sig_w = self.ack_w = -1
+        self.read_ends = ()
         if self.watchdog > 0:  # it reads EOF and ends
             try:
                 os.waitpid(self.watchdog, 0)

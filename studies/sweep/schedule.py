@@ -37,7 +37,7 @@ from solver.scene import (
 from studies.output import process_alive
 from studies.rundir.ownership import user_entries
 from studies.sweep.spec import FINAL_STATUSES, SweepError, SweepSpec, Task, _cost, scene_for
-from studies.sweep.table import _read_json, task_state, write_table
+from studies.sweep.table import _read_json, recorded_failures, task_state, write_table
 
 if TYPE_CHECKING:  # pragma: no cover
     from mpi4py import MPI
@@ -67,7 +67,8 @@ class _Monitor(threading.Thread):
     """
 
     def __init__(self, out_dir: Path, spec: SweepSpec, pending: Sequence[Task], n_done: int,
-                 stream: TextIO, live: bool, interval: float = 1.0) -> None:
+                 stream: TextIO, live: bool, interval: float = 1.0,
+                 failures: dict[str, str] | None = None) -> None:
         super().__init__(daemon=True, name="sweep-monitor")
         self.out_dir, self.spec, self.stream, self.live = out_dir, spec, stream, live
         self.pending = list(pending)
@@ -83,6 +84,14 @@ class _Monitor(threading.Thread):
         self.lock = threading.Lock()
         self._line_len = 0
         self.table_written, self.table_dirty = 0.0, False
+        self.failures = failures  # the sweep's, shared: the scenes no summary says failed
+        # the summaries left by an earlier session (an interrupted scene's, say): each one's
+        # file identity now; a rerun replaces the file (atomic write), so only a new one
+        # tells this session's outcome
+        self.earlier = {t.id: _identity(self._summary(t)) for t in self.pending}
+
+    def _summary(self, task: Task) -> Path:
+        return self.out_dir / "runs" / task.id / "summary.json"
 
     def run(self) -> None:
         while not self.stop_event.wait(self.interval):
@@ -105,12 +114,9 @@ class _Monitor(threading.Thread):
             for task in self.pending:
                 if task.id in self.finished:
                     continue
-                path = self.out_dir / "runs" / task.id / "summary.json"
-                try:
-                    mtime = path.stat().st_mtime
-                except OSError:
-                    continue
-                if mtime < self.t0 - 1.0:  # left over from an earlier sweep
+                path = self._summary(task)
+                now = _identity(path)
+                if now is None or now == self.earlier[task.id]:  # none yet, or an earlier one
                     continue
                 s = _read_json(path) or {}
                 status = s.get("status")
@@ -128,7 +134,7 @@ class _Monitor(threading.Thread):
                 self._say(self._scene_line(task, s))
             self.table_dirty = self.table_dirty or bool(new)
             if self.table_dirty and self._table_due():
-                write_table(self.out_dir, self.spec, cache=self.cache)
+                write_table(self.out_dir, self.spec, cache=self.cache, failures=self.failures)
                 self.table_written, self.table_dirty = time.time(), False
             if self.live:
                 self._redraw()
@@ -176,6 +182,15 @@ class _Monitor(threading.Thread):
         self.stream.write("\r" + line + " " * pad)
         self.stream.flush()
         self._line_len = len(line)
+
+
+def _identity(path: Path) -> tuple[int, int, int] | None:
+    """Which file ``path`` is now (inode, change time, size), or None if there is none."""
+    try:
+        st = path.stat()
+    except OSError:
+        return None
+    return st.st_ino, st.st_ctime_ns, st.st_size
 
 
 def _want_live(mode: str, stream: TextIO) -> bool:
@@ -226,13 +241,18 @@ class _Counter:
 
 
 def _run_one(spec: SweepSpec, task: Task, out_dir: Path, group: MPI.Comm,
-             world_rank: int, check_cost: bool = True) -> str:
-    """Run one scene on ``group``; exceptions become status ``failed``. Returns the status."""
+             world_rank: int, check_cost: bool = True,
+             failures: dict[str, str] | None = None) -> str:
+    """Run one scene on ``group``; exceptions become status ``failed``. Returns the status.
+
+    A failure that the scene's summary does not show (its write failed too: a full disk), or
+    a summary that could not take the run's final word, goes into ``failures`` (id ->
+    message; leader only) for the table."""
     from studies.rundir import run_scene
 
     leader = group.rank == 0
     run_dir = out_dir / "runs" / task.id
-    log = open(out_dir / "logs" / f"{task.id}.log", "a") if leader else None  # noqa: SIM115
+    log = _open_log(out_dir / "logs" / f"{task.id}.log") if leader else None
     t0 = time.perf_counter()
     status = "failed"
     try:
@@ -245,6 +265,8 @@ def _run_one(spec: SweepSpec, task: Task, out_dir: Path, group: MPI.Comm,
                                 replace_on_failure=True, check_resources=check_cost,
                                 stream=log if log is not None else sys.stdout)
             status = str(summary.get("status", "failed")) if leader else "?"
+            if leader:
+                status = _check_recorded(run_dir, summary, failures, task.id)
         except KeyboardInterrupt:
             status = "interrupted"
         except Exception as err:  # recorded, the sweep goes on
@@ -253,14 +275,46 @@ def _run_one(spec: SweepSpec, task: Task, out_dir: Path, group: MPI.Comm,
                 tb = traceback.format_exc()
                 assert log is not None
                 log.write(tb)
-                _record_failure(spec, task, run_dir, err, tb,
-                                time.perf_counter() - t0, group.size)
+                message = f"{type(err).__name__}: {err}"
+                try:
+                    _record_failure(spec, task, run_dir, err, tb,
+                                    time.perf_counter() - t0, group.size)
+                except OSError as write_err:  # a full disk: the table records it
+                    message += f"; its summary could not be written ({write_err})"
+                _check_recorded(run_dir, {"status": "failed", "message": message}, failures,
+                                task.id)
         if group.size > 1:
             status = group.bcast(status, root=0)
     finally:
         if log is not None:
             log.write(f"== end {status}\n")
             log.close()
+    return status
+
+
+def _open_log(path: Path) -> TextIO:
+    """The scene's log, appended to; never through a symbolic link (a user's file): a link
+    in its place is set aside as ``NAME.link`` (kept, unfollowed) and a new log begun."""
+    if path.is_symlink():
+        os.replace(path, path.with_name(path.name + ".link"))
+    fd = os.open(path, os.O_WRONLY | os.O_APPEND | os.O_CREAT | os.O_NOFOLLOW, 0o666)
+    return os.fdopen(fd, "a")
+
+
+def _check_recorded(run_dir: Path, summary: dict, failures: dict[str, str] | None,
+                    task_id: str) -> str:
+    """The scene's status, ``failed`` where its ``summary.json`` on disk does not hold the
+    run's final word (a write failed: a full disk); such a failure goes into ``failures``."""
+    from studies.sweep.table import live_status, run_summary
+
+    status = str(summary.get("status", "failed"))
+    disk = run_summary(run_dir)
+    on_disk = live_status(disk) if disk is not None else "missing"
+    if status in FINAL_STATUSES and on_disk != status:
+        if failures is not None:
+            failures[task_id] = str(summary.get("message") or (
+                f"the run ended {status} but its summary.json says {on_disk}"))
+        return "failed"
     return status
 
 
@@ -319,9 +373,10 @@ def _classify(out_dir: Path, spec: SweepSpec, retry_failed: bool
     pending: list[tuple[float, int, Task]] = []
     n_done = 0
     seconds = 0.0
+    failures = recorded_failures(out_dir)
     for i, task in enumerate(spec.tasks):
         scene = scene_for(spec, task)
-        state = task_state(out_dir, spec, task, scene)
+        state = task_state(out_dir, spec, task, scene, failures)
         redo = retry_failed and state in ("failed", "diverged")
         if state in FINAL_STATUSES and not redo:
             n_done += 1
@@ -346,7 +401,14 @@ def _cost_problem(spec: SweepSpec, n_pending: int, seconds: float, n_groups: int
 
 
 def _prepare(out_dir: Path, spec: SweepSpec) -> None:
-    """Rank 0: the sweep directory's folders, its copy of the sweep file, the initial table."""
+    """Rank 0: the sweep directory's folders, its copy of the sweep file, the initial table.
+    A folder that is a symbolic link is refused (SweepError): stickslip writes no link's
+    target."""
+    for name in ("runs", "logs"):
+        if (out_dir / name).is_symlink():
+            raise SweepError(f"{out_dir / name} is a symbolic link, which stickslip never "
+                             "makes; it does not write through it: replace it with a folder, "
+                             "or choose another -o")
     (out_dir / "runs").mkdir(parents=True, exist_ok=True)
     (out_dir / "logs").mkdir(exist_ok=True)
     atomic_write_text(out_dir / "sweep.toml", spec.path.read_text())
@@ -366,10 +428,11 @@ def _lock(out_dir: Path):  # noqa: ANN202
 
 
 def _run_unit(spec: SweepSpec, unit: list[Task], out_dir: Path, group: MPI.Comm,
-              world_rank: int, backend: str, check_cost: bool = True) -> str:
+              world_rank: int, backend: str, check_cost: bool = True,
+              failures: dict[str, str] | None = None) -> str:
     """One work unit: a single scene (``_run_one``) or a batch (``studies.sweep.batch``)."""
     if len(unit) == 1:
-        return _run_one(spec, unit[0], out_dir, group, world_rank, check_cost)
+        return _run_one(spec, unit[0], out_dir, group, world_rank, check_cost, failures)
     from studies.sweep.batch import run_batch
 
     try:
@@ -381,7 +444,7 @@ def _run_unit(spec: SweepSpec, unit: list[Task], out_dir: Path, group: MPI.Comm,
 
 def run_sweep(spec: SweepSpec, out_dir: str | Path, *, comm: MPI.Comm | None = None,
               group_size: int | None = None, retry_failed: bool = False,
-              stream: TextIO = sys.stdout, progress: str = "auto", batch: str | None = None,
+              stream: TextIO | None = None, progress: str = "auto", batch: str | None = None,
               backend: str | None = None, check_cost: bool = True) -> int:
     """Run every pending scene of ``spec`` into ``out_dir``; collective over ``comm``.
 
@@ -401,6 +464,7 @@ def run_sweep(spec: SweepSpec, out_dir: str | Path, *, comm: MPI.Comm | None = N
     from mpi4py import MPI
 
     comm = MPI.COMM_WORLD if comm is None else comm
+    stream = sys.stdout if stream is None else stream  # the current one (a test's capture)
     batch = spec.batch if batch is None else batch
     backend = spec.backend if backend is None else backend
     out_dir = Path(out_dir)
@@ -443,7 +507,12 @@ def run_sweep(spec: SweepSpec, out_dir: str | Path, *, comm: MPI.Comm | None = N
     group = comm.Split(color, comm.rank)
     _init_petsc(group)
     monitor = None
+    # the failures that no summary records (a full disk): those recorded before, less the
+    # scenes that run again now (rank 0), then this session's; the table shows them
+    failures: dict[str, str] = {}
     if rank0:
+        ran = {t.id for t in pending}
+        failures.update({k: v for k, v in recorded_failures(out_dir).items() if k not in ran})
         print(f"sweep {spec.name}: {len(spec.tasks)} scenes, {n_done} already done, "
               f"{len(pending)} to run on {n_groups} group(s) of {g} rank(s) -> {out_dir}",
               file=stream, flush=True)
@@ -456,7 +525,8 @@ def run_sweep(spec: SweepSpec, out_dir: str | Path, *, comm: MPI.Comm | None = N
         if comm.size % g:
             print(f"  note: {comm.size} ranks are not a multiple of group_size {g}; the last "
                   f"group has {comm.size % g} rank(s)", file=stream, flush=True)
-        monitor = _Monitor(out_dir, spec, pending, n_done, stream, _want_live(progress, stream))
+        monitor = _Monitor(out_dir, spec, pending, n_done, stream, _want_live(progress, stream),
+                           failures=failures)
         monitor.start()
 
     terminated = [False]
@@ -467,7 +537,8 @@ def run_sweep(spec: SweepSpec, out_dir: str | Path, *, comm: MPI.Comm | None = N
         terminated[0] = True
         raise KeyboardInterrupt
 
-    previous = signal.signal(signal.SIGTERM, on_term)
+    stops = (signal.SIGTERM, signal.SIGHUP)  # a batch system's stop, a closed terminal
+    previous = {sig: signal.signal(sig, on_term) for sig in stops}
     counter = None
     interrupted = False
     try:
@@ -479,18 +550,21 @@ def run_sweep(spec: SweepSpec, out_dir: str | Path, *, comm: MPI.Comm | None = N
             if idx >= len(units):
                 break
             status = _run_unit(spec, units[idx], out_dir, group, comm.rank, backend,
-                               check_cost)
+                               check_cost, failures)
             if status == "interrupted" or terminated[0]:
                 interrupted = True
                 break
     except KeyboardInterrupt:
         interrupted = True
     finally:
-        signal.signal(signal.SIGTERM, previous)
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
     if not interrupted:  # collective clean-up only when every rank got here normally
         comm.Barrier()
         if counter is not None:
             counter.free()
+        for found in comm.gather(failures, root=0) or []:
+            failures.update(found)
     rc = 130
     if rank0:
         assert monitor is not None
@@ -498,7 +572,7 @@ def run_sweep(spec: SweepSpec, out_dir: str | Path, *, comm: MPI.Comm | None = N
         session = {"started": t_start, "finished": time.time(), "ranks": comm.size,
                    "groups": n_groups, "group_size": g, "pending_at_start": len(pending),
                    "interrupted": interrupted}
-        rows = write_table(out_dir, spec, extra={"last_session": session})
+        rows = write_table(out_dir, spec, extra={"last_session": session}, failures=failures)
         counts: dict[str, int] = {}
         for r in rows:
             counts[r["status"]] = counts.get(r["status"], 0) + 1

@@ -213,8 +213,10 @@ def load_sweep(path: str | Path, large: bool = False) -> SweepSpec:
                                        or (isinstance(batch, int) and batch >= 1)):
         raise SweepError(f"{p}: batch = {batch!r} must be \"off\", \"auto\" or an integer "
                          ">= 1 (scenes per batch)")
+    from solver.schemes.select import BACKENDS
+
     backend = data.get("backend", "cpu")
-    if backend not in ("cpu", "gpu"):
+    if backend not in tuple(BACKENDS):  # a table or list given is refused too
         raise SweepError(f"{p}: backend = {backend!r} must be \"cpu\" or \"gpu\"")
     raw_set = data.get("set", [])
     if isinstance(raw_set, dict):

@@ -93,18 +93,37 @@ def _continued_past(done: dict, wanted: dict, summary: dict) -> bool:
             and float(summary.get("sim_time_s") or 0.0) >= end * (1.0 - 1e-9))
 
 
-def task_state(out_dir: Path, spec: SweepSpec, task: Task, scene: Scene | None = None) -> str:
+#: ``sweep.json``'s record of the scenes that failed where their own ``summary.json`` could
+#: not say so (a full disk): id -> message. The scene's next final summary supersedes it.
+FAILURES = "unrecorded_failures"
+
+
+def recorded_failures(out_dir: Path) -> dict[str, str]:
+    """The failures that ``sweep.json`` records for scenes whose summary could not (id ->
+    message); empty without a table."""
+    found = (_read_json(Path(out_dir) / "sweep.json") or {}).get(FAILURES)
+    return {str(k): str(v) for k, v in found.items()} if isinstance(found, dict) else {}
+
+
+def task_state(out_dir: Path, spec: SweepSpec, task: Task, scene: Scene | None = None,
+               failures: dict[str, str] | None = None) -> str:
     """``pending``, ``changed`` (finished, but for another scene), ``unanalysed`` (saved, but
-    killed before its wave analysis was added: run again), or the summary's status."""
+    killed before its wave analysis was added: run again), ``failed`` where the table
+    records a failure that the summary could not (``failures``: :func:`recorded_failures`,
+    read here if None), or the summary's status."""
     run_dir = out_dir / "runs" / task.id
     summary = run_summary(run_dir)
     if summary is None:
-        return "foreign" if _foreign(run_dir) else "pending"
-    status = str(summary.get("status", "pending"))
-    if status in FINAL_STATUSES and not _same_scene(run_dir, scene or scene_for(spec, task),
-                                                    summary):
+        state = "foreign" if _foreign(run_dir) else "pending"
+    elif str(summary.get("status")) in FINAL_STATUSES \
+            and not _same_scene(run_dir, scene or scene_for(spec, task), summary):
         return "changed"
-    return live_status(summary)
+    else:
+        state = live_status(summary)
+    if state not in FINAL_STATUSES and state != "foreign":
+        if task.id in (recorded_failures(out_dir) if failures is None else failures):
+            return "failed"
+    return state
 
 
 def live_status(summary: dict) -> str:
@@ -175,13 +194,17 @@ def _meta(spec: SweepSpec) -> dict[str, Any]:
 
 
 def write_table(out_dir: Path, spec: SweepSpec, extra: dict | None = None,
-                cache: dict[str, tuple[float, dict | None]] | None = None) -> list[dict]:
+                cache: dict[str, tuple[float, dict | None]] | None = None,
+                failures: dict[str, str] | None = None) -> list[dict]:
     """Rebuild ``sweep.json`` and ``sweep.csv`` from every scene's ``summary.json``.
 
-    ``cache`` (id -> (mtime, summary)) avoids re-reading unchanged summaries.
+    ``cache`` (id -> (mtime, summary)) avoids re-reading unchanged summaries. ``failures``
+    (id -> message; None: those the table records now) are scenes that failed where their
+    summary could not say so: their rows read ``failed`` until a final summary supersedes.
     """
     rows = []
     cache = {} if cache is None else cache
+    failures = dict(recorded_failures(out_dir) if failures is None else failures)
     for task in spec.tasks:
         path = out_dir / "runs" / task.id / "summary.json"
         try:
@@ -190,13 +213,20 @@ def write_table(out_dir: Path, spec: SweepSpec, extra: dict | None = None,
             mtime = -1.0
         if task.id not in cache or cache[task.id][0] != mtime:
             cache[task.id] = (mtime, run_summary(path.parent) if mtime >= 0 else None)
-        rows.append(_row(spec.keys, task, cache[task.id][1], f"runs/{task.id}", out_dir))
+        row = _row(spec.keys, task, cache[task.id][1], f"runs/{task.id}", out_dir)
+        if task.id in failures:
+            if row["status"] in FINAL_STATUSES or row["status"] == "foreign":
+                del failures[task.id]  # the scene's own final word
+            else:
+                row.update(status="failed", message=failures[task.id])
+        rows.append(row)
     counts: dict[str, int] = {}
     for r in rows:
         counts[r["status"]] = counts.get(r["status"], 0) + 1
     meta = _meta(spec)
     meta.update(extra or {})
-    meta.update({"updated": time.strftime("%Y-%m-%dT%H:%M:%S"), "counts": counts, "rows": rows})
+    meta.update({"updated": time.strftime("%Y-%m-%dT%H:%M:%S"), "counts": counts,
+                 FAILURES: failures, "rows": rows})
     atomic_write_text(out_dir / "sweep.json", json.dumps(meta, indent=1, default=str) + "\n")
     buf = io.StringIO()
     writer = csv.DictWriter(buf, fieldnames=["id", *spec.keys, *_TABLE_FIELDS],
