@@ -335,7 +335,7 @@ def test_certificates_reproducibility_persistence_and_an_unstable_wave(tmp_path,
     rows = [row(1, multi, _features({12: 1.0, 13: 0.22, 11: 0.20}), "multi-wave"),
             row(2, _features({12: 1.0, 13: 0.23, 11: 0.20}), multi, "multi-wave"),
             row(3, rigid, rigid, "wave")]
-    monkeypatch.setattr(certify_module, "certify", lambda run_dir, *, dt_limit=False: {
+    monkeypatch.setattr(certify_module, "certify", lambda run_dir, *, dt_limit=False, window=None: {
         "available": True, "at_dt": {"converged": True}, "stable": False})
     meta = {"celerity_tol": 0.02, "spread_tol": 0.1, "scene_file": "x", "overrides": [],
             "meshes": [132], "definition": {"scene": {"name": "x"}},

@@ -75,6 +75,22 @@ def test_a_run_that_is_not_a_rigid_wave_is_refused_in_one_line(figure3_run, tmp_
     assert rc == 1 and "frame spread" in msg and len(msg.splitlines()) == 1
 
 
+def test_end_state_window_is_the_callers(figure3_run):
+    """A census reads an extended start over its own window W, not the run's last third (a
+    long run's third reaches back into the transient). The spread over W is the one that
+    ``frame_spread`` gives over the last W s of the samples, to round-off (same arithmetic),
+    and it differs from the spread over the default window (the wave still settles)."""
+    import studies.travel.from_run as F
+    from postprocess.analysis import load_run
+
+    default = F.read_end_state(figure3_run)
+    w = 0.03  # s: about 40 periods of the k = 12 wave (1.4 kHz), a tenth of the run
+    mine = F.read_end_state(figure3_run, window=w)
+    spread, _ = F.frame_spread(load_run(figure3_run).samples, mine.omega, w)
+    assert mine.spread == pytest.approx(spread, rel=1e-12, abs=1e-15)
+    assert mine.spread != default.spread
+
+
 def test_frame_spread_is_zero_for_a_rigid_wave_and_large_for_two_waves():
     """A rigidly turning profile sampled on 132 nodes has spread ~0 at its own speed (the
     Fourier shift is exact on a band-limited profile, and the search recovers ω from a start

@@ -482,7 +482,8 @@ def answer_of(meta: dict, rows: list[dict], certify_in: Path | None = None, *,
     certificates: dict = {}
     if certify_in:
         t0 = time.perf_counter()
-        certificates = certify_members(certify_in, rows, compute=compute, dt_limit=dt_limit)
+        certificates = certify_members(certify_in, rows, compute=compute, dt_limit=dt_limit,
+                                        window=meta.get("window_s"))
         timing["certification_s"] = time.perf_counter() - t0
         for key, cert in certificates.items():
             if isinstance(cert, dict) and cert.get("stable") is False:
@@ -529,10 +530,11 @@ def _brief(row: dict) -> dict:
 
 
 def certify_members(out_dir: Path, rows: list[dict], *, compute: bool = True,
-                    dt_limit: bool = False) -> dict:
+                    dt_limit: bool = False, window: float | None = None) -> dict:
     """Per mesh and settled member (``"N:member"``): its certificate
     (``studies.attractors.certify.certify_member``), cached in ``certificates.json`` by its
-    first run and that run's summary time; with ``compute`` False only cached ones."""
+    first run and that run's summary time; with ``compute`` False only cached ones. The end
+    state is read over the last ``window`` seconds (the census's W)."""
     from studies.attractors.certify import certify_member
 
     cache_path = out_dir / "certificates.json"
@@ -552,7 +554,7 @@ def certify_members(out_dir: Path, rows: list[dict], *, compute: bool = True,
         if key not in cache:
             if not compute:
                 continue
-            cache[key] = certify_member(group, dt_limit=dt_limit)
+            cache[key] = certify_member(group, dt_limit=dt_limit, window=window)
             atomic_write_text(cache_path, json.dumps(_json_safe(cache), indent=1,
                                                      default=str))
         out[f"{n}:{member}"] = cache[key]

@@ -52,17 +52,18 @@ def available() -> bool:
 
 
 def certify(run_dir: Path, *, stability: bool = True, stability_end_time: float = 0.05,
-            dt_limit: bool = False) -> dict:
+            dt_limit: bool = False, window: float | None = None) -> dict:
     """The member's certificate from one of its runs (module docstring); never raises.
     ``dt_limit = False`` leaves the Δt → 0 wave out (its finest level, 4S points per node, is
-    a dense Newton system whose cost grows as the cube)."""
+    a dense Newton system whose cost grows as the cube). ``window``: the end state's window
+    (s; default the run's analysis window), e.g. a census's W for a start it extended."""
     travel = _travel()
     if travel is None:
         return {"available": False, "message": f"{UNAVAILABLE}: studies.travel.wave_from_run "
                 "is not installed"}
     out: dict = {"available": True, "run": str(run_dir)}
     try:  # one solve: the wave at the run's step, and from it the Δt → 0 wave
-        wave = travel.wave_from_run(run_dir, dt_limit=dt_limit)
+        wave = travel.wave_from_run(run_dir, dt_limit=dt_limit, window=window)
     except Exception as err:  # NotRigidWave or a solver failure: a fact of the member
         out["at_dt"] = {"converged": False, "message": f"{type(err).__name__}: {err}"}
         return out
@@ -77,7 +78,8 @@ def certify(run_dir: Path, *, stability: bool = True, stability_end_time: float 
             "no Δt → 0 wave from this run" if dt_limit else "not computed (dt_limit = False)")}
     if stability and wave.get("converged") and hasattr(travel, "wave_stability"):
         try:
-            st = travel.wave_stability(run_dir, end_time=stability_end_time)
+            st = travel.wave_stability(run_dir, end_time=stability_end_time,
+                                       window=window)
             out["stable"] = bool(st.get("stable"))
             out["drift"] = _plain(st.get("drift"))
             if st.get("samples") is not None and st["samples"] != wave.get("samples"):
@@ -88,9 +90,10 @@ def certify(run_dir: Path, *, stability: bool = True, stability_end_time: float 
     return out
 
 
-def certify_member(rows: list[dict], *, dt_limit: bool = False) -> dict:
-    """The certificate of one settled member from its rows (module docstring); never
-    raises."""
+def certify_member(rows: list[dict], *, dt_limit: bool = False,
+                   window: float | None = None) -> dict:
+    """The certificate of one settled member from its rows (module docstring), its features
+    read over the last ``window`` seconds (the census's W); never raises."""
     from studies.attractors.features import Features
 
     out: dict = {"starts": len(rows), "reproduced": len(rows) >= 2,
@@ -105,7 +108,7 @@ def certify_member(rows: list[dict], *, dt_limit: bool = False) -> dict:
             (_spread([a, b]) for a, b in zip(earlier, later, strict=True)),
             key=lambda d: (d["celerity_rel"], d["share"]))
     if out["rigid"]:
-        out["direct"] = certify(Path(rows[0]["run_dir"]), dt_limit=dt_limit)
+        out["direct"] = certify(Path(rows[0]["run_dir"]), dt_limit=dt_limit, window=window)
         out["stable"] = out["direct"].get("stable")
     out["kick"] = "not run"
     return _plain(out)

@@ -123,9 +123,15 @@ def matched_samples(node_passage: float, dt: float) -> int:
     return max(1, int(round(node_passage / dt)))
 
 
-def read_end_state(run_dir: Path, tolerance: float | None = None) -> RunEndState:
+def read_end_state(run_dir: Path, tolerance: float | None = None,
+                   window: float | None = None) -> RunEndState:
     """The run's wave (k, ω, Δt, frame spread); ``NotRigidWave`` if it is not a rigid
-    travelling wave, ``ValueError`` if the directory is not a finished run."""
+    travelling wave, ``ValueError`` if the directory is not a finished run.
+
+    The frame spread is measured over the last ``window`` seconds (default: the run's analysis
+    window, its last third). A run continued well past its settling (a census's extended
+    start) gives the census's own window, so that the spread does not reach back into the
+    transient before it settled."""
     from postprocess.analysis import analyse_run, load_run
     from solver.scene import load_scene
 
@@ -142,7 +148,8 @@ def read_end_state(run_dir: Path, tolerance: float | None = None) -> RunEndState
     wave = analyse_run(run)
     if wave.angular_speed_rad_s == 0.0 or wave.regime == "steady-sliding":
         raise NotRigidWave(f"{run_dir}: the run ended in steady sliding (no travelling wave)")
-    window = float(summ.get("analysis_window_s") or (run.samples["t"][-1] / 3.0))
+    if window is None:
+        window = float(summ.get("analysis_window_s") or (run.samples["t"][-1] / 3.0))
     spread, _ = frame_spread(run.samples, wave.angular_speed_rad_s, window)
     if not spread < tolerance:
         raise NotRigidWave(
@@ -232,7 +239,7 @@ def difference(wave: dict, run: dict, steps_per_period: float | None = None) -> 
             "amplitude_rel": wave["amplitude_m"] / run["amplitude_m"] - 1.0}
 
 
-def wave_from_run(run_dir: Path, *, dt_limit: bool = False) -> dict:
+def wave_from_run(run_dir: Path, *, dt_limit: bool = False, window: float | None = None) -> dict:
     """The transient's own discrete wave at the run's step, from a finished run (module doc).
 
     Returns a dict: converged, message, residual, k, direction, regime, celerity_m_s,
@@ -240,14 +247,14 @@ def wave_from_run(run_dir: Path, *, dt_limit: bool = False) -> dict:
     frame_spread, run (the run's values of the same keys), difference (``difference``),
     cpu_s; with ``dt_limit``, ``dt_limit`` (the Δt → 0 wave, ``dt_limit_wave``; None, with
     ``dt_limit_message``, where a finer level has no wave: the free-ω Newton stagnates with an
-    inequality violated, and the wave at the run's step stands). Raises
-    ``NotRigidWave`` when the run's end state is not a rigidly travelling wave, ``ValueError``
-    when the directory is not a finished run."""
+    inequality violated, and the wave at the run's step stands). ``window``: the end state's
+    window, as in ``read_end_state``. Raises ``NotRigidWave`` when the run's end state is not
+    a rigidly travelling wave, ``ValueError`` when the directory is not a finished run."""
     import studies.travel.driver as D
     from studies.travel.newton import NotConverged
 
     t0 = time.process_time()
-    end = read_end_state(Path(run_dir))
+    end = read_end_state(Path(run_dir), window=window)
     s = matched_samples(end.node_passage, end.dt)
     out: dict = {"k": end.k, "node_passage_s": end.node_passage, "dt_s": end.dt,
                  "samples": s, "frame_spread": end.spread, "run": _values(end.summary)}
@@ -363,13 +370,14 @@ def _extrapolate(setup, k: int, s: int, W: np.ndarray, omega: float) -> dict:
     return lim
 
 
-def wave_stability(run_dir: Path, *, end_time: float = 0.05, eps: float = 0.02) -> dict:
+def wave_stability(run_dir: Path, *, end_time: float = 0.05, eps: float = 0.02,
+                   window: float | None = None) -> dict:
     """Is the run's wave an attractor of the transient? ``transient_next_to`` the wave of
     ``wave_from_run`` (the matched step h = τ/S, S = round(τ/Δt)). Where that h exceeds the
     run's Δt_crit (S rounds down: h up to 1.5 Δt) a transient at h is unstable as a scheme,
     so the neighbouring discrete wave at S' = ceil(τ/Δt) (h ≤ Δt) is tested instead; the
-    answer names it (``samples``)."""
-    end = read_end_state(Path(run_dir))
+    answer names it (``samples``); ``window`` as in ``read_end_state``."""
+    end = read_end_state(Path(run_dir), window=window)
     s = matched_samples(end.node_passage, end.dt)
     st, sol, _ = solve_matched(end, s)
     if st.ops.step(sol.omega) > float(end.summary.get("dt_crit_s") or end.dt):
