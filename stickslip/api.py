@@ -125,7 +125,9 @@ def run(scene: str | Path | Scene, run_dir: str | Path | None = None, *,
         force: replace an earlier run directory (atomically; kept if the new run fails).
         plot: also draw the run's PNG figures into the directory.
         quiet: do not print the estimate, progress and summary lines.
-        check_resources: refuse a scene that needs more memory or disk than the machine has.
+        check_resources: refuse a scene that needs more memory or disk than the machine has,
+            or whose samples cannot resolve its expected wave (``ValueError``, as the
+            command's ``--yes-i-know``).
 
     Returns:
         The run's summary, the contents of ``summary.json``, with ``status`` (completed,
@@ -142,6 +144,11 @@ def run(scene: str | Path | Scene, run_dir: str | Path | None = None, *,
     from studies.rundir import run_scene
 
     sc = load_scene(scene, overrides)
+    if check_resources:
+        from postprocess.resolution import sampling_problem
+
+        if problem := sampling_problem(sc, "pass check_resources=False"):
+            raise ValueError(problem)
     path = Path(run_dir) if run_dir is not None else output_root() / sc.name
     with _keyword_errors("run_dir"):
         summary = run_scene(sc, path, force=force, check_resources=check_resources,

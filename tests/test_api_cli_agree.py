@@ -124,3 +124,21 @@ def test_travel_branch_quiet_prints_nothing(tmp_path, capsys):
     assert [r["value"] for r in rows] == [50.0, 52.0]
     assert capsys.readouterr().out == ""
     assert (Path(tmp_path) / "b" / "branch.json").is_file()
+
+
+def test_samples_that_cannot_resolve_the_expected_wave_are_refused_at_load(tmp_path, capsys):
+    """Samples every 10 ms (Nyquist 50 Hz) on the smoke scene, whose wave is ~1.6 kHz (its
+    reduced model's flutter mode k = 4: 1.07 kHz): refused before anything is written, in one
+    line naming the estimate, the fix and the override, by the command and by the API."""
+    pytest.importorskip("dolfinx")
+    from cli.main import main
+
+    coarse = ["--set", "time.end_time=60", "--set", "output.sample_interval=0.01"]
+    assert main(["run", "smoke", *coarse, "-o", str(tmp_path / "r")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "reduced model's flutter mode k = initial.mode = 4" in err
+    assert "output.sample_interval < 0.000468 s" in err and "--yes-i-know" in err
+    assert not (tmp_path / "r").exists()
+    with pytest.raises(ValueError, match="check_resources=False"):
+        stickslip.run("smoke", tmp_path / "r", overrides={"time.end_time": 60,
+                                                          "output.sample_interval": 0.01})
