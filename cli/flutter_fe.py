@@ -35,10 +35,16 @@ def parse_f_sweep(text: str) -> np.ndarray:
     try:
         if ":" in text:
             a, b, n = text.split(":")
-            vals = np.linspace(float(a), float(b), int(n))
+            a, b, n = float(a), float(b), int(n)
+            if not 1 <= n <= F_SWEEP_MAX:
+                raise ValueError(f"--f-sweep {text!r}: N = {n} values; give 1 <= N <= "
+                                 f"{F_SWEEP_MAX} (each a full CEA)")
+            vals = np.linspace(a, b, n)
         else:
             vals = np.array([float(x) for x in text.split(",") if x.strip()])
     except ValueError as err:
+        if str(err).startswith("--f-sweep"):
+            raise
         raise ValueError(f"--f-sweep {text!r}: use start:stop:num or a comma list") from err
     if vals.size == 0 or np.any(vals < 0) or not np.all(np.isfinite(vals)):
         raise ValueError(f"--f-sweep {text!r}: need finite friction coefficients >= 0")

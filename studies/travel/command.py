@@ -22,6 +22,10 @@ DEFAULTS: dict = {"k": None, "from_run": None, "damping": None, "celerity": None
                   "time_scheme": None, "max_iter": 60, "dt_limit": False, "band": False,
                   "cont": None, "plot": False}
 
+#: The most contact points per node (S) of the central scheme's matched step: a start speed
+#: so slow that one node passage takes more time steps is no travelling wave of the run.
+MAX_SAMPLES = 1e5
+
 #: Command-line flags whose name is not the option's with dashes.
 _FLAGS = {"from_run": "--from", "cont": "--continue"}
 
@@ -169,7 +173,13 @@ def _matched_step(scene, opts: SimpleNamespace) -> None:  # noqa: ANN001
         opts.reduced = D.reduced_start(scene, opts.k)
         omega = opts.reduced[1]
     n = opts.problem.nodes.theta.size
-    opts.samples = matched_samples(2.0 * math.pi / (n * abs(omega)), dt)
+    passage = 2.0 * math.pi / (n * abs(omega))
+    if not passage / dt < MAX_SAMPLES:  # S = passage / dt contact points per node
+        raise ValueError(f"a start speed of {omega * scene.geometry.R:.3g} m/s passes one "
+                         f"contact node every {passage:.3g} s, {passage / dt:.3g} time steps: "
+                         f"the matched step needs at most {MAX_SAMPLES:g}; give a faster "
+                         "celerity, or samples")
+    opts.samples = matched_samples(passage, dt)
 
 
 def solve(scene, opts: SimpleNamespace, t0: float) -> tuple[dict, dict]:  # noqa: ANN001
