@@ -8,6 +8,7 @@ import json
 import math
 import sys
 import time
+from pathlib import Path
 
 import numpy as np
 
@@ -193,8 +194,10 @@ def flutter_fe_command(args: argparse.Namespace) -> int:
              "modes": [[m.frequency_hz, m.growth_rate, m.k] for m in r.modes]}
             for r in sweep
         ]
-    if args.plot:
+    if args.plot:  # a relative path is the current directory's; the line names it in full
+        args.plot = str(Path(args.plot).resolve())
         _plot(args, scene, res, sweep, fs, reduced)
+        out["figure"] = args.plot
     if args.json:
         print(json.dumps(out, indent=2))
     else:

@@ -23,7 +23,7 @@ if TYPE_CHECKING:
     from solver.scene import Scene
     from studies.flutter_fe.cea import CEAResult
 
-__all__ = ["analyse", "cea", "cea_friction_sweep", "continue_run", "load_run",
+__all__ = ["analyse", "attractors", "cea", "cea_friction_sweep", "continue_run", "load_run",
            "load_scene", "plot_run", "plot_sweep", "reduced_waves", "run", "sweep", "travel",
            "travel_branch"]
 
