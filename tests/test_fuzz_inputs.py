@@ -379,3 +379,122 @@ def test_numeric_options(finished, tmp_path_factory, capsys, monkeypatch, option
     assert "Traceback" not in err, err
     if rc == 2 and not err.startswith("usage:"):
         assert err.count("\n") == 1, (argv, err)
+
+
+# ------------------------------------------- signals at phases chosen by Hypothesis, symlinks
+
+FINAL_STATUSES = {"completed", "interrupted", "diverged", "stopped", "failed", "crashed",
+                  "converged"}
+
+
+def _tiny_commands(tmp: Path) -> dict[str, list[str]]:
+    """Each long-running command on a tiny problem (a second or two), writing under ``tmp``."""
+    sweep = tmp / "tiny.toml"
+    sweep.write_text(f'name = "tiny"\nbase = "{SMOKE}"\n[set]\n"time.end_time" = 0.002\n'
+                     '"output.progress" = false\n[grid]\n"loading.omega" = [40.0, 50.0]\n')
+    return {
+        "run": ["run", str(SMOKE), "--set", "time.end_time=0.002", "-o", str(tmp / "out")],
+        "sweep": ["sweep", str(sweep), "-o", str(tmp / "out")],
+        "attractors": ["attractors", str(SMOKE), "--starts", "2", "--end-time", "0.002",
+                       "--no-certify", "-o", str(tmp / "out")],
+        "travel": ["travel", "figure1_n132_damped", "--set", "mesh.n_inner=36", "--k", "4",
+                   "--celerity", "-2300", "--fixed-omega", "-o", str(tmp / "out")],
+    }
+
+
+def _run_quietly(argv: list[str]) -> int:
+    from cli.main import main
+
+    with contextlib.redirect_stdout(io.StringIO()):
+        return main(argv)
+
+
+def _nothing_half_written(out: Path) -> None:
+    """No temporary file or folder, and every summary in the tree final (never running)."""
+    import json
+
+    from faults import leftovers
+
+    for d in [out, *(p for p in out.rglob("*") if p.is_dir())] if out.exists() else []:
+        assert not leftovers(d), leftovers(d)
+    for summary in out.rglob("summary.json") if out.exists() else []:
+        assert json.loads(summary.read_text())["status"] in FINAL_STATUSES, summary
+
+
+@settings(FUZZ, max_examples=10)
+@given(st.sampled_from(["run", "sweep", "attractors", "travel"]),
+       st.sampled_from(["SIGINT", "SIGTERM", "SIGHUP"]),
+       st.sampled_from(["setup", "loop", "scene.toml", "summary.json#1", "samples.npz",
+                        "final_field.npz", "summary.json#2"]))
+def test_a_signal_at_any_phase(tmp_path_factory, monkeypatch, command, kind, phase):
+    """A signal delivered in-process at a phase of the work (``faults.inject``, no timing):
+    exit 130 once it fired (0 if the phase never came), nothing half-written, every summary
+    final; the same command again then finishes (a sweep or census resumes)."""
+    pytest.importorskip("dolfinx")
+    import sys
+
+    sys.path.insert(0, str(REPO / "tests"))
+    from faults import inject
+
+    tmp = tmp_path_factory.mktemp("sig")
+    argv = _tiny_commands(tmp)[command]
+    with monkeypatch.context() as patch:
+        state = inject(patch, kind, phase)
+        rc = _run_quietly(argv)
+    assert rc == (130 if state["fired"] else 0), (argv, phase, rc)
+    _nothing_half_written(tmp / "out")
+    again = _run_quietly(argv + (["--force"] if command in ("run", "travel") else []))
+    assert again == 0, (argv, again)
+    _nothing_half_written(tmp / "out")
+
+
+#: Entries a finished directory of each command holds, each of which may be a link.
+WRITTEN = {
+    "run": ["scene.toml", "summary.json", "samples.npz", "final_field.npz", "checkpoint.npz",
+            ".stickslip", ".stickslip.lock"],
+    "sweep": ["sweep.json", "sweep.csv", ".stickslip", ".stickslip.lock", "runs",
+              "runs/loading.omega=40/summary.json", "runs/loading.omega=40/samples.npz"],
+    "travel": ["scene.toml", "summary.json", "profiles.npz", ".stickslip", ".stickslip.lock"],
+}
+
+
+@pytest.fixture(scope="module")
+def finished_dirs(tmp_path_factory) -> dict[str, Path]:
+    """A finished run, sweep and travel directory to copy (made once)."""
+    pytest.importorskip("dolfinx")
+    tmp = tmp_path_factory.mktemp("finished")
+    dirs = {}
+    for command, argv in _tiny_commands(tmp).items():
+        if command in WRITTEN:
+            out = tmp / command
+            argv[argv.index(str(tmp / "out"))] = str(out)
+            assert _run_quietly(argv) == 0, argv
+            dirs[command] = out
+    return dirs
+
+
+@settings(FUZZ, max_examples=10)
+@given(st.sampled_from(sorted((c, e) for c, es in WRITTEN.items() for e in es)))
+def test_a_symlink_at_any_written_path(finished_dirs, tmp_path_factory, capsys, case):
+    """A finished directory with one of its entries replaced by a link to the user's file:
+    the command again (run/travel --force, sweep resumed) refuses in one line (exit 2) or
+    replaces the link; it never writes through it, and the user's file stays as it was."""
+    command, entry = case
+    tmp = tmp_path_factory.mktemp("link")
+    out = tmp / "out"
+    shutil.copytree(finished_dirs[command], out, symlinks=True)
+    users = tmp / "users.txt"
+    users.write_text("the user's")
+    target = out / entry
+    if target.is_dir():
+        shutil.rmtree(target)
+    else:
+        target.unlink()
+    target.symlink_to(users)
+    argv = _tiny_commands(tmp)[command] + (["--force"] if command != "sweep" else [])
+    capsys.readouterr()
+    rc = _run_quietly(argv)
+    err = capsys.readouterr().err
+    assert rc in (0, 2), (argv, entry, rc, err)
+    assert "Traceback" not in err and (rc == 0 or err.count("\n") == 1), err
+    assert users.read_text() == "the user's"
