@@ -498,3 +498,34 @@ def test_a_symlink_at_any_written_path(finished_dirs, tmp_path_factory, capsys, 
     assert rc in (0, 2), (argv, entry, rc, err)
     assert "Traceback" not in err and (rc == 0 or err.count("\n") == 1), err
     assert users.read_text() == "the user's"
+
+
+@pytest.mark.parametrize("command", ["sweep", "attractors", "travel"])
+def test_a_read_only_folder_is_refused_in_one_line(tmp_path, command):
+    """`-o` inside a folder the user cannot write (root writes anywhere, so the command runs
+    as the unprivileged user `nobody`): exit 2, one line, nothing created."""
+    import os
+    import subprocess
+    import sys
+    import tempfile
+
+    if os.geteuid() != 0:
+        pytest.skip("needs root to run a command as another user")
+    pytest.importorskip("dolfinx")
+    ro = Path(tempfile.mkdtemp(dir="/tmp"))
+    argv = _tiny_commands(ro)[command]  # the tiny sweep file is written before the lock-down
+    argv[argv.index(str(ro / "out"))] = str(ro / "x")
+    (ro / "tiny.toml").chmod(0o644)
+    try:
+        ro.chmod(0o555)
+        res = subprocess.run([sys.executable, "-m", "cli.main", *argv], cwd=REPO,
+                             capture_output=True, text=True, timeout=120,
+                             env={**os.environ, "HOME": "/tmp"},
+                             preexec_fn=lambda: os.setuid(65534))
+        assert res.returncode == 2, res.stderr
+        assert res.stderr.count("\n") == 1 and "Traceback" not in res.stderr, res.stderr
+        assert f"{ro / 'x'}" in res.stderr and "writ" in res.stderr, res.stderr
+        assert not (ro / "x").exists()
+    finally:
+        ro.chmod(0o755)
+        shutil.rmtree(ro)
