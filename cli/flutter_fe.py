@@ -38,8 +38,9 @@ def parse_f_sweep(text: str) -> np.ndarray:
             a, b, n = text.split(":")
             a, b, n = float(a), float(b), int(n)
             if not 1 <= n <= F_SWEEP_MAX:
-                raise ValueError(f"--f-sweep {text!r}: N = {n} values; give 1 <= N <= "
-                                 f"{F_SWEEP_MAX} (each a full CEA)")
+                raise ValueError(f"--f-sweep {text!r}: {n} values, each a full CEA; give "
+                                 f"at least 1 and at most {F_SWEEP_MAX} (a diagram needs a "
+                                 "few tens)")
             vals = np.linspace(a, b, n)
         else:
             vals = np.array([float(x) for x in text.split(",") if x.strip()])
