@@ -84,6 +84,21 @@ def _keyword_errors(out: str) -> Iterator[None]:
         raise
 
 
+def _refused_as_error(command: Any, what: str) -> int:
+    """``command()``'s exit status; its refusal (2: one ``error:`` line on stderr, as the
+    command line prints it, nothing run) raised as ``ValueError`` naming the keyword
+    arguments. The lines still reach stderr."""
+    errors = io.StringIO()
+    with contextlib.redirect_stderr(errors):
+        rc = command()
+    sys.stderr.write(errors.getvalue())
+    if rc == 2:
+        why = errors.getvalue().strip().splitlines() or ["see the error above"]
+        with _keyword_errors("out_dir"):
+            raise ValueError(f"{what} could not start: {why[-1].removeprefix('error: ')}")
+    return rc
+
+
 def load_scene(scene: str | Path | Scene, overrides: Overrides = None) -> Scene:
     """A validated scene with overrides applied.
 
@@ -244,7 +259,7 @@ def plot_run(run_dir: str | Path) -> list[Path]:
 
 
 def sweep(spec: str | Path, out_dir: str | Path | None = None, *, batch: str | None = None,
-          plot: bool = False, quiet: bool = False) -> dict:
+          plot: bool = False, quiet: bool = False, check_resources: bool = True) -> dict:
     """Run a parameter study (``stickslip sweep``): every scene of a sweep file, resumable.
 
     Args:
@@ -255,6 +270,8 @@ def sweep(spec: str | Path, out_dir: str | Path | None = None, *, batch: str | N
             dt and scheme advance together); default: the sweep file's.
         plot: also draw the regime map (``regime_map.png``).
         quiet: do not print the progress lines.
+        check_resources: refuse a sweep too large or too long for the machine (as the
+            command without ``--yes-i-know``), with ``ValueError``.
 
     Returns:
         The sweep table, the contents of ``sweep.json``, with its meta data and ``rows``,
@@ -271,11 +288,14 @@ def sweep(spec: str | Path, out_dir: str | Path | None = None, *, batch: str | N
     from studies.sweep import plot_sweep as _plot
     from studies.sweep.batch import parse_batch
 
-    s = load_sweep(spec)
+    with _keyword_errors("out_dir"):
+        s = load_sweep(spec, large=not check_resources)
     path = Path(out_dir) if out_dir is not None else (
         s.output if s.output is not None else output_root() / "sweeps" / s.name)
-    run_sweep(s, path, batch=parse_batch(batch if batch is not None else s.batch),
-              progress="lines", stream=io.StringIO() if quiet else sys.stdout)
+    _refused_as_error(lambda: run_sweep(
+        s, path, batch=parse_batch(batch if batch is not None else s.batch), progress="lines",
+        stream=io.StringIO() if quiet else sys.stdout, check_cost=check_resources),
+        f"the sweep into {path}")
     if plot:
         _plot(path)
     return read_table(path)
@@ -328,16 +348,9 @@ def attractors(scene: str | Path, out_dir: str | Path | None = None, *, starts: 
                     tuple(texts))
     census.base_scene()
     path = Path(out_dir) if out_dir is not None else default_dir(base)
-    errors = io.StringIO()
-    with contextlib.redirect_stderr(errors):
-        rc = run_census(census, path, force=force, certify=certify,
-                        stream=io.StringIO() if quiet else sys.stdout)
-    sys.stderr.write(errors.getvalue())
-    if rc == 2:
-        why = errors.getvalue().strip().splitlines() or ["see the error above"]
-        with _keyword_errors("out_dir"):
-            raise ValueError(f"the census in {path} could not start: "
-                             f"{why[-1].removeprefix('error: ')}")
+    _refused_as_error(lambda: run_census(census, path, force=force, certify=certify,
+                                         stream=io.StringIO() if quiet else sys.stdout),
+                      f"the census in {path}")
     return json.loads((path / "attractors.json").read_text())
 
 

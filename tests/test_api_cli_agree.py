@@ -142,3 +142,19 @@ def test_samples_that_cannot_resolve_the_expected_wave_are_refused_at_load(tmp_p
     with pytest.raises(ValueError, match="check_resources=False"):
         stickslip.run("smoke", tmp_path / "r", overrides={"time.end_time": 60,
                                                           "output.sample_interval": 0.01})
+
+
+def test_sweep_and_census_refusals_are_errors_naming_keyword_arguments(tmp_path):
+    """A folder of the user's as the output: the command's one-line refusal, raised as
+    ValueError in the API's words (out_dir, not -o), nothing written."""
+    pytest.importorskip("dolfinx")
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    (mine / "notes.txt").write_text("mine")
+    sweep_file = Path(__file__).resolve().parents[1] / "sweeps" / "smoke4.toml"
+    for call in (lambda: stickslip.sweep(sweep_file, mine, quiet=True),
+                 lambda: stickslip.attractors("smoke", mine, starts=1, quiet=True)):
+        with pytest.raises(ValueError, match="could not start") as err:
+            call()
+        assert "out_dir" in str(err.value) and " -o" not in str(err.value)
+        assert sorted(p.name for p in mine.iterdir()) == ["notes.txt"]
