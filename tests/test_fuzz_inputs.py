@@ -448,6 +448,35 @@ def test_a_signal_at_any_phase(tmp_path_factory, monkeypatch, command, kind, pha
     _nothing_half_written(tmp / "out")
 
 
+@settings(FUZZ, max_examples=8)
+@given(st.sampled_from(["run", "sweep", "attractors", "travel"]),
+       st.sampled_from(["scene.toml", "summary.json#1", "samples.npz", "final_field.npz",
+                        "summary.json#2", "summary.json#3"]))
+def test_a_full_disk_at_any_write(tmp_path_factory, monkeypatch, command, phase):
+    """A write that fails with ENOSPC (``faults.inject``, as a full 2 MB tmpfs does): a
+    one-line failure or an exit status that says so, nothing half-written, every summary
+    final, and no table row that hides the failure as ``unanalysed`` or ``running``."""
+    pytest.importorskip("dolfinx")
+    import json
+    import sys
+
+    sys.path.insert(0, str(REPO / "tests"))
+    from faults import inject
+
+    tmp = tmp_path_factory.mktemp("full")
+    argv = _tiny_commands(tmp)[command]
+    with monkeypatch.context() as patch:
+        state = inject(patch, "disk-full", phase)
+        rc = _run_quietly(argv)
+    assert rc in (0, 1, 2), (argv, phase, rc)
+    _nothing_half_written(tmp / "out")
+    for table in (tmp / "out").rglob("sweep.json"):
+        rows = json.loads(table.read_text())["rows"]
+        assert not {r["status"] for r in rows} & {"unanalysed", "running"}, rows
+        if state["fired"] and any(r["status"] == "failed" for r in rows):
+            assert rc != 0, (argv, phase)
+
+
 #: Entries a finished directory of each command holds, each of which may be a link.
 WRITTEN = {
     "run": ["scene.toml", "summary.json", "samples.npz", "final_field.npz", "checkpoint.npz",
