@@ -43,6 +43,9 @@ def _compare(args: argparse.Namespace) -> int:
         print(f"error: {problem}", file=sys.stderr)
         return 2
     ks = list(args.k)
+    if bad := [k for k in ks if k < 1]:
+        print(f"error: --k {bad[0]}: give a wavenumber >= 1", file=sys.stderr)
+        return 2
     result = compare_run(run_dir, ks)
     if args.modal:
         from solver.scene import load_scene

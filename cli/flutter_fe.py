@@ -8,6 +8,7 @@ import json
 import math
 import sys
 import time
+from pathlib import Path
 
 import numpy as np
 
@@ -35,10 +36,17 @@ def parse_f_sweep(text: str) -> np.ndarray:
     try:
         if ":" in text:
             a, b, n = text.split(":")
-            vals = np.linspace(float(a), float(b), int(n))
+            a, b, n = float(a), float(b), int(n)
+            if not 1 <= n <= F_SWEEP_MAX:
+                raise ValueError(f"--f-sweep {text!r}: {n} values, each a full CEA; give "
+                                 f"at least 1 and at most {F_SWEEP_MAX} (a diagram needs a "
+                                 "few tens)")
+            vals = np.linspace(a, b, n)
         else:
             vals = np.array([float(x) for x in text.split(",") if x.strip()])
     except ValueError as err:
+        if str(err).startswith("--f-sweep"):
+            raise
         raise ValueError(f"--f-sweep {text!r}: use start:stop:num or a comma list") from err
     if vals.size == 0 or np.any(vals < 0) or not np.all(np.isfinite(vals)):
         raise ValueError(f"--f-sweep {text!r}: need finite friction coefficients >= 0")
@@ -187,8 +195,10 @@ def flutter_fe_command(args: argparse.Namespace) -> int:
              "modes": [[m.frequency_hz, m.growth_rate, m.k] for m in r.modes]}
             for r in sweep
         ]
-    if args.plot:
+    if args.plot:  # a relative path is the current directory's; the line names it in full
+        args.plot = str(Path(args.plot).resolve())
         _plot(args, scene, res, sweep, fs, reduced)
+        out["figure"] = args.plot
     if args.json:
         print(json.dumps(out, indent=2))
     else:

@@ -33,7 +33,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "interrupted, the old run is kept")
     p.add_argument("--yes-i-know", dest="yes_i_know", action="store_true",
                    help="run even if the estimated memory or output exceeds what this "
-                        "machine has (the estimate is printed before meshing)")
+                        "machine has (the estimate is printed before meshing), or the "
+                        "samples cannot resolve the expected wave (output.sample_interval "
+                        "above half its period)")
     p.add_argument("--plot", action="store_true", help="draw the run's figures when done")
     _window_option(p)
     p.add_argument("--profile", action="store_true", help="print where the time went")
@@ -75,6 +77,13 @@ def _run(args: argparse.Namespace) -> int:
         if comm.rank == 0:
             print(f"error: {err}", file=sys.stderr)
         return 2
+    if not args.yes_i_know:
+        from postprocess.resolution import sampling_problem
+
+        if problem := sampling_problem(scene, "pass --yes-i-know"):
+            if comm.rank == 0:
+                print(f"error: {problem}", file=sys.stderr)
+            return 2
     run_dir = Path(args.output) if args.output else output_root() / scene.name
     try:
         summary = run_scene(scene, run_dir, force=args.force, comm=comm, profile=args.profile,

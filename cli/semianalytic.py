@@ -14,6 +14,8 @@ import sys
 import warnings
 from typing import Any
 
+import numpy as np
+
 __all__ = ["register", "wave_command", "flutter_command"]
 
 
@@ -106,6 +108,20 @@ def _validate(args: argparse.Namespace) -> None:
                                           "--omega and --wave-speed")) from None
     if hasattr(args, "kmax") and not 1 <= args.kmax <= KMAX_LIMIT:
         raise bad("kmax", args.kmax, f"an integer 1 <= kmax <= {KMAX_LIMIT}")
+    from semianalytic.coefficients import coefficients, gamma_from_physical
+
+    try:  # eqs. [3]-[5] at extreme ratios (xi = 1e300) overflow or give a singular system
+        with np.errstate(all="ignore"):
+            co = coefficients(args.nu, args.xi,
+                              gamma_from_physical(args.wave_speed, args.radius, args.omega))
+        finite = all(np.all(np.isfinite(np.asarray(v, dtype=float)))
+                     for v in vars(co).values() if isinstance(v, (float, np.ndarray)))
+    except (np.linalg.LinAlgError, ArithmeticError, ValueError):
+        finite = False
+    if not finite:
+        raise InputError(f"--nu {args.nu!r}, --xi {args.xi!r}: the reduced model's "
+                         "coefficients (paper eqs. 3-5) are not finite numbers there; use "
+                         "a radius ratio xi of order 1 (the paper: 1.25)")
 
 
 def _jsonable(d: dict[str, Any]) -> dict[str, Any]:

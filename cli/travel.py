@@ -128,52 +128,22 @@ def _import_dolfinx_without_numba() -> None:
         del sys.modules["numba"]
 
 
-def _check_args(args: argparse.Namespace) -> str | None:
-    """The first bad argument as a one-line message, or None; fills the route's defaults."""
-    _import_dolfinx_without_numba()
-    from studies.travel.frame import INERTIAS
-    from studies.travel.newton import RATES
+def _options(args: argparse.Namespace):  # noqa: ANN202
+    """The command line's options (``studies.travel.command.DEFAULTS``' names)."""
+    from studies.travel import command
 
-    if args.k is not None and args.k < 1:
-        return f"--k {args.k}: the wavenumber must be an integer >= 1"
-    if args.k is None and not args.from_run:
-        return "--k: give the wavenumber (or --from RUN_DIR, whose k is the default)"
-    if args.damping is not None and args.damping < 0:
-        return f"--damping {args.damping}: the retardation time must be >= 0"
-    if args.celerity is not None and args.celerity == 0.0:
-        return "--celerity 0: a travelling wave needs a non-zero speed (sign = sense)"
-    if args.max_iter < 1:
-        return f"--max-iter {args.max_iter}: must be >= 1"
-    if args.inertia not in INERTIAS:
-        return f"--inertia {args.inertia}: use {' or '.join(INERTIAS)}"
-    if args.time_scheme is None:
-        args.time_scheme = "central" if args.inertia == "shift" else "exact"
-    if args.rate is None:
-        args.rate = "bdf1" if args.time_scheme == "central" else "bdf2"
-    if args.time_scheme == "central" and args.rate != "bdf1":
-        return (f"--rate {args.rate}: the central time scheme is the transient's step, whose "
-                "contact law is first order (bdf1); drop --rate")
-    if args.rate not in RATES:
-        return (f"--rate {args.rate}: the material-derivative scheme must be one of "
-                f"{', '.join(RATES)}")
-    if args.samples is not None and (args.samples < 1 or (args.samples > 1
-                                                          and args.inertia != "shift")):
-        return (f"--samples {args.samples}: give a whole number >= 1; more than 1 needs "
-                "--inertia shift")
-    if args.time_scheme != "exact" and args.inertia != "shift":
-        return f"--time-scheme {args.time_scheme}: needs --inertia shift"
-    if args.dt_limit and (args.time_scheme != "central" or args.cont):
-        return ("--dt-limit: the dt -> 0 wave extrapolates the central scheme's step; drop "
-                "--inertia rotation / --time-scheme exact / --continue")
-    return None
+    return command.options(**{name: getattr(args, name) for name in command.DEFAULTS})
 
 
 def _travel(args: argparse.Namespace) -> int:
     from solver.scene import SceneError, load_scene
     from studies.output import output_root
+    from studies.travel import command
 
     t0 = time.perf_counter()
-    bad = _check_args(args)
+    _import_dolfinx_without_numba()
+    opts = _options(args)
+    bad = command.check(opts)
     if bad:
         return _err(bad)
     try:
@@ -187,46 +157,30 @@ def _travel(args: argparse.Namespace) -> int:
                 scene.with_overrides(f"{cont[0]}={value!r}")
     except (SceneError, FileNotFoundError, ValueError) as err:
         return _err(str(err))
-    if args.damping is None:  # same physics as the transient: the scene's Kelvin-Voigt tau
-        args.damping = float(scene.damping.tau)
-    args.end = None
-    if args.from_run:
-        from cli.checks import samples_problem
-        from studies.travel.from_run import NotRigidWave, read_end_state
+    from studies.travel.from_run import NotRigidWave
 
-        if problem := samples_problem(args.from_run) or _other_scene(scene, args.from_run):
-            return _err(f"--from: {problem}")
-        try:
-            args.end = read_end_state(Path(args.from_run))
-        except NotRigidWave as err:
-            print(f"error: {err}", file=sys.stderr)
-            return 1
-        except ValueError as err:
-            return _err(f"--from {err}")
-        if args.k is None:
-            args.k = args.end.k
-    if args.k is not None and args.k > scene.mesh.n_inner // 2:
-        return _err(f"--k {args.k} is above the highest wavenumber of mesh.n_inner = "
-                    f"{scene.mesh.n_inner} contact nodes, N/2 = {scene.mesh.n_inner // 2} (a "
-                    "wave needs 2 nodes per wavelength): use a smaller --k or a finer mesh")
     try:
-        _matched_step(scene, args)
-    except ValueError as err:
-        return _err(str(err))
-    out = Path(args.output) if args.output else output_root() / f"{scene.name}_travel_k{args.k}"
+        bad = command.resolve(scene, opts)
+    except NotRigidWave as err:
+        print(f"error: {err}", file=sys.stderr)
+        return 1
+    if bad:
+        return _err(bad)
+    out = Path(args.output) if args.output else output_root() / f"{scene.name}_travel_k{opts.k}"
     from studies.travel.output import prepare_dir
 
     try:
         claim = prepare_dir(out, args.force)
     except FileExistsError as err:
         return _err(str(err))
+    opts.json = args.json
     try:  # results go to claim.work; a replacement is swapped in only once written
         if cont:
             from studies.travel.continuation import run_continuation
 
-            rc = run_continuation(scene, args, cont[0], cont[1], claim.work, t0)
+            rc = run_continuation(scene, opts, cont[0], cont[1], claim.work, t0)
         else:
-            rc = _one_wave(scene, args, claim.work, t0)
+            rc = _one_wave(scene, opts, claim.work, t0)
     except KeyboardInterrupt as stop:
         replacing = claim.replacing
         claim.discard()
@@ -243,96 +197,24 @@ def _travel(args: argparse.Namespace) -> int:
     return rc
 
 
-def _other_scene(scene, run_dir: str) -> str | None:  # noqa: ANN001
-    """Why the run in ``run_dir`` is not of ``scene``'s physics and mesh (the first key that
-    differs: a wave solved for one scene is no measure of another's run), or None."""
-    from solver.scene.files import scene_difference
-    from studies.rundir.readers import read_scene_file
-
-    differs = scene_difference(read_scene_file(Path(run_dir) / "scene.toml"), scene)
-    if differs is None:
-        return None
-    return (f"{run_dir} is a run of another problem: its {differs} here; give the run's "
-            f"own scene ({Path(run_dir) / 'scene.toml'}) or --set it")
-
-
-def _matched_step(scene, args: argparse.Namespace) -> None:
-    """``args.samples`` when not given: 1 for the exact-in-time route; for the central scheme
-    S = round(node passage / dt) (``studies.travel.from_run.matched_samples``) with the run's
-    dt and speed (--from), else the dt ``stickslip run`` uses for the scene and the start's
-    speed (``args.problem``, ``args.reduced``: the mesh and the start, reused)."""
-    import math
-
-    from studies.travel.from_run import matched_samples, scene_time_step
-
-    args.problem, args.reduced = None, None
-    if args.samples is not None:
-        return
-    if args.time_scheme != "central":
-        args.samples = 1
-        return
-    if args.end is not None and scene.mesh.n_inner == args.end.samples["theta"].size:
-        args.samples = matched_samples(args.end.node_passage, args.end.dt)
-        return
-    from solver.problem import build_problem
-    from studies.travel import driver as D
-
-    args.problem = build_problem(scene)
-    dt = scene_time_step(scene, args.problem)
-    if args.celerity is not None:
-        omega = args.celerity / scene.geometry.R
-    elif args.end is not None:
-        omega = args.end.omega
-    else:
-        args.reduced = D.reduced_start(scene, args.k)
-        omega = args.reduced[1]
-    n = args.problem.nodes.theta.size
-    args.samples = matched_samples(2.0 * math.pi / (n * abs(omega)), dt)
-
-
-def _one_wave(scene, args: argparse.Namespace, out: Path, t0: float) -> int:
+def _one_wave(scene, args, out: Path, t0: float) -> int:  # noqa: ANN001
+    """Solve (``studies.travel.command.solve``), write and print one wave; ``args``: the
+    resolved options."""
     import json
 
-    import numpy as np
-
-    from studies.travel import driver as D
+    from studies.travel import command
     from studies.travel.newton import NotConverged
     from studies.travel.output import plot_profiles, shown, write_failure, write_wave
 
-    matched = (args.end is not None and args.time_scheme == "central"
-               and args.celerity is None and not args.fixed_omega)
     try:
-        if matched:  # the run's own wave: its fallbacks (studies.travel.from_run)
-            from studies.travel.from_run import solve_matched
-
-            W0 = om0 = None
-            info = {"start": "run", "from": str(args.from_run)}
-        else:
-            st = D.setup(scene, args.damping, rate=args.rate, inertia=args.inertia,
-                         samples=args.samples, time_scheme=args.time_scheme,
-                         problem=args.problem)
-            if args.from_run:
-                W0, om0, info = D.start_from_run(Path(args.from_run), st)
-            else:
-                W0, om0, info = D.start_from_reduced(st, args.k, args.reduced)
+        summary, profiles = command.solve(scene, args, t0)
     except ValueError as err:
         return _err(str(err))
-    if args.celerity is not None:
-        om0 = args.celerity / scene.geometry.R
-        info["start_celerity_m_s"] = args.celerity
-    t_setup = time.perf_counter() - t0
-    try:
-        if matched:
-            args.end.scene = scene  # the physics of the command line (--set applies)
-            st, sol, info["start"] = solve_matched(args.end, args.samples, args.max_iter)
-        else:
-            sol = D.solve_scene(st, args.k, W0, om0, max_iter=args.max_iter,
-                                free_omega=not args.fixed_omega)
     except NotConverged as err:
         summary = {"status": "failed", "reason": str(err), "k": args.k,
                    "last_residual": err.info.get("residual"),
                    "violated": err.info.get("violated"), "margins": err.info.get("margins"),
-                   "residual_history": err.info.get("hist"), **info,
+                   "residual_history": err.info.get("hist"), **err.start_info,
                    "damping_s": args.damping, "rate": args.rate, "inertia": args.inertia,
                    "samples_per_node": args.samples, "time_scheme": args.time_scheme,
                    "wall_time_s": time.perf_counter() - t0}
@@ -343,24 +225,6 @@ def _one_wave(scene, args: argparse.Namespace, out: Path, t0: float) -> int:
               f"{err.info.get('violated') or 'none'}]", file=sys.stderr)
         print(f"(summary: {shown(out) / 'summary.json'}; no wave written)", file=sys.stderr)
         return 1
-    summary, profiles = D.measure(st, sol, args.k)
-    if args.end is not None:
-        from studies.travel.from_run import compare_with_run
-
-        summary["from_run"] = compare_with_run(args.end, st, sol, summary)
-        if args.dt_limit:
-            from studies.travel.from_run import dt_limit_wave
-
-            summary["dt_limit"] = dt_limit_wave(args.end, args.samples,
-                                                np.r_[sol.W_r, sol.W_t], sol.omega)
-    elif args.dt_limit:
-        from studies.travel.from_run import dt_limit_scene
-
-        summary["dt_limit"] = dt_limit_scene(st, args.k, np.r_[sol.W_r, sol.W_t], sol.omega)
-    if args.band:
-        summary["band"] = D.band(st, sol, args.k)
-    summary.update(info, damping_s=args.damping, inertia=args.inertia, setup_time_s=t_setup,
-                   wall_time_s=time.perf_counter() - t0)
     write_wave(out, scene, summary, profiles)
     if args.plot:
         print(f"figure: {shown(plot_profiles(out, profiles, summary))}")

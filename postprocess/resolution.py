@@ -59,3 +59,34 @@ def sampling_check(sample_t: np.ndarray, probes: dict | None, summary: dict) -> 
             f"frequency {f_nyquist:.4g} Hz, so the reported wave ({reported:.4g} Hz) is not "
             f"the run's; sample faster: output.sample_interval < {0.5 / f_probe:.3g} s")
     return out
+
+
+def expected_wave_hz(scene) -> float:  # noqa: ANN001
+    """The frequency (Hz) of the scene's expected wave, without an FE eigensolve: the reduced
+    model's flutter mode k = ``initial.mode`` (paper eq. [2]; ``solver.field_output.
+    expected_period``, the same estimate that sizes the field-output window)."""
+    from solver.field_output import expected_period
+
+    return 1.0 / expected_period(scene)
+
+
+def sampling_problem(scene, override: str) -> str | None:  # noqa: ANN001
+    """Why the samples of ``scene`` cannot resolve the wave it is expected to end on (one
+    line with the fix; ``override`` names how to run it anyway), or None: the expected wave's
+    frequency (``expected_wave_hz``) at or above the samples' Nyquist frequency
+    1 / (2 output.sample_interval). Without friction nothing flutters: None."""
+    if scene.loading.f <= 0.0 or scene.loading.omega == 0.0:
+        return None
+    try:
+        f_wave = abs(expected_wave_hz(scene))
+    except (ArithmeticError, ValueError):  # no reduced-model estimate: nothing to refuse
+        return None
+    dt_s = scene.output.sample_interval
+    f_nyquist = 0.5 / dt_s
+    if f_wave < f_nyquist:
+        return None
+    return (f"output.sample_interval = {dt_s:g} s samples up to {f_nyquist:.4g} Hz "
+            f"(Nyquist, 1/(2 output.sample_interval)), below the expected wave's "
+            f"{f_wave:.4g} Hz (the reduced model's flutter mode k = initial.mode = "
+            f"{max(1, scene.initial.mode)}, eq. [2]): the samples would alias it; set "
+            f"output.sample_interval < {0.5 / f_wave:.3g} s, or {override} to run anyway")

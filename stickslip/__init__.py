@@ -24,6 +24,7 @@ The public API, one import for a notebook or a study script::
 ``travel``             one travelling wave solved in its own frame -> summary and profiles
 ``travel_branch``      a branch of travelling waves followed in one scene key
 ``reduced_waves``      the reduced model's travelling waves at one point (no FE)
+``attractors``         the census of a scene point: its attractors and basin shares
 =====================  ===============================================================
 
 Importing ``stickslip`` is cheap: every name is imported on first use, so the reduced model

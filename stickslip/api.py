@@ -8,10 +8,12 @@ files are written on rank 0 and the returned summaries are those of rank 0.
 
 from __future__ import annotations
 
+import contextlib
 import io
 import json
+import re
 import sys
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from pathlib import Path
 from types import SimpleNamespace
 from typing import TYPE_CHECKING, Any
@@ -21,7 +23,7 @@ if TYPE_CHECKING:
     from solver.scene import Scene
     from studies.flutter_fe.cea import CEAResult
 
-__all__ = ["analyse", "cea", "cea_friction_sweep", "continue_run", "load_run",
+__all__ = ["analyse", "attractors", "cea", "cea_friction_sweep", "continue_run", "load_run",
            "load_scene", "plot_run", "plot_sweep", "reduced_waves", "run", "sweep", "travel",
            "travel_branch"]
 
@@ -58,6 +60,43 @@ def _override_strings(overrides: Overrides) -> list[str]:
         # JSON renders numbers, strings, booleans and lists as valid TOML values.
         return [f"{key}={json.dumps(value)}" for key, value in overrides.items()]
     return [str(text) for text in overrides]
+
+
+#: The command line's words in the messages of the shared code, and the keyword arguments
+#: that say the same here (``-o`` is the function's output argument, named per call).
+_KEYWORDS = (("--force", "force=True"), ("--yes-i-know", "check_resources=False"),
+             ("--until", "until="))
+
+
+@contextlib.contextmanager
+def _keyword_errors(out: str) -> Iterator[None]:
+    """Errors raised inside name this module's keyword arguments, not the command line's
+    flags (``--force`` -> ``force=True``, ``-o`` -> ``out``): the message is the one the
+    command prints, in the caller's words."""
+    try:
+        yield
+    except (ValueError, OSError) as err:
+        if len(err.args) == 1 and isinstance(err.args[0], str):
+            text = err.args[0]
+            for flag, word in _KEYWORDS:
+                text = text.replace(flag, word)
+            err.args = (re.sub(r"(?<![\w-])-o(?![\w-])", out, text),)
+        raise
+
+
+def _refused_as_error(command: Any, what: str) -> int:
+    """``command()``'s exit status; its refusal (2: one ``error:`` line on stderr, as the
+    command line prints it, nothing run) raised as ``ValueError`` naming the keyword
+    arguments. The lines still reach stderr."""
+    errors = io.StringIO()
+    with contextlib.redirect_stderr(errors):
+        rc = command()
+    sys.stderr.write(errors.getvalue())
+    if rc == 2:
+        why = errors.getvalue().strip().splitlines() or ["see the error above"]
+        with _keyword_errors("out_dir"):
+            raise ValueError(f"{what} could not start: {why[-1].removeprefix('error: ')}")
+    return rc
 
 
 def load_scene(scene: str | Path | Scene, overrides: Overrides = None) -> Scene:
@@ -101,7 +140,9 @@ def run(scene: str | Path | Scene, run_dir: str | Path | None = None, *,
         force: replace an earlier run directory (atomically; kept if the new run fails).
         plot: also draw the run's PNG figures into the directory.
         quiet: do not print the estimate, progress and summary lines.
-        check_resources: refuse a scene that needs more memory or disk than the machine has.
+        check_resources: refuse a scene that needs more memory or disk than the machine has,
+            or whose samples cannot resolve its expected wave (``ValueError``, as the
+            command's ``--yes-i-know``).
 
     Returns:
         The run's summary, the contents of ``summary.json``, with ``status`` (completed,
@@ -118,9 +159,15 @@ def run(scene: str | Path | Scene, run_dir: str | Path | None = None, *,
     from studies.rundir import run_scene
 
     sc = load_scene(scene, overrides)
+    if check_resources:
+        from postprocess.resolution import sampling_problem
+
+        if problem := sampling_problem(sc, "pass check_resources=False"):
+            raise ValueError(problem)
     path = Path(run_dir) if run_dir is not None else output_root() / sc.name
-    summary = run_scene(sc, path, force=force, check_resources=check_resources,
-                        stream=io.StringIO() if quiet else sys.stdout)
+    with _keyword_errors("run_dir"):
+        summary = run_scene(sc, path, force=force, check_resources=check_resources,
+                            stream=io.StringIO() if quiet else sys.stdout)
     if plot and summary.get("status") in ("completed", "interrupted", "stopped"):
         from postprocess.plotting import plot_run as _plot
 
@@ -160,9 +207,10 @@ def continue_run(run_dir: str | Path, until: float, out_dir: str | Path | None =
     """
     from studies.rundir import continue_run as _continue
 
-    return _continue(run_dir, until, out_dir, force=force,
-                     stream=io.StringIO() if quiet else sys.stdout,
-                     check_resources=check_resources)
+    with _keyword_errors("out_dir"):
+        return _continue(run_dir, until, out_dir, force=force,
+                         stream=io.StringIO() if quiet else sys.stdout,
+                         check_resources=check_resources)
 
 
 def load_run(run_dir: str | Path) -> RunData:
@@ -211,7 +259,7 @@ def plot_run(run_dir: str | Path) -> list[Path]:
 
 
 def sweep(spec: str | Path, out_dir: str | Path | None = None, *, batch: str | None = None,
-          plot: bool = False, quiet: bool = False) -> dict:
+          plot: bool = False, quiet: bool = False, check_resources: bool = True) -> dict:
     """Run a parameter study (``stickslip sweep``): every scene of a sweep file, resumable.
 
     Args:
@@ -222,6 +270,8 @@ def sweep(spec: str | Path, out_dir: str | Path | None = None, *, batch: str | N
             dt and scheme advance together); default: the sweep file's.
         plot: also draw the regime map (``regime_map.png``).
         quiet: do not print the progress lines.
+        check_resources: refuse a sweep too large or too long for the machine (as the
+            command without ``--yes-i-know``), with ``ValueError``.
 
     Returns:
         The sweep table, the contents of ``sweep.json``, with its meta data and ``rows``,
@@ -238,11 +288,14 @@ def sweep(spec: str | Path, out_dir: str | Path | None = None, *, batch: str | N
     from studies.sweep import plot_sweep as _plot
     from studies.sweep.batch import parse_batch
 
-    s = load_sweep(spec)
+    with _keyword_errors("out_dir"):
+        s = load_sweep(spec, large=not check_resources)
     path = Path(out_dir) if out_dir is not None else (
         s.output if s.output is not None else output_root() / "sweeps" / s.name)
-    run_sweep(s, path, batch=parse_batch(batch if batch is not None else s.batch),
-              progress="lines", stream=io.StringIO() if quiet else sys.stdout)
+    _refused_as_error(lambda: run_sweep(
+        s, path, batch=parse_batch(batch if batch is not None else s.batch), progress="lines",
+        stream=io.StringIO() if quiet else sys.stdout, check_cost=check_resources),
+        f"the sweep into {path}")
     if plot:
         _plot(path)
     return read_table(path)
@@ -251,7 +304,7 @@ def sweep(spec: str | Path, out_dir: str | Path | None = None, *, batch: str | N
 def attractors(scene: str | Path, out_dir: str | Path | None = None, *, starts: int = 16,
                meshes: Sequence[int] | None = None, structured: Sequence[int] = (),
                end_time: float | None = None, overrides: Overrides = None, seed: int = 1,
-               certify: bool = False, force: bool = False, quiet: bool = False) -> dict:
+               certify: bool = True, force: bool = False, quiet: bool = False) -> dict:
     """The attractors of a scene point (``stickslip attractors``): ``starts`` random starts
     (and the mode-k bumps of ``structured``) on each mesh of ``meshes``, classified and grouped
     into members with their basin shares (95 % Wilson intervals) and values. Resumable: the
@@ -267,7 +320,8 @@ def attractors(scene: str | Path, out_dir: str | Path | None = None, *, starts: 
         end_time: physical time of each start (s; default: the scene's).
         overrides: scene overrides, as for ``load_scene``.
         seed: the first seed.
-        certify: solve each member's wave directly and test it (``stickslip travel``).
+        certify: certify each member (reproducibility, persistence, its wave solved
+            directly by ``stickslip travel``), as the command does unless ``--no-certify``.
         force: replace an earlier census directory of another definition.
         quiet: do not print the progress lines.
 
@@ -294,10 +348,9 @@ def attractors(scene: str | Path, out_dir: str | Path | None = None, *, starts: 
                     tuple(texts))
     census.base_scene()
     path = Path(out_dir) if out_dir is not None else default_dir(base)
-    rc = run_census(census, path, force=force, certify=certify,
-                    stream=io.StringIO() if quiet else sys.stdout)
-    if rc == 2:
-        raise ValueError(f"the census in {path} could not start (see the error above)")
+    _refused_as_error(lambda: run_census(census, path, force=force, certify=certify,
+                                         stream=io.StringIO() if quiet else sys.stdout),
+                      f"the census in {path}")
     return json.loads((path / "attractors.json").read_text())
 
 
@@ -309,7 +362,7 @@ def plot_sweep(sweep_dir: str | Path) -> list[Path]:
 
 
 def cea(scene: str | Path | Scene, *, overrides: Overrides = None, f: float | None = None,
-        fmax_hz: float = 10_000.0, mass: str = "lumped", friction: str = "nodal"
+        fmax_hz: float = 10_000.0, mass: str = "lumped", friction: str | None = None
         ) -> CEAResult:
     """Complex eigenvalue analysis of FE steady sliding (``stickslip flutter-fe``).
 
@@ -322,7 +375,8 @@ def cea(scene: str | Path | Scene, *, overrides: Overrides = None, f: float | No
         f: the friction coefficient (default: the scene's ``loading.f``).
         fmax_hz: upper end of the frequency band [Hz].
         mass: ``"lumped"`` (the explicit solver's) or ``"consistent"``.
-        friction: ``"nodal"`` (the transient's law) or ``"1-2-1"`` (filtered reactions).
+        friction: ``"nodal"`` or ``"1-2-1"`` (filtered reactions); default: the scene's
+            ``friction.filter``, the transient's law (as ``stickslip flutter-fe``).
 
     Returns:
         ``studies.flutter_fe.CEAResult``: ``modes`` (frequency_hz, growth_rate per s, k,
@@ -340,7 +394,8 @@ def cea(scene: str | Path | Scene, *, overrides: Overrides = None, f: float | No
 
 def cea_friction_sweep(scene: str | Path | Scene, fs: Sequence[float | None], *,
                        overrides: Overrides = None, fmax_hz: float = 10_000.0,
-                       mass: str = "lumped", friction: str = "nodal") -> list[CEAResult]:
+                       mass: str = "lumped", friction: str | None = None
+                       ) -> list[CEAResult]:
     """The CEA at each friction coefficient of ``fs`` (operators assembled once): the
     growth rate of each branch against f, the data of a CEA diagram (``--f-sweep``).
 
@@ -354,7 +409,7 @@ def cea_friction_sweep(scene: str | Path | Scene, fs: Sequence[float | None], *,
 
     sc = load_scene(scene, overrides)
     problem = build_problem(sc)
-    ops = build_operators(problem, mass, friction)
+    ops = build_operators(problem, mass, friction or sc.friction.filter)
     try:
         return [complex_eigenvalue_analysis(problem, None if f is None else float(f), fmax_hz,
                                             ops=ops) for f in fs]
@@ -362,17 +417,20 @@ def cea_friction_sweep(scene: str | Path | Scene, fs: Sequence[float | None], *,
         ops.destroy()
 
 
-def _travel_options(k: int, from_run: str | Path | None, damping: float | None,
-                    celerity: float | None, scene: Scene, **kw: Any) -> SimpleNamespace:
-    """The options of ``stickslip travel`` with their defaults (one place for both)."""
-    opts = SimpleNamespace(k=int(k), from_run=str(from_run) if from_run else None,
-                           damping=float(scene.damping.tau) if damping is None else damping,
-                           celerity=celerity, rate="bdf2", inertia="rotation", samples=1,
-                           time_scheme="exact", max_iter=60, fixed_omega=False, plot=False)
-    for key, value in kw.items():
-        if not hasattr(opts, key):
-            raise TypeError(f"travel: unknown option {key!r} (options: {sorted(vars(opts))})")
-        setattr(opts, key, value)
+def _travel_options(scene: Scene, k: int, from_run: str | Path | None, damping: float | None,
+                    celerity: float | None, **options: Any) -> SimpleNamespace:
+    """The options of ``stickslip travel``, checked and resolved by the function the command
+    uses (``studies.travel.command``: one table of defaults); a bad one raises ``ValueError``
+    naming the keyword argument."""
+    from studies.travel import command
+    from studies.travel.frame import require_rotational_symmetry
+
+    require_rotational_symmetry(scene)
+    opts = command.options(k=int(k), from_run=str(from_run) if from_run else None,
+                           damping=damping, celerity=celerity, **options)
+    bad = command.check(opts, command.keyword) or command.resolve(scene, opts, command.keyword)
+    if bad:
+        raise ValueError(bad)
     return opts
 
 
@@ -410,27 +468,19 @@ def travel(scene: str | Path | Scene, k: int, out_dir: str | Path | None = None,
         >>> summary["mode"], summary["regime"]
         (12, 'stick-slip-separation')
     """
-    from studies.travel import driver as D
+    import time
 
+    from studies.travel import command
+
+    t0 = time.perf_counter()
     sc = load_scene(scene, overrides)
-    opts = _travel_options(k, from_run, damping, celerity, sc, **options)
-    st = D.setup(sc, opts.damping, rate=opts.rate, inertia=opts.inertia, samples=opts.samples,
-                 time_scheme=opts.time_scheme)
-    if opts.from_run:
-        W0, omega0, info = D.start_from_run(Path(opts.from_run), st)
-    else:
-        W0, omega0, info = D.start_from_reduced(st, opts.k)
-    if celerity is not None:
-        omega0 = celerity / sc.geometry.R
-    sol = D.solve_scene(st, opts.k, W0, omega0, max_iter=opts.max_iter,
-                        free_omega=not opts.fixed_omega)
-    summary, profiles = D.measure(st, sol, opts.k)
-    summary.update(info, damping_s=opts.damping, inertia=opts.inertia)
+    opts = _travel_options(sc, k, from_run, damping, celerity, **options)
+    summary, profiles = command.solve(sc, opts, t0)
     if out_dir is not None:
-        from studies.travel.output import prepare_dir, write_wave
+        from studies.travel.output import write_wave
 
-        prepare_dir(Path(out_dir), force)
-        write_wave(Path(out_dir), sc, summary, profiles)
+        with _keyword_errors("out_dir"), _claimed(out_dir, force) as work:
+            write_wave(work, sc, summary, profiles)
     return summary, profiles
 
 
@@ -438,7 +488,7 @@ def travel_branch(scene: str | Path | Scene, k: int, key: str, values: Sequence[
                   out_dir: str | Path, *, overrides: Overrides = None,
                   from_run: str | Path | None = None, damping: float | None = None,
                   celerity: float | None = None, force: bool = False, plot: bool = False,
-                  **options: Any) -> list[dict]:
+                  quiet: bool = False, **options: Any) -> list[dict]:
     """Follow a travelling wave in one scene key (``stickslip travel --continue``).
 
     Each value is one Newton solve started from the previous wave; the branch ends where a
@@ -450,6 +500,9 @@ def travel_branch(scene: str | Path | Scene, k: int, key: str, values: Sequence[
             the operators; any other key rebuilds them).
         values: the values of ``key``, in order.
         out_dir: where ``branch.json`` and ``branch.csv`` (and ``branch.png``) go.
+        force: replace an earlier travel directory at ``out_dir``.
+        plot: also draw ``branch.png``.
+        quiet: do not print a line per point.
 
     Returns:
         The rows of ``branch.json``, each with ``value``, ``status`` (converged, failed, error) and,
@@ -461,18 +514,37 @@ def travel_branch(scene: str | Path | Scene, k: int, key: str, values: Sequence[
         >>> [r["status"] for r in rows]
         ['converged', 'converged']
     """
+    import contextlib
     import time
 
     from studies.travel.continuation import run_continuation
-    from studies.travel.output import prepare_dir
 
     sc = load_scene(scene, overrides)
-    sc.with_overrides(f"{key}={values[0]}")  # an unknown key fails here, before any work
-    opts = _travel_options(k, from_run, damping, celerity, sc, plot=plot, **options)
-    out = Path(out_dir)
-    prepare_dir(out, force)
-    run_continuation(sc, opts, key, [float(v) for v in values], out, time.perf_counter())
-    return json.loads((out / "branch.json").read_text())
+    for value in values:  # the key and every value, before any work
+        sc.with_overrides(f"{key}={float(value)!r}")
+    opts = _travel_options(sc, k, from_run, damping, celerity, plot=plot, **options)
+    quieted = contextlib.redirect_stdout(io.StringIO()) if quiet else contextlib.nullcontext()
+    with _keyword_errors("out_dir"), _claimed(out_dir, force) as work, quieted:
+        run_continuation(sc, opts, key, [float(v) for v in values], work, time.perf_counter())
+    return json.loads((Path(out_dir) / "branch.json").read_text())
+
+
+@contextlib.contextmanager
+def _claimed(out_dir: str | Path, force: bool) -> Iterator[Path]:
+    """The travel directory ``out_dir`` claimed (``studies.travel.output.prepare_dir``): yields
+    the folder to write; swapped in when the block ends, discarded (an earlier result kept)
+    when it raises."""
+    from studies.travel.output import prepare_dir
+
+    claim = prepare_dir(Path(out_dir), force)
+    try:
+        yield claim.work
+    except BaseException:
+        claim.discard()
+        claim.release()
+        raise
+    claim.commit()
+    claim.release()
 
 
 def reduced_waves(*, nu: float = 0.3, xi: float = 1.25, f: float = 0.7, k: int = 4,

@@ -72,7 +72,8 @@ class Estimate:
         """One line for the console."""
         fields = (f" (fields: {self.field_frames} frames, {_bytes(self.field_bytes)})"
                   if self.field_frames else "")
-        return (f"estimate: {self.dofs} dofs, {self.steps} steps, {_bytes(self.memory_bytes)} "
+        return (f"estimate (before meshing; dt from the shortest edge, the mesh's own dt "
+                f"below): {self.dofs} dofs, ~{self.steps} steps, {_bytes(self.memory_bytes)} "
                 f"memory, {_bytes(self.output_bytes)} of output{fields}, "
                 f"~{_duration(self.seconds)} on one rank")
 

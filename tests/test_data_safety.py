@@ -337,7 +337,8 @@ def test_sigterm_to_mpirun_leaves_interrupted_and_samples(tmp_path):
     # the loop left; the line is the program's own sign that the time loop runs.
     proc = subprocess.Popen(["mpirun", "-n", "2", sys.executable, "-m", "cli.main", "run",
                              "figure3_n132", "--set", "time.end_time=60",
-                             "--set", "output.sample_interval=1e-3", "-o", str(run_dir)],
+                             "--set", "output.sample_interval=1e-3", "--yes-i-know", "-o",
+                             str(run_dir)],
                             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
                             cwd=REPO)
     seen = []

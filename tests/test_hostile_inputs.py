@@ -264,7 +264,7 @@ def test_samples_that_alias_the_wave_are_flagged(tmp_path, capsys):
     saved = json.loads((tmp_path / "a" / "summary.json").read_text())
     assert saved["warning"] == aliased["warning"]
     rc = main(["run", str(SMOKE), "-o", str(tmp_path / "b"), "--set", "time.end_time=0.3",
-               "--set", "output.sample_interval=0.002"])
+               "--set", "output.sample_interval=0.002", "--yes-i-know"])
     assert rc == 0 and "warning: aliased" in capsys.readouterr().out
     fine = run(tmp_path / "c", "time.end_time=0.3")
     assert "warning" not in fine

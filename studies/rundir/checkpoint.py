@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import os
 import zipfile
 from dataclasses import dataclass
 from pathlib import Path
@@ -38,7 +39,7 @@ import numpy as np
 
 from solver.atomic import atomic_save_npz
 from solver.scene import Scene, scene_to_dict
-from studies.rundir.readers import ReadError
+from studies.rundir.readers import ReadError, _no_link
 
 __all__ = ["CHECKPOINT", "FORMAT", "Checkpoint", "read_checkpoint", "scene_fingerprint",
            "write_checkpoint"]
@@ -76,7 +77,8 @@ class Checkpoint:
 def write_checkpoint(folder: str | Path, states: list[dict[str, np.ndarray]], *, kind: str,
                      scene: Scene, status: str, kernel: str, backend: str = "cpu") -> Path:
     """Write ``folder/checkpoint.npz`` (atomically) from the per-rank states of
-    ``Simulation.checkpoint`` (gathered, rank order) or one ``BatchSimulation.checkpoint``."""
+    ``Simulation.checkpoint`` (gathered, rank order) or one ``BatchSimulation.checkpoint``.
+    The atomic rename replaces a symbolic link in its place, never writing through it."""
     first = states[0]
     meta = {"format": FORMAT, "kind": kind, "ranks": len(states), "kernel": kernel,
             "backend": backend, "scene": scene.name,
@@ -91,15 +93,18 @@ def write_checkpoint(folder: str | Path, states: list[dict[str, np.ndarray]], *,
 
 def read_checkpoint(run_dir: str | Path) -> Checkpoint:
     """``RUN_DIR/checkpoint.npz``, checked (its format, one state per rank); ReadError (one
-    line with the fix) if it is missing, foreign or damaged."""
+    line with the fix) if it is missing, foreign, damaged or a symbolic link (opened without
+    following one, as ``studies.rundir.readers`` reads every run file)."""
     p = Path(run_dir) / CHECKPOINT
     fix = ("run the scene again to the time you want (`stickslip run RUN/scene.toml --set "
            "time.end_time=T -o NEW`): runs written before continuation, and failed or "
            "diverged runs, have no checkpoint")
+    _no_link(p, fix)
     if not p.is_file():
         raise ReadError(p, "missing (no checkpoint to continue from)", fix)
     try:
-        with np.load(p, allow_pickle=False) as data:
+        with os.fdopen(os.open(p, os.O_RDONLY | os.O_NOFOLLOW), "rb") as fh, \
+                np.load(fh, allow_pickle=False) as data:
             arrays = {k: data[k] for k in data.files}
         meta = json.loads(str(arrays.pop("meta")))
         ranks = int(meta["ranks"])

@@ -21,10 +21,13 @@ of more than one rank per scene and groups of a single scene.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import os
 import shutil
+import signal
+import threading
 import time
 import traceback
 from pathlib import Path
@@ -133,10 +136,7 @@ def run_batch(spec: SweepSpec, tasks: list[Task], out_dir: Path, world_rank: int
 
     The batch is a ``solver.ensemble_run.BatchSimulation``; this function only prepares each
     scene's run directory and log, and writes each scene's files when the batch is done."""
-    from mpi4py import MPI
-
     from solver.run import Profile
-    from studies.rundir import prepare_run_dir
 
     t0 = time.perf_counter()
     mine = _claimable(tasks, out_dir, stream)
@@ -149,6 +149,47 @@ def run_batch(spec: SweepSpec, tasks: list[Task], out_dir: Path, world_rank: int
     scenes = [scene_for(spec, t) for t in tasks]
     run_dirs = [out_dir / "runs" / t.id for t in tasks]
     logs = []
+    with _deferred_signals() as early:  # every member marked running, or none
+        _start_members(tasks, scenes, run_dirs, logs, out_dir, world_rank, backend)
+    files = _BatchFiles(scenes, run_dirs, logs, t0, len(tasks), backend)
+    profile = Profile()
+    interrupted = bool(early)
+    batch = None
+    try:
+        if not interrupted:
+            batch = _build_batch(scenes, backend, out_dir, profile, files)
+        if batch is not None and batch.live:
+            batch.proceed()
+    except KeyboardInterrupt:
+        interrupted = True
+    except Exception as err:  # the batch as a whole failed: every scene still running fails
+        for k in range(len(tasks)):
+            if batch is None or batch.runs[k].status == "running" or k in batch.live:
+                files.fail(k, err)
+        batch = None
+    with profile.phase("output"), _deferred_signals() as came:
+        if batch is not None:
+            files.write_runs(batch, interrupted, profile)
+        elif interrupted:
+            for k in range(len(tasks)):
+                files.interrupted(k)
+    interrupted = interrupted or bool(came)  # honoured once every member is written
+    if batch is not None and batch.spool_dir is not None:  # now in each samples.npz
+        shutil.rmtree(batch.spool_dir, ignore_errors=True)
+    files.close()
+    if interrupted:
+        raise KeyboardInterrupt
+    return files.statuses
+
+
+def _start_members(tasks, scenes, run_dirs, logs, out_dir, world_rank,  # noqa: ANN001, ANN202
+                   backend):  # noqa: ANN001
+    """Each member's run directory claimed, its scene.toml and a ``running`` summary written,
+    its log opened (appended to ``logs``)."""
+    from mpi4py import MPI
+
+    from studies.rundir import prepare_run_dir
+
     for t, sc, rd in zip(tasks, scenes, run_dirs, strict=True):
         prepare_run_dir(rd, True, MPI.COMM_SELF, in_place=True).release()
         write_scene(sc, rd / "scene.toml")
@@ -159,33 +200,24 @@ def run_batch(spec: SweepSpec, tasks: list[Task], out_dir: Path, world_rank: int
                   f"(1 rank(s)) pid {os.getpid()} batch of {len(tasks)} ({backend})\n")
         log.flush()
         logs.append(log)
-    files = _BatchFiles(scenes, run_dirs, logs, t0, len(tasks), backend)
-    profile = Profile()
-    interrupted = False
-    batch = None
+
+
+@contextlib.contextmanager
+def _deferred_signals():  # noqa: ANN202
+    """SIGINT, SIGTERM and SIGHUP while the members' files are written: recorded in the
+    yielded list, not raised (one raised midway left the later members ``running``, their
+    samples lost); the caller honours them once every member is saved."""
+    came: list[int] = []
+    if threading.current_thread() is not threading.main_thread():
+        yield came
+        return
+    names = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+    previous = {s: signal.signal(s, lambda signum, frame: came.append(signum)) for s in names}
     try:
-        batch = _build_batch(scenes, backend, out_dir, profile, files)
-        if batch is not None and batch.live:
-            batch.proceed()
-    except KeyboardInterrupt:
-        interrupted = True
-    except Exception as err:  # the batch as a whole failed: every scene still running fails
-        for k in range(len(tasks)):
-            if batch is None or batch.runs[k].status == "running" or k in batch.live:
-                files.fail(k, err)
-        batch = None
-    with profile.phase("output"):
-        if batch is not None:
-            files.write_runs(batch, interrupted, profile)
-        elif interrupted:
-            for k in range(len(tasks)):
-                files.interrupted(k)
-    if batch is not None and batch.spool_dir is not None:  # now in each samples.npz
-        shutil.rmtree(batch.spool_dir, ignore_errors=True)
-    files.close()
-    if interrupted:
-        raise KeyboardInterrupt
-    return files.statuses
+        yield came
+    finally:
+        for s, handler in previous.items():
+            signal.signal(s, handler)
 
 
 def _claimable(tasks: list[Task], out_dir: Path, stream: TextIO | None) -> list[Task]:
