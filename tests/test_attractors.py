@@ -384,29 +384,30 @@ def test_certification_adapter(monkeypatch, tmp_path):
     class NotRigidWave(ValueError):
         pass
 
-    def wave_from_run(run_dir, *, dt_limit=False):
+    def wave_from_run(run_dir, *, dt_limit=False, window=None):
         return {"converged": True, "residual": 1e-11, "celerity_m_s": -935.6, "k": 11,
                 "difference": {"celerity_rel": 0.001},
                 "dt_limit": {"celerity_m_s": -925.0, "run_dt_error": 0.0115, "levels": []}}
 
     monkeypatch.setattr(travel, "wave_from_run", wave_from_run, raising=False)
     monkeypatch.setattr(travel, "wave_stability",
-                        lambda run_dir, *, end_time=0.05: {"stable": True, "drift": 1e-4},
-                        raising=False)
+                        lambda run_dir, *, end_time=0.05, window=None: {
+                            "stable": True, "drift": 1e-4}, raising=False)
     cert = certify(tmp_path)
     assert cert["at_dt"]["residual"] == 1e-11 and cert["stable"] is True
     assert certificate_line(cert) == ("direct solver residual 1.0e-11, -935.6 m/s (+0.10 % vs "
                                       "the transient); Δt → 0: -925.0 m/s (the run's Δt error "
                                       "+1.15 %); stable")
 
-    def no_finer_wave(run_dir, *, dt_limit=False):  # the wave at 2S or 4S is not found
+    def no_finer_wave(run_dir, *, dt_limit=False, window=None):  # the wave at 2S or 4S is not found
         return {"converged": True, "residual": 1e-11, "celerity_m_s": -935.6, "k": 11,
                 "samples": 2, "difference": {"celerity_rel": 0.001}, "dt_limit": None,
                 "dt_limit_message": "NotConverged: no wave at 4S"}
 
     monkeypatch.setattr(travel, "wave_from_run", no_finer_wave)
-    monkeypatch.setattr(travel, "wave_stability", lambda run_dir, *, end_time=0.05: {
-        "stable": True, "drift": 1e-4, "samples": 3}, raising=False)
+    monkeypatch.setattr(travel, "wave_stability", lambda run_dir, *, end_time=0.05,
+                        window=None: {"stable": True, "drift": 1e-4, "samples": 3},
+                        raising=False)
     cert = certify(tmp_path)  # the wave at the run's step is kept, its limit says why not
     assert cert["at_dt"]["residual"] == 1e-11 and cert["stable"] is True
     assert cert["dt_to_0"] == {"message": "NotConverged: no wave at 4S"}
@@ -414,7 +415,7 @@ def test_certification_adapter(monkeypatch, tmp_path):
     assert certificate_line(cert).endswith("(+0.10 % vs the transient); Δt → 0 wave not "
                                            "found (NotConverged); stable")
 
-    def not_rigid(run_dir, *, dt_limit=False):
+    def not_rigid(run_dir, *, dt_limit=False, window=None):
         raise NotRigidWave("frame spread 0.45")
 
     monkeypatch.setattr(travel, "wave_from_run", not_rigid)
