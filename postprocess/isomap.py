@@ -110,6 +110,12 @@ def isomap_pair(run_dirs: list[Path], out_png: Path, magnify: float | None = Non
     if title:
         pl.subplot(0, n - 1)
         pl.add_text(title, position="lower_right", font_size=11, color="black")
+    return save_screenshot(pl, out_png)
+
+
+def save_screenshot(pl, out_png: Path) -> Path:  # noqa: ANN001 - a pyvista Plotter
+    """Write the plotter's picture to ``out_png`` on a white background, atomically (a
+    hidden temporary renamed into place), and close the plotter."""
     pl.set_background("white")
     out_png = Path(out_png)
     tmp = out_png.with_name(f".{out_png.stem}.tmp.png")

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from postprocess.isomap import ensure_display
+from postprocess.isomap import ensure_display, save_screenshot
 from postprocess.style import FIELD_CMAP, MPA, MS
 
 __all__ = ["has_stress", "stress_maps"]
@@ -79,10 +79,4 @@ def stress_maps(run_dir: Path, out_png: Path) -> Path:
                 font_size=10, color="black")
     pl.view_xy()
     pl.camera.zoom(1.1)
-    pl.set_background("white")
-    out_png = Path(out_png)
-    tmp = out_png.with_name(f".{out_png.stem}.tmp.png")
-    pl.screenshot(str(tmp))
-    pl.close()
-    tmp.replace(out_png)
-    return out_png
+    return save_screenshot(pl, out_png)
