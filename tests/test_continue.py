@@ -85,7 +85,19 @@ def _same_summary(a: dict, b: dict, rtol: float = 0.0) -> None:
             return abs(x - y) <= rtol * max(abs(x), abs(y)) or x == y
         return x == y
 
-    assert close(strip(a), strip(b)), (strip(a), strip(b))
+    a, b = strip(a), strip(b)
+    if rtol:
+        # The implicit scheme's active set decides from gaps and slips that are 0 up to
+        # round-off at the contact nodes: where the two runs' round-off differs (MPI), a
+        # step may take one active-set iteration more or less; the states still agree to
+        # rtol (checked in the samples). So the counts agree to one iteration.
+        sa, sb = a.get("scheme", {}), b.get("scheme", {})
+        if "active_set_iterations_mean" in sa:
+            total = [x.pop("active_set_iterations_mean") * a["steps"] for x in (sa, sb)]
+            assert abs(total[0] - total[1]) <= 1.0 + 1e-9, (sa, sb)
+            top = [x.pop("active_set_iterations_max") for x in (sa, sb)]
+            assert abs(top[0] - top[1]) <= 1, (sa, sb)
+    assert close(a, b), (a, b)
 
 
 @pytest.mark.parallel
