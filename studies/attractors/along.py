@@ -67,21 +67,15 @@ def run_along(census, key: str, values: list[float], out_dir: Path, *,  # noqa: 
     from mpi4py import MPI
 
     stream = sys.stdout if stream is None else stream
-    from studies.attractors.census import CensusError, run_census
+    from studies.attractors.census import CensusError, claim_on_rank0, run_census
     from studies.rundir.ownership import OwnershipError, claim, register_kind
 
     comm = MPI.COMM_WORLD if comm is None else comm
-    owned, err = None, None
     if comm.rank == 0:
         register_kind("along", ENTRIES)
-        try:
-            owned = claim(out_dir, "along", reuse=True)
-        except OwnershipError as e:
-            err = str(e)
-    err = comm.bcast(err, root=0)
-    if err:
-        if comm.rank == 0:
-            print(f"error: {err}", file=sys.stderr, flush=True)
+    owned, refused = claim_on_rank0(comm, lambda: claim(out_dir, "along", reuse=True),
+                                    (OwnershipError,))
+    if refused:
         return 2
     worst = 0
     try:

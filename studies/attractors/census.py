@@ -217,6 +217,22 @@ def clear_unstarted(out_dir: Path) -> list[Path]:
     return cleared
 
 
+def claim_on_rank0(comm, take, refusals: tuple[type[Exception], ...]):  # noqa: ANN001, ANN201
+    """Collective: ``take()`` (claim a directory) on rank 0 only. Returns (its claim, False)
+    on rank 0 and (None, False) elsewhere; where it raised one of ``refusals``, the message
+    is printed on rank 0 as one line and every rank gets (None, True)."""
+    err, owned = None, None
+    if comm.rank == 0:
+        try:
+            owned = take()
+        except refusals as e:
+            err = str(e)
+    err = comm.bcast(err, root=0)
+    if err and comm.rank == 0:
+        print(f"error: {err}", file=sys.stderr, flush=True)
+    return owned, bool(err)
+
+
 def run_census(census: Census, out_dir: str | Path, *, comm=None, force: bool = False,  # noqa: ANN001
                progress: str = "auto", backend: str = "cpu", certify: bool = True,
                dt_limit: bool = False, stream: TextIO = sys.stdout) -> int:
@@ -237,16 +253,9 @@ def run_census(census: Census, out_dir: str | Path, *, comm=None, force: bool = 
 
     comm = MPI.COMM_WORLD if comm is None else comm
     out_dir = Path(out_dir)
-    err, owned = None, None
-    if comm.rank == 0:
-        try:
-            owned = prepare(census, out_dir, force)
-        except (CensusError, OSError) as e:
-            err = str(e)
-    err = comm.bcast(err, root=0)
-    if err:
-        if comm.rank == 0:
-            print(f"error: {err}", file=sys.stderr, flush=True)
+    owned, refused = claim_on_rank0(comm, lambda: prepare(census, out_dir, force),
+                                    (CensusError, OSError))
+    if refused:
         return 2
     try:
         spec = load_sweep(out_dir / "census.toml")
