@@ -1,9 +1,7 @@
 """Stick-slip and stick-slip-separation travelling waves of the reduced model (eqs. [3]-[7]).
 
-Conventions
------------
-Waves are ``U(φ), V(φ)`` with ``φ = θ − ct`` (eq. [3]), period ``T = 2π/k``; ``c > 0`` is the
-sense of rotation. Everything is solved in the *time-ordered* coordinate
+Conventions. Waves are ``U(φ), V(φ)`` with ``φ = θ − ct`` (eq. [3]), period ``T = 2π/k``;
+``c > 0`` is the sense of rotation. Everything is solved in the *time-ordered* coordinate
 ``s = σφ``, ``σ = −sign(c)``, so that ``ds/dt = |c| > 0`` at a material point. In ``s`` the
 equations [4] keep their form with ``D`` replaced by ``D_s = σD``, the stick condition
 ``V_φ = −1/c`` becomes ``V_s = 1/|c|`` and the slip velocity ``1 + cV_φ`` is ``1 − |c|V_s``.
@@ -19,12 +17,11 @@ Zone solutions (closed form, matrix exponentials, no numerical ODE integration):
 * slip [5], ``z = (V, V_s)``: ``z(s) = expm(N s)(z0 − z_p) + z_p`` with ``z_p = (fgδ/h, 0)``,
   ``P = gδ − D_s V_s``, ``Q = fP``.
 
-Junction (matching) conditions
-------------------------------
-A bounded reaction cannot change momentum, so across a zone boundary ``U, V, U', V'`` are
-continuous unless a Dirac reaction acts: ``(c²−b)[U_s] = I``, ``(c²−a)[V_s] = J`` with the
-time impulses ``I/|c| ≥ 0`` and ``|J| ≤ fI`` (Coulomb for impulses). Unknowns: ``c, ψ1, ψ2``
-plus 7 constants (4 separation, 1 stick, 2 slip) = 10. Two closures are implemented:
+Junction (matching) conditions. A bounded reaction cannot change momentum, so across a zone
+boundary ``U, V, U', V'`` are continuous unless a Dirac reaction acts: ``(c²−b)[U_s] = I``,
+``(c²−a)[V_s] = J`` with the time impulses ``I/|c| ≥ 0`` and ``|J| ≤ fI`` (Coulomb for impulses).
+Unknowns: ``c, ψ1, ψ2`` plus 7 constants (4 separation, 1 stick, 2 slip) = 10. Two closures are
+implemented:
 
 ``junction='impact'`` (default, physical; 10 equations)
     * lift-off (slip → separation, ``s = T ≡ 0``): ``U, V, U', V'`` continuous **and**

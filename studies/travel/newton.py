@@ -1,8 +1,7 @@
 """Semismooth Newton for a travelling wave on the contact circle, interior eliminated.
 
-Setting (derivation in ``studies.travel.frame`` and docs/travelling_waves.md)
------------------------------------------------------------------------------
-A wave turning at angular speed ω is stationary in its own frame: u(x, t) = Q(ωt) w(Q(ωt)ᵀx).
+Setting (derivation in ``studies.travel.frame`` and docs/travelling_waves.md). A wave turning
+at angular speed ω is stationary in its own frame: u(x, t) = Q(ωt) w(Q(ωt)ᵀx).
 Everything but the contact is linear, so the interior unknowns are eliminated and the problem
 lives on the N contact nodes (θ_i = 2πi/N, uniform) with the polar nodal values
 W = (W_r, W_θ) and the nodal contact forces λ = (p, q) exerted by the cylinder:
