@@ -144,8 +144,7 @@ def _fe_problem(N: int, overrides: list[str]):
 
 
 def part_fe(quick: bool, out: Path) -> dict:
-    from studies.flutter_fe.cea import complex_eigenvalue_analysis
-    from studies.flutter_fe.plots import _distinct
+    from studies.flutter_fe.cea import complex_eigenvalue_analysis, distinct_modes
 
     Ns = (66, 132) if quick else (66, 132, 264, 528)
     f, ks = 0.7, range(1, 9)
@@ -162,7 +161,8 @@ def part_fe(quick: bool, out: Path) -> dict:
         runs[str(N)] = {
             "free_dofs": res.n_free, "wall_s": wall,
             "branches": {str(k): [[m.frequency_hz, m.growth_rate, m.direction]
-                                  for m in _distinct(x for x in res.modes if x.wavenumber == k)[:3]]
+                                  for m in distinct_modes(x for x in res.modes
+                                                          if x.wavenumber == k)[:3]]
                          for k in ks},
         }
         cache.write_text(json.dumps(runs, indent=1))
@@ -356,8 +356,7 @@ def part_fespectrum(quick: bool, out: Path) -> dict:
 def part_smoothing(quick: bool, out: Path) -> dict:
     """P1 lumped with the 1-2-1 smoothed friction: fastest growth over the whole spectrum and
     the first three branches of n = 2, 4, 7 against the exact, f = 0.7."""
-    from studies.flutter_fe.cea import build_operators, complex_eigenvalue_analysis
-    from studies.flutter_fe.plots import _distinct
+    from studies.flutter_fe.cea import build_operators, complex_eigenvalue_analysis, distinct_modes
 
     Ns = (36, 72) if quick else (36, 72, 132, 264)
     cache = out / "smoothing.json"
@@ -380,7 +379,7 @@ def part_smoothing(quick: bool, out: Path) -> dict:
                 "wall_s": time.perf_counter() - t0, "fmax_hz": fmax,
                 "max": [top.growth_rate, top.frequency_hz, top.wavenumber],
                 "branches": {str(k): [[m.frequency_hz, m.growth_rate, m.direction] for m in
-                                      _distinct(x for x in res.modes if x.wavenumber == k)[:3]]
+                                      distinct_modes(x for x in res.modes if x.wavenumber == k)[:3]]
                              for k in (2, 4, 7)},
             }
             cache.write_text(json.dumps(runs))

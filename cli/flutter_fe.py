@@ -17,11 +17,12 @@ from studies.flutter_fe.cea import (
     CEAResult,
     build_operators,
     complex_eigenvalue_analysis,
+    distinct_modes,
     friction_relaxation_time,
     unrepresented_terms,
 )
 from studies.flutter_fe.doublets import doublet_lines, doublets
-from studies.flutter_fe.plots import _distinct, plot_cea_diagram, plot_spectrum
+from studies.flutter_fe.plots import plot_cea_diagram, plot_spectrum
 from studies.flutter_fe.references import reduced_model_flutter
 
 # --------------------------------------------------------------------------------- CLI
@@ -297,7 +298,7 @@ def _per_k_lines(res: CEAResult, reduced: list[dict]) -> list[str]:
     for k in sorted(best):
         if k == 0 or k not in red:
             continue
-        low = _distinct(m for m in res.modes if m.wavenumber == k)[0]
+        low = distinct_modes(m for m in res.modes if m.wavenumber == k)[0]
         cells = [(m.frequency_hz, m.growth_rate, m.phase_speed_m_s) for m in (low, best[k])]
         cells.append((red[k]["frequency_hz"], red[k]["growth_rate_per_s"],
                       red[k]["phase_speed_m_s"]))

@@ -20,7 +20,7 @@ from numpy.typing import NDArray
 from scipy.linalg import expm
 
 from semianalytic.coefficients import Coefficients
-from semianalytic.waves import _scaled_coeffs, _sep_matrix, _slip_matrix
+from semianalytic.waves import _scaled_coeffs, separation_matrix, slip_matrix
 
 __all__ = ["CLOSURES", "junction_residual"]
 
@@ -97,8 +97,8 @@ def _raw(
     c2 = ct * ct
     y0, V1, z2 = x[:4], x[4], x[5:7]
     zp = np.array([f * co0.g * dt / co0.h, 0.0])
-    zT = expm(_slip_matrix(co0, c2, Ds, f) * ((1.0 - p2) * T)) @ (z2 - zp) + zp
-    y1 = expm(_sep_matrix(co0, c2, Ds) * (p1 * T)) @ y0
+    zT = expm(slip_matrix(co0, c2, Ds, f) * ((1.0 - p2) * T)) @ (z2 - zp) + zp
+    y1 = expm(separation_matrix(co0, c2, Ds) * (p1 * T)) @ y0
     Lst = (p2 - p1) * T / ct
     su = dt + 1.0 / ct
     sp = co0.g * dt + abs(Ds) / ct

@@ -20,8 +20,8 @@ from semianalytic.zones import (
     _expm_batch,
     _nonsingular,
     _scaled_coeffs,
-    _sep_matrix,
-    _slip_matrix,
+    separation_matrix,
+    slip_matrix,
 )
 
 
@@ -53,9 +53,9 @@ def _sss_parts(
         V1 = x[3] * sc
         Vb = V1 + Lst
     z2 = np.array([Vb, 1.0 / ct])
-    zT = expm(_slip_matrix(co0, c2, Ds, f) * ((1.0 - p2) * T)) @ (z2 - zp) + zp
+    zT = expm(slip_matrix(co0, c2, Ds, f) * ((1.0 - p2) * T)) @ (z2 - zp) + zp
     y0 = np.array([dt, 0.0, zT[0], zT[1]])
-    y1 = expm(_sep_matrix(co0, c2, Ds) * (p1 * T)) @ y0
+    y1 = expm(separation_matrix(co0, c2, Ds) * (p1 * T)) @ y0
     if junction == "impact":
         r = np.array(
             [

@@ -20,8 +20,8 @@ from semianalytic.zones import (
     _expm_batch,
     _nonsingular,
     _scaled_coeffs,
-    _slip_matrix,
     check_admissible,
+    slip_matrix,
 )
 
 
@@ -39,7 +39,7 @@ def _ss_residual(
     T = 2.0 * math.pi / k
     Ds = sigma * co0.D
     wb = -f * Ds / co0.h
-    E = expm(_slip_matrix(co0, ct * ct, Ds, f) * ((1.0 - psi) * T))
+    E = expm(slip_matrix(co0, ct * ct, Ds, f) * ((1.0 - psi) * T))
     zT = E @ np.array([wb, 1.0])
     return np.array([(zT[0] - (wb - psi * T)) / T, zT[1] - 1.0])
 

@@ -62,12 +62,12 @@ from semianalytic.stick_slip import _ss_residual, _ss_wave, stick_slip_waves
 from semianalytic.zones import (  # noqa: F401  (the public names of the reduced model's waves)
     TravellingWave,
     _scaled_coeffs,
-    _sep_matrix,
-    _slip_matrix,
     angular_frequency_rad_s,
     celerity_m_s,
     check_admissible,
     frequency_hz,
+    separation_matrix,
+    slip_matrix,
 )
 
 __all__ = [

@@ -42,7 +42,7 @@ def frequency_hz(c: float, k: int, omega: float) -> float:
 
 
 # ----------------------------------------------------------------------------- matrices
-def _sep_matrix(co: Coefficients, c2: float, Ds: float) -> NDArray[np.float64]:
+def separation_matrix(co: Coefficients, c2: float, Ds: float) -> NDArray[np.float64]:
     """First-order matrix of [7] in s for ``y = (U, U_s, V, V_s)``."""
     eb, ea = c2 - co.b, c2 - co.a
     return np.array(
@@ -55,7 +55,7 @@ def _sep_matrix(co: Coefficients, c2: float, Ds: float) -> NDArray[np.float64]:
     )
 
 
-def _slip_matrix(co: Coefficients, c2: float, Ds: float, f: float) -> NDArray[np.float64]:
+def slip_matrix(co: Coefficients, c2: float, Ds: float, f: float) -> NDArray[np.float64]:
     """First-order matrix of the slip equation [5] in s for ``z = (V, V_s)``."""
     ea = c2 - co.a
     return np.array([[0.0, 1.0], [-co.h / ea, -f * Ds / ea]])
@@ -185,7 +185,7 @@ def _evaluate(w: TravellingWave, n: int) -> dict[str, NDArray[Any]]:
     slp = s >= s2
     if sep.any():
         ss = s[sep]
-        Y = _propagate(_sep_matrix(co, c2, Ds), w.y0, ss, 0.0, np.zeros(4))
+        Y = _propagate(separation_matrix(co, c2, Ds), w.y0, ss, 0.0, np.zeros(4))
         U[sep], Us[sep], V[sep], Vs[sep] = Y.T
         P[sep] = 0.0
         Q[sep] = 0.0
@@ -198,7 +198,7 @@ def _evaluate(w: TravellingWave, n: int) -> dict[str, NDArray[Any]]:
         zone[stk] = 1
     if slp.any():
         zp = np.array([f * co.g * delta / co.h, 0.0])
-        Z = _propagate(_slip_matrix(co, c2, Ds, f), w.z2, s[slp], s2, zp)
+        Z = _propagate(slip_matrix(co, c2, Ds, f), w.z2, s[slp], s2, zp)
         V[slp], Vs[slp] = Z.T
         P[slp] = co.g * delta - Ds * Vs[slp]
         Q[slp] = f * P[slp]

@@ -48,7 +48,7 @@ from scipy.linalg import expm
 
 from postprocess.analysis import angular_speed, classify, dominant_mode, mode_coefficients
 from semianalytic.coefficients import Coefficients
-from semianalytic.waves import TravellingWave, _sep_matrix, _slip_matrix
+from semianalytic.waves import TravellingWave, separation_matrix, slip_matrix
 from solver.contact import (
     SEPARATION,
     SLIP,
@@ -287,7 +287,7 @@ def wave_fields(w: TravellingWave, phi: Array) -> dict[str, Array]:
     sep, slp = s < s1, s >= s2
     stk = ~sep & ~slp
     if sep.any():
-        E = expm(_sep_matrix(co, c2, Ds)[None] * s[sep][:, None, None])
+        E = expm(separation_matrix(co, c2, Ds)[None] * s[sep][:, None, None])
         U[sep], Us[sep], V[sep], Vs[sep] = (E @ w.y0).T
         zone[sep] = SEPARATION
     V[stk] = w.V1 + (s[stk] - s1) / cabs
@@ -297,7 +297,7 @@ def wave_fields(w: TravellingWave, phi: Array) -> dict[str, Array]:
     zone[stk] = STICK
     if slp.any():
         zp = np.array([f * co.g * delta / co.h, 0.0])
-        E = expm(_slip_matrix(co, c2, Ds, f)[None] * (s[slp] - s2)[:, None, None])
+        E = expm(slip_matrix(co, c2, Ds, f)[None] * (s[slp] - s2)[:, None, None])
         V[slp], Vs[slp] = (E @ (w.z2 - zp) + zp).T
         P[slp] = co.g * delta - Ds * Vs[slp]
         Q[slp] = f * P[slp]

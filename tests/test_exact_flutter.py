@@ -171,12 +171,11 @@ def _fe_branches(N: int) -> dict[int, list]:
 
     from solver.problem import build_problem
     from solver.scene import load_scene
-    from studies.flutter_fe.cea import complex_eigenvalue_analysis
-    from studies.flutter_fe.plots import _distinct
+    from studies.flutter_fe.cea import complex_eigenvalue_analysis, distinct_modes
 
     scene = load_scene("figure3_n36", [f"mesh.n_inner={N}", "output.progress=false"])
     res = complex_eigenvalue_analysis(build_problem(scene, MPI.COMM_SELF), 0.7, 3200.0)
-    return {k: _distinct(m for m in res.modes if m.wavenumber == k)[:3] for k in (2, 4, 7)}
+    return {k: distinct_modes(m for m in res.modes if m.wavenumber == k)[:3] for k in (2, 4, 7)}
 
 
 def _errors(N: int) -> tuple[float, float]:

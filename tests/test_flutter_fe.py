@@ -108,9 +108,9 @@ def _problem(name: str, *overrides: str, comm=None):
 
 def _branches(res, k: int):
     """Distinct modes of wavenumber |k| (one per ±k pair), by frequency."""
-    from studies.flutter_fe.plots import _distinct
+    from studies.flutter_fe.cea import distinct_modes
 
-    return _distinct(m for m in res.modes if m.wavenumber == k)
+    return distinct_modes(m for m in res.modes if m.wavenumber == k)
 
 
 def test_band_slicing_finds_every_eigenvalue_of_the_dense_problem():

@@ -198,8 +198,7 @@ def test_seeded_transient_with_the_filter_grows_as_the_filtered_cea_predicts():
         measure_transient_growth,
         newmark_exponents,
     )
-    from studies.flutter_fe.cea import build_operators
-    from studies.flutter_fe.plots import _distinct
+    from studies.flutter_fe.cea import build_operators, distinct_modes
 
     scene = load_scene("figure3_n132", ["output.progress=false", 'friction.filter="1-2-1"'])
     problem = build_problem(scene, MPI.COMM_SELF)
@@ -207,8 +206,9 @@ def test_seeded_transient_with_the_filter_grows_as_the_filtered_cea_predicts():
                                       ops=build_operators(problem, friction="1-2-1"))
     nodal = complex_eigenvalue_analysis(problem, None, 3000.0,
                                         ops=build_operators(problem, friction="nodal"))
-    k4 = sorted(_distinct(m for m in res.modes if m.wavenumber == 4), key=lambda m: -m.growth_rate)
-    k4n = sorted(_distinct(m for m in nodal.modes if m.wavenumber == 4),
+    k4 = sorted(distinct_modes(m for m in res.modes if m.wavenumber == 4),
+                key=lambda m: -m.growth_rate)
+    k4n = sorted(distinct_modes(m for m in nodal.modes if m.wavenumber == 4),
                  key=lambda m: -m.growth_rate)
     assert abs(k4[0].growth_rate / k4n[0].growth_rate - 1) > 0.005
     assert res.unstable()[0].wavenumber <= 8

@@ -40,7 +40,7 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import asdict, dataclass, field
 from typing import TYPE_CHECKING, Any
 
@@ -580,6 +580,17 @@ class CEAMode:
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
+
+
+def distinct_modes(modes: Iterable[CEAMode]) -> list[CEAMode]:
+    """Modes sorted by frequency, one per degenerate (±k, f = 0) pair."""
+    out: list[CEAMode] = []
+    for m in sorted(modes, key=lambda m: m.frequency_hz):
+        if out and abs(m.frequency_hz - out[-1].frequency_hz) <= 1e-7 * m.frequency_hz \
+                and abs(m.growth_rate - out[-1].growth_rate) <= 1e-7 * m.frequency_hz:
+            continue
+        out.append(m)
+    return out
 
 
 @dataclass

@@ -3,7 +3,7 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -11,20 +11,9 @@ if TYPE_CHECKING:
 
     pass
 
-from studies.flutter_fe.cea import CEAMode, CEAResult
+from studies.flutter_fe.cea import CEAResult, distinct_modes
 
 # --------------------------------------------------------------------------------- plots
-
-
-def _distinct(modes: Any) -> list[CEAMode]:
-    """Modes sorted by frequency, one per degenerate (±k, f = 0) pair."""
-    out: list[CEAMode] = []
-    for m in sorted(modes, key=lambda m: m.frequency_hz):
-        if out and abs(m.frequency_hz - out[-1].frequency_hz) <= 1e-7 * m.frequency_hz \
-                and abs(m.growth_rate - out[-1].growth_rate) <= 1e-7 * m.frequency_hz:
-            continue
-        out.append(m)
-    return out
 
 
 def plot_cea_diagram(
@@ -49,7 +38,7 @@ def plot_cea_diagram(
     marks = {"rotation": ("^", "tab:red"), "opposite": ("v", "tab:blue"),
              "standing": ("o", "0.4"), "divergence": ("s", "k")}
     # (a), (b): branches of k_detail, connected in frequency order
-    branches = [_distinct(m for m in r.modes if m.wavenumber == k_detail) for r in results]
+    branches = [distinct_modes(m for m in r.modes if m.wavenumber == k_detail) for r in results]
     nb = min((len(b) for b in branches), default=0)
     for j in range(nb):
         fr = [b[j].frequency_hz for b in branches]
