@@ -184,11 +184,8 @@ def _resolve_base(base: str, sweep_path: Path) -> Path:
 MAX_SCENES = 100_000
 
 
-def load_sweep(path: str | Path, large: bool = False) -> SweepSpec:
-    """Parse and validate a sweep file; every scene is built once here (fail early)."""
-    p = Path(path)
-    if not p.is_file():
-        raise SweepError(f"sweep file {str(path)!r} not found")
+def _read_sweep_file(p: Path) -> dict[str, Any]:
+    """The sweep file's TOML, its top-level keys and tables checked."""
     try:
         data = tomllib.loads(p.read_text())
     except tomllib.TOMLDecodeError as err:
@@ -199,12 +196,19 @@ def load_sweep(path: str | Path, large: bool = False) -> SweepSpec:
     for table in ("grid", "map"):
         if not isinstance(data.get(table, {}), dict):
             raise SweepError(f"{p}: {table} = {data[table]!r} must be a table ([{table}])")
+    return data
+
+
+def _sweep_name(data: dict[str, Any], p: Path) -> str:
     name = str(data.get("name", p.stem))
     if not re.fullmatch(r"[A-Za-z0-9_.\-]+", name):
         raise SweepError(f"{p}: name = {name!r}: use letters, digits, '_', '-', '.'")
-    if "base" not in data:
-        raise SweepError(f"{p}: 'base' is required (the scene file every variant starts from)")
-    base = _resolve_base(str(data["base"]), p)
+    return name
+
+
+def _execution(data: dict[str, Any], p: Path) -> tuple[int, int | str, str]:
+    """``group_size`` (ranks per scene), ``batch`` ("off", "auto" or scenes per batch) and
+    ``backend`` ("cpu" or "gpu"), checked."""
     group_size = data.get("group_size", 1)
     if isinstance(group_size, bool) or not isinstance(group_size, int) or group_size < 1:
         raise SweepError(f"{p}: group_size = {group_size!r} must be an integer >= 1")
@@ -218,19 +222,23 @@ def load_sweep(path: str | Path, large: bool = False) -> SweepSpec:
     backend = data.get("backend", "cpu")
     if backend not in tuple(BACKENDS):  # a table or list given is refused too
         raise SweepError(f"{p}: backend = {backend!r} must be \"cpu\" or \"gpu\"")
+    return group_size, batch, backend
+
+
+def _fixed_overrides(data: dict[str, Any], p: Path) -> tuple[str, ...]:
+    """``set``: the 'key=value' overrides every scene of the sweep shares."""
     raw_set = data.get("set", [])
     if isinstance(raw_set, dict):
-        fixed = tuple(f"{k}={_toml_value(v)}"
-                      for k, v in _flatten(raw_set, f"{p} [set]").items())
-    elif isinstance(raw_set, list) and all(isinstance(s, str) for s in raw_set):
-        fixed = tuple(raw_set)
-    else:
-        raise SweepError(f"{p}: set must be a list of 'key=value' strings or a table")
-    try:
-        base_scene = load_scene(base, fixed)
-    except SceneError as err:
-        raise SweepError(f"{p}: base scene: {err}") from None
+        return tuple(f"{k}={_toml_value(v)}" for k, v in _flatten(raw_set, f"{p} [set]").items())
+    if isinstance(raw_set, list) and all(isinstance(s, str) for s in raw_set):
+        return tuple(raw_set)
+    raise SweepError(f"{p}: set must be a list of 'key=value' strings or a table")
 
+
+def _swept_values(data: dict[str, Any], p: Path,
+                  large: bool) -> tuple[list[str], list[dict[str, Any]]]:
+    """The swept keys (in order of first appearance) and one parameter dict per scene:
+    [grid] (a Cartesian product) times each of [[points]]."""
     grid = _flatten(data.get("grid", {}), f"{p} [grid]")
     for key, values in grid.items():
         if not isinstance(values, list) or not values:
@@ -255,6 +263,12 @@ def load_sweep(path: str | Path, large: bool = False) -> SweepSpec:
                 raise SweepError(f"{p}: {sorted(clash)} both in [grid] and in [[points]]")
             merged = {**pt, **combo}
             params_list.append({k: merged[k] for k in keys if k in merged})
+    return keys, params_list
+
+
+def _tasks(keys: list[str], params_list: list[dict[str, Any]], p: Path) -> list[Task]:
+    """One task per parameter dict, its id from the keys' last components (the full key
+    where two keys share one)."""
     leaves_count: dict[str, int] = {}
     for k in keys:
         leaves_count[k.rsplit(".", 1)[-1]] = leaves_count.get(k.rsplit(".", 1)[-1], 0) + 1
@@ -267,7 +281,11 @@ def load_sweep(path: str | Path, large: bool = False) -> SweepSpec:
             raise SweepError(f"{p}: scene {tid!r} appears twice (duplicate grid/points values)")
         seen.add(tid)
         tasks.append(Task(tid, params))
+    return tasks
 
+
+def _map_spec(data: dict[str, Any], p: Path, keys: list[str]) -> MapSpec:
+    """[map]: the regime map's axes (swept keys), scales and semianalytic overlay."""
     raw_map = data.get("map", {})
     for key in raw_map:
         if key not in _MAP_KEYS:
@@ -285,6 +303,31 @@ def load_sweep(path: str | Path, large: bool = False) -> SweepSpec:
     junctions = raw_map.get("junctions", ["impact"])
     if not set(junctions) <= {"impact", "smooth"}:
         raise SweepError(f"{p}: map.junctions must be a subset of ['impact', 'smooth']")
+    return MapSpec(x=raw_map.get("x"), y=raw_map.get("y"),
+                   xscale=raw_map.get("xscale", "auto"), yscale=raw_map.get("yscale", "auto"),
+                   semianalytic=bool(raw_map.get("semianalytic", True)), k=tuple(ks),
+                   junctions=tuple(junctions))
+
+
+def load_sweep(path: str | Path, large: bool = False) -> SweepSpec:
+    """Parse and validate a sweep file; every scene is built once here (fail early)."""
+    p = Path(path)
+    if not p.is_file():
+        raise SweepError(f"sweep file {str(path)!r} not found")
+    data = _read_sweep_file(p)
+    name = _sweep_name(data, p)
+    if "base" not in data:
+        raise SweepError(f"{p}: 'base' is required (the scene file every variant starts from)")
+    base = _resolve_base(str(data["base"]), p)
+    group_size, batch, backend = _execution(data, p)
+    fixed = _fixed_overrides(data, p)
+    try:
+        base_scene = load_scene(base, fixed)
+    except SceneError as err:
+        raise SweepError(f"{p}: base scene: {err}") from None
+    keys, params_list = _swept_values(data, p, large)
+    tasks = _tasks(keys, params_list, p)
+    map_spec = _map_spec(data, p, keys)
     if not isinstance(data.get("attractors", {}), dict):
         raise SweepError(f"{p}: [attractors] must be a table (starts = M, ...)")
     spec = SweepSpec(
@@ -292,11 +335,7 @@ def load_sweep(path: str | Path, large: bool = False) -> SweepSpec:
         keys=tuple(keys), tasks=tuple(tasks), group_size=group_size, batch=str(batch),
         backend=backend, attractors=dict(data.get("attractors", {})),
         output=p.parent / str(data["output"]) if data.get("output") else None,
-        description=str(data.get("description", "")),
-        map=MapSpec(x=raw_map.get("x"), y=raw_map.get("y"),
-                    xscale=raw_map.get("xscale", "auto"), yscale=raw_map.get("yscale", "auto"),
-                    semianalytic=bool(raw_map.get("semianalytic", True)), k=tuple(ks),
-                    junctions=tuple(junctions)),
+        description=str(data.get("description", "")), map=map_spec,
     )
     for task in spec.tasks:  # every variant must be a valid scene before anything runs
         try:
