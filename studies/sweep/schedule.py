@@ -27,7 +27,7 @@ import time
 import traceback
 from collections.abc import Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, TextIO
+from typing import TYPE_CHECKING, Any, TextIO
 
 from postprocess.style import wave_title
 from solver.atomic import atomic_write_text
@@ -459,8 +459,6 @@ def run_sweep(spec: SweepSpec, out_dir: str | Path, *, comm: MPI.Comm | None = N
     Returns 0 (every scene final, none ``failed``), 1 (the table holds a scene that failed
     with an exception), 130 (interrupted: the table holds what finished; run again to resume).
     """
-    import signal
-
     from mpi4py import MPI
 
     comm = MPI.COMM_WORLD if comm is None else comm
@@ -470,27 +468,9 @@ def run_sweep(spec: SweepSpec, out_dir: str | Path, *, comm: MPI.Comm | None = N
     out_dir = Path(out_dir)
     g = group_size or spec.group_size
     rank0 = comm.rank == 0
-    info: tuple | str | None = None
-    lock = None
     t_start = time.time()
-    if rank0:
-        try:
-            lock = _lock(out_dir)
-            pending, n_done, seconds = _classify(out_dir, spec, retry_failed)
-            n_groups = (comm.size + g - 1) // g
-            problem = _cost_problem(spec, len(pending), seconds, n_groups, g) \
-                if check_cost else None
-            if problem:
-                if lock.created and not user_entries(out_dir):
-                    shutil.rmtree(out_dir, ignore_errors=True)  # made for nothing
-                raise SweepError(problem)
-            _prepare(out_dir, spec)
-            from studies.sweep.batch import plan_units
-
-            units = plan_units(spec, pending, batch, (comm.size + g - 1) // g, g)
-            info = ([[t.id for t in u] for u in units], n_done)
-        except (SweepError, OSError) as err:
-            info = str(err)
+    info, lock = _plan_on_rank0(spec, out_dir, comm, g, retry_failed, check_cost, batch) \
+        if rank0 else (None, None)
     info = comm.bcast(info, root=0)
     if isinstance(info, str):
         if rank0:
@@ -502,9 +482,8 @@ def run_sweep(spec: SweepSpec, out_dir: str | Path, *, comm: MPI.Comm | None = N
     units = [[by_id[i] for i in u] for u in info[0]]
     pending = [t for u in units for t in u]
     n_done = info[1]
-    color = comm.rank // g
     n_groups = (comm.size + g - 1) // g
-    group = comm.Split(color, comm.rank)
+    group = comm.Split(comm.rank // g, comm.rank)
     _init_petsc(group)
     monitor = None
     # the failures that no summary records (a full disk): those recorded before, less the
@@ -513,21 +492,77 @@ def run_sweep(spec: SweepSpec, out_dir: str | Path, *, comm: MPI.Comm | None = N
     if rank0:
         ran = {t.id for t in pending}
         failures.update({k: v for k, v in recorded_failures(out_dir).items() if k not in ran})
-        print(f"sweep {spec.name}: {len(spec.tasks)} scenes, {n_done} already done, "
-              f"{len(pending)} to run on {n_groups} group(s) of {g} rank(s) -> {out_dir}",
-              file=stream, flush=True)
-        batches = [len(u) for u in units if len(u) > 1]
-        if batches:
-            sizes = ", ".join(map(str, batches))
-            print(f"  batched ({backend}): {len(batches)} batch(es) of {sizes}"
-                  f" scenes, {len(units) - len(batches)} single scene(s)", file=stream,
-                  flush=True)
-        if comm.size % g:
-            print(f"  note: {comm.size} ranks are not a multiple of group_size {g}; the last "
-                  f"group has {comm.size % g} rank(s)", file=stream, flush=True)
+        _announce(spec, out_dir, units, n_done, comm.size, g, backend, stream)
         monitor = _Monitor(out_dir, spec, pending, n_done, stream, _want_live(progress, stream),
                            failures=failures)
         monitor.start()
+    interrupted = _run_units(spec, units, out_dir, comm, group, backend, check_cost, failures)
+    rc = 130
+    if rank0:
+        assert monitor is not None
+        monitor.stop()
+        session = {"started": t_start, "finished": time.time(), "ranks": comm.size,
+                   "groups": n_groups, "group_size": g, "pending_at_start": len(pending),
+                   "interrupted": interrupted}
+        rc = _report(spec, out_dir, session, failures, stream)
+        if lock is not None:
+            lock.release()
+    if not interrupted:
+        rc = comm.bcast(rc, root=0)
+    return rc
+
+
+def _plan_on_rank0(spec: SweepSpec, out_dir: Path, comm: MPI.Comm, g: int, retry_failed: bool,
+                   check_cost: bool, batch: str) -> tuple[tuple | str, Any]:
+    """Rank 0: claim the sweep directory, find the pending scenes, refuse them if too long,
+    prepare the directory and plan the work units. Returns ((unit ids, scenes done) or the
+    refusal's message, the claim or None)."""
+    lock = None
+    try:
+        lock = _lock(out_dir)
+        pending, n_done, seconds = _classify(out_dir, spec, retry_failed)
+        n_groups = (comm.size + g - 1) // g
+        problem = _cost_problem(spec, len(pending), seconds, n_groups, g) \
+            if check_cost else None
+        if problem:
+            if lock.created and not user_entries(out_dir):
+                shutil.rmtree(out_dir, ignore_errors=True)  # made for nothing
+            raise SweepError(problem)
+        _prepare(out_dir, spec)
+        from studies.sweep.batch import plan_units
+
+        units = plan_units(spec, pending, batch, (comm.size + g - 1) // g, g)
+        return ([[t.id for t in u] for u in units], n_done), lock
+    except (SweepError, OSError) as err:
+        return str(err), lock
+
+
+def _announce(spec: SweepSpec, out_dir: Path, units: list[list[Task]], n_done: int,
+              ranks: int, g: int, backend: str, stream: TextIO) -> None:
+    """Rank 0: the sweep's first lines (scenes, groups, batches)."""
+    n_groups = (ranks + g - 1) // g
+    pending = sum(len(u) for u in units)
+    print(f"sweep {spec.name}: {len(spec.tasks)} scenes, {n_done} already done, "
+          f"{pending} to run on {n_groups} group(s) of {g} rank(s) -> {out_dir}",
+          file=stream, flush=True)
+    batches = [len(u) for u in units if len(u) > 1]
+    if batches:
+        sizes = ", ".join(map(str, batches))
+        print(f"  batched ({backend}): {len(batches)} batch(es) of {sizes}"
+              f" scenes, {len(units) - len(batches)} single scene(s)", file=stream,
+              flush=True)
+    if ranks % g:
+        print(f"  note: {ranks} ranks are not a multiple of group_size {g}; the last "
+              f"group has {ranks % g} rank(s)", file=stream, flush=True)
+
+
+def _run_units(spec: SweepSpec, units: list[list[Task]], out_dir: Path, comm: MPI.Comm,
+               group: MPI.Comm, backend: str, check_cost: bool,
+               failures: dict[str, str]) -> bool:
+    """Each group takes the next unit from the shared counter until none is left; SIGTERM
+    and SIGHUP stop it as Ctrl-C does. Returns whether the sweep was interrupted; if not,
+    the ranks' failures are gathered on rank 0 (collective)."""
+    import signal
 
     terminated = [False]
 
@@ -565,27 +600,24 @@ def run_sweep(spec: SweepSpec, out_dir: str | Path, *, comm: MPI.Comm | None = N
             counter.free()
         for found in comm.gather(failures, root=0) or []:
             failures.update(found)
-    rc = 130
-    if rank0:
-        assert monitor is not None
-        monitor.stop()
-        session = {"started": t_start, "finished": time.time(), "ranks": comm.size,
-                   "groups": n_groups, "group_size": g, "pending_at_start": len(pending),
-                   "interrupted": interrupted}
-        rows = write_table(out_dir, spec, extra={"last_session": session}, failures=failures)
-        counts: dict[str, int] = {}
-        for r in rows:
-            counts[r["status"]] = counts.get(r["status"], 0) + 1
-        text = ", ".join(f"{v} {k}" for k, v in sorted(counts.items()))
-        print(f"sweep {spec.name}: {text}; table {out_dir / 'sweep.csv'}"
-              + ("  (interrupted: run the same command again to resume)" if interrupted else ""),
-              file=stream, flush=True)
-        if lock is not None:
-            lock.release()
-        if not interrupted:
-            rc = 1 if counts.get("failed") or counts.get("foreign") else 0
-    if not interrupted:
-        rc = comm.bcast(rc, root=0)
-    return rc
+    return interrupted
+
+
+def _report(spec: SweepSpec, out_dir: Path, session: dict[str, Any],
+            failures: dict[str, str], stream: TextIO) -> int:
+    """Rank 0: the final table and its one-line count. Returns 130 if interrupted, else 1 if
+    a scene failed (or a foreign run directory sits in runs/), else 0."""
+    interrupted = session["interrupted"]
+    rows = write_table(out_dir, spec, extra={"last_session": session}, failures=failures)
+    counts: dict[str, int] = {}
+    for r in rows:
+        counts[r["status"]] = counts.get(r["status"], 0) + 1
+    text = ", ".join(f"{v} {k}" for k, v in sorted(counts.items()))
+    print(f"sweep {spec.name}: {text}; table {out_dir / 'sweep.csv'}"
+          + ("  (interrupted: run the same command again to resume)" if interrupted else ""),
+          file=stream, flush=True)
+    if interrupted:
+        return 130
+    return 1 if counts.get("failed") or counts.get("foreign") else 0
 
 
