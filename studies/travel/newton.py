@@ -294,76 +294,112 @@ def solve_wave(
     if k % prob.period:
         raise ValueError(f"k = {k}: a problem folded to 1/{prob.period} of the circle holds "
                          f"only waves whose k is a multiple of {prob.period}")
-    theta = prob.theta
     c = nodal_stiffness(prob)
-    law = _Law(prob, c)
-    fscale = c * max(prob.d, 1e-300)
-    a0 = fourier_k(W0[n:], theta, k)
+    a0 = fourier_k(W0[n:], prob.theta, k)
     if abs(a0) == 0.0:
         raise NotConverged("the start has no mode-k content in u_theta", {"k": k})
-    alpha = np.exp(-1j * (np.angle(a0) + k * theta))  # phase row: Im(alpha · W_θ) = 0
-    phase_row = alpha.imag / abs(a0)
+    alpha = np.exp(-1j * (np.angle(a0) + k * prob.theta))  # phase row: Im(alpha · W_θ) = 0
+    res = _WaveResidual(prob, _Law(prob, c), alpha.imag / abs(a0), c * max(prob.d, 1e-300),
+                        free_omega)
     W, om = np.array(W0, dtype=float), float(omega0)
     hist: list[float] = []
-
-    def residual(W: Array, om: float) -> tuple[Array, Array, Array]:
-        S, _ = prob.stiffness(om, False)
-        lam = S @ W
-        C, proj = law(W, lam, om)
-        F = np.empty(2 * n + 1)
-        F[: 2 * n] = C
-        F[2 * n] = (fscale * float(phase_row @ W[n:]) / max(prob.d, 1e-300)
-                    if free_omega else 0.0)
-        return F, S, proj
-
-    F, S, proj = residual(W, om)
+    F, S, proj = res(W, om)
     it = 0
     best = float(F @ F)
     while it < max_iter:
         it += 1
         norm = float(np.max(np.abs(F)))
-        hist.append(norm / fscale)
-        if norm <= tol * fscale:
+        hist.append(norm / res.fscale)
+        if norm <= tol * res.fscale:
             break
         if stall and it > stall and min(hist[-stall:]) > 0.99 * min(hist[:-stall]):
             break  # stagnation (docstring)
-        if free_omega:
+        dx, F = res.newton_direction(W, om, F, S)
+        merit = float(F @ F)
+        best = min(best, merit) if it > 1 else merit
+        W, om, F, S, proj = res.backtrack(W, om, dx, merit, growth * best)
+    norm = float(np.max(np.abs(F)))
+    sol = TravelSolution(
+        omega=om, W_r=W[:n].copy(), W_t=W[n:].copy(), p=proj[:n].copy(), q=proj[n:].copy(),
+        status=res.law.out.status.copy(), iterations=it, residual=norm / res.fscale,
+        residual_history=hist,
+    )
+    _check_wave(prob, sol, norm, k, a0, res.fscale, tol, margin_tol, min_mode_fraction)
+    return sol
+
+
+class _WaveResidual:
+    """F(W, ω) = (C, phase): the nodal law's Alart–Curnier residual C = λ − proj(λ − cW)
+    with λ = S(ω)W, and the phase condition Im(α · W_θ) = 0 (scaled to a force) that fixes
+    the wave's position on the circle (0 when ω is held fixed)."""
+
+    def __init__(self, prob: CircleProblem, law: _Law, phase_row: Array, fscale: float,
+                 free_omega: bool) -> None:
+        self.prob, self.law, self.phase_row = prob, law, phase_row
+        self.fscale, self.free_omega = fscale, free_omega
+
+    def __call__(self, W: Array, om: float) -> tuple[Array, Array, Array]:
+        """(F, S(ω), λ projected)."""
+        n, prob = self.prob.n, self.prob
+        S, _ = prob.stiffness(om, False)
+        lam = S @ W
+        C, proj = self.law(W, lam, om)
+        F = np.empty(2 * n + 1)
+        F[: 2 * n] = C
+        F[2 * n] = (self.fscale * float(self.phase_row @ W[n:]) / max(prob.d, 1e-300)
+                    if self.free_omega else 0.0)
+        return F, S, proj
+
+    def newton_direction(self, W: Array, om: float, F: Array, S: Array) -> tuple[Array, Array]:
+        """(dx, F): the semismooth Newton step J dx = −F at the statuses of the last
+        evaluation; with ω fixed, the phase row and the ω column are dropped (dx_ω = 0)."""
+        prob = self.prob
+        if self.free_omega:
             _, dS = prob.stiffness(om, True)
         else:
             dS = np.zeros_like(S)
-        J = _jacobian(prob, law, W, om, S, dS, phase_row, fscale)
-        if not free_omega:  # ω fixed: drop the phase row and the ω column
+        J = _jacobian(prob, self.law, W, om, S, dS, self.phase_row, self.fscale)
+        if not self.free_omega:  # ω fixed: drop the phase row and the ω column
             J, F = J[:-1, :-1], F[:-1]
         try:
             dx = np.linalg.solve(J, -F)
         except np.linalg.LinAlgError:
             dx = np.linalg.lstsq(J, -F, rcond=None)[0]
-        if not free_omega:
+        if not self.free_omega:
             dx, F = np.append(dx, 0.0), np.append(F, 0.0)
-        # Non-monotone backtracking: a full step that changes the active set may raise the
-        # residual for a while (primal-dual active-set behaviour); accept growth up to
-        # ``growth`` times the best merit so far, else halve.
+        return dx, F
+
+    def backtrack(self, W: Array, om: float, dx: Array, merit: float,
+                  accept: float) -> tuple[Array, float, Array, Array, Array]:
+        """The point (W, ω, F, S, λ projected) along dx, halving the step up to 12 times.
+
+        Non-monotone: a full step that changes the active set may raise the residual for a
+        while (primal-dual active-set behaviour); a step is taken when its merit ‖F‖² falls
+        by the Armijo fraction or stays below ``accept`` (``growth`` times the best merit so
+        far). A step never crosses ω = 0 (the upwind direction flips); if every halving
+        would, the point stays where it is.
+        """
         step = 1.0
-        merit = float(F @ F)
-        best = min(best, merit) if it > 1 else merit
+        trial = None
         for _ in range(12):
-            om_t = om + step * dx[-1] if free_omega else om
+            om_t = om + step * dx[-1] if self.free_omega else om
             if om_t * om <= 0:  # never cross ω = 0 (the upwind direction flips)
                 step *= 0.5
                 continue
             W_t = W + step * dx[:-1]
-            F_t, S_t, proj_t = residual(W_t, om_t)
-            m_t = float(F_t @ F_t)
-            if np.isfinite(m_t) and (m_t < (1.0 - 1e-4 * step) * merit or m_t < growth * best):
+            trial = (W_t, om_t, *self(W_t, om_t))
+            m_t = float(trial[2] @ trial[2])
+            if np.isfinite(m_t) and (m_t < (1.0 - 1e-4 * step) * merit or m_t < accept):
                 break
             step *= 0.5
-        W, om, F, S, proj = W_t, om_t, F_t, S_t, proj_t
-    norm = float(np.max(np.abs(F)))
-    status = law.out.status.copy()
-    sol = TravelSolution(
-        omega=om, W_r=W[:n].copy(), W_t=W[n:].copy(), p=proj[:n].copy(), q=proj[n:].copy(),
-        status=status, iterations=it, residual=norm / fscale, residual_history=hist,
-    )
+        return trial if trial is not None else (W, om, *self(W, om))
+
+
+def _check_wave(prob: CircleProblem, sol: TravelSolution, norm: float, k: int, a0: complex,
+                fscale: float, tol: float, margin_tol: float, min_mode_fraction: float) -> None:
+    """Fill ``sol``'s inequality margins and raise ``NotConverged`` unless it is a converged
+    (‖F‖_∞ = ``norm`` ≤ tol · c·d), admissible wave of dominant mode k (``solve_wave``)."""
+    it, om, hist = sol.iterations, sol.omega, sol.residual_history
     sol.margins = inequality_margins(prob, sol, fscale)
     bad = [key for key, m in sol.margins.items() if m < -margin_tol]
     sol.violated = INEQUALITY_NAMES[bad[0]] if bad else None
@@ -373,14 +409,14 @@ def solve_wave(
         raise NotConverged(
             f"no convergence after {it} iterations: last residual {sol.residual:.3e} "
             f"(tol {tol:.1e}); violated inequality: {sol.violated or 'none'}", info)
-    amp = abs(fourier_k(W[n:], theta, k))
+    amp = abs(fourier_k(sol.W_t, prob.theta, k))
     if amp < min_mode_fraction * abs(a0) or sol.fractions["slip"] == 1.0:
         raise NotConverged(
             "converged to steady sliding (no stick or separation, mode-k amplitude "
             f"{amp / abs(a0):.1e} of the start)", info)
     if sol.violated:
         raise NotConverged(f"converged wave violates {sol.violated}", info)
-    sep = np.any(status == SEPARATION)
+    sep = np.any(sol.status == SEPARATION)
     signal = (sol.W_r - prob.d) if sep else (sol.W_t - sol.W_t.mean())
     spec = np.abs(np.fft.rfft(signal))
     spec[0] = 0.0
@@ -388,7 +424,6 @@ def solve_wave(
     if mode != k:
         raise NotConverged(f"converged to a wave whose dominant mode is {mode}, not k = {k} "
                            "(a node-scale pattern, not the requested wave)", info | {"mode": mode})
-    return sol
 
 
 def wave_of_active_set(prob: CircleProblem, status: NDArray[np.int8], sense: Array,
