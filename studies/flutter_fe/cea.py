@@ -157,13 +157,7 @@ def build_operators(
     ``friction.filter = "1-2-1"`` (removes the spurious mesh-scale flutter branch; an O(h²)
     change, docs/friction_filter.md).
     """
-    import dolfinx
-    import dolfinx.fem.petsc
-    import ufl
     from petsc4py import PETSc
-
-    from forms.elasticity import mass as mass_form
-    from forms.steady import node_matrix
 
     if mass not in ("lumped", "consistent"):
         raise ValueError(f"mass={mass!r}: use 'lumped' or 'consistent'")
@@ -172,57 +166,20 @@ def build_operators(
     comm = problem.comm
     K, nd = problem.K, problem.nodes
     rstart = K.getOwnershipRange()[0]
-    rows_x = (rstart + nd.dofs_x).astype(PETSc.IntType)
-    c, s = nd.cos_t, nd.sin_t
-    one, zero = np.ones_like(c), np.zeros_like(c)
-    T = node_matrix(K, rows_x, nd.dofs_x, (c, -s, s, c))  # u = T ũ
-    L1 = node_matrix(K, rows_x, nd.dofs_x, (one, zero, -one, one))  # row_θ − 1·row_r
-    Khat = K.ptap(T)
-    Es = None
-    if FRICTION_FILTERS[friction] is None:
-        Kf = L1.matMult(Khat)
-        Kf.axpy(-1.0, Khat)  # = −E K̂
-    else:
-        Es = _friction_rows(K, nd, FRICTION_FILTERS[friction])
-        Kf = Es.matMult(Khat)
-        Kf.scale(-1.0)  # = −E_s K̂
-
-    keep = np.ones(problem.n_owned, dtype=bool)
-    keep[problem.clamped] = False
-    keep[nd.dofs_x] = False  # ũ_r = d: eliminated
-    free = np.flatnonzero(keep)
+    frame = _ContactFrame(problem, friction)
+    Khat = K.ptap(frame.T)
+    Kf = frame.friction_part(Khat)  # = −E K̂
+    free = _free_dofs(problem)
     iset = PETSc.IS().createGeneral((rstart + free).astype(PETSc.IntType), comm=comm)
     Kt_f = Khat.createSubMatrix(iset, iset)
     Kf_f = Kf.createSubMatrix(iset, iset)
-    friction_mass = None
     if mass == "lumped":
-        B = PETSc.Mat().createAIJ(size=Kt_f.getSizes(), nnz=(1, 0), comm=comm)
-        B.setUp()
-        diag = Kt_f.createVecLeft()
-        diag.getArray()[:] = problem.mass[free]
-        B.setDiagonal(diag)
-        B.assemble()
-        diag.destroy()
+        B, friction_mass = _lumped_mass(problem, Kt_f, free), None
     else:
-        u, v = ufl.TrialFunction(problem.V), ufl.TestFunction(problem.V)
-        Mc = dolfinx.fem.petsc.assemble_matrix(
-            dolfinx.fem.form(mass_form(u, v, problem.material.rho))
-        )
-        Mc.assemble()
-        Mhat = Mc.ptap(T)
-        if Es is None:
-            Mf = L1.matMult(Mhat)
-            Mf.axpy(-1.0, Mhat)
-        else:
-            Mf = Es.matMult(Mhat)
-            Mf.scale(-1.0)
-        B = Mhat.createSubMatrix(iset, iset)
-        friction_mass = Mf.createSubMatrix(iset, iset)
-        for m in (Mc, Mhat, Mf):
-            m.destroy()
-    for m in (T, L1, Khat, Kf, iset, Es):
-        if m is not None:
-            m.destroy()
+        B, friction_mass = _consistent_mass(problem, frame, iset)
+    for m in (Khat, Kf, iset):
+        m.destroy()
+    frame.destroy()
     return CEAOperators(
         Kt=Kt_f, Kf=Kf_f, B=B, free=free,
         pos_theta=np.searchsorted(free, nd.dofs_y), theta=nd.theta,
@@ -230,6 +187,88 @@ def build_operators(
         friction=friction,
         consistent_friction_mass=friction_mass, comm=comm,
     )
+
+
+class _ContactFrame:
+    """The contact nodes' polar frame, u = T ũ (ũ = (ũ_r, ũ_θ) at the contact nodes), and the
+    friction row-combination E: the θ-row of node i takes f × the r-row (nodal law, through
+    ``L1`` = row_θ − 1·row_r) or f × the filtered r-rows of i − 1, i, i + 1 (``E_s``)."""
+
+    def __init__(self, problem: TubeProblem, friction: str) -> None:
+        from petsc4py import PETSc
+
+        from forms.steady import node_matrix
+
+        K, nd = problem.K, problem.nodes
+        rows_x = (K.getOwnershipRange()[0] + nd.dofs_x).astype(PETSc.IntType)
+        c, s = nd.cos_t, nd.sin_t
+        one, zero = np.ones_like(c), np.zeros_like(c)
+        self.T = node_matrix(K, rows_x, nd.dofs_x, (c, -s, s, c))  # u = T ũ
+        self.L1 = node_matrix(K, rows_x, nd.dofs_x, (one, zero, -one, one))  # row_θ − row_r
+        self.Es = None if FRICTION_FILTERS[friction] is None else \
+            _friction_rows(K, nd, FRICTION_FILTERS[friction])
+
+    def friction_part(self, Xhat: PETSc.Mat) -> PETSc.Mat:
+        """−E X̂ (a new matrix) for a rotated operator X̂ = Tᵀ X T."""
+        if self.Es is None:
+            Xf = self.L1.matMult(Xhat)
+            Xf.axpy(-1.0, Xhat)  # = −E X̂
+        else:
+            Xf = self.Es.matMult(Xhat)
+            Xf.scale(-1.0)  # = −E_s X̂
+        return Xf
+
+    def destroy(self) -> None:
+        for m in (self.T, self.L1, self.Es):
+            if m is not None:
+                m.destroy()
+
+
+def _free_dofs(problem: TubeProblem) -> np.ndarray:
+    """Owned local dofs of the eigenproblem: not clamped, not ũ_r at a contact node (= d,
+    eliminated)."""
+    keep = np.ones(problem.n_owned, dtype=bool)
+    keep[problem.clamped] = False
+    keep[problem.nodes.dofs_x] = False  # ũ_r = d: eliminated
+    return np.flatnonzero(keep)
+
+
+def _lumped_mass(problem: TubeProblem, Kt_f: PETSc.Mat, free: np.ndarray) -> PETSc.Mat:
+    """B = the explicit solver's lumped mass on the free dofs (diagonal; rotation-invariant)."""
+    from petsc4py import PETSc
+
+    B = PETSc.Mat().createAIJ(size=Kt_f.getSizes(), nnz=(1, 0), comm=problem.comm)
+    B.setUp()
+    diag = Kt_f.createVecLeft()
+    diag.getArray()[:] = problem.mass[free]
+    B.setDiagonal(diag)
+    B.assemble()
+    diag.destroy()
+    return B
+
+
+def _consistent_mass(problem: TubeProblem, frame: _ContactFrame,
+                     iset: PETSc.IS) -> tuple[PETSc.Mat, PETSc.Mat]:
+    """(M̂_c, −E M̂_c) on the free dofs: the consistent mass ∫ρφ_i·φ_j rotated, and its friction
+    row-combination (the θ-rows of the contact nodes carry the friction's inertia)."""
+    import dolfinx
+    import dolfinx.fem.petsc
+    import ufl
+
+    from forms.elasticity import mass as mass_form
+
+    u, v = ufl.TrialFunction(problem.V), ufl.TestFunction(problem.V)
+    Mc = dolfinx.fem.petsc.assemble_matrix(
+        dolfinx.fem.form(mass_form(u, v, problem.material.rho))
+    )
+    Mc.assemble()
+    Mhat = Mc.ptap(frame.T)
+    Mf = frame.friction_part(Mhat)
+    B = Mhat.createSubMatrix(iset, iset)
+    friction_mass = Mf.createSubMatrix(iset, iset)
+    for m in (Mc, Mhat, Mf):
+        m.destroy()
+    return B, friction_mass
 
 
 # --------------------------------------------------------------------------------- eigensolver
@@ -310,16 +349,10 @@ def band_eigenvalues(
     in the returned array (for mode shapes: only the few wanted, the band may hold
     thousands).
     """
-    from slepc4py import SLEPc
-
     t0 = time.perf_counter()
     stats = BandStats()
     n = A.getSize()[0]
-    mus: list[complex] = []
-    vecs: list[np.ndarray] = []
-    full: dict[int, np.ndarray] = {}
-    pos = np.zeros(0, dtype=np.int64) if contact_pos is None else contact_pos
-    vr, vi = A.createVecRight(), A.createVecRight()
+    found = _BandPairs(A, contact_pos, keep_vector)
     lo = -0.02 * mu_max
     sigma, nev = lo, nev_slice
     while lo < mu_max:
@@ -339,22 +372,7 @@ def band_eigenvalues(
         inside = order if everything else order[:nev]
         # open disc, shrunk by 1e-9: the nev-th may have an unreturned twin at equal distance
         rho = math.inf if everything else float(dist[order[nev - 1]]) * (1.0 - 1e-9)
-        # Strip height: safety × max |Im μ| over the disc, then lowered to the eigenvalues of
-        # the slice's own Re-interval while that stays consistent (a lower strip widens the
-        # interval, which must not take in a taller eigenvalue).
-        im, re = np.abs(mu[inside].imag), np.abs(mu[inside].real - sigma)
-        strip = strip_safety * float(np.max(im, initial=0.0))
-        for _ in range(4):
-            if everything or rho <= strip:
-                break
-            half = math.sqrt(rho * rho - strip * strip)
-            lower = strip_safety * float(np.max(im[re <= half], initial=0.0))
-            if lower >= strip:
-                break
-            wider = math.sqrt(rho * rho - lower * lower)
-            if strip_safety * float(np.max(im[re <= wider], initial=0.0)) > lower:
-                break
-            strip = lower
+        strip = _strip_half_height(mu[inside], sigma, rho, strip_safety)
         if not everything and rho <= strip:
             eps.destroy()
             nev = min(2 * nev, n)
@@ -367,18 +385,8 @@ def band_eigenvalues(
             continue
         hi = sigma + half
         for i in inside:
-            m = mu[i]
-            if lo <= m.real < hi:
-                err = eps.computeError(int(i), SLEPc.EPS.ErrorType.RELATIVE)
-                stats.max_residual = max(stats.max_residual, err)
-                if err > 1e-6:
-                    raise RuntimeError(f"eigenpair {m} has relative residual {err:.2g}")
-                mus.append(m)
-                if contact_pos is not None or keep_vector is not None:  # collective
-                    eps.getEigenpair(int(i), vr, vi)
-                    vecs.append(vr.getArray()[pos] + 1j * vi.getArray()[pos])
-                    if keep_vector is not None and keep_vector(m):
-                        full[len(mus) - 1] = vr.getArray() + 1j * vi.getArray()
+            if lo <= mu[i].real < hi:
+                found.take(eps, int(i), mu[i], stats)
         eps.destroy()
         stats.slices += 1
         stats.converged += nconv
@@ -386,18 +394,79 @@ def band_eigenvalues(
             break
         lo = hi
         sigma, nev = hi + TARGET_STEP * half, nev_slice if nev <= nev_slice else nev
-    vr.destroy()
-    vi.destroy()
-    mu_arr = np.array(mus, dtype=complex)
-    keep = mu_arr.real <= mu_max
     stats.seconds = time.perf_counter() - t0
-    width = pos.size if contact_pos is not None else 0
-    V = np.array(vecs, dtype=complex).reshape(len(vecs), width) if vecs else \
-        np.zeros((mu_arr.size, width), dtype=complex)
-    if vectors is not None:
-        new_index = np.cumsum(keep) - 1
-        vectors.update({int(new_index[i]): v for i, v in full.items() if keep[i]})
-    return mu_arr[keep], V[keep], stats
+    return (*found.result(mu_max, vectors), stats)
+
+
+def _strip_half_height(mu: np.ndarray, sigma: float, rho: float, strip_safety: float) -> float:
+    """H of the strip |Im μ| ≤ H covered by a slice's disc |μ − σ| < ρ (``band_eigenvalues``;
+    ρ = ∞: the solve returned the whole spectrum).
+
+    safety × max |Im μ| over the disc, then lowered to the eigenvalues of the slice's own
+    Re-interval while that stays consistent (a lower strip widens the interval, which must
+    not take in a taller eigenvalue).
+    """
+    im, re = np.abs(mu.imag), np.abs(mu.real - sigma)
+    strip = strip_safety * float(np.max(im, initial=0.0))
+    for _ in range(4):
+        if math.isinf(rho) or rho <= strip:  # the whole spectrum, or no strip to lower
+            break
+        half = math.sqrt(rho * rho - strip * strip)
+        lower = strip_safety * float(np.max(im[re <= half], initial=0.0))
+        if lower >= strip:
+            break
+        wider = math.sqrt(rho * rho - lower * lower)
+        if strip_safety * float(np.max(im[re <= wider], initial=0.0)) > lower:
+            break
+        strip = lower
+    return strip
+
+
+class _BandPairs:
+    """The accepted eigenpairs of ``band_eigenvalues``: μ, the eigenvector at the contact
+    positions, and the whole eigenvector where ``keep_vector(μ)``."""
+
+    def __init__(self, A: PETSc.Mat, contact_pos: np.ndarray | None,
+                 keep_vector: Callable[[complex], bool] | None) -> None:
+        self.contact_pos, self.keep_vector = contact_pos, keep_vector
+        self.pos = np.zeros(0, dtype=np.int64) if contact_pos is None else contact_pos
+        self.vr, self.vi = A.createVecRight(), A.createVecRight()
+        self.mus: list[complex] = []
+        self.vecs: list[np.ndarray] = []
+        self.full: dict[int, np.ndarray] = {}
+
+    def take(self, eps: Any, i: int, m: complex, stats: BandStats) -> None:
+        """Accept pair i of the solve (its relative residual checked < 1e-6, recorded)."""
+        from slepc4py import SLEPc
+
+        err = eps.computeError(i, SLEPc.EPS.ErrorType.RELATIVE)
+        stats.max_residual = max(stats.max_residual, err)
+        if err > 1e-6:
+            raise RuntimeError(f"eigenpair {m} has relative residual {err:.2g}")
+        self.mus.append(m)
+        if self.contact_pos is not None or self.keep_vector is not None:  # collective
+            vr, vi, pos = self.vr, self.vi, self.pos
+            eps.getEigenpair(i, vr, vi)
+            self.vecs.append(vr.getArray()[pos] + 1j * vi.getArray()[pos])
+            if self.keep_vector is not None and self.keep_vector(m):
+                self.full[len(self.mus) - 1] = vr.getArray() + 1j * vi.getArray()
+
+    def result(self, mu_max: float,
+               vectors: dict[int, np.ndarray] | None) -> tuple[np.ndarray, np.ndarray]:
+        """(μ, contact eigenvectors) with Re μ ≤ mu_max; the kept whole eigenvectors into
+        ``vectors`` under their new indices. Frees the work vectors."""
+        self.vr.destroy()
+        self.vi.destroy()
+        mu_arr = np.array(self.mus, dtype=complex)
+        keep = mu_arr.real <= mu_max
+        vecs = self.vecs
+        width = self.pos.size if self.contact_pos is not None else 0
+        V = np.array(vecs, dtype=complex).reshape(len(vecs), width) if vecs else \
+            np.zeros((mu_arr.size, width), dtype=complex)
+        if vectors is not None:
+            new_index = np.cumsum(keep) - 1
+            vectors.update({int(new_index[i]): v for i, v in self.full.items() if keep[i]})
+        return mu_arr[keep], V[keep]
 
 
 # --------------------------------------------------------------------------------- regularised
