@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -325,87 +326,111 @@ def fe_modes(scene, kmax: int = 16, n_eig: int = 80,
     (``studies.flutter_fe.cea.damped_exponents``); the natural frequencies of (a)-(c) are
     the undamped ones.
     """
-    import scipy.sparse as sp
-    import scipy.sparse.linalg as spla
     from mpi4py import MPI
 
     from solver.problem import build_problem
-    from studies.flutter_fe.cea import damped_exponents
 
-    tau = scene.damping.tau
-
-    prob = build_problem(scene, MPI.COMM_SELF)
-    indptr, indices, data = prob.K.getValuesCSR()
-    n = prob.K.getSize()[0]
-    K = sp.csr_matrix((data, indices, indptr), shape=(n, n))
-    m = prob.mass.copy()
-    nd = prob.nodes
-    mask = np.ones(n, dtype=bool)
-    mask[prob.clamped] = False
-    mask[nd.dofs_x] = False
-    mask[nd.dofs_y] = False
-    interior = np.flatnonzero(mask)
-    nc = nd.dofs_x.size
-    R = scene.geometry.R
-    # every node's angle: the wavenumber is read from the whole field (a stick mode has no
-    # displacement on the inner circle)
-    xy = prob.V.tabulate_dof_coordinates()[: n // 2, :2]
-    th_all = np.arctan2(xy[:, 1], xy[:, 0])
-    c_all, s_all = np.cos(th_all), np.sin(th_all)
-    ic = np.arange(nc)
-    rows = np.concatenate([nd.dofs_x, nd.dofs_y])
-    cols = np.concatenate([ic, ic])
-    Tr = sp.csr_matrix((np.concatenate([nd.cos_t, nd.sin_t]), (rows, cols)), shape=(n, nc))
-    Tt = sp.csr_matrix((np.concatenate([-nd.sin_t, nd.cos_t]), (rows, cols)), shape=(n, nc))
-    Ti = sp.csr_matrix((np.ones(interior.size), (interior, np.arange(interior.size))),
-                       shape=(n, interior.size))
+    tube = _ModalTube(build_problem(scene, MPI.COMM_SELF))
     out: dict[str, list[dict]] = {}
     for cond in conditions:
-        blocks = [Ti] + ([Tr] if cond == "free" else []) + ([Tt] if cond != "stick" else [])
+        lam, vec, Tm = tube.eigenpairs(cond, scene.loading.f, n_eig)
+        out[cond] = [_mode_entry(tube, cond, lam[j], Tm @ vec[:, j], kmax, scene.damping.tau,
+                                 scene.geometry.R)
+                     for j in np.argsort(lam.real)]
+    return out
+
+
+class _ModalTube:
+    """The serial FE tube in the bases of the inner conditions: interior dofs (``Ti``) and
+    the contact nodes' radial (``Tr``) and tangential (``Tt``) displacements; the lumped
+    mass ``m``; every node's angle (the wavenumber is read from the whole field: a stick
+    mode has no displacement on the inner circle)."""
+
+    def __init__(self, prob: Any) -> None:
+        import scipy.sparse as sp
+
+        indptr, indices, data = prob.K.getValuesCSR()
+        n = prob.K.getSize()[0]
+        self.K = sp.csr_matrix((data, indices, indptr), shape=(n, n))
+        self.m = prob.mass.copy()
+        self.nodes = nd = prob.nodes
+        mask = np.ones(n, dtype=bool)
+        mask[prob.clamped] = False
+        mask[nd.dofs_x] = False
+        mask[nd.dofs_y] = False
+        interior = np.flatnonzero(mask)
+        self.n_interior, nc = interior.size, nd.dofs_x.size
+        xy = prob.V.tabulate_dof_coordinates()[: n // 2, :2]
+        self.theta = np.arctan2(xy[:, 1], xy[:, 0])
+        self.cos, self.sin = np.cos(self.theta), np.sin(self.theta)
+        ic = np.arange(nc)
+        rows = np.concatenate([nd.dofs_x, nd.dofs_y])
+        cols = np.concatenate([ic, ic])
+        self.Tr = sp.csr_matrix((np.concatenate([nd.cos_t, nd.sin_t]), (rows, cols)),
+                                shape=(n, nc))
+        self.Tt = sp.csr_matrix((np.concatenate([-nd.sin_t, nd.cos_t]), (rows, cols)),
+                                shape=(n, nc))
+        self.Ti = sp.csr_matrix((np.ones(interior.size), (interior, np.arange(interior.size))),
+                                shape=(n, interior.size))
+
+    def eigenpairs(self, cond: str, f: float, n_eig: int) -> tuple[np.ndarray, np.ndarray, Any]:
+        """(λ = w², eigenvectors in the condition's basis, the basis Tm) of M u'' + K u = 0
+        restricted by ``cond``; flutter: K − f E K_r on the free dofs (``fe_modes``)."""
+        import scipy.sparse as sp
+        import scipy.sparse.linalg as spla
+
+        K, nc = self.K, self.Tr.shape[1]
+        blocks = [self.Ti] + ([self.Tr] if cond == "free" else []) + \
+            ([self.Tt] if cond != "stick" else [])
         Tm = sp.hstack(blocks).tocsr()
         Kr = (Tm.T @ K @ Tm).tocsc()
-        Mr = sp.diags((Tm.T @ sp.diags(m) @ Tm).diagonal()).tocsc()  # lumped: stays diagonal
+        Mr = sp.diags((Tm.T @ sp.diags(self.m) @ Tm).diagonal()).tocsc()  # lumped: diagonal
         nev = min(n_eig, Kr.shape[0] - 2)
         if cond == "flutter":
-            E = sp.csr_matrix((np.ones(nc), (interior.size + ic, ic)), shape=(Kr.shape[0], nc))
-            Kr = (Kr - scene.loading.f * (E @ (Tr.T @ K @ Tm))).tocsc()
+            ic = np.arange(nc)
+            E = sp.csr_matrix((np.ones(nc), (self.n_interior + ic, ic)), shape=(Kr.shape[0], nc))
+            Kr = (Kr - f * (E @ (self.Tr.T @ K @ Tm))).tocsc()
             lam, vec = spla.eigs(Kr, k=nev, M=Mr, sigma=0.0)
         else:
             lam, vec = spla.eigsh(Kr, k=nev, M=Mr, sigma=0.0)
-        lam = np.asarray(lam, dtype=complex)
-        modes = []
-        for j in np.argsort(lam.real):
-            w = np.sqrt(lam[j])
-            if w.imag < 0:
-                w = -w  # the growing root (time factor e^{-i w t})
-            full = Tm @ vec[:, j]
-            ux, uy = full[0::2], full[1::2]
-            kk, sense, _ = _wavenumber(th_all, c_all * ux + s_all * uy,
-                                       -s_all * ux + c_all * uy, kmax)
-            if cond == "stick":
-                radial_share = float("nan")
-            else:
-                ur = nd.cos_t * full[nd.dofs_x] + nd.sin_t * full[nd.dofs_y]
-                ut = -nd.sin_t * full[nd.dofs_x] + nd.cos_t * full[nd.dofs_y]
-                er, et = float(np.sum(np.abs(ur) ** 2)), float(np.sum(np.abs(ut) ** 2))
-                radial_share = er / max(er + et, 1e-300)
-            entry = {"k": kk, "omega_rad_s": float(abs(w.real)),
-                     "frequency_hz": float(abs(w.real) / (2 * math.pi)),
-                     "radial_share": radial_share}
-            if cond == "flutter":
-                # the scene's Kelvin-Voigt damping tau (K + K_f): lambda^2 + tau mu lambda + mu
-                # = 0 for mu = w^2 (studies.flutter_fe.cea); tau = 0: lambda = -i w
-                lam_d = complex(damped_exponents(np.array([lam[j]]), tau)[0])
-                w_d = math.copysign(abs(lam_d.imag), w.real)
-                entry["omega_rad_s"] = abs(w_d)
-                entry["frequency_hz"] = abs(w_d) / (2 * math.pi)
-                entry["growth_rate_per_s"] = float(lam_d.real)
-                entry["damping_tau_s"] = tau
-                # e^{i(+-k theta - w_r t)}: phase speed +-w_r / k (signed w_r)
-                entry["phase_speed_m_s"] = float(sense * w_d * R / max(kk, 1))
-            modes.append(entry)
-        out[cond] = modes
-    return out
+        return np.asarray(lam, dtype=complex), vec, Tm
+
+
+def _mode_entry(tube: _ModalTube, cond: str, lam: complex, full: np.ndarray, kmax: int,
+                tau: float, R: float) -> dict:
+    """One mode of ``fe_modes``: k, frequency, radial share at the contact nodes and, for
+    flutter, the damped growth rate and the signed phase speed."""
+    from studies.flutter_fe.cea import damped_exponents
+
+    nd = tube.nodes
+    w = np.sqrt(lam)
+    if w.imag < 0:
+        w = -w  # the growing root (time factor e^{-i w t})
+    ux, uy = full[0::2], full[1::2]
+    kk, sense, _ = _wavenumber(tube.theta, tube.cos * ux + tube.sin * uy,
+                               -tube.sin * ux + tube.cos * uy, kmax)
+    if cond == "stick":
+        radial_share = float("nan")
+    else:
+        ur = nd.cos_t * full[nd.dofs_x] + nd.sin_t * full[nd.dofs_y]
+        ut = -nd.sin_t * full[nd.dofs_x] + nd.cos_t * full[nd.dofs_y]
+        er, et = float(np.sum(np.abs(ur) ** 2)), float(np.sum(np.abs(ut) ** 2))
+        radial_share = er / max(er + et, 1e-300)
+    entry = {"k": kk, "omega_rad_s": float(abs(w.real)),
+             "frequency_hz": float(abs(w.real) / (2 * math.pi)),
+             "radial_share": radial_share}
+    if cond == "flutter":
+        # the scene's Kelvin-Voigt damping tau (K + K_f): lambda^2 + tau mu lambda + mu
+        # = 0 for mu = w^2 (studies.flutter_fe.cea); tau = 0: lambda = -i w
+        lam_d = complex(damped_exponents(np.array([lam]), tau)[0])
+        w_d = math.copysign(abs(lam_d.imag), w.real)
+        entry["omega_rad_s"] = abs(w_d)
+        entry["frequency_hz"] = abs(w_d) / (2 * math.pi)
+        entry["growth_rate_per_s"] = float(lam_d.real)
+        entry["damping_tau_s"] = tau
+        # e^{i(+-k theta - w_r t)}: phase speed +-w_r / k (signed w_r)
+        entry["phase_speed_m_s"] = float(sense * w_d * R / max(kk, 1))
+    return entry
 
 
 def _wavenumber(theta: np.ndarray, ur: np.ndarray, ut: np.ndarray,
