@@ -9,6 +9,7 @@ import math
 import sys
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -24,6 +25,11 @@ from studies.flutter_fe.cea import (
 from studies.flutter_fe.doublets import doublet_lines, doublets
 from studies.flutter_fe.plots import plot_cea_diagram, plot_spectrum
 from studies.flutter_fe.references import reduced_model_flutter
+
+if TYPE_CHECKING:
+    from mpi4py import MPI
+
+    from solver.scene import Scene
 
 # --------------------------------------------------------------------------------- CLI
 
@@ -116,72 +122,20 @@ def flutter_fe_command(args: argparse.Namespace) -> int:
     from solver.scene import SceneError, load_scene
 
     comm = MPI.COMM_WORLD
-    rank0 = comm.rank == 0
-
-    def fail(msg: str) -> int:
-        if rank0:
-            print(f"error: {msg}", file=sys.stderr)
-        return 2
-
     try:
         scene = load_scene(args.scene, args.overrides)
         fs = parse_f_sweep(args.f_sweep) if args.f_sweep else None
     except (SceneError, FileNotFoundError, ValueError) as err:
-        return fail(str(err))
-    if not (math.isfinite(args.fmax_hz) and args.fmax_hz > 0):
-        return fail(f"--fmax-hz {args.fmax_hz!r} is out of range: need a frequency > 0 (Hz)")
-    for flag, value, lo in (("--kmax", args.kmax, 1), ("--k-detail", args.k_detail, 1),
-                            ("--top", args.top, 0)):
-        if not lo <= value <= KMAX_LIMIT:
-            return fail(f"{flag} {value} is out of range: need {lo} <= {flag[2:]} <= "
-                        f"{KMAX_LIMIT}")
-    if args.plot:
-        from cli.checks import output_file_problem
-
-        bad_plot = output_file_problem(args.plot, "--plot")
-        if bad_plot:
-            return fail(bad_plot)
-    refused = unrepresented_terms(friction_relaxation_time(scene), args.mass, comm.size)
-    if refused:
-        return fail(refused)
-    if args.modes:
-        from studies.flutter_fe.shapes import modes_dir_problem
-
-        bad_dir = modes_dir_problem(args.modes)
-        if bad_dir:
-            return fail(bad_dir)
-    from solver.problem import build_problem
-
-    friction = args.friction or scene.friction.filter
-    t0 = time.perf_counter()
-    problem = build_problem(scene, comm)
-    t_build = time.perf_counter() - t0
-    from solver.problem import gershgorin_omega_max
-
-    f_top = gershgorin_omega_max(problem) / (2 * math.pi)  # no mode of the mesh above it
-    if args.fmax_hz > FMAX_FACTOR * f_top:
-        return fail(f"--fmax-hz {args.fmax_hz:g} is far above the mesh's highest frequency "
-                    f"({f_top:.4g} Hz, Gershgorin bound): no mode lies there, and the "
-                    f"eigensolver's shift fails; use --fmax-hz <= {f_top:.4g}")
-    ops = build_operators(problem, args.mass, friction)
-    res = complex_eigenvalue_analysis(problem, None, args.fmax_hz, ops=ops,
-                                      shapes=bool(args.modes))
-    res.timings["mesh+assembly"] = t_build
-    sweep = None
-    if fs is not None:
-        sweep = [complex_eigenvalue_analysis(problem, float(f), args.fmax_hz, ops=ops)
-                 for f in fs]
-    written = None
-    if args.modes:
-        from studies.flutter_fe.shapes import write_mode_shapes
-
-        resolved, mesh = _listed(res, args.top)
-        where = {id(m): i for i, m in enumerate(res.modes)}
-        written = write_mode_shapes(problem, ops, res, args.modes,
-                                    [where[id(m)] for m in resolved + mesh])
-    ops.destroy()
+        return _fail(comm, str(err))
+    bad = _argument_problem(args, scene, comm.size)
+    if bad:
+        return _fail(comm, bad)
+    solved = _analyse(args, scene, comm, fs)
+    if isinstance(solved, str):
+        return _fail(comm, solved)
+    res, sweep, written = solved
     reduced = reduced_model_flutter(scene, args.kmax)
-    if not rank0:
+    if comm.rank != 0:
         return 0
     out = res.to_dict()
     out["reduced_model"] = reduced
@@ -205,6 +159,73 @@ def flutter_fe_command(args: argparse.Namespace) -> int:
     else:
         _print_table(res, reduced, args.top, args.plot, _beta2_note(scene), written)
     return 0
+
+
+def _fail(comm: MPI.Comm, msg: str) -> int:
+    """The one-line refusal (rank 0 prints it); exit status 2."""
+    if comm.rank == 0:
+        print(f"error: {msg}", file=sys.stderr)
+    return 2
+
+
+def _argument_problem(args: argparse.Namespace, scene: Scene, ranks: int) -> str | None:
+    """Why the options cannot run (one line), or None: the band, the wavenumbers, the
+    output paths, and terms the CEA cannot represent (``unrepresented_terms``)."""
+    if not (math.isfinite(args.fmax_hz) and args.fmax_hz > 0):
+        return f"--fmax-hz {args.fmax_hz!r} is out of range: need a frequency > 0 (Hz)"
+    for flag, value, lo in (("--kmax", args.kmax, 1), ("--k-detail", args.k_detail, 1),
+                            ("--top", args.top, 0)):
+        if not lo <= value <= KMAX_LIMIT:
+            return f"{flag} {value} is out of range: need {lo} <= {flag[2:]} <= {KMAX_LIMIT}"
+    if args.plot:
+        from cli.checks import output_file_problem
+
+        bad_plot = output_file_problem(args.plot, "--plot")
+        if bad_plot:
+            return bad_plot
+    refused = unrepresented_terms(friction_relaxation_time(scene), args.mass, ranks)
+    if refused:
+        return refused
+    if args.modes:
+        from studies.flutter_fe.shapes import modes_dir_problem
+
+        return modes_dir_problem(args.modes) or None
+    return None
+
+
+def _analyse(args: argparse.Namespace, scene: Scene, comm: MPI.Comm,
+             fs: np.ndarray | None) -> tuple[CEAResult, list[CEAResult] | None, dict | None] | str:
+    """The CEA at the scene's f (and at each f of ``--f-sweep``), the listed mode shapes
+    written with ``--modes``; or why the band cannot be solved (one line)."""
+    from solver.problem import build_problem, gershgorin_omega_max
+
+    friction = args.friction or scene.friction.filter
+    t0 = time.perf_counter()
+    problem = build_problem(scene, comm)
+    t_build = time.perf_counter() - t0
+    f_top = gershgorin_omega_max(problem) / (2 * math.pi)  # no mode of the mesh above it
+    if args.fmax_hz > FMAX_FACTOR * f_top:
+        return (f"--fmax-hz {args.fmax_hz:g} is far above the mesh's highest frequency "
+                f"({f_top:.4g} Hz, Gershgorin bound): no mode lies there, and the "
+                f"eigensolver's shift fails; use --fmax-hz <= {f_top:.4g}")
+    ops = build_operators(problem, args.mass, friction)
+    res = complex_eigenvalue_analysis(problem, None, args.fmax_hz, ops=ops,
+                                      shapes=bool(args.modes))
+    res.timings["mesh+assembly"] = t_build
+    sweep = None
+    if fs is not None:
+        sweep = [complex_eigenvalue_analysis(problem, float(f), args.fmax_hz, ops=ops)
+                 for f in fs]
+    written = None
+    if args.modes:
+        from studies.flutter_fe.shapes import write_mode_shapes
+
+        resolved, mesh = _listed(res, args.top)
+        where = {id(m): i for i, m in enumerate(res.modes)}
+        written = write_mode_shapes(problem, ops, res, args.modes,
+                                    [where[id(m)] for m in resolved + mesh])
+    ops.destroy()
+    return res, sweep, written
 
 
 def _plot(args: argparse.Namespace, scene, res: CEAResult, sweep: list[CEAResult] | None,
