@@ -12,9 +12,13 @@ import json
 import math
 import sys
 import warnings
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from semianalytic.coefficients import Coefficients
+    from semianalytic.waves import TravellingWave
 
 __all__ = ["register", "wave_command", "flutter_command"]
 
@@ -143,19 +147,53 @@ def wave_command(args: argparse.Namespace) -> int:
             print(f"error: {problem}", file=sys.stderr)
             return 2
     from semianalytic.coefficients import coefficients, gamma_from_physical
-    from semianalytic.waves import find_waves
 
     gamma = gamma_from_physical(args.wave_speed, args.radius, args.omega)
     co = coefficients(args.nu, args.xi, gamma)
+    waves = _find_waves(args, co)
+    best = next((w for w in waves if w.admissible), None)
+    out = _wave_summary(args, gamma, co, waves, best)
+    if args.plot:
+        target = best or (waves[0] if waves else None)
+        if target is None:
+            print("error: --plot: no wave solution was found to draw", file=sys.stderr)
+            return 1
+        from postprocess.style import STATUS_COLORS
+        from semianalytic.plotting import plot_wave
+
+        plot_wave(target, args.plot, zone_colours=STATUS_COLORS, R=args.radius,
+                  omega=args.omega)
+    if args.json:
+        print(json.dumps(out, indent=2))
+        return 0
+    _print_waves(gamma, co, out)
+    return 0
+
+
+def _find_waves(args: argparse.Namespace, co: Coefficients) -> list[TravellingWave]:
+    """The reduced model's travelling waves of mode k (eqs. [3]-[7]) for the chosen regime
+    and junction closures; none at f = 0."""
+    from semianalytic.waves import find_waves
+
     junctions = ("impact", "smooth") if args.junction == "both" else (args.junction,)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
         # f = 0 (allowed, as in scenes): no friction, no stick zone, steady sliding is neutral
         # (flutter growth 0): the reduced model has no travelling stick-slip wave to find.
-        waves = (find_waves(co, args.f, args.k, args.delta, regime=args.regime,
-                            junctions=junctions) if args.f > 0 else [])
+        return (find_waves(co, args.f, args.k, args.delta, regime=args.regime,
+                           junctions=junctions) if args.f > 0 else [])
+
+
+#: The selected wave's fields copied to the top level of ``stickslip wave --json``.
+WAVE_KEYS = ("junction", "c", "celerity_m_s", "frequency_hz", "angular_frequency_rad_s",
+             "psi1", "psi2", "amplitude", "v_amplitude")
+
+
+def _wave_summary(args: argparse.Namespace, gamma: float, co: Coefficients,
+                  waves: list[TravellingWave], best: TravellingWave | None) -> dict[str, Any]:
+    """The JSON object: the selected (first admissible) wave's regime and fields, the
+    inputs, the coefficients and every solution found."""
     sols = [_jsonable(w.summary(args.radius, args.omega)) for w in waves]
-    best = next((w for w in waves if w.admissible), None)
     out: dict[str, Any] = {
         "regime": best.regime if best else "none",
         "inputs": {
@@ -171,34 +209,16 @@ def wave_command(args: argparse.Namespace) -> int:
         },
         "coefficients": {"a": co.a, "b": co.b, "g": co.g, "h": co.h, "D": co.D},
     }
-    keys = (
-        "junction",
-        "c",
-        "celerity_m_s",
-        "frequency_hz",
-        "angular_frequency_rad_s",
-        "psi1",
-        "psi2",
-        "amplitude",
-        "v_amplitude",
-    )
     bsum = sols[waves.index(best)] if best else {}
-    for key in keys:
+    for key in WAVE_KEYS:
         out[key] = bsum.get(key)
     out["solutions"] = sols
-    if args.plot:
-        target = best or (waves[0] if waves else None)
-        if target is None:
-            print("error: --plot: no wave solution was found to draw", file=sys.stderr)
-            return 1
-        from postprocess.style import STATUS_COLORS
-        from semianalytic.plotting import plot_wave
+    return out
 
-        plot_wave(target, args.plot, zone_colours=STATUS_COLORS, R=args.radius,
-                  omega=args.omega)
-    if args.json:
-        print(json.dumps(out, indent=2))
-        return 0
+
+def _print_waves(gamma: float, co: Coefficients, out: dict[str, Any]) -> None:
+    """The table of ``stickslip wave``: coefficients, selected regime, one row per wave."""
+    sols = out["solutions"]
     print(
         f"gamma = {gamma:.6g}   a = {co.a:.6g}  b = {co.b:.6g}  g = {co.g:.6g}  "
         f"h = {co.h:.6g}  D = {co.D:.6g}"
@@ -218,7 +238,6 @@ def wave_command(args: argparse.Namespace) -> int:
         )
     if not sols:
         print("(no solution found)")
-    return 0
 
 
 def flutter_command(args: argparse.Namespace) -> int:
