@@ -8,6 +8,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 if TYPE_CHECKING:
+    from matplotlib.axes import Axes
+
     from semianalytic.waves import TravellingWave
 
 __all__ = ["plot_wave"]
@@ -42,25 +44,32 @@ def plot_wave(
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    from matplotlib.patches import Patch
-
-    from semianalytic.waves import celerity_m_s, frequency_hz
 
     ev = wave.evaluate(n)
-    phi, U, V, P, Q, zone = (ev[k] for k in ("phi", "U", "V", "P", "Q", "zone"))
-    Ud, Vd = -wave.c * ev["dU"], -wave.c * ev["dV"]
-    T = wave.period
     fig, axs = plt.subplots(2, 3, figsize=(14, 8), constrained_layout=True)
-    for ax, y, lab in ((axs[0, 0], U, "U = u(1)/R"), (axs[0, 1], V, "V = v(1)/R")):
+    _plot_profiles(axs[0], wave, ev, zone_colours)
+    _plot_phase_diagrams(axs[1, :2], wave, ev, zones)
+    _write_facts(axs[1, 2], wave, R, omega, zones)
+    fig.suptitle("Travelling wave of the reduced model (paper Figure 1 layout)")
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def _plot_profiles(axs: Sequence[Axes], wave: TravellingWave, ev: dict[str, np.ndarray],
+                   zone_colours: Sequence[str]) -> None:
+    """Top row: U(φ) with the contact level δ, V(φ), and the reactions P, Q with fP."""
+    phi, U, V, P, Q, zone = (ev[k] for k in ("phi", "U", "V", "P", "Q", "zone"))
+    T = wave.period
+    for ax, y, lab in ((axs[0], U, "U = u(1)/R"), (axs[1], V, "V = v(1)/R")):
         _shade(ax, phi, zone, T, zone_colours)
         ax.plot(phi, y, "k-", lw=1.5)
         ax.set_xlabel("φ = θ − ct (rad)")
         ax.set_ylabel(lab)
         ax.set_xlim(0, T)
         ax.grid(alpha=0.3)
-    axs[0, 0].axhline(wave.delta, color="r", ls="--", lw=1, label="δ (contact)")
-    axs[0, 0].legend(loc="best", fontsize=8)
-    ax = axs[0, 2]
+    axs[0].axhline(wave.delta, color="r", ls="--", lw=1, label="δ (contact)")
+    axs[0].legend(loc="best", fontsize=8)
+    ax = axs[2]
     _shade(ax, phi, zone, T, zone_colours)
     ax.plot(phi, P, "b-", lw=1.5, label="P")
     ax.plot(phi, Q, "m-", lw=1.5, label="Q")
@@ -70,9 +79,17 @@ def plot_wave(
     ax.set_xlim(0, T)
     ax.legend(loc="best", fontsize=8)
     ax.grid(alpha=0.3)
+
+
+def _plot_phase_diagrams(axs: Sequence[Axes], wave: TravellingWave, ev: dict[str, np.ndarray],
+                         zones: dict[int, tuple[str, str]]) -> None:
+    """Bottom row: the phase diagrams (U, U̇) and (V, V̇), U̇ = −c U', points coloured by
+    zone; V̇ = 1 is stick."""
+    U, V, zone = ev["U"], ev["V"], ev["zone"]
+    Ud, Vd = -wave.c * ev["dU"], -wave.c * ev["dV"]
     for ax, x, y, xl, yl in (
-        (axs[1, 0], U, Ud, "U", "dU/dt (per unit Ωt)"),
-        (axs[1, 1], V, Vd, "V", "dV/dt (per unit Ωt)"),
+        (axs[0], U, Ud, "U", "dU/dt (per unit Ωt)"),
+        (axs[1], V, Vd, "V", "dV/dt (per unit Ωt)"),
     ):
         for zid, (colour, name) in zones.items():
             m = zone == zid
@@ -83,10 +100,19 @@ def plot_wave(
         ax.set_ylabel(yl)
         ax.set_title(f"phase diagram ({xl}, d{xl}/dt)")
         ax.grid(alpha=0.3)
-    axs[1, 1].axhline(1.0, color="r", ls="--", lw=1, label="V̇ = 1 (stick)")
-    axs[1, 0].legend(loc="best", fontsize=8, markerscale=4)
-    axs[1, 1].legend(loc="best", fontsize=8, markerscale=4)
-    ax = axs[1, 2]
+    axs[1].axhline(1.0, color="r", ls="--", lw=1, label="V̇ = 1 (stick)")
+    axs[0].legend(loc="best", fontsize=8, markerscale=4)
+    axs[1].legend(loc="best", fontsize=8, markerscale=4)
+
+
+def _write_facts(ax: Axes, wave: TravellingWave, R: float, omega: float,
+                 zones: dict[int, tuple[str, str]]) -> None:
+    """The wave's facts (regime, inputs, c, frequency, ψ1, ψ2, amplitude, admissibility) and
+    the zones' legend, in an empty panel."""
+    from matplotlib.patches import Patch
+
+    from semianalytic.waves import celerity_m_s, frequency_hz
+
     ax.axis("off")
     co = wave.coeffs
     status = "admissible" if wave.admissible else f"NOT admissible: {wave.violated}"
@@ -114,6 +140,3 @@ def plot_wave(
         loc="lower left",
         title="zones",
     )
-    fig.suptitle("Travelling wave of the reduced model (paper Figure 1 layout)")
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
