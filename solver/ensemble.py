@@ -121,6 +121,30 @@ class BatchedExplicit(HookedStepper):
     def __init__(self, bp: BatchedProblem, d: np.ndarray, slide: np.ndarray, f: np.ndarray,
                  xp: Any = np, kernel: str = "numba", tau: float = 0.0,
                  bound: tuple[int, float, float] = (0, 0.0, 0.0)) -> None:
+        columns = self._checked_kernel(kernel, xp, tau, bound)
+        self.xp, self.kernel, self.bp = xp, kernel, bp
+        n, B, m = bp.n, int(np.size(d)), int(bp.cx.size)
+        self.B, self.n, self.m = B, n, m
+        self.dt, self.beta2 = bp.dt, bp.beta2
+        self.beta1 = 0.0
+        self.kappa = forward_increment_factor(bp.beta2, bp.dt)
+        self._put_problem(bp, d, slide, f)
+        self._allocate_state(n, m, B)
+        self.time = 0.0
+        self.step_count = 0
+        self.compile_s = 0.0
+        self.active = np.ones(B, dtype=bool)
+        self._init_hooks()
+        #: levels whose v_n, a_n, K u_n ``advance`` writes in full (every level by default)
+        self.full_state_at: Callable[[int], bool] = lambda level: True
+        #: the step's implementation, chosen once (``BATCH_KERNELS``)
+        self.columns = columns(self)
+
+    def _checked_kernel(self, kernel: str, xp: Any, tau: float,
+                        bound: tuple[int, float, float]) -> type:
+        """The kernel's strategy from ``BATCH_KERNELS``, after checking that it runs on
+        ``xp`` and has the friction bound; sets the damping (``tau``, ``damped``) and the
+        bound (``reg``, ``rate_slip``, ``rate_base``: ``solver.fused.friction_bound``)."""
         if kernel not in BATCH_KERNELS:
             raise ValueError(f"kernel = {kernel!r}: use one of {tuple(BATCH_KERNELS)}")
         columns = BATCH_KERNELS[kernel]
@@ -135,13 +159,13 @@ class BatchedExplicit(HookedStepper):
         if self.reg and not columns.regularised:
             raise ValueError(f"kernel = {kernel!r} has no regularised friction bound "
                              "(friction.regularization): run these scenes on the CPU")
-        self.xp, self.kernel, self.bp = xp, kernel, bp
-        n, B, m = bp.n, int(np.size(d)), int(bp.cx.size)
-        self.B, self.n, self.m = B, n, m
-        self.dt, self.beta2 = bp.dt, bp.beta2
-        self.beta1 = 0.0
-        self.kappa = forward_increment_factor(bp.beta2, bp.dt)
-        dev = xp.asarray
+        return columns
+
+    def _put_problem(self, bp: BatchedProblem, d: np.ndarray, slide: np.ndarray,
+                     f: np.ndarray) -> None:
+        """The shared operators on the array module: K (CSR), −M⁻¹, the contact nodes'
+        phases e^{iθ} and masses; each scene's d, R Ω Δt and f (one column each)."""
+        dev = self.xp.asarray
         self.indptr, self.indices, self.data = dev(bp.indptr), dev(bp.indices), dev(bp.data)
         self.nim = dev(-bp.inv_mass)
         phase = np.exp(1j * bp.theta)
@@ -155,6 +179,15 @@ class BatchedExplicit(HookedStepper):
         self.d = dev(np.asarray(d, dtype=float).copy())
         self.slide = dev(np.asarray(slide, dtype=float).copy())
         self.f = dev(np.asarray(f, dtype=float).copy())
+        self.mass = dev(bp.mass)
+        slot = -np.ones(self.n // 2, dtype=np.int64)
+        slot[bp.cx // 2] = np.arange(self.m)
+        self.cslot = dev(slot)  # contact index of each node, -1 off the contact circle
+
+    def _allocate_state(self, n: int, m: int, B: int) -> None:
+        """The state (n, B) and contact (m, B) arrays, the work and energy sums, the kernels'
+        scratch, all zero."""
+        xp = self.xp
         z = lambda *shape: xp.zeros(shape)  # noqa: E731
         self._u = [z(n, B), z(n, B)]
         self.cur = 0
@@ -175,23 +208,10 @@ class BatchedExplicit(HookedStepper):
         self._first_call = True  # of the kernel by this stepper
         self.u0_ku0 = np.zeros(B)
         self._dots = np.zeros(B)
-        self.mass = dev(bp.mass)
         self.energy = z(2, B)  # numba kernels, sampled steps: Σ m v², Σ u K u (x 2 energies)
         self.energy_summed = False  # True after a numba step that summed ``energy``
         self.acc = z(4, B)  # the numba kernels' scratch (a*_n of a block of nodes, sums)
-        self.time = 0.0
-        self.step_count = 0
-        self.compile_s = 0.0
-        self.active = np.ones(B, dtype=bool)
-        self._init_hooks()
-        #: levels whose v_n, a_n, K u_n ``advance`` writes in full (every level by default)
-        self.full_state_at: Callable[[int], bool] = lambda level: True
-        slot = -np.ones(n // 2, dtype=np.int64)
-        slot[bp.cx // 2] = np.arange(m)
-        self.cslot = dev(slot)  # contact index of each node, -1 off the contact circle
         self.keep = xp.zeros(n // 2, dtype=np.int8)  # nodes whose v, a, K u are always stored
-        #: the step's implementation, chosen once (``BATCH_KERNELS``)
-        self.columns = columns(self)
 
     # -------------------------------------------------------------------------------- state
     @property
