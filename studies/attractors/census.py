@@ -8,7 +8,8 @@ DIR is claimed as kind ``attractors`` (``studies.rundir.ownership``).
 
 **Settle or extend** (``settle``): the sweep runs every start to the first leg's end time
 T₀ (``--end-time``). A start whose features still differ between its last two windows of
-length W = T₀/3 (``classify``: unsettled) is continued from its checkpoint, in place
+length W = T₀/3, or whose shares still drift across its last leg (``classify``:
+unsettled) is continued from its checkpoint, in place
 (``studies.rundir.continuation.continue_batch``: the starts of one batch go on as one
 batch; never from t = 0), to min(``GROWTH`` × T, T_max), and classified again, until every
 start is settled, steady sliding, diverged or at the cap T_max (``max_time``, default
@@ -53,7 +54,7 @@ from studies.attractors.classify import (
     row_cache,
     start_row,
 )
-from studies.attractors.features import DEFAULT_TOLERANCES, Tolerances
+from studies.attractors.features import DEFAULT_TOLERANCES, LEG_GROWTH, Tolerances
 from studies.attractors.starts import StartDistribution
 from studies.attractors.statistics import ladder, mesh_members
 
@@ -87,7 +88,7 @@ MEMBER_FIELDS = ("n_inner", "member", "class", "name", "n_components", "k", "dir
 #: between 2 and 4 s; the tutorial point's N = 264 starts settle by about 2 s.
 DEFAULT_MAX_TIME = 4.0
 #: Each leg of settle-or-extend takes an unsettled start from T to GROWTH × T.
-GROWTH = 1.5
+GROWTH = LEG_GROWTH
 
 
 class CensusError(ValueError):
@@ -439,7 +440,7 @@ def start_rows(out_dir: Path, spread_tol: float = SPREAD_TOL,
         status = live_status(summary) if summary else "pending"
         key = None
         if status == "completed":  # a start's features, until its summary is rewritten
-            key = f"{task.id}@{(run_dir / 'summary.json').stat().st_mtime_ns}@{window}"
+            key = f"{task.id}@{(run_dir / 'summary.json').stat().st_mtime_ns}@{window}@leg"
         row = start_row(run_dir, task.params, summary, status, spread_tol, tol,
                         cached=cache.get(key), window=window)
         rows.append(row)
