@@ -199,7 +199,8 @@ def _leg(shares_of_t, t_end, window=0.1):
     out = []
     for j in range(n - 1, -1, -1):
         t1 = t_end - j * window
-        f = _features({11: 1.0, 10: shares_of_t(t1 - 0.5 * window)})
+        share = shares_of_t(t1 - 0.5 * window)  # below 5 %: not found (as features do)
+        f = _features({11: 1.0, **({10: share} if share >= 0.05 else {})})
         out.append(replace(f, window=(t1 - window, t1)))
     return out
 
@@ -222,6 +223,11 @@ def test_share_drift_over_the_last_leg():
     jitter = dict(zip(range(6), (0.6, -0.6, 0.4, -0.5, 0.6, -0.4), strict=True))
     noisy = _leg(lambda t: 0.13 + 0.01 * jitter[int(round((t - 1.45) / 0.1))], 2.0)
     assert len(noisy) == 6 and share_drift(noisy, 1.0) == []
+    # a companion that died out within the leg (27 % -> 3 % at 0.1 per 0.1 s, gone below
+    # 5 %): its line ends below the 10 % listing threshold, it names nothing
+    died = _leg(lambda t: 0.27 * math.exp(-(t - 1.05) / 0.1), 1.6)
+    assert 10 not in {c.k for c in died[-1].components}
+    assert share_drift(died, 0.8) == []
     # the first leg of a census (t_end = 3W): the two windows, their change × 1.5 against
     # 10 % of the share (about 2.5 points here)
     assert len(_leg(lambda t: 0.2, 0.3)) == 2

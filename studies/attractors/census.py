@@ -441,7 +441,8 @@ def start_rows(out_dir: Path, spread_tol: float = SPREAD_TOL,
         status = live_status(summary) if summary else "pending"
         key = None
         if status == "completed":  # a start's features, until its summary is rewritten
-            key = f"{task.id}@{(run_dir / 'summary.json').stat().st_mtime_ns}@{window}@leg"
+            stamp = (run_dir / "summary.json").stat().st_mtime_ns
+            key = f"{task.id}@{stamp}@{window}@share-drift"
         row = start_row(run_dir, task.params, summary, status, spread_tol, tol,
                         cached=cache.get(key), window=window)
         rows.append(row)

@@ -460,8 +460,11 @@ def share_drift(windows: list[Features], horizon: float,
     of its share over the windows that hold it (listed, weak, or attached as a harmonic or
     sum tone; t the window centres) must move it by no more than the share tolerance of
     ``match`` over the ``horizon`` (s, the next leg): |b| H ≤ max(share_rel max(s₁, s₂),
-    share_abs), s₁ = s(t_last), s₂ = s(t_last + H). A share that only jitters has b ≈ 0;
-    one that decays by a few points per leg fails although two consecutive windows pass.
+    share_abs), s₁ = s(t_last), s₂ = s(t_last + H), both taken as 0 where the line is below.
+    A share that only jitters has b ≈ 0; one that decays by a few points per leg fails
+    although two consecutive windows pass; one below the listing threshold ``SHARE_TOL``
+    at both ends (a companion that has died out, or a weak one) names nothing and is left
+    to the frame spread.
     """
     tol = DEFAULT_TOLERANCES if tol is None else tol
     why = []
@@ -480,10 +483,11 @@ def share_drift(windows: list[Features], horizon: float,
         if np.ptp(tc) <= 0.0:
             continue
         slope = float(np.polyfit(tc - tc.mean(), sc, 1)[0])
-        now = float(sc.mean() + slope * (centre_last - tc.mean()))
-        later = now + slope * horizon
-        allowed = max(tol.share_rel * max(now, later), tol.share_abs)
-        if abs(slope) * horizon > allowed:
+        now = max(0.0, float(sc.mean() + slope * (centre_last - tc.mean())))
+        later = max(0.0, now + slope * horizon)
+        if max(now, later) < SHARE_TOL:
+            continue
+        if abs(later - now) > max(tol.share_rel * max(now, later), tol.share_abs):
             why.append(f"k = {key[0]} {_SENSE[key[1]]} share drifts {100 * slope:+.1f} "
                        f"points/s ({100 * now:.0f} % now, {100 * later:.0f} % in "
                        f"{horizon:.2g} s)")
