@@ -60,6 +60,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                    "travelling-wave solver for rigid waves)")
     p.add_argument("--dt-limit", action="store_true",
                    help="certificates of rigid waves also solve the Δt → 0 ladder (costly)")
+    p.add_argument("--no-kick", action="store_true",
+                   help="skip the kick test (one start per attractor perturbed by 1 %% and "
+                   "run on for two windows: does it return?)")
     p.add_argument("--cea", action="store_true",
                    help="also print the CEA's resolved unstable modes of steady sliding per "
                    "mesh and the share of starts ending on each (dominant or companion)")
@@ -139,7 +142,7 @@ def _attractors(args: argparse.Namespace) -> int:
         return _fail(f"--cea-fmax-hz {args.cea_fmax_hz}: give a frequency > 0 (Hz)", comm.rank)
     rc = run_census(census, out, comm=comm, force=args.force, progress=args.progress,
                     backend=args.backend, certify=not args.no_certify,
-                    dt_limit=args.dt_limit, stream=stream)
+                    dt_limit=args.dt_limit, kick=not args.no_kick, stream=stream)
     if comm.rank == 0 and rc in (0, 1, 130):
         _show(out, args)
     return rc
@@ -159,7 +162,8 @@ def _along(census, out: Path, args: argparse.Namespace, comm) -> int:  # noqa: A
         return _fail(str(err), comm.rank)
     rc = run_along(census, key, values, out, comm=comm, force=args.force,
                    progress=args.progress, backend=args.backend,
-                   certify=not args.no_certify, dt_limit=args.dt_limit)
+                   certify=not args.no_certify, dt_limit=args.dt_limit,
+                   kick=not args.no_kick)
     if comm.rank == 0 and args.plot and rc in (0, 1) and (out / "along.json").is_file():
         print(f"figure: {plot_along(out)}")
     return rc

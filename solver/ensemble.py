@@ -293,6 +293,22 @@ class BatchedExplicit(HookedStepper):
                   names)
         self._started[0] = int(step > 0)
 
+    def kick(self, b: int, du: np.ndarray, dv: np.ndarray) -> None:
+        """Perturb scene ``b`` at its level: u_{n+1} and u_n (with u_n at the contact nodes,
+        ``zprev``) both move by ``du``, so the displacement kick leaves the velocity alone;
+        the velocity predictor v~_{n+1} moves by ``dv``; damped, w_{n+1} = u_{n+1} + τ v~_{n+1}
+        by du + τ dv. ``du`` and ``dv`` (n,) vanish on the clamped dofs."""
+        xp = self.xp
+        du, dv = xp.asarray(du), xp.asarray(dv)
+        self.u[:, b] += du
+        self.u_prev[:, b] += du
+        self.v_pred[:, b] += dv
+        cx = self.cx.astype(np.int64)
+        self.zprev[:, 0, b] += du[cx]
+        self.zprev[:, 1, b] += du[cx + 1]
+        if self.damped:
+            self.u_tau[:, b] += du + self.tau * dv
+
     def mask(self, b: int) -> None:
         """Take scene ``b`` out of the batch: zero state and no contact (stays at rest)."""
         self.active[b] = False

@@ -25,10 +25,13 @@ from mpi4py import MPI
 
 from solver.contact import ContactLaw
 from solver.observers import Cadence, ContinuedRecords
-from solver.run import Profile, gather_final_field, run_facts, run_loop
+from solver.run import Profile, gather_final_field, random_bump, run_facts, run_loop
 from solver.scene import Scene
 
 __all__ = ["BatchSimulation", "SceneRun"]
+
+#: The modes of a kick's random bump (``BatchSimulation.kick``): a start's default.
+KICK_MODES = 16
 
 
 class SceneRun:
@@ -264,6 +267,27 @@ class BatchSimulation:
             run.steady_mean_pressure = float(state["run/steady_pressure"])
             run.recorder = ContinuedRecords(run.members[0], before, state["run/samples"])
             run.probes = ContinuedRecords(run.members[1], before, state["run/probe_steps"])
+
+    def kick(self, b: int, fraction: float, seed: int) -> dict:
+        """Perturb scene ``b`` where it stands (after ``restore``), as a start is perturbed:
+        δu = ε ‖u‖ φ₁/‖φ₁‖ and δv = ε ‖v~‖ φ₂/‖φ₂‖, ε = ``fraction``, ‖·‖ the RMS over the
+        dofs, φ_i the random start's radial bump A(θ) X(r) e_r (``solver.run.random_bump``
+        with its default 16 modes, seeds ``seed`` and ``seed + 1``; clamped outside, smooth,
+        the contact circle's shape spread through the thickness by eq. [1]). Returns the
+        kick's facts (RMS sizes of u, v~, δu, δv)."""
+        u, v = (np.array(a.get() if hasattr(a, "get") else a)  # copies, before the kick
+                for a in (self.stepper.u[:, b], self.stepper.v_pred[:, b]))
+
+        def rms(x: np.ndarray) -> float:
+            return float(np.sqrt(np.mean(x**2)))
+
+        kicks = []
+        for x, s in ((u, seed), (v, seed + 1)):
+            shape = self.problem.radial_field(random_bump(s, KICK_MODES, 1.0))
+            kicks.append(fraction * rms(x) / rms(shape) * shape)
+        self.stepper.kick(b, kicks[0], kicks[1])
+        return {"fraction": fraction, "seed": seed, "u_rms_m": rms(u), "v_rms_m_s": rms(v),
+                "du_rms_m": rms(kicks[0]), "dv_rms_m_s": rms(kicks[1])}
 
     def proceed(self) -> str:
         """Run every live scene to the end (``solver.run.run_loop``); returns the reason."""

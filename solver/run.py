@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable
 from contextlib import contextmanager
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -337,8 +338,16 @@ def initial_perturbation(problem, scene: Scene) -> np.ndarray:
     if ini.perturbation == "mode":
         k = ini.mode
         return problem.radial_field(lambda th: amp * 0.5 * (1.0 + np.cos(k * th)))
-    rng = np.random.default_rng(ini.seed)
-    ks = np.arange(1, ini.n_modes + 1)
+    return problem.radial_field(random_bump(ini.seed, ini.n_modes, amp))
+
+
+def random_bump(seed: int, n_modes: int, amplitude: float) -> Callable[[np.ndarray],
+                                                                         np.ndarray]:
+    """The random start's shape A(θ) = amplitude Σ_k w_k (1 + cos(kθ + φ_k)) / 2, k = 1 ..
+    n_modes, w_k ~ U(0, 1) normalised to sum 1, φ_k ~ U(0, 2π) from
+    ``numpy.random.default_rng(seed)`` (``initial_perturbation``; a kick's field)."""
+    rng = np.random.default_rng(seed)
+    ks = np.arange(1, n_modes + 1)
     weights = rng.uniform(0.0, 1.0, ks.size)
     phases = rng.uniform(0.0, 2 * np.pi, ks.size)
     weights /= weights.sum()
@@ -347,9 +356,9 @@ def initial_perturbation(problem, scene: Scene) -> np.ndarray:
         s = np.zeros_like(th)
         for k, w, ph in zip(ks, weights, phases, strict=True):
             s += w * 0.5 * (1.0 + np.cos(k * th + ph))
-        return amp * s
+        return amplitude * s
 
-    return problem.radial_field(shape)
+    return shape
 
 
 def gather_final_field(problem, u: np.ndarray, comm: MPI.Comm, time_s: float,

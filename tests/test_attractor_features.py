@@ -21,6 +21,8 @@ from studies.attractors.features import (
     differences,
     match,
     member_key,
+    settle_verdict,
+    share_drift,
     stationary,
     travelling_components,
     window_features,
@@ -187,6 +189,81 @@ def test_stationarity_and_classes():
     grown = Features(rigid.components, rigid.fractions, rms_amplitude_m=1.1e-3)
     assert stationary(Features(rigid.components, rigid.fractions, 1.0e-3), grown) == [
         "RMS amplitude 0.001 vs 0.0011 m"]
+
+
+def _leg(shares_of_t, t_end, window=0.1):
+    """Synthetic features of the windows tiling the last leg back from ``t_end`` (window
+    W, the leg [t_end / 1.5, t_end], at least two windows): k = 11 dominant, k = 10 with the
+    share ``shares_of_t(window centre)``."""
+    n = max(2, int(math.floor(max(2 * window, t_end / 3) / window + 1e-3)))
+    out = []
+    for j in range(n - 1, -1, -1):
+        t1 = t_end - j * window
+        share = shares_of_t(t1 - 0.5 * window)  # below 5 %: not found (as features do)
+        f = _features({11: 1.0, **({10: share} if share >= 0.05 else {})})
+        out.append(replace(f, window=(t1 - window, t1)))
+    return out
+
+
+def test_share_drift_over_the_last_leg():
+    """A companion decaying as the N = 264 k = 11 state's k = 10 did (5 points/s, 21 -> 11 %
+    over 2 s) passes two consecutive windows (0.5 points apart, tolerance 2) but its trend
+    over the leg to 1.1 s, extrapolated over the next leg (0.55 s: 2.75 points), does not;
+    a constant share and one jittering by up to 0.6 points per window pass."""
+    horizon = 0.5 * 1.1  # the next leg, 1.1 -> 1.65 s
+    decaying = _leg(lambda t: 0.21 - 0.05 * t, 1.1)
+    assert len(decaying) == 3  # the leg 0.73 - 1.1 s: three windows of 0.1 s
+    assert stationary(decaying[-2], decaying[-1]) == []
+    assert share_drift(decaying, horizon) == [
+        "k = 10 against the rotation share drifts -5.0 points/s (16 % now, 13 % in 0.55 s)"]
+    assert share_drift(_leg(lambda t: 0.13, 1.1), horizon) == []
+    # jitter (in points) of a settled start, at most 1.2 points between windows (the
+    # measured settled starts: within 0.66 of the 2-point tolerance): slope 0.66 points/s,
+    # 0.66 points over a 1 s horizon, within 2
+    jitter = dict(zip(range(6), (0.6, -0.6, 0.4, -0.5, 0.6, -0.4), strict=True))
+    noisy = _leg(lambda t: 0.13 + 0.01 * jitter[int(round((t - 1.45) / 0.1))], 2.0)
+    assert len(noisy) == 6 and share_drift(noisy, 1.0) == []
+    # a companion that died out within the leg (27 % -> 3 % at 0.1 per 0.1 s, gone below
+    # 5 %): its line ends below the 10 % listing threshold, it names nothing
+    died = _leg(lambda t: 0.27 * math.exp(-(t - 1.05) / 0.1), 1.6)
+    assert 10 not in {c.k for c in died[-1].components}
+    assert share_drift(died, 0.8) == []
+    # the first leg of a census (t_end = 3W): the two windows, their change × 1.5 against
+    # 10 % of the share (about 2.5 points here)
+    assert len(_leg(lambda t: 0.2, 0.3)) == 2
+    assert share_drift(_leg(lambda t: 0.20 + 0.12 * t, 0.3), 0.15) == []  # 1.8 points
+    assert share_drift(_leg(lambda t: 0.20 + 0.20 * t, 0.3), 0.15) != []  # 3.0 points
+
+
+def _two_waves(companion):
+    """k = 7 at −300 rad/s with k = 9 at −250 rad/s of share ``companion(t)``, 36 nodes,
+    samples every 1e-4 s to 0.6 s."""
+    theta = np.linspace(0.0, 2.0 * np.pi, 36, endpoint=False)
+    t = np.arange(0.0, 0.6 + 5e-5, 1e-4)
+    share = companion(t)[:, None]
+    p7 = 7 * (theta[None, :] + 300.0 * t[:, None])
+    p9 = 9 * (theta[None, :] + 250.0 * t[:, None])
+    u_r = 1e-3 * (np.cos(p7) + share * np.cos(p9))
+    u_theta = 3e-4 * (np.sin(p7) + share * np.sin(p9))
+    return {"t": t, "theta": theta, "u_r": u_r, "u_theta": u_theta}
+
+
+def test_a_slowly_decaying_companion_is_unsettled():
+    """Time series: a companion decaying 10 points/s (0.5 points per window of 0.05 s, two
+    windows pass) is unsettled over the last leg (0.4 - 0.6 s, next leg 0.3 s: 3 points >
+    2); a constant one settles at the first pair."""
+    window = 0.05
+    decaying = settle_verdict(_two_waves(lambda t: 0.25 - 0.1 * t), 1.0, window)
+    assert stationary(decaying.earlier, decaying.later) == []
+    assert math.isnan(decaying.settle_time)
+    assert len(decaying.drift) == 1 and decaying.drift[0].startswith(
+        "k = 9 against the rotation share drifts -10.0 points/s")
+    steady = settle_verdict(_two_waves(lambda t: np.full_like(t, 0.22)), 1.0, window)
+    assert steady.drift == () and steady.settle_time == pytest.approx(0.1, abs=1.1e-4)
+    assert [c.k for c in steady.later.listed] == [7, 9]
+    sss = {"regime": "stick-slip-separation"}
+    assert classify_features("completed", sss, decaying.earlier, decaying.later,
+                             drift=decaying.drift) == ("unsettled", list(decaying.drift))
 
 
 def test_grouping_and_names():

@@ -8,7 +8,8 @@ DIR is claimed as kind ``attractors`` (``studies.rundir.ownership``).
 
 **Settle or extend** (``settle``): the sweep runs every start to the first leg's end time
 T₀ (``--end-time``). A start whose features still differ between its last two windows of
-length W = T₀/3 (``classify``: unsettled) is continued from its checkpoint, in place
+length W = T₀/3, or whose shares still drift across its last leg (``classify``:
+unsettled) is continued from its checkpoint, in place
 (``studies.rundir.continuation.continue_batch``: the starts of one batch go on as one
 batch; never from t = 0), to min(``GROWTH`` × T, T_max), and classified again, until every
 start is settled, steady sliding, diverged or at the cap T_max (``max_time``, default
@@ -53,7 +54,7 @@ from studies.attractors.classify import (
     row_cache,
     start_row,
 )
-from studies.attractors.features import DEFAULT_TOLERANCES, Tolerances
+from studies.attractors.features import DEFAULT_TOLERANCES, LEG_GROWTH, Tolerances
 from studies.attractors.starts import StartDistribution
 from studies.attractors.statistics import ladder, mesh_members
 
@@ -62,7 +63,7 @@ KIND = "stickslip-attractors"
 #: directory of their own, ``starts/``.
 ENTRIES = ("census.json", "census.toml", "base.toml", "attractors.json", "attractors.csv",
            "members.csv", "certificates.json", "cea.json", "features.json", "starts",
-           "settle-rank*.log", "*.png")
+           "kicks", "settle-rank*.log", "*.png")
 #: Every completed start's features, by start and summary time (read once).
 FEATURES = "features.json"
 STARTS = "starts"
@@ -87,7 +88,7 @@ MEMBER_FIELDS = ("n_inner", "member", "class", "name", "n_components", "k", "dir
 #: between 2 and 4 s; the tutorial point's N = 264 starts settle by about 2 s.
 DEFAULT_MAX_TIME = 4.0
 #: Each leg of settle-or-extend takes an unsettled start from T to GROWTH × T.
-GROWTH = 1.5
+GROWTH = LEG_GROWTH
 
 
 class CensusError(ValueError):
@@ -235,11 +236,12 @@ def claim_on_rank0(comm, take, refusals: tuple[type[Exception], ...]):  # noqa: 
 
 def run_census(census: Census, out_dir: str | Path, *, comm=None, force: bool = False,  # noqa: ANN001
                progress: str = "auto", backend: str = "cpu", certify: bool = True,
-               dt_limit: bool = False, stream: TextIO = sys.stdout) -> int:
+               dt_limit: bool = False, kick: bool = True, stream: TextIO = sys.stdout) -> int:
     """Run (or resume) the census into ``out_dir`` and write its answer; collective.
 
     ``certify``: certify every member (``studies.attractors.certify``); ``dt_limit``: also the
-    rigid waves' Δt → 0 ladder (several Newton solves on finer levels; off by default).
+    rigid waves' Δt → 0 ladder (several Newton solves on finer levels; off by default);
+    ``kick``: the kick test of every member (``certify.kick_members``).
 
     Every unsettled start is continued up to the census's cap (``settle``, module
     docstring).
@@ -272,7 +274,7 @@ def run_census(census: Census, out_dir: str | Path, *, comm=None, force: bool = 
         sweep_s = time.perf_counter() - t0
         if comm.rank == 0 and rc != 2:
             answer = collect(out_dir, certify="run" if certify and rc == 0 else "cached",
-                             dt_limit=dt_limit, sweep_s=sweep_s)
+                             dt_limit=dt_limit, sweep_s=sweep_s, kick=kick)
             print(answer["text"], file=stream, flush=True)
             if rc == 0 and answer["counts"].get("failed"):
                 rc = 1
@@ -439,7 +441,8 @@ def start_rows(out_dir: Path, spread_tol: float = SPREAD_TOL,
         status = live_status(summary) if summary else "pending"
         key = None
         if status == "completed":  # a start's features, until its summary is rewritten
-            key = f"{task.id}@{(run_dir / 'summary.json').stat().st_mtime_ns}@{window}"
+            stamp = (run_dir / "summary.json").stat().st_mtime_ns
+            key = f"{task.id}@{stamp}@{window}@share-drift"
         row = start_row(run_dir, task.params, summary, status, spread_tol, tol,
                         cached=cache.get(key), window=window)
         rows.append(row)
@@ -451,12 +454,13 @@ def start_rows(out_dir: Path, spread_tol: float = SPREAD_TOL,
 
 
 def collect(out_dir: str | Path, *, certify: str | bool = "cached", dt_limit: bool = False,
-            sweep_s: float | None = None) -> dict:
+            sweep_s: float | None = None, kick: bool = True) -> dict:
     """Rank 0: featurise, classify, group, count; write attractors.{json,csv}, members.csv.
 
     ``certify``: ``"run"`` (certify the members whose certificate is not cached in
     ``certificates.json``), ``"cached"`` (show the cached ones only) or False.
-    ``sweep_s``: the wall time of the runs of this session, for the time shares."""
+    ``sweep_s``: the wall time of the runs of this session, for the time shares. ``kick``:
+    with ``"run"``, the members' kick tests too."""
     out_dir = Path(out_dir)
     meta = json.loads((out_dir / "census.json").read_text())
     t0 = time.perf_counter()
@@ -464,7 +468,7 @@ def collect(out_dir: str | Path, *, certify: str | bool = "cached", dt_limit: bo
     features_s = time.perf_counter() - t0
     mode = "run" if certify is True else certify
     answer = answer_of(meta, rows, out_dir if mode else None, compute=mode == "run",
-                       dt_limit=dt_limit,
+                       dt_limit=dt_limit, kick=kick,
                        timing={"sweep_s": sweep_s, "features_s": features_s})
     write_outputs(out_dir, answer)
     return answer
@@ -476,11 +480,13 @@ def tolerances(meta: dict) -> Tolerances:
 
 
 def answer_of(meta: dict, rows: list[dict], certify_in: Path | None = None, *,
-              compute: bool = True, dt_limit: bool = False, timing: dict | None = None) -> dict:
+              compute: bool = True, dt_limit: bool = False, timing: dict | None = None,
+              kick: bool = False) -> dict:
     """The census's answer from its definition (``census.json``) and one row per start
     (``classify.start_row`` or ``classify.end_state_row``): members per mesh, structured
     starts apart, the ladder, the counts, and (with ``certify_in``, the census directory)
-    the certificates (``compute``: those not cached yet are computed). A rigid wave that its
+    the certificates (``compute``: those not cached yet are computed; ``kick``: with their
+    kick tests, ``certify_members``). A rigid wave that its
     certificate calls unstable is a ``transient``, not an attractor: its member and rows
     take that class."""
     meshes = sorted({r["n_inner"] for r in rows})
@@ -492,7 +498,8 @@ def answer_of(meta: dict, rows: list[dict], certify_in: Path | None = None, *,
     if certify_in:
         t0 = time.perf_counter()
         certificates = certify_members(certify_in, rows, compute=compute, dt_limit=dt_limit,
-                                        window=meta.get("window_s"))
+                                        window=meta.get("window_s"), kick=kick,
+                                        tol=tolerances(meta), timing=timing)
         timing["certification_s"] = time.perf_counter() - t0
         for key, cert in certificates.items():
             if isinstance(cert, dict) and cert.get("stable") is False:
@@ -539,12 +546,16 @@ def _brief(row: dict) -> dict:
 
 
 def certify_members(out_dir: Path, rows: list[dict], *, compute: bool = True,
-                    dt_limit: bool = False, window: float | None = None) -> dict:
+                    dt_limit: bool = False, window: float | None = None, kick: bool = False,
+                    tol: Tolerances = DEFAULT_TOLERANCES, timing: dict | None = None) -> dict:
     """Per mesh and settled member (``"N:member"``): its certificate
     (``studies.attractors.certify.certify_member``), cached in ``certificates.json`` by its
     first run and that run's summary time; with ``compute`` False only cached ones. The end
-    state is read over the last ``window`` seconds (the census's W)."""
-    from studies.attractors.certify import certify_member
+    state is read over the last ``window`` seconds (the census's W). ``kick`` (with
+    ``compute`` and ``window``): the kick tests of the members whose certificate has none,
+    all in one call (``certify.kick_members``: one batch per mesh and step), their wall
+    time in ``timing["kick_s"]``."""
+    from studies.attractors.certify import certify_member, kick_members
 
     cache_path = out_dir / "certificates.json"
     try:
@@ -556,6 +567,8 @@ def certify_members(out_dir: Path, rows: list[dict], *, compute: bool = True,
     for r in rows:
         if r["class"] in SETTLED and r["member"]:
             members.setdefault((r["n_inner"], r["member"]), []).append(r)
+    keys: dict[str, str] = {}  # "N:member" -> its cache key
+    named = {f"{n}:{member}": (n, member) for n, member in members}
     for (n, member), group in sorted(members.items(), key=lambda kv: (kv[0][0], kv[0][1])):
         first = group[0]
         stamp = (Path(first["run_dir"]) / "summary.json").stat().st_mtime
@@ -567,6 +580,17 @@ def certify_members(out_dir: Path, rows: list[dict], *, compute: bool = True,
             atomic_write_text(cache_path, json.dumps(_json_safe(cache), indent=1,
                                                      default=str))
         out[f"{n}:{member}"] = cache[key]
+        keys[f"{n}:{member}"] = key
+    unkicked = {name: members[tuple_key] for name, tuple_key in named.items()
+                if name in out and not isinstance(out[name].get("kick"), dict)}
+    if kick and compute and window and unkicked:
+        t0 = time.perf_counter()
+        kicks = kick_members(out_dir, unkicked, float(window), tol)
+        if timing is not None:
+            timing["kick_s"] = time.perf_counter() - t0
+        for name, result in kicks.items():
+            cache[keys[name]] = out[name] = {**out[name], "kick": result}
+        atomic_write_text(cache_path, json.dumps(_json_safe(cache), indent=1, default=str))
     return out
 
 

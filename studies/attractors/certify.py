@@ -12,8 +12,15 @@
   one Newton solve at the run's step, and a short transient started next to the wave; an
   unstable one is a transient (``census.answer_of``). The Δt → 0 ladder runs only with
   ``dt_limit`` (``--dt-limit``).
-* A kick test (a 1 % perturbation of a multi-wave state, run on) is not run: it costs a
-  transient per member, as much as a start.
+* a **kick test** (``kick_members``, every member, rigid or not, unless ``--no-kick``): one
+  start of the member (the first whose checkpoint is a batch member's) is perturbed where it
+  stands, at t_k, by ``KICK_FRACTION`` (1 %) of its RMS displacement and velocity, each
+  along a random start's smooth radial bump (``BatchSimulation.kick``: the perturbation
+  a start gets, clamped outside, spread through the thickness by eq. [1]), and run on for
+  ``KICK_WINDOWS`` census windows W into ``DIR/kicks/``; its last window [t_k + W, t_k + 2W]
+  must ``match`` (``features.differences``) the start's own last window before the kick.
+  All members' kicks continue as one batch per mesh and checkpoint step
+  (``studies.rundir.continue_batch``), so they cost 2W per member in a batch.
 
 Certification by the direct travelling-wave solver, through one adapter:
 
@@ -114,6 +121,95 @@ def certify_member(rows: list[dict], *, dt_limit: bool = False,
     return _plain(out)
 
 
+#: A kick's size: this fraction of the state's RMS displacement and velocity.
+KICK_FRACTION = 0.01
+#: A kicked start runs on this many census windows W; its last window is compared.
+KICK_WINDOWS = 2
+#: The seeds of the kick's two bumps (displacement, velocity: ``KICK_SEED`` and + 1).
+KICK_SEED = 0
+KICKS = "kicks"
+
+
+def kick_members(out_dir: Path, groups: dict[str, list[dict]], window: float,
+                 tol=None, stream=None) -> dict[str, dict]:  # noqa: ANN001
+    """The kick test (module docstring) of every member in ``groups`` (key: "N:member", its
+    rows, first start first), run into ``out_dir/kicks/``; never raises. Per key:
+    {"returned", "differences", "start", "kicked_at_s", "until_s", "components", the
+    kick's RMS sizes} or {"message"} where it could not run."""
+    import json
+
+    from studies.attractors.classify import _radius, _samples
+    from studies.attractors.features import (
+        DEFAULT_TOLERANCES,
+        Features,
+        components_text,
+        differences,
+        window_features,
+    )
+    from studies.rundir import continue_batch
+    from studies.rundir.readers import ReadError
+
+    tol = DEFAULT_TOLERANCES if tol is None else tol
+    out: dict[str, dict] = {}
+    chosen: dict[str, tuple[dict, Path, float]] = {}
+    for key, rows in groups.items():
+        row = next((r for r in rows if r.get("features") and _batch_member(r)), None)
+        if row is None:
+            out[key] = {"message": "not run: no start of it is a batch member's checkpoint"}
+            continue
+        t_k = float(row["sim_time_s"])
+        chosen[key] = (row, out_dir / KICKS / _slug(key), t_k + KICK_WINDOWS * window)
+    by_until: dict[float, list[str]] = {}
+    for key, (_, _, until) in chosen.items():
+        by_until.setdefault(round(until, 12), []).append(key)
+    (out_dir / KICKS).mkdir(parents=True, exist_ok=True)
+    with open(out_dir / KICKS / "kicks.log", "a") as log:
+        for until, keys in by_until.items():
+            try:
+                continue_batch([chosen[k][0]["run_dir"] for k in keys], until,
+                               [chosen[k][1] for k in keys], force=True, stream=log,
+                               kick=KICK_FRACTION, kick_seed=KICK_SEED)
+            except (ReadError, ValueError, OSError, RuntimeError) as err:
+                for k in keys:
+                    out[k] = {"message": f"not run: {str(err).splitlines()[0]}"}
+    for key, (row, kicked_dir, _) in chosen.items():
+        if key in out:
+            continue
+        try:
+            summary = json.loads((kicked_dir / "summary.json").read_text())
+            samples = _samples(kicked_dir)
+            if summary.get("status") != "completed" or samples is None:
+                raise ValueError(f"the kicked run ended {summary.get('status')}")
+            t_end = float(samples["t"][-1])
+            after = window_features(samples, _radius(kicked_dir), t_end - window, t_end)
+            why = differences(Features.from_dict(row["features"]), after, tol)
+            out[key] = {"returned": not why, "differences": why, "start": row["id"],
+                        "kicked_at_s": float(row["sim_time_s"]), "until_s": t_end,
+                        "components": components_text(after.components),
+                        "run": str(kicked_dir), **{k: v for k, v in (summary.get("kick")
+                                                                      or {}).items()}}
+        except (OSError, ValueError, KeyError, IndexError) as err:
+            out[key] = {"message": f"not run: {type(err).__name__}: {err}"}
+    return _plain(out)
+
+
+def _batch_member(row: dict) -> bool:
+    """Whether a start's run stepped as a batch member (only those can be kicked)."""
+    import json
+
+    try:
+        summary = json.loads((Path(row["run_dir"]) / "summary.json").read_text())
+    except (OSError, ValueError, KeyError):
+        return False
+    return bool(summary.get("batch")) and summary.get("status") == "completed"
+
+
+def _slug(key: str) -> str:
+    import re
+
+    return re.sub(r"[^A-Za-z0-9_.+\-]", "_", key.replace(":", "-"))
+
+
 def _spread(features: list) -> dict:
     """The largest relative spread of the dominant celerity and the largest spread of a
     listed component's share (absolute) over ``features``."""
@@ -161,7 +257,21 @@ def member_line(cert: dict | None) -> str:
                      f", shares {_pct_abs(windows['share'])})")
     if cert.get("rigid"):
         parts.append(certificate_line(cert.get("direct")))
+    kick = cert.get("kick")
+    if isinstance(kick, dict):
+        parts.append(kick_line(kick))
     return "; ".join(parts)
+
+
+def kick_line(kick: dict) -> str:
+    """One short phrase for a kick test (``kick_members``)."""
+    if "returned" not in kick:
+        return f"kick {kick.get('message', 'not run')}"
+    head = (f"kicked by {100 * KICK_FRACTION:.0f} % at {kick['kicked_at_s']:.2f} s "
+            f"(start {kick['start']})")
+    if kick["returned"]:
+        return f"{head}: returned by {kick['until_s']:.2f} s"
+    return f"{head}: not returned by {kick['until_s']:.2f} s ({'; '.join(kick['differences'])})"
 
 
 def _rel(x: float | None) -> str:

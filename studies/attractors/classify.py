@@ -11,7 +11,9 @@ window pair from which the features stayed stationary. Classes (``classify_featu
 * ``steady-sliding``: no stick or separation zone above the analysis threshold;
 * ``unsettled``: the features of the two windows differ (``features.stationary``: a
   component appears or vanishes, a celerity, share or zone fraction moves beyond its
-  tolerance, or the RMS amplitude by more than 5 %);
+  tolerance, or the RMS amplitude by more than 5 %), or a share still drifts across the
+  last leg (``features.share_drift``: its linear trend over the leg's windows, extrapolated
+  over the next leg, leaves the share tolerance);
 * ``wave``: settled, one listed component (with its harmonics) and a frame spread at most
   ``SPREAD_TOL``: a rigidly travelling wave u(θ, t) = W(θ − ωt);
 * ``multi-wave``: settled, several components each travelling at its own celerity (a
@@ -56,7 +58,7 @@ from studies.attractors.features import (
     frame_spread,
     match,
     member_key,
-    settle_scan,
+    settle_verdict,
     stationary,
 )
 
@@ -99,18 +101,19 @@ def classify(status: str, summary: dict, spread: float, spread_tol: float = SPRE
 
 def classify_features(status: str, summary: dict, earlier: Features | None,
                       later: Features | None, tol: Tolerances = DEFAULT_TOLERANCES,
-                      spread: float = math.nan, spread_tol: float = SPREAD_TOL
-                      ) -> tuple[str, list[str]]:
+                      spread: float = math.nan, spread_tol: float = SPREAD_TOL,
+                      drift: tuple[str, ...] | list[str] = ()) -> tuple[str, list[str]]:
     """(class, why unsettled) of an end state from its features over two consecutive
-    windows (``features.window_features`` of any two windows) and its frame spread
-    (default: the later window's own, ``Features.frame_spread``); module docstring."""
+    windows (``features.window_features`` of any two windows), its frame spread
+    (default: the later window's own, ``Features.frame_spread``) and why its shares still
+    drift across the last leg (``features.share_drift``); module docstring."""
     early = _early_class(status, summary)
     if early:
         return early, []
     if later is None or not later.listed:
         return "unsettled", ["no travelling component"]
     why = (stationary(earlier, later, tol, spread_tol=spread_tol) if earlier is not None
-           else ["one window only"])
+           else ["one window only"]) or list(drift)
     if why:
         return "unsettled", why
     spread = later.frame_spread if math.isnan(spread) else spread
@@ -138,20 +141,22 @@ def start_row(run_dir: Path, params: dict, summary: dict | None, status: str,
     spread = (math.nan, math.nan, math.nan)
     features = None
     settle_time = math.nan
+    drift: tuple[str, ...] = ()
     if status == "completed" and s.get("regime") not in (None, "steady-sliding"):
         if cached and cached.get("features"):
             features = (Features.from_dict(cached["features_before"]),
                         Features.from_dict(cached["features"]))
             spread = tuple(math.nan if v is None else float(v) for v in cached["spread"])
             settle_time = _float(cached.get("settle_time_s"))
+            drift = tuple(cached.get("drift") or ())
         else:
             samples = _samples(run_dir)
             if samples is not None:
-                features, spread, settle_time = settled_features(
+                features, spread, settle_time, drift = settled_features(
                     samples, s, _radius(run_dir), window, tol, spread_tol)
     return end_state_row(run_dir.name, params, s, status, spread, spread_tol,
                          run_dir=str(run_dir), features=features, tol=tol,
-                         settle_time=settle_time)
+                         settle_time=settle_time, drift=drift)
 
 
 def _float(x: object) -> float:
@@ -162,7 +167,8 @@ def row_cache(row: dict) -> dict:
     """What ``start_row(cached=...)`` needs of a row to rebuild it without its samples."""
     return {"features": row.get("features"), "features_before": row.get("features_before"),
             "spread": [row.get("frame_spread"), row.get("rms_amplitude_m"),
-                       row.get("spread_trend")], "settle_time_s": row.get("settle_time_s")}
+                       row.get("spread_trend")], "settle_time_s": row.get("settle_time_s"),
+            "drift": list(row.get("drift") or ())}
 
 
 def end_state_features(samples: dict, summary: dict, radius: float
@@ -170,24 +176,25 @@ def end_state_features(samples: dict, summary: dict, radius: float
     """(features of the two consecutive windows, (frame spread, RMS amplitude, spread
     trend) in the dominant component's frame) of a run's samples (``samples.npz``'s arrays,
     with the every-step probe where recorded): what ``end_state_row`` classifies."""
-    features, spread, _ = settled_features(samples, summary, radius)
+    features, spread, _, _ = settled_features(samples, summary, radius)
     return features, spread
 
 
 def settled_features(samples: dict, summary: dict, radius: float, window: float | None = None,
                      tol: Tolerances = DEFAULT_TOLERANCES, spread_tol: float = SPREAD_TOL
-                     ) -> tuple[tuple[Features, Features], tuple[float, float, float], float]:
+                     ) -> tuple[tuple[Features, Features], tuple[float, float, float], float,
+                                tuple[str, ...]]:
     """``end_state_features`` over windows of length ``window`` (default: the run's
-    analysis window), and the settle time (``features.settle_scan``; NaN: unsettled)."""
+    analysis window), the settle time and why the shares still drift across the last leg
+    (``features.settle_verdict``; NaN, and the reasons: unsettled)."""
     t = samples["t"]
     if window is None:
         window = float(summary.get("analysis_window_s") or (t[-1] - t[0]) / 3.0)
     window = min(window, 0.5 * float(t[-1] - t[0]))
-    earlier, later, settle_time = settle_scan(samples, radius, window, tol=tol,
-                                              spread_tol=spread_tol)
+    v = settle_verdict(samples, radius, window, tol=tol, spread_tol=spread_tol)
     spread = spread_of_samples(t, samples["theta"], samples["u_r"], samples["u_theta"],
-                               _with_dominant(summary, later), radius, window)
-    return (earlier, later), spread, settle_time
+                               _with_dominant(summary, v.later), radius, window)
+    return (v.earlier, v.later), spread, v.settle_time, v.drift
 
 
 def _with_dominant(summary: dict, later: Features) -> dict:
@@ -201,14 +208,15 @@ def _with_dominant(summary: dict, later: Features) -> dict:
 def end_state_row(start_id: str, params: dict, summary: dict, status: str,
                   spread: tuple[float, float, float], spread_tol: float = SPREAD_TOL,
                   run_dir: str = "", features: tuple[Features, Features] | None = None,
-                  tol: Tolerances = DEFAULT_TOLERANCES, settle_time: float = math.nan
-                  ) -> dict:
+                  tol: Tolerances = DEFAULT_TOLERANCES, settle_time: float = math.nan,
+                  drift: tuple[str, ...] = ()) -> dict:
     """One start's row from its run summary (``studies.rundir.scene_run.summarise``'s keys),
     its (frame spread, RMS amplitude, spread trend) and its features over two consecutive
     windows, wherever they were computed (a run directory, or a batch's records on another
     machine; without features the frame spread classifies it, ``classify``), and its settle
     time (``features.settle_scan``: the end of the first window pair from which its
-    features stayed stationary; NaN where not settled)."""
+    features stayed stationary; NaN where not settled) and why its shares still drift
+    across the last leg (``features.share_drift``)."""
     s = summary
     frame, rms, trend = spread
     row = {
@@ -220,7 +228,7 @@ def end_state_row(start_id: str, params: dict, summary: dict, status: str,
     known = status in ("completed", "diverged", "failed")
     why: list[str] = []
     if features is not None and known:
-        cls, why = classify_features(status, s, *features, tol, frame, spread_tol)
+        cls, why = classify_features(status, s, *features, tol, frame, spread_tol, drift)
     else:
         cls = classify(status, s, frame, spread_tol, trend) if known else status
     row.update({
@@ -236,7 +244,7 @@ def end_state_row(start_id: str, params: dict, summary: dict, status: str,
         "dt_s": s.get("dt_s"), "steps": s.get("steps"), "wall_time_s": s.get("wall_time_s"),
         "message": s.get("message"), "run_dir": run_dir, "member": None,
         "components": "", "name": "", "n_components": None, "unsettled_because": "; ".join(why),
-        "features": None, "features_before": None,
+        "features": None, "features_before": None, "drift": list(drift),
     })
     if features is not None and features[1].dominant is not None:
         earlier, later = features

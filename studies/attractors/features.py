@@ -40,8 +40,12 @@ attached as a harmonic or sum tone, in the other), each
 celerity within ``CELERITY_TOL`` (relative), each share within ``SHARE_TOL_REL`` (relative,
 at least ``SHARE_TOL_ABS``), and the zone fractions within ``FRACTION_TOL``. ``stationary``
 adds, between two windows, the RMS amplitude within ``AMPLITUDE_TOL`` and, where the later
-window is not a rigid wave, the frame spread within ``SPREAD_CHANGE_REL``. The tolerances
-and the spreads measured behind them: docs/attractors.md.
+window is not a rigid wave, the frame spread within ``SPREAD_CHANGE_REL``. Two windows
+accept a companion whose share decays slowly; ``share_drift`` judges the whole last leg of
+settle-or-extend (``leg_window_ends``): the least-squares line of each share across its
+windows, extrapolated over the next leg, (``LEG_GROWTH`` − 1) t_end, must move it by no more
+than the share tolerance. The tolerances and the spreads measured behind them:
+docs/attractors.md.
 """
 
 from __future__ import annotations
@@ -76,6 +80,9 @@ SPREAD_CHANGE_ABS = 0.01
 #: A component whose probe amplitude at its frequency is below this fraction of its own is
 #: folded from another frequency (``aliased``).
 PROBE_FRACTION = 0.5
+#: Each leg of settle-or-extend takes an unsettled start from t to LEG_GROWTH × t
+#: (``studies.attractors.census``); ``share_drift`` extrapolates the shares over the next one.
+LEG_GROWTH = 1.5
 
 
 @dataclass(frozen=True)
@@ -368,39 +375,123 @@ def consecutive_features(samples: dict, radius: float, window: float, *,
             window_features(samples, radius, t_end - window, t_end, share_tol=share_tol))
 
 
+@dataclass(frozen=True)
+class Settled:
+    """What ``settle_verdict`` reads from a run's samples."""
+
+    earlier: Features  # the window before the last
+    later: Features  # the last window
+    settle_time: float  # NaN: unsettled
+    drift: tuple[str, ...] = ()  # why the shares still drift across the last leg
+
+
 def settle_scan(samples: dict, radius: float, window: float, *,
                 tol: Tolerances | None = None, spread_tol: float = SPREAD_TOL,
                 share_tol: float = SHARE_TOL) -> tuple[Features, Features, float]:
+    """(features of the window before the last, of the last, settle time):
+    ``settle_verdict``'s, as a tuple."""
+    v = settle_verdict(samples, radius, window, tol=tol, spread_tol=spread_tol,
+                       share_tol=share_tol)
+    return v.earlier, v.later, v.settle_time
+
+
+def settle_verdict(samples: dict, radius: float, window: float, *,
+                   tol: Tolerances | None = None, spread_tol: float = SPREAD_TOL,
+                   share_tol: float = SHARE_TOL, growth: float = LEG_GROWTH) -> Settled:
     """The features of the last two windows and the **settle time** t_s of a run's samples.
 
     Window pairs [t − 2W, t − W], [t − W, t] are taken at t = t_end, t_end − W, … (while
     t − 2W ≥ t_0, the first sample); t_s is the smallest such t from which every later pair
     is ``stationary``: the state has not changed since. NaN where the last pair is not
-    stationary (unsettled). Each window's features are computed once, from the end back
-    to the first pair that is not stationary, so a start that settled long before t_end
-    costs (t_end − t_s)/W + 2 windows.
+    stationary, or where the shares still drift across the last leg (``share_drift`` over
+    the windows of ``leg_window_ends``, extrapolated over the next leg (growth − 1) t_end):
+    unsettled. Each window's features are computed once, from the end back to the first
+    pair that is not stationary and over the last leg, so a start that settled long before
+    t_end costs (t_end − t_s)/W + 2 windows.
     """
     tol = DEFAULT_TOLERANCES if tol is None else tol
     t = samples["t"]
     t_end, t_first = float(t[-1]), float(t[0])
+    computed: dict[int, Features] = {}  # by the number of windows before t_end
 
-    def at(end: float) -> Features:
-        return window_features(samples, radius, end - window, end, share_tol=share_tol)
+    def at(j: int) -> Features:
+        if j not in computed:
+            end = t_end - j * window
+            computed[j] = window_features(samples, radius, end - window, end,
+                                          share_tol=share_tol)
+        return computed[j]
 
-    later, earlier = at(t_end), at(t_end - window)
-    last = (earlier, later)
     settled_at = math.nan
-    end = t_end
+    j = 0
     # a float tolerance of a thousandth of a window: t_end − jW lands on t_0 up to round-off
-    while end - 2.0 * window >= t_first - 1e-3 * window:
-        if stationary(earlier, later, tol, spread_tol=spread_tol):
+    while t_end - (j + 2) * window >= t_first - 1e-3 * window:
+        if stationary(at(j + 1), at(j), tol, spread_tol=spread_tol):
             break
-        settled_at = end
-        end -= window
-        if end - 2.0 * window < t_first - 1e-3 * window:
-            break
-        later, earlier = earlier, at(end - window)
-    return (*last, settled_at)
+        settled_at = t_end - j * window
+        j += 1
+    drift: tuple[str, ...] = ()
+    if math.isfinite(settled_at):
+        ends = leg_window_ends(t_end, t_first, window, growth)
+        drift = tuple(share_drift([at(n) for n in range(len(ends) - 1, -1, -1)],
+                                  (growth - 1.0) * t_end, tol))
+        if drift:
+            settled_at = math.nan
+    return Settled(at(1), at(0), settled_at, drift)
+
+
+def leg_window_ends(t_end: float, t_first: float, window: float,
+                    growth: float = LEG_GROWTH) -> list[float]:
+    """End times (oldest first) of the windows of length W that tile the last leg of
+    settle-or-extend back from t_end: the leg [t_end / growth, t_end], at least two windows
+    (the first leg of a census, t_end = 3W, has exactly two), none before t_0."""
+    span = max(2.0 * window, (1.0 - 1.0 / growth) * t_end)
+    n = max(2, int(math.floor(span / window + 1e-3)))
+    ends = [t_end - j * window for j in range(n)
+            if t_end - (j + 1) * window >= t_first - 1e-3 * window]
+    return ends[::-1]
+
+
+def share_drift(windows: list[Features], horizon: float,
+                tol: Tolerances | None = None) -> list[str]:
+    """Why the shares of consecutive windows of one start (oldest first) still drift
+    ([] = they do not).
+
+    For every component listed in any window, the least-squares line s(t) = s̄ + b (t − t̄)
+    of its share over the windows that hold it (listed, weak, or attached as a harmonic or
+    sum tone; t the window centres) must move it by no more than the share tolerance of
+    ``match`` over the ``horizon`` (s, the next leg): |b| H ≤ max(share_rel max(s₁, s₂),
+    share_abs), s₁ = s(t_last), s₂ = s(t_last + H), both taken as 0 where the line is below.
+    A share that only jitters has b ≈ 0; one that decays by a few points per leg fails
+    although two consecutive windows pass; one below the listing threshold ``SHARE_TOL``
+    at both ends (a companion that has died out, or a weak one) names nothing and is left
+    to the frame spread.
+    """
+    tol = DEFAULT_TOLERANCES if tol is None else tol
+    why = []
+    keys = sorted({c.key for f in windows for c in f.listed})
+    centre_last = 0.5 * sum(windows[-1].window)
+    for key in keys:
+        points = []
+        for f in windows:
+            s = next((c.share for c in f.components if c.key == key), None)
+            s = _attached_share(f, key) if s is None else s
+            if s is not None:
+                points.append((0.5 * sum(f.window), s))
+        if len(points) < 2:  # a component in one window only: ``differences`` says so
+            continue
+        tc, sc = np.array(points).T
+        if np.ptp(tc) <= 0.0:
+            continue
+        slope = float(np.polyfit(tc - tc.mean(), sc, 1)[0])
+        now = max(0.0, float(sc.mean() + slope * (centre_last - tc.mean())))
+        later = max(0.0, now + slope * horizon)
+        if max(now, later) < SHARE_TOL:
+            continue
+        if abs(later - now) > max(tol.share_rel * max(now, later), tol.share_abs):
+            why.append(f"k = {key[0]} {_SENSE[key[1]]} share drifts {100 * slope:+.1f} "
+                       f"points/s ({100 * now:.0f} % now, {100 * later:.0f} % in "
+                       f"{horizon:.2g} s)")
+    return why
 
 
 # ===================================================================== the one rule

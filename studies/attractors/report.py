@@ -61,8 +61,9 @@ def mesh_lines(n: str, members: list[dict], structured: list[dict]) -> list[str]
         lines += [f"    {m['class']}: {_member_phrase(m)}" if m["class"] == "transient"
                   else f"    {_member_phrase(m)}" for m in others]
     if any(m["class"] == "unsettled" for m in members):
-        lines.append("  (unsettled: its features still change between the last two windows "
-                     "at the cap; a larger --max-time continues them)")
+        lines.append("  (unsettled: its features still change between the last two windows, "
+                     "or its shares drift across the last leg, at the cap; a larger "
+                     "--max-time continues them)")
     if structured:
         lines.append("  structured: " + "; ".join(
             f"mode {r['start_mode']} -> {r['member'] or r['class']}" for r in structured))
@@ -160,9 +161,12 @@ def summary_text(answer: dict) -> str:
         lines.append(f"  certificate {key}: {member_line(cert)}")
     timing = answer.get("timing") or {}
     if certs and timing.get("certification_s") is not None and timing.get("sweep_s"):
-        total = sum(v for v in timing.values() if v)
+        # the kicks' time is part of the certificates'
+        total = sum(timing.get(k) or 0 for k in ("sweep_s", "features_s", "certification_s"))
+        kicks = (f", of which kicks {timing['kick_s']:.1f} s" if timing.get("kick_s")
+                 is not None else "")
         lines.append(f"time: runs {timing['sweep_s']:.1f} s, features "
                      f"{timing.get('features_s') or 0:.1f} s, certificates "
-                     f"{timing['certification_s']:.1f} s "
+                     f"{timing['certification_s']:.1f} s{kicks} "
                      f"({_pct(timing['certification_s'] / total)} of the census)")
     return "\n".join(lines)

@@ -193,7 +193,7 @@ def continue_run(run_dir: str | Path, until: float, out_dir: str | Path | None =
 
 def continue_batch(run_dirs: list[str | Path], until: float,
                    out_dirs: list[str | Path] | None = None, *, force: bool = False,
-                   stream=None) -> list[dict]:
+                   stream=None, kick: float = 0.0, kick_seed: int = 0) -> list[dict]:
     """Continue many runs of one rank each to ``until``: the members of batches that share a
     mesh, material, dt, scheme, backend and checkpoint step as one ``BatchSimulation`` (one
     time loop for all of them), single runs one by one (``continue_run``).
@@ -205,6 +205,10 @@ def continue_batch(run_dirs: list[str | Path], until: float,
             ``continue_run``).
         force: replace earlier run directories at ``out_dirs``.
         stream: where the summary lines go (default stdout).
+        kick: perturb every run where it stands by this fraction of its displacement and
+            velocity RMS before it goes on (``solver.ensemble_run.BatchSimulation.kick``,
+            seed ``kick_seed``; its facts in the summary's ``kick``): batch members only,
+            into ``out_dirs`` (the runs themselves are never kicked).
 
     Returns:
         The continued runs' summaries, in the order of ``run_dirs``.
@@ -212,6 +216,7 @@ def continue_batch(run_dirs: list[str | Path], until: float,
     Raises:
         studies.rundir.readers.ReadError: a run cannot be continued (checked for every run
             before any starts).
+        ValueError: a kick without ``out_dirs``.
     """
     from studies.sweep.batch import batch_key
 
@@ -219,6 +224,13 @@ def continue_batch(run_dirs: list[str | Path], until: float,
     dirs = [Path(d) for d in run_dirs]
     outs = [None] * len(dirs) if out_dirs is None else [Path(d) for d in out_dirs]
     plans = [_plan(d, float(until), 1) for d in dirs]
+    if kick and out_dirs is None:
+        raise ValueError("a kick continues a run into another directory (out_dirs), never "
+                         "in place")
+    for d, plan in zip(dirs, plans, strict=True):
+        if kick and plan.kind != "batch":
+            raise ReadError(d, "a one-scene run cannot be kicked (only a batch member's "
+                               "checkpoint)", "kick a member of a batch")
     summaries: list[dict] = [{} for _ in dirs]
     groups: dict[tuple, list[int]] = {}
     for i, plan in enumerate(plans):
@@ -232,16 +244,19 @@ def continue_batch(run_dirs: list[str | Path], until: float,
                                         stream=stream)
     for (_, backend, _), members in groups.items():
         done = _continue_members([plans[i] for i in members], [outs[i] for i in members],
-                                 backend, force, sys.stdout if stream is None else stream)
+                                 backend, force, sys.stdout if stream is None else stream,
+                                 kick, kick_seed)
         for i, summary in zip(members, done, strict=True):
             summaries[i] = summary
     return summaries
 
 
 def _continue_members(plans: list[_Plan], outs: list[Path | None], backend: str,
-                      force: bool, stream) -> list[dict]:
-    """One ``BatchSimulation`` of batch members at the same step, continued and written; an
-    error or interrupt drops every replacement (the runs stay as they were)."""
+                      force: bool, stream, kick: float = 0.0, kick_seed: int = 0
+                      ) -> list[dict]:
+    """One ``BatchSimulation`` of batch members at the same step, continued (each kicked
+    by ``kick``, ``continue_batch``) and written; an error or interrupt drops every
+    replacement (the runs stay as they were)."""
     import shutil
     import time
 
@@ -265,14 +280,17 @@ def _continue_members(plans: list[_Plan], outs: list[Path | None], backend: str,
         if batch.failures:
             raise next(iter(batch.failures.values()))
         batch.restore([p.checkpoint.states[0] for p in plans], [p.before for p in plans])
+        kicks = [batch.kick(b, kick, kick_seed) if kick else None for b in range(len(plans))]
         batch.proceed()
         summaries = []
-        for claim, run in zip(claims, batch.runs, strict=True):
+        for claim, run, kicked in zip(claims, batch.runs, kicks, strict=True):
             write_scene(run.scene, claim.work / "scene.toml")
             extra = {"wall_time_s": time.perf_counter() - t0}
             if run.message:
                 extra["message"] = run.message
             extra["batch"] = {"size": len(plans), "backend": backend}
+            if kicked:
+                extra["kick"] = kicked
             summary = write_batch_member(run, claim.work, extra, profile, backend)
             claim.commit()
             _print_summary(summary, claim.final, stream, False)

@@ -1,0 +1,107 @@
+"""The kick test of a census's members (studies/attractors/certify.py ``kick_members``):
+one start per member perturbed by 1 % where it stands, run on for two windows through the
+batch continuation, must return to its own features; the census's starts are never
+touched, the kicks are part of the certificates' time."""
+
+from __future__ import annotations
+
+import io
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from test_attractors import SMOKE
+
+
+@pytest.fixture(scope="module")
+def census(tmp_path_factory):
+    """Stick-slip on the smoke mesh (as test_census_settle): 3 starts at N = 36, a first leg
+    of 0.05 s (W = 1/60 s), cap 0.1 s, without certificates; then certified with kicks."""
+    pytest.importorskip("dolfinx")
+    from studies.attractors.census import Census, collect, run_census
+    from studies.attractors.starts import StartDistribution
+
+    out = tmp_path_factory.mktemp("kick") / "census"
+    spec = Census(SMOKE, (36,), StartDistribution(starts=3),
+                  ("loading.omega=20", "geometry.delta=0.005", "time.end_time=0.05"),
+                  max_time=0.1)
+    assert run_census(spec, out, certify=False, stream=io.StringIO()) == 0
+    starts = {p: p.read_bytes() for p in (out / "starts" / "runs").glob("*/*") if p.is_file()}
+    answer = collect(out, certify="run", sweep_s=1.0)
+    return out, starts, answer
+
+
+def test_every_member_is_kicked_and_returns(census):
+    out, starts, answer = census
+    certs = answer["certificates"]
+    assert certs, answer["text"]
+    window = json.loads((out / "census.json").read_text())["window_s"]
+    for cert in certs.values():
+        kick = cert["kick"]
+        assert kick["returned"] and kick["differences"] == [], kick
+        # 1 % of the state's RMS displacement and velocity (the bumps are rescaled exactly)
+        assert kick["du_rms_m"] == pytest.approx(0.01 * kick["u_rms_m"], rel=1e-12)
+        assert kick["dv_rms_m_s"] == pytest.approx(0.01 * kick["v_rms_m_s"], rel=1e-12)
+        # run on two census windows from where the start stood (to one step, 1e-4 s)
+        assert kick["until_s"] - kick["kicked_at_s"] == pytest.approx(2 * window, abs=1e-4)
+        assert f"kicked by 1 % at {kick['kicked_at_s']:.2f} s" in answer["text"]
+        assert Path(kick["run"]).parent == out / "kicks"
+    # the starts themselves are untouched: every file of theirs has its bytes
+    assert {p: p.read_bytes() for p in starts} == starts
+    timing = answer["timing"]
+    assert 0.0 < timing["kick_s"] <= timing["certification_s"]
+    assert "of which kicks" in answer["text"]
+
+
+def test_the_kick_enters_and_the_history_before_it_stays(census):
+    """The kicked run holds the start's samples up to t_k bitwise; after it, the contact
+    circle differs from the start's own continuation (no kick) by about the kick's size
+    (≤ 5 % of the RMS of u_r: the bump is 1 % of the RMS over all dofs, X(R) = 1 at the
+    circle) and not by round-off (> 1e-6 of it)."""
+    from studies.rundir import continue_batch
+
+    out, _, answer = census
+    kick = next(iter(answer["certificates"].values()))["kick"]
+    start = out / "starts" / "runs" / kick["start"]
+    plain = out.parent / "plain"
+    window = json.loads((out / "census.json").read_text())["window_s"]
+    continue_batch([start], kick["kicked_at_s"] + 2 * window, [plain], stream=io.StringIO())
+    with np.load(start / "samples.npz") as a, np.load(Path(kick["run"]) / "samples.npz") as b, \
+            np.load(plain / "samples.npz") as c:
+        n = a["t"].size
+        assert np.array_equal(a["u_r"], b["u_r"][:n])
+        assert np.array_equal(b["t"], c["t"])
+        diff = np.sqrt(np.mean((b["u_r"][n] - c["u_r"][n]) ** 2))
+        size = np.sqrt(np.mean(c["u_r"][n] ** 2))
+    assert 1e-6 * size < diff < 0.05 * size
+
+
+def test_a_kick_that_lands_elsewhere_is_reported(census):
+    """The same kick compared with a reference 5 % faster (beyond the 2 % celerity
+    tolerance): not returned, the celerity named."""
+    from studies.attractors.certify import kick_line, kick_members
+
+    out, _, answer = census
+    rows = [r for r in answer["starts"] if r["class"] in ("wave", "multi-wave")]
+    row = dict(rows[0])
+    features = json.loads(json.dumps(row["features"]))
+    for c in features["components"]:
+        c["celerity_m_s"] *= 1.05
+    row["features"] = features
+    window = json.loads((out / "census.json").read_text())["window_s"]
+    result = kick_members(out, {"36:shifted": [row]}, window)
+    kick = result["36:shifted"]
+    assert kick["returned"] is False
+    assert any("celerity" in d for d in kick["differences"]), kick
+    assert "not returned" in kick_line(kick)
+
+
+def test_a_kick_is_never_in_place(census):
+    from studies.rundir import continue_batch
+
+    out, _, answer = census
+    kick = next(iter(answer["certificates"].values()))["kick"]
+    with pytest.raises(ValueError, match="never in place"):
+        continue_batch([out / "starts" / "runs" / kick["start"]], kick["until_s"] + 0.01,
+                       kick=0.01)
