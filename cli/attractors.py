@@ -142,18 +142,22 @@ def _attractors(args: argparse.Namespace) -> int:
         if args.bundle:
             return _fail("--along runs here: drop --bundle", comm.rank)
         return _along(census, out, args, comm)
-    bundle = None
+    read_starts = None
     if args.bundle:
-        bundle = Path(args.bundle)
-        rc = _prepare_bundle(census, bundle, comm)
+        from functools import partial
+
+        from studies.attractors.bundle import import_results
+
+        rc = _prepare_bundle(census, Path(args.bundle), comm)
         if rc is not None:
             return rc
+        read_starts = partial(import_results, Path(args.bundle))
     stream = open(os.devnull, "w") if args.json else sys.stdout  # noqa: SIM115
     if not (args.cea_fmax_hz > 0):
         return _fail(f"--cea-fmax-hz {args.cea_fmax_hz}: give a frequency > 0 (Hz)", comm.rank)
     rc = run_census(census, out, comm=comm, force=args.force, progress=args.progress,
                     backend=args.backend, certify=not args.no_certify,
-                    dt_limit=args.dt_limit, stream=stream, bundle=bundle)
+                    dt_limit=args.dt_limit, stream=stream, read_starts=read_starts)
     if comm.rank == 0 and rc in (0, 1, 130):
         _show(out, args)
     return rc

@@ -79,7 +79,8 @@ def done(directory: Path, start_id: str) -> bool:
     return (Path(directory) / RESULTS / start_id / "facts.json").is_file()
 
 
-def run_bundle(directory: str | Path, backend: str = "gpu", stream: TextIO = sys.stdout) -> int:
+def run_bundle(directory: str | Path, backend: str = "gpu",
+               stream: TextIO | None = None) -> int:
     """Run every batch of the bundle whose results are not all there; returns 0.
 
     Raises ``BundleError`` (a bundle that is not one), ValueError or ImportError (a backend
@@ -96,7 +97,7 @@ def run_bundle(directory: str | Path, backend: str = "gpu", stream: TextIO = sys
         ids = entry["ids"]
         head = f"batch {i + 1}/{len(batches)} (N = {entry['n_inner']}, {len(ids)} starts)"
         if all(done(directory, s) for s in ids):
-            print(f"{head}: done already", file=stream, flush=True)
+            print(f"{head}: done already", file=stream or sys.stdout, flush=True)
             continue
         scenes = [scene_from_dict(d) for d in entry["scenes"]]
         try:
@@ -121,7 +122,7 @@ def run_bundle(directory: str | Path, backend: str = "gpu", stream: TextIO = sys
         counts = ", ".join(f"{statuses.count(s)} {s}" for s in sorted(set(statuses)))
         steps = batch.stepper.step_count
         print(f"{head}: {steps} steps in {seconds:.1f} s ({len(ids) * steps / seconds:.3g} "
-              f"scene-steps/s, {backend}): {counts}", file=stream, flush=True)
+              f"scene-steps/s, {backend}): {counts}", file=stream or sys.stdout, flush=True)
     return 0
 
 

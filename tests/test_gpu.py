@@ -353,15 +353,17 @@ class _NoDevice:
 @pytest.mark.skipif(cupy is not None, reason="CuPy is installed: the refusal is not reached")
 @pytest.mark.parametrize("cupy_module, words", [(None, "needs CuPy"),
                                                  (_NoDevice, "finds no CUDA device")])
-def test_sweep_backend_gpu_without_a_gpu_is_one_line_and_exit_2(
-        tmp_path, capsys, monkeypatch, cupy_module, words):
+@pytest.mark.parametrize("command", [
+    ["sweep", str(REPO / "sweeps" / "smoke4.toml"), "--batch", "auto"],
+    ["attractors", str(REPO / "scenes" / "figure1_n132_damped.toml"), "--starts", "2"]])
+def test_backend_gpu_without_a_gpu_is_one_line_and_exit_2(
+        tmp_path, capsys, monkeypatch, cupy_module, words, command):
     pytest.importorskip("mpi4py")
     from cli.main import main
 
     monkeypatch.setitem(sys.modules, "cupy", cupy_module)  # None: ``import cupy`` fails
-    rc = main(["sweep", str(REPO / "sweeps" / "smoke4.toml"), "-o", str(tmp_path / "s"),
-               "--backend", "gpu", "--batch", "auto"])
+    rc = main([*command, "-o", str(tmp_path / "s"), "--backend", "gpu"])
     err = capsys.readouterr().err.strip().splitlines()
     assert rc == 2
     assert len(err) == 1 and err[0].startswith("error: ") and words in err[0], err
-    assert not (tmp_path / "s" / "runs").exists()  # nothing ran
+    assert not (tmp_path / "s").exists()  # nothing ran

@@ -75,7 +75,7 @@ def _definition(census, base) -> dict:  # noqa: ANN001
             "distribution": census.distribution.to_dict()}
 
 
-def write_bundle(census, directory: Path, stream: TextIO = sys.stdout) -> None:  # noqa: ANN001
+def write_bundle(census, directory: Path, stream: TextIO | None = None) -> None:  # noqa: ANN001
     """Prepare the bundle of ``census`` in ``directory`` (needs dolfinx; module docstring).
 
     Raises BundleError where a start cannot run as a batch or its steady state fails."""
@@ -106,7 +106,7 @@ def write_bundle(census, directory: Path, stream: TextIO = sys.stdout) -> None: 
                         "scenes": [scene_to_dict(sc) for sc in scenes]})
         print(f"bundle: N = {n}: {len(tasks)} starts, {batch.layout.dofs} dofs, "
               f"dt = {batch.dt:.4g} s, {batch.planned_steps()} steps -> {directory / name}",
-              file=stream, flush=True)
+              file=stream or sys.stdout, flush=True)
     manifest = {"kind": KIND, "format": 1, "scene_sha256": scene_digest(base),
                 "scene_file": str(census.scene), "definition": _definition(census, base),
                 "batches": batches}
@@ -143,7 +143,8 @@ class _Records:
         return dict(self._arrays)
 
 
-def import_results(bundle: Path, spec, starts_dir: Path, stream: TextIO = sys.stdout) -> int:  # noqa: ANN001
+def import_results(bundle: Path, spec, starts_dir: Path,  # noqa: ANN001
+                   stream: TextIO | None = None) -> int:
     """Rank 0: each start of ``spec`` (the census's sweep) from the node's results into its
     run directory ``starts_dir/runs/<id>`` (claimed as a sweep's). Returns 0, or 1 if some
     start failed on the node."""
@@ -169,7 +170,8 @@ def import_results(bundle: Path, spec, starts_dir: Path, stream: TextIO = sys.st
                               "bundle": str(bundle)}
             write_batch_member(run, folder, extra, Profile(), run.backend)
             rc = max(rc, int(run.status == "failed"))
-        print(f"bundle: {len(spec.tasks)} starts read from {bundle}", file=stream, flush=True)
+        print(f"bundle: {len(spec.tasks)} starts read from {bundle}",
+              file=stream or sys.stdout, flush=True)
     finally:
         owned.release()
     return rc

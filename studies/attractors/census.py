@@ -39,6 +39,7 @@ import math
 import re
 import sys
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TextIO
@@ -236,11 +237,12 @@ def claim_on_rank0(comm, take, refusals: tuple[type[Exception], ...]):  # noqa: 
 def run_census(census: Census, out_dir: str | Path, *, comm=None, force: bool = False,  # noqa: ANN001
                progress: str = "auto", backend: str = "cpu", certify: bool = True,
                dt_limit: bool = False, stream: TextIO = sys.stdout,
-               bundle: Path | None = None) -> int:
+               read_starts: Callable[..., int] | None = None) -> int:
     """Run (or resume) the census into ``out_dir`` and write its answer; collective.
 
-    ``bundle``: the starts' first legs are not run here but read from a bundle a node ran
-    (``studies.attractors.bundle.import_results``); the rest is the same.
+    ``read_starts(spec, starts_dir, stream)``: the starts' first legs are not run here but
+    read (``studies.attractors.bundle.import_results``: a bundle a node ran); the rest is
+    the same.
 
     ``certify``: certify every member (``studies.attractors.certify``); ``dt_limit``: also the
     rigid waves' Δt → 0 ladder (several Newton solves on finer levels; off by default).
@@ -269,11 +271,11 @@ def run_census(census: Census, out_dir: str | Path, *, comm=None, force: bool = 
         return 2
     try:
         t0 = time.perf_counter()
-        if bundle is None:
+        if read_starts is None:
             rc = run_sweep(spec, out_dir / STARTS, comm=comm, stream=stream,
                            progress=progress, batch="auto", backend=backend)
         else:
-            rc = comm.bcast(_import_bundle(bundle, spec, out_dir, stream)
+            rc = comm.bcast(_read(read_starts, spec, out_dir, stream)
                             if comm.rank == 0 else None, root=0)
         if rc in (0, 1):
             rc = max(rc, settle(out_dir, comm, stream))
@@ -290,13 +292,11 @@ def run_census(census: Census, out_dir: str | Path, *, comm=None, force: bool = 
     return rc
 
 
-def _import_bundle(bundle: Path, spec, out_dir: Path, stream: TextIO) -> int:  # noqa: ANN001
-    """Rank 0: the node's results of ``bundle`` as the census's start directories; 2 (said
-    in one line) where they cannot be read."""
-    from studies.attractors.bundle import import_results
-
+def _read(read_starts: Callable[..., int], spec, out_dir: Path, stream: TextIO) -> int:  # noqa: ANN001
+    """Rank 0: ``read_starts`` into the census's start directories; 2 (said in one line)
+    where they cannot be read."""
     try:
-        return import_results(bundle, spec, out_dir / STARTS, stream)
+        return read_starts(spec, out_dir / STARTS, stream)
     except (ValueError, OSError) as err:
         print(f"error: {err}", file=sys.stderr, flush=True)
         return 2
