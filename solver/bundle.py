@@ -31,8 +31,8 @@ import numpy as np
 from solver.atomic import atomic_save_npz, atomic_write_text
 from solver.ensemble_run import BatchLayout, BatchStarts
 
-__all__ = ["KIND", "MANIFEST", "RESULTS", "BundleError", "NodeResult", "batch_file",
-           "read_manifest", "read_result", "run_bundle", "write_batch"]
+__all__ = ["KIND", "MANIFEST", "RESULTS", "BundleError", "NodeResult", "load_batch",
+           "prepare_bundle", "read_manifest", "read_result", "run_bundle"]
 
 KIND = "stickslip-bundle"
 FORMAT = 1
@@ -44,17 +44,58 @@ class BundleError(ValueError):
     """A bundle that cannot be used (the message names the path and the fix)."""
 
 
-def batch_file(index: int) -> str:
-    return f"batch_{index:03d}.npz"
+def prepare_bundle(directory: str | Path, groups: list[tuple[list[str], list]],
+                   stream: TextIO | None = None, **meta: object) -> dict:
+    """Write a bundle (needs dolfinx): per group (start ids, their scenes, which must share
+    a batch: ``solver.schemes.select.batchable``), ``BatchSimulation(scenes, build=False)``'s
+    layout and starts to ``batch_NNN.npz``; then ``manifest.json`` with ``meta``. Returns the
+    manifest. BundleError where a scene cannot run in a batch or its steady state fails."""
+    from solver.ensemble_run import BatchSimulation
+    from solver.scene import scene_to_dict
+    from solver.schemes.select import batchable
+
+    directory = Path(directory)
+    directory.mkdir(parents=True, exist_ok=True)
+    batches = []
+    for i, (ids, scenes) in enumerate(groups):
+        if not batchable(scenes[0]):
+            raise BundleError(f"{scenes[0].name}: this scene cannot run in a batch (the "
+                              "implicit scheme, field output or time.kernel = \"numpy\"); "
+                              "run it where dolfinx is")
+        batch = BatchSimulation(scenes, build=False)
+        if batch.failures:
+            k, err = next(iter(batch.failures.items()))
+            raise BundleError(f"{scenes[k].name}: steady sliding failed ({err}); fix the "
+                              "scene")
+        name = f"batch_{i:03d}.npz"
+        starts = batch.starts
+        atomic_save_npz(directory / name, {**batch.layout.arrays(), "u0": starts.u0,
+                                           "steady_pressure": starts.steady_pressure},
+                        compress=False)
+        n_inner = scenes[0].mesh.n_inner
+        batches.append({"file": name, "n_inner": n_inner, "ids": list(ids),
+                        "scenes": [scene_to_dict(sc) for sc in scenes]})
+        print(f"bundle: N = {n_inner}: {len(ids)} starts, {batch.layout.dofs} dofs, "
+              f"dt = {batch.dt:.4g} s, {batch.planned_steps()} steps -> {directory / name}",
+              file=stream or sys.stdout, flush=True)
+    manifest = {"kind": KIND, "format": FORMAT, **meta, "batches": batches}
+    atomic_write_text(directory / MANIFEST, json.dumps(manifest, indent=1) + "\n")
+    return manifest
 
 
-def write_batch(directory: Path, index: int, layout: BatchLayout, starts: BatchStarts) -> str:
-    """``directory/batch_NNN.npz``: the layout and the starts (atomic); returns its name."""
-    name = batch_file(index)
-    atomic_save_npz(directory / name, {**layout.arrays(), "u0": starts.u0,
-                                       "steady_pressure": starts.steady_pressure},
-                    compress=False)
-    return name
+def load_batch(directory: str | Path, entry: dict) -> tuple[list, BatchLayout, BatchStarts]:
+    """(scenes, layout, starts) of one batch of the manifest (``entry``)."""
+    from solver.scene import scene_from_dict
+
+    path = Path(directory) / entry["file"]
+    try:
+        with np.load(path) as z:
+            arrays = {k: z[k] for k in z.files}
+    except (OSError, ValueError) as err:
+        raise BundleError(f"{path}: unreadable ({err}); prepare the bundle again") from None
+    starts = BatchStarts(arrays.pop("u0"), arrays.pop("steady_pressure"))
+    return ([scene_from_dict(d) for d in entry["scenes"]], BatchLayout.from_arrays(arrays),
+            starts)
 
 
 def read_manifest(directory: Path) -> dict:
@@ -86,7 +127,6 @@ def run_bundle(directory: str | Path, backend: str = "gpu",
     Raises ``BundleError`` (a bundle that is not one), ValueError or ImportError (a backend
     this machine cannot use: ``solver.schemes.select.check_backend``)."""
     from solver.ensemble_run import BatchSimulation
-    from solver.scene import scene_from_dict
     from solver.schemes.select import check_backend
 
     directory = Path(directory)
@@ -99,17 +139,10 @@ def run_bundle(directory: str | Path, backend: str = "gpu",
         if all(done(directory, s) for s in ids):
             print(f"{head}: done already", file=stream or sys.stdout, flush=True)
             continue
-        scenes = [scene_from_dict(d) for d in entry["scenes"]]
-        try:
-            with np.load(directory / entry["file"]) as z:
-                arrays = {k: z[k] for k in z.files}
-        except (OSError, ValueError) as err:
-            raise BundleError(f"{directory / entry['file']}: unreadable ({err}); prepare the "
-                              "bundle again") from None
-        starts = BatchStarts(arrays.pop("u0"), arrays.pop("steady_pressure"))
+        scenes, layout, starts = load_batch(directory, entry)
         t0 = time.perf_counter()
         batch = BatchSimulation(scenes, backend=backend, spool_parent=directory,
-                                prepared=(BatchLayout.from_arrays(arrays), starts))
+                                prepared=(layout, starts))
         try:
             batch.proceed()
             for start_id, run in zip(ids, batch.runs, strict=True):

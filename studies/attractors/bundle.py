@@ -22,7 +22,6 @@ definition differ), as are results that are missing.
 
 from __future__ import annotations
 
-import json
 import sys
 from pathlib import Path
 from typing import TextIO
@@ -30,8 +29,8 @@ from typing import TextIO
 import numpy as np
 
 from solver.atomic import atomic_write_text
-from solver.bundle import KIND, MANIFEST, BundleError, read_manifest, read_result, write_batch
-from solver.scene import scene_to_dict, write_scene
+from solver.bundle import MANIFEST, BundleError, prepare_bundle, read_manifest, read_result
+from solver.scene import write_scene
 from solver.scene.files import scene_digest
 
 __all__ = ["BundleError", "NodeRun", "bundle_state", "import_results", "write_bundle"]
@@ -76,12 +75,9 @@ def _definition(census, base) -> dict:  # noqa: ANN001
 
 
 def write_bundle(census, directory: Path, stream: TextIO | None = None) -> None:  # noqa: ANN001
-    """Prepare the bundle of ``census`` in ``directory`` (needs dolfinx; module docstring).
-
-    Raises BundleError where a start cannot run as a batch or its steady state fails."""
-    from solver.ensemble_run import BatchSimulation
+    """Prepare the bundle of ``census`` in ``directory`` (needs dolfinx; module docstring):
+    one batch per mesh (``solver.bundle.prepare_bundle``)."""
     from studies.sweep import scene_for
-    from studies.sweep.batch import batch_key
 
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
@@ -89,28 +85,10 @@ def write_bundle(census, directory: Path, stream: TextIO | None = None) -> None:
     by_mesh: dict[int, list] = {}
     for task in spec.tasks:
         by_mesh.setdefault(task.params["mesh.n_inner"], []).append(task)
-    batches = []
-    for i, (n, tasks) in enumerate(sorted(by_mesh.items())):
-        scenes = [scene_for(spec, t) for t in tasks]
-        if batch_key(scenes[0]) is None:
-            raise BundleError(f"{census.scene}: this scene cannot run as a batch (the "
-                              "implicit scheme, field output or time.kernel = \"numpy\"); "
-                              "the bundle route runs batches: run the census here")
-        batch = BatchSimulation(scenes, build=False)
-        if batch.failures:
-            k, err = next(iter(batch.failures.items()))
-            raise BundleError(f"{scenes[k].name}: steady sliding failed ({err}); fix the "
-                              "scene")
-        name = write_batch(directory, i, batch.layout, batch.starts)
-        batches.append({"file": name, "n_inner": n, "ids": [t.id for t in tasks],
-                        "scenes": [scene_to_dict(sc) for sc in scenes]})
-        print(f"bundle: N = {n}: {len(tasks)} starts, {batch.layout.dofs} dofs, "
-              f"dt = {batch.dt:.4g} s, {batch.planned_steps()} steps -> {directory / name}",
-              file=stream or sys.stdout, flush=True)
-    manifest = {"kind": KIND, "format": 1, "scene_sha256": scene_digest(base),
-                "scene_file": str(census.scene), "definition": _definition(census, base),
-                "batches": batches}
-    atomic_write_text(directory / MANIFEST, json.dumps(manifest, indent=1) + "\n")
+    groups = [([t.id for t in tasks], [scene_for(spec, t) for t in tasks])
+              for _, tasks in sorted(by_mesh.items())]
+    prepare_bundle(directory, groups, stream, scene_sha256=scene_digest(base),
+                   scene_file=str(census.scene), definition=_definition(census, base))
 
 
 class NodeRun:
