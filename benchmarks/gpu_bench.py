@@ -460,36 +460,30 @@ def _classify(b: int) -> str:
 
 
 def stage_cli(args) -> None:
-    """The census from the command line: a sweep file of ``--starts`` seeds at the census
-    point, run by ``stickslip sweep --batch S --backend B``; its exit status, wall time, the
-    members' shares from sweep.json and the last line of its standard error."""
+    """The census from the command line: ``stickslip attractors`` of ``--starts`` random
+    starts at the census point, first leg only (``--max-time`` = ``--end-time``), on
+    ``--backend``; its exit status, wall time, the classes' shares from attractors.json and
+    the last line of its standard error."""
     import subprocess
 
     out_dir = Path(tempfile.mkdtemp(prefix="gpu-bench-cli-", dir=args.spool_dir))
-    sweep = out_dir / "census.toml"
-    sweep.write_text(
-        f'name = "census_{args.starts}"\nbase = "{REPO / CENSUS_SCENE}"\n'
-        f'set = ["time.end_time = {args.end_time}", \'initial.perturbation = "random"\', '
-        f'"output.sample_interval = {args.sample_interval}"]\n'
-        f'[grid]\n"initial.seed" = {list(range(args.starts))}\n[map]\nsemianalytic = false\n')
-    cmd = ["stickslip", "sweep", str(sweep), "-o", str(out_dir / "sweep"), "--batch",
-           str(args.starts), "--backend", args.backend, "--progress", "lines"]
+    t = repr(args.end_time)
+    cmd = ["stickslip", "attractors", str(REPO / CENSUS_SCENE), "--starts", str(args.starts),
+           "--end-time", t, "--max-time", t, "--set",
+           f"output.sample_interval={args.sample_interval!r}", "--no-certify", "--backend",
+           args.backend, "--progress", "lines", "-o", str(out_dir / "census")]
     t0 = time.perf_counter()
     proc = subprocess.run(cmd, capture_output=True, text=True, cwd=REPO)
     seconds = time.perf_counter() - t0
-    rows = []
-    table = out_dir / "sweep" / "sweep.json"
-    if table.exists():
-        data = json.loads(table.read_text())
-        rows = data.get("rows", data) if isinstance(data, dict) else data
-    members = Counter(f"{r.get('regime')} k={r.get('mode')}" for r in rows
-                      if isinstance(r, dict))
+    answer = out_dir / "census" / "attractors.json"
+    counts = json.loads(answer.read_text())["counts"] if answer.exists() else {}
     err = proc.stderr.strip().splitlines()
-    emit(args.json, {"stage": "cli", "command": " ".join(cmd[:2] + ["census.toml"] + cmd[3:]),
+    emit(args.json, {"stage": "cli", "command": " ".join(cmd[:2] + [CENSUS_SCENE] + cmd[3:-1]),
                      "backend": args.backend, "starts": args.starts, "end_time": args.end_time,
                      "rc": proc.returncode, "seconds": seconds,
                      "stderr_lines": len(err), "stderr_last": err[-1] if err else "",
-                     "shares": {k: v / max(1, len(rows)) for k, v in members.most_common()}})
+                     "shares": {k: v / max(1, sum(counts.values()))
+                                for k, v in sorted(counts.items())}})
     shutil.rmtree(out_dir, ignore_errors=True)
 
 
@@ -681,7 +675,7 @@ def main(argv: list[str] | None = None) -> None:
     p.add_argument("--skip-cpu", action="store_true")
     p.add_argument("--workers", type=int, default=os.cpu_count() or 1,
                    help="processes that classify the scenes")
-    p = sub.add_parser("cli", parents=[common], help="the census by `stickslip sweep`")
+    p = sub.add_parser("cli", parents=[common], help="the census by `stickslip attractors`")
     p.add_argument("--starts", type=int, default=4096)
     p.add_argument("--end-time", type=float, default=0.3)
     p.add_argument("--sample-interval", type=float, default=1e-3)
