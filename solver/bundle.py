@@ -31,7 +31,7 @@ import numpy as np
 from solver.atomic import atomic_save_npz, atomic_write_text
 from solver.ensemble_run import BatchLayout, BatchStarts
 
-__all__ = ["KIND", "MANIFEST", "RESULTS", "BundleError", "NodeResult", "load_batch",
+__all__ = ["KIND", "MANIFEST", "RESULTS", "BundleError", "NodeResult", "done", "load_batch",
            "prepare_bundle", "read_manifest", "read_result", "run_bundle"]
 
 KIND = "stickslip-bundle"

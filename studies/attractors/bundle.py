@@ -22,6 +22,7 @@ definition differ), as are results that are missing.
 
 from __future__ import annotations
 
+import json
 import sys
 from pathlib import Path
 from typing import TextIO
@@ -29,7 +30,14 @@ from typing import TextIO
 import numpy as np
 
 from solver.atomic import atomic_write_text
-from solver.bundle import MANIFEST, BundleError, prepare_bundle, read_manifest, read_result
+from solver.bundle import (
+    MANIFEST,
+    BundleError,
+    done,
+    prepare_bundle,
+    read_manifest,
+    read_result,
+)
 from solver.scene import write_scene
 from solver.scene.files import scene_digest
 
@@ -58,12 +66,11 @@ def bundle_state(census, directory: Path) -> str:  # noqa: ANN001
         return "new"
     manifest = read_manifest(directory)
     base = census.base_scene()
+    wanted = json.loads(json.dumps(_definition(census, base)))  # as the manifest holds it
     if manifest.get("scene_sha256") != scene_digest(base) or \
-            manifest.get("definition") != _definition(census, base):
+            manifest.get("definition") != wanted:
         raise BundleError(f"--bundle {directory} was prepared for another scene point or "
                           "start distribution; use another --bundle directory")
-    from solver.bundle import done
-
     ids = [i for entry in manifest["batches"] for i in entry["ids"]]
     return "ready" if all(done(directory, i) for i in ids) else "pending"
 
