@@ -19,8 +19,8 @@ kernel), so they may share the arrays. Examples (run two at once for the 2-rank 
 
     git show 202fb9c:solver/_fused_kernels.py > /tmp/old_kernels.py     # before lean steps
     git show main:solver/_fused_kernels.py > /tmp/main_kernels.py       # lean steps, main
-    ./dev python3 benchmarks/batched_step_ab.py DIR/problem_n528.npz --old /tmp/old_kernels.py --B 8
-    ./dev python3 benchmarks/batched_step_ab.py DIR/problem_n132.npz --both --B 32   # LONG_B
+    ./dev python3 benchmarks/batched_step_ab.py DIR/problem_n528 --old /tmp/old_kernels.py --B 8
+    ./dev python3 benchmarks/batched_step_ab.py DIR/problem_n132 --both --B 32   # LONG_B
 """
 
 from __future__ import annotations
@@ -44,11 +44,12 @@ def _old_kernel(path: Path):
 
 
 def main() -> None:
-    from benchmarks.ensemble import _tile
-    from solver.ensemble import BatchedExplicit, BatchedProblem
+    from benchmarks.gpu_bench import load, tiled
+    from solver.contact import ContactLaw
+    from solver.ensemble import BatchedExplicit
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("npz", type=Path, help="a problem written by benchmarks/ensemble.py --dump")
+    ap.add_argument("bundle", type=Path, help="a bundle of benchmarks/gpu_bench.py prepare")
     ap.add_argument("--old", type=Path, help="_fused_kernels.py of an earlier commit")
     ap.add_argument("--B", type=int, default=8)
     ap.add_argument("--steps", type=int, default=100, help="steps per round and kernel")
@@ -60,12 +61,12 @@ def main() -> None:
                     help="time batched_step against batched_step_long (lean and full steps)")
     args = ap.parse_args()
 
-    with np.load(args.npz) as z:
-        extra = {k: z[k] for k in ("u0", "d", "slide", "f")}
-    bp = BatchedProblem.load(args.npz)
-    B = args.B
-    u0 = _tile(extra["u0"], B)
-    scenes = (_tile(extra["d"], B), _tile(extra["slide"], B), _tile(extra["f"], B))
+    data = load(args.bundle)
+    bp = data[1].problem
+    columns, starts = tiled(data, args.B, 1, 1)  # the bundle's starts, tiled to B columns
+    laws = [ContactLaw.from_scene(sc, bp.dt) for sc in columns]
+    u0, B = starts.u0, args.B
+    scenes = tuple(np.array([getattr(law, k) for law in laws]) for k in ("d", "slide", "f"))
     it = BatchedExplicit(bp, *scenes)
     if args.today != "auto":
         from solver.fused import kernel
@@ -125,7 +126,7 @@ def main() -> None:
     same = bool(np.array_equal(ref.u, it.u))
     for k, x in times.items():
         name = k if k.startswith("old") or args.both else f"{k} ({it._name})"
-        print(f"{args.tag} {args.npz.name} B={B} {name}: "
+        print(f"{args.tag} {args.bundle.name} B={B} {name}: "
               f"median {statistics.median(x):.1f} "
               f"min {min(x):.1f} max {max(x):.1f} us/scene-step ({args.rounds} rounds x "
               f"{args.steps} steps); state same bits as today's kernel alone: {same}",

@@ -2,26 +2,27 @@
 
 Each stage is one process that appends one JSON line per measurement to ``--json``; ``report``
 turns the lines into ``gpu_suite.json`` and the table ``gpu_suite.md``. The stages run from
-the npz problems of ``prepare`` (made where dolfinx is, e.g. ``./dev``), so the GPU node
-needs numpy, numba and CuPy only::
+the bundles of ``prepare`` (``solver.bundle``: the batch's layout, starts and scenes, made
+where dolfinx is, e.g. ``./dev``), so the GPU node needs numpy, numba and CuPy only::
 
     ./dev python3 benchmarks/gpu_bench.py prepare build/gpu_suite       # here, once
     python3 benchmarks/gpu_bench.py env --json J
-    python3 benchmarks/gpu_bench.py rate --npz P --target gpu --B 4096 --json J
-    python3 benchmarks/gpu_bench.py check --npz P --B 4096 --json J
-    python3 benchmarks/gpu_bench.py census --npz build/gpu_suite/census_n132.npz --json J
+    python3 benchmarks/gpu_bench.py rate --bundle B --target gpu --B 4096 --json J
+    python3 benchmarks/gpu_bench.py check --bundle B --B 4096 --json J
+    python3 benchmarks/gpu_bench.py census --bundle build/gpu_suite/census_n132 --json J
     python3 benchmarks/gpu_bench.py report J --out DIR
 
-Paths (``rate --paths``, timed in turn in one process), as a sweep's batch
-(``solver.ensemble_run.BatchSimulation`` in ``solver.run.run_loop``) runs them:
+Every path is the product's: the bundle's scenes and starts tiled to B columns, built as a
+sweep's batch (``solver.ensemble_run.BatchSimulation(scenes, prepared=...)``, the node's
+runner's batch) and stepped by ``solver.run.run_loop``. Paths (``rate --paths``, timed in
+turn in one process):
 
-* ``kernel``: the step alone, every step lean (v, a, K u not stored: an unsampled step);
-* ``observed``: the whole loop body: lean steps, a full step on each sampled level, the
-  probes every step, the samples (fields, status, energies) and the health check every
-  ``every`` steps (the sweep's sample_interval, 1e-4 s); the record spooled to disk on the
-  GPU and kept in memory on the CPU, as the sweep does;
-* ``observed-ram`` (GPU only): the same with the record kept in host memory, no file (the
-  cost of the disk, against ``observed``);
+* ``kernel``: the scheme's batched stepper alone (``build_batch``), every step lean (v, a,
+  K u not stored: an unsampled step);
+* ``observed``: the batch: lean steps, a full step on each sampled level, the probes every
+  step, the samples (fields, status, energies) and the health check every ``every`` steps
+  (the scenes' sample_interval, 1e-4 s); the record spooled to disk on the GPU and kept in
+  memory on the CPU, as the sweep does;
 * ``coarse``: the same as ``observed`` at a coarse cadence (``--coarse-interval``, 1e-3 s).
 
 On the GPU the observers copy their chunks to pinned host memory on a stream of their own
@@ -39,6 +40,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import platform
 import shutil
@@ -60,64 +62,69 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
 #: The timed paths (``rate --paths``), in the report's order.
-PATHS = ("kernel", "observed", "observed-ram", "coarse")
+PATHS = ("kernel", "observed", "coarse")
 #: The census point: the paper's Figure-3 scene (undamped, as a batch is), random starts.
 CENSUS_SCENE = "scenes/figure3_n132.toml"
 
 
-# ------------------------------------------------------------------ the ensemble's API, once
+# --------------------------------------------------------------- the product's batch, tiled
 
 
-def ensemble(bp, d, slide, f, u0, *, xp, kernel: str, observe: dict | None = None,
-             diag: bool = False):
-    """The batch of ``solver.ensemble`` and, with ``observe``, its ``BatchRecorder``.
+def load(path: Path):
+    """(scenes, layout, starts) of the first batch of the bundle ``path`` (``prepare``)."""
+    from solver.bundle import load_batch, read_manifest
 
-    The one place that calls the ensemble's public classes (``BatchedExplicit``,
-    ``BatchRecorder``; benchmarks/ensemble.py's npz mode uses it too). ``observe``: {every,
-    max_samples, max_steps, probe_nodes (contact slots), spool_dir, chunk (optional)}.
-    Returns ``(integ, rec, advance)``: ``advance(k)`` runs k steps of the path, lean steps
-    without ``rec``; with it, step for step what a sweep's batch does (``BatchSimulation``:
-    v, a, K u stored on the sampled levels, its probe hook after every step, its sampling
-    observer with the energy guard, ``BatchRecorder.observe``, on the sampled levels; after
-    the last step, ``close(integ, rec)``). ``solver.run.run_loop`` itself is not called: it imports
-    mpi4py, which a GPU node need not have. ``diag``: store v, a, K u at every step.
-    """
-    from solver.ensemble import BatchedExplicit
-    from solver.ensemble_observers import BatchRecorder
+    return load_batch(path, read_manifest(path)["batches"][0])
 
-    integ = BatchedExplicit(bp, d, slide, f, xp=xp, kernel=kernel)
-    integ.set_state(u0, np.zeros_like(u0))
-    if observe is None:
-        def advance(k: int) -> None:
-            for _ in range(k):
-                integ.step(diag=diag)
 
-        return integ, None, advance
-    perm = np.argsort(bp.theta)
-    probes = np.asarray(observe["probe_nodes"], dtype=np.int64)  # contact slots
-    rec = BatchRecorder(
-        integ, mass=bp.mass, perm=perm, theta=bp.theta[perm], ds=np.zeros(bp.cx.size),
-        every=observe["every"], max_samples=observe["max_samples"],
-        max_steps=observe["max_steps"], probe_nodes=bp.cx[probes] // 2,
-        probe_pc=np.exp(-1j * bp.theta[probes]), probe_deg=np.degrees(bp.theta[probes]),
-        spool_dir=observe.get("spool_dir"), chunk=observe.get("chunk", 16))
-    integ.keep_nodes(bp.cx[probes] // 2)
+def tiled(data, B: int, every: int, steps: int):
+    """The bundle's scenes and starts as B columns (column b: start b mod S), each run for
+    ``steps`` steps and sampled every ``every``: (scenes, ``BatchStarts``)."""
+    from solver.ensemble_run import BatchStarts
+
+    scenes, layout, starts = data
+    dt = layout.problem.dt
+    timed = [sc.with_overrides(f"time.end_time={steps * dt!r}", "time.max_steps=0",
+                               f"output.sample_interval={every * dt!r}") for sc in scenes]
+    cols = np.arange(B) % len(scenes)
+    return [timed[c] for c in cols], BatchStarts(starts.u0[:, cols],
+                                                 starts.steady_pressure[cols])
+
+
+def batch_of(data, B: int, target: str, every: int, steps: int, spool_parent=None):
+    """The batch of B tiled columns on ``target`` (the backend: cpu, gpu) and
+    ``advance(k)``: k steps of ``solver.run.run_loop`` with the batch's observers."""
+    from solver.ensemble_run import BatchSimulation
+    from solver.run import run_loop
+
+    scenes, starts = tiled(data, B, every, steps)
+    batch = BatchSimulation(scenes, backend=target, spool_parent=spool_parent,
+                            prepared=(data[1], starts))
 
     def advance(k: int) -> None:
-        for _ in range(k):
-            integ.step(diag=diag or rec.due(integ.step_count))
-            rec.record_probes()
-            if rec.due(integ.step_count - 1):
-                for b in rec.observe(integ.time):
-                    integ.mask(b)
+        run_loop(batch.stepper, batch.observers, math.inf, batch.stepper.step_count + k)
 
-    return integ, rec, advance
+    return batch, advance
 
 
-def close(integ, rec) -> None:
-    """Write out the record; mask the scenes the guard found in its last chunks (GPU)."""
-    for b in rec.close():
-        integ.mask(b)
+def finish(batch) -> None:
+    """After a loop stopped by steps: the record written out, and the scenes the guard
+    found in its last chunks (GPU) masked (as ``BatchSimulation.proceed`` ends)."""
+    batch.observers[0].diverge(batch.recorder.close(), batch.stepper)
+
+
+def stepper_of(data, B: int, target: str):
+    """The scheme's batched stepper alone (no observers) of B tiled columns, and
+    ``advance(k)``: k lean steps."""
+    from solver.contact import ContactLaw
+    from solver.schemes.select import for_scene
+
+    scenes, starts = tiled(data, B, 1, 1)
+    bp = data[1].problem
+    laws = [ContactLaw.from_scene(sc, bp.dt) for sc in scenes]
+    stepper = for_scene(scenes[0]).build_batch(bp, laws, target, scenes[0].damping.tau)
+    stepper.set_state(starts.u0, np.zeros_like(starts.u0))
+    return stepper, lambda k: stepper.advance(k, math.inf)
 
 
 # ----------------------------------------------------------------------------- helpers
@@ -145,33 +152,12 @@ def host(a) -> np.ndarray:
     return np.asarray(a.get() if hasattr(a, "get") else a)
 
 
-def load(path: Path):
-    """(BatchedProblem, extras) of an npz written by ``prepare``."""
-    from solver.ensemble import BatchedProblem
-
-    bp = BatchedProblem.load(path)
-    with np.load(path) as z:
-        extra = {k: z[k] for k in z.files if k not in bp.FIELDS}
-    return bp, extra
-
-
-def tile(arr: np.ndarray, B: int) -> np.ndarray:
-    """The last axis repeated to length B (columns 0..s-1, then again)."""
-    reps = -(-B // arr.shape[-1])
-    return np.tile(arr, (1,) * (arr.ndim - 1) + (reps,))[..., :B].copy()
-
-
-def cadence(args, bp, extra) -> int:
-    """Steps between samples: ``--sample-interval`` (s) when given, else the npz's (the
+def cadence(args, data) -> int:
+    """Steps between samples: ``--sample-interval`` (s) when given, else the scenes' (the
     sweep's 1e-4 s)."""
-    if args.sample_interval:
-        return max(1, int(round(args.sample_interval / bp.dt)))
-    return int(extra["every"])
-
-
-def probe_slot(bp) -> int:
-    """The contact node nearest theta = 0 (the scenes' probes_deg = [0])."""
-    return int(np.argmin(np.abs((bp.theta + np.pi) % (2 * np.pi) - np.pi)))
+    dt = data[1].problem.dt
+    interval = args.sample_interval or data[0][0].output.sample_interval
+    return max(1, int(round(interval / dt)))
 
 
 def dram_bytes_per_scene_step(n: int, m: int, every: int, observed: bool) -> float:
@@ -273,59 +259,51 @@ def stage_rate(args) -> None:
     in turn until ``--steps`` are done or ``--seconds`` have passed, so that a drift of the
     machine's speed falls on every path alike. One record per path."""
     xp = namespace(args.target, args.emulate)
-    bp, extra = load(args.npz)
-    kernel = "numba" if args.target == "cpu" else "cuda"
-    every = {"kernel": int(extra["every"]), "observed": cadence(args, bp, extra),
+    data = load(args.bundle)
+    bp = data[1].problem
+    every = {"kernel": cadence(args, data), "observed": cadence(args, data),
              "coarse": max(1, int(round(args.coarse_interval / bp.dt)))}
-    every["observed-ram"] = every["observed"]
-    paths = args.paths or [p for p in PATHS if p != "observed-ram" or args.target == "gpu"]
+    paths = args.paths or list(PATHS)
     block, B = args.block, args.B
     total = 2 * block + args.steps + 1  # warm-up, the timed steps, a last block past --steps
-    spools, runs = [], {}
+    spool = Path(tempfile.mkdtemp(prefix="gpu-bench-spool-", dir=args.spool_dir))
+    runs = {}
     try:
         for path in paths:
-            observe = None
-            if path != "kernel":
-                spool = None
-                if xp is not np and path != "observed-ram":  # the sweep spools to disk
-                    spool = Path(tempfile.mkdtemp(prefix="gpu-bench-spool-", dir=args.spool_dir))
-                    spools.append(spool)
-                observe = {"every": every[path], "max_samples": total // every[path] + 2,
-                           "max_steps": total, "probe_nodes": [probe_slot(bp)],
-                           "spool_dir": spool}
-            run = ensemble(bp, tile(extra["d"], B), tile(extra["slide"], B),
-                           tile(extra["f"], B), tile(extra["u0"], B), xp=xp, kernel=kernel,
-                           observe=observe)
+            if path == "kernel":
+                stepper, advance = stepper_of(data, B, args.target)
+                batch = None
+            else:
+                batch, advance = batch_of(data, B, args.target, every[path], total, spool)
+                stepper = batch.stepper
             t0 = time.perf_counter()
-            run[2](block)
+            advance(block)
             synchronize(xp)
-            runs[path] = {"run": run, "first": time.perf_counter() - t0, "steps": 0,
-                          "seconds": 0.0, "cpu": 0.0}
+            runs[path] = {"stepper": stepper, "batch": batch, "advance": advance,
+                          "first": time.perf_counter() - t0, "steps": 0, "seconds": 0.0,
+                          "cpu": 0.0}
         t_start = time.perf_counter()
         while min(r["steps"] for r in runs.values()) < args.steps and (
                 time.perf_counter() - t_start < args.seconds or not runs[paths[0]]["steps"]):
             for r in runs.values():
                 t0, c0 = time.perf_counter(), time.process_time()
-                r["run"][2](block)
-                if r["run"][1] is not None:  # the block's copies and writes are in its time
-                    r["run"][1].drain()
+                r["advance"](block)
+                if r["batch"] is not None:  # the block's copies and writes are in its time
+                    r["batch"].recorder.drain()
                 synchronize(xp)
                 r["seconds"] += time.perf_counter() - t0
                 r["cpu"] += time.process_time() - c0
                 r["steps"] += block
         for r in runs.values():
-            integ, rec, _ = r["run"]
-            r["active"] = int(np.sum(integ.active))
-            r["finite"] = bool(np.all(np.isfinite(host(integ.u))))
-            if rec is not None:
+            if r["batch"] is not None:
                 t0 = time.perf_counter()
-                close(integ, rec)
+                finish(r["batch"])
                 r["close_s"] = time.perf_counter() - t0
-                r["spool_wait_s"] = rec.wait_s
-                r["active"] = int(np.sum(integ.active))
+                r["spool_wait_s"] = r["batch"].recorder.wait_s
+            r["active"] = int(np.sum(r["stepper"].active))
+            r["finite"] = bool(np.all(np.isfinite(host(r["stepper"].u))))
     finally:
-        for spool in spools:
-            shutil.rmtree(spool, ignore_errors=True)
+        shutil.rmtree(spool, ignore_errors=True)
     n, m = bp.n, int(bp.cx.size)
     for path, r in runs.items():
         rate = B * r["steps"] / r["seconds"]
@@ -347,23 +325,27 @@ def stage_check(args) -> None:
     """The observed path on the GPU (B scenes) against the CPU numba path on the first
     ``--scenes`` of them, ``--steps`` steps: state, statuses and recorded samples."""
     xp = namespace("gpu", args.emulate)
-    bp, extra = load(args.npz)
-    every = cadence(args, bp, extra)
+    data = load(args.bundle)
+    every = cadence(args, data)
     S = min(args.scenes, args.B)
-    total = args.steps + 1
-    observe = {"every": every, "max_samples": total // every + 2, "max_steps": total,
-               "probe_nodes": [probe_slot(bp)], "spool_dir": None}
     runs = {}
-    ref = cpu_reference_kernel()
-    for target, B, x, kernel in (("gpu", args.B, xp, "cuda"), ("cpu", S, np, ref)):
-        integ, rec, advance = ensemble(bp, tile(extra["d"], B), tile(extra["slide"], B),
-                                       tile(extra["f"], B), tile(extra["u0"], B), xp=x,
-                                       kernel=kernel, observe=observe)
-        advance(args.steps)
-        synchronize(x)
-        close(integ, rec)
-        runs[target] = (integ, rec)
-    (g, grec), (c, crec) = runs["gpu"], runs["cpu"]
+    spool = Path(tempfile.mkdtemp(prefix="gpu-bench-spool-", dir=args.spool_dir))
+    try:  # the GPU's record is spooled there: compared before it goes
+        for target, B in (("gpu", args.B), ("cpu", S)):
+            batch, _ = batch_of(data, B, target, every, args.steps, spool)
+            batch.proceed()
+            runs[target] = batch
+        out = _compare(runs["gpu"], runs["cpu"], S)
+    finally:
+        shutil.rmtree(spool, ignore_errors=True)
+    emit(args.json, {"stage": "check", "emulated": bool(getattr(xp, "EMULATED", False)),
+                     "N": int(data[1].problem.cx.size), "B": args.B, "scenes_compared": S,
+                     "reference": "numba", "steps": args.steps, **out})
+
+
+def _compare(gpu, cpu, S: int) -> dict:
+    """The first S columns of two batches: state, statuses, samples, probes, works."""
+    (g, grec), (c, crec) = (gpu.stepper, gpu.recorder), (cpu.stepper, cpu.recorder)
     u_g = host(g.u)[:, :S]
     same = {"u": np.array_equal(u_g, c.u),
             "v_pred": np.array_equal(host(g.v_pred)[:, :S], c.v_pred),
@@ -375,12 +357,9 @@ def stage_check(args) -> None:
     probes = max(_rel(grec.probe_arrays(b)["probe_data"], crec.probe_arrays(b)["probe_data"])
                  for b in range(S))
     work = _rel(g.work_totals()[:, :S], c.work_totals())
-    emit(args.json, {"stage": "check", "emulated": bool(getattr(xp, "EMULATED", False)),
-                     "N": int(bp.cx.size), "B": args.B, "scenes_compared": S, "reference": ref,
-                     "steps": args.steps, "same_bits": same,
-                     "max_rel_diff": {"fields": fields, "energies": energies,
-                                      "probes": probes, "work": work},
-                     "u_rel_diff": _rel(u_g, c.u)})
+    return {"same_bits": same, "max_rel_diff": {"fields": fields, "energies": energies,
+                                                "probes": probes, "work": work},
+            "u_rel_diff": _rel(u_g, c.u)}
 
 
 def _rel(a: np.ndarray, b: np.ndarray) -> float:
@@ -390,28 +369,27 @@ def _rel(a: np.ndarray, b: np.ndarray) -> float:
 
 
 def stage_census(args) -> None:
-    """The census of ``--B`` starts (the npz's starts, tiled) for ``--end-time`` seconds on
-    the GPU with the observers, then the classification of every scene
+    """The census of ``--B`` starts (the bundle's starts, tiled) for ``--end-time`` seconds
+    on the GPU with the observers, then the classification of every scene
     (``postprocess.analysis.analyse``: regime, mode, direction), its members and shares,
     and the first ``--scenes`` starts again on the CPU: state bitwise, same members."""
     xp = namespace(args.target, args.emulate)
-    bp, extra = load(args.npz)
-    steps = int(round(args.end_time / bp.dt))
-    every = max(1, int(round(args.sample_interval / bp.dt)))
-    B = args.B
-    S = min(args.scenes, B, extra["u0"].shape[1])
+    data = load(args.bundle)
+    dt = data[1].problem.dt
+    steps = int(round(args.end_time / dt))
+    every = max(1, int(round(args.sample_interval / dt)))
+    B, starts = args.B, len(data[0])
+    S = min(args.scenes, B, starts)
     out: dict = {"stage": "census", "target": args.target,
-                 "emulated": bool(getattr(xp, "EMULATED", False)), "N": int(bp.cx.size),
-                 "B": B, "starts": int(extra["u0"].shape[1]), "end_time": args.end_time,
-                 "steps": steps, "every": every, "scene_steps": B * steps}
-    kernel = "numba" if xp is np else "cuda"
-    labels, u, out[args.target] = _census_run(bp, extra, B, xp, kernel, steps, every, args)
+                 "emulated": bool(getattr(xp, "EMULATED", False)),
+                 "N": int(data[1].problem.cx.size), "B": B, "starts": starts,
+                 "end_time": args.end_time, "steps": steps, "every": every,
+                 "scene_steps": B * steps}
+    labels, u, out[args.target] = _census_run(data, B, args.target, steps, every, args)
     if not args.skip_cpu:
         try:  # the CPU's side must not cost the GPU's result
-            ref = cpu_reference_kernel()
-            lab_c, u_c, out["cpu-subsample"] = _census_run(bp, extra, S, np, ref, steps,
-                                                           every, args)
-            out["cpu-subsample"]["kernel"] = ref
+            lab_c, u_c, out["cpu-subsample"] = _census_run(data, S, "cpu", steps, every, args)
+            out["cpu-subsample"]["kernel"] = "numba"
             out["subsample_same_bits"] = bool(np.array_equal(u[:, :S], u_c))
             out["subsample_same_members"] = labels[:S] == lab_c
         except Exception as err:
@@ -419,40 +397,26 @@ def stage_census(args) -> None:
     emit(args.json, out)
 
 
-def _census_run(bp, extra, nb: int, xp, kernel: str, steps: int, every: int, args):
+def _census_run(data, nb: int, target: str, steps: int, every: int, args):
     """One census batch of ``nb`` scenes: (members, final u on the host, timings/shares)."""
     spool = Path(tempfile.mkdtemp(prefix="gpu-census-spool-", dir=args.spool_dir))
     try:
-        observe = {"every": every, "max_samples": steps // every + 2, "max_steps": steps,
-                   "probe_nodes": [probe_slot(bp)], "spool_dir": spool if xp is not np else None}
         t0 = time.perf_counter()
-        integ, rec, advance = ensemble(bp, tile(extra["d"], nb), tile(extra["slide"], nb),
-                                       tile(extra["f"], nb), tile(extra["u0"], nb), xp=xp,
-                                       kernel=kernel, observe=observe)
-        advance(steps)
-        synchronize(xp)
-        close(integ, rec)
+        batch, _ = batch_of(data, nb, target, every, steps, spool)
+        batch.proceed()
+        synchronize(batch.stepper.xp)
         loop = time.perf_counter() - t0
         t0 = time.perf_counter()
-        labels = classify_all(rec, integ.active, tile(extra["d"], nb), float(extra["radius"]),
-                              args.workers)
+        d = np.array([sc.geometry.d for sc in batch.scenes])
+        labels = classify_all(batch.recorder, batch.stepper.active, d,
+                              float(batch.scenes[0].geometry.R), args.workers)
         classify = time.perf_counter() - t0
-        return labels, host(integ.u), {
+        return labels, host(batch.stepper.u), {
             "loop_s": loop, "classify_s": classify, "total_s": loop + classify,
             "scene_steps_per_s": nb * steps / loop,
             "shares": {k: v / nb for k, v in Counter(labels).most_common()}}
     finally:
         shutil.rmtree(spool, ignore_errors=True)
-
-
-def cpu_reference_kernel() -> str:
-    """The CPU path to compare with: the numba kernel (bitwise), or the numpy reference
-    step ("xp", round-off) where numba does not import."""
-    try:
-        import numba  # noqa: F401
-    except ImportError:
-        return "xp"
-    return "numba"
 
 
 _CLASSIFY: dict = {}  # the recorder and scene data, inherited by the forked workers
@@ -496,45 +460,39 @@ def _classify(b: int) -> str:
 
 
 def stage_cli(args) -> None:
-    """The census from the command line: a sweep file of ``--starts`` seeds at the census
-    point, run by ``stickslip sweep --batch S --backend B``; its exit status, wall time, the
-    members' shares from sweep.json and the last line of its standard error."""
+    """The census from the command line: ``stickslip attractors`` of ``--starts`` random
+    starts at the census point, first leg only (``--max-time`` = ``--end-time``), on
+    ``--backend``; its exit status, wall time, the classes' shares from attractors.json and
+    the last line of its standard error."""
     import subprocess
 
     out_dir = Path(tempfile.mkdtemp(prefix="gpu-bench-cli-", dir=args.spool_dir))
-    sweep = out_dir / "census.toml"
-    sweep.write_text(
-        f'name = "census_{args.starts}"\nbase = "{REPO / CENSUS_SCENE}"\n'
-        f'set = ["time.end_time = {args.end_time}", \'initial.perturbation = "random"\', '
-        f'"output.sample_interval = {args.sample_interval}"]\n'
-        f'[grid]\n"initial.seed" = {list(range(args.starts))}\n[map]\nsemianalytic = false\n')
-    cmd = ["stickslip", "sweep", str(sweep), "-o", str(out_dir / "sweep"), "--batch",
-           str(args.starts), "--backend", args.backend, "--progress", "lines"]
+    t = repr(args.end_time)
+    cmd = ["stickslip", "attractors", str(REPO / CENSUS_SCENE), "--starts", str(args.starts),
+           "--end-time", t, "--max-time", t, "--set",
+           f"output.sample_interval={args.sample_interval!r}", "--no-certify", "--backend",
+           args.backend, "--progress", "lines", "-o", str(out_dir / "census")]
     t0 = time.perf_counter()
     proc = subprocess.run(cmd, capture_output=True, text=True, cwd=REPO)
     seconds = time.perf_counter() - t0
-    rows = []
-    table = out_dir / "sweep" / "sweep.json"
-    if table.exists():
-        data = json.loads(table.read_text())
-        rows = data.get("rows", data) if isinstance(data, dict) else data
-    members = Counter(f"{r.get('regime')} k={r.get('mode')}" for r in rows
-                      if isinstance(r, dict))
+    answer = out_dir / "census" / "attractors.json"
+    counts = json.loads(answer.read_text())["counts"] if answer.exists() else {}
     err = proc.stderr.strip().splitlines()
-    emit(args.json, {"stage": "cli", "command": " ".join(cmd[:2] + ["census.toml"] + cmd[3:]),
+    emit(args.json, {"stage": "cli", "command": " ".join(cmd[:2] + [CENSUS_SCENE] + cmd[3:-1]),
                      "backend": args.backend, "starts": args.starts, "end_time": args.end_time,
                      "rc": proc.returncode, "seconds": seconds,
                      "stderr_lines": len(err), "stderr_last": err[-1] if err else "",
-                     "shares": {k: v / max(1, len(rows)) for k, v in members.most_common()}})
+                     "shares": {k: v / max(1, sum(counts.values()))
+                                for k, v in sorted(counts.items())}})
     shutil.rmtree(out_dir, ignore_errors=True)
 
 
 def stage_pytest(args) -> None:
-    """tests/test_gpu.py on this node, from the npz problem (``STICKSLIP_GPU_NPZ``): the
+    """tests/test_gpu.py on this node, from the bundle (``STICKSLIP_GPU_BUNDLE``): the
     CUDA kernel through CuPy bitwise against numba, and the CPU emulation's tests."""
     import subprocess
 
-    env = dict(os.environ, STICKSLIP_GPU_NPZ=str(args.npz.resolve()))
+    env = dict(os.environ, STICKSLIP_GPU_BUNDLE=str(args.bundle.resolve()))
     t0 = time.perf_counter()
     proc = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider",
                            "tests/test_gpu.py"], capture_output=True, text=True, cwd=REPO,
@@ -547,39 +505,28 @@ def stage_pytest(args) -> None:
 
 
 def stage_prepare(args) -> None:
-    """Write DIR/problem_nN.npz (8 scenes of the map, benchmarks/ensemble.py) and
-    DIR/census_n132.npz (``--starts`` random starts at the census point); needs dolfinx."""
-    from benchmarks.ensemble import dump
-
-    dump(args.directory, args.n)
-    _dump_census(args.directory / "census_n132.npz", args.starts)
-
-
-def _dump_census(path: Path, starts: int) -> None:
-    from mpi4py import MPI
-
-    from solver.ensemble import BatchedProblem
-    from solver.run import Simulation
+    """The bundles (``solver.bundle.prepare_bundle``; needs dolfinx): DIR/problem_nN, 8
+    scenes of the regime map of benchmarks/ensemble.py (Ω, δ, f drawn, random starts,
+    samples every 1e-4 s), and DIR/census_n132, ``--starts`` random starts (seeds 0, 1, ...)
+    of the census point."""
+    from benchmarks.ensemble import MAPS
+    from solver.bundle import prepare_bundle
     from solver.scene import load_scene
 
-    u0 = []
-    sim = None
-    for seed in range(starts):
-        sc = load_scene(REPO / CENSUS_SCENE, ['initial.perturbation="random"',
-                                              f"initial.seed={seed}", "output.progress=false"])
-        if sim is None:
-            sim = Simulation(sc, MPI.COMM_SELF)
-            steady = sim.steady.u
-        sim.scene = sc  # the perturbation reads scene.initial; the problem is the same
-        u0.append(steady + sim.perturbation())
-    sc = sim.scene
-    bp = BatchedProblem.from_problem(sim.problem, sim.dt, sc.time.beta2)
-    bp.save(path, u0=np.stack(u0, axis=1), d=np.array([sc.geometry.d]),
-            slide=np.array([sc.geometry.R * sc.loading.omega * sim.dt]),
-            f=np.array([sc.loading.f]), radius=np.array(sc.geometry.R),
-            every=np.array(max(1, int(round(sc.output.sample_interval / sim.dt)))))
-    print(f"{path}: {starts} starts of {CENSUS_SCENE}, n = {bp.n} dofs, dt = {bp.dt:.4g} s",
-          flush=True)
+    rng = np.random.default_rng(15)
+    for n in args.n:
+        scenes = [load_scene(REPO / CENSUS_SCENE, [
+            f"mesh.n_inner={n}", f"loading.omega={float(rng.choice(MAPS[132][0]))}",
+            f"geometry.delta={float(rng.choice(MAPS[132][1]))}", f"loading.f={0.5 + 0.05 * k}",
+            'initial.perturbation="random"', f"initial.seed={k}", "output.progress=false",
+            "output.sample_interval=1e-4"]) for k in range(8)]
+        prepare_bundle(args.directory / f"problem_n{n}",
+                       [([f"map{k}" for k in range(8)], scenes)])
+    scenes = [load_scene(REPO / CENSUS_SCENE, ['initial.perturbation="random"',
+                                               f"initial.seed={seed}", "output.progress=false"])
+              for seed in range(args.starts)]
+    prepare_bundle(args.directory / "census_n132",
+                   [([f"seed{seed}" for seed in range(args.starts)], scenes)])
 
 
 # ------------------------------------------------------------------------------ report
@@ -592,8 +539,8 @@ def stage_report(args) -> None:
     env = next((r for r in records if r["stage"] == "env"), {})
     rates = [r for r in records if r["stage"] == "rate"]
     peak = env.get("peak_bandwidth_gb_s")
-    def key(r: dict) -> tuple:  # the CPU keeps the observed record in memory: one path
-        return r["N"], r["path"].replace("observed-ram", "observed"), r["every"]
+    def key(r: dict) -> tuple:
+        return r["N"], r["path"], r["every"]
 
     best_cpu = {}  # (N, path, cadence) -> the CPU run with the most scene-steps/s (its best B)
     for r in rates:
@@ -691,35 +638,34 @@ def main(argv: list[str] | None = None) -> None:
                         help="the CUDA source compiled for the CPU instead of CuPy")
     common.add_argument("--spool-dir", type=Path, default=None,
                         help="where spooled records go (default: the temp directory)")
-    p = sub.add_parser("prepare", help="write the npz problems (needs dolfinx)")
+    p = sub.add_parser("prepare", help="write the bundles (needs dolfinx)")
     p.add_argument("directory", type=Path)
     p.add_argument("--n", type=int, nargs="+", default=[132, 528])
     p.add_argument("--starts", type=int, default=256, help="census starts")
     sub.add_parser("env", parents=[common], help="device and host facts")
     p = sub.add_parser("rate", parents=[common], help="scene-steps/s of one path")
-    p.add_argument("--npz", type=Path, required=True)
+    p.add_argument("--bundle", type=Path, required=True)
     p.add_argument("--target", choices=("cpu", "gpu"), required=True)
     p.add_argument("--paths", nargs="+", choices=PATHS, default=None,
                    help="kernel alone; with the observers at the sweep's cadence (record "
-                        "spooled to disk on the GPU; observed-ram: kept in host memory, GPU "
-                        "only); at the coarse cadence (timed in turn, side by side; default: "
-                        "all, observed-ram on the GPU only)")
+                        "spooled to disk on the GPU); at the coarse cadence (timed in turn, "
+                        "side by side; default: all)")
     p.add_argument("--B", type=int, required=True)
     p.add_argument("--steps", type=int, default=2000, help="timed steps per path at most")
     p.add_argument("--seconds", type=float, default=20.0, help="timed seconds at most")
     p.add_argument("--block", type=int, default=100, help="steps per path and round")
     p.add_argument("--sample-interval", type=float, default=0.0,
-                   help="s between samples (default: the npz's, the sweep's 1e-4 s)")
+                   help="s between samples (default: the scenes', the sweep's 1e-4 s)")
     p.add_argument("--coarse-interval", type=float, default=1e-3,
                    help="s between samples of the coarse path")
     p = sub.add_parser("check", parents=[common], help="GPU against CPU, observed path")
-    p.add_argument("--npz", type=Path, required=True)
+    p.add_argument("--bundle", type=Path, required=True)
     p.add_argument("--B", type=int, default=4096)
     p.add_argument("--scenes", type=int, default=8)
     p.add_argument("--steps", type=int, default=200)
     p.add_argument("--sample-interval", type=float, default=0.0)
     p = sub.add_parser("census", parents=[common], help="census loop + classification")
-    p.add_argument("--npz", type=Path, required=True)
+    p.add_argument("--bundle", type=Path, required=True)
     p.add_argument("--target", choices=("cpu", "gpu"), default="gpu")
     p.add_argument("--B", type=int, default=4096)
     p.add_argument("--end-time", type=float, default=0.3)
@@ -729,13 +675,13 @@ def main(argv: list[str] | None = None) -> None:
     p.add_argument("--skip-cpu", action="store_true")
     p.add_argument("--workers", type=int, default=os.cpu_count() or 1,
                    help="processes that classify the scenes")
-    p = sub.add_parser("cli", parents=[common], help="the census by `stickslip sweep`")
+    p = sub.add_parser("cli", parents=[common], help="the census by `stickslip attractors`")
     p.add_argument("--starts", type=int, default=4096)
     p.add_argument("--end-time", type=float, default=0.3)
     p.add_argument("--sample-interval", type=float, default=1e-3)
     p.add_argument("--backend", choices=("cpu", "gpu"), default="gpu")
     p = sub.add_parser("pytest", parents=[common], help="tests/test_gpu.py on this node")
-    p.add_argument("--npz", type=Path, required=True)
+    p.add_argument("--bundle", type=Path, required=True)
     p = sub.add_parser("report", help="gpu_suite.json + gpu_suite.md from the records")
     p.add_argument("jsonl", type=Path, nargs="+")
     p.add_argument("--out", type=Path, required=True)

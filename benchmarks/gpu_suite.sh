@@ -15,9 +15,9 @@
 # (the table: scene-steps/s of the kernel alone and of the full path with the observers, the
 # ratio to one core of the batched numba kernel measured in the same run on the same node,
 # the implied memory bandwidth against the device's peak, the GPU/CPU checks and the census).
-# DIR defaults to $OUT (set on the device machine), else build/gpu_suite/out. The npz problems
-# come from --data (default build/gpu_suite); where they are missing they are made first,
-# which needs dolfinx (./dev).
+# DIR defaults to $OUT (set on the device machine), else build/gpu_suite/out. The bundles
+# (solver.bundle) come from --data (default build/gpu_suite); where they are missing they are
+# made first, which needs dolfinx (./dev).
 #
 # Each stage runs under `timeout` with its own limit, clipped to what is left of --budget
 # (default 480 s); a stage that fails or runs out of time is recorded as skipped and the suite
@@ -104,8 +104,8 @@ stage() {  # stage KIND(gpu|cpu|any) NAME LIMIT_S COMMAND...
 if [ "$mode" != dry ]; then
   mkdir -p "$out"
   : >"$jsonl"
-  for f in problem_n132.npz problem_n528.npz census_n132.npz; do
-    if [ ! -f "$data/$f" ]; then
+  for f in problem_n132 problem_n528 census_n132; do
+    if [ ! -f "$data/$f/manifest.json" ]; then
       if ! "$PY" -c "import dolfinx" 2>/dev/null; then
         echo "error: $data/$f is missing and dolfinx does not import here: run" \
              "'./dev python3 benchmarks/gpu_bench.py prepare $data' where it does" >&2
@@ -116,28 +116,28 @@ if [ "$mode" != dry ]; then
     fi
   done
 fi
-P132="$data/problem_n132.npz"
-P528="$data/problem_n528.npz"
+P132="$data/problem_n132"
+P528="$data/problem_n528"
 J=(--json "$jsonl" "${EMU[@]}")
 
 stage any env 60 "${BENCH[@]}" env "${J[@]}"
-stage gpu "check N=132" 90 "${BENCH[@]}" check --npz "$P132" --B "${CHECK_B[0]}" \
+stage gpu "check N=132" 90 "${BENCH[@]}" check --bundle "$P132" --B "${CHECK_B[0]}" \
   --steps "$CHECK_STEPS" "${J[@]}"
 for n in 132 528; do
   if [ $n = 132 ]; then P=$P132; BG=$B132; BC=$CPU132; else P=$P528; BG=$B528; BC=$CPU528; fi
   # the kernel alone, with the observers at the sweep's and at a coarse cadence: in turn
-  stage gpu "gpu N=$n B=$BG" 90 "${BENCH[@]}" rate --npz "$P" --target gpu --B "$BG" \
+  stage gpu "gpu N=$n B=$BG" 90 "${BENCH[@]}" rate --bundle "$P" --target gpu --B "$BG" \
     --steps "$STEPS" --block "$BLOCK" --seconds "$SECONDS_CAP" "${J[@]}"
   for b in $BC; do
-    stage cpu "cpu N=$n B=$b" 60 "${ONE_CORE[@]}" "${BENCH[@]}" rate --npz "$P" --target cpu \
+    stage cpu "cpu N=$n B=$b" 60 "${ONE_CORE[@]}" "${BENCH[@]}" rate --bundle "$P" --target cpu \
       --B "$b" --steps "$STEPS" --block "$CPU_BLOCK" --seconds "$CPU_SECONDS" "${J[@]}"
   done
 done
-stage gpu "check N=528" 90 "${BENCH[@]}" check --npz "$P528" --B "${CHECK_B[1]}" \
+stage gpu "check N=528" 90 "${BENCH[@]}" check --bundle "$P528" --B "${CHECK_B[1]}" \
   --steps "$((CHECK_STEPS / 2))" "${J[@]}"
-stage gpu "census N=132" 180 "${BENCH[@]}" census --npz "$data/census_n132.npz" \
+stage gpu "census N=132" 180 "${BENCH[@]}" census --bundle "$data/census_n132" \
   "${CENSUS[@]}" "${J[@]}"
-stage gpu "pytest tests/test_gpu.py" 120 "${BENCH[@]}" pytest --npz "$P132" "${J[@]}"
+stage gpu "pytest tests/test_gpu.py" 120 "${BENCH[@]}" pytest --bundle "$P132" "${J[@]}"
 # the census from the command line needs the FE stack (steady states, meshes) on this node
 if [ "$mode" = dry ] || "$PY" -c "import dolfinx" 2>/dev/null; then
   if [ "$mode" = gpu ] || [ "$mode" = dry ] || [ "$mode" = quick ]; then

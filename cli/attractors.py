@@ -69,7 +69,12 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--cea-fmax-hz", type=float, default=10_000.0, metavar="F",
                    help="upper end of the CEA's frequency band (default 10000 Hz)")
     p.add_argument("--backend", choices=("cpu", "gpu"), default="cpu",
-                   help="batched integrator backend (where the scenes can be batched)")
+                   help="batched integrator backend (where the scenes can be batched); gpu "
+                   "needs CuPy and a CUDA device")
+    p.add_argument("--bundle", default=None, metavar="DIR",
+                   help="a GPU node without dolfinx runs the starts: the first call writes "
+                   "DIR, `python3 -m stickslip.node DIR` runs it there, the same command "
+                   "again (DIR/results copied back) answers (docs/gpu.md)")
     p.add_argument("--progress", choices=("auto", "live", "lines"), default="auto",
                    help="live status line (TTY) or one line per finished start")
     p.add_argument("--along", default=None, metavar="KEY=A:B:M",
@@ -131,21 +136,59 @@ def _attractors(args: argparse.Namespace) -> int:
         census.base_scene()
         from solver.schemes.select import check_backend
 
-        check_backend(args.backend, device=False)
+        if args.bundle is None:
+            check_backend(args.backend)
     except (SceneError, CensusError, ValueError, ImportError) as err:
         return _fail(str(err), comm.rank)
     out = Path(args.output) if args.output else default_dir(scene)
     if args.along:
+        if args.bundle:
+            return _fail("--along runs here: drop --bundle", comm.rank)
         return _along(census, out, args, comm)
+    read_starts = None
+    if args.bundle:
+        from functools import partial
+
+        from studies.attractors.bundle import import_results
+
+        rc = _prepare_bundle(census, Path(args.bundle), comm)
+        if rc is not None:
+            return rc
+        read_starts = partial(import_results, Path(args.bundle))
     stream = open(os.devnull, "w") if args.json else sys.stdout  # noqa: SIM115
     if not (args.cea_fmax_hz > 0):
         return _fail(f"--cea-fmax-hz {args.cea_fmax_hz}: give a frequency > 0 (Hz)", comm.rank)
     rc = run_census(census, out, comm=comm, force=args.force, progress=args.progress,
                     backend=args.backend, certify=not args.no_certify,
-                    dt_limit=args.dt_limit, kick=not args.no_kick, stream=stream)
+                    dt_limit=args.dt_limit, kick=not args.no_kick, stream=stream,
+                    read_starts=read_starts)
     if comm.rank == 0 and rc in (0, 1, 130):
         _show(out, args)
     return rc
+
+
+def _prepare_bundle(census, bundle: Path, comm) -> int | None:  # noqa: ANN001
+    """--bundle: write it where it is new (0), refuse one whose results are missing or that
+    is another census's (2); None: its results are there, answer."""
+    from studies.attractors.bundle import BundleError, bundle_state, write_bundle
+
+    if comm.size > 1:
+        return _fail("--bundle prepares and answers in one process: run it without mpirun",
+                     comm.rank)
+    try:
+        state = bundle_state(census, bundle)
+        if state == "pending":
+            raise BundleError(f"--bundle {bundle}: the node's results are missing; run "
+                              f"`python3 -m stickslip.node {bundle}` on the node and copy "
+                              f"{bundle / 'results'} back here")
+        if state == "ready":
+            return None
+        write_bundle(census, bundle)
+    except (ValueError, OSError) as err:  # BundleError, CensusError: one line
+        return _fail(str(err), comm.rank)
+    print(f"bundle written: copy {bundle} to the GPU node, run `python3 -m stickslip.node "
+          f"{bundle}` there, copy {bundle / 'results'} back, then run this command again")
+    return 0
 
 
 def _along(census, out: Path, args: argparse.Namespace, comm) -> int:  # noqa: ANN001

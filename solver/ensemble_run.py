@@ -10,6 +10,11 @@ A scene whose energy guard trips (``solver.errors.blown_up``) is masked out of t
 recorded ``diverged`` at that step; the others go on. A scene whose steady state cannot be
 found is ``failed`` alone. ``runs`` holds one ``SceneRun`` per scene with what a run directory
 needs: ``facts()``, ``recorder.arrays()``, ``probes.arrays()``, ``final_field()``.
+
+What the batch is built from, once the problem and the starts are known, is plain host arrays
+(``BatchLayout``: K, M, dt, the samples' and probes' layout, the problem's facts; and the
+(n, B) starts): ``BatchSimulation(scenes, prepared=(layout, u0))`` builds the same batch from
+them without dolfinx or MPI (``solver.bundle``: a GPU node without the FE stack).
 """
 
 from __future__ import annotations
@@ -17,18 +22,18 @@ from __future__ import annotations
 import math
 import tempfile
 import time
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
-from mpi4py import MPI
 
 from solver.contact import ContactLaw
+from solver.ensemble import BatchedProblem
 from solver.observers import Cadence, ContinuedRecords
 from solver.run import Profile, gather_final_field, random_bump, run_facts, run_loop
 from solver.scene import Scene
 
-__all__ = ["BatchSimulation", "SceneRun"]
+__all__ = ["BatchLayout", "BatchSimulation", "SceneRun"]
 
 #: The modes of a kick's random bump (``BatchSimulation.kick``): a start's default.
 KICK_MODES = 16
@@ -39,8 +44,11 @@ class SceneRun:
 
     def __init__(self, scene: Scene, problem, batch: BatchSimulation) -> None:
         self.scene, self.comm = scene, batch.comm
-        self.problem = replace(problem, scene=scene)
+        #: the dolfinx problem (None in a batch built from a ``BatchLayout``)
+        self.problem = None if problem is None else replace(problem, scene=scene)
         self.dt, self.dt_crit, self.omega_max = batch.dt, batch.dt_crit, batch.omega_max
+        self.dofs = batch.layout.dofs if problem is None else int(problem.n_global_dofs)
+        self.ranks = 1  # a batch runs on one rank
         self.status, self.stop_reason, self.message = "running", "", ""
         self.steps, self.sim_time = 0, 0.0
         self.steady = None
@@ -60,6 +68,9 @@ class SceneRun:
         return run_facts(self, self._scheme)
 
     def final_field(self) -> dict[str, np.ndarray] | None:
+        """The final field (rank 0), or None where the batch has no dolfinx problem."""
+        if self.problem is None:
+            return None
         return gather_final_field(self.problem, self.u_final, self.comm, self.sim_time)
 
     def finish(self, batch: BatchSimulation, b: int, status: str, stop: str = "") -> None:
@@ -143,40 +154,141 @@ class BatchSampling:
             stepper.mask(b)
 
 
+@dataclass
+class BatchLayout:
+    """What a batch is built from besides its scenes and starts, as host arrays (npz-able):
+    K, M and dt (``BatchedProblem``), the contact circle's order for the samples (``perm``,
+    ``theta``, ``ds``, ``n_nodes``: ``InnerCircleRecorder``), the probes (``probe_nodes``,
+    ``probe_pc``, ``probe_deg``: ``ProbeRecorder``) and the problem's facts (``dofs``,
+    ``dt_crit``, ``omega_max``)."""
+
+    problem: BatchedProblem
+    perm: np.ndarray
+    theta: np.ndarray
+    ds: np.ndarray
+    n_nodes: int
+    probe_nodes: np.ndarray
+    probe_pc: np.ndarray
+    probe_deg: np.ndarray
+    dofs: int
+    dt_crit: float
+    omega_max: float
+
+    ARRAYS = ("perm", "theta", "ds", "probe_nodes", "probe_pc", "probe_deg")
+    FACTS = ("n_nodes", "dofs", "dt_crit", "omega_max")
+
+    @classmethod
+    def of(cls, problem, law: ContactLaw, scene: Scene, dt_crit: float,
+           omega_max: float) -> BatchLayout:
+        """The layout of a dolfinx ``TubeProblem`` (one rank) at the law's dt."""
+        from solver.contact import ContactProjection
+        from solver.observers import InnerCircleRecorder, ProbeRecorder
+
+        projection = ContactProjection(problem, law)
+        shape = InnerCircleRecorder(problem, projection, None, 1, max_samples=0)
+        probes = ProbeRecorder(problem, projection, scene.output.probes_deg, 0)
+        return cls(BatchedProblem.from_problem(problem, law.dt, law.beta2),
+                   perm=np.asarray(shape.perm), theta=np.asarray(shape.theta),
+                   ds=np.asarray(shape.ds), n_nodes=int(shape.n_nodes),
+                   probe_nodes=np.asarray(probes.index), probe_pc=np.asarray(probes.phase_conj),
+                   probe_deg=np.asarray(probes.angles), dofs=int(problem.n_global_dofs),
+                   dt_crit=float(dt_crit), omega_max=float(omega_max))
+
+    def arrays(self) -> dict[str, np.ndarray]:
+        """Every field as an array, for ``numpy.savez`` (``from_arrays`` reads them back)."""
+        out = {f"problem/{k}": np.asarray(getattr(self.problem, k))
+               for k in BatchedProblem.FIELDS}
+        out.update({k: getattr(self, k) for k in self.ARRAYS})
+        out.update({k: np.asarray(getattr(self, k)) for k in self.FACTS})
+        return out
+
+    @classmethod
+    def from_arrays(cls, arrays: dict[str, np.ndarray]) -> BatchLayout:
+        head = "problem/"
+        problem = BatchedProblem(**{k[len(head):]: v for k, v in arrays.items()
+                                    if k.startswith(head)})
+        return cls(problem, **{k: arrays[k] for k in cls.ARRAYS},
+                   n_nodes=int(arrays["n_nodes"]), dofs=int(arrays["dofs"]),
+                   dt_crit=float(arrays["dt_crit"]), omega_max=float(arrays["omega_max"]))
+
+
+@dataclass
+class BatchStarts:
+    """The starts of a batch's live scenes: u_0 (n, B) (steady sliding + the bump) and each
+    scene's mean steady contact pressure (B,)."""
+
+    u0: np.ndarray
+    steady_pressure: np.ndarray
+
+
 class BatchSimulation:
     """``Simulation`` for B scenes on one rank (see the module docstring).
 
     The batch's sample record stays whole in host memory when it needs at most
     ``memory_budget`` bytes on the CPU; otherwise it is spooled in chunks to ``spool_dir``, a
-    new folder under ``spool_parent`` that the caller removes once the files are written."""
+    new folder under ``spool_parent`` that the caller removes once the files are written.
+
+    ``prepared``: the batch's ``BatchLayout`` and ``BatchStarts`` (every scene live) instead
+    of building the problem and the steady states here: no dolfinx, no MPI. ``build=False``:
+    only the problem, dt, ``layout`` and ``starts`` (what ``prepared`` takes), no stepper."""
 
     def __init__(self, scenes: list[Scene], backend: str = "cpu",
                  spool_parent: Path | None = None, profile: Profile | None = None,
-                 memory_budget: float = math.inf) -> None:
-        from solver.problem import build_problem, omega_max
+                 memory_budget: float = math.inf,
+                 prepared: tuple[BatchLayout, BatchStarts] | None = None,
+                 build: bool = True) -> None:
         from solver.schemes.select import for_scene
 
-        self.comm = MPI.COMM_SELF
         self.scenes, self.backend = scenes, backend
         self.profile = profile or Profile()
-        with self.profile.phase("mesh+assembly"):
-            self.problem = build_problem(scenes[0], self.comm)
-        with self.profile.phase("stability"):
-            self.omega_max = omega_max(self.problem)
         self.scheme = for_scene(scenes[0])  # the scheme registry, asked once
-        self.dt, self.dt_crit = self.scheme.time_step(scenes[0], self.omega_max)
-        self.runs = [SceneRun(sc, self.problem, self) for sc in scenes]
-        self.live: list[int] = []  # runs in the batch, in column order
         self.failures: dict[int, BaseException] = {}
-        u0s = [self._start(k) for k in range(len(scenes))]
+        if prepared is None:
+            self.layout, starts = self._prepare()
+        else:
+            self.comm, self.problem = None, None
+            self.layout, starts = prepared
+            self.dt = self.layout.problem.dt
+            self.dt_crit, self.omega_max = self.layout.dt_crit, self.layout.omega_max
+            self.runs = [SceneRun(sc, None, self) for sc in scenes]
+            self.live = list(range(len(scenes)))
+            for run, p in zip(self.runs, starts.steady_pressure, strict=True):
+                run.steady_mean_pressure = float(p)
         self.stepper = self.recorder = None
         self.spool_dir: Path | None = None
         self.observers: list = []
         self.t_start, self.max_wall = time.perf_counter(), None
         self.at_level = False  # ``proceed`` returned: every scene stands at a whole level
-        if self.live:
-            self._build(np.stack([u0s[k] for k in self.live], axis=1), spool_parent,
-                        memory_budget)
+        self.starts = None if build else starts
+        if self.live and build:
+            self._build(starts.u0, spool_parent, memory_budget)
+
+    def _prepare(self) -> tuple[BatchLayout | None, BatchStarts]:
+        """The problem (dolfinx, one rank), dt and every scene's start: the layout and the
+        live scenes' starts (a scene whose steady state fails is ``failed`` alone)."""
+        from mpi4py import MPI
+
+        from solver.problem import build_problem, omega_max
+
+        scenes = self.scenes
+        self.comm = MPI.COMM_SELF
+        with self.profile.phase("mesh+assembly"):
+            self.problem = build_problem(scenes[0], self.comm)
+        with self.profile.phase("stability"):
+            self.omega_max = omega_max(self.problem)
+        self.dt, self.dt_crit = self.scheme.time_step(scenes[0], self.omega_max)
+        self.layout = None
+        self.runs = [SceneRun(sc, self.problem, self) for sc in scenes]
+        self.live: list[int] = []  # runs in the batch, in column order
+        u0s = [self._start(k) for k in range(len(scenes))]
+        if not self.live:
+            return None, BatchStarts(np.zeros((0, 0)), np.zeros(0))
+        k0 = self.live[0]
+        layout = BatchLayout.of(self.problem, ContactLaw.from_scene(scenes[k0], self.dt),
+                                scenes[k0], self.dt_crit, self.omega_max)
+        return layout, BatchStarts(np.stack([u0s[k] for k in self.live], axis=1),
+                                   np.array([self.runs[k].steady_mean_pressure
+                                             for k in self.live]))
 
     def _start(self, k: int) -> np.ndarray | None:
         """Scene k's steady state + its [initial] bump, or None (the scene fails alone)."""
@@ -204,34 +316,29 @@ class BatchSimulation:
 
     def _build(self, u0: np.ndarray, spool_parent: Path | None, memory_budget: float) -> None:
         """The batched stepper, the recorder, the probe hook and the sampling observer."""
-        from solver.contact import ContactProjection
         from solver.ensemble_observers import BatchRecorder
-        from solver.observers import InnerCircleRecorder, ProbeRecorder
 
-        sc0 = self.scenes[self.live[0]]
+        sc0, lay = self.scenes[self.live[0]], self.layout
         laws = [ContactLaw.from_scene(self.scenes[k], self.dt) for k in self.live]
-        stepper = self.scheme.build_batch(self.problem, laws, self.backend, sc0.damping.tau)
+        stepper = self.scheme.build_batch(lay.problem, laws, self.backend, sc0.damping.tau)
         stepper.set_state(u0, np.zeros_like(u0))
-        projection = ContactProjection(self.problem, laws[0])
-        shape = InnerCircleRecorder(self.problem, projection, None, 1, max_samples=0)
-        probes = ProbeRecorder(self.problem, projection, sc0.output.probes_deg, 0)
         every = max(1, int(round(sc0.output.sample_interval / self.dt)))
         n_steps = self.planned_steps()
-        record = BatchRecorder.record_bytes(len(self.live), stepper.m, len(probes.index),
+        record = BatchRecorder.record_bytes(len(self.live), stepper.m, len(lay.probe_nodes),
                                             n_steps // every + 2, n_steps)
         if not stepper.host_records or record > memory_budget:
             self.spool_dir = Path(tempfile.mkdtemp(prefix=".batch-", dir=spool_parent))
         rec = BatchRecorder(
-            stepper, mass=self.problem.mass, perm=shape.perm, theta=shape.theta, ds=shape.ds,
+            stepper, mass=lay.problem.mass, perm=lay.perm, theta=lay.theta, ds=lay.ds,
             every=every, max_samples=n_steps // every + 2, max_steps=n_steps,
-            probe_nodes=np.asarray(probes.index), probe_pc=probes.phase_conj,
-            probe_deg=np.asarray(probes.angles), spool_dir=self.spool_dir)
-        stepper.keep_nodes(np.asarray(probes.index))
+            probe_nodes=lay.probe_nodes, probe_pc=lay.probe_pc, probe_deg=lay.probe_deg,
+            spool_dir=self.spool_dir)
+        stepper.keep_nodes(lay.probe_nodes)
         stepper.full_state_at = rec.due
         stepper.attach(ProbeHook(rec))
         for b, k in enumerate(self.live):
             run = self.runs[k]
-            run.members = (MemberRecords(rec, b, shape.n_nodes), MemberProbes(rec, b))
+            run.members = (MemberRecords(rec, b, lay.n_nodes), MemberProbes(rec, b))
             run.recorder, run.probes = run.members
         self.stepper, self.recorder = stepper, rec
         self.observers = [BatchSampling(self)]

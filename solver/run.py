@@ -103,6 +103,15 @@ class Simulation:
         self._t_start, self._max_wall = time.perf_counter(), None
 
     @property
+    def dofs(self) -> int:
+        """Degrees of freedom of the whole tube."""
+        return int(self.problem.n_global_dofs)
+
+    @property
+    def ranks(self) -> int:
+        return self.comm.size
+
+    @property
     def stepper(self):
         """The time scheme (``solver.schemes.protocol.Stepper``); also ``integrator``."""
         return self.integrator
@@ -421,9 +430,9 @@ def run_facts(run, scheme: dict) -> dict:
         "dt_s": run.dt,
         "dt_crit_s": run.dt_crit,
         "omega_max_rad_s": run.omega_max,
-        "dofs": int(run.problem.n_global_dofs),
+        "dofs": run.dofs,
         "contact_nodes": int(run.recorder.n_nodes),
-        "ranks": run.comm.size,
+        "ranks": run.ranks,
         "samples": int(run.recorder.n),
         "steady_pressure_pa": run.steady_mean_pressure,
         "scheme": scheme,

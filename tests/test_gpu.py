@@ -6,8 +6,8 @@ Tests marked ``gpu`` skip without CuPy; the CUDA kernel's *source* is still chec
 machine with a C++ compiler, compiled for the CPU and run thread by thread, and so is the GPU
 path of the benchmark suite (benchmarks/gpu_suite.sh) with CuPy replaced by that emulation.
 Without a GPU, ``stickslip sweep --backend gpu`` refuses in one line (exit 2).
-Runs from a problem built here (dolfinx) or, without dolfinx, from benchmarks/ensemble.py's
-npz dump (``STICKSLIP_GPU_NPZ=path/problem_n132.npz``).
+Runs from a problem built here (dolfinx) or, without dolfinx, from a bundle of
+benchmarks/gpu_bench.py's ``prepare`` (``STICKSLIP_GPU_BUNDLE=path/problem_n132``).
 """
 
 from __future__ import annotations
@@ -30,41 +30,46 @@ except ImportError:  # the device tests skip; the CPU emulation of the kernel be
     cupy = None
 
 
-def _problem():
-    from solver.ensemble import BatchedProblem
+#: Three scenes of one batch: two speeds, and no friction.
+SCENES = ("loading.omega=50.0", "loading.omega=20.0", "loading.f=0.0")
 
-    path = os.environ.get("STICKSLIP_GPU_NPZ")
+
+def _bundle(directory: Path) -> Path:
+    """A bundle (``solver.bundle``) of the three smoke scenes, made here (dolfinx), or the
+    one named by ``STICKSLIP_GPU_BUNDLE`` (a GPU node without dolfinx)."""
+    path = os.environ.get("STICKSLIP_GPU_BUNDLE")
     if path:
-        bp = BatchedProblem.load(path)
-        with np.load(path) as z:
-            return bp, z["u0"], z["d"], z["slide"], z["f"]
+        return Path(path)
     pytest.importorskip("dolfinx")
-    from mpi4py import MPI
-
-    from solver.run import Simulation
+    from solver.bundle import prepare_bundle
     from solver.scene import load_scene
 
-    sims = [Simulation(load_scene("scenes/smoke.toml", ["output.progress=false", o]),
-                       MPI.COMM_SELF)
-            for o in ("loading.omega=50.0", "loading.omega=20.0", "loading.f=0.0")]
-    s0 = sims[0]
-    bp = BatchedProblem.from_problem(s0.problem, s0.dt, s0.scene.time.beta2)
-    return (bp, np.stack([s.integrator.u for s in sims], axis=1),
-            np.array([s.scene.geometry.d for s in sims]),
-            np.array([s.scene.geometry.R * s.scene.loading.omega * s.dt for s in sims]),
-            np.array([s.scene.loading.f for s in sims]))
+    scenes = [load_scene("scenes/smoke.toml", ["output.progress=false", o]) for o in SCENES]
+    prepare_bundle(directory, [(["omega50", "omega20", "f0"], scenes)])
+    return directory
+
+
+def _problem(directory: Path):
+    """(BatchedProblem, u0 (n, 3), d, R Omega dt, f) of the bundle's scenes."""
+    from benchmarks.gpu_bench import load
+    from solver.contact import ContactLaw
+
+    scenes, layout, starts = load(_bundle(directory))
+    laws = [ContactLaw.from_scene(sc, layout.problem.dt) for sc in scenes]
+    return (layout.problem, starts.u0, *(np.array([getattr(law, k) for law in laws])
+                                         for k in ("d", "slide", "f")))
 
 
 @pytest.mark.gpu
 @pytest.mark.skipif(cupy is None, reason="CuPy is not installed (optional GPU extra)")
 @pytest.mark.parametrize("kernel", ["cuda", "xp"])
-def test_gpu_batch_equals_the_cpu_kernel(kernel):
+def test_gpu_batch_equals_the_cpu_kernel(kernel, tmp_path):
     """200 steps: cuda bitwise (same operations, same order, no fused multiply-add), xp to
     1e-12 of max|u| (cuSPARSE's sum order; round-off amplified by the flutter of steady
     sliding); statuses equal; contact work to 1e-9 relative (per-node partial sums on the GPU)."""
     from solver.ensemble import BatchedExplicit
 
-    bp, u0, d, slide, f = _problem()
+    bp, u0, d, slide, f = _problem(tmp_path / "bundle")
     cpu = BatchedExplicit(bp, d, slide, f, kernel="numba")
     gpu = BatchedExplicit(bp, d, slide, f, xp=cupy, kernel=kernel)
     for integ in (cpu, gpu):
@@ -107,7 +112,7 @@ def test_cuda_kernel_source_equals_the_numba_kernel_on_the_cpu(tmp_path, diag):
 
     pytest.importorskip("numba")
     emulate = _emulated_kernel(tmp_path)
-    bp, u0, d, slide, f = _problem()
+    bp, u0, d, slide, f = _problem(tmp_path / "bundle")
     ref = BatchedExplicit(bp, d, slide, f, kernel="numba")
     emu = BatchedExplicit(bp, d, slide, f, kernel="numba")  # arrays only; stepped below
     for integ in (ref, emu):
@@ -158,13 +163,10 @@ def test_cuda_kernel_source_equals_the_numba_kernel_on_the_cpu(tmp_path, diag):
 
 
 @pytest.fixture
-def problem_npz(tmp_path):
-    """The problem of ``_problem`` as a ``gpu_bench`` npz."""
+def problem_bundle(tmp_path):
+    """The bundle of ``_bundle``."""
     pytest.importorskip("numba")
-    bp, u0, d, slide, f = _problem()
-    path = tmp_path / "problem.npz"
-    bp.save(path, u0=u0, d=d, slide=slide, f=f, every=np.array(3), radius=np.array(1.0))
-    return path
+    return _bundle(tmp_path / "bundle")
 
 
 def _emulate_cupy(monkeypatch) -> None:
@@ -177,24 +179,25 @@ def _emulate_cupy(monkeypatch) -> None:
 
 
 @pytest.fixture
-def suite_npz(problem_npz, monkeypatch):
-    """``problem_npz`` and an emulated CuPy for this test only."""
+def suite_bundle(problem_bundle, monkeypatch):
+    """``problem_bundle`` and an emulated CuPy for this test only."""
     _emulate_cupy(monkeypatch)
-    return problem_npz
+    return problem_bundle
 
 
-def test_suite_check_stage_gpu_path_with_observers_equals_the_cpu_path(suite_npz, tmp_path):
+def test_suite_check_stage_gpu_path_with_observers_equals_the_cpu_path(suite_bundle, tmp_path):
     """The stage that checks the GPU on its node, run here on the emulated CUDA kernel: the
     whole observed path (lean and sampled steps, probes, samples, energies) over 24 steps,
     B = 5 scenes against the numba path on the first 3. State and statuses bitwise (same
     operations in the same order); recorded fields and probes bitwise (the same numpy
     products on both); energies and works to 1e-12: the CUDA path sums the energies with
     ``einsum`` and the works per node, the numba kernel in row order (round-off, ~n eps)."""
-    from benchmarks.gpu_bench import main
+    from benchmarks.gpu_bench import load, main
 
+    dt = load(suite_bundle)[1].problem.dt
     out = tmp_path / "stages.jsonl"
-    main(["check", "--npz", str(suite_npz), "--emulate", "--B", "5", "--scenes", "3",
-          "--steps", "24", "--json", str(out)])
+    main(["check", "--bundle", str(suite_bundle), "--emulate", "--B", "5", "--scenes", "3",
+          "--steps", "24", "--sample-interval", str(3 * dt), "--json", str(out)])
     r = json.loads(out.read_text())
     assert r["emulated"] and r["scenes_compared"] == 3
     assert all(r["same_bits"].values()), r["same_bits"]
@@ -206,66 +209,61 @@ def test_suite_check_stage_gpu_path_with_observers_equals_the_cpu_path(suite_npz
 FIELDS = ("u_r", "u_theta", "v_r", "v_theta", "r_r", "r_theta")
 
 
-def _observed_run(bp, extra, xp, kernel: str, spool_dir, planted: int, at: int):
-    """68 steps of the observed path of 4 scenes (the npz's starts, tiled), sampled every 3rd
-    step, chunks of 2 samples and 32 probe rows (several chunks and a partial last one);
-    before step ``at``, 1e4 m/s is added to scene ``planted``'s velocity. Returns the
-    batch, its recorder, {scene: guard message} and {scene: samples taken when masked}."""
-    from benchmarks.gpu_bench import ensemble, probe_slot, tile
+class _Kick:
+    """Step hook: 1e4 m/s added to scene ``planted``'s velocity predictor after step ``at``."""
 
-    observe = {"every": 3, "max_samples": 25, "max_steps": 68, "chunk": 2,
-               "probe_nodes": [probe_slot(bp)], "spool_dir": spool_dir}
-    integ, rec, _ = ensemble(bp, *(tile(extra[k], 4) for k in ("d", "slide", "f", "u0")),
-                             xp=xp, kernel=kernel, observe=observe)
-    messages, masked_at = {}, {}
+    def __init__(self, planted: int, at: int) -> None:
+        self.planted, self.at = planted, at
 
-    def mask(found: dict[int, str]) -> None:
-        for b, msg in found.items():
-            messages[b], masked_at[b] = msg, rec.n
-            integ.mask(b)
+    def after_step(self, stepper) -> None:
+        if stepper.step_count == self.at:
+            stepper.v_pred[:, self.planted] += 1e4
 
-    for _ in range(68):  # gpu_bench.ensemble's loop, with the planted kick
-        if integ.step_count == at:
-            integ.v_pred[:, planted] += 1e4
-        integ.step(diag=rec.due(integ.step_count))
-        rec.record_probes()
-        if rec.due(integ.step_count - 1):
-            mask(rec.observe(integ.time))
-    mask(rec.close())
-    return integ, rec, messages, masked_at
+
+def _observed_run(data, target: str, spool_parent, planted: int, at: int):
+    """68 steps of the batch of 4 scenes (the bundle's starts, tiled), sampled every 3rd
+    step (several chunks of samples and a partial last one) through ``run_loop``; after
+    step ``at``, 1e4 m/s is added to scene ``planted``'s velocity. Returns the batch,
+    {scene: guard message} and {scene: samples taken when masked}."""
+    from benchmarks.gpu_bench import batch_of
+
+    batch, _ = batch_of(data, 4, target, 3, 68, spool_parent)
+    batch.stepper.attach(_Kick(planted, at))
+    batch.proceed()
+    runs = batch.runs
+    messages = {b: r.message for b, r in enumerate(runs) if r.status == "diverged"}
+    masked_at = {b: r.recorder.n for b, r in enumerate(runs) if r.status == "diverged"}
+    return batch, messages, masked_at
 
 
 @pytest.mark.parametrize("device", ["emulated", pytest.param("cupy", marks=[
     pytest.mark.gpu, pytest.mark.skipif(cupy is None, reason="CuPy is not installed")])])
-@pytest.mark.parametrize("to_file", [False, True], ids=["in-memory", "spool-file"])
 def test_async_gpu_spool_records_the_cpu_samples_and_masks_a_planted_blowup(
-        problem_npz, tmp_path, monkeypatch, to_file, device):
+        problem_bundle, tmp_path, monkeypatch, device):
     """The GPU path's observers (device chunks copied on a stream of their own to pinned host
-    memory, a writer thread, the energy guard on the host chunks), emulated (the copies run
-    late, as on a device) or on a GPU, against the CPU numba path: a scene kicked to
-    1e4 m/s is reported with the same message (same sample time) and masked; every other
-    scene ends bitwise equal and records the same statuses and probes bitwise, the same
-    fields (bitwise emulated; 1e-12 on a GPU, whose complex product may fuse multiply-adds)
-    and energies to 1e-12 (the CUDA path sums them with ``einsum``, numba in row order:
-    round-off); the kicked scene's record is the CPU's up to its blow-up (the GPU masks it
-    later: its guard runs per chunk)."""
+    memory, a writer thread, the energy guard on the host chunks, spooled to a file),
+    emulated (the copies run late, as on a device) or on a GPU, against the CPU numba path,
+    both the product's batch in ``run_loop``: a scene kicked to 1e4 m/s is reported with the
+    same message (same sample time) and masked; every other scene ends bitwise equal and
+    records the same statuses and probes bitwise, the same fields (bitwise emulated; 1e-12
+    on a GPU, whose complex product may fuse multiply-adds) and energies to 1e-12 (the CUDA
+    path sums them with ``einsum``, numba in row order: round-off); the kicked scene's
+    record is the CPU's up to its blow-up (the GPU masks it later: its guard runs per
+    chunk)."""
     from benchmarks.gpu_bench import load
 
     if device == "emulated":
         _emulate_cupy(monkeypatch)
-    bp, extra = load(problem_npz)
+    data = load(problem_bundle)
     planted = 1
-    spool = tmp_path / "spool" if to_file else None
-    if spool:
-        spool.mkdir()
-    gpu = _observed_run(bp, extra, sys.modules["cupy"], "cuda", spool, planted, at=30)
-    cpu = _observed_run(bp, extra, np, "numba", None, planted, at=30)
-    (g, grec, gmsg, gat), (c, crec, cmsg, cat) = gpu, cpu
+    gpu = _observed_run(data, "gpu", tmp_path, planted, at=30)
+    cpu = _observed_run(data, "cpu", tmp_path, planted, at=30)
+    (gb, gmsg, gat), (cb, cmsg, cat) = gpu, cpu
+    g, grec, c, crec = gb.stepper, gb.recorder, cb.stepper, cb.recorder
     assert set(cmsg) == {planted} and gmsg == cmsg, (gmsg, cmsg)
     assert gat[planted] >= cat[planted] and not g.active[planted]
+    assert gb.spool_dir is not None and crec.n == 23  # the GPU's record went to a file
     tol = device != "emulated"
-    if to_file:
-        assert (spool / "fields.f64").stat().st_size == 12 * 4 * 2 * 6 * bp.cx.size * 8
     for b in range(4):
         n = cat[planted] if b == planted else grec.n
         ga, ca = grec.arrays(b, n), crec.arrays(b, n)
@@ -281,15 +279,17 @@ def test_async_gpu_spool_records_the_cpu_samples_and_masks_a_planted_blowup(
     assert grec.n == crec.n == 23 and grec.n_probe == crec.n_probe == 68
 
 
-def test_suite_rate_stages_and_report_give_the_ratio_table(suite_npz, tmp_path):
+def test_suite_rate_stages_and_report_give_the_ratio_table(suite_bundle, tmp_path):
     """Two rate stages (emulated GPU and CPU numba, the observed path) and the report: the
     JSON holds both with the GPU's ratio to the CPU's rate, the table one row each."""
-    from benchmarks.gpu_bench import main
+    from benchmarks.gpu_bench import load, main
 
+    every = str(3 * load(suite_bundle)[1].problem.dt)
     out = tmp_path / "stages.jsonl"
     for target in ("gpu", "cpu"):
-        main(["rate", "--npz", str(suite_npz), "--target", target, "--emulate", "--paths",
-              "observed", "--B", "4", "--steps", "6", "--block", "3", "--json", str(out)])
+        main(["rate", "--bundle", str(suite_bundle), "--sample-interval", every, "--target",
+              target, "--emulate", "--paths", "observed", "--B", "4", "--steps", "6",
+              "--block", "3", "--json", str(out)])
     main(["report", str(out), "--out", str(tmp_path / "report")])
     summary = json.loads((tmp_path / "report" / "gpu_suite.json").read_text())
     gpu, cpu = sorted(summary["rates"], key=lambda r: r["target"] != "gpu")
@@ -301,16 +301,16 @@ def test_suite_rate_stages_and_report_give_the_ratio_table(suite_npz, tmp_path):
     assert "| gpu (emulated) | observed | 4 | 3 | 6 |" in table
 
 
-def test_suite_census_stage_classifies_every_scene_and_agrees_with_the_cpu(suite_npz,
+def test_suite_census_stage_classifies_every_scene_and_agrees_with_the_cpu(suite_bundle,
                                                                           tmp_path):
     """The census stage, emulated: 6 scenes (the 3 starts twice) for 60 steps with the
     observers, each classified; the shares sum to 1 and the first 3 scenes run again on
     the CPU end bitwise equal with the same members."""
     from benchmarks.gpu_bench import load, main
 
-    bp, _ = load(suite_npz)
+    bp = load(suite_bundle)[1].problem
     out = tmp_path / "stages.jsonl"
-    main(["census", "--npz", str(suite_npz), "--emulate", "--B", "6", "--end-time",
+    main(["census", "--bundle", str(suite_bundle), "--emulate", "--B", "6", "--end-time",
           str(60 * bp.dt), "--sample-interval", str(3 * bp.dt), "--scenes", "3",
           "--workers", "1", "--json", str(out)])
     r = json.loads(out.read_text())
@@ -353,15 +353,17 @@ class _NoDevice:
 @pytest.mark.skipif(cupy is not None, reason="CuPy is installed: the refusal is not reached")
 @pytest.mark.parametrize("cupy_module, words", [(None, "needs CuPy"),
                                                  (_NoDevice, "finds no CUDA device")])
-def test_sweep_backend_gpu_without_a_gpu_is_one_line_and_exit_2(
-        tmp_path, capsys, monkeypatch, cupy_module, words):
+@pytest.mark.parametrize("command", [
+    ["sweep", str(REPO / "sweeps" / "smoke4.toml"), "--batch", "auto"],
+    ["attractors", str(REPO / "scenes" / "figure1_n132_damped.toml"), "--starts", "2"]])
+def test_backend_gpu_without_a_gpu_is_one_line_and_exit_2(
+        tmp_path, capsys, monkeypatch, cupy_module, words, command):
     pytest.importorskip("mpi4py")
     from cli.main import main
 
     monkeypatch.setitem(sys.modules, "cupy", cupy_module)  # None: ``import cupy`` fails
-    rc = main(["sweep", str(REPO / "sweeps" / "smoke4.toml"), "-o", str(tmp_path / "s"),
-               "--backend", "gpu", "--batch", "auto"])
+    rc = main([*command, "-o", str(tmp_path / "s"), "--backend", "gpu"])
     err = capsys.readouterr().err.strip().splitlines()
     assert rc == 2
     assert len(err) == 1 and err[0].startswith("error: ") and words in err[0], err
-    assert not (tmp_path / "s" / "runs").exists()  # nothing ran
+    assert not (tmp_path / "s").exists()  # nothing ran

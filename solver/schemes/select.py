@@ -8,7 +8,7 @@ asks; the scheme it returns knows the rest (gusto's scheme objects handed to a t
 * ``build(problem, scene, dt)``: ``SchemeParts``, its stepper and contact step, and
   ``work_observers`` (the contact and damping work, step hooks where the kernel does not sum
   them);
-* ``batchable(scene)`` and ``build_batch(problem, laws, backend, tau)``: B scenes as the
+* ``batchable(scene)`` and ``build_batch(bp, laws, backend, tau)``: B scenes as the
   columns of one stepper (the explicit scheme only);
 * ``kernel(scene)``: the step kernel, chosen once here and then a strategy inside the stepper.
 
@@ -154,8 +154,9 @@ class Scheme(Protocol):
     def batchable(self, scene: Scene) -> bool:
         """True when ``scene`` can run as a column of a batch."""
 
-    def build_batch(self, problem, laws: list[ContactLaw], backend: str, tau: float):
-        """The batched stepper of scenes sharing ``problem``, dt, beta_2 and ``tau``."""
+    def build_batch(self, bp, laws: list[ContactLaw], backend: str, tau: float):
+        """The batched stepper of scenes sharing K and M (``solver.ensemble.BatchedProblem``
+        ``bp``), dt, beta_2 and ``tau``."""
 
 
 def add_scheme(name: str) -> Callable[[type], type]:
@@ -391,14 +392,14 @@ class ExplicitNewmarkScheme:
         except ValueError:
             return False
 
-    def build_batch(self, problem, laws: list[ContactLaw], backend: str, tau: float):
-        """``BatchedExplicit`` of the scenes of ``laws`` (one column each) on ``backend``:
-        numba on the CPU, the CUDA kernel through CuPy on the GPU (``BACKENDS``)."""
-        from solver.ensemble import BatchedExplicit, BatchedProblem, array_namespace
+    def build_batch(self, bp, laws: list[ContactLaw], backend: str, tau: float):
+        """``BatchedExplicit`` of the scenes of ``laws`` (one column each) on the shared
+        ``solver.ensemble.BatchedProblem`` ``bp``, on ``backend``: numba on the CPU, the
+        CUDA kernel through CuPy on the GPU (``BACKENDS``)."""
+        from solver.ensemble import BatchedExplicit, array_namespace
         from solver.fused import friction_bound
 
         law0 = laws[0]
-        bp = BatchedProblem.from_problem(problem, law0.dt, law0.beta2)
         return BatchedExplicit(
             bp, d=np.array([law.d for law in laws]),
             slide=np.array([law.slide for law in laws]), f=np.array([law.f for law in laws]),
@@ -455,7 +456,7 @@ class ImplicitNewmarkScheme:
     def batchable(self, scene: Scene) -> bool:
         return False
 
-    def build_batch(self, problem, laws: list[ContactLaw], backend: str, tau: float):
+    def build_batch(self, bp, laws: list[ContactLaw], backend: str, tau: float):
         raise ValueError("the implicit scheme runs one scene at a time (no batch)")
 
 

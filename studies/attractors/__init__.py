@@ -3,8 +3,9 @@
 ``starts`` (the start distribution), ``features`` (travelling components of an end state,
 the one matching rule), ``classify`` (end states, members), ``statistics``
 (Wilson intervals, ladder, Fisher's test), ``certify`` (the direct solver, through one
-adapter), ``census`` (the driver on the sweep machinery, outputs), ``report`` (the printed
-summary), ``plots`` (``--plot``). docs/attractors.md.
+adapter), ``census`` (the driver on the sweep machinery, outputs), ``bundle`` (the census of
+a GPU node without dolfinx, ``--bundle``), ``report`` (the printed summary), ``plots``
+(``--plot``). docs/attractors.md.
 """
 
 from studies.attractors.census import Census, CensusError, collect, run_census

@@ -40,6 +40,7 @@ import math
 import re
 import sys
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TextIO
@@ -236,8 +237,13 @@ def claim_on_rank0(comm, take, refusals: tuple[type[Exception], ...]):  # noqa: 
 
 def run_census(census: Census, out_dir: str | Path, *, comm=None, force: bool = False,  # noqa: ANN001
                progress: str = "auto", backend: str = "cpu", certify: bool = True,
-               dt_limit: bool = False, kick: bool = True, stream: TextIO = sys.stdout) -> int:
+               dt_limit: bool = False, kick: bool = True, stream: TextIO = sys.stdout,
+               read_starts: Callable[..., int] | None = None) -> int:
     """Run (or resume) the census into ``out_dir`` and write its answer; collective.
+
+    ``read_starts(spec, starts_dir, stream)``: the starts' first legs are not run here but
+    read (``studies.attractors.bundle.import_results``: a bundle a node ran); the rest is
+    the same.
 
     ``certify``: certify every member (``studies.attractors.certify``); ``dt_limit``: also the
     rigid waves' Δt → 0 ladder (several Newton solves on finer levels; off by default);
@@ -267,8 +273,12 @@ def run_census(census: Census, out_dir: str | Path, *, comm=None, force: bool = 
         return 2
     try:
         t0 = time.perf_counter()
-        rc = run_sweep(spec, out_dir / STARTS, comm=comm, stream=stream, progress=progress,
-                       batch="auto", backend=backend)
+        if read_starts is None:
+            rc = run_sweep(spec, out_dir / STARTS, comm=comm, stream=stream,
+                           progress=progress, batch="auto", backend=backend)
+        else:
+            rc = comm.bcast(_read(read_starts, spec, out_dir, stream)
+                            if comm.rank == 0 else None, root=0)
         if rc in (0, 1):
             rc = max(rc, settle(out_dir, comm, stream))
         sweep_s = time.perf_counter() - t0
@@ -282,6 +292,16 @@ def run_census(census: Census, out_dir: str | Path, *, comm=None, force: bool = 
         if owned is not None:
             owned.release()
     return rc
+
+
+def _read(read_starts: Callable[..., int], spec, out_dir: Path, stream: TextIO) -> int:  # noqa: ANN001
+    """Rank 0: ``read_starts`` into the census's start directories; 2 (said in one line)
+    where they cannot be read."""
+    try:
+        return read_starts(spec, out_dir / STARTS, stream)
+    except (ValueError, OSError) as err:
+        print(f"error: {err}", file=sys.stderr, flush=True)
+        return 2
 
 
 # ========================================================================= settle or extend
