@@ -30,7 +30,7 @@ class InputError(ValueError):
 def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument("--nu", type=float, default=0.3, help="Poisson ratio, 0 <= nu < 0.5")
     p.add_argument("--xi", type=float, default=1.25, help="R*/R, > 1")
-    p.add_argument("--f", type=float, default=0.7, help="friction coefficient, >= 0")
+    p.add_argument("--f", type=float, default=0.7, help="friction coefficient, 0 <= f <= 1e3")
     p.add_argument("--omega", type=float, default=40.0, help="rotation speed (rad/s), > 0")
     p.add_argument("--wave-speed", type=float, default=1000.0, help="sqrt(E/rho) (m/s)")
     p.add_argument("--radius", type=float, default=1.0, help="inner radius R (m)")

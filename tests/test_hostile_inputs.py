@@ -320,6 +320,7 @@ def test_travel_from_a_run_of_another_scene_is_refused(finished, tmp_path, capsy
     (["travel", "smoke", "--k", "1000", "-o", "OUT"], "--k 1000 is above the highest "
                                                       "wavenumber of mesh.n_inner = 36"),
     (["plot", "ONE"], "holds 1 samples, fewer than the 2 needed"),
+    (["wave", "--f", "1.7976931348623157e308"], "--f 1.7976931348623157e+308 is out of range"),
 ])
 def test_bad_input_is_one_line_with_exit_2(tmp_path, capsys, argv, words):
     """Tracebacks (flutter-fe, flutter-exact), a 10-line SLEPc stack (E = 1e308), a silent

@@ -170,7 +170,8 @@ def test_section_must_be_table() -> None:
         ("geometry", "R", 0.0, "R > 0"),
         ("geometry", "delta", -1e-3, "delta > 0"),
         ("geometry", "delta", 0.0, "delta > 0"),  # nothing to simulate
-        ("loading", "f", -0.1, "f >= 0"),
+        ("loading", "f", -0.1, "0 <= f <= 1e3"),
+        ("loading", "f", 1e308, "0 <= f <= 1e3"),
         ("loading", "omega", 0.0, "omega > 0"),
         ("mesh", "n_inner", 7, "n_inner >= 8"),
         ("mesh", "n_radial", -1, "n_radial >= 0"),

@@ -143,7 +143,9 @@ RANGES: dict[str, Range] = {
     ),
     "geometry.d": Range(lambda x: x > 0, "d > 0 (m; the cylinder must press the tube)"),
     "loading.omega": Range(lambda x: x > 0, "omega > 0 (rad/s)"),
-    "loading.f": Range(lambda x: x >= 0, "f >= 0 (Coulomb friction coefficient)"),
+    "loading.f": Range(lambda x: 0 <= x <= 1e3,
+                       "0 <= f <= 1e3 (Coulomb friction coefficient: real contacts have f "
+                       "below about 2; near 1e308 the reduced model's matrices overflow)"),
     "initial.mode": Range(lambda x: x >= 1, "mode >= 1"),
 }
 
