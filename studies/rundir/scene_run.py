@@ -311,10 +311,18 @@ class RunDirectory:
         if rd.replacing and (sim is None or not self.replace_on_failure):
             discard_run_dir(rd)  # an interrupted rerun keeps the earlier run
             return
-        if sim is not None:
-            atomic_save_npz(rd.work / "samples.npz", sim.recorder.arrays(), compress=False)
+        # The summary first (a small file, written at once): mpirun SIGKILLs the ranks 0.25 s
+        # after their SIGTERM and returns, and a script that reads the status then must find
+        # it final. samples.npz (megabytes) follows; the run's lock is held until it is there.
         atomic_write_text(rd.work / "summary.json", json.dumps(out, indent=2))
-        commit_run_dir(rd)
+        commit_run_dir(rd)  # a replacement: swapped in now (rd.work is then rd.final)
+        if sim is None:
+            return
+        try:
+            atomic_save_npz(rd.work / "samples.npz", sim.recorder.arrays(), compress=False)
+        except OSError as err:
+            out["message"] = f"{msg}; the samples could not be written: {err}"
+            atomic_write_text(rd.work / "summary.json", json.dumps(out, indent=2))
 
     def tidy(self, pid: int, rescued: bool, where: str, signum: int = 0) -> None:
         """The run's process died outright (SIGKILL, out of memory; in the watchdog): remove

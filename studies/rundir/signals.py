@@ -20,9 +20,11 @@ class RunSignals:
     * ``defer`` (final save): remembered, honoured once the files are written.
 
     Under mpirun (``rescue`` given, rank 0 of a multi-rank run) the first signal also forks a
-    rescue writer, in a session of its own, that saves what rank 0 holds (the inner-circle
-    samples, the status) at once: Open MPI 5 sends SIGKILL 0.25 s after SIGTERM, often before
-    the collective save is done. The normal save waits for it and then writes the full run.
+    rescue writer, in a session of its own, that saves what rank 0 holds at once: the final
+    summary first (a small file), then the inner-circle samples. Open MPI 5 sends SIGKILL
+    0.25 s after SIGTERM, often before the collective save is done, and mpirun returns then:
+    the status must be on disk by that time. The normal save waits for the writer and then
+    writes the full run.
 
     Python runs signal handlers only between bytecodes, so a process inside one long compiled
     call (gmsh meshing, SLEPc's eigensolver for omega_max: minutes on a big mesh, with the GIL
