@@ -152,8 +152,14 @@ def wave_command(args: argparse.Namespace) -> int:
         warnings.simplefilter("ignore", RuntimeWarning)
         # f = 0 (allowed, as in scenes): no friction, no stick zone, steady sliding is neutral
         # (flutter growth 0): the reduced model has no travelling stick-slip wave to find.
-        waves = (find_waves(co, args.f, args.k, args.delta, regime=args.regime,
-                            junctions=junctions) if args.f > 0 else [])
+        try:
+            waves = (find_waves(co, args.f, args.k, args.delta, regime=args.regime,
+                                junctions=junctions) if args.f > 0 else [])
+        except (np.linalg.LinAlgError, ArithmeticError, ValueError):  # e.g. f = 1e308
+            print(f"error: --f {args.f!r}, --k {args.k!r}, --delta {args.delta!r}: the "
+                  "reduced model's wave equations give no finite numbers there; use values "
+                  "of order 1 (the paper: f = 0.7, k = 4, delta = 0.001)", file=sys.stderr)
+            return 2
     sols = [_jsonable(w.summary(args.radius, args.omega)) for w in waves]
     best = next((w for w in waves if w.admissible), None)
     out: dict[str, Any] = {

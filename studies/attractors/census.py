@@ -235,8 +235,12 @@ def claim_on_rank0(comm, take, refusals: tuple[type[Exception], ...]):  # noqa: 
 
 def run_census(census: Census, out_dir: str | Path, *, comm=None, force: bool = False,  # noqa: ANN001
                progress: str = "auto", backend: str = "cpu", certify: bool = True,
-               dt_limit: bool = False, stream: TextIO = sys.stdout) -> int:
+               dt_limit: bool = False, stream: TextIO = sys.stdout,
+               check_cost: bool = True) -> int:
     """Run (or resume) the census into ``out_dir`` and write its answer; collective.
+
+    ``check_cost``: refuse starts too long or too large for the machine, as a sweep does
+    (``studies.sweep.schedule.run_sweep``; ``--yes-i-know``: False).
 
     ``certify``: certify every member (``studies.attractors.certify``); ``dt_limit``: also the
     rigid waves' Δt → 0 ladder (several Newton solves on finer levels; off by default).
@@ -266,7 +270,7 @@ def run_census(census: Census, out_dir: str | Path, *, comm=None, force: bool = 
     try:
         t0 = time.perf_counter()
         rc = run_sweep(spec, out_dir / STARTS, comm=comm, stream=stream, progress=progress,
-                       batch="auto", backend=backend)
+                       batch="auto", backend=backend, check_cost=check_cost)
         if rc in (0, 1):
             rc = max(rc, settle(out_dir, comm, stream))
         sweep_s = time.perf_counter() - t0
