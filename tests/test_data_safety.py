@@ -424,12 +424,20 @@ run_scene(load_scene("smoke", {SHORT!r}), {str(tmp_path / 'm')!r}, comm=MPI.COMM
     (["compare", "CORRUPT"], "not a readable numpy archive"),
     (["plot", "CORRUPT"], "not a readable numpy archive"),
     (["compare", "SHORT"], "fewer than the 4 needed"),
+    # numbers past counting: OverflowError tracebacks before
+    (["run", "smoke", "--set", "time.end_time=1e308"], "more than 1e+18 time steps"),
+    (["continue", "RUN", "--until", "1e308", "-o", "CONT"], "more than 1e+18 time steps"),
+    (["wave", "--f", "1e308"], "no finite numbers there"),
+    (["travel", "smoke", "--k", "4", "--samples", "2147483648", "-o", "CONT"],
+     "at most 100000 contact points"),
+    (["travel", "smoke", "--k", "4", "--celerity", "1e308", "-o", "CONT"], "in no time"),
 ])
 def test_errors_are_one_line_with_exit_2(tmp_path, capsys, argv, words, request):
     """Case 9 and 10: one line naming the problem and the fix, exit status 2."""
-    if argv[0] in ("run", "compare", "plot"):
+    if argv[0] in ("run", "compare", "plot", "continue", "travel"):
         pytest.importorskip("dolfinx")
-    subs = {"FILE": tmp_path / "file", "DIR": tmp_path, "BINARY": tmp_path / "bin.toml"}
+    subs = {"FILE": tmp_path / "file", "DIR": tmp_path, "BINARY": tmp_path / "bin.toml",
+            "CONT": tmp_path / "cont"}
     subs["FILE"].write_text("x")
     subs["BINARY"].write_bytes(b"\xff\xfe\x00binary")
     if {"RUN", "CORRUPT", "SHORT"} & set(argv):
