@@ -424,6 +424,41 @@ def test_numeric_options_hostile_grid(finished, tmp_path, capsys, monkeypatch, c
         assert err.count("\n") == 1, (argv, err)
 
 
+def _numeric_scene_keys() -> list[str]:
+    """Every numeric key of a resolved scene (the defaults included), as ``section.key``."""
+    from solver.scene import load_scene
+    from solver.scene.model import scene_to_dict
+
+    data = scene_to_dict(load_scene(SMOKE))
+    return sorted(f"{s}.{k}" for s, v in data.items() if isinstance(v, dict)
+                  for k, x in v.items() if isinstance(x, int | float)
+                  and not isinstance(x, bool))
+
+
+@pytest.mark.parametrize("value", HOSTILE["int"] + HOSTILE["float"])
+def test_scene_numbers_hostile_grid(tmp_path, capsys, monkeypatch, value):
+    """`run --set KEY=VALUE` for every numeric key of a scene and each hostile value, up to
+    the resource check (the run directory is not made): exit 2 in one line, or the run
+    reached; never a traceback (time.end_time = 1e308 overflowed the step count)."""
+    from cli.main import main
+
+    monkeypatch.setattr("studies.rundir.scene_run.prepare_run_dir", _reached)
+    keys = _numeric_scene_keys()
+    assert len(keys) >= 30
+    for key in keys:
+        argv = ["run", str(SMOKE), "-o", str(tmp_path / "r"), "--set", f"{key}={value}"]
+        try:
+            with contextlib.redirect_stdout(io.StringIO()):
+                rc = main(argv)
+        except Reached:
+            rc = 0
+        err = capsys.readouterr().err
+        assert rc in (0, 2), (argv, rc, err)
+        assert "Traceback" not in err, err
+        if rc == 2:
+            assert err.count("\n") == 1, (argv, err)
+
+
 # ------------------------------------------- signals at phases chosen by Hypothesis, symlinks
 
 FINAL_STATUSES = {"completed", "interrupted", "diverged", "stopped", "failed", "crashed",
