@@ -579,6 +579,28 @@ def test_an_unusable_environment_is_one_line(monkeypatch, capsys, env, words, co
     assert not Path("/tmp/never-made").exists()
 
 
+@pytest.mark.parametrize(("env", "words"), [
+    ({"TMPDIR": "/proc/notmp"}, "error: TMPDIR=/proc/notmp is not a writable directory"),
+    ({"HOME": "/proc/nohome"}, "error: HOME=/proc/nohome is not a writable directory"),
+])
+def test_an_unusable_environment_under_mpirun_is_said_first(env, words):
+    """Under mpirun an unwritable TMPDIR gave PMIx's 9-line box before stickslip started (now
+    mpirun's session directory is in /tmp: PRTE_MCA_prte_tmpdir_base, in ./dev and the
+    image), and rank 0's line was lost when another rank's exit 2 made mpirun kill it. Now
+    the line comes first, once, and mpirun exits 2 (rank 0's status)."""
+    import shutil
+
+    if shutil.which("mpirun") is None or "OMPI_COMM_WORLD_SIZE" in os.environ:
+        pytest.skip("needs mpirun, outside mpirun")
+    if os.environ.get("PRTE_MCA_prte_tmpdir_base") != "/tmp":
+        pytest.skip("outside ./dev and the Docker image (PRTE_MCA_prte_tmpdir_base unset)")
+    res = subprocess.run(["mpirun", "-n", "2", sys.executable, "-m", "cli.main", "info"],
+                         capture_output=True, text=True, timeout=120, cwd=REPO,
+                         env={**os.environ, **env})
+    assert res.returncode == 2, res.stderr
+    assert res.stderr.startswith(words) and res.stderr.count(words) == 1, res.stderr
+
+
 def test_a_run_shorter_than_one_step_is_failed_not_completed(tmp_path):
     """geometry.xi = 1e6 gave dt = 0.05 s > end_time and a `completed` run of one step."""
     pytest.importorskip("dolfinx")
