@@ -431,10 +431,12 @@ run_scene(load_scene("smoke", {SHORT!r}), {str(tmp_path / 'm')!r}, comm=MPI.COMM
     (["travel", "smoke", "--k", "4", "--samples", "2147483648", "-o", "CONT"],
      "at most 100000 contact points"),
     (["travel", "smoke", "--k", "4", "--celerity", "1e308", "-o", "CONT"], "in no time"),
+    (["flutter-fe", "smoke", "--f-sweep", "0:1e308:3"], "friction coefficients in [0, 10]"),
+    (["compare", "RUN", "--k", "2147483648"], "1 <= k <= 10000"),
 ])
 def test_errors_are_one_line_with_exit_2(tmp_path, capsys, argv, words, request):
     """Case 9 and 10: one line naming the problem and the fix, exit status 2."""
-    if argv[0] in ("run", "compare", "plot", "continue", "travel"):
+    if argv[0] in ("run", "compare", "plot", "continue", "travel", "flutter-fe"):
         pytest.importorskip("dolfinx")
     subs = {"FILE": tmp_path / "file", "DIR": tmp_path, "BINARY": tmp_path / "bin.toml",
             "CONT": tmp_path / "cont"}
