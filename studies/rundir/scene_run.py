@@ -141,8 +141,11 @@ class RunDirectory:
         self.t0 = time.perf_counter()
         comm = self.comm
         try:
-            with RunSignals(self.hard_stop, rescue=self.rescue if self.rank0 and comm.size > 1
-                            else None, on_death=self.tidy) as signals:
+            mpi_rank0 = self.rank0 and comm.size > 1
+            with RunSignals(self.hard_stop, rescue=self.rescue if mpi_rank0 else None,
+                            on_death=self.tidy,
+                            on_setup_signal=self.setup_signal if mpi_rank0 else None
+                            ) as signals:
                 self._execute(signals, est)
                 if self.sim is not None:
                     self.sim.status = self.status
@@ -296,6 +299,23 @@ class RunDirectory:
         if self.rank0:
             self.mark("interrupted", msg)
 
+    def setup_signal(self, signum: int) -> None:
+        """In the watchdog (rank 0 under mpirun), at once: a signal during setup ends the run
+        ``interrupted``; say so before mpirun's SIGKILL (the normal path writes the same
+        status). Only over this run's own ``running`` summary: never another rank's
+        ``failed``, never a replacement (its earlier run stays, final)."""
+        rd = self.rd
+        if rd.replacing or _disk_status(rd.work) != "running":
+            return
+        summary = dict(self.started, status="interrupted",
+                       message=f"interrupted by {_signame(signum)} during setup",
+                       wall_time_s=time.perf_counter() - self.t0)
+        summary.pop("pid", None)
+        try:
+            atomic_write_text(rd.work / "summary.json", json.dumps(summary, indent=2))
+        except OSError:
+            pass
+
     def rescue(self) -> None:
         """The forked rescue writer (rank 0 under mpirun): save what rank 0 holds, now."""
         rd = self.rd
@@ -380,6 +400,7 @@ def _save(sim: Simulation | None, rd: RunDir, scene: Scene, status: str, error: 
             sim.writer.close()
         if not rank0:
             return {}
+        rescued = signals.rescue_pid > 0  # the rescue writer saved this run first
         signals.wait_rescue()
         summary = sim.facts() if sim is not None else {"scene": scene.name, "status": status}
         if keep_previous and rd.replacing:
@@ -401,6 +422,12 @@ def _save(sim: Simulation | None, rd: RunDir, scene: Scene, status: str, error: 
 
         finish(summary)
         try:
+            if sim is not None and rescued:
+                # The rescue's summary counts the rescue's samples; the loop has taken one
+                # more since. Without the count it tells of either file, so a kill between
+                # the writes below never leaves a count that samples.npz contradicts.
+                atomic_write_text(work / "summary.json", json.dumps(
+                    {k: v for k, v in summary.items() if k != "samples"}, indent=2))
             if sim is not None:
                 arrays = sim.recorder.arrays()
                 arrays.update(probe_arrays or {})
