@@ -281,15 +281,20 @@ class RunDirectory:
         if rd.replacing and not self.replace_on_failure:
             discard_run_dir(rd)
             return
-        summary = dict(self.started, status=status, message=message,
-                       wall_time_s=time.perf_counter() - self.t0)
-        summary.pop("pid", None)
         try:
-            atomic_write_text(rd.work / "summary.json", json.dumps(summary, indent=2))
+            self._write_ended(status, message)
             if rd.replacing:
                 commit_run_dir(rd)
         except OSError:
             pass
+
+    def _write_ended(self, status: str, message: str) -> None:
+        """summary.json of a run that ended without the normal save: what is known at the
+        start, the status and why (no pid: nobody runs it now)."""
+        summary = dict(self.started, status=status, message=message,
+                       wall_time_s=time.perf_counter() - self.t0)
+        summary.pop("pid", None)
+        atomic_write_text(self.rd.work / "summary.json", json.dumps(summary, indent=2))
 
     def hard_stop(self, signum: int, where: str) -> None:
         """The watchdog's last word before SIGKILL: a signal not acknowledged in time."""
@@ -307,12 +312,8 @@ class RunDirectory:
         rd = self.rd
         if rd.replacing or _disk_status(rd.work) != "running":
             return
-        summary = dict(self.started, status="interrupted",
-                       message=f"interrupted by {_signame(signum)} during setup",
-                       wall_time_s=time.perf_counter() - self.t0)
-        summary.pop("pid", None)
         try:
-            atomic_write_text(rd.work / "summary.json", json.dumps(summary, indent=2))
+            self._write_ended("interrupted", f"interrupted by {_signame(signum)} during setup")
         except OSError:
             pass
 
