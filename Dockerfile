@@ -30,11 +30,13 @@ RUN printf '%s\n' 'path-exclude=/usr/share/doc/*' 'path-include=/usr/share/doc/*
  && rm -rf /var/lib/apt/lists/* /var/log/apt /var/log/dpkg.log /var/cache/debconf/*-old
 
 # 2. OpenMPI: shared memory only, quiet on a single node; mpirun also works as root
-#    (`docker run --user root ...`) and with more ranks than cores.
+#    (`docker run --user root ...`) and with more ranks than cores; its session directory in
+#    /tmp (not $TMPDIR: an unusable TMPDIR then gets stickslip's one-line check, not a PMIx box).
 COPY docker/openmpi-mca-params.conf /etc/openmpi/openmpi-mca-params.conf
 ENV OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 \
     PRTE_ALLOW_RUN_AS_ROOT=1 PRTE_ALLOW_RUN_AS_ROOT_CONFIRM=1 \
-    OMPI_MCA_rmaps_base_oversubscribe=1 PRTE_MCA_rmaps_default_mapping_policy=:oversubscribe
+    OMPI_MCA_rmaps_base_oversubscribe=1 PRTE_MCA_rmaps_default_mapping_policy=:oversubscribe \
+    PRTE_MCA_prte_tmpdir_base=/tmp
 
 # 3. The non-root user and the output directory it owns (mount a host directory there).
 RUN useradd --create-home --uid 1000 stickslip && mkdir -p /work/runs && chown stickslip /work/runs

@@ -55,6 +55,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                    "$STICKSLIP_OUTPUT/attractors/<scene name>)")
     p.add_argument("--force", action="store_true",
                    help="use a directory that holds another census (its starts run again)")
+    p.add_argument("--yes-i-know", dest="yes_i_know", action="store_true",
+                   help="run even if the starts' estimated time exceeds two days, or a "
+                   "start's memory or output exceeds what this machine has")
     p.add_argument("--no-certify", action="store_true",
                    help="skip the certificates (reproducibility, persistence, the direct "
                    "travelling-wave solver for rigid waves)")
@@ -122,7 +125,8 @@ def _attractors(args: argparse.Namespace) -> int:
                   else (scene.mesh.n_inner,))
         dist = StartDistribution(starts=args.starts, seed=args.seed, n_modes=args.n_modes,
                                  amplitude=args.amplitude,
-                                 structured=parse_structured(args.structured))
+                                 structured=parse_structured(args.structured,
+                                                             min(meshes) // 2))
         for name, tol in (("--celerity-tol", args.celerity_tol),
                           ("--spread-tol", args.spread_tol)):
             if not 0 < tol < 1:
@@ -161,7 +165,7 @@ def _attractors(args: argparse.Namespace) -> int:
     rc = run_census(census, out, comm=comm, force=args.force, progress=args.progress,
                     backend=args.backend, certify=not args.no_certify,
                     dt_limit=args.dt_limit, kick=not args.no_kick, stream=stream,
-                    read_starts=read_starts)
+                    read_starts=read_starts, check_cost=not args.yes_i_know)
     if comm.rank == 0 and rc in (0, 1, 130):
         _show(out, args)
     return rc
@@ -206,7 +210,7 @@ def _along(census, out: Path, args: argparse.Namespace, comm) -> int:  # noqa: A
     rc = run_along(census, key, values, out, comm=comm, force=args.force,
                    progress=args.progress, backend=args.backend,
                    certify=not args.no_certify, dt_limit=args.dt_limit,
-                   kick=not args.no_kick)
+                   kick=not args.no_kick, check_cost=not args.yes_i_know)
     if comm.rank == 0 and args.plot and rc in (0, 1) and (out / "along.json").is_file():
         print(f"figure: {plot_along(out)}")
     return rc

@@ -43,8 +43,11 @@ def _compare(args: argparse.Namespace) -> int:
         print(f"error: {problem}", file=sys.stderr)
         return 2
     ks = list(args.k)
-    if bad := [k for k in ks if k < 1]:
-        print(f"error: --k {bad[0]}: give a wavenumber >= 1", file=sys.stderr)
+    from cli.semianalytic import KMAX_LIMIT
+
+    if bad := [k for k in ks if not 1 <= k <= KMAX_LIMIT]:
+        print(f"error: --k {bad[0]}: give a wavenumber 1 <= k <= {KMAX_LIMIT} (the reduced "
+              "model's waves per turn)", file=sys.stderr)
         return 2
     result = compare_run(run_dir, ks)
     if args.modal:

@@ -55,8 +55,9 @@ def parse_f_sweep(text: str) -> np.ndarray:
         if str(err).startswith("--f-sweep"):
             raise
         raise ValueError(f"--f-sweep {text!r}: use start:stop:num or a comma list") from err
-    if vals.size == 0 or np.any(vals < 0) or not np.all(np.isfinite(vals)):
-        raise ValueError(f"--f-sweep {text!r}: need finite friction coefficients >= 0")
+    if vals.size == 0 or not np.all(np.isfinite(vals) & (vals >= 0) & (vals <= 10)):
+        # as flutter-exact's; f = 1e308 made MUMPS fail in the CEA's factorisation
+        raise ValueError(f"--f-sweep {text!r}: need friction coefficients in [0, 10]")
     if vals.size > F_SWEEP_MAX:
         raise ValueError(f"--f-sweep {text!r}: {vals.size} values, each a full CEA; at most "
                          f"{F_SWEEP_MAX} (a diagram needs a few tens)")

@@ -168,9 +168,12 @@ def main(argv: Sequence[str] | None = None) -> int:
             problem = problem or (f"{flag} is empty: give a path (is a shell variable unset?), "
                                   f"or leave {flag} out")
     if problem:  # before MPI starts; under mpirun every rank ends, rank 0 says why
+        # and sets mpirun's exit status (its first non-zero rank's). The other ranks end with
+        # 0: an exit 2 there made mpirun kill rank 0 before its line was out.
         if os.environ.get("OMPI_COMM_WORLD_RANK", os.environ.get("PMIX_RANK", "0")) == "0":
             print(f"error: {problem}", file=sys.stderr, flush=True)
-        return 2
+            return 2
+        return 0
     try:
         with _stops_as_interrupt():
             return int(args.func(args) or 0)

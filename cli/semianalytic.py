@@ -150,7 +150,13 @@ def wave_command(args: argparse.Namespace) -> int:
 
     gamma = gamma_from_physical(args.wave_speed, args.radius, args.omega)
     co = coefficients(args.nu, args.xi, gamma)
-    waves = _find_waves(args, co)
+    try:
+        waves = _find_waves(args, co)
+    except (np.linalg.LinAlgError, ArithmeticError, ValueError):  # no finite numbers there
+        print(f"error: --f {args.f!r}, --k {args.k!r}, --delta {args.delta!r}: the "
+              "reduced model's wave equations give no finite numbers there; use values "
+              "of order 1 (the paper: f = 0.7, k = 4, delta = 0.001)", file=sys.stderr)
+        return 2
     best = next((w for w in waves if w.admissible), None)
     out = _wave_summary(args, gamma, co, waves, best)
     if args.plot:

@@ -51,6 +51,10 @@ FIELD_SECONDS_PER_DOF = 1e-6  # one frame's stress assembly and write (measured 
 MAX_SECONDS = 2 * 86400.0
 
 
+#: Most time steps a scene may ask for: the steppers count steps in 64-bit integers.
+MAX_STEPS = 1e18
+
+
 class ResourceError(ValueError):
     """The scene needs more than the machine has (message: the numbers and the fix)."""
 
@@ -96,6 +100,10 @@ def estimate(scene: Scene, ranks: int = 1) -> Estimate:
     c_p = scene.material.wave_speed * math.sqrt((1 - nu) / ((1 + nu) * (1 - 2 * nu)))
     omega_max = OMEGA_MAX_C * c_p / h_min
     dt = ts.dt if ts.dt > 0 else ts.dt_fraction * math.sqrt(2.0 / ts.beta2) / omega_max
+    if not ts.end_time / dt <= MAX_STEPS:  # end_time = 1e308: no count, no estimate
+        raise ResourceError(
+            f"time.end_time = {ts.end_time:g} s is more than {MAX_STEPS:.0e} time steps of "
+            f"dt = {dt:.3g} s (the step counters are 64-bit): reduce time.end_time")
     steps = math.ceil(ts.end_time / dt)
     if ts.max_steps:
         steps = min(steps, ts.max_steps)

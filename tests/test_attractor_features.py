@@ -332,6 +332,11 @@ def test_parse_along():
     for bad in ("omega=30:100:8", "loading.omega=30:100:1", "loading.omega=1,1", "x"):
         with pytest.raises(ValueError, match="--along"):
             parse_along(bad)
+    # refused before the list is made (10^5 values, each a census to check, took minutes)
+    with pytest.raises(ValueError, match="M = 100000 values, each a whole census; give M <= "):
+        parse_along("loading.omega=30:100:100000")
+    with pytest.raises(ValueError, match="finite"):
+        parse_along("loading.omega=nan,30")
 
 
 def test_along_matches_neighbouring_points_by_features():

@@ -126,7 +126,17 @@ def test_start_distribution_and_arguments():
     assert len(pts) == 10 and pts[0] == {"mesh.n_inner": 132, "initial.perturbation": "random",
                                           "initial.seed": 5}
     assert pts[4]["initial.mode"] == 5 and "seeds 5..7" in dist.describe()
-    assert parse_structured("1:12") == tuple(range(1, 13))
+    assert parse_structured("1:12", 66) == tuple(range(1, 13))
+    # huge values are refused before any list is made (they raised OverflowError, or filled
+    # the memory with starts)
+    with pytest.raises(ValueError, match="1 <= k <= 66"):
+        parse_structured("1:99999999999999999999", 66)
+    with pytest.raises(ValueError, match="K1 <= K2"):
+        parse_structured("5:3", 66)
+    with pytest.raises(ValueError, match="1 <= M <= 10000"):
+        StartDistribution(starts=2**31)
+    with pytest.raises(ValueError, match="64-bit"):
+        StartDistribution(starts=4, seed=2**63 - 2)
     assert parse_meshes("264,132") == (132, 264)
     for bad in ("", "132,132", "a"):
         with pytest.raises(ValueError, match="--meshes"):

@@ -8,6 +8,7 @@ through ``cli.main.main`` except where a separate process is the point (MPI, a h
 
 from __future__ import annotations
 
+import contextlib
 import io
 import json
 import os
@@ -324,8 +325,9 @@ run_scene(load_scene("smoke", {SHORT!r}), {str(tmp_path / 'm')!r}, stream=io.Str
 
 @pytest.mark.slow
 def test_sigterm_to_mpirun_leaves_interrupted_and_samples(tmp_path):
-    """Case 4 end to end: Open MPI 5 SIGKILLs the ranks 0.25 s after forwarding SIGTERM; the
-    rescue writer (rank 0) still leaves `interrupted` and loadable samples."""
+    """Case 4 end to end: Open MPI 5 SIGKILLs the ranks 0.25 s after forwarding SIGTERM and
+    exits 1; the rescue writer (rank 0) has written the final summary (`interrupted`) by the
+    time mpirun returns, and loadable samples once it releases the run's lock."""
     pytest.importorskip("dolfinx")
     import shutil
 
@@ -349,13 +351,69 @@ def test_sigterm_to_mpirun_leaves_interrupted_and_samples(tmp_path):
     assert proc.poll() is None, "".join(seen)  # still running: the signal lands in the loop
     proc.send_signal(signal.SIGTERM)
     proc.communicate(timeout=120)
-    # The rescue writer (and the watchdog) hold the run's lock until its files are final:
-    # the handshake, however late mpirun's SIGKILL left them.
+    # Read at once, as a script would: the rescue writer writes summary.json first, within
+    # Open MPI's 0.25 s between the ranks' SIGTERM and SIGKILL (a small file: milliseconds).
+    s = json.loads((run_dir / "summary.json").read_text())
+    assert s["status"] == "interrupted", s
+    assert proc.returncode == 1  # Open MPI's launcher after SIGTERM, whatever the run did
+    # samples.npz follows; the rescue writer holds the run's lock until it is written
     wait_released(run_dir)
     s = json.loads((run_dir / "summary.json").read_text())
     assert s["status"] == "interrupted", s
     with np.load(run_dir / "samples.npz") as data:
         assert data["t"].size > 0
+    # and the files agree, however late the SIGKILL came into rank 0's own save (the
+    # summary counted the rescue's samples while samples.npz had one more: plot refused)
+    from studies.rundir.readers import check_run_dir
+
+    check_run_dir(run_dir)
+
+
+def test_sigterm_to_mpirun_in_compiled_setup_is_final_at_once(tmp_path):
+    """SIGTERM to mpirun while rank 0 is held in compiled code during setup (gmsh, SLEPc: the
+    Python handler cannot run before Open MPI's SIGKILL 0.25 s later): the summary said
+    `running` when mpirun returned, and `interrupted` only later (the watchdog, after the
+    death). Now the watchdog writes `interrupted` as the signal comes: final at once."""
+    pytest.importorskip("dolfinx")
+    import shutil
+
+    if shutil.which("mpirun") is None or "OMPI_COMM_WORLD_SIZE" in os.environ:
+        pytest.skip("needs mpirun, outside mpirun")
+    driver = tmp_path / "driver.py"
+    ready = tmp_path / "ready"
+    # As below: libc's system() waits in C for a child that writes the readiness marker
+    # (rank 0's; its pid) and sleeps; mpirun's SIGKILL of the process group ends it.
+    child = (f"echo $$ > {ready}.tmp && mv {ready}.tmp {ready} && "
+             "exec sleep 300 </dev/null >/dev/null 2>&1")
+    driver.write_text(f"""
+import ctypes, io, sys
+sys.path.insert(0, {str(REPO)!r})
+from mpi4py import MPI
+import solver.problem
+from solver.scene import load_scene
+from studies.rundir import run_scene
+def build(scene, comm):
+    ctypes.CDLL(None).system(({child!r} if comm.rank == 0 else "sleep 300").encode())
+solver.problem.build_problem = build
+run_scene(load_scene("smoke", {SHORT!r}), {str(tmp_path / 'm')!r}, stream=io.StringIO())
+""")
+    proc = subprocess.Popen(["mpirun", "-n", "2", sys.executable, str(driver)],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+                            cwd=REPO)
+    sleeper = int(wait_for_file(ready))
+    try:
+        proc.send_signal(signal.SIGTERM)
+        _, err = proc.communicate(timeout=120)
+        # read at once, as a script would
+        s = json.loads((tmp_path / "m" / "summary.json").read_text())
+        assert s["status"] == "interrupted", (s, err)
+        assert s["message"] == "interrupted by SIGTERM during setup"
+        assert proc.returncode == 1  # Open MPI's launcher after SIGTERM
+    finally:
+        with contextlib.suppress(ProcessLookupError):
+            os.kill(sleeper, signal.SIGKILL)
+    wait_released(tmp_path / "m")
+    assert json.loads((tmp_path / "m" / "summary.json").read_text())["status"] == "interrupted"
 
 
 def test_sigterm_while_stuck_in_compiled_code(tmp_path):
@@ -419,12 +477,22 @@ run_scene(load_scene("smoke", {SHORT!r}), {str(tmp_path / 'm')!r}, comm=MPI.COMM
     (["compare", "CORRUPT"], "not a readable numpy archive"),
     (["plot", "CORRUPT"], "not a readable numpy archive"),
     (["compare", "SHORT"], "fewer than the 4 needed"),
+    # numbers past counting: OverflowError tracebacks before
+    (["run", "smoke", "--set", "time.end_time=1e308"], "more than 1e+18 time steps"),
+    (["continue", "RUN", "--until", "1e308", "-o", "CONT"], "more than 1e+18 time steps"),
+    (["wave", "--f", "1e308"], "no finite numbers there"),
+    (["travel", "smoke", "--k", "4", "--samples", "2147483648", "-o", "CONT"],
+     "at most 100000 contact points"),
+    (["travel", "smoke", "--k", "4", "--celerity", "1e308", "-o", "CONT"], "in no time"),
+    (["flutter-fe", "smoke", "--f-sweep", "0:1e308:3"], "friction coefficients in [0, 10]"),
+    (["compare", "RUN", "--k", "2147483648"], "1 <= k <= 10000"),
 ])
 def test_errors_are_one_line_with_exit_2(tmp_path, capsys, argv, words, request):
     """Case 9 and 10: one line naming the problem and the fix, exit status 2."""
-    if argv[0] in ("run", "compare", "plot"):
+    if argv[0] in ("run", "compare", "plot", "continue", "travel", "flutter-fe"):
         pytest.importorskip("dolfinx")
-    subs = {"FILE": tmp_path / "file", "DIR": tmp_path, "BINARY": tmp_path / "bin.toml"}
+    subs = {"FILE": tmp_path / "file", "DIR": tmp_path, "BINARY": tmp_path / "bin.toml",
+            "CONT": tmp_path / "cont"}
     subs["FILE"].write_text("x")
     subs["BINARY"].write_bytes(b"\xff\xfe\x00binary")
     if {"RUN", "CORRUPT", "SHORT"} & set(argv):
@@ -564,6 +632,28 @@ def test_an_unusable_environment_is_one_line(monkeypatch, capsys, env, words, co
     rc, err = cli(capsys, *command)
     assert rc == 2 and err.count("\n") == 1 and words in err and "export" in err, err
     assert not Path("/tmp/never-made").exists()
+
+
+@pytest.mark.parametrize(("env", "words"), [
+    ({"TMPDIR": "/proc/notmp"}, "error: TMPDIR=/proc/notmp is not a writable directory"),
+    ({"HOME": "/proc/nohome"}, "error: HOME=/proc/nohome is not a writable directory"),
+])
+def test_an_unusable_environment_under_mpirun_is_said_first(env, words):
+    """Under mpirun an unwritable TMPDIR gave PMIx's 9-line box before stickslip started (now
+    mpirun's session directory is in /tmp: PRTE_MCA_prte_tmpdir_base, in ./dev and the
+    image), and rank 0's line was lost when another rank's exit 2 made mpirun kill it. Now
+    the line comes first, once, and mpirun exits 2 (rank 0's status)."""
+    import shutil
+
+    if shutil.which("mpirun") is None or "OMPI_COMM_WORLD_SIZE" in os.environ:
+        pytest.skip("needs mpirun, outside mpirun")
+    if os.environ.get("PRTE_MCA_prte_tmpdir_base") != "/tmp":
+        pytest.skip("outside ./dev and the Docker image (PRTE_MCA_prte_tmpdir_base unset)")
+    res = subprocess.run(["mpirun", "-n", "2", sys.executable, "-m", "cli.main", "info"],
+                         capture_output=True, text=True, timeout=120, cwd=REPO,
+                         env={**os.environ, **env})
+    assert res.returncode == 2, res.stderr
+    assert res.stderr.startswith(words) and res.stderr.count(words) == 1, res.stderr
 
 
 def test_a_run_shorter_than_one_step_is_failed_not_completed(tmp_path):

@@ -115,6 +115,9 @@ def test_docker_run_image_stickslip_and_mpirun():
                                                    "/etc/openmpi/openmpi-mca-params.conf"]
                for word, rest in ins)
     assert "docker/openmpi-mca-params.conf" in DEV.read_text()
+    # mpirun's session directory in /tmp, in the image and in ./dev (not an unusable TMPDIR)
+    assert env.get("PRTE_MCA_prte_tmpdir_base") == "/tmp"
+    assert "PRTE_MCA_prte_tmpdir_base=/tmp" in DEV.read_text()
     # Default outputs go to a directory the non-root user owns.
     out = env.get("STICKSLIP_OUTPUT")
     assert out and any(word == "RUN" and f"chown {users[-1]} {out}" in rest

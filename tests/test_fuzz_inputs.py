@@ -5,8 +5,9 @@ each case gives a one-line error (the class the layer promises: ``SceneError``,
 ``SweepError``, ``ReadError``; exit 2 through the CLI) or a valid result; never another
 exception, never a traceback, never a change to a file the command does not own.
 
-Derandomised (the same examples on every CI run) with a fixed number of examples per test:
-about 40 s in all on 2 cores.
+Derandomised (the same examples on every CI run) with a fixed number of examples per test,
+and a fixed grid of hostile numbers for every numeric option and scene key: about 65 s in
+all on 2 cores.
 """
 
 from __future__ import annotations
@@ -292,7 +293,7 @@ COMMANDS = {
     "flutter-exact": (["flutter-exact", "smoke", "--json"],
                       ["exact.sliding_flutter.sliding_branches"]),
     "travel": (["travel", "smoke", "--k", "4", "-o", "{tmp}/t"],
-               ["studies.travel.command.solve"]),
+               ["studies.travel.command.solve", "studies.travel.continuation.run_continuation"]),
     "attractors": (["attractors", "smoke", "-o", "{tmp}/a"],
                    ["studies.attractors.census.run_census", "studies.attractors.along.run_along"]),
 }
@@ -300,10 +301,6 @@ COMMANDS = {
 TEMPLATES = {"--batch": "{i}", "--f-sweep": "{x}:{y}:{i}",
              "--continue": "loading.omega={x}:{y}:{i}", "--meshes": "{i},{j}",
              "--structured": "{i}:{j}", "--n": "{i},{j}", "--along": "loading.omega={x}:{y}:{i}"}
-#: Not fuzzed yet: `attractors --starts 2147483648` and `--along KEY=A:B:100000` spend
-#: minutes before their work starts (a start list, a scene per point, made up front), and
-#: `--structured 1:9221120237062062087` raises OverflowError (studies.attractors.starts).
-OPEN = {("attractors", "--starts"), ("attractors", "--along"), ("attractors", "--structured")}
 EXTREME_FLOATS = st.one_of(
     st.sampled_from(["nan", "inf", "-inf", "-1", "0", "-0.0", "5e-324", "1e-300", "1e300",
                      "1.7976931348623157e308", "1e12", "0.5", "3"]),
@@ -335,7 +332,7 @@ def _numeric_options() -> list[tuple[str, str, str]]:
     return out
 
 
-NUMERIC_OPTIONS = [case for case in _numeric_options() if case[:2] not in OPEN]
+NUMERIC_OPTIONS = _numeric_options()
 
 
 def test_every_numeric_option_is_fuzzed():
@@ -379,6 +376,88 @@ def test_numeric_options(finished, tmp_path_factory, capsys, monkeypatch, option
     assert "Traceback" not in err, err
     if rc == 2 and not err.startswith("usage:"):
         assert err.count("\n") == 1, (argv, err)
+
+
+#: The values every numeric option meets, each one (a fixed grid beside the drawn ones above):
+#: past 32 and 64 bits, negative, zero, not a number, infinite, the largest float.
+HOSTILE = {"int": ["2147483648", str(10**30), "-1", "0"],
+           "float": ["nan", "inf", "1e308", "-1", "0"]}
+HOSTILE["template"] = sorted({TEMPLATES[flag].format(x=x, y=y, i=i, j=j)
+                              for flag in TEMPLATES
+                              for x, y in (("1", "2"), ("nan", "1"), ("-1e308", "1e308"))
+                              for i, j in (("3", "4"), ("1", "100000"), ("2147483648", "1"),
+                                           ("-1", str(10**20)))})
+
+
+def _hostile_cases() -> list[tuple[str, str, str]]:
+    cases = []
+    for command, flag, kind in NUMERIC_OPTIONS:
+        values = HOSTILE[kind] if kind != "template" else [
+            v for v in HOSTILE["template"] if v.startswith(TEMPLATES[flag].split("{")[0])
+            and v.count(":") == TEMPLATES[flag].count(":")
+            and v.count(",") == TEMPLATES[flag].count(",")]
+        cases += [(command, flag, v) for v in values]
+    return cases
+
+
+@pytest.mark.parametrize(("command", "flag", "value"), _hostile_cases())
+def test_numeric_options_hostile_grid(finished, tmp_path, capsys, monkeypatch, command, flag,
+                                      value):
+    """Each numeric option with each hostile value: exit 0 (or the command's work reached),
+    or exit 2 with one line at load; never a traceback, an overflow or a huge allocation."""
+    from cli.main import main
+
+    before, works = COMMANDS[command]
+    for target in works:
+        monkeypatch.setattr(target, _reached, raising=False)
+    argv = [a.format(tmp=tmp_path, run=finished) for a in before] + [f"{flag}={value}"]
+    try:
+        with contextlib.redirect_stdout(io.StringIO()):
+            rc = main(argv)
+    except Reached:
+        rc = 0
+    except SystemExit as stop:  # argparse: a value of the wrong type, with its usage line
+        rc = stop.code
+    err = capsys.readouterr().err
+    assert rc in (0, 2), (argv, rc, err)
+    assert "Traceback" not in err, err
+    if rc == 2 and not err.startswith("usage:"):
+        assert err.count("\n") == 1, (argv, err)
+
+
+def _numeric_scene_keys() -> list[str]:
+    """Every numeric key of a resolved scene (the defaults included), as ``section.key``."""
+    from solver.scene import load_scene
+    from solver.scene.model import scene_to_dict
+
+    data = scene_to_dict(load_scene(SMOKE))
+    return sorted(f"{s}.{k}" for s, v in data.items() if isinstance(v, dict)
+                  for k, x in v.items() if isinstance(x, int | float)
+                  and not isinstance(x, bool))
+
+
+@pytest.mark.parametrize("value", HOSTILE["int"] + HOSTILE["float"])
+def test_scene_numbers_hostile_grid(tmp_path, capsys, monkeypatch, value):
+    """`run --set KEY=VALUE` for every numeric key of a scene and each hostile value, up to
+    the resource check (the run directory is not made): exit 2 in one line, or the run
+    reached; never a traceback (time.end_time = 1e308 overflowed the step count)."""
+    from cli.main import main
+
+    monkeypatch.setattr("studies.rundir.scene_run.prepare_run_dir", _reached)
+    keys = _numeric_scene_keys()
+    assert len(keys) >= 30
+    for key in keys:
+        argv = ["run", str(SMOKE), "-o", str(tmp_path / "r"), "--set", f"{key}={value}"]
+        try:
+            with contextlib.redirect_stdout(io.StringIO()):
+                rc = main(argv)
+        except Reached:
+            rc = 0
+        err = capsys.readouterr().err
+        assert rc in (0, 2), (argv, rc, err)
+        assert "Traceback" not in err, err
+        if rc == 2:
+            assert err.count("\n") == 1, (argv, err)
 
 
 # ------------------------------------------- signals at phases chosen by Hypothesis, symlinks

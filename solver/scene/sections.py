@@ -50,7 +50,7 @@ class Material(_Section):
     def _check(self) -> None:
         for name in ("E", "wave_speed", "nu"):
             check_range(self._key(name), getattr(self, name))
-        c2 = self.wave_speed**2
+        c2 = self.wave_speed * self.wave_speed  # inf, not OverflowError, at 1e308
         rho = self.E / c2 if c2 > 0 else math.inf
         _require(self._key("wave_speed"), self.wave_speed, 0 < rho < math.inf,
                  "a finite, non-zero density E / wave_speed**2 (kg/m^3)")

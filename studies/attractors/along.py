@@ -30,6 +30,9 @@ KIND = "attractors-along"
 ENTRIES = ("along.json", "points", "*.png")
 #: How far an attractor may move between neighbouring points of the curve and still be one.
 ALONG_TOLERANCES = {"celerity": 0.15, "share_rel": 0.5, "share_abs": 0.20, "fraction": 0.10}
+#: Most values of one curve: each is a whole census (a curve needs a few tens). Checked
+#: before the list is made and each value's scene is checked.
+MAX_POINTS = 200
 
 
 def parse_along(text: str) -> tuple[str, list[float]]:
@@ -42,14 +45,23 @@ def parse_along(text: str) -> tuple[str, list[float]]:
     try:
         if ":" in spec:
             a, b, m = spec.split(":")
-            count = int(m)
+            count, lo, hi = int(m), float(a), float(b)
             if count < 2:
                 raise ValueError
-            values = [float(a) + (float(b) - float(a)) * i / (count - 1) for i in range(count)]
+            if count > MAX_POINTS:
+                raise ValueError(f"--along {text!r}: M = {count} values, each a whole census;"
+                                 f" give M <= {MAX_POINTS}")
+            values = [lo + (hi - lo) * i / (count - 1) for i in range(count)]
         else:
             values = [float(v) for v in spec.split(",") if v.strip()]
-    except ValueError:
-        raise ValueError(f"--along {text!r}: {fix} (M >= 2)") from None
+    except ValueError as err:
+        raise ValueError(str(err) if str(err).startswith("--along") else
+                         f"--along {text!r}: {fix} (M >= 2)") from None
+    if len(values) > MAX_POINTS:
+        raise ValueError(f"--along {text!r}: {len(values)} values, each a whole census; give "
+                         f"at most {MAX_POINTS}")
+    if not all(map(math.isfinite, values)):
+        raise ValueError(f"--along {text!r}: the values must be finite numbers ({fix})")
     if len(values) < 2 or len(set(values)) != len(values):
         raise ValueError(f"--along {text!r}: {fix} with at least two distinct values")
     return key.strip(), values

@@ -238,12 +238,15 @@ def claim_on_rank0(comm, take, refusals: tuple[type[Exception], ...]):  # noqa: 
 def run_census(census: Census, out_dir: str | Path, *, comm=None, force: bool = False,  # noqa: ANN001
                progress: str = "auto", backend: str = "cpu", certify: bool = True,
                dt_limit: bool = False, kick: bool = True, stream: TextIO = sys.stdout,
-               read_starts: Callable[..., int] | None = None) -> int:
+               read_starts: Callable[..., int] | None = None, check_cost: bool = True) -> int:
     """Run (or resume) the census into ``out_dir`` and write its answer; collective.
 
     ``read_starts(spec, starts_dir, stream)``: the starts' first legs are not run here but
     read (``studies.attractors.bundle.import_results``: a bundle a node ran); the rest is
     the same.
+
+    ``check_cost``: refuse starts too long or too large for the machine, as a sweep does
+    (``studies.sweep.schedule.run_sweep``; ``--yes-i-know``: False).
 
     ``certify``: certify every member (``studies.attractors.certify``); ``dt_limit``: also the
     rigid waves' Δt → 0 ladder (several Newton solves on finer levels; off by default);
@@ -275,7 +278,8 @@ def run_census(census: Census, out_dir: str | Path, *, comm=None, force: bool = 
         t0 = time.perf_counter()
         if read_starts is None:
             rc = run_sweep(spec, out_dir / STARTS, comm=comm, stream=stream,
-                           progress=progress, batch="auto", backend=backend)
+                           progress=progress, batch="auto", backend=backend,
+                           check_cost=check_cost)
         else:
             rc = comm.bcast(_read(read_starts, spec, out_dir, stream)
                             if comm.rank == 0 else None, root=0)

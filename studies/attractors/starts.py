@@ -22,6 +22,13 @@ from dataclasses import asdict, dataclass
 DEFAULT_N_MODES = 16
 DEFAULT_AMPLITUDE = 0.1
 DEFAULT_SEED = 1
+#: Most random starts per mesh: each is a run, and a basin share's 95 % interval is already
+#: +-1 % at 10^4 starts. Checked before the start list is made (2^31 starts would fill the
+#: memory with it before any run).
+MAX_STARTS = 10_000
+#: Largest seed: random start i's seed S + i is written to the census's TOML file, whose
+#: integers are 64-bit.
+MAX_SEED = 2**63 - 1
 
 
 @dataclass(frozen=True)
@@ -35,10 +42,12 @@ class StartDistribution:
     structured: tuple[int, ...] = ()
 
     def __post_init__(self) -> None:
-        if self.starts < 0:
-            raise ValueError(f"--starts {self.starts}: use an integer >= 1")
-        if self.seed < 0:
-            raise ValueError(f"--seed {self.seed}: use an integer >= 0")
+        if not 0 <= self.starts <= MAX_STARTS:
+            raise ValueError(f"--starts {self.starts}: use an integer 1 <= M <= {MAX_STARTS}"
+                             " (random starts per mesh, each a run)")
+        if not 0 <= self.seed <= MAX_SEED - self.starts:
+            raise ValueError(f"--seed {self.seed}: use an integer 0 <= S <= 2^63 - 1 - M "
+                             "(seeds S .. S + M - 1 are 64-bit integers)")
         if self.n_modes < 1:
             raise ValueError(f"--n-modes {self.n_modes}: use an integer >= 1")
         if not self.amplitude > 0.0:
@@ -76,21 +85,27 @@ class StartDistribution:
         return out
 
 
-def parse_structured(text: str | None) -> tuple[int, ...]:
-    """``K1:K2`` (inclusive) or ``K1,K2,...`` -> wavenumbers; ValueError names the fix."""
+def parse_structured(text: str | None, k_max: int) -> tuple[int, ...]:
+    """``K1:K2`` (inclusive) or ``K1,K2,...`` -> wavenumbers 1 <= k <= ``k_max`` (the
+    coarsest mesh's n_inner // 2: two contact nodes per wavelength, as ``initial.n_modes``);
+    checked before the list is made. ValueError names the fix."""
     if not text:
         return ()
     try:
         if ":" in text:
             a, b = (int(x) for x in text.split(":"))
-            ks = tuple(range(a, b + 1))
+            bounds = (a, b)
         else:
-            ks = tuple(int(x) for x in text.split(","))
+            bounds = tuple(int(x) for x in text.split(","))
     except ValueError:
         raise ValueError(f"--structured {text!r}: use K1:K2 or K1,K2,... (integers)") from None
-    if not ks or min(ks) < 1:
-        raise ValueError(f"--structured {text!r}: give wavenumbers >= 1 with K1 <= K2")
-    return ks
+    if ":" in text and a > b:
+        raise ValueError(f"--structured {text!r}: give K1 <= K2")
+    if not bounds or min(bounds) < 1 or max(bounds) > k_max:
+        raise ValueError(f"--structured {text!r}: give wavenumbers 1 <= k <= {k_max} "
+                         "(mesh.n_inner // 2 of the coarsest mesh: two contact nodes per "
+                         "wavelength)")
+    return tuple(range(a, b + 1)) if ":" in text else bounds
 
 
 def parse_meshes(text: str) -> tuple[int, ...]:

@@ -141,8 +141,11 @@ class RunDirectory:
         self.t0 = time.perf_counter()
         comm = self.comm
         try:
-            with RunSignals(self.hard_stop, rescue=self.rescue if self.rank0 and comm.size > 1
-                            else None, on_death=self.tidy) as signals:
+            mpi_rank0 = self.rank0 and comm.size > 1
+            with RunSignals(self.hard_stop, rescue=self.rescue if mpi_rank0 else None,
+                            on_death=self.tidy,
+                            on_setup_signal=self.setup_signal if mpi_rank0 else None
+                            ) as signals:
                 self._execute(signals, est)
                 if self.sim is not None:
                     self.sim.status = self.status
@@ -278,15 +281,20 @@ class RunDirectory:
         if rd.replacing and not self.replace_on_failure:
             discard_run_dir(rd)
             return
-        summary = dict(self.started, status=status, message=message,
-                       wall_time_s=time.perf_counter() - self.t0)
-        summary.pop("pid", None)
         try:
-            atomic_write_text(rd.work / "summary.json", json.dumps(summary, indent=2))
+            self._write_ended(status, message)
             if rd.replacing:
                 commit_run_dir(rd)
         except OSError:
             pass
+
+    def _write_ended(self, status: str, message: str) -> None:
+        """summary.json of a run that ended without the normal save: what is known at the
+        start, the status and why (no pid: nobody runs it now)."""
+        summary = dict(self.started, status=status, message=message,
+                       wall_time_s=time.perf_counter() - self.t0)
+        summary.pop("pid", None)
+        atomic_write_text(self.rd.work / "summary.json", json.dumps(summary, indent=2))
 
     def hard_stop(self, signum: int, where: str) -> None:
         """The watchdog's last word before SIGKILL: a signal not acknowledged in time."""
@@ -295,6 +303,19 @@ class RunDirectory:
         print(f"stickslip: {msg}", file=sys.stderr, flush=True)
         if self.rank0:
             self.mark("interrupted", msg)
+
+    def setup_signal(self, signum: int) -> None:
+        """In the watchdog (rank 0 under mpirun), at once: a signal during setup ends the run
+        ``interrupted``; say so before mpirun's SIGKILL (the normal path writes the same
+        status). Only over this run's own ``running`` summary: never another rank's
+        ``failed``, never a replacement (its earlier run stays, final)."""
+        rd = self.rd
+        if rd.replacing or _disk_status(rd.work) != "running":
+            return
+        try:
+            self._write_ended("interrupted", f"interrupted by {_signame(signum)} during setup")
+        except OSError:
+            pass
 
     def rescue(self) -> None:
         """The forked rescue writer (rank 0 under mpirun): save what rank 0 holds, now."""
@@ -311,10 +332,18 @@ class RunDirectory:
         if rd.replacing and (sim is None or not self.replace_on_failure):
             discard_run_dir(rd)  # an interrupted rerun keeps the earlier run
             return
-        if sim is not None:
-            atomic_save_npz(rd.work / "samples.npz", sim.recorder.arrays(), compress=False)
+        # The summary first (a small file, written at once): mpirun SIGKILLs the ranks 0.25 s
+        # after their SIGTERM and returns, and a script that reads the status then must find
+        # it final. samples.npz (megabytes) follows; the run's lock is held until it is there.
         atomic_write_text(rd.work / "summary.json", json.dumps(out, indent=2))
-        commit_run_dir(rd)
+        commit_run_dir(rd)  # a replacement: swapped in now (rd.work is then rd.final)
+        if sim is None:
+            return
+        try:
+            atomic_save_npz(rd.work / "samples.npz", sim.recorder.arrays(), compress=False)
+        except OSError as err:
+            out["message"] = f"{msg}; the samples could not be written: {err}"
+            atomic_write_text(rd.work / "summary.json", json.dumps(out, indent=2))
 
     def tidy(self, pid: int, rescued: bool, where: str, signum: int = 0) -> None:
         """The run's process died outright (SIGKILL, out of memory; in the watchdog): remove
@@ -372,6 +401,7 @@ def _save(sim: Simulation | None, rd: RunDir, scene: Scene, status: str, error: 
             sim.writer.close()
         if not rank0:
             return {}
+        rescued = signals.rescue_pid > 0  # the rescue writer saved this run first
         signals.wait_rescue()
         summary = sim.facts() if sim is not None else {"scene": scene.name, "status": status}
         if keep_previous and rd.replacing:
@@ -393,6 +423,12 @@ def _save(sim: Simulation | None, rd: RunDir, scene: Scene, status: str, error: 
 
         finish(summary)
         try:
+            if sim is not None and rescued:
+                # The rescue's summary counts the rescue's samples; the loop has taken one
+                # more since. Without the count it tells of either file, so a kill between
+                # the writes below never leaves a count that samples.npz contradicts.
+                atomic_write_text(work / "summary.json", json.dumps(
+                    {k: v for k, v in summary.items() if k != "samples"}, indent=2))
             if sim is not None:
                 arrays = sim.recorder.arrays()
                 arrays.update(probe_arrays or {})

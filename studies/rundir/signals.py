@@ -20,9 +20,11 @@ class RunSignals:
     * ``defer`` (final save): remembered, honoured once the files are written.
 
     Under mpirun (``rescue`` given, rank 0 of a multi-rank run) the first signal also forks a
-    rescue writer, in a session of its own, that saves what rank 0 holds (the inner-circle
-    samples, the status) at once: Open MPI 5 sends SIGKILL 0.25 s after SIGTERM, often before
-    the collective save is done. The normal save waits for it and then writes the full run.
+    rescue writer, in a session of its own, that saves what rank 0 holds at once: the final
+    summary first (a small file), then the inner-circle samples. Open MPI 5 sends SIGKILL
+    0.25 s after SIGTERM, often before the collective save is done, and mpirun returns then:
+    the status must be on disk by that time. The normal save waits for the writer and then
+    writes the full run.
 
     Python runs signal handlers only between bytecodes, so a process inside one long compiled
     call (gmsh meshing, SLEPc's eigensolver for omega_max: minutes on a big mesh, with the GIL
@@ -39,9 +41,13 @@ class RunSignals:
     SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
 
     def __init__(self, on_hard_stop, grace: float = 2.0, rescue=None,  # noqa: ANN001
-                 on_death=None) -> None:  # noqa: ANN001
+                 on_death=None, on_setup_signal=None) -> None:  # noqa: ANN001
+        """``on_setup_signal(signum)``: called in the watchdog at once when a signal comes
+        during setup (which it ends, ``interrupted``, whatever follows): under mpirun the
+        SIGKILL 0.25 s later can come before Python's handler, held up in compiled code
+        (meshing, SLEPc), has run, and mpirun returns then."""
         self.on_hard_stop, self.grace, self.rescue = on_hard_stop, grace, rescue
-        self.on_death = on_death
+        self.on_death, self.on_setup_signal = on_death, on_setup_signal
         self.rescue_pid = 0
         self._mode = "start"  # until the run's try block: record, do not raise yet
         self.sim = None
@@ -158,6 +164,7 @@ class RunSignals:
         last = 0
         standing_down = clean = rescued = False
         phase = "setup"
+        first = 0  # the first signal's number, until the setup callback has it
         fds = [sig_r, ack_r]
         while True:
             timeout = None
@@ -171,6 +178,8 @@ class RunSignals:
             if sig_r in ready:
                 data = os.read(sig_r, 64)
                 if data:
+                    if not received and self.on_setup_signal is not None:
+                        first = data[0]  # told below, once this round's phase is read
                     received += len(data)
                     last = data[-1]
                     since = since or time.monotonic()
@@ -190,6 +199,9 @@ class RunSignals:
                     phase = "the final save"
                 acked += data.count(b"a")
                 standing_down = standing_down or b"d" in data
+            if first and phase == "setup" and not rescued:  # else the writer owns it
+                self.on_setup_signal(first)
+            first = 0
             if acked >= received:
                 since = None
 

@@ -35,6 +35,7 @@ from solver.scene import (
     write_scene,
 )
 from studies.output import process_alive
+from studies.resources import ResourceError
 from studies.rundir.ownership import user_entries
 from studies.sweep.spec import FINAL_STATUSES, SweepError, SweepSpec, Task, _cost, scene_for
 from studies.sweep.table import _read_json, recorded_failures, task_state, write_table
@@ -520,10 +521,13 @@ def _plan_on_rank0(spec: SweepSpec, out_dir: Path, comm: MPI.Comm, g: int, retry
     lock = None
     try:
         lock = _lock(out_dir)
-        pending, n_done, seconds = _classify(out_dir, spec, retry_failed)
         n_groups = (comm.size + g - 1) // g
-        problem = _cost_problem(spec, len(pending), seconds, n_groups, g) \
-            if check_cost else None
+        try:
+            pending, n_done, seconds = _classify(out_dir, spec, retry_failed)
+            problem = _cost_problem(spec, len(pending), seconds, n_groups, g) \
+                if check_cost else None
+        except ResourceError as err:  # a scene whose steps cannot even be counted
+            problem = f"sweep {spec.name}: {err}"
         if problem:
             if lock.created and not user_entries(out_dir):
                 shutil.rmtree(out_dir, ignore_errors=True)  # made for nothing

@@ -82,6 +82,9 @@ def check(opts: SimpleNamespace, flag: Callable[[str], str] = cli_flag) -> str |
                                                           and opts.inertia != "shift")):
         return (f"{flag('samples')} {opts.samples}: give a whole number >= 1; more than 1 "
                 f"needs {flag('inertia')} shift")
+    if opts.samples is not None and opts.samples > MAX_SAMPLES:
+        return (f"{flag('samples')} {opts.samples}: at most {MAX_SAMPLES:g} contact points "
+                "per node (each a time step of the node's history)")
     if opts.time_scheme != "exact" and opts.inertia != "shift":
         return f"{flag('time_scheme')} {opts.time_scheme}: needs {flag('inertia')} shift"
     if opts.dt_limit and (opts.time_scheme != "central" or opts.cont):
@@ -174,6 +177,10 @@ def _matched_step(scene, opts: SimpleNamespace) -> None:  # noqa: ANN001
         omega = opts.reduced[1]
     n = opts.problem.nodes.theta.size
     passage = 2.0 * math.pi / (n * abs(omega))
+    if not passage > 0.0:  # |omega| so large (--celerity 1e308) that n |omega| overflows
+        raise ValueError(f"a start speed of {omega * scene.geometry.R:.3g} m/s passes a "
+                         "contact node in no time; give a celerity of the order of the wave "
+                         "speed (m/s)")
     if not passage / dt < MAX_SAMPLES:  # S = passage / dt contact points per node
         raise ValueError(f"a start speed of {omega * scene.geometry.R:.3g} m/s passes one "
                          f"contact node every {passage:.3g} s, {passage / dt:.3g} time steps: "
