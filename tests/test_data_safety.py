@@ -239,12 +239,12 @@ def test_wall_time_stop_has_its_own_status_and_exit_code(tmp_path, capsys):
     s = json.loads((tmp_path / "w" / "summary.json").read_text())
     assert (rc, s["status"], s["stop_reason"]) == (3, "stopped", "max_wall_time")
     assert "time.max_wall_time" in s["message"]
-    from studies.rundir import EXIT_CODES, _print_summary
+    from studies.rundir import EXIT_CODES, print_summary
 
     assert EXIT_CODES == {"completed": 0, "diverged": 1, "failed": 2, "stopped": 3,
                           "interrupted": 130}
     out = io.StringIO()
-    _print_summary({"status": "interrupted", "message": "interrupted"}, tmp_path, out, False)
+    print_summary({"status": "interrupted", "message": "interrupted"}, tmp_path, out, False)
     assert out.getvalue().startswith("status: interrupted\n")
 
 
