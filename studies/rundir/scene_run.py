@@ -18,6 +18,7 @@ from pathlib import Path
 
 from mpi4py import MPI
 
+from postprocess.plotting import DEFAULT_WINDOW
 from solver import __version__
 from solver.atomic import atomic_save_npz, atomic_write_text
 from solver.errors import Diverged, StepTooLarge
@@ -49,10 +50,15 @@ from studies.rundir.writer import (  # noqa: F401  (summarise, peak_rss_mb: re-e
 EXIT_CODES = {"completed": 0, "diverged": 1, "failed": 2, "stopped": 3, "interrupted": 130}
 
 
+#: The final statuses whose runs hold samples to draw (``run_scene``'s ``plot``).
+PLOTTABLE = ("completed", "interrupted", "stopped")
+
+
 def run_scene(scene: Scene, run_dir: Path, *, force: bool = False,
               comm: MPI.Comm = MPI.COMM_WORLD, profile: bool = False,
               stream=None, check_resources: bool = True,
-              replace_on_failure: bool = False) -> dict:
+              replace_on_failure: bool = False, check_sampling: bool = False,
+              plot: bool = False, window: tuple[float, str] | None | str = DEFAULT_WINDOW) -> dict:
     """Run ``scene`` into ``run_dir``: scene.toml, samples.npz, summary.json (rank 0).
 
     Statuses: completed, diverged, stopped (wall-time limit), interrupted (SIGINT/SIGTERM;
@@ -64,10 +70,29 @@ def run_scene(scene: Scene, run_dir: Path, *, force: bool = False,
     (KeyboardInterrupt on every rank). Resources are estimated before meshing and a scene
     beyond the machine is refused (:class:`studies.resources.ResourceError`) unless
     ``check_resources`` is False. See :class:`RunDirectory`.
+
+    What ``stickslip run`` and ``stickslip.run`` add, in this one place: ``check_sampling``
+    refuses (``ResourceError``, before anything is written) a scene whose samples cannot
+    resolve the wave it is expected to end on (``postprocess.resolution.sampling_problem``);
+    ``plot`` draws the figures of a run that holds samples (``PLOTTABLE``; the space-time
+    maps over ``window``) on rank 0, one ``figure: PATH`` line each on ``stream``.
     """
-    return RunDirectory(scene, run_dir, force=force, comm=comm, profile=profile,
-                        stream=stream, check_resources=check_resources,
-                        replace_on_failure=replace_on_failure).run()
+    if check_sampling:
+        from postprocess.resolution import sampling_problem
+        from studies.resources import ResourceError
+
+        if problem := sampling_problem(scene, "pass --yes-i-know"):
+            raise ResourceError(problem)
+    directory = RunDirectory(scene, run_dir, force=force, comm=comm, profile=profile,
+                             stream=stream, check_resources=check_resources,
+                             replace_on_failure=replace_on_failure)
+    summary = directory.run()
+    if plot and summary.get("status") in PLOTTABLE:  # rank 0: the others' summary is {}
+        from postprocess.plotting import plot_run
+
+        for path in plot_run(Path(run_dir), window=window):
+            directory.say(f"figure: {path}")
+    return summary
 
 
 class RunDirectory:
