@@ -101,7 +101,7 @@ class RunDirectory:
     :meth:`run` checks the place and the resources, claims the directory
     (:func:`studies.rundir.directory.prepare_run_dir`), writes ``scene.toml`` and a
     ``running`` summary, runs the :class:`solver.run.Simulation` under :class:`RunSignals`,
-    and saves (:func:`_save`). The other methods are the ways a run can end without the
+    and saves (:meth:`_save`). The other methods are the ways a run can end without the
     normal save: :meth:`mark` (an error on one rank), :meth:`hard_stop` (a signal not
     acknowledged in compiled code), :meth:`rescue` (the forked writer under mpirun) and
     :meth:`tidy` (the process killed outright, seen by the watchdog).
@@ -122,7 +122,7 @@ class RunDirectory:
         self.prof = Profile()
         self.rd: RunDir | None = None
         self.t0 = time.perf_counter()
-        self.started = running_summary(scene)
+        self.started = running_summary(scene.name)
         self.phase = "setup"
         self.sim: Simulation | None = None
         self.status, self.error = "failed", None
@@ -144,13 +144,7 @@ class RunDirectory:
             with RunSignals(self.hard_stop, rescue=self.rescue if self.rank0 and comm.size > 1
                             else None, on_death=self.tidy) as signals:
                 self._execute(signals, est)
-                if self.sim is not None:
-                    self.sim.status = self.status
-                summary = _save(self.sim, self.rd, self.scene, self.status, self.error,
-                                self.prof, self.t0, comm, signals,
-                                keep_previous=(self.status in ("failed", "interrupted")
-                                               or self.sim is None)
-                                and not self.replace_on_failure)
+                summary = self._save(signals)
                 signals.mode = "done"
                 deferred = signals.requested if self.status != "interrupted" else 0
         finally:
@@ -163,6 +157,43 @@ class RunDirectory:
                      "complete; stopping now")
             raise KeyboardInterrupt
         return summary
+
+    def _save(self, signals: RunSignals) -> dict:
+        """Collect (collective) and write (rank 0, :func:`studies.rundir.writer.
+        write_run_files`) samples, final field, checkpoint and summary.
+
+        A run with nothing worth keeping (no samples, or failed or interrupted) that replaces
+        an earlier run leaves that run as it was (unless ``replace_on_failure``). A write
+        error makes the run ``failed`` with it.
+        """
+        sim, rd, status, error = self.sim, self.rd, self.status, self.error
+        keep_previous = (status in ("failed", "interrupted") or sim is None) \
+            and not self.replace_on_failure
+        with self.prof.phase("output"):
+            out = RunOutputs(self.scene, sim, status, error)
+            if sim is not None:
+                sim.status = status
+                out.probes, out.final_field = sim.probes.arrays(), sim.final_field()
+                # the checkpoint of a run that stands at a whole level (not failed, diverged)
+                out.states = self.comm.gather(sim.checkpoint(), root=0) \
+                    if sim.resumable else None
+                if sim.writer is not None:
+                    sim.writer.close()
+            if not self.rank0:
+                return {}
+            signals.wait_rescue()
+            if keep_previous and rd.replacing:
+                discard_run_dir(rd)
+                summary = sim.facts() if sim is not None else {"scene": self.scene.name}
+                summary.update(status=status, message=f"{error or status}; the earlier run "
+                               f"in {rd.final} is kept unchanged")
+                return finish_summary(summary, None, self.prof, self.t0)
+            if rd.replacing and not rd.work.exists():  # the rescue writer swapped it in
+                rd.work = rd.final
+            if status in ("interrupted", "failed") and _disk_status(rd.work) == "failed":
+                # another rank failed and marked the run before mpirun's signal reached us
+                return json.loads((rd.work / "summary.json").read_text())
+            return write_run_files(rd, out, self.prof, self.t0)
 
     def _check_first(self):  # noqa: ANN202 - an Estimate or None
         """The place, then the resources, before anything is created (collective)."""
@@ -343,40 +374,6 @@ class RunDirectory:
                 atomic_write_text(folder / "summary.json", json.dumps(dict(
                     self.started, status=status, message=message,
                     wall_time_s=time.perf_counter() - self.t0), indent=2))
-
-
-def _save(sim: Simulation | None, rd: RunDir, scene: Scene, status: str, error: str | None,
-          prof: Profile, t0: float, comm: MPI.Comm, signals: RunSignals,
-          keep_previous: bool) -> dict:
-    """Collect (collective) and write (rank 0, :func:`studies.rundir.writer.write_run_files`)
-    samples, final field, checkpoint and summary.
-
-    ``keep_previous``: the run has nothing worth keeping (no samples, or failed); an earlier
-    run being replaced stays as it was. A write error makes the run ``failed`` with it.
-    """
-    with prof.phase("output"):
-        out = RunOutputs(scene, sim, status, error)
-        if sim is not None:
-            out.probes, out.final_field = sim.probes.arrays(), sim.final_field()
-            # the checkpoint of a run that stands at a whole level (not failed or diverged)
-            out.states = comm.gather(sim.checkpoint(), root=0) if sim.resumable else None
-            if sim.writer is not None:
-                sim.writer.close()
-        if comm.rank != 0:
-            return {}
-        signals.wait_rescue()
-        if keep_previous and rd.replacing:
-            discard_run_dir(rd)
-            summary = sim.facts() if sim is not None else {"scene": scene.name}
-            summary.update(status=status, message=f"{error or status}; the earlier run in "
-                           f"{rd.final} is kept unchanged")
-            return finish_summary(summary, None, prof, t0)
-        if rd.replacing and not rd.work.exists():  # the rescue writer swapped it in
-            rd.work = rd.final
-        if status in ("interrupted", "failed") and _disk_status(rd.work) == "failed":
-            # another rank failed and marked the run before mpirun's signal reached us
-            return json.loads((rd.work / "summary.json").read_text())
-        return write_run_files(rd, out, prof, t0)
 
 
 def scene_warnings(scene: Scene) -> list[str]:

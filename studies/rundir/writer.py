@@ -34,10 +34,11 @@ from studies.rundir import directory
 from studies.rundir.checkpoint import write_checkpoint
 
 
-def running_summary(scene: Scene) -> dict:
-    """The ``running`` summary of a run that starts now, in this process: its ``pid`` and
-    ``host`` tell a live run from one whose process was killed (``studies.output``)."""
-    return {"scene": scene.name, "status": "running", "pid": os.getpid(),
+def running_summary(name: str) -> dict:
+    """The ``running`` summary of the run of scene ``name`` that starts now, in this process:
+    its ``pid`` and ``host`` tell a live run from one whose process was killed
+    (``studies.output``)."""
+    return {"scene": name, "status": "running", "pid": os.getpid(),
             "host": socket.gethostname(), "started": time.strftime("%Y-%m-%dT%H:%M:%S%z")}
 
 

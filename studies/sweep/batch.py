@@ -196,7 +196,7 @@ def _start_members(tasks, scenes, run_dirs, logs, claims, out_dir,  # noqa: ANN0
         claim = prepare_run_dir(rd, True, MPI.COMM_SELF, in_place=True)
         claim.release()
         claims.append(claim)
-        write_first_files(claim.work, sc, running_summary(sc))
+        write_first_files(claim.work, sc, running_summary(sc.name))
         log = open(out_dir / "logs" / f"{t.id}.log", "a")  # noqa: SIM115
         log.write(f"== start {time.strftime('%Y-%m-%dT%H:%M:%S')} world rank {world_rank} "
                   f"(1 rank(s)) pid {os.getpid()} batch of {len(tasks)} ({backend})\n")
