@@ -52,10 +52,10 @@ class Simulation:
     """One scene's run. Build with ``Simulation(scene)``, then ``proceed()``.
 
     The objects, in the order they are built: the problem (mesh, K, M, contact nodes:
-    ``solver.problem``), the scheme's parts (``solver.schemes.select.for_scene(scene).build``:
-    the step, the stepper, its contact step and its work observers), the steady sliding state
-    (``solver.steady``), the step hooks (the work observers that need them, the probes), and
-    the observers with a cadence (field output, the inner-circle samples with their health
+    ``solver.problem``), the steady sliding state (``solver.steady``), the scheme's parts
+    (``solver.schemes.select.for_scene(scene).build``: the step, the stepper, its contact step
+    and its work observers), the step hooks (the work observers that need them, the probes),
+    and the observers with a cadence (field output, the inner-circle samples with their health
     and stop checks). ``proceed`` is the one time loop: it advances the stepper to the next
     level an observer wants and asks them.
 
@@ -82,15 +82,16 @@ class Simulation:
             self.problem = build_problem(scene, comm)
         with self.profile.phase("stability"):
             self.omega_max = omega_max(self.problem)
-        # the scheme registry, asked once: the step (refused above the scheme's limit, before
-        # the steady solve), the stepper, the contact step and the work observers
-        parts = for_scene(scene).build(self.problem, scene, self.omega_max)
-        self.dt, self.dt_crit = parts.dt, parts.dt_crit
-        self.integrator, self.projection = parts.stepper, parts.contact
         with self.profile.phase("steady-state"):
             self.steady = solve_steady_sliding(self.problem)
             p = self.steady.pressure
             self.steady_mean_pressure = comm.allreduce(float(p.sum())) / comm.allreduce(p.size)
+        # the scheme registry, asked once: the step (refused above the scheme's limit), the
+        # stepper, the contact step and the work observers; after the steady solve, as the
+        # implicit scheme's factorisation always was (the parallel solves in the same order)
+        parts = for_scene(scene).build(self.problem, scene, self.omega_max)
+        self.dt, self.dt_crit = parts.dt, parts.dt_crit
+        self.integrator, self.projection = parts.stepper, parts.contact
         u0 = self._start(initial_state)
         self._attach_step_hooks(parts, u0)
         self.observers = self._observers(output_dir)
