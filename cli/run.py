@@ -77,17 +77,12 @@ def _run(args: argparse.Namespace) -> int:
         if comm.rank == 0:
             print(f"error: {err}", file=sys.stderr)
         return 2
-    if not args.yes_i_know:
-        from postprocess.resolution import sampling_problem
-
-        if problem := sampling_problem(scene, "pass --yes-i-know"):
-            if comm.rank == 0:
-                print(f"error: {problem}", file=sys.stderr)
-            return 2
     run_dir = Path(args.output) if args.output else output_root() / scene.name
     try:
         summary = run_scene(scene, run_dir, force=args.force, comm=comm, profile=args.profile,
-                            check_resources=not args.yes_i_know)
+                            check_resources=not args.yes_i_know,
+                            check_sampling=not args.yes_i_know, plot=args.plot,
+                            window=args.window)
     except (RunDirError, ResourceError) as err:
         if comm.rank == 0:
             print(f"error: {err}", file=sys.stderr)
@@ -95,11 +90,6 @@ def _run(args: argparse.Namespace) -> int:
     except KeyboardInterrupt:  # a signal during the final save, honoured after it
         return EXIT_CODES["interrupted"]
     status = comm.bcast(summary.get("status") if comm.rank == 0 else None, root=0)
-    if args.plot and comm.rank == 0 and status in ("completed", "interrupted", "stopped"):
-        from postprocess.plotting import plot_run
-
-        for path in plot_run(run_dir, window=args.window):
-            print(f"figure: {path}")
     return EXIT_CODES.get(status, 1)
 
 

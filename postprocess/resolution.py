@@ -61,24 +61,22 @@ def sampling_check(sample_t: np.ndarray, probes: dict | None, summary: dict) -> 
     return out
 
 
-def expected_wave_hz(scene) -> float:  # noqa: ANN001
-    """The frequency (Hz) of the scene's expected wave, without an FE eigensolve: the reduced
-    model's flutter mode k = ``initial.mode`` (paper eq. [2]; ``solver.field_output.
-    expected_period``, the same estimate that sizes the field-output window)."""
-    from solver.field_output import expected_period
-
-    return 1.0 / expected_period(scene)
-
-
 def sampling_problem(scene, override: str) -> str | None:  # noqa: ANN001
     """Why the samples of ``scene`` cannot resolve the wave it is expected to end on (one
     line with the fix; ``override`` names how to run it anyway), or None: the expected wave's
-    frequency (``expected_wave_hz``) at or above the samples' Nyquist frequency
-    1 / (2 output.sample_interval). Without friction nothing flutters: None."""
+    frequency at or above the samples' Nyquist frequency 1 / (2 output.sample_interval).
+    Without friction nothing flutters: None.
+
+    The expected wave's frequency is found without an FE eigensolve: 1 / the period of the
+    reduced model's flutter mode k = ``initial.mode`` (paper eq. [2];
+    ``solver.field_output.expected_period``, the same estimate that sizes the field-output
+    window)."""
+    from solver.field_output import expected_period
+
     if scene.loading.f <= 0.0 or scene.loading.omega == 0.0:
         return None
     try:
-        f_wave = abs(expected_wave_hz(scene))
+        f_wave = abs(1.0 / expected_period(scene))
     except (ArithmeticError, ValueError):  # no reduced-model estimate: nothing to refuse
         return None
     dt_s = scene.output.sample_interval

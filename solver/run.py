@@ -53,11 +53,11 @@ class Simulation:
 
     The objects, in the order they are built: the problem (mesh, K, M, contact nodes:
     ``solver.problem``), the steady sliding state (``solver.steady``), the scheme's parts
-    (``solver.schemes.select.for_scene(scene).build``: the stepper, its contact step and its
-    work observers), the step hooks (the work observers that need them, the probes), and the
-    observers with a cadence (field output, the inner-circle samples with their health and
-    stop checks). ``proceed`` is the one time
-    loop: it advances the stepper to the next level an observer wants and asks them.
+    (``solver.schemes.select.for_scene(scene).build``: the step, the stepper, its contact step
+    and its work observers), the step hooks (the work observers that need them, the probes),
+    and the observers with a cadence (field output, the inner-circle samples with their health
+    and stop checks). ``proceed`` is the one time loop: it advances the stepper to the next
+    level an observer wants and asks them.
 
     It starts from steady sliding plus the scene's ``[initial]`` bump, or from
     ``initial_state`` = (u, v, a or None) on the owned dofs (serial use: a wave of
@@ -82,13 +82,15 @@ class Simulation:
             self.problem = build_problem(scene, comm)
         with self.profile.phase("stability"):
             self.omega_max = omega_max(self.problem)
-        scheme = for_scene(scene)  # the scheme registry, asked once
-        self.dt, self.dt_crit = scheme.time_step(scene, self.omega_max)
         with self.profile.phase("steady-state"):
             self.steady = solve_steady_sliding(self.problem)
             p = self.steady.pressure
             self.steady_mean_pressure = comm.allreduce(float(p.sum())) / comm.allreduce(p.size)
-        parts = scheme.build(self.problem, scene, self.dt)
+        # the scheme registry, asked once: the step (refused above the scheme's limit), the
+        # stepper, the contact step and the work observers; after the steady solve, as the
+        # implicit scheme's factorisation always was (the parallel solves in the same order)
+        parts = for_scene(scene).build(self.problem, scene, self.omega_max)
+        self.dt, self.dt_crit = parts.dt, parts.dt_crit
         self.integrator, self.projection = parts.stepper, parts.contact
         u0 = self._start(initial_state)
         self._attach_step_hooks(parts, u0)

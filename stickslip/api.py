@@ -159,20 +159,11 @@ def run(scene: str | Path | Scene, run_dir: str | Path | None = None, *,
     from studies.rundir import run_scene
 
     sc = load_scene(scene, overrides)
-    if check_resources:
-        from postprocess.resolution import sampling_problem
-
-        if problem := sampling_problem(sc, "pass check_resources=False"):
-            raise ValueError(problem)
     path = Path(run_dir) if run_dir is not None else output_root() / sc.name
     with _keyword_errors("run_dir"):
-        summary = run_scene(sc, path, force=force, check_resources=check_resources,
-                            stream=io.StringIO() if quiet else sys.stdout)
-    if plot and summary.get("status") in ("completed", "interrupted", "stopped"):
-        from postprocess.plotting import plot_run as _plot
-
-        _plot(path)
-    return summary
+        return run_scene(sc, path, force=force, check_resources=check_resources,
+                         check_sampling=check_resources, plot=plot,
+                         stream=io.StringIO() if quiet else sys.stdout)
 
 
 def continue_run(run_dir: str | Path, until: float, out_dir: str | Path | None = None, *,

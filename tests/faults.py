@@ -51,6 +51,7 @@ def inject(monkeypatch, kind: str, phase: str) -> dict:  # noqa: ANN001
     import solver.atomic
     import solver.problem
     import solver.run
+    import studies.rundir.directory
     import studies.rundir.scene_run
 
     state = {"fired": False, "count": {}}
@@ -81,13 +82,15 @@ def inject(monkeypatch, kind: str, phase: str) -> dict:  # noqa: ANN001
 
         monkeypatch.setattr(solver.run.Simulation, "_check_health", check)
     elif phase == "swap":
-        real_commit = studies.rundir.scene_run.commit_run_dir
+        real_commit = studies.rundir.directory.commit_run_dir
 
         def commit(rd):  # noqa: ANN001
             if rd.replacing and not state["fired"]:
                 fire()
             return real_commit(rd)
 
+        # the writer's swap (``studies.rundir.writer``) and the abnormal ends' (``scene_run``)
+        monkeypatch.setattr(studies.rundir.directory, "commit_run_dir", commit)
         monkeypatch.setattr(studies.rundir.scene_run, "commit_run_dir", commit)
     else:
         name, _, nth = phase.partition("#")

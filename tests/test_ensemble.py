@@ -43,6 +43,17 @@ set = ["time.end_time = 0.01"]
 """
 
 
+#: One scene that reaches a stick-slip wave in 0.03 s (the writer test).
+WAVE = """
+name = "wave"
+base = "{base}"
+set = ["time.end_time = 0.03", "output.sample_interval = 1e-4"]
+[[points]]
+"loading.f" = 0.7
+"initial.amplitude" = 0.3
+"""
+
+
 def _spec(tmp_path):
     from pathlib import Path
 
@@ -114,6 +125,54 @@ def test_every_summary_equals_the_single_scene_run(two_sweeps):
         np.testing.assert_array_equal(fa["u"], fb["u"])
     assert sorted(statuses.values()).count("diverged") == 2
     assert sorted(statuses.values()).count("completed") == 8
+
+
+def _run_files(run_dir) -> tuple[list[str], set[str]]:
+    """The file names of a run directory (its live lock aside) and its summary's keys
+    (without ``batch``, which says how a member ran)."""
+    names = sorted(p.name for p in run_dir.iterdir() if p.name != ".stickslip.lock")
+    keys = set(json.loads((run_dir / "summary.json").read_text())) - {"batch"}
+    return names, keys
+
+
+def test_a_batch_member_directory_is_a_single_runs_directory(two_sweeps, tmp_path):
+    """One writer (``studies.rundir.writer``): the same scene alone and as a member of a
+    batch (of 3, of 1) leaves the same files and the same summary keys (the sampling check's
+    included: a scene that reaches a wave in 0.03 s, sampled every 1e-4 s), with the same
+    numbers (bitwise; the energies to round-off, as above)."""
+    from pathlib import Path
+
+    from studies.rundir import run_scene
+    from studies.sweep.batch import run_batch
+    from studies.sweep.spec import load_sweep, scene_for
+
+    spec, out = two_sweeps
+    for task in spec.tasks:
+        single = out["off"] / "runs" / task.id
+        assert _run_files(out["3"] / "runs" / task.id) == _run_files(single), task.id
+    (tmp_path / "wave.toml").write_text(WAVE.format(base=Path("scenes/smoke.toml").resolve()))
+    spec = load_sweep(tmp_path / "wave.toml")
+    task = spec.tasks[0]
+    for sub in ("runs", "logs"):
+        (tmp_path / sub).mkdir()
+    alone, member = tmp_path / "alone", tmp_path / "runs" / task.id
+    with open(os.devnull, "w") as quiet:
+        run_scene(scene_for(spec, task), alone, comm=SELF, stream=quiet)
+        assert run_batch(spec, [task], tmp_path, 0, stream=quiet) == ["completed"]
+    assert _run_files(member) == _run_files(alone)
+    s_alone, s_member = (json.loads((d / "summary.json").read_text()) for d in (alone, member))
+    assert "nyquist_hz" in s_member and s_member["batch"] == {"size": 1, "backend": "cpu"}
+    assert _strip(s_member) == _strip(s_alone)
+    _close_energies(s_alone.get("energy"), s_member.get("energy"))
+    for name in ("samples.npz", "final_field.npz"):
+        a, b = np.load(alone / name), np.load(member / name)
+        if name == "samples.npz":
+            assert sorted(a.files) == sorted(b.files)
+        else:  # a member's final field is the displacement on the mesh only: the last
+            # level's stress and contact tractions are not gathered from a batch's columns
+            assert set(b.files) == {"points", "cells", "cell_types", "u", "time"}
+        for key in set(b.files) - {"energies"}:  # energies: round-off, as above
+            np.testing.assert_array_equal(a[key], b[key], err_msg=f"{name}: {key}")
 
 
 def test_diverged_scene_is_masked_and_recorded_the_others_go_on(two_sweeps):

@@ -5,9 +5,9 @@ in ``SCHEMES``, registered with ``add_scheme``. ``for_scene(scene)`` is the one 
 asks; the scheme it returns knows the rest (gusto's scheme objects handed to a timestepper):
 
 * ``time_step(scene, omega_max)``: its stability limit and the step (with advice);
-* ``build(problem, scene, dt)``: ``SchemeParts``, its stepper and contact step, and
-  ``work_observers`` (the contact and damping work, step hooks where the kernel does not sum
-  them);
+* ``build(problem, scene, omega_max)``: ``SchemeParts``, its step (``time_step``), its stepper
+  and contact step, and ``work_observers`` (the contact and damping work, step hooks where
+  the kernel does not sum them);
 * ``batchable(scene)`` and ``build_batch(bp, laws, backend, tau)``: B scenes as the
   columns of one stepper (the explicit scheme only);
 * ``kernel(scene)``: the step kernel, chosen once here and then a strategy inside the stepper.
@@ -148,8 +148,8 @@ class Scheme(Protocol):
     def kernel(self, scene: Scene) -> str:
         """The step kernel ``scene`` runs with ("numpy", "numba")."""
 
-    def build(self, problem, scene: Scene, dt: float) -> SchemeParts:
-        """The stepper, its contact step and its work observers."""
+    def build(self, problem, scene: Scene, omega_max: float) -> SchemeParts:
+        """The step (``time_step``), the stepper, its contact step and its work observers."""
 
     def batchable(self, scene: Scene) -> bool:
         """True when ``scene`` can run as a column of a batch."""
@@ -184,12 +184,15 @@ def for_scene(scene: Scene) -> Scheme:
 class SchemeParts:
     """What a scheme builds for one scene: the stepper (``solver.schemes.protocol.Stepper``),
     its contact step (``out``: r_r, r_t, status; ``slide``; the nodes' frames, as the
-    observers use them) and ``work``, which makes the contact-work and damping-work
-    observers and attaches those that need every step as step hooks."""
+    observers use them), ``work``, which makes the contact-work and damping-work
+    observers and attaches those that need every step as step hooks, and the step ``dt``
+    with the explicit limit ``dt_crit`` (``Scheme.time_step``)."""
 
     stepper: Any
     contact: Any
     work: Callable[[Any, Any, bool, np.ndarray], tuple[Any, Any]]
+    dt: float = math.nan
+    dt_crit: float = math.nan
 
     def work_observers(self, with_friction: bool, u0: np.ndarray) -> tuple[Any, Any]:
         """(contact work, damping work or None) from u_0, the step hooks among them attached
@@ -376,12 +379,16 @@ class ExplicitNewmarkScheme:
                              "python3-numba (apt) or set time.kernel = \"numpy\"")
         return "numpy"
 
-    def build(self, problem, scene: Scene, dt: float) -> SchemeParts:
-        """The kernel's stepper (``EXPLICIT_KERNELS``) with ``make_projection``'s step."""
+    def build(self, problem, scene: Scene, omega_max: float) -> SchemeParts:
+        """The kernel's stepper (``EXPLICIT_KERNELS``) with ``make_projection``'s step, at
+        the step ``time_step`` gives."""
+        dt, dt_crit = self.time_step(scene, omega_max)
         law = ContactLaw.from_scene(scene, dt)
         kernel = self.law_kernel(scene.time.kernel, law)
-        return EXPLICIT_KERNELS[kernel](problem, law, scene.damping.tau,
-                                        make_projection(problem, law))
+        parts = EXPLICIT_KERNELS[kernel](problem, law, scene.damping.tau,
+                                         make_projection(problem, law))
+        parts.dt, parts.dt_crit = dt, dt_crit
+        return parts
 
     def batchable(self, scene: Scene) -> bool:
         """The fused numba kernel's physics and no field output."""
@@ -443,15 +450,17 @@ class ImplicitNewmarkScheme:
         """"numpy": no fused step (the step is a linear solve; ``time.kernel`` is ignored)."""
         return "numpy"
 
-    def build(self, problem, scene: Scene, dt: float) -> SchemeParts:
+    def build(self, problem, scene: Scene, omega_max: float) -> SchemeParts:
+        """``ImplicitNewmark`` with its active-set contact, at the step ``time_step`` gives."""
         from solver.implicit import ImplicitContact, ImplicitNewmark
 
+        dt, dt_crit = self.time_step(scene, omega_max)
         ts, law = scene.time, ContactLaw.from_scene(scene, dt)
         contact = ImplicitContact(problem.nodes, law.d, law.f, law.surface_speed,
                                   problem.comm)
         stepper = ImplicitNewmark(problem.K, problem.mass, problem.clamped, dt, ts.beta1,
                                   ts.beta2, contact, problem.comm, tau=scene.damping.tau)
-        return SchemeParts(stepper, contact, _implicit_work)
+        return SchemeParts(stepper, contact, _implicit_work, dt, dt_crit)
 
     def batchable(self, scene: Scene) -> bool:
         return False

@@ -7,7 +7,8 @@ the wave analysis of ``postprocess.analysis``). Only rank 0 writes files; every 
 
 ``ownership`` (which directories stickslip may write or replace: every command),
 ``readers`` (every file stickslip reads back, validated), ``directory`` (a run's directory),
-``signals`` (interrupts by phase), ``scene_run`` (``run_scene``, the summary, the exit codes),
+``signals`` (interrupts by phase), ``scene_run`` (``run_scene``, the exit codes), ``writer``
+(a run's files and summary, the same for a single run, a batch member and a continued run),
 ``checkpoint`` (a run's checkpoint.npz), ``continuation`` (``continue_run``,
 ``continue_batch``: a run or batch members continued from their checkpoints).
 
@@ -30,12 +31,16 @@ _WHERE = {
     "is_run_dir": "studies.rundir.directory",
     "prepare_run_dir": "studies.rundir.directory",
     "EXIT_CODES": "studies.rundir.scene_run",
-    "_print_summary": "studies.rundir.scene_run",
-    "peak_rss_mb": "studies.rundir.scene_run",
     "run_scene": "studies.rundir.scene_run",
     "scene_warnings": "studies.rundir.scene_run",
-    "summarise": "studies.rundir.scene_run",
-    "write_batch_member": "studies.rundir.scene_run",
+    "RunOutputs": "studies.rundir.writer",
+    "peak_rss_mb": "studies.rundir.writer",
+    "print_summary": "studies.rundir.writer",
+    "running_summary": "studies.rundir.writer",
+    "summarise": "studies.rundir.writer",
+    "write_first_files": "studies.rundir.writer",
+    "write_member": "studies.rundir.writer",
+    "write_run_files": "studies.rundir.writer",
     "CHECKPOINT": "studies.rundir.checkpoint",
     "read_checkpoint": "studies.rundir.checkpoint",
     "continue_batch": "studies.rundir.continuation",

@@ -42,7 +42,8 @@ from studies.rundir.checkpoint import Checkpoint, read_checkpoint, scene_fingerp
 from studies.rundir.directory import prepare_run_dir
 from studies.rundir.ownership import owned
 from studies.rundir.readers import ReadError, read_samples, read_scene_file, read_summary
-from studies.rundir.scene_run import RunDirectory, _print_summary, write_batch_member
+from studies.rundir.scene_run import RunDirectory
+from studies.rundir.writer import print_summary, write_member
 
 __all__ = ["RESUMABLE", "WALL_CLOCK_KEYS", "continue_batch", "continue_run"]
 
@@ -285,15 +286,11 @@ def _continue_members(plans: list[_Plan], outs: list[Path | None], backend: str,
         summaries = []
         for claim, run, kicked in zip(claims, batch.runs, kicks, strict=True):
             write_scene(run.scene, claim.work / "scene.toml")
-            extra = {"wall_time_s": time.perf_counter() - t0}
-            if run.message:
-                extra["message"] = run.message
-            extra["batch"] = {"size": len(plans), "backend": backend}
+            extra = {"batch": {"size": len(plans), "backend": backend}}
             if kicked:
                 extra["kick"] = kicked
-            summary = write_batch_member(run, claim.work, extra, profile, backend)
-            claim.commit()
-            _print_summary(summary, claim.final, stream, False)
+            summary = write_member(claim, run, profile, t0, backend, extra)
+            print_summary(summary, claim.final, stream, False)
             summaries.append(summary)
         return summaries
     except BaseException:

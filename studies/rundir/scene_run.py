@@ -10,9 +10,7 @@ the wave analysis of ``postprocess.analysis``). Only rank 0 writes files; every 
 from __future__ import annotations
 
 import json
-import os
 import shutil
-import socket
 import sys
 import time
 from collections.abc import Callable
@@ -20,13 +18,13 @@ from pathlib import Path
 
 from mpi4py import MPI
 
+from postprocess.plotting import DEFAULT_WINDOW
 from solver import __version__
 from solver.atomic import atomic_save_npz, atomic_write_text
 from solver.errors import Diverged, StepTooLarge
 from solver.run import Profile, Simulation
-from solver.scene import Scene, write_scene
+from solver.scene import Scene
 from studies.output import output_root, process_alive  # noqa: F401  (re-exported)
-from studies.rundir.checkpoint import write_checkpoint
 from studies.rundir.directory import (
     RunDir,
     RunDirError,
@@ -37,45 +35,30 @@ from studies.rundir.directory import (
     prepare_run_dir,
 )
 from studies.rundir.signals import RunSignals, _signame
-
-
-def summarise(sim: Simulation, probes: dict | None = None) -> dict:
-    """Run summary (rank 0): the run's facts plus the wave analysis of the recorded samples;
-    with the gathered ``probes``, whether the samples resolve the wave
-    (:func:`postprocess.resolution.sampling_check`: a ``warning`` where they alias it)."""
-    from postprocess.analysis import analyse
-    from postprocess.resolution import sampling_check
-
-    out = sim.facts()
-    data = sim.recorder.arrays()
-    if data["t"].size >= 4:
-        sc = sim.scene
-        wave = analyse(data["t"], data["theta"], data["u_r"], data["u_theta"], data["status"],
-                       d=sc.geometry.d, radius=sc.geometry.R)
-        energy = out.pop("energy")  # keep summary.json's key order: wave keys, then energy
-        out.update(
-            regime=wave.regime, mode=wave.mode, celerity_m_s=wave.celerity_m_s,
-            frequency_hz=wave.frequency_hz, fractions=wave.fractions,
-            amplitude_m=wave.amplitude_m, limit_cycle=wave.limit_cycle,
-            analysis_window_s=wave.window_s, psi1=wave.psi1, psi2=wave.psi2,
-            zone_order=wave.zone_order, direction=wave.direction,
-        )
-        out.update(sampling_check(data["t"], probes, out))
-        out["energy"] = energy
-    from solver.scene.files import scene_digest
-
-    out["scene_sha256"] = scene_digest(sim.scene)  # tells an edited scene.toml (readers)
-    return out
-
+from studies.rundir.writer import (  # noqa: F401  (summarise, peak_rss_mb: re-exported)
+    RunOutputs,
+    finish_summary,
+    peak_rss_mb,
+    print_summary,
+    running_summary,
+    summarise,
+    write_first_files,
+    write_run_files,
+)
 
 #: Exit status of ``stickslip run`` by the run's final status (README: "Exit codes").
 EXIT_CODES = {"completed": 0, "diverged": 1, "failed": 2, "stopped": 3, "interrupted": 130}
 
 
+#: The final statuses whose runs hold samples to draw (``run_scene``'s ``plot``).
+PLOTTABLE = ("completed", "interrupted", "stopped")
+
+
 def run_scene(scene: Scene, run_dir: Path, *, force: bool = False,
               comm: MPI.Comm = MPI.COMM_WORLD, profile: bool = False,
               stream=None, check_resources: bool = True,
-              replace_on_failure: bool = False) -> dict:
+              replace_on_failure: bool = False, check_sampling: bool = False,
+              plot: bool = False, window: tuple[float, str] | None | str = DEFAULT_WINDOW) -> dict:
     """Run ``scene`` into ``run_dir``: scene.toml, samples.npz, summary.json (rank 0).
 
     Statuses: completed, diverged, stopped (wall-time limit), interrupted (SIGINT/SIGTERM;
@@ -87,10 +70,29 @@ def run_scene(scene: Scene, run_dir: Path, *, force: bool = False,
     (KeyboardInterrupt on every rank). Resources are estimated before meshing and a scene
     beyond the machine is refused (:class:`studies.resources.ResourceError`) unless
     ``check_resources`` is False. See :class:`RunDirectory`.
+
+    What ``stickslip run`` and ``stickslip.run`` add, in this one place: ``check_sampling``
+    refuses (``ResourceError``, before anything is written) a scene whose samples cannot
+    resolve the wave it is expected to end on (``postprocess.resolution.sampling_problem``);
+    ``plot`` draws the figures of a run that holds samples (``PLOTTABLE``; the space-time
+    maps over ``window``) on rank 0, one ``figure: PATH`` line each on ``stream``.
     """
-    return RunDirectory(scene, run_dir, force=force, comm=comm, profile=profile,
-                        stream=stream, check_resources=check_resources,
-                        replace_on_failure=replace_on_failure).run()
+    if check_sampling:
+        from postprocess.resolution import sampling_problem
+        from studies.resources import ResourceError
+
+        if problem := sampling_problem(scene, "pass --yes-i-know"):
+            raise ResourceError(problem)
+    directory = RunDirectory(scene, run_dir, force=force, comm=comm, profile=profile,
+                             stream=stream, check_resources=check_resources,
+                             replace_on_failure=replace_on_failure)
+    summary = directory.run()
+    if plot and summary.get("status") in PLOTTABLE:  # rank 0: the others' summary is {}
+        from postprocess.plotting import plot_run
+
+        for path in plot_run(Path(run_dir), window=window):
+            directory.say(f"figure: {path}")
+    return summary
 
 
 class RunDirectory:
@@ -99,7 +101,7 @@ class RunDirectory:
     :meth:`run` checks the place and the resources, claims the directory
     (:func:`studies.rundir.directory.prepare_run_dir`), writes ``scene.toml`` and a
     ``running`` summary, runs the :class:`solver.run.Simulation` under :class:`RunSignals`,
-    and saves (:func:`_save`). The other methods are the ways a run can end without the
+    and saves (:meth:`_save`). The other methods are the ways a run can end without the
     normal save: :meth:`mark` (an error on one rank), :meth:`hard_stop` (a signal not
     acknowledged in compiled code), :meth:`rescue` (the forked writer under mpirun) and
     :meth:`tidy` (the process killed outright, seen by the watchdog).
@@ -120,9 +122,7 @@ class RunDirectory:
         self.prof = Profile()
         self.rd: RunDir | None = None
         self.t0 = time.perf_counter()
-        self.started = {"scene": scene.name, "status": "running", "pid": os.getpid(),
-                        "host": socket.gethostname(),
-                        "started": time.strftime("%Y-%m-%dT%H:%M:%S%z")}
+        self.started = running_summary(scene.name)
         self.phase = "setup"
         self.sim: Simulation | None = None
         self.status, self.error = "failed", None
@@ -147,25 +147,57 @@ class RunDirectory:
                             on_setup_signal=self.setup_signal if mpi_rank0 else None
                             ) as signals:
                 self._execute(signals, est)
-                if self.sim is not None:
-                    self.sim.status = self.status
-                summary = _save(self.sim, self.rd, self.scene, self.status, self.error,
-                                self.prof, self.t0, comm, signals,
-                                keep_previous=(self.status in ("failed", "interrupted")
-                                               or self.sim is None)
-                                and not self.replace_on_failure)
+                summary = self._save(signals)
                 signals.mode = "done"
                 deferred = signals.requested if self.status != "interrupted" else 0
         finally:
             self.rd.release()  # the directory is no longer live
         if self.rank0:
             summary["profile_s"] = {k: round(v, 4) for k, v in self.prof.seconds.items()}
-            _print_summary(summary, self.run_dir, self.stream, self.profile)
+            print_summary(summary, self.run_dir, self.stream, self.profile)
         if comm.allreduce(deferred, op=MPI.MAX):
             self.say(f"{_signame(deferred)} received while the files were written: they are "
                      "complete; stopping now")
             raise KeyboardInterrupt
         return summary
+
+    def _save(self, signals: RunSignals) -> dict:
+        """Collect (collective) and write (rank 0, :func:`studies.rundir.writer.
+        write_run_files`) samples, final field, checkpoint and summary.
+
+        A run with nothing worth keeping (no samples, or failed or interrupted) that replaces
+        an earlier run leaves that run as it was (unless ``replace_on_failure``). A write
+        error makes the run ``failed`` with it.
+        """
+        sim, rd, status, error = self.sim, self.rd, self.status, self.error
+        keep_previous = (status in ("failed", "interrupted") or sim is None) \
+            and not self.replace_on_failure
+        with self.prof.phase("output"):
+            out = RunOutputs(self.scene, sim, status, error)
+            if sim is not None:
+                sim.status = status
+                out.probes, out.final_field = sim.probes.arrays(), sim.final_field()
+                # the checkpoint of a run that stands at a whole level (not failed, diverged)
+                out.states = self.comm.gather(sim.checkpoint(), root=0) \
+                    if sim.resumable else None
+                if sim.writer is not None:
+                    sim.writer.close()
+            if not self.rank0:
+                return {}
+            out.rescued = signals.rescue_pid > 0  # the rescue writer saved this run first
+            signals.wait_rescue()
+            if keep_previous and rd.replacing:
+                discard_run_dir(rd)
+                summary = sim.facts() if sim is not None else {"scene": self.scene.name}
+                summary.update(status=status, message=f"{error or status}; the earlier run "
+                               f"in {rd.final} is kept unchanged")
+                return finish_summary(summary, None, self.prof, self.t0)
+            if rd.replacing and not rd.work.exists():  # the rescue writer swapped it in
+                rd.work = rd.final
+            if status in ("interrupted", "failed") and _disk_status(rd.work) == "failed":
+                # another rank failed and marked the run before mpirun's signal reached us
+                return json.loads((rd.work / "summary.json").read_text())
+            return write_run_files(rd, out, self.prof, self.t0)
 
     def _check_first(self):  # noqa: ANN202 - an Estimate or None
         """The place, then the resources, before anything is created (collective)."""
@@ -254,8 +286,7 @@ class RunDirectory:
         rd = self.rd
         if self.rank0:
             try:
-                write_scene(self.scene, rd.work / "scene.toml")
-                atomic_write_text(rd.work / "summary.json", json.dumps(self.started, indent=2))
+                write_first_files(rd.work, self.scene, self.started)
             except OSError as err:
                 problem = (f"cannot write in {self.run_dir}: {err.strerror or err}; choose "
                            "another -o")
@@ -375,135 +406,6 @@ class RunDirectory:
                     wall_time_s=time.perf_counter() - self.t0), indent=2))
 
 
-def _save(sim: Simulation | None, rd: RunDir, scene: Scene, status: str, error: str | None,
-          prof: Profile, t0: float, comm: MPI.Comm, signals: RunSignals,
-          keep_previous: bool) -> dict:
-    """Collect (collective) and write (rank 0) samples, final field and summary.
-
-    Order: samples.npz and final_field.npz, then summary.json with the status and
-    ``"analysis": "pending"``, the swap into place, then summary.json again with the wave
-    analysis (and without that key). A process killed after the first summary (mpirun sends
-    SIGKILL ~0.3 s after SIGTERM) leaves a truthful, loadable run, which a resumed sweep runs
-    again (``studies.sweep.table.task_state``: "unanalysed"). ``interrupted`` runs save
-    uncompressed (faster) samples.
-    ``keep_previous``: the run has nothing worth keeping (no samples, or failed); an earlier
-    run being replaced stays as it was. A write error makes the run ``failed`` with it.
-    """
-    rank0 = comm.rank == 0
-    work = rd.work
-    with prof.phase("output"):
-        probe_arrays = sim.probes.arrays() if sim is not None else None
-        field = sim.final_field() if sim is not None else None
-        # the checkpoint of a run that stands at a whole level (not failed or diverged)
-        states = comm.gather(sim.checkpoint(), root=0) \
-            if sim is not None and sim.resumable else None
-        if sim is not None and sim.writer is not None:
-            sim.writer.close()
-        if not rank0:
-            return {}
-        rescued = signals.rescue_pid > 0  # the rescue writer saved this run first
-        signals.wait_rescue()
-        summary = sim.facts() if sim is not None else {"scene": scene.name, "status": status}
-        if keep_previous and rd.replacing:
-            discard_run_dir(rd)
-            summary.update(status=status, message=f"{error or status}; the earlier run in "
-                           f"{rd.final} is kept unchanged")
-            return _finish(summary, t0, None, prof)
-        if rd.replacing and not rd.work.exists():  # the rescue writer swapped it in
-            rd.work = rd.final
-        work = rd.work
-        if status in ("interrupted", "failed") and _disk_status(work) == "failed":
-            # another rank failed and marked the run before mpirun's signal reached us
-            return json.loads((work / "summary.json").read_text())
-        if sim is not None:  # until the second write below: a kill in between is visible
-            summary["analysis"] = "pending"
-
-        def finish(s: dict) -> dict:
-            return _finish(s, t0, error, prof)
-
-        finish(summary)
-        try:
-            if sim is not None and rescued:
-                # The rescue's summary counts the rescue's samples; the loop has taken one
-                # more since. Without the count it tells of either file, so a kill between
-                # the writes below never leaves a count that samples.npz contradicts.
-                atomic_write_text(work / "summary.json", json.dumps(
-                    {k: v for k, v in summary.items() if k != "samples"}, indent=2))
-            if sim is not None:
-                arrays = sim.recorder.arrays()
-                arrays.update(probe_arrays or {})
-                atomic_save_npz(work / "samples.npz", arrays,
-                                compress=status != "interrupted")
-                if field is not None:
-                    atomic_save_npz(work / "final_field.npz", field)
-                if states is not None:
-                    write_checkpoint(work, states, kind="run", scene=scene,
-                                     status=status, kernel=summary["scheme"].get("kernel", ""))
-            atomic_write_text(work / "summary.json", json.dumps(summary, indent=2))
-            commit_run_dir(rd)
-        except OSError as err:
-            summary["status"] = "failed"
-            summary["message"] = f"could not write the run's files: {err}"
-            if rd.replacing and rd.work.exists():
-                discard_run_dir(rd)
-                summary["message"] += f"; the earlier run in {rd.final} is kept unchanged"
-            else:
-                try:  # small: may still fit where samples.npz did not
-                    atomic_write_text(rd.final / "summary.json", json.dumps(summary, indent=2))
-                except OSError:
-                    pass
-            return summary
-        if sim is not None:  # the run is saved and true; the analysis is a bonus on top
-            analysed = finish(summarise(sim, probe_arrays))
-            try:
-                atomic_write_text(rd.final / "summary.json", json.dumps(analysed, indent=2))
-                summary = analysed
-            except OSError as err:
-                summary["message"] = (f"{summary.get('message', '')}; " if summary.get(
-                    "message") else "") + f"could not add the wave analysis to summary.json: {err}"
-    return summary
-
-
-def write_batch_member(run, folder: Path, extra: dict, prof: Profile, backend: str) -> dict:
-    """A finished batch member's files into ``folder`` (``solver.ensemble_run.SceneRun``):
-    samples.npz, final_field.npz, its checkpoint (when it ended at a whole level), then
-    summary.json (the facts, the wave analysis, ``extra``, the profile and peak memory).
-    Returns the summary. Used by a batched sweep and by a continued batch."""
-    summary = summarise(run)
-    summary.update(extra)
-    arrays = run.recorder.arrays()
-    arrays.update(run.probes.arrays() or {})
-    atomic_save_npz(folder / "samples.npz", arrays)
-    field = run.final_field()
-    if field is not None:
-        atomic_save_npz(folder / "final_field.npz", field)
-    if run.state is not None:
-        write_checkpoint(folder, [run.state], kind="batch", scene=run.scene,
-                         status=run.status, kernel=summary["scheme"]["kernel"],
-                         backend=backend)
-    summary["profile_s"] = {k: round(v, 4) for k, v in prof.seconds.items()}
-    summary["peak_rss_mb"] = peak_rss_mb()
-    atomic_write_text(folder / "summary.json", json.dumps(summary, indent=2))
-    return summary
-
-
-def _finish(s: dict, t0: float, error: str | None, prof: Profile) -> dict:
-    """Add the wall time, the message, the peak memory and the profile to summary ``s``."""
-    s["wall_time_s"] = time.perf_counter() - t0
-    if error:
-        s["message"] = error
-    s["peak_rss_mb"] = peak_rss_mb()
-    s["profile_s"] = {k: round(v, 4) for k, v in prof.seconds.items()}
-    return s
-
-
-def peak_rss_mb() -> float:
-    """Peak resident memory of this process (MB)."""
-    import resource
-
-    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
-
-
 def scene_warnings(scene: Scene) -> list[str]:
     """Legal but doubtful choices, said before a long run starts."""
     out = []
@@ -522,25 +424,3 @@ def scene_warnings(scene: Scene) -> list[str]:
             "output.sample_interval <= time.end_time / 100)"
         )
     return out
-
-
-def _print_summary(s: dict, run_dir: Path, stream, profile: bool) -> None:
-    msg = s.get("message")
-    lines = [f"status: {s.get('status')}" + (f" ({msg})" if msg and msg != s.get("status") else "")]
-    if "regime" in s:
-        fr = s["fractions"]
-        lines += [
-            f"regime: {s['regime']}, mode k = {s['mode']}, "
-            f"celerity {s['celerity_m_s']:+.1f} m/s (+ = rotation sense), "
-            f"frequency {s['frequency_hz']:.1f} Hz",
-            f"zones: separation {fr['separation']:.3f}, stick {fr['stick']:.3f}, "
-            f"slip {fr['slip']:.3f}; amplitude {s['amplitude_m']:.3g} m; "
-            f"limit cycle: {s['limit_cycle']}",
-        ]
-    if s.get("warning"):
-        lines.append(f"warning: {s['warning']}")
-    lines.append(f"steps {s.get('steps', 0)}, wall {s.get('wall_time_s', 0):.2f} s, "
-                 f"peak RSS {s.get('peak_rss_mb', 0):.0f} MB -> {run_dir}")
-    if profile:
-        lines.append("profile: " + ", ".join(f"{k} {v:.3f} s" for k, v in s["profile_s"].items()))
-    print("\n".join(lines), file=stream, flush=True)

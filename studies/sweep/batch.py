@@ -34,7 +34,7 @@ from pathlib import Path
 from typing import TextIO
 
 from solver.atomic import atomic_write_text
-from solver.scene import Scene, scene_to_dict, write_scene
+from solver.scene import Scene, scene_to_dict
 from studies.resources import available_memory
 from studies.sweep.spec import SweepSpec, Task, scene_for
 
@@ -148,10 +148,10 @@ def run_batch(spec: SweepSpec, tasks: list[Task], out_dir: Path, world_rank: int
         return [statuses[t.id] for t in tasks]
     scenes = [scene_for(spec, t) for t in tasks]
     run_dirs = [out_dir / "runs" / t.id for t in tasks]
-    logs = []
+    logs, claims = [], []
     with _deferred_signals() as early:  # every member marked running, or none
-        _start_members(tasks, scenes, run_dirs, logs, out_dir, world_rank, backend)
-    files = _BatchFiles(scenes, run_dirs, logs, t0, len(tasks), backend)
+        _start_members(tasks, scenes, run_dirs, logs, claims, out_dir, world_rank, backend)
+    files = _BatchFiles(scenes, claims, logs, t0, len(tasks), backend)
     profile = Profile()
     interrupted = bool(early)
     batch = None
@@ -182,19 +182,21 @@ def run_batch(spec: SweepSpec, tasks: list[Task], out_dir: Path, world_rank: int
     return files.statuses
 
 
-def _start_members(tasks, scenes, run_dirs, logs, out_dir, world_rank,  # noqa: ANN001, ANN202
-                   backend):  # noqa: ANN001
-    """Each member's run directory claimed, its scene.toml and a ``running`` summary written,
-    its log opened (appended to ``logs``)."""
+def _start_members(tasks, scenes, run_dirs, logs, claims, out_dir,  # noqa: ANN001, ANN202
+                   world_rank, backend):  # noqa: ANN001
+    """Each member's run directory claimed (appended to ``claims``), its scene.toml and a
+    ``running`` summary written as a single run's (``studies.rundir.writer``), its log
+    opened (appended to ``logs``). The claims are written in place and their locks let go
+    at once: a batch of B members would otherwise hold B open files while it runs."""
     from mpi4py import MPI
 
-    from studies.rundir import prepare_run_dir
+    from studies.rundir import prepare_run_dir, running_summary, write_first_files
 
     for t, sc, rd in zip(tasks, scenes, run_dirs, strict=True):
-        prepare_run_dir(rd, True, MPI.COMM_SELF, in_place=True).release()
-        write_scene(sc, rd / "scene.toml")
-        atomic_write_text(rd / "summary.json",
-                          json.dumps({"scene": sc.name, "status": "running"}, indent=2))
+        claim = prepare_run_dir(rd, True, MPI.COMM_SELF, in_place=True)
+        claim.release()
+        claims.append(claim)
+        write_first_files(claim.work, sc, running_summary(sc.name))
         log = open(out_dir / "logs" / f"{t.id}.log", "a")  # noqa: SIM115
         log.write(f"== start {time.strftime('%Y-%m-%dT%H:%M:%S')} world rank {world_rank} "
                   f"(1 rank(s)) pid {os.getpid()} batch of {len(tasks)} ({backend})\n")
@@ -255,8 +257,9 @@ def _build_batch(scenes, backend, out_dir, profile, files):
 class _BatchFiles:
     """Each scene's run directory and log while and after its batch runs."""
 
-    def __init__(self, scenes, run_dirs, logs, t0: float, size: int, backend: str) -> None:
-        self.scenes, self.run_dirs, self.logs = scenes, run_dirs, logs
+    def __init__(self, scenes, claims, logs, t0: float, size: int, backend: str) -> None:
+        self.scenes, self.claims, self.logs = scenes, claims, logs
+        self.run_dirs = [c.final for c in claims]
         self.t0, self.size, self.backend = t0, size, backend
         self.statuses = ["failed"] * len(scenes)
 
@@ -276,8 +279,8 @@ class _BatchFiles:
 
     def write_runs(self, batch, interrupted: bool, profile) -> None:
         """summary.json, samples.npz, final_field.npz and checkpoint.npz of every scene that
-        ran (``studies.rundir.write_batch_member``)."""
-        from studies.rundir import _print_summary, write_batch_member
+        ran, written as a single run's (``studies.rundir.write_member``)."""
+        from studies.rundir import print_summary, write_member
 
         for k in batch.live:
             run = batch.runs[k]
@@ -286,12 +289,9 @@ class _BatchFiles:
                 continue
             if interrupted:
                 run.status, run.message = "interrupted", "interrupted"
-            extra = {"wall_time_s": time.perf_counter() - self.t0}
-            if run.message:
-                extra["message"] = run.message
-            extra["batch"] = {"size": self.size, "backend": self.backend}
-            summary = write_batch_member(run, self.run_dirs[k], extra, profile, self.backend)
-            _print_summary(summary, self.run_dirs[k], self.logs[k], False)
+            summary = write_member(self.claims[k], run, profile, self.t0, self.backend,
+                                   {"batch": {"size": self.size, "backend": self.backend}})
+            print_summary(summary, self.run_dirs[k], self.logs[k], False)
             self.statuses[k] = run.status
 
     def close(self) -> None:

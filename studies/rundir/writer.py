@@ -1,0 +1,228 @@
+"""A run's files, written by one piece of code for every kind of run.
+
+A single run (``studies.rundir.scene_run.RunDirectory``), a member of a batch
+(``studies.sweep.batch``, a census) and a continued run (``studies.rundir.continuation``) all
+leave the same directory: ``scene.toml`` and a ``running`` summary when they start
+(:func:`write_first_files`), then :func:`write_run_files` when they end:
+
+1. ``samples.npz`` (uncompressed for an interrupted run: faster), ``final_field.npz``,
+   ``checkpoint.npz`` (a run that stands at a whole level),
+2. ``summary.json`` with the status and ``"analysis": "pending"``, the swap of a replacement
+   into place (:meth:`studies.rundir.ownership.Claim.commit`),
+3. ``summary.json`` again with the wave analysis (:func:`summarise`), without that key.
+
+A process killed between 2 and 3 leaves a truthful, loadable run that a resumed sweep runs
+again (``studies.sweep.table.task_state``: "unanalysed"). Every write is atomic (a temporary
+file, then a rename): a run directory never holds a half-written file. A write error makes
+the run ``failed``, with the error in its message.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import socket
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from solver.atomic import atomic_save_npz, atomic_write_text
+from solver.run import Profile
+from solver.scene import Scene, write_scene
+from studies.rundir import directory
+from studies.rundir.checkpoint import write_checkpoint
+
+
+def running_summary(name: str) -> dict:
+    """The ``running`` summary of the run of scene ``name`` that starts now, in this process:
+    its ``pid`` and ``host`` tell a live run from one whose process was killed
+    (``studies.output``)."""
+    return {"scene": name, "status": "running", "pid": os.getpid(),
+            "host": socket.gethostname(), "started": time.strftime("%Y-%m-%dT%H:%M:%S%z")}
+
+
+def write_first_files(work: Path, scene: Scene, started: dict) -> None:
+    """``scene.toml`` and the ``running`` summary ``started`` into ``work`` (OSError: the
+    caller removes what it made)."""
+    write_scene(scene, work / "scene.toml")
+    atomic_write_text(work / "summary.json", json.dumps(started, indent=2))
+
+
+@dataclass
+class RunOutputs:
+    """What an ended run hands its writer (rank 0).
+
+    Attributes:
+        scene: the run's scene.
+        run: the run: ``facts()``, ``recorder``, ``scene`` (a ``solver.run.Simulation`` or a
+            batch member ``solver.ensemble_run.SceneRun``); None if it was never built.
+        status: the final status (completed, diverged, stopped, interrupted, failed).
+        error: the message of a run that did not complete, else None.
+        probes: the probes' arrays (``probe_t``, ``probe_data``), gathered over the ranks.
+        final_field: the final field, gathered (None where there is none).
+        states: the checkpoint's state per rank, or None (a run not at a whole level).
+        kind: the checkpoint's kind: ``run`` (continued alone) or ``batch`` (continued as
+            a batch again).
+        backend: the batch's backend (cpu, gpu), for the checkpoint.
+        extra: keys added to the summary after the run's own (``batch``, ``kick``).
+        rescued: the rescue writer (rank 0 under mpirun) saved this run first.
+    """
+
+    scene: Scene
+    run: Any
+    status: str
+    error: str | None = None
+    probes: dict | None = None
+    final_field: dict | None = None
+    states: list[dict] | None = None
+    kind: str = "run"
+    backend: str = "cpu"
+    extra: dict = field(default_factory=dict)
+    rescued: bool = False
+
+
+def write_run_files(rd: directory.RunDir, out: RunOutputs, prof: Profile, t0: float) -> dict:
+    """Write an ended run into its claimed directory ``rd`` (rank 0; the order of the module
+    docstring) and swap it into place; returns the summary as written."""
+    run = out.run
+    summary = run.facts() if run is not None else {"scene": out.scene.name,
+                                                   "status": out.status}
+    if run is not None:  # until the second write below: a kill in between is visible
+        summary["analysis"] = "pending"
+    finish_summary(summary, out, prof, t0)
+    try:
+        if run is not None and out.rescued:
+            # The rescue's summary counts the rescue's samples; the loop has taken one more
+            # since. Without the count it tells of either file, so a kill between the writes
+            # below never leaves a count that samples.npz contradicts.
+            atomic_write_text(rd.work / "summary.json", json.dumps(
+                {k: v for k, v in summary.items() if k != "samples"}, indent=2))
+        if run is not None:
+            _write_arrays(rd.work, out, summary)
+        atomic_write_text(rd.work / "summary.json", json.dumps(summary, indent=2))
+        directory.commit_run_dir(rd)
+    except OSError as err:
+        return _write_failed(rd, summary, err)
+    if run is None:
+        return summary
+    analysed = finish_summary(summarise(run, out.probes), out, prof, t0)
+    try:  # the run is saved and true; the analysis is a bonus on top
+        atomic_write_text(rd.final / "summary.json", json.dumps(analysed, indent=2))
+    except OSError as err:
+        summary["message"] = (f"{summary['message']}; " if summary.get("message") else
+                              "") + f"could not add the wave analysis to summary.json: {err}"
+        return summary
+    return analysed
+
+
+def _write_arrays(work: Path, out: RunOutputs, summary: dict) -> None:
+    """samples.npz (the samples and the probes), final_field.npz, checkpoint.npz."""
+    arrays = out.run.recorder.arrays()
+    arrays.update(out.probes or {})
+    atomic_save_npz(work / "samples.npz", arrays, compress=out.status != "interrupted")
+    if out.final_field is not None:
+        atomic_save_npz(work / "final_field.npz", out.final_field)
+    if out.states is not None:
+        write_checkpoint(work, out.states, kind=out.kind, scene=out.scene, status=out.status,
+                         kernel=summary["scheme"].get("kernel", ""), backend=out.backend)
+
+
+def _write_failed(rd: directory.RunDir, summary: dict, err: OSError) -> dict:
+    """The run's files could not be written: it is ``failed``; a replacement is dropped (the
+    earlier run stays), else the small summary.json may still fit where samples.npz did not."""
+    summary["status"] = "failed"
+    summary["message"] = f"could not write the run's files: {err}"
+    if rd.replacing and rd.work.exists():
+        directory.discard_run_dir(rd)
+        summary["message"] += f"; the earlier run in {rd.final} is kept unchanged"
+    else:
+        try:
+            atomic_write_text(rd.final / "summary.json", json.dumps(summary, indent=2))
+        except OSError:
+            pass
+    return summary
+
+
+def finish_summary(s: dict, out: RunOutputs | None, prof: Profile, t0: float) -> dict:
+    """Add the wall time, the message, the peak memory, the profile and ``out.extra`` to
+    summary ``s``."""
+    s["wall_time_s"] = time.perf_counter() - t0
+    if out is not None and out.error:
+        s["message"] = out.error
+    s["peak_rss_mb"] = peak_rss_mb()
+    s["profile_s"] = {k: round(v, 4) for k, v in prof.seconds.items()}
+    if out is not None:
+        s.update(out.extra)
+    return s
+
+
+def summarise(run: Any, probes: dict | None = None) -> dict:
+    """Run summary (rank 0): the run's facts plus the wave analysis of the recorded samples;
+    with the gathered ``probes``, whether the samples resolve the wave
+    (:func:`postprocess.resolution.sampling_check`: a ``warning`` where they alias it).
+    ``run``: a ``solver.run.Simulation`` or a batch member (``SceneRun``)."""
+    from postprocess.analysis import analyse
+    from postprocess.resolution import sampling_check
+    from solver.scene.files import scene_digest
+
+    out = run.facts()
+    data = run.recorder.arrays()
+    if data["t"].size >= 4:
+        sc = run.scene
+        wave = analyse(data["t"], data["theta"], data["u_r"], data["u_theta"], data["status"],
+                       d=sc.geometry.d, radius=sc.geometry.R)
+        energy = out.pop("energy")  # keep summary.json's key order: wave keys, then energy
+        out.update(
+            regime=wave.regime, mode=wave.mode, celerity_m_s=wave.celerity_m_s,
+            frequency_hz=wave.frequency_hz, fractions=wave.fractions,
+            amplitude_m=wave.amplitude_m, limit_cycle=wave.limit_cycle,
+            analysis_window_s=wave.window_s, psi1=wave.psi1, psi2=wave.psi2,
+            zone_order=wave.zone_order, direction=wave.direction,
+        )
+        out.update(sampling_check(data["t"], probes, out))
+        out["energy"] = energy
+    out["scene_sha256"] = scene_digest(run.scene)  # tells an edited scene.toml (readers)
+    return out
+
+
+def write_member(rd: directory.RunDir, run: Any, prof: Profile, t0: float, backend: str,
+                 extra: dict | None = None) -> dict:
+    """A finished batch member (``solver.ensemble_run.SceneRun``) into its claimed directory
+    ``rd``, by :func:`write_run_files` as a single run; ``extra`` (the ``batch`` facts, a
+    ``kick``) goes at the end of its summary. Returns the summary."""
+    out = RunOutputs(run.scene, run, run.status, run.message or None,
+                     probes=run.probes.arrays(), final_field=run.final_field(),
+                     states=None if run.state is None else [run.state], kind="batch",
+                     backend=backend, extra=dict(extra or {}))
+    return write_run_files(rd, out, prof, t0)
+
+
+def peak_rss_mb() -> float:
+    """Peak resident memory of this process (MB)."""
+    import resource
+
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+
+
+def print_summary(s: dict, run_dir: Path, stream, profile: bool) -> None:  # noqa: ANN001
+    """The run's summary in a few lines on ``stream``: status, regime, zones, cost."""
+    msg = s.get("message")
+    lines = [f"status: {s.get('status')}" + (f" ({msg})" if msg and msg != s.get("status") else "")]
+    if "regime" in s:
+        fr = s["fractions"]
+        lines += [
+            f"regime: {s['regime']}, mode k = {s['mode']}, "
+            f"celerity {s['celerity_m_s']:+.1f} m/s (+ = rotation sense), "
+            f"frequency {s['frequency_hz']:.1f} Hz",
+            f"zones: separation {fr['separation']:.3f}, stick {fr['stick']:.3f}, "
+            f"slip {fr['slip']:.3f}; amplitude {s['amplitude_m']:.3g} m; "
+            f"limit cycle: {s['limit_cycle']}",
+        ]
+    if s.get("warning"):
+        lines.append(f"warning: {s['warning']}")
+    lines.append(f"steps {s.get('steps', 0)}, wall {s.get('wall_time_s', 0):.2f} s, "
+                 f"peak RSS {s.get('peak_rss_mb', 0):.0f} MB -> {run_dir}")
+    if profile:
+        lines.append("profile: " + ", ".join(f"{k} {v:.3f} s" for k, v in s["profile_s"].items()))
+    print("\n".join(lines), file=stream, flush=True)
