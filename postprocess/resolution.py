@@ -37,7 +37,7 @@ def sampling_check(sample_t: np.ndarray, probes: dict | None, summary: dict) -> 
     :class:`solver.observers.ProbeRecorder`; ``summary``: the analysed run (its ``regime``,
     ``amplitude_m``, ``frequency_hz`` and ``analysis_window_s``).
     """
-    if probes is None or sample_t.size < 4 or summary.get("regime") in (None,
+    if not probes or "probe_t" not in probes or sample_t.size < 4 or summary.get("regime") in (None,
                                                                          "steady-sliding"):
         return {}
     t, data = probes["probe_t"], probes["probe_data"]

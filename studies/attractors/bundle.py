@@ -11,7 +11,7 @@ The same command runs twice where dolfinx is, around a runner on the node:
    a sweep, from files, through the one time loop) writes ``DIR/results``;
 3. **answer** (``import_results``; DIR's results present): each start's records become its
    run directory under the census's ``starts/runs/<id>`` (``studies.rundir.
-   write_batch_member``, the writer of a batched sweep: scene.toml, samples.npz,
+   write_member``, the writer of every run: scene.toml, samples.npz,
    checkpoint.npz, summary.json with the wave analysis; no final_field.npz). The census then
    goes on as ``run_census`` does after its sweep: settle-or-extend continues its unsettled
    starts here from their checkpoints, and ``collect`` featurises, groups and prints.
@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import json
 import sys
+import time
 from pathlib import Path
 from typing import TextIO
 
@@ -99,8 +100,8 @@ def write_bundle(census, directory: Path, stream: TextIO | None = None) -> None:
 
 
 class NodeRun:
-    """A start that ran on the node, read back: what ``write_batch_member`` reads of a batch's
-    ``solver.ensemble_run.SceneRun`` (its scene, status, facts, records and checkpoint)."""
+    """A start that ran on the node, read back: what ``studies.rundir.write_member`` reads of
+    a batch's ``solver.ensemble_run.SceneRun`` (scene, status, facts, records, checkpoint)."""
 
     def __init__(self, scene, directory: Path, start_id: str) -> None:  # noqa: ANN001
         result = read_result(directory, start_id)
@@ -109,7 +110,9 @@ class NodeRun:
         self.status, self.message = result.facts["status"], result.message
         self.backend = result.backend
         self.recorder = _Records(result.samples)
-        self.probes = _Records({})  # the probes are in the samples already
+        # the probes travel inside the samples; the sampling check reads them from there
+        self.probes = _Records({k: v for k, v in result.samples.items()
+                                if k in ("probe_t", "probe_data")})
         self.state = result.state
 
     def facts(self) -> dict:
@@ -136,7 +139,7 @@ def import_results(bundle: Path, spec, starts_dir: Path,  # noqa: ANN001
     from mpi4py import MPI
 
     from solver.run import Profile
-    from studies.rundir import prepare_run_dir, write_batch_member
+    from studies.rundir import prepare_run_dir, running_summary, write_first_files, write_member
     from studies.rundir.ownership import claim
     from studies.sweep import scene_for
 
@@ -148,12 +151,13 @@ def import_results(bundle: Path, spec, starts_dir: Path,  # noqa: ANN001
         for task in spec.tasks:
             run = NodeRun(scene_for(spec, task), bundle, task.id)
             folder = starts_dir / "runs" / task.id
-            prepare_run_dir(folder, True, MPI.COMM_SELF, in_place=True).release()
-            write_scene(run.scene, folder / "scene.toml")
-            extra = {"message": run.message} if run.message else {}
-            extra["batch"] = {"size": len(batches[task.id]["ids"]), "backend": run.backend,
-                              "bundle": str(bundle)}
-            write_batch_member(run, folder, extra, Profile(), run.backend)
+            rd = prepare_run_dir(folder, True, MPI.COMM_SELF, in_place=True)
+            rd.release()
+            write_first_files(rd.work, run.scene, running_summary(run.scene.name))
+            batch = {"size": len(batches[task.id]["ids"]), "backend": run.backend,
+                     "bundle": str(bundle)}
+            write_member(rd, run, Profile(), time.perf_counter(), run.backend,
+                         {"batch": batch})
             rc = max(rc, int(run.status == "failed"))
         print(f"bundle: {len(spec.tasks)} starts read from {bundle}",
               file=stream or sys.stdout, flush=True)
