@@ -431,3 +431,17 @@ def test_certification_adapter(monkeypatch, tmp_path):
     monkeypatch.setattr(travel, "wave_from_run", not_rigid)
     cert = certify(tmp_path)
     assert "NotRigidWave: frame spread 0.45" in certificate_line(cert)
+
+
+def test_a_census_refused_for_its_cost_leaves_no_directory(tmp_path, capsys):
+    """The cost refusal came after the census had claimed and filled its directory, which was
+    left behind; a refused census now leaves nothing, and says why in one line (exit 2)."""
+    pytest.importorskip("dolfinx")
+    from cli.main import main
+
+    out = tmp_path / "census"
+    rc = main(["attractors", str(SMOKE), "--starts", "2", "--meshes", "36", "--end-time",
+               "100000", "--max-time", "100000", "--no-certify", "-o", str(out)])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2 and len(err) == 1 and "--yes-i-know" in err[0], err
+    assert not out.exists()

@@ -283,6 +283,8 @@ def run_census(census: Census, out_dir: str | Path, *, comm=None, force: bool = 
         else:
             rc = comm.bcast(_read(read_starts, spec, out_dir, stream)
                             if comm.rank == 0 else None, root=0)
+        if rc == 2 and owned is not None:
+            _drop_if_unstarted(owned, out_dir)
         if rc in (0, 1):
             rc = max(rc, settle(out_dir, comm, stream))
         sweep_s = time.perf_counter() - t0
@@ -296,6 +298,20 @@ def run_census(census: Census, out_dir: str | Path, *, comm=None, force: bool = 
         if owned is not None:
             owned.release()
     return rc
+
+
+def _drop_if_unstarted(owned, out_dir: Path) -> None:  # noqa: ANN001 - a Claim
+    """Rank 0: a census refused before any start ran (its cost, a bad start list) in a
+    directory this command made leaves nothing behind: the directory holds only the census's
+    own definition files, which the same command writes again."""
+    import shutil
+
+    from studies.rundir.ownership import user_entries
+
+    if owned.created and set(user_entries(out_dir)) <= {"base.toml", "census.toml",
+                                                        "census.json"}:
+        owned.release()
+        shutil.rmtree(out_dir, ignore_errors=True)
 
 
 def _read(read_starts: Callable[..., int], spec, out_dir: Path, stream: TextIO) -> int:  # noqa: ANN001
