@@ -41,7 +41,7 @@ def test_every_scene_key_is_in_the_scene_reference(tmp_path):
     assert len(keys) >= 40  # 2 top-level keys and 38 in the nine sections today
     for key in keys:
         assert f"| `{key}` |" in page, key
-    assert "| `loading.f` | number | `0.7` | f >= 0" in page  # type, default and range
+    assert "| `loading.f` | number | `0.7` | 0 &lt;= f &lt;= 1e3" in page  # type, default and range
 
 
 def test_every_cli_command_and_option_is_in_the_command_reference():
