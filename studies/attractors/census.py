@@ -45,9 +45,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TextIO
 
-from solver.atomic import atomic_write_text
-from solver.scene import Scene, SceneError, load_scene, scene_to_dict, write_scene
-from studies.attractors.classify import (
+from stickslip.solver.atomic import atomic_write_text
+from stickslip.solver.scene import Scene, SceneError, load_scene, scene_to_dict, write_scene
+from stickslip.studies.attractors.classify import (
     CELERITY_TOL,
     SETTLED,
     SPREAD_TOL,
@@ -55,9 +55,9 @@ from studies.attractors.classify import (
     row_cache,
     start_row,
 )
-from studies.attractors.features import DEFAULT_TOLERANCES, LEG_GROWTH, Tolerances
-from studies.attractors.starts import StartDistribution
-from studies.attractors.statistics import ladder, mesh_members
+from stickslip.studies.attractors.features import DEFAULT_TOLERANCES, LEG_GROWTH, Tolerances
+from stickslip.studies.attractors.starts import StartDistribution
+from stickslip.studies.attractors.statistics import ladder, mesh_members
 
 KIND = "stickslip-attractors"
 #: The census directory's own entries (``studies.rundir.ownership``); the starts are a sweep
@@ -133,7 +133,7 @@ class Census:
 
 
 def default_dir(scene: Scene) -> Path:
-    from studies.output import output_root
+    from stickslip.studies.output import output_root
 
     return output_root() / "attractors" / _slug(scene.name)
 
@@ -160,7 +160,7 @@ def prepare(census: Census, out_dir: Path, force: bool):  # noqa: ANN201 - a Cla
     The directory is claimed as kind ``attractors`` (``studies.rundir.ownership``: a new or
     empty one, or a census directory to resume; a live or foreign one is refused). The claim
     (its lock) is returned and held until the census ends."""
-    from studies.rundir.ownership import OwnershipError, claim, register_kind
+    from stickslip.studies.rundir.ownership import OwnershipError, claim, register_kind
 
     base = census.base_scene()
     definition = census.definition(base)
@@ -203,7 +203,7 @@ def clear_unstarted(out_dir: Path) -> list[Path]:
     directory refuses to be reused as such. Only directories under ``runs/`` whose every
     entry is one of those are emptied; anything else is left for the sweep to report.
     """
-    from studies.rundir.directory import is_run_dir
+    from stickslip.studies.rundir.directory import is_run_dir
 
     cleared = []
     runs = out_dir / "runs"
@@ -260,7 +260,7 @@ def run_census(census: Census, out_dir: str | Path, *, comm=None, force: bool = 
     """
     from mpi4py import MPI
 
-    from studies.sweep import SweepError, load_sweep, run_sweep
+    from stickslip.studies.sweep import SweepError, load_sweep, run_sweep
 
     comm = MPI.COMM_WORLD if comm is None else comm
     out_dir = Path(out_dir)
@@ -306,7 +306,7 @@ def _drop_if_unstarted(owned, out_dir: Path) -> None:  # noqa: ANN001 - a Claim
     own definition files, which the same command writes again."""
     import shutil
 
-    from studies.rundir.ownership import user_entries
+    from stickslip.studies.rundir.ownership import user_entries
 
     if owned.created and set(user_entries(out_dir)) <= {"base.toml", "census.toml",
                                                         "census.json"}:
@@ -429,8 +429,8 @@ def _say_legs(legs: list[dict], stream: TextIO) -> None:
 def continue_legs(legs: list[dict], log: Path) -> tuple[dict[str, str], bool]:
     """Continue this rank's legs in place (``continue_batch`` per end time: one batch per
     batch of starts); ({start id: why not continued}, interrupted)."""
-    from studies.rundir import continue_batch
-    from studies.rundir.readers import ReadError
+    from stickslip.studies.rundir import continue_batch
+    from stickslip.studies.rundir.readers import ReadError
 
     refused: dict[str, str] = {}
     by_until: dict[float, list[dict]] = {}
@@ -465,8 +465,8 @@ def start_rows(out_dir: Path, spread_tol: float = SPREAD_TOL,
                ) -> list[dict]:
     """One row per start of the census (every start, whatever its state); ``window``: the
     length W of the windows compared (``census.json``'s ``window_s``)."""
-    from studies.sweep import load_sweep
-    from studies.sweep.table import _read_json, live_status
+    from stickslip.studies.sweep import load_sweep
+    from stickslip.studies.sweep.table import _read_json, live_status
 
     spec = load_sweep(out_dir / "census.toml")
     cache_path = out_dir / FEATURES
@@ -564,14 +564,14 @@ def answer_of(meta: dict, rows: list[dict], certify_in: Path | None = None, *,
               "members": {str(n): per_mesh[n] for n in meshes},
               "structured": {str(n): [_brief(r) for r in structured[n]] for n in meshes},
               "ladder": lad, "certificates": certificates, "timing": timing, "starts": rows}
-    from studies.attractors.report import summary_text
+    from stickslip.studies.attractors.report import summary_text
 
     answer["text"] = summary_text(answer)
     return answer
 
 
 def _tolerance_facts(tol: Tolerances) -> dict:
-    from studies.attractors.features import AMPLITUDE_TOL, HARMONIC_BINS, SHARE_TOL
+    from stickslip.studies.attractors.features import AMPLITUDE_TOL, HARMONIC_BINS, SHARE_TOL
 
     return {"share_listed": SHARE_TOL, "celerity_rel": tol.celerity,
             "share_rel": tol.share_rel, "share_abs": tol.share_abs,
@@ -595,7 +595,7 @@ def certify_members(out_dir: Path, rows: list[dict], *, compute: bool = True,
     ``compute`` and ``window``): the kick tests of the members whose certificate has none,
     all in one call (``certify.kick_members``: one batch per mesh and step), their wall
     time in ``timing["kick_s"]``."""
-    from studies.attractors.certify import certify_member, kick_members
+    from stickslip.studies.attractors.certify import certify_member, kick_members
 
     cache_path = out_dir / "certificates.json"
     try:
