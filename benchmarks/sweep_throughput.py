@@ -32,8 +32,8 @@ def sweep_text(n: int, end_time: float) -> str:
 
 
 def run(ranks: int, sweep: Path, out: Path) -> dict:
-    cmd = ["mpirun", "-n", str(ranks), sys.executable, "-m", "stickslip.cli.main", "sweep", str(sweep),
-           "-o", str(out), "--progress", "lines"]
+    cmd = ["mpirun", "-n", str(ranks), sys.executable, "-m", "stickslip.cli.main", "sweep",
+           str(sweep), "-o", str(out), "--progress", "lines"]
     env = dict(os.environ, PYTHONPATH=str(REPO))
     t0 = time.perf_counter()
     res = subprocess.run(cmd, cwd=REPO, env=env, capture_output=True, text=True)

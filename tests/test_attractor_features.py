@@ -295,8 +295,9 @@ def test_small_census_counts_multi_wave_attractors(tmp_path):
     from test_sweep import _env
 
     out = tmp_path / "census"
-    cmd = [sys.executable, "-m", "stickslip.cli.main", "attractors", str(REPO / "scenes" / "smoke.toml"),
-           "--starts", "2", "--meshes", "36", "--end-time", "0.1", "--set", "loading.omega=20",
+    cmd = [sys.executable, "-m", "stickslip.cli.main", "attractors",
+           str(REPO / "scenes" / "smoke.toml"), "--starts", "2", "--meshes", "36", "--end-time",
+           "0.1", "--set", "loading.omega=20",
            "--set", "geometry.delta=0.005", "-o", str(out), "--no-certify", "--json"]
     res = subprocess.run(cmd, cwd=REPO, env=_env(), capture_output=True, text=True,
                          timeout=300)

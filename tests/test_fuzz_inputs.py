@@ -295,7 +295,8 @@ COMMANDS = {
     "travel": (["travel", "smoke", "--k", "4", "-o", "{tmp}/t"],
                ["stickslip.studies.travel.command.solve", "stickslip.studies.travel.continuation.run_continuation"]),
     "attractors": (["attractors", "smoke", "-o", "{tmp}/a"],
-                   ["stickslip.studies.attractors.census.run_census", "stickslip.studies.attractors.along.run_along"]),
+                   ["stickslip.studies.attractors.census.run_census",
+                    "stickslip.studies.attractors.along.run_along"]),
 }
 #: Options that take numbers inside a string: the string built from drawn numbers.
 TEMPLATES = {"--batch": "{i}", "--f-sweep": "{x}:{y}:{i}",
