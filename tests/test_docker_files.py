@@ -222,9 +222,11 @@ def test_pyproject_installs_every_package_of_the_source_tree():
     or discovery misses is missing there, and only the commands importing it fail
     (docker/test-image.sh checks the installed image; this catches it without one)."""
     setuptools = tomllib.loads((REPO / "pyproject.toml").read_text())["tool"]["setuptools"]
+    # the design card's folders are installed as stickslip.<folder> (stickslip/<folder> links)
     found = {".".join(p.parent.relative_to(REPO).parts) for p in REPO.rglob("__init__.py")
              if p.parent.relative_to(REPO).parts[0] not in ("tests", "benchmarks", "build")
              and not any(part.startswith(".") for part in p.relative_to(REPO).parts)}
+    found = {name if name.startswith("stickslip") else f"stickslip.{name}" for name in found}
     if isinstance(setuptools.get("packages"), list):
         listed = set(setuptools["packages"])
     else:  # [tool.setuptools.packages.find] include = [...] (fnmatch patterns)

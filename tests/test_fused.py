@@ -141,7 +141,7 @@ def test_read_only_package_dir_gets_a_writable_numba_cache(monkeypatch, tmp_path
     monkeypatch.delenv("NUMBA_CACHE_DIR", raising=False)
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
     real_access = os.access
-    here = os.path.dirname(os.path.abspath(fused.__file__))
+    here = os.path.dirname(os.path.realpath(fused.__file__))
     monkeypatch.setattr(os, "access", lambda p, mode: False if str(p) == here
                         else real_access(p, mode))
     fused._cache_dir()
