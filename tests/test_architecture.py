@@ -296,6 +296,34 @@ def test_a_scheme_is_registered_once_and_asked_once():
         calls = [node for node in ast.walk(tree) if isinstance(node, ast.Call)
                  and getattr(node.func, "id", "") == "for_scene"]
         assert len(calls) == 1, name
+    # one scene: the scheme builds its parts with its own step (``Scheme.build``), so the
+    # registry is entered once, not once per question
+    tree = ast.parse(MODULES["solver.run"].read_text())
+    asked = {node.attr for node in ast.walk(tree) if isinstance(node, ast.Attribute)
+             and isinstance(node.value, ast.Call)
+             and getattr(node.value.func, "id", "") == "for_scene"}
+    assert asked == {"build"}, asked
+    assert not [node for node in ast.walk(tree) if isinstance(node, ast.Attribute)
+                and node.attr == "time_step"]
+
+
+def _function(module: str, name: str) -> ast.FunctionDef:
+    tree = ast.parse(MODULES[module].read_text())
+    return next(node for node in ast.walk(tree)
+                if isinstance(node, ast.FunctionDef) and node.name == name)
+
+
+def test_the_run_command_and_the_api_share_one_run_function():
+    """``stickslip run`` and ``stickslip.run`` refuse an aliasing scene and draw the figures
+    in one place (``studies.rundir.run_scene``: ``check_sampling``, ``plot``): neither
+    writes those checks itself."""
+    for module, name in (("cli.run", "_run"), ("stickslip.api", "run")):
+        names = {node.id for node in ast.walk(_function(module, name))
+                 if isinstance(node, ast.Name)}
+        names |= {node.attr for node in ast.walk(_function(module, name))
+                  if isinstance(node, ast.Attribute)}
+        assert "run_scene" in names, module
+        assert not names & {"sampling_problem", "plot_run", "PLOTTABLE"}, (module, names)
 
 
 def test_every_scheme_follows_the_stepper_protocol():
