@@ -213,11 +213,14 @@ run_installed_packages() {  # the install holds every package of the source tree
     # From / (not the source tree in the working directory), as the `stickslip` script does.
     local out
     out=$(crun -w / -- python3 -c '
-import importlib, pathlib, sys
+import importlib, importlib.util, pathlib, sys
 src = pathlib.Path("/opt/stickslip")
+# the folders are installed as stickslip.<folder> (stickslip/<folder> links in the source)
 names = sorted(".".join(p.parent.relative_to(src).parts) for p in src.rglob("__init__.py")
                if p.parent.relative_to(src).parts[0] not in ("tests", "benchmarks"))
-bad = []
+names = [n if n.startswith("stickslip") else f"stickslip.{n}" for n in names]
+bad = [f"{top}: installed as a top-level name" for top in ("solver", "cli", "studies")
+       if importlib.util.find_spec(top) is not None]
 for name in names:
     try:
         mod = importlib.import_module(name)
@@ -226,7 +229,7 @@ for name in names:
     except ImportError as err:
         bad.append(f"{name}: {err}")
 print("\n".join(bad) if bad else f"{len(names)} packages installed: {chr(32).join(names)}")
-sys.exit(1 if bad else 0)' 2>&1) || { echo "$out" >&2; fail "the installed project lacks packages of the source tree (pyproject.toml [tool.setuptools] packages)"; return; }
+sys.exit(1 if bad else 0)' 2>&1) || { echo "$out" >&2; fail "the installed project lacks packages of the source tree, or installs more than stickslip (pyproject.toml [tool.setuptools] packages)"; return; }
     say "$out"
 }
 
