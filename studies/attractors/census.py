@@ -255,6 +255,7 @@ def run_census(census: Census, out_dir: str | Path, *, comm=None, force: bool = 
     from mpi4py import MPI
 
     from studies.sweep import SweepError, load_sweep, run_sweep
+    from studies.sweep.schedule import wait_quietly
 
     comm = MPI.COMM_WORLD if comm is None else comm
     out_dir = Path(out_dir)
@@ -281,6 +282,7 @@ def run_census(census: Census, out_dir: str | Path, *, comm=None, force: bool = 
             print(answer["text"], file=stream, flush=True)
             if rc == 0 and answer["counts"].get("failed"):
                 rc = 1
+        wait_quietly(comm)  # the other ranks sleep while rank 0 analyses and certifies
     finally:
         if owned is not None:
             owned.release()
@@ -297,11 +299,15 @@ def settle(out_dir: Path, comm, stream: TextIO = sys.stdout) -> int:  # noqa: AN
     command again)."""
     import signal
 
+    from studies.sweep.schedule import wait_quietly
+
     refused: dict[str, str] = {}  # start id -> why it cannot be continued (rank 0)
     reached: dict[str, float] = {}  # start id -> the time its last leg started from
     previous = signal.signal(signal.SIGTERM, _raise_interrupt)
     try:
         while True:
+            if featurise_shared(out_dir, comm):
+                return 130
             shares: list | int | None = None
             if comm.rank == 0:
                 try:
@@ -312,11 +318,13 @@ def settle(out_dir: Path, comm, stream: TextIO = sys.stdout) -> int:  # noqa: AN
                 except (OSError, ValueError, KeyError) as err:  # an unreadable census
                     print(f"error: settle: {err}", file=sys.stderr, flush=True)
                     shares = 1
+            wait_quietly(comm)  # the others sleep while rank 0 classifies
             shares = comm.bcast(shares, root=0)
             if not shares or isinstance(shares, int):
                 return shares or 0
             log = out_dir / f"settle-rank{comm.rank}.log"  # the continuations' lines
             failed, interrupted = continue_legs(shares[comm.rank], log)
+            wait_quietly(comm)  # a rank done first sleeps until the slowest is done
             results = comm.gather((failed, interrupted), root=0)
             stop = None
             if comm.rank == 0:
@@ -431,23 +439,13 @@ def start_rows(out_dir: Path, spread_tol: float = SPREAD_TOL,
     """One row per start of the census (every start, whatever its state); ``window``: the
     length W of the windows compared (``census.json``'s ``window_s``)."""
     from studies.sweep import load_sweep
-    from studies.sweep.table import _read_json, live_status
 
     spec = load_sweep(out_dir / "census.toml")
     cache_path = out_dir / FEATURES
-    try:
-        cache = json.loads(cache_path.read_text())
-    except (OSError, ValueError):
-        cache = {}
+    cache = _read_features(cache_path)
     rows, kept = [], {}
     for task in spec.tasks:
-        run_dir = out_dir / STARTS / "runs" / task.id
-        summary = _read_json(run_dir / "summary.json")
-        status = live_status(summary) if summary else "pending"
-        key = None
-        if status == "completed":  # a start's features, until its summary is rewritten
-            stamp = (run_dir / "summary.json").stat().st_mtime_ns
-            key = f"{task.id}@{stamp}@{window}@share-drift"
+        run_dir, summary, status, key = _start_state(out_dir, task, window)
         row = start_row(run_dir, task.params, summary, status, spread_tol, tol,
                         cached=cache.get(key), window=window)
         rows.append(row)
@@ -456,6 +454,111 @@ def start_rows(out_dir: Path, spread_tol: float = SPREAD_TOL,
     if kept != cache:
         atomic_write_text(cache_path, json.dumps(_json_safe(kept)) + "\n")
     return rows
+
+
+def _read_features(path: Path) -> dict:
+    try:
+        return json.loads(path.read_text())
+    except (OSError, ValueError):
+        return {}
+
+
+def _start_state(out_dir: Path, task, window: float | None  # noqa: ANN001 - a sweep Task
+                 ) -> tuple[Path, dict | None, str, str | None]:
+    """(run directory, summary, status, key of its features in ``features.json``) of one
+    start; the key (None unless completed) names the summary's write, so a continued start
+    is featurised again."""
+    from studies.sweep.table import _read_json, live_status
+
+    run_dir = out_dir / STARTS / "runs" / task.id
+    summary = _read_json(run_dir / "summary.json")
+    status = live_status(summary) if summary else "pending"
+    key = None
+    if status == "completed":
+        stamp = (run_dir / "summary.json").stat().st_mtime_ns
+        key = f"{task.id}@{stamp}@{window}@share-drift"
+    return run_dir, summary, status, key
+
+
+def featurise_shared(out_dir: Path, comm) -> bool:  # noqa: ANN001
+    """Collective: featurise the completed starts not yet in ``features.json`` on every
+    rank (shared as ``balanced_shares``, cost N² × the simulated time: the samples read and
+    transformed) and add them to it on rank 0, whose ``start_rows`` then only reads them.
+    The same ``start_row`` on the same samples: the same rows as rank 0 alone. A start a
+    rank cannot featurise is left to rank 0's ``start_rows``. Returns whether a rank was
+    interrupted (SIGINT/SIGTERM; on every rank: run the census again)."""
+    from studies.sweep.schedule import wait_quietly
+
+    if comm.size == 1:
+        return False
+    shares, interrupted = None, False
+    try:
+        if comm.rank == 0:
+            shares = _unfeaturised_shares(out_dir, comm.size)
+        wait_quietly(comm)
+    except KeyboardInterrupt:
+        interrupted = True
+    shares, stop = comm.bcast((shares, interrupted) if comm.rank == 0 else None, root=0)
+    if stop or not shares:
+        return bool(stop)
+    found: dict = {}
+    try:
+        found = _featurise(out_dir, [item["id"] for item in shares[comm.rank]])
+    except KeyboardInterrupt:
+        interrupted = True
+    except Exception:  # noqa: BLE001 - rank 0's start_rows featurises what is missing
+        pass
+    try:
+        wait_quietly(comm)
+    except KeyboardInterrupt:
+        interrupted = True
+    gathered = comm.gather((found, interrupted), root=0)
+    if comm.rank == 0:
+        cache = _read_features(out_dir / FEATURES)
+        for part, _ in gathered:
+            cache.update(part)
+        atomic_write_text(out_dir / FEATURES, json.dumps(_json_safe(cache)) + "\n")
+        interrupted = any(flag for _, flag in gathered)
+    return bool(comm.bcast(interrupted, root=0))
+
+
+def _unfeaturised_shares(out_dir: Path, ranks: int) -> list[list[dict]] | None:
+    """Rank 0: the completed, not steady starts missing from ``features.json``, shared over
+    ``ranks`` (``balanced_shares``); None if none (or the census cannot be read: rank 0's
+    ``start_rows`` says why)."""
+    from studies.sweep import load_sweep
+
+    try:
+        meta = json.loads((out_dir / "census.json").read_text())
+        cache = _read_features(out_dir / FEATURES)
+        todo = []
+        for task in load_sweep(out_dir / "census.toml").tasks:
+            _, summary, _, key = _start_state(out_dir, task, meta.get("window_s"))
+            if key and key not in cache and (summary or {}).get("regime") not in (
+                    None, "steady-sliding"):
+                todo.append({"id": task.id, "cost": float(task.params["mesh.n_inner"]) ** 2
+                             * float(summary.get("sim_time_s") or 0.0)})
+    except (OSError, ValueError, KeyError):
+        return None
+    return balanced_shares(todo, ranks) if todo else None
+
+
+def _featurise(out_dir: Path, ids: list[str]) -> dict:
+    """{features.json key: ``row_cache``} of the starts ``ids`` (``start_row``)."""
+    from studies.sweep import load_sweep
+
+    meta = json.loads((out_dir / "census.json").read_text())
+    window = meta.get("window_s")
+    tasks = {t.id: t for t in load_sweep(out_dir / "census.toml").tasks}
+    found = {}
+    for start in ids:
+        task = tasks[start]
+        run_dir, summary, status, key = _start_state(out_dir, task, window)
+        row = start_row(run_dir, task.params, summary, status, meta["spread_tol"],
+                        tolerances(meta), window=window)
+        if key and row.get("features"):
+            found[key] = row_cache(row)
+    return found
 
 
 def collect(out_dir: str | Path, *, certify: str | bool = "cached", dt_limit: bool = False,
