@@ -435,7 +435,7 @@ def write_batch_member(run, folder: Path, extra: dict, prof: Profile, backend: s
     summary.json (the facts, the wave analysis, ``extra``, the profile and peak memory).
     Returns the summary. Used by a batched sweep and by a continued batch. ``compress``:
     samples.npz deflated (``solver.atomic.NPZ_LEVEL``), else stored (the same arrays,
-    1.75x the bytes, written and read without zlib: for runs that are continued again)."""
+    about 1.5x the bytes, written and read without zlib: for runs continued again)."""
     summary = summarise(run)
     summary.update(extra)
     arrays = run.recorder.arrays()
