@@ -276,9 +276,13 @@ def run_census(census: Census, out_dir: str | Path, *, comm=None, force: bool = 
         if rc in (0, 1):
             rc = max(rc, settle(out_dir, comm, stream))
         sweep_s = time.perf_counter() - t0
+        shared: dict = {}
+        if certify and rc == 0 and certify_shared(out_dir, comm, dt_limit=dt_limit,
+                                                  kick=kick, timing=shared):
+            rc = 130
         if comm.rank == 0 and rc != 2:
             answer = collect(out_dir, certify="run" if certify and rc == 0 else "cached",
-                             dt_limit=dt_limit, sweep_s=sweep_s, kick=kick)
+                             dt_limit=dt_limit, sweep_s=sweep_s, kick=kick, shared=shared)
             print(answer["text"], file=stream, flush=True)
             if rc == 0 and answer["counts"].get("failed"):
                 rc = 1
@@ -562,13 +566,15 @@ def _featurise(out_dir: Path, ids: list[str]) -> dict:
 
 
 def collect(out_dir: str | Path, *, certify: str | bool = "cached", dt_limit: bool = False,
-            sweep_s: float | None = None, kick: bool = True) -> dict:
+            sweep_s: float | None = None, kick: bool = True, shared: dict | None = None
+            ) -> dict:
     """Rank 0: featurise, classify, group, count; write attractors.{json,csv}, members.csv.
 
     ``certify``: ``"run"`` (certify the members whose certificate is not cached in
     ``certificates.json``), ``"cached"`` (show the cached ones only) or False.
     ``sweep_s``: the wall time of the runs of this session, for the time shares. ``kick``:
-    with ``"run"``, the members' kick tests too."""
+    with ``"run"``, the members' kick tests too. ``shared``: the wall times of
+    ``certify_shared`` (``certification_s``, ``kick_s``), added to this call's."""
     out_dir = Path(out_dir)
     meta = json.loads((out_dir / "census.json").read_text())
     t0 = time.perf_counter()
@@ -577,7 +583,8 @@ def collect(out_dir: str | Path, *, certify: str | bool = "cached", dt_limit: bo
     mode = "run" if certify is True else certify
     answer = answer_of(meta, rows, out_dir if mode else None, compute=mode == "run",
                        dt_limit=dt_limit, kick=kick,
-                       timing={"sweep_s": sweep_s, "features_s": features_s})
+                       timing={"sweep_s": sweep_s, "features_s": features_s},
+                       shared=shared)
     write_outputs(out_dir, answer)
     return answer
 
@@ -589,7 +596,7 @@ def tolerances(meta: dict) -> Tolerances:
 
 def answer_of(meta: dict, rows: list[dict], certify_in: Path | None = None, *,
               compute: bool = True, dt_limit: bool = False, timing: dict | None = None,
-              kick: bool = False) -> dict:
+              kick: bool = False, shared: dict | None = None) -> dict:
     """The census's answer from its definition (``census.json``) and one row per start
     (``classify.start_row`` or ``classify.end_state_row``): members per mesh, structured
     starts apart, the ladder, the counts, and (with ``certify_in``, the census directory)
@@ -609,6 +616,8 @@ def answer_of(meta: dict, rows: list[dict], certify_in: Path | None = None, *,
                                         window=meta.get("window_s"), kick=kick,
                                         tol=tolerances(meta), timing=timing)
         timing["certification_s"] = time.perf_counter() - t0
+        for key, seconds in (shared or {}).items():  # certify_shared's, before
+            timing[key] = timing.get(key, 0.0) + seconds
         for key, cert in certificates.items():
             if isinstance(cert, dict) and cert.get("stable") is False:
                 n, member = key.split(":", 1)
@@ -655,14 +664,16 @@ def _brief(row: dict) -> dict:
 
 def certify_members(out_dir: Path, rows: list[dict], *, compute: bool = True,
                     dt_limit: bool = False, window: float | None = None, kick: bool = False,
-                    tol: Tolerances = DEFAULT_TOLERANCES, timing: dict | None = None) -> dict:
+                    tol: Tolerances = DEFAULT_TOLERANCES, timing: dict | None = None,
+                    write: bool = True) -> dict:
     """Per mesh and settled member (``"N:member"``): its certificate
     (``studies.attractors.certify.certify_member``), cached in ``certificates.json`` by its
     first run and that run's summary time; with ``compute`` False only cached ones. The end
     state is read over the last ``window`` seconds (the census's W). ``kick`` (with
     ``compute`` and ``window``): the kick tests of the members whose certificate has none,
     all in one call (``certify.kick_members``: one batch per mesh and step), their wall
-    time in ``timing["kick_s"]``."""
+    time in ``timing["kick_s"]``. ``write``: False leaves ``certificates.json`` as it was
+    (``certify_shared``: rank 0 writes what the ranks computed)."""
     from studies.attractors.certify import certify_member, kick_members
 
     cache_path = out_dir / "certificates.json"
@@ -671,22 +682,18 @@ def certify_members(out_dir: Path, rows: list[dict], *, compute: bool = True,
     except (OSError, ValueError):
         cache = {}
     out: dict = {}
-    members: dict[tuple, list[dict]] = {}
-    for r in rows:
-        if r["class"] in SETTLED and r["member"]:
-            members.setdefault((r["n_inner"], r["member"]), []).append(r)
+    members = settled_members(rows)
     keys: dict[str, str] = {}  # "N:member" -> its cache key
     named = {f"{n}:{member}": (n, member) for n, member in members}
     for (n, member), group in sorted(members.items(), key=lambda kv: (kv[0][0], kv[0][1])):
-        first = group[0]
-        stamp = (Path(first["run_dir"]) / "summary.json").stat().st_mtime
-        key = f"{first['id']}@{stamp}@{'dt-limit' if dt_limit else 'run-dt'}@{len(group)}"
+        key = certificate_key(group, dt_limit)
         if key not in cache:
             if not compute:
                 continue
             cache[key] = certify_member(group, dt_limit=dt_limit, window=window)
-            atomic_write_text(cache_path, json.dumps(_json_safe(cache), indent=1,
-                                                     default=str))
+            if write:
+                atomic_write_text(cache_path, json.dumps(_json_safe(cache), indent=1,
+                                                         default=str))
         out[f"{n}:{member}"] = cache[key]
         keys[f"{n}:{member}"] = key
     unkicked = {name: members[tuple_key] for name, tuple_key in named.items()
@@ -698,8 +705,107 @@ def certify_members(out_dir: Path, rows: list[dict], *, compute: bool = True,
             timing["kick_s"] = time.perf_counter() - t0
         for name, result in kicks.items():
             cache[keys[name]] = out[name] = {**out[name], "kick": result}
-        atomic_write_text(cache_path, json.dumps(_json_safe(cache), indent=1, default=str))
+        if write:
+            atomic_write_text(cache_path, json.dumps(_json_safe(cache), indent=1,
+                                                     default=str))
     return out
+
+
+def settled_members(rows: list[dict]) -> dict[tuple, list[dict]]:
+    """{(N, member): its rows, in row order} of the settled members (``SETTLED``)."""
+    members: dict[tuple, list[dict]] = {}
+    for r in rows:
+        if r["class"] in SETTLED and r["member"]:
+            members.setdefault((r["n_inner"], r["member"]), []).append(r)
+    return members
+
+
+def certificate_key(group: list[dict], dt_limit: bool) -> str:
+    """A member's key in ``certificates.json``: its first start, that start's summary
+    write, the Δt mode and the number of its starts."""
+    first = group[0]
+    stamp = (Path(first["run_dir"]) / "summary.json").stat().st_mtime
+    return f"{first['id']}@{stamp}@{'dt-limit' if dt_limit else 'run-dt'}@{len(group)}"
+
+
+def certify_shared(out_dir: Path, comm, *, dt_limit: bool = False,  # noqa: ANN001
+                   kick: bool = True, timing: dict | None = None) -> bool:
+    """Collective: the members' certificates (and kick tests) not yet in
+    ``certificates.json``, ``certify_members`` on the ranks, a mesh per rank
+    (``balanced_shares``, cost N³ × its starts: one batch of kicks per mesh stays whole),
+    written into it by rank 0; rank 0's ``collect`` then finds them cached. The same
+    functions on the same runs: the certificates of rank 0 alone. ``timing`` gets the wall
+    time (``certification_s``) and the slowest rank's kicks (``kick_s``). Returns whether
+    a rank was interrupted (run the census again)."""
+    from studies.sweep.schedule import wait_quietly
+
+    if comm.size == 1:
+        return False
+    t0 = time.perf_counter()
+    jobs, interrupted = None, False
+    try:
+        if comm.rank == 0:
+            jobs = _certificate_jobs(out_dir, comm.size, dt_limit, kick)
+        wait_quietly(comm)
+    except KeyboardInterrupt:
+        interrupted = True
+    jobs, stop = comm.bcast((jobs, interrupted) if comm.rank == 0 else None, root=0)
+    if stop or not jobs:
+        return bool(stop)
+    window, tol, shares = jobs
+    found: dict = {}
+    spent: dict = {}
+    try:
+        mine = [r for job in shares[comm.rank] for r in job["rows"]]
+        if mine:
+            certs = certify_members(out_dir, mine, dt_limit=dt_limit, window=window,
+                                    kick=kick, tol=tol, timing=spent, write=False)
+            groups = settled_members(mine)
+            found = {certificate_key(groups[(n, m)], dt_limit): certs[f"{n}:{m}"]
+                     for n, m in groups if f"{n}:{m}" in certs}
+    except KeyboardInterrupt:
+        interrupted = True
+    try:
+        wait_quietly(comm)
+    except KeyboardInterrupt:
+        interrupted = True
+    gathered = comm.gather((found, spent.get("kick_s", 0.0), interrupted), root=0)
+    if comm.rank == 0:
+        path = out_dir / "certificates.json"
+        cache = _read_features(path)
+        for part, _, _ in gathered:
+            cache.update(part)
+        atomic_write_text(path, json.dumps(_json_safe(cache), indent=1, default=str))
+        interrupted = any(flag for _, _, flag in gathered)
+        if timing is not None:
+            timing["certification_s"] = time.perf_counter() - t0
+            timing["kick_s"] = max(k for _, k, _ in gathered)
+    return bool(comm.bcast(interrupted, root=0))
+
+
+def _certificate_jobs(out_dir: Path, ranks: int, dt_limit: bool, kick: bool
+                      ) -> tuple[float | None, Tolerances, list[list[dict]]] | None:
+    """Rank 0: (W, tolerances, per rank the meshes {"id": N, "cost", "rows": the rows of
+    its members whose certificate or kick is not cached}) for ``certify_shared``; None
+    if nothing is missing (or the census cannot be read: ``collect`` says why)."""
+    try:
+        meta = json.loads((out_dir / "census.json").read_text())
+        tol = tolerances(meta)
+        rows = start_rows(out_dir, meta["spread_tol"], tol, meta.get("window_s"))
+    except (OSError, ValueError, KeyError):
+        return None
+    for n in sorted({r["n_inner"] for r in rows}):  # as answer_of groups them
+        group_members([r for r in rows if r["n_inner"] == n], meta["celerity_tol"], tol=tol)
+    cache = _read_features(out_dir / "certificates.json")
+    todo: dict[int, list[dict]] = {}
+    for (n, _), group in settled_members(rows).items():
+        entry = cache.get(certificate_key(group, dt_limit))
+        if entry is None or (kick and not isinstance(entry.get("kick"), dict)):
+            todo.setdefault(n, []).extend(group)
+    if not todo:
+        return None
+    jobs = [{"id": n, "cost": float(n) ** 3 * len(g), "rows": g} for n, g in todo.items()]
+    return meta.get("window_s"), tol, balanced_shares(jobs, ranks)
 
 
 def _cell(v: object) -> object:
