@@ -491,6 +491,22 @@ def featurise_shared(out_dir: Path, comm) -> bool:  # noqa: ANN001
     The same ``start_row`` on the same samples: the same rows as rank 0 alone. A start a
     rank cannot featurise is left to rank 0's ``start_rows``. Returns whether a rank was
     interrupted (SIGINT/SIGTERM; on every rank: run the census again)."""
+    def merge(parts: list[dict]) -> None:
+        cache = _read_features(out_dir / FEATURES)
+        for part in parts:
+            cache.update(part)
+        atomic_write_text(out_dir / FEATURES, json.dumps(_json_safe(cache)) + "\n")
+
+    return on_ranks(comm, lambda: _unfeaturised_shares(out_dir, comm.size),
+                    lambda share: _featurise(out_dir, [item["id"] for item in share]), merge)
+
+
+def on_ranks(comm, plan, work, merge) -> bool:  # noqa: ANN001
+    """Collective: ``plan()`` on rank 0 gives one share per rank (None: nothing to do),
+    ``work(share)`` runs on every rank, ``merge(results)`` on rank 0. A waiting rank sleeps
+    (``wait_quietly``); a rank whose ``work`` raises gives no result (rank 0 does that work
+    itself later). Returns whether a rank was interrupted (KeyboardInterrupt: SIGINT, or
+    SIGTERM where a handler raises it), on every rank once all have arrived."""
     from studies.sweep.schedule import wait_quietly
 
     if comm.size == 1:
@@ -498,30 +514,27 @@ def featurise_shared(out_dir: Path, comm) -> bool:  # noqa: ANN001
     shares, interrupted = None, False
     try:
         if comm.rank == 0:
-            shares = _unfeaturised_shares(out_dir, comm.size)
+            shares = plan()
         wait_quietly(comm)
     except KeyboardInterrupt:
         interrupted = True
     shares, stop = comm.bcast((shares, interrupted) if comm.rank == 0 else None, root=0)
     if stop or not shares:
         return bool(stop)
-    found: dict = {}
+    result = None
     try:
-        found = _featurise(out_dir, [item["id"] for item in shares[comm.rank]])
+        result = work(shares[comm.rank])
     except KeyboardInterrupt:
         interrupted = True
-    except Exception:  # noqa: BLE001 - rank 0's start_rows featurises what is missing
-        pass
+    except Exception:  # noqa: BLE001 - left to rank 0 (module docstring of the callers)
+        result = None
     try:
         wait_quietly(comm)
     except KeyboardInterrupt:
         interrupted = True
-    gathered = comm.gather((found, interrupted), root=0)
+    gathered = comm.gather((result, interrupted), root=0)
     if comm.rank == 0:
-        cache = _read_features(out_dir / FEATURES)
-        for part, _ in gathered:
-            cache.update(part)
-        atomic_write_text(out_dir / FEATURES, json.dumps(_json_safe(cache)) + "\n")
+        merge([r for r, _ in gathered if r is not None])
         interrupted = any(flag for _, flag in gathered)
     return bool(comm.bcast(interrupted, root=0))
 
@@ -737,50 +750,39 @@ def certify_shared(out_dir: Path, comm, *, dt_limit: bool = False,  # noqa: ANN0
     functions on the same runs: the certificates of rank 0 alone. ``timing`` gets the wall
     time (``certification_s``) and the slowest rank's kicks (``kick_s``). Returns whether
     a rank was interrupted (run the census again)."""
-    from studies.sweep.schedule import wait_quietly
-
-    if comm.size == 1:
-        return False
     t0 = time.perf_counter()
-    jobs, interrupted = None, False
-    try:
-        if comm.rank == 0:
-            jobs = _certificate_jobs(out_dir, comm.size, dt_limit, kick)
-        wait_quietly(comm)
-    except KeyboardInterrupt:
-        interrupted = True
-    jobs, stop = comm.bcast((jobs, interrupted) if comm.rank == 0 else None, root=0)
-    if stop or not jobs:
-        return bool(stop)
-    window, tol, shares = jobs
-    found: dict = {}
-    spent: dict = {}
-    try:
-        mine = [r for job in shares[comm.rank] for r in job["rows"]]
-        if mine:
-            certs = certify_members(out_dir, mine, dt_limit=dt_limit, window=window,
-                                    kick=kick, tol=tol, timing=spent, write=False)
-            groups = settled_members(mine)
-            found = {certificate_key(groups[(n, m)], dt_limit): certs[f"{n}:{m}"]
-                     for n, m in groups if f"{n}:{m}" in certs}
-    except KeyboardInterrupt:
-        interrupted = True
-    try:
-        wait_quietly(comm)
-    except KeyboardInterrupt:
-        interrupted = True
-    gathered = comm.gather((found, spent.get("kick_s", 0.0), interrupted), root=0)
-    if comm.rank == 0:
+    jobs: dict = {}
+
+    def plan() -> list[list[dict]] | None:
+        found = _certificate_jobs(out_dir, comm.size, dt_limit, kick)
+        if found is None:
+            return None
+        window, tol, shares = found
+        return [[{"window": window, "tol": tol, **job} for job in share] for share in shares]
+
+    def work(share: list[dict]) -> tuple[dict, float]:
+        mine = [r for job in share for r in job["rows"]]
+        if not mine:
+            return {}, 0.0
+        spent: dict = {}
+        certs = certify_members(out_dir, mine, dt_limit=dt_limit, window=share[0]["window"],
+                                kick=kick, tol=share[0]["tol"], timing=spent, write=False)
+        groups = settled_members(mine)
+        return ({certificate_key(groups[(n, m)], dt_limit): certs[f"{n}:{m}"]
+                 for n, m in groups if f"{n}:{m}" in certs}, spent.get("kick_s", 0.0))
+
+    def merge(parts: list[tuple[dict, float]]) -> None:
         path = out_dir / "certificates.json"
         cache = _read_features(path)
-        for part, _, _ in gathered:
-            cache.update(part)
+        for found, _ in parts:
+            cache.update(found)
         atomic_write_text(path, json.dumps(_json_safe(cache), indent=1, default=str))
-        interrupted = any(flag for _, _, flag in gathered)
-        if timing is not None:
-            timing["certification_s"] = time.perf_counter() - t0
-            timing["kick_s"] = max(k for _, k, _ in gathered)
-    return bool(comm.bcast(interrupted, root=0))
+        jobs["kick_s"] = max((k for _, k in parts), default=0.0)
+
+    interrupted = on_ranks(comm, plan, work, merge)
+    if timing is not None and comm.rank == 0 and "kick_s" in jobs:
+        timing.update(certification_s=time.perf_counter() - t0, kick_s=jobs["kick_s"])
+    return interrupted
 
 
 def _certificate_jobs(out_dir: Path, ranks: int, dt_limit: bool, kick: bool
