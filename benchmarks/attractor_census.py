@@ -98,7 +98,7 @@ def samples_ab(out: Path) -> dict:
     (module docstring), with the bytes of each; one start after the other, side by side."""
     import numpy as np
 
-    from solver.atomic import atomic_save_npz
+    from stickslip.solver.atomic import atomic_save_npz
 
     totals = {f"{how}_{what}": 0.0 for how in ("deflated", "stored")
               for what in ("write_cpu_s", "read_cpu_s", "bytes")}
@@ -222,7 +222,7 @@ def main() -> None:
         print(json.dumps(measure(Path(args.existing))))
         return
     out = Path(args.output) if args.output else Path(tempfile.mkdtemp(prefix="census-"))
-    cmd = [sys.executable, "-m", "cli.main", "attractors", args.scene, "--starts",
+    cmd = [sys.executable, "-m", "stickslip.cli.main", "attractors", args.scene, "--starts",
            str(args.starts), "--meshes", args.meshes, "--end-time", str(args.end_time),
            "-o", str(out / "census"), "--progress", "lines"]
     cmd += [a for kv in args.set for a in ("--set", kv)]

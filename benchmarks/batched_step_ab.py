@@ -45,8 +45,8 @@ def _old_kernel(path: Path):
 
 def main() -> None:
     from benchmarks.gpu_bench import load, tiled
-    from solver.contact import ContactLaw
-    from solver.ensemble import BatchedExplicit
+    from stickslip.solver.contact import ContactLaw
+    from stickslip.solver.ensemble import BatchedExplicit
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("bundle", type=Path, help="a bundle of benchmarks/gpu_bench.py prepare")
@@ -69,7 +69,7 @@ def main() -> None:
     scenes = tuple(np.array([getattr(law, k) for law in laws]) for k in ("d", "slide", "f"))
     it = BatchedExplicit(bp, *scenes)
     if args.today != "auto":
-        from solver.fused import kernel
+        from stickslip.solver.fused import kernel
 
         it._name, it._fn = args.today, kernel(args.today)
     it.set_state(u0, np.zeros_like(u0))
@@ -93,7 +93,7 @@ def main() -> None:
 
     variants = {"full": lambda: it.step(diag=True), "lean": lambda: it.step(diag=False)}
     if args.both:  # today's two kernels on the same arrays, interleaved (the LONG_B choice)
-        from solver.fused import kernel
+        from stickslip.solver.fused import kernel
 
         fns = {name: kernel(name) for name in ("batched_step", "batched_step_long")}
 

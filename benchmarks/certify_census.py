@@ -44,7 +44,7 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from studies.attractors.classify import (  # noqa: E402
+from stickslip.studies.attractors.classify import (  # noqa: E402
     CELERITY_TOL,
     _radius,
     group_members,
@@ -117,7 +117,7 @@ def finest_level_size(row: dict, radius: float = 1.0) -> int:
 def certify_member(scene: str, n: int, census_row: dict, end_time: float, out: Path,
                    dt_limit: bool = True) -> dict:
     """Rerun, classify and certify one member's first start (module docstring, 1 and 2)."""
-    from studies.attractors.certify import certify
+    from stickslip.studies.attractors.certify import certify
 
     seed = int(census_row["seed"])
     run_dir = out / scene / f"n{n}_seed{seed}"
@@ -264,7 +264,7 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def _save(path: Path, done: dict) -> None:
-    from solver.atomic import atomic_write_text
+    from stickslip.solver.atomic import atomic_write_text
 
     path.parent.mkdir(parents=True, exist_ok=True)
     atomic_write_text(path, json.dumps(done, indent=1, default=str) + "\n")

@@ -39,9 +39,9 @@ from pathlib import Path  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from exact import halfspace  # noqa: E402
-from exact.annulus import Elastic  # noqa: E402
-from exact.sliding_flutter import Dissipation, sliding_branches  # noqa: E402
+from stickslip.exact import halfspace  # noqa: E402
+from stickslip.exact.annulus import Elastic  # noqa: E402
+from stickslip.exact.sliding_flutter import Dissipation, sliding_branches  # noqa: E402
 
 MAT = Elastic(E=1.0e9, rho=1000.0, nu=0.3, R=1.0, xi=1.25)
 FS = (0.3, 0.7, 1.0, 1.5, 2.0)
@@ -136,15 +136,15 @@ def part_annulus(quick: bool) -> dict:
 def _fe_problem(N: int, overrides: list[str]):
     from mpi4py import MPI
 
-    from solver.problem import build_problem
-    from solver.scene import load_scene
+    from stickslip.solver.problem import build_problem
+    from stickslip.solver.scene import load_scene
 
     return build_problem(load_scene("figure3_n36", [f"mesh.n_inner={N}", *overrides]),
                          MPI.COMM_SELF)
 
 
 def part_fe(quick: bool, out: Path) -> dict:
-    from studies.flutter_fe.cea import complex_eigenvalue_analysis, distinct_modes
+    from stickslip.studies.flutter_fe.cea import complex_eigenvalue_analysis, distinct_modes
 
     Ns = (66, 132) if quick else (66, 132, 264, 528)
     f, ks = 0.7, range(1, 9)
@@ -221,7 +221,7 @@ VARIANTS = {
 
 
 def part_meshscale(quick: bool, out: Path, f: float = 0.7) -> dict:
-    from studies.flutter_fe.cea import build_operators, complex_eigenvalue_analysis
+    from stickslip.studies.flutter_fe.cea import build_operators, complex_eigenvalue_analysis
 
     Ns = (36, 72) if quick else (36, 72, 132)
     cache = out / f"meshscale_f{f}.json"
@@ -293,7 +293,7 @@ def part_fespectrum(quick: bool, out: Path) -> dict:
     """P1 lumped CEA over the whole discrete spectrum for f = 0.3, 0.5, 0.7 and N = 36, 72,
     132: fastest growth undamped and with Kelvin-Voigt τ (mapped eigenvalue by eigenvalue:
     K → K(1 − iωτ) also in the nodal reactions), against the exact fastest growth over n."""
-    from studies.flutter_fe.cea import build_operators, complex_eigenvalue_analysis
+    from stickslip.studies.flutter_fe.cea import build_operators, complex_eigenvalue_analysis
 
     Ns = (36, 72) if quick else (36, 72, 132)
     fs = (0.3, 0.5, 0.7)
@@ -356,7 +356,11 @@ def part_fespectrum(quick: bool, out: Path) -> dict:
 def part_smoothing(quick: bool, out: Path) -> dict:
     """P1 lumped with the 1-2-1 smoothed friction: fastest growth over the whole spectrum and
     the first three branches of n = 2, 4, 7 against the exact, f = 0.7."""
-    from studies.flutter_fe.cea import build_operators, complex_eigenvalue_analysis, distinct_modes
+    from stickslip.studies.flutter_fe.cea import (
+        build_operators,
+        complex_eigenvalue_analysis,
+        distinct_modes,
+    )
 
     Ns = (36, 72) if quick else (36, 72, 132, 264)
     cache = out / "smoothing.json"

@@ -43,7 +43,7 @@ import sys
 import time
 from pathlib import Path
 
-from studies.convergence import (  # noqa: E402
+from stickslip.studies.convergence import (  # noqa: E402
     END_TIME,
     ETA_DAMPED,
     F_REF_HZ,
@@ -405,8 +405,8 @@ def speed(n: int = 1056, steps: int = 3000) -> None:
     ``steps`` steps measured with time.process_time, projected to the whole run."""
     from mpi4py import MPI
 
-    from solver.run import Simulation
-    from studies.convergence import scene_for
+    from stickslip.solver.run import Simulation
+    from stickslip.studies.convergence import scene_for
 
     for damped in (False, True):
         sc = scene_for(dict(phys="fig3", damped=damped, n=n, seed="mode4", beta2=0.5,

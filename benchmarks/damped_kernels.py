@@ -50,9 +50,9 @@ def main() -> None:
 
     from mpi4py import MPI
 
-    from solver.ensemble_run import BatchSimulation
-    from solver.run import Simulation
-    from solver.scene import load_scene
+    from stickslip.solver.ensemble_run import BatchSimulation
+    from stickslip.solver.run import Simulation
+    from stickslip.solver.scene import load_scene
 
     base = load_scene(args.scene, ["output.progress=false", f"time.max_steps={args.steps}",
                                    "time.end_time=10.0", *args.set])

@@ -30,9 +30,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 import numpy as np  # noqa: E402
 from mpi4py import MPI  # noqa: E402
 
-from solver.run import Simulation  # noqa: E402
-from solver.scene import load_scene  # noqa: E402
-from studies.resources import estimate  # noqa: E402
+from stickslip.solver.run import Simulation  # noqa: E402
+from stickslip.solver.scene import load_scene  # noqa: E402
+from stickslip.studies.resources import estimate  # noqa: E402
 
 CHUNK = 1e-3  # s of sim time per turn
 

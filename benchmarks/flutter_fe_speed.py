@@ -22,9 +22,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from mpi4py import MPI  # noqa: E402
 
-from solver.problem import build_problem  # noqa: E402
-from solver.scene import load_scene  # noqa: E402
-from studies.flutter_fe import build_operators, complex_eigenvalue_analysis  # noqa: E402
+from stickslip.solver.problem import build_problem  # noqa: E402
+from stickslip.solver.scene import load_scene  # noqa: E402
+from stickslip.studies.flutter_fe import build_operators, complex_eigenvalue_analysis  # noqa: E402
 
 TARGET_S = 30.0
 

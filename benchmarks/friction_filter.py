@@ -18,8 +18,8 @@ import time
 import numpy as np
 from mpi4py import MPI
 
-from solver.run import Simulation
-from solver.scene import load_scene
+from stickslip.solver.run import Simulation
+from stickslip.solver.scene import load_scene
 
 
 def roundoff_growth(filt: str, stop_m: float = 4e-10, max_steps: int = 900) -> str:

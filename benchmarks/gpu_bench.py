@@ -72,7 +72,7 @@ CENSUS_SCENE = "scenes/figure3_n132.toml"
 
 def load(path: Path):
     """(scenes, layout, starts) of the first batch of the bundle ``path`` (``prepare``)."""
-    from solver.bundle import load_batch, read_manifest
+    from stickslip.solver.bundle import load_batch, read_manifest
 
     return load_batch(path, read_manifest(path)["batches"][0])
 
@@ -80,7 +80,7 @@ def load(path: Path):
 def tiled(data, B: int, every: int, steps: int):
     """The bundle's scenes and starts as B columns (column b: start b mod S), each run for
     ``steps`` steps and sampled every ``every``: (scenes, ``BatchStarts``)."""
-    from solver.ensemble_run import BatchStarts
+    from stickslip.solver.ensemble_run import BatchStarts
 
     scenes, layout, starts = data
     dt = layout.problem.dt
@@ -94,8 +94,8 @@ def tiled(data, B: int, every: int, steps: int):
 def batch_of(data, B: int, target: str, every: int, steps: int, spool_parent=None):
     """The batch of B tiled columns on ``target`` (the backend: cpu, gpu) and
     ``advance(k)``: k steps of ``solver.run.run_loop`` with the batch's observers."""
-    from solver.ensemble_run import BatchSimulation
-    from solver.run import run_loop
+    from stickslip.solver.ensemble_run import BatchSimulation
+    from stickslip.solver.run import run_loop
 
     scenes, starts = tiled(data, B, every, steps)
     batch = BatchSimulation(scenes, backend=target, spool_parent=spool_parent,
@@ -116,8 +116,8 @@ def finish(batch) -> None:
 def stepper_of(data, B: int, target: str):
     """The scheme's batched stepper alone (no observers) of B tiled columns, and
     ``advance(k)``: k lean steps."""
-    from solver.contact import ContactLaw
-    from solver.schemes.select import for_scene
+    from stickslip.solver.contact import ContactLaw
+    from stickslip.solver.schemes.select import for_scene
 
     scenes, starts = tiled(data, B, 1, 1)
     bp = data[1].problem
@@ -445,7 +445,7 @@ def forked_map(fn, count: int, workers: int) -> list:
 
 def _classify(b: int) -> str:
     """Scene b's member: regime, dominant mode k and direction of travel."""
-    from postprocess.analysis import analyse
+    from stickslip.postprocess.analysis import analyse
 
     c = _CLASSIFY
     if not c["active"][b]:
@@ -510,8 +510,8 @@ def stage_prepare(args) -> None:
     samples every 1e-4 s), and DIR/census_n132, ``--starts`` random starts (seeds 0, 1, ...)
     of the census point."""
     from benchmarks.ensemble import MAPS
-    from solver.bundle import prepare_bundle
-    from solver.scene import load_scene
+    from stickslip.solver.bundle import prepare_bundle
+    from stickslip.solver.scene import load_scene
 
     rng = np.random.default_rng(15)
     for n in args.n:

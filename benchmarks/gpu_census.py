@@ -38,7 +38,7 @@ def _census_args(args: dict, scene: str, bundle: Path) -> list[str]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    from cli.main import main as stickslip
+    from stickslip.cli.main import main as stickslip
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     sub = ap.add_subparsers(dest="stage", required=True)

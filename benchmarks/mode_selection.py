@@ -17,8 +17,8 @@ from tempfile import TemporaryDirectory
 
 from mpi4py import MPI
 
-from solver.scene import load_scene
-from studies.rundir import run_scene
+from stickslip.solver.scene import load_scene
+from stickslip.studies.rundir import run_scene
 
 CASES = [
     (scene, beta2, seed, 0.9)

@@ -19,8 +19,8 @@ from typing import Any
 
 import numpy as np
 
-from semianalytic import coefficients, gamma_from_physical, stick_slip_waves
-from studies.reduced_transient import (
+from stickslip.semianalytic import coefficients, gamma_from_physical, stick_slip_waves
+from stickslip.studies.reduced_transient import (
     ReducedModel,
     junction_phases,
     observed_order,

@@ -16,8 +16,8 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from semianalytic.coefficients import coefficients, gamma_from_physical  # noqa: E402
-from semianalytic.waves import (  # noqa: E402
+from stickslip.semianalytic.coefficients import coefficients, gamma_from_physical  # noqa: E402
+from stickslip.semianalytic.waves import (  # noqa: E402
     continuation_omega,
     find_waves,
     refine_wave,

@@ -23,8 +23,8 @@ import time
 import numpy as np
 from mpi4py import MPI
 
-from solver.run import Simulation
-from solver.scene import load_scene
+from stickslip.solver.run import Simulation
+from stickslip.solver.scene import load_scene
 
 
 def bare_loop(problem, steps: int) -> float:

@@ -45,9 +45,9 @@ def worker(n: int, steps: int, omega: str) -> None:
     import numpy as np
     from mpi4py import MPI
 
-    import solver.problem
-    from solver.run import Simulation
-    from solver.scene import load_scene
+    from stickslip import solver
+    from stickslip.solver.run import Simulation
+    from stickslip.solver.scene import load_scene
 
     if omega == "gershgorin":
         solver.problem.omega_max = gershgorin_omega_max

@@ -32,7 +32,7 @@ def sweep_text(n: int, end_time: float) -> str:
 
 
 def run(ranks: int, sweep: Path, out: Path) -> dict:
-    cmd = ["mpirun", "-n", str(ranks), sys.executable, "-m", "cli.main", "sweep", str(sweep),
+    cmd = ["mpirun", "-n", str(ranks), sys.executable, "-m", "stickslip.cli.main", "sweep", str(sweep),
            "-o", str(out), "--progress", "lines"]
     env = dict(os.environ, PYTHONPATH=str(REPO))
     t0 = time.perf_counter()

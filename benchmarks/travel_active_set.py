@@ -47,11 +47,11 @@ def main() -> None:
     if a.span <= 0.0 or a.speeds < 2:
         ap.error(f"--span {a.span} --speeds {a.speeds}: give a positive span and >= 2 speeds")
 
-    from postprocess.analysis import analyse_run, load_run
-    from solver.contact import SEPARATION, SLIP, STICK
-    from solver.scene import load_scene
-    from studies.travel import driver as D
-    from studies.travel.newton import (
+    from stickslip.postprocess.analysis import analyse_run, load_run
+    from stickslip.solver.contact import SEPARATION, SLIP, STICK
+    from stickslip.solver.scene import load_scene
+    from stickslip.studies.travel import driver as D
+    from stickslip.studies.travel.newton import (
         INEQUALITY_NAMES,
         inequality_margins,
         nodal_stiffness,

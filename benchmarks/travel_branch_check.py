@@ -29,9 +29,9 @@ def main() -> int:
     ap.add_argument("--check", type=int, default=5)
     ap.add_argument("--end-time", type=float, default=0.05)
     a = ap.parse_args()
-    from cli.travel import parse_continue
-    from studies.travel import driver as D
-    from studies.travel.from_run import read_end_state, solve_matched, transient_next_to
+    from stickslip.cli.travel import parse_continue
+    from stickslip.studies.travel import driver as D
+    from stickslip.studies.travel.from_run import read_end_state, solve_matched, transient_next_to
 
     key, values = parse_continue(a.branch)
     end = read_end_state(a.run)

@@ -17,8 +17,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 
 def main() -> None:
-    from solver.scene import load_scene
-    from studies.travel import driver as D
+    from stickslip.solver.scene import load_scene
+    from stickslip.studies.travel import driver as D
 
     for n in [int(a) for a in sys.argv[1:]] or [264, 528]:
         scene = load_scene("scenes/figure1_n132_damped.toml", [f"mesh.n_inner={n}"])

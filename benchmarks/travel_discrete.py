@@ -66,7 +66,7 @@ def main() -> int:
     if a.k < 1:
         ap.error(f"--k {a.k}: the wavenumber must be >= 1")
 
-    from solver.scene import SceneError, load_scene
+    from stickslip.solver.scene import SceneError, load_scene
 
     try:
         base = load_scene(a.scene, a.overrides)
@@ -98,7 +98,7 @@ def main() -> int:
 def _write(out: Path | None, rows: list[dict]) -> None:
     """The finished lines to ``out`` (atomic: a complete file or the old one)."""
     if out and rows:
-        from solver.atomic import atomic_write_text
+        from stickslip.solver.atomic import atomic_write_text
 
         atomic_write_text(out, "".join(json.dumps(r) + "\n" for r in rows))
 
@@ -107,8 +107,8 @@ def _solve(base, a: argparse.Namespace, n: int, s: int, run: Path | None,
            previous: tuple[np.ndarray, float] | None) -> tuple[dict, tuple | None]:
     """One level (module doc): its row, and its wave (W, ω) for the next level (None if the
     Newton failed)."""
-    from studies.travel import driver as D
-    from studies.travel.newton import NotConverged
+    from stickslip.studies.travel import driver as D
+    from stickslip.studies.travel.newton import NotConverged
 
     t0 = time.process_time()
     scene = base.with_overrides(f"mesh.n_inner={n}")

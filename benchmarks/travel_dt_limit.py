@@ -26,8 +26,8 @@ import numpy as np
 def nested_waves(end, s: int) -> list:
     """(Setup, wave) at S, 2S, 4S: the matched wave from the run, each next one from the last
     prolonged (as ``from_run.dt_limit_wave``)."""
-    from studies.travel import driver as D
-    from studies.travel.from_run import _setup, solve_matched
+    from stickslip.studies.travel import driver as D
+    from stickslip.studies.travel.from_run import _setup, solve_matched
 
     st, sol, _ = solve_matched(end, s)
     out = [(st, sol)]
@@ -43,8 +43,8 @@ def transient_on(end, st, sol, dt: float, end_time: float) -> dict:
     """The run's scene at ``dt``, started on the wave ``sol`` of the frame ``st``."""
     from mpi4py import MPI
 
-    from postprocess.analysis import analyse
-    from solver.run import Simulation
+    from stickslip.postprocess.analysis import analyse
+    from stickslip.solver.run import Simulation
     u, v, a = st.ops.shift_state(np.r_[sol.W_r, sol.W_t], sol.omega)
     scene = end.scene.with_overrides(f"time.dt={float(dt)!r}", f"time.end_time={end_time!r}",
                                      "output.progress=false")
@@ -74,7 +74,7 @@ def main() -> int:
     ap.add_argument("runs", type=Path, nargs="+")
     ap.add_argument("--end-time", type=float, default=0.1)
     a = ap.parse_args()
-    from studies.travel.from_run import matched_samples, read_end_state, wave_from_run
+    from stickslip.studies.travel.from_run import matched_samples, read_end_state, wave_from_run
 
     for run in a.runs:
         w = wave_from_run(run, dt_limit=True)

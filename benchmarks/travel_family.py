@@ -88,8 +88,8 @@ def attempt(st, k: int, W0: np.ndarray, om0: float, label: str, known: list,
             save: Path | None = None) -> dict:
     """Fixed-ω nearest-speed solve from (W0, om0); band of a new wave (module doc). Central
     scheme: the free-ω Newton only, no band (isolated waves), the wave saved to ``save``."""
-    from studies.travel import driver as D
-    from studies.travel.newton import NotConverged, nearest_wave
+    from stickslip.studies.travel import driver as D
+    from stickslip.studies.travel.newton import NotConverged, nearest_wave
 
     R = st.scene.geometry.R
     c0 = om0 * R
@@ -145,8 +145,8 @@ def family_file(out: Path, samples: int, time_scheme: str) -> Path:
 def existence(out: Path, scene_name: str, runs: dict[int, dict], kmax: int,
               samples: int = 1, time_scheme: str = "exact") -> None:
     """Stage 2 (module doc): append one JSON line per attempt to ``family_file``."""
-    from solver.scene import load_scene
-    from studies.travel import driver as D
+    from stickslip.solver.scene import load_scene
+    from stickslip.studies.travel import driver as D
 
     scene = load_scene(f"scenes/{scene_name}.toml", [])
     if time_scheme == "exact" and samples == 1:

@@ -76,8 +76,8 @@ def main() -> None:
         ap.error(f"--c {c_from} {c_to} {c_step}: the step must be non-zero and point from "
                  "FROM to TO")
 
-    from solver.scene import SceneError, load_scene
-    from studies.travel import driver as D
+    from stickslip.solver.scene import SceneError, load_scene
+    from stickslip.studies.travel import driver as D
 
     try:
         scene = load_scene(scene_file)
@@ -130,7 +130,7 @@ def main() -> None:
             summary["members_at_that_speed"] = [m for m in members if m["c_m_s"] == c_at]
     print(json.dumps({"summary": summary}))
     if a.out:
-        from solver.atomic import atomic_write_text
+        from stickslip.solver.atomic import atomic_write_text
 
         atomic_write_text(a.out, json.dumps({"source": str(a.source), "overrides": a.overrides,
                                              "k": a.k, "n": st.prob.n, "rate": a.rate,
@@ -143,7 +143,7 @@ def main() -> None:
 def _scan(a: argparse.Namespace, st, R: float, speeds: np.ndarray, zones: list,
           members: list, best: list) -> None:
     """The speed loop: one JSON line per speed and per member; fills ``members``, ``best``."""
-    from studies.travel.family import scan_family
+    from stickslip.studies.travel.family import scan_family
 
     for c in speeds:
         t1 = time.process_time()
@@ -160,8 +160,8 @@ def _scan(a: argparse.Namespace, st, R: float, speeds: np.ndarray, zones: list,
 
 def _transient(a: argparse.Namespace) -> dict:
     """k, speed, amplitude, ψ and zone ranges of a run's wave; sets a.k, a.c and the zones."""
-    from postprocess.analysis import analyse_run, load_run
-    from studies.travel.family import zones_of_statuses
+    from stickslip.postprocess.analysis import analyse_run, load_run
+    from stickslip.studies.travel.family import zones_of_statuses
 
     run = load_run(a.source)
     wave = analyse_run(run)

@@ -97,7 +97,7 @@ def make(out: Path) -> int:
 
 def solve(out: Path, dt_limit: bool) -> int:
     """``wave_from_run`` on every finished run of OUT (module doc)."""
-    from studies.travel import NotRigidWave, wave_from_run
+    from stickslip.studies.travel import NotRigidWave, wave_from_run
 
     rows = []
     for run in sorted(out.glob("*/runs/*")):
@@ -114,7 +114,7 @@ def solve(out: Path, dt_limit: bool) -> int:
         row["cpu_s"] = round(time.process_time() - t0, 2)
         rows.append(row)
         print(json.dumps(_short(row)), flush=True)
-    from solver.atomic import atomic_write_text
+    from stickslip.solver.atomic import atomic_write_text
 
     atomic_write_text(out / "travel_from_runs.jsonl",
                       "".join(json.dumps(r, default=float) + "\n" for r in rows))

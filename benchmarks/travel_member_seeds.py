@@ -78,8 +78,8 @@ def main() -> None:
         ap.error(f"{a.family}: scanned with inertia {fam.get('inertia')!r}; a transient start "
                  "needs the transient's own operator (--inertia shift)")
     chosen = pick_members(members, a.pick)[shard::n_shards]
-    from solver.scene import SceneError
-    from studies.travel import driver as D
+    from stickslip.solver.scene import SceneError
+    from stickslip.studies.travel import driver as D
 
     try:
         scene = _scene(fam)
@@ -96,7 +96,7 @@ def main() -> None:
               "the lines above are complete, --out was not written", file=sys.stderr)
         raise SystemExit(130) from None
     if a.out:
-        from solver.atomic import atomic_write_text
+        from stickslip.solver.atomic import atomic_write_text
 
         old = a.out.read_text() if a.out.exists() else ""
         atomic_write_text(a.out, old + "".join(json.dumps(x) + "\n" for x in lines))
@@ -108,7 +108,7 @@ def main() -> None:
 
 
 def _scene(fam: dict):
-    from solver.scene import load_scene
+    from stickslip.solver.scene import load_scene
 
     src = Path(fam["source"])
     scene = load_scene(src / "scene.toml" if src.is_dir() else src)
@@ -119,7 +119,7 @@ def analyse_windows(rec: dict, scene, window: float) -> list[dict]:
     """``postprocess.analysis.analyse`` over consecutive windows of ``window`` seconds of a
     run's inner-circle record ``rec`` (``InnerCircleRecorder.arrays``): mode, speed,
     amplitude, ψ and regime per window."""
-    from postprocess.analysis import analyse
+    from stickslip.postprocess.analysis import analyse
 
     t = rec["t"]
     windows = []  # the last sample lies within one sample interval before end_time
@@ -144,9 +144,9 @@ def run_member(st, k: int, member: dict, end_time: float, window: float) -> dict
     start a transient of ``st.scene`` on it, measure it window by window."""
     from mpi4py import MPI
 
-    from solver.run import Simulation
-    from studies.travel.family import zone_pattern
-    from studies.travel.newton import (
+    from stickslip.solver.run import Simulation
+    from stickslip.studies.travel.family import zone_pattern
+    from stickslip.studies.travel.newton import (
         inequality_margins,
         nodal_stiffness,
         wave_amplitude,

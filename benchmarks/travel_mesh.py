@@ -76,10 +76,10 @@ def main() -> None:
             nested(run, a)
         return
 
-    from postprocess.analysis import analyse_run
-    from solver.scene import load_scene
-    from studies.travel import driver as D
-    from studies.travel.newton import NotConverged, nearest_wave, solve_wave
+    from stickslip.postprocess.analysis import analyse_run
+    from stickslip.solver.scene import load_scene
+    from stickslip.studies.travel import driver as D
+    from stickslip.studies.travel.newton import NotConverged, nearest_wave, solve_wave
 
     for run in a.runs:
         scene = load_scene(str(run / "scene.toml"), [])
@@ -138,7 +138,7 @@ def _log(msg: str) -> None:
 def _edge(st, m, k: int) -> dict:
     """One band edge member measured like ``stickslip run``; the tangent inequality is the
     smallest of the four nodal margins (gap, pressure, cone, slip direction)."""
-    from studies.travel import driver as D
+    from stickslip.studies.travel import driver as D
 
     s, _ = D.measure(st, m, k)
     mg = s["inequalities"]["margins"]
@@ -152,10 +152,10 @@ def _edge(st, m, k: int) -> dict:
 
 def nested(run: Path, a: argparse.Namespace) -> None:
     """Nested iteration over the meshes (module doc); one JSON line per level on stdout."""
-    from postprocess.analysis import analyse_run
-    from solver.scene import load_scene
-    from studies.travel import driver as D
-    from studies.travel.newton import NotConverged, nearest_wave, solve_wave, wave_band
+    from stickslip.postprocess.analysis import analyse_run
+    from stickslip.solver.scene import load_scene
+    from stickslip.studies.travel import driver as D
+    from stickslip.studies.travel.newton import NotConverged, nearest_wave, solve_wave, wave_band
 
     base = load_scene(str(run / "scene.toml"), [])
     wave = analyse_run(run)
@@ -303,8 +303,8 @@ def damping_path(scene, start, n: int, k: int, tau: float, a: argparse.Namespace
     """Continuation in the Kelvin–Voigt τ from a converged wave (same ω, else the nearest
     within ±1 %): does more damping widen the band (blunt the interior resonances)? One JSON
     line per τ; the path stops at the first τ without a wave."""
-    from studies.travel import driver as D
-    from studies.travel.newton import NotConverged, nearest_wave, wave_band
+    from stickslip.studies.travel import driver as D
+    from stickslip.studies.travel.newton import NotConverged, nearest_wave, wave_band
 
     R = scene.geometry.R
     cur = start
@@ -339,8 +339,8 @@ def sweep(st, members, n: int, k: int, a: argparse.Namespace, rec: dict,
     """Fixed-ω solves over a range of speeds, each from the same start (the coarse band's
     prolonged fast-edge member, or ``W0``, e.g. a run's last sample): where does an admissible
     wave exist near it? JSON line."""
-    from studies.travel import driver as D
-    from studies.travel.newton import NotConverged, solve_wave
+    from stickslip.studies.travel import driver as D
+    from stickslip.studies.travel.newton import NotConverged, solve_wave
 
     R = st.scene.geometry.R
     c0, w0 = time.process_time(), time.time()

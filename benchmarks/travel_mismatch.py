@@ -28,8 +28,8 @@ import numpy as np
 
 def rigidity(run_dir: Path) -> dict:
     """frame_spread and rate_mismatch of one run directory (module doc)."""
-    from postprocess.analysis import analyse_run, load_run
-    from studies.travel.newton import material_rate
+    from stickslip.postprocess.analysis import analyse_run, load_run
+    from stickslip.studies.travel.newton import material_rate
 
     run = load_run(run_dir)
     s = run.samples

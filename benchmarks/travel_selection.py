@@ -23,10 +23,10 @@ def main() -> None:
     ap.add_argument("--k", type=int, default=0)
     a = ap.parse_args()
 
-    from postprocess.analysis import analyse_run
-    from solver.scene import load_scene
-    from studies.travel import driver as D
-    from studies.travel.newton import NotConverged, nearest_wave, wave_band
+    from stickslip.postprocess.analysis import analyse_run
+    from stickslip.solver.scene import load_scene
+    from stickslip.studies.travel import driver as D
+    from stickslip.studies.travel.newton import NotConverged, nearest_wave, wave_band
 
     for run in a.runs:
         scene = load_scene(str(run / "scene.toml"), [])

@@ -31,10 +31,10 @@ from pathlib import Path
 
 import numpy as np
 
-from semianalytic.coefficients import coefficients, gamma_from_physical
-from semianalytic.waves import stick_slip_waves
-from studies.travel.newton import NotConverged, solve_wave
-from studies.travel.reduced import reduced_problem, wave_start
+from stickslip.semianalytic.coefficients import coefficients, gamma_from_physical
+from stickslip.semianalytic.waves import stick_slip_waves
+from stickslip.studies.travel.newton import NotConverged, solve_wave
+from stickslip.studies.travel.reduced import reduced_problem, wave_start
 
 
 def main() -> None:
@@ -51,7 +51,7 @@ def main() -> None:
 
     # 2. continuation in Ω, 40 values from 100 down to 50 rad/s (c√γ is Ω independent: the
     # predictor scales c as 1/Ω and W_θ − V_e as Ω, V_e = δfg/h the steady slip value)
-    from semianalytic.waves import continuation_omega
+    from stickslip.semianalytic.waves import continuation_omega
 
     omegas = np.linspace(100.0, 50.0, 40)
     t0 = time.perf_counter()
@@ -77,8 +77,8 @@ def main() -> None:
           f"converged (closed form: {n_adm}/40 admissible); first failure: {first_bad}")
 
     # 3. FE at N = 132
-    from solver.scene import load_scene
-    from studies.travel import driver as D
+    from stickslip.solver.scene import load_scene
+    from stickslip.studies.travel import driver as D
 
     t0, c0 = time.perf_counter(), time.process_time()
     sc132 = load_scene("scenes/figure1_n132_damped.toml")
@@ -101,7 +101,7 @@ def main() -> None:
     # 4. FE continuation, 40 points, N = 36
     from types import SimpleNamespace
 
-    from studies.travel.continuation import run_continuation
+    from stickslip.studies.travel.continuation import run_continuation
 
     sc = load_scene("scenes/figure1.toml", ["mesh.n_inner=36"])
     args = SimpleNamespace(k=4, damping=0.0, from_run=None, celerity=-2300.0,

@@ -65,8 +65,8 @@ def symbols(S: np.ndarray, n: int, ms: list[int]) -> dict[int, np.ndarray]:
 
 
 def cmd_symbol(a: argparse.Namespace) -> None:
-    from solver.scene import load_scene
-    from studies.travel import driver as D
+    from stickslip.solver.scene import load_scene
+    from stickslip.studies.travel import driver as D
 
     table: dict = {}
     for n in a.n:
@@ -94,8 +94,8 @@ def cmd_symbol(a: argparse.Namespace) -> None:
 
 
 def cmd_transient(a: argparse.Namespace) -> None:
-    from solver.scene import load_scene
-    from studies.travel import driver as D
+    from stickslip.solver.scene import load_scene
+    from stickslip.studies.travel import driver as D
 
     for n in a.n:
         sc = load_scene(a.scene, [f"mesh.n_inner={n}"])
@@ -122,9 +122,9 @@ def cmd_transient(a: argparse.Namespace) -> None:
 
 
 def cmd_residual(a: argparse.Namespace) -> None:
-    from postprocess.analysis import load_run
-    from solver.scene import load_scene
-    from studies.travel import driver as D
+    from stickslip.postprocess.analysis import load_run
+    from stickslip.solver.scene import load_scene
+    from stickslip.studies.travel import driver as D
 
     sc = load_scene(str(a.run / "scene.toml"), [])
     st = D.setup(sc, a.tau_scale * float(sc.damping.tau), lumped=a.lumped,
@@ -162,10 +162,10 @@ def cmd_residual(a: argparse.Namespace) -> None:
 
 
 def cmd_law(a: argparse.Namespace) -> None:
-    from postprocess.analysis import load_run
-    from solver.scene import load_scene
-    from studies.travel import driver as D
-    from studies.travel.newton import _Law, nodal_stiffness
+    from stickslip.postprocess.analysis import load_run
+    from stickslip.solver.scene import load_scene
+    from stickslip.studies.travel import driver as D
+    from stickslip.studies.travel.newton import _Law, nodal_stiffness
 
     sc = load_scene(str(a.run / "scene.toml"), [])
     st = D.setup(sc, float(sc.damping.tau), rate=a.rate)

@@ -62,7 +62,7 @@ def main() -> int:
 def _append(out: Path | None, lines: list[dict]) -> None:
     """Append the finished lines to ``out`` (atomic: the old file plus them, or the old one)."""
     if out and lines:
-        from solver.atomic import atomic_write_text
+        from stickslip.solver.atomic import atomic_write_text
 
         old = out.read_text() if out.exists() else ""
         atomic_write_text(out, old + "".join(json.dumps(x) + "\n" for x in lines))
@@ -73,9 +73,9 @@ def seed_next_to(path: Path, eps: float, end_time: float, window: float) -> dict
     from mpi4py import MPI
     from travel_member_seeds import analyse_windows  # benchmarks/ (this script's folder)
 
-    from solver.run import Simulation
-    from solver.scene import load_scene
-    from studies.travel import driver as D
+    from stickslip.solver.run import Simulation
+    from stickslip.solver.scene import load_scene
+    from stickslip.studies.travel import driver as D
 
     wave = np.load(path)
     scene = load_scene(f"scenes/{wave['scene']}.toml")

@@ -75,8 +75,8 @@ def matrix(quick: bool) -> list[tuple[str, str, list[str]]]:
 def stage_runs(quick: bool, force: bool, only: str | None) -> None:
     from mpi4py import MPI
 
-    from solver.scene import load_scene
-    from studies.rundir import run_scene
+    from stickslip.solver.scene import load_scene
+    from stickslip.studies.rundir import run_scene
 
     OUT.mkdir(parents=True, exist_ok=True)
     todo = [r for r in matrix(quick) if only is None or r[0].startswith(only)]
@@ -102,8 +102,8 @@ def stage_runs(quick: bool, force: bool, only: str | None) -> None:
 
 
 def stage_table(quick: bool) -> dict:
-    from solver.scene import load_scene
-    from studies.verification import (
+    from stickslip.solver.scene import load_scene
+    from stickslip.studies.verification import (
         compare_run,
         fe_modes,
         free_flight_celerity,
@@ -239,7 +239,7 @@ def write_doc_tables(results: dict) -> None:
 
 
 def stage_figures() -> None:
-    from solver import plotting
+    from stickslip.solver import plotting
 
     made = plotting.verification_figures(OUT, FIGS)
     for p in made:

@@ -67,9 +67,9 @@ def run_point(scheme: str, n: int, fraction: float, extra: tuple[str, ...] = (),
     """One run; returns wave metrics over the last ``window`` s and timings."""
     from mpi4py import MPI
 
-    from postprocess.analysis import analyse
-    from solver.run import Diverged, Simulation
-    from solver.scene import load_scene
+    from stickslip.postprocess.analysis import analyse
+    from stickslip.solver.run import Diverged, Simulation
+    from stickslip.solver.scene import load_scene
 
     over = ["output.progress=false", f"time.end_time={t_end}", f"mesh.n_inner={n}",
             *SCHEMES[scheme], f"time.dt_fraction={fraction}", *extra]
@@ -293,7 +293,7 @@ def _plot(rows, path: Path) -> None:
 
 
 def semianalytic(cache: Cache) -> str:
-    from studies.verification import semianalytic_waves
+    from stickslip.studies.verification import semianalytic_waves
 
     p = dict(nu=0.3, xi=1.25, f=0.7, delta=0.001, omega=40.0, R=1.0, wave_speed=1000.0)
     waves = [w for w in semianalytic_waves(p, 4) if w["admissible"]]
@@ -341,8 +341,8 @@ STABILITY_CASES = {
 
 
 def stability(cache: Cache) -> str:
-    from solver.scene import load_scene
-    from solver.schemes import shortest_wave_period
+    from stickslip.solver.scene import load_scene
+    from stickslip.solver.schemes import shortest_wave_period
 
     lines = ["| case | scheme | N | T (s) | dt (s) | steps | wall (s) | AS it. | outcome | regime "
              "| k | celerity (m/s) | sep/stick/slip |",
@@ -374,8 +374,8 @@ def stability(cache: Cache) -> str:
            "|---|---|---|"]
     from mpi4py import MPI
 
-    from solver.problem import build_problem, omega_max
-    from solver.schemes import stability_advice
+    from stickslip.solver.problem import build_problem, omega_max
+    from stickslip.solver.schemes import stability_advice
 
     for case, extra in STABILITY_CASES.items():
         sc = load_scene(BASE, ["mesh.n_inner=36", *extra])
@@ -389,7 +389,7 @@ def stability(cache: Cache) -> str:
 
 def large_steps(cache: Cache) -> str:
     """Where the implicit scheme loses the wave: N = 36, 0.2 s, dt_fraction 0.5 ... 16."""
-    from solver.implicit import damping_per_period
+    from stickslip.solver.implicit import damping_per_period
 
     lines = ["| scheme | dt/dt_crit | dt (s) | steps/period | amplitude kept per period "
              "(linear) | wall (s) | regime | k | celerity (m/s) | freq (Hz) | sep/stick/slip |",
@@ -426,9 +426,9 @@ def lean() -> str:
     rows.append(_in_subprocess(
         "import time, numpy as np\n"
         "from mpi4py import MPI\n"
-        "from solver.contact import ContactLaw, ContactProjection\n"
-        "from solver.problem import build_problem\n"
-        "from solver.scene import load_scene\n"
+        "from stickslip.solver.contact import ContactLaw, ContactProjection\n"
+        "from stickslip.solver.problem import build_problem\n"
+        "from stickslip.solver.scene import load_scene\n"
         "res = {}\n"
         "for f in (0.0, 0.7):\n"
         "    sc = load_scene('scenes/smoke.toml', ['mesh.n_inner=528', f'loading.f={f}'])\n"
@@ -448,8 +448,8 @@ def lean() -> str:
     rows.append(_in_subprocess(
         "import time\n"
         "from mpi4py import MPI\n"
-        "from solver.run import Simulation\n"
-        "from solver.scene import load_scene\n"
+        "from stickslip.solver.run import Simulation\n"
+        "from stickslip.solver.scene import load_scene\n"
         "res = {}\n"
         "for f in (0.0, 0.7):\n"
         "    sc = load_scene('scenes/smoke.toml', ['mesh.n_inner=264', f'loading.f={f}',\n"
@@ -466,8 +466,8 @@ def lean() -> str:
         "import io, tempfile\n"
         "from pathlib import Path\n"
         "from mpi4py import MPI\n"
-        "from studies.rundir import run_scene\n"
-        "from solver.scene import load_scene\n"
+        "from stickslip.studies.rundir import run_scene\n"
+        "from stickslip.solver.scene import load_scene\n"
         "res = {}\n"
         "for fields in ('false', 'true'):\n"
         "    sc = load_scene('scenes/smoke.toml', [f'output.fields={fields}',\n"
@@ -484,8 +484,8 @@ def lean() -> str:
         "import io, sys, tempfile\n"
         "from pathlib import Path\n"
         "from mpi4py import MPI\n"
-        "from studies.rundir import run_scene\n"
-        "from solver.scene import load_scene\n"
+        "from stickslip.studies.rundir import run_scene\n"
+        "from stickslip.solver.scene import load_scene\n"
         "sc = load_scene('scenes/smoke.toml', ['output.progress=false', 'time.end_time=0.002'])\n"
         "run_scene(sc, Path(tempfile.mkdtemp()) / 'r', comm=MPI.COMM_SELF, "
         "stream=io.StringIO())\n"
@@ -496,8 +496,8 @@ def lean() -> str:
     rows.append(_in_subprocess(
         "import sys, time\n"
         "t0 = time.perf_counter()\n"
-        "from semianalytic.coefficients import coefficients, gamma_from_physical\n"
-        "from semianalytic.waves import find_waves\n"
+        "from stickslip.semianalytic.coefficients import coefficients, gamma_from_physical\n"
+        "from stickslip.semianalytic.waves import find_waves\n"
         "co = coefficients(0.3, 1.25, gamma_from_physical(1000.0, 1.0, 40.0))\n"
         "w = find_waves(co, 0.7, 4, 0.001)\n"
         "t = time.perf_counter() - t0\n"
@@ -509,8 +509,8 @@ def lean() -> str:
     rows.append(_in_subprocess(
         "import time, math\n"
         "from mpi4py import MPI\n"
-        "from solver.run import Simulation\n"
-        "from solver.scene import load_scene\n"
+        "from stickslip.solver.run import Simulation\n"
+        "from stickslip.solver.scene import load_scene\n"
         "res = {}\n"
         "for probes in ('[]', '[0.0, 90.0, 180.0, 270.0]'):\n"
         "    best = 1e9\n"

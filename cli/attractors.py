@@ -9,8 +9,8 @@ from pathlib import Path
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    from studies.attractors.classify import CELERITY_TOL, SPREAD_TOL
-    from studies.attractors.starts import DEFAULT_AMPLITUDE, DEFAULT_N_MODES, DEFAULT_SEED
+    from stickslip.studies.attractors.classify import CELERITY_TOL, SPREAD_TOL
+    from stickslip.studies.attractors.starts import DEFAULT_AMPLITUDE, DEFAULT_N_MODES, DEFAULT_SEED
 
     p = sub.add_parser(
         "attractors",
@@ -99,15 +99,19 @@ def _attractors(args: argparse.Namespace) -> int:
     os.environ.setdefault("OMPI_MCA_osc", "^ucx")  # as `stickslip sweep`: one atomic counter
     from mpi4py import MPI
 
-    from solver.scene import SceneError, load_scene
-    from studies.attractors.census import (
+    from stickslip.solver.scene import SceneError, load_scene
+    from stickslip.studies.attractors.census import (
         DEFAULT_MAX_TIME,
         Census,
         CensusError,
         default_dir,
         run_census,
     )
-    from studies.attractors.starts import StartDistribution, parse_meshes, parse_structured
+    from stickslip.studies.attractors.starts import (
+        StartDistribution,
+        parse_meshes,
+        parse_structured,
+    )
 
     comm = MPI.COMM_WORLD
     if (Path(args.scene) / "census.json").is_file():
@@ -138,7 +142,7 @@ def _attractors(args: argparse.Namespace) -> int:
                         args.celerity_tol, args.spread_tol,
                         DEFAULT_MAX_TIME if args.max_time is None else args.max_time)
         census.base_scene()
-        from solver.schemes.select import check_backend
+        from stickslip.solver.schemes.select import check_backend
 
         if args.bundle is None:
             check_backend(args.backend)
@@ -153,7 +157,7 @@ def _attractors(args: argparse.Namespace) -> int:
     if args.bundle:
         from functools import partial
 
-        from studies.attractors.bundle import import_results
+        from stickslip.studies.attractors.bundle import import_results
 
         rc = _prepare_bundle(census, Path(args.bundle), comm)
         if rc is not None:
@@ -174,7 +178,7 @@ def _attractors(args: argparse.Namespace) -> int:
 def _prepare_bundle(census, bundle: Path, comm) -> int | None:  # noqa: ANN001
     """--bundle: write it where it is new (0), refuse one whose results are missing or that
     is another census's (2); None: its results are there, answer."""
-    from studies.attractors.bundle import BundleError, bundle_state, write_bundle
+    from stickslip.studies.attractors.bundle import BundleError, bundle_state, write_bundle
 
     if comm.size > 1:
         return _fail("--bundle prepares and answers in one process: run it without mpirun",
@@ -198,8 +202,8 @@ def _prepare_bundle(census, bundle: Path, comm) -> int | None:  # noqa: ANN001
 def _along(census, out: Path, args: argparse.Namespace, comm) -> int:  # noqa: ANN001
     from dataclasses import replace
 
-    from studies.attractors.along import parse_along, plot_along, run_along
-    from studies.attractors.census import CensusError
+    from stickslip.studies.attractors.along import parse_along, plot_along, run_along
+    from stickslip.studies.attractors.census import CensusError
 
     try:
         key, values = parse_along(args.along)
@@ -218,7 +222,7 @@ def _along(census, out: Path, args: argparse.Namespace, comm) -> int:  # noqa: A
 
 def _read(out: Path, args: argparse.Namespace) -> int:
     """The answer of an existing census directory, as it stands (nothing runs)."""
-    from studies.attractors.census import collect
+    from stickslip.studies.attractors.census import collect
 
     answer = collect(out, certify="cached")
     if not args.json:
@@ -233,13 +237,13 @@ def _show(out: Path, args: argparse.Namespace) -> None:
     if args.cea:
         import json
 
-        from studies.attractors.cea import cea_lines, cea_table
+        from stickslip.studies.attractors.cea import cea_lines, cea_table
 
         answer = json.loads((out / "attractors.json").read_text())
         for line in cea_lines(cea_table(out, answer, args.cea_fmax_hz)):
             print(line)
     if args.plot:
-        from studies.attractors.plots import plot_census
+        from stickslip.studies.attractors.plots import plot_census
 
         for path in plot_census(out):
             print(f"figure: {path}")

@@ -56,7 +56,7 @@ def output_file_problem(path: str | Path, flag: str) -> str | None:
 def samples_problem(run_dir: str | Path, need: int = 1) -> str | None:
     """Why the run directory ``run_dir`` cannot be read back (a missing, corrupt, edited or
     too short file: ``studies.rundir.readers``), or None."""
-    from studies.rundir.readers import ReadError, check_run_dir
+    from stickslip.studies.rundir.readers import ReadError, check_run_dir
 
     try:
         check_run_dir(run_dir, need)

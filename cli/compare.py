@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from studies.verification import compare_run, format_table, modal_table
+from stickslip.studies.verification import compare_run, format_table, modal_table
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -34,7 +34,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def _compare(args: argparse.Namespace) -> int:
-    from cli.checks import output_file_problem, samples_problem
+    from stickslip.cli.checks import output_file_problem, samples_problem
 
     run_dir = Path(args.run_dir)
     out = Path(args.json_out) if args.json_out else run_dir / "compare.json"
@@ -43,7 +43,7 @@ def _compare(args: argparse.Namespace) -> int:
         print(f"error: {problem}", file=sys.stderr)
         return 2
     ks = list(args.k)
-    from cli.semianalytic import KMAX_LIMIT
+    from stickslip.cli.semianalytic import KMAX_LIMIT
 
     if bad := [k for k in ks if not 1 <= k <= KMAX_LIMIT]:
         print(f"error: --k {bad[0]}: give a wavenumber 1 <= k <= {KMAX_LIMIT} (the reduced "
@@ -51,7 +51,7 @@ def _compare(args: argparse.Namespace) -> int:
         return 2
     result = compare_run(run_dir, ks)
     if args.modal:
-        from solver.scene import load_scene
+        from stickslip.solver.scene import load_scene
 
         scene = load_scene(run_dir / "scene.toml")
         result["fe_modes"] = modal_table(scene, sorted({result["fe"]["k"], *ks}))
@@ -60,7 +60,7 @@ def _compare(args: argparse.Namespace) -> int:
         for k, row in result["fe_modes"].items():
             print(f"k = {k}: " + ", ".join(f"{key} {val:.1f}" for key, val in row.items()
                                            if val is not None))
-    from solver.atomic import atomic_write_text
+    from stickslip.solver.atomic import atomic_write_text
 
     atomic_write_text(out, json.dumps(result, indent=2, default=_json_default))
     print(f"table: {out}")

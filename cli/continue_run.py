@@ -53,9 +53,9 @@ def _continue(args: argparse.Namespace) -> int:
     when the run cannot be continued."""
     from mpi4py import MPI
 
-    from studies.resources import ResourceError
-    from studies.rundir import EXIT_CODES, RunDirError, continue_run
-    from studies.rundir.readers import ReadError
+    from stickslip.studies.resources import ResourceError
+    from stickslip.studies.rundir import EXIT_CODES, RunDirError, continue_run
+    from stickslip.studies.rundir.readers import ReadError
 
     comm = MPI.COMM_WORLD
     try:

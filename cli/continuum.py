@@ -102,7 +102,7 @@ def _scene_values(args: argparse.Namespace) -> dict[str, Any]:
                          "omega": 50.0, "tau": 0.0, "reg": "none", "L": None, "vstar": 0.0,
                          "tstar": None, "source": "defaults"}
     if args.scene is not None:
-        from solver.scene import load_scene
+        from stickslip.solver.scene import load_scene
 
         sc = load_scene(args.scene, args.overrides)
         v.update(E=sc.material.E, rho=sc.material.rho, nu=sc.material.nu, R=sc.geometry.R,
@@ -135,8 +135,8 @@ def _scene_values(args: argparse.Namespace) -> dict[str, Any]:
 
 
 def _parse(args: argparse.Namespace) -> tuple[Any, list[float], list[int], Any, dict]:
-    from exact.annulus import Elastic
-    from exact.sliding_flutter import Dissipation
+    from stickslip.exact.annulus import Elastic
+    from stickslip.exact.sliding_flutter import Dissipation
 
     v = _scene_values(args)
     _finite("E", v["E"], 0.0, 1e13, lo_open=True)
@@ -224,8 +224,8 @@ def _f_sweep(text: str) -> list[float]:
 
 def flutter_exact_command(args: argparse.Namespace) -> int:
     """Handler of ``stickslip flutter-exact``."""
-    from exact import halfspace
-    from exact.sliding_flutter import sliding_branches
+    from stickslip.exact import halfspace
+    from stickslip.exact.sliding_flutter import sliding_branches
 
     try:
         mat, fs, ns, diss, info = _parse(args)

@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from studies.flutter_fe.cea import (
+from stickslip.studies.flutter_fe.cea import (
     CEAMode,
     CEAResult,
     build_operators,
@@ -22,14 +22,14 @@ from studies.flutter_fe.cea import (
     friction_relaxation_time,
     unrepresented_terms,
 )
-from studies.flutter_fe.doublets import doublet_lines, doublets
-from studies.flutter_fe.plots import plot_cea_diagram, plot_spectrum
-from studies.flutter_fe.references import reduced_model_flutter
+from stickslip.studies.flutter_fe.doublets import doublet_lines, doublets
+from stickslip.studies.flutter_fe.plots import plot_cea_diagram, plot_spectrum
+from stickslip.studies.flutter_fe.references import reduced_model_flutter
 
 if TYPE_CHECKING:
     from mpi4py import MPI
 
-    from solver.scene import Scene
+    from stickslip.solver.scene import Scene
 
 # --------------------------------------------------------------------------------- CLI
 
@@ -120,7 +120,7 @@ def flutter_fe_command(args: argparse.Namespace) -> int:
     """Handler of ``stickslip flutter-fe``."""
     from mpi4py import MPI
 
-    from solver.scene import SceneError, load_scene
+    from stickslip.solver.scene import SceneError, load_scene
 
     comm = MPI.COMM_WORLD
     try:
@@ -179,7 +179,7 @@ def _argument_problem(args: argparse.Namespace, scene: Scene, ranks: int) -> str
         if not lo <= value <= KMAX_LIMIT:
             return f"{flag} {value} is out of range: need {lo} <= {flag[2:]} <= {KMAX_LIMIT}"
     if args.plot:
-        from cli.checks import output_file_problem
+        from stickslip.cli.checks import output_file_problem
 
         bad_plot = output_file_problem(args.plot, "--plot")
         if bad_plot:
@@ -188,7 +188,7 @@ def _argument_problem(args: argparse.Namespace, scene: Scene, ranks: int) -> str
     if refused:
         return refused
     if args.modes:
-        from studies.flutter_fe.shapes import modes_dir_problem
+        from stickslip.studies.flutter_fe.shapes import modes_dir_problem
 
         return modes_dir_problem(args.modes) or None
     return None
@@ -198,7 +198,7 @@ def _analyse(args: argparse.Namespace, scene: Scene, comm: MPI.Comm,
              fs: np.ndarray | None) -> tuple[CEAResult, list[CEAResult] | None, dict | None] | str:
     """The CEA at the scene's f (and at each f of ``--f-sweep``), the listed mode shapes
     written with ``--modes``; or why the band cannot be solved (one line)."""
-    from solver.problem import build_problem, gershgorin_omega_max
+    from stickslip.solver.problem import build_problem, gershgorin_omega_max
 
     friction = args.friction or scene.friction.filter
     t0 = time.perf_counter()
@@ -219,7 +219,7 @@ def _analyse(args: argparse.Namespace, scene: Scene, comm: MPI.Comm,
                  for f in fs]
     written = None
     if args.modes:
-        from studies.flutter_fe.shapes import write_mode_shapes
+        from stickslip.studies.flutter_fe.shapes import write_mode_shapes
 
         resolved, mesh = _listed(res, args.top)
         where = {id(m): i for i, m in enumerate(res.modes)}

@@ -14,8 +14,8 @@ import sys
 import threading
 from collections.abc import Sequence
 
-from solver import __version__
-from studies.output import output_root
+from stickslip.solver import __version__
+from stickslip.studies.output import output_root
 
 
 def _info(args: argparse.Namespace) -> int:
@@ -82,15 +82,15 @@ def build_parser() -> argparse.ArgumentParser:
 # Modules that add subcommands through ``register(subparsers)``. Each keeps its heavy imports
 # (dolfinx, PETSc, matplotlib, pyvista) inside its handlers.
 COMMAND_MODULES = (
-    "cli.run",  # run, plot
-    "cli.continue_run",  # continue
-    "cli.semianalytic",  # wave, flutter
-    "cli.compare",  # compare
-    "cli.sweep",  # sweep
-    "cli.flutter_fe",  # flutter-fe
-    "cli.continuum",  # flutter-exact
-    "cli.travel",  # travel
-    "cli.attractors",  # attractors
+    "stickslip.cli.run",  # run, plot
+    "stickslip.cli.continue_run",  # continue
+    "stickslip.cli.semianalytic",  # wave, flutter
+    "stickslip.cli.compare",  # compare
+    "stickslip.cli.sweep",  # sweep
+    "stickslip.cli.flutter_fe",  # flutter-fe
+    "stickslip.cli.continuum",  # flutter-exact
+    "stickslip.cli.travel",  # travel
+    "stickslip.cli.attractors",  # attractors
 )
 
 
@@ -159,7 +159,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     if not getattr(args, "func", None):
         parser.print_help()
         return 2
-    from cli.checks import environment_problem
+    from stickslip.cli.checks import environment_problem
 
     problem = environment_problem()
     for flag, value in (("-o", getattr(args, "output", None)), ("--plot", getattr(
@@ -190,7 +190,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         _end_all_ranks(2)
         return 2
     except ValueError as err:  # a file read back that is corrupt, truncated or edited
-        readers = sys.modules.get("studies.rundir.readers")
+        readers = sys.modules.get("stickslip.studies.rundir.readers")
         if readers is None or not isinstance(err, readers.ReadError):
             raise
         print(f"error: {err}", file=sys.stderr, flush=True)

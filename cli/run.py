@@ -53,7 +53,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def _window_option(p: argparse.ArgumentParser) -> None:
-    from postprocess.plotting import DEFAULT_WINDOW, parse_window
+    from stickslip.postprocess.plotting import DEFAULT_WINDOW, parse_window
 
     p.add_argument("--window", type=parse_window, default=DEFAULT_WINDOW,  # parsed by argparse
                    metavar="5T|4ms|0.01s|all",
@@ -65,10 +65,10 @@ def _run(args: argparse.Namespace) -> int:
     """``stickslip run``: exit status from the run's status (README: "Exit codes")."""
     from mpi4py import MPI
 
-    from solver.scene import SceneError, load_scene
-    from studies.output import output_root
-    from studies.resources import ResourceError
-    from studies.rundir import EXIT_CODES, RunDirError, run_scene
+    from stickslip.solver.scene import SceneError, load_scene
+    from stickslip.studies.output import output_root
+    from stickslip.studies.resources import ResourceError
+    from stickslip.studies.rundir import EXIT_CODES, RunDirError, run_scene
 
     comm = MPI.COMM_WORLD
     try:
@@ -94,18 +94,18 @@ def _run(args: argparse.Namespace) -> int:
 
 
 def _plot(args: argparse.Namespace) -> int:
-    from postprocess.plotting import plot_run
+    from stickslip.postprocess.plotting import plot_run
 
     run_dir = Path(args.run_dir)
     try:
-        from studies.sweep import is_sweep_dir, plot_sweep
+        from stickslip.studies.sweep import is_sweep_dir, plot_sweep
     except ModuleNotFoundError:  # pragma: no cover - sweep module always shipped
         is_sweep_dir = None
     if is_sweep_dir is not None and is_sweep_dir(run_dir):
         for path in plot_sweep(run_dir):
             print(f"figure: {path}")
         return 0
-    from cli.checks import samples_problem
+    from stickslip.cli.checks import samples_problem
 
     problem = samples_problem(run_dir, need=2)  # a map, a profile in time: two at least
     if problem:

@@ -17,8 +17,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 if TYPE_CHECKING:
-    from semianalytic.coefficients import Coefficients
-    from semianalytic.waves import TravellingWave
+    from stickslip.semianalytic.coefficients import Coefficients
+    from stickslip.semianalytic.waves import TravellingWave
 
 __all__ = ["register", "wave_command", "flutter_command"]
 
@@ -90,7 +90,7 @@ KMAX_LIMIT = 10_000
 
 
 def _validate(args: argparse.Namespace) -> None:
-    from solver.scene import RANGES, SceneError, check_speed_ratio
+    from stickslip.solver.scene import RANGES, SceneError, check_speed_ratio
 
     def bad(flag: str, value: Any, allowed: str) -> InputError:
         return InputError(f"--{flag} {value!r} is out of range: need {allowed}")
@@ -112,7 +112,7 @@ def _validate(args: argparse.Namespace) -> None:
                                           "--omega and --wave-speed")) from None
     if hasattr(args, "kmax") and not 1 <= args.kmax <= KMAX_LIMIT:
         raise bad("kmax", args.kmax, f"an integer 1 <= kmax <= {KMAX_LIMIT}")
-    from semianalytic.coefficients import coefficients, gamma_from_physical
+    from stickslip.semianalytic.coefficients import coefficients, gamma_from_physical
 
     try:  # eqs. [3]-[5] at extreme ratios (xi = 1e300) overflow or give a singular system
         with np.errstate(all="ignore"):
@@ -140,13 +140,13 @@ def wave_command(args: argparse.Namespace) -> int:
         print(f"error: {err}", file=sys.stderr)
         return 2
     if args.plot:
-        from cli.checks import output_file_problem
+        from stickslip.cli.checks import output_file_problem
 
         problem = output_file_problem(args.plot, "--plot")
         if problem:
             print(f"error: {problem}", file=sys.stderr)
             return 2
-    from semianalytic.coefficients import coefficients, gamma_from_physical
+    from stickslip.semianalytic.coefficients import coefficients, gamma_from_physical
 
     gamma = gamma_from_physical(args.wave_speed, args.radius, args.omega)
     co = coefficients(args.nu, args.xi, gamma)
@@ -164,8 +164,8 @@ def wave_command(args: argparse.Namespace) -> int:
         if target is None:
             print("error: --plot: no wave solution was found to draw", file=sys.stderr)
             return 1
-        from postprocess.style import STATUS_COLORS
-        from semianalytic.plotting import plot_wave
+        from stickslip.postprocess.style import STATUS_COLORS
+        from stickslip.semianalytic.plotting import plot_wave
 
         plot_wave(target, args.plot, zone_colours=STATUS_COLORS, R=args.radius,
                   omega=args.omega)
@@ -179,7 +179,7 @@ def wave_command(args: argparse.Namespace) -> int:
 def _find_waves(args: argparse.Namespace, co: Coefficients) -> list[TravellingWave]:
     """The reduced model's travelling waves of mode k (eqs. [3]-[7]) for the chosen regime
     and junction closures; none at f = 0."""
-    from semianalytic.waves import find_waves
+    from stickslip.semianalytic.waves import find_waves
 
     junctions = ("impact", "smooth") if args.junction == "both" else (args.junction,)
     with warnings.catch_warnings():
@@ -253,8 +253,8 @@ def flutter_command(args: argparse.Namespace) -> int:
     except InputError as err:
         print(f"error: {err}", file=sys.stderr)
         return 2
-    from semianalytic.coefficients import coefficients, gamma_from_physical
-    from semianalytic.flutter import flutter_modes, mode_physical
+    from stickslip.semianalytic.coefficients import coefficients, gamma_from_physical
+    from stickslip.semianalytic.flutter import flutter_modes, mode_physical
 
     co = coefficients(
         args.nu, args.xi, gamma_from_physical(args.wave_speed, args.radius, args.omega)

@@ -7,10 +7,10 @@ import os
 import sys
 from pathlib import Path
 
-from studies.sweep.regime_map import plot_sweep
-from studies.sweep.schedule import run_sweep
-from studies.sweep.spec import SweepError, SweepSpec, load_sweep
-from studies.sweep.table import recorded_failures, task_state
+from stickslip.studies.sweep.regime_map import plot_sweep
+from stickslip.studies.sweep.schedule import run_sweep
+from stickslip.studies.sweep.spec import SweepError, SweepSpec, load_sweep
+from stickslip.studies.sweep.table import recorded_failures, task_state
 
 # ============================================================================ CLI
 
@@ -55,7 +55,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def _out_dir(spec: SweepSpec, args: argparse.Namespace) -> Path:
-    from studies.output import output_root
+    from stickslip.studies.output import output_root
 
     if args.output:
         return Path(args.output)
@@ -95,12 +95,12 @@ def _sweep(args: argparse.Namespace) -> int:
         if comm.rank == 0:
             print("error: --group-size must be >= 1", file=sys.stderr)
         return 2
-    from studies.sweep.batch import parse_batch
+    from stickslip.studies.sweep.batch import parse_batch
 
     backend = args.backend or spec.backend
     try:
         batch = parse_batch(args.batch if args.batch is not None else spec.batch)
-        from solver.schemes.select import check_backend
+        from stickslip.solver.schemes.select import check_backend
 
         check_backend(backend, batched=batch != "off")
     except (ValueError, ImportError) as err:
@@ -114,7 +114,7 @@ def _sweep(args: argparse.Namespace) -> int:
                 print(f"{task.id:40s} {task_state(out_dir, spec, task, failures=failures)}")
         return 0
     if spec.attractors:  # a census at every point (studies/attractors/maps.py)
-        from studies.attractors.maps import run_map
+        from stickslip.studies.attractors.maps import run_map
 
         rc = run_map(spec, out_dir, comm=comm, group_size=args.group_size,
                      retry_failed=args.retry_failed, progress=args.progress, batch=batch,

@@ -130,15 +130,15 @@ def _import_dolfinx_without_numba() -> None:
 
 def _options(args: argparse.Namespace):  # noqa: ANN202
     """The command line's options (``studies.travel.command.DEFAULTS``' names)."""
-    from studies.travel import command
+    from stickslip.studies.travel import command
 
     return command.options(**{name: getattr(args, name) for name in command.DEFAULTS})
 
 
 def _travel(args: argparse.Namespace) -> int:
-    from solver.scene import SceneError, load_scene
-    from studies.output import output_root
-    from studies.travel import command
+    from stickslip.solver.scene import SceneError, load_scene
+    from stickslip.studies.output import output_root
+    from stickslip.studies.travel import command
 
     t0 = time.perf_counter()
     _import_dolfinx_without_numba()
@@ -148,7 +148,7 @@ def _travel(args: argparse.Namespace) -> int:
         return _err(bad)
     try:
         scene = load_scene(args.scene, args.overrides)
-        from studies.travel.frame import require_rotational_symmetry
+        from stickslip.studies.travel.frame import require_rotational_symmetry
 
         require_rotational_symmetry(scene)
         cont = parse_continue(args.cont) if args.cont else None
@@ -157,7 +157,7 @@ def _travel(args: argparse.Namespace) -> int:
                 scene.with_overrides(f"{cont[0]}={value!r}")
     except (SceneError, FileNotFoundError, ValueError) as err:
         return _err(str(err))
-    from studies.travel.from_run import NotRigidWave
+    from stickslip.studies.travel.from_run import NotRigidWave
 
     try:
         bad = command.resolve(scene, opts)
@@ -167,7 +167,7 @@ def _travel(args: argparse.Namespace) -> int:
     if bad:
         return _err(bad)
     out = Path(args.output) if args.output else output_root() / f"{scene.name}_travel_k{opts.k}"
-    from studies.travel.output import prepare_dir
+    from stickslip.studies.travel.output import prepare_dir
 
     try:
         claim = prepare_dir(out, args.force)
@@ -176,7 +176,7 @@ def _travel(args: argparse.Namespace) -> int:
     opts.json = args.json
     try:  # results go to claim.work; a replacement is swapped in only once written
         if cont:
-            from studies.travel.continuation import run_continuation
+            from stickslip.studies.travel.continuation import run_continuation
 
             rc = run_continuation(scene, opts, cont[0], cont[1], claim.work, t0)
         else:
@@ -202,9 +202,9 @@ def _one_wave(scene, args, out: Path, t0: float) -> int:  # noqa: ANN001
     resolved options."""
     import json
 
-    from studies.travel import command
-    from studies.travel.newton import NotConverged
-    from studies.travel.output import plot_profiles, shown, write_failure, write_wave
+    from stickslip.studies.travel import command
+    from stickslip.studies.travel.newton import NotConverged
+    from stickslip.studies.travel.output import plot_profiles, shown, write_failure, write_wave
 
     try:
         summary, profiles = command.solve(scene, args, t0)

@@ -34,7 +34,7 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 
 import stickslip
-from solver.scene import SCENES_DIR
+from stickslip.solver.scene import SCENES_DIR
 
 geo = SCENES_DIR / "meshes" / "tube_four_clamps.geo"
 print("\n".join(line for line in geo.read_text().splitlines() if line.startswith("Physical")))
@@ -51,7 +51,7 @@ print(scene.mesh)
 # two stable standing modes: at f = 0.7 the split k = 2 and k = 4 do (the tube's k = 4 grows
 # at 3.2 1/s), k = 6, split by 125 Hz, couples again, and every odd k flutters.
 # ``stickslip flutter-fe SCENE`` prints this table.
-from studies.flutter_fe.doublets import doublet_lines, doublets  # noqa: E402
+from stickslip.studies.flutter_fe.doublets import doublet_lines, doublets  # noqa: E402
 
 tube = stickslip.cea_friction_sweep("figure3_n132", [0.0, 0.7], overrides={"mesh.n_inner": 72},
                                     fmax_hz=1500.0)

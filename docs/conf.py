@@ -24,7 +24,7 @@ sys.path[:0] = [str(REPO), str(DOCS / "_ext")]
 project = "stickslip"
 author = "the stickslip developers"
 copyright = "the stickslip developers"  # noqa: A001 (Sphinx's name)
-from solver import __version__ as release  # noqa: E402
+from stickslip.solver import __version__ as release  # noqa: E402
 
 version = release
 

@@ -37,7 +37,7 @@ from typing import Any
 
 import numpy as np
 
-from exact.annulus import Elastic, collocation_operators, sliding_matrix
+from stickslip.exact.annulus import Elastic, collocation_operators, sliding_matrix
 
 __all__ = [
     "ELASTIC",

@@ -1,7 +1,7 @@
 """UFL forms (plane-strain elasticity, polar projections) and the discrete steady sliding state."""
 
-from forms.elasticity import Material, lumped_mass, mass, stiffness, strain, stress
-from forms.polar import (
+from stickslip.forms.elasticity import Material, lumped_mass, mass, stiffness, strain, stress
+from stickslip.forms.polar import (
     ContactNodes,
     boundary_measure,
     contact_nodes,

@@ -16,7 +16,7 @@ import ufl
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from meshes.compat import create_petsc_vector
+from stickslip.meshes.compat import create_petsc_vector
 
 __all__ = ["Material", "lumped_mass", "mass", "stiffness", "strain", "stress"]
 

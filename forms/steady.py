@@ -25,9 +25,9 @@ import ufl
 from numpy.typing import NDArray
 from petsc4py import PETSc
 
-from forms.elasticity import Material, stiffness
-from forms.polar import ContactNodes, contact_nodes
-from meshes.annulus import INNER_TAG, OUTER_TAG, TubeMesh
+from stickslip.forms.elasticity import Material, stiffness
+from stickslip.forms.polar import ContactNodes, contact_nodes
+from stickslip.meshes.annulus import INNER_TAG, OUTER_TAG, TubeMesh
 
 __all__ = ["StaticSliding", "node_matrix", "static_sliding"]
 

@@ -21,8 +21,8 @@ from __future__ import annotations
 
 import ufl
 
-from forms.elasticity import Material, stress
-from forms.polar import radial_unit, tangential_unit
+from stickslip.forms.elasticity import Material, stress
+from stickslip.forms.polar import radial_unit, tangential_unit
 
 __all__ = ["STRESS_COMPONENTS", "cell_area", "cell_average_stress", "polar_stress"]
 

@@ -1,5 +1,12 @@
 """Meshes of the tube cross-section (paper section 2) and dolfinx version shims."""
 
-from meshes.annulus import INNER_TAG, OUTER_TAG, TUBE_TAG, TubeMesh, annulus_mesh, auto_n_radial
+from stickslip.meshes.annulus import (
+    INNER_TAG,
+    OUTER_TAG,
+    TUBE_TAG,
+    TubeMesh,
+    annulus_mesh,
+    auto_n_radial,
+)
 
 __all__ = ["INNER_TAG", "OUTER_TAG", "TUBE_TAG", "TubeMesh", "annulus_mesh", "auto_n_radial"]

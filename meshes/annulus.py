@@ -29,7 +29,7 @@ import gmsh
 import numpy as np
 from mpi4py import MPI
 
-from meshes.compat import model_to_mesh
+from stickslip.meshes.compat import model_to_mesh
 
 __all__ = ["INNER_TAG", "OUTER_TAG", "TUBE_TAG", "TubeMesh", "annulus_mesh", "auto_n_radial"]
 

@@ -229,8 +229,8 @@ def user_mesh(comm, path: Path, *, R: float, xi: float, n_contact: int, cell: st
     import dolfinx
     import gmsh
 
-    from meshes.annulus import INNER_TAG, OUTER_TAG, TUBE_TAG, TubeMesh
-    from meshes.compat import model_to_mesh
+    from stickslip.meshes.annulus import INNER_TAG, OUTER_TAG, TUBE_TAG, TubeMesh
+    from stickslip.meshes.compat import model_to_mesh
 
     root, facts, error, owns = 0, None, None, False
     if comm.rank == root:

@@ -28,7 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
-from solver.contact import SEPARATION, STICK, zone_fractions
+from stickslip.solver.contact import SEPARATION, STICK, zone_fractions
 
 ZONE_THRESHOLD = 0.005  # a zone counts as present above 0.5 % of node-samples
 ZONE_NAMES = ("separation", "stick", "slip")

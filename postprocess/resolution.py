@@ -71,7 +71,7 @@ def sampling_problem(scene, override: str) -> str | None:  # noqa: ANN001
     reduced model's flutter mode k = ``initial.mode`` (paper eq. [2];
     ``solver.field_output.expected_period``, the same estimate that sizes the field-output
     window)."""
-    from solver.field_output import expected_period
+    from stickslip.solver.field_output import expected_period
 
     if scene.loading.f <= 0.0 or scene.loading.omega == 0.0:
         return None

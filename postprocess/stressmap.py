@@ -17,8 +17,8 @@ from pathlib import Path
 
 import numpy as np
 
-from postprocess.isomap import ensure_display, save_screenshot
-from postprocess.style import FIELD_CMAP, MPA, MS
+from stickslip.postprocess.isomap import ensure_display, save_screenshot
+from stickslip.postprocess.style import FIELD_CMAP, MPA, MS
 
 __all__ = ["has_stress", "stress_maps"]
 
@@ -41,7 +41,7 @@ def stress_maps(run_dir: Path, out_png: Path) -> Path:
     ensure_display()
     import pyvista as pv
 
-    from postprocess.analysis import load_run
+    from stickslip.postprocess.analysis import load_run
 
     pv.OFF_SCREEN = True
     run = load_run(run_dir)

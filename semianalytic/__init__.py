@@ -7,10 +7,10 @@ Modules: :mod:`~semianalytic.coefficients` (eq. [2] coefficients), :mod:`~semian
 :mod:`~cli.semianalytic` (``stickslip wave`` / ``stickslip flutter``). No dolfinx needed.
 """
 
-from semianalytic.coefficients import Coefficients, coefficients, gamma_from_physical
-from semianalytic.flutter import flutter_modes
-from semianalytic.steady import closed_form_steady, reduced_steady
-from semianalytic.waves import (
+from stickslip.semianalytic.coefficients import Coefficients, coefficients, gamma_from_physical
+from stickslip.semianalytic.flutter import flutter_modes
+from stickslip.semianalytic.steady import closed_form_steady, reduced_steady
+from stickslip.semianalytic.waves import (
     TravellingWave,
     celerity_m_s,
     find_waves,

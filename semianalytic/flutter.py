@@ -18,7 +18,7 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from semianalytic.coefficients import Coefficients
+from stickslip.semianalytic.coefficients import Coefficients
 
 __all__ = ["FlutterMode", "flutter_modes", "mode_physical", "dispersion_roots"]
 

@@ -19,8 +19,8 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.linalg import expm
 
-from semianalytic.coefficients import Coefficients
-from semianalytic.waves import _scaled_coeffs, separation_matrix, slip_matrix
+from stickslip.semianalytic.coefficients import Coefficients
+from stickslip.semianalytic.waves import _scaled_coeffs, separation_matrix, slip_matrix
 
 __all__ = ["CLOSURES", "junction_residual"]
 

@@ -10,7 +10,7 @@ import numpy as np
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
 
-    from semianalytic.waves import TravellingWave
+    from stickslip.semianalytic.waves import TravellingWave
 
 __all__ = ["plot_wave"]
 
@@ -111,7 +111,7 @@ def _write_facts(ax: Axes, wave: TravellingWave, R: float, omega: float,
     the zones' legend, in an empty panel."""
     from matplotlib.patches import Patch
 
-    from semianalytic.waves import celerity_m_s, frequency_hz
+    from stickslip.semianalytic.waves import celerity_m_s, frequency_hz
 
     ax.axis("off")
     co = wave.coeffs

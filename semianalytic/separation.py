@@ -11,9 +11,9 @@ from numpy.typing import NDArray
 from scipy.linalg import expm
 from scipy.optimize import root
 
-from semianalytic.coefficients import Coefficients
-from semianalytic.stick_slip import _ct_range, _dedupe, _finish, _local_minima
-from semianalytic.zones import (
+from stickslip.semianalytic.coefficients import Coefficients
+from stickslip.semianalytic.stick_slip import _ct_range, _dedupe, _finish, _local_minima
+from stickslip.semianalytic.zones import (
     _PSI_MIN,
     TravellingWave,
     _check_wave_inputs,

@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from semianalytic.coefficients import Coefficients
+from stickslip.semianalytic.coefficients import Coefficients
 
 __all__ = ["closed_form_steady", "radial_mode", "reduced_steady"]
 

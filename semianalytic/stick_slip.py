@@ -11,8 +11,8 @@ from scipy.linalg import expm
 from scipy.ndimage import minimum_filter
 from scipy.optimize import root
 
-from semianalytic.coefficients import Coefficients
-from semianalytic.zones import (
+from stickslip.semianalytic.coefficients import Coefficients
+from stickslip.semianalytic.zones import (
     _PSI_MIN,
     TravellingWave,
     _check_wave_inputs,

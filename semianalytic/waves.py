@@ -56,10 +56,15 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.optimize import root
 
-from semianalytic.coefficients import Coefficients
-from semianalytic.separation import _solve_sss, _sss_res, _sss_wave, stick_slip_separation_waves
-from semianalytic.stick_slip import _ss_residual, _ss_wave, stick_slip_waves
-from semianalytic.zones import (  # noqa: F401  (the public names of the reduced model's waves)
+from stickslip.semianalytic.coefficients import Coefficients
+from stickslip.semianalytic.separation import (
+    _solve_sss,
+    _sss_res,
+    _sss_wave,
+    stick_slip_separation_waves,
+)
+from stickslip.semianalytic.stick_slip import _ss_residual, _ss_wave, stick_slip_waves
+from stickslip.semianalytic.zones import (  # noqa: F401  (the public names of the reduced model's waves)
     TravellingWave,
     _scaled_coeffs,
     angular_frequency_rad_s,
@@ -127,7 +132,7 @@ def continuation_omega(
     radius: float = 1.0,
 ) -> list[TravellingWave | None]:
     """Follow ``wave``'s branch over rotation speeds ``omegas`` (rad/s), one Newton step each."""
-    from semianalytic.coefficients import coefficients, gamma_from_physical
+    from stickslip.semianalytic.coefficients import coefficients, gamma_from_physical
 
     out: list[TravellingWave | None] = []
     cur: TravellingWave | None = wave

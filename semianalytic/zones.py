@@ -15,7 +15,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.linalg import expm
 
-from semianalytic.coefficients import Coefficients
+from stickslip.semianalytic.coefficients import Coefficients
 
 _PSI_MIN = 1e-4  # zones shorter than this fraction of T are degenerate (another regime)
 _SING = 1e-4  # exclude |c̃² − a0|, |c̃² − b0| below this (zone matrices singular there)

@@ -11,7 +11,11 @@ import math
 import numba
 import numpy as np
 
-from solver.contact.law import SEPARATION, SLIP, STICK  # the law's codes, frozen at compile
+from stickslip.solver.contact.law import (  # the law's codes, frozen at compile
+    SEPARATION,
+    SLIP,
+    STICK,
+)
 
 U1, U2, U3 = np.uint64(1), np.uint64(2), np.uint64(3)  # unsigned offsets: no wrap-around test
 #: nodes per block of ``batched_step``: its scratch ``acc`` is (2 NODE_BLOCK, B) at least,

@@ -10,8 +10,8 @@ from __future__ import annotations
 import numpy as np
 import scipy.linalg
 
-from solver.contact import SLIP
-from solver.errors import Diverged
+from stickslip.solver.contact import SLIP
+from stickslip.solver.errors import Diverged
 
 MAX_ACTIVE_SET_ITERATIONS = 50
 MAX_FIXED_POINT_ITERATIONS = 100  # friction-bound fixed point (fallback of the active set)

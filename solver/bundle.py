@@ -28,8 +28,8 @@ from typing import TextIO
 
 import numpy as np
 
-from solver.atomic import atomic_save_npz, atomic_write_text
-from solver.ensemble_run import BatchLayout, BatchStarts
+from stickslip.solver.atomic import atomic_save_npz, atomic_write_text
+from stickslip.solver.ensemble_run import BatchLayout, BatchStarts
 
 __all__ = ["KIND", "MANIFEST", "RESULTS", "BundleError", "NodeResult", "done", "load_batch",
            "prepare_bundle", "read_manifest", "read_result", "run_bundle"]
@@ -50,9 +50,9 @@ def prepare_bundle(directory: str | Path, groups: list[tuple[list[str], list]],
     a batch: ``solver.schemes.select.batchable``), ``BatchSimulation(scenes, build=False)``'s
     layout and starts to ``batch_NNN.npz``; then ``manifest.json`` with ``meta``. Returns the
     manifest. BundleError where a scene cannot run in a batch or its steady state fails."""
-    from solver.ensemble_run import BatchSimulation
-    from solver.scene import scene_to_dict
-    from solver.schemes.select import batchable
+    from stickslip.solver.ensemble_run import BatchSimulation
+    from stickslip.solver.scene import scene_to_dict
+    from stickslip.solver.schemes.select import batchable
 
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
@@ -85,7 +85,7 @@ def prepare_bundle(directory: str | Path, groups: list[tuple[list[str], list]],
 
 def load_batch(directory: str | Path, entry: dict) -> tuple[list, BatchLayout, BatchStarts]:
     """(scenes, layout, starts) of one batch of the manifest (``entry``)."""
-    from solver.scene import scene_from_dict
+    from stickslip.solver.scene import scene_from_dict
 
     path = Path(directory) / entry["file"]
     try:
@@ -126,8 +126,8 @@ def run_bundle(directory: str | Path, backend: str = "gpu",
 
     Raises ``BundleError`` (a bundle that is not one), ValueError or ImportError (a backend
     this machine cannot use: ``solver.schemes.select.check_backend``)."""
-    from solver.ensemble_run import BatchSimulation
-    from solver.schemes.select import check_backend
+    from stickslip.solver.ensemble_run import BatchSimulation
+    from stickslip.solver.schemes.select import check_backend
 
     directory = Path(directory)
     manifest = read_manifest(directory)

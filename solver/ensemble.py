@@ -39,9 +39,9 @@ from typing import Any
 
 import numpy as np
 
-from solver.contact.law import SEPARATION, SLIP, STICK, forward_increment_factor
-from solver.ensemble_cuda import CUDA_SOURCE
-from solver.schemes.protocol import HookedStepper, copy_state, put_state
+from stickslip.solver.contact.law import SEPARATION, SLIP, STICK, forward_increment_factor
+from stickslip.solver.ensemble_cuda import CUDA_SOURCE
+from stickslip.solver.schemes.protocol import HookedStepper, copy_state, put_state
 
 #: The array module of each backend (``solver.schemes.select.BACKENDS`` names its kernel).
 ARRAY_MODULES = {"cpu": "numpy", "gpu": "cupy"}
@@ -87,7 +87,7 @@ class BatchedProblem:
 
     @classmethod
     def from_problem(cls, problem, dt: float, beta2: float) -> BatchedProblem:
-        from solver.fused import local_csr
+        from stickslip.solver.fused import local_csr
 
         if problem.comm.size != 1:
             raise ValueError("a batch runs on one rank (group_size = 1)")
@@ -478,8 +478,8 @@ class NumbaColumns(ArrayColumns):
     regularised = True
 
     def __init__(self, st: BatchedExplicit) -> None:
-        from solver.fused import _kernels
-        from solver.fused import kernel as get_kernel
+        from stickslip.solver.fused import _kernels
+        from stickslip.solver.fused import kernel as get_kernel
 
         # short batches: 4-scene register passes; long ones: B-long vector loops (same
         # bits either way; solver._fused_kernels.batched_kernel_name)
@@ -494,7 +494,7 @@ class NumbaColumns(ArrayColumns):
 
     def stiffness(self, st: BatchedExplicit, u, out) -> None:
         if self.first_product:
-            from solver.fused import slp_vectorize
+            from stickslip.solver.fused import slp_vectorize
 
             self.first_product = False
             with slp_vectorize():
@@ -508,7 +508,7 @@ class NumbaColumns(ArrayColumns):
 
     def step(self, st: BatchedExplicit, u, u_next, diag: bool) -> None:
         """One call of the compiled step; it sums the energies on a ``diag`` step."""
-        from solver.fused import slp_vectorize, timed_first_call
+        from stickslip.solver.fused import slp_vectorize, timed_first_call
 
         dt, b2 = st.dt, st.beta2
         args = (st.indptr, st.indices, st.data, u, u_next, st.v, st.v_pred, st.a, st.ku,
@@ -522,7 +522,7 @@ class NumbaColumns(ArrayColumns):
             self.first_call = False
             with slp_vectorize():
                 timed_first_call(st._name, st._fn, *args)
-            from solver.fused import COMPILE_SECONDS
+            from stickslip.solver.fused import COMPILE_SECONDS
 
             st.compile_s = COMPILE_SECONDS[st._name]
         else:

@@ -8,7 +8,7 @@ that other threads' products read) then ``fused_step_damped`` (K reads w_n; each
 its node's share of 1/2 (K w_n . u_{n+1} - K w_n . u_{n-1}) to ``dwork``, per (node, scene):
 no atomics). Both steps run ``explicit_step_node``, so the undamped bits are unchanged."""
 
-from solver.contact.law import SEPARATION, SLIP, STICK
+from stickslip.solver.contact.law import SEPARATION, SLIP, STICK
 
 _CODES = f"""
 #define SEPARATION {SEPARATION}

@@ -16,10 +16,10 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from solver.errors import blown_up, blowup_message, energy_bound
+from stickslip.solver.errors import blown_up, blowup_message, energy_bound
 
 if TYPE_CHECKING:  # pragma: no cover
-    from solver.ensemble import BatchedExplicit
+    from stickslip.solver.ensemble import BatchedExplicit
 
 
 class _Spool:

@@ -27,11 +27,11 @@ from pathlib import Path
 
 import numpy as np
 
-from solver.contact import ContactLaw
-from solver.ensemble import BatchedProblem
-from solver.observers import Cadence, ContinuedRecords
-from solver.run import Profile, gather_final_field, random_bump, run_facts, run_loop
-from solver.scene import Scene
+from stickslip.solver.contact import ContactLaw
+from stickslip.solver.ensemble import BatchedProblem
+from stickslip.solver.observers import Cadence, ContinuedRecords
+from stickslip.solver.run import Profile, gather_final_field, random_bump, run_facts, run_loop
+from stickslip.solver.scene import Scene
 
 __all__ = ["BatchLayout", "BatchSimulation", "SceneRun"]
 
@@ -181,8 +181,8 @@ class BatchLayout:
     def of(cls, problem, law: ContactLaw, scene: Scene, dt_crit: float,
            omega_max: float) -> BatchLayout:
         """The layout of a dolfinx ``TubeProblem`` (one rank) at the law's dt."""
-        from solver.contact import ContactProjection
-        from solver.observers import InnerCircleRecorder, ProbeRecorder
+        from stickslip.solver.contact import ContactProjection
+        from stickslip.solver.observers import InnerCircleRecorder, ProbeRecorder
 
         projection = ContactProjection(problem, law)
         shape = InnerCircleRecorder(problem, projection, None, 1, max_samples=0)
@@ -237,7 +237,7 @@ class BatchSimulation:
                  memory_budget: float = math.inf,
                  prepared: tuple[BatchLayout, BatchStarts] | None = None,
                  build: bool = True) -> None:
-        from solver.schemes.select import for_scene
+        from stickslip.solver.schemes.select import for_scene
 
         self.scenes, self.backend = scenes, backend
         self.profile = profile or Profile()
@@ -268,7 +268,7 @@ class BatchSimulation:
         live scenes' starts (a scene whose steady state fails is ``failed`` alone)."""
         from mpi4py import MPI
 
-        from solver.problem import build_problem, omega_max
+        from stickslip.solver.problem import build_problem, omega_max
 
         scenes = self.scenes
         self.comm = MPI.COMM_SELF
@@ -292,8 +292,8 @@ class BatchSimulation:
 
     def _start(self, k: int) -> np.ndarray | None:
         """Scene k's steady state + its [initial] bump, or None (the scene fails alone)."""
-        from solver.run import initial_perturbation
-        from solver.steady import solve_steady_sliding
+        from stickslip.solver.run import initial_perturbation
+        from stickslip.solver.steady import solve_steady_sliding
 
         run = self.runs[k]
         try:
@@ -310,13 +310,13 @@ class BatchSimulation:
         return u0
 
     def planned_steps(self) -> int:
-        from solver.run import planned_steps
+        from stickslip.solver.run import planned_steps
 
         return planned_steps(self.scenes[self.live[0]], self.dt)
 
     def _build(self, u0: np.ndarray, spool_parent: Path | None, memory_budget: float) -> None:
         """The batched stepper, the recorder, the probe hook and the sampling observer."""
-        from solver.ensemble_observers import BatchRecorder
+        from stickslip.solver.ensemble_observers import BatchRecorder
 
         sc0, lay = self.scenes[self.live[0]], self.layout
         laws = [ContactLaw.from_scene(self.scenes[k], self.dt) for k in self.live]

@@ -22,7 +22,7 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
-from solver.scene import Scene
+from stickslip.solver.scene import Scene
 
 __all__ = ["FieldOutput", "WindowCadence", "expected_period", "field_cadence", "frame_count",
            "last_level_fields", "window_seconds"]
@@ -31,8 +31,8 @@ __all__ = ["FieldOutput", "WindowCadence", "expected_period", "field_cadence", "
 def expected_period(scene: Scene) -> float:
     """T = 2π / ω_k [s] of the reduced model's flutter mode k = ``initial.mode`` (module
     docstring)."""
-    from semianalytic.coefficients import coefficients, gamma_from_physical
-    from semianalytic.flutter import flutter_modes
+    from stickslip.semianalytic.coefficients import coefficients, gamma_from_physical
+    from stickslip.semianalytic.flutter import flutter_modes
 
     g, m, ld = scene.geometry, scene.material, scene.loading
     k = max(1, scene.initial.mode)
@@ -86,7 +86,7 @@ class FieldOutput:
     r_n of the step that produced u_{n+1}."""
 
     def __init__(self, sim, output_dir: Path) -> None:
-        from solver.writers import FieldFrames
+        from stickslip.solver.writers import FieldFrames
 
         self.sim = sim
         self.writer = FieldFrames(sim.problem, Path(output_dir), sim.scene.output.field_format)
@@ -109,7 +109,7 @@ def last_level_fields(sim) -> tuple[dict, dict]:
     ``solver.run.gather_final_field``: the contact pressure and shear traction [Pa] at the
     points of the tube's Lagrange space, the polar stress and von Mises [Pa] per owned cell
     (``solver.writers.FieldValues``). Computed once, at the end."""
-    from solver.writers import FieldValues
+    from stickslip.solver.writers import FieldValues
 
     stepper = sim.integrator
     values = FieldValues(sim.problem)

@@ -48,8 +48,8 @@ from pathlib import Path
 
 import numpy as np
 
-from solver.contact.law import forward_increment_factor
-from solver.newmark import ExplicitStart
+from stickslip.solver.contact.law import forward_increment_factor
+from stickslip.solver.newmark import ExplicitStart
 
 COMPILE_SECONDS: dict[str, float] = {}
 """Wall time of the first (compiling or cache-loading) call of each kernel, seconds."""
@@ -89,7 +89,7 @@ def numba_available() -> bool:
 def _kernels():
     """The kernels module, imported (and numba with it) on first use."""
     _cache_dir()
-    from solver import _fused_kernels
+    from stickslip.solver import _fused_kernels
 
     return _fused_kernels
 

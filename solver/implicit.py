@@ -74,10 +74,10 @@ import numpy as np
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from solver.active_set import ActiveSetSolver, ContactSolveError
-from solver.contact import SEPARATION, SLIP, ContactArrays, NodalFrames
-from solver.errors import Diverged
-from solver.schemes.protocol import HookedStepper, copy_state, put_state
+from stickslip.solver.active_set import ActiveSetSolver, ContactSolveError
+from stickslip.solver.contact import SEPARATION, SLIP, ContactArrays, NodalFrames
+from stickslip.solver.errors import Diverged
+from stickslip.solver.schemes.protocol import HookedStepper, copy_state, put_state
 
 OPTIONS_PREFIX = "stickslip_implicit_"  # PETSc options of the K_eff solver
 SCHUR_BLOCK = 64  # columns of E per KSP.matSolve (bounds the dense work array)

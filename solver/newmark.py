@@ -40,8 +40,8 @@ from collections.abc import Callable
 
 import numpy as np
 
-from solver.contact.law import forward_increment_factor
-from solver.schemes.protocol import HookedStepper, copy_state, put_state
+from stickslip.solver.contact.law import forward_increment_factor
+from stickslip.solver.schemes.protocol import HookedStepper, copy_state, put_state
 
 ContactStep = Callable[[np.ndarray, np.ndarray, np.ndarray], None]
 """contact(u_n, v~_n, a): the forward-increment constraint, in place on ``a``.

@@ -16,18 +16,18 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from solver import __version__
-from solver.contact import zone_fractions
-from solver.errors import (  # noqa: F401  (StepTooLarge re-exported for scripts)
+from stickslip.solver import __version__
+from stickslip.solver.contact import zone_fractions
+from stickslip.solver.errors import (  # noqa: F401  (StepTooLarge re-exported for scripts)
     Diverged,
     StepTooLarge,
     blown_up,
     blowup_message,
     energy_bound,
 )
-from solver.observers import Cadence, Observer
-from solver.scene import Scene
-from solver.schemes.protocol import Stepper
+from stickslip.solver.observers import Cadence, Observer
+from stickslip.solver.scene import Scene
+from stickslip.solver.schemes.protocol import Stepper
 
 if TYPE_CHECKING:  # mpi4py is imported where a run uses it: ``run_loop`` runs without it
     from mpi4py import MPI
@@ -68,9 +68,9 @@ class Simulation:
                  output_dir: Path | None = None,
                  initial_state: tuple[np.ndarray, np.ndarray, np.ndarray | None] | None = None,
                  ) -> None:
-        from solver.problem import build_problem, omega_max
-        from solver.schemes.select import for_scene
-        from solver.steady import solve_steady_sliding
+        from stickslip.solver.problem import build_problem, omega_max
+        from stickslip.solver.schemes.select import for_scene
+        from stickslip.solver.steady import solve_steady_sliding
 
         if comm is None:
             from mpi4py import MPI
@@ -139,7 +139,7 @@ class Simulation:
         """The scheme's work observers (contact work; Kelvin-Voigt work of a damped scene:
         step hooks unless the kernel sums them, ``SchemeParts.work_observers``), the samples'
         recorder and the probes (a step hook, after the work observers)."""
-        from solver.observers import InnerCircleRecorder, ProbeRecorder
+        from stickslip.solver.observers import InnerCircleRecorder, ProbeRecorder
 
         sc, stepper = self.scene, self.integrator
         self.energy, self.damping_work = parts.work_observers(sc.loading.f > 0.0, u0)
@@ -156,14 +156,14 @@ class Simulation:
         """The observers with a cadence, in the order they see a level: field output (only
         when the scene asks for it), the samples with the energy guard, the progress line,
         the stop check."""
-        from solver.observers import Progress
+        from stickslip.solver.observers import Progress
 
         sc = self.scene
         self.progress = Progress(sc.time.end_time, sc.output.progress and self.comm.rank == 0)
         self.writer = None
         observers: list = []
         if sc.output.fields and output_dir is not None:
-            from solver.field_output import FieldOutput
+            from stickslip.solver.field_output import FieldOutput
 
             observers.append(FieldOutput(self, Path(output_dir)))
             self.writer = observers[-1].writer
@@ -274,7 +274,7 @@ class Simulation:
         ``proceed``). ``before``: the records taken up to the checkpoint (samples.npz, on
         rank 0; None elsewhere), which ``recorder.arrays()`` and ``probes.arrays()`` then put
         in front of the new ones (``solver.observers.ContinuedRecords``)."""
-        from solver.observers import ContinuedRecords
+        from stickslip.solver.observers import ContinuedRecords
 
         mine = str(state["run/partition"]) == self.partition_id()
         if not all(self.comm.allgather(mine)):
@@ -305,7 +305,7 @@ class Simulation:
         of the last completed level n at ``fields_time`` t_n
         (``solver.field_output.last_level_fields``), gathered to rank 0 (None elsewhere);
         see ``gather_final_field``."""
-        from solver.field_output import last_level_fields
+        from stickslip.solver.field_output import last_level_fields
 
         stepper = self.integrator
         field = gather_final_field(self.problem, stepper.u, self.comm, stepper.time,

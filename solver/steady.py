@@ -14,8 +14,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from forms.steady import static_sliding
-from solver.problem import TubeProblem
+from stickslip.forms.steady import static_sliding
+from stickslip.solver.problem import TubeProblem
 
 
 @dataclass

@@ -33,7 +33,7 @@ import dolfinx.io
 import numpy as np
 import ufl
 
-from forms.stress import STRESS_COMPONENTS, cell_area, cell_average_stress
+from stickslip.forms.stress import STRESS_COMPONENTS, cell_area, cell_average_stress
 
 __all__ = ["FIELD_FILES", "FieldFrames", "FieldValues", "NODAL_FIELDS"]
 

@@ -37,7 +37,7 @@ from __future__ import annotations
 import importlib
 from typing import Any
 
-from solver import __version__ as __version__
+from stickslip.solver import __version__ as __version__
 
 #: Public name -> the module that defines it (imported on first access).
 _EXPORTS = {
@@ -55,8 +55,8 @@ _EXPORTS = {
     "travel_branch": "stickslip.api",
     "reduced_waves": "stickslip.api",
     "attractors": "stickslip.api",
-    "Scene": "solver.scene",
-    "SceneError": "solver.scene",
+    "Scene": "stickslip.solver.scene",
+    "SceneError": "stickslip.solver.scene",
     "STATUS_CODES": "stickslip.api",
     "EXIT_CODES": "stickslip.api",
 }

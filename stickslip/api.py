@@ -19,9 +19,9 @@ from types import SimpleNamespace
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
-    from postprocess.analysis import RunData, WaveSummary
-    from solver.scene import Scene
-    from studies.flutter_fe.cea import CEAResult
+    from stickslip.postprocess.analysis import RunData, WaveSummary
+    from stickslip.solver.scene import Scene
+    from stickslip.studies.flutter_fe.cea import CEAResult
 
 __all__ = ["analyse", "attractors", "cea", "cea_friction_sweep", "continue_run", "load_run",
            "load_scene", "plot_run", "plot_sweep", "reduced_waves", "run", "sweep", "travel",
@@ -40,11 +40,11 @@ def __getattr__(name: str) -> Any:
       ``summary.json`` (``studies.rundir``).
     """
     if name == "STATUS_CODES":
-        from solver.contact import STATUS_NAMES
+        from stickslip.solver.contact import STATUS_NAMES
 
         return dict(enumerate(STATUS_NAMES))
     if name == "EXIT_CODES":
-        from studies.rundir import EXIT_CODES
+        from stickslip.studies.rundir import EXIT_CODES
 
         return dict(EXIT_CODES)
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
@@ -118,8 +118,8 @@ def load_scene(scene: str | Path | Scene, overrides: Overrides = None) -> Scene:
         >>> s.loading.omega, s.mesh.n_inner
         (40.0, 132)
     """
-    from solver.scene import Scene
-    from solver.scene import load_scene as _load
+    from stickslip.solver.scene import Scene
+    from stickslip.solver.scene import load_scene as _load
 
     texts = _override_strings(overrides)
     if isinstance(scene, Scene):
@@ -155,8 +155,8 @@ def run(scene: str | Path | Scene, run_dir: str | Path | None = None, *,
         >>> summary["status"], summary["contact_nodes"]
         ('completed', 36)
     """
-    from studies.output import output_root
-    from studies.rundir import run_scene
+    from stickslip.studies.output import output_root
+    from stickslip.studies.rundir import run_scene
 
     sc = load_scene(scene, overrides)
     path = Path(run_dir) if run_dir is not None else output_root() / sc.name
@@ -196,7 +196,7 @@ def continue_run(run_dir: str | Path, until: float, out_dir: str | Path | None =
         >>> stickslip.continue_run("/tmp/smoke", 0.03, quiet=True)["sim_time_s"] >= 0.03
         True
     """
-    from studies.rundir import continue_run as _continue
+    from stickslip.studies.rundir import continue_run as _continue
 
     with _keyword_errors("out_dir"):
         return _continue(run_dir, until, out_dir, force=force,
@@ -213,7 +213,7 @@ def load_run(run_dir: str | Path) -> RunData:
         >>> data.samples["u_r"].shape == (data.samples["t"].size, data.samples["theta"].size)
         True
     """
-    from postprocess.analysis import load_run as _load
+    from stickslip.postprocess.analysis import load_run as _load
 
     return _load(run_dir)
 
@@ -236,7 +236,7 @@ def analyse(run_dir: str | Path, window: float | None = None) -> WaveSummary:
         >>> w.mode, w.direction
         (4, 'opposite')
     """
-    from postprocess.analysis import analyse_run
+    from stickslip.postprocess.analysis import analyse_run
 
     return analyse_run(run_dir, window)
 
@@ -244,7 +244,7 @@ def analyse(run_dir: str | Path, window: float | None = None) -> WaveSummary:
 def plot_run(run_dir: str | Path) -> list[Path]:
     """Draw a run directory's figures (space-time map, zones, profile, phase diagram,
     energies); returns the PNG paths."""
-    from postprocess.plotting import plot_run as _plot
+    from stickslip.postprocess.plotting import plot_run as _plot
 
     return _plot(Path(run_dir))
 
@@ -274,10 +274,10 @@ def sweep(spec: str | Path, out_dir: str | Path | None = None, *, batch: str | N
         >>> sorted({row["status"] for row in table["rows"]})
         ['completed']
     """
-    from studies.output import output_root
-    from studies.sweep import load_sweep, read_table, run_sweep
-    from studies.sweep import plot_sweep as _plot
-    from studies.sweep.batch import parse_batch
+    from stickslip.studies.output import output_root
+    from stickslip.studies.sweep import load_sweep, read_table, run_sweep
+    from stickslip.studies.sweep import plot_sweep as _plot
+    from stickslip.studies.sweep.batch import parse_batch
 
     with _keyword_errors("out_dir"):
         s = load_sweep(spec, large=not check_resources)
@@ -327,8 +327,8 @@ def attractors(scene: str | Path, out_dir: str | Path | None = None, *, starts: 
         >>> len(answer["starts"]), answer["meshes"]
         (2, [36])
     """
-    from studies.attractors.census import Census, default_dir, run_census
-    from studies.attractors.starts import StartDistribution
+    from stickslip.studies.attractors.census import Census, default_dir, run_census
+    from stickslip.studies.attractors.starts import StartDistribution
 
     texts = list(_override_strings(overrides))
     if end_time is not None:
@@ -347,7 +347,7 @@ def attractors(scene: str | Path, out_dir: str | Path | None = None, *, starts: 
 
 def plot_sweep(sweep_dir: str | Path) -> list[Path]:
     """Draw a sweep directory's regime map with the reduced model's existence boundaries."""
-    from studies.sweep import plot_sweep as _plot
+    from stickslip.studies.sweep import plot_sweep as _plot
 
     return _plot(sweep_dir)
 
@@ -395,8 +395,8 @@ def cea_friction_sweep(scene: str | Path | Scene, fs: Sequence[float | None], *,
         >>> [len(r.unstable()) > 0 for r in results]
         [False, True, True]
     """
-    from solver.problem import build_problem
-    from studies.flutter_fe import build_operators, complex_eigenvalue_analysis
+    from stickslip.solver.problem import build_problem
+    from stickslip.studies.flutter_fe import build_operators, complex_eigenvalue_analysis
 
     sc = load_scene(scene, overrides)
     problem = build_problem(sc)
@@ -413,8 +413,8 @@ def _travel_options(scene: Scene, k: int, from_run: str | Path | None, damping: 
     """The options of ``stickslip travel``, checked and resolved by the function the command
     uses (``studies.travel.command``: one table of defaults); a bad one raises ``ValueError``
     naming the keyword argument."""
-    from studies.travel import command
-    from studies.travel.frame import require_rotational_symmetry
+    from stickslip.studies.travel import command
+    from stickslip.studies.travel.frame import require_rotational_symmetry
 
     require_rotational_symmetry(scene)
     opts = command.options(k=int(k), from_run=str(from_run) if from_run else None,
@@ -461,14 +461,14 @@ def travel(scene: str | Path | Scene, k: int, out_dir: str | Path | None = None,
     """
     import time
 
-    from studies.travel import command
+    from stickslip.studies.travel import command
 
     t0 = time.perf_counter()
     sc = load_scene(scene, overrides)
     opts = _travel_options(sc, k, from_run, damping, celerity, **options)
     summary, profiles = command.solve(sc, opts, t0)
     if out_dir is not None:
-        from studies.travel.output import write_wave
+        from stickslip.studies.travel.output import write_wave
 
         with _keyword_errors("out_dir"), _claimed(out_dir, force) as work:
             write_wave(work, sc, summary, profiles)
@@ -508,7 +508,7 @@ def travel_branch(scene: str | Path | Scene, k: int, key: str, values: Sequence[
     import contextlib
     import time
 
-    from studies.travel.continuation import run_continuation
+    from stickslip.studies.travel.continuation import run_continuation
 
     sc = load_scene(scene, overrides)
     for value in values:  # the key and every value, before any work
@@ -525,7 +525,7 @@ def _claimed(out_dir: str | Path, force: bool) -> Iterator[Path]:
     """The travel directory ``out_dir`` claimed (``studies.travel.output.prepare_dir``): yields
     the folder to write; swapped in when the block ends, discarded (an earlier result kept)
     when it raises."""
-    from studies.travel.output import prepare_dir
+    from stickslip.studies.travel.output import prepare_dir
 
     claim = prepare_dir(Path(out_dir), force)
     try:
@@ -557,8 +557,8 @@ def reduced_waves(*, nu: float = 0.3, xi: float = 1.25, f: float = 0.7, k: int =
         >>> waves[0]["regime"]
         'stick-slip'
     """
-    from semianalytic.coefficients import coefficients, gamma_from_physical
-    from semianalytic.waves import find_waves
+    from stickslip.semianalytic.coefficients import coefficients, gamma_from_physical
+    from stickslip.semianalytic.waves import find_waves
 
     co = coefficients(nu, xi, gamma_from_physical(wave_speed, radius, omega))
     return [w.summary(radius, omega) for w in find_waves(co, f, k, delta)] if f > 0 else []

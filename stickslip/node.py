@@ -22,7 +22,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--backend", choices=("gpu", "cpu"), default="gpu",
                     help="gpu: CuPy and the CUDA kernel (default); cpu: the numba kernel")
     args = ap.parse_args(argv)
-    from solver.bundle import run_bundle
+    from stickslip.solver.bundle import run_bundle
 
     try:
         return run_bundle(args.directory, args.backend)

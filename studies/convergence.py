@@ -25,7 +25,7 @@ import time
 
 import numpy as np
 
-from solver.scene import SCENES_DIR, Scene, load_scene
+from stickslip.solver.scene import SCENES_DIR, Scene, load_scene
 
 END_TIME = 0.3  # s; the limit cycle is reached by ~0.1 s (paper section 4)
 WINDOW = 0.12  # s analysed at the end of the run
@@ -67,7 +67,7 @@ def scene_for(case: dict) -> Scene:
 
 def measure(t, theta, u_r, u_t, status, probe_t, probe, d, radius, window) -> dict:
     """Limit-cycle quantities over the last ``window`` seconds (module docstring)."""
-    from postprocess.analysis import analyse, probe_frequency, zone_fractions
+    from stickslip.postprocess.analysis import analyse, probe_frequency, zone_fractions
 
     sel = probe_t >= probe_t[-1] - window
     sep = zone_fractions(status[t >= t[-1] - window])["separation"] > 0.02
@@ -92,7 +92,7 @@ def run_case(case: dict) -> dict:
     """Run one case (serial) and measure its limit cycle; a JSON-able dict."""
     from mpi4py import MPI
 
-    from solver.run import Simulation
+    from stickslip.solver.run import Simulation
 
     scene = scene_for(case)
     window = case.get("window", WINDOW)

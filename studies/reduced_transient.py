@@ -46,10 +46,10 @@ import scipy.sparse as sp
 from numpy.typing import NDArray
 from scipy.linalg import expm
 
-from postprocess.analysis import angular_speed, classify, dominant_mode, mode_coefficients
-from semianalytic.coefficients import Coefficients
-from semianalytic.waves import TravellingWave, separation_matrix, slip_matrix
-from solver.contact import (
+from stickslip.postprocess.analysis import angular_speed, classify, dominant_mode, mode_coefficients
+from stickslip.semianalytic.coefficients import Coefficients
+from stickslip.semianalytic.waves import TravellingWave, separation_matrix, slip_matrix
+from stickslip.solver.contact import (
     SEPARATION,
     SLIP,
     STICK,
@@ -57,7 +57,7 @@ from solver.contact import (
     forward_increment_factor,
     project_contact,
 )
-from solver.newmark import Newmark, critical_time_step
+from stickslip.solver.newmark import Newmark, critical_time_step
 
 __all__ = [
     "GridContact",

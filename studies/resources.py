@@ -37,7 +37,7 @@ import shutil
 from dataclasses import dataclass
 from pathlib import Path
 
-from solver.scene import Scene
+from stickslip.solver.scene import Scene
 
 __all__ = ["Estimate", "ResourceError", "available_memory", "check_resources", "estimate"]
 
@@ -117,7 +117,7 @@ def estimate(scene: Scene, ranks: int = 1) -> Estimate:
     seconds = 48.0 * (dofs / 90816.0) ** 1.5 + steps * (3e-4 + 8e-8 * dofs)
     frames, field_bytes = 0, 0.0
     if scene.output.fields:
-        from solver.field_output import frame_count
+        from stickslip.solver.field_output import frame_count
 
         vertices = {("triangle", 1): 3, ("triangle", 2): 6, ("quadrilateral", 1): 4,
                     ("quadrilateral", 2): 9}[(m.cell, m.degree)]

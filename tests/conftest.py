@@ -24,7 +24,7 @@ def assert_steady_sliding_stays(sim, steps: int = 40) -> np.ndarray:
     beyond round-off (1e-13 of u, 1e-12 of the slide velocity) and q = f p at every node
     (f = 0.7 of the smoke scene). The shared check of the explicit and implicit schemes'
     fixed point; returns u_0."""
-    from solver.contact import SLIP
+    from stickslip.solver.contact import SLIP
 
     u0 = sim.integrator.u.copy()
     scale = np.max(np.abs(u0))
@@ -44,7 +44,7 @@ def step_checking_contact(sim, steps: int, each=None) -> tuple[set, int]:
     (to 1e-12 d, round-off), stick nodes moved exactly with the cylinder surface (R Omega dt,
     1e-9: the tangential increment is a difference of O(1) polar components). ``each(status)``
     adds a law-specific check. Returns (statuses seen, number of steps with a stick node)."""
-    from solver.contact import SEPARATION, STICK
+    from stickslip.solver.contact import SEPARATION, STICK
 
     integ, proj = sim.integrator, sim.projection
     d = sim.scene.geometry.d

@@ -48,11 +48,7 @@ def digest(run_dir: Path) -> str | None:
 
 def inject(monkeypatch, kind: str, phase: str) -> dict:  # noqa: ANN001
     """Arm one fault; returns a dict whose "fired" says whether it happened."""
-    import solver.atomic
-    import solver.problem
-    import solver.run
-    import studies.rundir.directory
-    import studies.rundir.scene_run
+    from stickslip import solver, studies
 
     state = {"fired": False, "count": {}}
 

@@ -12,7 +12,7 @@ import json
 import numpy as np
 import pytest
 
-from postprocess.analysis import (
+from stickslip.postprocess.analysis import (
     analyse,
     analyse_run,
     angular_speed,
@@ -25,7 +25,7 @@ from postprocess.analysis import (
     run_profile,
     zone_layout,
 )
-from solver.contact import SEPARATION, SLIP, STICK
+from stickslip.solver.contact import SEPARATION, SLIP, STICK
 
 D = 4e-4  # mismatch (m), R = 1 m
 

@@ -54,7 +54,7 @@ def test_load_scene_takes_a_mapping_or_strings_and_refuses_a_bad_key():
 
 def test_reduced_waves_match_the_wave_command():
     """Same function as ``stickslip wave --json`` (paper's stick-slip example, k = 4)."""
-    from cli.main import main
+    from stickslip.cli.main import main
 
     waves = stickslip.reduced_waves(nu=0.3, xi=1.25, f=0.7, k=4, delta=1e-3, omega=40.0)
     assert waves and waves[0]["admissible"]

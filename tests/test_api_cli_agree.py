@@ -22,7 +22,7 @@ WALL_CLOCK = {"setup_time_s", "wall_time_s", "profile_s", "timings", "started", 
 
 
 def _cli(*argv) -> int:
-    from cli.main import main
+    from stickslip.cli.main import main
 
     with contextlib.redirect_stdout(io.StringIO()):
         return main([str(a) for a in argv])
@@ -59,7 +59,7 @@ def test_travel_defaults_are_the_command_lines(tmp_path):
     matched S). On N = 36 that solve from the reduced start ends on steady sliding: the
     command's recorded failure is the API's exception, to the last residual's bit."""
     pytest.importorskip("dolfinx")
-    from studies.travel.newton import NotConverged
+    from stickslip.studies.travel.newton import NotConverged
 
     out = tmp_path / "wave"
     assert _cli("travel", "figure1_n132_damped", "--set", "mesh.n_inner=36", "--k", "4",
@@ -91,7 +91,7 @@ def test_run_gives_the_command_lines_samples_bit_for_bit(tmp_path):
 def test_cea_defaults_are_the_commands(capsys):
     """``stickslip.cea`` uses the scene's friction filter by default, as ``flutter-fe``."""
     pytest.importorskip("dolfinx")
-    from cli.main import main
+    from stickslip.cli.main import main
 
     assert main(["flutter-fe", "smoke", "--set", 'friction.filter="1-2-1"', "--fmax-hz",
                  "3000", "--json"]) == 0
@@ -132,7 +132,7 @@ def test_samples_that_cannot_resolve_the_expected_wave_are_refused_at_load(tmp_p
     reduced model's flutter mode k = 4: 1.07 kHz): refused before anything is written, in one
     line naming the estimate, the fix and the override, by the command and by the API."""
     pytest.importorskip("dolfinx")
-    from cli.main import main
+    from stickslip.cli.main import main
 
     coarse = ["--set", "time.end_time=60", "--set", "output.sample_interval=0.01"]
     assert main(["run", "smoke", *coarse, "-o", str(tmp_path / "r")]) == 2

@@ -249,7 +249,7 @@ def test_the_checker_sees_kernel_branches_and_duck_typing():
 def test_a_scheme_is_registered_once_and_asked_once():
     """The registry holds the explicit and the implicit Newmark; ``Simulation`` and
     ``BatchSimulation`` ask it one question (``for_scene``) and nothing else of it."""
-    from solver.schemes.select import SCHEMES
+    from stickslip.solver.schemes.select import SCHEMES
 
     assert list(SCHEMES) == ["explicit", "implicit"]
     for name in ("solver.run", "solver.ensemble_run"):
@@ -294,11 +294,11 @@ def test_every_scheme_follows_the_stepper_protocol():
     """The five schemes implement ``solver.schemes.protocol.Stepper`` (checked at run time
     on the classes' attributes: set_state, step, advance, facts)."""
     pytest.importorskip("dolfinx")
-    from solver.ensemble import BatchedExplicit
-    from solver.fused import FusedNewmark
-    from solver.implicit import ImplicitNewmark
-    from solver.newmark import DampedNewmark, Newmark
-    from solver.schemes.protocol import Stepper
+    from stickslip.solver.ensemble import BatchedExplicit
+    from stickslip.solver.fused import FusedNewmark
+    from stickslip.solver.implicit import ImplicitNewmark
+    from stickslip.solver.newmark import DampedNewmark, Newmark
+    from stickslip.solver.schemes.protocol import Stepper
 
     for cls in (Newmark, DampedNewmark, FusedNewmark, ImplicitNewmark, BatchedExplicit):
         for method in ("set_state", "step", "advance", "facts", "attach", "state", "restore",

@@ -13,8 +13,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from studies.attractors.classify import classify_features, group_members
-from studies.attractors.features import (
+from stickslip.studies.attractors.classify import classify_features, group_members
+from stickslip.studies.attractors.features import (
     Component,
     Features,
     describe,
@@ -295,7 +295,7 @@ def test_small_census_counts_multi_wave_attractors(tmp_path):
     from test_sweep import _env
 
     out = tmp_path / "census"
-    cmd = [sys.executable, "-m", "cli.main", "attractors", str(REPO / "scenes" / "smoke.toml"),
+    cmd = [sys.executable, "-m", "stickslip.cli.main", "attractors", str(REPO / "scenes" / "smoke.toml"),
            "--starts", "2", "--meshes", "36", "--end-time", "0.1", "--set", "loading.omega=20",
            "--set", "geometry.delta=0.005", "-o", str(out), "--no-certify", "--json"]
     res = subprocess.run(cmd, cwd=REPO, env=_env(), capture_output=True, text=True,
@@ -313,7 +313,7 @@ def test_small_census_counts_multi_wave_attractors(tmp_path):
     assert sum(m["count"] for m in members) == 2
     # every featurised start is kept in features.json: reading the census again reads no
     # samples and gives the same rows
-    from studies.attractors.census import collect
+    from stickslip.studies.attractors.census import collect
 
     cached = json.loads((out / "features.json").read_text())
     assert len(cached) == sum(1 for r in answer["starts"] if r["features"])
@@ -324,7 +324,7 @@ def test_small_census_counts_multi_wave_attractors(tmp_path):
 
 
 def test_parse_along():
-    from studies.attractors.along import parse_along
+    from stickslip.studies.attractors.along import parse_along
 
     assert parse_along("loading.omega=30:100:8") == (
         "loading.omega", [30.0, 40.0, 50.0, 60.0, 70.0, 80.0, 90.0, 100.0])
@@ -342,9 +342,9 @@ def test_parse_along():
 def test_along_matches_neighbouring_points_by_features():
     """An attractor whose celerity moves 5 % and a companion's share 10 points between two
     points is one chain; one that appears at the second point is marked."""
-    from studies.attractors.along import ALONG_TOLERANCES
-    from studies.attractors.features import Tolerances
-    from studies.attractors.statistics import align, member_components
+    from stickslip.studies.attractors.along import ALONG_TOLERANCES
+    from stickslip.studies.attractors.features import Tolerances
+    from stickslip.studies.attractors.statistics import align, member_components
 
     def member(name, feats):
         e = {"member": name, "class": "multi-wave", "fraction_separation": 0.7,
@@ -376,7 +376,7 @@ def test_along_runs_a_census_per_point_and_resumes(tmp_path, capsys):
     pytest.importorskip("dolfinx")
     from test_sweep import _starts
 
-    from cli.main import main
+    from stickslip.cli.main import main
 
     out = tmp_path / "along"
     cmd = ["attractors", str(REPO / "scenes" / "smoke.toml"), "--starts", "1", "--meshes",
@@ -396,8 +396,8 @@ def test_along_runs_a_census_per_point_and_resumes(tmp_path, capsys):
 def test_certificates_reproducibility_persistence_and_an_unstable_wave(tmp_path, monkeypatch):
     """A multi-wave member: reproduced by its 2 starts, persistent, with the spreads; a rigid
     wave that the direct solver calls unstable is a transient, not an attractor."""
-    import studies.attractors.certify as certify_module
-    from studies.attractors.census import answer_of
+    import stickslip.studies.attractors.certify as certify_module
+    from stickslip.studies.attractors.census import answer_of
 
     def row(seed, feats, before, cls):
         run = tmp_path / f"s{seed}"
@@ -441,7 +441,7 @@ def test_certificates_reproducibility_persistence_and_an_unstable_wave(tmp_path,
 def test_cea_mode_shares_and_who_wins():
     """The starts whose attractor holds an unstable mode's (k, direction) as dominant or
     companion; the fastest mode wins only when it dominates more starts than any other."""
-    from studies.attractors.cea import cea_lines, mode_shares
+    from stickslip.studies.attractors.cea import cea_lines, mode_shares
 
     def row(feats, cls="multi-wave"):
         return {"class": cls, "features": feats.to_dict()}

@@ -19,8 +19,8 @@ def census(tmp_path_factory):
     """Stick-slip on the smoke mesh (as test_census_settle): 3 starts at N = 36, a first leg
     of 0.05 s (W = 1/60 s), cap 0.1 s, without certificates; then certified with kicks."""
     pytest.importorskip("dolfinx")
-    from studies.attractors.census import Census, collect, run_census
-    from studies.attractors.starts import StartDistribution
+    from stickslip.studies.attractors.census import Census, collect, run_census
+    from stickslip.studies.attractors.starts import StartDistribution
 
     out = tmp_path_factory.mktemp("kick") / "census"
     spec = Census(SMOKE, (36,), StartDistribution(starts=3),
@@ -59,7 +59,7 @@ def test_the_kick_enters_and_the_history_before_it_stays(census):
     circle differs from the start's own continuation (no kick) by about the kick's size
     (≤ 5 % of the RMS of u_r: the bump is 1 % of the RMS over all dofs, X(R) = 1 at the
     circle) and not by round-off (> 1e-6 of it)."""
-    from studies.rundir import continue_batch
+    from stickslip.studies.rundir import continue_batch
 
     out, _, answer = census
     kick = next(iter(answer["certificates"].values()))["kick"]
@@ -80,7 +80,7 @@ def test_the_kick_enters_and_the_history_before_it_stays(census):
 def test_a_kick_that_lands_elsewhere_is_reported(census):
     """The same kick compared with a reference 5 % faster (beyond the 2 % celerity
     tolerance): not returned, the celerity named."""
-    from studies.attractors.certify import kick_line, kick_members
+    from stickslip.studies.attractors.certify import kick_line, kick_members
 
     out, _, answer = census
     rows = [r for r in answer["starts"] if r["class"] in ("wave", "multi-wave")]
@@ -98,7 +98,7 @@ def test_a_kick_that_lands_elsewhere_is_reported(census):
 
 
 def test_a_kick_is_never_in_place(census):
-    from studies.rundir import continue_batch
+    from stickslip.studies.rundir import continue_batch
 
     out, _, answer = census
     kick = next(iter(answer["certificates"].values()))["kick"]

@@ -21,7 +21,7 @@ from faults import wait_released
 from scipy.stats import binom
 from test_sweep import _env, _starts  # the child's environment; '== start' lines per run
 
-from studies.attractors.classify import (
+from stickslip.studies.attractors.classify import (
     CLASSES,
     classify,
     frame_spread,
@@ -29,8 +29,8 @@ from studies.attractors.classify import (
     member_description,
     spread_trend,
 )
-from studies.attractors.starts import StartDistribution, parse_meshes, parse_structured
-from studies.attractors.statistics import (
+from stickslip.studies.attractors.starts import StartDistribution, parse_meshes, parse_structured
+from stickslip.studies.attractors.statistics import (
     Z95,
     fisher_consistent,
     ladder,
@@ -200,7 +200,7 @@ def test_classes():
 def _cmd(out: Path, *extra: str) -> list[str]:
     # Stick-slip physics on the smoke mesh (Omega = 20 rad/s, delta = 5e-3; its sweep test
     # measures a stick-slip wave there), long enough to be killed in flight.
-    return [sys.executable, "-m", "cli.main", "attractors", str(SMOKE), "--starts", "3",
+    return [sys.executable, "-m", "stickslip.cli.main", "attractors", str(SMOKE), "--starts", "3",
             "--meshes", "36,48", "--structured", "4:4", "--end-time", "0.05",
             "--set", "loading.omega=20", "--set", "geometry.delta=0.005", "-o", str(out),
             "--no-certify", *extra]
@@ -259,7 +259,7 @@ def test_census_killed_and_rerun_counts_every_start_once(tmp_path, capsys):
     assert (out / "members.csv").is_file()
     # A rerun of a finished census runs nothing and gives the same answer; so does reading
     # the directory itself (in this process: no second start-up).
-    from cli.main import main
+    from stickslip.cli.main import main
 
     capsys.readouterr()
     assert main([*_cmd(out, "--json")[3:]]) == 0 and _starts(out / "starts") == starts
@@ -281,7 +281,7 @@ def test_census_killed_and_rerun_counts_every_start_once(tmp_path, capsys):
 ])
 def test_bad_arguments_one_line_exit_2(tmp_path, capsys, args, words):
     pytest.importorskip("mpi4py")
-    from cli.main import main
+    from stickslip.cli.main import main
 
     rc = main(["attractors", str(SMOKE), "-o", str(tmp_path / "c"), *args])
     err = capsys.readouterr().err.strip()
@@ -292,9 +292,9 @@ def test_bad_arguments_one_line_exit_2(tmp_path, capsys, args, words):
 def test_sweep_with_an_attractors_table_maps_every_point(tmp_path, capsys):
     """``[attractors] starts = 2`` in a sweep file: 2 random starts at each of 2 points."""
     pytest.importorskip("dolfinx")
-    from cli.main import main
-    from studies.attractors.maps import expand
-    from studies.sweep import SweepError, load_sweep
+    from stickslip.cli.main import main
+    from stickslip.studies.attractors.maps import expand
+    from stickslip.studies.sweep import SweepError, load_sweep
 
     body = (f'name = "amap"\nbase = "{SMOKE}"\nset = ["time.end_time=0.02"]\n'
             '[grid]\n"loading.omega" = [20.0, 50.0]\n[map]\nx = "loading.omega"\n')
@@ -322,7 +322,7 @@ def test_sweep_with_an_attractors_table_maps_every_point(tmp_path, capsys):
 def test_census_cells_of_points_without_a_wave():
     """A map cell whose dominant end state is no wave names its class; a point with no
     finished start says so (its share and P(SSS) are null in attractors_map.json)."""
-    from studies.attractors.maps import census_cells
+    from stickslip.studies.attractors.maps import census_cells
 
     def point(name, dominant, table, p_sss):
         return {"point": name, "loading.f": 0.5, "starts": 4, "finished": 4 if table else 0,
@@ -344,8 +344,8 @@ def _assert_census_map(out: Path) -> None:
     """The sweep's regime map of a census is one map over the grid (no map per seed), and
     the cells it draws (``census_cells``) say what ``attractors_map.json`` says, which in
     turn agrees with the runs' own rows in ``sweep.json``."""
-    from studies.attractors.maps import census_cells
-    from studies.sweep import plot_sweep
+    from stickslip.studies.attractors.maps import census_cells
+    from stickslip.studies.sweep import plot_sweep
 
     assert plot_sweep(out) == [out / "regime_map.png"]
     assert (out / "regime_map.png").stat().st_size > 10_000  # a drawn figure, not a stub
@@ -384,8 +384,8 @@ def _assert_census_map(out: Path) -> None:
 
 def test_certification_adapter(monkeypatch, tmp_path):
     """Without the direct solver: "unavailable"; with one: its numbers, or its refusal."""
-    import studies.travel as travel
-    from studies.attractors.certify import certificate_line, certify
+    import stickslip.studies.travel as travel
+    from stickslip.studies.attractors.certify import certificate_line, certify
 
     monkeypatch.delattr(travel, "wave_from_run", raising=False)
     cert = certify(tmp_path)
@@ -437,7 +437,7 @@ def test_a_census_refused_for_its_cost_leaves_no_directory(tmp_path, capsys):
     """The cost refusal came after the census had claimed and filled its directory, which was
     left behind; a refused census now leaves nothing, and says why in one line (exit 2)."""
     pytest.importorskip("dolfinx")
-    from cli.main import main
+    from stickslip.cli.main import main
 
     out = tmp_path / "census"
     rc = main(["attractors", str(SMOKE), "--starts", "2", "--meshes", "36", "--end-time",

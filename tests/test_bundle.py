@@ -64,7 +64,7 @@ def _arrays(path: Path) -> dict[str, np.ndarray]:
 @pytest.mark.dolfinx
 def test_bundle_census_equals_the_command_census(tmp_path, capsys):
     pytest.importorskip("numba")
-    from cli.main import main
+    from stickslip.cli.main import main
 
     bundle, census, reference = tmp_path / "bundle", tmp_path / "census", tmp_path / "ref"
     answer = [*ARGS, "--max-time", "0.03", "--bundle", str(bundle), "-o", str(census)]
@@ -96,7 +96,7 @@ def test_bundle_census_equals_the_command_census(tmp_path, capsys):
 def test_bundle_on_the_emulated_gpu_gives_the_command_census(tmp_path, monkeypatch, capsys):
     pytest.importorskip("numba")
     from benchmarks import gpu_emulate
-    from cli.main import main
+    from stickslip.cli.main import main
     from stickslip.node import main as node
 
     bundle, census, reference = tmp_path / "bundle", tmp_path / "census", tmp_path / "ref"
@@ -123,8 +123,8 @@ def test_node_refuses_a_directory_without_a_bundle(tmp_path):
 
 
 def test_node_backend_gpu_without_cupy_is_one_line_exit_2(tmp_path, monkeypatch, capsys):
-    from solver.bundle import KIND, MANIFEST
     from stickslip.node import main as node
+    from stickslip.solver.bundle import KIND, MANIFEST
 
     (tmp_path / MANIFEST).write_text(json.dumps({"kind": KIND, "format": 1, "batches": []}))
     monkeypatch.setitem(sys.modules, "cupy", None)  # ``import cupy`` fails
@@ -134,7 +134,7 @@ def test_node_backend_gpu_without_cupy_is_one_line_exit_2(tmp_path, monkeypatch,
 
 @pytest.mark.dolfinx
 def test_bundle_of_another_census_is_refused(tmp_path, capsys):
-    from cli.main import main
+    from stickslip.cli.main import main
 
     bundle = tmp_path / "bundle"
     assert main([*ARGS, "--bundle", str(bundle), "-o", str(tmp_path / "c")]) == 0

@@ -15,7 +15,7 @@ import pytest
 from test_attractors import REPO, SMOKE
 from test_sweep import _env, _starts
 
-from studies.attractors.features import settle_scan
+from stickslip.studies.attractors.features import settle_scan
 
 # ------------------------------------------------------------------ the settle time, exact
 
@@ -56,8 +56,8 @@ def test_settle_time_is_the_first_stationary_pair_after_a_change():
 
 
 def _census(out, max_time: float):
-    from studies.attractors.census import Census, run_census
-    from studies.attractors.starts import StartDistribution
+    from stickslip.studies.attractors.census import Census, run_census
+    from stickslip.studies.attractors.starts import StartDistribution
 
     # Stick-slip on the smoke mesh (Omega = 20 rad/s, delta = 5e-3, as test_attractors):
     # 3 starts at N = 36, a first leg of 0.05 s (windows of 1/60 s).
@@ -134,7 +134,7 @@ def test_a_larger_cap_continues_only_the_unsettled(settled):
 
 
 def test_sweep_counts_a_run_continued_past_its_end_time_as_done():
-    from studies.sweep.table import _continued_past
+    from stickslip.studies.sweep.table import _continued_past
 
     wanted = {"time": {"end_time": 0.3, "max_steps": 0}, "mesh": {"n_inner": 132}}
     longer = {"time": {"end_time": 0.45, "max_steps": 0}, "mesh": {"n_inner": 132}}
@@ -153,7 +153,7 @@ def test_census_killed_while_settling_resumes_every_start_once(tmp_path, sig):
     start in the answer once, each run once from t = 0, none lost or half-continued."""
     pytest.importorskip("dolfinx")
     out = tmp_path / "census"
-    cmd = [sys.executable, "-m", "cli.main", "attractors", str(SMOKE), "--starts", "3",
+    cmd = [sys.executable, "-m", "stickslip.cli.main", "attractors", str(SMOKE), "--starts", "3",
            "--meshes", "36", "--end-time", "0.05", "--max-time", "0.1",
            "--set", "loading.omega=20", "--set", "geometry.delta=0.005", "-o", str(out),
            "--no-certify", "--progress", "lines"]
@@ -195,8 +195,8 @@ def test_shared_featurising_and_certificates_give_the_answer_of_rank_0_alone(tmp
 
     from mpi4py import MPI
 
-    from studies.attractors.census import Census, collect, run_census
-    from studies.attractors.starts import StartDistribution
+    from stickslip.studies.attractors.census import Census, collect, run_census
+    from stickslip.studies.attractors.starts import StartDistribution
 
     comm = MPI.COMM_WORLD
     out = Path(comm.bcast(str(tmp_path), root=0)) / "census"

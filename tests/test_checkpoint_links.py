@@ -16,7 +16,7 @@ SMOKE = Path(__file__).resolve().parents[1] / "scenes" / "smoke.toml"
 
 def test_a_linked_checkpoint_is_refused_and_its_target_untouched(tmp_path, capsys):
     pytest.importorskip("dolfinx")
-    from cli.main import main
+    from stickslip.cli.main import main
 
     run = tmp_path / "run"
     with contextlib.redirect_stdout(io.StringIO()):
@@ -33,8 +33,8 @@ def test_a_linked_checkpoint_is_refused_and_its_target_untouched(tmp_path, capsy
 
 
 def test_writing_a_checkpoint_replaces_a_link_and_leaves_its_target(tmp_path):
-    from solver.scene import load_scene
-    from studies.rundir.checkpoint import read_checkpoint, write_checkpoint
+    from stickslip.solver.scene import load_scene
+    from stickslip.studies.rundir.checkpoint import read_checkpoint, write_checkpoint
 
     users = tmp_path / "users.txt"
     users.write_text("a user's file")

@@ -103,8 +103,8 @@ def test_the_checker_sees_a_violation(check):
     body = "\n".join(f"    x{i} = {i}" for i in range(MAX_LINES))
     sources = {
         "studies/a.py": ast.parse(f"def f():\n{body}\n"),
-        "cli/b.py": ast.parse("from studies.a import _helper\nfrom solver._k import step\n"
-                              "from cli.c import _own\nfrom solver import __version__\n"),
+        "cli/b.py": ast.parse("from stickslip.studies.a import _helper\nfrom stickslip.solver._k import step\n"
+                              "from stickslip.cli.c import _own\nfrom stickslip.solver import __version__\n"),
     }
     if check == "long":
         assert _long_functions(sources) == [("studies/a.py", "f", MAX_LINES + 1)]

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from solver.contact import SEPARATION, SLIP, STICK, ContactArrays, project_contact
+from stickslip.solver.contact import SEPARATION, SLIP, STICK, ContactArrays, project_contact
 
 D = 1e-3  # mismatch, m
 KAPPA = 2e-10  # (beta2 + 1/2) dt^2, s^2
@@ -77,8 +77,8 @@ def test_the_bound_is_two_typed_parts_and_the_kernels_read_their_constants():
     ``variant`` composes the same names as the scene keys, and ``kernel_bound`` gives the
     kernels' constants of each regularisation (exact: the same float operations as the
     numpy ``EffectivePressure``), refusing the filtered bound."""
-    from solver.contact import ContactLaw, SpatialFilter
-    from solver.contact.law import ConstantTime, PrakashClifton, regularisation_of
+    from stickslip.solver.contact import ContactLaw, SpatialFilter
+    from stickslip.solver.contact.law import ConstantTime, PrakashClifton, regularisation_of
 
     dt = 1e-6
     pc = regularisation_of("prakash-clifton", slip_length=2e-5, reference_velocity=0.5,
@@ -106,7 +106,7 @@ def test_a_registered_scheme_is_found_by_for_scene():
     and returns the first that applies; no scheme for a scene is a ValueError."""
     from types import SimpleNamespace
 
-    from solver.schemes.select import SCHEMES, add_scheme, for_scene
+    from stickslip.solver.schemes.select import SCHEMES, add_scheme, for_scene
 
     def scene(beta1):
         return SimpleNamespace(time=SimpleNamespace(beta1=beta1))

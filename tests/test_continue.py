@@ -41,8 +41,8 @@ CASES = {
 
 
 def _run(root: Path, name: str, extra: list[str], end: float, comm) -> dict:
-    from solver.scene import load_scene
-    from studies.rundir import run_scene
+    from stickslip.solver.scene import load_scene
+    from stickslip.studies.rundir import run_scene
 
     scene = load_scene(SMOKE, [*COMMON, *extra, f"time.end_time={end}"])
     return run_scene(scene, root / name, force=True, comm=comm, stream=io.StringIO())
@@ -68,7 +68,7 @@ def _same_files(a: Path, b: Path, rtol: float = 0.0) -> None:
 def _same_summary(a: dict, b: dict, rtol: float = 0.0) -> None:
     """Equal (floats bitwise: == on the JSON numbers; ``rtol`` > 0: to rtol) but for the
     wall-clock keys."""
-    from studies.rundir.continuation import WALL_CLOCK_KEYS
+    from stickslip.studies.rundir.continuation import WALL_CLOCK_KEYS
 
     def strip(s: dict) -> dict:
         s = json.loads(json.dumps(s))
@@ -111,7 +111,7 @@ def test_continued_run_is_bitwise_the_run_straight_through(case, tmp_path):
     ~80 steps, far below any physical change) and the statuses exactly; the restore itself
     is checked bitwise on two ranks by ``test_restore_reproduces_every_rank_state_bitwise``.
     """
-    from studies.rundir import continue_run
+    from stickslip.studies.rundir import continue_run
 
     comm = MPI.COMM_WORLD
     root = Path(comm.bcast(str(tmp_path), root=0))
@@ -135,8 +135,8 @@ def test_restore_reproduces_every_rank_state_bitwise(case):
     """A Simulation restored from another's checkpoint (same scene, same ranks) holds the
     same state, bit for bit, on every rank: its own checkpoint equals the one it came from
     (stepper, contact, work sums, energy guard, counts)."""
-    from solver.run import Simulation
-    from solver.scene import load_scene
+    from stickslip.solver.run import Simulation
+    from stickslip.solver.scene import load_scene
 
     scene = load_scene(SMOKE, [*COMMON, *CASES[case], f"time.end_time={T_PART}"])
     first = Simulation(scene, MPI.COMM_WORLD)
@@ -153,7 +153,7 @@ def test_restore_reproduces_every_rank_state_bitwise(case):
 def test_run_stopped_by_max_steps_continues_bitwise(tmp_path):
     """A run stopped by time.max_steps (between two samples) continues to the end time,
     with the step limit dropped: the run straight through, bitwise."""
-    from studies.rundir import continue_run
+    from stickslip.studies.rundir import continue_run
 
     full = _run(tmp_path, "full", [], T_FULL, MPI.COMM_SELF)
     part = _run(tmp_path, "part", ["time.max_steps=23"], T_FULL, MPI.COMM_SELF)
@@ -169,8 +169,8 @@ def test_run_interrupted_by_a_signal_writes_its_checkpoint_and_continues(tmp_pat
     """A signal's stop (``Simulation.stop_requested``, seen at a sample) ends the run
     ``interrupted`` at a whole level with its checkpoint; continued, it is the run straight
     through, bitwise. The flag is set by the loop itself at step 23 (no clock, no signal)."""
-    from solver import run as run_module
-    from studies.rundir import continue_run
+    from stickslip.solver import run as run_module
+    from stickslip.studies.rundir import continue_run
 
     full = _run(tmp_path, "full", [], T_FULL, MPI.COMM_SELF)
     observe = run_module.StopCheck.observe
@@ -212,9 +212,9 @@ def test_batch_members_continue_bitwise_as_one_batch(damped, tmp_path):
     to 0.0063 s (one BatchSimulation again each time) equal the same batch run to 0.0063 s,
     bitwise (summaries but for the wall-clock keys); with Kelvin-Voigt damping too (the
     kernel's damping sums and w_{n+1} are part of the state)."""
-    from studies.rundir import continue_batch
-    from studies.sweep.schedule import run_sweep
-    from studies.sweep.spec import load_sweep
+    from stickslip.studies.rundir import continue_batch
+    from stickslip.studies.sweep.schedule import run_sweep
+    from stickslip.studies.sweep.spec import load_sweep
 
     dirs = {}
     for end in (T_FULL, T_PART):
@@ -238,8 +238,8 @@ def test_interrupted_continuation_keeps_the_run_as_it_was(tmp_path, monkeypatch)
     """A continuation interrupted in its time loop (KeyboardInterrupt from the loop, as a
     signal's handler raises it) drops its replacement: every file of the run is unchanged
     and no temporary sibling is left."""
-    from solver import run as run_module
-    from studies.rundir import continue_run
+    from stickslip.solver import run as run_module
+    from stickslip.studies.rundir import continue_run
 
     _run(tmp_path, "part", [], T_PART, MPI.COMM_SELF)
     before = {p.name: p.read_bytes() for p in (tmp_path / "part").iterdir() if p.is_file()}
@@ -260,7 +260,7 @@ def test_interrupted_continuation_keeps_the_run_as_it_was(tmp_path, monkeypatch)
 def _cli(*args: str) -> tuple[int, str]:
     import contextlib
 
-    from cli.main import main
+    from stickslip.cli.main import main
 
     err = io.StringIO()
     with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
@@ -273,7 +273,7 @@ def test_what_cannot_be_continued_is_refused_in_one_line(tmp_path):
     that is another run, a scene.toml edited since the checkpoint, a checkpoint of another
     number of ranks, a run without a checkpoint; the run is untouched each time, and -o
     leaves the original as it was."""
-    from solver.atomic import atomic_save_npz
+    from stickslip.solver.atomic import atomic_save_npz
 
     _run(tmp_path, "part", [], T_PART, MPI.COMM_SELF)
     run = tmp_path / "part"

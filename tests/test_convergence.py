@@ -18,7 +18,7 @@ import math
 
 import pytest
 
-from studies.convergence import richardson
+from stickslip.studies.convergence import richardson
 
 
 def test_richardson_recovers_order_and_limit():
@@ -35,7 +35,7 @@ def test_richardson_recovers_order_and_limit():
 
 pytest.importorskip("dolfinx")
 
-from studies.convergence import run_case  # noqa: E402
+from stickslip.studies.convergence import run_case  # noqa: E402
 
 
 def case(n: int, frac: float = 0.9) -> dict:

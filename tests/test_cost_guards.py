@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import pytest
 
-from cli.main import main
+from stickslip.cli.main import main
 
 
 def one_line(capsys, *argv: str) -> str:

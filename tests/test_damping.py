@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 from conftest import peaks_just_below_and_above
 
-from solver.newmark import DampedNewmark, Newmark, critical_time_step
-from solver.scene import SceneError, load_scene
+from stickslip.solver.newmark import DampedNewmark, Newmark, critical_time_step
+from stickslip.solver.scene import SceneError, load_scene
 
 
 def chain(n: int = 12, k: float = 4.0e6, m: float = 1.0):
@@ -68,7 +68,7 @@ def test_damping_work_is_the_work_of_the_applied_damping_force():
     """``DampingWork`` (telescoped, no extra MatMult per step) equals the direct sum
     tau K v~_n . (u_{n+1} - u_{n-1}) / 2 to round-off, and the balance
     E_n - E_0 + W_d closes to O(dt^2) (ratio ~4 per halving of dt)."""
-    from solver.observers import DampingWork
+    from stickslip.solver.observers import DampingWork
 
     K, inv_m, w_max, mult = chain()
     tau = 0.3 / w_max
@@ -101,9 +101,9 @@ dolfinx = pytest.importorskip("dolfinx")
 
 from mpi4py import MPI  # noqa: E402
 
-from solver.problem import build_problem, omega_max  # noqa: E402
-from solver.run import Simulation  # noqa: E402
-from solver.schemes import damping_advice, make_explicit  # noqa: E402
+from stickslip.solver.problem import build_problem, omega_max  # noqa: E402
+from stickslip.solver.run import Simulation  # noqa: E402
+from stickslip.solver.schemes import damping_advice, make_explicit  # noqa: E402
 
 SELF = MPI.COMM_SELF
 
@@ -156,7 +156,7 @@ def test_energy_balance_with_damping_closes_in_the_fused_and_batched_kernels():
     batched runs record W_d and the other energies of the numpy run to round-off (1e-9 of
     max E: ~400 steps of sums in other orders), so their balance
     E_n - E_0 - W_contact + W_d closes as the numpy one does (0.8 % of max E measured)."""
-    from solver.ensemble_run import BatchSimulation
+    from stickslip.solver.ensemble_run import BatchSimulation
 
     sc = smoke("time.beta2=0.5", "time.end_time=0.03", "time.dt_fraction=0.225",
                "damping.retardation_time=2e-6")
@@ -208,7 +208,7 @@ def test_implicit_damped_free_vibration_decays_at_the_kelvin_voigt_rate():
     trapezoidal rule's O((w dt)^2) error at w dt = 0.05 is ~2e-4."""
     from petsc4py import PETSc
 
-    from solver.implicit import ImplicitNewmark
+    from stickslip.solver.implicit import ImplicitNewmark
 
     K, inv_m, w_max, mult = chain(n=8)
     lam, vec = np.linalg.eigh(K)

@@ -36,7 +36,7 @@ SHORT = ["time.end_time=0.005", "output.progress=false"]
 
 
 def smoke(*extra: str):
-    from solver.scene import load_scene
+    from stickslip.solver.scene import load_scene
 
     return load_scene(REPO / "scenes" / "smoke.toml", [*SHORT, *extra])
 
@@ -44,7 +44,7 @@ def smoke(*extra: str):
 def run(run_dir: Path, *extra: str, force: bool = False, **kw) -> dict:
     from mpi4py import MPI
 
-    from studies.rundir import run_scene
+    from stickslip.studies.rundir import run_scene
 
     return run_scene(smoke(*extra), run_dir, force=force, comm=MPI.COMM_SELF,
                      stream=io.StringIO(), **kw)
@@ -52,7 +52,7 @@ def run(run_dir: Path, *extra: str, force: bool = False, **kw) -> dict:
 
 def cli(capsys, *argv: str) -> tuple[int, str]:
     """``stickslip ARGV`` in this process: (exit status, stderr)."""
-    from cli.main import main
+    from stickslip.cli.main import main
 
     rc = main(list(argv))
     return rc, capsys.readouterr().err
@@ -82,7 +82,7 @@ def test_force_replaces_only_run_directories(tmp_path, capsys):
 
 def test_scene_names_are_safe_file_names(tmp_path, capsys):
     """Case 1: name = ".." would make --force remove the output root's parent."""
-    from solver.scene import SceneError
+    from stickslip.solver.scene import SceneError
 
     for bad in ("..", ".", ".hidden", "-x", "a/b", ""):
         with pytest.raises(SceneError, match="is not allowed"):
@@ -149,7 +149,7 @@ def test_fault_at_every_phase(tmp_path, monkeypatch, phase, kind, replacing):
         assert run(run_dir)["status"] == "completed"
         before = digest(run_dir)
     state = inject(monkeypatch, kind, phase)
-    from studies.rundir import RunDirError
+    from stickslip.studies.rundir import RunDirError
 
     outcome = "returned"
     try:
@@ -204,7 +204,7 @@ def test_outputs_have_the_umask_mode(tmp_path):
 def test_failures_are_recorded_not_left_running(tmp_path, monkeypatch):
     """Case 6: a MemoryError (or any error) gives status failed with the message."""
     pytest.importorskip("dolfinx")
-    import solver.problem
+    from stickslip import solver
 
     def boom(*a, **k):
         raise MemoryError("injected")
@@ -220,7 +220,7 @@ def test_a_killed_run_is_told_from_a_live_one(tmp_path):
     """Case 6: `running` + pid + host; a sweep table shows a dead one as `crashed`."""
     import socket
 
-    from studies.sweep.table import live_status
+    from stickslip.studies.sweep.table import live_status
 
     child = subprocess.Popen([sys.executable, "-c", "pass"])
     child.wait()
@@ -240,7 +240,7 @@ def test_wall_time_stop_has_its_own_status_and_exit_code(tmp_path, capsys):
     s = json.loads((tmp_path / "w" / "summary.json").read_text())
     assert (rc, s["status"], s["stop_reason"]) == (3, "stopped", "max_wall_time")
     assert "time.max_wall_time" in s["message"]
-    from studies.rundir import EXIT_CODES, print_summary
+    from stickslip.studies.rundir import EXIT_CODES, print_summary
 
     assert EXIT_CODES == {"completed": 0, "diverged": 1, "failed": 2, "stopped": 3,
                           "interrupted": 130}
@@ -259,8 +259,8 @@ def test_a_signal_on_one_rank_stops_every_rank_at_the_same_sample(tmp_path, monk
     pytest.importorskip("dolfinx")
     from mpi4py import MPI
 
-    import solver.run
-    from studies.rundir import run_scene
+    from stickslip import solver
+    from stickslip.studies.rundir import run_scene
 
     comm = MPI.COMM_WORLD
     real = solver.run.Simulation._check_health
@@ -296,7 +296,7 @@ def test_an_error_on_one_rank_ends_every_rank(tmp_path):
 
     if shutil.which("mpirun") is None or "OMPI_COMM_WORLD_SIZE" in os.environ:
         pytest.skip("needs mpirun, outside mpirun")
-    res = _mpirun(sys.executable, "-m", "cli.main", "run", "smoke", "-o", "/proc/foo",
+    res = _mpirun(sys.executable, "-m", "stickslip.cli.main", "run", "smoke", "-o", "/proc/foo",
                   timeout=120)
     assert res.returncode == 2 and "error: cannot create /proc/foo" in res.stderr
     driver = tmp_path / "driver.py"
@@ -304,9 +304,10 @@ def test_an_error_on_one_rank_ends_every_rank(tmp_path):
 import io, sys
 sys.path.insert(0, {str(REPO)!r})
 from mpi4py import MPI
-import solver.problem
-from solver.scene import load_scene
-from studies.rundir import run_scene
+import stickslip.solver.problem
+from stickslip import solver
+from stickslip.solver.scene import load_scene
+from stickslip.studies.rundir import run_scene
 real = solver.problem.build_problem
 def build(scene, comm):
     if comm.rank == 1:
@@ -337,7 +338,7 @@ def test_sigterm_to_mpirun_leaves_interrupted_and_samples(tmp_path):
     # end_time 60 s at 1 ms samples: ~2.4 million steps, minutes of work on any machine, so
     # the first progress line (5 s of wall time into the loop) always comes with most of
     # the loop left; the line is the program's own sign that the time loop runs.
-    proc = subprocess.Popen(["mpirun", "-n", "2", sys.executable, "-m", "cli.main", "run",
+    proc = subprocess.Popen(["mpirun", "-n", "2", sys.executable, "-m", "stickslip.cli.main", "run",
                              "figure3_n132", "--set", "time.end_time=60",
                              "--set", "output.sample_interval=1e-3", "--yes-i-know", "-o",
                              str(run_dir)],
@@ -364,7 +365,7 @@ def test_sigterm_to_mpirun_leaves_interrupted_and_samples(tmp_path):
         assert data["t"].size > 0
     # and the files agree, however late the SIGKILL came into rank 0's own save (the
     # summary counted the rescue's samples while samples.npz had one more: plot refused)
-    from studies.rundir.readers import check_run_dir
+    from stickslip.studies.rundir.readers import check_run_dir
 
     check_run_dir(run_dir)
 
@@ -389,9 +390,10 @@ def test_sigterm_to_mpirun_in_compiled_setup_is_final_at_once(tmp_path):
 import ctypes, io, sys
 sys.path.insert(0, {str(REPO)!r})
 from mpi4py import MPI
-import solver.problem
-from solver.scene import load_scene
-from studies.rundir import run_scene
+import stickslip.solver.problem
+from stickslip import solver
+from stickslip.solver.scene import load_scene
+from stickslip.studies.rundir import run_scene
 def build(scene, comm):
     ctypes.CDLL(None).system(({child!r} if comm.rank == 0 else "sleep 300").encode())
 solver.problem.build_problem = build
@@ -431,9 +433,10 @@ def test_sigterm_while_stuck_in_compiled_code(tmp_path):
 import ctypes, io, sys
 sys.path.insert(0, {str(REPO)!r})
 from mpi4py import MPI
-import solver.problem
-from solver.scene import load_scene
-from studies.rundir import run_scene
+import stickslip.solver.problem
+from stickslip import solver
+from stickslip.solver.scene import load_scene
+from stickslip.studies.rundir import run_scene
 def build(scene, comm):
     ctypes.CDLL(None).system({child!r}.encode())
 solver.problem.build_problem = build
@@ -521,11 +524,11 @@ def test_flutter_k_is_not_read_as_kmax(capsys):
 
 def test_wave_and_scenes_share_one_set_of_ranges(capsys):
     """Case 11: `wave` took -1 < nu < 0.5 and f > 0, scenes 0 <= nu < 0.5 and f >= 0."""
-    from solver.scene import RANGES
+    from stickslip.solver.scene import RANGES
 
     assert RANGES["material.nu"].ok(0.0) and not RANGES["material.nu"].ok(-0.1)
     assert RANGES["loading.f"].ok(0.0)
-    from cli.main import main
+    from stickslip.cli.main import main
 
     assert main(["wave", "--f", "0", "--json"]) == 0  # frictionless: allowed, and no wave
     assert json.loads(capsys.readouterr().out)["regime"] == "none"
@@ -535,7 +538,7 @@ def test_wave_and_scenes_share_one_set_of_ranges(capsys):
 
 def test_help_texts(capsys):
     """Case 11: `info` has a description; `run --help` says what --force replaces."""
-    from cli.main import build_parser
+    from stickslip.cli.main import build_parser
 
     parser = build_parser()
     sub = next(a for a in parser._actions if a.dest == "command")
@@ -545,7 +548,7 @@ def test_help_texts(capsys):
 
 
 def test_sample_interval_longer_than_end_time_is_warned():
-    from studies.rundir import scene_warnings
+    from stickslip.studies.rundir import scene_warnings
 
     assert any("sample_interval" in w for w in scene_warnings(smoke("output.sample_interval=1")))
     assert not any("sample_interval" in w for w in scene_warnings(smoke()))
@@ -563,7 +566,7 @@ def test_read_only_output_directory_is_refused_in_one_line():
     try:
         ro.chmod(0o555)
         res = subprocess.run(
-            [sys.executable, "-m", "cli.main", "run", "smoke", "-o", str(ro / "x")],
+            [sys.executable, "-m", "stickslip.cli.main", "run", "smoke", "-o", str(ro / "x")],
             cwd=REPO, capture_output=True, text=True, timeout=120,
             env={**os.environ, "HOME": "/tmp"}, preexec_fn=lambda: os.setuid(65534))
         assert res.returncode == 2, res.stderr
@@ -585,9 +588,10 @@ def test_a_run_killed_outright_is_marked_and_tidied(tmp_path):
 import io, os, signal, sys
 sys.path.insert(0, {str(REPO)!r})
 from mpi4py import MPI
-import solver.atomic
-from solver.scene import load_scene
-from studies.rundir import run_scene
+import stickslip.solver.atomic
+from stickslip import solver
+from stickslip.solver.scene import load_scene
+from stickslip.studies.rundir import run_scene
 real = solver.atomic.atomic_write
 def write(path, fill):
     if str(path).endswith("samples.npz"):
@@ -649,7 +653,7 @@ def test_an_unusable_environment_under_mpirun_is_said_first(env, words):
         pytest.skip("needs mpirun, outside mpirun")
     if os.environ.get("PRTE_MCA_prte_tmpdir_base") != "/tmp":
         pytest.skip("outside ./dev and the Docker image (PRTE_MCA_prte_tmpdir_base unset)")
-    res = subprocess.run(["mpirun", "-n", "2", sys.executable, "-m", "cli.main", "info"],
+    res = subprocess.run(["mpirun", "-n", "2", sys.executable, "-m", "stickslip.cli.main", "info"],
                          capture_output=True, text=True, timeout=120, cwd=REPO,
                          env={**os.environ, **env})
     assert res.returncode == 2, res.stderr
@@ -666,8 +670,8 @@ def test_a_run_shorter_than_one_step_is_failed_not_completed(tmp_path):
 def test_a_run_of_months_is_refused_unless_bounded(monkeypatch):
     """mesh.n_radial = 100000 (estimated 22.6 GB and weeks) passed a check that looked at
     memory and disk only (here the machine is given unlimited memory)."""
-    import studies.resources as res
-    from studies.resources import ResourceError, check_resources
+    import stickslip.studies.resources as res
+    from stickslip.studies.resources import ResourceError, check_resources
 
     monkeypatch.setattr(res, "available_memory", lambda: float("inf"))
     with pytest.raises(ResourceError, match=r"days on 1 rank.*--yes-i-know"):
@@ -681,7 +685,7 @@ def test_probe_memory_is_estimated_at_its_peak():
     time.end_time=0.5 --set output.probes_deg=[500 angles]`, 291 MB without probes); the
     estimate must not be below it (a guard may be conservative, never optimistic) and stays
     within 25 % above it."""
-    from studies.resources import estimate
+    from stickslip.studies.resources import estimate
 
     angles = "[" + ",".join(f"{360 * i / 500:.3f}" for i in range(500)) + "]"
     mb = estimate(smoke("time.end_time=0.5", f"output.probes_deg={angles}")).memory_bytes / 1e6

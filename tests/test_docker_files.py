@@ -98,7 +98,7 @@ def test_docker_run_image_stickslip_and_mpirun():
     assert any(word == "RUN" and "pip install" in rest and "/opt/stickslip" in rest
                and " -e " not in rest for word, rest in ins)
     scripts = tomllib.loads((REPO / "pyproject.toml").read_text())["project"]["scripts"]
-    assert scripts["stickslip"] == "cli.main:main"
+    assert scripts["stickslip"] == "stickslip.cli.main:main"
     module, _, func = scripts["stickslip"].partition(":")
     source = REPO / Path(*module.split("."))
     assert func and (source.with_suffix(".py").is_file() or (source / "__init__.py").is_file())
@@ -209,7 +209,7 @@ def test_installed_code_finds_the_shipped_scenes_through_stickslip_scenes(tmp_pa
     """In the image the code is installed away from its source tree: STICKSLIP_SCENES says
     where the shipped scenes are (bare names like ``smoke`` resolve there)."""
     (tmp_path / "only_here.toml").write_text("")
-    code = ("from solver.scene import SCENES_DIR, list_scenes; "
+    code = ("from stickslip.solver.scene import SCENES_DIR, list_scenes; "
             "print(SCENES_DIR, [p.name for p in list_scenes()])")
     env = {"PATH": "/usr/bin:/bin", "PYTHONPATH": str(REPO), "STICKSLIP_SCENES": str(tmp_path)}
     out = subprocess.run(["python3", "-c", code], env=env, capture_output=True, text=True,

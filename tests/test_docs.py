@@ -32,7 +32,7 @@ def _links(page: Path) -> list[str]:
 
 def test_every_scene_key_is_in_the_scene_reference(tmp_path):
     """Every key of a resolved scene.toml (the one ``stickslip run`` writes) has a row."""
-    from solver.scene import dumps_toml, load_scene
+    from stickslip.solver.scene import dumps_toml, load_scene
 
     page = reference.scene_markdown()
     resolved = tomllib.loads(dumps_toml(load_scene("figure3_n132_damped")))
@@ -47,7 +47,7 @@ def test_every_scene_key_is_in_the_scene_reference(tmp_path):
 def test_every_cli_command_and_option_is_in_the_command_reference():
     import argparse
 
-    from cli.main import build_parser
+    from stickslip.cli.main import build_parser
 
     page = reference.cli_markdown()
     commands = reference._subcommands(build_parser())

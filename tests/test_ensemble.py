@@ -57,7 +57,7 @@ set = ["time.end_time = 0.03", "output.sample_interval = 1e-4"]
 def _spec(tmp_path):
     from pathlib import Path
 
-    from studies.sweep.spec import load_sweep
+    from stickslip.studies.sweep.spec import load_sweep
 
     path = tmp_path / "mixed.toml"
     path.write_text(MIXED.format(base=Path("scenes/smoke.toml").resolve()))
@@ -83,7 +83,7 @@ def two_sweeps(tmp_path_factory):
     (3e-4 s), so that the batch's unsampled steps skip storing v, a, K u)) run alone
     (--batch off) and in batches of 3 (3 + 3 + 2 scenes, and the 2 scenes of the other
     sample interval: the batch size must not matter)."""
-    from studies.sweep.schedule import run_sweep
+    from stickslip.studies.sweep.schedule import run_sweep
 
     tmp = tmp_path_factory.mktemp("ens")
     spec = _spec(tmp)
@@ -142,9 +142,9 @@ def test_a_batch_member_directory_is_a_single_runs_directory(two_sweeps, tmp_pat
     numbers (bitwise; the energies to round-off, as above)."""
     from pathlib import Path
 
-    from studies.rundir import run_scene
-    from studies.sweep.batch import run_batch
-    from studies.sweep.spec import load_sweep, scene_for
+    from stickslip.studies.rundir import run_scene
+    from stickslip.studies.sweep.batch import run_batch
+    from stickslip.studies.sweep.spec import load_sweep, scene_for
 
     spec, out = two_sweeps
     for task in spec.tasks:
@@ -194,7 +194,7 @@ def test_diverged_scene_is_masked_and_recorded_the_others_go_on(two_sweeps):
 
 
 def test_resume_runs_nothing_that_is_final(two_sweeps):
-    from studies.sweep.schedule import run_sweep
+    from stickslip.studies.sweep.schedule import run_sweep
 
     spec, out = two_sweeps
     before = {p: p.stat().st_mtime for p in (out["3"] / "runs").glob("*/summary.json")}
@@ -205,10 +205,10 @@ def test_resume_runs_nothing_that_is_final(two_sweeps):
 
 
 def _batch(B_scenes, kernel="numba", common=()):
-    from solver.ensemble import BatchedExplicit, BatchedProblem
-    from solver.fused import friction_bound
-    from solver.run import Simulation
-    from solver.scene import load_scene
+    from stickslip.solver.ensemble import BatchedExplicit, BatchedProblem
+    from stickslip.solver.fused import friction_bound
+    from stickslip.solver.run import Simulation
+    from stickslip.solver.scene import load_scene
 
     sims = [Simulation(load_scene("scenes/smoke.toml", ["output.progress=false", *common,
                                                          *o]), SELF)
@@ -254,7 +254,7 @@ def test_register_passes_and_single_columns_give_the_single_scene_bits():
     (docs/performance.md, 'Batches')."""
     extra = [("loading.omega=35.0",), ("geometry.delta=0.0008",), ("loading.f=0.2",)]
     integ, sims = _batch(VARIANTS + extra)
-    from solver.fused import _kernels
+    from stickslip.solver.fused import _kernels
 
     assert integ.B == 7 and (integ.n // 2) % _kernels().NODE_BLOCK != 0
     for n in range(120):
@@ -274,8 +274,8 @@ def test_long_batches_run_the_term_outer_kernel_with_the_same_bits():
     mesh's does: B = 48 here). That batch, the 4 variants 12 times over, gives column by
     column the 4-scene batch's bits (itself the single-scene runs', tests above), lean steps
     included."""
-    from solver.ensemble import BatchedExplicit
-    from solver.fused import _kernels
+    from stickslip.solver.ensemble import BatchedExplicit
+    from stickslip.solver.fused import _kernels
 
     kern = _kernels()
     assert kern.batched_kernel_name(kern.LONG_B - 1, 1 << 30) == "batched_step"
@@ -331,7 +331,7 @@ def test_memory_record_and_disk_spool_hold_the_same_samples(tmp_path):
     it fits) and spooled to disk in chunks give every scene the same samples and probes,
     bit for bit: both observe the same steps, 4 scenes, 70 steps (several chunks and a
     partial one), sampled every 3rd step."""
-    from solver.ensemble_observers import BatchRecorder
+    from stickslip.solver.ensemble_observers import BatchRecorder
 
     integ, _ = _batch(VARIANTS)
     bp = integ.bp
@@ -376,8 +376,13 @@ def test_array_namespace_reference_equals_the_kernel_to_round_off():
 
 
 def test_grouping_and_batch_option(tmp_path):
-    from studies.sweep.batch import auto_batch_size, batch_key, bytes_per_scene, parse_batch
-    from studies.sweep.spec import scene_for
+    from stickslip.studies.sweep.batch import (
+        auto_batch_size,
+        batch_key,
+        bytes_per_scene,
+        parse_batch,
+    )
+    from stickslip.studies.sweep.spec import scene_for
 
     spec = _spec(tmp_path)
     scenes = [scene_for(spec, t) for t in spec.tasks]
@@ -399,7 +404,7 @@ def test_grouping_and_batch_option(tmp_path):
 
 
 def test_sweep_file_batch_and_backend_keys(tmp_path):
-    from studies.sweep.spec import SweepError, load_sweep
+    from stickslip.studies.sweep.spec import SweepError, load_sweep
 
     text = MIXED.format(base=__import__("pathlib").Path("scenes/smoke.toml").resolve())
     path = tmp_path / "s.toml"
@@ -419,7 +424,7 @@ def test_slp_flag_is_set_for_the_first_call_only():
     first call) and restores the process-wide default after it, also on an error."""
     from numba.core import config
 
-    from solver.fused import slp_vectorize
+    from stickslip.solver.fused import slp_vectorize
 
     before = config.SLP_VECTORIZE
     with slp_vectorize():
@@ -444,7 +449,7 @@ def test_damped_batch_equals_the_damped_single_scene_kernel_bitwise():
     relative in the works, as undamped."""
     integ, sims = _batch(VARIANTS, common=DAMPED)
     ref, _ = _batch(VARIANTS, kernel="xp", common=DAMPED)
-    from solver.ensemble import BatchedExplicit
+    from stickslip.solver.ensemble import BatchedExplicit
 
     reps = 12
     big = BatchedExplicit(integ.bp, d=np.tile(integ.d, reps),
@@ -479,7 +484,7 @@ def test_regularised_batch_equals_the_single_scene_kernel_bitwise():
     pc = ('friction.regularization="prakash-clifton"', "friction.slip_length=2e-5",
           "friction.reference_velocity=1.0", *DAMPED)
     integ, sims = _batch(VARIANTS, common=pc)
-    from solver.ensemble import BatchedExplicit
+    from stickslip.solver.ensemble import BatchedExplicit
 
     reps = 12
     big = BatchedExplicit(integ.bp, d=np.tile(integ.d, reps),
@@ -519,8 +524,8 @@ def test_damped_sweep_batched_equals_the_sweep_without_batches(tmp_path):
     included, and the batched scenes do run in a batch."""
     from pathlib import Path
 
-    from studies.sweep.schedule import run_sweep
-    from studies.sweep.spec import load_sweep
+    from stickslip.studies.sweep.schedule import run_sweep
+    from stickslip.studies.sweep.spec import load_sweep
 
     path = tmp_path / "damped.toml"
     path.write_text(DAMPED_SWEEP.format(base=Path("scenes/smoke.toml").resolve()))
@@ -567,7 +572,7 @@ def test_damped_cuda_kernels_equal_the_numba_kernel_on_the_cpu(monkeypatch):
         pytest.skip("no C++ compiler")
     emulated = gpu_emulate.cupy_module()
     monkeypatch.setitem(sys.modules, "cupy", emulated)
-    from solver.ensemble import BatchedExplicit
+    from stickslip.solver.ensemble import BatchedExplicit
 
     ref, _ = _batch(VARIANTS[:3], common=DAMPED)
     cuda = BatchedExplicit(ref.bp, ref.d, ref.slide, ref.f, xp=emulated, kernel="cuda",

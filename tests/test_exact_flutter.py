@@ -19,9 +19,9 @@ import math
 import numpy as np
 import pytest
 
-from exact import halfspace
-from exact.annulus import Elastic, annulus_sliding_frequencies
-from exact.sliding_flutter import ELASTIC, Dissipation, sliding_branches
+from stickslip.exact import halfspace
+from stickslip.exact.annulus import Elastic, annulus_sliding_frequencies
+from stickslip.exact.sliding_flutter import ELASTIC, Dissipation, sliding_branches
 
 MAT = Elastic(E=1.0e9, rho=1000.0, nu=0.3, R=1.0, xi=1.25)  # the paper's tube
 
@@ -169,9 +169,9 @@ def test_prakash_clifton_limits() -> None:
 def _fe_branches(N: int) -> dict[int, list]:
     from mpi4py import MPI
 
-    from solver.problem import build_problem
-    from solver.scene import load_scene
-    from studies.flutter_fe.cea import complex_eigenvalue_analysis, distinct_modes
+    from stickslip.solver.problem import build_problem
+    from stickslip.solver.scene import load_scene
+    from stickslip.studies.flutter_fe.cea import complex_eigenvalue_analysis, distinct_modes
 
     scene = load_scene("figure3_n36", [f"mesh.n_inner={N}", "output.progress=false"])
     res = complex_eigenvalue_analysis(build_problem(scene, MPI.COMM_SELF), 0.7, 3200.0)
@@ -220,7 +220,7 @@ def test_flutter_fe_error_falls_at_second_order() -> None:
 
 
 def _cli(argv: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, str, str]:
-    from cli.continuum import register
+    from stickslip.cli.continuum import register
 
     parser = argparse.ArgumentParser(prog="stickslip")
     sub = parser.add_subparsers(dest="command", required=True)
@@ -277,9 +277,9 @@ def test_filtered_friction_removes_the_mesh_scale_branch() -> None:
     (1553 /s, docs/continuum.md)."""
     from mpi4py import MPI
 
-    from solver.problem import build_problem
-    from solver.scene import load_scene
-    from studies.flutter_fe.cea import build_operators, complex_eigenvalue_analysis
+    from stickslip.solver.problem import build_problem
+    from stickslip.solver.scene import load_scene
+    from stickslip.studies.flutter_fe.cea import build_operators, complex_eigenvalue_analysis
 
     problem = build_problem(load_scene("figure3_n36", ["mesh.n_inner=72"]), MPI.COMM_SELF)
     top = {}
@@ -299,9 +299,9 @@ def test_filtered_friction_is_the_same_on_one_and_all_ranks() -> None:
     another order: frequencies to 1e-8, growth to 1e-6, as the unfiltered MPI test)."""
     from mpi4py import MPI
 
-    from solver.problem import build_problem
-    from solver.scene import load_scene
-    from studies.flutter_fe.cea import build_operators, complex_eigenvalue_analysis
+    from stickslip.solver.problem import build_problem
+    from stickslip.solver.scene import load_scene
+    from stickslip.studies.flutter_fe.cea import build_operators, complex_eigenvalue_analysis
 
     out = {}
     for name, comm in (("self", MPI.COMM_SELF), ("world", MPI.COMM_WORLD)):
@@ -322,7 +322,7 @@ def test_cli_reads_the_scene_damping(capsys: pytest.CaptureFixture[str]) -> None
     2 % at 1.6 kHz: tau = 1.99 µs), so it is the continuum of the damped CEA. The lowest
     n = 8 branch grows at 353.7 /s undamped and 273.9 /s damped (the 79.8 /s drop is
     tau Re(omega²)/2 to first order in tau omega = 0.018: tolerance 1 %)."""
-    from cli.main import main
+    from stickslip.cli.main import main
 
     lowest = {}
     for extra in ([], ["--set", "damping.loss_factor=0"]):

@@ -21,14 +21,14 @@ pytest.importorskip("dolfinx")
 
 from mpi4py import MPI  # noqa: E402
 
-from semianalytic.steady import closed_form_steady  # noqa: E402
-from solver.field_output import (  # noqa: E402
+from stickslip.semianalytic.steady import closed_form_steady  # noqa: E402
+from stickslip.solver.field_output import (  # noqa: E402
     WindowCadence,
     expected_period,
     field_cadence,
     frame_count,
 )
-from solver.scene import load_scene  # noqa: E402
+from stickslip.solver.scene import load_scene  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
 SMOKE = REPO / "scenes" / "smoke.toml"
@@ -48,7 +48,7 @@ def _shared_dir(tmp_path: Path) -> Path:
 
 
 def _run_steady(tmp_path: Path, extra: list[str]):
-    from solver.run import Simulation
+    from stickslip.solver.run import Simulation
 
     scene = load_scene(SMOKE, [*STEADY, *extra])
     out = _shared_dir(tmp_path)
@@ -79,8 +79,8 @@ def _closed_form_stress(scene, r: np.ndarray) -> tuple[np.ndarray, np.ndarray, n
 def test_window_rule_and_cadence():
     """The default window is field_periods periods of the reduced model's mode-k flutter; the
     written levels are multiples of the cadence inside it, counted by frame_count."""
-    from semianalytic.coefficients import coefficients, gamma_from_physical
-    from semianalytic.flutter import dispersion_roots
+    from stickslip.semianalytic.coefficients import coefficients, gamma_from_physical
+    from stickslip.semianalytic.flutter import dispersion_roots
 
     scene = load_scene(SMOKE)
     m, g, ld = scene.material, scene.geometry, scene.loading
@@ -268,7 +268,7 @@ def test_xdmf_format_still_written(tmp_path):
 def test_estimate_and_disk_guard_count_the_fields(tmp_path, monkeypatch):
     """The size estimate adds the frames of the window; the disk guard refuses a run whose
     fields do not fit, naming the field keys in its fix."""
-    import studies.resources as resources
+    import stickslip.studies.resources as resources
 
     plain = load_scene(SMOKE)
     with_fields = plain.with_overrides("output.fields=true", "output.field_window=0.01")

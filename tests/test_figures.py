@@ -28,8 +28,8 @@ pytest.importorskip("matplotlib")
 def run_dir(tmp_path_factory) -> Path:
     from mpi4py import MPI
 
-    from solver.scene import load_scene
-    from studies.rundir import run_scene
+    from stickslip.solver.scene import load_scene
+    from stickslip.studies.rundir import run_scene
 
     out = tmp_path_factory.mktemp("figures") / "smoke_damped"
     summary = run_scene(load_scene(SMOKE, DAMPED), out, comm=MPI.COMM_SELF)
@@ -39,7 +39,7 @@ def run_dir(tmp_path_factory) -> Path:
 
 @pytest.fixture(scope="module")
 def run(run_dir):
-    from postprocess.analysis import load_run
+    from stickslip.postprocess.analysis import load_run
 
     return load_run(run_dir)
 
@@ -56,7 +56,7 @@ def _close(fig) -> None:
 def test_window_option_parses_periods_durations_and_all():
     import argparse
 
-    from postprocess.plotting import parse_window
+    from stickslip.postprocess.plotting import parse_window
 
     assert parse_window("5T") == (5.0, "T")
     assert parse_window("2.5 periods") == (2.5, "T")
@@ -71,7 +71,7 @@ def test_window_option_parses_periods_durations_and_all():
 def test_spacetime_map_shows_the_last_periods_by_default(run):
     """Default: the last 5 periods a fixed point sees (1/frequency), not the whole run; a
     duration and "all" as asked. Whole sample rows: the span to within one sample."""
-    from postprocess.plotting import DEFAULT_WINDOW, parse_window, spacetime_figure
+    from stickslip.postprocess.plotting import DEFAULT_WINDOW, parse_window, spacetime_figure
 
     t = run.samples["t"]
     freq = run.summary["frequency_hz"]
@@ -99,7 +99,7 @@ def test_energy_terms_sum_to_E0_within_the_stated_residual(run):
     subtraction apart), and with the stated residual the drawn terms give E(0) back to
     round-off of the largest term (1e-12 of W_cyl).
     """
-    from postprocess.energy_balance import energy_terms
+    from stickslip.postprocess.energy_balance import energy_terms
 
     e = run.samples["energies"]
     terms = energy_terms(e)
@@ -120,8 +120,8 @@ def test_energy_terms_sum_to_E0_within_the_stated_residual(run):
 
 
 def test_energy_figure_draws_every_term_and_the_residual(run):
-    from postprocess.energy_balance import energy_terms
-    from postprocess.plotting import energy_figure
+    from stickslip.postprocess.energy_balance import energy_terms
+    from stickslip.postprocess.plotting import energy_figure
 
     fig = energy_figure(run)
     stored, flows = fig.axes
@@ -144,7 +144,7 @@ def test_energy_figure_draws_every_term_and_the_residual(run):
 def test_isomap_shows_u_minus_d_and_the_steady_state_vanishes():
     """The plane-strain Lamé and torsion fields of a tube clamped at ξR (the steady sliding
     state's axisymmetric part) give no wave displacement: the map shows u_r − d, not d."""
-    from postprocess.isomap import wave_displacement
+    from stickslip.postprocess.isomap import wave_displacement
 
     R, xi, d, ut = 1.0, 1.25, 4e-4, 3e-3
     rng = np.random.default_rng(0)
@@ -166,13 +166,13 @@ def test_isomap_shows_u_minus_d_and_the_steady_state_vanishes():
 
 
 def test_isomap_contact_nodes_sit_on_the_cylinder(run_dir, run):
-    from postprocess.isomap import _panel, wave_displacement
+    from stickslip.postprocess.isomap import _panel, wave_displacement
 
     with np.load(run_dir / "final_field.npz") as ff:
         pts, u = ff["points"], ff["u"]
     geo = run.scene["geometry"]
     _, ur = wave_displacement(pts, u, run.radius, geo["xi"], run.d)
-    from postprocess.analysis import load_run
+    from stickslip.postprocess.analysis import load_run
 
     panel = _panel(run_dir, load_run)
     ring = panel["ring"]
@@ -194,8 +194,8 @@ def test_one_colour_code_and_true_titles_in_every_run_figure(run_dir, run, monke
     import matplotlib.colors as mc
     import matplotlib.pyplot as plt
 
-    from postprocess import plotting
-    from postprocess.style import STATUS_COLORS, STATUS_LABELS
+    from stickslip.postprocess import plotting
+    from stickslip.postprocess.style import STATUS_COLORS, STATUS_LABELS
 
     monkeypatch.setattr(plotting, "reduced_curves", lambda *args, **kwargs: [])
     if not (shutil.which("Xvfb") or os.environ.get("DISPLAY")):
@@ -229,8 +229,8 @@ def test_reduced_model_wave_uses_the_same_colours(tmp_path):
     """wave.png (``stickslip wave --plot``) shades its zones with the project's code."""
     import matplotlib.colors as mc
 
-    from semianalytic.coefficients import coefficients, gamma_from_physical
-    from semianalytic.waves import find_waves
+    from stickslip.semianalytic.coefficients import coefficients, gamma_from_physical
+    from stickslip.semianalytic.waves import find_waves
 
     co = coefficients(0.3, 1.25, gamma_from_physical(1000.0, 1.0, 1.0))
     waves = find_waves(co, 0.7, 4, 4e-4, regime="stick-slip")
@@ -245,8 +245,8 @@ def test_reduced_model_wave_uses_the_same_colours(tmp_path):
         seen.append(mc.to_rgb(kwargs["color"]))
         return original(self, *args, **kwargs)
 
-    from postprocess.style import STATUS_COLORS
-    from semianalytic.plotting import plot_wave
+    from stickslip.postprocess.style import STATUS_COLORS
+    from stickslip.semianalytic.plotting import plot_wave
 
     matplotlib.axes.Axes.axvspan = spy
     try:
@@ -257,7 +257,7 @@ def test_reduced_model_wave_uses_the_same_colours(tmp_path):
 
 
 def test_plot_command_refuses_a_bad_window(run_dir, capsys):
-    from cli.main import main
+    from stickslip.cli.main import main
 
     with pytest.raises(SystemExit) as exc:
         main(["plot", str(run_dir), "--window", "five"])
@@ -271,8 +271,8 @@ def test_travel_profiles_use_the_same_colours_and_units(tmp_path, monkeypatch):
     import matplotlib.colors as mc
     import matplotlib.pyplot as plt
 
-    from postprocess.style import STATUS_COLORS, STATUS_LABELS
-    from studies.travel.output import plot_profiles
+    from stickslip.postprocess.style import STATUS_COLORS, STATUS_LABELS
+    from stickslip.studies.travel.output import plot_profiles
 
     phi = np.linspace(0.0, np.pi / 2, 40, endpoint=False)
     status = np.repeat([0, 1, 2, 1], 10)

@@ -20,7 +20,11 @@ import pytest
 from scipy.optimize import brentq
 from scipy.special import jv, yv
 
-from studies.flutter_fe import annulus_sliding_frequencies, matrix_pencil, newmark_exponents
+from stickslip.studies.flutter_fe import (
+    annulus_sliding_frequencies,
+    matrix_pencil,
+    newmark_exponents,
+)
 
 E, NU, RHO, R, XI = 1.0e9, 0.3, 1000.0, 1.0, 1.25  # the paper's tube (scenes/figure3_*)
 
@@ -94,8 +98,8 @@ def _fe():
     pytest.importorskip("dolfinx")
     from mpi4py import MPI
 
-    from solver.problem import build_problem
-    from solver.scene import load_scene
+    from stickslip.solver.problem import build_problem
+    from stickslip.solver.scene import load_scene
 
     return MPI, build_problem, load_scene
 
@@ -108,7 +112,7 @@ def _problem(name: str, *overrides: str, comm=None):
 
 def _branches(res, k: int):
     """Distinct modes of wavenumber |k| (one per ±k pair), by frequency."""
-    from studies.flutter_fe.cea import distinct_modes
+    from stickslip.studies.flutter_fe.cea import distinct_modes
 
     return distinct_modes(m for m in res.modes if m.wavenumber == k)
 
@@ -120,7 +124,7 @@ def test_band_slicing_finds_every_eigenvalue_of_the_dense_problem():
     import scipy.linalg as sl
     from scipy.sparse import csr_matrix
 
-    from studies.flutter_fe import band_eigenvalues, build_operators
+    from stickslip.studies.flutter_fe import band_eigenvalues, build_operators
 
     pb = _problem("smoke")
     ops = build_operators(pb)
@@ -150,7 +154,7 @@ def test_f0_gives_real_double_frequencies_matching_the_bessel_reference():
     second 9.7 % / 3.6 %, third 6.6 % / 2.4 %. Tolerances at N = 132: 0.5 %, 4 %, 3 %; and
     for the second and third branches the error of EVERY k must fall with an observed order
     > 1.4 from N = 72 to 132 (P1: 2 expected)."""
-    from studies.flutter_fe import complex_eigenvalue_analysis
+    from stickslip.studies.flutter_fe import complex_eigenvalue_analysis
 
     errors = {}
     for n in (72, 132):
@@ -183,7 +187,7 @@ def test_growth_rates_converge_with_the_mesh():
     1845 Hz). The successive changes must shrink (|last| < 0.6 |previous|, observed 0.07-0.5
     while h halves, then shrinks by 1.83) and the last one stay below 10 % (growth) and 3 %
     (frequency) of the value: first-order-like convergence of the nodal contact."""
-    from studies.flutter_fe import complex_eigenvalue_analysis
+    from stickslip.studies.flutter_fe import complex_eigenvalue_analysis
 
     results = [complex_eigenvalue_analysis(_problem("figure3_n36", f"mesh.n_inner={n}"), 0.7,
                                            2000.0) for n in (72, 132, 264)]
@@ -211,7 +215,7 @@ def test_seeded_transient_grows_as_cea_predicts():
     rotation): tolerance 1 %. The raw slope of log|U_4| includes the second k = 4 branch
     (1031 /s, against the rotation, amplitude ratio ~0.3 at 8 ms): tolerance 5 %."""
     MPI, _, load_scene = _fe()
-    from studies.flutter_fe import complex_eigenvalue_analysis, measure_transient_growth
+    from stickslip.studies.flutter_fe import complex_eigenvalue_analysis, measure_transient_growth
 
     scene = load_scene("figure3_n132")
     res = complex_eigenvalue_analysis(_problem("figure3_n132"), None, 3000.0)
@@ -242,8 +246,8 @@ def test_roundoff_growth_of_unperturbed_sliding_is_the_damped_cea_maximum():
     vector updates: measured 707 /s with one arithmetic, 684 /s with another), and they
     separate only by e^{33 t}, so the measured rate must lie between them (1 % slack)."""
     MPI, _, load_scene = _fe()
-    from solver.run import Simulation
-    from studies.flutter_fe import complex_eigenvalue_analysis
+    from stickslip.solver.run import Simulation
+    from stickslip.studies.flutter_fe import complex_eigenvalue_analysis
 
     sim = Simulation(load_scene("smoke", ['initial.perturbation="none"',
                                           "output.progress=false"]), MPI.COMM_SELF)
@@ -273,7 +277,7 @@ def test_reduced_model_is_a_ritz_upper_bound_and_underestimates_the_growth():
     ones of the same k (> 350 /s): the single radial shape X(r) with u = delta removes the
     radial motion of the tube interior, which is what friction couples to."""
     _fe()
-    from studies.flutter_fe import complex_eigenvalue_analysis, reduced_model_flutter
+    from stickslip.studies.flutter_fe import complex_eigenvalue_analysis, reduced_model_flutter
 
     scene0 = _problem("figure3_n132").scene
     red0 = reduced_model_flutter(scene0.with_overrides("loading.f=0.0"), 8)
@@ -292,7 +296,7 @@ def test_eigenvalues_are_the_same_on_one_and_all_ranks():
     """N = 72, f = 0.7, up to 2.5 kHz: same modes, growth rates and wavenumbers on
     COMM_SELF and COMM_WORLD (MUMPS/Krylov in another order: agreement to 1e-8)."""
     MPI, _, _ = _fe()
-    from studies.flutter_fe import complex_eigenvalue_analysis
+    from stickslip.studies.flutter_fe import complex_eigenvalue_analysis
 
     out = {}
     for name, comm in (("self", MPI.COMM_SELF), ("world", MPI.COMM_WORLD)):
@@ -308,7 +312,7 @@ def test_eigenvalues_are_the_same_on_one_and_all_ranks():
 
 def test_cli_json_table_and_bad_input(capsys, tmp_path):
     _fe()
-    from cli.main import main
+    from stickslip.cli.main import main
 
     assert main(["flutter-fe", "smoke", "--json", "--fmax-hz", "5000"]) == 0
     out = json.loads(capsys.readouterr().out)
@@ -342,7 +346,7 @@ def test_damped_exponents_solve_the_dense_quadratic_eigenproblem():
     import scipy.linalg as sl
     from scipy.sparse import csr_matrix
 
-    from studies.flutter_fe import build_operators, complex_eigenvalue_analysis
+    from stickslip.studies.flutter_fe import build_operators, complex_eigenvalue_analysis
 
     tau = 1e-5
     pb = _problem("smoke")
@@ -383,9 +387,9 @@ def test_damping_lowers_the_growth_by_tau_omega2_over_2_as_in_the_continuum():
       < 3 % at N = 264.
     """
     _fe()
-    from exact.annulus import Elastic
-    from exact.sliding_flutter import Dissipation, sliding_branches
-    from studies.flutter_fe import complex_eigenvalue_analysis
+    from stickslip.exact.annulus import Elastic
+    from stickslip.exact.sliding_flutter import Dissipation, sliding_branches
+    from stickslip.studies.flutter_fe import complex_eigenvalue_analysis
 
     mat = Elastic(E=E, rho=RHO, nu=NU, R=R, xi=XI)
 
@@ -428,7 +432,7 @@ def test_damped_transient_grows_as_the_damped_cea_predicts():
     matches the continuous damped CEA of k = 4 (968 /s at 2401 Hz, with the rotation;
     1192 /s undamped): tolerance 1 %."""
     MPI, _, load_scene = _fe()
-    from studies.flutter_fe import complex_eigenvalue_analysis, measure_transient_growth
+    from stickslip.studies.flutter_fe import complex_eigenvalue_analysis, measure_transient_growth
 
     scene = load_scene("figure3_n132_damped")
     tau = scene.damping.tau
@@ -468,9 +472,9 @@ def test_regularised_cea_tends_to_coulomb_and_to_the_exact_continuum():
       Coulomb friction the N = 36 error of this branch is 31 %); N = 72 / 132: 306.4 / 309.9
       (docs/flutter.md). Tolerance 8 % at N = 36."""
     _fe()
-    from exact.annulus import Elastic
-    from exact.sliding_flutter import Dissipation, sliding_branches
-    from studies.flutter_fe import complex_eigenvalue_analysis
+    from stickslip.exact.annulus import Elastic
+    from stickslip.exact.sliding_flutter import Dissipation, sliding_branches
+    from stickslip.studies.flutter_fe import complex_eigenvalue_analysis
 
     pb = _problem("figure3_n36")
     coulomb = complex_eigenvalue_analysis(pb, None, 2000.0).unstable()
@@ -503,7 +507,7 @@ def test_regularised_transient_grows_as_the_regularised_cea_predicts():
     0.1 dt_crit; the first-order extrapolation g(dt) − (g(3dt) − g(dt))/2 = 389.0 is the CEA's
     389.2 /s: measured 0.06 % apart, tolerance 1 % (the O(dt²) remainder)."""
     MPI, _, load_scene = _fe()
-    from studies.flutter_fe import complex_eigenvalue_analysis, measure_transient_growth
+    from stickslip.studies.flutter_fe import complex_eigenvalue_analysis, measure_transient_growth
 
     scene = load_scene("figure3_n36", REGULARISED)
     res = complex_eigenvalue_analysis(_problem("figure3_n36", *REGULARISED), None, 3000.0)
@@ -526,7 +530,7 @@ def test_cea_refuses_what_it_cannot_represent(capsys):
     """A scene term the CEA cannot represent is refused in one line, not dropped: the
     regularised bound with the consistent mass."""
     _fe()
-    from cli.main import main
+    from stickslip.cli.main import main
 
     args = ["flutter-fe", "smoke", "--mass", "consistent"]
     for item in REGULARISED:
@@ -542,7 +546,7 @@ def test_cli_table_lists_resolved_modes_first_and_writes_mode_shapes(capsys, tmp
     one VTX folder per mode; the exported ψ_θ on the contact circle has the table's signed
     wavenumber as its dominant Fourier component (exact: the same eigenvector)."""
     _fe()
-    from cli.main import main
+    from stickslip.cli.main import main
 
     out_dir = tmp_path / "modes"
     assert main(["flutter-fe", "figure3_n36", "--fmax-hz", "3000", "--top", "4",

@@ -21,8 +21,8 @@ import ufl  # noqa: E402
 from mpi4py import MPI  # noqa: E402
 from petsc4py import PETSc  # noqa: E402
 
-from forms.elasticity import Material, lumped_mass, mass, stiffness, stress  # noqa: E402
-from forms.polar import (  # noqa: E402
+from stickslip.forms.elasticity import Material, lumped_mass, mass, stiffness, stress  # noqa: E402
+from stickslip.forms.polar import (  # noqa: E402
     boundary_measure,
     contact_nodes,
     radial_component,
@@ -30,12 +30,12 @@ from forms.polar import (  # noqa: E402
     tangential_component,
     tangential_unit,
 )
-from forms.steady import static_sliding  # noqa: E402
-from meshes import INNER_TAG, OUTER_TAG, annulus_mesh  # noqa: E402
-from meshes.compat import solve_linear  # noqa: E402
+from stickslip.forms.steady import static_sliding  # noqa: E402
+from stickslip.meshes import INNER_TAG, OUTER_TAG, annulus_mesh  # noqa: E402
+from stickslip.meshes.compat import solve_linear  # noqa: E402
 
 try:
-    from semianalytic.steady import closed_form_steady
+    from stickslip.semianalytic.steady import closed_form_steady
 except ImportError:  # fall back to a local copy of the section-2 closed form
 
     def closed_form_steady(r, *, delta, f, nu, xi):  # type: ignore[no-redef]

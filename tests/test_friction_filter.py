@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from conftest import step_checking_contact
 
-from solver.contact import (
+from stickslip.solver.contact import (
     SEPARATION,
     SLIP,
     STICK,
@@ -18,9 +18,9 @@ from solver.contact import (
     project_contact,
     project_contact_filtered,
 )
-from solver.fused import numba_available
-from solver.scene import SceneError, load_scene
-from solver.schemes import resolve_kernel
+from stickslip.solver.fused import numba_available
+from stickslip.solver.scene import SceneError, load_scene
+from stickslip.solver.schemes import resolve_kernel
 
 
 def test_filter_is_the_periodic_1_2_1_stencil_in_angle_order():
@@ -67,7 +67,7 @@ def test_filtered_projection_keeps_normal_step_and_uses_filtered_bound():
 def test_prakash_clifton_relaxes_towards_the_filtered_pressure():
     """Composition: sigma_eff relaxes towards p~ (not p). With L -> 0 (exp(-rate dt) = 0)
     the regularised filtered law is the filtered Coulomb law bit for bit."""
-    from solver.contact import EffectivePressure
+    from stickslip.solver.contact import EffectivePressure
 
     rng = np.random.default_rng(7)
     n, kappa, d, slide, f = 300, 1e-9, 1e-3, 1e-4, 0.7
@@ -117,8 +117,8 @@ pytest.importorskip("dolfinx")
 
 from mpi4py import MPI  # noqa: E402
 
-from solver.contact import ContactProjection, FilteredContactProjection  # noqa: E402
-from solver.run import Simulation  # noqa: E402
+from stickslip.solver.contact import ContactProjection, FilteredContactProjection  # noqa: E402
+from stickslip.solver.run import Simulation  # noqa: E402
 
 SMALL = ["output.progress=false", "mesh.n_inner=72", "mesh.n_radial=0", 'time.kernel="numpy"']
 
@@ -192,13 +192,13 @@ def test_seeded_transient_with_the_filter_grows_as_the_filtered_cea_predicts():
     (1192 vs 1184 /s): the transient must sit > 3e-3 away from it, so the test tells the two
     laws apart. Over all k the filtered CEA has no mesh-scale branch
     above the physical one: its fastest mode is k <= 8 (docs/friction_filter.md)."""
-    from solver.problem import build_problem
-    from studies.flutter_fe import (
+    from stickslip.solver.problem import build_problem
+    from stickslip.studies.flutter_fe import (
         complex_eigenvalue_analysis,
         measure_transient_growth,
         newmark_exponents,
     )
-    from studies.flutter_fe.cea import build_operators, distinct_modes
+    from stickslip.studies.flutter_fe.cea import build_operators, distinct_modes
 
     scene = load_scene("figure3_n132", ["output.progress=false", 'friction.filter="1-2-1"'])
     problem = build_problem(scene, MPI.COMM_SELF)

@@ -16,8 +16,8 @@ pytest.importorskip("dolfinx")
 pytest.importorskip("numba")
 from mpi4py import MPI  # noqa: E402
 
-from solver.run import Simulation  # noqa: E402
-from solver.scene import load_scene  # noqa: E402
+from stickslip.solver.run import Simulation  # noqa: E402
+from stickslip.solver.scene import load_scene  # noqa: E402
 
 SELF = MPI.COMM_SELF
 STEPS = 300
@@ -84,7 +84,7 @@ def test_compiled_time_loop_equals_the_step_by_step_loop(monkeypatch, damping):
     relative (sequential sums against BLAS dot over 312 dofs: a few ulp per term). Damped,
     both take K u_n for the samples from ``refresh_ku`` and W_d from ``FusedDampingWork``:
     W_d bitwise too."""
-    from solver.fused import FusedNewmark
+    from stickslip.solver.fused import FusedNewmark
 
     sc = smoke('initial.perturbation="random"', "initial.seed=3", *damping)
     fast = run(sc, "numba", steps=STEPS + 3)  # ends between two samples (every = 4)
@@ -109,7 +109,7 @@ def test_compiled_time_loop_equals_the_step_by_step_loop(monkeypatch, damping):
 
 
 def test_summary_reports_the_kernel_and_its_first_call_time(tmp_path):
-    from studies.rundir import run_scene
+    from stickslip.studies.rundir import run_scene
 
     s = run_scene(smoke("time.max_steps=20"), tmp_path / "r", comm=SELF,
                   stream=open(os.devnull, "w"))
@@ -118,7 +118,7 @@ def test_summary_reports_the_kernel_and_its_first_call_time(tmp_path):
 
 
 def test_fallback_rule():
-    from solver.schemes import select
+    from stickslip.solver.schemes import select
 
     assert select.resolve_kernel(smoke()) == "numba"
     assert select.resolve_kernel(smoke('time.kernel="numpy"')) == "numpy"
@@ -127,7 +127,7 @@ def test_fallback_rule():
 
 
 def test_numba_requested_without_numba_is_an_error(monkeypatch):
-    from solver.schemes import select
+    from stickslip.solver.schemes import select
 
     monkeypatch.setattr(select, "numba_available", lambda: False)
     assert select.resolve_kernel(smoke()) == "numpy"  # auto falls back
@@ -136,7 +136,7 @@ def test_numba_requested_without_numba_is_an_error(monkeypatch):
 
 
 def test_read_only_package_dir_gets_a_writable_numba_cache(monkeypatch, tmp_path):
-    from solver import fused
+    from stickslip.solver import fused
 
     monkeypatch.delenv("NUMBA_CACHE_DIR", raising=False)
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
@@ -149,7 +149,7 @@ def test_read_only_package_dir_gets_a_writable_numba_cache(monkeypatch, tmp_path
 
 
 def test_bad_kernel_name_is_refused_with_the_choices():
-    from solver.scene import SceneError
+    from stickslip.solver.scene import SceneError
 
     with pytest.raises(SceneError, match="kernel"):
         smoke('time.kernel="fortran"')
@@ -206,7 +206,7 @@ def test_damped_fused_step_equals_damped_newmark_to_round_off(beta2):
 
 
 def test_damped_and_regularised_scenes_get_the_fused_kernel_and_the_filter_does_not():
-    from solver.schemes import select
+    from stickslip.solver.schemes import select
 
     for extra in ((DAMPED,), PRAKASH_CLIFTON, CONSTANT_TIME):
         assert select.resolve_kernel(smoke(*extra)) == "numba"

@@ -53,7 +53,7 @@ def one_line(err: BaseException) -> None:
                 max_size=3))
 def test_set_values(pairs):
     """``--set KEY=VALUE``: a valid scene or one SceneError line."""
-    from solver.scene import SceneError, load_scene
+    from stickslip.solver.scene import SceneError, load_scene
 
     try:
         load_scene(SMOKE, [f"{k}={v}" for k, v in pairs])
@@ -81,7 +81,7 @@ def _toml(value) -> str:  # noqa: ANN001
        st.sampled_from(["", "junk = 1\n", "[[geometry]]\n", "\x00", "name = 3\n"]))
 def test_scene_files(tmp_path_factory, entries, extra):
     """Scene files: the smoke scene with fields replaced by anything TOML can hold."""
-    from solver.scene import SceneError, load_scene
+    from stickslip.solver.scene import SceneError, load_scene
 
     data = tomllib.loads(SMOKE.read_text())
     for key, value in entries.items():
@@ -113,8 +113,8 @@ def test_scene_files(tmp_path_factory, entries, extra):
                            max_size=3)), max_size=5))
 def test_sweep_files(tmp_path_factory, body):
     """Sweep files: a SweepSpec or one SweepError line (never a traceback)."""
-    from studies.sweep import load_sweep
-    from studies.sweep.spec import SweepError
+    from stickslip.studies.sweep import load_sweep
+    from stickslip.studies.sweep.spec import SweepError
 
     lines, tables = [f'base = "{SMOKE}"'] if "base" not in body else [], []
     for key, value in body.items():
@@ -142,7 +142,7 @@ OPTION = st.one_of(st.sampled_from(["--omega", "--nu", "--kmax", "--k", "--f", "
 def test_cli_option_strings(tmp_path_factory, capsys, command, options):
     """The light commands with any option strings: exit 0, or exit 2 with one line (argparse
     usage errors print their usage line too, and exit 2)."""
-    from cli.main import main
+    from stickslip.cli.main import main
 
     cwd = tmp_path_factory.mktemp("cli")
     before = sorted(p.name for p in cwd.iterdir())
@@ -170,8 +170,8 @@ def finished(tmp_path_factory) -> Path:
     pytest.importorskip("dolfinx")
     from mpi4py import MPI
 
-    from solver.scene import load_scene
-    from studies.rundir import run_scene
+    from stickslip.solver.scene import load_scene
+    from stickslip.studies.rundir import run_scene
 
     d = tmp_path_factory.mktemp("fuzzrun") / "r"
     scene = load_scene(SMOKE, ["time.end_time=0.005", "output.progress=false"])
@@ -189,8 +189,8 @@ def test_damaged_run_directories(finished, tmp_path_factory, capsys, name, how, 
     """A run directory with one file truncated, flipped, deleted or replaced: the reader
     check passes (then compare reads it) or fails in one ReadError line; `run --force` on it
     replaces it or refuses in one line, and never touches what is not stickslip's."""
-    from cli.main import main
-    from studies.rundir.readers import ReadError, check_run_dir
+    from stickslip.cli.main import main
+    from stickslip.studies.rundir.readers import ReadError, check_run_dir
 
     d = tmp_path_factory.mktemp("damaged") / "r"
     shutil.copytree(finished, d)
@@ -238,7 +238,7 @@ def test_run_option_strings(tmp_path_factory, capsys, options):
     pytest.importorskip("dolfinx")
     import os
 
-    from cli.main import main
+    from stickslip.cli.main import main
 
     cwd = tmp_path_factory.mktemp("runfuzz")
     (cwd / "mine").mkdir()
@@ -280,22 +280,22 @@ def _reached(*args, **kwargs):  # noqa: ANN002, ANN003, ANN202
 #: Each command: its argv before the fuzzed option ({tmp}: a fresh folder, {run}: a finished
 #: run) and the calls that do its work, replaced by ``Reached`` (the light commands run).
 COMMANDS = {
-    "run": (["run", "smoke", "-o", "{tmp}/r"], ["studies.rundir.run_scene"]),
-    "plot": (["plot", "{run}"], ["postprocess.plotting.plot_run"]),
-    "continue": (["continue", "{run}"], ["studies.rundir.continue_run"]),
+    "run": (["run", "smoke", "-o", "{tmp}/r"], ["stickslip.studies.rundir.run_scene"]),
+    "plot": (["plot", "{run}"], ["stickslip.postprocess.plotting.plot_run"]),
+    "continue": (["continue", "{run}"], ["stickslip.studies.rundir.continue_run"]),
     "wave": (["wave", "--json"], []),
     "flutter": (["flutter", "--json"], []),
     "compare": (["compare", "{run}", "--json", "{tmp}/c.json"], []),
     "sweep": (["sweep", str(REPO / "sweeps" / "smoke4.toml"), "-o", "{tmp}/s"],
-              ["cli.sweep.run_sweep"]),
+              ["stickslip.cli.sweep.run_sweep"]),
     "flutter-fe": (["flutter-fe", "smoke", "--json"],
-                   ["cli.flutter_fe.complex_eigenvalue_analysis"]),
+                   ["stickslip.cli.flutter_fe.complex_eigenvalue_analysis"]),
     "flutter-exact": (["flutter-exact", "smoke", "--json"],
-                      ["exact.sliding_flutter.sliding_branches"]),
+                      ["stickslip.exact.sliding_flutter.sliding_branches"]),
     "travel": (["travel", "smoke", "--k", "4", "-o", "{tmp}/t"],
-               ["studies.travel.command.solve", "studies.travel.continuation.run_continuation"]),
+               ["stickslip.studies.travel.command.solve", "stickslip.studies.travel.continuation.run_continuation"]),
     "attractors": (["attractors", "smoke", "-o", "{tmp}/a"],
-                   ["studies.attractors.census.run_census", "studies.attractors.along.run_along"]),
+                   ["stickslip.studies.attractors.census.run_census", "stickslip.studies.attractors.along.run_along"]),
 }
 #: Options that take numbers inside a string: the string built from drawn numbers.
 TEMPLATES = {"--batch": "{i}", "--f-sweep": "{x}:{y}:{i}",
@@ -314,7 +314,7 @@ EXTREME_INTS = st.one_of(
 def _numeric_options() -> list[tuple[str, str, str]]:
     """(command, option, kind) of every option whose value is a number (argparse type int,
     float or a parsing function) or holds numbers (``TEMPLATES``), read from the parser."""
-    from cli.main import build_parser
+    from stickslip.cli.main import build_parser
 
     sub = next(a for a in build_parser()._actions if a.dest == "command")
     out = []
@@ -347,7 +347,7 @@ def test_every_numeric_option_is_fuzzed():
 def test_numeric_options(finished, tmp_path_factory, capsys, monkeypatch, option, data):
     """Any number (NaN, ±inf, 0, negative, tiny, huge, not an int) for any numeric option:
     exit 0 (or the command's work reached), or exit 2 with one line; never a traceback."""
-    from cli.main import main
+    from stickslip.cli.main import main
 
     command, flag, kind = option
     if kind == "int":
@@ -405,7 +405,7 @@ def test_numeric_options_hostile_grid(finished, tmp_path, capsys, monkeypatch, c
                                       value):
     """Each numeric option with each hostile value: exit 0 (or the command's work reached),
     or exit 2 with one line at load; never a traceback, an overflow or a huge allocation."""
-    from cli.main import main
+    from stickslip.cli.main import main
 
     before, works = COMMANDS[command]
     for target in works:
@@ -427,8 +427,8 @@ def test_numeric_options_hostile_grid(finished, tmp_path, capsys, monkeypatch, c
 
 def _numeric_scene_keys() -> list[str]:
     """Every numeric key of a resolved scene (the defaults included), as ``section.key``."""
-    from solver.scene import load_scene
-    from solver.scene.model import scene_to_dict
+    from stickslip.solver.scene import load_scene
+    from stickslip.solver.scene.model import scene_to_dict
 
     data = scene_to_dict(load_scene(SMOKE))
     return sorted(f"{s}.{k}" for s, v in data.items() if isinstance(v, dict)
@@ -441,9 +441,9 @@ def test_scene_numbers_hostile_grid(tmp_path, capsys, monkeypatch, value):
     """`run --set KEY=VALUE` for every numeric key of a scene and each hostile value, up to
     the resource check (the run directory is not made): exit 2 in one line, or the run
     reached; never a traceback (time.end_time = 1e308 overflowed the step count)."""
-    from cli.main import main
+    from stickslip.cli.main import main
 
-    monkeypatch.setattr("studies.rundir.scene_run.prepare_run_dir", _reached)
+    monkeypatch.setattr("stickslip.studies.rundir.scene_run.prepare_run_dir", _reached)
     keys = _numeric_scene_keys()
     assert len(keys) >= 30
     for key in keys:
@@ -482,7 +482,7 @@ def _tiny_commands(tmp: Path) -> dict[str, list[str]]:
 
 
 def _run_quietly(argv: list[str]) -> int:
-    from cli.main import main
+    from stickslip.cli.main import main
 
     with contextlib.redirect_stdout(io.StringIO()):
         return main(argv)
@@ -630,7 +630,7 @@ def test_a_read_only_folder_is_refused_in_one_line(tmp_path, command):
     (ro / "tiny.toml").chmod(0o644)
     try:
         ro.chmod(0o555)
-        res = subprocess.run([sys.executable, "-m", "cli.main", *argv], cwd=REPO,
+        res = subprocess.run([sys.executable, "-m", "stickslip.cli.main", *argv], cwd=REPO,
                              capture_output=True, text=True, timeout=120,
                              env={**os.environ, "HOME": "/tmp"},
                              preexec_fn=lambda: os.setuid(65534))

@@ -41,8 +41,8 @@ def _bundle(directory: Path) -> Path:
     if path:
         return Path(path)
     pytest.importorskip("dolfinx")
-    from solver.bundle import prepare_bundle
-    from solver.scene import load_scene
+    from stickslip.solver.bundle import prepare_bundle
+    from stickslip.solver.scene import load_scene
 
     scenes = [load_scene("scenes/smoke.toml", ["output.progress=false", o]) for o in SCENES]
     prepare_bundle(directory, [(["omega50", "omega20", "f0"], scenes)])
@@ -52,7 +52,7 @@ def _bundle(directory: Path) -> Path:
 def _problem(directory: Path):
     """(BatchedProblem, u0 (n, 3), d, R Omega dt, f) of the bundle's scenes."""
     from benchmarks.gpu_bench import load
-    from solver.contact import ContactLaw
+    from stickslip.solver.contact import ContactLaw
 
     scenes, layout, starts = load(_bundle(directory))
     laws = [ContactLaw.from_scene(sc, layout.problem.dt) for sc in scenes]
@@ -67,7 +67,7 @@ def test_gpu_batch_equals_the_cpu_kernel(kernel, tmp_path):
     """200 steps: cuda bitwise (same operations, same order, no fused multiply-add), xp to
     1e-12 of max|u| (cuSPARSE's sum order; round-off amplified by the flutter of steady
     sliding); statuses equal; contact work to 1e-9 relative (per-node partial sums on the GPU)."""
-    from solver.ensemble import BatchedExplicit
+    from stickslip.solver.ensemble import BatchedExplicit
 
     bp, u0, d, slide, f = _problem(tmp_path / "bundle")
     cpu = BatchedExplicit(bp, d, slide, f, kernel="numba")
@@ -93,7 +93,7 @@ def test_gpu_batch_equals_the_cpu_kernel(kernel, tmp_path):
 
 def _emulated_kernel(tmp_path):
     from benchmarks.gpu_emulate import compile_kernel
-    from solver.ensemble import CUDA_SOURCE
+    from stickslip.solver.ensemble import CUDA_SOURCE
 
     try:
         return compile_kernel(CUDA_SOURCE, "fused_step", tmp_path)
@@ -108,7 +108,7 @@ def test_cuda_kernel_source_equals_the_numba_kernel_on_the_cpu(tmp_path, diag):
     the probe nodes) the state u, v~ and the contact statuses are unchanged."""
     import ctypes
 
-    from solver.ensemble import BatchedExplicit
+    from stickslip.solver.ensemble import BatchedExplicit
 
     pytest.importorskip("numba")
     emulate = _emulated_kernel(tmp_path)
@@ -359,7 +359,7 @@ class _NoDevice:
 def test_backend_gpu_without_a_gpu_is_one_line_and_exit_2(
         tmp_path, capsys, monkeypatch, cupy_module, words, command):
     pytest.importorskip("mpi4py")
-    from cli.main import main
+    from stickslip.cli.main import main
 
     monkeypatch.setitem(sys.modules, "cupy", cupy_module)  # None: ``import cupy`` fails
     rc = main([*command, "-o", str(tmp_path / "s"), "--backend", "gpu"])

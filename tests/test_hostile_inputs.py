@@ -15,7 +15,7 @@ import pytest
 from faults import digest, leftovers
 from test_ownership import SMOKE, cli, copy_run, one_line, run
 
-from cli.main import main
+from stickslip.cli.main import main
 
 REPO = Path(__file__).resolve().parents[1]
 SHORT_SET = sum((["--set", s] for s in ("time.end_time=0.005", "output.progress=false")), [])
@@ -62,7 +62,7 @@ def test_a_symlinked_output_directory_is_refused_never_replaced(finished, tmp_pa
 
 def test_a_symlinked_marker_does_not_make_a_folder_stickslips(tmp_path, capsys):
     """A folder whose `.stickslip` is a link to a real marker is not stickslip's."""
-    from studies.rundir.ownership import owned
+    from stickslip.studies.rundir.ownership import owned
 
     pytest.importorskip("dolfinx")
     real = tmp_path / "real"
@@ -144,7 +144,7 @@ def _full_disk_for(monkeypatch, run_id: str, fit: int) -> None:
     full disk (so the scene's own summary cannot record its failure)."""
     import errno
 
-    import solver.atomic
+    from stickslip import solver
 
     real = solver.atomic.atomic_write
     seen = []
@@ -206,7 +206,7 @@ def test_sighup_stops_a_sweep_like_sigterm(tmp_path, monkeypatch, capsys):
     pytest.importorskip("dolfinx")
     import signal
 
-    import studies.sweep.schedule as schedule
+    import stickslip.studies.sweep.schedule as schedule
 
     real, calls = schedule._run_unit, []
 
@@ -229,7 +229,7 @@ def test_sigterm_during_travel_continue_saves_like_sigint(tmp_path, monkeypatch,
     pytest.importorskip("dolfinx")
     import signal
 
-    from studies.travel import driver
+    from stickslip.studies.travel import driver
 
     calls = []
 
@@ -282,7 +282,7 @@ def test_samples_that_alias_the_wave_are_flagged(tmp_path, capsys):
 def test_a_run_whose_scene_was_edited_or_swapped_is_refused(finished, tmp_path, capsys,
                                                              change, words, command):
     """compare and plot on a run whose scene.toml was edited or swapped used it, exit 0."""
-    from solver.scene import load_scene, write_scene
+    from stickslip.solver.scene import load_scene, write_scene
 
     d = copy_run(finished, tmp_path / "r")
     write_scene(load_scene(d / "scene.toml", [change]), d / "scene.toml")
@@ -345,7 +345,7 @@ def test_help_and_reference_print_percent_once_and_keep_table_rows():
     import re
     import sys
 
-    from cli.main import build_parser
+    from stickslip.cli.main import build_parser
 
     sub = next(a for a in build_parser()._actions if hasattr(a, "choices") and a.choices)
     assert "%%" not in sub.choices["attractors"].format_help()
@@ -372,7 +372,7 @@ def test_license_file_matches_pyproject():
 
 def test_a_scene_may_name_a_base_scene(tmp_path):
     """Tutorial 2's custom "damped" scene silently got beta2 = 0.6: scenes had no `base =`."""
-    from solver.scene import SceneError, load_scene, scene_to_dict
+    from stickslip.solver.scene import SceneError, load_scene, scene_to_dict
 
     (tmp_path / "damped.toml").write_text(
         'base = "figure1_n132_damped"\n[mesh]\nn_inner = 36\n[material]\nrho = 2000.0\n')
@@ -410,9 +410,10 @@ import io, os, signal, sys
 sys.path.insert(0, {str(REPO)!r})
 from pathlib import Path
 from mpi4py import MPI
-import solver.run
-from solver.scene import load_scene
-from studies.rundir import run_scene
+import stickslip.solver.run
+from stickslip import solver
+from stickslip.solver.scene import load_scene
+from stickslip.studies.rundir import run_scene
 real, calls = solver.run.Simulation._check_health, []
 def check(self, kinetic, strain):
     calls.append(1)
@@ -441,7 +442,7 @@ print(s["status"], len(calls))
 ])
 def test_plot_of_an_edited_sweep_table_is_one_line(tmp_path, capsys, edit, words):
     """plot on a sweep whose sweep.json was edited: a traceback (min() of nothing, KeyError)."""
-    from studies.sweep.spec import SWEEP_KIND
+    from stickslip.studies.sweep.spec import SWEEP_KIND
 
     d = tmp_path / "sw"
     d.mkdir()
@@ -458,8 +459,8 @@ def test_a_resumed_sweep_says_nothing_of_an_earlier_sessions_summary(tmp_path):
     summary written in this session is reported."""
     import io
 
-    from studies.sweep import load_sweep
-    from studies.sweep.schedule import _Monitor
+    from stickslip.studies.sweep import load_sweep
+    from stickslip.studies.sweep.schedule import _Monitor
 
     spec = load_sweep(_one_point_sweep(tmp_path, "[2.0]"))
     run_dir = tmp_path / "out" / "runs" / "omega-2.0"

@@ -12,13 +12,13 @@ pytest.importorskip("petsc4py")
 from mpi4py import MPI  # noqa: E402
 from petsc4py import PETSc  # noqa: E402
 
-from solver.active_set import (  # noqa: E402
+from stickslip.solver.active_set import (  # noqa: E402
     SEPARATED,
     STUCK,
     ActiveSetSolver,
     ContactSolveError,
 )
-from solver.implicit import ImplicitNewmark, amplification_eigenvalues  # noqa: E402
+from stickslip.solver.implicit import ImplicitNewmark, amplification_eigenvalues  # noqa: E402
 
 SELF = MPI.COMM_SELF
 
@@ -157,7 +157,7 @@ def test_amplification_matrix_is_unitary_for_the_trapezoidal_rule():
 
 def implicit_smoke(*overrides):
     pytest.importorskip("dolfinx")
-    from solver.scene import load_scene
+    from stickslip.solver.scene import load_scene
 
     return load_scene("scenes/smoke.toml", ["output.progress=false", "time.beta1=0.25",
                                             "time.beta2=0.5", *overrides])
@@ -165,7 +165,7 @@ def implicit_smoke(*overrides):
 
 def test_scene_picks_the_implicit_scheme_and_allows_large_steps():
     pytest.importorskip("dolfinx")
-    from solver.run import Simulation
+    from stickslip.solver.run import Simulation
 
     sim = Simulation(implicit_smoke("time.dt_fraction=5"), SELF)
     assert isinstance(sim.integrator, ImplicitNewmark)
@@ -179,7 +179,7 @@ def test_steady_sliding_is_a_fixed_point_of_the_implicit_scheme():
     pytest.importorskip("dolfinx")
     from conftest import assert_steady_sliding_stays
 
-    from solver.run import Simulation
+    from stickslip.solver.run import Simulation
 
     sim = Simulation(implicit_smoke('initial.perturbation="none"', "time.dt_fraction=5"), SELF)
     assert_steady_sliding_stays(sim, 40)
@@ -193,8 +193,8 @@ def test_non_penetration_stick_and_exact_energy_identity(f):
     beta1 = 1/4, beta2 = 1/2, module docstring). So with f = 0 the energy never grows (impacts
     dissipate, lift-off is free) and between impacts it is conserved exactly."""
     pytest.importorskip("dolfinx")
-    from solver.contact import SEPARATION, STICK
-    from solver.run import Simulation
+    from stickslip.solver.contact import SEPARATION, STICK
+    from stickslip.solver.run import Simulation
 
     sim = Simulation(implicit_smoke(f"loading.f={f}", "time.end_time=0.1"), SELF)
     integ, proj, m = sim.integrator, sim.projection, sim.problem.mass
@@ -244,9 +244,9 @@ def test_short_run_same_mode_as_explicit():
     slip-separation (-2470 m/s), implicit stick-slip-separation (-2358 m/s, 14 % stick, as the
     explicit N = 132 run), see docs/stability.md."""
     pytest.importorskip("dolfinx")
-    from solver.run import Simulation
-    from solver.scene import load_scene
-    from studies.rundir import summarise
+    from stickslip.solver.run import Simulation
+    from stickslip.solver.scene import load_scene
+    from stickslip.studies.rundir import summarise
 
     out = {}
     for name, sc in (
@@ -271,7 +271,7 @@ def test_implicit_serial_and_parallel_runs_agree():
     gathered to rank 0; MUMPS in parallel vs PETSc LU in serial: round-off differences,
     amplified by the flutter instability, hence 1e-9 relative)."""
     pytest.importorskip("dolfinx")
-    from solver.run import Simulation
+    from stickslip.solver.run import Simulation
 
     sc = implicit_smoke("time.end_time=0.015", "output.sample_interval=0.001")
     results = {}
@@ -320,7 +320,7 @@ def test_exact_work_at_the_observers_level_closes_the_sampled_energy():
     """work_totals(exposed=True) is the work up to the level the recorder samples, so
     E_sample - E_0 - W matches to round-off at every sample (the proposed observers' input)."""
     pytest.importorskip("dolfinx")
-    from solver.run import Simulation
+    from stickslip.solver.run import Simulation
 
     sim = Simulation(implicit_smoke("time.end_time=0.01"), SELF)
     integ, proj, m = sim.integrator, sim.projection, sim.problem.mass

@@ -24,11 +24,13 @@ class NoFEStack:
 sys.meta_path.insert(0, NoFEStack())
 import numpy as np
 
-import solver.ensemble
-import solver.ensemble_observers
-from solver.newmark import Newmark
-from solver.observers import Cadence
-from solver.run import run_loop
+import stickslip.solver.ensemble
+from stickslip import solver
+import stickslip.solver.ensemble_observers
+from stickslip import solver
+from stickslip.solver.newmark import Newmark
+from stickslip.solver.observers import Cadence
+from stickslip.solver.run import run_loop
 
 
 class Count:

@@ -14,7 +14,7 @@ import dolfinx  # noqa: E402
 import ufl  # noqa: E402
 from mpi4py import MPI  # noqa: E402
 
-from meshes import INNER_TAG, OUTER_TAG, annulus_mesh, auto_n_radial  # noqa: E402
+from stickslip.meshes import INNER_TAG, OUTER_TAG, annulus_mesh, auto_n_radial  # noqa: E402
 
 R, XI = 0.5, 1.25
 

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
-from solver.newmark import Newmark, critical_time_step
+from stickslip.solver.newmark import Newmark, critical_time_step
 
 N = 60
 

@@ -25,7 +25,7 @@ SMOKE = REPO / "scenes" / "smoke.toml"
 
 def _smoke_sweep(tmp_path: Path, omegas: list[float], end_time: float | None = None):
     """The sweep of the smoke scene over ``loading.omega`` (``tmp_path / "s.toml"``)."""
-    from studies.sweep import load_sweep
+    from stickslip.studies.sweep import load_sweep
 
     extra = f'set = ["time.end_time={end_time}"]\n' if end_time is not None else ""
     spec_path = tmp_path / "s.toml"
@@ -37,15 +37,15 @@ SHORT = ["time.end_time=0.005", "output.progress=false"]
 def run(run_dir: Path, *extra: str, force: bool = False) -> dict:
     from mpi4py import MPI
 
-    from solver.scene import load_scene
-    from studies.rundir import run_scene
+    from stickslip.solver.scene import load_scene
+    from stickslip.studies.rundir import run_scene
 
     return run_scene(load_scene(SMOKE, [*SHORT, *extra]), run_dir, force=force,
                      comm=MPI.COMM_SELF, stream=io.StringIO())
 
 
 def cli(capsys, *argv: str) -> tuple[int, str]:
-    from cli.main import main
+    from stickslip.cli.main import main
 
     rc = main([str(a) for a in argv])
     return rc, capsys.readouterr().err
@@ -93,7 +93,7 @@ def test_travel_force_keeps_a_users_folder(tmp_path, capsys):
 
 def test_force_never_replaces_a_live_run(finished, tmp_path, capsys):
     """run --force on a run in progress deleted it under the running command."""
-    from studies.rundir.ownership import claim
+    from stickslip.studies.rundir.ownership import claim
 
     d = copy_run(finished, tmp_path / "r")
     before = digest(d)
@@ -108,7 +108,7 @@ def test_force_never_replaces_a_live_run(finished, tmp_path, capsys):
 
 
 def _claim_in_child(path: str, queue, answered) -> None:  # noqa: ANN001
-    from studies.rundir.ownership import OwnershipError, claim
+    from stickslip.studies.rundir.ownership import OwnershipError, claim
 
     try:
         c = claim(path, "run")
@@ -158,7 +158,7 @@ def test_sweep_never_writes_a_users_folder_under_runs(tmp_path):
     pytest.importorskip("dolfinx")
     from mpi4py import MPI
 
-    from studies.sweep import run_sweep
+    from stickslip.studies.sweep import run_sweep
 
     spec = _smoke_sweep(tmp_path, [2.0], end_time=0.005)
     out = tmp_path / "out"
@@ -201,7 +201,7 @@ def test_force_keeps_user_files_and_refuses_a_forged_summary(finished, tmp_path,
 
 
 def test_a_marker_of_another_kind_is_not_a_run(tmp_path):
-    from studies.rundir.ownership import OwnershipError, claim
+    from stickslip.studies.rundir.ownership import OwnershipError, claim
 
     c = claim(tmp_path / "t", "travel")
     (tmp_path / "t" / "summary.json").write_text("{}")
@@ -225,7 +225,7 @@ def test_ctrl_c_during_a_force_rerun_keeps_the_old_run(finished, tmp_path, monke
 
 def test_a_killed_replacement_is_tidied_and_the_old_run_restored(finished, tmp_path):
     """A command killed between the two renames of the swap: the old run goes back."""
-    from studies.rundir.ownership import claim, recover
+    from stickslip.studies.rundir.ownership import claim, recover
 
     d = copy_run(finished, tmp_path / "r")
     before = digest(d)
@@ -291,7 +291,7 @@ def test_edited_sweep_table_gives_one_line(tmp_path, capsys):
     d.mkdir()
     (d / "sweep.json").write_text(json.dumps({"kind": "stickslip-sweep", "rows": "edited",
                                               "parameters": []}))
-    from studies.sweep.spec import SWEEP_KIND
+    from stickslip.studies.sweep.spec import SWEEP_KIND
 
     (d / "sweep.json").write_text(json.dumps({"kind": SWEEP_KIND, "rows": "edited",
                                               "parameters": []}))
@@ -302,8 +302,8 @@ def test_edited_sweep_table_gives_one_line(tmp_path, capsys):
 @pytest.mark.parametrize("damage", ["garbage", "list", "deleted"])
 def test_sweep_resume_reruns_a_scene_with_a_damaged_summary(tmp_path, damage):
     """A resume recorded `failed` for a garbage or deleted summary.json instead of rerunning."""
-    from studies.rundir.ownership import claim
-    from studies.sweep.table import task_state
+    from stickslip.studies.rundir.ownership import claim
+    from stickslip.studies.sweep.table import task_state
 
     spec = _smoke_sweep(tmp_path, [2.0])
     run_dir = tmp_path / "out" / "runs" / spec.tasks[0].id
@@ -327,7 +327,7 @@ def test_a_sweep_of_months_is_refused_before_anything_is_written(tmp_path, capsy
 
 def test_force_replaces_a_run_with_what_stickslip_added_later(finished, tmp_path):
     """plot's figures and compare's table are stickslip's too: --force replaces them."""
-    from studies.rundir.ownership import KINDS
+    from stickslip.studies.rundir.ownership import KINDS
 
     d = copy_run(finished, tmp_path / "r")
     for name in ("spacetime.png", "phase.png", "isomap.png", "compare.json"):
@@ -342,8 +342,8 @@ def test_force_replaces_a_run_with_what_stickslip_added_later(finished, tmp_path
 def test_a_killed_scene_is_run_again_on_resume(tmp_path, status):
     """A sweep whose process was SIGKILLed left the scene `failed`, and a resume skipped it:
     the watchdog now writes `crashed` (or `interrupted` after a signal), neither final."""
-    from studies.rundir.ownership import claim
-    from studies.sweep.schedule import _classify
+    from stickslip.studies.rundir.ownership import claim
+    from stickslip.studies.sweep.schedule import _classify
 
     spec = _smoke_sweep(tmp_path, [2.0])
     run_dir = tmp_path / "out" / "runs" / spec.tasks[0].id
@@ -357,7 +357,7 @@ def test_a_killed_scene_is_run_again_on_resume(tmp_path, status):
 def test_a_large_sweep_table_is_not_rewritten_at_every_scene(tmp_path, monkeypatch):
     """A 10^6-point sweep rewrote its 474 MB sweep.json after every scene: a table of more
     than TABLE_SMALL scenes is rewritten at most every TABLE_PERIOD s (and at the end)."""
-    from studies.sweep import schedule
+    from stickslip.studies.sweep import schedule
 
     spec = _smoke_sweep(tmp_path, [2.0, 3.0, 4.0])
     writes = []
@@ -366,7 +366,7 @@ def test_a_large_sweep_table_is_not_rewritten_at_every_scene(tmp_path, monkeypat
     out = tmp_path / "out"
     mon = schedule._Monitor(out, spec, spec.tasks, 0, io.StringIO(), live=False)
     for i, task in enumerate(spec.tasks):
-        from studies.rundir.ownership import claim
+        from stickslip.studies.rundir.ownership import claim
 
         run_dir = out / "runs" / task.id
         claim(run_dir, "run").release()
@@ -385,8 +385,8 @@ def test_a_batched_sweep_never_writes_a_users_folder_under_runs(tmp_path):
     pytest.importorskip("numba")
     from mpi4py import MPI
 
-    from studies.rundir.ownership import claim
-    from studies.sweep import run_sweep
+    from stickslip.studies.rundir.ownership import claim
+    from stickslip.studies.sweep import run_sweep
 
     spec = _smoke_sweep(tmp_path, [2.0, 3.0, 4.0], end_time=0.005)
     out = tmp_path / "out"
@@ -407,8 +407,8 @@ def test_an_interrupted_travel_force_rerun_keeps_the_earlier_result(tmp_path, ca
                                                                      monkeypatch):
     """travel --force built its new result in place: Ctrl-C during the solve lost the old."""
     pytest.importorskip("dolfinx")
-    import cli.travel as travel_command
-    from studies.rundir.ownership import claim
+    import stickslip.cli.travel as travel_command
+    from stickslip.studies.rundir.ownership import claim
 
     out = tmp_path / "wave"
     c = claim(out, "travel")

@@ -15,7 +15,7 @@ def test_flutter_fe_plot_goes_to_the_current_directory_and_says_where(tmp_path, 
     """A relative --plot is the user's current directory (under ./dev too: it keeps the
     caller's directory); the figure line names the file in full."""
     pytest.importorskip("dolfinx")
-    from cli.main import main
+    from stickslip.cli.main import main
 
     (tmp_path / "out").mkdir()
     old = os.getcwd()
@@ -32,7 +32,7 @@ def test_the_step_estimate_says_it_is_made_before_meshing(tmp_path, capsys):
     """The estimate bounds dt from the shortest edge (a few per cent off the mesh's own dt):
     its line says so, and the next line gives the steps the run takes."""
     pytest.importorskip("dolfinx")
-    from cli.main import main
+    from stickslip.cli.main import main
 
     assert main(["run", str(SMOKE), "--set", "time.end_time=0.002", "-o",
                  str(tmp_path / "r")]) == 0

@@ -39,7 +39,7 @@ def test_ci_runs_exactly_the_readme_test_commands():
 
 
 def test_every_stickslip_command_in_readme_parses():
-    from cli.main import build_parser
+    from stickslip.cli.main import build_parser
 
     parser = build_parser()
     seen = 0
@@ -63,7 +63,7 @@ def test_main_job_runs_a_paper_scene_end_to_end_with_pictures(tmp_path):
     args = stickslip_args(main)
     assert args[:2] == ["run", "scenes/figure3_n132.toml"] and "--plot" in args
     env = dict(os.environ, STICKSLIP_OUTPUT=str(tmp_path))
-    res = subprocess.run(["python3", "-m", "cli.main", *args], cwd=REPO, env=env,
+    res = subprocess.run(["python3", "-m", "stickslip.cli.main", *args], cwd=REPO, env=env,
                          capture_output=True, text=True, timeout=600)
     assert res.returncode == 0, res.stderr
     run_dir = tmp_path / "figure3_n132"

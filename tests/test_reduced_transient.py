@@ -12,9 +12,9 @@ import sys
 import numpy as np
 import pytest
 
-from semianalytic import coefficients, gamma_from_physical, stick_slip_waves
-from solver.contact import SLIP
-from studies.reduced_transient import (
+from stickslip.semianalytic import coefficients, gamma_from_physical, stick_slip_waves
+from stickslip.solver.contact import SLIP
+from stickslip.studies.reduced_transient import (
     ReducedModel,
     eigenfrequencies,
     junction_phases,

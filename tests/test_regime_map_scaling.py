@@ -16,7 +16,7 @@ REPO = Path(__file__).resolve().parents[1]
 
 def _run(out: Path, omega: float, delta: float) -> dict:
     subprocess.run(
-        [sys.executable, "-m", "cli.main", "run", str(REPO / "scenes" / "figure3_n132_damped.toml"),
+        [sys.executable, "-m", "stickslip.cli.main", "run", str(REPO / "scenes" / "figure3_n132_damped.toml"),
          "-o", str(out), "--force", "--set", "mesh.n_inner=36", "--set", "time.end_time=0.01",
          "--set", f"loading.omega={omega}", "--set", f"geometry.delta={delta}"],
         check=True, cwd=REPO, capture_output=True)

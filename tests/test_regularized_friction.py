@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from conftest import step_checking_contact
 
-from solver.contact import (
+from stickslip.solver.contact import (
     SEPARATION,
     SLIP,
     STICK,
@@ -18,7 +18,7 @@ from solver.contact import (
     project_contact_regularized,
     relax_effective_pressure,
 )
-from solver.scene import SceneError, load_scene
+from stickslip.solver.scene import SceneError, load_scene
 
 
 def test_relaxation_is_exact_for_a_frozen_rate_at_any_step():
@@ -104,7 +104,7 @@ pytest.importorskip("dolfinx")
 
 from mpi4py import MPI  # noqa: E402
 
-from solver.run import Simulation  # noqa: E402
+from stickslip.solver.run import Simulation  # noqa: E402
 
 
 def test_non_penetration_and_exact_stick_with_prakash_clifton():

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from solver.scene import (
+from stickslip.solver.scene import (
     SCENES_DIR,
     Geometry,
     Material,

@@ -7,7 +7,7 @@ import json
 
 import pytest
 
-from cli.semianalytic import register
+from stickslip.cli.semianalytic import register
 
 
 def _run(argv: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, str, str]:

@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 from scipy.integrate import quad
 
-from semianalytic.coefficients import coefficients, gamma_from_physical, reaction_scale
-from semianalytic.flutter import dispersion_roots, flutter_modes, mode_physical
-from semianalytic.steady import closed_form_steady, radial_mode, reduced_steady
+from stickslip.semianalytic.coefficients import coefficients, gamma_from_physical, reaction_scale
+from stickslip.semianalytic.flutter import dispersion_roots, flutter_modes, mode_physical
+from stickslip.semianalytic.steady import closed_form_steady, radial_mode, reduced_steady
 
 
 def test_hand_computed_values_nu03_xi125() -> None:

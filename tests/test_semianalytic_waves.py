@@ -8,9 +8,9 @@ import warnings
 import numpy as np
 import pytest
 
-from semianalytic.coefficients import coefficients, gamma_from_physical
-from semianalytic.junctions import CLOSURES, junction_residual
-from semianalytic.waves import (
+from stickslip.semianalytic.coefficients import coefficients, gamma_from_physical
+from stickslip.semianalytic.junctions import CLOSURES, junction_residual
+from stickslip.semianalytic.waves import (
     TravellingWave,
     angular_frequency_rad_s,
     celerity_m_s,

@@ -17,12 +17,12 @@ from conftest import (  # noqa: E402
 )
 from mpi4py import MPI  # noqa: E402
 
-from solver.contact import SEPARATION, SLIP, STICK  # noqa: E402
-from solver.newmark import Newmark  # noqa: E402
-from solver.problem import build_problem, omega_max  # noqa: E402
-from solver.run import Simulation, StepTooLarge  # noqa: E402
-from solver.scene import load_scene  # noqa: E402
-from studies.rundir import run_scene  # noqa: E402
+from stickslip.solver.contact import SEPARATION, SLIP, STICK  # noqa: E402
+from stickslip.solver.newmark import Newmark  # noqa: E402
+from stickslip.solver.problem import build_problem, omega_max  # noqa: E402
+from stickslip.solver.run import Simulation, StepTooLarge  # noqa: E402
+from stickslip.solver.scene import load_scene  # noqa: E402
+from stickslip.studies.rundir import run_scene  # noqa: E402
 
 SELF = MPI.COMM_SELF
 
@@ -85,7 +85,7 @@ def test_discrete_steady_pressure_converges_to_the_closed_form():
     for n in (24, 48, 96):
         sc = smoke(f"mesh.n_inner={n}", "mesh.n_radial=0")
         sim_p = build_problem(sc, SELF)
-        from solver.steady import solve_steady_sliding
+        from stickslip.solver.steady import solve_steady_sliding
 
         st = solve_steady_sliding(sim_p)
         g, m = sc.geometry, sc.material
@@ -114,7 +114,7 @@ def test_run_directory_summary_and_refusal_to_overwrite(tmp_path):
 
 def test_divergence_is_reported_not_hidden(tmp_path, monkeypatch):
     """A blow-up stops the run, keeps the diagnostics and writes status 'diverged'."""
-    import solver.schemes.select
+    from stickslip import solver
 
     real = solver.schemes.select.critical_time_step
     monkeypatch.setattr(

@@ -17,7 +17,7 @@ pytest.importorskip("dolfinx")
 
 from mpi4py import MPI  # noqa: E402
 
-from solver.scene import load_scene  # noqa: E402
+from stickslip.solver.scene import load_scene  # noqa: E402
 
 SELF = MPI.COMM_SELF
 IMPLICIT = ["time.beta1=0.25", "time.beta2=0.5", "time.dt_fraction=1"]
@@ -51,8 +51,8 @@ def scene(case: str, scheme: str, *extra: str):
 def run(sc):
     """Run with the run's energy guard lifted: it trips on physics at Omega = 1000 and
     delta = 1e-7 (see docs/stability.md), and here the tests check the energy themselves."""
-    from solver.run import Simulation
-    from studies.rundir import summarise
+    from stickslip.solver.run import Simulation
+    from stickslip.studies.rundir import summarise
 
     sim = Simulation(sc, SELF)
     sim.initial_energy, sim.energy_bound = 1.0, math.inf
@@ -92,7 +92,7 @@ def test_case_runs_bounded_without_nan(case, scheme):
 def test_zero_mismatch_is_refused_with_a_clear_message():
     """delta = 0: the tube only touches the cylinder, no contact pressure, no friction. The
     scene is refused at load time, as the other ranges, before any meshing."""
-    from solver.scene import SceneError
+    from stickslip.solver.scene import SceneError
 
     with pytest.raises(SceneError, match=r"geometry.delta = 0(\.0)? is out of range: must "
                        r"satisfy delta > 0"):
@@ -103,8 +103,8 @@ def test_nearly_incompressible_explicit_step_shrinks_and_the_cli_says_so(capsys)
     """nu = 0.49: the pressure-wave speed, hence omega_max, grows by sqrt((1-nu)/(1-2nu))
     ratios; the explicit step shrinks (3.6x against nu = 0.3 on this mesh) and time_step warns,
     suggesting the implicit scheme. nu = 0.3 stays silent."""
-    from solver.problem import build_problem, omega_max
-    from solver.schemes import time_step
+    from stickslip.solver.problem import build_problem, omega_max
+    from stickslip.solver.schemes import time_step
 
     dts = {}
     for nu in (0.3, 0.49):
@@ -119,7 +119,7 @@ def test_nearly_incompressible_explicit_step_shrinks_and_the_cli_says_so(capsys)
 
 
 def test_step_count_warning():
-    from solver.schemes import stability_advice
+    from stickslip.solver.schemes import stability_advice
 
     sc = scene("base", "explicit", "time.end_time=100")
     text = stability_advice(sc, 7.7e-5, 8.6e-5)

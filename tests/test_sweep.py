@@ -22,9 +22,9 @@ from pathlib import Path
 import pytest
 from faults import wait_released
 
-from studies.sweep import SweepError, is_sweep_dir, load_sweep, scene_for
-from studies.sweep.schedule import _Monitor, _want_live
-from studies.sweep.spec import _cost
+from stickslip.studies.sweep import SweepError, is_sweep_dir, load_sweep, scene_for
+from stickslip.studies.sweep.schedule import _Monitor, _want_live
+from stickslip.studies.sweep.spec import _cost
 
 REPO = Path(__file__).resolve().parents[1]
 SMOKE = REPO / "scenes" / "smoke.toml"
@@ -170,8 +170,8 @@ def test_failures_divergence_resume_and_retry(tmp_path, monkeypatch):
     pytest.importorskip("dolfinx")
     from mpi4py import MPI
 
-    import solver.run
-    from studies.sweep import run_sweep, write_table
+    from stickslip import solver
+    from stickslip.studies.sweep import run_sweep, write_table
 
     original = solver.run.Simulation._check_health
 
@@ -262,8 +262,8 @@ def test_slow_scene_does_not_stall_the_others(tmp_path):
     pytest.importorskip("dolfinx")
     from mpi4py import MPI
 
-    from studies.sweep import run_sweep
-    from studies.sweep.schedule import _classify
+    from stickslip.studies.sweep import run_sweep
+    from stickslip.studies.sweep.schedule import _classify
 
     comm = MPI.COMM_WORLD
     root = Path(comm.bcast(str(tmp_path) if comm.rank == 0 else None, root=0))
@@ -337,7 +337,7 @@ def _run_until_then_kill(cmd: list[str], out: Path, n_done: int, log: Path,
 
 def _disk_states(out: Path) -> dict[str, str]:
     """Each scene's state read from its own run directory (what a resume goes by)."""
-    from studies.sweep.table import live_status
+    from stickslip.studies.sweep.table import live_status
 
     return {p.parent.name: live_status(json.loads(p.read_text()))
             for p in out.glob("runs/*/summary.json")}
@@ -350,7 +350,7 @@ def killed_and_resumed(tmp_path_factory):
     tmp = tmp_path_factory.mktemp("kill")
     sweep = _write(tmp / "killme.toml", KILL_SWEEP)
     out = tmp / "out"
-    cmd = [sys.executable, "-m", "cli.main", "sweep", str(sweep), "-o", str(out)]
+    cmd = [sys.executable, "-m", "stickslip.cli.main", "sweep", str(sweep), "-o", str(out)]
     rc = _run_until_then_kill(cmd, out, 2, tmp / "first.log")
     wait_released(out)  # every helper of the killed sweep has ended: the files are final
     after_kill = _rows(out)
@@ -417,7 +417,7 @@ def test_mpirun_kill_resume_gives_the_serial_results(killed_and_resumed, tmp_pat
     """mpirun -n 2: SIGTERM mid-way, resume; results equal the serial sweep's bit for bit."""
     sweep = _write(tmp_path / "killme.toml", KILL_SWEEP)
     out = tmp_path / "out"
-    cmd = ["mpirun", "-n", "2", sys.executable, "-m", "cli.main", "sweep", str(sweep),
+    cmd = ["mpirun", "-n", "2", sys.executable, "-m", "stickslip.cli.main", "sweep", str(sweep),
            "-o", str(out)]
     rc = _run_until_then_kill(cmd, out, 2, tmp_path / "first.log")
     assert rc != 0  # mpirun reports the killed job
@@ -450,8 +450,8 @@ def test_mpirun_kill_resume_gives_the_serial_results(killed_and_resumed, tmp_pat
 
 def test_regime_map_and_semianalytic_boundary(killed_and_resumed):
     pytest.importorskip("matplotlib")
-    from solver.scene import load_scene
-    from studies.sweep import existence_grid, plot_sweep
+    from stickslip.solver.scene import load_scene
+    from stickslip.studies.sweep import existence_grid, plot_sweep
 
     out = killed_and_resumed["out"]
     assert is_sweep_dir(out) and not is_sweep_dir(out / "runs" / "omega-2.0_delta-0.0004")
@@ -476,8 +476,8 @@ def test_xdmf_field_output_for_paraview(tmp_path):
     pytest.importorskip("dolfinx")
     from mpi4py import MPI
 
-    from solver.scene import load_scene
-    from studies.rundir import run_scene
+    from stickslip.solver.scene import load_scene
+    from stickslip.studies.rundir import run_scene
 
     scene = load_scene(SMOKE, ["time.end_time=0.002", "output.fields=true",
                                "output.field_interval=5e-4", "output.progress=false",

@@ -13,10 +13,10 @@ from pathlib import Path
 
 import pytest
 
-from studies.rundir.ownership import claim
-from studies.sweep import load_sweep, plot_sweep
-from studies.sweep.schedule import _Monitor
-from studies.sweep.table import write_table
+from stickslip.studies.rundir.ownership import claim
+from stickslip.studies.sweep import load_sweep, plot_sweep
+from stickslip.studies.sweep.schedule import _Monitor
+from stickslip.studies.sweep.table import write_table
 
 REPO = Path(__file__).resolve().parents[1]
 SMOKE = REPO / "scenes" / "smoke.toml"
@@ -67,8 +67,8 @@ def test_every_key_type_is_swept_and_plotted(tmp_path, grid):
 
 
 def test_subtitle_names_only_the_parameters_that_are_not_swept():
-    from solver.scene import load_scene
-    from studies.sweep.regime_map import _fixed_subtitle
+    from stickslip.solver.scene import load_scene
+    from stickslip.studies.sweep.regime_map import _fixed_subtitle
 
     scene = load_scene(SMOKE)
     text = _fixed_subtitle(scene, ["loading.f", "geometry.delta"])
@@ -80,7 +80,7 @@ def test_subtitle_names_only_the_parameters_that_are_not_swept():
 
 
 def test_cells_say_what_their_run_found():
-    from studies.sweep.regime_map import cell_label
+    from stickslip.studies.sweep.regime_map import cell_label
 
     assert cell_label(STEADY) == ("steady-sliding", "steady\nsliding")
     assert cell_label(WAVE) == ("stick-slip-separation", "k = 4\n-2507 m/s")

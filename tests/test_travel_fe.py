@@ -24,15 +24,15 @@ import pytest
 
 pytest.importorskip("dolfinx")
 
-from cli.main import main  # noqa: E402
+from stickslip.cli.main import main  # noqa: E402
 
 SCENE = "scenes/figure1.toml"
 
 
 @pytest.fixture(scope="module")
 def setup36():
-    from solver.scene import load_scene
-    from studies.travel import driver as D
+    from stickslip.solver.scene import load_scene
+    from stickslip.studies.travel import driver as D
 
     return D.setup(load_scene(SCENE, ["mesh.n_inner=36"]))
 
@@ -44,7 +44,7 @@ def test_travelling_inertia_kills_dilation_and_rotation(setup36, lumped):
     ops = setup36.ops
     x = ops.problem.V.tabulate_dof_coordinates()[:, :2]
     if lumped:
-        from studies.travel.frame import frame_operators
+        from stickslip.studies.travel.frame import frame_operators
 
         G = frame_operators(ops.problem, 0.0, lumped=True).G
     else:
@@ -59,7 +59,7 @@ def test_travelling_inertia_kills_dilation_and_rotation(setup36, lumped):
 
 
 def test_modal_schur_equals_lu_and_derivative(setup36):
-    import studies.travel.frame as F
+    import stickslip.studies.travel.frame as F
 
     ops = setup36.ops
     om = -2000.0
@@ -94,7 +94,7 @@ def test_damped_schur_derivative_matches_a_central_difference(setup36):
     """Kelvin–Voigt wave frame (A = K − ω²G − ωC, not symmetric): the one-LU analytic dS/dω
     (studies.travel.frame module doc) matches a central difference of S to 1e-6 relative
     (step 1e-6 relative, as in the undamped test above; measured 1.6e-8), τ = 1.99 µs."""
-    from studies.travel.frame import frame_operators
+    from stickslip.studies.travel.frame import frame_operators
 
     ops = frame_operators(setup36.ops.problem, 1.989e-6)
     om = -2000.0
@@ -129,7 +129,7 @@ def test_travel_bad_input_is_one_line_exit_2(argv, needle, tmp_path, capsys):
 def test_travel_failure_exits_1_and_writes_no_wave(tmp_path):
     out = tmp_path / "fail"
     proc = subprocess.run(
-        [sys.executable, "-m", "cli.main", "travel", SCENE, "--set", "mesh.n_inner=36",
+        [sys.executable, "-m", "stickslip.cli.main", "travel", SCENE, "--set", "mesh.n_inner=36",
          "--k", "4", "--inertia", "rotation", "--celerity", "-1000", "--fixed-omega",
          "--max-iter", "2", "-o", str(out)],
         capture_output=True, text=True, check=False)
@@ -143,7 +143,7 @@ def test_travel_failure_exits_1_and_writes_no_wave(tmp_path):
 def test_interrupted_continuation_keeps_the_points_solved(tmp_path, monkeypatch, capsys):
     """Ctrl-C during ``--continue`` (KeyboardInterrupt in the third solve): exit 130, one line
     naming how many points are kept, and branch.json holds the two points already solved."""
-    from studies.travel import driver as D
+    from stickslip.studies.travel import driver as D
 
     solve = D.solve_scene
     calls = []
@@ -194,7 +194,7 @@ def test_travel_reads_the_scene_damping_and_converges_damped(tmp_path):
     1.6 kHz, τ = 1.99 µs) at N = 36, start −2300 m/s: the nearest admissible wave converges
     (residual ≤ 1e-10 c·d, measured 6e-15 at −2254 m/s), is mode 4 stick-slip-separation and
     satisfies every nodal inequality."""
-    from solver.scene import load_scene
+    from stickslip.solver.scene import load_scene
 
     scene = "scenes/figure1_n132_damped.toml"
     tau = load_scene(scene, []).damping.tau
@@ -252,8 +252,8 @@ def test_shift_operator_is_the_transients_travelling_operator():
     condensation of K (measured 3e-9: the same symmetry, asserted < 1e-7); dS/dω (a central
     difference, step 1e-6 |ω|) against a 100× wider one: measured 1.5e-6 (the O(h²) of the
     wider step), asserted < 1e-4."""
-    from solver.scene import load_scene
-    from studies.travel import driver as D
+    from stickslip.solver.scene import load_scene
+    from stickslip.studies.travel import driver as D
 
     sc = load_scene("scenes/figure1_n132_damped.toml", ["mesh.n_inner=36"])
     tau = float(sc.damping.tau)
@@ -295,9 +295,9 @@ def test_frame_damping_is_kelvin_voigt_on_a_travelling_harmonic(setup36):
     derivative in a cell (archive/travel/travelling_waves_history.md 2d). The travelling inertia
     passes the same
     check (wᴴGw / (m² wᴴMw) = 1.04, 1.02, 1.005, lumped M; asserted within 5 %)."""
-    from solver.scene import load_scene
-    from studies.travel import driver as D
-    from studies.travel.frame import frame_operators
+    from stickslip.solver.scene import load_scene
+    from stickslip.studies.travel import driver as D
+    from stickslip.studies.travel.frame import frame_operators
 
     tau, m = 1.989e-6, 4
     errors = []
@@ -323,8 +323,8 @@ def shift132():
     """The transient's own travelling operator (``inertia="shift"``) with the first-order
     upwind law (bdf1), damped Figure-1 scene at N = 132: the pair that matches the transient
     (archive/travel/travelling_waves_history.md)."""
-    from solver.scene import load_scene
-    from studies.travel import driver as D
+    from stickslip.solver.scene import load_scene
+    from stickslip.studies.travel import driver as D
 
     sc = load_scene("scenes/figure1_n132_damped.toml")
     return D.setup(sc, float(sc.damping.tau), rate="bdf1", inertia="shift")
@@ -335,8 +335,8 @@ def test_k_periodic_active_set_solve_equals_the_full_solve(shift132):
     is block circulant (Z_N symmetric mesh), so for a k-periodic active set the full 2N
     solve has the same, k-periodic, solution: equal to 1e-9 d (measured ~1e-13 d: two
     factorisations of differently sized systems)."""
-    from studies.travel.family import zone_pattern
-    from studies.travel.newton import wave_of_active_set
+    from stickslip.studies.travel.family import zone_pattern
+    from stickslip.studies.travel.newton import wave_of_active_set
 
     prob = shift132.prob
     status = np.tile(zone_pattern(prob.n // 4, 8, 1, 1), 4)
@@ -360,8 +360,8 @@ def test_family_members_are_roots_of_the_semismooth_law_and_hold_the_transient(s
     transient_at_n132); the nearest family member in speed (scan −2496 … −2501 m/s, 0.5 m/s
     steps) is within the issue's 0.5 % (measured 0.09 %: the cluster's slow edge, −2498.95)
     and its ψ₁ within 2/N (measured 0.692)."""
-    from studies.travel.family import scan_family, zone_pattern
-    from studies.travel.newton import solve_wave, wave_of_active_set
+    from stickslip.studies.travel.family import scan_family, zone_pattern
+    from stickslip.studies.travel.newton import solve_wave, wave_of_active_set
 
     prob, R = shift132.prob, shift132.scene.geometry.R
     zones = [(a, b, c) for a in range(6, 10) for b in range(0, 4) for c in (1, 2)]
@@ -384,8 +384,8 @@ def test_shift_state_solves_the_transients_equations_on_the_wave(shift132):
     (u, v, a) of the transient's semi-discrete equations M a + K(u + τv) = λ travelling at ω:
     the interior rows vanish (1e-7 of |K u|; measured 5e-9, the dense one-sector solves), the
     contact rows are the member's nodal forces S(ω)W (same bound) and u there is W."""
-    from studies.travel.family import zone_pattern
-    from studies.travel.newton import wave_of_active_set
+    from stickslip.studies.travel.family import zone_pattern
+    from stickslip.studies.travel.newton import wave_of_active_set
 
     ops, prob = shift132.ops, shift132.prob
     om = -2499.761941 / shift132.scene.geometry.R
@@ -416,10 +416,10 @@ def test_transients_started_on_opposite_ends_of_the_family_reach_one_wave(shift1
     go to that dt's wave, −2528.9 m/s, instead.)"""
     from mpi4py import MPI
 
-    from postprocess.analysis import analyse
-    from solver.run import Simulation
-    from studies.travel.family import zone_pattern
-    from studies.travel.newton import wave_of_active_set
+    from stickslip.postprocess.analysis import analyse
+    from stickslip.solver.run import Simulation
+    from stickslip.studies.travel.family import zone_pattern
+    from stickslip.studies.travel.newton import wave_of_active_set
 
     prob, sc = shift132.prob, shift132.scene
     R, n = sc.geometry.R, prob.n
@@ -451,10 +451,10 @@ def central132():
     (``benchmarks/travel_discrete.py``, archive/travel/travelling_waves_history.md 2e): stick 25,
     slip 5,
     landing slip 1 of 99 points per wavelength at −2498.778131 m/s."""
-    from solver.scene import load_scene
-    from studies.travel import driver as D
-    from studies.travel.family import zone_pattern
-    from studies.travel.newton import wave_of_active_set
+    from stickslip.solver.scene import load_scene
+    from stickslip.studies.travel import driver as D
+    from stickslip.studies.travel.family import zone_pattern
+    from stickslip.studies.travel.newton import wave_of_active_set
 
     sc = load_scene("scenes/figure1_n132_damped.toml")
     st = D.setup(sc, float(sc.damping.tau), rate="bdf1", inertia="shift", samples=3,
@@ -473,7 +473,7 @@ def test_central_frame_wave_is_a_root_of_the_free_omega_newton(central132):
     equal): the (W, ω, phase) system has this wave as a root. That it is isolated (at S = 6
     every admissible active set lies within 0.05 m/s, where the one-point-per-node frame had
     a 100 m/s family) is the scan of docs 2e, not asserted here."""
-    from studies.travel.newton import inequality_margins, nodal_stiffness, solve_wave
+    from stickslip.studies.travel.newton import inequality_margins, nodal_stiffness, solve_wave
 
     st, wave = central132
     prob = st.prob
@@ -494,8 +494,8 @@ def test_folded_operator_and_newton_equal_the_whole_circle(central132):
     (396), from the same start (the fixture wave with W scaled by 1.02 about the mismatch and
     ω moved by 0.1 %), converge to the same wave: W to 1e-9 d, ω to 1e-10 (measured ~3e-12 d,
     2e-14 on the S = 6 wave of docs 2e)."""
-    from studies.travel import driver as D
-    from studies.travel.newton import fold_operator
+    from stickslip.studies.travel import driver as D
+    from stickslip.studies.travel.newton import fold_operator
 
     st, wave = central132
     fst = D.folded(st, 4)
@@ -524,7 +524,7 @@ def test_transient_started_on_the_central_wave_stays_on_it(central132):
     the dense one-sector solves, not amplified: the wave is an attractor)."""
     from mpi4py import MPI
 
-    from solver.run import Simulation
+    from stickslip.solver.run import Simulation
 
     st, wave = central132
     ops, prob = st.ops, st.prob
@@ -554,7 +554,7 @@ def test_transient_started_on_the_central_wave_stays_on_it(central132):
 def test_samples_and_time_scheme_are_checked(setup36):
     """Sub-node samples and the central scheme belong to the shift operator only; a bad value
     is a one-line ValueError naming it."""
-    from studies.travel.frame import frame_operators
+    from stickslip.studies.travel.frame import frame_operators
 
     problem = setup36.ops.problem
     with pytest.raises(ValueError, match="samples = 2"):
@@ -580,8 +580,8 @@ def test_central_wave_converges_under_mesh_refinement(tmp_path):
     starts; asserted 1.5 < p < 2.0 (a cluster-width shift of 0.1 m/s moves p by 0.05). The
     amplitude converges monotonically (4.73, 4.46, 4.41 mm). The N = 264 wave agrees with its
     transient (dt = 5.67 µs against h = 4.62 µs) to 0.1 % (measured 0.025 %)."""
-    from solver.scene import load_scene
-    from studies.travel import driver as D
+    from stickslip.solver.scene import load_scene
+    from stickslip.studies.travel import driver as D
 
     run = tmp_path / "run264"
     assert main(["run", "scenes/figure1_n132_damped.toml", "--set", "mesh.n_inner=264",

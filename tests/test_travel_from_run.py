@@ -14,7 +14,7 @@ import math
 import numpy as np
 import pytest
 
-from cli.main import main
+from stickslip.cli.main import main
 
 
 @pytest.fixture(scope="module")
@@ -31,7 +31,7 @@ def test_wave_from_run_agrees_with_the_run(figure3_run):
     −892.6 against −892.3 m/s); the amplitude to 2 % (measured −0.85 %); the zone fractions to
     2 steps of the period (a node's status changes only at a step: 22 steps per period here,
     so 2 steps = 0.09; measured 0.070, i.e. 1.5 steps)."""
-    from studies.travel import wave_from_run
+    from stickslip.studies.travel import wave_from_run
 
     w = wave_from_run(figure3_run)
     assert w["converged"], w["message"]
@@ -62,8 +62,8 @@ def test_a_run_that_is_not_a_rigid_wave_is_refused_in_one_line(figure3_run, tmp_
                                                                monkeypatch, capsys):
     """With the rigid tolerance below the run's frame spread, the run counts as modulated:
     ``NotRigidWave`` (a ValueError) naming the spread, and the command exits 1 in one line."""
-    import studies.travel.from_run as F
-    from studies.travel import NotRigidWave
+    import stickslip.studies.travel.from_run as F
+    from stickslip.studies.travel import NotRigidWave
 
     with pytest.raises(NotRigidWave, match="frame spread") as err:
         F.read_end_state(figure3_run, tolerance=1e-6)
@@ -80,8 +80,8 @@ def test_end_state_window_is_the_callers(figure3_run):
     long run's third reaches back into the transient). The spread over W is the one that
     ``frame_spread`` gives over the last W s of the samples, to round-off (same arithmetic),
     and it differs from the spread over the default window (the wave still settles)."""
-    import studies.travel.from_run as F
-    from postprocess.analysis import load_run
+    import stickslip.studies.travel.from_run as F
+    from stickslip.postprocess.analysis import load_run
 
     default = F.read_end_state(figure3_run)
     w = 0.03  # s: about 40 periods of the k = 12 wave (1.4 kHz), a tenth of the run
@@ -98,7 +98,7 @@ def test_frame_spread_is_zero_for_a_rigid_wave_and_large_for_two_waves():
     rad over the window; asserted < 1e-4); adding a second mode-5 wave
     at another speed, 30 % of the first, gives a spread of 0.29 (its u_r part: the second wave's
     RMS over the first's), asserted above twice the rigid tolerance (0.1)."""
-    from studies.travel.from_run import RIGID_TOLERANCE, frame_spread
+    from stickslip.studies.travel.from_run import RIGID_TOLERANCE, frame_spread
 
     theta = np.arange(132) * 2 * math.pi / 132
     t = np.arange(400) * 1e-4
@@ -117,7 +117,7 @@ def test_the_runs_wave_is_stable_to_a_small_bump(figure3_run):
     """``wave_stability``: the transient started on the k = 12 wave (dt = h) plus a 0.02 d
     bump of the modes 1 … 12 keeps it over 0.05 s: same k, celerity within 0.1 % (measured
     0.017 %) and amplitude within 5 % (measured 0.4 %) of the wave, as the run itself did."""
-    from studies.travel import wave_stability
+    from stickslip.studies.travel import wave_stability
 
     s = wave_stability(figure3_run)
     assert s["stable"] and s["end_k"] == 12 and s["status"] == "end_time", s
@@ -131,10 +131,10 @@ def test_a_pseudo_arclength_step_lands_on_the_natural_branch(figure3_run):
     moves more than δ does); the natural-parameter Newton at that λ, started from the
     δ = 4.5e-4 wave, finds the same wave (ω to 1e-8 relative, W to 1e-6 d: both residuals
     are ≤ 1e-10 c·d)."""
-    from studies.travel import driver as D
-    from studies.travel.arclength import arclength_step, phase_row_of, problem_at
-    from studies.travel.from_run import read_end_state, solve_matched
-    from studies.travel.newton import fold_state
+    from stickslip.studies.travel import driver as D
+    from stickslip.studies.travel.arclength import arclength_step, phase_row_of, problem_at
+    from stickslip.studies.travel.from_run import read_end_state, solve_matched
+    from stickslip.studies.travel.newton import fold_state
 
     end = read_end_state(figure3_run)
     st, sol, _ = solve_matched(end)
@@ -166,7 +166,7 @@ def test_the_dt_limit_wave_agrees_with_the_transients_dt_limit(figure3_run):
     3.109 mm. The travel limit was measured at −879.11 m/s (0.03 %), 3.125 mm (0.5 %):
     asserted within 0.1 % and 2 % (the transients' own extrapolation moves by 0.2 m/s and
     0.04 mm between orders 1.8 and 2.0). The run's own Δt error is then +1.5 %."""
-    from studies.travel import wave_from_run
+    from stickslip.studies.travel import wave_from_run
 
     lim = wave_from_run(figure3_run, dt_limit=True)["dt_limit"]
     assert [lv["samples"] for lv in lim["levels"]] == [2, 4, 8]
@@ -185,9 +185,9 @@ def test_a_beta2_wave_is_a_periodic_orbit_of_the_beta2_transient(figure3_run):
     with β₂ = 1/2 in the symbol and in v, a ends 1.3 d off the orbit)."""
     from mpi4py import MPI
 
-    from solver.run import Simulation
-    from studies.travel import driver as D
-    from studies.travel.from_run import read_end_state
+    from stickslip.solver.run import Simulation
+    from stickslip.studies.travel import driver as D
+    from stickslip.studies.travel.from_run import read_end_state
 
     end = read_end_state(figure3_run)
     end.scene = end.scene.with_overrides("time.beta2=0.6")
@@ -220,8 +220,8 @@ def test_without_a_run_the_step_is_the_one_stickslip_run_uses(tmp_path):
     """No --from: S = round(node passage / dt) with dt the scene's own (``stickslip run``'s:
     0.9 dt_crit) and the node passage of the start speed; the wave then converges on that
     route (damped Figure-1 physics at N = 36, start −2300 m/s: measured −2392.2 m/s, S = 1)."""
-    from solver.scene import load_scene
-    from studies.travel.from_run import matched_samples, scene_time_step
+    from stickslip.solver.scene import load_scene
+    from stickslip.studies.travel.from_run import matched_samples, scene_time_step
 
     out = tmp_path / "w"
     argv = ["scenes/figure1_n132_damped.toml", "--set", "mesh.n_inner=36"]
@@ -237,7 +237,7 @@ def test_a_rigid_stick_slip_wave_has_a_small_frame_spread():
     """A stick-slip wave keeps u_r = d at every node: its u_r part is round-off over
     round-off, so the spread takes both components together (a wave travelling in u_theta
     only, with 1e-18 m noise on u_r, measures ~1e-14, far below the 0.1 tolerance)."""
-    from studies.travel.from_run import RIGID_TOLERANCE, frame_spread
+    from stickslip.studies.travel.from_run import RIGID_TOLERANCE, frame_spread
 
     n, steps, om = 72, 200, 300.0
     theta = np.linspace(0.0, 2 * np.pi, n, endpoint=False)
@@ -260,9 +260,9 @@ def test_the_wave_frame_solver_runs_on_one_rank_of_many():
     from petsc4py import PETSc  # noqa: F401  (PETSc and SLEPc start and end on every rank:
     from slepc4py import SLEPc  # noqa: F401  their start and end are collective, as in a census)
 
-    from solver.scene import load_scene
-    from studies.travel import driver
-    from studies.travel.from_run import scene_time_step
+    from stickslip.solver.scene import load_scene
+    from stickslip.studies.travel import driver
+    from stickslip.studies.travel.from_run import scene_time_step
 
     comm = MPI.COMM_WORLD
     if comm.rank == 0:

@@ -17,7 +17,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from studies.travel.driver import prolong
+from stickslip.studies.travel.driver import prolong
 
 
 def test_prolong_linear_keeps_coarse_values_and_bounds():
@@ -56,8 +56,8 @@ def test_damped_schur_sparse_equals_dense():
     pytest.importorskip("dolfinx")
     from scipy.sparse.linalg import splu
 
-    from solver.scene import load_scene
-    from studies.travel import driver as D
+    from stickslip.solver.scene import load_scene
+    from stickslip.studies.travel import driver as D
 
     scene = load_scene("scenes/figure1_n132_damped.toml", ["mesh.n_inner=36"])
     st = D.setup(scene, float(scene.damping.tau))

@@ -18,16 +18,16 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from semianalytic.coefficients import coefficients, gamma_from_physical
-from semianalytic.waves import stick_slip_waves
-from solver.contact import SEPARATION, STICK
-from studies.travel.newton import (
+from stickslip.semianalytic.coefficients import coefficients, gamma_from_physical
+from stickslip.semianalytic.waves import stick_slip_waves
+from stickslip.solver.contact import SEPARATION, STICK
+from stickslip.studies.travel.newton import (
     NotConverged,
     inequality_margins,
     wave_of_active_set,
     zone_lengths,
 )
-from studies.travel.reduced import reduced_problem, solve_reduced, wave_start
+from stickslip.studies.travel.reduced import reduced_problem, solve_reduced, wave_start
 
 
 def _wave(omega: float, f: float, k: int, delta: float):
@@ -102,7 +102,7 @@ def test_reduced_transient_and_travel_agree_on_the_same_grid():
     0.12 %, a spatial difference of the two semi-discretisations, docs/travelling_waves.md)."""
     import math
 
-    from studies.reduced_transient import ReducedModel, start_from_wave, wave_errors
+    from stickslip.studies.reduced_transient import ReducedModel, start_from_wave, wave_errors
 
     co, w = _wave(100.0, 1.0, 8, 0.005)
     n = 256
@@ -136,7 +136,7 @@ def test_generalised_jacobian_matches_finite_differences(rate):
     differences along random directions, at a state whose statuses a step of 1e-7 of the
     wave's scale does not change (checked): the law is then linear in W and smooth in ω,
     so the difference is round-off plus O(h²) in ω: asserted < 1e-6 relative."""
-    from studies.travel.newton import RATES, _jacobian, _Law
+    from stickslip.studies.travel.newton import RATES, _jacobian, _Law
 
     assert set(RATES) == {"bdf1", "bdf2"}
     co, w = _wave(100.0, 1.0, 8, 0.005)
@@ -171,8 +171,8 @@ def test_zones_of_statuses_reads_back_zone_pattern():
     """``family.zones_of_statuses`` inverts ``zone_pattern`` wavelength by wavelength, from
     any rotation of the circle, and refuses a snapshot of another topology (a slip run
     inside a stick run)."""
-    from solver.contact import SLIP
-    from studies.travel.family import zone_pattern, zones_of_statuses
+    from stickslip.solver.contact import SLIP
+    from stickslip.studies.travel.family import zone_pattern, zones_of_statuses
 
     waves = [(8, 1, 1), (7, 2, 0), (9, 0, 2)]
     status = np.concatenate([zone_pattern(33, *z) for z in waves])

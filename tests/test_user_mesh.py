@@ -18,7 +18,7 @@ pytest.importorskip("gmsh")
 
 from mpi4py import MPI  # noqa: E402
 
-from solver.scene import SceneError, load_scene  # noqa: E402
+from stickslip.solver.scene import SceneError, load_scene  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
 SMOKE = REPO / "scenes" / "smoke.toml"
@@ -144,7 +144,7 @@ def _msh_of(geo: Path) -> Path:
 
 
 def test_exit_status_2_from_the_command_line(tmp_path, capsys):
-    from cli.main import main
+    from stickslip.cli.main import main
 
     code = main(["run", str(SMOKE), "--set", f"mesh.file='{tmp_path / 'nowhere.msh'}'",
                  "-o", str(tmp_path / "run")])
@@ -160,8 +160,8 @@ def test_clamped_all_around_file_gives_the_tube_steady_state(tmp_path):
     """The tube as a user's file (outside clamped all around, unstructured mesh): the steady
     pressure on r = R is the closed form's p_e E to the P1 error of 24 nodes, and a short
     run on it completes, serially and under MPI."""
-    from semianalytic.steady import closed_form_steady
-    from solver.run import Simulation
+    from stickslip.semianalytic.steady import closed_form_steady
+    from stickslip.solver.run import Simulation
 
     scene = _scene(_write(tmp_path, clamped_tube_geo()), "time.max_steps=20")
     sim = Simulation(scene, MPI.COMM_WORLD)
@@ -178,8 +178,8 @@ def test_clamped_all_around_file_gives_the_tube_steady_state(tmp_path):
 
 def test_estimate_counts_the_file(tmp_path):
     """The size estimate of a user's mesh takes its dofs from the file (gmsh, no dolfinx)."""
-    from solver.problem import build_problem
-    from studies.resources import estimate
+    from stickslip.solver.problem import build_problem
+    from stickslip.studies.resources import estimate
 
     scene = _scene(_write(tmp_path, clamped_tube_geo()))
     assert estimate(scene).dofs == build_problem(scene, MPI.COMM_SELF).n_global_dofs
@@ -191,9 +191,9 @@ def test_n_fold_clamp_splits_the_doublets_whose_2k_is_a_multiple_of_n(tmp_path, 
     """Without friction, an n-fold clamp splits the ±k doublets with 2k ≡ 0 (mod n) and no
     others (k = 1..5). Predicted from the symmetry group before the runs: 4 clamps split
     k = 2, 4, 3 clamps k = 3."""
-    from solver.problem import build_problem
-    from studies.flutter_fe import complex_eigenvalue_analysis
-    from studies.flutter_fe.doublets import doublets
+    from stickslip.solver.problem import build_problem
+    from stickslip.studies.flutter_fe import complex_eigenvalue_analysis
+    from stickslip.studies.flutter_fe.doublets import doublets
 
     geo = _write(tmp_path, clamped_tube_geo(n_clamps, 20.0, 48), f"c{n_clamps}.geo")
     scene = _scene(geo, "mesh.n_inner=48")
@@ -207,7 +207,7 @@ def test_n_fold_clamp_splits_the_doublets_whose_2k_is_a_multiple_of_n(tmp_path, 
 
 
 def test_travel_refuses_an_asymmetric_mesh():
-    from studies.travel.frame import require_rotational_symmetry
+    from stickslip.studies.travel.frame import require_rotational_symmetry
 
     with pytest.raises(ValueError, match="rotationally symmetric cross-section"):
         require_rotational_symmetry(load_scene("tube_four_clamps"))

@@ -23,7 +23,7 @@ import pytest
 
 pytest.importorskip("dolfinx")
 
-from postprocess.analysis import analyse_run, load_run, probe_frequency  # noqa: E402
+from stickslip.postprocess.analysis import analyse_run, load_run, probe_frequency  # noqa: E402
 
 # Regression values of scenes/figure3_n132 (measured; docs/verification.md). Bands: the run is
 # deterministic, so the bands only absorb BLAS / platform round-off amplified by the chaotic
@@ -48,8 +48,8 @@ PAPER_PSI1 = 0.716  # paper, Figure 1 (semi-analytical)
 def fig3_run(tmp_path_factory):
     from mpi4py import MPI
 
-    from solver.scene import load_scene
-    from studies.rundir import run_scene
+    from stickslip.solver.scene import load_scene
+    from stickslip.studies.rundir import run_scene
 
     run_dir = tmp_path_factory.mktemp("verif") / "figure3_n132"
     scene = load_scene("figure3_n132", ["output.progress=false"])
@@ -60,7 +60,7 @@ def fig3_run(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def fig3_compare(fig3_run):
-    from cli.main import main
+    from stickslip.cli.main import main
 
     out = fig3_run / "cmp.json"
     assert main(["compare", str(fig3_run), "--json", str(out)]) == 0
@@ -135,8 +135,8 @@ def test_fe_tube_is_softer_than_the_ansatz() -> None:
     converged to < 1 % against N = 264, docs/verification.md) must lie below them. Regression:
     FE/reduced = 0.888 (tangential), 0.853 (radial), 0.887 (sliding), band +-0.02.
     """
-    from solver.scene import load_scene
-    from studies.verification import modal_table
+    from stickslip.solver.scene import load_scene
+    from stickslip.studies.verification import modal_table
 
     row = modal_table(load_scene("figure3_n132"), [4])["4"]
     tang = row["fe_free_tangential_hz"] / row["reduced_free_tangential_hz"]
@@ -156,8 +156,8 @@ def test_celerity_follows_the_free_flight_law(fig3_compare) -> None:
     verification matrix, so 5 % is a regression band for this run, not a claim of accuracy. The
     same law with the reduced model's (stiffer) radial root gives a faster wave, not 1084 m/s
     or -1670 m/s."""
-    from solver.scene import load_scene
-    from studies.verification import free_flight_celerity, radial_branch
+    from stickslip.solver.scene import load_scene
+    from stickslip.studies.verification import free_flight_celerity, radial_branch
 
     fe = fig3_compare["fe"]
     branch = radial_branch(load_scene("figure3_n132"), kmax=8)
@@ -174,8 +174,8 @@ def test_compare_reads_as_a_comparison(fig3_compare) -> None:
     last line states the conclusion. The amounts are the admissibility checker's own margins
     in physical units: a separation zone's penetration is -margin x (delta + 1/|c|) x R
     (``semianalytic.zones.check_admissible``, same 2000-point grid: equal to 1e-9)."""
-    from semianalytic.waves import find_waves
-    from studies.verification import _coeffs, format_table, violation_in_words
+    from stickslip.semianalytic.waves import find_waves
+    from stickslip.studies.verification import _coeffs, format_table, violation_in_words
 
     lines = format_table(fig3_compare).splitlines()
     red = fig3_compare["semianalytic"]
@@ -205,8 +205,8 @@ def test_modal_flutter_row_includes_the_scene_damping() -> None:
     figure3_n132_damped the fastest k = 4 mode grows at 968.1 /s (2400.6 Hz), the damped CEA
     of ``flutter-fe`` (the same discrete system solved by ARPACK instead of SLEPc: 1e-6),
     not the undamped 1192.4 /s."""
-    from solver.scene import load_scene
-    from studies.verification import modal_table
+    from stickslip.solver.scene import load_scene
+    from stickslip.studies.verification import modal_table
 
     row = modal_table(load_scene("figure3_n132_damped"), [4])["4"]
     assert row["fe_flutter_growth_per_s"] == pytest.approx(968.0823, rel=1e-6)

@@ -67,7 +67,7 @@ def _option_rows(parser: argparse.ArgumentParser) -> list[str]:
 def cli_markdown() -> str:
     """The command reference, one section per subcommand, from the argparse parser."""
     sys.path.insert(0, str(REPO))
-    from cli.main import build_parser
+    from stickslip.cli.main import build_parser
 
     parser = build_parser()
     parser.prog = "stickslip"
@@ -114,7 +114,7 @@ def _rules(cls: type, module) -> dict[str, list[str]]:
     """``{field: [rule, ...]}`` read from ``cls._check``: ``_require(self._key("x"), v, ok,
     "rule")``, ``_choice(self._key("x"), v, ALLOWED)`` and ``check_range(self._key(name))``
     (``RANGES``), including the loop ``for name in (...)``."""
-    from solver.scene.values import RANGES
+    from stickslip.solver.scene.values import RANGES
 
     section = cls.SECTION
     tree = ast.parse(textwrap.dedent(inspect.getsource(cls._check)))
@@ -170,9 +170,9 @@ def _kind(f) -> str:
 def scene_markdown() -> str:
     """The scene-key reference, one table per section, from the dataclasses."""
     sys.path.insert(0, str(REPO))
-    import solver.scene.sections as sections
-    from solver.scene.model import Scene
-    from solver.scene.values import RANGES
+    import stickslip.solver.scene.sections as sections
+    from stickslip.solver.scene.model import Scene
+    from stickslip.solver.scene.values import RANGES
 
     out = ["# Scene keys", "",
            "Generated from the scene dataclasses (`solver/scene/sections.py`). A scene is a "

@@ -8,7 +8,7 @@
   (``make_projection``).
 """
 
-from solver.contact.law import (
+from stickslip.solver.contact.law import (
     SEPARATION,
     SLIP,
     STATUS_NAMES,
@@ -21,7 +21,7 @@ from solver.contact.law import (
     SpatialFilter,
     forward_increment_factor,
 )
-from solver.contact.nodal import (
+from stickslip.solver.contact.nodal import (
     ContactArrays,
     EffectivePressure,
     NeighbourFilter,
@@ -33,7 +33,7 @@ from solver.contact.nodal import (
     relax_effective_pressure,
     zone_fractions,
 )
-from solver.contact.projection import (
+from stickslip.solver.contact.projection import (
     ContactProjection,
     FilteredContactProjection,
     NodalFrames,

@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from solver.contact.law import (
+from stickslip.solver.contact.law import (
     REGULARISATIONS,
     SEPARATION,
     SLIP,

@@ -13,8 +13,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from solver.contact.law import ContactLaw, SpatialFilter
-from solver.contact.nodal import (
+from stickslip.solver.contact.law import ContactLaw, SpatialFilter
+from stickslip.solver.contact.nodal import (
     ContactArrays,
     EffectivePressure,
     NeighbourFilter,

@@ -21,15 +21,21 @@ module must not import dolfinx.
 """
 
 
-from solver.scene.files import SCENES_DIR, dumps_toml, list_scenes, load_scene, write_scene
-from solver.scene.model import (
+from stickslip.solver.scene.files import (
+    SCENES_DIR,
+    dumps_toml,
+    list_scenes,
+    load_scene,
+    write_scene,
+)
+from stickslip.solver.scene.model import (
     Scene,
     apply_overrides,
     parse_override,
     scene_from_dict,
     scene_to_dict,
 )
-from solver.scene.sections import (
+from stickslip.solver.scene.sections import (
     Damping,
     Friction,
     Geometry,
@@ -40,7 +46,7 @@ from solver.scene.sections import (
     Output,
     Time,
 )
-from solver.scene.values import (
+from stickslip.solver.scene.values import (
     RANGES,
     SPEED_RATIO,
     Range,

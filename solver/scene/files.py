@@ -8,9 +8,15 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from solver.scene.model import _TOP_SCALARS, Scene, apply_overrides, scene_from_dict, scene_to_dict
-from solver.scene.sections import _SECTIONS
-from solver.scene.values import (
+from stickslip.solver.scene.model import (
+    _TOP_SCALARS,
+    Scene,
+    apply_overrides,
+    scene_from_dict,
+    scene_to_dict,
+)
+from stickslip.solver.scene.sections import _SECTIONS
+from stickslip.solver.scene.values import (
     SCENES_DIR,
     SceneError,
 )
@@ -72,7 +78,7 @@ def _with_base(data: dict, p: Path, chain: tuple[Path, ...]) -> dict:
     ``p``'s folder or the current one, or a shipped scene name), key by key; the base's
     ``name`` and ``description`` are its own and are not inherited. ``chain``: the files
     already on the way (a base that comes back to one of them is refused)."""
-    from solver.scene.model import _EXCLUSIVE
+    from stickslip.solver.scene.model import _EXCLUSIVE
 
     if "base" not in data:
         return data
@@ -154,7 +160,7 @@ def dumps_toml(scene: Scene) -> str:
 
 def write_scene(scene: Scene, path: str | Path) -> Path:
     """Atomically write ``scene`` as TOML to ``path`` (temp file + os.replace)."""
-    from solver.atomic import atomic_write_text
+    from stickslip.solver.atomic import atomic_write_text
 
     return atomic_write_text(path, dumps_toml(scene))
 

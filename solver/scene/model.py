@@ -9,7 +9,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, fields, replace
 from typing import Any
 
-from solver.scene.sections import (
+from stickslip.solver.scene.sections import (
     _SECTIONS,
     Damping,
     Friction,
@@ -21,7 +21,7 @@ from solver.scene.sections import (
     Output,
     Time,
 )
-from solver.scene.values import (
+from stickslip.solver.scene.values import (
     SceneError,
     _fmt,
     _opt,

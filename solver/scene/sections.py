@@ -6,7 +6,7 @@ import math
 from dataclasses import dataclass
 from typing import ClassVar
 
-from solver.scene.values import (
+from stickslip.solver.scene.values import (
     SCENES_DIR,
     SceneError,
     _choice,
@@ -136,7 +136,7 @@ class Mesh(_Section):
     def file_facts(self, R: float):
         """The checked facts of ``file`` (``meshes.user_mesh.inspect_mesh_file``) for the
         contact radius R; ``SceneError`` (one line) when a check fails."""
-        from meshes.user_mesh import MeshFileError, inspect_mesh_file, resolve
+        from stickslip.meshes.user_mesh import MeshFileError, inspect_mesh_file, resolve
 
         try:
             return inspect_mesh_file(resolve(self.file, (SCENES_DIR,)), R=R,

@@ -8,7 +8,7 @@ The names of ``select`` are served lazily (PEP 562), so that a scheme module can
 ``solver.schemes.protocol`` without importing ``select``, which imports the schemes.
 """
 
-from solver.schemes.protocol import HookedStepper, StepHook, Stepper
+from stickslip.solver.schemes.protocol import HookedStepper, StepHook, Stepper
 
 __all__ = [
     "HookedStepper", "StepHook", "Stepper", "SCHEMES", "add_scheme", "for_scene",
@@ -19,7 +19,7 @@ __all__ = [
 
 def __getattr__(name: str):
     if name in __all__:
-        from solver.schemes import select
+        from stickslip.solver.schemes import select
 
         return getattr(select, name)
     raise AttributeError(f"module 'solver.schemes' has no attribute {name!r}")

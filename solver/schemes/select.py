@@ -41,10 +41,10 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from solver.contact import ContactLaw, make_projection
-from solver.errors import StepTooLarge
-from solver.newmark import Newmark, critical_time_step
-from solver.scene import Scene
+from stickslip.solver.contact import ContactLaw, make_projection
+from stickslip.solver.errors import StepTooLarge
+from stickslip.solver.newmark import Newmark, critical_time_step
+from stickslip.solver.scene import Scene
 
 __all__ = [
     "SCHEMES", "BACKENDS", "Scheme", "SchemeParts", "add_scheme", "for_scene", "check_backend",
@@ -244,7 +244,7 @@ def _checked_step(scene: Scene, omega_max: float, dt_crit: float, limit: float,
 
 def numba_available() -> bool:
     """True when numba imports (Debian's python3-numba is in the apt list)."""
-    from solver.fused import numba_available as available
+    from stickslip.solver.fused import numba_available as available
 
     return available()
 
@@ -260,7 +260,7 @@ def check_backend(backend: str, batched: bool = True, device: bool = True) -> No
         raise ValueError(f"backend = {backend!r}: use one of {tuple(BACKENDS)}")
     if BACKENDS[backend] != "cuda":
         return
-    from solver.ensemble import array_namespace
+    from stickslip.solver.ensemble import array_namespace
 
     xp = array_namespace(backend)
     if device:
@@ -284,7 +284,7 @@ def explicit_stepper(problem, dt: float, beta2: float, tau: float):
     """The numpy explicit stepper: ``Newmark``, or ``DampedNewmark`` for a Kelvin-Voigt time
     ``tau`` > 0 (the undamped step then stays exactly the plain one)."""
     if tau > 0.0:
-        from solver.newmark import DampedNewmark
+        from stickslip.solver.newmark import DampedNewmark
 
         return DampedNewmark(problem.stiffness_mult(), problem.inv_mass, dt, 0.0, beta2,
                              tau=tau)
@@ -294,7 +294,7 @@ def explicit_stepper(problem, dt: float, beta2: float, tau: float):
 def _numpy_work(stepper, contact, with_friction: bool, u0: np.ndarray) -> tuple[Any, Any]:
     """The numpy step's work observers, both step hooks: ``EnergyAccumulator`` and, damped,
     ``DampingWork``."""
-    from solver.observers import DampingWork, EnergyAccumulator
+    from stickslip.solver.observers import DampingWork, EnergyAccumulator
 
     energy = EnergyAccumulator(contact, with_friction, u0)
     stepper.attach(energy)
@@ -307,7 +307,7 @@ def _numpy_work(stepper, contact, with_friction: bool, u0: np.ndarray) -> tuple[
 def _numba_work(stepper, contact, with_friction: bool, u0: np.ndarray) -> tuple[Any, Any]:
     """The fused step's work observers: the kernel sums both (``FusedEnergy``,
     ``FusedDampingWork``), so neither is a step hook and the compiled loop stays."""
-    from solver.fused import FusedDampingWork, FusedEnergy
+    from stickslip.solver.fused import FusedDampingWork, FusedEnergy
 
     return (FusedEnergy(stepper, contact),
             FusedDampingWork(stepper, u0) if stepper.damped else None)
@@ -322,7 +322,7 @@ def _numpy_parts(problem, law: ContactLaw, tau: float, projection) -> SchemePart
 
 def _numba_parts(problem, law: ContactLaw, tau: float, projection) -> SchemeParts:
     """The fused numba step, which runs the projection's law inside its kernel."""
-    from solver.fused import FusedNewmark
+    from stickslip.solver.fused import FusedNewmark
 
     stepper = FusedNewmark(problem, law.dt, law.beta2, projection, tau=tau)
     return SchemeParts(stepper, projection, _numba_work)
@@ -403,8 +403,8 @@ class ExplicitNewmarkScheme:
         """``BatchedExplicit`` of the scenes of ``laws`` (one column each) on the shared
         ``solver.ensemble.BatchedProblem`` ``bp``, on ``backend``: numba on the CPU, the
         CUDA kernel through CuPy on the GPU (``BACKENDS``)."""
-        from solver.ensemble import BatchedExplicit, array_namespace
-        from solver.fused import friction_bound
+        from stickslip.solver.ensemble import BatchedExplicit, array_namespace
+        from stickslip.solver.fused import friction_bound
 
         law0 = laws[0]
         return BatchedExplicit(
@@ -419,8 +419,8 @@ class ExplicitNewmarkScheme:
 def _implicit_work(stepper, contact, with_friction: bool, u0: np.ndarray) -> tuple[Any, Any]:
     """The implicit step's work: the contact work a step hook with the exact bookkeeping of
     its contact solve, the damping work booked by the stepper itself."""
-    from solver.implicit import ImplicitDampingWork
-    from solver.observers import EnergyAccumulator
+    from stickslip.solver.implicit import ImplicitDampingWork
+    from stickslip.solver.observers import EnergyAccumulator
 
     energy = EnergyAccumulator(contact, with_friction, u0, exact_work=True)
     stepper.attach(energy)
@@ -452,7 +452,7 @@ class ImplicitNewmarkScheme:
 
     def build(self, problem, scene: Scene, omega_max: float) -> SchemeParts:
         """``ImplicitNewmark`` with its active-set contact, at the step ``time_step`` gives."""
-        from solver.implicit import ImplicitContact, ImplicitNewmark
+        from stickslip.solver.implicit import ImplicitContact, ImplicitNewmark
 
         dt, dt_crit = self.time_step(scene, omega_max)
         ts, law = scene.time, ContactLaw.from_scene(scene, dt)

@@ -8,11 +8,16 @@ a GPU node without dolfinx, ``--bundle``), ``report`` (the printed summary), ``p
 (``--plot``). docs/attractors.md.
 """
 
-from studies.attractors.census import Census, CensusError, collect, run_census
-from studies.attractors.classify import CELERITY_TOL, SPREAD_TOL, classify, frame_spread
-from studies.attractors.features import Features, describe, match, window_features
-from studies.attractors.starts import StartDistribution
-from studies.attractors.statistics import fisher_consistent, ladder, observed_order, wilson
+from stickslip.studies.attractors.census import Census, CensusError, collect, run_census
+from stickslip.studies.attractors.classify import CELERITY_TOL, SPREAD_TOL, classify, frame_spread
+from stickslip.studies.attractors.features import Features, describe, match, window_features
+from stickslip.studies.attractors.starts import StartDistribution
+from stickslip.studies.attractors.statistics import (
+           fisher_consistent,
+           ladder,
+           observed_order,
+           wilson,
+)
 
 __all__ = ["CELERITY_TOL", "SPREAD_TOL", "Census", "CensusError", "Features",
            "StartDistribution", "classify", "collect", "describe", "fisher_consistent",

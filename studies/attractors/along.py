@@ -24,7 +24,7 @@ from dataclasses import replace
 from pathlib import Path
 from typing import TextIO
 
-from solver.atomic import atomic_write_text
+from stickslip.solver.atomic import atomic_write_text
 
 KIND = "attractors-along"
 ENTRIES = ("along.json", "points", "*.png")
@@ -79,8 +79,8 @@ def run_along(census, key: str, values: list[float], out_dir: Path, *,  # noqa: 
     from mpi4py import MPI
 
     stream = sys.stdout if stream is None else stream
-    from studies.attractors.census import CensusError, claim_on_rank0, run_census
-    from studies.rundir.ownership import OwnershipError, claim, register_kind
+    from stickslip.studies.attractors.census import CensusError, claim_on_rank0, run_census
+    from stickslip.studies.rundir.ownership import OwnershipError, claim, register_kind
 
     comm = MPI.COMM_WORLD if comm is None else comm
     if comm.rank == 0:
@@ -117,8 +117,8 @@ def run_along(census, key: str, values: list[float], out_dir: Path, *,  # noqa: 
 
 def along_table(out_dir: Path, key: str, values: list[float]) -> dict:
     """Match the attractors of neighbouring points (module docstring); write along.json."""
-    from studies.attractors.features import Tolerances
-    from studies.attractors.statistics import SETTLED, align
+    from stickslip.studies.attractors.features import Tolerances
+    from stickslip.studies.attractors.statistics import SETTLED, align
 
     points = []
     for v in values:

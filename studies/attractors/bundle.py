@@ -30,8 +30,8 @@ from typing import TextIO
 
 import numpy as np
 
-from solver.atomic import atomic_write_text
-from solver.bundle import (
+from stickslip.solver.atomic import atomic_write_text
+from stickslip.solver.bundle import (
     MANIFEST,
     BundleError,
     done,
@@ -39,16 +39,16 @@ from solver.bundle import (
     read_manifest,
     read_result,
 )
-from solver.scene import write_scene
-from solver.scene.files import scene_digest
+from stickslip.solver.scene import write_scene
+from stickslip.solver.scene.files import scene_digest
 
 __all__ = ["BundleError", "NodeRun", "bundle_state", "import_results", "write_bundle"]
 
 
 def _spec(census, directory: Path):  # noqa: ANN001, ANN202 - a SweepSpec
     """The census's sweep (``census.sweep_text`` on its base scene) in ``directory``."""
-    from studies.attractors.census import sweep_text
-    from studies.sweep import load_sweep
+    from stickslip.studies.attractors.census import sweep_text
+    from stickslip.studies.sweep import load_sweep
 
     base = census.base_scene()
     write_scene(base, directory / "base.toml")
@@ -85,7 +85,7 @@ def _definition(census, base) -> dict:  # noqa: ANN001
 def write_bundle(census, directory: Path, stream: TextIO | None = None) -> None:  # noqa: ANN001
     """Prepare the bundle of ``census`` in ``directory`` (needs dolfinx; module docstring):
     one batch per mesh (``solver.bundle.prepare_bundle``)."""
-    from studies.sweep import scene_for
+    from stickslip.studies.sweep import scene_for
 
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
@@ -138,10 +138,15 @@ def import_results(bundle: Path, spec, starts_dir: Path,  # noqa: ANN001
     start failed on the node."""
     from mpi4py import MPI
 
-    from solver.run import Profile
-    from studies.rundir import prepare_run_dir, running_summary, write_first_files, write_member
-    from studies.rundir.ownership import claim
-    from studies.sweep import scene_for
+    from stickslip.solver.run import Profile
+    from stickslip.studies.rundir import (
+        prepare_run_dir,
+        running_summary,
+        write_first_files,
+        write_member,
+    )
+    from stickslip.studies.rundir.ownership import claim
+    from stickslip.studies.sweep import scene_for
 
     owned = claim(starts_dir, "sweep", reuse=True)
     try:

@@ -20,8 +20,8 @@ import json
 import math
 from pathlib import Path
 
-from solver.atomic import atomic_write_text
-from studies.attractors.statistics import COUNTED, SETTLED, wilson
+from stickslip.solver.atomic import atomic_write_text
+from stickslip.studies.attractors.statistics import COUNTED, SETTLED, wilson
 
 CACHE = "cea.json"
 #: The printed table shows the fastest-growing modes and every mode a start ends on.
@@ -33,9 +33,9 @@ def unstable_modes(scene_file: Path, n_inner: int, fmax_hz: float) -> list[dict]
     nodes, most unstable first (k, direction, growth rate, ζ, frequency, phase speed)."""
     from mpi4py import MPI
 
-    from solver.problem import build_problem
-    from solver.scene import load_scene
-    from studies.flutter_fe import complex_eigenvalue_analysis
+    from stickslip.solver.problem import build_problem
+    from stickslip.solver.scene import load_scene
+    from stickslip.studies.flutter_fe import complex_eigenvalue_analysis
 
     scene = load_scene(scene_file, [f"mesh.n_inner={int(n_inner)}"])
     problem = build_problem(scene, MPI.COMM_SELF)

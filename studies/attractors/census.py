@@ -45,9 +45,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TextIO
 
-from solver.atomic import atomic_write_text
-from solver.scene import Scene, SceneError, load_scene, scene_to_dict, write_scene
-from studies.attractors.classify import (
+from stickslip.solver.atomic import atomic_write_text
+from stickslip.solver.scene import Scene, SceneError, load_scene, scene_to_dict, write_scene
+from stickslip.studies.attractors.classify import (
     CELERITY_TOL,
     SETTLED,
     SPREAD_TOL,
@@ -55,9 +55,9 @@ from studies.attractors.classify import (
     row_cache,
     start_row,
 )
-from studies.attractors.features import DEFAULT_TOLERANCES, LEG_GROWTH, Tolerances
-from studies.attractors.starts import StartDistribution
-from studies.attractors.statistics import ladder, mesh_members
+from stickslip.studies.attractors.features import DEFAULT_TOLERANCES, LEG_GROWTH, Tolerances
+from stickslip.studies.attractors.starts import StartDistribution
+from stickslip.studies.attractors.statistics import ladder, mesh_members
 
 KIND = "stickslip-attractors"
 #: The census directory's own entries (``studies.rundir.ownership``); the starts are a sweep
@@ -133,7 +133,7 @@ class Census:
 
 
 def default_dir(scene: Scene) -> Path:
-    from studies.output import output_root
+    from stickslip.studies.output import output_root
 
     return output_root() / "attractors" / _slug(scene.name)
 
@@ -163,7 +163,7 @@ def prepare(census: Census, out_dir: Path, force: bool):  # noqa: ANN201 - a Cla
     The directory is claimed as kind ``attractors`` (``studies.rundir.ownership``: a new or
     empty one, or a census directory to resume; a live or foreign one is refused). The claim
     (its lock) is returned and held until the census ends."""
-    from studies.rundir.ownership import OwnershipError, claim, register_kind
+    from stickslip.studies.rundir.ownership import OwnershipError, claim, register_kind
 
     base = census.base_scene()
     definition = census.definition(base)
@@ -206,7 +206,7 @@ def clear_unstarted(out_dir: Path) -> list[Path]:
     directory refuses to be reused as such. Only directories under ``runs/`` whose every
     entry is one of those are emptied; anything else is left for the sweep to report.
     """
-    from studies.rundir.directory import is_run_dir
+    from stickslip.studies.rundir.directory import is_run_dir
 
     cleared = []
     runs = out_dir / "runs"
@@ -263,8 +263,8 @@ def run_census(census: Census, out_dir: str | Path, *, comm=None, force: bool = 
     """
     from mpi4py import MPI
 
-    from studies.sweep import SweepError, load_sweep, run_sweep
-    from studies.sweep.schedule import wait_quietly
+    from stickslip.studies.sweep import SweepError, load_sweep, run_sweep
+    from stickslip.studies.sweep.schedule import wait_quietly
 
     comm = MPI.COMM_WORLD if comm is None else comm
     out_dir = Path(out_dir)
@@ -315,7 +315,7 @@ def _drop_if_unstarted(owned, out_dir: Path) -> None:  # noqa: ANN001 - a Claim
     own definition files, which the same command writes again."""
     import shutil
 
-    from studies.rundir.ownership import user_entries
+    from stickslip.studies.rundir.ownership import user_entries
 
     if owned.created and set(user_entries(out_dir)) <= {"base.toml", "census.toml",
                                                         "census.json"}:
@@ -343,7 +343,7 @@ def settle(out_dir: Path, comm, stream: TextIO = sys.stdout) -> int:  # noqa: AN
     command again)."""
     import signal
 
-    from studies.sweep.schedule import wait_quietly
+    from stickslip.studies.sweep.schedule import wait_quietly
 
     refused: dict[str, str] = {}  # start id -> why it cannot be continued (rank 0)
     reached: dict[str, float] = {}  # start id -> the time its last leg started from
@@ -444,8 +444,8 @@ def _say_legs(legs: list[dict], stream: TextIO) -> None:
 def continue_legs(legs: list[dict], log: Path) -> tuple[dict[str, str], bool]:
     """Continue this rank's legs in place (``continue_batch`` per end time: one batch per
     batch of starts); ({start id: why not continued}, interrupted)."""
-    from studies.rundir import continue_batch
-    from studies.rundir.readers import ReadError
+    from stickslip.studies.rundir import continue_batch
+    from stickslip.studies.rundir.readers import ReadError
 
     refused: dict[str, str] = {}
     by_until: dict[float, list[dict]] = {}
@@ -482,7 +482,7 @@ def start_rows(out_dir: Path, spread_tol: float = SPREAD_TOL,
                ) -> list[dict]:
     """One row per start of the census (every start, whatever its state); ``window``: the
     length W of the windows compared (``census.json``'s ``window_s``)."""
-    from studies.sweep import load_sweep
+    from stickslip.studies.sweep import load_sweep
 
     spec = load_sweep(out_dir / "census.toml")
     cache_path = out_dir / FEATURES
@@ -512,7 +512,7 @@ def _start_state(out_dir: Path, task, window: float | None  # noqa: ANN001 - a s
     """(run directory, summary, status, key of its features in ``features.json``) of one
     start; the key (None unless completed) names the summary's write, so a continued start
     is featurised again."""
-    from studies.sweep.table import _read_json, live_status
+    from stickslip.studies.sweep.table import _read_json, live_status
 
     run_dir = out_dir / STARTS / "runs" / task.id
     summary = _read_json(run_dir / "summary.json")
@@ -547,7 +547,7 @@ def on_ranks(comm, plan, work, merge) -> bool:  # noqa: ANN001
     (``wait_quietly``); a rank whose ``work`` raises gives no result (rank 0 does that work
     itself later). Returns whether a rank was interrupted (KeyboardInterrupt: SIGINT, or
     SIGTERM where a handler raises it), on every rank once all have arrived."""
-    from studies.sweep.schedule import wait_quietly
+    from stickslip.studies.sweep.schedule import wait_quietly
 
     if comm.size == 1:
         return False
@@ -583,7 +583,7 @@ def _unfeaturised_shares(out_dir: Path, ranks: int) -> list[list[dict]] | None:
     """Rank 0: the completed, not steady starts missing from ``features.json``, shared over
     ``ranks`` (``balanced_shares``); None if none (or the census cannot be read: rank 0's
     ``start_rows`` says why)."""
-    from studies.sweep import load_sweep
+    from stickslip.studies.sweep import load_sweep
 
     try:
         meta = json.loads((out_dir / "census.json").read_text())
@@ -602,7 +602,7 @@ def _unfeaturised_shares(out_dir: Path, ranks: int) -> list[list[dict]] | None:
 
 def _featurise(out_dir: Path, ids: list[str]) -> dict:
     """{features.json key: ``row_cache``} of the starts ``ids`` (``start_row``)."""
-    from studies.sweep import load_sweep
+    from stickslip.studies.sweep import load_sweep
 
     meta = json.loads((out_dir / "census.json").read_text())
     window = meta.get("window_s")
@@ -694,14 +694,14 @@ def answer_of(meta: dict, rows: list[dict], certify_in: Path | None = None, *,
               "members": {str(n): per_mesh[n] for n in meshes},
               "structured": {str(n): [_brief(r) for r in structured[n]] for n in meshes},
               "ladder": lad, "certificates": certificates, "timing": timing, "starts": rows}
-    from studies.attractors.report import summary_text
+    from stickslip.studies.attractors.report import summary_text
 
     answer["text"] = summary_text(answer)
     return answer
 
 
 def _tolerance_facts(tol: Tolerances) -> dict:
-    from studies.attractors.features import AMPLITUDE_TOL, HARMONIC_BINS, SHARE_TOL
+    from stickslip.studies.attractors.features import AMPLITUDE_TOL, HARMONIC_BINS, SHARE_TOL
 
     return {"share_listed": SHARE_TOL, "celerity_rel": tol.celerity,
             "share_rel": tol.share_rel, "share_abs": tol.share_abs,
@@ -727,7 +727,7 @@ def certify_members(out_dir: Path, rows: list[dict], *, compute: bool = True,
     all in one call (``certify.kick_members``: one batch per mesh and step), their wall
     time in ``timing["kick_s"]``. ``write``: False leaves ``certificates.json`` as it was
     (``certify_shared``: rank 0 writes what the ranks computed)."""
-    from studies.attractors.certify import certify_member, kick_members
+    from stickslip.studies.attractors.certify import certify_member, kick_members
 
     cache_path = out_dir / "certificates.json"
     try:

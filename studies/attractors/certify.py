@@ -46,7 +46,7 @@ UNAVAILABLE = "certification unavailable"
 
 def _travel():  # noqa: ANN202
     try:
-        import studies.travel as travel
+        import stickslip.studies.travel as travel
 
         return travel if hasattr(travel, "wave_from_run") else None
     except ImportError:
@@ -101,7 +101,7 @@ def certify_member(rows: list[dict], *, dt_limit: bool = False,
                    window: float | None = None) -> dict:
     """The certificate of one settled member from its rows (module docstring), its features
     read over the last ``window`` seconds (the census's W); never raises."""
-    from studies.attractors.features import Features
+    from stickslip.studies.attractors.features import Features
 
     out: dict = {"starts": len(rows), "reproduced": len(rows) >= 2,
                  "rigid": rows[0]["class"] == "wave"}
@@ -138,16 +138,16 @@ def kick_members(out_dir: Path, groups: dict[str, list[dict]], window: float,
     kick's RMS sizes} or {"message"} where it could not run."""
     import json
 
-    from studies.attractors.classify import _radius, _samples
-    from studies.attractors.features import (
+    from stickslip.studies.attractors.classify import _radius, _samples
+    from stickslip.studies.attractors.features import (
         DEFAULT_TOLERANCES,
         Features,
         components_text,
         differences,
         window_features,
     )
-    from studies.rundir import continue_batch
-    from studies.rundir.readers import ReadError
+    from stickslip.studies.rundir import continue_batch
+    from stickslip.studies.rundir.readers import ReadError
 
     tol = DEFAULT_TOLERANCES if tol is None else tol
     out: dict[str, dict] = {}

@@ -45,7 +45,7 @@ from pathlib import Path
 
 import numpy as np
 
-from studies.attractors.features import (
+from stickslip.studies.attractors.features import (
     CELERITY_TOL,
     DEFAULT_TOLERANCES,
     REGIME_SHORT,

@@ -331,7 +331,7 @@ def frame_spread(t: np.ndarray, theta: np.ndarray, u_r: np.ndarray, u_theta: np.
 def _fractions(status: np.ndarray | None) -> dict:
     if status is None or status.size == 0:
         return {}
-    from solver.contact import zone_fractions
+    from stickslip.solver.contact import zone_fractions
 
     return {k: float(v) for k, v in zone_fractions(status).items()}
 

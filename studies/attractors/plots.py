@@ -30,7 +30,7 @@ def plot_census(out_dir: str | Path) -> list[Path]:
 def _basins(out_dir: Path, answer: dict) -> Path | None:
     import matplotlib.pyplot as plt
 
-    from studies.attractors.statistics import wilson
+    from stickslip.studies.attractors.statistics import wilson
 
     meshes = list(answer["members"])
     names = sorted({m["member"] for ms in answer["members"].values() for m in ms})
@@ -92,7 +92,7 @@ def _values(out_dir: Path, answer: dict) -> Path | None:
 
 
 def _profiles(out_dir: Path, answer: dict) -> list[Path]:
-    from postprocess.plotting import plot_uvpq
+    from stickslip.postprocess.plotting import plot_uvpq
 
     paths, seen = [], set()
     for run in answer["starts"]:  # one run of each wave member per mesh, any start

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import math
 
-from studies.attractors.certify import member_line
-from studies.attractors.classify import member_description
-from studies.attractors.statistics import SETTLED
+from stickslip.studies.attractors.certify import member_line
+from stickslip.studies.attractors.classify import member_description
+from stickslip.studies.attractors.statistics import SETTLED
 
 
 def _pct(x: float) -> str:

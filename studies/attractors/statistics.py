@@ -99,7 +99,7 @@ def member_components(rows: list[dict]) -> dict:
     """The member's components (those of its first row's last window): per component the
     mean and sample standard deviation over the rows of its celerity, share and frequency;
     its readable ``name`` (``features.describe`` of the means) and ``n_components``."""
-    from studies.attractors.features import Component, Features, describe
+    from stickslip.studies.attractors.features import Component, Features, describe
 
     have = [Features.from_dict(r["features"]) for r in rows if r.get("features")]
     if not have:
@@ -152,7 +152,7 @@ LADDER_TOLERANCES = {"celerity": 0.05, "share_rel": 0.5, "share_abs": 0.10, "fra
 
 def member_features(entry: dict):  # noqa: ANN201 - features.Features
     """The features of a member (``mesh_members`` entry): its mean components and zones."""
-    from studies.attractors.features import Component, Features
+    from stickslip.studies.attractors.features import Component, Features
 
     comps = tuple(Component(k=c["k"], direction=c["direction"], share=c["share"],
                             amplitude_m=c["amplitude_m"], frequency_hz=c["frequency_hz"],
@@ -175,7 +175,7 @@ def align(per_mesh: dict[int, list[dict]], tol=None, lookback: bool = False  # n
     with ``lookback`` also one of an earlier key, the most recent first (an attractor that
     vanishes and comes back along a parameter); otherwise its own name (``@N`` added where
     that name is already taken). Other entries keep their name."""
-    from studies.attractors.features import Tolerances, match
+    from stickslip.studies.attractors.features import Tolerances, match
 
     tol = tol or Tolerances(**LADDER_TOLERANCES)
     meshes = sorted(per_mesh)

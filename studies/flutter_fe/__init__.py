@@ -5,7 +5,7 @@ bound, modes), ``shapes`` (mode shapes for ParaView and CSV), ``references`` (ex
 reduced-model spectra), ``transient`` (growth measured in a run), ``plots``.
 """
 
-from studies.flutter_fe.cea import (
+from stickslip.studies.flutter_fe.cea import (
     CEAMode,
     CEAOperators,
     CEAResult,
@@ -16,9 +16,12 @@ from studies.flutter_fe.cea import (
     regularised_band,
     sweep_friction,
 )
-from studies.flutter_fe.plots import plot_cea_diagram, plot_spectrum
-from studies.flutter_fe.references import annulus_sliding_frequencies, reduced_model_flutter
-from studies.flutter_fe.transient import (
+from stickslip.studies.flutter_fe.plots import plot_cea_diagram, plot_spectrum
+from stickslip.studies.flutter_fe.references import (
+    annulus_sliding_frequencies,
+    reduced_model_flutter,
+)
+from stickslip.studies.flutter_fe.transient import (
     TransientGrowth,
     matrix_pencil,
     measure_transient_growth,

@@ -49,7 +49,7 @@ import numpy as np
 if TYPE_CHECKING:
     from petsc4py import PETSc
 
-    from solver.problem import TubeProblem
+    from stickslip.solver.problem import TubeProblem
 
 
 TARGET_STEP = 0.7  # next target: this many half-widths of the last slice above its end
@@ -197,7 +197,7 @@ class _ContactFrame:
     def __init__(self, problem: TubeProblem, friction: str) -> None:
         from petsc4py import PETSc
 
-        from forms.steady import node_matrix
+        from stickslip.forms.steady import node_matrix
 
         K, nd = problem.K, problem.nodes
         rows_x = (K.getOwnershipRange()[0] + nd.dofs_x).astype(PETSc.IntType)
@@ -255,7 +255,7 @@ def _consistent_mass(problem: TubeProblem, frame: _ContactFrame,
     import dolfinx.fem.petsc
     import ufl
 
-    from forms.elasticity import mass as mass_form
+    from stickslip.forms.elasticity import mass as mass_form
 
     u, v = ufl.TrialFunction(problem.V), ufl.TestFunction(problem.V)
     Mc = dolfinx.fem.petsc.assemble_matrix(

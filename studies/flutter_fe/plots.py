@@ -11,7 +11,7 @@ if TYPE_CHECKING:
 
     pass
 
-from studies.flutter_fe.cea import CEAResult, distinct_modes
+from stickslip.studies.flutter_fe.cea import CEAResult, distinct_modes
 
 # --------------------------------------------------------------------------------- plots
 

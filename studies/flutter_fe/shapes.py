@@ -23,8 +23,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 if TYPE_CHECKING:
-    from solver.problem import TubeProblem
-    from studies.flutter_fe.cea import CEAOperators, CEAResult
+    from stickslip.solver.problem import TubeProblem
+    from stickslip.studies.flutter_fe.cea import CEAOperators, CEAResult
 
 PHASES = 16  # frames of one period in each VTX file
 
@@ -95,7 +95,7 @@ def write_mode_shapes(problem: TubeProblem, ops: CEAOperators, res: CEAResult,
     Collective (every rank calls it); rank 0 writes the CSV files. Returns
     ``{"dir", "count", "files"}``.
     """
-    from solver.atomic import atomic_write_text
+    from stickslip.solver.atomic import atomic_write_text
 
     comm = problem.comm
     out = Path(out_dir)

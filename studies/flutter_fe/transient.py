@@ -11,7 +11,7 @@ import numpy as np
 if TYPE_CHECKING:
     from mpi4py import MPI
 
-    from solver.scene import Scene
+    from stickslip.solver.scene import Scene
 
 
 
@@ -101,9 +101,9 @@ def measure_transient_growth(
     ``postprocess.analysis.mode_coefficients`` of the recorder's u_θ samples in ``window``
     (which must lie in the linear phase: checked, every node slipping).
     """
-    from postprocess.analysis import mode_coefficients
-    from solver.contact import SLIP
-    from solver.run import Simulation
+    from stickslip.postprocess.analysis import mode_coefficients
+    from stickslip.solver.contact import SLIP
+    from stickslip.solver.run import Simulation
 
     sc = scene.with_overrides(
         'initial.perturbation="mode"', f"initial.mode={k}", f"initial.amplitude={amplitude}",

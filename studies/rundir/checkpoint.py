@@ -37,9 +37,9 @@ from pathlib import Path
 
 import numpy as np
 
-from solver.atomic import atomic_save_npz
-from solver.scene import Scene, scene_to_dict
-from studies.rundir.readers import ReadError, _no_link
+from stickslip.solver.atomic import atomic_save_npz
+from stickslip.solver.scene import Scene, scene_to_dict
+from stickslip.studies.rundir.readers import ReadError, _no_link
 
 __all__ = ["CHECKPOINT", "FORMAT", "Checkpoint", "read_checkpoint", "scene_fingerprint",
            "write_checkpoint"]

@@ -37,13 +37,13 @@ from pathlib import Path
 import numpy as np
 from mpi4py import MPI
 
-from solver.scene import Scene, write_scene
-from studies.rundir.checkpoint import Checkpoint, read_checkpoint, scene_fingerprint
-from studies.rundir.directory import prepare_run_dir
-from studies.rundir.ownership import owned
-from studies.rundir.readers import ReadError, read_samples, read_scene_file, read_summary
-from studies.rundir.scene_run import RunDirectory
-from studies.rundir.writer import print_summary, write_member
+from stickslip.solver.scene import Scene, write_scene
+from stickslip.studies.rundir.checkpoint import Checkpoint, read_checkpoint, scene_fingerprint
+from stickslip.studies.rundir.directory import prepare_run_dir
+from stickslip.studies.rundir.ownership import owned
+from stickslip.studies.rundir.readers import ReadError, read_samples, read_scene_file, read_summary
+from stickslip.studies.rundir.scene_run import RunDirectory
+from stickslip.studies.rundir.writer import print_summary, write_member
 
 __all__ = ["RESUMABLE", "WALL_CLOCK_KEYS", "continue_batch", "continue_run"]
 
@@ -222,7 +222,7 @@ def continue_batch(run_dirs: list[str | Path], until: float,
             before any starts).
         ValueError: a kick without ``out_dirs``.
     """
-    from studies.sweep.batch import batch_key
+    from stickslip.studies.sweep.batch import batch_key
 
     comm = MPI.COMM_SELF
     dirs = [Path(d) for d in run_dirs]
@@ -264,10 +264,10 @@ def _continue_members(plans: list[_Plan], outs: list[Path | None], backend: str,
     import shutil
     import time
 
-    from solver.ensemble_run import BatchSimulation
-    from solver.run import Profile
-    from studies.resources import available_memory
-    from studies.sweep.batch import SPOOL_MEMORY_FRACTION
+    from stickslip.solver.ensemble_run import BatchSimulation
+    from stickslip.solver.run import Profile
+    from stickslip.studies.resources import available_memory
+    from stickslip.studies.sweep.batch import SPOOL_MEMORY_FRACTION
 
     t0 = time.perf_counter()
     claims = []

@@ -9,8 +9,8 @@ from pathlib import Path
 
 from mpi4py import MPI
 
-from studies.output import output_root, process_alive  # noqa: F401  (re-exported)
-from studies.rundir.ownership import Claim, OwnershipError, claim, owned, refusal
+from stickslip.studies.output import output_root, process_alive  # noqa: F401  (re-exported)
+from stickslip.studies.rundir.ownership import Claim, OwnershipError, claim, owned, refusal
 
 #: Where a run ends up (``final``) and where it is written meanwhile (``work``).
 RunDir = Claim

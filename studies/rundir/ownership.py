@@ -31,7 +31,7 @@ JSON object with the directory's ``kind`` (run, sweep, travel, attractors, ...) 
 
 For a new command that writes a directory (for example ``stickslip attractors``)::
 
-    from studies.rundir.ownership import OwnershipError, claim, register_kind
+    from stickslip.studies.rundir.ownership import OwnershipError, claim, register_kind
 
     register_kind("attractors", ("attractors.json", "attractors.csv", "starts", "*.png"))
     try:
@@ -305,7 +305,7 @@ def _lock_into(path: Path, kind: str) -> int | None:
 
 
 def _write_marker(path: Path, kind: str) -> None:
-    from solver.atomic import atomic_write_text
+    from stickslip.solver.atomic import atomic_write_text
 
     atomic_write_text(path / MARKER, json.dumps({
         "kind": kind, "id": uuid.uuid4().hex, "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"),

@@ -100,7 +100,7 @@ def read_summary(run_dir: str | Path) -> dict:
 
 def read_scene_file(path: str | Path) -> Any:
     """The :class:`solver.scene.Scene` in ``path`` (a saved ``scene.toml``)."""
-    from solver.scene import SceneError, load_scene, scene_to_dict
+    from stickslip.solver.scene import SceneError, load_scene, scene_to_dict
 
     p = Path(path)
     _no_link(p)
@@ -246,7 +246,7 @@ def check_agreement(run_dir: Path, summary: dict, scene: Any, samples: dict) -> 
     """The run's files tell of one run: the scene of ``scene.toml`` is the one the summary
     names (and, where recorded, hashes), with the samples' number of contact nodes; else
     :class:`ReadError` naming the first difference (an edited or swapped file)."""
-    from solver.scene.files import scene_digest
+    from stickslip.solver.scene.files import scene_digest
 
     fix = "put the run's own files back, or run the scene again"
     p = Path(run_dir) / "scene.toml"

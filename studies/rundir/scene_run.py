@@ -18,14 +18,14 @@ from pathlib import Path
 
 from mpi4py import MPI
 
-from postprocess.plotting import DEFAULT_WINDOW
-from solver import __version__
-from solver.atomic import atomic_save_npz, atomic_write_text
-from solver.errors import Diverged, StepTooLarge
-from solver.run import Profile, Simulation
-from solver.scene import Scene
-from studies.output import output_root, process_alive  # noqa: F401  (re-exported)
-from studies.rundir.directory import (
+from stickslip.postprocess.plotting import DEFAULT_WINDOW
+from stickslip.solver import __version__
+from stickslip.solver.atomic import atomic_save_npz, atomic_write_text
+from stickslip.solver.errors import Diverged, StepTooLarge
+from stickslip.solver.run import Profile, Simulation
+from stickslip.solver.scene import Scene
+from stickslip.studies.output import output_root, process_alive  # noqa: F401  (re-exported)
+from stickslip.studies.rundir.directory import (
     RunDir,
     RunDirError,
     _disk_status,
@@ -34,8 +34,8 @@ from studies.rundir.directory import (
     discard_run_dir,
     prepare_run_dir,
 )
-from studies.rundir.signals import RunSignals, _signame
-from studies.rundir.writer import (  # noqa: F401  (summarise, peak_rss_mb: re-exported)
+from stickslip.studies.rundir.signals import RunSignals, _signame
+from stickslip.studies.rundir.writer import (  # noqa: F401  (summarise, peak_rss_mb: re-exported)
     RunOutputs,
     finish_summary,
     peak_rss_mb,
@@ -78,8 +78,8 @@ def run_scene(scene: Scene, run_dir: Path, *, force: bool = False,
     maps over ``window``) on rank 0, one ``figure: PATH`` line each on ``stream``.
     """
     if check_sampling:
-        from postprocess.resolution import sampling_problem
-        from studies.resources import ResourceError
+        from stickslip.postprocess.resolution import sampling_problem
+        from stickslip.studies.resources import ResourceError
 
         if problem := sampling_problem(scene, "pass --yes-i-know"):
             raise ResourceError(problem)
@@ -88,7 +88,7 @@ def run_scene(scene: Scene, run_dir: Path, *, force: bool = False,
                              replace_on_failure=replace_on_failure)
     summary = directory.run()
     if plot and summary.get("status") in PLOTTABLE:  # rank 0: the others' summary is {}
-        from postprocess.plotting import plot_run
+        from stickslip.postprocess.plotting import plot_run
 
         for path in plot_run(Path(run_dir), window=window):
             directory.say(f"figure: {path}")
@@ -201,8 +201,8 @@ class RunDirectory:
 
     def _check_first(self):  # noqa: ANN202 - an Estimate or None
         """The place, then the resources, before anything is created (collective)."""
-        from studies.resources import ResourceError
-        from studies.resources import check_resources as _check
+        from stickslip.studies.resources import ResourceError
+        from stickslip.studies.resources import check_resources as _check
 
         est = None
         err, kind = None, None
@@ -382,7 +382,7 @@ class RunDirectory:
         ``interrupted`` if a SIGINT/SIGTERM came first (mpirun's SIGKILL follows its SIGTERM
         within a second), or drop an unfinished replacement. Neither status is final: a
         resumed sweep runs the scene again. The rescue writer, if any, owns the status."""
-        from solver.atomic import remove_temporaries
+        from stickslip.solver.atomic import remove_temporaries
 
         rd = self.rd
         status, message = "crashed", (f"the process was killed outright (SIGKILL: out of "

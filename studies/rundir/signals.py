@@ -8,7 +8,7 @@ import signal
 import threading
 import time
 
-from studies.output import output_root, process_alive  # noqa: F401  (re-exported)
+from stickslip.studies.output import output_root, process_alive  # noqa: F401  (re-exported)
 
 
 class RunSignals:

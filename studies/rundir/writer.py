@@ -27,11 +27,11 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from solver.atomic import atomic_save_npz, atomic_write_text
-from solver.run import Profile
-from solver.scene import Scene, write_scene
-from studies.rundir import directory
-from studies.rundir.checkpoint import write_checkpoint
+from stickslip.solver.atomic import atomic_save_npz, atomic_write_text
+from stickslip.solver.run import Profile
+from stickslip.solver.scene import Scene, write_scene
+from stickslip.studies.rundir import directory
+from stickslip.studies.rundir.checkpoint import write_checkpoint
 
 
 def running_summary(name: str) -> dict:
@@ -167,9 +167,9 @@ def summarise(run: Any, probes: dict | None = None) -> dict:
     with the gathered ``probes``, whether the samples resolve the wave
     (:func:`postprocess.resolution.sampling_check`: a ``warning`` where they alias it).
     ``run``: a ``solver.run.Simulation`` or a batch member (``SceneRun``)."""
-    from postprocess.analysis import analyse
-    from postprocess.resolution import sampling_check
-    from solver.scene.files import scene_digest
+    from stickslip.postprocess.analysis import analyse
+    from stickslip.postprocess.resolution import sampling_check
+    from stickslip.solver.scene.files import scene_digest
 
     out = run.facts()
     data = run.recorder.arrays()

@@ -4,9 +4,9 @@
 ``table`` (``sweep.{csv,json}``), ``regime_map`` (the plot).
 """
 
-from studies.sweep.regime_map import existence_grid, plot_sweep
-from studies.sweep.schedule import run_sweep
-from studies.sweep.spec import (
+from stickslip.studies.sweep.regime_map import existence_grid, plot_sweep
+from stickslip.studies.sweep.schedule import run_sweep
+from stickslip.studies.sweep.spec import (
     FINAL_STATUSES,
     REGIMES,
     MapSpec,
@@ -16,7 +16,7 @@ from studies.sweep.spec import (
     load_sweep,
     scene_for,
 )
-from studies.sweep.table import is_sweep_dir, read_table, task_state, write_table
+from stickslip.studies.sweep.table import is_sweep_dir, read_table, task_state, write_table
 
 __all__ = [
     "FINAL_STATUSES",

@@ -33,10 +33,10 @@ import traceback
 from pathlib import Path
 from typing import TextIO
 
-from solver.atomic import atomic_write_text
-from solver.scene import Scene, scene_to_dict
-from studies.resources import available_memory
-from studies.sweep.spec import SweepSpec, Task, scene_for
+from stickslip.solver.atomic import atomic_write_text
+from stickslip.solver.scene import Scene, scene_to_dict
+from stickslip.studies.resources import available_memory
+from stickslip.studies.sweep.spec import SweepSpec, Task, scene_for
 
 #: Scene keys that may differ inside a batch (the contact law's data and the initial state).
 PER_SCENE = {"name": None, "description": None, "loading": None, "initial": None,
@@ -52,7 +52,7 @@ SPOOL_MEMORY_FRACTION = 0.1
 def batch_key(scene: Scene) -> str | None:
     """The grouping key of ``scene`` (equal keys: same K, M, dt, scheme), or None if the
     scene must run alone (see the module docstring)."""
-    from solver.schemes.select import batchable
+    from stickslip.solver.schemes.select import batchable
 
     if not batchable(scene):
         return None
@@ -136,7 +136,7 @@ def run_batch(spec: SweepSpec, tasks: list[Task], out_dir: Path, world_rank: int
 
     The batch is a ``solver.ensemble_run.BatchSimulation``; this function only prepares each
     scene's run directory and log, and writes each scene's files when the batch is done."""
-    from solver.run import Profile
+    from stickslip.solver.run import Profile
 
     t0 = time.perf_counter()
     mine = _claimable(tasks, out_dir, stream)
@@ -190,7 +190,7 @@ def _start_members(tasks, scenes, run_dirs, logs, claims, out_dir,  # noqa: ANN0
     at once: a batch of B members would otherwise hold B open files while it runs."""
     from mpi4py import MPI
 
-    from studies.rundir import prepare_run_dir, running_summary, write_first_files
+    from stickslip.studies.rundir import prepare_run_dir, running_summary, write_first_files
 
     for t, sc, rd in zip(tasks, scenes, run_dirs, strict=True):
         claim = prepare_run_dir(rd, True, MPI.COMM_SELF, in_place=True)
@@ -225,7 +225,7 @@ def _deferred_signals():  # noqa: ANN202
 def _claimable(tasks: list[Task], out_dir: Path, stream: TextIO | None) -> list[Task]:
     """The tasks whose ``runs/ID`` is stickslip's or new; the others (a user's folder) are
     named on ``stream`` and left alone (the sweep table shows them as foreign)."""
-    from studies.rundir.ownership import refusal
+    from stickslip.studies.rundir.ownership import refusal
 
     out = []
     for t in tasks:
@@ -245,7 +245,7 @@ def _build_batch(scenes, backend, out_dir, profile, files):
     ``SPOOL_MEMORY_FRACTION`` of the available memory (no file round trip in the time loop);
     otherwise it spools it in chunks to a folder under the sweep directory, so that memory
     does not grow with the run length."""
-    from solver.ensemble_run import BatchSimulation
+    from stickslip.solver.ensemble_run import BatchSimulation
 
     batch = BatchSimulation(scenes, backend=backend, spool_parent=out_dir, profile=profile,
                             memory_budget=SPOOL_MEMORY_FRACTION * available_memory())
@@ -281,7 +281,7 @@ class _BatchFiles:
     def write_runs(self, batch, interrupted: bool, profile) -> None:
         """summary.json, samples.npz, final_field.npz and checkpoint.npz of every scene that
         ran, written as a single run's (``studies.rundir.write_member``)."""
-        from studies.rundir import print_summary, write_member
+        from stickslip.studies.rundir import print_summary, write_member
 
         for k in batch.live:
             run = batch.runs[k]

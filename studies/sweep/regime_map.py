@@ -13,15 +13,21 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from postprocess.style import REGIME_COLORS
-from solver.atomic import atomic_write_text
-from solver.scene import (
+from stickslip.postprocess.style import REGIME_COLORS
+from stickslip.solver.atomic import atomic_write_text
+from stickslip.solver.scene import (
     Scene,
     load_scene,
     scene_to_dict,
 )
-from studies.sweep.spec import _SEMIANALYTIC_KEYS, REGIMES, SweepError, _slug_value, _toml_value
-from studies.sweep.table import _read_json, read_table
+from stickslip.studies.sweep.spec import (
+    _SEMIANALYTIC_KEYS,
+    REGIMES,
+    SweepError,
+    _slug_value,
+    _toml_value,
+)
+from stickslip.studies.sweep.table import _read_json, read_table
 
 # ============================================================================ regime map
 
@@ -73,7 +79,7 @@ def _span(values: Sequence[float], scale: str) -> list[float]:
 
 def _reduced_params(scene: Scene) -> tuple[float, float, float, float, float, float]:
     """(nu, xi, gamma, f, delta, omega) of the reduced model (paper section 2) for ``scene``."""
-    from semianalytic.coefficients import gamma_from_physical
+    from stickslip.semianalytic.coefficients import gamma_from_physical
 
     g, m, ld = scene.geometry, scene.material, scene.loading
     return (m.nu, g.xi, gamma_from_physical(m.wave_speed, g.R, ld.omega), ld.f, g.delta,
@@ -94,8 +100,8 @@ def existence_grid(base: Scene, xkey: str, xs: Sequence[float], ykey: str, ys: S
     """
     import warnings
 
-    from semianalytic.coefficients import coefficients
-    from semianalytic.waves import find_waves, refine_wave
+    from stickslip.semianalytic.coefficients import coefficients
+    from stickslip.semianalytic.waves import find_waves, refine_wave
 
     ks = tuple(ks)
     searched: dict[tuple, list] = {}
@@ -281,7 +287,7 @@ def _map_rows(sweep_dir: Path, meta: dict) -> tuple[list[dict], list[str], dict 
     run)."""
     census = _read_json(sweep_dir / "attractors_map.json")
     if census is not None:
-        from studies.attractors.maps import census_cells
+        from stickslip.studies.attractors.maps import census_cells
 
         return census_cells(census), list(census["keys"]), census
     rows = []

@@ -29,16 +29,23 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, TextIO
 
-from postprocess.style import wave_title
-from solver.atomic import atomic_write_text
-from solver.scene import (
+from stickslip.postprocess.style import wave_title
+from stickslip.solver.atomic import atomic_write_text
+from stickslip.solver.scene import (
     write_scene,
 )
-from studies.output import process_alive
-from studies.resources import ResourceError
-from studies.rundir.ownership import user_entries
-from studies.sweep.spec import FINAL_STATUSES, SweepError, SweepSpec, Task, _cost, scene_for
-from studies.sweep.table import _read_json, recorded_failures, task_state, write_table
+from stickslip.studies.output import process_alive
+from stickslip.studies.resources import ResourceError
+from stickslip.studies.rundir.ownership import user_entries
+from stickslip.studies.sweep.spec import (
+    FINAL_STATUSES,
+    SweepError,
+    SweepSpec,
+    Task,
+    _cost,
+    scene_for,
+)
+from stickslip.studies.sweep.table import _read_json, recorded_failures, task_state, write_table
 
 if TYPE_CHECKING:  # pragma: no cover
     from mpi4py import MPI
@@ -249,7 +256,7 @@ def _run_one(spec: SweepSpec, task: Task, out_dir: Path, group: MPI.Comm,
     A failure that the scene's summary does not show (its write failed too: a full disk), or
     a summary that could not take the run's final word, goes into ``failures`` (id ->
     message; leader only) for the table."""
-    from studies.rundir import run_scene
+    from stickslip.studies.rundir import run_scene
 
     leader = group.rank == 0
     run_dir = out_dir / "runs" / task.id
@@ -306,7 +313,7 @@ def _check_recorded(run_dir: Path, summary: dict, failures: dict[str, str] | Non
                     task_id: str) -> str:
     """The scene's status, ``failed`` where its ``summary.json`` on disk does not hold the
     run's final word (a write failed: a full disk); such a failure goes into ``failures``."""
-    from studies.sweep.table import live_status, run_summary
+    from stickslip.studies.sweep.table import live_status, run_summary
 
     status = str(summary.get("status", "failed"))
     disk = run_summary(run_dir)
@@ -324,7 +331,7 @@ def _record_failure(spec: SweepSpec, task: Task, run_dir: Path, err: Exception, 
     """Write a ``failed`` summary for a scene whose run raised, into its run directory only if
     that is stickslip's (or new): a user's folder under ``runs/`` is never written (the
     table shows it as ``foreign``; the log has the error)."""
-    from studies.rundir.ownership import OwnershipError, claim, owned
+    from stickslip.studies.rundir.ownership import OwnershipError, claim, owned
 
     if isinstance(err, OwnershipError):
         return
@@ -369,7 +376,7 @@ def _classify(out_dir: Path, spec: SweepSpec, retry_failed: bool
               ) -> tuple[list[Task], int, float]:
     """Rank 0, writing nothing: the pending scenes (largest first), the number already done,
     and the estimated one-rank seconds of the pending ones (``studies.resources``)."""
-    from studies.resources import estimate
+    from stickslip.studies.resources import estimate
 
     pending: list[tuple[float, int, Task]] = []
     n_done = 0
@@ -391,7 +398,7 @@ def _classify(out_dir: Path, spec: SweepSpec, retry_failed: bool
 def _cost_problem(spec: SweepSpec, n_pending: int, seconds: float, n_groups: int,
                   group_size: int) -> str | None:
     """Why the pending scenes are too long to start without ``--yes-i-know``, or None."""
-    from studies.resources import MAX_SECONDS, _duration
+    from stickslip.studies.resources import MAX_SECONDS, _duration
 
     wall = seconds / max(1, n_groups * group_size)
     if wall <= MAX_SECONDS:
@@ -420,7 +427,7 @@ def _lock(out_dir: Path):  # noqa: ANN202
     """Claim the sweep directory (``studies.rundir.ownership``, kind ``sweep``): a new one,
     or a sweep directory to resume; a live one (another sweep), a user's folder or another
     kind of directory is refused in one line."""
-    from studies.rundir.ownership import OwnershipError, claim
+    from stickslip.studies.rundir.ownership import OwnershipError, claim
 
     try:
         return claim(out_dir, "sweep", reuse=True)
@@ -434,7 +441,7 @@ def _run_unit(spec: SweepSpec, unit: list[Task], out_dir: Path, group: MPI.Comm,
     """One work unit: a single scene (``_run_one``) or a batch (``studies.sweep.batch``)."""
     if len(unit) == 1:
         return _run_one(spec, unit[0], out_dir, group, world_rank, check_cost, failures)
-    from studies.sweep.batch import run_batch
+    from stickslip.studies.sweep.batch import run_batch
 
     try:
         statuses = run_batch(spec, unit, out_dir, world_rank, backend=backend)
@@ -533,7 +540,7 @@ def _plan_on_rank0(spec: SweepSpec, out_dir: Path, comm: MPI.Comm, g: int, retry
                 shutil.rmtree(out_dir, ignore_errors=True)  # made for nothing
             raise SweepError(problem)
         _prepare(out_dir, spec)
-        from studies.sweep.batch import plan_units
+        from stickslip.studies.sweep.batch import plan_units
 
         units = plan_units(spec, pending, batch, (comm.size + g - 1) // g, g)
         return ([[t.id for t in u] for u in units], n_done), lock

@@ -34,7 +34,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from solver.scene import (
+from stickslip.solver.scene import (
     Scene,
     SceneError,
     load_scene,
@@ -170,7 +170,7 @@ def _resolve_base(base: str, sweep_path: Path) -> Path:
         if c.is_file():
             return c.resolve()
     try:  # a shipped scene name ("figure3_n36")
-        from solver.scene import SCENES_DIR
+        from stickslip.solver.scene import SCENES_DIR
 
         shipped = SCENES_DIR / f"{Path(base).stem}.toml"
         if Path(base).parent == Path(".") and shipped.is_file():
@@ -219,7 +219,7 @@ def _execution(data: dict[str, Any], p: Path) -> tuple[int, int | str, str]:
                                        or (isinstance(batch, int) and batch >= 1)):
         raise SweepError(f"{p}: batch = {batch!r} must be \"off\", \"auto\" or an integer "
                          ">= 1 (scenes per batch)")
-    from solver.schemes.select import BACKENDS
+    from stickslip.solver.schemes.select import BACKENDS
 
     backend = data.get("backend", "cpu")
     if backend not in tuple(BACKENDS):  # a table or list given is refused too

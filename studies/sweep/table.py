@@ -16,16 +16,21 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from solver.atomic import atomic_write_text
-from solver.scene import (
+from stickslip.solver.atomic import atomic_write_text
+from stickslip.solver.scene import (
     Scene,
     SceneError,
     load_scene,
     scene_to_dict,
 )
-from studies.rundir.ownership import owned, user_entries
-from studies.rundir.readers import ReadError, read_json_object, read_summary, read_sweep_table
-from studies.sweep.spec import (
+from stickslip.studies.rundir.ownership import owned, user_entries
+from stickslip.studies.rundir.readers import (
+    ReadError,
+    read_json_object,
+    read_summary,
+    read_sweep_table,
+)
+from stickslip.studies.sweep.spec import (
     _TABLE_FIELDS,
     FINAL_STATUSES,
     SWEEP_KIND,
@@ -135,7 +140,7 @@ def live_status(summary: dict) -> str:
     A run is saved before its analysis is added (``studies.rundir.scene_run._save``); one
     killed in between is not final, and a resumed sweep runs it again.
     """
-    from studies.output import process_alive
+    from stickslip.studies.output import process_alive
 
     status = str(summary.get("status", "pending"))
     if status == "running" and process_alive(summary) is False:

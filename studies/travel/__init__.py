@@ -5,6 +5,6 @@ discrete wave at the run's step) and compares it with the run; ``NotRigidWave`` 
 when the run's end state is not a rigidly travelling wave.
 """
 
-from studies.travel.from_run import NotRigidWave, wave_from_run, wave_stability
+from stickslip.studies.travel.from_run import NotRigidWave, wave_from_run, wave_stability
 
 __all__ = ["NotRigidWave", "wave_from_run", "wave_stability"]

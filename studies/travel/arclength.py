@@ -23,7 +23,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from studies.travel.newton import (
+from stickslip.studies.travel.newton import (
     INEQUALITY_NAMES,
     CircleProblem,
     NotConverged,

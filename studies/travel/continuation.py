@@ -19,8 +19,8 @@ from pathlib import Path
 
 import numpy as np
 
-from solver.scene import Scene
-from studies.travel.arclength import ARCLENGTH_KEYS
+from stickslip.solver.scene import Scene
+from stickslip.studies.travel.arclength import ARCLENGTH_KEYS
 
 __all__ = ["run_continuation", "REUSE_KEYS"]
 
@@ -32,9 +32,9 @@ def _arclength(st, k: int, key: str, last: list, values: list[float], rows: list
     """Follow the branch from its last two waves by pseudo-arclength (module doc), at most
     as many steps as ``values``, until λ leaves their range or a step fails; one row per
     wave (``arclength``: true; ``fold``: true where λ turned)."""
-    from studies.travel import driver as D
-    from studies.travel.arclength import arclength_step, phase_row_of, problem_at
-    from studies.travel.newton import NotConverged, fold_state, unfold
+    from stickslip.studies.travel import driver as D
+    from stickslip.studies.travel.arclength import arclength_step, phase_row_of, problem_at
+    from stickslip.studies.travel.newton import NotConverged, fold_state, unfold
 
     R = st.scene.geometry.R
     prob0 = D.folded(st, k).prob
@@ -84,7 +84,7 @@ def run_continuation(scene: Scene, args: argparse.Namespace, key: str, values: l
                      out: Path, t0: float) -> int:
     """Follow the branch; write branch.json/csv (+ branch.png); exit 0 if any point solved.
     Interrupted (Ctrl-C), it writes the points solved so far and re-raises."""
-    from studies.travel.output import plot_branch, shown, write_branch
+    from stickslip.studies.travel.output import plot_branch, shown, write_branch
 
     rows: list[dict] = []
     try:
@@ -110,8 +110,8 @@ def run_continuation(scene: Scene, args: argparse.Namespace, key: str, values: l
 def _follow(scene: Scene, args: argparse.Namespace, key: str, values: list[float],
             rows: list[dict]) -> None:
     """Solve each point from the last converged one, appending a row per point to ``rows``."""
-    from studies.travel import driver as D
-    from studies.travel.newton import NotConverged
+    from stickslip.studies.travel import driver as D
+    from stickslip.studies.travel.newton import NotConverged
 
     st = None
     W, om = None, None

@@ -25,8 +25,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from solver.scene import Scene
-from studies.travel.newton import (
+from stickslip.solver.scene import Scene
+from stickslip.studies.travel.newton import (
     CircleProblem,
     TravelSolution,
     fold_state,
@@ -65,9 +65,9 @@ def setup(scene: Scene, damping: float = 0.0, lumped: bool = False,
     material-derivative scheme, ``newton.RATES``)."""
     from mpi4py import MPI
 
-    from solver.problem import build_problem
-    from studies.travel.frame import circle_problem, frame_operators
-    from studies.travel.newton import check_rate
+    from stickslip.solver.problem import build_problem
+    from stickslip.studies.travel.frame import circle_problem, frame_operators
+    from stickslip.studies.travel.newton import check_rate
 
     check_rate(rate)
     # the wave-frame solver runs on one rank: its own mesh (a census calls it on rank 0 only)
@@ -78,7 +78,7 @@ def setup(scene: Scene, damping: float = 0.0, lumped: bool = False,
 
 def retarget(st: Setup, scene: Scene) -> Setup:
     """Same mesh and material, new loading / mismatch (continuation in Ω, f, δ): no rebuild."""
-    from studies.travel.frame import circle_problem
+    from stickslip.studies.travel.frame import circle_problem
 
     return Setup(scene, st.ops, circle_problem(st.ops, scene, rate=st.prob.rate))
 
@@ -87,7 +87,7 @@ def start_from_run(run_dir: Path, st: Setup, run=None) -> tuple[Array, float, di
     """(W0, ω0, info) from a transient run directory's last sample (module doc); with sub-node
     samples, from its probe's every-step history (``probe_history``) where it has one.
     ``run``: the directory's ``postprocess.analysis.RunData`` if already loaded."""
-    from postprocess.analysis import analyse_run, load_run
+    from stickslip.postprocess.analysis import analyse_run, load_run
 
     run = run if run is not None else load_run(run_dir)
     s = run.samples
@@ -138,9 +138,9 @@ def probe_history(samples: dict, omega: float, k: int, points: int) -> Array | N
 def reduced_start(scene: Scene, k: int):
     """(the reduced model's first wave at k or None, ω0): the start of ``start_from_reduced``
     (module doc), before the frame is built (its speed sets the matched step)."""
-    from semianalytic.coefficients import coefficients, gamma_from_physical
-    from semianalytic.flutter import flutter_modes
-    from semianalytic.waves import find_waves
+    from stickslip.semianalytic.coefficients import coefficients, gamma_from_physical
+    from stickslip.semianalytic.flutter import flutter_modes
+    from stickslip.semianalytic.waves import find_waves
 
     R, om = scene.geometry.R, scene.loading.omega
     co = coefficients(scene.material.nu, scene.geometry.xi,
@@ -154,7 +154,7 @@ def reduced_start(scene: Scene, k: int):
 def start_from_reduced(st: Setup, k: int, start=None) -> tuple[Array, float, dict]:
     """(W0, ω0, info) from the reduced model's wave at k (module doc); ``start``: the result
     of ``reduced_start`` if already computed."""
-    from studies.reduced_transient import wave_fields
+    from stickslip.studies.reduced_transient import wave_fields
 
     sc = st.scene
     R = sc.geometry.R
@@ -201,7 +201,7 @@ def prolong(W: Array, n_fine: int, how: str = "linear") -> Array:
 def folded(st: Setup, k: int) -> Setup:
     """``st`` on one wavelength when k > 1 divides its contact points (the k-periodic waves,
     ``newton`` "Folding": S_k from the harmonics m ∈ kℤ), else ``st`` itself."""
-    from studies.travel.frame import circle_problem
+    from stickslip.studies.travel.frame import circle_problem
 
     if k <= 1 or st.prob.period != 1 or st.prob.n % k:
         return st
@@ -229,7 +229,7 @@ def solve_scene(st: Setup, k: int, W0: Array, omega0: float, *, free_omega: bool
 
     The step is 0.25 %: at N = 132 the admissible bands of a wave family are ~0.5 % of the
     speed wide (docs/travelling_waves.md), so steps of 1 % jump over them."""
-    from studies.travel.newton import NotConverged, nearest_wave
+    from stickslip.studies.travel.newton import NotConverged, nearest_wave
 
     first: NotConverged | None = None
     if free_omega:
@@ -252,7 +252,7 @@ def solve_scene(st: Setup, k: int, W0: Array, omega0: float, *, free_omega: bool
 
 def measure(st: Setup, sol: TravelSolution, k: int) -> tuple[dict, dict[str, Array]]:
     """``stickslip run``-style summary (``postprocess.analysis.analyse``) and profiles."""
-    from postprocess.analysis import analyse
+    from stickslip.postprocess.analysis import analyse
 
     sc, ops = st.scene, st.ops
     n, R, d = ops.n, sc.geometry.R, sc.geometry.d
@@ -313,7 +313,7 @@ def member_amplitude(st: Setup, sol: TravelSolution) -> float:
 def band(st: Setup, sol: TravelSolution, k: int) -> dict:
     """Speeds (m/s) over which the wave's family stays admissible, with ψ and amplitude ranges
     (``studies.travel.newton.wave_band``; the discrete waves are not isolated in ω)."""
-    from studies.travel.newton import wave_band
+    from stickslip.studies.travel.newton import wave_band
 
     why: list = []
     lo, hi, members = wave_band(st.prob, sol, k, rel_step=0.002, max_steps=40, max_iter=30,

@@ -29,8 +29,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-from solver.contact import SEPARATION, SLIP, STICK
-from studies.travel.newton import (
+from stickslip.solver.contact import SEPARATION, SLIP, STICK
+from stickslip.studies.travel.newton import (
     CircleProblem,
     inequality_margins,
     nodal_stiffness,

@@ -85,9 +85,9 @@ import scipy.sparse as sp
 from numpy.typing import NDArray
 from scipy.sparse.linalg import splu
 
-from solver.problem import TubeProblem
-from solver.scene import Scene
-from studies.travel.newton import CircleProblem, fold_operator
+from stickslip.solver.problem import TubeProblem
+from stickslip.solver.scene import Scene
+from stickslip.studies.travel.newton import CircleProblem, fold_operator
 
 __all__ = ["INERTIAS", "TIME_SCHEMES", "FrameOperators", "frame_operators", "circle_problem"]
 
@@ -528,7 +528,7 @@ def frame_operators(problem: TubeProblem, damping: float = 0.0,
     import dolfinx.fem.petsc
     import ufl
 
-    from forms.travelling import travelling_inertia
+    from stickslip.forms.travelling import travelling_inertia
 
     if problem.comm.size > 1:
         raise ValueError("stickslip travel runs on one process: drop mpirun")
@@ -573,7 +573,7 @@ def frame_operators(problem: TubeProblem, damping: float = 0.0,
         # Kelvin–Voigt in the frame: D = τ K M⁻¹ B, M⁻¹B w the lumped projection of
         # (∂_θ − J)w onto P1 (forms.travelling.travelling_transport); the clamped dofs
         # have no velocity, so their rows of the projection are zero.
-        from forms.travelling import travelling_transport
+        from stickslip.forms.travelling import travelling_transport
 
         Bm = dolfinx.fem.petsc.assemble_matrix(
             dolfinx.fem.form(travelling_transport(u, v, problem.material.rho)))

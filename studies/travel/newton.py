@@ -73,7 +73,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from numpy.typing import NDArray
 
-from solver.contact import SEPARATION, SLIP, STICK, ContactArrays, project_contact
+from stickslip.solver.contact import SEPARATION, SLIP, STICK, ContactArrays, project_contact
 
 __all__ = [
     "CircleProblem", "NotConverged", "RATES", "TravelSolution", "inequality_margins",

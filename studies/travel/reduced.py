@@ -24,10 +24,10 @@ from dataclasses import replace
 import numpy as np
 from numpy.typing import NDArray
 
-from semianalytic.coefficients import Coefficients
-from semianalytic.waves import TravellingWave
-from studies.reduced_transient import stiffness_matrix, wave_fields
-from studies.travel.newton import CircleProblem, TravelSolution, solve_wave
+from stickslip.semianalytic.coefficients import Coefficients
+from stickslip.semianalytic.waves import TravellingWave
+from stickslip.studies.reduced_transient import stiffness_matrix, wave_fields
+from stickslip.studies.travel.newton import CircleProblem, TravelSolution, solve_wave
 
 __all__ = ["reduced_problem", "wave_start", "solve_reduced"]
 
