@@ -5,6 +5,7 @@
         [--set KEY=VALUE ...] [--ranks 1] [--no-certify] [-o DIR]
     ./dev python3 benchmarks/attractor_census.py --from DIR   # a finished census directory
     ./dev python3 benchmarks/attractor_census.py --spreads DIR [DIR ...]   # feature spreads
+    ./dev python3 benchmarks/attractor_census.py --samples DIR   # deflated vs stored samples
 
 Runs ``stickslip attractors`` (under ``mpirun -n RANKS``) into a fresh directory (or reads
 DIR) and prints one JSON line: the command's wall time (start-up, every start, the analysis),
@@ -15,7 +16,9 @@ scene-steps per second = Σ steps / Σ per-start wall time (the rate of the runs
 batched start carries its whole batch's wall time, so the first rate undercounts batches).
 With settle-or-extend (the default) each record also gives per mesh the class counts, the
 simulated time the extension added, the settle times (median, largest), and the load
-average of the machine before and after (a shared machine makes a timing pessimistic).
+average of the machine before and after (a shared machine makes a timing pessimistic) and
+the CPU time of the command and its processes (``cpu_s``: user + system, all ranks; the
+measure to compare on a shared machine, where the wall time depends on the others' load).
 Targets on a 2-core machine (``--ranks 2``): the tutorial's census (16 starts, N = 132 and
 264, 0.3 s first leg, settle-or-extend, certificates) in ≤ 3 minutes:
 
@@ -25,6 +28,12 @@ and 64 starts of the public point in ≤ 10 minutes:
 
     ./dev python3 benchmarks/attractor_census.py --starts 64 --ranks 2 \
         --set loading.omega=60 --set geometry.delta=8e-4 --set loading.f=0.6
+
+``--samples DIR`` compares, side by side on the starts of a finished census, the CPU time
+of writing each start's samples.npz deflated (``solver.atomic.NPZ_LEVEL``, what a batch
+member wrote before) and stored (what the census's starts write now: every leg of
+settle-or-extend rewrites a start's whole record, and reads it back), and of reading both
+back; the same arrays either way, so the census's answer cannot change.
 
 ``--spreads`` prints the measured spreads behind the grouping tolerances
 (``studies.attractors.features``): per mesh and settled member reached by two or more
@@ -39,6 +48,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import resource
 import subprocess
 import sys
 import tempfile
@@ -81,6 +91,39 @@ def measure(out: Path) -> dict:
             "pending_at_last_session": session.get("pending_at_start"),
             "counts": answer["counts"], "timing": answer.get("timing"),
             "per_mesh": per_mesh}
+
+
+def samples_ab(out: Path) -> dict:
+    """CPU seconds to write and read back every start's samples deflated and stored
+    (module docstring), with the bytes of each; one start after the other, side by side."""
+    import numpy as np
+
+    from stickslip.solver.atomic import atomic_save_npz
+
+    totals = {f"{how}_{what}": 0.0 for how in ("deflated", "stored")
+              for what in ("write_cpu_s", "read_cpu_s", "bytes")}
+    runs = sorted((out / "starts" / "runs").glob("*/samples.npz"))
+    with tempfile.TemporaryDirectory(dir=out) as tmp:
+        for path in runs:
+            with np.load(path) as z:
+                arrays = {k: z[k] for k in z.files}
+            for how, compress in (("deflated", True), ("stored", False)):
+                target = Path(tmp) / f"{how}.npz"
+                t0 = time.process_time()
+                atomic_save_npz(target, arrays, compress=compress)
+                t1 = time.process_time()
+                with np.load(target) as z:
+                    _ = [z[k] for k in z.files]
+                totals[f"{how}_write_cpu_s"] += t1 - t0
+                totals[f"{how}_read_cpu_s"] += time.process_time() - t1
+                totals[f"{how}_bytes"] += target.stat().st_size
+    write_ratio = totals["deflated_write_cpu_s"] / max(totals["stored_write_cpu_s"], 1e-9)
+    read_ratio = totals["deflated_read_cpu_s"] / max(totals["stored_read_cpu_s"], 1e-9)
+    return {"census": str(out), "starts": len(runs), **totals,
+            "write_cpu_ratio_deflated_over_stored": write_ratio,
+            "read_cpu_ratio_deflated_over_stored": read_ratio,
+            "size_ratio_stored_over_deflated": totals["stored_bytes"] / max(
+                totals["deflated_bytes"], 1), "load": os.getloadavg()}
 
 
 def _feature_values(features: dict) -> dict:
@@ -163,12 +206,17 @@ def main() -> None:
     ap.add_argument("--ranks", type=int, default=1)
     ap.add_argument("-o", "--output", help="census directory (default: a fresh temporary one)")
     ap.add_argument("--from", dest="existing", help="measure a finished census directory")
+    ap.add_argument("--samples", metavar="DIR",
+                    help="CPU time of deflated vs stored samples of a finished census")
     ap.add_argument("--spreads", nargs="+", metavar="DIR",
                     help="print the feature spreads of finished census directories")
     args = ap.parse_args()
     if args.spreads:
         for d in args.spreads:
             print(json.dumps(spreads(Path(d)), indent=1))
+        return
+    if args.samples:
+        print(json.dumps(samples_ab(Path(args.samples))))
         return
     if args.existing:
         print(json.dumps(measure(Path(args.existing))))
@@ -189,10 +237,12 @@ def main() -> None:
     t0 = time.perf_counter()
     res = subprocess.run(cmd, cwd=REPO, env=env, capture_output=True, text=True)
     wall = time.perf_counter() - t0
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)  # the command and its ranks
     if res.returncode not in (0, 1):
         sys.exit(f"census failed ({res.returncode}): {res.stderr.strip()[-500:]}")
     rec = measure(out / "census")
-    rec.update(wall_s=wall, command=" ".join(cmd[cmd.index("attractors"):]),
+    rec.update(wall_s=wall, cpu_s=usage.ru_utime + usage.ru_stime,
+               command=" ".join(cmd[cmd.index("attractors"):]),
                load_before=load_before, load_after=os.getloadavg(), cpus=os.cpu_count())
     print(json.dumps(rec))
 

@@ -180,3 +180,45 @@ def test_census_killed_while_settling_resumes_every_start_once(tmp_path, sig):
     assert all(r["class"] in ("wave", "multi-wave", "unsettled") for r in rows)
     assert all(r["class"] != "unsettled" or r["sim_time_s"] >= 0.1 - 1e-9 for r in rows)
     assert not [p for p in (out / "starts" / "runs").iterdir() if p.name.startswith(".")]
+
+
+@pytest.mark.parallel
+def test_shared_featurising_and_certificates_give_the_answer_of_rank_0_alone(tmp_path):
+    """Under mpirun the ranks featurise each settle round's starts and certify the members
+    (with kicks) together (``census.on_ranks``). Rank 0 then collects the same census again
+    alone from a copy without those caches: every row, member and certificate is the same
+    (as attractors.json writes them; only the directories of the runs they name differ)."""
+    pytest.importorskip("dolfinx")
+    import io
+    import shutil
+    from pathlib import Path
+
+    from mpi4py import MPI
+
+    from stickslip.studies.attractors.census import Census, collect, run_census
+    from stickslip.studies.attractors.starts import StartDistribution
+
+    comm = MPI.COMM_WORLD
+    out = Path(comm.bcast(str(tmp_path), root=0)) / "census"
+    spec = Census(SMOKE, (36, 48), StartDistribution(starts=3),  # a mesh per rank
+                  ("loading.omega=20", "geometry.delta=0.005", "time.end_time=0.05"),
+                  max_time=0.1)
+    assert run_census(spec, out, comm=comm, stream=io.StringIO()) == 0
+    if comm.rank != 0:
+        return
+    shared = json.loads((out / "attractors.json").read_text())
+    alone_dir = out.parent / "alone"
+    shutil.copytree(out, alone_dir, ignore=shutil.ignore_patterns(
+        "features.json", "certificates.json", "kicks"))
+    collect(alone_dir, certify="run", sweep_s=1.0)
+    alone = json.loads((alone_dir / "attractors.json").read_text())
+    assert shared["certificates"], shared["text"]
+
+    def same(answer: dict) -> tuple:
+        rows = [{k: v for k, v in r.items() if k not in ("run_dir", "wall_time_s")}
+                for r in answer["starts"]]
+        certs = {k: {q: {**v, "run": None} if isinstance(v, dict) and "run" in v else v
+                     for q, v in c.items()} for k, c in answer["certificates"].items()}
+        return rows, answer["members"], certs
+
+    assert same(shared) == same(alone)

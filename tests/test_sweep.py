@@ -120,6 +120,13 @@ def test_shipped_damped_omega_delta_sweep_is_the_same_grid_on_the_damped_setting
     assert (sc.damping.loss_factor, sc.damping.reference_frequency_hz) == (0.02, 1600.0)
 
 
+def test_compress_key_chooses_deflated_or_stored_samples(tmp_path):
+    """``compress`` (default true) reaches the batches (``write_member``)."""
+    assert load_sweep(_write(tmp_path / "a.toml", f'base = "{SMOKE}"\n')).compress is True
+    spec = load_sweep(_write(tmp_path / "b.toml", f'base = "{SMOKE}"\ncompress = false\n'))
+    assert spec.compress is False
+
+
 @pytest.mark.parametrize("body, words", [
     ('[grid]\n"loading.omegga" = [1.0]', ["loading.omegga", "omega"]),
     ('[grid]\n"loading.omega" = 5.0', ["non-empty list"]),
@@ -128,6 +135,7 @@ def test_shipped_damped_omega_delta_sweep_is_the_same_grid_on_the_damped_setting
     ('group_size = 0', ["group_size"]),
     ('[map]\nx = "loading.f"', ["map.x", "not a swept key"]),
     ('colour = 1', ["unknown key 'colour'"]),
+    ('compress = "no"', ["compress", "true or false"]),
 ])
 def test_invalid_sweep_files_name_the_key(tmp_path, body, words):
     path = _write(tmp_path / "bad.toml", f'base = "{SMOKE}"\n{body}\n')

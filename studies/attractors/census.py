@@ -143,10 +143,13 @@ def _slug(text: str) -> str:
 
 
 def sweep_text(census: Census, name: str) -> str:
-    """The generated sweep file: base.toml plus one point per start and mesh."""
+    """The generated sweep file: base.toml plus one point per start and mesh; the starts'
+    samples stored, not deflated (``compress = false``): settle-or-extend rewrites each
+    unsettled start's whole record at every leg, where zlib took about half of an N = 264
+    leg's time."""
     lines = [f'name = "{_slug(name)}-census"',
              f'description = "attractor census: {census.distribution.describe()}"',
-             'base = "base.toml"', 'batch = "auto"', ""]
+             'base = "base.toml"', 'batch = "auto"', "compress = false", ""]
     for point in census.distribution.points(census.meshes):
         lines.append("[[points]]")
         lines += [f'"{k}" = {json.dumps(v)}' for k, v in point.items()]
@@ -261,6 +264,7 @@ def run_census(census: Census, out_dir: str | Path, *, comm=None, force: bool = 
     from mpi4py import MPI
 
     from stickslip.studies.sweep import SweepError, load_sweep, run_sweep
+    from stickslip.studies.sweep.schedule import wait_quietly
 
     comm = MPI.COMM_WORLD if comm is None else comm
     out_dir = Path(out_dir)
@@ -288,12 +292,17 @@ def run_census(census: Census, out_dir: str | Path, *, comm=None, force: bool = 
         if rc in (0, 1):
             rc = max(rc, settle(out_dir, comm, stream))
         sweep_s = time.perf_counter() - t0
+        shared: dict = {}
+        if certify and rc == 0 and certify_shared(out_dir, comm, dt_limit=dt_limit,
+                                                  kick=kick, timing=shared):
+            rc = 130
         if comm.rank == 0 and rc != 2:
             answer = collect(out_dir, certify="run" if certify and rc == 0 else "cached",
-                             dt_limit=dt_limit, sweep_s=sweep_s, kick=kick)
+                             dt_limit=dt_limit, sweep_s=sweep_s, kick=kick, shared=shared)
             print(answer["text"], file=stream, flush=True)
             if rc == 0 and answer["counts"].get("failed"):
                 rc = 1
+        wait_quietly(comm)  # the other ranks sleep while rank 0 analyses and certifies
     finally:
         if owned is not None:
             owned.release()
@@ -334,11 +343,15 @@ def settle(out_dir: Path, comm, stream: TextIO = sys.stdout) -> int:  # noqa: AN
     command again)."""
     import signal
 
+    from stickslip.studies.sweep.schedule import wait_quietly
+
     refused: dict[str, str] = {}  # start id -> why it cannot be continued (rank 0)
     reached: dict[str, float] = {}  # start id -> the time its last leg started from
     previous = signal.signal(signal.SIGTERM, _raise_interrupt)
     try:
         while True:
+            if featurise_shared(out_dir, comm):
+                return 130
             shares: list | int | None = None
             if comm.rank == 0:
                 try:
@@ -349,11 +362,13 @@ def settle(out_dir: Path, comm, stream: TextIO = sys.stdout) -> int:  # noqa: AN
                 except (OSError, ValueError, KeyError) as err:  # an unreadable census
                     print(f"error: settle: {err}", file=sys.stderr, flush=True)
                     shares = 1
+            wait_quietly(comm)  # the others sleep while rank 0 classifies
             shares = comm.bcast(shares, root=0)
             if not shares or isinstance(shares, int):
                 return shares or 0
             log = out_dir / f"settle-rank{comm.rank}.log"  # the continuations' lines
             failed, interrupted = continue_legs(shares[comm.rank], log)
+            wait_quietly(comm)  # a rank done first sleeps until the slowest is done
             results = comm.gather((failed, interrupted), root=0)
             stop = None
             if comm.rank == 0:
@@ -444,11 +459,13 @@ def continue_legs(legs: list[dict], log: Path) -> tuple[dict[str, str], bool]:
                     fh.write(f"continuing {g['id']} from t = {g['from']!r} s to {until!r} s\n")
                 fh.flush()
                 try:
-                    continue_batch([g["run_dir"] for g in group], until, stream=fh)
+                    continue_batch([g["run_dir"] for g in group], until, stream=fh,
+                                   compress=False)
                 except (ReadError, ValueError, OSError, RuntimeError):
                     for g in group:  # one by one: which start refuses, the others go on
                         try:
-                            continue_batch([g["run_dir"]], until, stream=fh)
+                            continue_batch([g["run_dir"]], until, stream=fh,
+                                           compress=False)
                         except (ReadError, ValueError, OSError, RuntimeError) as err:
                             refused[g["id"]] = str(err).splitlines()[0] if str(err) else \
                                 type(err).__name__
@@ -466,23 +483,13 @@ def start_rows(out_dir: Path, spread_tol: float = SPREAD_TOL,
     """One row per start of the census (every start, whatever its state); ``window``: the
     length W of the windows compared (``census.json``'s ``window_s``)."""
     from stickslip.studies.sweep import load_sweep
-    from stickslip.studies.sweep.table import _read_json, live_status
 
     spec = load_sweep(out_dir / "census.toml")
     cache_path = out_dir / FEATURES
-    try:
-        cache = json.loads(cache_path.read_text())
-    except (OSError, ValueError):
-        cache = {}
+    cache = _read_features(cache_path)
     rows, kept = [], {}
     for task in spec.tasks:
-        run_dir = out_dir / STARTS / "runs" / task.id
-        summary = _read_json(run_dir / "summary.json")
-        status = live_status(summary) if summary else "pending"
-        key = None
-        if status == "completed":  # a start's features, until its summary is rewritten
-            stamp = (run_dir / "summary.json").stat().st_mtime_ns
-            key = f"{task.id}@{stamp}@{window}@share-drift"
+        run_dir, summary, status, key = _start_state(out_dir, task, window)
         row = start_row(run_dir, task.params, summary, status, spread_tol, tol,
                         cached=cache.get(key), window=window)
         rows.append(row)
@@ -493,14 +500,134 @@ def start_rows(out_dir: Path, spread_tol: float = SPREAD_TOL,
     return rows
 
 
+def _read_features(path: Path) -> dict:
+    try:
+        return json.loads(path.read_text())
+    except (OSError, ValueError):
+        return {}
+
+
+def _start_state(out_dir: Path, task, window: float | None  # noqa: ANN001 - a sweep Task
+                 ) -> tuple[Path, dict | None, str, str | None]:
+    """(run directory, summary, status, key of its features in ``features.json``) of one
+    start; the key (None unless completed) names the summary's write, so a continued start
+    is featurised again."""
+    from stickslip.studies.sweep.table import _read_json, live_status
+
+    run_dir = out_dir / STARTS / "runs" / task.id
+    summary = _read_json(run_dir / "summary.json")
+    status = live_status(summary) if summary else "pending"
+    key = None
+    if status == "completed":
+        stamp = (run_dir / "summary.json").stat().st_mtime_ns
+        key = f"{task.id}@{stamp}@{window}@share-drift"
+    return run_dir, summary, status, key
+
+
+def featurise_shared(out_dir: Path, comm) -> bool:  # noqa: ANN001
+    """Collective: featurise the completed starts not yet in ``features.json`` on every
+    rank (shared as ``balanced_shares``, cost N² × the simulated time: the samples read and
+    transformed) and add them to it on rank 0, whose ``start_rows`` then only reads them.
+    The same ``start_row`` on the same samples: the same rows as rank 0 alone. A start a
+    rank cannot featurise is left to rank 0's ``start_rows``. Returns whether a rank was
+    interrupted (SIGINT/SIGTERM; on every rank: run the census again)."""
+    def merge(parts: list[dict]) -> None:
+        cache = _read_features(out_dir / FEATURES)
+        for part in parts:
+            cache.update(part)
+        atomic_write_text(out_dir / FEATURES, json.dumps(_json_safe(cache)) + "\n")
+
+    return on_ranks(comm, lambda: _unfeaturised_shares(out_dir, comm.size),
+                    lambda share: _featurise(out_dir, [item["id"] for item in share]), merge)
+
+
+def on_ranks(comm, plan, work, merge) -> bool:  # noqa: ANN001
+    """Collective: ``plan()`` on rank 0 gives one share per rank (None: nothing to do),
+    ``work(share)`` runs on every rank, ``merge(results)`` on rank 0. A waiting rank sleeps
+    (``wait_quietly``); a rank whose ``work`` raises gives no result (rank 0 does that work
+    itself later). Returns whether a rank was interrupted (KeyboardInterrupt: SIGINT, or
+    SIGTERM where a handler raises it), on every rank once all have arrived."""
+    from stickslip.studies.sweep.schedule import wait_quietly
+
+    if comm.size == 1:
+        return False
+    shares, interrupted = None, False
+    try:
+        if comm.rank == 0:
+            shares = plan()
+        wait_quietly(comm)
+    except KeyboardInterrupt:
+        interrupted = True
+    shares, stop = comm.bcast((shares, interrupted) if comm.rank == 0 else None, root=0)
+    if stop or not shares:
+        return bool(stop)
+    result = None
+    try:
+        result = work(shares[comm.rank])
+    except KeyboardInterrupt:
+        interrupted = True
+    except Exception:  # noqa: BLE001 - left to rank 0 (module docstring of the callers)
+        result = None
+    try:
+        wait_quietly(comm)
+    except KeyboardInterrupt:
+        interrupted = True
+    gathered = comm.gather((result, interrupted), root=0)
+    if comm.rank == 0:
+        merge([r for r, _ in gathered if r is not None])
+        interrupted = any(flag for _, flag in gathered)
+    return bool(comm.bcast(interrupted, root=0))
+
+
+def _unfeaturised_shares(out_dir: Path, ranks: int) -> list[list[dict]] | None:
+    """Rank 0: the completed, not steady starts missing from ``features.json``, shared over
+    ``ranks`` (``balanced_shares``); None if none (or the census cannot be read: rank 0's
+    ``start_rows`` says why)."""
+    from stickslip.studies.sweep import load_sweep
+
+    try:
+        meta = json.loads((out_dir / "census.json").read_text())
+        cache = _read_features(out_dir / FEATURES)
+        todo = []
+        for task in load_sweep(out_dir / "census.toml").tasks:
+            _, summary, _, key = _start_state(out_dir, task, meta.get("window_s"))
+            if key and key not in cache and (summary or {}).get("regime") not in (
+                    None, "steady-sliding"):
+                todo.append({"id": task.id, "cost": float(task.params["mesh.n_inner"]) ** 2
+                             * float(summary.get("sim_time_s") or 0.0)})
+    except (OSError, ValueError, KeyError):
+        return None
+    return balanced_shares(todo, ranks) if todo else None
+
+
+def _featurise(out_dir: Path, ids: list[str]) -> dict:
+    """{features.json key: ``row_cache``} of the starts ``ids`` (``start_row``)."""
+    from stickslip.studies.sweep import load_sweep
+
+    meta = json.loads((out_dir / "census.json").read_text())
+    window = meta.get("window_s")
+    tasks = {t.id: t for t in load_sweep(out_dir / "census.toml").tasks}
+    found = {}
+    for start in ids:
+        task = tasks[start]
+        run_dir, summary, status, key = _start_state(out_dir, task, window)
+        row = start_row(run_dir, task.params, summary, status, meta["spread_tol"],
+                        tolerances(meta), window=window)
+        if key and row.get("features"):
+            found[key] = row_cache(row)
+    return found
+
+
 def collect(out_dir: str | Path, *, certify: str | bool = "cached", dt_limit: bool = False,
-            sweep_s: float | None = None, kick: bool = True) -> dict:
+            sweep_s: float | None = None, kick: bool = True, shared: dict | None = None
+            ) -> dict:
     """Rank 0: featurise, classify, group, count; write attractors.{json,csv}, members.csv.
 
     ``certify``: ``"run"`` (certify the members whose certificate is not cached in
     ``certificates.json``), ``"cached"`` (show the cached ones only) or False.
     ``sweep_s``: the wall time of the runs of this session, for the time shares. ``kick``:
-    with ``"run"``, the members' kick tests too."""
+    with ``"run"``, the members' kick tests too. ``shared``: the wall times of
+    ``certify_shared`` (``certification_s``, ``kick_s``), added to this call's."""
     out_dir = Path(out_dir)
     meta = json.loads((out_dir / "census.json").read_text())
     t0 = time.perf_counter()
@@ -509,7 +636,8 @@ def collect(out_dir: str | Path, *, certify: str | bool = "cached", dt_limit: bo
     mode = "run" if certify is True else certify
     answer = answer_of(meta, rows, out_dir if mode else None, compute=mode == "run",
                        dt_limit=dt_limit, kick=kick,
-                       timing={"sweep_s": sweep_s, "features_s": features_s})
+                       timing={"sweep_s": sweep_s, "features_s": features_s},
+                       shared=shared)
     write_outputs(out_dir, answer)
     return answer
 
@@ -521,7 +649,7 @@ def tolerances(meta: dict) -> Tolerances:
 
 def answer_of(meta: dict, rows: list[dict], certify_in: Path | None = None, *,
               compute: bool = True, dt_limit: bool = False, timing: dict | None = None,
-              kick: bool = False) -> dict:
+              kick: bool = False, shared: dict | None = None) -> dict:
     """The census's answer from its definition (``census.json``) and one row per start
     (``classify.start_row`` or ``classify.end_state_row``): members per mesh, structured
     starts apart, the ladder, the counts, and (with ``certify_in``, the census directory)
@@ -541,6 +669,8 @@ def answer_of(meta: dict, rows: list[dict], certify_in: Path | None = None, *,
                                         window=meta.get("window_s"), kick=kick,
                                         tol=tolerances(meta), timing=timing)
         timing["certification_s"] = time.perf_counter() - t0
+        for key, seconds in (shared or {}).items():  # certify_shared's, before
+            timing[key] = timing.get(key, 0.0) + seconds
         for key, cert in certificates.items():
             if isinstance(cert, dict) and cert.get("stable") is False:
                 n, member = key.split(":", 1)
@@ -587,14 +717,16 @@ def _brief(row: dict) -> dict:
 
 def certify_members(out_dir: Path, rows: list[dict], *, compute: bool = True,
                     dt_limit: bool = False, window: float | None = None, kick: bool = False,
-                    tol: Tolerances = DEFAULT_TOLERANCES, timing: dict | None = None) -> dict:
+                    tol: Tolerances = DEFAULT_TOLERANCES, timing: dict | None = None,
+                    write: bool = True) -> dict:
     """Per mesh and settled member (``"N:member"``): its certificate
     (``studies.attractors.certify.certify_member``), cached in ``certificates.json`` by its
     first run and that run's summary time; with ``compute`` False only cached ones. The end
     state is read over the last ``window`` seconds (the census's W). ``kick`` (with
     ``compute`` and ``window``): the kick tests of the members whose certificate has none,
     all in one call (``certify.kick_members``: one batch per mesh and step), their wall
-    time in ``timing["kick_s"]``."""
+    time in ``timing["kick_s"]``. ``write``: False leaves ``certificates.json`` as it was
+    (``certify_shared``: rank 0 writes what the ranks computed)."""
     from stickslip.studies.attractors.certify import certify_member, kick_members
 
     cache_path = out_dir / "certificates.json"
@@ -603,22 +735,18 @@ def certify_members(out_dir: Path, rows: list[dict], *, compute: bool = True,
     except (OSError, ValueError):
         cache = {}
     out: dict = {}
-    members: dict[tuple, list[dict]] = {}
-    for r in rows:
-        if r["class"] in SETTLED and r["member"]:
-            members.setdefault((r["n_inner"], r["member"]), []).append(r)
+    members = settled_members(rows)
     keys: dict[str, str] = {}  # "N:member" -> its cache key
     named = {f"{n}:{member}": (n, member) for n, member in members}
     for (n, member), group in sorted(members.items(), key=lambda kv: (kv[0][0], kv[0][1])):
-        first = group[0]
-        stamp = (Path(first["run_dir"]) / "summary.json").stat().st_mtime
-        key = f"{first['id']}@{stamp}@{'dt-limit' if dt_limit else 'run-dt'}@{len(group)}"
+        key = certificate_key(group, dt_limit)
         if key not in cache:
             if not compute:
                 continue
             cache[key] = certify_member(group, dt_limit=dt_limit, window=window)
-            atomic_write_text(cache_path, json.dumps(_json_safe(cache), indent=1,
-                                                     default=str))
+            if write:
+                atomic_write_text(cache_path, json.dumps(_json_safe(cache), indent=1,
+                                                         default=str))
         out[f"{n}:{member}"] = cache[key]
         keys[f"{n}:{member}"] = key
     unkicked = {name: members[tuple_key] for name, tuple_key in named.items()
@@ -630,8 +758,96 @@ def certify_members(out_dir: Path, rows: list[dict], *, compute: bool = True,
             timing["kick_s"] = time.perf_counter() - t0
         for name, result in kicks.items():
             cache[keys[name]] = out[name] = {**out[name], "kick": result}
-        atomic_write_text(cache_path, json.dumps(_json_safe(cache), indent=1, default=str))
+        if write:
+            atomic_write_text(cache_path, json.dumps(_json_safe(cache), indent=1,
+                                                     default=str))
     return out
+
+
+def settled_members(rows: list[dict]) -> dict[tuple, list[dict]]:
+    """{(N, member): its rows, in row order} of the settled members (``SETTLED``)."""
+    members: dict[tuple, list[dict]] = {}
+    for r in rows:
+        if r["class"] in SETTLED and r["member"]:
+            members.setdefault((r["n_inner"], r["member"]), []).append(r)
+    return members
+
+
+def certificate_key(group: list[dict], dt_limit: bool) -> str:
+    """A member's key in ``certificates.json``: its first start, that start's summary
+    write, the Δt mode and the number of its starts."""
+    first = group[0]
+    stamp = (Path(first["run_dir"]) / "summary.json").stat().st_mtime
+    return f"{first['id']}@{stamp}@{'dt-limit' if dt_limit else 'run-dt'}@{len(group)}"
+
+
+def certify_shared(out_dir: Path, comm, *, dt_limit: bool = False,  # noqa: ANN001
+                   kick: bool = True, timing: dict | None = None) -> bool:
+    """Collective: the members' certificates (and kick tests) not yet in
+    ``certificates.json``, ``certify_members`` on the ranks, a mesh per rank
+    (``balanced_shares``, cost N³ × its starts: one batch of kicks per mesh stays whole),
+    written into it by rank 0; rank 0's ``collect`` then finds them cached. The same
+    functions on the same runs: the certificates of rank 0 alone. ``timing`` gets the wall
+    time (``certification_s``) and the slowest rank's kicks (``kick_s``). Returns whether
+    a rank was interrupted (run the census again)."""
+    t0 = time.perf_counter()
+    jobs: dict = {}
+
+    def plan() -> list[list[dict]] | None:
+        found = _certificate_jobs(out_dir, comm.size, dt_limit, kick)
+        if found is None:
+            return None
+        window, tol, shares = found
+        return [[{"window": window, "tol": tol, **job} for job in share] for share in shares]
+
+    def work(share: list[dict]) -> tuple[dict, float]:
+        mine = [r for job in share for r in job["rows"]]
+        if not mine:
+            return {}, 0.0
+        spent: dict = {}
+        certs = certify_members(out_dir, mine, dt_limit=dt_limit, window=share[0]["window"],
+                                kick=kick, tol=share[0]["tol"], timing=spent, write=False)
+        groups = settled_members(mine)
+        return ({certificate_key(groups[(n, m)], dt_limit): certs[f"{n}:{m}"]
+                 for n, m in groups if f"{n}:{m}" in certs}, spent.get("kick_s", 0.0))
+
+    def merge(parts: list[tuple[dict, float]]) -> None:
+        path = out_dir / "certificates.json"
+        cache = _read_features(path)
+        for found, _ in parts:
+            cache.update(found)
+        atomic_write_text(path, json.dumps(_json_safe(cache), indent=1, default=str))
+        jobs["kick_s"] = max((k for _, k in parts), default=0.0)
+
+    interrupted = on_ranks(comm, plan, work, merge)
+    if timing is not None and comm.rank == 0 and "kick_s" in jobs:
+        timing.update(certification_s=time.perf_counter() - t0, kick_s=jobs["kick_s"])
+    return interrupted
+
+
+def _certificate_jobs(out_dir: Path, ranks: int, dt_limit: bool, kick: bool
+                      ) -> tuple[float | None, Tolerances, list[list[dict]]] | None:
+    """Rank 0: (W, tolerances, per rank the meshes {"id": N, "cost", "rows": the rows of
+    its members whose certificate or kick is not cached}) for ``certify_shared``; None
+    if nothing is missing (or the census cannot be read: ``collect`` says why)."""
+    try:
+        meta = json.loads((out_dir / "census.json").read_text())
+        tol = tolerances(meta)
+        rows = start_rows(out_dir, meta["spread_tol"], tol, meta.get("window_s"))
+    except (OSError, ValueError, KeyError):
+        return None
+    for n in sorted({r["n_inner"] for r in rows}):  # as answer_of groups them
+        group_members([r for r in rows if r["n_inner"] == n], meta["celerity_tol"], tol=tol)
+    cache = _read_features(out_dir / "certificates.json")
+    todo: dict[int, list[dict]] = {}
+    for (n, _), group in settled_members(rows).items():
+        entry = cache.get(certificate_key(group, dt_limit))
+        if entry is None or (kick and not isinstance(entry.get("kick"), dict)):
+            todo.setdefault(n, []).extend(group)
+    if not todo:
+        return None
+    jobs = [{"id": n, "cost": float(n) ** 3 * len(g), "rows": g} for n, g in todo.items()]
+    return meta.get("window_s"), tol, balanced_shares(jobs, ranks)
 
 
 def _cell(v: object) -> object:

@@ -168,7 +168,7 @@ def kick_members(out_dir: Path, groups: dict[str, list[dict]], window: float,
             try:
                 continue_batch([chosen[k][0]["run_dir"] for k in keys], until,
                                [chosen[k][1] for k in keys], force=True, stream=log,
-                               kick=KICK_FRACTION, kick_seed=KICK_SEED)
+                               kick=KICK_FRACTION, kick_seed=KICK_SEED, compress=False)
             except (ReadError, ValueError, OSError, RuntimeError) as err:
                 for k in keys:
                     out[k] = {"message": f"not run: {str(err).splitlines()[0]}"}

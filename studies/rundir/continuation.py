@@ -194,7 +194,8 @@ def continue_run(run_dir: str | Path, until: float, out_dir: str | Path | None =
 
 def continue_batch(run_dirs: list[str | Path], until: float,
                    out_dirs: list[str | Path] | None = None, *, force: bool = False,
-                   stream=None, kick: float = 0.0, kick_seed: int = 0) -> list[dict]:
+                   stream=None, kick: float = 0.0, kick_seed: int = 0,
+                   compress: bool = True) -> list[dict]:
     """Continue many runs of one rank each to ``until``: the members of batches that share a
     mesh, material, dt, scheme, backend and checkpoint step as one ``BatchSimulation`` (one
     time loop for all of them), single runs one by one (``continue_run``).
@@ -210,6 +211,8 @@ def continue_batch(run_dirs: list[str | Path], until: float,
             velocity RMS before it goes on (``solver.ensemble_run.BatchSimulation.kick``,
             seed ``kick_seed``; its facts in the summary's ``kick``): batch members only,
             into ``out_dirs`` (the runs themselves are never kicked).
+        compress: the batch members' samples.npz deflated, else stored (faster to write
+            and to read again; ``write_member``).
 
     Returns:
         The continued runs' summaries, in the order of ``run_dirs``.
@@ -246,15 +249,15 @@ def continue_batch(run_dirs: list[str | Path], until: float,
     for (_, backend, _), members in groups.items():
         done = _continue_members([plans[i] for i in members], [outs[i] for i in members],
                                  backend, force, sys.stdout if stream is None else stream,
-                                 kick, kick_seed)
+                                 kick, kick_seed, compress)
         for i, summary in zip(members, done, strict=True):
             summaries[i] = summary
     return summaries
 
 
 def _continue_members(plans: list[_Plan], outs: list[Path | None], backend: str,
-                      force: bool, stream, kick: float = 0.0, kick_seed: int = 0
-                      ) -> list[dict]:
+                      force: bool, stream, kick: float = 0.0, kick_seed: int = 0,
+                      compress: bool = True) -> list[dict]:
     """One ``BatchSimulation`` of batch members at the same step, continued (each kicked
     by ``kick``, ``continue_batch``) and written; an error or interrupt drops every
     replacement (the runs stay as they were)."""
@@ -289,7 +292,7 @@ def _continue_members(plans: list[_Plan], outs: list[Path | None], backend: str,
             extra = {"batch": {"size": len(plans), "backend": backend}}
             if kicked:
                 extra["kick"] = kicked
-            summary = write_member(claim, run, profile, t0, backend, extra)
+            summary = write_member(claim, run, profile, t0, backend, extra, compress)
             print_summary(summary, claim.final, stream, False)
             summaries.append(summary)
         return summaries

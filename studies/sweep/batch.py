@@ -151,7 +151,7 @@ def run_batch(spec: SweepSpec, tasks: list[Task], out_dir: Path, world_rank: int
     logs, claims = [], []
     with _deferred_signals() as early:  # every member marked running, or none
         _start_members(tasks, scenes, run_dirs, logs, claims, out_dir, world_rank, backend)
-    files = _BatchFiles(scenes, claims, logs, t0, len(tasks), backend)
+    files = _BatchFiles(scenes, claims, logs, t0, len(tasks), backend, spec.compress)
     profile = Profile()
     interrupted = bool(early)
     batch = None
@@ -257,10 +257,11 @@ def _build_batch(scenes, backend, out_dir, profile, files):
 class _BatchFiles:
     """Each scene's run directory and log while and after its batch runs."""
 
-    def __init__(self, scenes, claims, logs, t0: float, size: int, backend: str) -> None:
+    def __init__(self, scenes, claims, logs, t0: float, size: int, backend: str,
+                 compress: bool = True) -> None:
         self.scenes, self.claims, self.logs = scenes, claims, logs
         self.run_dirs = [c.final for c in claims]
-        self.t0, self.size, self.backend = t0, size, backend
+        self.t0, self.size, self.backend, self.compress = t0, size, backend, compress
         self.statuses = ["failed"] * len(scenes)
 
     def fail(self, k: int, err: BaseException) -> None:
@@ -290,7 +291,8 @@ class _BatchFiles:
             if interrupted:
                 run.status, run.message = "interrupted", "interrupted"
             summary = write_member(self.claims[k], run, profile, self.t0, self.backend,
-                                   {"batch": {"size": self.size, "backend": self.backend}})
+                                   {"batch": {"size": self.size, "backend": self.backend}},
+                                   self.compress)
             print_summary(summary, self.run_dirs[k], self.logs[k], False)
             self.statuses[k] = run.status
 

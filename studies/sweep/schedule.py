@@ -567,6 +567,35 @@ def _announce(spec: SweepSpec, out_dir: Path, units: list[list[Task]], n_done: i
               f"group has {ranks % g} rank(s)", file=stream, flush=True)
 
 
+#: Seconds between two looks of a rank waiting for the others (``wait_quietly``).
+QUIET_POLL_S = 0.02
+
+
+def wait_quietly(comm: MPI.Comm, poll_s: float = QUIET_POLL_S) -> None:
+    """Collective: return when every rank of ``comm`` has called it, sleeping meanwhile.
+
+    A blocking MPI collective busy-waits: the rank that waits (for rank 0's analysis, or
+    for a slower rank's batch) burns a core at 100 %, which on a machine with as many
+    busy processes as cores takes that core from the rank that works. Here the waiting
+    rank tests a non-blocking barrier every ``poll_s`` and sleeps in between (at most
+    ``poll_s`` late); the collective that follows then finds every rank there. A
+    KeyboardInterrupt (SIGINT, or SIGTERM where a handler raises it) is raised once every
+    rank has arrived, as it would be after a blocking collective returned."""
+    if comm.size == 1:
+        return
+    interrupt: KeyboardInterrupt | None = None
+    request = comm.Ibarrier()
+    while True:
+        try:
+            if request.Test():
+                break
+            time.sleep(poll_s)
+        except KeyboardInterrupt as err:
+            interrupt = err
+    if interrupt is not None:
+        raise interrupt
+
+
 def _run_units(spec: SweepSpec, units: list[list[Task]], out_dir: Path, comm: MPI.Comm,
                group: MPI.Comm, backend: str, check_cost: bool,
                failures: dict[str, str]) -> bool:
@@ -606,7 +635,7 @@ def _run_units(spec: SweepSpec, units: list[list[Task]], out_dir: Path, comm: MP
         for sig, handler in previous.items():
             signal.signal(sig, handler)
     if not interrupted:  # collective clean-up only when every rank got here normally
-        comm.Barrier()
+        wait_quietly(comm)
         if counter is not None:
             counter.free()
         for found in comm.gather(failures, root=0) or []:

@@ -8,6 +8,7 @@ A sweep file names a base scene and the parameters to vary (dotted scene keys, a
     group_size = 1                           # MPI ranks per scene (default 1)
     batch = "auto"                           # off (default) | auto | B; --batch wins
     backend = "cpu"                          # or "gpu" (CuPy extra); --backend wins
+    compress = true                          # batch members' samples.npz deflated
     set = ["time.end_time=0.3"]              # applied to every scene
     [grid]                                   # Cartesian product, in this key order
     "loading.omega" = [2.0, 10.0, 50.0]
@@ -47,7 +48,7 @@ FINAL_STATUSES = ("completed", "diverged", "failed", "stopped")
 REGIMES = ("steady-sliding", "stick-slip", "slip-separation", "stick-slip-separation",
            "diverged")
 _TOP_KEYS = ("name", "description", "base", "group_size", "output", "set", "grid", "points",
-             "map", "batch", "backend", "attractors")
+             "map", "batch", "backend", "attractors", "compress")
 _MAP_KEYS = ("x", "y", "xscale", "yscale", "semianalytic", "k", "junctions")
 #: Scene keys that enter the reduced model (semi-analytical existence boundary).
 _SEMIANALYTIC_KEYS = ("loading.omega", "loading.f", "geometry.delta", "geometry.d",
@@ -109,6 +110,7 @@ class SweepSpec:
     batch: str = "off"  # "off", "auto" or a batch size (studies/sweep/batch.py)
     backend: str = "cpu"  # batched integrator on "cpu" or "gpu" (CuPy)
     attractors: dict = field(default_factory=dict)  # census per point (studies/attractors)
+    compress: bool = True  # batch members' samples.npz deflated, else stored (faster)
 
 
 def _toml_value(v: Any) -> str:
@@ -330,10 +332,13 @@ def load_sweep(path: str | Path, large: bool = False) -> SweepSpec:
     map_spec = _map_spec(data, p, keys)
     if not isinstance(data.get("attractors", {}), dict):
         raise SweepError(f"{p}: [attractors] must be a table (starts = M, ...)")
+    if not isinstance(data.get("compress", True), bool):
+        raise SweepError(f"{p}: compress = {data['compress']!r} must be true or false")
     spec = SweepSpec(
         name=name, path=p.resolve(), base=base, base_scene=base_scene, set=fixed,
         keys=tuple(keys), tasks=tuple(tasks), group_size=group_size, batch=str(batch),
         backend=backend, attractors=dict(data.get("attractors", {})),
+        compress=data.get("compress", True),
         output=p.parent / str(data["output"]) if data.get("output") else None,
         description=str(data.get("description", "")), map=map_spec,
     )
