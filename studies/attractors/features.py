@@ -366,15 +366,6 @@ def window_features(samples: dict, radius: float, t0: float, t1: float, *,
                     1.0 / (ts.size * dt_s) if ts.size > 1 else math.nan, spread)
 
 
-def consecutive_features(samples: dict, radius: float, window: float, *,
-                         share_tol: float = SHARE_TOL) -> tuple[Features, Features]:
-    """Features over the two consecutive windows [t_end − 2W, t_end − W], [t_end − W, t_end]."""
-    t_end = float(samples["t"][-1])
-    return (window_features(samples, radius, t_end - 2 * window, t_end - window,
-                            share_tol=share_tol),
-            window_features(samples, radius, t_end - window, t_end, share_tol=share_tol))
-
-
 @dataclass(frozen=True)
 class Settled:
     """What ``settle_verdict`` reads from a run's samples."""
