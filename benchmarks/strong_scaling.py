@@ -45,6 +45,7 @@ def worker(n: int, steps: int, omega: str) -> None:
     import numpy as np
     from mpi4py import MPI
 
+    import stickslip.solver.problem  # noqa: F401 (loaded: used as an attribute)
     from stickslip import solver
     from stickslip.solver.run import Simulation
     from stickslip.solver.scene import load_scene

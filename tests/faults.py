@@ -48,6 +48,13 @@ def digest(run_dir: Path) -> str | None:
 
 def inject(monkeypatch, kind: str, phase: str) -> dict:  # noqa: ANN001
     """Arm one fault; returns a dict whose "fired" says whether it happened."""
+    import stickslip.solver.atomic  # noqa: F401 (loaded: used as an attribute)
+    import stickslip.solver.problem  # noqa: F401 (loaded: used as an attribute)
+    import stickslip.solver.run  # noqa: F401 (loaded: used as an attribute)
+    import stickslip.studies.rundir  # noqa: F401 (loaded: used as an attribute)
+    import stickslip.studies.rundir.directory  # noqa: F401 (loaded: used as an attribute)
+    import stickslip.studies.rundir.scene_run  # noqa: F401 (loaded: used as an attribute)
+    import stickslip.studies.rundir.writer  # noqa: F401 (loaded: used as an attribute)
     from stickslip import solver, studies
 
     state = {"fired": False, "count": {}}

@@ -204,6 +204,9 @@ def test_outputs_have_the_umask_mode(tmp_path):
 def test_failures_are_recorded_not_left_running(tmp_path, monkeypatch):
     """Case 6: a MemoryError (or any error) gives status failed with the message."""
     pytest.importorskip("dolfinx")
+    import stickslip.solver.atomic  # noqa: F401 (loaded: used as an attribute)
+    import stickslip.solver.problem  # noqa: F401 (loaded: used as an attribute)
+    import stickslip.solver.run  # noqa: F401 (loaded: used as an attribute)
     from stickslip import solver
 
     def boom(*a, **k):
@@ -259,6 +262,9 @@ def test_a_signal_on_one_rank_stops_every_rank_at_the_same_sample(tmp_path, monk
     pytest.importorskip("dolfinx")
     from mpi4py import MPI
 
+    import stickslip.solver.atomic  # noqa: F401 (loaded: used as an attribute)
+    import stickslip.solver.problem  # noqa: F401 (loaded: used as an attribute)
+    import stickslip.solver.run  # noqa: F401 (loaded: used as an attribute)
     from stickslip import solver
     from stickslip.studies.rundir import run_scene
 
@@ -306,6 +312,9 @@ sys.path.insert(0, {str(REPO)!r})
 from mpi4py import MPI
 import stickslip.solver.problem
 from stickslip import solver
+import stickslip.solver.atomic  # noqa: F401 (loaded: used as an attribute)
+import stickslip.solver.problem  # noqa: F401 (loaded: used as an attribute)
+import stickslip.solver.run  # noqa: F401 (loaded: used as an attribute)
 from stickslip.solver.scene import load_scene
 from stickslip.studies.rundir import run_scene
 real = solver.problem.build_problem
@@ -392,6 +401,9 @@ sys.path.insert(0, {str(REPO)!r})
 from mpi4py import MPI
 import stickslip.solver.problem
 from stickslip import solver
+import stickslip.solver.atomic  # noqa: F401 (loaded: used as an attribute)
+import stickslip.solver.problem  # noqa: F401 (loaded: used as an attribute)
+import stickslip.solver.run  # noqa: F401 (loaded: used as an attribute)
 from stickslip.solver.scene import load_scene
 from stickslip.studies.rundir import run_scene
 def build(scene, comm):
@@ -435,6 +447,9 @@ sys.path.insert(0, {str(REPO)!r})
 from mpi4py import MPI
 import stickslip.solver.problem
 from stickslip import solver
+import stickslip.solver.atomic  # noqa: F401 (loaded: used as an attribute)
+import stickslip.solver.problem  # noqa: F401 (loaded: used as an attribute)
+import stickslip.solver.run  # noqa: F401 (loaded: used as an attribute)
 from stickslip.solver.scene import load_scene
 from stickslip.studies.rundir import run_scene
 def build(scene, comm):
@@ -590,6 +605,9 @@ sys.path.insert(0, {str(REPO)!r})
 from mpi4py import MPI
 import stickslip.solver.atomic
 from stickslip import solver
+import stickslip.solver.atomic  # noqa: F401 (loaded: used as an attribute)
+import stickslip.solver.problem  # noqa: F401 (loaded: used as an attribute)
+import stickslip.solver.run  # noqa: F401 (loaded: used as an attribute)
 from stickslip.solver.scene import load_scene
 from stickslip.studies.rundir import run_scene
 real = solver.atomic.atomic_write

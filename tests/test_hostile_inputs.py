@@ -144,6 +144,8 @@ def _full_disk_for(monkeypatch, run_id: str, fit: int) -> None:
     full disk (so the scene's own summary cannot record its failure)."""
     import errno
 
+    import stickslip.solver.atomic  # noqa: F401 (loaded: used as an attribute)
+    import stickslip.solver.run  # noqa: F401 (loaded: used as an attribute)
     from stickslip import solver
 
     real = solver.atomic.atomic_write
@@ -412,6 +414,8 @@ from pathlib import Path
 from mpi4py import MPI
 import stickslip.solver.run
 from stickslip import solver
+import stickslip.solver.atomic  # noqa: F401 (loaded: used as an attribute)
+import stickslip.solver.run  # noqa: F401 (loaded: used as an attribute)
 from stickslip.solver.scene import load_scene
 from stickslip.studies.rundir import run_scene
 real, calls = solver.run.Simulation._check_health, []

@@ -26,8 +26,10 @@ import numpy as np
 
 import stickslip.solver.ensemble
 from stickslip import solver
+import stickslip.solver.run  # noqa: F401 (loaded: used as an attribute)
 import stickslip.solver.ensemble_observers
 from stickslip import solver
+import stickslip.solver.run  # noqa: F401 (loaded: used as an attribute)
 from stickslip.solver.newmark import Newmark
 from stickslip.solver.observers import Cadence
 from stickslip.solver.run import run_loop

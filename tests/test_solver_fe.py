@@ -114,6 +114,7 @@ def test_run_directory_summary_and_refusal_to_overwrite(tmp_path):
 
 def test_divergence_is_reported_not_hidden(tmp_path, monkeypatch):
     """A blow-up stops the run, keeps the diagnostics and writes status 'diverged'."""
+    import stickslip.solver.schemes.select  # noqa: F401 (loaded: used as an attribute)
     from stickslip import solver
 
     real = solver.schemes.select.critical_time_step

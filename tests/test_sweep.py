@@ -170,6 +170,8 @@ def test_failures_divergence_resume_and_retry(tmp_path, monkeypatch):
     pytest.importorskip("dolfinx")
     from mpi4py import MPI
 
+    import stickslip.solver.errors  # noqa: F401 (loaded: used as an attribute)
+    import stickslip.solver.run  # noqa: F401 (loaded: used as an attribute)
     from stickslip import solver
     from stickslip.studies.sweep import run_sweep, write_table
 
