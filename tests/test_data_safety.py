@@ -312,9 +312,6 @@ sys.path.insert(0, {str(REPO)!r})
 from mpi4py import MPI
 import stickslip.solver.problem
 from stickslip import solver
-import stickslip.solver.atomic  # noqa: F401 (loaded: used as an attribute)
-import stickslip.solver.problem  # noqa: F401 (loaded: used as an attribute)
-import stickslip.solver.run  # noqa: F401 (loaded: used as an attribute)
 from stickslip.solver.scene import load_scene
 from stickslip.studies.rundir import run_scene
 real = solver.problem.build_problem
@@ -401,9 +398,6 @@ sys.path.insert(0, {str(REPO)!r})
 from mpi4py import MPI
 import stickslip.solver.problem
 from stickslip import solver
-import stickslip.solver.atomic  # noqa: F401 (loaded: used as an attribute)
-import stickslip.solver.problem  # noqa: F401 (loaded: used as an attribute)
-import stickslip.solver.run  # noqa: F401 (loaded: used as an attribute)
 from stickslip.solver.scene import load_scene
 from stickslip.studies.rundir import run_scene
 def build(scene, comm):
@@ -421,7 +415,9 @@ run_scene(load_scene("smoke", {SHORT!r}), {str(tmp_path / 'm')!r}, stream=io.Str
         # read at once, as a script would
         s = json.loads((tmp_path / "m" / "summary.json").read_text())
         assert s["status"] == "interrupted", (s, err)
-        assert s["message"] == "interrupted by SIGTERM during setup"
+        # the watchdog's line or, where rank 0's rescue writer came first, the rescue's:
+        # either is final; which one wins is the two processes' race
+        assert s["message"].startswith("interrupted") and "during setup" in s["message"], s
         assert proc.returncode == 1  # Open MPI's launcher after SIGTERM
     finally:
         with contextlib.suppress(ProcessLookupError):
@@ -447,9 +443,6 @@ sys.path.insert(0, {str(REPO)!r})
 from mpi4py import MPI
 import stickslip.solver.problem
 from stickslip import solver
-import stickslip.solver.atomic  # noqa: F401 (loaded: used as an attribute)
-import stickslip.solver.problem  # noqa: F401 (loaded: used as an attribute)
-import stickslip.solver.run  # noqa: F401 (loaded: used as an attribute)
 from stickslip.solver.scene import load_scene
 from stickslip.studies.rundir import run_scene
 def build(scene, comm):
@@ -605,9 +598,6 @@ sys.path.insert(0, {str(REPO)!r})
 from mpi4py import MPI
 import stickslip.solver.atomic
 from stickslip import solver
-import stickslip.solver.atomic  # noqa: F401 (loaded: used as an attribute)
-import stickslip.solver.problem  # noqa: F401 (loaded: used as an attribute)
-import stickslip.solver.run  # noqa: F401 (loaded: used as an attribute)
 from stickslip.solver.scene import load_scene
 from stickslip.studies.rundir import run_scene
 real = solver.atomic.atomic_write

@@ -414,8 +414,6 @@ from pathlib import Path
 from mpi4py import MPI
 import stickslip.solver.run
 from stickslip import solver
-import stickslip.solver.atomic  # noqa: F401 (loaded: used as an attribute)
-import stickslip.solver.run  # noqa: F401 (loaded: used as an attribute)
 from stickslip.solver.scene import load_scene
 from stickslip.studies.rundir import run_scene
 real, calls = solver.run.Simulation._check_health, []

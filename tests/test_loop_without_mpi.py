@@ -24,12 +24,10 @@ class NoFEStack:
 sys.meta_path.insert(0, NoFEStack())
 import numpy as np
 
-import stickslip.solver.ensemble
+import stickslip.solver.ensemble  # noqa: F401 (used as solver.ensemble)
+import stickslip.solver.ensemble_observers  # noqa: F401 (used as solver.ensemble_observers)
+import stickslip.solver.run  # noqa: F401 (used as solver.run)
 from stickslip import solver
-import stickslip.solver.run  # noqa: F401 (loaded: used as an attribute)
-import stickslip.solver.ensemble_observers
-from stickslip import solver
-import stickslip.solver.run  # noqa: F401 (loaded: used as an attribute)
 from stickslip.solver.newmark import Newmark
 from stickslip.solver.observers import Cadence
 from stickslip.solver.run import run_loop
