@@ -145,6 +145,11 @@ def _stops_as_interrupt():  # noqa: ANN202
         raise KeyboardInterrupt(f"by {signal.Signals(signum).name}")
 
     previous = {name: signal.signal(getattr(signal, name), stop) for name in STOP_SIGNALS}
+    # SIGINT raises KeyboardInterrupt while the command runs, whatever handler the caller
+    # left (an embedding program's, one that only records it); an ignored SIGINT (a job
+    # started in the background) stays ignored
+    if signal.getsignal(signal.SIGINT) is not signal.SIG_IGN:
+        previous["SIGINT"] = signal.signal(signal.SIGINT, signal.default_int_handler)
     try:
         yield
     finally:

@@ -480,3 +480,31 @@ def test_a_resumed_sweep_says_nothing_of_an_earlier_sessions_summary(tmp_path):
     monitor.poll()
     assert "omega-2.0: failed: boom" in stream.getvalue()
     assert "interrupted" not in stream.getvalue()
+
+
+def test_a_command_stops_on_sigint_whatever_handler_it_inherits(tmp_path, monkeypatch):
+    """A SIGINT handler left by the caller that only records the signal (an embedding
+    program's) made an in-process census ignore Ctrl-C and exit 0; each command now owns
+    SIGINT while it runs (KeyboardInterrupt: exit 130) and gives the caller's back after."""
+    pytest.importorskip("dolfinx")
+    import contextlib
+    import io
+    import signal
+    import sys
+
+    from stickslip.cli.main import main
+
+    sys.path.insert(0, str(Path(__file__).parent))
+    from faults import inject
+
+    came: list[int] = []
+    previous = signal.signal(signal.SIGINT, lambda signum, frame: came.append(signum))
+    try:
+        state = inject(monkeypatch, "SIGINT", "setup")
+        with contextlib.redirect_stdout(io.StringIO()):
+            rc = main(["attractors", "smoke", "--starts", "2", "--end-time", "0.002",
+                       "--no-certify", "-o", str(tmp_path / "a")])
+        assert state["fired"] and rc == 130 and not came
+        assert signal.getsignal(signal.SIGINT) is not signal.default_int_handler  # given back
+    finally:
+        signal.signal(signal.SIGINT, previous)
