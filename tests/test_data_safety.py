@@ -376,6 +376,32 @@ def test_sigterm_to_mpirun_leaves_interrupted_and_samples(tmp_path):
     check_run_dir(run_dir)
 
 
+def _held_in_setup_driver(tmp_path: Path, ready: Path, command: str, run_args: str) -> Path:
+    """A script that runs the smoke scene into ``tmp_path/m`` with the mesh build replaced by
+    libc's system(``command``): system() waits for its child in C and restarts the wait after
+    a signal, so no Python handler runs until it returns (a stand-in for gmsh meshing a huge
+    mesh, or SLEPc). ``{child!r}`` in ``command`` is a shell child that writes the readiness
+    marker ``ready`` (its pid) once the caller is inside that call, then sleeps; whoever kills
+    it ends the wait. ``run_args``: more arguments of ``run_scene``."""
+    child = (f"echo $$ > {ready}.tmp && mv {ready}.tmp {ready} && "
+             "exec sleep 300 </dev/null >/dev/null 2>&1")
+    driver = tmp_path / "driver.py"
+    driver.write_text(f"""
+import ctypes, io, sys
+sys.path.insert(0, {str(REPO)!r})
+from mpi4py import MPI
+import stickslip.solver.problem
+from stickslip import solver
+from stickslip.solver.scene import load_scene
+from stickslip.studies.rundir import run_scene
+def build(scene, comm):
+    ctypes.CDLL(None).system(({command.format(child=child)}).encode())
+solver.problem.build_problem = build
+run_scene(load_scene("smoke", {SHORT!r}), {str(tmp_path / 'm')!r}, stream=io.StringIO(){run_args})
+""")
+    return driver
+
+
 def test_sigterm_to_mpirun_in_compiled_setup_is_final_at_once(tmp_path):
     """SIGTERM to mpirun while rank 0 is held in compiled code during setup (gmsh, SLEPc: the
     Python handler cannot run before Open MPI's SIGKILL 0.25 s later): the summary said
@@ -386,25 +412,9 @@ def test_sigterm_to_mpirun_in_compiled_setup_is_final_at_once(tmp_path):
 
     if shutil.which("mpirun") is None or "OMPI_COMM_WORLD_SIZE" in os.environ:
         pytest.skip("needs mpirun, outside mpirun")
-    driver = tmp_path / "driver.py"
     ready = tmp_path / "ready"
-    # As below: libc's system() waits in C for a child that writes the readiness marker
-    # (rank 0's; its pid) and sleeps; mpirun's SIGKILL of the process group ends it.
-    child = (f"echo $$ > {ready}.tmp && mv {ready}.tmp {ready} && "
-             "exec sleep 300 </dev/null >/dev/null 2>&1")
-    driver.write_text(f"""
-import ctypes, io, sys
-sys.path.insert(0, {str(REPO)!r})
-from mpi4py import MPI
-import stickslip.solver.problem
-from stickslip import solver
-from stickslip.solver.scene import load_scene
-from stickslip.studies.rundir import run_scene
-def build(scene, comm):
-    ctypes.CDLL(None).system(({child!r} if comm.rank == 0 else "sleep 300").encode())
-solver.problem.build_problem = build
-run_scene(load_scene("smoke", {SHORT!r}), {str(tmp_path / 'm')!r}, stream=io.StringIO())
-""")
+    driver = _held_in_setup_driver(tmp_path, ready, "{child!r} if comm.rank == 0 else "
+                                   "\"sleep 300\"", "")
     proc = subprocess.Popen(["mpirun", "-n", "2", sys.executable, str(driver)],
                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
                             cwd=REPO)
@@ -430,27 +440,8 @@ def test_sigterm_while_stuck_in_compiled_code(tmp_path):
     """Case 10: SIGTERM during meshing (gmsh is compiled code: Python handlers wait for it).
     The watcher ends the run 2 s later, marked `interrupted`, instead of ignoring SIGTERM."""
     pytest.importorskip("dolfinx")
-    driver = tmp_path / "driver.py"
     ready = tmp_path / "ready"
-    # libc's system() waits for its child in C and restarts the wait after a signal, so the
-    # Python handler cannot run until it returns: a stand-in for gmsh meshing a huge mesh.
-    # The child writes the readiness marker (its pid) once the parent is inside that call.
-    child = (f"echo $$ > {ready}.tmp && mv {ready}.tmp {ready} && "
-             "exec sleep 300 </dev/null >/dev/null 2>&1")
-    driver.write_text(f"""
-import ctypes, io, sys
-sys.path.insert(0, {str(REPO)!r})
-from mpi4py import MPI
-import stickslip.solver.problem
-from stickslip import solver
-from stickslip.solver.scene import load_scene
-from stickslip.studies.rundir import run_scene
-def build(scene, comm):
-    ctypes.CDLL(None).system({child!r}.encode())
-solver.problem.build_problem = build
-run_scene(load_scene("smoke", {SHORT!r}), {str(tmp_path / 'm')!r}, comm=MPI.COMM_SELF,
-          stream=io.StringIO())
-""")
+    driver = _held_in_setup_driver(tmp_path, ready, "{child!r}", ", comm=MPI.COMM_SELF")
     proc = subprocess.Popen([sys.executable, str(driver)], stdout=subprocess.DEVNULL,
                             stderr=subprocess.PIPE, text=True, cwd=REPO)
     sleeper = int(wait_for_file(ready))

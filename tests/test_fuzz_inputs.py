@@ -349,8 +349,6 @@ def test_every_numeric_option_is_fuzzed():
 def test_numeric_options(finished, tmp_path_factory, capsys, monkeypatch, option, data):
     """Any number (NaN, ±inf, 0, negative, tiny, huge, not an int) for any numeric option:
     exit 0 (or the command's work reached), or exit 2 with one line; never a traceback."""
-    from stickslip.cli.main import main
-
     command, flag, kind = option
     if kind == "int":
         value = data.draw(EXTREME_INTS)
@@ -361,23 +359,8 @@ def test_numeric_options(finished, tmp_path_factory, capsys, monkeypatch, option
     else:
         value = TEMPLATES[flag].format(x=data.draw(EXTREME_FLOATS), y=data.draw(EXTREME_FLOATS),
                                        i=data.draw(EXTREME_INTS), j=data.draw(EXTREME_INTS))
-    tmp = tmp_path_factory.mktemp("num")
-    before, works = COMMANDS[command]
-    for target in works:
-        monkeypatch.setattr(target, _reached, raising=False)
-    argv = [a.format(tmp=tmp, run=finished) for a in before] + [f"{flag}={value}"]
-    try:
-        with contextlib.redirect_stdout(io.StringIO()):
-            rc = main(argv)
-    except Reached:
-        rc = 0
-    except SystemExit as stop:  # argparse: a value of the wrong type, with its usage line
-        rc = stop.code
-    err = capsys.readouterr().err
-    assert rc in (0, 2), (argv, rc, err)
-    assert "Traceback" not in err, err
-    if rc == 2 and not err.startswith("usage:"):
-        assert err.count("\n") == 1, (argv, err)
+    _one_line_or_reached(command, flag, value, tmp_path_factory.mktemp("num"), finished,
+                         capsys, monkeypatch)
 
 
 #: The values every numeric option meets, each one (a fixed grid beside the drawn ones above):
@@ -407,12 +390,19 @@ def test_numeric_options_hostile_grid(finished, tmp_path, capsys, monkeypatch, c
                                       value):
     """Each numeric option with each hostile value: exit 0 (or the command's work reached),
     or exit 2 with one line at load; never a traceback, an overflow or a huge allocation."""
+    _one_line_or_reached(command, flag, value, tmp_path, finished, capsys, monkeypatch)
+
+
+def _one_line_or_reached(command: str, flag: str, value: str, tmp: Path, finished: Path,
+                         capsys, monkeypatch) -> None:  # noqa: ANN001
+    """``command`` with ``flag=value``: its work reached (exit 0), or exit 2 with one line
+    (argparse's usage lines aside); never a traceback."""
     from stickslip.cli.main import main
 
     before, works = COMMANDS[command]
     for target in works:
         monkeypatch.setattr(target, _reached, raising=False)
-    argv = [a.format(tmp=tmp_path, run=finished) for a in before] + [f"{flag}={value}"]
+    argv = [a.format(tmp=tmp, run=finished) for a in before] + [f"{flag}={value}"]
     try:
         with contextlib.redirect_stdout(io.StringIO()):
             rc = main(argv)
