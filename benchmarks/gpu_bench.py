@@ -63,6 +63,8 @@ sys.path.insert(0, str(REPO))
 
 #: The timed paths (``rate --paths``), in the report's order.
 PATHS = ("kernel", "observed", "coarse")
+#: Records that are sums over the nodes (CuPy's reductions add in another order than numba's).
+SUMMED = ("energies", "work", "initial_energy", "energy_bound")
 #: The census point: the paper's Figure-3 scene (undamped, as a batch is), random starts.
 CENSUS_SCENE = "scenes/figure3_n132.toml"
 
@@ -487,6 +489,66 @@ def stage_cli(args) -> None:
     shutil.rmtree(out_dir, ignore_errors=True)
 
 
+def stage_node(args) -> None:
+    """The product's node runner, ``python3 -m stickslip.node DIR``, on a census bundle
+    (``stickslip attractors ... --bundle DIR``) with ``--backend gpu`` and with ``--backend
+    cpu`` (``--backends``), each on its own copy: exit statuses, wall times, and every
+    start's records compared (samples and checkpoint state bitwise but for the energies and
+    works, whose reductions sum in another order on the GPU: their largest relative
+    difference), with each start's u_r samples' SHA-256 for a check against another
+    machine."""
+    import hashlib
+    import subprocess
+
+    work = Path(tempfile.mkdtemp(prefix="gpu-bench-node-", dir=args.spool_dir))
+    record: dict = {"stage": "node", "bundle": args.bundle.name}
+    try:
+        dirs = {}
+        for k, backend in enumerate(args.backends):
+            d = dirs[k] = work / f"{k}-{backend}"
+            shutil.copytree(args.bundle, d, ignore=shutil.ignore_patterns("results"))
+            t0 = time.perf_counter()
+            proc = subprocess.run([sys.executable, "-m", "stickslip.node", str(d),
+                                   "--backend", backend], capture_output=True, text=True,
+                                  cwd=REPO)
+            record[f"{k}-{backend}"] = {"rc": proc.returncode,
+                                        "seconds": time.perf_counter() - t0,
+                                        "stdout": proc.stdout.strip().splitlines(),
+                                        "stderr_last": proc.stderr.strip()[-300:]}
+            if proc.returncode != 0:
+                return
+        ids = sorted(p.name for p in (dirs[1] / "results").iterdir())
+        differ, hashes, rel = [], {}, {}
+        for start in ids:
+            a, b = (dirs[k] / "results" / start for k in (0, 1))
+            for name in ("samples.npz", "state.npz"):
+                if not (a / name).exists() and not (b / name).exists():
+                    continue
+                with np.load(a / name) as za, np.load(b / name) as zb:
+                    if name == "samples.npz":
+                        hashes[start] = hashlib.sha256(zb["u_r"].tobytes()).hexdigest()
+                    for key in zb.files:
+                        leaf = key.rsplit("/", 1)[-1]
+                        if leaf == "kernel" or (key in za.files
+                                                and np.array_equal(za[key], zb[key])):
+                            continue
+                        if key in za.files and za[key].shape != zb[key].shape:
+                            differ.append(f"{start}/{name}:{key} {za[key].shape} against "
+                                          f"{zb[key].shape}")
+                        elif leaf.startswith(SUMMED) and key in za.files:
+                            rel[key] = max(rel.get(key, 0.0), _rel(za[key], zb[key]))
+                        else:
+                            differ.append(f"{start}/{name}:{key}")
+            fa, fb = (json.loads((x / "facts.json").read_text()) for x in (a, b))
+            if fa["message"] != fb["message"]:
+                differ.append(f"{start}/facts.json:message")
+        record.update({"starts": len(ids), "differ": differ, "max_rel_diff": rel,
+                       "u_r_sha256": hashes})
+    finally:
+        shutil.rmtree(work, ignore_errors=True)
+        emit(args.json, record)
+
+
 def stage_pytest(args) -> None:
     """tests/test_gpu.py on this node, from the bundle (``STICKSLIP_GPU_BUNDLE``): the
     CUDA kernel through CuPy bitwise against numba, and the CPU emulation's tests."""
@@ -680,6 +742,11 @@ def main(argv: list[str] | None = None) -> None:
     p.add_argument("--end-time", type=float, default=0.3)
     p.add_argument("--sample-interval", type=float, default=1e-3)
     p.add_argument("--backend", choices=("cpu", "gpu"), default="gpu")
+    p = sub.add_parser("node", parents=[common],
+                       help="python3 -m stickslip.node on a bundle, GPU against CPU")
+    p.add_argument("--bundle", type=Path, required=True)
+    p.add_argument("--backends", nargs=2, choices=("gpu", "cpu"), default=["gpu", "cpu"],
+                   help="the two runs compared (cpu cpu: a rehearsal without a GPU)")
     p = sub.add_parser("pytest", parents=[common], help="tests/test_gpu.py on this node")
     p.add_argument("--bundle", type=Path, required=True)
     p = sub.add_parser("report", help="gpu_suite.json + gpu_suite.md from the records")
@@ -687,7 +754,7 @@ def main(argv: list[str] | None = None) -> None:
     p.add_argument("--out", type=Path, required=True)
     args = ap.parse_args(argv)
     {"prepare": stage_prepare, "env": stage_env, "rate": stage_rate, "check": stage_check,
-     "census": stage_census, "cli": stage_cli, "pytest": stage_pytest,
+     "census": stage_census, "cli": stage_cli, "node": stage_node, "pytest": stage_pytest,
      "report": stage_report}[args.stage](args)
 
 

@@ -16,8 +16,9 @@
 # ratio to one core of the batched numba kernel measured in the same run on the same node,
 # the implied memory bandwidth against the device's peak, the GPU/CPU checks and the census).
 # DIR defaults to $OUT (set on the device machine), else build/gpu_suite/out. The bundles
-# (solver.bundle) come from --data (default build/gpu_suite); where they are missing they are
-# made first, which needs dolfinx (./dev).
+# (solver.bundle; node_census: `stickslip attractors figure1_n132_damped --starts 16
+# --meshes 132,264 --bundle`) come from --data (default build/gpu_suite); where they are
+# missing they are made first, which needs dolfinx (./dev).
 #
 # Each stage runs under `timeout` with its own limit, clipped to what is left of --budget
 # (default 480 s); a stage that fails or runs out of time is recorded as skipped and the suite
@@ -115,6 +116,10 @@ if [ "$mode" != dry ]; then
       break
     fi
   done
+  if [ ! -f "$data/node_census/manifest.json" ] && "$PY" -c "import dolfinx" 2>/dev/null; then
+    stickslip attractors figure1_n132_damped --starts 16 --meshes 132,264 \
+      --bundle "$data/node_census" -o "$data/node_census_answer" || exit 2
+  fi
 fi
 P132="$data/problem_n132"
 P528="$data/problem_n528"
@@ -135,6 +140,11 @@ for n in 132 528; do
 done
 stage gpu "check N=528" 90 "${BENCH[@]}" check --bundle "$P528" --B "${CHECK_B[1]}" \
   --steps "$((CHECK_STEPS / 2))" "${J[@]}"
+# the product's node runner on the tutorial census's bundle, GPU against CPU (not emulated:
+# the runner is its own process)
+if [ "$mode" = gpu ] || [ "$mode" = dry ] || [ "$mode" = quick ]; then
+  stage gpu "node census" 240 "${BENCH[@]}" node --bundle "$data/node_census" "${J[@]}"
+fi
 stage gpu "census N=132" 180 "${BENCH[@]}" census --bundle "$data/census_n132" \
   "${CENSUS[@]}" "${J[@]}"
 stage gpu "pytest tests/test_gpu.py" 120 "${BENCH[@]}" pytest --bundle "$P132" "${J[@]}"

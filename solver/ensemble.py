@@ -265,12 +265,19 @@ class BatchedExplicit(HookedStepper):
             names += ("u_tau", "u0_ku0", *self.columns.damping_state)
         return names
 
-    def state(self, b: int) -> dict[str, np.ndarray]:
-        """Scene ``b``'s checkpoint: its column of every array of ``_state_names`` (host
-        copies), the clock and the kernel; ``restore`` stacks such columns into a batch of
-        any size (the scenes are independent columns: the same bits)."""
-        out = {name: value[..., b].copy()
-               for name, value in copy_state(self, self._state_names()).items()}
+    def host_state(self) -> dict[str, np.ndarray]:
+        """Every array of ``_state_names``, all columns, copied to the host once (a GPU's
+        arrays in one transfer each): what ``state`` takes its columns from."""
+        return copy_state(self, self._state_names())
+
+    def state(self, b: int, host: dict[str, np.ndarray] | None = None
+              ) -> dict[str, np.ndarray]:
+        """Scene ``b``'s checkpoint: its column of every array of ``_state_names`` (of
+        ``host``, a ``host_state()`` of this step, else copied now), the clock and the
+        kernel; ``restore`` stacks such columns into a batch of any size (the scenes are
+        independent columns: the same bits)."""
+        host = self.host_state() if host is None else host
+        out = {name: value[..., b].copy() for name, value in host.items()}
         out.update(time=np.float64(self.time), step_count=np.int64(self.step_count),
                    kernel=np.array(self.kernel))
         return out

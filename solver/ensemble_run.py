@@ -259,6 +259,7 @@ class BatchSimulation:
         self.observers: list = []
         self.t_start, self.max_wall = time.perf_counter(), None
         self.at_level = False  # ``proceed`` returned: every scene stands at a whole level
+        self._host_state: dict | None = None  # the stepper's arrays on the host, while finishing
         self.starts = None if build else starts
         if self.live and build:
             self._build(starts.u0, spool_parent, memory_budget)
@@ -350,7 +351,9 @@ class BatchSimulation:
         (``BatchedExplicit.state``), the energy guard's E(0) and bound of that scene, its
         steady pressure and its counts of samples and probe steps (those before a
         continuation included)."""
-        out = {f"stepper/{k}": v for k, v in self.stepper.state(b).items()}
+        if self._host_state is None:  # one copy of the batch for all its columns
+            self._host_state = self.stepper.host_state()
+        out = {f"stepper/{k}": v for k, v in self.stepper.state(b, self._host_state).items()}
         out.update({"run/initial_energy": np.float64(self.recorder.initial[b]),
                     "run/energy_bound": np.float64(self.recorder.bound[b]),
                     "run/steady_pressure": np.float64(run.steady_mean_pressure),
@@ -412,8 +415,10 @@ class BatchSimulation:
             self.at_level = True  # not interrupted inside a step: the scenes can continue
         finally:
             self.observers[0].diverge(self.recorder.close(), self.stepper)
+            self._host_state = None
             for b, k in enumerate(self.live):
                 if self.stepper.active[b]:
                     self.runs[k].finish(self, b, "completed",
                                         "" if stop == "diverged" else stop)
+            self._host_state = None
         return stop

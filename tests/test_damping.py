@@ -155,7 +155,8 @@ def test_energy_balance_with_damping_closes_in_the_fused_and_batched_kernels():
     (numpy), the fused kernel and a batch of two (with a second Omega): the fused and
     batched runs record W_d and the other energies of the numpy run to round-off (1e-9 of
     max E: ~400 steps of sums in other orders), so their balance
-    E_n - E_0 - W_contact + W_d closes as the numpy one does (0.8 % of max E measured)."""
+    E_n - E_0 - W_contact + W_d closes as the numpy one does (0.8 % of max E measured).
+    The batch's checkpoints are taken from one host copy of its state."""
     from stickslip.solver.ensemble_run import BatchSimulation
 
     sc = smoke("time.beta2=0.5", "time.end_time=0.03", "time.dt_fraction=0.225",
@@ -168,7 +169,13 @@ def test_energy_balance_with_damping_closes_in_the_fused_and_batched_kernels():
         energies[kernel] = sim.recorder.arrays()["energies"]
     batch = BatchSimulation([sc, sc.with_overrides("loading.omega=30.0")])
     assert batch.stepper.damped and batch.stepper.B == 2
+    copies, host_state = [], batch.stepper.host_state
+    batch.stepper.host_state = lambda: (copies.append(1), host_state())[1]
     batch.proceed()
+    # every column's checkpoint comes from one host copy of the batch's state (a GPU's
+    # arrays cross to the host once, not once per column)
+    assert len(copies) == 1
+    assert np.array_equal(batch.runs[1].state["stepper/u"], host_state()["u"][:, 1])
     energies["batch"] = batch.runs[0].recorder.arrays()["energies"]
     ref = energies["numpy"]
     scale = (ref[:, 0] + ref[:, 1]).max()
