@@ -3,9 +3,16 @@
 Parallel tests are marked ``@pytest.mark.parallel``; ``tests/run.sh`` runs them once serially
 and once under ``mpirun -n 2``. Under mpirun only rank 0 writes the JUnit report, so the
 summary counts each parallel test once.
+
+The suite runs with SIGINT as a terminal delivers it (Python's KeyboardInterrupt), however it
+was launched: a script's background job (``cmd &`` without job control) inherits SIGINT
+ignored, and the CLI keeps an ignored SIGINT ignored (as ``nohup`` asks), so the tests that
+interrupt a command on purpose would otherwise see it run on. Their children inherit the
+default disposition too.
 """
 
 import os
+import signal
 
 import numpy as np
 import pytest
@@ -17,6 +24,8 @@ MPI_RANK = int(os.environ.get("OMPI_COMM_WORLD_RANK", os.environ.get("PMI_RANK",
 def pytest_configure(config: pytest.Config) -> None:
     if MPI_RANK > 0:
         config.option.xmlpath = None
+    if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
 
 
 def assert_steady_sliding_stays(sim, steps: int = 40) -> np.ndarray:
