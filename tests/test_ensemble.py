@@ -590,3 +590,20 @@ def test_damped_cuda_kernels_equal_the_numba_kernel_on_the_cpu(monkeypatch):
     np.testing.assert_array_equal(cuda.ku, ref.ku)
     np.testing.assert_allclose(cuda.damping_work_totals(), ref.damping_work_totals(),
                                rtol=1e-9, atol=0)
+
+
+def test_group_size_above_the_ranks_is_said(tmp_path):
+    """A group_size larger than the run's ranks runs each scene on the ranks there are, and
+    the sweep's first lines say so (and how to get the group asked for)."""
+    import io
+
+    from stickslip.studies.sweep.schedule import _announce
+
+    spec = _spec(tmp_path)
+    out = io.StringIO()
+    _announce(spec, tmp_path, [[t] for t in spec.tasks], 0, 2, 4, "cpu", out)
+    assert "group_size 4 is more than the 2 rank(s) of this run" in out.getvalue()
+    assert "mpirun -n 4" in out.getvalue()
+    out = io.StringIO()
+    _announce(spec, tmp_path, [[t] for t in spec.tasks], 0, 3, 2, "cpu", out)
+    assert "3 ranks are not a multiple of group_size 2" in out.getvalue()

@@ -562,7 +562,11 @@ def _announce(spec: SweepSpec, out_dir: Path, units: list[list[Task]], n_done: i
         print(f"  batched ({backend}): {len(batches)} batch(es) of {sizes}"
               f" scenes, {len(units) - len(batches)} single scene(s)", file=stream,
               flush=True)
-    if ranks % g:
+    if g > ranks:
+        print(f"  note: group_size {g} is more than the {ranks} rank(s) of this run: each "
+              f"scene runs on {ranks} rank(s) (mpirun -n {g} gives it {g})", file=stream,
+              flush=True)
+    elif ranks % g:
         print(f"  note: {ranks} ranks are not a multiple of group_size {g}; the last "
               f"group has {ranks % g} rank(s)", file=stream, flush=True)
 
