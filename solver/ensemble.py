@@ -288,17 +288,36 @@ class BatchedExplicit(HookedStepper):
         if len(states) != self.B:
             raise ValueError(f"{len(states)} checkpoints for a batch of {self.B} scenes")
         steps = {(int(s["step_count"]), float(s["time"])) for s in states}
-        kernels = {str(s["kernel"]) for s in states}
-        if len(steps) != 1 or kernels != {self.kernel}:
-            raise ValueError(f"the checkpoints are at steps {sorted(steps)} of kernels "
-                             f"{sorted(kernels)}: a batch continues scenes at one step of "
-                             f"the {self.kernel!r} kernel")
+        if len(steps) != 1:
+            raise ValueError(f"the checkpoints are at steps {sorted(steps)}: a batch "
+                             "continues scenes at one step")
+        states = [self._adopt(s) for s in states]
         names = self._state_names()
         stacked = {name: np.stack([s[name] for s in states], axis=-1) for name in names}
         step, time = steps.pop()
         put_state(self, dict(stacked, time=np.float64(time), step_count=np.int64(step)),
                   names)
         self._started[0] = int(step > 0)
+
+    def _adopt(self, state: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        """A column's checkpoint of any kernel in this kernel's layout. The dynamics' arrays
+        (u, u_n, v~, the contact state) are the same bits on every kernel; the work and
+        damping sums are kept as totals by numba and numpy and per node by CUDA
+        (``totals``, ``from_totals``), and w_{n+1} = u_{n+1} + tau v~_{n+1} is rebuilt as
+        ``set_state`` forms it. A continued run's dynamics are then those of one run on
+        either kernel; its sums carry the last bits of the other's order."""
+        kernel = str(state["kernel"])
+        if kernel == self.kernel:
+            return state
+        if kernel not in BATCH_KERNELS:
+            raise ValueError(f"a checkpoint of kernel {kernel!r}: this batch continues "
+                             f"checkpoints of {sorted(BATCH_KERNELS)}")
+        out = BATCH_KERNELS[kernel].totals(dict(state), self.damped)
+        if self.damped:
+            out["u_tau"] = out["v_pred"] * self.tau + out["u"]
+        out = type(self.columns).from_totals(out, self.damped)
+        out["kernel"] = np.array(self.kernel)
+        return out
 
     def kick(self, b: int, du: np.ndarray, dv: np.ndarray) -> None:
         """Perturb scene ``b`` at its level: u_{n+1} and u_n (with u_n at the contact nodes,
@@ -415,6 +434,17 @@ class ArrayColumns:
 
     def work_sums(self, st: BatchedExplicit):
         return st.work[:3]
+
+    @staticmethod
+    def totals(state: dict[str, np.ndarray], damped: bool) -> dict[str, np.ndarray]:
+        """A column's checkpoint with ``work`` as the 4 totals (contact, cylinder, friction,
+        damping step sum): this kernel's own layout."""
+        return state
+
+    @staticmethod
+    def from_totals(state: dict[str, np.ndarray], damped: bool) -> dict[str, np.ndarray]:
+        """The inverse of ``totals`` for this kernel."""
+        return state
 
     def damping_step_sum(self, st: BatchedExplicit):
         return st.work[3]
@@ -569,6 +599,26 @@ class CudaColumns(ArrayColumns):
 
     def work_sums(self, st: BatchedExplicit):  # pragma: no cover - GPU only
         return st.work.sum(axis=1)
+
+    @staticmethod
+    def totals(state: dict[str, np.ndarray], damped: bool) -> dict[str, np.ndarray]:
+        """``work`` (3, m) per contact node and ``dwork`` (nodes,) summed into the 4
+        totals of the numba layout."""
+        dsum = state.pop("dwork").sum() if damped else 0.0
+        state["work"] = np.append(state["work"].sum(axis=1), dsum)
+        return state
+
+    @staticmethod
+    def from_totals(state: dict[str, np.ndarray], damped: bool) -> dict[str, np.ndarray]:
+        """The 4 totals put on the first node of the per-node sums (the sums read later
+        add every node's share to them)."""
+        totals, m, nodes = state["work"], state["zprev"].shape[0], state["u"].shape[0] // 2
+        state["work"] = np.zeros((3, m))
+        state["work"][:, 0] = totals[:3]
+        if damped:
+            state["dwork"] = np.zeros(nodes)
+            state["dwork"][0] = totals[3]
+        return state
 
     def damping_step_sum(self, st: BatchedExplicit):  # pragma: no cover - GPU only
         return st.dwork.sum(axis=0)

@@ -607,3 +607,22 @@ def test_group_size_above_the_ranks_is_said(tmp_path):
     out = io.StringIO()
     _announce(spec, tmp_path, [[t] for t in spec.tasks], 0, 3, 2, "cpu", out)
     assert "3 ranks are not a multiple of group_size 2" in out.getvalue()
+
+
+def test_checkpoint_layouts_of_the_kernels_convert_both_ways():
+    """The CUDA kernel keeps the work sums per contact node (3, m) and the damping step sum
+    per node; numba and numpy keep the 4 totals. A column's checkpoint converts between the
+    layouts with its totals kept exactly (one value on the first node, zeros elsewhere)."""
+    from stickslip.solver.ensemble import CudaColumns, NumbaColumns
+
+    m, nodes = 5, 12
+    rng = np.random.default_rng(0)
+    totals = rng.normal(size=4)
+    state = {"work": totals.copy(), "zprev": np.zeros((m, 2)), "u": np.zeros(2 * nodes)}
+    cuda = CudaColumns.from_totals(dict(state), damped=True)
+    assert cuda["work"].shape == (3, m) and cuda["dwork"].shape == (nodes,)
+    back = NumbaColumns.from_totals(CudaColumns.totals(dict(cuda), damped=True), True)
+    np.testing.assert_array_equal(back["work"], totals)
+    assert "dwork" not in back
+    undamped = CudaColumns.totals(CudaColumns.from_totals(dict(state), damped=False), False)
+    np.testing.assert_array_equal(undamped["work"], [*totals[:3], 0.0])
