@@ -275,6 +275,20 @@ def check_backend(backend: str, batched: bool = True, device: bool = True) -> No
         raise ValueError("--backend gpu runs batches: add --batch auto or --batch B")
 
 
+def continuing_backend(backend: str) -> str:
+    """Where a batch member's checkpoint of ``backend`` goes on: on its own backend, but a
+    GPU's on the CPU where CuPy or a CUDA device is missing. The dynamics are the same bits
+    on both kernels (``solver.ensemble.BatchedExplicit.restore`` adopts the other layout),
+    so a GPU node's census starts are continued where dolfinx is; the summary's
+    ``batch.backend`` names the backend that ran the continuation."""
+    if BACKENDS.get(backend) == "cuda":
+        try:
+            check_backend(backend)
+        except (ValueError, ImportError):
+            return "cpu"
+    return backend
+
+
 def make_explicit(problem, scene: Scene, dt: float):
     """The numpy explicit stepper of ``scene`` (``explicit_stepper``)."""
     return explicit_stepper(problem, dt, scene.time.beta2, scene.damping.tau)

@@ -222,6 +222,7 @@ def continue_batch(run_dirs: list[str | Path], until: float,
             before any starts).
         ValueError: a kick without ``out_dirs``.
     """
+    from stickslip.solver.schemes.select import continuing_backend
     from stickslip.studies.sweep.batch import batch_key
 
     comm = MPI.COMM_SELF
@@ -240,7 +241,8 @@ def continue_batch(run_dirs: list[str | Path], until: float,
     for i, plan in enumerate(plans):
         meta = plan.checkpoint.meta
         if plan.kind == "batch":
-            key = (meta["step"], backend_here(meta["backend"]), batch_key(plan.scene))
+            key = (meta["step"], continuing_backend(meta["backend"]),
+                   batch_key(plan.scene))
             groups.setdefault(key, []).append(i)
     for i, plan in enumerate(plans):
         if plan.kind != "batch":
@@ -253,22 +255,6 @@ def continue_batch(run_dirs: list[str | Path], until: float,
         for i, summary in zip(members, done, strict=True):
             summaries[i] = summary
     return summaries
-
-
-def backend_here(backend: str) -> str:
-    """Where a batch member's checkpoint of ``backend`` goes on: on its own backend, but a
-    GPU's on the CPU where CuPy or a CUDA device is missing. The dynamics are the same bits
-    on both kernels (``solver.ensemble.BatchedExplicit.restore``), so a GPU node's census
-    starts are continued where dolfinx is; the summary's ``batch.backend`` names the
-    backend that ran the continuation."""
-    from stickslip.solver.schemes.select import check_backend
-
-    if backend == "gpu":
-        try:
-            check_backend(backend)
-        except (ValueError, ImportError):
-            return "cpu"
-    return backend
 
 
 def _continue_members(plans: list[_Plan], outs: list[Path | None], backend: str,
