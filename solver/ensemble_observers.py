@@ -22,6 +22,16 @@ if TYPE_CHECKING:  # pragma: no cover
     from stickslip.solver.ensemble import BatchedExplicit
 
 
+def _sample_kernels():
+    """``solver._sample_kernels``, imported where numba's disk cache is (``solver.fused``)."""
+    from stickslip.solver.fused import _cache_dir
+
+    _cache_dir()
+    from stickslip.solver import _sample_kernels as kernels
+
+    return kernels
+
+
 class _Spool:
     """One recorded field of a batch on the host: rows of shape (B, *inner) in chunks of
     ``chunk`` rows (``_DeviceSpool`` on a GPU).
@@ -314,6 +324,10 @@ class BatchRecorder:
         self.cy_sorted = self.cx_sorted + 1  # the y dofs, once (not one launch per sample)
         self.pc_sorted = xp.asarray(integ.phase_conj)[self.perm]
         self.z = xp.zeros((B, m), dtype=np.complex128)
+        #: the compiled copies of ``sample`` (``solver._sample_kernels``) with the numba
+        #: step, else None (numpy indexing: the reference kernel, a GPU)
+        self.copies = _sample_kernels() if integ.kernel == "numba" else None
+        self.zv = xp.zeros((B, m), dtype=np.complex128) if self.copies else None
         self.initial = np.full(B, np.nan)
         self.bound = np.full(B, np.inf)
 
@@ -375,18 +389,25 @@ class BatchRecorder:
         cx = self.cx_sorted
         row = self.fields.row()  # (B, 6, m), scene-first
         z = self.z
-        for k, arr in ((0, it.u_prev), (2, it.v)):
-            # (B, m) complex rows times e^{-i theta}: the same ufunc loop as the single run's
-            # ``NodalFrames.polar_at_nodes``, hence the same bits (numpy's SIMD complex
-            # multiply may fuse multiply-adds)
-            z.real[...] = arr[cx].T
-            z.imag[...] = arr[self.cy_sorted].T
+        # (B, m) complex rows times e^{-i theta}: the same ufunc loop as the single run's
+        # ``NodalFrames.polar_at_nodes``, hence the same bits (numpy's SIMD complex multiply
+        # may fuse multiply-adds); the copies around it compiled where the step is
+        if self.copies is not None:
+            self.copies.gather_sample(it.u_prev, it.v, it.r_r, it.r_t, it.status, cx,
+                                      self.perm, z, self.zv, row, self.status.row())
             z *= self.pc_sorted
-            row[:, k] = z.real
-            row[:, k + 1] = z.imag
-        row[:, 4] = it.r_r[self.perm].T
-        row[:, 5] = it.r_t[self.perm].T
-        self.status.row()[...] = it.status[self.perm].T
+            self.zv *= self.pc_sorted
+            self.copies.scatter_polar(z, self.zv, row)
+        else:
+            for k, arr in ((0, it.u_prev), (2, it.v)):
+                z.real[...] = arr[cx].T
+                z.imag[...] = arr[self.cy_sorted].T
+                z *= self.pc_sorted
+                row[:, k] = z.real
+                row[:, k + 1] = z.imag
+            row[:, 4] = it.r_r[self.perm].T
+            row[:, 5] = it.r_t[self.perm].T
+            self.status.row()[...] = it.status[self.perm].T
         e = self.energies.row()  # (B, 6): kinetic, strain, the three works (on the device)
         if it.damped:  # the damped step applied K w_n: K u_n for the strain energy and W_d
             it.refresh_ku()
