@@ -1,11 +1,12 @@
-"""numba kernels of a batch's samples (``solver.ensemble_observers.BatchRecorder.sample``).
+"""numba kernels of a batch's records (``solver.ensemble_observers.BatchRecorder``: the
+samples and the every-step probes).
 
 Copies only: each moves values from the stepper's (n, B) and (m, B) arrays into the
 record's scene-major rows, as the numpy indexing it replaces did, so the bits are the
-same; the complex multiply by e^{-iθ} between them stays numpy's (its SIMD loop may fuse
-multiply-adds). One compiled call instead of about twenty small numpy operations per
-sample. In a file of their own so that their disk cache and ``solver._fused_kernels``'
-do not invalidate each other.
+same; the complex multiply by e^{-iθ} of a sample stays numpy's (its SIMD loop may fuse
+multiply-adds). Two compiled calls instead of about twenty small numpy operations per
+sample, one instead of three per step for the probes. In a file of their own so that
+their disk cache and ``solver._fused_kernels``' do not invalidate each other.
 """
 
 from __future__ import annotations
@@ -42,3 +43,17 @@ def scatter_polar(zu, zv, row):
             row[b, 1, j] = zu[b, j].imag
             row[b, 2, j] = zv[b, j].real
             row[b, 3, j] = zv[b, j].imag
+
+
+@jit
+def gather_probes(u, v, x_dofs, row):
+    """Probe p of scene b: row[b, :, p] = (u_x, u_y, v_x, v_y) at its node's dofs
+    ``x_dofs[p]``, ``x_dofs[p] + 1``."""
+    nb = row.shape[0]
+    for p in range(x_dofs.size):
+        i = x_dofs[p]
+        for b in range(nb):
+            row[b, 0, p] = u[i, b]
+            row[b, 1, p] = u[i + 1, b]
+            row[b, 2, p] = v[i, b]
+            row[b, 3, p] = v[i + 1, b]

@@ -288,6 +288,7 @@ class BatchRecorder:
         self.perm = xp.asarray(np.asarray(perm, dtype=np.int64))
         self.theta, self.ds = theta, ds
         pd = 2 * np.asarray(probe_nodes, dtype=np.int64)
+        self.probe_x = pd  # the probes' x dofs
         self.probe_rows = xp.asarray(np.concatenate([pd, pd + 1]))  # x dofs, then y dofs
         self.probe_scratch = xp.zeros((2 * self.probe_rows.size, B))  # u rows, then v rows
         self.probe_pc, self.probe_deg = probe_pc, probe_deg
@@ -349,6 +350,10 @@ class BatchRecorder:
         it = self.integ
         self.probe_t[self.n_probe] = it.time - it.dt
         row = self.probes.row()  # (B, 4, n_probes): u_x, u_y, v_x, v_y
+        if self.copies is not None:
+            self.copies.gather_probes(it.u_prev, it.v, self.probe_x, row)
+            self.n_probe += 1
+            return
         k2 = self.probe_rows.size
         self.xp.take(it.u_prev, self.probe_rows, axis=0, out=self.probe_scratch[:k2])
         self.xp.take(it.v, self.probe_rows, axis=0, out=self.probe_scratch[k2:])
