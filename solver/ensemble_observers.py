@@ -22,16 +22,6 @@ if TYPE_CHECKING:  # pragma: no cover
     from stickslip.solver.ensemble import BatchedExplicit
 
 
-def _sample_kernels():
-    """``solver._sample_kernels``, imported where numba's disk cache is (``solver.fused``)."""
-    from stickslip.solver.fused import _cache_dir
-
-    _cache_dir()
-    from stickslip.solver import _sample_kernels as kernels
-
-    return kernels
-
-
 class _Spool:
     """One recorded field of a batch on the host: rows of shape (B, *inner) in chunks of
     ``chunk`` rows (``_DeviceSpool`` on a GPU).
@@ -325,9 +315,9 @@ class BatchRecorder:
         self.cy_sorted = self.cx_sorted + 1  # the y dofs, once (not one launch per sample)
         self.pc_sorted = xp.asarray(integ.phase_conj)[self.perm]
         self.z = xp.zeros((B, m), dtype=np.complex128)
-        #: the compiled copies of ``sample`` (``solver._sample_kernels``) with the numba
-        #: step, else None (numpy indexing: the reference kernel, a GPU)
-        self.copies = _sample_kernels() if integ.kernel == "numba" else None
+        #: the compiled copies of ``sample`` and ``record_probes`` where the stepper's
+        #: kernel has them (``solver._sample_kernels``), else None (array indexing)
+        self.copies = integ.columns.record_copies()
         self.zv = xp.zeros((B, m), dtype=np.complex128) if self.copies else None
         self.initial = np.full(B, np.nan)
         self.bound = np.full(B, np.inf)
