@@ -29,6 +29,23 @@ and 64 starts of the public point in ≤ 10 minutes:
     ./dev python3 benchmarks/attractor_census.py --starts 64 --ranks 2 \
         --set loading.omega=60 --set geometry.delta=8e-4 --set loading.f=0.6
 
+Around the time loop, a census leg spends its CPU time on: solving each continued batch's
+steady state and building its mesh, K and ω_max again (now skipped: ``restore``
+overwrites the start, and the mesh, K and layout of the leg before are kept in the
+process, ``studies.rundir.continuation.BUILT``); joining a continued start's earlier and
+new samples for each of the writer's three reads (now once); a sample's ~20 and a step's
+3 small numpy copies (now compiled, ``solver._sample_kernels``: per step of the whole loop
+15 % less CPU for one N = 132 start, 12 % for a batch of 8 at N = 264, 5 % for 8 at
+N = 132); and rewriting each continued start's whole samples.npz at every leg and reading
+it back (the largest part left: ~10 % of a tutorial census's CPU, more where many starts
+run to the cap). Side by side, one run each on one 2-core machine shared with a CI loop
+(load average 4 to 6 throughout, numba's cache warm), ``cpu_s`` with the code without
+and with these changes: the tutorial census 314.7 s and 267.7 s (0.85; wall 361 s and
+289 s); the 64 starts of the public point to ``--max-time 0.45 --no-certify`` (the first
+leg and one extension of all 128 starts, batches of 32) 332.7 s and 290.2 s (0.87).
+Both answers, and every start's and kick's samples, checkpoint and final field, are
+bitwise the same (compared array by array).
+
 ``--samples DIR`` compares, side by side on the starts of a finished census, the CPU time
 of writing each start's samples.npz deflated (``solver.atomic.NPZ_LEVEL``, what a batch
 member wrote before) and stored (what the census's starts write now: every leg of

@@ -416,6 +416,11 @@ class ArrayColumns:
     damping_state: tuple[str, ...] = ()
     """The stepper's arrays of this kernel in a damped column's checkpoint."""
 
+    def record_copies(self) -> Any:
+        """The compiled copies of the batch's samples and probes
+        (``solver._sample_kernels``), or None: the recorder copies by array indexing."""
+        return None
+
     def __init__(self, st: BatchedExplicit) -> None:
         xp = st.xp
         if xp is np:
@@ -528,6 +533,11 @@ class NumbaColumns(ArrayColumns):
         self.product = get_kernel("stiffness_product_cols")  # K u_n, damped samples
         self.dots_fn = get_kernel("column_dots")
         self.first_product = True  # compiled with the SLP vectoriser (register passes)
+
+    def record_copies(self) -> Any:
+        from stickslip.solver.fused import sample_kernels
+
+        return sample_kernels()
 
     def stiffness(self, st: BatchedExplicit, u, out) -> None:
         if self.first_product:

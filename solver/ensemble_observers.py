@@ -278,6 +278,7 @@ class BatchRecorder:
         self.perm = xp.asarray(np.asarray(perm, dtype=np.int64))
         self.theta, self.ds = theta, ds
         pd = 2 * np.asarray(probe_nodes, dtype=np.int64)
+        self.probe_x = pd  # the probes' x dofs
         self.probe_rows = xp.asarray(np.concatenate([pd, pd + 1]))  # x dofs, then y dofs
         self.probe_scratch = xp.zeros((2 * self.probe_rows.size, B))  # u rows, then v rows
         self.probe_pc, self.probe_deg = probe_pc, probe_deg
@@ -314,6 +315,10 @@ class BatchRecorder:
         self.cy_sorted = self.cx_sorted + 1  # the y dofs, once (not one launch per sample)
         self.pc_sorted = xp.asarray(integ.phase_conj)[self.perm]
         self.z = xp.zeros((B, m), dtype=np.complex128)
+        #: the compiled copies of ``sample`` and ``record_probes`` where the stepper's
+        #: kernel has them (``solver._sample_kernels``), else None (array indexing)
+        self.copies = integ.columns.record_copies()
+        self.zv = xp.zeros((B, m), dtype=np.complex128) if self.copies else None
         self.initial = np.full(B, np.nan)
         self.bound = np.full(B, np.inf)
 
@@ -335,6 +340,10 @@ class BatchRecorder:
         it = self.integ
         self.probe_t[self.n_probe] = it.time - it.dt
         row = self.probes.row()  # (B, 4, n_probes): u_x, u_y, v_x, v_y
+        if self.copies is not None:
+            self.copies.gather_probes(it.u_prev, it.v, self.probe_x, row)
+            self.n_probe += 1
+            return
         k2 = self.probe_rows.size
         self.xp.take(it.u_prev, self.probe_rows, axis=0, out=self.probe_scratch[:k2])
         self.xp.take(it.v, self.probe_rows, axis=0, out=self.probe_scratch[k2:])
@@ -375,18 +384,25 @@ class BatchRecorder:
         cx = self.cx_sorted
         row = self.fields.row()  # (B, 6, m), scene-first
         z = self.z
-        for k, arr in ((0, it.u_prev), (2, it.v)):
-            # (B, m) complex rows times e^{-i theta}: the same ufunc loop as the single run's
-            # ``NodalFrames.polar_at_nodes``, hence the same bits (numpy's SIMD complex
-            # multiply may fuse multiply-adds)
-            z.real[...] = arr[cx].T
-            z.imag[...] = arr[self.cy_sorted].T
+        # (B, m) complex rows times e^{-i theta}: the same ufunc loop as the single run's
+        # ``NodalFrames.polar_at_nodes``, hence the same bits (numpy's SIMD complex multiply
+        # may fuse multiply-adds); the copies around it compiled where the step is
+        if self.copies is not None:
+            self.copies.gather_sample(it.u_prev, it.v, it.r_r, it.r_t, it.status, cx,
+                                      self.perm, z, self.zv, row, self.status.row())
             z *= self.pc_sorted
-            row[:, k] = z.real
-            row[:, k + 1] = z.imag
-        row[:, 4] = it.r_r[self.perm].T
-        row[:, 5] = it.r_t[self.perm].T
-        self.status.row()[...] = it.status[self.perm].T
+            self.zv *= self.pc_sorted
+            self.copies.scatter_polar(z, self.zv, row)
+        else:
+            for k, arr in ((0, it.u_prev), (2, it.v)):
+                z.real[...] = arr[cx].T
+                z.imag[...] = arr[self.cy_sorted].T
+                z *= self.pc_sorted
+                row[:, k] = z.real
+                row[:, k + 1] = z.imag
+            row[:, 4] = it.r_r[self.perm].T
+            row[:, 5] = it.r_t[self.perm].T
+            self.status.row()[...] = it.status[self.perm].T
         e = self.energies.row()  # (B, 6): kinetic, strain, the three works (on the device)
         if it.damped:  # the damped step applied K w_n: K u_n for the strain energy and W_d
             it.refresh_ku()

@@ -33,7 +33,7 @@ from stickslip.solver.observers import Cadence, ContinuedRecords
 from stickslip.solver.run import Profile, gather_final_field, random_bump, run_facts, run_loop
 from stickslip.solver.scene import Scene
 
-__all__ = ["BatchLayout", "BatchSimulation", "SceneRun"]
+__all__ = ["BatchLayout", "BatchSimulation", "BuiltProblem", "SceneRun"]
 
 #: The modes of a kick's random bump (``BatchSimulation.kick``): a start's default.
 KICK_MODES = 16
@@ -213,6 +213,21 @@ class BatchLayout:
 
 
 @dataclass
+class BuiltProblem:
+    """What ``BatchSimulation`` builds before its scenes' starts, the same for every batch of
+    scenes that share a mesh, material, dt and scheme (one batch key): the dolfinx problem
+    (one rank), its largest eigenfrequency ω_max, dt and the explicit limit dt_crit, and the
+    ``BatchLayout``. ``BatchSimulation.built`` hands it out; a later batch of such scenes
+    (the next leg of a continuation) takes it instead of building it again."""
+
+    problem: object
+    omega_max: float
+    dt: float
+    dt_crit: float
+    layout: BatchLayout
+
+
+@dataclass
 class BatchStarts:
     """The starts of a batch's live scenes: u_0 (n, B) (steady sliding + the bump) and each
     scene's mean steady contact pressure (B,)."""
@@ -230,21 +245,30 @@ class BatchSimulation:
 
     ``prepared``: the batch's ``BatchLayout`` and ``BatchStarts`` (every scene live) instead
     of building the problem and the steady states here: no dolfinx, no MPI. ``build=False``:
-    only the problem, dt, ``layout`` and ``starts`` (what ``prepared`` takes), no stepper."""
+    only the problem, dt, ``layout`` and ``starts`` (what ``prepared`` takes), no stepper.
+
+    ``built``: the ``BuiltProblem`` of an earlier batch of the same batch key, taken instead
+    of building the mesh, K, M, ω_max and the layout again (``built`` holds this batch's).
+    ``resumed``: the batch is continued from checkpoints (``restore`` follows): no steady
+    sliding solve and no start, which ``restore`` overwrites (u, u_prev, v~, the contact
+    state and the steady pressure come from the checkpoint; v and a start at rest either
+    way)."""
 
     def __init__(self, scenes: list[Scene], backend: str = "cpu",
                  spool_parent: Path | None = None, profile: Profile | None = None,
                  memory_budget: float = math.inf,
                  prepared: tuple[BatchLayout, BatchStarts] | None = None,
-                 build: bool = True) -> None:
+                 build: bool = True, built: BuiltProblem | None = None,
+                 resumed: bool = False) -> None:
         from stickslip.solver.schemes.select import for_scene
 
         self.scenes, self.backend = scenes, backend
         self.profile = profile or Profile()
         self.scheme = for_scene(scenes[0])  # the scheme registry, asked once
         self.failures: dict[int, BaseException] = {}
+        self.built: BuiltProblem | None = None
         if prepared is None:
-            self.layout, starts = self._prepare()
+            self.layout, starts = self._prepare(built, resumed)
         else:
             self.comm, self.problem = None, None
             self.layout, starts = prepared
@@ -264,32 +288,45 @@ class BatchSimulation:
         if self.live and build:
             self._build(starts.u0, spool_parent, memory_budget)
 
-    def _prepare(self) -> tuple[BatchLayout | None, BatchStarts]:
-        """The problem (dolfinx, one rank), dt and every scene's start: the layout and the
-        live scenes' starts (a scene whose steady state fails is ``failed`` alone)."""
+    def _prepare(self, built: BuiltProblem | None = None, resumed: bool = False
+                 ) -> tuple[BatchLayout | None, BatchStarts]:
+        """The problem (dolfinx, one rank; ``built``'s if given), dt and every scene's start:
+        the layout and the live scenes' starts (a scene whose steady state fails is
+        ``failed`` alone; ``resumed``: no start, zeros that ``restore`` overwrites)."""
         from mpi4py import MPI
 
         from stickslip.solver.problem import build_problem, omega_max
 
         scenes = self.scenes
         self.comm = MPI.COMM_SELF
-        with self.profile.phase("mesh+assembly"):
-            self.problem = build_problem(scenes[0], self.comm)
-        with self.profile.phase("stability"):
-            self.omega_max = omega_max(self.problem)
-        self.dt, self.dt_crit = self.scheme.time_step(scenes[0], self.omega_max)
+        if built is None:
+            with self.profile.phase("mesh+assembly"):
+                self.problem = build_problem(scenes[0], self.comm)
+            with self.profile.phase("stability"):
+                self.omega_max = omega_max(self.problem)
+            self.dt, self.dt_crit = self.scheme.time_step(scenes[0], self.omega_max)
+        else:
+            self.problem, self.omega_max = built.problem, built.omega_max
+            self.dt, self.dt_crit = built.dt, built.dt_crit
         self.layout = None
         self.runs = [SceneRun(sc, self.problem, self) for sc in scenes]
         self.live: list[int] = []  # runs in the batch, in column order
-        u0s = [self._start(k) for k in range(len(scenes))]
+        if resumed:
+            self.live = list(range(len(scenes)))
+            u0s = [np.zeros(self.problem.inv_mass.size) for _ in scenes]
+        else:
+            u0s = [self._start(k) for k in range(len(scenes))]
         if not self.live:
             return None, BatchStarts(np.zeros((0, 0)), np.zeros(0))
         k0 = self.live[0]
-        layout = BatchLayout.of(self.problem, ContactLaw.from_scene(scenes[k0], self.dt),
-                                scenes[k0], self.dt_crit, self.omega_max)
-        return layout, BatchStarts(np.stack([u0s[k] for k in self.live], axis=1),
-                                   np.array([self.runs[k].steady_mean_pressure
-                                             for k in self.live]))
+        if built is None:
+            layout = BatchLayout.of(self.problem, ContactLaw.from_scene(scenes[k0], self.dt),
+                                    scenes[k0], self.dt_crit, self.omega_max)
+            built = BuiltProblem(self.problem, self.omega_max, self.dt, self.dt_crit, layout)
+        self.built = built
+        return built.layout, BatchStarts(np.stack([u0s[k] for k in self.live], axis=1),
+                                         np.array([self.runs[k].steady_mean_pressure
+                                                   for k in self.live]))
 
     def _start(self, k: int) -> np.ndarray | None:
         """Scene k's steady state + its [initial] bump, or None (the scene fails alone)."""

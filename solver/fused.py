@@ -94,6 +94,15 @@ def _kernels():
     return _fused_kernels
 
 
+def sample_kernels():
+    """The batch records' copies module (``solver._sample_kernels``), imported on first use
+    with numba's cache where ``_kernels`` has it."""
+    _cache_dir()
+    from stickslip.solver import _sample_kernels
+
+    return _sample_kernels
+
+
 def friction_bound(law) -> tuple[int, float, float]:
     """(code, rate_slip, rate_base) of ``law``'s friction bound for the kernels
     (``solver.contact.ContactLaw.kernel_bound``; the 1-2-1 filtered bound is not in them)."""

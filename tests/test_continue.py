@@ -218,7 +218,8 @@ def test_batch_members_continue_bitwise_as_one_batch(damped, tmp_path):
     """Three scenes run as one batch to 0.0031 s and continued together to 0.0047 s, then
     to 0.0063 s (one BatchSimulation again each time) equal the same batch run to 0.0063 s,
     bitwise (summaries but for the wall-clock keys); with Kelvin-Voigt damping too (the
-    kernel's damping sums and w_{n+1} are part of the state)."""
+    kernel's damping sums and w_{n+1} are part of the state). No leg solves a steady state
+    (restore overwrites the start), and the second takes the first's mesh and K."""
     from stickslip.studies.rundir import continue_batch
     from stickslip.studies.sweep.schedule import run_sweep
     from stickslip.studies.sweep.spec import load_sweep
@@ -235,6 +236,7 @@ def test_batch_members_continue_bitwise_as_one_batch(damped, tmp_path):
     continue_batch(dirs[T_PART], T_MID, stream=io.StringIO())  # twice: a census extends
     summaries = continue_batch(dirs[T_PART], T_FULL, stream=io.StringIO())  # step by step
     assert [s["batch"]["size"] for s in summaries] == [3, 3, 3]
+    assert not {"steady-state", "mesh+assembly", "stability"} & set(summaries[0]["profile_s"])
     assert (summaries[0]["scheme"]["damping_tau_s"] > 0.0) == damped
     for full, cont, summary in zip(dirs[T_FULL], dirs[T_PART], summaries, strict=True):
         _same_files(full, cont)

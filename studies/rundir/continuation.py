@@ -11,7 +11,10 @@ bitwise those of one run straight to T, except the wall-clock keys (``WALL_CLOCK
 ``continue_batch`` does the same for many run directories at once: the members of a batch
 (``solver.ensemble_run.BatchSimulation``, e.g. a census's starts) that share mesh, material,
 dt, scheme and their checkpoint's step are continued as one batch again (``BatchSimulation``
-+ ``restore``, the same ``run_loop``); single runs are continued one by one.
++ ``restore``, the same ``run_loop``); single runs are continued one by one. A continued
+batch solves no steady state (``restore`` overwrites the start), and its mesh, K, M, ω_max
+and layout are kept in the process (``BUILT``, per batch key without the end time) for the
+next leg of the same scenes, which takes them instead of building them again.
 
 Where the result goes:
 
@@ -55,6 +58,21 @@ RESUMABLE = ("completed", "stopped", "interrupted")
 #: compile time and the contact and linear solves' wall time) and between any two runs.
 WALL_CLOCK_KEYS = ("wall_time_s", "peak_rss_mb", "profile_s", "scheme.kernel_first_call_s",
                    "scheme.contact_s", "scheme.factorisation_s", "scheme.linear_solves_s")
+
+
+#: The ``solver.ensemble_run.BuiltProblem`` of the batches continued in this process, by
+#: ``built_key``; the last ``BUILT_KEEP`` kept (a census has one per mesh).
+BUILT: dict[str, object] = {}
+BUILT_KEEP = 4
+
+
+def built_key(scene: Scene) -> str | None:
+    """The batch key of ``scene`` (``studies.sweep.batch.batch_key``: same K, M, dt,
+    scheme, layout) without its run limits, which the legs of a continuation change."""
+    from stickslip.studies.sweep.batch import batch_key
+
+    return batch_key(scene.with_overrides("time.end_time=1.0", "time.max_steps=0",
+                                          "time.max_wall_time=0.0"))
 
 
 @dataclass
@@ -280,11 +298,17 @@ def _continue_members(plans: list[_Plan], outs: list[Path | None], backend: str,
             in_place = target.resolve() == plan.run_dir.resolve()
             claims.append(prepare_run_dir(target, force or in_place, MPI.COMM_SELF))
         profile = Profile()
+        key = built_key(plans[0].scene)
         batch = BatchSimulation([p.scene for p in plans], backend=backend,
                                 spool_parent=plans[0].run_dir.parent, profile=profile,
-                                memory_budget=SPOOL_MEMORY_FRACTION * available_memory())
+                                memory_budget=SPOOL_MEMORY_FRACTION * available_memory(),
+                                built=BUILT.get(key), resumed=True)
         if batch.failures:
             raise next(iter(batch.failures.values()))
+        BUILT.pop(key, None)  # the latest last: the oldest goes first
+        BUILT[key] = batch.built
+        while len(BUILT) > BUILT_KEEP:
+            BUILT.pop(next(iter(BUILT)))
         batch.restore([p.checkpoint.states[0] for p in plans], [p.before for p in plans])
         kicks = [batch.kick(b, kick, kick_seed) if kick else None for b in range(len(plans))]
         batch.proceed()

@@ -86,9 +86,43 @@ class RunOutputs:
     rescued: bool = False
 
 
+class _ArraysOnce:
+    """A run's recorder whose ``arrays()`` is taken once and then handed out again (a new
+    dict of the same arrays each time): the writer reads the samples three times (the
+    facts, samples.npz, the wave analysis), and a continued run's are the records before
+    its checkpoint joined with the new ones (``solver.observers.ContinuedRecords``), the
+    whole record copied at each join. Everything else is the recorder's."""
+
+    def __init__(self, recorder) -> None:  # noqa: ANN001 - any run's recorder
+        self.recorder, self.taken = recorder, None
+
+    def __getattr__(self, name: str):  # noqa: ANN204
+        return getattr(self.recorder, name)
+
+    def arrays(self) -> dict:
+        if self.taken is None:
+            self.taken = self.recorder.arrays()
+        return dict(self.taken)
+
+
 def write_run_files(rd: directory.RunDir, out: RunOutputs, prof: Profile, t0: float) -> dict:
     """Write an ended run into its claimed directory ``rd`` (rank 0; the order of the module
-    docstring) and swap it into place; returns the summary as written."""
+    docstring) and swap it into place; returns the summary as written. The samples of a
+    run that has ended are taken from its recorder once (``_ArraysOnce``; a rescued run's
+    loop may still record while it is written)."""
+    run = out.run
+    if run is None or out.rescued:
+        return _write_run_files(rd, out, prof, t0)
+    recorder = run.recorder
+    run.recorder = _ArraysOnce(recorder)
+    try:
+        return _write_run_files(rd, out, prof, t0)
+    finally:
+        run.recorder = recorder
+
+
+def _write_run_files(rd: directory.RunDir, out: RunOutputs, prof: Profile, t0: float) -> dict:
+    """``write_run_files``."""
     run = out.run
     summary = run.facts() if run is not None else {"scene": out.scene.name,
                                                    "status": out.status}
