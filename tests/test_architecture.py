@@ -347,3 +347,48 @@ def test_every_scheme_follows_the_stepper_protocol():
     stepper.set_state(np.ones(4), np.zeros(4))
     assert stepper.advance(3) == 3 and stepper.step_count == 3
     assert stepper.facts()["scheme"] == "explicit"
+
+
+#: The walk of a scene from ``stickslip run``: the modules it enters, and how often it comes
+#: back into a module it has already left (a scene handed back and forth between rooms).
+WALK_RETURNS = 10
+
+
+@pytest.mark.dolfinx
+def test_the_walk_of_a_scene_from_the_run_command(tmp_path):
+    """Trace ``stickslip run smoke`` (``sys.setprofile``): every call of the project's code
+    that receives the ``Scene`` is a step of the walk, its module a room. The walk comes
+    back into a room it has left at most ``WALK_RETURNS`` times, and enters the scheme
+    registry once (it asks its questions there in one visit)."""
+    pytest.importorskip("dolfinx")
+    import contextlib
+    import io
+    import sys
+
+    from stickslip.cli.main import main
+    from stickslip.solver.scene import Scene
+
+    rooms: list[str] = []
+
+    def profile(frame, event, arg):  # noqa: ANN001, ANN202
+        code = frame.f_code
+        if event != "call" or str(REPO) not in code.co_filename:
+            return
+        args = code.co_varnames[:code.co_argcount + code.co_kwonlyargcount]
+        if any(isinstance(frame.f_locals.get(a), Scene) for a in args):
+            path = Path(code.co_filename).resolve().relative_to(REPO).with_suffix("")
+            room = ".".join(part for part in path.parts if part != "__init__")
+            if not rooms or rooms[-1] != room:
+                rooms.append(room)
+
+    sys.setprofile(profile)
+    try:
+        with contextlib.redirect_stdout(io.StringIO()):
+            rc = main(["run", str(REPO / "scenes" / "smoke.toml"), "--set",
+                       "time.end_time=0.002", "-o", str(tmp_path / "run")])
+    finally:
+        sys.setprofile(None)
+    assert rc == 0
+    returns = len(rooms) - len(set(rooms))
+    assert returns <= WALK_RETURNS, " -> ".join(rooms)
+    assert rooms.count(SCHEME_CHOICE) == 1, " -> ".join(rooms)
