@@ -46,6 +46,13 @@ leg and one extension of all 128 starts, batches of 32) 332.7 s and 290.2 s (0.8
 Both answers, and every start's and kick's samples, checkpoint and final field, are
 bitwise the same (compared array by array).
 
+Measured on the idle 2-core development machine (load average below 1.7 throughout), with
+these changes: the tutorial census 150.5 s wall (target 180 s; 258.6 CPU s; the time loop
+129.1 s, certificates 19.6 s of which kicks 9.8 s), the 64 starts of the public point with
+settle-or-extend and certificates 422.8 s wall (target 600 s; 765.9 CPU s; the time loop
+396.8 s, certificates 24.3 s of which kicks 16.3 s; every start settled, 8 attractors at
+N = 132 and 4 at N = 264).
+
 ``--samples DIR`` compares, side by side on the starts of a finished census, the CPU time
 of writing each start's samples.npz deflated (``solver.atomic.NPZ_LEVEL``, what a batch
 member wrote before) and stored (what the census's starts write now: every leg of
