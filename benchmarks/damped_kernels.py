@@ -10,7 +10,7 @@ The scene (default: the damped Figure-1 scene, N = 132, beta2 = 1/2, loss factor
 
 * ``numpy``: ``DampedNewmark`` (PETSc MatMult of K w_n) with ``DampingWork`` as a step hook;
 * ``fused``: ``FusedNewmark`` with tau (one compiled call between two samples);
-* ``batched``: ``BatchSimulation`` of ``--batch`` copies of the scene with random starts
+* ``batched``: ``Simulation.batch`` of ``--batch`` copies of the scene with random starts
   (``initial.seed`` = 0 .. B - 1), ``BatchedExplicit`` with tau.
 
 Printed: the time loop's wall time (the best of ``--repeat`` interleaved rounds; set-up,
@@ -50,7 +50,6 @@ def main() -> None:
 
     from mpi4py import MPI
 
-    from stickslip.solver.ensemble_run import BatchSimulation
     from stickslip.solver.run import Simulation
     from stickslip.solver.scene import load_scene
 
@@ -70,15 +69,15 @@ def main() -> None:
     cases = {
         "numpy (DampedNewmark)": (single("numpy"), 1),
         "fused (FusedNewmark)": (single("numba"), 1),
-        f"batched B = {args.batch}": (lambda: BatchSimulation(starts), args.batch),
+        f"batched B = {args.batch}": (lambda: Simulation.batch(starts), args.batch),
         "fused, undamped": (single("numba", base.with_overrides(*undamped)), 1),
         f"batched B = {args.batch}, undamped": (
-            lambda: BatchSimulation([s.with_overrides(*undamped) for s in starts]),
+            lambda: Simulation.batch([s.with_overrides(*undamped) for s in starts]),
             args.batch),
     }
     short = base.with_overrides("time.max_steps=5")  # compile or load every kernel once
     Simulation(short, MPI.COMM_SELF).proceed(end_time=float("inf"))
-    BatchSimulation([short] * args.batch).proceed()
+    Simulation.batch([short] * args.batch).proceed()
 
     sim = Simulation(base, MPI.COMM_SELF)
     print(f"{base.name}: N = {base.mesh.n_inner}, dofs = {sim.problem.n_global_dofs}, "

@@ -64,7 +64,7 @@ def measure(n_inner: int, end_time: float, interval: float) -> dict:
                 chunks[i].append(time.perf_counter() - t0)
         # the median chunk, times the chunks: robust to the other jobs of a shared machine
         wall = [float(np.median(c)) * len(c) for c in chunks]
-        sims[1].writer.close()
+        sims[1].columns.writer.close()
         frames = sims[1].observers[0].frames
         timed_frames = frames - warm_frames
         size = _size(Path(tmp))

@@ -13,7 +13,7 @@ where dolfinx is, e.g. ``./dev``), so the GPU node needs numpy, numba and CuPy o
     python3 benchmarks/gpu_bench.py report J --out DIR
 
 Every path is the product's: the bundle's scenes and starts tiled to B columns, built as a
-sweep's batch (``solver.ensemble_run.BatchSimulation(scenes, prepared=...)``, the node's
+sweep's batch (``solver.run.Simulation.batch(scenes, prepared=...)``, the node's
 runner's batch) and stepped by ``solver.run.run_loop``. Paths (``rate --paths``, timed in
 turn in one process):
 
@@ -96,12 +96,11 @@ def tiled(data, B: int, every: int, steps: int):
 def batch_of(data, B: int, target: str, every: int, steps: int, spool_parent=None):
     """The batch of B tiled columns on ``target`` (the backend: cpu, gpu) and
     ``advance(k)``: k steps of ``solver.run.run_loop`` with the batch's observers."""
-    from stickslip.solver.ensemble_run import BatchSimulation
-    from stickslip.solver.run import run_loop
+    from stickslip.solver.run import Simulation, run_loop
 
     scenes, starts = tiled(data, B, every, steps)
-    batch = BatchSimulation(scenes, backend=target, spool_parent=spool_parent,
-                            prepared=(data[1], starts))
+    batch = Simulation.batch(scenes, backend=target, spool_parent=spool_parent,
+                             prepared=(data[1], starts))
 
     def advance(k: int) -> None:
         run_loop(batch.stepper, batch.observers, math.inf, batch.stepper.step_count + k)
@@ -111,8 +110,8 @@ def batch_of(data, B: int, target: str, every: int, steps: int, spool_parent=Non
 
 def finish(batch) -> None:
     """After a loop stopped by steps: the record written out, and the scenes the guard
-    found in its last chunks (GPU) masked (as ``BatchSimulation.proceed`` ends)."""
-    batch.observers[0].diverge(batch.recorder.close(), batch.stepper)
+    found in its last chunks (GPU) masked (as ``Simulation.proceed`` ends)."""
+    batch.diverge(batch.columns.close())
 
 
 def stepper_of(data, B: int, target: str):
@@ -291,7 +290,7 @@ def stage_rate(args) -> None:
                 t0, c0 = time.perf_counter(), time.process_time()
                 r["advance"](block)
                 if r["batch"] is not None:  # the block's copies and writes are in its time
-                    r["batch"].recorder.drain()
+                    r["batch"].columns.recorder.drain()
                 synchronize(xp)
                 r["seconds"] += time.perf_counter() - t0
                 r["cpu"] += time.process_time() - c0
@@ -301,7 +300,7 @@ def stage_rate(args) -> None:
                 t0 = time.perf_counter()
                 finish(r["batch"])
                 r["close_s"] = time.perf_counter() - t0
-                r["spool_wait_s"] = r["batch"].recorder.wait_s
+                r["spool_wait_s"] = r["batch"].columns.recorder.wait_s
             r["active"] = int(np.sum(r["stepper"].active))
             r["finite"] = bool(np.all(np.isfinite(host(r["stepper"].u))))
     finally:
@@ -347,7 +346,7 @@ def stage_check(args) -> None:
 
 def _compare(gpu, cpu, S: int) -> dict:
     """The first S columns of two batches: state, statuses, samples, probes, works."""
-    (g, grec), (c, crec) = (gpu.stepper, gpu.recorder), (cpu.stepper, cpu.recorder)
+    (g, grec), (c, crec) = (gpu.stepper, gpu.columns.recorder), (cpu.stepper, cpu.columns.recorder)
     u_g = host(g.u)[:, :S]
     same = {"u": np.array_equal(u_g, c.u),
             "v_pred": np.array_equal(host(g.v_pred)[:, :S], c.v_pred),
@@ -410,7 +409,7 @@ def _census_run(data, nb: int, target: str, steps: int, every: int, args):
         loop = time.perf_counter() - t0
         t0 = time.perf_counter()
         d = np.array([sc.geometry.d for sc in batch.scenes])
-        labels = classify_all(batch.recorder, batch.stepper.active, d,
+        labels = classify_all(batch.columns.recorder, batch.stepper.active, d,
                               float(batch.scenes[0].geometry.R), args.workers)
         classify = time.perf_counter() - t0
         return labels, host(batch.stepper.u), {

@@ -68,7 +68,8 @@ def run_point(scheme: str, n: int, fraction: float, extra: tuple[str, ...] = (),
     from mpi4py import MPI
 
     from stickslip.postprocess.analysis import analyse
-    from stickslip.solver.run import Diverged, Simulation
+    from stickslip.solver.errors import Diverged
+    from stickslip.solver.run import Simulation
     from stickslip.solver.scene import load_scene
 
     over = ["output.progress=false", f"time.end_time={t_end}", f"mesh.n_inner={n}",
@@ -76,13 +77,16 @@ def run_point(scheme: str, n: int, fraction: float, extra: tuple[str, ...] = (),
     sc = load_scene(BASE, over)
     t0 = time.perf_counter()
     sim = Simulation(sc, MPI.COMM_SELF)
-    sim.initial_energy, sim.energy_bound = 1.0, math.inf  # physics may exceed the run's guard
+    # physics may exceed the run's guard
+    sim.columns.initial_energy, sim.columns.energy_bound = 1.0, math.inf
     t1 = time.perf_counter()
-    try:
-        sim.proceed()
+    try:  # a non-finite energy ends the run "diverged"; a failed solve raises
+        failed = sim.message if sim.proceed() == "diverged" else ""
     except Diverged as err:  # e.g. ContactSolveError: recorded, not hidden
+        failed = str(err)
+    if failed:
         return {"scheme": scheme, "N": n, "dt_fraction": fraction, "extra": list(extra),
-                "dt_s": sim.dt, "steps": sim.integrator.step_count, "failed": str(err),
+                "dt_s": sim.dt, "steps": sim.integrator.step_count, "failed": failed,
                 "wall_s": time.perf_counter() - t0, "finite": False}
     t2 = time.perf_counter()
     a = sim.recorder.arrays()
@@ -456,7 +460,7 @@ def lean() -> str:
         "        'time.beta1=0.25', 'time.beta2=0.5', 'time.end_time=1e-4',\n"
         "        'output.progress=false'])\n"
         "    sim = Simulation(sc, MPI.COMM_SELF)\n"
-        "    res[f] = (sim.integrator.factor_seconds, sim.projection.solver.S.shape[0])\n"
+        "    res[f] = (sim.integrator.factor_seconds, sim.columns.projection.solver.S.shape[0])\n"
         "print(f'| f = 0 halves the implicit Schur complement (264 nodes) | '\n"
         "      f'{res[0.0][1]}x{res[0.0][1]} in {res[0.0][0]:.2f} s vs '\n"
         "      f'{res[0.7][1]}x{res[0.7][1]} in {res[0.7][0]:.2f} s | K_eff factorisation + '\n"

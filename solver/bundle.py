@@ -6,7 +6,7 @@ was prepared for, and its batches: each one's file, start ids and resolved scene
 samples' and probes' layout) and the ``BatchStarts`` (u_0 of every start, built with
 dolfinx where the bundle was prepared: ``studies.attractors.bundle``).
 
-``run_bundle`` runs each batch as ``BatchSimulation(scenes, prepared=...)``, the batch a sweep
+``run_bundle`` runs each batch as ``Simulation.batch(scenes, prepared=...)``, the batch a sweep
 runs, through the one time loop (``solver.run.run_loop``), on a backend of the scheme
 registry (``solver.schemes.select.BACKENDS``), and writes each start's records to
 ``results/<id>/``: ``samples.npz`` (the samples and probes, as a run directory's),
@@ -47,10 +47,10 @@ class BundleError(ValueError):
 def prepare_bundle(directory: str | Path, groups: list[tuple[list[str], list]],
                    stream: TextIO | None = None, **meta: object) -> dict:
     """Write a bundle (needs dolfinx): per group (start ids, their scenes, which must share
-    a batch: ``solver.schemes.select.batchable``), ``BatchSimulation(scenes, build=False)``'s
+    a batch: ``solver.schemes.select.batchable``), ``Simulation.batch(scenes, build=False)``'s
     layout and starts to ``batch_NNN.npz``; then ``manifest.json`` with ``meta``. Returns the
     manifest. BundleError where a scene cannot run in a batch or its steady state fails."""
-    from stickslip.solver.ensemble_run import BatchSimulation
+    from stickslip.solver.run import Simulation
     from stickslip.solver.scene import scene_to_dict
     from stickslip.solver.schemes.select import batchable
 
@@ -62,20 +62,20 @@ def prepare_bundle(directory: str | Path, groups: list[tuple[list[str], list]],
             raise BundleError(f"{scenes[0].name}: this scene cannot run in a batch (the "
                               "implicit scheme, field output or time.kernel = \"numpy\"); "
                               "run it where dolfinx is")
-        batch = BatchSimulation(scenes, build=False)
+        batch = Simulation.batch(scenes, build=False)
         if batch.failures:
             k, err = next(iter(batch.failures.items()))
             raise BundleError(f"{scenes[k].name}: steady sliding failed ({err}); fix the "
                               "scene")
         name = f"batch_{i:03d}.npz"
-        starts = batch.starts
-        atomic_save_npz(directory / name, {**batch.layout.arrays(), "u0": starts.u0,
+        starts = batch.columns.starts
+        atomic_save_npz(directory / name, {**batch.columns.layout.arrays(), "u0": starts.u0,
                                            "steady_pressure": starts.steady_pressure},
                         compress=False)
         n_inner = scenes[0].mesh.n_inner
         batches.append({"file": name, "n_inner": n_inner, "ids": list(ids),
                         "scenes": [scene_to_dict(sc) for sc in scenes]})
-        print(f"bundle: N = {n_inner}: {len(ids)} starts, {batch.layout.dofs} dofs, "
+        print(f"bundle: N = {n_inner}: {len(ids)} starts, {batch.columns.layout.dofs} dofs, "
               f"dt = {batch.dt:.4g} s, {batch.planned_steps()} steps -> {directory / name}",
               file=stream or sys.stdout, flush=True)
     manifest = {"kind": KIND, "format": FORMAT, **meta, "batches": batches}
@@ -126,7 +126,7 @@ def run_bundle(directory: str | Path, backend: str = "gpu",
 
     Raises ``BundleError`` (a bundle that is not one), ValueError or ImportError (a backend
     this machine cannot use: ``solver.schemes.select.check_backend``)."""
-    from stickslip.solver.ensemble_run import BatchSimulation
+    from stickslip.solver.run import Simulation
     from stickslip.solver.schemes.select import check_backend
 
     directory = Path(directory)
@@ -141,15 +141,15 @@ def run_bundle(directory: str | Path, backend: str = "gpu",
             continue
         scenes, layout, starts = load_batch(directory, entry)
         t0 = time.perf_counter()
-        batch = BatchSimulation(scenes, backend=backend, spool_parent=directory,
-                                prepared=(layout, starts))
+        batch = Simulation.batch(scenes, backend=backend, spool_parent=directory,
+                                 prepared=(layout, starts))
         try:
             batch.proceed()
             for start_id, run in zip(ids, batch.runs, strict=True):
                 _write_result(directory / RESULTS / start_id, run, backend)
         finally:
-            if batch.spool_dir is not None:  # now in each samples.npz
-                shutil.rmtree(batch.spool_dir, ignore_errors=True)
+            if batch.columns.spool_dir is not None:  # now in each samples.npz
+                shutil.rmtree(batch.columns.spool_dir, ignore_errors=True)
         seconds = time.perf_counter() - t0
         statuses = [run.status for run in batch.runs]
         counts = ", ".join(f"{statuses.count(s)} {s}" for s in sorted(set(statuses)))

@@ -217,7 +217,7 @@ class BatchedExplicit(HookedStepper):
     @property
     def host_records(self) -> bool:
         """The arrays live in host memory (numpy): a batch's record may stay whole there; a
-        device's is spooled in chunks (``solver.ensemble_run.BatchSimulation``)."""
+        device's is spooled in chunks (``solver.ensemble_run.BatchColumns``)."""
         return self.xp is np
 
     @property

@@ -1,92 +1,47 @@
-"""B scenes that share a mesh, a material, dt and the scheme, run as one batch.
+"""B scenes that share a mesh, a material, dt and the scheme, as the columns of one run.
 
-``BatchSimulation(scenes)`` builds what ``solver.run.Simulation`` builds for one scene, once for
+``BatchColumns`` builds what ``solver.scene_column.SceneColumn`` builds for one scene, once for
 all: the problem and dt of the first scene, then each scene's steady sliding state and start,
 the batched stepper (``solver.ensemble.BatchedExplicit``, one (n, B) column per scene, each
-with its own ``solver.contact.ContactLaw``), the probes as a step hook and the samples as an
-observer. ``proceed`` is ``solver.run.run_loop``, the time loop of a single scene.
+with its own ``solver.contact.ContactLaw``), the probes as a step hook and the samples
+(``solver.ensemble_observers.BatchRecorder``). ``solver.run.Simulation.batch`` drives it with
+the observers every run has, in the one time loop.
 
 A scene whose energy guard trips (``solver.errors.blown_up``) is masked out of the batch and
 recorded ``diverged`` at that step; the others go on. A scene whose steady state cannot be
-found is ``failed`` alone. ``runs`` holds one ``SceneRun`` per scene with what a run directory
-needs: ``facts()``, ``recorder.arrays()``, ``probes.arrays()``, ``final_field()``.
+found is ``failed`` alone. ``runs`` holds one ``solver.columns.SceneRun`` per scene.
 
 What the batch is built from, once the problem and the starts are known, is plain host arrays
 (``BatchLayout``: K, M, dt, the samples' and probes' layout, the problem's facts; and the
-(n, B) starts): ``BatchSimulation(scenes, prepared=(layout, u0))`` builds the same batch from
-them without dolfinx or MPI (``solver.bundle``: a GPU node without the FE stack).
+(n, B) starts): ``BatchOptions(prepared=(layout, starts))`` builds the same batch from them
+without dolfinx or MPI (``solver.bundle``: a GPU node without the FE stack).
 """
 
 from __future__ import annotations
 
 import math
 import tempfile
-import time
 from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
 
+from stickslip.solver.columns import (
+    Profile,
+    SceneRun,
+    initial_perturbation,
+    planned_steps,
+    random_bump,
+)
 from stickslip.solver.contact import ContactLaw
 from stickslip.solver.ensemble import BatchedProblem
-from stickslip.solver.observers import Cadence, ContinuedRecords
-from stickslip.solver.run import Profile, gather_final_field, random_bump, run_facts, run_loop
+from stickslip.solver.observers import ContinuedRecords, Progress
 from stickslip.solver.scene import Scene
 
-__all__ = ["BatchLayout", "BatchSimulation", "BuiltProblem", "SceneRun"]
+__all__ = ["BatchColumns", "BatchLayout", "BatchOptions", "BatchStarts", "BuiltProblem"]
 
-#: The modes of a kick's random bump (``BatchSimulation.kick``): a start's default.
+#: The modes of a kick's random bump (``BatchColumns.kick``): a start's default.
 KICK_MODES = 16
-
-
-class SceneRun:
-    """One scene of a batch: its problem view, steady state, status and records."""
-
-    def __init__(self, scene: Scene, problem, batch: BatchSimulation) -> None:
-        self.scene, self.comm = scene, batch.comm
-        #: the dolfinx problem (None in a batch built from a ``BatchLayout``)
-        self.problem = None if problem is None else replace(problem, scene=scene)
-        self.dt, self.dt_crit, self.omega_max = batch.dt, batch.dt_crit, batch.omega_max
-        self.dofs = batch.layout.dofs if problem is None else int(problem.n_global_dofs)
-        self.ranks = 1  # a batch runs on one rank
-        self.status, self.stop_reason, self.message = "running", "", ""
-        self.steps, self.sim_time = 0, 0.0
-        self.steady = None
-        self.steady_mean_pressure = float("nan")
-        self.u_final: np.ndarray | None = None
-        #: what the outputs read: this scene's records (with the earlier ones in front
-        #: when continued, ``solver.observers.ContinuedRecords``)
-        self.recorder: MemberRecords | ContinuedRecords | None = None
-        self.probes: MemberProbes | ContinuedRecords | None = None
-        self.members: tuple[MemberRecords, MemberProbes] | None = None  # the live records
-        #: this scene's checkpoint when it finished at a whole level (``finish``), else None
-        self.state: dict[str, np.ndarray] | None = None
-        self._scheme: dict = {}
-
-    def facts(self) -> dict:
-        """``Simulation.facts`` of this scene (frozen when it finished)."""
-        return run_facts(self, self._scheme)
-
-    def final_field(self) -> dict[str, np.ndarray] | None:
-        """The final field (rank 0), or None where the batch has no dolfinx problem."""
-        if self.problem is None:
-            return None
-        return gather_final_field(self.problem, self.u_final, self.comm, self.sim_time)
-
-    def finish(self, batch: BatchSimulation, b: int, status: str, stop: str = "") -> None:
-        """Freeze this scene's facts at the batch's current step (a masked scene stops here,
-        as it would alone)."""
-        st = batch.stepper
-        self.status, self.stop_reason = status, stop
-        self.steps, self.sim_time = st.step_count, st.time
-        self._scheme = st.facts()
-        u = st.u[:, b]
-        self.u_final = np.array(u.get() if hasattr(u, "get") else u)
-        records, probes = self.members
-        records.n = batch.recorder.n
-        probes.n = batch.recorder.n_probe
-        if status == "completed" and batch.at_level:  # not a masked (diverged) scene
-            self.state = batch.checkpoint(b, self)
 
 
 class MemberRecords:
@@ -119,39 +74,6 @@ class ProbeHook:
 
     def after_step(self, stepper) -> None:
         self.rec.record_probes()
-
-
-class BatchSampling:
-    """Observer: every scene's samples, the energy guard per scene (a blow-up masks that
-    scene: ``diverged``), and the wall-time limit. Stops the loop when no scene is left."""
-
-    def __init__(self, batch: BatchSimulation) -> None:
-        self.batch = batch
-        self.cadence = Cadence(batch.recorder.every)
-
-    def due(self, level: int) -> bool:
-        return self.batch.recorder.due(level)
-
-    def observe(self, stepper) -> str:
-        batch = self.batch
-        self.diverge(batch.recorder.observe(stepper.time), stepper)
-        if not stepper.active.any():
-            return "diverged"
-        wall = batch.max_wall
-        if wall is not None and time.perf_counter() - batch.t_start > wall:
-            return "max_wall_time"
-        return ""
-
-    def diverge(self, found: dict[int, str], stepper) -> None:
-        """Scenes {b: message} that the energy guard found: diverged, masked. After the
-        loop, ``diverge(recorder.close(), stepper)`` takes those a GPU's guard found in the
-        last chunks of samples."""
-        batch = self.batch
-        for b, msg in found.items():
-            run = batch.runs[batch.live[b]]
-            run.finish(batch, b, "diverged")
-            run.message = msg
-            stepper.mask(b)
 
 
 @dataclass
@@ -214,10 +136,10 @@ class BatchLayout:
 
 @dataclass
 class BuiltProblem:
-    """What ``BatchSimulation`` builds before its scenes' starts, the same for every batch of
+    """What ``BatchColumns`` builds before its scenes' starts, the same for every batch of
     scenes that share a mesh, material, dt and scheme (one batch key): the dolfinx problem
     (one rank), its largest eigenfrequency ω_max, dt and the explicit limit dt_crit, and the
-    ``BatchLayout``. ``BatchSimulation.built`` hands it out; a later batch of such scenes
+    ``BatchLayout``. ``BatchColumns.built`` hands it out; a later batch of such scenes
     (the next leg of a continuation) takes it instead of building it again."""
 
     problem: object
@@ -236,57 +158,67 @@ class BatchStarts:
     steady_pressure: np.ndarray
 
 
-class BatchSimulation:
-    """``Simulation`` for B scenes on one rank (see the module docstring).
+@dataclass
+class BatchOptions:
+    """How a batch is held (``solver.run.Simulation.batch``).
 
-    The batch's sample record stays whole in host memory when it needs at most
-    ``memory_budget`` bytes on the CPU; otherwise it is spooled in chunks to ``spool_dir``, a
-    new folder under ``spool_parent`` that the caller removes once the files are written.
+    ``backend``: "cpu" or "gpu" (``solver.schemes.select``). The batch's sample record stays
+    whole in host memory when it needs at most ``memory_budget`` bytes on the CPU; otherwise it
+    is spooled in chunks to ``spool_dir``, a new folder under ``spool_parent`` that the caller
+    removes once the files are written.
 
     ``prepared``: the batch's ``BatchLayout`` and ``BatchStarts`` (every scene live) instead
     of building the problem and the steady states here: no dolfinx, no MPI. ``build=False``:
     only the problem, dt, ``layout`` and ``starts`` (what ``prepared`` takes), no stepper.
 
     ``built``: the ``BuiltProblem`` of an earlier batch of the same batch key, taken instead
-    of building the mesh, K, M, ω_max and the layout again (``built`` holds this batch's).
-    ``resumed``: the batch is continued from checkpoints (``restore`` follows): no steady
-    sliding solve and no start, which ``restore`` overwrites (u, u_prev, v~, the contact
+    of building the mesh, K, M, ω_max and the layout again (``BatchColumns.built`` holds this
+    batch's). ``resumed``: the batch is continued from checkpoints (``restore`` follows): no
+    steady sliding solve and no start, which ``restore`` overwrites (u, u_prev, v~, the contact
     state and the steady pressure come from the checkpoint; v and a start at rest either
     way)."""
 
-    def __init__(self, scenes: list[Scene], backend: str = "cpu",
-                 spool_parent: Path | None = None, profile: Profile | None = None,
-                 memory_budget: float = math.inf,
-                 prepared: tuple[BatchLayout, BatchStarts] | None = None,
-                 build: bool = True, built: BuiltProblem | None = None,
-                 resumed: bool = False) -> None:
+    backend: str = "cpu"
+    spool_parent: Path | None = None
+    memory_budget: float = math.inf
+    prepared: tuple[BatchLayout, BatchStarts] | None = None
+    build: bool = True
+    built: BuiltProblem | None = None
+    resumed: bool = False
+
+
+class BatchColumns:
+    """The columns of B scenes on one rank (see the module docstring)."""
+
+    def __init__(self, scenes: list[Scene], profile: Profile, options: BatchOptions) -> None:
         from stickslip.solver.schemes.select import for_scene
 
-        self.scenes, self.backend = scenes, backend
-        self.profile = profile or Profile()
+        self.scenes, self.profile = scenes, profile
         self.scheme = for_scene(scenes[0])  # the scheme registry, asked once
+        self.backend = options.backend
         self.failures: dict[int, BaseException] = {}
         self.built: BuiltProblem | None = None
-        if prepared is None:
-            self.layout, starts = self._prepare(built, resumed)
+        if options.prepared is None:
+            self.layout, starts = self._prepare(options.built, options.resumed)
         else:
             self.comm, self.problem = None, None
-            self.layout, starts = prepared
+            self.layout, starts = options.prepared
             self.dt = self.layout.problem.dt
             self.dt_crit, self.omega_max = self.layout.dt_crit, self.layout.omega_max
-            self.runs = [SceneRun(sc, None, self) for sc in scenes]
+            self.runs = [SceneRun(sc, self, None, self.layout.dofs, 1) for sc in scenes]
             self.live = list(range(len(scenes)))
             for run, p in zip(self.runs, starts.steady_pressure, strict=True):
                 run.steady_mean_pressure = float(p)
         self.stepper = self.recorder = None
         self.spool_dir: Path | None = None
-        self.observers: list = []
-        self.t_start, self.max_wall = time.perf_counter(), None
-        self.at_level = False  # ``proceed`` returned: every scene stands at a whole level
+        self.active = np.zeros(0, dtype=bool)
+        self.progress = Progress(0.0, False)  # a batch's progress is its caller's to say
+        self.members: dict[int, tuple[MemberRecords, MemberProbes]] = {}  # the live records
+        self.finals: dict[int, np.ndarray] = {}  # each finished scene's u
         self._host_state: dict | None = None  # the stepper's arrays on the host, while finishing
-        self.starts = None if build else starts
-        if self.live and build:
-            self._build(starts.u0, spool_parent, memory_budget)
+        self.starts = None if options.build else starts
+        if self.live and options.build:
+            self._build(starts.u0, options.spool_parent, options.memory_budget)
 
     def _prepare(self, built: BuiltProblem | None = None, resumed: bool = False
                  ) -> tuple[BatchLayout | None, BatchStarts]:
@@ -308,8 +240,9 @@ class BatchSimulation:
         else:
             self.problem, self.omega_max = built.problem, built.omega_max
             self.dt, self.dt_crit = built.dt, built.dt_crit
-        self.layout = None
-        self.runs = [SceneRun(sc, self.problem, self) for sc in scenes]
+        dofs = int(self.problem.n_global_dofs)
+        self.runs = [SceneRun(sc, self, replace(self.problem, scene=sc), dofs, 1)
+                     for sc in scenes]
         self.live: list[int] = []  # runs in the batch, in column order
         if resumed:
             self.live = list(range(len(scenes)))
@@ -330,7 +263,6 @@ class BatchSimulation:
 
     def _start(self, k: int) -> np.ndarray | None:
         """Scene k's steady state + its [initial] bump, or None (the scene fails alone)."""
-        from stickslip.solver.run import initial_perturbation
         from stickslip.solver.steady import solve_steady_sliding
 
         run = self.runs[k]
@@ -342,18 +274,16 @@ class BatchSimulation:
             u0 = run.steady.u + initial_perturbation(run.problem, run.scene)
         except Exception as err:  # this scene fails alone
             self.failures[k] = err
-            run.status = "failed"
+            run.fail()
             return None
         self.live.append(k)
         return u0
 
     def planned_steps(self) -> int:
-        from stickslip.solver.run import planned_steps
-
         return planned_steps(self.scenes[self.live[0]], self.dt)
 
     def _build(self, u0: np.ndarray, spool_parent: Path | None, memory_budget: float) -> None:
-        """The batched stepper, the recorder, the probe hook and the sampling observer."""
+        """The batched stepper, the recorder and the probe hook."""
         from stickslip.solver.ensemble_observers import BatchRecorder
 
         sc0, lay = self.scenes[self.live[0]], self.layout
@@ -376,15 +306,79 @@ class BatchSimulation:
         stepper.attach(ProbeHook(rec))
         for b, k in enumerate(self.live):
             run = self.runs[k]
-            run.members = (MemberRecords(rec, b, lay.n_nodes), MemberProbes(rec, b))
-            run.recorder, run.probes = run.members
+            self.members[k] = (MemberRecords(rec, b, lay.n_nodes), MemberProbes(rec, b))
+            run.recorder, run.probes = self.members[k]
         self.stepper, self.recorder = stepper, rec
-        self.observers = [BatchSampling(self)]
+        self.active = stepper.active
+
+    def observers(self, output_dir: Path | None) -> list:
+        """No observers before the samples: a batch writes no fields while it runs."""
+        return []
+
+    # ------------------------------------------------------------------ the time loop
+
+    @property
+    def every(self) -> int:
+        """The samples' cadence in steps."""
+        return self.recorder.every
+
+    def start(self) -> None:
+        """Before the loop: nothing to prepare."""
+
+    def due(self, level: int) -> bool:
+        return self.recorder.due(level)
+
+    def sample(self, stepper) -> dict[int, str]:
+        """Record time level n and run the energy guard: {b: message} of the blow-ups found
+        (CPU: in this sample; GPU: in the chunks that reached the host since the last)."""
+        return self.recorder.observe(stepper.time)
+
+    def mask(self, b: int) -> None:
+        """Column b steps no further; the others go on."""
+        self.stepper.mask(b)
+
+    def recent_zones(self) -> dict[str, float] | None:
+        """None: a batch prints no progress line of its own."""
+        return None
+
+    def agree(self, code: int) -> int:
+        """One rank: its own word."""
+        return code
+
+    def close(self) -> dict[int, str]:
+        """Write out the record; the blow-ups a GPU's guard found in its last chunks."""
+        self._host_state = None
+        return self.recorder.close()
+
+    def finish(self, b: int, run: SceneRun, at_level: bool) -> None:
+        """Column b ended: its u, its records' counts, and its checkpoint when it completed
+        at a whole level (not a masked, diverged scene)."""
+        k = self.runs.index(run)
+        u = self.stepper.u[:, b]
+        self.finals[k] = np.array(u.get() if hasattr(u, "get") else u)
+        records, probes = self.members[k]
+        records.n = self.recorder.n
+        probes.n = self.recorder.n_probe
+        if run.status == "completed" and at_level:
+            run.state = self.checkpoint(b, run)
+
+    def release(self) -> None:
+        """Drop the host copy of the batch's state that the finish used."""
+        self._host_state = None
+
+    def final_field(self, run: SceneRun) -> dict[str, np.ndarray] | None:
+        """The final field (rank 0), or None where the batch has no dolfinx problem."""
+        if run.problem is None:
+            return None
+        from stickslip.solver.field_output import gather_final_field
+
+        return gather_final_field(run.problem, self.finals[self.runs.index(run)], self.comm,
+                                  run.sim_time)
 
     # ------------------------------------------------------------------ checkpoint
 
     def checkpoint(self, b: int, run: SceneRun) -> dict[str, np.ndarray]:
-        """Column b's checkpoint, flat as ``Simulation.checkpoint``'s: the stepper's column
+        """Column b's checkpoint, flat as ``SceneColumn.checkpoint``'s: the stepper's column
         (``BatchedExplicit.state``), the energy guard's E(0) and bound of that scene, its
         steady pressure and its counts of samples and probe steps (those before a
         continuation included)."""
@@ -402,7 +396,7 @@ class BatchSimulation:
                 befores: list[dict[str, np.ndarray]]) -> None:
         """Continue every scene from its checkpoint (``checkpoint``, in the order of
         ``scenes``; every one must be live and at the same step) with its earlier records
-        ``befores`` (samples.npz) in front of the new ones. Call before ``proceed``."""
+        ``befores`` (samples.npz) in front of the new ones."""
         if self.live != list(range(len(self.scenes))):
             raise ValueError("a continued batch needs every scene live (a steady state failed)")
         head = "stepper/"
@@ -412,13 +406,14 @@ class BatchSimulation:
             self.recorder.initial[b] = float(state["run/initial_energy"])
             self.recorder.bound[b] = float(state["run/energy_bound"])
             run.steady_mean_pressure = float(state["run/steady_pressure"])
-            run.recorder = ContinuedRecords(run.members[0], before, state["run/samples"])
-            run.probes = ContinuedRecords(run.members[1], before, state["run/probe_steps"])
+            records, probes = self.members[b]
+            run.recorder = ContinuedRecords(records, before, state["run/samples"])
+            run.probes = ContinuedRecords(probes, before, state["run/probe_steps"])
 
     def kick(self, b: int, fraction: float, seed: int) -> dict:
         """Perturb scene ``b`` where it stands (after ``restore``), as a start is perturbed:
         δu = ε ‖u‖ φ₁/‖φ₁‖ and δv = ε ‖v~‖ φ₂/‖φ₂‖, ε = ``fraction``, ‖·‖ the RMS over the
-        dofs, φ_i the random start's radial bump A(θ) X(r) e_r (``solver.run.random_bump``
+        dofs, φ_i the random start's radial bump A(θ) X(r) e_r (``solver.columns.random_bump``
         with its default 16 modes, seeds ``seed`` and ``seed + 1``; clamped outside, smooth,
         the contact circle's shape spread through the thickness by eq. [1]). Returns the
         kick's facts (RMS sizes of u, v~, δu, δv)."""
@@ -435,27 +430,3 @@ class BatchSimulation:
         self.stepper.kick(b, kicks[0], kicks[1])
         return {"fraction": fraction, "seed": seed, "u_rms_m": rms(u), "v_rms_m_s": rms(v),
                 "du_rms_m": rms(kicks[0]), "dv_rms_m_s": rms(kicks[1])}
-
-    def proceed(self) -> str:
-        """Run every live scene to the end (``solver.run.run_loop``); returns the reason."""
-        sc0 = self.scenes[self.live[0]]
-        ts = sc0.time
-        end = ts.end_time
-        self.max_wall = ts.max_wall_time or None
-        self.t_start = time.perf_counter()
-        stop = "end_time"
-        self.at_level = False
-        try:
-            with self.profile.phase("time-loop"):
-                stop = run_loop(self.stepper, self.observers, end - 1e-12 * end,
-                                ts.max_steps or math.inf)
-            self.at_level = True  # not interrupted inside a step: the scenes can continue
-        finally:
-            self.observers[0].diverge(self.recorder.close(), self.stepper)
-            self._host_state = None
-            for b, k in enumerate(self.live):
-                if self.stepper.active[b]:
-                    self.runs[k].finish(self, b, "completed",
-                                        "" if stop == "diverged" else stop)
-            self._host_state = None
-        return stop

@@ -22,10 +22,12 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
+
 from stickslip.solver.scene import Scene
 
 __all__ = ["FieldOutput", "WindowCadence", "expected_period", "field_cadence", "frame_count",
-           "last_level_fields", "window_seconds"]
+           "gather_final_field", "last_level_fields", "window_seconds"]
 
 
 def expected_period(scene: Scene) -> float:
@@ -106,7 +108,7 @@ class FieldOutput:
 
 def last_level_fields(sim) -> tuple[dict, dict]:
     """(point data, cell data) of the last completed level n of ``sim``, rank-local, for
-    ``solver.run.gather_final_field``: the contact pressure and shear traction [Pa] at the
+    ``gather_final_field``: the contact pressure and shear traction [Pa] at the
     points of the tube's Lagrange space, the polar stress and von Mises [Pa] per owned cell
     (``solver.writers.FieldValues``). Computed once, at the end."""
     from stickslip.solver.writers import FieldValues
@@ -118,3 +120,50 @@ def last_level_fields(sim) -> tuple[dict, dict]:
               "contact_shear": values.shear.x.array}
     dofs = values.stress[0].function_space.dofmap.list[: values.n_cells, 0]
     return points, {fn.name: fn.x.array[dofs] for fn in values.stress}
+
+
+def gather_final_field(problem, u: np.ndarray, comm, time_s: float,
+                       point_data: dict[str, np.ndarray] | None = None,
+                       cell_data: dict[str, np.ndarray] | None = None,
+                       ) -> dict[str, np.ndarray] | None:
+    """Displacement ``u`` (owned dofs) on the whole tube, gathered to rank 0 (None elsewhere).
+
+    VTK-ready arrays for iso-value maps: ``points`` (n, 3), ``cells`` (flat VTK topology
+    [nv, i0, ..., nv, ...]), ``cell_types``, ``u`` (n, 2) at the points. Each rank sends
+    its local cells; ghost points are duplicated, which is harmless for plotting.
+    ``point_data`` (values at the rank's local dofs of the scalar space, ghosts included)
+    and ``cell_data`` (values at its owned cells) are gathered alongside, under their keys.
+    """
+    import dolfinx.plot
+
+    point_data, cell_data = point_data or {}, cell_data or {}
+    fn = problem.to_function(u)
+    topology, cell_types, geometry = dolfinx.plot.vtk_mesh(problem.V)
+    n_points = geometry.shape[0]
+    values = fn.x.array.reshape(-1, 2)[:n_points]
+    extra = {k: np.asarray(v)[:n_points] for k, v in point_data.items()}
+    extra.update(cell_data)
+    pieces = comm.gather((topology, cell_types, geometry, values, extra), root=0)
+    if comm.rank != 0:
+        return None
+    cells, types, points, us = [], [], [], []
+    offset = 0
+    for top, ct, geo, val, _ in pieces:
+        nv = int(top[0]) if top.size else 0
+        blocks = top.reshape(-1, nv + 1).copy() if top.size else top.reshape(0, 1)
+        blocks[:, 1:] += offset
+        cells.append(blocks.ravel())
+        types.append(ct)
+        points.append(geo)
+        us.append(val)
+        offset += geo.shape[0]
+    out = {
+        "points": np.concatenate(points),
+        "cells": np.concatenate(cells),
+        "cell_types": np.concatenate(types),
+        "u": np.concatenate(us),
+        "time": np.array(time_s),
+    }
+    for key in (*point_data, *cell_data):
+        out[key] = np.concatenate([piece[4][key] for piece in pieces])
+    return out

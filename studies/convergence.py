@@ -92,6 +92,7 @@ def run_case(case: dict) -> dict:
     """Run one case (serial) and measure its limit cycle; a JSON-able dict."""
     from mpi4py import MPI
 
+    from stickslip.solver.errors import Diverged
     from stickslip.solver.run import Simulation
 
     scene = scene_for(case)
@@ -99,7 +100,8 @@ def run_case(case: dict) -> dict:
     t0, c0 = time.perf_counter(), time.process_time()
     sim = Simulation(scene, MPI.COMM_SELF)
     setup = time.perf_counter() - t0
-    sim.proceed()
+    if sim.proceed() == "diverged":  # a blow-up has no wave to measure
+        raise Diverged(f"{scene.name}: {sim.message}")
     wall, cpu = time.perf_counter() - t0, time.process_time() - c0
     a = sim.recorder.arrays()
     pr = sim.probes.arrays()

@@ -39,10 +39,11 @@ def assert_steady_sliding_stays(sim, steps: int = 40) -> np.ndarray:
     scale = np.max(np.abs(u0))
     for _ in range(steps):
         sim.integrator.step()
-        assert np.all(sim.projection.out.status == SLIP)
+        assert np.all(sim.columns.projection.out.status == SLIP)
     assert np.max(np.abs(sim.integrator.u - u0)) < 1e-13 * scale
-    assert np.max(np.abs(sim.integrator.v)) < 1e-12 * sim.projection.slide / sim.dt
-    out = sim.projection.out  # tangential force = f x normal force (Coulomb, sliding forward)
+    assert np.max(np.abs(sim.integrator.v)) < 1e-12 * sim.columns.projection.slide / sim.dt
+    # tangential force = f x normal force (Coulomb, sliding forward)
+    out = sim.columns.projection.out
     assert np.allclose(out.r_t, 0.7 * out.r_r, rtol=1e-10)
     return u0
 
@@ -55,7 +56,7 @@ def step_checking_contact(sim, steps: int, each=None) -> tuple[set, int]:
     adds a law-specific check. Returns (statuses seen, number of steps with a stick node)."""
     from stickslip.solver.contact import SEPARATION, STICK
 
-    integ, proj = sim.integrator, sim.projection
+    integ, proj = sim.integrator, sim.columns.projection
     d = sim.scene.geometry.d
     seen: set = set()
     n_stick = 0

@@ -50,7 +50,7 @@ def inject(monkeypatch, kind: str, phase: str) -> dict:  # noqa: ANN001
     """Arm one fault; returns a dict whose "fired" says whether it happened."""
     import stickslip.solver.atomic  # noqa: F401 (loaded: used as an attribute)
     import stickslip.solver.problem  # noqa: F401 (loaded: used as an attribute)
-    import stickslip.solver.run  # noqa: F401 (loaded: used as an attribute)
+    import stickslip.solver.scene_column  # noqa: F401 (loaded: used as an attribute)
     import stickslip.studies.rundir  # noqa: F401 (loaded: used as an attribute)
     import stickslip.studies.rundir.directory  # noqa: F401 (loaded: used as an attribute)
     import stickslip.studies.rundir.scene_run  # noqa: F401 (loaded: used as an attribute)
@@ -75,7 +75,7 @@ def inject(monkeypatch, kind: str, phase: str) -> dict:  # noqa: ANN001
 
         monkeypatch.setattr(solver.problem, "build_problem", build)
     elif phase == "loop":
-        real_check = solver.run.Simulation._check_health
+        real_check = solver.scene_column.SceneColumn._check_health
 
         def check(self, kinetic, strain):  # noqa: ANN001
             state["count"]["loop"] = state["count"].get("loop", 0) + 1
@@ -83,7 +83,7 @@ def inject(monkeypatch, kind: str, phase: str) -> dict:  # noqa: ANN001
                 fire()
             return real_check(self, kinetic, strain)
 
-        monkeypatch.setattr(solver.run.Simulation, "_check_health", check)
+        monkeypatch.setattr(solver.scene_column.SceneColumn, "_check_health", check)
     elif phase == "swap":
         real_commit = studies.rundir.directory.commit_run_dir
 

@@ -283,12 +283,13 @@ def test_the_checker_sees_kernel_branches_and_duck_typing():
 
 
 def test_a_scheme_is_registered_once_and_asked_once():
-    """The registry holds the explicit and the implicit Newmark; ``Simulation`` and
-    ``BatchSimulation`` ask it one question (``for_scene``) and nothing else of it."""
+    """The registry holds the explicit and the implicit Newmark; each kind of a run's
+    columns (one scene: ``SceneColumn``; a batch: ``BatchColumns``) asks it one question
+    (``for_scene``) and nothing else of it; the run itself (``solver.run``) never enters it."""
     from stickslip.solver.schemes.select import SCHEMES
 
     assert list(SCHEMES) == ["explicit", "implicit"]
-    for name in ("solver.run", "solver.ensemble_run"):
+    for name in ("solver.scene_column", "solver.ensemble_run"):
         tree = ast.parse(MODULES[name].read_text())
         imported = {alias.name for node in ast.walk(tree) if isinstance(node, ast.ImportFrom)
                     and _local(node.module or "") == SCHEME_CHOICE for alias in node.names}
@@ -298,13 +299,16 @@ def test_a_scheme_is_registered_once_and_asked_once():
         assert len(calls) == 1, name
     # one scene: the scheme builds its parts with its own step (``Scheme.build``), so the
     # registry is entered once, not once per question
-    tree = ast.parse(MODULES["solver.run"].read_text())
+    tree = ast.parse(MODULES["solver.scene_column"].read_text())
     asked = {node.attr for node in ast.walk(tree) if isinstance(node, ast.Attribute)
              and isinstance(node.value, ast.Call)
              and getattr(node.value.func, "id", "") == "for_scene"}
     assert asked == {"build"}, asked
     assert not [node for node in ast.walk(tree) if isinstance(node, ast.Attribute)
                 and node.attr == "time_step"]
+    tree = ast.parse(MODULES["solver.run"].read_text())
+    assert not [node for node in ast.walk(tree) if isinstance(node, ast.ImportFrom)
+                and _local(node.module or "") == SCHEME_CHOICE]
 
 
 def _function(module: str, name: str) -> ast.FunctionDef:

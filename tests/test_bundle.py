@@ -5,7 +5,7 @@ as the command's own census.
 A census of the damped Figure-1 scene on the N = 36 mesh (2 random starts and the mode-4
 start, first leg 0.02 s, settle-or-extend to 0.03 s). The node runs the numba kernel, the
 kernel of the command's batched sweep, on the same u_0 (built by the same
-``BatchSimulation``), through the same ``run_loop``: every start's samples and checkpoint are
+``Simulation.batch``), through the same ``run_loop``: every start's samples and checkpoint are
 bitwise those of the command's census, and so is every row of attractors.json but its wall
 time and run directory; the unsettled starts are continued from the node's checkpoints as
 from the command's own. The emulated CUDA kernel (CuPy replaced by the CUDA source compiled

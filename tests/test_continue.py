@@ -150,7 +150,7 @@ def test_restore_reproduces_every_rank_state_bitwise(case):
     first.proceed()
     state = first.checkpoint()
     second = Simulation(scene, MPI.COMM_WORLD)
-    second.restore(state)
+    second.restore([state], [None])
     again = second.checkpoint()
     assert again.keys() == state.keys()
     for key, value in state.items():
@@ -216,7 +216,7 @@ set = ["time.end_time = {end}", "output.sample_interval = 3.5e-4",
 @pytest.mark.parametrize("damped", [False, True], ids=["undamped", "damped"])
 def test_batch_members_continue_bitwise_as_one_batch(damped, tmp_path):
     """Three scenes run as one batch to 0.0031 s and continued together to 0.0047 s, then
-    to 0.0063 s (one BatchSimulation again each time) equal the same batch run to 0.0063 s,
+    to 0.0063 s (one batch again each time) equal the same batch run to 0.0063 s,
     bitwise (summaries but for the wall-clock keys); with Kelvin-Voigt damping too (the
     kernel's damping sums and w_{n+1} are part of the state). No leg solves a steady state
     (restore overwrites the start), and the second takes the first's mesh and K."""

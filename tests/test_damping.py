@@ -157,8 +157,6 @@ def test_energy_balance_with_damping_closes_in_the_fused_and_batched_kernels():
     max E: ~400 steps of sums in other orders), so their balance
     E_n - E_0 - W_contact + W_d closes as the numpy one does (0.8 % of max E measured).
     The batch's checkpoints are taken from one host copy of its state."""
-    from stickslip.solver.ensemble_run import BatchSimulation
-
     sc = smoke("time.beta2=0.5", "time.end_time=0.03", "time.dt_fraction=0.225",
                "damping.retardation_time=2e-6")
     energies = {}
@@ -167,7 +165,7 @@ def test_energy_balance_with_damping_closes_in_the_fused_and_batched_kernels():
         assert sim.integrator.facts()["kernel"] == kernel
         sim.proceed()
         energies[kernel] = sim.recorder.arrays()["energies"]
-    batch = BatchSimulation([sc, sc.with_overrides("loading.omega=30.0")])
+    batch = Simulation.batch([sc, sc.with_overrides("loading.omega=30.0")])
     assert batch.stepper.damped and batch.stepper.B == 2
     copies, host_state = [], batch.stepper.host_state
     batch.stepper.host_state = lambda: (copies.append(1), host_state())[1]
@@ -204,7 +202,7 @@ def test_undamped_step_is_the_plain_step():
         integ.step()
     assert len(calls) == 5
     sim = Simulation(sc, SELF)
-    assert sim.damping_work is None and sim.recorder.damping is None
+    assert sim.columns.damping_work is None and sim.recorder.damping is None
     damped = make_explicit(problem, smoke("damping.retardation_time=1e-6"), 1e-6)
     assert isinstance(damped, DampedNewmark) and damped.tau == 1e-6
 

@@ -264,12 +264,12 @@ def test_a_signal_on_one_rank_stops_every_rank_at_the_same_sample(tmp_path, monk
 
     import stickslip.solver.atomic  # noqa: F401 (loaded: used as an attribute)
     import stickslip.solver.problem  # noqa: F401 (loaded: used as an attribute)
-    import stickslip.solver.run  # noqa: F401 (loaded: used as an attribute)
+    import stickslip.solver.scene_column  # noqa: F401 (loaded: used as an attribute)
     from stickslip import solver
     from stickslip.studies.rundir import run_scene
 
     comm = MPI.COMM_WORLD
-    real = solver.run.Simulation._check_health
+    real = solver.scene_column.SceneColumn._check_health
     calls = {"n": 0}
 
     def check(self, kinetic, strain):
@@ -278,7 +278,7 @@ def test_a_signal_on_one_rank_stops_every_rank_at_the_same_sample(tmp_path, monk
             os.kill(os.getpid(), signal.SIGTERM)
         return real(self, kinetic, strain)
 
-    monkeypatch.setattr(solver.run.Simulation, "_check_health", check)
+    monkeypatch.setattr(solver.scene_column.SceneColumn, "_check_health", check)
     run_dir = Path(comm.bcast(str(tmp_path), root=0)) / "mpi"
     s = run_scene(smoke(), run_dir, comm=comm, stream=io.StringIO())
     status = comm.bcast(s.get("status"), root=0)

@@ -219,7 +219,7 @@ def _batch(B_scenes, kernel="numba", common=()):
         bp, d=[s.scene.geometry.d for s in sims],
         slide=[s.scene.geometry.R * s.scene.loading.omega * s.dt for s in sims],
         f=[s.scene.loading.f for s in sims], kernel=kernel, tau=s0.scene.damping.tau,
-        bound=friction_bound(s0.projection.law))
+        bound=friction_bound(s0.columns.projection.law))
     u0 = np.stack([s.integrator.u for s in sims], axis=1)
     integ.set_state(u0, np.zeros_like(u0))
     return integ, sims
@@ -241,7 +241,7 @@ def test_batched_kernel_equals_the_single_scene_kernel_bitwise_for_any_batch_siz
             s.integrator.step()
     for b, s in enumerate(sims):
         np.testing.assert_array_equal(integ.u[:, b], s.integrator.u)
-        np.testing.assert_array_equal(integ.status[:, b], s.projection.out.status)
+        np.testing.assert_array_equal(integ.status[:, b], s.columns.projection.out.status)
         np.testing.assert_array_equal(integ.work[:, b], s.integrator.work)
     np.testing.assert_array_equal(alone.u[:, 0], integ.u[:, 2])
 
@@ -264,7 +264,7 @@ def test_register_passes_and_single_columns_give_the_single_scene_bits():
     for b, s in enumerate(sims):
         np.testing.assert_array_equal(integ.u[:, b], s.integrator.u)
         np.testing.assert_array_equal(integ.v_pred[:, b], s.integrator.v_pred)
-        np.testing.assert_array_equal(integ.status[:, b], s.projection.out.status)
+        np.testing.assert_array_equal(integ.status[:, b], s.columns.projection.out.status)
         np.testing.assert_array_equal(integ.work[:, b], s.integrator.work)
 
 
@@ -315,7 +315,7 @@ def test_lean_steps_keep_the_state_bitwise_and_store_outputs_when_asked():
             it = s.integrator
             np.testing.assert_array_equal(integ.u[:, b], it.u)
             np.testing.assert_array_equal(integ.v_pred[:, b], it.v_pred)
-            np.testing.assert_array_equal(integ.status[:, b], s.projection.out.status)
+            np.testing.assert_array_equal(integ.status[:, b], s.columns.projection.out.status)
             np.testing.assert_array_equal(integ.work[:, b], it.work)
             np.testing.assert_array_equal(integ.v[rows, b], it.v[rows])
             if diag:
@@ -469,7 +469,7 @@ def test_damped_batch_equals_the_damped_single_scene_kernel_bitwise():
         for batch, col in ((integ, b), (big, b + 4 * (reps - 1))):
             np.testing.assert_array_equal(batch.u[:, col], it.u)
             np.testing.assert_array_equal(batch.v_pred[:, col], it.v_pred)
-            np.testing.assert_array_equal(batch.status[:, col], s.projection.out.status)
+            np.testing.assert_array_equal(batch.status[:, col], s.columns.projection.out.status)
             np.testing.assert_array_equal(batch.work[:, col], it.work)
     assert np.max(np.abs(ref.u - integ.u)) < 1e-12 * np.max(np.abs(integ.u))
     np.testing.assert_array_equal(ref.status, integ.status)
@@ -502,7 +502,7 @@ def test_regularised_batch_equals_the_single_scene_kernel_bitwise():
         for batch, col in ((integ, b), (big, b + 4 * (reps - 1))):
             np.testing.assert_array_equal(batch.u[:, col], it.u)
             np.testing.assert_array_equal(batch.v_pred[:, col], it.v_pred)
-            np.testing.assert_array_equal(batch.status[:, col], s.projection.out.status)
+            np.testing.assert_array_equal(batch.status[:, col], s.columns.projection.out.status)
             np.testing.assert_array_equal(batch.work[:, col], it.work)
             np.testing.assert_array_equal(batch.sigma[:, col], it.sigma[:, 0])
 

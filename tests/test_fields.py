@@ -54,8 +54,8 @@ def _run_steady(tmp_path: Path, extra: list[str]):
     out = _shared_dir(tmp_path)
     sim = Simulation(scene, MPI.COMM_WORLD, output_dir=out)
     sim.proceed()
-    if sim.writer is not None:
-        sim.writer.close()
+    if sim.columns.writer is not None:
+        sim.columns.writer.close()
     return sim, out
 
 
@@ -112,11 +112,11 @@ def test_steady_fields_in_memory(tmp_path):
     """The last frame of a steady run: p and q = f p at every contact node are the steady
     state's, all nodes slip, v = 0, and the cell stress is the closed form's (P1 error)."""
     sim, _ = _run_steady(tmp_path, ["output.field_window=1"])
-    w, sc = sim.writer, sim.scene
+    w, sc = sim.columns.writer, sim.scene
     nodes = sim.problem.nodes.nodes
     p = w.pressure.x.array[nodes]
     # the scheme keeps the discrete steady state to round-off (1e-9 relative)
-    assert p == pytest.approx(sim.steady.pressure, rel=1e-9)
+    assert p == pytest.approx(sim.columns.steady.pressure, rel=1e-9)
     assert w.shear.x.array[nodes] == pytest.approx(sc.loading.f * p, rel=1e-9)
     assert np.all(w.status.x.array[nodes] == 2)  # SLIP
     away = np.setdiff1d(np.arange(sim.problem.n_owned // 2), nodes)
@@ -191,8 +191,8 @@ def test_vtx_files_read_back(tmp_path):
     assert [f["step"] for f in fields] == pytest.approx(expected, rel=1e-12)
     assert [f["step"] for f in stress] == pytest.approx(expected, rel=1e-12)
     sc = sim.scene
-    p_sum = MPI.COMM_WORLD.allreduce(float(np.sum(sim.steady.pressure)))
-    p_mean = p_sum / MPI.COMM_WORLD.allreduce(sim.steady.pressure.size)
+    p_sum = MPI.COMM_WORLD.allreduce(float(np.sum(sim.columns.steady.pressure)))
+    p_mean = p_sum / MPI.COMM_WORLD.allreduce(sim.columns.steady.pressure.size)
     x0 = fields[0]["geometry"]
     r = np.hypot(x0[:, 0], x0[:, 1])
     on = np.abs(r - sc.geometry.R) < 1e-9
@@ -299,7 +299,8 @@ def test_final_field_carries_stress_and_tractions(tmp_path):
                                                      "von_mises"))
     r = np.hypot(field["points"][:, 0], field["points"][:, 1])
     on = np.abs(r - sim.scene.geometry.R) < 1e-9
-    p_mean = float(np.mean(sim.steady.pressure))  # uniform to 1e-6 (rotation-invariant mesh)
+    # uniform to 1e-6 (rotation-invariant mesh)
+    p_mean = float(np.mean(sim.columns.steady.pressure))
     assert field["contact_pressure"][on] == pytest.approx(p_mean, rel=1e-6)
     assert np.all(field["contact_pressure"][~on] == 0.0)
     assert field["contact_shear"][on] == pytest.approx(sim.scene.loading.f * p_mean, rel=1e-6)

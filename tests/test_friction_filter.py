@@ -130,7 +130,8 @@ def test_nodal_default_is_the_unchanged_coulomb_projection():
                    MPI.COMM_SELF)
     b = Simulation(load_scene("scenes/smoke.toml", [*SMALL, "time.end_time=0.02",
                                                     'friction.filter="nodal"']), MPI.COMM_SELF)
-    assert type(a.projection) is ContactProjection and type(b.projection) is ContactProjection
+    assert type(a.columns.projection) is ContactProjection
+    assert type(b.columns.projection) is ContactProjection
     for _ in range(300):
         a.integrator.step()
         b.integrator.step()
@@ -145,7 +146,7 @@ def test_non_penetration_and_exact_stick_with_the_filter():
     sc = load_scene("scenes/smoke.toml", [*SMALL, "time.end_time=0.25",
                                           'friction.filter="1-2-1"'])
     sim = Simulation(sc, MPI.COMM_SELF)
-    proj = sim.projection
+    proj = sim.columns.projection
     assert isinstance(proj, FilteredContactProjection)
     f = sc.loading.f
 

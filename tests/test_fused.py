@@ -165,8 +165,8 @@ def test_fused_step_with_ghosts_equals_the_numpy_step():
     sc = smoke()
     ref, fused = run(sc, "numpy", MPI.COMM_WORLD), run(sc, "numba", MPI.COMM_WORLD)
     assert getattr(fused.integrator, "kernel", "") == "numba"
-    w_ref = ref.energy.totals(MPI.COMM_WORLD)
-    w_new = fused.energy.totals(MPI.COMM_WORLD)
+    w_ref = ref.columns.energy.totals(MPI.COMM_WORLD)
+    w_new = fused.columns.energy.totals(MPI.COMM_WORLD)
     assert np.allclose(w_ref, w_new, rtol=1e-9, atol=0)
     if MPI.COMM_WORLD.rank == 0:
         a, b = ref.recorder.arrays(), fused.recorder.arrays()
@@ -242,7 +242,7 @@ def test_regularised_fused_step_equals_the_numpy_step_to_round_off(extra):
     assert np.max(np.abs(a["u_r"] - b["u_r"])) < 1e-11 * scale
     ea, eb = a["energies"], b["energies"]
     np.testing.assert_allclose(eb, ea, rtol=1e-9, atol=1e-9 * np.abs(ea).max())
-    sa, sb = ref.projection.effective.sigma, fused.projection.effective.sigma
+    sa, sb = ref.columns.projection.effective.sigma, fused.columns.projection.effective.sigma
     assert np.abs(sa).max() > 0.0
     np.testing.assert_allclose(sb, sa, rtol=0, atol=1e-9 * np.abs(sa).max())
 

@@ -259,10 +259,10 @@ def test_async_gpu_spool_records_the_cpu_samples_and_masks_a_planted_blowup(
     gpu = _observed_run(data, "gpu", tmp_path, planted, at=30)
     cpu = _observed_run(data, "cpu", tmp_path, planted, at=30)
     (gb, gmsg, gat), (cb, cmsg, cat) = gpu, cpu
-    g, grec, c, crec = gb.stepper, gb.recorder, cb.stepper, cb.recorder
+    g, grec, c, crec = gb.stepper, gb.columns.recorder, cb.stepper, cb.columns.recorder
     assert set(cmsg) == {planted} and gmsg == cmsg, (gmsg, cmsg)
     assert gat[planted] >= cat[planted] and not g.active[planted]
-    assert gb.spool_dir is not None and crec.n == 23  # the GPU's record went to a file
+    assert gb.columns.spool_dir is not None and crec.n == 23  # the GPU's record went to a file
     tol = device != "emulated"
     for b in range(4):
         n = cat[planted] if b == planted else grec.n

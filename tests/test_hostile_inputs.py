@@ -412,11 +412,11 @@ import io, os, signal, sys
 sys.path.insert(0, {str(REPO)!r})
 from pathlib import Path
 from mpi4py import MPI
-import stickslip.solver.run
+import stickslip.solver.scene_column
 from stickslip import solver
 from stickslip.solver.scene import load_scene
 from stickslip.studies.rundir import run_scene
-real, calls = solver.run.Simulation._check_health, []
+real, calls = solver.scene_column.SceneColumn._check_health, []
 def check(self, kinetic, strain):
     calls.append(1)
     if len(calls) == 3:  # in the time loop: the watchdog is this process's only child
@@ -424,7 +424,7 @@ def check(self, kinetic, strain):
         for pid in Path(f"/proc/{{me}}/task/{{me}}/children").read_text().split():
             os.kill(int(pid), signal.SIGKILL)
     return real(self, kinetic, strain)
-solver.run.Simulation._check_health = check
+solver.scene_column.SceneColumn._check_health = check
 s = run_scene(load_scene("smoke", ["time.end_time=0.005", "output.progress=false"]),
               {str(tmp_path / 'r')!r}, comm=MPI.COMM_SELF, stream=io.StringIO())
 print(s["status"], len(calls))

@@ -197,7 +197,7 @@ def test_non_penetration_stick_and_exact_energy_identity(f):
     from stickslip.solver.run import Simulation
 
     sim = Simulation(implicit_smoke(f"loading.f={f}", "time.end_time=0.1"), SELF)
-    integ, proj, m = sim.integrator, sim.projection, sim.problem.mass
+    integ, proj, m = sim.integrator, sim.columns.projection, sim.problem.mass
     d = sim.scene.geometry.d
     idx = proj.node_index
     z = np.empty(idx.size, dtype=complex)
@@ -323,7 +323,7 @@ def test_exact_work_at_the_observers_level_closes_the_sampled_energy():
     from stickslip.solver.run import Simulation
 
     sim = Simulation(implicit_smoke("time.end_time=0.01"), SELF)
-    integ, proj, m = sim.integrator, sim.projection, sim.problem.mass
+    integ, proj, m = sim.integrator, sim.columns.projection, sim.problem.mass
     e0 = None
     worst = 0.0
     for _ in range(100):

@@ -116,7 +116,7 @@ def test_non_penetration_and_exact_stick_with_prakash_clifton():
         'friction.regularization="prakash-clifton"', "friction.slip_length=2e-5",
         "friction.reference_velocity=1.0"])
     sim = Simulation(sc, MPI.COMM_SELF)
-    proj = sim.projection
+    proj = sim.columns.projection
     below_p = [0]
 
     def slip_on_the_effective_bound(status):

@@ -55,7 +55,7 @@ def run(sc):
     from stickslip.studies.rundir import summarise
 
     sim = Simulation(sc, SELF)
-    sim.initial_energy, sim.energy_bound = 1.0, math.inf
+    sim.columns.initial_energy, sim.columns.energy_bound = 1.0, math.inf
     sim.proceed()
     return sim, summarise(sim)
 
@@ -158,7 +158,7 @@ def test_twenty_wave_periods_energy_bounded_and_balance_closes():
     e_end = 0.5 * integ.v_next @ (m * integ.v_next) + 0.5 * integ.u @ ku
     energies = sim.recorder.arrays()["energies"]
     e0 = energies[0, 0] + energies[0, 1]
-    work, work_cyl = sim.projection.work_totals()
+    work, work_cyl = sim.columns.projection.work_totals()
     assert abs(e_end - e0 - work) < 1e-10 * max(e_end, e0)
     assert energies[:, :2].sum(axis=1).max() <= e0 + work_cyl
 

@@ -170,19 +170,18 @@ def test_failures_divergence_resume_and_retry(tmp_path, monkeypatch):
     pytest.importorskip("dolfinx")
     from mpi4py import MPI
 
-    import stickslip.solver.errors  # noqa: F401 (loaded: used as an attribute)
-    import stickslip.solver.run  # noqa: F401 (loaded: used as an attribute)
+    import stickslip.solver.scene_column  # noqa: F401 (loaded: used as an attribute)
     from stickslip import solver
     from stickslip.studies.sweep import run_sweep, write_table
 
-    original = solver.run.Simulation._check_health
+    original = solver.scene_column.SceneColumn._check_health
 
     def check(self, kinetic, strain):  # Omega = 5: pretend the scheme blows up
         if self.scene.loading.omega == 5.0 and self.initial_energy is not None:
-            raise solver.errors.Diverged("forced divergence for the test")
+            return "forced divergence for the test"
         return original(self, kinetic, strain)
 
-    monkeypatch.setattr(solver.run.Simulation, "_check_health", check)
+    monkeypatch.setattr(solver.scene_column.SceneColumn, "_check_health", check)
     body = f"""
 base = "{SMOKE}"
 set = ["time.end_time=0.02"]

@@ -4,7 +4,7 @@ The same command runs twice where dolfinx is, around a runner on the node:
 
 1. **prepare** (``write_bundle``; DIR has no ``manifest.json``): the census's starts as its
    sweep resolves them (``census.sweep_text``, ``studies.sweep.scene_for``: the same scenes
-   and ids), one batch per mesh: ``BatchSimulation(scenes, build=False)`` builds the problem,
+   and ids), one batch per mesh: ``Simulation.batch(scenes, build=False)`` builds the problem,
    dt and each start's u_0 (steady sliding + its bump) once, and ``solver.bundle`` writes
    them with a manifest carrying the base scene's SHA-256 (``solver.scene.files.scene_digest``);
 2. **the node**: ``python3 -m stickslip.node DIR`` (``solver.bundle.run_bundle``: the batch of

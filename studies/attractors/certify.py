@@ -15,7 +15,7 @@
 * a **kick test** (``kick_members``, every member, rigid or not, unless ``--no-kick``): one
   start of the member (the first whose checkpoint is a batch member's) is perturbed where it
   stands, at t_k, by ``KICK_FRACTION`` (1 %) of its RMS displacement and velocity, each
-  along a random start's smooth radial bump (``BatchSimulation.kick``: the perturbation
+  along a random start's smooth radial bump (``BatchColumns.kick``: the perturbation
   a start gets, clamped outside, spread through the thickness by eq. [1]), and run on for
   ``KICK_WINDOWS`` census windows W into ``DIR/kicks/``; its last window [t_k + W, t_k + 2W]
   must ``match`` (``features.differences``) the start's own last window before the kick.

@@ -103,6 +103,7 @@ def measure_transient_growth(
     """
     from stickslip.postprocess.analysis import mode_coefficients
     from stickslip.solver.contact import SLIP
+    from stickslip.solver.errors import Diverged
     from stickslip.solver.run import Simulation
 
     sc = scene.with_overrides(
@@ -111,7 +112,8 @@ def measure_transient_growth(
         f"output.sample_interval={sample_interval}", "output.progress=false",
     )
     sim = Simulation(sc, comm)
-    sim.proceed()
+    if sim.proceed() == "diverged":  # a blow-up has no growth rate to measure
+        raise Diverged(sim.message)
     result = None
     if comm.rank == 0:
         data = sim.recorder.arrays()

@@ -6,7 +6,7 @@ atomically (``solver.atomic``). It holds only the state of the last level, not a
 
 =========================  ===============================================================
 ``meta``                   JSON: ``format``, ``kind`` (``run``: one ``Simulation`` on
-                           ``ranks`` ranks; ``batch``: a member of a ``BatchSimulation``,
+                           ``ranks`` ranks; ``batch``: a member of a batch (``Simulation.batch``),
                            with its ``backend``), ``kernel``, ``scene`` (name),
                            ``scene_sha256`` (``scene_fingerprint``), ``status``,
                            ``step``, ``time``, ``samples``, ``probe_steps``
@@ -77,7 +77,7 @@ class Checkpoint:
 def write_checkpoint(folder: str | Path, states: list[dict[str, np.ndarray]], *, kind: str,
                      scene: Scene, status: str, kernel: str, backend: str = "cpu") -> Path:
     """Write ``folder/checkpoint.npz`` (atomically) from the per-rank states of
-    ``Simulation.checkpoint`` (gathered, rank order) or one ``BatchSimulation.checkpoint``.
+    ``Simulation.checkpoint`` (gathered, rank order) or one batch column's ``SceneRun.state``.
     The atomic rename replaces a symbolic link in its place, never writing through it."""
     first = states[0]
     meta = {"format": FORMAT, "kind": kind, "ranks": len(states), "kernel": kernel,

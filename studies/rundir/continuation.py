@@ -9,8 +9,8 @@ put in front of the new ones. The continued run's samples, final field and summa
 bitwise those of one run straight to T, except the wall-clock keys (``WALL_CLOCK_KEYS``).
 
 ``continue_batch`` does the same for many run directories at once: the members of a batch
-(``solver.ensemble_run.BatchSimulation``, e.g. a census's starts) that share mesh, material,
-dt, scheme and their checkpoint's step are continued as one batch again (``BatchSimulation``
+(``solver.run.Simulation.batch``, e.g. a census's starts) that share mesh, material, dt,
+scheme and their checkpoint's step are continued as one batch again (``Simulation.batch``
 + ``restore``, the same ``run_loop``); single runs are continued one by one. A continued
 batch solves no steady state (``restore`` overwrites the start), and its mesh, K, M, ω_max
 and layout are kept in the process (``BUILT``, per batch key without the end time) for the
@@ -194,7 +194,7 @@ def continue_run(run_dir: str | Path, until: float, out_dir: str | Path | None =
                              f"machine builds {built or 'implicit'} for its scene: install "
                              "the same (python3-numba) to continue it bitwise")
         try:
-            sim.restore(state, before)
+            sim.restore([state], [before])
         except KeyError as err:  # every key is written by this format: an edited file
             raise ValueError(f"checkpoint.npz has no {err}: not written by this version of "
                              "stickslip (or edited); run the scene again to T") from None
@@ -215,7 +215,7 @@ def continue_batch(run_dirs: list[str | Path], until: float,
                    stream=None, kick: float = 0.0, kick_seed: int = 0,
                    compress: bool = True) -> list[dict]:
     """Continue many runs of one rank each to ``until``: the members of batches that share a
-    mesh, material, dt, scheme, backend and checkpoint step as one ``BatchSimulation`` (one
+    mesh, material, dt, scheme, backend and checkpoint step as one ``Simulation.batch`` (one
     time loop for all of them), single runs one by one (``continue_run``).
 
     Args:
@@ -226,7 +226,7 @@ def continue_batch(run_dirs: list[str | Path], until: float,
         force: replace earlier run directories at ``out_dirs``.
         stream: where the summary lines go (default stdout).
         kick: perturb every run where it stands by this fraction of its displacement and
-            velocity RMS before it goes on (``solver.ensemble_run.BatchSimulation.kick``,
+            velocity RMS before it goes on (``solver.ensemble_run.BatchColumns.kick``,
             seed ``kick_seed``; its facts in the summary's ``kick``): batch members only,
             into ``out_dirs`` (the runs themselves are never kicked).
         compress: the batch members' samples.npz deflated, else stored (faster to write
@@ -278,14 +278,13 @@ def continue_batch(run_dirs: list[str | Path], until: float,
 def _continue_members(plans: list[_Plan], outs: list[Path | None], backend: str,
                       force: bool, stream, kick: float = 0.0, kick_seed: int = 0,
                       compress: bool = True) -> list[dict]:
-    """One ``BatchSimulation`` of batch members at the same step, continued (each kicked
+    """One ``Simulation.batch`` of batch members at the same step, continued (each kicked
     by ``kick``, ``continue_batch``) and written; an error or interrupt drops every
     replacement (the runs stay as they were)."""
     import shutil
     import time
 
-    from stickslip.solver.ensemble_run import BatchSimulation
-    from stickslip.solver.run import Profile
+    from stickslip.solver.run import Profile, Simulation
     from stickslip.studies.resources import available_memory
     from stickslip.studies.sweep.batch import SPOOL_MEMORY_FRACTION
 
@@ -299,18 +298,19 @@ def _continue_members(plans: list[_Plan], outs: list[Path | None], backend: str,
             claims.append(prepare_run_dir(target, force or in_place, MPI.COMM_SELF))
         profile = Profile()
         key = built_key(plans[0].scene)
-        batch = BatchSimulation([p.scene for p in plans], backend=backend,
-                                spool_parent=plans[0].run_dir.parent, profile=profile,
-                                memory_budget=SPOOL_MEMORY_FRACTION * available_memory(),
-                                built=BUILT.get(key), resumed=True)
+        batch = Simulation.batch([p.scene for p in plans], profile, backend=backend,
+                                 spool_parent=plans[0].run_dir.parent,
+                                 memory_budget=SPOOL_MEMORY_FRACTION * available_memory(),
+                                 built=BUILT.get(key), resumed=True)
         if batch.failures:
             raise next(iter(batch.failures.values()))
         BUILT.pop(key, None)  # the latest last: the oldest goes first
-        BUILT[key] = batch.built
+        BUILT[key] = batch.columns.built
         while len(BUILT) > BUILT_KEEP:
             BUILT.pop(next(iter(BUILT)))
         batch.restore([p.checkpoint.states[0] for p in plans], [p.before for p in plans])
-        kicks = [batch.kick(b, kick, kick_seed) if kick else None for b in range(len(plans))]
+        kicks = [batch.columns.kick(b, kick, kick_seed) if kick else None
+                 for b in range(len(plans))]
         batch.proceed()
         summaries = []
         for claim, run, kicked in zip(claims, batch.runs, kicks, strict=True):
@@ -329,5 +329,5 @@ def _continue_members(plans: list[_Plan], outs: list[Path | None], backend: str,
     finally:
         for claim in claims:
             claim.release()
-        if batch is not None and batch.spool_dir is not None:
-            shutil.rmtree(batch.spool_dir, ignore_errors=True)
+        if batch is not None and batch.columns.spool_dir is not None:
+            shutil.rmtree(batch.columns.spool_dir, ignore_errors=True)

@@ -173,15 +173,15 @@ class RunDirectory:
         keep_previous = (status in ("failed", "interrupted") or sim is None) \
             and not self.replace_on_failure
         with self.prof.phase("output"):
-            out = RunOutputs(self.scene, sim, status, error)
+            out = RunOutputs(self.scene, None if sim is None else sim.runs[0], status, error)
             if sim is not None:
                 sim.status = status
                 out.probes, out.final_field = sim.probes.arrays(), sim.final_field()
                 # the checkpoint of a run that stands at a whole level (not failed, diverged)
                 out.states = self.comm.gather(sim.checkpoint(), root=0) \
                     if sim.resumable else None
-                if sim.writer is not None:
-                    sim.writer.close()
+                if sim.columns.writer is not None:
+                    sim.columns.writer.close()
             if not self.rank0:
                 return {}
             out.rescued = signals.rescue_pid > 0  # the rescue writer saved this run first
@@ -272,9 +272,11 @@ class RunDirectory:
         if signals.requested:  # a signal between the last check and now
             sim.stop_requested = True
         reason = sim.proceed()
-        self.status = {"signal": "interrupted", "max_wall_time": "stopped"}.get(reason,
-                                                                                "completed")
-        if reason == "signal":
+        self.status = {"signal": "interrupted", "max_wall_time": "stopped",
+                       "diverged": "diverged"}.get(reason, "completed")
+        if reason == "diverged":  # the energy guard: a blow-up, not a wave
+            self.error = sim.message
+        elif reason == "signal":
             self.error = f"interrupted by {_signame(signals.requested)}"
         elif reason == "max_wall_time":
             self.error = (f"stopped by time.max_wall_time = {scene.time.max_wall_time} s at "

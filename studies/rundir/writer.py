@@ -55,8 +55,9 @@ class RunOutputs:
 
     Attributes:
         scene: the run's scene.
-        run: the run: ``facts()``, ``recorder``, ``scene`` (a ``solver.run.Simulation`` or a
-            batch member ``solver.ensemble_run.SceneRun``); None if it was never built.
+        run: the run of the scene: ``facts()``, ``recorder``, ``scene`` (a
+            ``solver.columns.SceneRun``, one of a ``solver.run.Simulation``'s ``runs``); None if
+            it was never built.
         status: the final status (completed, diverged, stopped, interrupted, failed).
         error: the message of a run that did not complete, else None.
         probes: the probes' arrays (``probe_t``, ``probe_data``), gathered over the ranks.
@@ -200,7 +201,8 @@ def summarise(run: Any, probes: dict | None = None) -> dict:
     """Run summary (rank 0): the run's facts plus the wave analysis of the recorded samples;
     with the gathered ``probes``, whether the samples resolve the wave
     (:func:`postprocess.resolution.sampling_check`: a ``warning`` where they alias it).
-    ``run``: a ``solver.run.Simulation`` or a batch member (``SceneRun``)."""
+    ``run``: a scene's run (``solver.columns.SceneRun``, or a ``solver.run.Simulation`` of one
+    scene)."""
     from stickslip.postprocess.analysis import analyse
     from stickslip.postprocess.resolution import sampling_check
     from stickslip.solver.scene.files import scene_digest
@@ -227,7 +229,7 @@ def summarise(run: Any, probes: dict | None = None) -> dict:
 
 def write_member(rd: directory.RunDir, run: Any, prof: Profile, t0: float, backend: str,
                  extra: dict | None = None, compress: bool = True) -> dict:
-    """A finished batch member (``solver.ensemble_run.SceneRun``) into its claimed directory
+    """A finished batch member (``solver.columns.SceneRun``) into its claimed directory
     ``rd``, by :func:`write_run_files` as a single run; ``extra`` (the ``batch`` facts, a
     ``kick``) goes at the end of its summary. Returns the summary."""
     out = RunOutputs(run.scene, run, run.status, run.message or None,

@@ -3,7 +3,7 @@
 ``stickslip sweep --batch off|auto|B``. ``plan_units`` groups the pending scenes by
 ``batch_key`` (the scene without what only the contact law and the initial state see: Omega,
 f, delta, the initial perturbation, the name) and cuts each group into batches of at most B
-scenes; ``run_batch`` runs one batch as a ``solver.ensemble_run.BatchSimulation`` on one rank
+scenes; ``run_batch`` runs one batch as a ``solver.run.Simulation.batch`` on one rank
 and writes each scene's run directory.
 
 Each scene keeps what ``stickslip run`` gives it: its run directory (scene.toml, summary.json
@@ -134,7 +134,7 @@ def run_batch(spec: SweepSpec, tasks: list[Task], out_dir: Path, world_rank: int
               backend: str = "cpu", stream: TextIO | None = None) -> list[str]:
     """Run ``tasks`` (same ``batch_key``) as one batch on this rank; returns their statuses.
 
-    The batch is a ``solver.ensemble_run.BatchSimulation``; this function only prepares each
+    The batch is a ``solver.run.Simulation.batch``; this function only prepares each
     scene's run directory and log, and writes each scene's files when the batch is done."""
     from stickslip.solver.run import Profile
 
@@ -174,8 +174,8 @@ def run_batch(spec: SweepSpec, tasks: list[Task], out_dir: Path, world_rank: int
             for k in range(len(tasks)):
                 files.interrupted(k)
     interrupted = interrupted or bool(came)  # honoured once every member is written
-    if batch is not None and batch.spool_dir is not None:  # now in each samples.npz
-        shutil.rmtree(batch.spool_dir, ignore_errors=True)
+    if batch is not None and batch.columns.spool_dir is not None:  # now in each samples.npz
+        shutil.rmtree(batch.columns.spool_dir, ignore_errors=True)
     files.close()
     if interrupted:
         raise KeyboardInterrupt
@@ -239,16 +239,16 @@ def _claimable(tasks: list[Task], out_dir: Path, stream: TextIO | None) -> list[
 
 
 def _build_batch(scenes, backend, out_dir, profile, files):
-    """The ``BatchSimulation``; scenes whose set-up failed are written ``failed`` at once.
+    """The batch (``Simulation.batch``); scenes whose set-up failed are written ``failed`` at once.
 
     The batch keeps its whole sample record in memory when it needs at most
     ``SPOOL_MEMORY_FRACTION`` of the available memory (no file round trip in the time loop);
     otherwise it spools it in chunks to a folder under the sweep directory, so that memory
     does not grow with the run length."""
-    from stickslip.solver.ensemble_run import BatchSimulation
+    from stickslip.solver.run import Simulation
 
-    batch = BatchSimulation(scenes, backend=backend, spool_parent=out_dir, profile=profile,
-                            memory_budget=SPOOL_MEMORY_FRACTION * available_memory())
+    batch = Simulation.batch(scenes, profile, backend=backend, spool_parent=out_dir,
+                             memory_budget=SPOOL_MEMORY_FRACTION * available_memory())
     for k, err in batch.failures.items():
         files.fail(k, err)
     return batch

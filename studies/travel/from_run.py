@@ -398,6 +398,7 @@ def transient_next_to(st, sol, k: int, *, end_time: float = 0.05, eps: float = 0
 
     import stickslip.studies.travel.driver as D
     from stickslip.postprocess.analysis import analyse
+    from stickslip.solver.errors import Diverged
     from stickslip.solver.run import Simulation
 
     scene, ops = st.scene, st.ops
@@ -412,7 +413,8 @@ def transient_next_to(st, sol, k: int, *, end_time: float = 0.05, eps: float = 0
                                "time.dt_fraction=0.9", f"output.sample_interval={sample!r}",
                                "output.progress=false")
     sim = Simulation(run, MPI.COMM_SELF, initial_state=(u, v, a))
-    sim.proceed()
+    if sim.proceed() == "diverged":  # a blow-up is no wave of the run
+        raise Diverged(sim.message)
     rec = sim.recorder.arrays()
     t = rec["t"]
     window = max(end_time / 4.0, 8 * sample)

@@ -1,0 +1,180 @@
+"""What every column of a run shares, whichever columns hold it.
+
+A run (``solver.run.Simulation``) advances B ≥ 1 scenes, its columns. Two kinds of columns
+hold them: one scene with its dofs distributed over MPI ranks, any scheme
+(``solver.scene_column.SceneColumn``, B = 1), or B scenes as one (n, B) explicit batch on one
+rank (``solver.ensemble_run.BatchColumns``). Both build each column's start the same way
+(``initial_perturbation``), count the steps the same way (``planned_steps``), and give each
+scene a ``SceneRun``: its status, its records and its facts, which a run directory writes.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+from contextlib import contextmanager
+
+import numpy as np
+
+from stickslip.solver import __version__
+from stickslip.solver.scene import Scene
+
+__all__ = ["Profile", "SceneRun", "energy_balance", "initial_perturbation", "planned_steps",
+           "random_bump", "run_facts"]
+
+
+class Profile:
+    """Wall time per phase (mesh, assembly, steady state, time loop, contact, I/O)."""
+
+    def __init__(self) -> None:
+        self.seconds: dict[str, float] = {}
+
+    @contextmanager
+    def phase(self, name: str):
+        t0 = time.perf_counter()
+        try:
+            yield
+        finally:
+            self.seconds[name] = self.seconds.get(name, 0.0) + time.perf_counter() - t0
+
+
+class SceneRun:
+    """One column of a run: its scene, status and records, and what a run directory needs of
+    it (``facts()``, ``recorder.arrays()``, ``probes.arrays()``, ``final_field()``, the
+    checkpoint ``state``).
+
+    While the column is stepped, its steps, time and scheme facts are the stepper's; ``finish``
+    freezes them (a masked, diverged column stops there, as it would alone; a scene whose set-up
+    failed is frozen at step 0)."""
+
+    def __init__(self, scene: Scene, columns, problem, dofs: int, ranks: int) -> None:
+        self.scene, self.columns, self.problem = scene, columns, problem
+        self.comm = columns.comm
+        self.dt, self.dt_crit, self.omega_max = columns.dt, columns.dt_crit, columns.omega_max
+        self.dofs, self.ranks = dofs, ranks
+        self.status, self.stop_reason, self.message = "running", "", ""
+        self.steady = None
+        self.steady_mean_pressure = float("nan")
+        #: what the outputs read: this scene's records (with the earlier ones in front when
+        #: continued, ``solver.observers.ContinuedRecords``)
+        self.recorder = None
+        self.probes = None
+        #: this scene's checkpoint when it finished at a whole level (``finish``), else None
+        self.state: dict[str, np.ndarray] | None = None
+        self.frozen: tuple[int, float, dict] | None = None  # steps, time, scheme facts
+
+    @property
+    def steps(self) -> int:
+        return self.frozen[0] if self.frozen else self.columns.stepper.step_count
+
+    @property
+    def sim_time(self) -> float:
+        return self.frozen[1] if self.frozen else self.columns.stepper.time
+
+    def facts(self) -> dict:
+        """What the run of this scene did: ``run_facts`` with its scheme's facts."""
+        scheme = self.frozen[2] if self.frozen else self.columns.stepper.facts()
+        return run_facts(self, scheme)
+
+    def final_field(self) -> dict[str, np.ndarray] | None:
+        """The final field of this scene (rank 0; ``solver.run.gather_final_field``), or None
+        where its columns hold no dolfinx problem."""
+        return self.columns.final_field(self)
+
+    def fail(self, status: str = "failed") -> None:
+        """The scene never stepped (its set-up failed): frozen at step 0."""
+        self.status, self.frozen = status, (0, 0.0, {})
+
+    def finish(self, status: str, stop: str = "") -> None:
+        """Freeze this scene's facts at the stepper's current level."""
+        st = self.columns.stepper
+        self.status, self.stop_reason = status, stop
+        self.frozen = (st.step_count, st.time, st.facts())
+
+
+def planned_steps(scene: Scene, dt: float) -> int:
+    """Steps to ``time.end_time`` at step dt, capped by ``time.max_steps``."""
+    n = int(math.ceil(scene.time.end_time / dt - 1e-9))
+    if scene.time.max_steps:
+        n = min(n, scene.time.max_steps)
+    return n
+
+
+def initial_perturbation(problem, scene: Scene) -> np.ndarray:
+    """Initial radial bump (scene ``[initial]``), amplitude x d, shaped by X(r) (eq. [1]).
+
+    "mode": A (1 + cos k theta) / 2; "random": sum_k w_k (1 + cos(k theta + phi_k)) / 2 over
+    k = 1 .. n_modes, weights w_k uniform and normalised to sum 1, phases uniform in
+    [0, 2 pi), from ``initial.seed`` (the same numbers on every rank: partition-free).
+    """
+    ini, d = scene.initial, scene.geometry.d
+    if ini.perturbation == "none" or ini.amplitude == 0.0:
+        return np.zeros(problem.n_owned)
+    amp = ini.amplitude * d
+    if ini.perturbation == "mode":
+        k = ini.mode
+        return problem.radial_field(lambda th: amp * 0.5 * (1.0 + np.cos(k * th)))
+    return problem.radial_field(random_bump(ini.seed, ini.n_modes, amp))
+
+
+def random_bump(seed: int, n_modes: int, amplitude: float) -> Callable[[np.ndarray],
+                                                                         np.ndarray]:
+    """The random start's shape A(θ) = amplitude Σ_k w_k (1 + cos(kθ + φ_k)) / 2, k = 1 ..
+    n_modes, w_k ~ U(0, 1) normalised to sum 1, φ_k ~ U(0, 2π) from
+    ``numpy.random.default_rng(seed)`` (``initial_perturbation``; a kick's field)."""
+    rng = np.random.default_rng(seed)
+    ks = np.arange(1, n_modes + 1)
+    weights = rng.uniform(0.0, 1.0, ks.size)
+    phases = rng.uniform(0.0, 2 * np.pi, ks.size)
+    weights /= weights.sum()
+
+    def shape(th: np.ndarray) -> np.ndarray:
+        s = np.zeros_like(th)
+        for k, w, ph in zip(ks, weights, phases, strict=True):
+            s += w * 0.5 * (1.0 + np.cos(k * th + ph))
+        return amplitude * s
+
+    return shape
+
+
+def run_facts(run: SceneRun, scheme: dict) -> dict:
+    """The facts of one scene's run: status, steps, dt, dofs, ranks, the scheme's ``facts()``,
+    and the energy balance of its samples."""
+    out: dict = {
+        "stickslip_version": __version__,
+        "scene": run.scene.name,
+        "status": run.status,
+        "stop_reason": run.stop_reason,
+        "steps": run.steps,
+        "sim_time_s": run.sim_time,
+        "dt_s": run.dt,
+        "dt_crit_s": run.dt_crit,
+        "omega_max_rad_s": run.omega_max,
+        "dofs": run.dofs,
+        "contact_nodes": int(run.recorder.n_nodes),
+        "ranks": run.ranks,
+        "samples": int(run.recorder.n),
+        "steady_pressure_pa": run.steady_mean_pressure,
+        "scheme": scheme,
+    }
+    data = run.recorder.arrays()
+    if data["t"].size >= 4:  # as many samples as the wave analysis needs
+        out["energy"] = energy_balance(data["energies"])
+    return out
+
+
+def energy_balance(e: np.ndarray) -> dict[str, float]:
+    """The energy terms at the last sample and the residual of the balance
+    E(t) - E(0) = W_contact - W_damping (columns of ``solver.observers.ENERGY_FIELDS``)."""
+    wd = e[:, 5] if e.shape[1] > 5 else np.zeros(e.shape[0])
+    return {
+        "initial_J_per_m": float(e[0, 0] + e[0, 1]),
+        "final_J_per_m": float(e[-1, 0] + e[-1, 1]),
+        "work_contact_J_per_m": float(e[-1, 2]),
+        "work_cylinder_J_per_m": float(e[-1, 3]),
+        "friction_dissipation_J_per_m": float(e[-1, 4]),
+        "damping_dissipation_J_per_m": float(wd[-1]),
+        "balance_residual_J_per_m": float(e[-1, 0] + e[-1, 1] - e[0, 0] - e[0, 1]
+                                          - (e[-1, 2] - e[0, 2]) + (wd[-1] - wd[0])),
+    }

@@ -1,0 +1,273 @@
+"""One scene as the columns of a run (B = 1): its dofs distributed over the ranks of ``comm``.
+
+``SceneColumn`` builds, in order: the problem (mesh, K, M, contact nodes: ``solver.problem``),
+the steady sliding state (``solver.steady``), the scheme's parts (``Scheme.build``: the step,
+refused above the scheme's limit, the stepper, its contact step and its work observers), the
+step hooks (the work observers that need them, the probes), and the records (the inner-circle
+samples: ``solver.observers.InnerCircleRecorder``). ``solver.run.Simulation`` drives it with
+the observers every run has; this module is what differs from a batch's columns
+(``solver.ensemble_run.BatchColumns``): any scheme, MPI-distributed dofs, field output, and the
+energy guard's sums over the ranks.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from stickslip.solver.columns import Profile, SceneRun, initial_perturbation, planned_steps
+from stickslip.solver.contact import zone_fractions
+from stickslip.solver.errors import blown_up, blowup_message, energy_bound
+from stickslip.solver.observers import Progress
+from stickslip.solver.scene import Scene
+
+if TYPE_CHECKING:  # mpi4py is imported where a run uses it
+    from mpi4py import MPI
+
+__all__ = ["SceneColumn"]
+
+
+class SceneColumn:
+    """The column of one scene on the ranks of ``comm`` (module docstring).
+
+    It starts from steady sliding plus the scene's ``[initial]`` bump, or from
+    ``initial_state`` = (u, v, a or None) on the owned dofs (serial use: a wave of
+    ``studies.travel.frame.FrameOperators.shift_state``)."""
+
+    def __init__(self, scene: Scene, comm: MPI.Comm | None, profile: Profile,
+                 initial_state: tuple | None = None) -> None:
+        from stickslip.solver.problem import build_problem, omega_max
+        from stickslip.solver.schemes.select import for_scene
+        from stickslip.solver.steady import solve_steady_sliding
+
+        if comm is None:
+            from mpi4py import MPI
+
+            comm = MPI.COMM_WORLD
+        self.scene, self.comm, self.profile = scene, comm, profile
+        with profile.phase("mesh+assembly"):
+            self.problem = build_problem(scene, comm)
+        with profile.phase("stability"):
+            self.omega_max = omega_max(self.problem)
+        with profile.phase("steady-state"):
+            self.steady = solve_steady_sliding(self.problem)
+            p = self.steady.pressure
+            steady_pressure = comm.allreduce(float(p.sum())) / comm.allreduce(p.size)
+        # the scheme registry, asked once: the step (refused above the scheme's limit), the
+        # stepper, the contact step and the work observers; after the steady solve, as the
+        # implicit scheme's factorisation always was (the parallel solves in the same order)
+        parts = for_scene(scene).build(self.problem, scene, self.omega_max)
+        self.dt, self.dt_crit = parts.dt, parts.dt_crit
+        self.stepper, self.projection = parts.stepper, parts.contact
+        self.integrator = self.stepper
+        u0 = self._start(initial_state)
+        self._attach_step_hooks(parts, u0)
+        run = SceneRun(scene, self, self.problem, int(self.problem.n_global_dofs), comm.size)
+        run.steady, run.steady_mean_pressure = self.steady, steady_pressure
+        run.recorder, run.probes = self.recorder, self.probes
+        self.runs, self.live, self.failures = [run], [0], {}
+        self.active = np.ones(1, dtype=bool)
+        self.progress = Progress(scene.time.end_time, scene.output.progress and comm.rank == 0)
+        self.initial_energy: float | None = None
+        self.energy_bound = math.inf
+
+    @property
+    def every(self) -> int:
+        """The samples' cadence in steps."""
+        return self.recorder.every
+
+    def _start(self, initial_state) -> np.ndarray:
+        """Set the stepper's initial state; returns u_0."""
+        if initial_state is None:  # steady sliding + the scene's [initial] bump
+            u0 = self.steady.u + initial_perturbation(self.problem, self.scene)
+            self.stepper.set_state(u0, np.zeros_like(u0))
+            return u0
+        u0, v0, a0 = (None if x is None else np.asarray(x, dtype=float) for x in initial_state)
+        shapes = [x.shape for x in (u0, v0, a0) if x is not None]
+        if any(sh != (self.problem.n_owned,) for sh in shapes):
+            raise ValueError(f"initial_state: u, v (and a) need {self.problem.n_owned} "
+                             f"owned dofs each, got {shapes}")
+        if a0 is None:  # the implicit scheme finds a_0 from its own law
+            self.stepper.set_state(u0, v0)
+        else:
+            self.stepper.set_state(u0, v0, a0)
+        return u0
+
+    def _attach_step_hooks(self, parts, u0: np.ndarray) -> None:
+        """The scheme's work observers (contact work; Kelvin-Voigt work of a damped scene:
+        step hooks unless the kernel sums them, ``SchemeParts.work_observers``), the samples'
+        recorder and the probes (a step hook, after the work observers)."""
+        from stickslip.solver.observers import InnerCircleRecorder, ProbeRecorder
+
+        sc = self.scene
+        self.energy, self.damping_work = parts.work_observers(sc.loading.f > 0.0, u0)
+        n_steps = self.planned_steps()
+        every = max(1, int(round(sc.output.sample_interval / self.dt)))
+        self.recorder = InnerCircleRecorder(self.problem, self.projection, self.energy, every,
+                                            max_samples=n_steps // every + 2)
+        self.recorder.damping = self.damping_work
+        self.probes = ProbeRecorder(self.problem, self.projection, sc.output.probes_deg,
+                                    n_steps)
+        self.stepper.attach(self.probes)
+
+    def observers(self, output_dir: Path | None) -> list:
+        """The observers of this column before the samples: field output, when the scene
+        asks for it."""
+        self.writer = None
+        if not (self.scene.output.fields and output_dir is not None):
+            return []
+        from stickslip.solver.field_output import FieldOutput
+
+        field_output = FieldOutput(self, Path(output_dir))
+        self.writer = field_output.writer
+        return [field_output]
+
+    def planned_steps(self) -> int:
+        return planned_steps(self.scene, self.dt)
+
+    # ------------------------------------------------------------------ the time loop
+
+    def start(self) -> None:
+        """Before the loop: a compiled loop takes its samples compiled too."""
+        record_sample = self.stepper.compiled_recorder()
+        if record_sample is not None:
+            self.recorder.use_compiled(record_sample)
+
+    def due(self, level: int) -> bool:
+        return self.recorder.due(level)
+
+    def sample(self, stepper) -> dict[int, str]:
+        """Record time level n and run the energy guard on it: {0: message} on a blow-up
+        (the same on every rank: the energies are sums over the ranks)."""
+        kinetic, strain = self.recorder.sample(stepper)
+        message = self._check_health(kinetic, strain)
+        return {0: message} if message else {}
+
+    def _check_health(self, kinetic: float, strain: float) -> str:
+        """NaN check, and an energy bound: a blow-up, not a wave fed by the cylinder.
+
+        The guard of ``solver.errors``: diverged when E > 1e4 E(0) *and*
+        E > 10 (E(0) + W_cylinder(t)). Returns "" or why it diverged.
+        """
+        total = kinetic + strain
+        if not math.isfinite(total):
+            return f"non-finite energy at t = {self.stepper.time:.6g} s"
+        if self.initial_energy is None:
+            self.initial_energy = total
+            self.energy_bound = float(energy_bound(total))
+            return ""
+        fed = self.initial_energy + abs(self.recorder.last_work[1])
+        if blown_up(total, self.energy_bound, fed):
+            return blowup_message(total, fed, self.stepper.time)
+        return ""
+
+    def mask(self, b: int) -> None:
+        """Column b steps no further (the loop ends: it is the only one)."""
+        self.active[b] = False
+
+    def recent_zones(self) -> dict[str, float] | None:
+        """The contact zones' fractions over the recent tenth of the samples."""
+        rec = self.recorder
+        return zone_fractions(rec.recent_status(max(1, rec.n // 10)))
+
+    def agree(self, code: int) -> int:
+        """The largest ``code`` over the ranks (one integer allreduce, no pickling)."""
+        if self.comm.size == 1:
+            return code
+        from mpi4py import MPI
+
+        buf = np.array([code], dtype=np.int32)
+        self.comm.Allreduce(MPI.IN_PLACE, buf, op=MPI.MAX)
+        return int(buf[0])
+
+    def close(self) -> dict[int, str]:
+        """After the loop: nothing is left to check (every sample was)."""
+        return {}
+
+    def finish(self, b: int, run: SceneRun, at_level: bool) -> None:
+        """Column b ended: its checkpoint when it completed at a whole level."""
+        if run.status == "completed" and at_level:
+            run.state = self.checkpoint(b, run)
+
+    def release(self) -> None:
+        """Nothing is held for the finish."""
+
+    # ------------------------------------------------------------------ checkpoint
+
+    def _state_parts(self) -> dict:
+        """The objects whose state a continued run needs, by name: the stepper, the contact
+        step, the contact-work and (damped explicit) damping-work observers."""
+        parts = {"stepper": self.stepper, "contact": self.projection, "energy": self.energy}
+        if self.damping_work is not None:
+            parts["damping"] = self.damping_work
+        return parts
+
+    def checkpoint(self, b: int = 0, run: SceneRun | None = None) -> dict[str, np.ndarray]:
+        """This rank's checkpoint of the column, flat ``{"part/name": array}``: each part's
+        ``state()`` (``_state_parts``: the last level's vectors, the contact statuses, the work
+        sums), and
+        under ``run/`` the energy guard's E(0) and bound, the steady pressure and the counts
+        of samples and probe steps taken. The cadences need nothing: they are fixed levels
+        (``Cadence``) and the step count is the stepper's. The records themselves are the
+        run's samples.npz (``restore``'s ``befores``)."""
+        run = self.runs[b]
+        out = {f"{part}/{key}": value for part, obj in self._state_parts().items()
+               for key, value in obj.state().items()}
+        e0 = math.nan if self.initial_energy is None else self.initial_energy
+        out.update({"run/partition": np.array(self.partition_id()),
+                    "run/initial_energy": np.float64(e0),
+                    "run/energy_bound": np.float64(self.energy_bound),
+                    "run/steady_pressure": np.float64(run.steady_mean_pressure),
+                    "run/samples": np.int64(run.recorder.n),
+                    "run/probe_steps": np.int64(run.probes.n)})
+        return out
+
+    def restore(self, states: list[dict[str, np.ndarray]],
+                befores: list[dict[str, np.ndarray] | None]) -> None:
+        """Continue from ``checkpoint()`` of the same scene on the same ranks (one state:
+        this rank's). ``befores``: the records taken up to the checkpoint (samples.npz, on
+        rank 0; None elsewhere), which the run's records then put in front of the new ones
+        (``solver.observers.ContinuedRecords``)."""
+        from stickslip.solver.observers import ContinuedRecords
+
+        (state,), (before,) = states, befores
+        mine = str(state["run/partition"]) == self.partition_id()
+        if not all(self.comm.allgather(mine)):
+            raise ValueError("the mesh partition differs from the checkpoint's (a partitioner "
+                             "that is not reproducible: is SCOTCH_PTHREAD_NUMBER set above "
+                             "1?); continue with the partition the run had")
+        for part, obj in self._state_parts().items():
+            head = f"{part}/"
+            obj.restore({k[len(head):]: v for k, v in state.items() if k.startswith(head)})
+        e0 = float(state["run/initial_energy"])
+        self.initial_energy = None if math.isnan(e0) else e0
+        self.energy_bound = float(state["run/energy_bound"])
+        run = self.runs[0]
+        run.steady_mean_pressure = float(state["run/steady_pressure"])
+        run.recorder = ContinuedRecords(self.recorder, before, state["run/samples"])
+        run.probes = ContinuedRecords(self.probes, before, state["run/probe_steps"])
+
+    def partition_id(self) -> str:
+        """This rank's part of the mesh, as a hash of its owned nodes' coordinates (sorted):
+        the same on every build of the same partition, whatever the local numbering."""
+        import hashlib
+
+        x = self.problem.V.tabulate_dof_coordinates()[: self.problem.n_owned // 2, :2]
+        ordered = np.ascontiguousarray(x[np.lexsort(x.T)])
+        return hashlib.sha256(ordered.tobytes()).hexdigest()
+
+    def final_field(self, run: SceneRun) -> dict[str, np.ndarray] | None:
+        """Displacement on the whole tube at the end, with the stress and contact tractions
+        of the last completed level n at ``fields_time`` t_n
+        (``solver.field_output.last_level_fields``), gathered to rank 0 (None elsewhere)."""
+        from stickslip.solver.field_output import gather_final_field, last_level_fields
+
+        stepper = self.stepper
+        field = gather_final_field(self.problem, stepper.u, self.comm, stepper.time,
+                                   *last_level_fields(self))
+        if field is not None:
+            field["fields_time"] = np.array(stepper.time - stepper.dt)  # level n
+        return field
