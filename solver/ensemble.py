@@ -41,7 +41,7 @@ import numpy as np
 
 from stickslip.solver.contact.law import SEPARATION, SLIP, STICK, forward_increment_factor
 from stickslip.solver.ensemble_cuda import CUDA_SOURCE
-from stickslip.solver.schemes.protocol import HookedStepper, copy_state, put_state
+from stickslip.solver.schemes.protocol import HookedStepper, copy_state, put_state, to_host
 
 #: The array module of each backend (``solver.schemes.select.BACKENDS`` names its kernel).
 ARRAY_MODULES = {"cpu": "numpy", "gpu": "cupy"}
@@ -270,6 +270,10 @@ class BatchedExplicit(HookedStepper):
         arrays in one transfer each): what ``state`` takes its columns from."""
         return copy_state(self, self._state_names())
 
+    def host_column(self, name: str, b: int) -> np.ndarray:
+        """Scene ``b``'s column of the array ``name`` (u, v_pred, ...), copied to the host."""
+        return np.array(to_host(getattr(self, name)[:, b]))
+
     def state(self, b: int, host: dict[str, np.ndarray] | None = None
               ) -> dict[str, np.ndarray]:
         """Scene ``b``'s checkpoint: its column of every array of ``_state_names`` (of
@@ -355,8 +359,7 @@ class BatchedExplicit(HookedStepper):
 
     def work_totals(self) -> np.ndarray:
         """(3, B) host array: work_contact, work_cylinder, friction_dissipation."""
-        w = self.work_sums()
-        return np.asarray(w.get() if hasattr(w, "get") else w)
+        return np.asarray(to_host(self.work_sums()))
 
     # ------------------------------------------------------------------- Kelvin-Voigt
     def _stiffness(self, u, out) -> None:

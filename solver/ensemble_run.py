@@ -354,8 +354,7 @@ class BatchColumns:
         """Column b ended: its u, its records' counts, and its checkpoint when it completed
         at a whole level (not a masked, diverged scene)."""
         k = self.runs.index(run)
-        u = self.stepper.u[:, b]
-        self.finals[k] = np.array(u.get() if hasattr(u, "get") else u)
+        self.finals[k] = self.stepper.host_column("u", b)
         records, probes = self.members[k]
         records.n = self.recorder.n
         probes.n = self.recorder.n_probe
@@ -417,8 +416,7 @@ class BatchColumns:
         with its default 16 modes, seeds ``seed`` and ``seed + 1``; clamped outside, smooth,
         the contact circle's shape spread through the thickness by eq. [1]). Returns the
         kick's facts (RMS sizes of u, v~, δu, δv)."""
-        u, v = (np.array(a.get() if hasattr(a, "get") else a)  # copies, before the kick
-                for a in (self.stepper.u[:, b], self.stepper.v_pred[:, b]))
+        u, v = (self.stepper.host_column(name, b) for name in ("u", "v_pred"))  # before it
 
         def rms(x: np.ndarray) -> float:
             return float(np.sqrt(np.mean(x**2)))

@@ -317,6 +317,23 @@ def _function(module: str, name: str) -> ast.FunctionDef:
                 if isinstance(node, ast.FunctionDef) and node.name == name)
 
 
+def test_one_run_class_and_one_time_loop():
+    """B ≥ 1 is the only kind of run: in the product, one class advances scenes
+    (``solver.run.Simulation``, the only one with ``proceed`` that calls ``run_loop``), and
+    ``run_loop`` is called nowhere else; the batch's columns are built by it, not beside it."""
+    calls, loop_classes = [], []
+    for name, path in MODULES.items():
+        tree = ast.parse(path.read_text())
+        calls += [name for node in ast.walk(tree) if isinstance(node, ast.Call)
+                  and getattr(node.func, "id", "") == "run_loop"]
+        for cls in (n for n in ast.walk(tree) if isinstance(n, ast.ClassDef)):
+            methods = {f.name for f in cls.body if isinstance(f, ast.FunctionDef)}
+            if "proceed" in methods:
+                loop_classes.append(f"{name}.{cls.name}")
+    assert calls == ["solver.run"], calls
+    assert loop_classes == ["solver.run.Simulation"], loop_classes
+
+
 def test_the_run_command_and_the_api_share_one_run_function():
     """``stickslip run`` and ``stickslip.run`` refuse an aliasing scene and draw the figures
     in one place (``studies.rundir.run_scene``: ``check_sampling``, ``plot``): neither

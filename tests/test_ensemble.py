@@ -626,3 +626,33 @@ def test_checkpoint_layouts_of_the_kernels_convert_both_ways():
     assert "dwork" not in back
     undamped = CudaColumns.totals(CudaColumns.from_totals(dict(state), damped=False), False)
     np.testing.assert_array_equal(undamped["work"], [*totals[:3], 0.0])
+
+
+def test_one_run_class_for_one_scene_and_a_batch():
+    """B ≥ 1 is the only kind of run: ``Simulation(scene)`` (one scene on its ranks, B = 1)
+    and ``Simulation.batch(scenes)`` are one class with one set of observers and a
+    ``SceneRun`` per scene. A blow-up (a start of 1e200 d: non-finite energy at the first
+    sample) masks its column and records it ``diverged`` alone or in a batch, at the same
+    step, with the same message and no checkpoint; the batch's other scene goes on, and a
+    run with no column left ends "diverged"."""
+    from stickslip.solver.columns import SceneRun
+    from stickslip.solver.run import Simulation
+    from stickslip.solver.scene import load_scene
+
+    good = load_scene("scenes/smoke.toml", ["output.progress=false", "time.end_time=0.004"])
+    bad = good.with_overrides("initial.amplitude=1e200")
+    alone, batch = Simulation(bad, SELF), Simulation.batch([good, bad])
+    assert type(alone) is type(batch) is Simulation
+    names = [[type(obs).__name__ for obs in sim.observers] for sim in (alone, batch)]
+    assert names[0] == names[1] == ["Sampling", "ProgressLine", "StopCheck"]
+    assert alone.proceed() == "diverged"
+    assert batch.proceed() == "end_time"
+    lone, member = alone.runs[0], batch.runs[1]
+    for run in (lone, member):
+        assert isinstance(run, SceneRun)
+        assert run.status == "diverged" and run.stop_reason == "" and run.state is None
+        assert run.message.startswith("non-finite energy")
+    assert lone.steps == member.steps and lone.message == member.message
+    assert lone.recorder.n == member.recorder.n == 1
+    assert batch.runs[0].status == "completed" and batch.runs[0].state is not None
+    assert batch.runs[0].sim_time > 0.9 * 0.004

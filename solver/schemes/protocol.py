@@ -89,7 +89,7 @@ class Stepper(Protocol):
 def copy_state(obj, names: tuple[str, ...], clock: bool = False) -> dict[str, np.ndarray]:
     """Host copies of ``obj``'s arrays ``names`` (a device array is copied to the host), and
     with ``clock`` a stepper's ``time`` and ``step_count``: a ``state()``."""
-    out = {name: np.array(_host(getattr(obj, name))) for name in names}
+    out = {name: np.array(to_host(getattr(obj, name))) for name in names}
     if clock:
         out["time"] = np.float64(obj.time)
         out["step_count"] = np.int64(obj.step_count)
@@ -115,8 +115,8 @@ def put_state(obj, state: dict[str, np.ndarray], names: tuple[str, ...]) -> None
         obj.step_count = int(state["step_count"])
 
 
-def _host(array):
-    """A numpy view or copy of a numpy or CuPy array."""
+def to_host(array):
+    """A numpy view or copy of a numpy or CuPy array (a device array is copied)."""
     return array.get() if hasattr(array, "get") else array
 
 
