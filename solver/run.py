@@ -235,20 +235,8 @@ class Simulation:
         return self.runs[0].message
 
     @property
-    def dofs(self) -> int:
-        return self.runs[0].dofs
-
-    @property
-    def ranks(self) -> int:
-        return self.runs[0].ranks
-
-    @property
     def steps(self) -> int:
         return self.runs[0].steps
-
-    @property
-    def sim_time(self) -> float:
-        return self.runs[0].sim_time
 
     def facts(self) -> dict:
         """What run 0 did (rank 0): status, steps, dt, dofs, ranks, scheme. No analysis."""

@@ -110,6 +110,8 @@ def test_bundle_on_the_emulated_gpu_gives_the_command_census(tmp_path, monkeypat
     # the GPU's checkpoints go on here, on the CPU (no CuPy): the same dynamics' bits
     assert main(answer) == 0
     assert "settle: continuing 3" in capsys.readouterr().out
+    log = (census / "settle-rank0.log").read_text()  # the continuations' own lines
+    assert "3 checkpoint(s) of the gpu backend continue on the cpu" in log
     assert main([*ARGS, "--max-time", "0.03", "-o", str(reference)]) == 0
     assert _rows(census) == _rows(reference)
     for run in (reference / "starts" / "runs").iterdir():

@@ -256,12 +256,19 @@ def continue_batch(run_dirs: list[str | Path], until: float,
                                "checkpoint)", "kick a member of a batch")
     summaries: list[dict] = [{} for _ in dirs]
     groups: dict[tuple, list[int]] = {}
+    moved: dict[tuple[str, str], int] = {}  # (checkpoint's backend, this one's): runs
     for i, plan in enumerate(plans):
         meta = plan.checkpoint.meta
         if plan.kind == "batch":
-            key = (meta["step"], continuing_backend(meta["backend"]),
-                   batch_key(plan.scene))
+            here = continuing_backend(meta["backend"])
+            key = (meta["step"], here, batch_key(plan.scene))
             groups.setdefault(key, []).append(i)
+            if here != meta["backend"]:
+                moved[meta["backend"], here] = moved.get((meta["backend"], here), 0) + 1
+    for (there, here), n in moved.items():
+        print(f"{n} checkpoint(s) of the {there} backend continue on the {here} (no CUDA "
+              "device here): the same dynamics, bit for bit; the summaries' batch.backend "
+              f"says {here}", file=sys.stdout if stream is None else stream, flush=True)
     for i, plan in enumerate(plans):
         if plan.kind != "batch":
             summaries[i] = continue_run(dirs[i], until, outs[i], force=force, comm=comm,
