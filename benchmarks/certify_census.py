@@ -7,7 +7,7 @@ celerity tolerance ``CELERITY_TOL``). For every wave member this script
 
 1. reruns the member's first random start (lowest seed) as one ``stickslip run`` on the CPU,
    the same scene, mesh, start and end time (the start is rebuilt from its seed by
-   ``solver.run.initial_perturbation``), and classifies it with ``classify.start_row``: its
+   ``solver.columns.initial_perturbation``), and classifies it with ``classify.start_row``: its
    class, member and celerity next to the census row's (relative difference);
 2. certifies that run with ``studies.attractors.certify.certify``: the direct solver's wave at
    the run's step (residual, difference to the transient), its Δt → 0 value on that mesh and

@@ -18,6 +18,8 @@ from stickslip.solver.contact.law import (  # the law's codes, frozen at compile
 )
 
 U1, U2, U3 = np.uint64(1), np.uint64(2), np.uint64(3)  # unsigned offsets: no wrap-around test
+# Why two batched steps (same arithmetic, same bits): register passes win for short batches,
+# B-long vector loops for long ones (``batched_kernel_name``, measured below).
 #: nodes per block of ``batched_step``: its scratch ``acc`` is (2 NODE_BLOCK, B) at least,
 #: (4 NODE_BLOCK, B) with damping (K w_n of the block from row KW_ROW on)
 NODE_BLOCK = 32

@@ -78,8 +78,8 @@ class SceneRun:
         return run_facts(self, scheme)
 
     def final_field(self) -> dict[str, np.ndarray] | None:
-        """The final field of this scene (rank 0; ``solver.run.gather_final_field``), or None
-        where its columns hold no dolfinx problem."""
+        """The final field of this scene (rank 0; ``solver.field_output.gather_final_field``),
+        or None where its columns hold no dolfinx problem."""
         return self.columns.final_field(self)
 
     def fail(self, status: str = "failed") -> None:

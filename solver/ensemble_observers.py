@@ -249,7 +249,7 @@ class _Record:
 
 
 class BatchRecorder:
-    """The observers of ``solver.run.Simulation`` for a batch, scene by scene.
+    """The records of a batch's columns (``solver.ensemble_run.BatchColumns``), scene by scene.
 
     Samples (every ``every`` steps, time level n): u_r, u_theta, v_r, v_theta, r_r, r_theta
     and the status at the contact nodes in angle order ``perm``, the energies (kinetic,
@@ -426,7 +426,7 @@ class BatchRecorder:
 
     def check_health(self, kin: np.ndarray, strain: np.ndarray, w_cyl: np.ndarray,
                      time_now: float) -> dict[int, str]:
-        """``Simulation._check_health`` for every active scene: {b: message} of new blow-ups."""
+        """``SceneColumn._check_health`` for every active scene: {b: message} of new blow-ups."""
         total = kin + strain
         active = self.integ.active & ~self.flagged
         finite = np.isfinite(total)

@@ -37,6 +37,7 @@ from stickslip.solver.contact import ContactLaw
 from stickslip.solver.ensemble import BatchedProblem
 from stickslip.solver.observers import ContinuedRecords, Progress
 from stickslip.solver.scene import Scene
+from stickslip.solver.schemes.protocol import BatchStepper
 
 __all__ = ["BatchColumns", "BatchLayout", "BatchOptions", "BatchStarts", "BuiltProblem"]
 
@@ -209,7 +210,8 @@ class BatchColumns:
             self.live = list(range(len(scenes)))
             for run, p in zip(self.runs, starts.steady_pressure, strict=True):
                 run.steady_mean_pressure = float(p)
-        self.stepper = self.recorder = None
+        self.stepper: BatchStepper | None = None
+        self.recorder = None
         self.spool_dir: Path | None = None
         self.active = np.zeros(0, dtype=bool)
         self.progress = Progress(0.0, False)  # a batch's progress is its caller's to say

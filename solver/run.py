@@ -23,14 +23,8 @@ from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 
-from stickslip.solver.columns import (  # noqa: F401  (initial_perturbation, random_bump:
-    Profile,  # the starts' shapes, re-exported for scripts)
-    SceneRun,
-    initial_perturbation,
-    planned_steps,
-    random_bump,
-)
-from stickslip.solver.errors import StepTooLarge  # noqa: F401  (re-exported for scripts)
+from stickslip.solver.columns import Profile, SceneRun
+from stickslip.solver.errors import StepTooLarge
 from stickslip.solver.observers import Cadence, Observer
 from stickslip.solver.scene import Scene
 from stickslip.solver.schemes.protocol import Stepper
@@ -40,8 +34,8 @@ if TYPE_CHECKING:  # mpi4py is imported where a run uses it: ``run_loop`` runs w
 
     from stickslip.solver.ensemble_run import BatchOptions
 
-__all__ = ["Columns", "Profile", "Simulation", "initial_perturbation", "planned_steps",
-           "random_bump", "run_loop"]
+#: ``Profile`` and ``StepTooLarge`` are re-exported: a script's run needs no other import
+__all__ = ["Columns", "Profile", "Simulation", "StepTooLarge", "run_loop"]
 
 
 class Columns(Protocol):

@@ -207,6 +207,21 @@ def _is_scene_choice(part: ast.AST) -> bool:
                  or (isinstance(part.value, ast.Name) and part.value.id == "ts")))
 
 
+def _names_a_kernel(part: ast.AST) -> bool:
+    """``kernel``, ``x.backend``, ``meta["kernel"]``, ``facts.get("kernel")``: a value that
+    names a kernel or a backend, whatever it is compared with."""
+    words = ("kernel", "backend")
+    if isinstance(part, ast.Name | ast.Attribute):
+        return _last_name(part) in words
+    if isinstance(part, ast.Subscript):
+        return isinstance(part.slice, ast.Constant) and part.slice.value in words
+    if isinstance(part, ast.Call) and isinstance(part.func, ast.Attribute) and part.args:
+        first = part.args[0]
+        return part.func.attr == "get" and isinstance(first, ast.Constant) \
+            and first.value in words
+    return False
+
+
 def _last_name(node: ast.AST) -> str:
     """``stepper`` for ``stepper``, ``self.stepper`` or ``batch.stepper``."""
     if isinstance(node, ast.Attribute):
@@ -218,7 +233,9 @@ def _scheme_decisions(tree: ast.AST, array_strategy: bool = False) -> list[str]:
     """Decisions on a scene's scheme, kernel or backend, and duck-typed steppers:
 
     * a comparison reading ``<x>.time.beta1``, ``ts.beta1`` or ``<x>.time.kernel``;
-    * an (in)equality with a kernel's or a backend's name (``KERNEL_NAMES``);
+    * an (in)equality with a kernel's or a backend's name (``KERNEL_NAMES``), or of a value
+      that names one (``_names_a_kernel``; the array strategy compares a checkpoint's kernel
+      with its own, to adopt the other's layout);
     * ``xp is np`` / ``xp is not np`` (unless ``array_strategy``);
     * a call of ``resolve_kernel``;
     * ``getattr``/``hasattr`` on a stepper (``STEPPER_NAMES``) or asking for what only a
@@ -232,7 +249,8 @@ def _scheme_decisions(tree: ast.AST, array_strategy: bool = False) -> list[str]:
             if any(_is_scene_choice(part) for part in parts):
                 found.append(f"line {node.lineno}: compares {text}")
             elif (isinstance(node.ops[0], ast.Eq | ast.NotEq)
-                  and any(isinstance(part, ast.Constant) and part.value in KERNEL_NAMES
+                  and any((isinstance(part, ast.Constant) and part.value in KERNEL_NAMES)
+                          or (_names_a_kernel(part) and not array_strategy)
                           for part in parts)):
                 found.append(f"line {node.lineno}: compares with a kernel: {text}")
             elif (not array_strategy and isinstance(node.ops[0], ast.Is | ast.IsNot)
@@ -276,9 +294,11 @@ def test_the_checker_sees_kernel_branches_and_duck_typing():
            "k = 1 if getattr(stepper, 'kernel', 'numpy') == 'numba' else 0\n"
            "if hasattr(self.integrator, 'damped'):\n    pass\n"
            "if xp is not np:\n    pass\n"
-           "if scene.time.beta1 > 0.0:\n    pass\n")
+           "if scene.time.beta1 > 0.0:\n    pass\n"
+           "if meta['backend'] != here:\n    pass\n"
+           "if sim.stepper.facts().get('kernel', '') != kernel:\n    pass\n")
     hits = _scheme_decisions(ast.parse(src))
-    assert len(hits) == 6, hits  # the ternary holds two: the getattr and the comparison
+    assert len(hits) == 8, hits  # the ternary holds two: the getattr and the comparison
     assert not _scheme_decisions(ast.parse("if xp is np:\n    pass\n"), array_strategy=True)
 
 
@@ -361,6 +381,8 @@ def test_every_scheme_follows_the_stepper_protocol():
         for method in ("set_state", "step", "advance", "facts", "attach", "state", "restore",
                        "compiled_recorder"):
             assert callable(getattr(cls, method, None)), f"{cls.__name__}.{method}"
+    for method in ("keep_nodes", "mask", "host_state", "kick", "host_column"):  # BatchStepper
+        assert callable(getattr(BatchedExplicit, method, None)), method
     import numpy as np
 
     stepper = Newmark(lambda u, out: np.multiply(u, 1.0, out=out), np.ones(4), 0.1)

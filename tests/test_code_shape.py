@@ -24,9 +24,9 @@ MAX_LINES = 80
 KERNELS = {
     # numba @njit: one explicit Newmark step with the contact projection at the contact nodes
     ("solver/_fused_kernels.py", "single_step"),
-    # numba @njit(parallel): the batched step of B scenes (one column per scene)
+    # numba @njit: the batched step of B scenes (one column per scene), 4-scene passes
     ("solver/_fused_kernels.py", "batched_step"),
-    # numba @njit(parallel): many batched steps in one compiled call
+    # numba @njit: the same step in B-long vector loops (a long batch; the same bits)
     ("solver/_fused_kernels.py", "batched_step_long"),
 }
 

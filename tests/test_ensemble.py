@@ -638,11 +638,13 @@ def test_one_run_class_for_one_scene_and_a_batch():
     from stickslip.solver.columns import SceneRun
     from stickslip.solver.run import Simulation
     from stickslip.solver.scene import load_scene
+    from stickslip.solver.schemes.protocol import BatchStepper, Stepper
 
     good = load_scene("scenes/smoke.toml", ["output.progress=false", "time.end_time=0.004"])
     bad = good.with_overrides("initial.amplitude=1e200")
     alone, batch = Simulation(bad, SELF), Simulation.batch([good, bad])
     assert type(alone) is type(batch) is Simulation
+    assert isinstance(alone.stepper, Stepper) and isinstance(batch.stepper, BatchStepper)
     names = [[type(obs).__name__ for obs in sim.observers] for sim in (alone, batch)]
     assert names[0] == names[1] == ["Sampling", "ProgressLine", "StopCheck"]
     assert alone.proceed() == "diverged"

@@ -67,15 +67,15 @@ def test_filtered_projection_keeps_normal_step_and_uses_filtered_bound():
 def test_prakash_clifton_relaxes_towards_the_filtered_pressure():
     """Composition: sigma_eff relaxes towards p~ (not p). With L -> 0 (exp(-rate dt) = 0)
     the regularised filtered law is the filtered Coulomb law bit for bit."""
-    from stickslip.solver.contact import EffectivePressure
+    from stickslip.solver.contact import EffectivePressure, PrakashClifton
 
     rng = np.random.default_rng(7)
     n, kappa, d, slide, f = 300, 1e-9, 1e-3, 1e-4, 0.7
     mass = rng.uniform(1, 2, n)
     a, b = ContactArrays(n), ContactArrays(n)
     fa, fb = NeighbourFilter(np.arange(n), n), NeighbourFilter(np.arange(n), n)
-    eff = EffectivePressure(n, "prakash-clifton", 1e-6, slip_length=1e-300,
-                            reference_velocity=1.0)
+    eff = EffectivePressure(n, PrakashClifton(slip_length=1e-300, reference_velocity=1.0),
+                            1e-6)
     for _ in range(4):
         ur = d + rng.normal(scale=1e-4, size=n)
         ut_prev = rng.normal(scale=1e-4, size=n)

@@ -12,8 +12,10 @@ from stickslip.solver.contact import (
     SEPARATION,
     SLIP,
     STICK,
+    ConstantTime,
     ContactArrays,
     EffectivePressure,
+    PrakashClifton,
     project_contact,
     project_contact_regularized,
     relax_effective_pressure,
@@ -37,7 +39,7 @@ def test_relaxation_is_exact_for_a_frozen_rate_at_any_step():
 def test_prakash_clifton_rate_uses_the_slip_rate_of_the_last_step():
     """rate = (|V| + V*)/L with V = (du_theta - R Omega dt)/dt; constant-time: 1/t*."""
     n, dt, L, v_ref, slide = 4, 1e-5, 1e-4, 0.5, 5e-4
-    eff = EffectivePressure(n, "prakash-clifton", dt, slip_length=L, reference_velocity=v_ref)
+    eff = EffectivePressure(n, PrakashClifton(slip_length=L, reference_velocity=v_ref), dt)
     out = ContactArrays(n)
     out.in_contact[:] = True
     p = np.ones(n)
@@ -54,7 +56,7 @@ def test_prakash_clifton_rate_uses_the_slip_rate_of_the_last_step():
     out.in_contact[1] = False  # no friction bound without contact, whatever sigma is
     eff.update(p2, u_t, slide, 0.7, out)
     assert out.cone[1] == 0.0 and eff.sigma[1] > 0.0
-    ct = EffectivePressure(n, "constant-time", dt, relaxation_time=3e-5)
+    ct = EffectivePressure(n, ConstantTime(relaxation_time=3e-5), dt)
     assert np.allclose(ct.rate, 1 / 3e-5)
 
 
@@ -65,8 +67,8 @@ def test_short_slip_length_is_exactly_coulomb():
     n, kappa, d, slide, f = 400, 1e-9, 1e-3, 1e-4, 0.7
     mass = rng.uniform(1, 2, n)
     a, b = ContactArrays(n), ContactArrays(n)
-    eff = EffectivePressure(n, "prakash-clifton", 1e-6, slip_length=1e-300,
-                            reference_velocity=1.0)
+    eff = EffectivePressure(n, PrakashClifton(slip_length=1e-300, reference_velocity=1.0),
+                            1e-6)
     for _ in range(5):
         ur = d + rng.normal(scale=1e-4, size=n)
         ut_prev = rng.normal(scale=1e-4, size=n)

@@ -64,6 +64,11 @@ class SpatialFilter(Enum):
     """p~_i = in_contact_i (p_{i-1} + 2 p_i + p_{i+1}) / 4 along the circle
     (``solver.contact.nodal.NeighbourFilter``; docs/friction_filter.md)."""
 
+    @property
+    def weights(self) -> tuple[float, float, float] | None:
+        """(w_{i-1}, w_i, w_{i+1}) of the neighbours' pressures in p~_i; None: p_i alone."""
+        return None if self is SpatialFilter.NODAL else (0.25, 0.5, 0.25)
+
 
 @dataclass(frozen=True)
 class Regularisation:
@@ -85,6 +90,11 @@ class Regularisation:
     def rates(self, dt: float) -> tuple[float, float]:
         """(rate_slip, rate_base) at step ``dt`` (see the class docstring)."""
         return 0.0, 0.0
+
+    def linearised_time(self, slip_speed: float) -> float:
+        """t*: the relaxation time linearised about steady sliding at ``slip_speed`` |V|
+        [m/s] (the perturbation of |V| multiplies sigma_eff - p = 0 there); 0: none."""
+        return 0.0
 
 
 @dataclass(frozen=True)
@@ -110,6 +120,10 @@ class PrakashClifton(Regularisation):
         """(1 / (dt L), V* / L)."""
         return 1.0 / (dt * self.slip_length), self.reference_velocity / self.slip_length
 
+    def linearised_time(self, slip_speed: float) -> float:
+        """t* = L / (|V| + V*)."""
+        return self.slip_length / (slip_speed + self.reference_velocity)
+
 
 @dataclass(frozen=True)
 class ConstantTime(Regularisation):
@@ -124,6 +138,10 @@ class ConstantTime(Regularisation):
     def rates(self, dt: float) -> tuple[float, float]:
         """(0, 1 / t*)."""
         return 0.0, 1.0 / self.relaxation_time
+
+    def linearised_time(self, slip_speed: float) -> float:
+        """t*, whatever |V|."""
+        return self.relaxation_time
 
 
 #: The regularisations by their scene name (``friction.regularization``; "none" is "").

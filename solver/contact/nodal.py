@@ -29,13 +29,10 @@ from __future__ import annotations
 import numpy as np
 
 from stickslip.solver.contact.law import (
-    REGULARISATIONS,
     SEPARATION,
     SLIP,
     STICK,
-    Instantaneous,
     Regularisation,
-    regularisation_of,
 )
 
 
@@ -148,16 +145,9 @@ class EffectivePressure:
     steady sliding is a fixed point. All arrays are allocated once.
     """
 
-    def __init__(self, n: int, kind: str | Regularisation, dt: float,
-                 slip_length: float = 0.0, reference_velocity: float = 0.0,
-                 relaxation_time: float = 0.0) -> None:
-        reg = kind
-        if not isinstance(kind, Regularisation):
-            known = REGULARISATIONS.get(kind, Instantaneous)
-            reg = regularisation_of(known.name, slip_length, reference_velocity,
-                                    relaxation_time)
+    def __init__(self, n: int, reg: Regularisation, dt: float) -> None:
         if reg.code == 0:
-            raise ValueError(f"friction.regularization = {kind!r}: not a regularised law")
+            raise ValueError(f"{type(reg).__name__}: not a regularised law")
         self.regularisation, self.dt = reg, dt
         # rate = |V dt| rate_slip + rate_base (``Regularisation``); a slip-independent rate
         # (rate_slip = 0) is set once, a slip-dependent one at each update

@@ -6,6 +6,7 @@ import math
 from dataclasses import dataclass
 from typing import ClassVar
 
+from stickslip.solver.contact.law import REGULARISATIONS, SpatialFilter
 from stickslip.solver.scene.values import (
     SCENES_DIR,
     SceneError,
@@ -313,8 +314,9 @@ class Damping(_Section):
 
 
 FIELD_FORMATS = ("vtx", "xdmf")
-REGULARIZATIONS = ("none", "prakash-clifton", "constant-time")
-FRICTION_FILTERS = ("nodal", "1-2-1")
+#: The scene names of the friction bound's typed parts (``solver.contact.law``).
+REGULARIZATIONS = ("none", *(name for name in REGULARISATIONS if name))
+FRICTION_FILTERS = tuple(kind.value for kind in SpatialFilter)
 
 
 @dataclass(frozen=True)

@@ -23,7 +23,8 @@ from typing import Protocol, runtime_checkable
 
 import numpy as np
 
-__all__ = ["Stepper", "StepHook", "HookedStepper", "copy_state", "put_state"]
+__all__ = ["BatchStepper", "Stepper", "StepHook", "HookedStepper", "copy_state", "put_state",
+           "to_host"]
 
 
 @runtime_checkable
@@ -41,8 +42,6 @@ class Stepper(Protocol):
     dt: float
     time: float
     step_count: int
-    kernel: str
-    """The step's kernel as the summary names it ("numpy", "numba", "numba", "cuda", "xp")."""
     damped: bool
     """Kelvin-Voigt damping is on (the damping work is observed)."""
     u: np.ndarray
@@ -52,14 +51,10 @@ class Stepper(Protocol):
     v: np.ndarray
     ku: np.ndarray
 
-    @property
-    def compiled_loop(self) -> bool:
-        """``advance`` runs its steps as one compiled call (the samples then too:
-        ``compiled_recorder``)."""
-
     def compiled_recorder(self):
-        """The compiled sample recorder of a stepper whose ``compiled_loop`` holds, else
-        None (``solver.observers.InnerCircleRecorder.use_compiled``)."""
+        """The compiled sample recorder of a stepper whose ``advance`` runs its steps as one
+        compiled call (the samples then too), else None
+        (``solver.observers.InnerCircleRecorder.use_compiled``)."""
 
     def attach(self, hook: StepHook) -> None:
         """Call ``hook.after_step(self)`` after every step taken by ``advance``."""
@@ -84,6 +79,36 @@ class Stepper(Protocol):
 
     def restore(self, state: dict[str, np.ndarray]) -> None:
         """Take up ``state`` (of ``state()``, same scene and ranks) after ``set_state``."""
+
+
+@runtime_checkable
+class BatchStepper(Protocol):
+    """B scenes' columns (n, B) stepped as one (``solver.ensemble.BatchedExplicit``), as a
+    batch's columns see them (``solver.ensemble_run.BatchColumns``) besides the time loop's
+    ``advance``, ``time`` and ``step_count``: the columns still stepped, where the records
+    live, and checkpoints, kicks and host copies per column (b)."""
+
+    B: int
+    m: int
+    """Contact nodes."""
+    active: np.ndarray
+    """(B,) bool: the columns still stepped (``mask`` clears one)."""
+    host_records: bool
+    """The records can stay whole in host memory (a CPU's arrays), else spooled in chunks."""
+    full_state_at: object
+    """level -> bool: the levels whose v, a and K u a sample reads (others step lean)."""
+
+    def set_state(self, u: np.ndarray, v: np.ndarray) -> None: ...
+    def attach(self, hook: StepHook) -> None: ...
+    def keep_nodes(self, nodes: np.ndarray) -> None: ...
+    def mask(self, b: int) -> None: ...
+    def host_state(self) -> dict[str, np.ndarray]: ...
+    def state(self, b: int, host: dict[str, np.ndarray] | None = None
+              ) -> dict[str, np.ndarray]: ...
+    def restore(self, states: list[dict[str, np.ndarray]]) -> None: ...
+    def kick(self, b: int, du: np.ndarray, dv: np.ndarray) -> None: ...
+    def host_column(self, name: str, b: int) -> np.ndarray: ...
+    def facts(self) -> dict: ...
 
 
 def copy_state(obj, names: tuple[str, ...], clock: bool = False) -> dict[str, np.ndarray]:

@@ -289,6 +289,30 @@ def continuing_backend(backend: str) -> str:
     return backend
 
 
+def moved_backends(backends: list[str]) -> list[str]:
+    """One line per backend whose batch checkpoints (``backends``, one per run) go on
+    elsewhere (``continuing_backend``): how many, from where to where."""
+    moved: dict[tuple[str, str], int] = {}
+    for there in backends:
+        here = continuing_backend(there)
+        if here != there:
+            moved[there, here] = moved.get((there, here), 0) + 1
+    return [f"{n} checkpoint(s) of the {there} backend continue on the {here} (no CUDA "
+            f"device here): the same dynamics, bit for bit; the summaries' batch.backend "
+            f"says {here}" for (there, here), n in moved.items()]
+
+
+def check_continuing_kernel(kernel: str, stepper) -> None:
+    """A one-scene run continues bitwise only with the kernel it stepped with (its
+    checkpoint's ``kernel``, "" for the implicit scheme): ValueError naming the fix when the
+    ``stepper`` built here for its scene runs another."""
+    built = stepper.facts().get("kernel", "")
+    if built != kernel:
+        raise ValueError(f"the run stepped with the {kernel or 'implicit'} kernel, this "
+                         f"machine builds {built or 'implicit'} for its scene: install "
+                         "the same (python3-numba) to continue it bitwise")
+
+
 def make_explicit(problem, scene: Scene, dt: float):
     """The numpy explicit stepper of ``scene`` (``explicit_stepper``)."""
     return explicit_stepper(problem, dt, scene.time.beta2, scene.damping.tau)

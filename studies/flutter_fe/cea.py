@@ -46,6 +46,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from stickslip.solver.contact import ContactLaw, SpatialFilter
+
 if TYPE_CHECKING:
     from petsc4py import PETSc
 
@@ -103,7 +105,8 @@ class CEAOperators:
                 m.destroy()
 
 
-FRICTION_FILTERS = {"nodal": None, "1-2-1": (0.25, 0.5, 0.25)}
+#: The friction filters by their scene name, and their weights (``SpatialFilter``).
+FRICTION_FILTERS = {kind.value: kind.weights for kind in SpatialFilter}
 
 
 def _friction_rows(K: PETSc.Mat, nd: Any, weights: tuple[float, float, float]) -> PETSc.Mat:
@@ -798,13 +801,8 @@ def friction_relaxation_time(scene: Any) -> float:
     (0: Coulomb). Prakash–Clifton ``dσ/dt = −(|V| + V*)/L (σ − p)`` with the steady slip rate
     ``|V| = R|Ω|`` (the perturbation of ``|V|`` multiplies ``σ − p = 0``): ``t* = L/(R|Ω| +
     V*)``; constant-time: ``t* = relaxation_time``."""
-    fr = scene.friction
-    if fr.regularization == "prakash-clifton":
-        speed = scene.geometry.R * abs(scene.loading.omega)
-        return fr.slip_length / (speed + fr.reference_velocity)
-    if fr.regularization == "constant-time":
-        return fr.relaxation_time
-    return 0.0
+    law = ContactLaw.from_scene(scene, 1.0)  # the bound's law; the step does not enter t*
+    return law.regularisation.linearised_time(abs(law.surface_speed))
 
 
 def unrepresented_terms(t_star: float, mass: str = "lumped", ranks: int = 1) -> str | None:

@@ -188,11 +188,9 @@ def continue_run(run_dir: str | Path, until: float, out_dir: str | Path | None =
     kernel = comm.bcast(plan.checkpoint.meta["kernel"] if plan is not None else None, root=0)
 
     def resume(sim) -> None:  # noqa: ANN001 - a solver.run.Simulation
-        built = sim.integrator.facts().get("kernel", "")
-        if built != kernel:
-            raise ValueError(f"the run stepped with the {kernel or 'implicit'} kernel, this "
-                             f"machine builds {built or 'implicit'} for its scene: install "
-                             "the same (python3-numba) to continue it bitwise")
+        from stickslip.solver.schemes.select import check_continuing_kernel
+
+        check_continuing_kernel(kernel, sim.stepper)
         try:
             sim.restore([state], [before])
         except KeyError as err:  # every key is written by this format: an edited file
@@ -240,7 +238,7 @@ def continue_batch(run_dirs: list[str | Path], until: float,
             before any starts).
         ValueError: a kick without ``out_dirs``.
     """
-    from stickslip.solver.schemes.select import continuing_backend
+    from stickslip.solver.schemes.select import continuing_backend, moved_backends
     from stickslip.studies.sweep.batch import batch_key
 
     comm = MPI.COMM_SELF
@@ -256,19 +254,15 @@ def continue_batch(run_dirs: list[str | Path], until: float,
                                "checkpoint)", "kick a member of a batch")
     summaries: list[dict] = [{} for _ in dirs]
     groups: dict[tuple, list[int]] = {}
-    moved: dict[tuple[str, str], int] = {}  # (checkpoint's backend, this one's): runs
     for i, plan in enumerate(plans):
         meta = plan.checkpoint.meta
         if plan.kind == "batch":
-            here = continuing_backend(meta["backend"])
-            key = (meta["step"], here, batch_key(plan.scene))
+            key = (meta["step"], continuing_backend(meta["backend"]),
+                   batch_key(plan.scene))
             groups.setdefault(key, []).append(i)
-            if here != meta["backend"]:
-                moved[meta["backend"], here] = moved.get((meta["backend"], here), 0) + 1
-    for (there, here), n in moved.items():
-        print(f"{n} checkpoint(s) of the {there} backend continue on the {here} (no CUDA "
-              "device here): the same dynamics, bit for bit; the summaries' batch.backend "
-              f"says {here}", file=sys.stdout if stream is None else stream, flush=True)
+    for line in moved_backends([p.checkpoint.meta["backend"] for p in plans
+                                if p.kind == "batch"]):
+        print(line, file=sys.stdout if stream is None else stream, flush=True)
     for i, plan in enumerate(plans):
         if plan.kind != "batch":
             summaries[i] = continue_run(dirs[i], until, outs[i], force=force, comm=comm,
