@@ -86,6 +86,8 @@ class Regularisation:
     """The kernels' code of the bound (0: f p)."""
     compiled: ClassVar[bool] = False
     """The fused and batched kernels implement it (``ContactLaw.kernel_bound``)."""
+    required: ClassVar[dict[str, tuple[str, str]]] = {}
+    """The parameters it needs > 0 (scene keys of ``[friction]``): (unit, why)."""
 
     def rates(self, dt: float) -> tuple[float, float]:
         """(rate_slip, rate_base) at step ``dt`` (see the class docstring)."""
@@ -115,6 +117,9 @@ class PrakashClifton(Regularisation):
     name: ClassVar[str] = "prakash-clifton"
     code: ClassVar[int] = 1
     compiled: ClassVar[bool] = True
+    required: ClassVar[dict[str, tuple[str, str]]] = {
+        "slip_length": ("m", ""),
+        "reference_velocity": ("m/s", " (it keeps the relaxation finite at zero slip rate)")}
 
     def rates(self, dt: float) -> tuple[float, float]:
         """(1 / (dt L), V* / L)."""
@@ -134,6 +139,7 @@ class ConstantTime(Regularisation):
     name: ClassVar[str] = "constant-time"
     code: ClassVar[int] = 2
     compiled: ClassVar[bool] = True
+    required: ClassVar[dict[str, tuple[str, str]]] = {"relaxation_time": ("s", "")}
 
     def rates(self, dt: float) -> tuple[float, float]:
         """(0, 1 / t*)."""

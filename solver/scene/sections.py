@@ -367,17 +367,11 @@ class Friction(_Section):
                  self.reference_velocity >= 0, "reference_velocity >= 0 (m/s)")
         _require(self._key("relaxation_time"), self.relaxation_time,
                  self.relaxation_time >= 0, "relaxation_time >= 0 (s)")
-        if self.regularization == "prakash-clifton":
-            _require(self._key("slip_length"), self.slip_length, self.slip_length > 0,
-                     'slip_length > 0 (m) with regularization = "prakash-clifton"')
-            _require(self._key("reference_velocity"), self.reference_velocity,
-                     self.reference_velocity > 0,
-                     'reference_velocity > 0 (m/s) with regularization = "prakash-clifton" '
-                     "(it keeps the relaxation finite at zero slip rate)")
-        if self.regularization == "constant-time":
-            _require(self._key("relaxation_time"), self.relaxation_time,
-                     self.relaxation_time > 0,
-                     'relaxation_time > 0 (s) with regularization = "constant-time"')
+        variant = REGULARISATIONS["" if self.regularization == "none" else self.regularization]
+        for key, (unit, why) in variant.required.items():  # the variant's own parameters
+            value = getattr(self, key)
+            _require(self._key(key), value, value > 0, f"{key} > 0 ({unit}) with "
+                     f'regularization = "{self.regularization}"{why}')
 
 
 @dataclass(frozen=True)
