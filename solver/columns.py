@@ -48,8 +48,10 @@ class SceneRun:
     freezes them (a masked, diverged column stops there, as it would alone; a scene whose set-up
     failed is frozen at step 0)."""
 
-    def __init__(self, scene: Scene, columns, problem, dofs: int, ranks: int) -> None:
+    def __init__(self, scene: Scene, columns, problem, dofs: int, ranks: int,
+                 index: int = 0) -> None:
         self.scene, self.columns, self.problem = scene, columns, problem
+        self.index = index  # its place in the run's ``runs``
         self.comm = columns.comm
         self.dt, self.dt_crit, self.omega_max = columns.dt, columns.dt_crit, columns.omega_max
         self.dofs, self.ranks = dofs, ranks

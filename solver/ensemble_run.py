@@ -206,7 +206,8 @@ class BatchColumns:
             self.layout, starts = options.prepared
             self.dt = self.layout.problem.dt
             self.dt_crit, self.omega_max = self.layout.dt_crit, self.layout.omega_max
-            self.runs = [SceneRun(sc, self, None, self.layout.dofs, 1) for sc in scenes]
+            self.runs = [SceneRun(sc, self, None, self.layout.dofs, 1, k)
+                         for k, sc in enumerate(scenes)]
             self.live = list(range(len(scenes)))
             for run, p in zip(self.runs, starts.steady_pressure, strict=True):
                 run.steady_mean_pressure = float(p)
@@ -243,8 +244,8 @@ class BatchColumns:
             self.problem, self.omega_max = built.problem, built.omega_max
             self.dt, self.dt_crit = built.dt, built.dt_crit
         dofs = int(self.problem.n_global_dofs)
-        self.runs = [SceneRun(sc, self, replace(self.problem, scene=sc), dofs, 1)
-                     for sc in scenes]
+        self.runs = [SceneRun(sc, self, replace(self.problem, scene=sc), dofs, 1, k)
+                     for k, sc in enumerate(scenes)]
         self.live: list[int] = []  # runs in the batch, in column order
         if resumed:
             self.live = list(range(len(scenes)))
@@ -355,13 +356,13 @@ class BatchColumns:
     def finish(self, b: int, run: SceneRun, at_level: bool) -> None:
         """Column b ended: its u, its records' counts, and its checkpoint when it completed
         at a whole level (not a masked, diverged scene)."""
-        k = self.runs.index(run)
-        self.finals[k] = self.stepper.host_column("u", b)
-        records, probes = self.members[k]
+        records, probes = self.members[run.index]
         records.n = self.recorder.n
         probes.n = self.recorder.n_probe
         if run.status == "completed" and at_level:
-            run.state = self.checkpoint(b, run)
+            run.state = self.checkpoint(b, run)  # from the one host copy of the batch
+        self.finals[run.index] = self.stepper.host_column("u", b) if run.state is None \
+            else run.state["stepper/u"]
 
     def release(self) -> None:
         """Drop the host copy of the batch's state that the finish used."""
@@ -373,7 +374,7 @@ class BatchColumns:
             return None
         from stickslip.solver.field_output import gather_final_field
 
-        return gather_final_field(run.problem, self.finals[self.runs.index(run)], self.comm,
+        return gather_final_field(run.problem, self.finals[run.index], self.comm,
                                   run.sim_time)
 
     # ------------------------------------------------------------------ checkpoint

@@ -73,6 +73,7 @@ class SceneColumn:
         self.progress = Progress(scene.time.end_time, scene.output.progress and comm.rank == 0)
         self.initial_energy: float | None = None
         self.energy_bound = math.inf
+        self._stop_code = np.zeros(1, dtype=np.int32)  # reused by ``agree``'s Allreduce
 
     @property
     def every(self) -> int:
@@ -179,9 +180,9 @@ class SceneColumn:
             return code
         from mpi4py import MPI
 
-        buf = np.array([code], dtype=np.int32)
-        self.comm.Allreduce(MPI.IN_PLACE, buf, op=MPI.MAX)
-        return int(buf[0])
+        self._stop_code[0] = code
+        self.comm.Allreduce(MPI.IN_PLACE, self._stop_code, op=MPI.MAX)
+        return int(self._stop_code[0])
 
     def close(self) -> dict[int, str]:
         """After the loop: nothing is left to check (every sample was)."""

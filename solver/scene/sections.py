@@ -6,7 +6,7 @@ import math
 from dataclasses import dataclass
 from typing import ClassVar
 
-from stickslip.solver.contact.law import REGULARISATIONS, SpatialFilter
+from stickslip.solver.contact.law import REGULARISATIONS, SpatialFilter, regularisation_of
 from stickslip.solver.scene.values import (
     SCENES_DIR,
     SceneError,
@@ -367,7 +367,7 @@ class Friction(_Section):
                  self.reference_velocity >= 0, "reference_velocity >= 0 (m/s)")
         _require(self._key("relaxation_time"), self.relaxation_time,
                  self.relaxation_time >= 0, "relaxation_time >= 0 (s)")
-        variant = REGULARISATIONS["" if self.regularization == "none" else self.regularization]
+        variant = regularisation_of(self.regularization)  # a known name: checked above
         for key, (unit, why) in variant.required.items():  # the variant's own parameters
             value = getattr(self, key)
             _require(self._key(key), value, value > 0, f"{key} > 0 ({unit}) with "

@@ -289,17 +289,13 @@ def continuing_backend(backend: str) -> str:
     return backend
 
 
-def moved_backends(backends: list[str]) -> list[str]:
+def moved_backends(backends: list[str], here: dict[str, str]) -> list[str]:
     """One line per backend whose batch checkpoints (``backends``, one per run) go on
-    elsewhere (``continuing_backend``): how many, from where to where."""
-    moved: dict[tuple[str, str], int] = {}
-    for there in backends:
-        here = continuing_backend(there)
-        if here != there:
-            moved[there, here] = moved.get((there, here), 0) + 1
-    return [f"{n} checkpoint(s) of the {there} backend continue on the {here} (no CUDA "
-            f"device here): the same dynamics, bit for bit; the summaries' batch.backend "
-            f"says {here}" for (there, here), n in moved.items()]
+    elsewhere (``here``: ``continuing_backend`` of each): how many, from where to where."""
+    moved = {there: backends.count(there) for there in sorted(here) if here[there] != there}
+    return [f"{n} checkpoint(s) of the {there} backend continue on the {here[there]} (no "
+            f"CUDA device here): the same dynamics, bit for bit; the summaries' "
+            f"batch.backend says {here[there]}" for there, n in moved.items()]
 
 
 def check_continuing_kernel(kernel: str, stepper) -> None:

@@ -254,14 +254,14 @@ def continue_batch(run_dirs: list[str | Path], until: float,
                                "checkpoint)", "kick a member of a batch")
     summaries: list[dict] = [{} for _ in dirs]
     groups: dict[tuple, list[int]] = {}
+    backends = [p.checkpoint.meta["backend"] for p in plans if p.kind == "batch"]
+    here = {there: continuing_backend(there) for there in set(backends)}  # asked once each
     for i, plan in enumerate(plans):
         meta = plan.checkpoint.meta
         if plan.kind == "batch":
-            key = (meta["step"], continuing_backend(meta["backend"]),
-                   batch_key(plan.scene))
+            key = (meta["step"], here[meta["backend"]], batch_key(plan.scene))
             groups.setdefault(key, []).append(i)
-    for line in moved_backends([p.checkpoint.meta["backend"] for p in plans
-                                if p.kind == "batch"]):
+    for line in moved_backends(backends, here):
         print(line, file=sys.stdout if stream is None else stream, flush=True)
     for i, plan in enumerate(plans):
         if plan.kind != "batch":

@@ -178,7 +178,7 @@ class RunDirectory:
                 sim.status = status
                 out.probes, out.final_field = sim.probes.arrays(), sim.final_field()
                 # the checkpoint of a run that stands at a whole level (not failed, diverged)
-                out.states = self.comm.gather(sim.checkpoint(), root=0) \
+                out.states = self.comm.gather(sim.runs[0].state, root=0) \
                     if sim.resumable else None
                 if sim.columns.writer is not None:
                     sim.columns.writer.close()
