@@ -31,6 +31,10 @@ import numpy as np
 from stickslip.solver.contact import SEPARATION, STICK, zone_fractions
 
 ZONE_THRESHOLD = 0.005  # a zone counts as present above 0.5 % of node-samples
+#: A pattern travels when its mode-k travel purity (``travel_purity``) is at least this: the
+#: same bound as the CEA's doublet table (``studies.flutter_fe.shapes``), where a mode of
+#: purity below 0.5 carries more standing than travelling content.
+TRAVEL_PURITY_MIN = 0.5
 ZONE_NAMES = ("separation", "stick", "slip")
 PAPER_ORDER = ("separation", "stick", "slip")
 
@@ -56,6 +60,7 @@ class WaveSummary:
     amplitude_theta_m: float = 0.0
     direction: str = "none"
     layout: list = field(default_factory=list)
+    travel_purity: float = 1.0
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -117,6 +122,28 @@ def angular_speed(t: np.ndarray, field: np.ndarray, theta: np.ndarray, k: int,
     residual = np.angle(np.exp(1j * (inc - best * true)))
     slope = (best * true + residual.mean()) / dts
     return float(-slope / k)
+
+
+def travel_purity(field: np.ndarray, theta: np.ndarray, k: int) -> tuple[float, float]:
+    """How much mode k travels, and the frequency (Hz) a fixed point sees.
+
+    U_k(t) = A₊ e^{-iωt} + A₋ e^{+iωt} + ... : a wave cos(k θ − ω t) travelling with the
+    rotation puts all of |U_k|'s spectral energy at negative frequencies, one against it at
+    positive ones, and a standing (pinned) pattern cos(k θ) cos(ω t) half at each. The purity
+    |E₋ − E₊| / (E₋ + E₊) is 1 for a travelling wave and 0 for a standing one; the frequency
+    is the peak of the two-sided spectrum (the samples' own, so alias-prone as they are).
+    """
+    coeff = mode_coefficients(field, theta, k)[:, k]
+    n = coeff.size
+    if n < 8:
+        return 1.0, 0.0
+    spec = np.abs(np.fft.fft((coeff - coeff.mean()) * np.hanning(n))) ** 2
+    freq = np.fft.fftfreq(n)
+    e_neg, e_pos = float(spec[freq < 0].sum()), float(spec[freq > 0].sum())
+    if e_neg + e_pos == 0.0:
+        return 1.0, 0.0
+    i = int(np.argmax(spec))
+    return abs(e_neg - e_pos) / (e_neg + e_pos), abs(float(freq[i]))
 
 
 def probe_frequency(t: np.ndarray, signal: np.ndarray) -> float:
@@ -307,6 +334,13 @@ def analyse(
     k = dominant_mode(signal, theta)
     c = (angular_speed(tw, signal, theta, k, frequency_hint_hz)
          if regime != "steady-sliding" else 0.0)
+    purity, f_index = travel_purity(signal, theta, k)
+    standing = regime != "steady-sliding" and purity < TRAVEL_PURITY_MIN
+    frequency = abs(c) * k / (2.0 * np.pi)
+    if standing:  # a pattern that does not travel: its frequency, and no celerity
+        dts = float(np.mean(np.diff(tw))) if tw.size > 1 else 0.0
+        frequency = frequency_hint_hz or (f_index / dts if dts > 0 else 0.0)
+        c = 0.0
     limit = _limit_cycle(t, u_r - d if separated else u_theta - u_theta.mean(),
                          theta, status, k, c)
     psi1, psi2, layout = 0.0, fractions["stick"], []
@@ -321,7 +355,7 @@ def analyse(
         mode=k,
         angular_speed_rad_s=c,
         celerity_m_s=c * radius,
-        frequency_hz=abs(c) * k / (2.0 * np.pi),
+        frequency_hz=frequency,
         fractions=fractions,
         amplitude_m=amplitude,
         limit_cycle=limit,
@@ -332,8 +366,10 @@ def analyse(
         paper_order=is_paper_order(layout),
         amplitude_r_m=amp_r,
         amplitude_theta_m=amp_t,
-        direction="rotation" if c > 0 else ("opposite" if c < 0 else "none"),
+        direction=("standing" if standing else
+                   "rotation" if c > 0 else ("opposite" if c < 0 else "none")),
         layout=[[z, round(a, 5), round(b, 5)] for z, a, b in layout],
+        travel_purity=purity,
     )
 
 

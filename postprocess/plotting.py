@@ -114,12 +114,13 @@ def plot_run(run_dir: Path, window: tuple[float, str] | None | str = DEFAULT_WIN
     if isinstance(window, str):
         window = parse_window(window)
     out = [
-        _save(spacetime_figure(run, window), run_dir / "spacetime.png"),
-        _save(profile_figure(run), run_dir / "profile.png"),
-        _save(phase_figure(run), run_dir / "phase.png"),
-        _save(energy_figure(run), run_dir / "energy.png"),
+        save_figure(spacetime_figure(run, window), run_dir / "spacetime.png"),
+        save_figure(profile_figure(run), run_dir / "profile.png"),
+        save_figure(phase_figure(run), run_dir / "phase.png"),
+        save_figure(energy_figure(run), run_dir / "energy.png"),
     ]
-    if run.summary.get("regime") not in (None, "steady-sliding"):  # one period of a wave
+    if run.summary.get("regime") not in (None, "steady-sliding") \
+            and run.summary.get("direction") != "standing":  # one period of a travelling wave
         out.append(plot_uvpq(run_dir, run_dir / "uvpq.png"))
     if (run_dir / "final_field.npz").exists():
         out.append(isomap_pair([run_dir], run_dir / "isomap.png"))
@@ -264,7 +265,7 @@ def _period(summary: dict, t: np.ndarray) -> float:
     return 1.0 / freq if freq > 0 else float(t[-1] - t[0])
 
 
-def _save(fig: Any, path: Path, dpi: int = 110) -> Path:
+def save_figure(fig: Any, path: Path, dpi: int = 110) -> Path:
     """Write a figure atomically (a temporary file renamed into place) and close it."""
     import matplotlib.pyplot as plt
 
@@ -402,7 +403,7 @@ def plot_uvpq(run_dir: Path, out_png: Path, overlay: bool = True) -> Path:
             if wave.regime != "steady-sliding" else
             "steady sliding: no travelling wave (bin means of the sliding state)")
     fig.suptitle(f"{scene_title(run.scene)}\n{what}", fontsize=10)
-    return _save(fig, Path(out_png))
+    return save_figure(fig, Path(out_png))
 
 
 # ---------------------------------------------------------------------------------------------
@@ -463,7 +464,7 @@ def phase_family(run_dirs: list[Path], colors: list[str], labels: list[str], out
     n_txt = "/".join(str(n) for n in sorted(meshes))
     fig.suptitle(f"{title}   (solid: FE, N = {n_txt}; dashed: reduced model, admissible only)",
                  fontsize=10)
-    return _save(fig, Path(out_png))
+    return save_figure(fig, Path(out_png))
 
 
 # ---------------------------------------------------------------------------------------------

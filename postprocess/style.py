@@ -106,5 +106,8 @@ def wave_title(summary: dict) -> str:
         return f"status {summary.get('status', '?')}, no wave analysis"
     if regime == "steady-sliding":
         return "steady sliding (no wave)"
+    if summary.get("direction") == "standing":
+        return (f"{regime}, k = {summary['mode']} standing (does not travel), "
+                f"{summary['frequency_hz']:.0f} Hz")
     return (f"{regime}, k = {summary['mode']}, c = {summary['celerity_m_s']:+.0f} m/s "
             f"(+ = rotation sense), {summary['frequency_hz']:.0f} Hz")

@@ -294,27 +294,48 @@ def sweep(spec: str | Path, out_dir: str | Path | None = None, *, batch: str | N
 
 def attractors(scene: str | Path, out_dir: str | Path | None = None, *, starts: int = 16,
                meshes: Sequence[int] | None = None, structured: Sequence[int] = (),
-               end_time: float | None = None, overrides: Overrides = None, seed: int = 1,
-               certify: bool = True, force: bool = False, quiet: bool = False) -> dict:
+               end_time: float | None = None, max_time: float | None = None,
+               overrides: Overrides = None, seed: int | None = None,
+               n_modes: int | None = None, amplitude: float | None = None,
+               along: str | None = None, certify: bool = True, kick: bool = True,
+               dt_limit: bool = False, cea: bool = False, cea_fmax_hz: float | None = None,
+               backend: str = "cpu", plot: bool = False, force: bool = False,
+               quiet: bool = False, check_resources: bool = True) -> dict:
     """The attractors of a scene point (``stickslip attractors``): ``starts`` random starts
     (and the mode-k bumps of ``structured``) on each mesh of ``meshes``, classified and grouped
     into members with their basin shares (95 % Wilson intervals) and values. Resumable: the
     same call again runs only the starts not finished.
 
+    Every keyword is the command's option of the same name (``max_time`` is ``--max-time``,
+    ``certify=False`` is ``--no-certify``, ``check_resources=False`` is ``--yes-i-know``), and
+    the call runs the command itself, so both give the same census bit for bit.
+
     Args:
         scene: a scene file or the name of a shipped scene (``"figure1_n132_damped"``).
-        out_dir: the census directory (default ``$STICKSLIP_OUTPUT/<scene>_attractors``).
+        out_dir: the census directory (default ``$STICKSLIP_OUTPUT/attractors/<scene name>``,
+            else ``runs/attractors/<scene name>``).
         starts: random starts per mesh (the start distribution of ``docs/attractors.md``:
             seeds ``seed`` ... ``seed + starts - 1``).
         meshes: contact-circle node counts N of the ladder (default: the scene's).
         structured: wavenumbers k of the structured mode-k starts, reported apart.
-        end_time: physical time of each start (s; default: the scene's).
+        end_time: physical time of each start's first leg (s; default: the scene's).
+        max_time: how far an unsettled start is continued, in legs (s; default the
+            command's; ``max_time = end_time``: no extension).
         overrides: scene overrides, as for ``load_scene``.
-        seed: the first seed.
+        seed, n_modes, amplitude: the random starts' first seed, number of modes and
+            amplitude (default the command's).
+        along: ``"KEY=A:B:M"`` or ``"KEY=V1,V2,..."``: a census at each value, matched
+            across the values; returns ``along.json`` instead of ``attractors.json``.
         certify: certify each member (reproducibility, persistence, its wave solved
-            directly by ``stickslip travel``), as the command does unless ``--no-certify``.
+            directly by ``stickslip travel``).
+        kick: the kick test (one start per attractor perturbed by 1 %: does it return?).
+        dt_limit: certificates of rigid waves also solve the Δt → 0 ladder.
+        cea: also print the CEA's unstable modes per mesh; ``cea_fmax_hz`` its band.
+        backend: ``"cpu"`` or ``"gpu"`` (CuPy and a CUDA device).
+        plot: draw the census figures into ``out_dir``.
         force: replace an earlier census directory of another definition.
-        quiet: do not print the progress lines.
+        quiet: do not print the progress and answer lines.
+        check_resources: refuse a census beyond the machine's memory, disk or time guards.
 
     Returns:
         The census's answer, the contents of ``attractors.json``: ``starts`` (one row per
@@ -322,27 +343,48 @@ def attractors(scene: str | Path, out_dir: str | Path | None = None, *, starts: 
         spread of each value), ``structured``, ``ladder`` (the members across the meshes)
         and ``text`` (the printed summary).
 
+    Raises:
+        ValueError: the census could not start (a bad option, a folder that is not free),
+            with the command's one-line reason in this function's words.
+        RuntimeError: the census stopped before its answer (a signal, or a leg that
+            failed): run the same call again to resume it.
+
     Example:
         >>> answer = stickslip.attractors("smoke", "/tmp/census", starts=2, quiet=True)
         >>> len(answer["starts"]), answer["meshes"]
         (2, [36])
     """
-    from stickslip.studies.attractors.census import Census, default_dir, run_census
-    from stickslip.studies.attractors.starts import StartDistribution
+    from stickslip.cli.main import build_parser
+    from stickslip.solver.scene import Scene
+    from stickslip.studies.attractors.census import default_dir
 
-    texts = list(_override_strings(overrides))
-    if end_time is not None:
-        texts.append(f"time.end_time={float(end_time)!r}")
-    base = load_scene(scene, texts)
-    census = Census(Path(scene), tuple(meshes) if meshes else (base.mesh.n_inner,),
-                    StartDistribution(starts=starts, seed=seed, structured=tuple(structured)),
-                    tuple(texts))
-    census.base_scene()
-    path = Path(out_dir) if out_dir is not None else default_dir(base)
-    _refused_as_error(lambda: run_census(census, path, force=force, certify=certify,
-                                         stream=io.StringIO() if quiet else sys.stdout),
-                      f"the census in {path}")
-    return json.loads((path / "attractors.json").read_text())
+    if isinstance(scene, Scene):
+        raise ValueError("scene: give a scene file or a shipped scene's name (a census "
+                         "records the file it ran)")
+    argv = ["attractors", str(scene), "--starts", str(starts)]
+    options = {"--meshes": ",".join(str(int(n)) for n in meshes) if meshes else None,
+               "--structured": ",".join(str(int(k)) for k in structured) or None,
+               "--end-time": end_time, "--max-time": max_time, "--seed": seed,
+               "--n-modes": n_modes, "--amplitude": amplitude, "--along": along,
+               "--cea-fmax-hz": cea_fmax_hz, "--backend": backend,
+               "-o": None if out_dir is None else str(out_dir)}
+    for flag, value in options.items():
+        if value is not None:
+            argv += [flag, str(value)]
+    flags = {"--no-certify": not certify, "--no-kick": not kick, "--dt-limit": dt_limit,
+             "--cea": cea, "--plot": plot, "--force": force,
+             "--yes-i-know": not check_resources}
+    argv += [flag for flag, on in flags.items() if on]
+    argv += [f"--set={text}" for text in _override_strings(overrides)]
+    args = build_parser().parse_args([*argv, "--progress", "lines"])
+    path = Path(out_dir) if out_dir is not None else default_dir(load_scene(scene, overrides))
+    printed = io.StringIO() if quiet else sys.stdout
+    with contextlib.redirect_stdout(printed):
+        rc = _refused_as_error(lambda: args.func(args), f"the census in {path}")
+    if rc not in (0, 1):
+        raise RuntimeError(f"the census in {path} stopped before its answer (exit {rc}): "
+                           "call again with the same arguments to resume it")
+    return json.loads((path / ("along.json" if along else "attractors.json")).read_text())
 
 
 def plot_sweep(sweep_dir: str | Path) -> list[Path]:

@@ -96,7 +96,7 @@ GENERATED = {"cli.md", "scene.md"}
 
 #: The budget of the user docs (Markdown, generated reference pages excepted): the whole site,
 #: and any one page (a page past it is a log or a study, which belongs in archive/).
-DOCS_BYTES, PAGE_BYTES = 280_000, 36_000
+DOCS_BYTES, PAGE_BYTES = 300_000, 36_000
 
 
 def test_user_docs_stay_small():

@@ -12,6 +12,7 @@ if TYPE_CHECKING:
     pass
 
 from stickslip.studies.flutter_fe.cea import CEAResult, distinct_modes
+from stickslip.studies.flutter_fe.tables import lock_in_points
 
 # --------------------------------------------------------------------------------- plots
 
@@ -75,6 +76,17 @@ def plot_cea_diagram(
         rf = sorted(reduced)
         ax3.plot(rf, [next(x["growth_rate_per_s"] for x in reduced[f] if x["k"] == k_detail)
                       for f in rf], "k--", lw=1.2, label=f"reduced model eq. [2], k = {k_detail}")
+    label = "lock-in (first f where k grows)"
+    for point in lock_in_points(results):  # where each k's pair couples and starts to grow
+        if point["k"] <= kmax:
+            ax3.plot(point["f_unstable"], point["growth_rate_per_s"], "k*", ms=9, label=label)
+            label = None
+            if point["k"] == k_detail:
+                for ax in (ax1, ax2):
+                    ax.axvline(point["f_unstable"], color="k", ls=":", lw=1.0)
+                ax1.annotate(f"lock-in of k = {k_detail}: f ≤ {point['f_unstable']:g}",
+                             (point["f_unstable"], point["frequency_hz"]), fontsize=8,
+                             xytext=(4, 8), textcoords="offset points")
     ax3.set_title("(c) growth rate of the most unstable mode of each k")
     ax3.set_ylabel("growth rate (1/s)")
     ax3.legend(fontsize=8, loc="upper left")
