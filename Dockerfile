@@ -33,10 +33,17 @@ RUN printf '%s\n' 'path-exclude=/usr/share/doc/*' 'path-include=/usr/share/doc/*
 #    (`docker run --user root ...`) and with more ranks than cores; its session directory in
 #    /tmp (not $TMPDIR: an unusable TMPDIR then gets stickslip's one-line check, not a PMIx box).
 COPY docker/openmpi-mca-params.conf /etc/openmpi/openmpi-mca-params.conf
+#    ADIOS2_ALWAYS_USE_MPI: Debian ships only the MPI bindings of adios2, so `import adios2`
+#    (reading fields.bp in Python) needs it.
+#    mpirun itself is docker/bin/mpirun (first on PATH; the same one ./dev uses): Open MPI's,
+#    with SIGTERM/SIGINT/SIGHUP given to the ranks (they save; mpirun returns when they are
+#    done, exit 130, one line), and one line when HOME is unset.
+COPY --chmod=0755 docker/bin/mpirun /usr/local/bin/mpirun
 ENV OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 \
     PRTE_ALLOW_RUN_AS_ROOT=1 PRTE_ALLOW_RUN_AS_ROOT_CONFIRM=1 \
     OMPI_MCA_rmaps_base_oversubscribe=1 PRTE_MCA_rmaps_default_mapping_policy=:oversubscribe \
-    PRTE_MCA_prte_tmpdir_base=/tmp
+    PRTE_MCA_prte_tmpdir_base=/tmp \
+    ADIOS2_ALWAYS_USE_MPI=1
 
 # 3. The non-root user and the output directory it owns (mount a host directory there).
 RUN useradd --create-home --uid 1000 stickslip && mkdir -p /work/runs && chown stickslip /work/runs

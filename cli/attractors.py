@@ -37,7 +37,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                    "scene's); its windows compared are a third of it")
     p.add_argument("--max-time", type=float, default=None, metavar="T",
                    help="continue each unsettled start from where it stopped, in legs of "
-                   "x1.5, up to T s (default 4.0; T = --end-time: no extension)")
+                   "x1.5, up to T s (default 4.0; T = --end-time: no extension; finite; "
+                   "its cost guard: every start run to T, see --yes-i-know)")
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                    help="override a scene key (repeatable), as for `stickslip run`")
     p.add_argument("--seed", type=int, default=DEFAULT_SEED, metavar="S",
@@ -56,8 +57,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--force", action="store_true",
                    help="use a directory that holds another census (its starts run again)")
     p.add_argument("--yes-i-know", dest="yes_i_know", action="store_true",
-                   help="run even if the starts' estimated time exceeds two days, or a "
-                   "start's memory or output exceeds what this machine has")
+                   help="run even if the starts' estimated time (each to --max-time) "
+                   "exceeds two days, or their memory or output what this machine has")
     p.add_argument("--no-certify", action="store_true",
                    help="skip the certificates (reproducibility, persistence, the direct "
                    "travelling-wave solver for rigid waves)")
@@ -99,56 +100,16 @@ def _attractors(args: argparse.Namespace) -> int:
     os.environ.setdefault("OMPI_MCA_osc", "^ucx")  # as `stickslip sweep`: one atomic counter
     from mpi4py import MPI
 
-    from stickslip.solver.scene import SceneError, load_scene
-    from stickslip.studies.attractors.census import (
-        DEFAULT_MAX_TIME,
-        Census,
-        CensusError,
-        default_dir,
-        run_census,
-    )
-    from stickslip.studies.attractors.starts import (
-        StartDistribution,
-        parse_meshes,
-        parse_structured,
-    )
+    from stickslip.solver.scene import SceneError
+    from stickslip.studies.attractors.census import CensusError, run_census
 
     comm = MPI.COMM_WORLD
     if (Path(args.scene) / "census.json").is_file():
         return _read(Path(args.scene), args) if comm.rank == 0 else 0
-    if args.starts < 1:
-        return _fail(f"--starts {args.starts}: give M >= 1 random starts per mesh", comm.rank)
-    overrides = list(args.set)
-    if args.end_time is not None:
-        if not args.end_time > 0:
-            return _fail(f"--end-time {args.end_time}: give a time > 0 (s)", comm.rank)
-        overrides.append(f"time.end_time={args.end_time!r}")
     try:
-        scene = load_scene(args.scene, overrides)
-        meshes = (parse_meshes(args.meshes) if args.meshes is not None
-                  else (scene.mesh.n_inner,))
-        dist = StartDistribution(starts=args.starts, seed=args.seed, n_modes=args.n_modes,
-                                 amplitude=args.amplitude,
-                                 structured=parse_structured(args.structured,
-                                                             min(meshes) // 2))
-        for name, tol in (("--celerity-tol", args.celerity_tol),
-                          ("--spread-tol", args.spread_tol)):
-            if not 0 < tol < 1:
-                raise ValueError(f"{name} {tol}: give a fraction between 0 and 1")
-        if args.max_time is not None and not args.max_time >= scene.time.end_time:
-            raise ValueError(f"--max-time {args.max_time}: give a time >= the first leg's "
-                             f"end time {scene.time.end_time:g} s")
-        census = Census(Path(args.scene), meshes, dist, tuple(overrides),
-                        args.celerity_tol, args.spread_tol,
-                        DEFAULT_MAX_TIME if args.max_time is None else args.max_time)
-        census.base_scene()
-        from stickslip.solver.schemes.select import check_backend
-
-        if args.bundle is None:
-            check_backend(args.backend)
+        census, out = _census(args, comm.size)
     except (SceneError, CensusError, ValueError, ImportError) as err:
         return _fail(str(err), comm.rank)
-    out = Path(args.output) if args.output else default_dir(scene)
     if args.along:
         if args.bundle:
             return _fail("--along runs here: drop --bundle", comm.rank)
@@ -166,13 +127,29 @@ def _attractors(args: argparse.Namespace) -> int:
     stream = open(os.devnull, "w") if args.json else sys.stdout  # noqa: SIM115
     if not (args.cea_fmax_hz > 0):
         return _fail(f"--cea-fmax-hz {args.cea_fmax_hz}: give a frequency > 0 (Hz)", comm.rank)
+    answer: dict = {}
     rc = run_census(census, out, comm=comm, force=args.force, progress=args.progress,
                     backend=args.backend, certify=not args.no_certify,
                     dt_limit=args.dt_limit, kick=not args.no_kick, stream=stream,
-                    read_starts=read_starts, check_cost=not args.yes_i_know)
-    if comm.rank == 0 and rc in (0, 1, 130):
-        _show(out, args)
+                    read_starts=read_starts, check_cost=not args.yes_i_know, answer=answer)
+    if comm.rank == 0 and answer:
+        rc = max(rc, _show(out, args, answer))
     return rc
+
+
+def _census(args: argparse.Namespace, ranks: int):  # noqa: ANN202 - (Census, Path)
+    """The census the arguments ask for and its directory
+    (``studies.attractors.request.build_census``: one line where an option is bad, or where
+    its cap is too costly without --yes-i-know)."""
+    from stickslip.studies.attractors.request import CensusRequest, build_census
+
+    return build_census(CensusRequest(
+        scene=args.scene, starts=args.starts, meshes=args.meshes, structured=args.structured,
+        end_time=args.end_time, max_time=args.max_time, overrides=tuple(args.set),
+        seed=args.seed, n_modes=args.n_modes, amplitude=args.amplitude,
+        celerity_tol=args.celerity_tol, spread_tol=args.spread_tol, output=args.output,
+        backend=args.backend, bundle=args.bundle is not None,
+        check_cost=not args.yes_i_know), ranks)
 
 
 def _prepare_bundle(census, bundle: Path, comm) -> int | None:  # noqa: ANN001
@@ -200,15 +177,18 @@ def _prepare_bundle(census, bundle: Path, comm) -> int | None:  # noqa: ANN001
 
 
 def _along(census, out: Path, args: argparse.Namespace, comm) -> int:  # noqa: ANN001
-    from dataclasses import replace
-
-    from stickslip.studies.attractors.along import parse_along, plot_along, run_along
+    from stickslip.studies.attractors.along import (
+        parse_along,
+        plot_along,
+        point_census,
+        run_along,
+    )
     from stickslip.studies.attractors.census import CensusError
 
     try:
         key, values = parse_along(args.along)
         for v in values:  # every point's scene must be valid before anything is written
-            replace(census, overrides=(*census.overrides, f"{key}={v!r}")).base_scene()
+            point_census(census, key, v).base_scene()
     except (ValueError, CensusError) as err:
         return _fail(str(err), comm.rank)
     rc = run_along(census, key, values, out, comm=comm, force=args.force,
@@ -221,29 +201,46 @@ def _along(census, out: Path, args: argparse.Namespace, comm) -> int:  # noqa: A
 
 
 def _read(out: Path, args: argparse.Namespace) -> int:
-    """The answer of an existing census directory, as it stands (nothing runs)."""
-    from stickslip.studies.attractors.census import collect
+    """The answer of an existing census directory, as it stands (nothing runs, nothing is
+    written that need not be: a read-only directory reads the same). 0 only for a
+    finished answer without failed starts, else 1 (its NOT FINISHED line says why)."""
+    from stickslip.studies.attractors.census import CensusError, collect
+    from stickslip.studies.sweep import SweepError
 
-    answer = collect(out, certify="cached")
+    try:
+        answer = collect(out, certify="cached", reading=True)
+    except (CensusError, SweepError) as err:
+        return _fail(str(err), 0)
     if not args.json:
         print(answer["text"])
-    _show(out, args)
-    return 0
+    rc = 0 if answer["finished"] and not answer["counts"].get("failed") else 1
+    return max(rc, _show(out, args, answer))
 
 
-def _show(out: Path, args: argparse.Namespace) -> None:
+def _show(out: Path, args: argparse.Namespace, answer: dict) -> int:
+    """--json, --cea and --plot of ``answer``; 1 where a figure cannot be written (said in
+    one line), else 0."""
+    import json
+
+    from stickslip.studies.attractors.census import answer_json
+
+    stored = answer_json(answer)  # as attractors.json holds it
     if args.json:
-        print((out / "attractors.json").read_text(), end="")
+        print(stored, end="")
     if args.cea:
-        import json
-
         from stickslip.studies.attractors.cea import cea_lines, cea_table
 
-        answer = json.loads((out / "attractors.json").read_text())
-        for line in cea_lines(cea_table(out, answer, args.cea_fmax_hz)):
+        for line in cea_lines(cea_table(out, json.loads(stored), args.cea_fmax_hz)):
             print(line)
     if args.plot:
         from stickslip.studies.attractors.plots import plot_census
 
-        for path in plot_census(out):
+        try:
+            paths = plot_census(out, json.loads(stored))
+        except OSError as err:
+            print(f"error: the census figures could not be written: {err}", file=sys.stderr,
+                  flush=True)
+            return 1
+        for path in paths:
             print(f"figure: {path}")
+    return 0

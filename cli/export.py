@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 from pathlib import Path
 
@@ -52,8 +53,8 @@ def _export(args: argparse.Namespace) -> int:
                or (args.plot and output_file_problem(args.plot, "--plot")))
     if problem:
         return _fail(problem)
-    if not args.cea_fmax_hz > 0:
-        return _fail(f"--cea-fmax-hz {args.cea_fmax_hz}: give a frequency > 0 (Hz)")
+    if not (math.isfinite(args.cea_fmax_hz) and args.cea_fmax_hz > 0):
+        return _fail(f"--cea-fmax-hz {args.cea_fmax_hz}: give a finite frequency > 0 (Hz)")
     census = Path(args.census) if args.census else None
     if census is not None and not (census / "attractors.json").is_file():
         return _fail(f"--census {census}: no attractors.json there; give a census "

@@ -22,9 +22,10 @@ from stickslip.studies.flutter_fe.cea import (
     friction_relaxation_time,
     unrepresented_terms,
 )
-from stickslip.studies.flutter_fe.doublets import doublet_lines, doublets
+from stickslip.studies.flutter_fe.doublets import MIN_PURITY, doublet_lines, doublets
 from stickslip.studies.flutter_fe.plots import plot_cea_diagram, plot_spectrum
 from stickslip.studies.flutter_fe.references import reduced_model_flutter
+from stickslip.studies.flutter_fe.tables import csv_text, lock_in_points, mode_rows, sweep_rows
 
 if TYPE_CHECKING:
     from mpi4py import MPI
@@ -102,6 +103,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--k-detail", type=int, default=4,
                    help="wavenumber whose branches the CEA diagram details (default 4)")
     p.add_argument("--top", type=int, default=20, help="unstable modes listed (table output)")
+    p.add_argument("--csv", metavar="FILE", default=None,
+                   help="every computed mode, stable ones too, as CSV (frequency, Re and Im "
+                        "of lambda, damping ratio, k, direction, purity); with --f-sweep also "
+                        "FILE_f_sweep.csv (each f's modes) and FILE_lock_in.csv (where each k "
+                        "starts to grow)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.add_argument("--plot", metavar="PNG", default=None,
                    help="growth vs frequency (or the CEA diagram with --f-sweep) to this file")
@@ -135,7 +141,7 @@ def flutter_fe_command(args: argparse.Namespace) -> int:
     if isinstance(solved, str):
         return _fail(comm, solved)
     res, sweep, written = solved
-    reduced = reduced_model_flutter(scene, args.kmax)
+    reduced = [] if scene.mesh.file else reduced_model_flutter(scene, args.kmax)
     if comm.rank != 0:
         return 0
     out = res.to_dict()
@@ -155,11 +161,30 @@ def flutter_fe_command(args: argparse.Namespace) -> int:
         args.plot = str(Path(args.plot).resolve())
         _plot(args, scene, res, sweep, fs, reduced)
         out["figure"] = args.plot
+    if args.csv:
+        out["tables"] = _write_tables(args.csv, res, sweep)
     if args.json:
         print(json.dumps(out, indent=2))
     else:
-        _print_table(res, reduced, args.top, args.plot, _beta2_note(scene), written)
+        _print_table(res, reduced, args.top, args.plot, _beta2_note(scene), written, args.kmax)
+        print("\n".join(f"table: {path}" for path in out.get("tables", [])))
     return 0
+
+
+def _write_tables(path: str, res: CEAResult, sweep: list[CEAResult] | None) -> list[str]:
+    """``--csv``: the modes of the scene's f, and with a sweep its modes against f and the
+    lock-in points (``studies.flutter_fe.tables``), each written atomically; their paths."""
+    from stickslip.solver.atomic import atomic_write_text
+
+    base = Path(path).resolve()
+    tables = {base: mode_rows(res)}
+    if sweep is not None:
+        stem = base.with_suffix("")
+        tables[stem.with_name(f"{stem.name}_f_sweep.csv")] = sweep_rows(sweep)
+        tables[stem.with_name(f"{stem.name}_lock_in.csv")] = lock_in_points(sweep)
+    for target, rows in tables.items():
+        atomic_write_text(target, csv_text(rows))
+    return [str(target) for target in tables]
 
 
 def _fail(comm: MPI.Comm, msg: str) -> int:
@@ -178,12 +203,12 @@ def _argument_problem(args: argparse.Namespace, scene: Scene, ranks: int) -> str
                             ("--top", args.top, 0)):
         if not lo <= value <= KMAX_LIMIT:
             return f"{flag} {value} is out of range: need {lo} <= {flag[2:]} <= {KMAX_LIMIT}"
-    if args.plot:
-        from stickslip.cli.checks import output_file_problem
+    from stickslip.cli.checks import output_file_problem
 
-        bad_plot = output_file_problem(args.plot, "--plot")
-        if bad_plot:
-            return bad_plot
+    for flag, target in (("--plot", args.plot), ("--csv", args.csv)):
+        bad = target and output_file_problem(target, flag)
+        if bad:
+            return bad
     refused = unrepresented_terms(friction_relaxation_time(scene), args.mass, ranks)
     if refused:
         return refused
@@ -268,7 +293,8 @@ def _mode_row(m: CEAMode) -> str:
 
 
 def _print_table(res: CEAResult, reduced: list[dict], top: int, plot: str | None,
-                 beta2_note: str | None = None, written: dict | None = None) -> None:
+                 beta2_note: str | None = None, written: dict | None = None,
+                 kmax: int = 12) -> None:
     """The NVH engineer's CEA table: resolved unstable modes first (most unstable first),
     then the mesh-scale ones with the reason; per-k branches against the reduced model."""
     uns = res.unstable()
@@ -301,8 +327,8 @@ def _print_table(res: CEAResult, reduced: list[dict], top: int, plot: str | None
         lines.append(f"{len(mesh)} unstable {res.mesh_scale_reason()}; "
                      f"the {len(shown_mesh)} fastest:")
         lines += [_mode_row(m) for m in shown_mesh]
-    lines += _per_k_lines(res, reduced)
-    lines += doublet_lines(res, max((r["k"] for r in reduced), default=8))
+    lines += _per_k_lines(res, reduced, kmax)
+    lines += doublet_lines(res, kmax)
     if plot:
         lines.append(f"figure: {plot}")
     if written:
@@ -311,20 +337,28 @@ def _print_table(res: CEAResult, reduced: list[dict], top: int, plot: str | None
     print("\n".join(lines))
 
 
-def _per_k_lines(res: CEAResult, reduced: list[dict]) -> list[str]:
-    lines = ["per k (Hz, 1/s, m/s; speed + = rotation sense):",
-             f"{'k':>4} | {'FE lowest branch':^28} | {'FE most unstable':^28} | "
-             f"{'reduced model eq. [2]':^28}"]
+def _per_k_lines(res: CEAResult, reduced: list[dict], kmax: int) -> list[str]:
+    """Per wavenumber k: the lowest and the most unstable FE mode whose power on the contact
+    circle is mostly in ±k (purity >= ``MIN_PURITY``, as the doublet table), beside the
+    reduced model's mode (axisymmetric tubes only: ``reduced`` is empty for a user's mesh)."""
+    head = f"{'k':>4} | {'FE lowest branch':^28} | {'FE most unstable':^28}"
+    lines = ["per k (Hz, 1/s, m/s; speed + = rotation sense; modes of purity >= "
+             f"{MIN_PURITY:g}):", head + (f" | {'reduced model eq. [2]':^28}" if reduced else "")]
     red = {r["k"]: r for r in reduced}
-    best = res.by_wavenumber()
-    for k in sorted(best):
-        if k == 0 or k not in red:
+    for k in range(1, kmax + 1):
+        family = [m for m in res.modes if m.wavenumber == k and m.purity >= MIN_PURITY]
+        if not family:
             continue
-        low = distinct_modes(m for m in res.modes if m.wavenumber == k)[0]
-        cells = [(m.frequency_hz, m.growth_rate, m.phase_speed_m_s) for m in (low, best[k])]
-        cells.append((red[k]["frequency_hz"], red[k]["growth_rate_per_s"],
-                      red[k]["phase_speed_m_s"]))
+        low = distinct_modes(family)[0]
+        best = max(family, key=lambda m: m.growth_rate)
+        cells = [(m.frequency_hz, m.growth_rate, m.phase_speed_m_s) for m in (low, best)]
+        if k in red:
+            cells.append((red[k]["frequency_hz"], red[k]["growth_rate_per_s"],
+                          red[k]["phase_speed_m_s"]))
         lines.append(f"{k:4d} | " + " | ".join(f"{a:8.1f} {b:8.1f} {c:+9.1f}" for a, b, c in cells))
-    if res.tau > 0:
+    if not reduced:
+        lines.append("(no reduced-model column: eq. [2] describes the paper's axisymmetric "
+                     "tube, not a user's cross-section)")
+    if res.tau > 0 and reduced:
         lines.append("(the reduced model of eq. [2] has no damping)")
     return lines

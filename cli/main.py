@@ -16,6 +16,7 @@ from collections.abc import Sequence
 
 from stickslip.solver import __version__
 from stickslip.studies.output import output_root
+from stickslip.studies.rundir.ownership import normal_path
 
 
 def _info(args: argparse.Namespace) -> int:
@@ -91,6 +92,7 @@ COMMAND_MODULES = (
     "stickslip.cli.continuum",  # flutter-exact
     "stickslip.cli.travel",  # travel
     "stickslip.cli.attractors",  # attractors
+    "stickslip.cli.export",  # export
 )
 
 
@@ -104,6 +106,21 @@ def _register(sub: argparse._SubParsersAction, module: str) -> None:
             raise
         return
     mod.register(sub)
+
+
+#: The arguments that name a directory: ``-o`` (run, continue, sweep, travel, attractors), a
+#: run or sweep directory (continue, plot, compare), ``--from``, ``--bundle``, ``--modes``.
+DIRECTORY_ARGUMENTS = ("output", "run_dir", "from_run", "bundle", "modes")
+
+
+def _normal_directories(args: argparse.Namespace) -> None:
+    """Every directory argument as ``studies.rundir.ownership.normal_path`` names it (absolute,
+    ``.``, ``..`` and ``//`` resolved): ``R/../R``, ``R/.``, ``R//`` and ``./R`` are ``R``
+    for every command, in its messages and in the claim, the swap and the checks alike."""
+    for name in DIRECTORY_ARGUMENTS:
+        value = getattr(args, name, None)
+        if value:
+            setattr(args, name, str(normal_path(value)))
 
 
 def _last_resort(err: BaseException) -> str:
@@ -180,6 +197,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             return 2
         return 0
     try:
+        _normal_directories(args)
         with _stops_as_interrupt():
             return int(args.func(args) or 0)
     except KeyboardInterrupt as stop:  # a handler may say what it kept (its message)

@@ -106,6 +106,15 @@ class BatchedProblem:
             return cls(**{k: z[k] for k in z.files})
 
 
+def _require(b: int, state: dict[str, np.ndarray], names: tuple[str, ...]) -> None:
+    """Column ``b``'s checkpoint ``state`` holds every one of ``names``; else ValueError
+    naming the first missing (a checkpoint of another scheme, or edited)."""
+    missing = [name for name in names if name not in state]
+    if missing:
+        raise ValueError(f"the checkpoint of column {b} has no {missing[0]!r}: not a state "
+                         "of this batch's scheme (edited, or of another scene)")
+
+
 class BatchedExplicit(HookedStepper):
     """Explicit Newmark + forward-increment contact on (n, B) arrays (column b = scene b).
 
@@ -288,15 +297,20 @@ class BatchedExplicit(HookedStepper):
 
     def restore(self, states: list[dict[str, np.ndarray]]) -> None:
         """Continue the columns from ``states`` (one ``state(b)`` per column, all at the same
-        step and of this kernel; ValueError otherwise) after ``set_state``."""
+        step, each with every array of this batch's layout once adopted; ValueError naming
+        the first that is not) after ``set_state``."""
         if len(states) != self.B:
             raise ValueError(f"{len(states)} checkpoints for a batch of {self.B} scenes")
+        names = self._state_names()
+        for b, state in enumerate(states):
+            _require(b, state, ("time", "step_count", "kernel"))
         steps = {(int(s["step_count"]), float(s["time"])) for s in states}
         if len(steps) != 1:
             raise ValueError(f"the checkpoints are at steps {sorted(steps)}: a batch "
                              "continues scenes at one step")
         states = [self._adopt(s) for s in states]
-        names = self._state_names()
+        for b, state in enumerate(states):
+            _require(b, state, names)
         stacked = {name: np.stack([s[name] for s in states], axis=-1) for name in names}
         step, time = steps.pop()
         put_state(self, dict(stacked, time=np.float64(time), step_count=np.int64(step)),

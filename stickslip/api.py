@@ -295,96 +295,87 @@ def sweep(spec: str | Path, out_dir: str | Path | None = None, *, batch: str | N
 def attractors(scene: str | Path, out_dir: str | Path | None = None, *, starts: int = 16,
                meshes: Sequence[int] | None = None, structured: Sequence[int] = (),
                end_time: float | None = None, max_time: float | None = None,
-               overrides: Overrides = None, seed: int | None = None,
-               n_modes: int | None = None, amplitude: float | None = None,
-               along: str | None = None, certify: bool = True, kick: bool = True,
-               dt_limit: bool = False, cea: bool = False, cea_fmax_hz: float | None = None,
-               backend: str = "cpu", plot: bool = False, force: bool = False,
-               quiet: bool = False, check_resources: bool = True) -> dict:
+               overrides: Overrides = None, along: str | None = None, certify: bool = True,
+               kick: bool = True, cea: bool = False, cea_fmax_hz: float = 10_000.0,
+               plot: bool = False, force: bool = False, quiet: bool = False,
+               check_resources: bool = True, **options: Any) -> dict:
     """The attractors of a scene point (``stickslip attractors``): ``starts`` random starts
     (and the mode-k bumps of ``structured``) on each mesh of ``meshes``, classified and grouped
     into members with their basin shares (95 % Wilson intervals) and values. Resumable: the
     same call again runs only the starts not finished.
 
-    Every keyword is the command's option of the same name (``max_time`` is ``--max-time``,
-    ``certify=False`` is ``--no-certify``, ``check_resources=False`` is ``--yes-i-know``), and
-    the call runs the command itself, so both give the same census bit for bit.
-
-    Args:
-        scene: a scene file or the name of a shipped scene (``"figure1_n132_damped"``).
-        out_dir: the census directory (default ``$STICKSLIP_OUTPUT/attractors/<scene name>``,
-            else ``runs/attractors/<scene name>``).
-        starts: random starts per mesh (the start distribution of ``docs/attractors.md``:
-            seeds ``seed`` ... ``seed + starts - 1``).
-        meshes: contact-circle node counts N of the ladder (default: the scene's).
-        structured: wavenumbers k of the structured mode-k starts, reported apart.
-        end_time: physical time of each start's first leg (s; default: the scene's).
-        max_time: how far an unsettled start is continued, in legs (s; default the
-            command's; ``max_time = end_time``: no extension).
-        overrides: scene overrides, as for ``load_scene``.
-        seed, n_modes, amplitude: the random starts' first seed, number of modes and
-            amplitude (default the command's).
-        along: ``"KEY=A:B:M"`` or ``"KEY=V1,V2,..."``: a census at each value, matched
-            across the values; returns ``along.json`` instead of ``attractors.json``.
-        certify: certify each member (reproducibility, persistence, its wave solved
-            directly by ``stickslip travel``).
-        kick: the kick test (one start per attractor perturbed by 1 %: does it return?).
-        dt_limit: certificates of rigid waves also solve the Δt → 0 ladder.
-        cea: also print the CEA's unstable modes per mesh; ``cea_fmax_hz`` its band.
-        backend: ``"cpu"`` or ``"gpu"`` (CuPy and a CUDA device).
-        plot: draw the census figures into ``out_dir``.
-        force: replace an earlier census directory of another definition.
-        quiet: do not print the progress and answer lines.
-        check_resources: refuse a census beyond the machine's memory, disk or time guards.
+    Every keyword is the command's option of the same name, checked by the same code
+    (``studies.attractors.request``): ``max_time`` (the cap of the settle legs, s),
+    ``along`` (``"KEY=A:B:M"``: a census at each value; returns ``along.json``), ``certify``
+    and ``kick`` (the certificates and the kick test), ``cea`` and ``cea_fmax_hz`` (print the
+    CEA's unstable modes per mesh), ``plot``; ``options`` takes ``seed``, ``n_modes``,
+    ``amplitude``, ``celerity_tol``, ``spread_tol``, ``backend``, ``dt_limit``.
+    ``check_resources=False`` is ``--yes-i-know``; ``quiet`` prints nothing. The folder
+    defaults to ``$STICKSLIP_OUTPUT/attractors/<scene name>`` (else
+    ``runs/attractors/<scene name>``).
 
     Returns:
-        The census's answer, the contents of ``attractors.json``: ``starts`` (one row per
-        start with its class and member), ``members`` per mesh (share, interval, mean and
-        spread of each value), ``structured``, ``ladder`` (the members across the meshes)
-        and ``text`` (the printed summary).
+        The census's answer, the contents of ``attractors.json``: ``finished``, ``starts``
+        (one row per start with its class and member), ``members`` per mesh, ``ladder``,
+        ``text`` (the printed summary).
 
     Raises:
-        ValueError: the census could not start (a bad option, a folder that is not free),
-            with the command's one-line reason in this function's words.
-        RuntimeError: the census stopped before its answer (a signal, or a leg that
-            failed): run the same call again to resume it.
+        ValueError: the census could not start, with the command's reason in these words.
+        RuntimeError: it stopped before its answer (a signal, a failed leg): call again.
 
     Example:
         >>> answer = stickslip.attractors("smoke", "/tmp/census", starts=2, quiet=True)
         >>> len(answer["starts"]), answer["meshes"]
         (2, [36])
     """
-    from stickslip.cli.main import build_parser
-    from stickslip.solver.scene import Scene
-    from stickslip.studies.attractors.census import default_dir
+    from stickslip.studies.attractors.request import CensusRequest, build_census
 
-    if isinstance(scene, Scene):
-        raise ValueError("scene: give a scene file or a shipped scene's name (a census "
-                         "records the file it ran)")
-    argv = ["attractors", str(scene), "--starts", str(starts)]
-    options = {"--meshes": ",".join(str(int(n)) for n in meshes) if meshes else None,
-               "--structured": ",".join(str(int(k)) for k in structured) or None,
-               "--end-time": end_time, "--max-time": max_time, "--seed": seed,
-               "--n-modes": n_modes, "--amplitude": amplitude, "--along": along,
-               "--cea-fmax-hz": cea_fmax_hz, "--backend": backend,
-               "-o": None if out_dir is None else str(out_dir)}
-    for flag, value in options.items():
-        if value is not None:
-            argv += [flag, str(value)]
-    flags = {"--no-certify": not certify, "--no-kick": not kick, "--dt-limit": dt_limit,
-             "--cea": cea, "--plot": plot, "--force": force,
-             "--yes-i-know": not check_resources}
-    argv += [flag for flag, on in flags.items() if on]
-    argv += [f"--set={text}" for text in _override_strings(overrides)]
-    args = build_parser().parse_args([*argv, "--progress", "lines"])
-    path = Path(out_dir) if out_dir is not None else default_dir(load_scene(scene, overrides))
+    run = {key: options.pop(key) for key in ("backend", "dt_limit") if key in options}
+    request = CensusRequest(
+        scene=str(scene), starts=starts, end_time=end_time, max_time=max_time,
+        meshes=",".join(str(int(n)) for n in meshes) if meshes else None,
+        structured=",".join(str(int(k)) for k in structured) or None,
+        overrides=tuple(_override_strings(overrides)),
+        output=None if out_dir is None else str(out_dir), check_cost=check_resources,
+        backend=run.get("backend", "cpu"), **options)
     printed = io.StringIO() if quiet else sys.stdout
-    with contextlib.redirect_stdout(printed):
-        rc = _refused_as_error(lambda: args.func(args), f"the census in {path}")
+    with _keyword_errors("out_dir"), contextlib.redirect_stdout(printed):
+        census, path = build_census(request)
+        rc = _refused_as_error(lambda: _census_run(
+            census, path, along, dict(run, force=force, certify=certify, kick=kick,
+                                      check_cost=check_resources), cea_fmax_hz if cea else None,
+            plot), f"the census in {path}")
     if rc not in (0, 1):
         raise RuntimeError(f"the census in {path} stopped before its answer (exit {rc}): "
                            "call again with the same arguments to resume it")
     return json.loads((path / ("along.json" if along else "attractors.json")).read_text())
+
+
+def _census_run(census: Any, path: Path, along: str | None, run: dict,
+                cea_fmax_hz: float | None, plot: bool) -> int:
+    """Run the census (or the censuses along a key) as the command does; print the CEA's
+    lines and draw the figures where asked. The exit status the command would give."""
+    from stickslip.studies.attractors.along import parse_along, plot_along, point_census, run_along
+    from stickslip.studies.attractors.cea import cea_lines, cea_table
+    from stickslip.studies.attractors.census import answer_json, run_census
+    from stickslip.studies.attractors.plots import plot_census
+
+    if along:
+        key, values = parse_along(along)
+        for value in values:  # every point's scene is checked before anything is written
+            point_census(census, key, value).base_scene()
+        rc = run_along(census, key, values, path, progress="lines", stream=sys.stdout, **run)
+        if plot and rc in (0, 1):
+            print(f"figure: {plot_along(path)}")
+        return rc
+    answer: dict = {}
+    rc = run_census(census, path, progress="lines", stream=sys.stdout, answer=answer, **run)
+    stored = json.loads(answer_json(answer)) if answer else None  # as attractors.json has it
+    if stored and cea_fmax_hz is not None:
+        print("\n".join(cea_lines(cea_table(path, stored, cea_fmax_hz))))
+    if stored and plot:
+        print("\n".join(f"figure: {p}" for p in plot_census(path, stored)))
+    return rc
 
 
 def plot_sweep(sweep_dir: str | Path) -> list[Path]:

@@ -30,6 +30,7 @@ from faults import (
     wait_for_file,
     wait_released,
 )
+from test_hangups import open_mpi_mpirun
 
 REPO = Path(__file__).resolve().parents[1]
 SHORT = ["time.end_time=0.005", "output.progress=false"]
@@ -344,7 +345,10 @@ def test_sigterm_to_mpirun_leaves_interrupted_and_samples(tmp_path):
     # end_time 60 s at 1 ms samples: ~2.4 million steps, minutes of work on any machine, so
     # the first progress line (5 s of wall time into the loop) always comes with most of
     # the loop left; the line is the program's own sign that the time loop runs.
-    proc = subprocess.Popen(["mpirun", "-n", "2", sys.executable, "-m", "stickslip.cli.main", "run",
+    # Open MPI's own mpirun, signalled itself (docker/bin/mpirun would hand the signal to the
+    # ranks and wait for their save: tests/test_hangups.py)
+    proc = subprocess.Popen([open_mpi_mpirun(), "-n", "2", sys.executable, "-m",
+                             "stickslip.cli.main", "run",
                              "figure3_n132", "--set", "time.end_time=60",
                              "--set", "output.sample_interval=1e-3", "--yes-i-know", "-o",
                              str(run_dir)],
@@ -415,7 +419,7 @@ def test_sigterm_to_mpirun_in_compiled_setup_is_final_at_once(tmp_path):
     ready = tmp_path / "ready"
     driver = _held_in_setup_driver(tmp_path, ready, "{child!r} if comm.rank == 0 else "
                                    "\"sleep 300\"", "")
-    proc = subprocess.Popen(["mpirun", "-n", "2", sys.executable, str(driver)],
+    proc = subprocess.Popen([open_mpi_mpirun(), "-n", "2", sys.executable, str(driver)],
                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
                             cwd=REPO)
     sleeper = int(wait_for_file(ready))

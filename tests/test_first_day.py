@@ -173,3 +173,72 @@ def test_cea_tables_list_every_mode_and_the_lock_in_points():
     assert points and all(p["f_stable"] == 0.0 and p["f_unstable"] in (0.3, 0.7)
                           for p in points)
     assert csv_text(rows).splitlines()[0].startswith("mode,frequency_hz,re_lambda_per_s")
+
+
+def test_flutter_fe_writes_the_csv_tables(tmp_path):
+    """``flutter-fe --csv FILE --f-sweep``: FILE has every computed mode (as many rows as the
+    JSON's modes), the sweep table has each f's modes, the lock-in table one row per
+    wavenumber that grows, each named on a ``table:`` line."""
+    pytest.importorskip("dolfinx")
+    import csv as csv_module
+    import json
+
+    base = tmp_path / "cea.csv"
+    res = _cli("flutter-fe", "smoke", "--fmax-hz", "3000", "--f-sweep", "0,0.7", "--csv",
+               str(base), "--json")
+    assert res.returncode == 0, res.stderr
+    out = json.loads(res.stdout)
+    rows = list(csv_module.DictReader(base.open()))
+    assert len(rows) == out["modes_in_band"]
+    assert sum(int(r["unstable"]) for r in rows) == out["unstable_count"] > 0
+    sweep = list(csv_module.DictReader((tmp_path / "cea_f_sweep.csv").open()))
+    assert {float(r["f"]) for r in sweep} == {0.0, 0.7}
+    lock_in = list(csv_module.DictReader((tmp_path / "cea_lock_in.csv").open()))
+    assert lock_in and all(float(r["f_unstable"]) == 0.7 for r in lock_in)
+    assert out["tables"] == [str(base), str(tmp_path / "cea_f_sweep.csv"),
+                             str(tmp_path / "cea_lock_in.csv")]
+
+
+def test_a_users_cross_section_has_no_reduced_column_and_pure_rows_only():
+    """The four-clamp tube: the per-k table lists only modes of purity >= 0.5 (as the
+    doublet table), so no k that the doublet table finds no pure mode for, and no column of
+    the reduced model, which describes the axisymmetric tube only."""
+    pytest.importorskip("dolfinx")
+    res = _cli("flutter-fe", "tube_four_clamps", "--fmax-hz", "2000")
+    assert res.returncode == 0, res.stderr
+    text = res.stdout
+    per_k = text[text.index("per k"):text.index("±k doublets")].splitlines()
+    assert "reduced model eq. [2]" not in per_k[1]
+    assert "no reduced-model column" in per_k[-1]
+    pure = {int(line.split("|")[0]) for line in per_k[2:-1]}
+    empty = {int(line.split()[0]) for line in text[text.index("±k doublets"):].splitlines()
+             if "no mode of purity" in line}
+    assert pure and not pure & empty
+
+
+def test_fields_bp_reads_into_pyvista_and_renders_a_frame(tmp_path):
+    """The documented Python route for ``fields.bp``/``stress.bp``: every frame's time, the
+    mesh of the run (36 x 2 smoke mesh: 108 nodes, 144 triangles), the contact pressure only
+    on the contact circle r = R (to round-off of the mesh's coordinates, 1e-9 R), finite von
+    Mises stresses, and a rendered PNG."""
+    pytest.importorskip("dolfinx")
+    import numpy as np
+
+    from stickslip.postprocess.vtx import read_vtx_frame, render_vtx_frame, vtx_times
+
+    run = tmp_path / "fields"
+    stickslip.run("smoke", run, quiet=True, overrides={
+        "output.fields": True, "output.field_interval": 2e-3, "output.field_window": 0.01})
+    times = vtx_times(run / "fields.bp")
+    assert times.size == 5 and np.all(np.diff(times) > 0)
+    grid, t = read_vtx_frame(run / "fields.bp")
+    assert (grid.n_points, grid.n_cells) == (108, 144) and t == times[-1]
+    r = np.hypot(grid.points[:, 0], grid.points[:, 1])
+    pressed = grid.point_data["contact_pressure"] > 0
+    assert pressed.any() and np.all(np.abs(r[pressed] - 1.0) < 1e-9)
+    stress, _ = read_vtx_frame(run / "stress.bp", frame=0)
+    assert np.all(np.isfinite(stress.cell_data["von_mises"]))
+    png = render_vtx_frame(run / "fields.bp", tmp_path / "frame.png", "contact_pressure")
+    assert png.stat().st_size > 10_000
+    with pytest.raises(IndexError, match="holds 5 frames"):
+        read_vtx_frame(run / "fields.bp", frame=5)

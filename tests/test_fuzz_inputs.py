@@ -295,6 +295,8 @@ COMMANDS = {
     "travel": (["travel", "smoke", "--k", "4", "-o", "{tmp}/t"],
                ["stickslip.studies.travel.command.solve",
                 "stickslip.studies.travel.continuation.run_continuation"]),
+    "export": (["export", "{run}", "-o", "{tmp}/p.csv", "--cea", "--plot", "{tmp}/p.png"],
+               ["stickslip.cli.export._marks"]),
     "attractors": (["attractors", "smoke", "-o", "{tmp}/a"],
                    ["stickslip.studies.attractors.census.run_census",
                     "stickslip.studies.attractors.along.run_along"]),

@@ -429,3 +429,29 @@ def test_an_interrupted_travel_force_rerun_keeps_the_earlier_result(tmp_path, ca
 
     assert results(tree(out)) == results(before)
     assert not [p for p in tmp_path.iterdir() if p.name.startswith(".wave.")]
+
+
+def test_a_claim_that_fails_on_a_full_disk_holds_no_lock(tmp_path, monkeypatch):
+    """The marker cannot be written (ENOSPC) after the lock was taken: the claim fails, and
+    its lock goes with it, so a retry in the same process (a census's next leg) is not told
+    that the directory is "in use by a running stickslip command" (its own pid)."""
+    import errno
+
+    from stickslip.studies.rundir import ownership
+
+    path = tmp_path / "run"
+    ownership.claim(path, "run").release()  # a finished directory of the kind
+    real = ownership._write_marker
+
+    def full(*args, **kwargs):  # noqa: ANN002, ANN003, ANN202
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(ownership, "_write_marker", full)
+    for _ in range(2):
+        with pytest.raises(ownership.OwnershipError, match="No space left"):
+            ownership.claim(path, "run", force=True)
+    assert ownership.holder(path) is None
+    monkeypatch.setattr(ownership, "_write_marker", real)
+    again = ownership.claim(path, "run", force=True)
+    again.discard()
+    again.release()

@@ -34,6 +34,7 @@ from stickslip.solver.scene.model import (
     parse_override,
     scene_from_dict,
     scene_to_dict,
+    scene_warnings,
 )
 from stickslip.solver.scene.sections import (
     Damping,
@@ -47,6 +48,7 @@ from stickslip.solver.scene.sections import (
     Time,
 )
 from stickslip.solver.scene.values import (
+    MAX_STRAIN,
     RANGES,
     SPEED_RATIO,
     Range,
@@ -62,6 +64,7 @@ __all__ = [
     "Geometry",
     "Initial",
     "Loading",
+    "MAX_STRAIN",
     "Material",
     "Mesh",
     "Output",
@@ -80,5 +83,6 @@ __all__ = [
     "parse_override",
     "scene_from_dict",
     "scene_to_dict",
+    "scene_warnings",
     "write_scene",
 ]

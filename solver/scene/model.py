@@ -22,6 +22,7 @@ from stickslip.solver.scene.sections import (
     Time,
 )
 from stickslip.solver.scene.values import (
+    MAX_STRAIN,
     SceneError,
     _fmt,
     _opt,
@@ -105,6 +106,40 @@ class Scene(_Section):
     def replace(self, **changes: Any) -> Scene:
         """``dataclasses.replace`` shortcut (validated)."""
         return replace(self, **changes)
+
+
+def scene_warnings(scene: Scene) -> list[str]:
+    """Legal but doubtful choices of ``scene``, one line each with the fix: said before a
+    run starts and kept in its summary (``warnings``), so that a sweep's table shows them.
+
+    The start's strain is only warned of, not refused: a start far beyond the small-strain
+    model is still a legitimate way to make a run blow up on purpose (a divergence test)."""
+    out = []
+    ini, n, g = scene.initial, scene.mesh.n_inner, scene.geometry
+    if ini.perturbation == "mode" and n / ini.mode < 8:
+        out.append(
+            f"initial.mode = {ini.mode} has only {n / ini.mode:.1f} contact nodes per "
+            f"wavelength on mesh.n_inner = {n}; the wave will be poorly resolved "
+            f"(use mesh.n_inner >= {8 * ini.mode})"
+        )
+    start = g.d * (1.0 + ini.amplitude) / g.strained_length
+    if ini.perturbation != "none" and start > MAX_STRAIN:
+        most = MAX_STRAIN * g.strained_length / g.d - 1.0
+        out.append(
+            f"initial.amplitude = {ini.amplitude:g} starts the contact circle up to "
+            f"d (1 + amplitude) = {g.d * (1.0 + ini.amplitude):.3g} m out, a strain of about "
+            f"{start:.3g} over min(R, (xi - 1) R) = {g.strained_length:.3g} m, above the "
+            f"{MAX_STRAIN:.0%} that the small-strain model allows: the run does not describe "
+            f"this tube; use initial.amplitude <= {most:.3g}"
+        )
+    out_ = scene.output
+    if out_.sample_interval > scene.time.end_time:
+        out.append(
+            f"output.sample_interval = {out_.sample_interval} s is longer than time.end_time "
+            f"= {scene.time.end_time} s: at most one sample, nothing to analyse (use "
+            "output.sample_interval <= time.end_time / 100)"
+        )
+    return out
 
 
 # ----------------------------------------------------------------------------- dict <-> Scene

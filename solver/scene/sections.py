@@ -8,6 +8,7 @@ from typing import ClassVar
 
 from stickslip.solver.contact.law import REGULARISATIONS, SpatialFilter, regularisation_of
 from stickslip.solver.scene.values import (
+    MAX_STRAIN,
     SCENES_DIR,
     SceneError,
     _choice,
@@ -80,9 +81,27 @@ class Geometry(_Section):
         """Outer radius xi*R [m]."""
         return self.xi * self.R
 
+    @property
+    def strained_length(self) -> float:
+        """The length that takes up a radial displacement of the contact circle [m]:
+        min(R, (xi - 1) R). The outer circle is clamped, so a thin wall is squeezed across
+        its thickness (xi - 1) R; a thick tube's contact circle is stretched round its
+        length (hoop strain u_r / R)."""
+        return min(self.R, (self.xi - 1.0) * self.R)
+
     def _check(self) -> None:
         for name in ("R", "xi", "delta"):
             check_range(self._key(name), getattr(self, name))
+        strain = self.d / self.strained_length
+        if strain > MAX_STRAIN * (1.0 + 1e-9):  # the bound itself is allowed, to round-off
+            raise SceneError(
+                f"geometry.delta = {self.delta:.6g} with geometry.xi = {self.xi:.10g} is out of "
+                f"range: the mismatch d = delta R squeezes the tube's wall ((xi - 1) R = "
+                f"{(self.xi - 1.0) * self.R:.3g} m, clamped outside) by a strain of about "
+                f"d / min(R, (xi - 1) R) = {strain:.3g}, above the {MAX_STRAIN:.0%} that the "
+                f"small-strain model allows: lower geometry.delta to <= "
+                f"{MAX_STRAIN * self.strained_length / self.R:.3g} or thicken the wall "
+                f"(geometry.xi >= {1.0 + self.delta / MAX_STRAIN:.4g})")
 
 
 @dataclass(frozen=True)

@@ -35,13 +35,26 @@ ALONG_TOLERANCES = {"celerity": 0.15, "share_rel": 0.5, "share_abs": 0.20, "frac
 MAX_POINTS = 200
 
 
+#: Scene keys that every start of a census sets itself (its sweep point): the flag that
+#: varies them instead.
+START_KEYS = {"mesh.n_inner": "--meshes", "initial.perturbation": "--structured",
+              "initial.seed": "--seed", "initial.mode": "--structured"}
+#: Scene keys that the start distribution sets (``census.Census.base_scene``): a curve along
+#: one varies the distribution's field.
+DISTRIBUTION_KEYS = {"initial.n_modes": "n_modes", "initial.amplitude": "amplitude"}
+
+
 def parse_along(text: str) -> tuple[str, list[float]]:
-    """``loading.omega=30:100:8`` or ``loading.omega=30,40,60`` -> (key, values);
+    """``loading.omega=30:100:8`` or ``loading.omega=30,40,60`` -> (key, values); an
+    integral value is an ``int`` (so an integer key, ``mesh.n_radial=2,3``, takes it);
     ValueError naming the fix."""
     key, sep, spec = text.partition("=")
     fix = "give KEY=A:B:M (M values from A to B) or KEY=V1,V2,..."
     if not sep or not key.strip() or "." not in key:
         raise ValueError(f"--along {text!r}: {fix}, e.g. loading.omega=30:100:8")
+    if key.strip() in START_KEYS:
+        raise ValueError(f"--along {text!r}: every start of a census sets {key.strip()} "
+                         f"itself; vary it with {START_KEYS[key.strip()]}")
     try:
         if ":" in spec:
             a, b, m = spec.split(":")
@@ -64,7 +77,22 @@ def parse_along(text: str) -> tuple[str, list[float]]:
         raise ValueError(f"--along {text!r}: the values must be finite numbers ({fix})")
     if len(values) < 2 or len(set(values)) != len(values):
         raise ValueError(f"--along {text!r}: {fix} with at least two distinct values")
-    return key.strip(), values
+    return key.strip(), [int(v) if float(v).is_integer() else v for v in values]
+
+
+def point_census(census, key: str, value: float):  # noqa: ANN001, ANN201 - a Census
+    """The census at ``key = value``: the start distribution's own field for its keys
+    (``DISTRIBUTION_KEYS``), else one more scene override."""
+    if key in DISTRIBUTION_KEYS:
+        field = DISTRIBUTION_KEYS[key]
+        given = float(value) if field == "amplitude" else value
+        try:
+            return replace(census, distribution=replace(census.distribution, **{field: given}))
+        except ValueError as err:  # the distribution's own check (an integer, > 0)
+            from stickslip.studies.attractors.census import CensusError
+
+            raise CensusError(f"{key} = {value}: {err}") from None
+    return replace(census, overrides=(*census.overrides, f"{key}={value!r}"))
 
 
 def point_dir(out_dir: Path, key: str, value: float) -> Path:
@@ -92,10 +120,10 @@ def run_along(census, key: str, values: list[float], out_dir: Path, *,  # noqa: 
     worst = 0
     try:
         for v in values:
-            point = replace(census, overrides=(*census.overrides, f"{key}={v!r}"))
             if comm.rank == 0:
                 print(f"== {key} = {v:g}", file=stream, flush=True)
             try:
+                point = point_census(census, key, v)
                 point.base_scene()
             except CensusError as e:
                 if comm.rank == 0:

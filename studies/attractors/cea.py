@@ -20,7 +20,7 @@ import json
 import math
 from pathlib import Path
 
-from stickslip.solver.atomic import atomic_write_text
+from stickslip.studies.attractors.census import read_cache, write_if_changed
 from stickslip.studies.attractors.statistics import COUNTED, SETTLED, wilson
 
 CACHE = "cea.json"
@@ -55,16 +55,14 @@ def cea_table(out_dir: Path, answer: dict, fmax_hz: float = 10_000.0) -> dict:
     """Per mesh of the census: its unstable modes, and for each the shares of the random
     starts that end on it as dominant or companion; whether the fastest-growing mode wins
     (module docstring). The spectra are cached in ``out_dir/cea.json``."""
-    try:
-        cache = json.loads((out_dir / CACHE).read_text())
-    except (OSError, ValueError):
-        cache = {}
+    cache = read_cache(out_dir / CACHE, list)
     out = {}
     for n in answer["members"]:
         key = f"{n}@{fmax_hz:g}"
         if key not in cache:
             cache[key] = unstable_modes(out_dir / "base.toml", int(n), fmax_hz)
-            atomic_write_text(out_dir / CACHE, json.dumps(cache, indent=1) + "\n")
+            write_if_changed(out_dir / CACHE, json.dumps(cache, indent=1) + "\n",
+                             required=False)
         rows = [r for r in answer["starts"] if str(r["n_inner"]) == str(n)
                 and r["start"] == "random" and r["class"] in COUNTED]
         out[n] = mode_shares(cache[key], rows)

@@ -27,8 +27,28 @@ row per start) and ``members.csv`` (one row per mesh and member of the random st
 
 A census directory holds one definition (scene + start distribution, in ``census.json``);
 another definition in the same directory is refused unless ``force``, and then every start
-whose resolved scene changed runs again (the sweep's own rule). Starts left over from a
-larger earlier census stay on disk and are not counted.
+whose resolved scene changed runs again (the sweep's own rule). A ``census.json`` that is not
+a definition (truncated, edited, another JSON type) is refused alike, naming the file.
+Starts left over from a larger earlier census stay on disk and are not counted.
+
+**Finished or not.** An answer is final only when every leg finished: no start is pending,
+running, interrupted, crashed or unanalysed, none is unsettled below the cap (``SETTLING``:
+its next leg did not run, or failed), and the session that wrote it was not stopped by a
+signal or an error in a leg (``collect``'s ``stopped``). Otherwise the answer says
+``NOT FINISHED`` (``attractors.json``: ``"finished": false``; ``attractors.csv``: those
+starts' class ``settling``), the command exits 130 (a signal) or 1 (an error) and the same
+command resumes it: a failed or interrupted leg leaves its start where its last whole leg
+ended. Re-reading a census directory (``collect(reading=True)``) writes nothing it does not
+have to: the caches ``features.json`` and ``certificates.json`` (which are only caches: a
+file of another JSON type is read as empty) and the answer files are written only where
+their text changed and the directory takes them.
+
+**Cost guard of the cap.** A start unsettled at every leg runs to T_max, so the census's
+worst case is every start at T_max: ``cap_problem`` estimates it (``studies.resources
+.estimate`` at ``time.end_time = T_max``) and refuses, in one line with the bound and the
+fix, a cap whose starts would take more than ``studies.resources.MAX_SECONDS`` on the ranks
+given or write more samples than the disk under the census directory has free, unless
+``--yes-i-know``; a cap that is not finite is refused always.
 """
 
 from __future__ import annotations
@@ -57,7 +77,7 @@ from stickslip.studies.attractors.classify import (
 )
 from stickslip.studies.attractors.features import DEFAULT_TOLERANCES, LEG_GROWTH, Tolerances
 from stickslip.studies.attractors.starts import StartDistribution
-from stickslip.studies.attractors.statistics import ladder, mesh_members
+from stickslip.studies.attractors.statistics import SETTLING, UNFINISHED, ladder, mesh_members
 
 KIND = "stickslip-attractors"
 #: The census directory's own entries (``studies.rundir.ownership``); the starts are a sweep
@@ -90,6 +110,10 @@ MEMBER_FIELDS = ("n_inner", "member", "class", "name", "n_components", "k", "dir
 DEFAULT_MAX_TIME = 4.0
 #: Each leg of settle-or-extend takes an unsettled start from T to GROWTH × T.
 GROWTH = LEG_GROWTH
+#: What ``census.json`` must hold (key: its JSON types): the rest is read with defaults.
+META_TYPES = {"definition": (dict,), "scene_file": (str,), "overrides": (list,),
+              "meshes": (list,), "distribution": (dict,), "celerity_tol": (int, float),
+              "spread_tol": (int, float)}
 
 
 class CensusError(ValueError):
@@ -107,6 +131,11 @@ class Census:
     celerity_tol: float = CELERITY_TOL
     spread_tol: float = SPREAD_TOL
     max_time: float | None = None  # the cap of settle-or-extend (None: DEFAULT_MAX_TIME)
+
+    def __post_init__(self) -> None:
+        if self.max_time is not None and not math.isfinite(self.max_time):
+            raise CensusError(f"--max-time {self.max_time}: give a finite time (s); every "
+                              "unsettled start runs on to it")
 
     def cap(self, base: Scene) -> float:
         """T_max: ``max_time`` (default ``DEFAULT_MAX_TIME``), at least the first leg."""
@@ -138,6 +167,109 @@ def default_dir(scene: Scene) -> Path:
     return output_root() / "attractors" / _slug(scene.name)
 
 
+def cap_problem(census: Census, out_dir: Path, ranks: int = 1) -> str | None:
+    """Why the census's cap is too costly to start without ``--yes-i-know`` (the cost guard
+    of the module docstring: every start run to T_max), or None."""
+    from stickslip.studies.resources import (
+        MAX_SECONDS,
+        MAX_STEPS,
+        ResourceError,
+        _bytes,
+        _duration,
+        _free_disk,
+        estimate,
+    )
+
+    base = census.base_scene()
+    cap = census.cap(base)
+    if cap <= base.time.end_time:  # no leg beyond the first: the sweep's own guard
+        return None
+    smaller = (f"give a smaller --max-time (the first leg ends at {base.time.end_time:g} "
+               "s), fewer --starts or --meshes")
+    fix = f"{smaller}, or pass --yes-i-know to run anyway"
+    seconds = output = 0.0
+    starts = 0
+    try:
+        for n in census.meshes:
+            est = estimate(base.with_overrides(f"mesh.n_inner={n}", f"time.end_time={cap!r}"))
+            count = len(census.distribution.points((n,)))
+            starts += count
+            seconds += count * est.seconds
+            output += count * est.output_bytes
+    except ResourceError:  # more steps than a counter holds: no estimate at all
+        return (f"--max-time {cap:g}: more than {MAX_STEPS:.0e} time steps (the step "
+                f"counters are 64-bit): {smaller}")
+    except SceneError as err:
+        return f"--max-time {cap:g}: {err}"
+    wall = seconds / max(1, ranks)
+    if wall > MAX_SECONDS:
+        return (f"--max-time {cap:g}: {starts} start(s) continued to {cap:g} s would take "
+                f"about {_duration(wall)} on {ranks} rank(s) (estimate; the bound is "
+                f"{_duration(MAX_SECONDS)}): {fix}")
+    free = _free_disk(out_dir)
+    if output > free:
+        return (f"--max-time {cap:g}: {starts} start(s) continued to {cap:g} s would write "
+                f"about {_bytes(output)} of samples but {_bytes(free)} is free under "
+                f"{out_dir}: {fix}")
+    return None
+
+
+def read_meta(out_dir: Path) -> dict:
+    """``out_dir/census.json``, the census's definition; CensusError (naming the file and
+    the fix) where it is not one: unreadable, not UTF-8, not JSON, or of other types."""
+    path = Path(out_dir) / "census.json"
+    try:
+        meta = json.loads(path.read_text())
+    except UnicodeDecodeError:
+        why = "not UTF-8 text"
+    except (OSError, ValueError) as err:  # JSONDecodeError included
+        why = _first_line(str(err)) or type(err).__name__
+    else:
+        if not isinstance(meta, dict):
+            why = "not a JSON object"
+        else:
+            wrong = [k for k, types in META_TYPES.items() if not isinstance(meta.get(k), types)]
+            if not wrong and not isinstance(meta["definition"].get("scene"), dict):
+                wrong = ["definition.scene"]
+            if not wrong:
+                return meta
+            why = "wrong or missing " + ", ".join(wrong)
+    raise CensusError(f"{path} is not a census definition ({why}); run the census again "
+                      f"with -o {out_dir} --force to write it again (only its starts whose "
+                      "scene changed run again)")
+
+
+def read_cache(path: Path, entry: type = dict) -> dict:
+    """A cache file (``features.json``, ``certificates.json``: entries ``dict``;
+    ``cea.json``: ``list``): its entries of type ``entry``; {} where it is missing,
+    unreadable or of another JSON type (a cache is computed again, never trusted)."""
+    try:
+        data = json.loads(Path(path).read_text())
+    except (OSError, ValueError):
+        return {}
+    if not isinstance(data, dict):
+        return {}
+    return {k: v for k, v in data.items() if isinstance(v, entry)}
+
+
+def write_if_changed(path: Path, text: str, required: bool = True) -> bool:
+    """Write ``text`` to ``path`` (atomically) unless it holds that text already; returns
+    whether it was written. ``required`` False (a cache, or an answer only re-read): a
+    directory that does not take the write (read-only, full) is left as it is."""
+    try:
+        if path.read_text() == text:
+            return False
+    except (OSError, ValueError):
+        pass
+    try:
+        atomic_write_text(path, text)
+    except OSError:
+        if required:
+            raise
+        return False
+    return True
+
+
 def _slug(text: str) -> str:
     return re.sub(r"[^A-Za-z0-9_.\-]", "_", text) or "census"
 
@@ -157,16 +289,20 @@ def sweep_text(census: Census, name: str) -> str:
     return "\n".join(lines)
 
 
-def prepare(census: Census, out_dir: Path, force: bool):  # noqa: ANN201 - a Claim
+def prepare(census: Census, out_dir: Path, force: bool,  # noqa: ANN201 - a Claim
+            check_cost: bool = True, ranks: int = 1):
     """Rank 0: claim the directory, write base.toml, census.toml and census.json.
 
     The directory is claimed as kind ``attractors`` (``studies.rundir.ownership``: a new or
     empty one, or a census directory to resume; a live or foreign one is refused). The claim
-    (its lock) is returned and held until the census ends."""
+    (its lock) is returned and held until the census ends. ``check_cost``: the cap's cost
+    guard (``cap_problem`` on ``ranks``) first, before anything is made."""
     from stickslip.studies.rundir.ownership import OwnershipError, claim, register_kind
 
     base = census.base_scene()
     definition = census.definition(base)
+    if check_cost and (problem := cap_problem(census, out_dir, ranks)):
+        raise CensusError(problem)
     register_kind("attractors", ENTRIES)
     try:
         owned = claim(out_dir, "attractors", reuse=True)
@@ -174,15 +310,10 @@ def prepare(census: Census, out_dir: Path, force: bool):  # noqa: ANN201 - a Cla
         raise CensusError(str(err)) from None
     try:
         meta_path = out_dir / "census.json"
-        if meta_path.is_file():
-            try:
-                old = json.loads(meta_path.read_text())
-            except ValueError:
-                old = {}
-            if old.get("definition") != definition and not force:
-                raise CensusError(f"{out_dir} holds a census of another scene or start "
-                                  "distribution; use another -o, or --force to rerun its "
-                                  "starts")
+        if meta_path.exists() and not force \
+                and read_meta(out_dir).get("definition") != definition:
+            raise CensusError(f"{out_dir} holds a census of another scene or start "
+                              "distribution; use another -o, or --force to rerun its starts")
         clear_unstarted(out_dir / STARTS)
         write_scene(base, out_dir / "base.toml")
         atomic_write_text(out_dir / "census.toml", sweep_text(census, base.name))
@@ -241,7 +372,8 @@ def claim_on_rank0(comm, take, refusals: tuple[type[Exception], ...]):  # noqa: 
 def run_census(census: Census, out_dir: str | Path, *, comm=None, force: bool = False,  # noqa: ANN001
                progress: str = "auto", backend: str = "cpu", certify: bool = True,
                dt_limit: bool = False, kick: bool = True, stream: TextIO = sys.stdout,
-               read_starts: Callable[..., int] | None = None, check_cost: bool = True) -> int:
+               read_starts: Callable[..., int] | None = None, check_cost: bool = True,
+               answer: dict | None = None) -> int:
     """Run (or resume) the census into ``out_dir`` and write its answer; collective.
 
     ``read_starts(spec, starts_dir, stream)``: the starts' first legs are not run here but
@@ -249,17 +381,20 @@ def run_census(census: Census, out_dir: str | Path, *, comm=None, force: bool = 
     the same.
 
     ``check_cost``: refuse starts too long or too large for the machine, as a sweep does
-    (``studies.sweep.schedule.run_sweep``; ``--yes-i-know``: False).
+    (``studies.sweep.schedule.run_sweep``), and a cap too costly (``cap_problem``);
+    ``--yes-i-know``: False.
 
     ``certify``: certify every member (``studies.attractors.certify``); ``dt_limit``: also the
     rigid waves' Δt → 0 ladder (several Newton solves on finer levels; off by default);
     ``kick``: the kick test of every member (``certify.kick_members``).
 
     Every unsettled start is continued up to the census's cap (``settle``, module
-    docstring).
+    docstring). ``answer``: filled on rank 0 with the answer written (``collect``), if any.
 
-    Returns 0 (every start final, none failed with an error), 1 (some start failed: counted
-    and shown), 2 (the census cannot start), 130 (interrupted: run the same command again).
+    Returns 0 (the answer is finished: every leg ran, no start failed), 1 (some start
+    failed, counted and shown; or a leg or the answer's files failed: not finished, said
+    in one line), 2 (the census cannot start), 130 (interrupted: not finished; run the same
+    command again).
     """
     from mpi4py import MPI
 
@@ -268,8 +403,9 @@ def run_census(census: Census, out_dir: str | Path, *, comm=None, force: bool = 
 
     comm = MPI.COMM_WORLD if comm is None else comm
     out_dir = Path(out_dir)
-    owned, refused = claim_on_rank0(comm, lambda: prepare(census, out_dir, force),
-                                    (CensusError, OSError))
+    owned, refused = claim_on_rank0(
+        comm, lambda: prepare(census, out_dir, force, check_cost, comm.size),
+        (CensusError, OSError))
     if refused:
         return 2
     try:
@@ -289,23 +425,44 @@ def run_census(census: Census, out_dir: str | Path, *, comm=None, force: bool = 
                             if comm.rank == 0 else None, root=0)
         if rc == 2 and owned is not None:
             _drop_if_unstarted(owned, out_dir)
-        if rc in (0, 1):
-            rc = max(rc, settle(out_dir, comm, stream))
+        settled = settle(out_dir, comm, stream) if rc in (0, 1) else 0
+        rc = max(rc, settled)
         sweep_s = time.perf_counter() - t0
         shared: dict = {}
         if certify and rc == 0 and certify_shared(out_dir, comm, dt_limit=dt_limit,
                                                   kick=kick, timing=shared):
             rc = 130
         if comm.rank == 0 and rc != 2:
-            answer = collect(out_dir, certify="run" if certify and rc == 0 else "cached",
-                             dt_limit=dt_limit, sweep_s=sweep_s, kick=kick, shared=shared)
-            print(answer["text"], file=stream, flush=True)
-            if rc == 0 and answer["counts"].get("failed"):
-                rc = 1
+            stopped = "interrupted" if rc == 130 else "a leg failed" if settled else None
+            rc = _answer(out_dir, rc, stopped, stream, answer if answer is not None else {},
+                         certify="run" if certify and rc == 0 else "cached",
+                         dt_limit=dt_limit, sweep_s=sweep_s, kick=kick, shared=shared)
         wait_quietly(comm)  # the other ranks sleep while rank 0 analyses and certifies
     finally:
         if owned is not None:
             owned.release()
+    return rc
+
+
+def _answer(out_dir: Path, rc: int, stopped: str | None, stream: TextIO, answer: dict,
+            **options) -> int:  # noqa: ANN003
+    """Rank 0: ``collect`` the answer (``options``) into ``answer``, print it, and return
+    the census's status: ``rc``, 130 where a signal stops the answer itself (the answer is
+    then collected again from the caches, marked not finished), 1 where its files cannot
+    be written (said in one line) or it is not finished or counts a failed start."""
+    try:
+        try:
+            answer.update(collect(out_dir, stopped=stopped, **options))
+        except KeyboardInterrupt:
+            rc, stopped = 130, "interrupted"
+            answer.update(collect(out_dir, certify="cached", stopped=stopped))
+    except (OSError, CensusError) as err:
+        print(f"error: the census's answer could not be written: {err}", file=sys.stderr,
+              flush=True)
+        return max(rc, 1)
+    print(answer["text"], file=stream, flush=True)
+    if rc == 0 and (answer["counts"].get("failed") or not answer["finished"]):
+        rc = 1
     return rc
 
 
@@ -338,9 +495,10 @@ def _read(read_starts: Callable[..., int], spec, out_dir: Path, stream: TextIO) 
 
 def settle(out_dir: Path, comm, stream: TextIO = sys.stdout) -> int:  # noqa: ANN001
     """Continue the unsettled starts of the census in ``out_dir`` in legs until each is
-    settled or at the cap (module docstring); collective. Returns 0, 1 (the census could not
-    be read) or 130 (interrupted: every start stands at its last whole leg; run the same
-    command again)."""
+    settled or at the cap (module docstring); collective. Returns 0 (every leg ran), 1 (a
+    leg failed, said on stderr with its start, which stays where its last whole leg ended;
+    or the census could not be read) or 130 (interrupted: every start stands at its last
+    whole leg). Either way the same command goes on from there."""
     import signal
 
     from stickslip.studies.sweep.schedule import wait_quietly
@@ -352,18 +510,7 @@ def settle(out_dir: Path, comm, stream: TextIO = sys.stdout) -> int:  # noqa: AN
         while True:
             if featurise_shared(out_dir, comm):
                 return 130
-            shares: list | int | None = None
-            if comm.rank == 0:
-                try:
-                    legs = _next_legs(out_dir, refused, reached, stream)
-                    shares = balanced_shares(legs, comm.size) if legs else None
-                except KeyboardInterrupt:
-                    shares = 130
-                except (OSError, ValueError, KeyError) as err:  # an unreadable census
-                    print(f"error: settle: {err}", file=sys.stderr, flush=True)
-                    shares = 1
-            wait_quietly(comm)  # the others sleep while rank 0 classifies
-            shares = comm.bcast(shares, root=0)
+            shares = _plan_legs(out_dir, comm, refused, reached, stream)
             if not shares or isinstance(shares, int):
                 return shares or 0
             log = out_dir / f"settle-rank{comm.rank}.log"  # the continuations' lines
@@ -372,27 +519,53 @@ def settle(out_dir: Path, comm, stream: TextIO = sys.stdout) -> int:  # noqa: AN
             results = comm.gather((failed, interrupted), root=0)
             stop = None
             if comm.rank == 0:
-                for why, _ in results:
-                    refused.update(why)
                 for start, message in (kv for why, _ in results for kv in why.items()):
-                    print(f"  settle: {start} not continued: {message}", file=stream,
-                          flush=True)
+                    refused[start] = message
+                    _say_refused(start, message)
                 stop = any(flag for _, flag in results)
             if comm.bcast(stop, root=0):
                 return 130
+    except KeyboardInterrupt:  # between legs (a leg's own is continue_legs')
+        return 130
     finally:
         signal.signal(signal.SIGTERM, previous)
+
+
+def _plan_legs(out_dir: Path, comm, refused: dict[str, str], reached: dict[str, float],  # noqa: ANN001
+               stream: TextIO) -> list | int | None:
+    """Collective: rank 0 finds the next legs (``_next_legs``) and shares them; every rank
+    gets the shares, None (no leg left, none refused), 1 (none left, but some start was
+    refused, or the census could not be read) or 130 (interrupted)."""
+    from stickslip.studies.sweep.schedule import wait_quietly
+
+    shares: list | int | None = None
+    if comm.rank == 0:
+        try:
+            legs = _next_legs(out_dir, refused, reached, stream)
+            shares = balanced_shares(legs, comm.size) if legs else (1 if refused else None)
+        except KeyboardInterrupt:
+            shares = 130
+        except (OSError, ValueError, KeyError) as err:  # an unreadable census
+            print(f"error: settle: {err}", file=sys.stderr, flush=True)
+            shares = 1
+    wait_quietly(comm)  # the others sleep while rank 0 classifies
+    return comm.bcast(shares, root=0)
+
+
+def _say_refused(start: str, message: str) -> None:
+    print(f"error: settle: {start} not continued: {message} (it stays where its last "
+          "whole leg ended; run the same command again to go on)", file=sys.stderr,
+          flush=True)
 
 
 def _next_legs(out_dir: Path, refused: dict[str, str], reached: dict[str, float],
                stream: TextIO) -> list[dict]:
     """Rank 0: ``extension_legs``, less the starts whose last leg did not advance them
-    (refused from now on: a loop that cannot end otherwise); said on ``stream``."""
+    (refused from now on: a loop that cannot end otherwise; said on stderr)."""
     legs = extension_legs(out_dir, refused)
     for leg in [g for g in legs if reached.get(g["id"]) == g["from"]]:
         refused[leg["id"]] = f"its last leg ended at {leg['from']:g} s, not later"
-        print(f"  settle: {leg['id']} not continued: {refused[leg['id']]}", file=stream,
-              flush=True)
+        _say_refused(leg["id"], refused[leg["id"]])
     legs = [g for g in legs if g["id"] not in refused]
     reached.update({g["id"]: g["from"] for g in legs})
     if legs:
@@ -408,19 +581,26 @@ def extension_legs(out_dir: Path, refused: dict[str, str] | None = None) -> list
     """Rank 0: the next leg of every start to continue: unsettled, completed, below the cap
     and not ``refused``: {"id", "run_dir", "from", "until", "cost"} (cost: N³ × the time
     added, the relative work of the leg: N² unknowns, N/R steps per second)."""
-    meta = json.loads((out_dir / "census.json").read_text())
+    meta = read_meta(out_dir)
     cap = float(meta.get("max_time_s") or 0.0)
     rows = start_rows(out_dir, meta["spread_tol"], tolerances(meta), meta.get("window_s"))
     legs = []
     for r in rows:
-        t = float(r.get("sim_time_s") or 0.0)
-        if r["class"] != "unsettled" or r["status"] != "completed" or (refused or {}).get(
-                r["id"]) or not t < cap * (1.0 - 1e-9):
+        if not below_cap(r, cap) or (refused or {}).get(r["id"]):
             continue
+        t = float(r.get("sim_time_s") or 0.0)
         until = min(cap, GROWTH * t)
         legs.append({"id": r["id"], "run_dir": r["run_dir"], "from": t, "until": until,
                      "cost": float(r["n_inner"]) ** 3 * (until - t)})
     return legs
+
+
+def below_cap(row: dict, cap: float | None) -> bool:
+    """Whether a start's row is unsettled below the cap ``cap`` (s): a leg is still due
+    (``extension_legs``), so it is no end state (``SETTLING``, ``answer_of``)."""
+    t = float(row.get("sim_time_s") or 0.0)
+    return (row.get("class") == "unsettled" and row.get("status") == "completed"
+            and cap is not None and t < float(cap) * (1.0 - 1e-9))
 
 
 def balanced_shares(legs: list[dict], ranks: int) -> list[list[dict]]:
@@ -443,10 +623,10 @@ def _say_legs(legs: list[dict], stream: TextIO) -> None:
 
 def continue_legs(legs: list[dict], log: Path) -> tuple[dict[str, str], bool]:
     """Continue this rank's legs in place (``continue_batch`` per end time: one batch per
-    batch of starts); ({start id: why not continued}, interrupted)."""
-    from stickslip.studies.rundir import continue_batch
-    from stickslip.studies.rundir.readers import ReadError
-
+    batch of starts); ({start id: why not continued}, interrupted). A leg that raised, or
+    whose run did not end ``completed`` or ``diverged`` (a run that could not write its
+    files ends ``failed`` and keeps the earlier one), is not continued: its first line of
+    why; a leg stopped by a signal is an interruption."""
     refused: dict[str, str] = {}
     by_until: dict[float, list[dict]] = {}
     for leg in legs:
@@ -458,20 +638,41 @@ def continue_legs(legs: list[dict], log: Path) -> tuple[dict[str, str], bool]:
                 for g in group:
                     fh.write(f"continuing {g['id']} from t = {g['from']!r} s to {until!r} s\n")
                 fh.flush()
-                try:
-                    continue_batch([g["run_dir"] for g in group], until, stream=fh,
-                                   compress=False)
-                except (ReadError, ValueError, OSError, RuntimeError):
-                    for g in group:  # one by one: which start refuses, the others go on
-                        try:
-                            continue_batch([g["run_dir"]], until, stream=fh,
-                                           compress=False)
-                        except (ReadError, ValueError, OSError, RuntimeError) as err:
-                            refused[g["id"]] = str(err).splitlines()[0] if str(err) else \
-                                type(err).__name__
+                for g, outcome in zip(group, _continue_group(group, until, fh), strict=True):
+                    status = outcome.get("status") if isinstance(outcome, dict) else None
+                    if status == "interrupted":
+                        return refused, True
+                    if status not in ("completed", "diverged"):
+                        refused[g["id"]] = outcome if isinstance(outcome, str) else \
+                            _first_line(outcome.get("message")) or f"its leg ended {status}"
         except KeyboardInterrupt:
             return refused, True
     return refused, False
+
+
+def _continue_group(group: list[dict], until: float, fh: TextIO) -> list[dict | str]:
+    """Continue the starts of ``group`` to ``until`` as one batch; where that raises, one
+    by one (which start refuses, the others go on). Per start its summary, or why it
+    could not be continued (the error's first line)."""
+    from stickslip.studies.rundir import continue_batch
+    from stickslip.studies.rundir.readers import ReadError
+
+    errors = (ReadError, ValueError, OSError, RuntimeError)
+    try:
+        return continue_batch([g["run_dir"] for g in group], until, stream=fh, compress=False)
+    except errors:
+        pass
+    out: list[dict | str] = []
+    for g in group:
+        try:
+            out += continue_batch([g["run_dir"]], until, stream=fh, compress=False)
+        except errors as err:
+            out.append(_first_line(str(err)) or type(err).__name__)
+    return out
+
+
+def _first_line(text: str | None) -> str:
+    return (text or "").strip().splitlines()[0] if (text or "").strip() else ""
 
 
 # ============================================================================ the answer
@@ -486,7 +687,7 @@ def start_rows(out_dir: Path, spread_tol: float = SPREAD_TOL,
 
     spec = load_sweep(out_dir / "census.toml")
     cache_path = out_dir / FEATURES
-    cache = _read_features(cache_path)
+    cache = read_cache(cache_path)
     rows, kept = [], {}
     for task in spec.tasks:
         run_dir, summary, status, key = _start_state(out_dir, task, window)
@@ -495,16 +696,8 @@ def start_rows(out_dir: Path, spread_tol: float = SPREAD_TOL,
         rows.append(row)
         if key and row.get("features"):
             kept[key] = row_cache(row)
-    if kept != cache:
-        atomic_write_text(cache_path, json.dumps(_json_safe(kept)) + "\n")
+    write_if_changed(cache_path, json.dumps(_json_safe(kept)) + "\n", required=False)
     return rows
-
-
-def _read_features(path: Path) -> dict:
-    try:
-        return json.loads(path.read_text())
-    except (OSError, ValueError):
-        return {}
 
 
 def _start_state(out_dir: Path, task, window: float | None  # noqa: ANN001 - a sweep Task
@@ -532,10 +725,11 @@ def featurise_shared(out_dir: Path, comm) -> bool:  # noqa: ANN001
     rank cannot featurise is left to rank 0's ``start_rows``. Returns whether a rank was
     interrupted (SIGINT/SIGTERM; on every rank: run the census again)."""
     def merge(parts: list[dict]) -> None:
-        cache = _read_features(out_dir / FEATURES)
+        cache = read_cache(out_dir / FEATURES)
         for part in parts:
             cache.update(part)
-        atomic_write_text(out_dir / FEATURES, json.dumps(_json_safe(cache)) + "\n")
+        write_if_changed(out_dir / FEATURES, json.dumps(_json_safe(cache)) + "\n",
+                         required=False)
 
     return on_ranks(comm, lambda: _unfeaturised_shares(out_dir, comm.size),
                     lambda share: _featurise(out_dir, [item["id"] for item in share]), merge)
@@ -586,8 +780,8 @@ def _unfeaturised_shares(out_dir: Path, ranks: int) -> list[list[dict]] | None:
     from stickslip.studies.sweep import load_sweep
 
     try:
-        meta = json.loads((out_dir / "census.json").read_text())
-        cache = _read_features(out_dir / FEATURES)
+        meta = read_meta(out_dir)
+        cache = read_cache(out_dir / FEATURES)
         todo = []
         for task in load_sweep(out_dir / "census.toml").tasks:
             _, summary, _, key = _start_state(out_dir, task, meta.get("window_s"))
@@ -604,7 +798,7 @@ def _featurise(out_dir: Path, ids: list[str]) -> dict:
     """{features.json key: ``row_cache``} of the starts ``ids`` (``start_row``)."""
     from stickslip.studies.sweep import load_sweep
 
-    meta = json.loads((out_dir / "census.json").read_text())
+    meta = read_meta(out_dir)
     window = meta.get("window_s")
     tasks = {t.id: t for t in load_sweep(out_dir / "census.toml").tasks}
     found = {}
@@ -619,17 +813,24 @@ def _featurise(out_dir: Path, ids: list[str]) -> dict:
 
 
 def collect(out_dir: str | Path, *, certify: str | bool = "cached", dt_limit: bool = False,
-            sweep_s: float | None = None, kick: bool = True, shared: dict | None = None
-            ) -> dict:
+            sweep_s: float | None = None, kick: bool = True, shared: dict | None = None,
+            stopped: str | None = None, reading: bool = False) -> dict:
     """Rank 0: featurise, classify, group, count; write attractors.{json,csv}, members.csv.
 
     ``certify``: ``"run"`` (certify the members whose certificate is not cached in
     ``certificates.json``), ``"cached"`` (show the cached ones only) or False.
     ``sweep_s``: the wall time of the runs of this session, for the time shares. ``kick``:
     with ``"run"``, the members' kick tests too. ``shared``: the wall times of
-    ``certify_shared`` (``certification_s``, ``kick_s``), added to this call's."""
+    ``certify_shared`` (``certification_s``, ``kick_s``), added to this call's.
+    ``stopped``: why this session stopped early ("interrupted", "a leg failed"): the
+    answer is not finished. ``reading``: an existing answer re-read (nothing runs): its
+    timing is the session's that ran it, and its files are written only where they changed
+    and the directory takes them (module docstring). CensusError: ``census.json`` is not a
+    census definition."""
+    from stickslip.studies.attractors.report import summary_text
+
     out_dir = Path(out_dir)
-    meta = json.loads((out_dir / "census.json").read_text())
+    meta = read_meta(out_dir)
     t0 = time.perf_counter()
     rows = start_rows(out_dir, meta["spread_tol"], tolerances(meta), meta.get("window_s"))
     features_s = time.perf_counter() - t0
@@ -637,9 +838,21 @@ def collect(out_dir: str | Path, *, certify: str | bool = "cached", dt_limit: bo
     answer = answer_of(meta, rows, out_dir if mode else None, compute=mode == "run",
                        dt_limit=dt_limit, kick=kick,
                        timing={"sweep_s": sweep_s, "features_s": features_s},
-                       shared=shared)
-    write_outputs(out_dir, answer)
+                       shared=shared, stopped=stopped)
+    if reading:
+        answer["timing"] = _stored_timing(out_dir)
+        answer["text"] = summary_text(answer)
+    write_outputs(out_dir, answer, required=not reading)
     return answer
+
+
+def _stored_timing(out_dir: Path) -> dict:
+    """The timing of the answer in ``out_dir/attractors.json`` ({} where there is none)."""
+    try:
+        timing = json.loads((out_dir / "attractors.json").read_text()).get("timing")
+    except (OSError, ValueError, AttributeError):
+        return {}
+    return timing if isinstance(timing, dict) else {}
 
 
 def tolerances(meta: dict) -> Tolerances:
@@ -649,14 +862,21 @@ def tolerances(meta: dict) -> Tolerances:
 
 def answer_of(meta: dict, rows: list[dict], certify_in: Path | None = None, *,
               compute: bool = True, dt_limit: bool = False, timing: dict | None = None,
-              kick: bool = False, shared: dict | None = None) -> dict:
+              kick: bool = False, shared: dict | None = None,
+              stopped: str | None = None) -> dict:
     """The census's answer from its definition (``census.json``) and one row per start
     (``classify.start_row`` or ``classify.end_state_row``): members per mesh, structured
     starts apart, the ladder, the counts, and (with ``certify_in``, the census directory)
     the certificates (``compute``: those not cached yet are computed; ``kick``: with their
     kick tests, ``certify_members``). A rigid wave that its
     certificate calls unstable is a ``transient``, not an attractor: its member and rows
-    take that class."""
+    take that class. A start unsettled below the cap (``below_cap``) is ``SETTLING``, no
+    end state; ``finished``: none is, no start is left to run, and ``stopped`` (why the
+    session stopped early) is None (module docstring)."""
+    cap = meta.get("max_time_s")
+    for r in rows:
+        if below_cap(r, cap):
+            r["class"] = SETTLING
     meshes = sorted({r["n_inner"] for r in rows})
     for n in meshes:
         group_members([r for r in rows if r["n_inner"] == n], meta["celerity_tol"],
@@ -686,9 +906,11 @@ def answer_of(meta: dict, rows: list[dict], certify_in: Path | None = None, *,
     counts: dict[str, int] = {}
     for r in rows:
         counts[r["class"]] = counts.get(r["class"], 0) + 1
-    answer = {"kind": KIND, **{k: meta[k] for k in ("scene_file", "overrides", "meshes",
-                                                     "distribution", "celerity_tol",
-                                                     "spread_tol")},
+    left = {k: v for k, v in counts.items() if k in UNFINISHED}
+    answer = {"kind": KIND, "finished": not left and not stopped, "stopped": stopped,
+              "max_time_s": cap,
+              **{k: meta[k] for k in ("scene_file", "overrides", "meshes", "distribution",
+                                      "celerity_tol", "spread_tol")},
               "tolerances": _tolerance_facts(tolerances(meta)),
               "scene": meta["definition"]["scene"], "counts": counts,
               "members": {str(n): per_mesh[n] for n in meshes},
@@ -730,10 +952,7 @@ def certify_members(out_dir: Path, rows: list[dict], *, compute: bool = True,
     from stickslip.studies.attractors.certify import certify_member, kick_members
 
     cache_path = out_dir / "certificates.json"
-    try:
-        cache = json.loads(cache_path.read_text())
-    except (OSError, ValueError):
-        cache = {}
+    cache = read_cache(cache_path)
     out: dict = {}
     members = settled_members(rows)
     keys: dict[str, str] = {}  # "N:member" -> its cache key
@@ -745,8 +964,7 @@ def certify_members(out_dir: Path, rows: list[dict], *, compute: bool = True,
                 continue
             cache[key] = certify_member(group, dt_limit=dt_limit, window=window)
             if write:
-                atomic_write_text(cache_path, json.dumps(_json_safe(cache), indent=1,
-                                                         default=str))
+                write_if_changed(cache_path, _cache_text(cache), required=False)
         out[f"{n}:{member}"] = cache[key]
         keys[f"{n}:{member}"] = key
     unkicked = {name: members[tuple_key] for name, tuple_key in named.items()
@@ -759,8 +977,7 @@ def certify_members(out_dir: Path, rows: list[dict], *, compute: bool = True,
         for name, result in kicks.items():
             cache[keys[name]] = out[name] = {**out[name], "kick": result}
         if write:
-            atomic_write_text(cache_path, json.dumps(_json_safe(cache), indent=1,
-                                                     default=str))
+            write_if_changed(cache_path, _cache_text(cache), required=False)
     return out
 
 
@@ -813,10 +1030,10 @@ def certify_shared(out_dir: Path, comm, *, dt_limit: bool = False,  # noqa: ANN0
 
     def merge(parts: list[tuple[dict, float]]) -> None:
         path = out_dir / "certificates.json"
-        cache = _read_features(path)
+        cache = read_cache(path)
         for found, _ in parts:
             cache.update(found)
-        atomic_write_text(path, json.dumps(_json_safe(cache), indent=1, default=str))
+        write_if_changed(path, _cache_text(cache), required=False)
         jobs["kick_s"] = max((k for _, k in parts), default=0.0)
 
     interrupted = on_ranks(comm, plan, work, merge)
@@ -831,14 +1048,14 @@ def _certificate_jobs(out_dir: Path, ranks: int, dt_limit: bool, kick: bool
     its members whose certificate or kick is not cached}) for ``certify_shared``; None
     if nothing is missing (or the census cannot be read: ``collect`` says why)."""
     try:
-        meta = json.loads((out_dir / "census.json").read_text())
+        meta = read_meta(out_dir)
         tol = tolerances(meta)
         rows = start_rows(out_dir, meta["spread_tol"], tol, meta.get("window_s"))
     except (OSError, ValueError, KeyError):
         return None
     for n in sorted({r["n_inner"] for r in rows}):  # as answer_of groups them
         group_members([r for r in rows if r["n_inner"] == n], meta["celerity_tol"], tol=tol)
-    cache = _read_features(out_dir / "certificates.json")
+    cache = read_cache(out_dir / "certificates.json")
     todo: dict[int, list[dict]] = {}
     for (n, _), group in settled_members(rows).items():
         entry = cache.get(certificate_key(group, dt_limit))
@@ -875,10 +1092,21 @@ def _json_safe(value):  # noqa: ANN001, ANN202
     return value
 
 
-def write_outputs(out_dir: Path, answer: dict) -> None:
-    """attractors.json, attractors.csv and members.csv (atomic writes)."""
-    atomic_write_text(out_dir / "attractors.json",
-                      json.dumps(_json_safe(answer), indent=1, default=str) + "\n")
-    atomic_write_text(out_dir / "attractors.csv", _csv(ROW_FIELDS, answer["starts"]))
+def _cache_text(cache: dict) -> str:
+    return json.dumps(_json_safe(cache), indent=1, default=str)
+
+
+def answer_json(answer: dict) -> str:
+    """The answer as ``attractors.json`` holds it (non-finite numbers as null)."""
+    return json.dumps(_json_safe(answer), indent=1, default=str) + "\n"
+
+
+def write_outputs(out_dir: Path, answer: dict, required: bool = True) -> None:
+    """attractors.json, attractors.csv and members.csv (atomic writes, each only where its
+    text changed); ``required`` False (an answer re-read): a directory that does not take
+    them keeps the files it has (``write_if_changed``)."""
     members = [{"n_inner": int(n), **m} for n, ms in answer["members"].items() for m in ms]
-    atomic_write_text(out_dir / "members.csv", _csv(MEMBER_FIELDS, members))
+    for name, text in (("attractors.json", answer_json(answer)),
+                       ("attractors.csv", _csv(ROW_FIELDS, answer["starts"])),
+                       ("members.csv", _csv(MEMBER_FIELDS, members))):
+        write_if_changed(out_dir / name, text, required)

@@ -16,13 +16,15 @@ from pathlib import Path
 import numpy as np
 
 
-def plot_census(out_dir: str | Path) -> list[Path]:
-    """Draw the census figures of ``out_dir`` (its attractors.json); returns their paths."""
+def plot_census(out_dir: str | Path, answer: dict | None = None) -> list[Path]:
+    """Draw the census figures of ``out_dir`` (of ``answer``, as attractors.json holds it;
+    default: its attractors.json) into it; returns their paths."""
     import matplotlib
 
     matplotlib.use("Agg")
     out_dir = Path(out_dir)
-    answer = json.loads((out_dir / "attractors.json").read_text())
+    if answer is None:
+        answer = json.loads((out_dir / "attractors.json").read_text())
     paths = [_basins(out_dir, answer), _values(out_dir, answer)]
     return [p for p in paths if p is not None] + _profiles(out_dir, answer)
 

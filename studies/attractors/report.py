@@ -6,7 +6,7 @@ import math
 
 from stickslip.studies.attractors.certify import member_line
 from stickslip.studies.attractors.classify import member_description
-from stickslip.studies.attractors.statistics import SETTLED
+from stickslip.studies.attractors.statistics import SETTLED, SETTLING, UNFINISHED
 
 
 def _pct(x: float) -> str:
@@ -134,6 +134,17 @@ def _share_steps(values: list[float]) -> str:
     return " → ".join(_pct(v) if math.isfinite(v) else "–" for v in values)
 
 
+def unfinished_line(answer: dict) -> str:
+    """The NOT FINISHED line: why the session stopped, the starts left and their states
+    (a settling start: unsettled below the cap, its next leg not run), and the fix."""
+    left = [f"{v} {k}" + (f" (unsettled below the cap of {answer['max_time_s']:g} s)"
+                          if k == SETTLING and answer.get("max_time_s") else "")
+            for k, v in answer["counts"].items() if k in UNFINISHED]
+    why = f" ({answer['stopped']})" if answer.get("stopped") else ""
+    return (f"NOT FINISHED{why}: " + (", ".join(left) or "the certificates are not all made")
+            + "; run the same command again to resume")
+
+
 def summary_text(answer: dict) -> str:
     """The printed summary (module docstring)."""
     dist = answer["distribution"]
@@ -148,11 +159,8 @@ def summary_text(answer: dict) -> str:
             f"{100 * tol.get('share_rel', 0.1):g} % (≥ {100 * tol.get('share_abs', 0.02):g} "
             "points)")
     lines = [head]
-    left = {k: v for k, v in counts.items() if k in ("pending", "running", "interrupted",
-                                                       "crashed", "unanalysed")}
-    if left:
-        lines.append("NOT FINISHED: " + ", ".join(f"{v} {k}" for k, v in left.items())
-                     + " (run the same command again to resume)")
+    if answer.get("finished") is False or any(k in UNFINISHED for k in counts):
+        lines.append(unfinished_line(answer))
     for n, members in answer["members"].items():
         lines += mesh_lines(n, members, answer["structured"].get(n, []))
     lines += ladder_lines(answer)

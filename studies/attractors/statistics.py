@@ -32,6 +32,11 @@ VALUE_KEYS = ("celerity_m_s", "frequency_hz", "fraction_separation", "fraction_s
 #: The classes counted in a basin-share denominator (pending/interrupted starts are not).
 COUNTED = ("wave", "multi-wave", "transient", "unsettled", "steady-sliding", "diverged",
            "failed")
+#: The class of an unsettled start below its census's cap: its next leg has not run (or
+#: failed), so it is no end state yet (``census.answer_of``).
+SETTLING = "settling"
+#: The states of a start that leave a census's answer not finished (not counted either).
+UNFINISHED = ("pending", "running", "interrupted", "crashed", "unanalysed", SETTLING)
 ALPHA = 0.05
 #: The classes whose members make up "the set of attractors" of a mesh (settled end states).
 SETTLED = ("wave", "multi-wave")

@@ -76,17 +76,7 @@ def plot_cea_diagram(
         rf = sorted(reduced)
         ax3.plot(rf, [next(x["growth_rate_per_s"] for x in reduced[f] if x["k"] == k_detail)
                       for f in rf], "k--", lw=1.2, label=f"reduced model eq. [2], k = {k_detail}")
-    label = "lock-in (first f where k grows)"
-    for point in lock_in_points(results):  # where each k's pair couples and starts to grow
-        if point["k"] <= kmax:
-            ax3.plot(point["f_unstable"], point["growth_rate_per_s"], "k*", ms=9, label=label)
-            label = None
-            if point["k"] == k_detail:
-                for ax in (ax1, ax2):
-                    ax.axvline(point["f_unstable"], color="k", ls=":", lw=1.0)
-                ax1.annotate(f"lock-in of k = {k_detail}: f ≤ {point['f_unstable']:g}",
-                             (point["f_unstable"], point["frequency_hz"]), fontsize=8,
-                             xytext=(4, 8), textcoords="offset points")
+    _mark_lock_in(axes, results, k_detail, kmax)
     ax3.set_title("(c) growth rate of the most unstable mode of each k")
     ax3.set_ylabel("growth rate (1/s)")
     ax3.legend(fontsize=8, loc="upper left")
@@ -98,6 +88,24 @@ def plot_cea_diagram(
     fig.savefig(path, dpi=120)
     plt.close(fig)
     return path
+
+
+def _mark_lock_in(axes, results: list[CEAResult], k_detail: int, kmax: int) -> None:  # noqa: ANN001
+    """Where each k's pair couples and starts to grow (``tables.lock_in_points``): a star on
+    panel (c) for every k, a dotted line on (a) and (b) for ``k_detail``."""
+    ax1, ax2, ax3 = axes
+    label = "lock-in (first f where k grows)"
+    for point in lock_in_points(results):
+        if point["k"] > kmax:
+            continue
+        ax3.plot(point["f_unstable"], point["growth_rate_per_s"], "k*", ms=9, label=label)
+        label = None
+        if point["k"] == k_detail:
+            for ax in (ax1, ax2):
+                ax.axvline(point["f_unstable"], color="k", ls=":", lw=1.0)
+            ax1.annotate(f"lock-in of k = {k_detail}: f ≤ {point['f_unstable']:g}",
+                         (point["f_unstable"], point["frequency_hz"]), fontsize=8,
+                         xytext=(4, 8), textcoords="offset points")
 
 
 def plot_spectrum(result: CEAResult, path: str, *, reduced: list[dict] | None = None) -> str:

@@ -73,6 +73,6 @@ def csv_text(rows: Sequence[dict]) -> str:
     writer = csv.DictWriter(out, fieldnames=list(rows[0]), lineterminator="\n")
     writer.writeheader()
     for row in rows:
-        writer.writerow({key: f"{v:.10g}" if isinstance(v, float) else v
+        writer.writerow({key: f"{v + 0.0:.10g}" if isinstance(v, float) else v  # no "-0"
                          for key, v in row.items()})
     return out.getvalue()

@@ -24,10 +24,14 @@ Where the result goes:
 * with ``out_dir`` the original is not touched and ``out_dir`` becomes a run directory of its
   own (``force`` replaces an earlier one there).
 
-Refused in one line (``studies.rundir.readers.ReadError``, exit status 2): ``until`` not
-beyond the checkpoint's time, a run without a checkpoint (older, failed or diverged), a
-checkpoint of another number of ranks, a checkpoint that does not match the run's samples,
-a run that writes fields (``output.fields``: the XDMF series is not continued).
+Refused in one line (``studies.rundir.readers.ReadError``, exit status 2), by
+``plan_continuation`` before anything is claimed, built or written: ``until`` not beyond the
+checkpoint's time, a run without a checkpoint (older, failed or diverged), a checkpoint of
+another number of ranks, a run that writes fields (``output.fields``: the XDMF series is
+not continued), and a checkpoint that is damaged or does not fit its run in any field
+(``studies.rundir.checkpoint.check_checkpoint``: its kind, shapes, dtypes, finite numbers,
+clock and counts against the scene, summary.json and samples.npz). A batch member's
+checkpoint is checked the same way, every member before any batch starts.
 """
 
 from __future__ import annotations
@@ -41,14 +45,28 @@ import numpy as np
 from mpi4py import MPI
 
 from stickslip.solver.scene import Scene, write_scene
-from stickslip.studies.rundir.checkpoint import Checkpoint, read_checkpoint, scene_fingerprint
+from stickslip.studies.rundir.checkpoint import (
+    CHECKPOINT,
+    DAMAGED_FIX,
+    Checkpoint,
+    check_checkpoint,
+    read_checkpoint,
+    scene_fingerprint,
+)
 from stickslip.studies.rundir.directory import prepare_run_dir
 from stickslip.studies.rundir.ownership import owned
-from stickslip.studies.rundir.readers import ReadError, read_samples, read_scene_file, read_summary
+from stickslip.studies.rundir.readers import (
+    ReadError,
+    check_agreement,
+    read_samples,
+    read_scene_file,
+    read_summary,
+)
 from stickslip.studies.rundir.scene_run import RunDirectory
 from stickslip.studies.rundir.writer import print_summary, write_member
 
-__all__ = ["RESUMABLE", "WALL_CLOCK_KEYS", "continue_batch", "continue_run"]
+__all__ = ["RESUMABLE", "WALL_CLOCK_KEYS", "continue_batch", "continue_run",
+           "plan_continuation"]
 
 #: The final statuses whose runs stand at a whole level and wrote a checkpoint.
 RESUMABLE = ("completed", "stopped", "interrupted")
@@ -87,16 +105,23 @@ class _Plan:
 
     @property
     def kind(self) -> str:
-        return str(self.checkpoint.meta["kind"])
+        return self.checkpoint.kind
 
 
-def _plan(run_dir: Path, until: float, ranks: int) -> _Plan:
-    """Check that ``run_dir`` can be continued to ``until`` on ``ranks`` ranks; ReadError
-    (one line with the fix) if not."""
+def plan_continuation(run_dir: str | Path, until: float, ranks: int = 1) -> _Plan:
+    """Check that ``run_dir`` can be continued to ``until`` on ``ranks`` ranks, reading
+    every file and changing none: the run (its marker, a final status that stands at a
+    whole level), its checkpoint as a file (``read_checkpoint``), the ranks, the time, its
+    scene.toml (the scene that wrote the checkpoint), its samples.npz and summary.json (one
+    run, ``check_agreement``) and the checkpoint against them all (``check_checkpoint``).
+    ReadError (one line: the file, the field, the fix) for the first fault; the plan
+    otherwise. ``continue_run`` and ``continue_batch`` call it before they claim anything."""
+    run_dir = Path(run_dir)
     if not owned(run_dir, "run"):
         raise ReadError(run_dir, "not a stickslip run directory (no .stickslip marker of a "
                                  "run)", "give the directory that `stickslip run` wrote")
-    status = read_summary(run_dir)["status"]
+    summary = read_summary(run_dir)
+    status = summary["status"]
     if status == "running":
         raise ReadError(run_dir, "the run is still running (or its process was killed)",
                         "wait for it to end, or run the scene again")
@@ -106,7 +131,7 @@ def _plan(run_dir: Path, until: float, ranks: int) -> _Plan:
     ck = read_checkpoint(run_dir)
     written = int(ck.meta["ranks"])
     if written != ranks:
-        raise ReadError(run_dir / "checkpoint.npz",
+        raise ReadError(run_dir / CHECKPOINT,
                         f"written on {written} rank(s), continued on {ranks}",
                         f"continue it under `mpirun -n {written}` (the partition must match)"
                         if written > 1 else "continue it without mpirun (one rank)")
@@ -114,7 +139,7 @@ def _plan(run_dir: Path, until: float, ranks: int) -> _Plan:
         raise ReadError(run_dir, f"--until {until!r}: the run is already at t = "
                                  f"{ck.time:.9g} s", "give a later time")
     scene = read_scene_file(run_dir / "scene.toml")
-    if scene_fingerprint(scene) != ck.meta.get("scene_sha256"):
+    if scene_fingerprint(scene) != ck.meta["scene_sha256"]:
         raise ReadError(run_dir / "scene.toml", "is not the scene its checkpoint was written "
                         "with (edited since?)", "continue with the scene as it ran, or run "
                         "the edited scene from the start")
@@ -122,15 +147,10 @@ def _plan(run_dir: Path, until: float, ranks: int) -> _Plan:
         raise ReadError(run_dir, "the run writes fields (output.fields = true), whose XDMF "
                                  "series is not continued", "run the scene again to T")
     before = read_samples(run_dir, need=0)
-    counts = {"samples": before["t"].size,
-              "probe_steps": before["probe_t"].size if "probe_t" in before else 0}
-    for key, found in counts.items():
-        if found != int(ck.meta[key]):
-            raise ReadError(run_dir / "samples.npz", f"holds {found} {key.replace('_', ' ')}, "
-                            f"its checkpoint {ck.meta[key]} (not the same run)",
-                            "run the scene again to T")
+    check_agreement(run_dir, summary, scene, before)
+    check_checkpoint(ck, scene=scene, summary=summary, samples=before)
     scene = scene.with_overrides(f"time.end_time={until!r}", "time.max_steps=0")
-    return _Plan(Path(run_dir), scene, ck, before)
+    return _Plan(run_dir, scene, ck, before)
 
 
 class Refused(ReadError):
@@ -141,11 +161,12 @@ class Refused(ReadError):
 
 
 def _planned(run_dir: Path, until: float, comm: MPI.Comm) -> _Plan | None:
-    """``_plan`` on rank 0; its refusal raised on every rank. The plan on rank 0, else None."""
+    """``plan_continuation`` on rank 0; its refusal raised on every rank. The plan on rank
+    0, else None."""
     plan, error = None, None
     if comm.rank == 0:
         try:
-            plan = _plan(Path(run_dir), float(until), comm.size)
+            plan = plan_continuation(Path(run_dir), float(until), comm.size)
         except ReadError as err:
             error = err
     message = comm.bcast(None if error is None else str(error), root=0)
@@ -244,7 +265,7 @@ def continue_batch(run_dirs: list[str | Path], until: float,
     comm = MPI.COMM_SELF
     dirs = [Path(d) for d in run_dirs]
     outs = [None] * len(dirs) if out_dirs is None else [Path(d) for d in out_dirs]
-    plans = [_plan(d, float(until), 1) for d in dirs]
+    plans = [plan_continuation(d, float(until), 1) for d in dirs]
     if kick and out_dirs is None:
         raise ValueError("a kick continues a run into another directory (out_dirs), never "
                          "in place")
@@ -309,7 +330,11 @@ def _continue_members(plans: list[_Plan], outs: list[Path | None], backend: str,
         BUILT[key] = batch.columns.built
         while len(BUILT) > BUILT_KEEP:
             BUILT.pop(next(iter(BUILT)))
-        batch.restore([p.checkpoint.states[0] for p in plans], [p.before for p in plans])
+        try:
+            batch.restore([p.checkpoint.states[0] for p in plans], [p.before for p in plans])
+        except (KeyError, ValueError) as err:  # checked before: a forgery consistent in itself
+            raise ReadError(plans[0].checkpoint.path, f"does not fit the batch built for its "
+                            f"scene ({' '.join(str(err).split())[:120]})", DAMAGED_FIX) from None
         kicks = [batch.columns.kick(b, kick, kick_seed) if kick else None
                  for b in range(len(plans))]
         batch.proceed()

@@ -10,7 +10,14 @@ from pathlib import Path
 from mpi4py import MPI
 
 from stickslip.studies.output import output_root, process_alive  # noqa: F401  (re-exported)
-from stickslip.studies.rundir.ownership import Claim, OwnershipError, claim, owned, refusal
+from stickslip.studies.rundir.ownership import (
+    Claim,
+    OwnershipError,
+    claim,
+    normal_path,
+    owned,
+    refusal,
+)
 
 #: Where a run ends up (``final``) and where it is written meanwhile (``work``).
 RunDir = Claim
@@ -37,9 +44,10 @@ def prepare_run_dir(path: Path, force: bool, comm: MPI.Comm, in_place: bool = Fa
     Refused (:class:`RunDirError`, every rank): a non-empty ``path`` without ``force``, one
     that is not a run directory even with ``force``, a live one, a file, an unwritable place.
     ``in_place``: a replaced run's files are deleted first and the new run is written into
-    ``path`` itself (for writers that do not swap).
+    ``path`` itself (for writers that do not swap). Every rank names ``path`` as
+    :func:`~studies.rundir.ownership.normal_path` does (``RunDir.final``).
     """
-    path = Path(path)
+    path = normal_path(path)
     result: tuple = (None, None, False)
     rd = None
     if comm.rank == 0:

@@ -25,6 +25,12 @@ JSON object with the directory's ``kind`` (run, sweep, travel, attractors, ...) 
   that writes into the final path itself) deletes only the files that the kind's writer
   makes (:data:`KINDS`) before it starts.
 
+* **Naming** (:func:`normal_path`): every path is first made absolute with its ``.``, ``..``
+  and repeated or trailing ``/`` resolved, so ``R/../R``, ``R/.``, ``R//``, ``./R`` and ``.``
+  inside ``R`` all name ``R`` itself. The hidden siblings and the swap work on that name: a
+  path that passes through the directory being replaced (``R/../R``) would lose its way
+  once ``R`` is renamed. The CLI applies the same rule to every ``-o`` and run argument.
+
 * The lock is held by the :class:`Claim` (rank 0's process) until :meth:`Claim.release` or
   the end of the process; a process killed outright drops it, so its directory is no longer
   live.
@@ -65,7 +71,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 __all__ = ["KINDS", "LOCK", "MARKER", "Claim", "OwnershipError", "claim", "foreign_entries",
-           "holder", "marker", "owned", "recover", "refusal", "register_kind", "user_entries"]
+           "holder", "marker", "normal_path", "owned", "recover", "refusal", "register_kind",
+           "user_entries"]
 
 MARKER = ".stickslip"
 LOCK = ".stickslip.lock"
@@ -88,6 +95,31 @@ _ALWAYS = (MARKER, LOCK, f"{LOCK}.*", ".*.tmp", ".*.tmp.png", ".*.tmp.npz")
 
 class OwnershipError(FileExistsError):
     """A directory that this command may not use: a one-line message with the fix."""
+
+
+def normal_path(path: str | os.PathLike) -> Path:
+    """``path`` made absolute (against the current directory) with ``.``, ``..`` and empty
+    components resolved as the kernel would resolve them, its symbolic links kept.
+
+    Lexical, except that a ``..`` after a symbolic link leads to the parent of the link's
+    target (where the kernel goes), not back to the link's own folder. The last component is
+    never resolved: a symlinked ``-o`` stays a link, and is refused as one by
+    :func:`refusal`. One rule for every directory a command is given, so that the claim, the
+    hidden siblings ``.NAME.new.PID``/``.NAME.old.PID`` and the swap all use the directory's
+    own name and parent, never a route through the directory itself.
+    """
+    full = os.path.join(os.getcwd(), os.fspath(path))
+    out = "/"
+    for part in full.split("/"):
+        if part in ("", "."):
+            continue
+        if part == "..":
+            if os.path.islink(out):
+                out = os.path.realpath(out)
+            out = os.path.dirname(out)
+        else:
+            out = os.path.join(out, part)
+    return Path(out)
 
 
 def register_kind(kind: str, entries: tuple[str, ...]) -> None:
@@ -174,11 +206,12 @@ def refusal(path: str | Path, kind: str, *, force: bool = False, reuse: bool = F
     """Why ``path`` cannot be claimed for ``kind`` (one line with the fix), or None.
 
     No side effects; :func:`claim` asks again under the lock (the answer may change between).
+    ``path`` is taken as :func:`normal_path` names it.
     """
-    p = Path(path)
     fix = f"choose another {flag}"
     if str(path) == "":
         return f"{flag} is empty: give the directory to write, or leave {flag} out"
+    p = normal_path(path)
     links = [q for q in (p, p / LOCK, p / MARKER) if q.is_symlink()]
     if links:
         what = ("is a symbolic link" if links[0] == p else
@@ -343,7 +376,11 @@ def _fresh(path: Path, kind: str, parents: bool) -> int | None:
     if user_entries(path) and not owned(path):
         os.close(fd)  # a user's file appeared meanwhile: not ours after all
         return None
-    _write_marker(path, kind)
+    try:
+        _write_marker(path, kind)
+    except BaseException:  # a full disk: the lock goes with the failed claim
+        os.close(fd)
+        raise
     return fd
 
 
@@ -351,6 +388,7 @@ def recover(path: Path, kind: str) -> None:
     """Tidy after a command killed while replacing ``path``: a lone ``.NAME.old.PID`` (killed
     between the two renames of :meth:`Claim.commit`) goes back in place; a
     ``.NAME.new.PID`` whose lock nobody holds is an unfinished replacement and is dropped."""
+    path = normal_path(path)
     for old in sorted(path.parent.glob(f".{path.name}.old.*")):
         if owned(old, kind) and holder(old) is None:
             if not path.exists():
@@ -362,6 +400,25 @@ def recover(path: Path, kind: str) -> None:
             shutil.rmtree(new, ignore_errors=True)
 
 
+def _claim_taken(p: Path, kind: str, fd: int, *, reuse: bool, in_place: bool,
+                 flag: str) -> Claim:
+    """The claim of a finished directory ``p`` whose lock ``fd`` this process holds: reuse
+    it, empty it of the kind's entries, or prepare its replacement beside it."""
+    if reuse:
+        return Claim(p, p, kind, locks=[fd])
+    if in_place:
+        _remove_ours(p, kind, keep=(LOCK, MARKER))
+        return Claim(p, p, kind, locks=[fd])
+    work = p.parent / f".{p.name}.new.{os.getpid()}"
+    if work.exists():
+        shutil.rmtree(work)
+    work.mkdir()
+    new_fd = _fresh(work, kind, parents=False)
+    if new_fd is None:  # pragma: no cover - our own pid-named folder
+        raise OwnershipError(f"cannot prepare {work}; choose another {flag}")
+    return Claim(p, work, kind, created=True, locks=[fd, new_fd])
+
+
 def claim(path: str | Path, kind: str, *, force: bool = False, reuse: bool = False,
           in_place: bool = False, flag: str = "-o") -> Claim:
     """Claim ``path`` for a ``kind`` command, or raise :class:`OwnershipError` (one line).
@@ -369,11 +426,13 @@ def claim(path: str | Path, kind: str, *, force: bool = False, reuse: bool = Fal
     ``force``: replace a finished directory of the same kind (see the module docstring);
     ``reuse``: write into a finished directory of the same kind (a sweep's resume);
     ``in_place``: replace by deleting the kind's own entries first instead of the swap.
+    ``path`` is taken as :func:`normal_path` names it (``Claim.final``).
     """
-    p = Path(path)
+    p = path
     try:
+        p = normal_path(path)
         recover(p, kind)
-        why = refusal(p, kind, force=force, reuse=reuse, flag=flag)
+        why = refusal(path, kind, force=force, reuse=reuse, flag=flag)
         if why:
             raise OwnershipError(why)
         if not p.is_dir() or not owned(p):
@@ -387,20 +446,11 @@ def claim(path: str | Path, kind: str, *, force: bool = False, reuse: bool = Fal
         if fd is None:
             raise OwnershipError(refusal(p, kind, force=force, reuse=reuse, flag=flag)
                                  or f"{p} is in use by another command; choose another {flag}")
-        if reuse:
-            return Claim(p, p, kind, locks=[fd])
-        if in_place:
-            _remove_ours(p, kind, keep=(LOCK, MARKER))
-            return Claim(p, p, kind, locks=[fd])
-        work = p.parent / f".{p.name}.new.{os.getpid()}"
-        if work.exists():
-            shutil.rmtree(work)
-        work.mkdir()
-        new_fd = _fresh(work, kind, parents=False)
-        if new_fd is None:  # pragma: no cover - our own pid-named folder
+        try:
+            return _claim_taken(p, kind, fd, reuse=reuse, in_place=in_place, flag=flag)
+        except BaseException:  # a failed claim holds no lock: a retry is not "in use"
             os.close(fd)
-            raise OwnershipError(f"cannot prepare {work}; choose another {flag}")
-        return Claim(p, work, kind, created=True, locks=[fd, new_fd])
+            raise
     except OSError as err:
         if isinstance(err, OwnershipError):
             raise

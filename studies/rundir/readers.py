@@ -122,24 +122,30 @@ def read_scene_file(path: str | Path) -> Any:
     return scene
 
 
-def _load_npz(p: Path, keys: tuple[str, ...]) -> dict[str, np.ndarray]:
-    """Every member of the archive ``p`` (no pickles), with ``keys`` required."""
-    _no_link(p)
+def _load_npz(p: Path, keys: tuple[str, ...], fix: str = _RERUN) -> dict[str, np.ndarray]:
+    """Every member of the archive ``p`` (no pickles), with ``keys`` required. A plain
+    ``.npy`` array, a member too large to hold and a damaged archive are refused alike."""
+    _no_link(p, fix)
     if not p.is_file():
-        raise ReadError(p, "missing")
+        raise ReadError(p, "missing", fix)
     try:
-        with os.fdopen(os.open(p, os.O_RDONLY | os.O_NOFOLLOW), "rb") as fh, \
-                np.load(fh, allow_pickle=False) as data:
-            missing = [k for k in keys if k not in data.files]
-            if missing:
-                raise ReadError(p, f"has no {', '.join(missing)} (not written by stickslip)")
-            return {k: data[k] for k in data.files}
+        with os.fdopen(os.open(p, os.O_RDONLY | os.O_NOFOLLOW), "rb") as fh:
+            data = np.load(fh, allow_pickle=False)
+            if not isinstance(data, np.lib.npyio.NpzFile):
+                raise ReadError(p, "holds one bare array, not the archive stickslip writes "
+                                   "(replaced?)", fix)
+            with data:
+                missing = [k for k in keys if k not in data.files]
+                if missing:
+                    raise ReadError(p, f"has no {', '.join(missing)} (not written by "
+                                       "stickslip)", fix)
+                return {k: data[k] for k in data.files}
     except ReadError:
         raise
-    except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile,
+    except (OSError, ValueError, KeyError, EOFError, MemoryError, zipfile.BadZipFile,
             zipfile.LargeZipFile, NotImplementedError) as err:
         raise ReadError(p, f"not a readable numpy archive ({type(err).__name__}: "
-                           f"{str(err)[:60]})") from None
+                           f"{' '.join(str(err).split())[:60]})", fix) from None
 
 
 def _shape(p: Path, a: np.ndarray, name: str, shape: tuple) -> None:

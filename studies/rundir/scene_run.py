@@ -23,7 +23,7 @@ from stickslip.solver import __version__
 from stickslip.solver.atomic import atomic_save_npz, atomic_write_text
 from stickslip.solver.errors import Diverged, StepTooLarge
 from stickslip.solver.run import Profile, Simulation
-from stickslip.solver.scene import Scene
+from stickslip.solver.scene import Scene, scene_warnings
 from stickslip.studies.output import output_root, process_alive  # noqa: F401  (re-exported)
 from stickslip.studies.rundir.directory import (
     RunDir,
@@ -257,6 +257,7 @@ class RunDirectory:
         for warning in scene_warnings(scene):
             self.say(f"  warning: {warning}")
         sim = self.sim = Simulation(scene, comm, self.prof, output_dir=self.rd.work)
+        sim.columns.progress.stream = self.stream  # progress lines go where the run's lines go
         if self.resume is not None:
             self.resume(sim)
         if sim.dt > scene.time.end_time:  # same on every rank: collective
@@ -406,23 +407,3 @@ class RunDirectory:
                 atomic_write_text(folder / "summary.json", json.dumps(dict(
                     self.started, status=status, message=message,
                     wall_time_s=time.perf_counter() - self.t0), indent=2))
-
-
-def scene_warnings(scene: Scene) -> list[str]:
-    """Legal but doubtful choices, said before a long run starts."""
-    out = []
-    ini, n = scene.initial, scene.mesh.n_inner
-    if ini.perturbation == "mode" and n / ini.mode < 8:
-        out.append(
-            f"initial.mode = {ini.mode} has only {n / ini.mode:.1f} contact nodes per "
-            f"wavelength on mesh.n_inner = {n}; the wave will be poorly resolved "
-            f"(use mesh.n_inner >= {8 * ini.mode})"
-        )
-    out_ = scene.output
-    if out_.sample_interval > scene.time.end_time:
-        out.append(
-            f"output.sample_interval = {out_.sample_interval} s is longer than time.end_time "
-            f"= {scene.time.end_time} s: at most one sample, nothing to analyse (use "
-            "output.sample_interval <= time.end_time / 100)"
-        )
-    return out

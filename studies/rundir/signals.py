@@ -8,6 +8,7 @@ import signal
 import threading
 import time
 
+from stickslip.solver import keep_signals_for_python
 from stickslip.studies.output import output_root, process_alive  # noqa: F401  (re-exported)
 
 
@@ -36,8 +37,10 @@ class RunSignals:
     elsewhere (a test's thread) nothing is installed.
     """
 
-    #: Ctrl-C, a batch system's stop, a closed terminal (SIGHUP: PETSc's own handler would
-    #: abort the job with a stack dump and nothing saved)
+    #: Ctrl-C, a batch system's stop, a closed terminal. The FE stack loads during setup,
+    #: after these handlers are in: PETSc and UCX would put their own in for SIGHUP (a stack
+    #: dump and MPI_Abort, nothing saved; a log level raised) unless told not to, which
+    #: :func:`solver.keep_signals_for_python` does (called again in ``__enter__``).
     SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
 
     def __init__(self, on_hard_stop, grace: float = 2.0, rescue=None,  # noqa: ANN001
@@ -81,6 +84,7 @@ class RunSignals:
     def __enter__(self) -> RunSignals:
         if not self.active:
             return self
+        keep_signals_for_python()  # before the stack loads: our handlers stay ours
         # Blocked while forking and installing: a signal now waits, then reaches our handler
         # (mode "start": recorded; the run raises it at its first line), never a caller's
         # handler inside fork's at-fork hooks, where an exception is lost.

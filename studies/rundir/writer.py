@@ -27,9 +27,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from stickslip.postprocess.analysis import TRAVEL_PURITY_MIN
 from stickslip.solver.atomic import atomic_save_npz, atomic_write_text
 from stickslip.solver.run import Profile
-from stickslip.solver.scene import Scene, write_scene
+from stickslip.solver.scene import Scene, scene_warnings, write_scene
 from stickslip.studies.rundir import directory
 from stickslip.studies.rundir.checkpoint import write_checkpoint
 
@@ -185,16 +186,30 @@ def _write_failed(rd: directory.RunDir, summary: dict, err: OSError) -> dict:
 
 
 def finish_summary(s: dict, out: RunOutputs | None, prof: Profile, t0: float) -> dict:
-    """Add the wall time, the message, the peak memory, the profile and ``out.extra`` to
-    summary ``s``."""
+    """Add the wall time, the message, the run's ``warnings``, the peak memory, the profile
+    and ``out.extra`` to summary ``s``."""
     s["wall_time_s"] = time.perf_counter() - t0
     if out is not None and out.error:
         s["message"] = out.error
+    if out is not None:
+        warnings = run_warnings(out.scene, s)
+        if warnings:
+            s["warnings"] = warnings
     s["peak_rss_mb"] = peak_rss_mb()
     s["profile_s"] = {k: round(v, 4) for k, v in prof.seconds.items()}
     if out is not None:
         s.update(out.extra)
     return s
+
+
+def run_warnings(scene: Scene, summary: dict) -> list[str]:
+    """Every warning of a run, one line each with its fix: the scene's doubtful choices
+    (``solver.scene.scene_warnings``) and the analysis's ``warning`` (samples that alias the
+    wave). ``summary.json`` keeps them as ``warnings``; a sweep's table and console show them."""
+    found = scene_warnings(scene)
+    if summary.get("warning"):
+        found.append(str(summary["warning"]))
+    return found
 
 
 def summarise(run: Any, probes: dict | None = None) -> dict:
@@ -220,6 +235,7 @@ def summarise(run: Any, probes: dict | None = None) -> dict:
             amplitude_m=wave.amplitude_m, limit_cycle=wave.limit_cycle,
             analysis_window_s=wave.window_s, psi1=wave.psi1, psi2=wave.psi2,
             zone_order=wave.zone_order, direction=wave.direction,
+            travel_purity=round(wave.travel_purity, 6),
         )
         out.update(sampling_check(data["t"], probes, out))
         out["energy"] = energy
@@ -252,9 +268,11 @@ def print_summary(s: dict, run_dir: Path, stream, profile: bool) -> None:  # noq
     lines = [f"status: {s.get('status')}" + (f" ({msg})" if msg and msg != s.get("status") else "")]
     if "regime" in s:
         fr = s["fractions"]
+        travel = (f"standing (does not travel: travel purity {s.get('travel_purity', 0):.2f} "
+                  f"< {TRAVEL_PURITY_MIN:g})" if s.get("direction") == "standing" else
+                  f"celerity {s['celerity_m_s']:+.1f} m/s (+ = rotation sense)")
         lines += [
-            f"regime: {s['regime']}, mode k = {s['mode']}, "
-            f"celerity {s['celerity_m_s']:+.1f} m/s (+ = rotation sense), "
+            f"regime: {s['regime']}, mode k = {s['mode']}, {travel}, "
             f"frequency {s['frequency_hz']:.1f} Hz",
             f"zones: separation {fr['separation']:.3f}, stick {fr['stick']:.3f}, "
             f"slip {fr['slip']:.3f}; amplitude {s['amplitude_m']:.3g} m; "

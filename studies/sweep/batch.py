@@ -37,6 +37,7 @@ from stickslip.solver.atomic import atomic_write_text
 from stickslip.solver.scene import Scene, scene_to_dict
 from stickslip.studies.resources import available_memory
 from stickslip.studies.sweep.spec import SweepSpec, Task, scene_for
+from stickslip.studies.sweep.table import check_recorded
 
 #: Scene keys that may differ inside a batch (the contact law's data and the initial state).
 PER_SCENE = {"name": None, "description": None, "loading": None, "initial": None,
@@ -131,27 +132,49 @@ def parse_batch(value: str) -> str:
 
 
 def run_batch(spec: SweepSpec, tasks: list[Task], out_dir: Path, world_rank: int,
-              backend: str = "cpu", stream: TextIO | None = None) -> list[str]:
+              backend: str = "cpu", stream: TextIO | None = None,
+              failures: dict[str, str] | None = None) -> list[str]:
     """Run ``tasks`` (same ``batch_key``) as one batch on this rank; returns their statuses.
 
     The batch is a ``solver.run.Simulation.batch``; this function only prepares each
-    scene's run directory and log, and writes each scene's files when the batch is done."""
-    from stickslip.solver.run import Profile
-
+    scene's run directory and log, and writes each scene's files when the batch is done.
+    A member whose files could not be written (a full disk) is ``failed``, and where its own
+    summary cannot say so, ``failures`` (id -> message, as ``table.check_recorded``) does."""
     t0 = time.perf_counter()
     mine = _claimable(tasks, out_dir, stream)
     if len(mine) < len(tasks):  # a user's folder under runs/ is never written: run the rest
         statuses = dict.fromkeys((t.id for t in tasks), "failed")
         if mine:
-            done = run_batch(spec, mine, out_dir, world_rank, backend, stream)
+            done = run_batch(spec, mine, out_dir, world_rank, backend, stream, failures)
             statuses.update(zip((t.id for t in mine), done, strict=True))
         return [statuses[t.id] for t in tasks]
+    logs, claims, started = [], [], []
+    with _deferred_signals() as early:  # every member marked running (or failed), or none
+        for t in tasks:
+            if _start_member(spec, t, len(tasks), out_dir, world_rank, backend, logs, claims,
+                             failures):
+                started.append(t)
+    if not started:
+        if early:
+            raise KeyboardInterrupt
+        return ["failed"] * len(tasks)
+    statuses = dict.fromkeys((t.id for t in tasks), "failed")
+    done = _run_started(spec, started, logs, claims, t0, backend, out_dir, early, failures)
+    statuses.update(zip((t.id for t in started), done, strict=True))
+    return [statuses[t.id] for t in tasks]
+
+
+def _run_started(spec: SweepSpec, tasks: list[Task], logs: list, claims: list, t0: float,
+                 backend: str, out_dir: Path, early: list[int],
+                 failures: dict[str, str] | None) -> list[str]:
+    """Run the members whose run directories and logs are ready (``_start_member``) as one
+    batch and write each one's files; returns their statuses (KeyboardInterrupt once every
+    member is written, if a signal came)."""
+    from stickslip.solver.run import Profile
+
     scenes = [scene_for(spec, t) for t in tasks]
-    run_dirs = [out_dir / "runs" / t.id for t in tasks]
-    logs, claims = [], []
-    with _deferred_signals() as early:  # every member marked running, or none
-        _start_members(tasks, scenes, run_dirs, logs, claims, out_dir, world_rank, backend)
-    files = _BatchFiles(scenes, claims, logs, t0, len(tasks), backend, spec.compress)
+    files = _BatchFiles(scenes, claims, logs, t0, len(tasks), backend, spec.compress,
+                        failures)
     profile = Profile()
     interrupted = bool(early)
     batch = None
@@ -182,26 +205,43 @@ def run_batch(spec: SweepSpec, tasks: list[Task], out_dir: Path, world_rank: int
     return files.statuses
 
 
-def _start_members(tasks, scenes, run_dirs, logs, claims, out_dir,  # noqa: ANN001, ANN202
-                   world_rank, backend):  # noqa: ANN001
-    """Each member's run directory claimed (appended to ``claims``), its scene.toml and a
-    ``running`` summary written as a single run's (``studies.rundir.writer``), its log
-    opened (appended to ``logs``). The claims are written in place and their locks let go
-    at once: a batch of B members would otherwise hold B open files while it runs."""
+def _start_member(spec: SweepSpec, task: Task, size: int, out_dir: Path, world_rank: int,
+                  backend: str, logs: list, claims: list,
+                  failures: dict[str, str] | None) -> bool:
+    """A member's log opened (appended to ``logs``), its run directory claimed (appended to
+    ``claims``), its scene.toml and a ``running`` summary written as a single run's
+    (``studies.rundir.writer``). The claims are written in place and their locks let go at
+    once: a batch of B members would otherwise hold B open files while it runs.
+
+    Returns False, the member ``failed`` and left out of the batch, where a write failed
+    (a full disk): its log says why, and so does its summary or else ``failures``."""
     from mpi4py import MPI
 
     from stickslip.studies.rundir import prepare_run_dir, running_summary, write_first_files
 
-    for t, sc, rd in zip(tasks, scenes, run_dirs, strict=True):
-        claim = prepare_run_dir(rd, True, MPI.COMM_SELF, in_place=True)
+    scene, run_dir = scene_for(spec, task), out_dir / "runs" / task.id
+    log = open(out_dir / "logs" / f"{task.id}.log", "a")  # noqa: SIM115
+    log.write(f"== start {time.strftime('%Y-%m-%dT%H:%M:%S')} world rank {world_rank} "
+              f"(1 rank(s)) pid {os.getpid()} batch of {size} ({backend})\n")
+    log.flush()
+    try:
+        claim = prepare_run_dir(run_dir, True, MPI.COMM_SELF, in_place=True)
         claim.release()
-        claims.append(claim)
-        write_first_files(claim.work, sc, running_summary(sc.name))
-        log = open(out_dir / "logs" / f"{t.id}.log", "a")  # noqa: SIM115
-        log.write(f"== start {time.strftime('%Y-%m-%dT%H:%M:%S')} world rank {world_rank} "
-                  f"(1 rank(s)) pid {os.getpid()} batch of {len(tasks)} ({backend})\n")
-        log.flush()
-        logs.append(log)
+        write_first_files(claim.work, scene, running_summary(scene.name))
+    except OSError as err:
+        message = f"{type(err).__name__}: {err}"
+        log.write(f"{message}\n== end failed\n")
+        log.close()
+        try:
+            atomic_write_text(run_dir / "summary.json", json.dumps(
+                {"scene": scene.name, "status": "failed", "message": message}, indent=2))
+        except OSError as write_err:
+            message += f"; its summary could not be written ({write_err})"
+        check_recorded(run_dir, {"status": "failed", "message": message}, failures, task.id)
+        return False
+    claims.append(claim)
+    logs.append(log)
+    return True
 
 
 @contextlib.contextmanager
@@ -258,20 +298,27 @@ class _BatchFiles:
     """Each scene's run directory and log while and after its batch runs."""
 
     def __init__(self, scenes, claims, logs, t0: float, size: int, backend: str,
-                 compress: bool = True) -> None:
+                 compress: bool = True, failures: dict[str, str] | None = None) -> None:
         self.scenes, self.claims, self.logs = scenes, claims, logs
         self.run_dirs = [c.final for c in claims]
         self.t0, self.size, self.backend, self.compress = t0, size, backend, compress
         self.statuses = ["failed"] * len(scenes)
+        self.failures = failures  # the sweep's: the failures no summary could record
 
     def fail(self, k: int, err: BaseException) -> None:
         tb = "".join(traceback.format_exception(err))
         self.logs[k].write(tb)
         self.statuses[k] = "failed"
-        atomic_write_text(self.run_dirs[k] / "summary.json", json.dumps({
-            "scene": self.scenes[k].name, "status": "failed",
-            "message": f"{type(err).__name__}: {err}", "traceback": tb.splitlines()[-6:],
-            "wall_time_s": time.perf_counter() - self.t0, "ranks": 1}, indent=2))
+        message = f"{type(err).__name__}: {err}"
+        try:
+            atomic_write_text(self.run_dirs[k] / "summary.json", json.dumps({
+                "scene": self.scenes[k].name, "status": "failed", "message": message,
+                "traceback": tb.splitlines()[-6:],
+                "wall_time_s": time.perf_counter() - self.t0, "ranks": 1}, indent=2))
+        except OSError as write_err:  # a full disk: the sweep's table records it
+            message += f"; its summary could not be written ({write_err})"
+        check_recorded(self.run_dirs[k], {"status": "failed", "message": message},
+                       self.failures, self.run_dirs[k].name)
 
     def interrupted(self, k: int) -> None:
         self.statuses[k] = "interrupted"
@@ -294,7 +341,9 @@ class _BatchFiles:
                                    {"batch": {"size": self.size, "backend": self.backend}},
                                    self.compress)
             print_summary(summary, self.run_dirs[k], self.logs[k], False)
-            self.statuses[k] = run.status
+            # the summary's status (failed where a write failed), if its file holds it
+            self.statuses[k] = check_recorded(self.run_dirs[k], summary, self.failures,
+                                              self.run_dirs[k].name)
 
     def close(self) -> None:
         for log, st in zip(self.logs, self.statuses, strict=True):

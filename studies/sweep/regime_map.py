@@ -186,12 +186,17 @@ def _semianalytic_overlay(sweep_dir: Path, meta: dict, base: Scene, xkey: str, x
     return res
 
 
+#: The mark of a map cell whose samples alias its wave (``studies.sweep.table.aliased``).
+ALIASED = "aliased"
+
+
 def cell_label(row: dict) -> tuple[str | None, str]:
     """(regime category, text) of a map cell: what the cell's run found.
 
-    A wave reads "k = 4, −2507 m/s" (+ a star when no limit cycle was reached by t_end),
-    steady sliding reads "steady sliding", a failed or diverged run says so, and a run that has
-    not finished shows its status.
+    A wave reads "k = 4, −2507 m/s" (+ a star when no limit cycle was reached by t_end, and
+    a third line "aliased" when the samples alias the wave: then k and the celerity are not
+    the run's), steady sliding reads "steady sliding", a failed or diverged run says so, and
+    a run that has not finished shows its status.
     """
     status, regime = row.get("status"), row.get("regime")
     if status == "diverged":
@@ -203,7 +208,9 @@ def cell_label(row: dict) -> tuple[str | None, str]:
     if regime == "steady-sliding":
         return regime, "steady\nsliding"
     star = "" if row.get("limit_cycle") in (True, None) else "*"
-    return regime, f"k = {row.get('mode')}{star}\n{row.get('celerity_m_s', math.nan):+.0f} m/s"
+    alias = f"\n{ALIASED}" if row.get("aliased") else ""
+    return regime, (f"k = {row.get('mode')}{star}\n{row.get('celerity_m_s', math.nan):+.0f} m/s"
+                    f"{alias}")
 
 
 def _fixed_subtitle(sc: Scene, swept: Iterable[str]) -> str:
@@ -364,13 +371,17 @@ def plot_sweep(sweep_dir: str | Path) -> list[Path]:
         fixed_txt = ", ".join(f"{_label(k)} = {_fmt(v)}" for k, v in fixed.items())
         sc = base.with_overrides(*(f"{k}={_toml_value(v)}" for k, v in fixed.items()))
         stars = any(r["text"].split("\n")[0].endswith("*") for r in sel)
+        alias = any(r["text"].endswith(f"\n{ALIASED}") for r in sel)
         unswept = _fixed_subtitle(sc, [*params, *(["initial.mode"] if census else [])])
         what = (f"census of {census['attractors'].get('starts')} random starts at every point"
                 if census else "FE regime, k and celerity (m/s, + = rotation)")
         title = (f"sweep {meta['name']}: {what}" + (f"\nthis map: {fixed_txt}" if fixed_txt
                                                     else "")
                  + f"\n{unswept}{note}"
-                 + ("\n* no limit cycle by t_end (transient)" if stars else ""))
+                 + ("\n* no limit cycle by t_end (transient)" if stars else "")
+                 + (f"\n{ALIASED}: the samples alias the wave, so k and c are not the run's "
+                    "(sweep.csv's message: the output.sample_interval that resolves it)"
+                    if alias else ""))
         _annotate(fig, axes, title, handles, bool(census), len(grid.ys))
         suffix = "".join(f"_{k.rsplit('.', 1)[-1]}-{_slug_value(v)}" for k, v in fixed.items())
         outputs.append(_save(fig, sweep_dir / f"regime_map{suffix}.png"))

@@ -45,7 +45,14 @@ from stickslip.studies.sweep.spec import (
     _cost,
     scene_for,
 )
-from stickslip.studies.sweep.table import _read_json, recorded_failures, task_state, write_table
+from stickslip.studies.sweep.table import (
+    _read_json,
+    check_recorded,
+    recorded_failures,
+    run_warnings,
+    task_state,
+    write_table,
+)
 
 if TYPE_CHECKING:  # pragma: no cover
     from mpi4py import MPI
@@ -124,9 +131,14 @@ class _Monitor(threading.Thread):
                     continue
                 path = self._summary(task)
                 now = _identity(path)
-                if now is None or now == self.earlier[task.id]:  # none yet, or an earlier one
+                fresh = now is not None and now != self.earlier[task.id]  # this session's
+                s = (_read_json(path) or {}) if fresh else {}
+                failure = (self.failures or {}).get(task.id)
+                if failure is not None:  # failed where its own summary could not say so
+                    new.append((task, {**s, "status": "failed", "message": failure}))
                     continue
-                s = _read_json(path) or {}
+                if not fresh:  # no summary yet, or an earlier session's
+                    continue
                 status = s.get("status")
                 if s.get("analysis") == "pending" and process_alive(s) is not False:
                     # saved, its wave analysis comes next: report the scene with its result
@@ -168,15 +180,21 @@ class _Monitor(threading.Thread):
                 f"elapsed {_fmt_duration(time.time() - self.t0)}, ETA {_fmt_duration(eta)}")
 
     def _scene_line(self, task: Task, s: dict) -> str:
+        """One line for a finished scene: its wave or its status and the first line of its
+        message, each of its warnings (aliased samples, doubtful choices), its wall time
+        where known."""
         done, _, _, eta = self.counts()
         status = s.get("status")
         what = status
         if status == "completed":
             what = wave_title(s)
         elif s.get("message") and s["message"] != status:
-            what = f"{status}: {str(s['message']).splitlines()[0][:120]}"
-        return (f"[{self.n_done_before + done}/{self.total}] {task.id}: {what} "
-                f"({s.get('wall_time_s', math.nan):.1f} s)  ETA {_fmt_duration(eta)}")
+            what = f"{status}: {str(s['message']).splitlines()[0]}"  # whole: the fix is last
+        warned = "".join(f"; warning: {w}" for w in run_warnings(s))
+        wall = s.get("wall_time_s")
+        took = f" ({wall:.1f} s)" if isinstance(wall, int | float) else ""
+        return (f"[{self.n_done_before + done}/{self.total}] {task.id}: {what}{warned}{took}"
+                f"  ETA {_fmt_duration(eta)}")
 
     def _say(self, text: str) -> None:
         if self.live and self._line_len:
@@ -274,7 +292,7 @@ def _run_one(spec: SweepSpec, task: Task, out_dir: Path, group: MPI.Comm,
                                 stream=log if log is not None else sys.stdout)
             status = str(summary.get("status", "failed")) if leader else "?"
             if leader:
-                status = _check_recorded(run_dir, summary, failures, task.id)
+                status = check_recorded(run_dir, summary, failures, task.id)
         except KeyboardInterrupt:
             status = "interrupted"
         except Exception as err:  # recorded, the sweep goes on
@@ -289,8 +307,8 @@ def _run_one(spec: SweepSpec, task: Task, out_dir: Path, group: MPI.Comm,
                                     time.perf_counter() - t0, group.size)
                 except OSError as write_err:  # a full disk: the table records it
                     message += f"; its summary could not be written ({write_err})"
-                _check_recorded(run_dir, {"status": "failed", "message": message}, failures,
-                                task.id)
+                check_recorded(run_dir, {"status": "failed", "message": message}, failures,
+                               task.id)
         if group.size > 1:
             status = group.bcast(status, root=0)
     finally:
@@ -307,23 +325,6 @@ def _open_log(path: Path) -> TextIO:
         os.replace(path, path.with_name(path.name + ".link"))
     fd = os.open(path, os.O_WRONLY | os.O_APPEND | os.O_CREAT | os.O_NOFOLLOW, 0o666)
     return os.fdopen(fd, "a")
-
-
-def _check_recorded(run_dir: Path, summary: dict, failures: dict[str, str] | None,
-                    task_id: str) -> str:
-    """The scene's status, ``failed`` where its ``summary.json`` on disk does not hold the
-    run's final word (a write failed: a full disk); such a failure goes into ``failures``."""
-    from stickslip.studies.sweep.table import live_status, run_summary
-
-    status = str(summary.get("status", "failed"))
-    disk = run_summary(run_dir)
-    on_disk = live_status(disk) if disk is not None else "missing"
-    if status in FINAL_STATUSES and on_disk != status:
-        if failures is not None:
-            failures[task_id] = str(summary.get("message") or (
-                f"the run ended {status} but its summary.json says {on_disk}"))
-        return "failed"
-    return status
 
 
 def _record_failure(spec: SweepSpec, task: Task, run_dir: Path, err: Exception, tb: str,
@@ -444,7 +445,8 @@ def _run_unit(spec: SweepSpec, unit: list[Task], out_dir: Path, group: MPI.Comm,
     from stickslip.studies.sweep.batch import run_batch
 
     try:
-        statuses = run_batch(spec, unit, out_dir, world_rank, backend=backend)
+        statuses = run_batch(spec, unit, out_dir, world_rank, backend=backend,
+                             failures=failures)
     except KeyboardInterrupt:
         return "interrupted"
     return "failed" if "failed" in statuses else "completed"

@@ -56,7 +56,8 @@ _SEMIANALYTIC_KEYS = ("loading.omega", "loading.f", "geometry.delta", "geometry.
                       "material.E", "material.rho")
 _TABLE_FIELDS = ("status", "regime", "mode", "celerity_m_s", "frequency_hz",
                  "fraction_separation", "fraction_stick", "fraction_slip", "amplitude_m",
-                 "limit_cycle", "steps", "dofs", "ranks", "wall_time_s", "message", "run_dir")
+                 "limit_cycle", "steps", "dofs", "ranks", "wall_time_s", "aliased", "message",
+                 "run_dir")
 
 
 class SweepError(ValueError):

@@ -131,6 +131,21 @@ def task_state(out_dir: Path, spec: SweepSpec, task: Task, scene: Scene | None =
     return state
 
 
+def check_recorded(run_dir: Path, summary: dict, failures: dict[str, str] | None,
+                   task_id: str) -> str:
+    """The scene's status, ``failed`` where its ``summary.json`` on disk does not hold the
+    run's final word (a write failed: a full disk); such a failure goes into ``failures``."""
+    status = str(summary.get("status", "failed"))
+    disk = run_summary(run_dir)
+    on_disk = live_status(disk) if disk is not None else "missing"
+    if status in FINAL_STATUSES and on_disk != status:
+        if failures is not None:
+            failures[task_id] = str(summary.get("message") or (
+                f"the run ended {status} but its summary.json says {on_disk}"))
+        return "failed"
+    return status
+
+
 def live_status(summary: dict) -> str:
     """The summary's status, with a ``running`` one whose process is gone shown as ``crashed``
     and a saved run whose wave analysis is still ``pending`` shown as ``unanalysed``.
@@ -176,10 +191,32 @@ def _row(spec_keys: Sequence[str], task: Task, summary: dict | None, run_dir: st
         "dofs": s.get("dofs"),
         "ranks": s.get("ranks"),
         "wall_time_s": s.get("wall_time_s"),
-        "message": s.get("message"),
+        "aliased": aliased(s),
+        "message": "; ".join([*([str(s["message"])] if s.get("message") else []),
+                              *(f"warning: {w}" for w in run_warnings(s))]) or None,
         "run_dir": run_dir,
     })
     return row
+
+
+def run_warnings(summary: dict) -> list[str]:
+    """The warnings a run's summary holds (``warnings``: the scene's doubtful choices and
+    aliased samples, ``studies.rundir.writer.run_warnings``); a summary that holds only the
+    analysis's ``warning`` gives that one."""
+    found = summary.get("warnings")
+    if isinstance(found, list):
+        return [str(w) for w in found]
+    return [str(summary["warning"])] if summary.get("warning") else []
+
+
+def aliased(summary: dict) -> bool | None:
+    """Whether the run's samples alias its wave (the probe's frequency above the samples'
+    Nyquist frequency: ``postprocess.resolution.sampling_check``), so that its ``mode``,
+    ``celerity_m_s`` and ``frequency_hz`` are not the run's; None where it was not checked."""
+    probe, nyquist = summary.get("probe_frequency_hz"), summary.get("nyquist_hz")
+    if not isinstance(probe, int | float) or not isinstance(nyquist, int | float):
+        return None
+    return bool(probe > nyquist)
 
 
 def _meta(spec: SweepSpec) -> dict[str, Any]:
