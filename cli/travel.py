@@ -42,7 +42,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="start without --from: the reduced model's wave at k (default)")
     p.add_argument("--continue", dest="cont", metavar="KEY=A:B:N",
                    help="follow the branch over N values of a scene key, e.g. "
-                        "loading.omega=50:1000:40")
+                        "loading.omega=50:1000:40; a point whose wave jumps off the branch's "
+                        "trend is marked jumped and ends it")
     p.add_argument("--damping", type=float, default=None, metavar="TAU",
                    help="Kelvin-Voigt retardation time (s) in the wave frame (default: the "
                         "scene's [damping], the same physics as `stickslip run`)")
@@ -234,6 +235,8 @@ def _one_wave(scene, args, out: Path, t0: float) -> int:  # noqa: ANN001
         print(f"travel: {summary['regime']}, mode k = {summary['mode']}, celerity "
               f"{summary['celerity_m_s']:.1f} m/s (+ = rotation sense), frequency "
               f"{summary['frequency_hz']:.1f} Hz")
+        if "celerity_note" in summary:
+            print(f"note: {summary['celerity_note']}")
         print(f"zones: psi1 {summary['psi1_subnode']:.4f}, psi2 {summary['psi2_subnode']:.4f} "
               f"(sub-node); amplitude {summary['amplitude_m']:.4g} m; residual "
               f"{summary['residual']:.1e} in {summary['iterations']} iterations; "

@@ -51,9 +51,13 @@ fig.tight_layout()
 # A branch in Omega
 # -----------------
 # ``travel_branch`` solves each value from the previous wave (loading keys reuse the
-# operators). The branch ends where a solve fails; its row says which inequality failed.
-# With ``fixed_omega`` the speed stays at the start's -2300 m/s and the amplitude follows
-# Omega: the discrete waves form bands of admissible speeds, not isolated points.
+# operators). The branch ends where a solve fails (its row says which inequality failed) or
+# where it jumps to another solution (status ``jumped``: a value far off the trend of the
+# points before). With ``fixed_omega`` the speed is held: no wave of this family exists at
+# the start's -2300 m/s, so the search took the nearest admissible speed, -2357.5 m/s
+# (``celerity_note`` says so), and the amplitude follows Omega until, at Omega = 50, the
+# solution jumps to another wave. The discrete waves form bands of admissible speeds, not
+# isolated points.
 omegas = [40.0, 42.5, 45.0, 47.5, 50.0]
 out = Path(os.environ.get("STICKSLIP_OUTPUT", "runs")) / "demos" / "branch_k4"
 rows = stickslip.travel_branch(scene, 4, "loading.omega", omegas, out,
@@ -62,7 +66,7 @@ ok = [r for r in rows if r["status"] == "converged"]
 fig, ax = plt.subplots(figsize=(6, 3.5))
 ax.plot([r["value"] for r in ok], [r["amplitude_m"] * 1e3 for r in ok], "-o")
 ax.set(xlabel="Omega (rad/s)", ylabel="amplitude (mm)",
-       title="branch of the k = 4 wave at -2300 m/s, N = 36")
+       title="branch of the k = 4 wave at -2357.5 m/s, N = 36")
 fig.tight_layout()
 
 # %%

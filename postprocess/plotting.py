@@ -138,6 +138,8 @@ def spacetime_figure(run: Any, window: tuple[float, str] | None = (5.0, "T")) ->
     start, caption = spacetime_window(t, summary.get("frequency_hz"), window)
     sel = t >= start
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.4), sharey=True, constrained_layout=True)
+    # room between the left panel's colour bar label and the right panel
+    fig.get_layout_engine().set(wspace=0.08)
     im = axes[0].pcolormesh(deg, MS * t[sel], MM * (s["u_r"][sel] - run.d), shading="nearest",
                             cmap=FIELD_CMAP)
     fig.colorbar(im, ax=axes[0], label="u_r − d (mm)")

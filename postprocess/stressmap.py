@@ -22,6 +22,11 @@ from stickslip.postprocess.style import FIELD_CMAP, MPA, MS
 
 __all__ = ["has_stress", "stress_maps"]
 
+#: The panels' titles: fixed-size text (a vtkTextActor) at the top left of each panel, in
+#: the panel's viewport coordinates. A named corner ("upper_left") is a vtkCornerAnnotation,
+#: which shrinks a long line to fit, so the two panels' titles came out in different sizes.
+_TITLE = {"position": (0.02, 0.89), "viewport": True, "font_size": 12, "color": "black"}
+
 _BAR = {"vertical": False, "position_x": 0.2, "position_y": 0.03, "width": 0.6,
         "height": 0.06, "title_font_size": 17, "label_font_size": 14, "fmt": "%.1f",
         "n_labels": 4}
@@ -60,14 +65,14 @@ def stress_maps(run_dir: Path, out_png: Path) -> Path:
     ring_line = pv.lines_from_points(pts[loop] + [0.0, 0.0, 1e-3 * R])
     ring_line.point_data["p (MPa)"] = pressure[loop]
     sc = run.scene
-    caption = (f"{sc['name']}: N = {ring.size} contact nodes, t = {MS * t:.2f} ms\n"
-               "plane strain (von Mises with sigma_zz = nu (sigma_rr + sigma_tt))")
+    when = f"{sc['name']}: N = {ring.size} contact nodes, t = {MS * t:.2f} ms"
     pl = pv.Plotter(shape=(1, 2), off_screen=True, window_size=(1520, 860), border=False)
     pl.subplot(0, 0)
     grid.cell_data["von Mises (MPa)"] = von_mises
     pl.add_mesh(grid, scalars="von Mises (MPa)", cmap=FIELD_CMAP,
                 scalar_bar_args={"title": "von Mises stress (MPa)", **_BAR})
-    pl.add_text(caption, position="upper_left", font_size=10, color="black")
+    pl.add_text(f"von Mises stress, plane strain\n(sigma_zz = nu (sigma_rr + sigma_tt))\n{when}",
+                **_TITLE)
     pl.view_xy()
     pl.camera.zoom(1.1)
     pl.subplot(0, 1)
@@ -75,8 +80,7 @@ def stress_maps(run_dir: Path, out_png: Path) -> Path:
     pl.add_mesh(ring_line, scalars="p (MPa)", cmap="inferno", line_width=9,
                 clim=[0.0, max(float(pressure[ring].max()), 1e-12)],
                 scalar_bar_args={"title": "contact pressure p (MPa)", **_BAR})
-    pl.add_text("contact pressure on r = R (0: separated)", position="upper_left",
-                font_size=10, color="black")
+    pl.add_text(f"contact pressure on r = R\n(0: separated)\n{when}", **_TITLE)
     pl.view_xy()
     pl.camera.zoom(1.1)
     return save_screenshot(pl, out_png)

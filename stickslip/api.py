@@ -516,7 +516,8 @@ def travel_branch(scene: str | Path | Scene, k: int, key: str, values: Sequence[
     """Follow a travelling wave in one scene key (``stickslip travel --continue``).
 
     Each value is one Newton solve started from the previous wave; the branch ends where a
-    solve fails (its row names the residual and the inequality that failed).
+    solve fails (its row names the residual and the inequality that failed) or where it
+    jumps to another solution (status ``jumped``: ``studies.travel.continuation``).
 
     Args:
         scene, k, from_run, damping, celerity, options: as for ``travel``.
@@ -529,7 +530,8 @@ def travel_branch(scene: str | Path | Scene, k: int, key: str, values: Sequence[
         quiet: do not print a line per point.
 
     Returns:
-        The rows of ``branch.json``, each with ``value``, ``status`` (converged, failed, error) and,
+        The rows of ``branch.json``, each with ``value``, ``status`` (converged, jumped, failed,
+        error) and,
         where converged, ``celerity_m_s``, ``amplitude_m``, ``psi1``, ``psi2``, ``regime``.
 
     Example:

@@ -213,7 +213,8 @@ def _edit(meta: dict, field: str, value: object) -> dict:
 
 DELETE = object()
 META_EDITS = [
-    ("kind", "other"), ("format", 1), ("format", DELETE), ("kernel", DELETE), ("junk", 1),
+    ("kind", "other"), ("format", 3), ("format", 1.0), ("format", DELETE),
+    ("kernel", DELETE), ("junk", 1),
     ("ranks", 0), ("ranks", -1), ("ranks", 10**9), ("ranks", "1"), ("ranks", 1.0),
     ("step", -5), ("step", 10**12), ("step", 1.5), ("step", True), ("time", float("nan")),
     ("time", -1.0), ("time", "0.002"), ("samples", 10**6), ("samples", -1),
@@ -240,6 +241,25 @@ def test_meta_edits_are_refused(made, tmp_path, kind):
     from stickslip.studies.rundir.continuation import plan_continuation
 
     assert plan_continuation(d, UNTIL).kind == kind
+
+
+def test_a_checkpoint_of_the_first_format_is_read_and_checked(made, tmp_path):
+    """A checkpoint written before the meta named its arrays (format 1: no ``arrays``) still
+    continues (a run of the earlier version), with every other check: a NaN in its
+    stepper's u is refused as in the current format; format 1 with an ``arrays`` field is
+    an edited file."""
+    from stickslip.studies.rundir.continuation import plan_continuation
+
+    d = _copy(made["run"], tmp_path / "r")
+    arrays, meta = _load(d)
+    first = {k: v for k, v in meta.items() if k != "arrays"} | {"format": 1}
+    _save(d, arrays, first, relayout=False)
+    assert plan_continuation(d, UNTIL).kind == "run"
+    _save(d, dict(arrays, **{"rank0/stepper/u": _nan(arrays["rank0/stepper/u"])}), first,
+          relayout=False)
+    _refused(d, "rank0/stepper/u")
+    _save(d, arrays, dict(first, arrays=meta["arrays"]), relayout=False)
+    _refused(d, "meta holds 'arrays'")
 
 
 def test_a_damaged_file_is_refused(made, tmp_path):

@@ -15,6 +15,7 @@ from __future__ import annotations
 import argparse
 import ast
 import inspect
+import re
 import sys
 import textwrap
 from dataclasses import MISSING, fields
@@ -23,12 +24,21 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[2]
 
 
-def _cell(text: str) -> str:
-    """Text for one Markdown table cell (no raw HTML, no stray emphasis)."""
-    text = " ".join(str(text).split())
-    for raw, escaped in (("|", "\\|"), ("*", "\\*"), ("<", "&lt;")):
-        text = text.replace(raw, escaped)
-    return text
+#: A code span: ``x`` (the docstrings' literal) or `x` (Markdown's), read as one piece.
+CODE_SPAN = re.compile(r"(``.+?``|`[^`]+`)")
+
+
+def _cell(text: str, table: bool = True) -> str:
+    """Docstring text as Markdown: one line, no raw HTML, no stray emphasis. Outside code
+    spans ``*``, ``_`` and ``<`` are escaped, so a formula such as p_{i-1} + 2 p_i is not read
+    as italics; inside them the text is kept as written. ``table``: the text goes in a table
+    cell, where ``|`` ends the cell even inside code and is escaped everywhere."""
+    pieces = CODE_SPAN.split(" ".join(str(text).split()))
+    for i in range(0, len(pieces), 2):  # the even pieces are outside code spans
+        for raw, escaped in (("\\", "\\\\"), ("*", "\\*"), ("_", "\\_"), ("<", "&lt;")):
+            pieces[i] = pieces[i].replace(raw, escaped)
+    text = "".join(pieces)
+    return text.replace("|", "\\|") if table else text
 
 
 # ------------------------------------------------------------------------------ the CLI
@@ -75,13 +85,13 @@ def cli_markdown() -> str:
            "Generated from the `stickslip` command's argparse parser: every command and "
            "option. `stickslip COMMAND --help` prints the same text.", "",
            "```text", parser.format_usage().strip(), "```", "",
-           _cell(parser.description or ""), ""]
+           _cell(parser.description or "", table=False), ""]
     for name, sub in _subcommands(parser).items():
         sub.prog = f"stickslip {name}"
         rows = _option_rows(sub)
         table = (["| argument | meaning | default | choices |", "|---|---|---|---|", *rows]
                  if rows else ["No arguments."])
-        out += [f"## `stickslip {name}`", "", _cell(sub.description or ""), "",
+        out += [f"## `stickslip {name}`", "", _cell(sub.description or "", table=False), "",
                 "```text", sub.format_usage().strip(), "```", "", *table, ""]
     return "\n".join(out) + "\n"
 
@@ -199,7 +209,7 @@ def scene_markdown() -> str:
         docs = _attribute_docs(cls)
         rules = _rules(cls, sections)
         summary = " ".join((cls.__doc__ or "").split())
-        out += [f"## `[{section}]`", "", _cell(summary), "",
+        out += [f"## `[{section}]`", "", _cell(summary, table=False), "",
                 "| key | type | default | allowed | meaning |", "|---|---|---|---|---|"]
         for f in fields(cls):
             allowed = "; ".join(rules.get(f.name, []))

@@ -342,16 +342,17 @@ FRICTION_FILTERS = tuple(kind.value for kind in SpatialFilter)
 class Friction(_Section):
     """Regularisation of the Coulomb friction bound (the coefficient is ``loading.f``).
 
-    "prakash-clifton": the bound is f sigma_eff with
-    d sigma_eff/dt = -(|V| + V*) / L (sigma_eff - p)  (V: slip rate, L: ``slip_length``,
-    V*: ``reference_velocity``); "constant-time": d sigma_eff/dt = -(sigma_eff - p) / t*
-    (t*: ``relaxation_time``); "none": the classical bound f p.
+    "prakash-clifton": the bound is ``f sigma_eff`` with
+    ``d sigma_eff/dt = -(|V| + V*) / L (sigma_eff - p)`` (``V``: slip rate, ``L``:
+    ``slip_length``, ``V*``: ``reference_velocity``); "constant-time":
+    ``d sigma_eff/dt = -(sigma_eff - p) / t*`` (``t*``: ``relaxation_time``); "none": the
+    classical bound ``f p``.
 
-    ``filter``: "nodal" (default) bounds the friction force of node i by f p_i, its own normal
-    reaction; "1-2-1" by f p~_i with p~_i = in_contact_i (p_{i-1} + 2 p_i + p_{i+1}) / 4, the
-    normal reactions filtered along the contact circle, which removes the FE's spurious
-    mesh-scale flutter branch (docs/friction_filter.md). With a regularisation, sigma_eff
-    relaxes towards p~.
+    ``filter``: "nodal" (default) bounds the friction force of node i by ``f p_i``, its own
+    normal reaction; "1-2-1" by ``f p~_i`` with
+    ``p~_i = in_contact_i (p_{i-1} + 2 p_i + p_{i+1}) / 4``, the normal reactions filtered
+    along the contact circle, which removes the FE's spurious mesh-scale flutter branch
+    (docs/friction_filter.md). With a regularisation, ``sigma_eff`` relaxes towards ``p~``.
     """
 
     SECTION: ClassVar[str] = "friction"
@@ -365,7 +366,7 @@ class Friction(_Section):
     relaxation_time: float = _opt(0.0, "float")
     """Constant-time variant: relaxation time t* [s]."""
     filter: str = _opt("nodal", "str")
-    """"nodal" (bound f p_i) or "1-2-1" (bound f (p_{i-1} + 2 p_i + p_{i+1}) / 4)."""
+    """"nodal" (bound ``f p_i``) or "1-2-1" (bound ``f (p_{i-1} + 2 p_i + p_{i+1}) / 4``)."""
 
     @property
     def enabled(self) -> bool:

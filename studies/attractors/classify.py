@@ -35,6 +35,10 @@ id is its first start's ``features.member_key`` (``k12-opposite-SSS`` for a rigi
 unsettled end states are grouped by (k, direction, regime) of the dominant component and
 celerity (``unsettled-k12-opposite-SSS``). Rows from elsewhere that carry no features (a
 summary and a frame spread only) are classified by the frame spread (``classify``).
+
+Names a person reads (``readable_name``, ``member_label``, ``member_description``) give
+every component's direction in words, "with the rotation" or "against the rotation", and
+use those words for nothing else: a dominant wave is "carrying" its companions.
 """
 
 from __future__ import annotations
@@ -54,7 +58,6 @@ from stickslip.studies.attractors.features import (
     Features,
     Tolerances,
     components_text,
-    describe,
     frame_spread,
     match,
     member_key,
@@ -251,7 +254,7 @@ def end_state_row(start_id: str, params: dict, summary: dict, status: str,
         top = later.dominant
         named = later.named(cls != "multi-wave")
         row.update(k=top.k, direction=top.direction, n_components=len(named),
-                   name=describe(named, with_weak=True),
+                   name=readable_name(named),
                    components=components_text(later.components),
                    features=later.to_dict(), features_before=earlier.to_dict())
         if not top.aliased:
@@ -385,9 +388,64 @@ def group_members(rows: list[dict], celerity_tol: float = CELERITY_TOL,
             r["member"] = key.label() + ("" if cluster == 1 else f"#{cluster}")
 
 
+#: A component's direction in words: the only words printed for it.
+SENSE = {"rotation": "with the rotation", "opposite": "against the rotation"}
+#: A member's class as the printed answer and the plots say it.
+CLASS_WORDS = {"wave": "rigid wave", "multi-wave": "multi-wave", "transient": "transient",
+               "unsettled": "unsettled", "steady-sliding": "steady sliding",
+               "diverged": "diverged", "failed": "failed", "settling": "settling"}
+
+
+def component_words(k: int, direction: str | None) -> str:
+    """"k = 14 against the rotation": a component's wavenumber and direction in words."""
+    return f"k = {k} {SENSE.get(direction, direction)}" if direction else f"k = {k}"
+
+
+def _and(parts: list[str]) -> str:
+    return parts[0] if len(parts) == 1 else ", ".join(parts[:-1]) + " and " + parts[-1]
+
+
+def readable_name(comps: tuple[Component, ...] | list[Component]) -> str:
+    """"k = 9 with the rotation, carrying k = 14 against the rotation (73 %) and k = 5
+    against the rotation (16 %)": the named components (``Features.named``), dominant first,
+    each with its direction in words and the companions with their shares (an aliased
+    companion's direction is not known: "k = 24 (5 %, aliased)")."""
+    if not comps:
+        return "no travelling component"
+    top, *rest = comps
+    text = component_words(top.k, top.direction) + (" (aliased)" if top.aliased else "")
+    parts = [f"k = {c.k} ({100 * c.share:.0f} %, aliased)" if c.aliased else
+             f"{component_words(c.k, c.direction)} ({100 * c.share:.0f} %)" for c in rest]
+    return text + (", carrying " + _and(parts) if parts else "")
+
+
+def member_label(cls: str, member: str | None, comps: tuple[Component, ...] | list[Component]
+                 ) -> str:
+    """A member's short readable label (plots, the first word of its printed line): its
+    class in words, the dominant component and, for a multi-wave member, the companions by
+    direction without shares: "multi-wave k = 9 with the rotation carrying k = 14, 5 against
+    the rotation"; "(group 2)" for a second group of the same id (``#2``)."""
+    words = CLASS_WORDS.get(cls, cls)
+    if not comps:
+        return words
+    top, *rest = comps
+    text = f"{words} {component_words(top.k, top.direction)}"
+    if cls == "multi-wave" and rest:
+        by_sense: dict[str | None, list[str]] = {}
+        for c in rest:
+            by_sense.setdefault(None if c.aliased else c.direction, []).append(str(c.k))
+        text += " carrying " + _and([
+            f"k = {', '.join(ks)}" + (f" {SENSE.get(d, d)}" if d else " (aliased)")
+            for d, ks in by_sense.items()])
+    cluster = (member or "").partition("#")[2]
+    return text + (f" (group {cluster})" if cluster else "")
+
+
 def member_description(member: str) -> str:
-    """``k11-opposite-SSS+k12`` -> "k = 11 against the rotation, stick-slip-separation, with
-    k = 12"; the readable name with shares comes from the features (``features.describe``)."""
+    """``k11-opposite-SSS+k12+k5r`` -> "k = 11 against the rotation, stick-slip-separation,
+    carrying k = 12 against the rotation and k = 5 with the rotation" (a companion's
+    ``o``/``r``: it travels the other way than the dominant); the readable name with shares
+    comes from the features (``readable_name``)."""
     prefix = next((p for p in ("unsettled-", "multi-wave-") if member.startswith(p)), "")
     body = member.removeprefix(prefix)
     if not body.startswith("k"):
@@ -395,11 +453,13 @@ def member_description(member: str) -> str:
     main, _, cluster = body.partition("#")
     head, *companions = main.split("+")
     parts = head.split("-", 2)
-    sense = {"opposite": "against the rotation", "rotation": "with the rotation"}
     regime = {v: k for k, v in REGIME_SHORT.items()}.get(parts[2], parts[2])
-    text = f"k = {parts[0][1:]} {sense.get(parts[1], parts[1])}, {regime}"
-    if companions:
-        text += ", with " + ", ".join(f"k = {c[1:]}" for c in companions)
+    text = f"{component_words(int(parts[0][1:]), parts[1])}, {regime}"
+    if companions:  # "k6o": k = 6 against the rotation; "k6": the dominant's direction
+        other = {"o": "opposite", "r": "rotation"}
+        text += ", carrying " + _and([component_words(int(c[1:].rstrip("or")),
+                                                      other.get(c[-1], parts[1]))
+                                      for c in companions])
     if prefix:
         text = f"{prefix[:-1]} {text}"
     if cluster:

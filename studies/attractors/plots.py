@@ -1,6 +1,8 @@
 """``stickslip attractors --plot``: shares per mesh, member values against N, profiles.
 
-* ``basins.png``: each member's basin share per mesh with its 95 % Wilson interval;
+* ``basins.png``: each member's basin share per mesh with its 95 % Wilson interval, the
+  attractors as solid bars, every other state hatched in a group of its own
+  (``basins_figure``);
 * ``members_vs_n.png``: celerity, frequency, ψ₁, ψ₂ and RMS amplitude of every member of
   the random starts with a wavenumber, mean ± standard deviation over its starts, against N;
 * ``profile_<mesh>_<member>.png``: the paper's Figure-1 panels (U, V, P, Q over one
@@ -11,6 +13,7 @@
 from __future__ import annotations
 
 import json
+import textwrap
 from pathlib import Path
 
 import numpy as np
@@ -30,32 +33,80 @@ def plot_census(out_dir: str | Path, answer: dict | None = None) -> list[Path]:
 
 
 def _basins(out_dir: Path, answer: dict) -> Path | None:
-    import matplotlib.pyplot as plt
+    fig = basins_figure(answer)
+    return None if fig is None else _save(fig, out_dir / "basins.png")
 
-    from stickslip.studies.attractors.statistics import wilson
+
+#: How a non-attractor's bar is drawn: hatched, pale, edged in its mesh's colour.
+OTHER_HATCH, OTHER_FACE = "///", "0.92"
+
+
+def basins_figure(answer: dict):  # noqa: ANN201 - matplotlib Figure, or None
+    """The figure of ``basins.png``: per member its basin share at each mesh (a colour per
+    mesh) with its 95 % Wilson interval. The attractors (``SETTLED``) are solid bars on the
+    left; every other state (unsettled, settling, transient, steady sliding, diverged,
+    failed) is a hatched pale bar in a separate group on the right; a member that is an
+    attractor at one mesh and not at another stands with the attractors and is hatched
+    where it is not one. Ticks: the members' readable labels (``label``). None where no
+    member is there."""
+    import matplotlib.pyplot as plt
+    from matplotlib.patches import Patch
+
+    from stickslip.studies.attractors.statistics import SETTLED, wilson
 
     meshes = list(answer["members"])
-    names = sorted({m["member"] for ms in answer["members"].values() for m in ms})
+    labels: dict[str, str] = {}
+    attractor: dict[str, bool] = {}
+    for ms in answer["members"].values():
+        for m in ms:
+            key = m.get("member") or m["class"]
+            labels.setdefault(key, m.get("label") or key)
+            attractor[key] = attractor.get(key, False) or m["class"] in SETTLED
+    firsts = sorted(k for k in labels if attractor[k])
+    others = sorted(k for k in labels if not attractor[k])
+    names = firsts + others
     if not names:
         return None
-    fig, ax = plt.subplots(figsize=(max(6.0, 1.2 * len(names) + 2), 4.2),
+    gap = 0.6 if firsts and others else 0.0
+    x = np.array([i + (gap if i >= len(firsts) else 0.0) for i in range(len(names))])
+    fig, ax = plt.subplots(figsize=(max(6.0, 1.3 * len(names) + 2.5), 5.0),
                            constrained_layout=True)
     width = 0.8 / len(meshes)
-    x = np.arange(len(names))
     for j, n in enumerate(meshes):
-        by = {m["member"]: m for m in answer["members"][n]}
+        by = {(m.get("member") or m["class"]): m for m in answer["members"][n]}
         starts = answer["members"][n][0]["starts"] if answer["members"][n] else 0
         none = wilson(0, starts)  # a member no start reached: 0 with its interval
-        share = np.array([by[s]["share"] if s in by else 0.0 for s in names])
-        lo = np.array([by[s]["share_lo"] if s in by else none[0] for s in names])
-        hi = np.array([by[s]["share_hi"] if s in by else none[1] for s in names])
-        ax.bar(x + (j - (len(meshes) - 1) / 2) * width, share, width,
-               yerr=[share - lo, hi - share], capsize=3, label=f"N = {n} ({starts} starts)")
-    ax.set_xticks(x, names, rotation=30, ha="right", fontsize=8)
-    ax.set(ylabel="basin share (95 % Wilson interval)", ylim=(0, 1),
+        colour = f"C{j % 10}"
+        for i, s in enumerate(names):
+            m = by.get(s)
+            share, lo, hi = ((m["share"], m["share_lo"], m["share_hi"]) if m else
+                             (0.0, *none))
+            solid = m["class"] in SETTLED if m else attractor[s]
+            ax.bar(x[i] + (j - (len(meshes) - 1) / 2) * width, share, width,
+                   yerr=[[share - lo], [hi - share]], capsize=3, ecolor="0.2",
+                   color=colour if solid else OTHER_FACE, edgecolor=colour,
+                   hatch=None if solid else OTHER_HATCH, linewidth=1.0)
+    ax.set_xticks(x, [textwrap.fill(labels[s], 26) for s in names], rotation=30, ha="right",
+                  fontsize=7)
+    ax.set(ylabel="basin share of the random starts (95 % Wilson interval)", ylim=(0, 1.12),
            title=f"attractors of {answer['scene']['name']}")
-    ax.legend(fontsize=8)
-    return _save(fig, out_dir / "basins.png")
+    for group, where, text in ((firsts, x[:len(firsts)], "attractors"),
+                               (others, x[len(firsts):], "not attractors")):
+        if group:
+            ax.text(where.mean(), 1.06, text, ha="center", va="center", fontsize=9,
+                    fontweight="bold")
+    if firsts and others:
+        ax.axvline((x[len(firsts) - 1] + x[len(firsts)]) / 2, color="0.5", ls="--", lw=0.8)
+    handles = [Patch(color=f"C{j % 10}", label=f"N = {n} "
+                     f"({answer['members'][n][0]['starts'] if answer['members'][n] else 0}"
+                     " starts)") for j, n in enumerate(meshes)]
+    handles += [Patch(facecolor="0.5", edgecolor="0.5",
+                      label="attractor: solid bar\n(in its mesh's colour)"),
+                Patch(facecolor=OTHER_FACE, edgecolor="0.3", hatch=OTHER_HATCH,
+                      label="not an attractor: hatched pale bar\n(unsettled, settling, "
+                            "transient,\nsteady sliding, diverged, failed)")]
+    fig.legend(handles=handles, fontsize=7, loc="outside right upper")
+    return fig
 
 
 def _values(out_dir: Path, answer: dict) -> Path | None:

@@ -1,49 +1,96 @@
-"""The printed answer of a census: a few lines a person reads in ten seconds."""
+"""The printed answer of a census: a few lines a person reads in ten seconds.
+
+Per mesh, each attractor on one line (class, dominant component, its celerity and
+frequency, regime, the starts reaching it, settle times, and its member id in brackets),
+then a line of the companions it carries and its certificate; the non-attractors apart.
+Every component is named with its direction in words (``classify.SENSE``).
+"""
 
 from __future__ import annotations
 
 import math
+import re
 
 from stickslip.studies.attractors.certify import member_line
-from stickslip.studies.attractors.classify import member_description
-from stickslip.studies.attractors.statistics import SETTLED, SETTLING, UNFINISHED
+from stickslip.studies.attractors.classify import (
+    CLASS_WORDS,
+    component_words,
+    member_description,
+)
+from stickslip.studies.attractors.statistics import (
+    NAMED,
+    SETTLED,
+    SETTLING,
+    UNFINISHED,
+    member_features,
+)
 
 
 def _pct(x: float) -> str:
     return f"{100 * x:.0f} %"
 
 
-def _member_phrase(m: dict) -> str:
+def _finite(x: float | None) -> bool:
+    return x is not None and math.isfinite(x)
+
+
+def _head(m: dict) -> str:
+    """"multi-wave k = 9 with the rotation, +1708.8 m/s, 2447.6 Hz, stick-slip-separation":
+    a member's class and dominant component in words, its mean celerity and frequency."""
+    words = CLASS_WORDS.get(m["class"], m["class"])
+    if m.get("k") is None or m["class"] not in NAMED:
+        return words
+    text = f"{words} {component_words(m['k'], m['direction'])}"
+    if _finite(m.get("celerity_m_s")):
+        text += f", {m['celerity_m_s']:+.1f} m/s, {m['frequency_hz']:.1f} Hz"
+    return text + (f", {m['regime']}" if m.get("regime") else "")
+
+
+def _companions(m: dict) -> str:
+    """"carrying k = 14 against the rotation, -827.5 m/s (73 %); ...": the companions the
+    member's name gives (``Features.named``), each with its celerity and share."""
+    named = member_features(m).named(m["class"] != "multi-wave")[1:]
+    parts = []
+    for c in named:
+        tag = ", weak" if c.weak else ""
+        parts.append(f"k = {c.k}, aliased: no celerity ({100 * c.share:.0f} %{tag})"
+                     if c.aliased else f"{component_words(c.k, c.direction)}, "
+                     f"{c.celerity_m_s:+.1f} m/s ({100 * c.share:.0f} %{tag})")
+    return "carrying " + "; ".join(parts) if parts else ""
+
+
+def member_lines(n: str, m: dict, certs: dict) -> list[str]:
+    """A member's printed lines (module docstring), unindented; its certificate from
+    ``certs`` (keyed ``"N:member"``), taken out of it."""
+    share = (f"{m['count']} of {m['starts']} starts = {_pct(m['share'])} "
+             f"(95 % CI {_pct(m['share_lo'])}–{_pct(m['share_hi'])})")
+    text = f"{_head(m)}: {share}"
     settled = m["class"] in SETTLED or m["class"] == "transient"
-    text = (m.get("name") if settled else "") or member_description(m["member"])
-    if settled:
-        text += f", {_regime(m)}"
-    if m.get("k") is not None and m.get("celerity_m_s") is not None \
-            and math.isfinite(m["celerity_m_s"]):
-        text += f"; {m['celerity_m_s']:+.1f} m/s, {m['frequency_hz']:.1f} Hz"
-        comps = [c for c in m.get("components") or [] if not c["weak"]][1:] if settled else []
-        if comps:
-            text += " (" + ", ".join(
-                f"k = {c['k']}: " + ("aliased" if c["aliased"] else
-                                     f"{c['celerity_m_s']:+.1f} m/s") for c in comps) + ")"
-    text = (f"{text} [{m['member']}] ({m['count']}/{m['starts']} = {_pct(m['share'])}, "
-            f"95 % CI {_pct(m['share_lo'])}–{_pct(m['share_hi'])})")
-    if settled and m.get("settle_time_s_max") is not None \
-            and math.isfinite(m["settle_time_s_max"]):
+    if settled and _finite(m.get("settle_time_s_max")):
         text += (f"; settled by {m['settle_time_s']:.2f} s (median), "
                  f"{m['settle_time_s_max']:.2f} s (last)")
+    member = m.get("member") or m["class"]
+    if member != m["class"]:
+        text += f" [{member}]"
+    lines = [text]
+    companions = _companions(m) if settled else ""
+    if companions:
+        lines.append(f"  {companions}")
     near = m.get("approaching") or {}
     if near:
-        text += "; in its last window " + ", ".join(
-            f"{c} of them match {name}" for name, c in near.items())
-    return text
+        lines.append("  in its last window " + ", ".join(
+            f"{c} of them match {name}" for name, c in near.items()))
+    cert = certs.pop(f"{n}:{member}", None)
+    if cert is not None:
+        lines.append(f"  certificate: {member_line(cert)}")
+    return lines
 
 
-def _regime(m: dict) -> str:
-    return m.get("regime") or "?"
-
-
-def mesh_lines(n: str, members: list[dict], structured: list[dict]) -> list[str]:
+def mesh_lines(n: str, members: list[dict], structured: list[dict],
+               certs: dict | None = None) -> list[str]:
+    """One mesh's lines: the attractors, then the non-attractors, then the structured
+    starts. ``certs``: the certificates (``"N:member"``); those printed are taken out."""
+    certs = {} if certs is None else certs
     settled = [m for m in members if m["class"] in SETTLED]
     rigid = sum(m["class"] == "wave" for m in settled)
     others = [m for m in members if m["class"] not in SETTLED]
@@ -55,22 +102,26 @@ def mesh_lines(n: str, members: list[dict], structured: list[dict]) -> list[str]
     if not members:
         head += "; no random start finished yet"
     lines = [head + (":" if settled else "")]
-    lines += [f"  {_member_phrase(m)}" for m in settled]
+    lines += [f"  {line}" for m in settled for line in member_lines(n, m, certs)]
     if others:
         lines.append("  not attractors:")
-        lines += [f"    {m['class']}: {_member_phrase(m)}" if m["class"] == "transient"
-                  else f"    {_member_phrase(m)}" for m in others]
+        lines += [f"    {line}" for m in others for line in member_lines(n, m, certs)]
     if any(m["class"] == "unsettled" for m in members):
         lines.append("  (unsettled: its features still change between the last two windows, "
                      "or its shares drift across the last leg, at the cap; a larger "
                      "--max-time continues them)")
     if structured:
-        lines.append("  structured: " + "; ".join(
-            f"mode {r['start_mode']} -> {r['member'] or r['class']}" for r in structured))
+        lines.append("  structured starts: " + "; ".join(
+            f"mode {r['start_mode']} -> " + (f"{member_description(r['member'])} "
+                                             f"[{r['member']}]" if r["member"] else r["class"])
+            for r in structured))
     return lines
 
 
 def ladder_lines(answer: dict) -> list[str]:
+    """What the mesh ladder says: whether the set of attractors stops changing, the shares
+    that differ, per attractor on several meshes how each component's celerity and share
+    move, and the coarse observables; every component in words."""
     lad = answer["ladder"]
     meshes = [int(n) for n in answer["members"]]
     if len(meshes) < 2:
@@ -91,10 +142,10 @@ def ladder_lines(answer: dict) -> list[str]:
                 or name.startswith("unsettled"):
             continue
         parts = []
-        for label, comp in m.get("components", {}).items():
-            parts.append(f"{label} celerity {_steps(m['meshes'], comp['celerity_m_s'])}")
-            if len(m.get("components", {})) > 1:
-                parts.append(f"{label} share {_share_steps(comp['share']['values'])}")
+        for i, (label, comp) in enumerate(m.get("components", {}).items()):
+            steps = _steps(m["meshes"], comp["celerity_m_s"])
+            parts.append(f"{_sign_words(label)}, celerity {steps}"
+                         + (f", share {_share_steps(comp['share']['values'])}" if i else ""))
         if not parts:
             parts.append(f"celerity {_steps(m['meshes'], _as_changes(m, 'celerity_m_s'))}")
         lines.append(f"  {name}: " + "; ".join(parts))
@@ -102,7 +153,8 @@ def ladder_lines(answer: dict) -> list[str]:
     if coarse:
         dist = coarse["dominant_k"]
         lines.append("  dominant component of the starts: " + " → ".join(
-            f"N = {n}: " + ", ".join(f"{k} {_pct(p)}" for k, p in d.items())
+            f"N = {n}: " + ", ".join(f"{_pct(p)} {_sign_words(k)}" for k, p in
+                                     sorted(d.items(), key=lambda kp: -kp[1]))
             for n, d in dist.items()))
         tv = coarse["dominant_k_distance"]
         if tv:
@@ -111,10 +163,19 @@ def ladder_lines(answer: dict) -> list[str]:
         vals = wc["values"]
         steps = [b - a for a, b in zip(vals, vals[1:], strict=False)
                  if math.isfinite(a) and math.isfinite(b)]
-        lines.append("  basin-weighted celerity: " + " → ".join(
+        lines.append("  basin-weighted celerity (+: with the rotation): " + " → ".join(
             f"{v:+.1f}" if math.isfinite(v) else "–" for v in vals) + " m/s"
             + (" (change " + ", ".join(f"{d:+.1f} m/s" for d in steps) + ")" if steps else ""))
     return lines
+
+
+def _sign_words(label: str) -> str:
+    """A component key of the ladder (``k9+``: with the rotation, ``k9-``: against) in
+    words; anything else (a class) as it is."""
+    found = re.fullmatch(r"k(\d+)([+-])", label)
+    if not found:
+        return CLASS_WORDS.get(label, label)
+    return component_words(int(found[1]), "rotation" if found[2] == "+" else "opposite")
 
 
 def _as_changes(m: dict, key: str) -> dict:
@@ -152,7 +213,7 @@ def summary_text(answer: dict) -> str:
     tol = answer.get("tolerances") or {}
     head = (f"attractors of {answer['scene']['name']}: {dist['starts']} random start(s) "
             f"per mesh (K = {dist['n_modes']}, A = {dist['amplitude']:g} d, seeds "
-            f"{dist['seed']}..{dist['seed'] + dist['starts'] - 1}); an attractor: the same "
+            f"{dist['seed']}..{dist['seed'] + dist['starts'] - 1})\nan attractor: the same "
             f"travelling components (share ≥ {100 * tol.get('share_listed', 0.1):g} % of "
             f"the dominant's) in the last two windows and across starts, celerities within "
             f"{100 * answer['celerity_tol']:g} %, shares within "
@@ -161,11 +222,12 @@ def summary_text(answer: dict) -> str:
     lines = [head]
     if answer.get("finished") is False or any(k in UNFINISHED for k in counts):
         lines.append(unfinished_line(answer))
-    for n, members in answer["members"].items():
-        lines += mesh_lines(n, members, answer["structured"].get(n, []))
-    lines += ladder_lines(answer)
     certs = answer.get("certificates") or {}
-    for key, cert in certs.items():
+    left = dict(certs)  # those not printed under their random starts' member
+    for n, members in answer["members"].items():
+        lines += mesh_lines(n, members, answer["structured"].get(n, []), left)
+    lines += ladder_lines(answer)
+    for key, cert in left.items():  # the structured starts' members
         lines.append(f"  certificate {key}: {member_line(cert)}")
     timing = answer.get("timing") or {}
     if certs and timing.get("certification_s") is not None and timing.get("sweep_s"):

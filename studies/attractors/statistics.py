@@ -25,6 +25,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from stickslip.studies.attractors.classify import member_label, readable_name
+
 Z95 = 1.959963984540054  # the 97.5 % quantile of the standard normal
 #: Values averaged per member (row keys of ``attractors.csv``).
 VALUE_KEYS = ("celerity_m_s", "frequency_hz", "fraction_separation", "fraction_stick",
@@ -63,8 +65,13 @@ def mean_spread(values: Sequence[float | None]) -> tuple[float, float, int]:
     return m, sd, len(xs)
 
 
+#: The classes whose label names a dominant component (the others: their class only).
+NAMED = ("wave", "multi-wave", "transient", "unsettled", SETTLING)
+
+
 def mesh_members(rows: list[dict]) -> list[dict]:
-    """Per member of one mesh's random starts: count, share, Wilson interval, values."""
+    """Per member of one mesh's random starts: count, share, Wilson interval, values, its
+    readable ``name`` and ``label`` (``classify.readable_name``, ``classify.member_label``)."""
     counted = [r for r in rows if r["class"] in COUNTED]
     n = len(counted)
     by_member: dict[str, list[dict]] = {}
@@ -78,6 +85,8 @@ def mesh_members(rows: list[dict]) -> list[dict]:
                  "count": len(group), "starts": n, "share": len(group) / n,
                  "share_lo": lo, "share_hi": hi, "seeds": [r["seed"] for r in group],
                  "approaching": _approaching(group), **member_components(group)}
+        entry["label"] = member_label(entry["class"], member, member_features(entry).named(
+            entry["class"] != "multi-wave") if entry["class"] in NAMED else ())
         for key in VALUE_KEYS:
             m, sd, _ = mean_spread([r[key] for r in group])
             entry[key] = m
@@ -103,8 +112,8 @@ def _approaching(rows: list[dict]) -> dict:
 def member_components(rows: list[dict]) -> dict:
     """The member's components (those of its first row's last window): per component the
     mean and sample standard deviation over the rows of its celerity, share and frequency;
-    its readable ``name`` (``features.describe`` of the means) and ``n_components``."""
-    from stickslip.studies.attractors.features import Component, Features, describe
+    its readable ``name`` (``classify.readable_name`` of the means) and ``n_components``."""
+    from stickslip.studies.attractors.features import Component, Features
 
     have = [Features.from_dict(r["features"]) for r in rows if r.get("features")]
     if not have:
@@ -123,7 +132,7 @@ def member_components(rows: list[dict]) -> dict:
                       celerity_m_s=e["celerity_m_s"], aliased=e["aliased"], weak=e["weak"])
             for e in comps]
     named = Features(tuple(mean)).named(rows[0].get("class") != "multi-wave")
-    return {"components": comps, "name": describe(named, with_weak=True),
+    return {"components": comps, "name": readable_name(named),
             "n_components": len(named)}
 
 

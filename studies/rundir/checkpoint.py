@@ -76,6 +76,9 @@ def scene_fingerprint(scene: Scene) -> str:
 CHECKPOINT = "checkpoint.npz"
 #: 2: the meta holds the arrays' layout (``arrays``).
 FORMAT = 2
+#: The formats read: 1, written before the meta named its arrays (the file's own arrays are
+#: its layout then; every other check applies), and this one.
+READ_FORMATS = (1, FORMAT)
 
 #: The fix for a run without a checkpoint, and for a checkpoint that cannot be trusted.
 MISSING_FIX = ("run the scene again to the time you want (`stickslip run RUN/scene.toml --set "
@@ -212,7 +215,8 @@ def read_checkpoint(run_dir: str | Path) -> Checkpoint:
         raise ReadError(p, "missing (no checkpoint to continue from)", MISSING_FIX)
     arrays = _load_npz(p, ("meta",), DAMAGED_FIX)
     meta = _read_meta(p, arrays.pop("meta"))
-    _check_layout(p, arrays, meta["arrays"])
+    layout = meta.get("arrays", {key: [a.dtype.str, list(a.shape)] for key, a in arrays.items()})
+    _check_layout(p, arrays, layout)
     ranks = meta["ranks"]
     states: list[dict[str, np.ndarray]] = [{} for _ in range(ranks)]
     for key, value in arrays.items():
@@ -241,13 +245,15 @@ def _read_meta(p: Path, raw: np.ndarray) -> dict:
         _bad(p, f"meta is not valid JSON ({' '.join(str(err).split())[:60]})")
     if not isinstance(meta, dict):
         _bad(p, f"meta holds a JSON {type(meta).__name__}, not an object")
-    if meta.get("format") != FORMAT:
-        _bad(p, f"meta.format is {meta.get('format')!r}, not {FORMAT} (written by another "
-                "version of stickslip, or not a checkpoint)")
-    extra = sorted(set(meta) - set(META))
+    if meta.get("format") not in READ_FORMATS or type(meta.get("format")) is not int:
+        _bad(p, f"meta.format is {_show(meta.get('format'))}, not one of {READ_FORMATS} "
+                "(written by another version of stickslip, or not a checkpoint)")
+    fields = META if meta["format"] == FORMAT else {k: v for k, v in META.items()
+                                                   if k != "arrays"}
+    extra = sorted(set(meta) - set(fields))
     if extra:
         _bad(p, f"meta holds {extra[0]!r}, a field stickslip does not write (edited)")
-    for key, kind in META.items():
+    for key, kind in fields.items():
         if key not in meta:
             _bad(p, f"meta has no {key!r} (not written by stickslip, or edited)")
         value = meta[key]

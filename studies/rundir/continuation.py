@@ -27,8 +27,9 @@ Where the result goes:
 Refused in one line (``studies.rundir.readers.ReadError``, exit status 2), by
 ``plan_continuation`` before anything is claimed, built or written: ``until`` not beyond the
 checkpoint's time, a run without a checkpoint (older, failed or diverged), a checkpoint of
-another number of ranks, a run that writes fields (``output.fields``: the XDMF series is
-not continued), and a checkpoint that is damaged or does not fit its run in any field
+another number of ranks, a run that writes fields (``output.fields``: its fields.bp + stress.bp,
+or fields.xdmf + fields.h5, are not extended; the line gives the ``stickslip run`` that
+writes them to T), and a checkpoint that is damaged or does not fit its run in any field
 (``studies.rundir.checkpoint.check_checkpoint``: its kind, shapes, dtypes, finite numbers,
 clock and counts against the scene, summary.json and samples.npz). A batch member's
 checkpoint is checked the same way, every member before any batch starts.
@@ -37,6 +38,7 @@ checkpoint is checked the same way, every member before any batch starts.
 from __future__ import annotations
 
 import math
+import shlex
 import sys
 from dataclasses import dataclass
 from pathlib import Path
@@ -67,6 +69,10 @@ from stickslip.studies.rundir.writer import print_summary, write_member
 
 __all__ = ["RESUMABLE", "WALL_CLOCK_KEYS", "continue_batch", "continue_run",
            "plan_continuation"]
+
+#: The field files a run directory gets per ``output.field_format`` (as
+#: ``solver.writers.FIELD_FILES``, which needs dolfinx to import).
+FIELD_FILES = {"vtx": ("fields.bp", "stress.bp"), "xdmf": ("fields.xdmf", "fields.h5")}
 
 #: The final statuses whose runs stand at a whole level and wrote a checkpoint.
 RESUMABLE = ("completed", "stopped", "interrupted")
@@ -144,8 +150,15 @@ def plan_continuation(run_dir: str | Path, until: float, ranks: int = 1) -> _Pla
                         "with (edited since?)", "continue with the scene as it ran, or run "
                         "the edited scene from the start")
     if scene.output.fields:
-        raise ReadError(run_dir, "the run writes fields (output.fields = true), whose XDMF "
-                                 "series is not continued", "run the scene again to T")
+        files = " + ".join(FIELD_FILES[scene.output.field_format])
+        limit = " --set time.max_steps=0" if scene.time.max_steps else ""
+        again = (f"stickslip run {shlex.quote(str(run_dir / 'scene.toml'))} --set "
+                 f"time.end_time={until!r}{limit} -o "
+                 f"{shlex.quote(f'{run_dir}_to_{until:g}s')}")
+        raise ReadError(run_dir, f"the run writes fields (output.fields = true: {files}), "
+                                 "which a continuation does not extend",
+                        f"for the fields of the span to T = {until:g} s run the scene again "
+                        f"to T: `{again}`")
     before = read_samples(run_dir, need=0)
     check_agreement(run_dir, summary, scene, before)
     check_checkpoint(ck, scene=scene, summary=summary, samples=before)

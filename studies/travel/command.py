@@ -26,6 +26,11 @@ DEFAULTS: dict = {"k": None, "from_run": None, "damping": None, "celerity": None
 #: so slow that one node passage takes more time steps is no travelling wave of the run.
 MAX_SAMPLES = 1e5
 
+#: The relative gap between the wave's celerity and the start's above which the result says
+#: so: below 0.1 % the start was the wave's speed to the precision a user reads (the fixed-
+#: speed search moves in steps of 0.25 %, ``driver.solve_scene``).
+START_GAP = 1e-3
+
 #: Command-line flags whose name is not the option's with dashes.
 _FLAGS = {"from_run": "--from", "cont": "--continue"}
 
@@ -92,6 +97,25 @@ def check(opts: SimpleNamespace, flag: Callable[[str], str] = cli_flag) -> str |
                 f"drop {flag('inertia')} rotation / {flag('time_scheme')} exact / "
                 f"{flag('cont')}")
     return None
+
+
+def celerity_note(start: float, celerity: float, solve: str) -> str | None:
+    """One line saying how far the wave's ``celerity`` (m/s) is from the ``start`` speed and
+    why, when the gap is over ``START_GAP``; None otherwise. ``solve``: the solution's
+    ``how`` (``driver.solve_scene``): a fixed-speed search took the nearest admissible speed
+    (the discrete waves exist in bands of speed, not at every speed); a free-speed solve
+    has the speed as an unknown and converged to the wave's own."""
+    gap = (celerity - start) / abs(start)
+    if not abs(gap) > START_GAP:
+        return None
+    why = ("no wave of this family is admissible at the start's speed: the fixed-speed "
+           "search took the nearest speed where one is (steps of 0.25 %, up to 5 %; the "
+           "discrete waves exist in bands of speed)" if solve.startswith("fixed omega") else
+           "the speed is an unknown of the solve, and Newton converged to the wave's own "
+           "celerity (the start only seeds it)")
+    sense = "faster" if abs(celerity) > abs(start) else "slower"
+    return (f"the wave's celerity {celerity:.1f} m/s is {100.0 * abs(gap):.2f} % {sense} than "
+            f"the start's {start:.1f} m/s: {why}")
 
 
 def other_scene(scene, run_dir: str | Path) -> str | None:  # noqa: ANN001
@@ -244,4 +268,9 @@ def solve(scene, opts: SimpleNamespace, t0: float) -> tuple[dict, dict]:  # noqa
         summary["band"] = D.band(st, sol, opts.k)
     summary.update(info, damping_s=opts.damping, inertia=opts.inertia, setup_time_s=t_setup,
                    wall_time_s=time.perf_counter() - t0)
+    if "start_celerity_m_s" in info:
+        note = celerity_note(info["start_celerity_m_s"], summary["celerity_m_s"],
+                             summary["solve"])
+        if note:
+            summary["celerity_note"] = note
     return summary, profiles
