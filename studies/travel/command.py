@@ -199,7 +199,7 @@ def _matched_step(scene, opts: SimpleNamespace) -> None:  # noqa: ANN001
     else:
         opts.reduced = D.reduced_start(scene, opts.k)
         omega = opts.reduced[1]
-    n = opts.problem.nodes.theta.size
+    n = opts.problem.nodes.theta.size // scene.mesh.degree  # contact edges: the symmetry step
     passage = 2.0 * math.pi / (n * abs(omega))
     if not passage > 0.0:  # |omega| so large (--celerity 1e308) that n |omega| overflows
         raise ValueError(f"a start speed of {omega * scene.geometry.R:.3g} m/s passes a "

@@ -203,7 +203,7 @@ def folded(st: Setup, k: int) -> Setup:
     ``newton`` "Folding": S_k from the harmonics m ∈ kℤ), else ``st`` itself."""
     from stickslip.studies.travel.frame import circle_problem
 
-    if k <= 1 or st.prob.period != 1 or st.prob.n % k:
+    if k <= 1 or st.prob.period != 1 or st.prob.n % (k * st.prob.tracks):
         return st
     return Setup(st.scene, st.ops, circle_problem(st.ops, st.scene, st.prob.rate, period=k))
 
@@ -257,15 +257,17 @@ def measure(st: Setup, sol: TravelSolution, k: int) -> tuple[dict, dict[str, Arr
     sc, ops = st.scene, st.ops
     n, R, d = ops.n, sc.geometry.R, sc.geometry.d
     theta = ops.theta
-    dt = ops.step(sol.omega)  # one point per dt: the wave's exact space-time record
+    # one point per dt: the wave's exact space-time record (tracks interleaved points per
+    # step on a P2 circle: each point is a further dt/tracks)
+    dt = ops.step(sol.omega) / ops.tracks
     sign = 1 if sol.omega > 0 else -1
     shifts = np.arange(n)  # one full turn; at t_m the wave has moved m nodes
     idx = (np.arange(n)[None, :] - sign * shifts[:, None]) % n
     t = shifts * dt
     wave = analyse(t, theta, sol.W_r[idx], sol.W_t[idx], sol.status[idx], d=d, radius=R)
     z = zone_lengths(st.prob, sol)
-    v_t = material_rate(sol.W_t, sol.omega, st.prob.rate)
-    v_r = material_rate(sol.W_r, sol.omega, st.prob.rate)
+    v_t = material_rate(sol.W_t, sol.omega, st.prob.rate, tracks=st.prob.tracks)
+    v_r = material_rate(sol.W_r, sol.omega, st.prob.rate, tracks=st.prob.tracks)
     summary = {
         "status": "converged",
         "method": "travel (wave frame, semismooth Newton)",

@@ -72,6 +72,22 @@ the node's velocity jumps there, and the exact-in-time inertia of the sampled hi
 (the force at the points before the landing changes sign), so its fixed-status problem
 found no admissible wave at s = 4 (N = 132, the speeds and active sets scanned) where the
 central one has one, isolated to 0.05 m/s at s = 6 (docs 2e).
+
+**Tracks: P2 circles** (``tracks`` = the element degree, "shift" only). A P2 contact circle
+of N nodes has E = N/2 edges, each with a vertex and a mid-edge node of different lumped
+(HRZ) masses, so the mesh turns onto itself by one edge, Δφ_e = 2π/E, not by one node. A
+wave of its transient is two node histories, the vertex's W_0 and the mid-edge node's W_1,
+each repeating one edge passage τ_e = Δφ_e/|ω| later on the next edge. The frame holds both:
+point 2i + a is track a's i-th, the node of type a at g_a + iΔφ_e/S (g_a = o_a mod Δφ_e/S,
+o_a the node's angle in its sector: where such nodes stand at the steps t = jh, h = τ_e/S),
+and the material rate links a point to the same track's point one step upstream
+(``newton.rate_stencil``). The Bloch reduction (``_bloch``) runs over Z_E with both contact
+nodes of the sector; a track's DFT coefficient b̂_m is the sector node's value times
+e^{−im(o_a − g_a)} (``track_phases``), so the symbol t_m is 4 × 4 (track, r/θ) and S is
+the 2 × 2 block circulant of the tracks, interleaved. The sector phase e^{imα} (α = jΔφ_e)
+holds harmonic m mod E. ``frame.theta`` labels the points uniformly (pΔφ_e/(2S)), which is
+the exact angle where S is odd and half a point off for the mid-edge track where S is even;
+the operator and ``shift_state`` use the exact g_a (``tests/test_p2_rungs.py``).
 """
 
 from __future__ import annotations
@@ -126,6 +142,7 @@ class FrameOperators:
     samples: int = 1  # contact points per mesh node ("shift" only; module doc, "Samples")
     time_scheme: str = "exact"  # "exact" in time, or "central": the transient's step h = τ/s
     beta2: float = 0.5  # the explicit scheme's β₂ ("central" only; the scene's time.beta2)
+    tracks: int = 1  # contact nodes per contact edge: the element degree (module doc, "Tracks")
     _cache: tuple | None = None  # ((ω, period), (S, dS, X)): the last evaluation
     _static: dict = field(default_factory=dict)  # period -> S(0): every solve's nodal scale
     _blocks: dict | None = None
@@ -179,8 +196,9 @@ class FrameOperators:
         w_i = −ΦDB w_c, so each ω costs dense products only. Before that, and for large
         interiors, A_ii is factored (sparse LU) at each ω.
         """
-        if self.n % period:
-            raise ValueError(f"period {period}: must divide the {self.n} contact points")
+        if self.n % (period * self.tracks):
+            raise ValueError(f"period {period}: must divide the {self.n // self.tracks} "
+                             "contact points of each track")
         key = (omega, period)
         if self._cache is not None and self._cache[0] == key and (
                 self._cache[1][1] is not None or not derivative):
@@ -261,27 +279,30 @@ class FrameOperators:
         return S, dblk("cc") - dblk("ci") @ X + Aci @ Z
 
     def _bloch(self) -> dict:
-        """Node orbits under the Z_N rotation (once): each free node p is the image of a
-        representative q (same r, θ_q ∈ [0, Δφ)) turned by α_p = θ_p − θ_q. R maps the
-        representatives' polar dofs (2 per node) to every free node's (x, y) dofs:
-        R[(x, y)_p, (r, θ)_q] = rotation by θ_p. A harmonic-m field is diag(e^{imα}) R c.
-        Serial (dof 2p, 2p + 1 = x, y of node p)."""
+        """Node orbits under the mesh's rotation group Z_E (E = N/``tracks`` contact edges,
+        Δφ_e = 2π/E, once): each free node p is the image of a representative q (same r,
+        θ_q ∈ [0, Δφ_e)) turned by α_p = θ_p − θ_q. R maps the representatives' polar dofs
+        (2 per node) to every free node's (x, y) dofs: R[(x, y)_p, (r, θ)_q] = rotation by
+        θ_p. A harmonic-m field is diag(e^{imα}) R c. The contact representatives are the
+        ``tracks`` nodes of one edge (P1: its vertex; P2: its vertex and mid-edge node), at
+        the angles ``offsets`` in the sector. Serial (dof 2p, 2p + 1 = x, y of node p)."""
         if self._blocks is not None and "bloch" in self._blocks:
             return self._blocks["bloch"]
-        n = self.mesh_n
+        n = self.mesh_n // self.tracks
         dphi = 2.0 * math.pi / n
         xy = self.problem.V.tabulate_dof_coordinates()[: self.problem.n_owned // 2, :2]
         rad = np.hypot(xy[:, 0], xy[:, 1])
         th = np.mod(np.arctan2(xy[:, 1], xy[:, 0]), 2.0 * math.pi)
-        frac = np.mod(th, dphi)
-        frac[dphi - frac < 1e-9 * dphi] = 0.0
+        sector = np.floor(th / dphi + 1e-9)  # a node on a sector's edge belongs to it
+        frac = np.maximum(th - sector * dphi, 0.0)
+        sector = np.mod(sector, n)
         free_nodes = np.setdiff1d(np.arange(rad.size), np.asarray(self.problem.clamped) // 2)
         keys = np.round(np.c_[rad[free_nodes] / rad.max(), frac[free_nodes] / dphi] * 1e6)
         _, rep = np.unique(keys, axis=0, return_inverse=True)
         rep = rep.reshape(-1)
         n_rep = int(rep.max()) + 1
         tp = th[free_nodes]
-        alpha = tp - frac[free_nodes]  # sector angle jΔφ of each free node
+        alpha = sector[free_nodes] * dphi  # sector angle jΔφ_e of each free node
         cs, sn = np.cos(tp), np.sin(tp)
         rows = np.r_[2 * free_nodes, 2 * free_nodes, 2 * free_nodes + 1, 2 * free_nodes + 1]
         cols = np.r_[2 * rep, 2 * rep + 1, 2 * rep, 2 * rep + 1]
@@ -289,10 +310,14 @@ class FrameOperators:
         R = sp.csr_matrix((vals, (rows, cols)), shape=(self.problem.n_owned, 2 * n_rep))
         ph_dof = np.zeros(self.problem.n_owned)
         ph_dof[2 * free_nodes], ph_dof[2 * free_nodes + 1] = alpha, alpha
-        c0 = int(rep[np.flatnonzero((np.abs(rad[free_nodes] - rad.min()) < 1e-9 * rad.max())
-                                    & (np.abs(alpha) < 1e-12) & (frac[free_nodes] == 0.0))[0]])
-        if len(free_nodes) != n * n_rep:
-            raise ValueError("the mesh is not Z_N symmetric: no Bloch reduction")
+        on_circle = np.flatnonzero((np.abs(rad[free_nodes] - rad.min()) < 1e-9 * rad.max())
+                                   & (sector[free_nodes] == 0))
+        on_circle = on_circle[np.argsort(frac[free_nodes][on_circle])]
+        if on_circle.size != self.tracks or len(free_nodes) != n * n_rep:
+            raise ValueError(f"the mesh is not Z_{n} symmetric with {self.tracks} contact "
+                             "node(s) per edge: no Bloch reduction")
+        c_reps = rep[on_circle]
+        offsets = frac[free_nodes][on_circle]
         # A couples a node to its neighbours only, so α_col − α_row takes a few values s (mod
         # 2π): RᵀA_m R = Σ_s e^{ims} RᵀA_s R, each RᵀA_s R (2 n_rep square) formed once
         mats = {}
@@ -313,13 +338,24 @@ class FrameOperators:
                 As = sp.csr_matrix((C.data[sel], (C.row[sel], C.col[sel])), shape=M.shape)
                 parts.append((k * dphi, (R.T @ (As @ R)).toarray() / n))
             mats[name] = parts
-        cdofs = np.array([2 * c0, 2 * c0 + 1])
+        cdofs = np.ravel(np.c_[2 * c_reps, 2 * c_reps + 1])  # (track, r/θ) order
         idofs = np.setdiff1d(np.arange(2 * n_rep), cdofs)
-        out = {"mats": mats, "c": cdofs, "i": idofs, "R": R, "alpha": ph_dof}
+        out = {"mats": mats, "c": cdofs, "i": idofs, "R": R, "alpha": ph_dof,
+               "offsets": offsets}
         if self._blocks is None:
             self._blocks = {}
         self._blocks["bloch"] = out
         return out
+
+    def track_phases(self, m: int) -> NDArray[np.complex128]:
+        """e^{im(o_a − g_a)} per (track, r/θ) contact unknown of harmonic m: track a's node
+        sits at o_a in its sector (``_bloch``), its points at g_a + iΔφ_e/S with g_a = o_a
+        mod Δφ_e/S, where such nodes stand at the steps t = jh (module doc, "Tracks"); 1 on
+        a P1 circle."""
+        bl = self._bloch()
+        pitch = 2.0 * math.pi * self.tracks / self.n  # Δφ_e/S
+        grid = np.mod(bl["offsets"] + 1e-9 * pitch, pitch) - 1e-9 * pitch
+        return np.repeat(np.exp(1j * m * (bl["offsets"] - grid)), 2)
 
     def shift_symbols_bloch(self, omega: float, period: int = 1) -> NDArray[np.complex128]:
         """t_m, m = 0 … P/2 (P points), by the Bloch (one-sector) reduction of A_m
@@ -330,19 +366,22 @@ class FrameOperators:
         ``period`` = k: only m = 0, k, 2k, … (row j is t_{jk}; the k-periodic fields)."""
         bl = self._bloch()
         ci, ii = bl["c"], bl["i"]
-        n = self.n // period
-        sym = np.zeros((n // 2 + 1, 2, 2), dtype=complex)
+        n = self.n // (period * self.tracks)  # points per track
+        w = 2 * self.tracks
+        sym = np.zeros((n // 2 + 1, w, w), dtype=complex)
         for j in range(n // 2 + 1):
             m = j * period
             A = self._sector_operator(bl, m, omega)
-            sym[j] = self.time_symbols(m, omega)[2] * (
+            ph = self.track_phases(m)
+            sym[j] = self.time_symbols(m, omega)[2] * (ph.conj()[:, None] * (
                 A[np.ix_(ci, ci)] - A[np.ix_(ci, ii)] @ np.linalg.solve(
-                    A[np.ix_(ii, ii)], A[np.ix_(ii, ci)]))
+                    A[np.ix_(ii, ii)], A[np.ix_(ii, ci)])) * ph[None, :])
         return sym
 
     def step(self, omega: float) -> float:
-        """h = Δφ/(samples·|ω|): the time between two contact points (module doc)."""
-        return 2.0 * math.pi / (self.n * abs(omega))
+        """h = Δφ_e/(samples·|ω|): the time between two points of one track, Δφ_e the
+        mesh's symmetry angle (one contact edge; module doc, "Tracks")."""
+        return 2.0 * math.pi * self.tracks / (self.n * abs(omega))
 
     def time_symbols(self, m: int, omega: float) -> tuple[complex, float, complex]:
         """(damping factor, inertia factor, contact factor) of harmonic m at ω, so that
@@ -379,9 +418,10 @@ class FrameOperators:
         largest relative part of S(A_m) e_m outside harmonic m: the Z_N-symmetry check).
         The reference route: one sparse LU of the whole A_m,ii per m (``shift_symbols_bloch``
         is the fast one)."""
-        if self.samples != 1 or self.time_scheme != "exact":
+        if self.samples != 1 or self.time_scheme != "exact" or self.tracks != 1:
             raise ValueError("shift_symbols: the whole-mesh reference route has one point "
-                             "per node, exact in time; use shift_symbols_bloch")
+                             "per node of a P1 circle, exact in time; use "
+                             "shift_symbols_bloch")
         if self._blocks is None or "Mii" not in self._blocks:
             c, i = self.contact, self.interior
             b = self._blocks if self._blocks is not None else {}
@@ -416,9 +456,10 @@ class FrameOperators:
         """The block-circulant S of the transient's travelling operator (module doc). Folded
         (``period`` = k, P/k points): S_k[j, l] = (1/(P/k)) Σ_m' t_{km'} e^{im'2π(j − l)k/P},
         the circulant of the symbols t_{km'} (``newton``, "Folding")."""
-        n = self.n // period
+        tr = self.tracks
+        n = self.n // (period * tr)  # points per track
         sym = self.shift_symbols_bloch(omega, period)
-        full = np.zeros((n, 2, 2), dtype=complex)
+        full = np.zeros((n, 2 * tr, 2 * tr), dtype=complex)
         full[: n // 2 + 1] = sym
         full[n // 2 + 1:] = np.conj(sym[1:(n + 1) // 2][::-1])  # t_{N−m} = conj(t_m)
         if n % 2 == 0:
@@ -426,10 +467,14 @@ class FrameOperators:
         col = np.fft.ifft(full, axis=0).real  # S_ab[j, 0] = (1/N) Σ_m t_m,ab e^{imθ_j}
         j = np.arange(n)
         idx = (j[:, None] - j[None, :]) % n
-        S = np.empty((2 * n, 2 * n))
-        for a in range(2):
-            for bb in range(2):
-                S[a * n:(a + 1) * n, bb * n:(bb + 1) * n] = col[idx, a, bb]
+        P = n * tr  # points of the (folded) circle: point tr·i + a is track a's i-th
+        S = np.empty((2 * P, 2 * P))
+        for ta in range(tr):
+            for tb in range(tr):
+                for a in range(2):
+                    for bb in range(2):
+                        S[a * P + ta:(a + 1) * P:tr, bb * P + tb:(bb + 1) * P:tr] = col[
+                            idx, 2 * ta + a, 2 * tb + bb]
         return S
 
     def stiffness(self, omega: float, derivative: bool = True, period: int = 1
@@ -461,8 +506,11 @@ class FrameOperators:
             raise ValueError("shift_state: the wave must be one of inertia='shift'")
         bl = self._bloch()
         ci, ii = bl["c"], bl["i"]
-        n = self.n
-        chat = np.fft.fft(np.asarray(W, dtype=float).reshape(2, n), axis=1) / n  # (r, θ) x m
+        tr = self.tracks
+        n = self.n // tr  # points per track
+        # (track, r/θ) x m: each track's polar DFT on its own points
+        chat = np.fft.fft(np.asarray(W, dtype=float).reshape(2, n, tr).transpose(2, 0, 1),
+                          axis=2).reshape(2 * tr, n) / n
         R, alpha = bl["R"], bl["alpha"]
         central = self.time_scheme == "central"
         h = self.step(omega) if central else 0.0
@@ -470,8 +518,8 @@ class FrameOperators:
         for m in range(n // 2 + 1):
             A = self._sector_operator(bl, m, omega)
             c = np.zeros(A.shape[0], dtype=complex)
-            c[ci] = chat[:, m]
-            c[ii] = -np.linalg.solve(A[np.ix_(ii, ii)], A[np.ix_(ii, ci)] @ chat[:, m])
+            c[ci] = chat[:, m] * self.track_phases(m)
+            c[ii] = -np.linalg.solve(A[np.ix_(ii, ii)], A[np.ix_(ii, ci)] @ c[ci])
             term = np.exp(1j * m * alpha) * (R @ c) * np.exp(-1j * m * omega * t)
             weight = 1.0 if m == 0 or 2 * m == n else 2.0  # ĉ_{−m} = conj(ĉ_m): W is real
             if central:  # v_n = ṽ_n + β₂h a_n from the scheme's per-step factors
@@ -583,10 +631,14 @@ def frame_operators(problem: TubeProblem, damping: float = 0.0,
         C = (damping * (K @ (sp.diags(moving / problem.mass) @ _csr(Bm)))).tocsr()
         Bm.destroy()
     points = theta if samples == 1 else np.arange(n * samples) * (dphi / samples)
-    return FrameOperators(problem, K, G, contact, interior, points,
-                          np.repeat(nd.ds_weight[order], samples), T, C,
+    tracks = int(problem.scene.mesh.degree) if inertia == "shift" else 1
+    ds = nd.ds_weight[order]
+    weights = (np.repeat(ds, samples) if tracks == 1
+               else np.tile(ds[:tracks], n * samples // tracks))  # point tr·i + a: track a
+    return FrameOperators(problem, K, G, contact, interior, points, weights, T, C,
                           inertia=inertia, tau=float(damping), samples=samples,
-                          time_scheme=time_scheme, beta2=float(problem.scene.time.beta2))
+                          time_scheme=time_scheme, beta2=float(problem.scene.time.beta2),
+                          tracks=tracks)
 
 
 def circle_problem(ops: FrameOperators, scene: Scene | None = None,
@@ -598,9 +650,10 @@ def circle_problem(ops: FrameOperators, scene: Scene | None = None,
     (``newton.RATES``). ``period`` = k: folded to one of k copies (``newton``, "Folding").
     """
     sc = ops.problem.scene if scene is None else scene
-    if period < 1 or ops.n % period:
-        raise ValueError(f"period {period}: must divide the {ops.n} contact points")
+    if period < 1 or ops.n % (period * ops.tracks):
+        raise ValueError(f"period {period}: must divide the {ops.n // ops.tracks} contact "
+                         "points of each track")
     return CircleProblem(n=ops.n // period, d=sc.geometry.d,
                          surface_speed=sc.geometry.R * sc.loading.omega, f=sc.loading.f,
                          stiffness=partial(ops.stiffness, period=period), rate=rate,
-                         period=period)
+                         period=period, tracks=ops.tracks)

@@ -72,13 +72,21 @@ class RunEndState:
 
     @property
     def node_passage(self) -> float:
-        """τ = Δφ/|ω| (s): the time the wave takes to pass one mesh node."""
-        return 2.0 * math.pi / (self.samples["theta"].size * abs(self.omega))
+        """τ = Δφ_e/|ω| (s): the time the wave takes to pass one contact edge, Δφ_e = 2π/E
+        the mesh's symmetry step (E = N/degree edges: one node on P1, a vertex and a mid-edge
+        node on P2; ``studies.travel.frame``, "Tracks")."""
+        edges = self.samples["theta"].size // int(self.scene.mesh.degree)
+        return 2.0 * math.pi / (edges * abs(self.omega))
 
 
-def frame_spread(samples: dict, omega: float, window_s: float) -> tuple[float, float]:
+def frame_spread(samples: dict, omega: float, window_s: float, degree: int = 1
+                 ) -> tuple[float, float]:
     """(spread, ω*): the frame spread of the samples over the last ``window_s`` (module doc)
-    in the frame turning at ω*. The measured ω carries an error δω that turns the frame by
+    in the frame turning at ω*, over the harmonics |m| ≤ E/2 that the mesh's symmetry group
+    Z_E carries as travelling ones (E = N/``degree`` contact edges): on a P2 circle a wave's
+    harmonic m comes with its aliases m ± E (the vertex and mid-edge nodes hold different
+    values), which a Fourier shift by less than one edge does not turn with it. The
+    measured ω carries an error δω that turns the frame by
     kδω·window over the window (at k = 12, 900 m/s and 1e-4 relative error, 0.1 rad over
     0.1 s: a spread of ~0.05 on a rigid wave), so ω* is fitted: in the frame of ``omega`` the
     dominant harmonic m of the samples turns at the rate m(ω − ω*), whose least-squares slope
@@ -93,6 +101,7 @@ def frame_spread(samples: dict, omega: float, window_s: float) -> tuple[float, f
     for comp in ("u_r", "u_theta"):
         F = np.fft.rfft(samples[comp][sel][:, order], axis=1)
         F[:, 0] = 0.0  # the axisymmetric part (steady sliding) is excluded
+        F[:, m > n / (2 * degree)] = 0.0  # the aliases of a P2 circle (docstring)
         spectra.append(F)
 
     def spread(om: float) -> float:
@@ -150,7 +159,9 @@ def read_end_state(run_dir: Path, tolerance: float | None = None,
         raise NotRigidWave(f"{run_dir}: the run ended in steady sliding (no travelling wave)")
     if window is None:
         window = float(summ.get("analysis_window_s") or (run.samples["t"][-1] / 3.0))
-    spread, _ = frame_spread(run.samples, wave.angular_speed_rad_s, window)
+    scene = load_scene(str(run_dir / "scene.toml"))
+    spread, _ = frame_spread(run.samples, wave.angular_speed_rad_s, window,
+                             int(scene.mesh.degree))
     if not spread < tolerance:
         raise NotRigidWave(
             f"{run_dir}: the end state is not a rigidly travelling wave: frame spread "
@@ -160,7 +171,6 @@ def read_end_state(run_dir: Path, tolerance: float | None = None,
     if dt <= 0.0:
         t = run.samples["probe_t"]
         dt = float(t[1] - t[0])
-    scene = load_scene(str(run_dir / "scene.toml"))
     return RunEndState(run_dir, scene, summ, run.samples, run, int(wave.mode),
                        float(wave.angular_speed_rad_s), dt, spread)
 

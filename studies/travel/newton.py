@@ -123,11 +123,17 @@ class CircleProblem:
     stiffness: StiffnessFn
     rate: str = "bdf2"  # material-derivative scheme (``RATES``, module doc)
     period: int = 1  # the n points are one of ``period`` identical copies ("Folding")
+    #: interleaved node histories: 1 on a P1 circle; the element degree on a P2 one, whose
+    #: vertex and mid-edge nodes carry two histories (``studies.travel.frame``, "Tracks")
+    tracks: int = 1
 
     def __post_init__(self) -> None:
         check_rate(self.rate)
         if not (isinstance(self.period, int) and self.period >= 1):
             raise ValueError(f"period = {self.period!r}: a whole number >= 1 of copies")
+        if not (isinstance(self.tracks, int) and self.tracks >= 1) or self.n % self.tracks:
+            raise ValueError(f"tracks = {self.tracks!r}: a whole number >= 1 dividing the "
+                             f"{self.n} points")
 
     @property
     def theta(self) -> Array:
@@ -140,7 +146,7 @@ class CircleProblem:
 
     def step(self, omega: float) -> float:
         """The ``step`` of ``rate_stencil`` on this circle (``rate_step`` of its Δφ)."""
-        return rate_step(self.n * self.period, omega, self.rate)
+        return rate_step(self.n * self.period // self.tracks, omega, self.rate)
 
 
 @dataclass
@@ -170,21 +176,24 @@ class TravelSolution:
         }
 
 
-def _upstream(n: int, omega: float) -> NDArray[np.intp]:
-    """Node the material at node i came from: i + sign(ω) (material moves by −ω in φ)."""
-    return (np.arange(n) + (1 if omega > 0 else -1)) % n
+def _upstream(n: int, omega: float, tracks: int = 1) -> NDArray[np.intp]:
+    """Point the material at point i came from: i + sign(ω) on its own track (material moves
+    by −ω in φ; ``tracks`` interleaved histories: the next point of the same track)."""
+    return (np.arange(n) + (tracks if omega > 0 else -tracks)) % n
 
 
-def rate_stencil(W_t: Array, omega: float, rate: str = "bdf2", period: int = 1
-                 ) -> tuple[Array, float]:
+def rate_stencil(W_t: Array, omega: float, rate: str = "bdf2", period: int = 1,
+                 tracks: int = 1) -> tuple[Array, float]:
     """(prev, step) of the upwind material derivative (module doc): the "previous position"
     of the material now at each node and the time since, so −ω∂_φW_θ ≈ (W_θ − prev)/step.
-    ``period``: W_t is one of that many copies of the circle ("Folding"; upstream mod n)."""
+    ``period``: W_t is one of that many copies of the circle ("Folding"; upstream mod n).
+    ``tracks``: interleaved node histories (``CircleProblem.tracks``): the previous position
+    is the same track's, ``tracks`` points upstream, one step = ``tracks`` spacings."""
     a1, a2, _ = RATES[rate]
     n = W_t.size
-    up = _upstream(n, omega)
+    up = _upstream(n, omega, tracks)
     prev = a1 * W_t[up] if a2 == 0.0 else a1 * W_t[up] + a2 * W_t[up[up]]
-    return prev, rate_step(n * period, omega, rate)
+    return prev, rate_step(n * period // tracks, omega, rate)
 
 
 def rate_step(n: int, omega: float, rate: str = "bdf2") -> float:
@@ -193,9 +202,10 @@ def rate_step(n: int, omega: float, rate: str = "bdf2") -> float:
     return RATES[rate][2] * (2.0 * math.pi / n) / abs(omega)
 
 
-def material_rate(W_t: Array, omega: float, rate: str = "bdf2", period: int = 1) -> Array:
+def material_rate(W_t: Array, omega: float, rate: str = "bdf2", period: int = 1,
+                  tracks: int = 1) -> Array:
     """Material time derivative −ω ∂_φ W_θ at the nodes, upwind in time (``rate_stencil``)."""
-    prev, step = rate_stencil(W_t, omega, rate, period)
+    prev, step = rate_stencil(W_t, omega, rate, period, tracks)
     return (W_t - prev) / step
 
 
@@ -216,7 +226,7 @@ class _Law:
     def __call__(self, W: Array, lam: Array, omega: float) -> tuple[Array, Array]:
         """(C, λ_projected); ``self.out.status`` holds the nodal statuses."""
         n, c, pr = self.n, self.c, self.prob
-        prev, step = rate_stencil(W[n:], omega, pr.rate, pr.period)
+        prev, step = rate_stencil(W[n:], omega, pr.rate, pr.period, pr.tracks)
         project_contact(
             W[:n] - lam[:n] / c, W[n:] - lam[n:] / c, prev, self.mass, 1.0, pr.d,
             pr.surface_speed * step, pr.f, self.out,
@@ -234,7 +244,7 @@ def inequality_margins(prob: CircleProblem, sol: TravelSolution, scale_force: fl
     st = sol.status
     sep, stick, slip = st == SEPARATION, st == STICK, st == SLIP
     contact = ~sep
-    s = prob.surface_speed - material_rate(sol.W_t, sol.omega, prob.rate, prob.period)
+    s = prob.surface_speed - material_rate(sol.W_t, sol.omega, prob.rate, prob.period, prob.tracks)
     big = np.inf
     return {
         "gap_separation": float(np.min((sol.W_r[sep] - prob.d) / max(prob.d, 1e-300),
@@ -532,7 +542,7 @@ def _law_rows(prob: CircleProblem, status: NDArray[np.int8], sgn: Array, c: floa
     A[ci, :] = 0.0
     A[ci, ci] = c
     stick = idx[status == STICK]
-    up = _upstream(n, om)
+    up = _upstream(n, om, prob.tracks)
     a1, a2, _ = RATES[prob.rate]
     A[n + stick, :] = 0.0
     A[n + stick, n + stick] = c
@@ -588,7 +598,8 @@ def zone_lengths(prob: CircleProblem, sol: TravelSolution) -> dict[str, float]:
     if np.all(st == st[0]):
         return {name: float(np.all(st == code)) for code, name in
                 enumerate(("separation", "stick", "slip"))} | {"boundaries": 0}
-    s = (prob.surface_speed - material_rate(sol.W_t, sol.omega, prob.rate, prob.period))[order]
+    s = (prob.surface_speed
+         - material_rate(sol.W_t, sol.omega, prob.rate, prob.period, prob.tracks))[order]
     p, q, gap = sol.p[order], sol.q[order], (sol.W_r - prob.d)[order]
     cone = prob.f * p - np.abs(q)
     start = int(np.flatnonzero(st != np.roll(st, 1))[0])  # a run boundary
