@@ -5,7 +5,9 @@ Dofs, steps, memory, output size and run time follow from the scene alone (no do
 * nodes = n_inner x (layers x degree + 1), layers = mesh.n_radial or the mesher's automatic
   choice round((xi - 1) n_edges / 2 pi) (>= 2); dofs = 2 nodes; a user's ``mesh.file``
   gives its own node and cell counts and shortest edge (read with gmsh, no dolfinx);
-* the explicit step: dt_crit = sqrt(2/beta2) / omega_max, omega_max ~ C c_p / h_min with
+* the explicit step: dt_crit = sqrt(2/beta2) / omega_max, or with Kelvin-Voigt damping tau the
+  damped limit (``solver.newmark.critical_time_step``: the undamped one counts 10 % too few
+  steps at N = 264 of the damped paper scenes), omega_max ~ C c_p / h_min with
   c_p = wave_speed sqrt((1 - nu) / ((1 + nu)(1 - 2 nu))) and h_min the smallest node spacing;
   C = 2.8 measured (P1 triangles: 2.29 at N = 36, 2.67 at N = 132, 2.80 at N = 1056);
 * memory = 250 MB (Python, dolfinx, PETSc per rank) + 3 kB per dof (measured 2.4 kB: peak RSS
@@ -20,8 +22,16 @@ Dofs, steps, memory, output size and run time follow from the scene alone (no do
   v vertices; 5 % and 5 kB of ADIOS2 metadata. Frames = ``solver.field_output.frame_count``.
   Measured 26 / 180 / 2758 kB per frame at N = 36 / 132 / 528 (P1), estimated 27 / 181 /
   2776 kB (``benchmarks/field_output_cost.py``); 1 us per dof and frame of run time;
-* time = setup 48 s x (dofs / 90816)^1.5 (the SLEPc stability estimate dominates) + steps x
-  (3e-4 s + 8e-8 s x dofs) on one rank (measured on this project's 2-core machine).
+* time (the run's own wall time, ``wall_time_s`` of its summary) = 1.2 s (the run's fixed
+  costs: kernels, recorders, analysis) + 1.5 us per contact-node sample (writing and
+  analysing the samples) + setup 11 s x (dofs / 90816)^1.5 (the SLEPc stability estimate
+  dominates) + steps x (10 us + 8 ns x dofs x (dofs / 6336)^0.15: a step's cost per dof grows
+  past the caches, 11 ns at N = 528 and 13 ns at 1056) on one rank. Fitted to the lower of
+  two runs of the Figure-3 scene and its damped twin at N = 132, 264 and 528 and one damped
+  run at 1056 on a 2-core machine (``benchmarks/doc_facts.py timings``,
+  ``docs/facts/timings.json``): within 20 % of each (-17 % to +13 %); a step of the undamped scene
+  (beta2 = 0.6) costs 45 % more than one of the damped scene at N = 264, which no model of
+  dofs and steps alone tells apart.
 
 The numbers are order-of-magnitude guards, not promises: a run is refused when the memory
 exceeds what the machine has available, the samples exceed the free disk, or the run time on
@@ -37,6 +47,7 @@ import shutil
 from dataclasses import dataclass
 from pathlib import Path
 
+from stickslip.solver.newmark import critical_time_step
 from stickslip.solver.scene import Scene
 
 __all__ = ["Estimate", "ResourceError", "available_memory", "check_resources", "estimate"]
@@ -47,6 +58,16 @@ BYTES_PER_DOF = 3e3
 BYTES_PER_PROBE_STEP = 180.0  # peak memory of the probe histories (module docstring)
 FIELD_BYTES_PER_NODE = 105.0  # one field frame on disk (module docstring)
 FIELD_SECONDS_PER_DOF = 1e-6  # one frame's stress assembly and write (measured 0.5-0.7 us)
+#: The run-time model (module docstring), seconds on one core: fixed, per contact-node
+#: sample, setup at 90816 dofs, per step, and per step and dof at STEP_DOFS dofs, growing
+#: as (dofs / STEP_DOFS)^STEP_DOF_GROWTH.
+RUN_SECONDS = 1.2
+SAMPLE_SECONDS = 1.5e-6
+SETUP_SECONDS = 11.0
+STEP_SECONDS = 1e-5
+STEP_SECONDS_PER_DOF = 8e-9
+STEP_DOFS = 6336.0
+STEP_DOF_GROWTH = 0.15
 #: Longest estimated run accepted without --yes-i-know or time.max_wall_time (two days).
 MAX_SECONDS = 2 * 86400.0
 
@@ -99,7 +120,11 @@ def estimate(scene: Scene, ranks: int = 1) -> Estimate:
     nu = scene.material.nu
     c_p = scene.material.wave_speed * math.sqrt((1 - nu) / ((1 + nu) * (1 - 2 * nu)))
     omega_max = OMEGA_MAX_C * c_p / h_min
-    dt = ts.dt if ts.dt > 0 else ts.dt_fraction * math.sqrt(2.0 / ts.beta2) / omega_max
+    # the explicit limit with the Kelvin-Voigt damping's (lower) one: the unit of dt_fraction
+    # of the explicit scheme; an upper bound of the steps of the implicit one, whose unit is
+    # the undamped limit
+    dt_crit = critical_time_step(omega_max, 0.0, ts.beta2, scene.damping.tau)
+    dt = ts.dt if ts.dt > 0 else ts.dt_fraction * dt_crit
     if not ts.end_time / dt <= MAX_STEPS:  # end_time = 1e308: no count, no estimate
         raise ResourceError(
             f"time.end_time = {ts.end_time:g} s is more than {MAX_STEPS:.0e} time steps of "
@@ -114,7 +139,10 @@ def estimate(scene: Scene, ranks: int = 1) -> Estimate:
     probe_bytes = (steps + 1) * (40.0 * n_probes + 8.0)
     probe_peak = (steps + 1) * (BYTES_PER_PROBE_STEP * n_probes + 8.0)
     memory = ranks * BASE_MEMORY + BYTES_PER_DOF * dofs + sample_bytes + probe_peak
-    seconds = 48.0 * (dofs / 90816.0) ** 1.5 + steps * (3e-4 + 8e-8 * dofs)
+    seconds = (RUN_SECONDS + SAMPLE_SECONDS * samples * m.n_inner
+               + SETUP_SECONDS * (dofs / 90816.0) ** 1.5
+               + steps * (STEP_SECONDS + STEP_SECONDS_PER_DOF * dofs
+                          * (dofs / STEP_DOFS) ** STEP_DOF_GROWTH))
     frames, field_bytes = 0, 0.0
     if scene.output.fields:
         from stickslip.solver.field_output import frame_count
