@@ -29,7 +29,12 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--starts", type=int, default=16, metavar="M",
                    help="random starts per mesh (default 16)")
     p.add_argument("--meshes", default=None, metavar="N1,N2,...",
-                   help="contact-node counts of the ladder (default: the scene's mesh.n_inner)")
+                   help="rungs of the ladder: contact-node counts N (default: the scene's "
+                   "mesh.n_inner), or N then p then the element degree (264p1,132p2); "
+                   "ordered by dofs")
+    p.add_argument("--degrees", default=None, metavar="P1,P2",
+                   help="element degrees (mesh.degree, 1 or 2) of every plain N of --meshes "
+                   "(default: the scene's): --meshes 132,264 --degrees 1,2 is four rungs")
     p.add_argument("--structured", default=None, metavar="K1:K2",
                    help="also run the mode-k starts k = K1..K2 (reported apart)")
     p.add_argument("--end-time", type=float, default=None, metavar="T",
@@ -59,6 +64,13 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--yes-i-know", dest="yes_i_know", action="store_true",
                    help="run even if the starts' estimated time (each to --max-time) "
                    "exceeds two days, or their memory or output what this machine has")
+    _checks_and_outputs(p)
+    p.set_defaults(func=_attractors)
+
+
+def _checks_and_outputs(p: argparse.ArgumentParser) -> None:
+    """The census's options beyond its definition: the certificates, the CEA, the backend
+    and the outputs."""
     p.add_argument("--no-certify", action="store_true",
                    help="skip the certificates (reproducibility, persistence, the direct "
                    "travelling-wave solver for rigid waves)")
@@ -87,7 +99,6 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--plot", action="store_true", help="draw the census figures")
     p.add_argument("--json", action="store_true",
                    help="print attractors.json instead of the summary")
-    p.set_defaults(func=_attractors)
 
 
 def _fail(msg: str, rank: int) -> int:
@@ -144,7 +155,8 @@ def _census(args: argparse.Namespace, ranks: int):  # noqa: ANN202 - (Census, Pa
     from stickslip.studies.attractors.request import CensusRequest, build_census
 
     return build_census(CensusRequest(
-        scene=args.scene, starts=args.starts, meshes=args.meshes, structured=args.structured,
+        scene=args.scene, starts=args.starts, meshes=args.meshes, degrees=args.degrees,
+        structured=args.structured,
         end_time=args.end_time, max_time=args.max_time, overrides=tuple(args.set),
         seed=args.seed, n_modes=args.n_modes, amplitude=args.amplitude,
         celerity_tol=args.celerity_tol, spread_tol=args.spread_tol, output=args.output,

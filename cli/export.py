@@ -84,8 +84,11 @@ def _marks(run, census: Path | None, cea_fmax_hz: float | None) -> dict:  # noqa
     if summary.get("frequency_hz"):
         marks[f"this run: mode k = {summary.get('mode')}"] = [summary["frequency_hz"]]
     if census is not None:
+        from stickslip.studies.attractors.starts import rung_key
+
         answer = json.loads((census / "attractors.json").read_text())
-        n = str(run.scene.get("mesh", {}).get("n_inner"))
+        mesh = run.scene.get("mesh", {})  # the census's key of the run's rung
+        n = rung_key(mesh.get("n_inner", 0), mesh.get("degree", 1))
         freqs = [c["frequency_hz"] for m in answer.get("members", {}).get(n, [])
                  for c in m.get("components", []) if c.get("frequency_hz") is not None]
         marks[f"census components (N = {n})"] = freqs

@@ -293,7 +293,7 @@ def sweep(spec: str | Path, out_dir: str | Path | None = None, *, batch: str | N
 
 
 def attractors(scene: str | Path, out_dir: str | Path | None = None, *, starts: int = 16,
-               meshes: Sequence[int] | None = None, structured: Sequence[int] = (),
+               meshes: Sequence[int | str] | None = None, structured: Sequence[int] = (),
                end_time: float | None = None, max_time: float | None = None,
                overrides: Overrides = None, along: str | None = None, certify: bool = True,
                kick: bool = True, cea: bool = False, cea_fmax_hz: float = 10_000.0,
@@ -333,7 +333,7 @@ def attractors(scene: str | Path, out_dir: str | Path | None = None, *, starts: 
     run = {key: options.pop(key) for key in ("backend", "dt_limit") if key in options}
     request = CensusRequest(
         scene=str(scene), starts=starts, end_time=end_time, max_time=max_time,
-        meshes=",".join(str(int(n)) for n in meshes) if meshes else None,
+        meshes=",".join(str(n) for n in meshes) if meshes else None,  # 132 or "132p2"
         structured=",".join(str(int(k)) for k in structured) or None,
         overrides=tuple(_override_strings(overrides)),
         output=None if out_dir is None else str(out_dir), check_cost=check_resources,

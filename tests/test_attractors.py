@@ -441,7 +441,7 @@ def test_a_census_refused_for_its_cost_leaves_no_directory(tmp_path, capsys):
 
     out = tmp_path / "census"
     rc = main(["attractors", str(SMOKE), "--starts", "2", "--meshes", "36", "--end-time",
-               "100000", "--max-time", "100000", "--no-certify", "-o", str(out)])
+               "1e7", "--max-time", "1e7", "--no-certify", "-o", str(out)])
     err = capsys.readouterr().err.strip().splitlines()
     assert rc == 2 and len(err) == 1 and "--yes-i-know" in err[0], err
     assert not out.exists()

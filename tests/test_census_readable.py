@@ -123,9 +123,10 @@ def test_attractors_first_then_the_rest_with_the_machine_ids_kept(answer):
     assert attractors[1].startswith("rigid wave k = 13 against the rotation, -857.9 m/s")
     assert attractors[2] == "not attractors:"
     assert others[0].startswith("carrying k = 15 against the rotation")  # the torus's
-    assert others[1] == "diverged: 1 of 5 starts = 20 % (95 % CI 4 %–62 %)"
-    assert others[2].startswith("unsettled k = 12 against the rotation, -880.8 m/s")
-    assert others[2].endswith("[unsettled-k12-opposite-SSS]")
+    assert others[1] == "torus of 5 generators"  # its lattice (no resolution: no tones)
+    assert others[2] == "diverged: 1 of 5 starts = 20 % (95 % CI 4 %–62 %)"
+    assert others[3].startswith("unsettled k = 12 against the rotation, -880.8 m/s")
+    assert others[3].endswith("[unsettled-k12-opposite-SSS]")
     assert ("k9-rotation-SSS+k15o+k3+k6+k6o: k = 9 with the rotation, celerity 132→264: "
             "+0.00 %; k = 15 against the rotation, celerity 132→264: +0.00 %, share 40 % → "
             "40 %") in text

@@ -304,6 +304,7 @@ COMMANDS = {
 #: Options that take numbers inside a string: the string built from drawn numbers.
 TEMPLATES = {"--batch": "{i}", "--f-sweep": "{x}:{y}:{i}",
              "--continue": "loading.omega={x}:{y}:{i}", "--meshes": "{i},{j}",
+             "--degrees": "{i},{j}",
              "--structured": "{i}:{j}", "--n": "{i},{j}", "--along": "loading.omega={x}:{y}:{i}"}
 EXTREME_FLOATS = st.one_of(
     st.sampled_from(["nan", "inf", "-inf", "-1", "0", "-0.0", "5e-324", "1e-300", "1e300",

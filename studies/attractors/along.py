@@ -37,7 +37,8 @@ MAX_POINTS = 200
 
 #: Scene keys that every start of a census sets itself (its sweep point): the flag that
 #: varies them instead.
-START_KEYS = {"mesh.n_inner": "--meshes", "initial.perturbation": "--structured",
+START_KEYS = {"mesh.n_inner": "--meshes", "mesh.degree": "--degrees",
+              "initial.perturbation": "--structured",
               "initial.seed": "--seed", "initial.mode": "--structured"}
 #: Scene keys that the start distribution sets (``census.Census.base_scene``): a curve along
 #: one varies the distribution's field.
@@ -152,7 +153,7 @@ def along_table(out_dir: Path, key: str, values: list[float]) -> dict:
     for v in values:
         path = point_dir(out_dir, key, v) / "attractors.json"
         answer = json.loads(path.read_text()) if path.is_file() else None
-        mesh = str(max(int(n) for n in answer["members"])) if answer else None
+        mesh = list(answer["members"])[-1] if answer else None  # the ladder's last rung
         members = [m for m in answer["members"][mesh] if m["class"] in SETTLED] \
             if answer else []
         points.append({"value": v, "mesh": mesh, "members": members,

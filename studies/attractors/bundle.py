@@ -78,21 +78,22 @@ def bundle_state(census, directory: Path) -> str:  # noqa: ANN001
 
 def _definition(census, base) -> dict:  # noqa: ANN001
     """The census definition plus the meshes: what a bundle answers."""
-    return {**census.definition(base), "meshes": list(census.meshes),
+    return {**census.definition(base), "meshes": census.labels(),
             "distribution": census.distribution.to_dict()}
 
 
 def write_bundle(census, directory: Path, stream: TextIO | None = None) -> None:  # noqa: ANN001
     """Prepare the bundle of ``census`` in ``directory`` (needs dolfinx; module docstring):
-    one batch per mesh (``solver.bundle.prepare_bundle``)."""
+    one batch per rung (``solver.bundle.prepare_bundle``)."""
     from stickslip.studies.sweep import scene_for
 
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
     base, spec = _spec(census, directory)
-    by_mesh: dict[int, list] = {}
+    by_mesh: dict[tuple[int, int], list] = {}  # (N, the point's mesh.degree or 0)
     for task in spec.tasks:
-        by_mesh.setdefault(task.params["mesh.n_inner"], []).append(task)
+        by_mesh.setdefault((task.params["mesh.n_inner"], task.params.get("mesh.degree", 0)),
+                           []).append(task)
     groups = [([t.id for t in tasks], [scene_for(spec, t) for t in tasks])
               for _, tasks in sorted(by_mesh.items())]
     prepare_bundle(directory, groups, stream, scene_sha256=scene_digest(base),

@@ -1,8 +1,8 @@
 """The CEA beside the census: which unstable mode of steady sliding do the starts end on?
 
-For each mesh of a census, the complex eigenvalue analysis of its steady sliding
-(``studies.flutter_fe.complex_eigenvalue_analysis``, the scene's damping and friction law)
-gives the unstable modes; those the mesh resolves (not ``mesh_scale``) are listed, the
+For each rung (mesh and element degree) of a census, the complex eigenvalue analysis of its
+steady sliding (``studies.flutter_fe.complex_eigenvalue_analysis``, the scene's damping and
+friction law) gives the unstable modes; those the mesh resolves (not ``mesh_scale``) are listed, the
 fastest-growing of each wavenumber k and direction, with its growth rate, damping ratio ζ and
 frequency. For each, the share of
 the census's random starts whose settled end state (a rigid or multi-wave attractor) holds a
@@ -11,7 +11,7 @@ component of that k and direction as the **dominant** one, or as a listed **comp
 the dominant component of more starts than any other mode: the brake-squeal question
 "which unstable mode squeals".
 
-The spectra are cached in ``DIR/cea.json`` per mesh (the scene is the census's own).
+The spectra are cached in ``DIR/cea.json`` per rung key (the scene is the census's own).
 """
 
 from __future__ import annotations
@@ -21,6 +21,7 @@ import math
 from pathlib import Path
 
 from stickslip.studies.attractors.census import read_cache, write_if_changed
+from stickslip.studies.attractors.starts import parse_rung_key, rung_key
 from stickslip.studies.attractors.statistics import COUNTED, SETTLED, wilson
 
 CACHE = "cea.json"
@@ -28,16 +29,19 @@ CACHE = "cea.json"
 FASTEST_SHOWN = 5
 
 
-def unstable_modes(scene_file: Path, n_inner: int, fmax_hz: float) -> list[dict]:
+def unstable_modes(scene_file: Path, n_inner: int, fmax_hz: float, degree: int = 1
+                   ) -> list[dict]:
     """The resolved unstable modes of the scene's steady sliding at ``n_inner`` contact
-    nodes, most unstable first (k, direction, growth rate, ζ, frequency, phase speed)."""
+    nodes and element ``degree``, most unstable first (k, direction, growth rate, ζ,
+    frequency, phase speed)."""
     from mpi4py import MPI
 
     from stickslip.solver.problem import build_problem
     from stickslip.solver.scene import load_scene
     from stickslip.studies.flutter_fe import complex_eigenvalue_analysis
 
-    scene = load_scene(scene_file, [f"mesh.n_inner={int(n_inner)}"])
+    scene = load_scene(scene_file, [f"mesh.n_inner={int(n_inner)}",
+                                    f"mesh.degree={int(degree)}"])
     problem = build_problem(scene, MPI.COMM_SELF)
     res = complex_eigenvalue_analysis(problem, None, fmax_hz)
     out, seen = [], set()
@@ -52,18 +56,20 @@ def unstable_modes(scene_file: Path, n_inner: int, fmax_hz: float) -> list[dict]
 
 
 def cea_table(out_dir: Path, answer: dict, fmax_hz: float = 10_000.0) -> dict:
-    """Per mesh of the census: its unstable modes, and for each the shares of the random
-    starts that end on it as dominant or companion; whether the fastest-growing mode wins
-    (module docstring). The spectra are cached in ``out_dir/cea.json``."""
+    """Per rung of the census (its key): its unstable modes, and for each the shares of the
+    random starts that end on it as dominant or companion; whether the fastest-growing mode
+    wins (module docstring). The spectra are cached in ``out_dir/cea.json``."""
     cache = read_cache(out_dir / CACHE, list)
     out = {}
     for n in answer["members"]:
         key = f"{n}@{fmax_hz:g}"
         if key not in cache:
-            cache[key] = unstable_modes(out_dir / "base.toml", int(n), fmax_hz)
+            n_inner, degree = parse_rung_key(n)
+            cache[key] = unstable_modes(out_dir / "base.toml", n_inner, fmax_hz, degree)
             write_if_changed(out_dir / CACHE, json.dumps(cache, indent=1) + "\n",
                              required=False)
-        rows = [r for r in answer["starts"] if str(r["n_inner"]) == str(n)
+        rows = [r for r in answer["starts"]
+                if rung_key(r["n_inner"], r.get("degree") or 1) == str(n)
                 and r["start"] == "random" and r["class"] in COUNTED]
         out[n] = mode_shares(cache[key], rows)
     return out

@@ -31,6 +31,16 @@ whose resolved scene changed runs again (the sweep's own rule). A ``census.json`
 a definition (truncated, edited, another JSON type) is refused alike, naming the file.
 Starts left over from a larger earlier census stay on disk and are not counted.
 
+**Rungs.** The ladder's rungs are (N, p): N contact nodes at element degree p
+(``starts.parse_rungs``: ``--meshes 132,264 --degrees 1,2`` or ``--meshes 264p1,132p2``). A
+start of a rung whose degree is not the base scene's sets ``mesh.degree`` too (its folder
+name then holds ``degree-2``); a degree-1 ladder's starts, keys (``"132"``) and files are
+those of a plain-N ladder. Along the ladder the rungs go by their dofs, fewest first
+(``ladder_order``; equal dofs: the lower degree first), so the ladder's matching, its
+tests and ``stable_from`` read each rung against the next coarser one in dofs. The rows
+(``attractors.csv``) and member rows (``members.csv``) carry ``n_inner`` and, last,
+``degree``.
+
 **Finished or not.** An answer is final only when every leg finished: no start is pending,
 running, interrupted, crashed or unanalysed, none is unsettled below the cap (``SETTLING``:
 its next leg did not run, or failed), and the session that wrote it was not stopped by a
@@ -76,7 +86,13 @@ from stickslip.studies.attractors.classify import (
     start_row,
 )
 from stickslip.studies.attractors.features import DEFAULT_TOLERANCES, LEG_GROWTH, Tolerances
-from stickslip.studies.attractors.starts import StartDistribution
+from stickslip.studies.attractors.starts import (
+    StartDistribution,
+    as_rung,
+    parse_rung_key,
+    rung_key,
+    rung_label,
+)
 from stickslip.studies.attractors.statistics import SETTLING, UNFINISHED, ladder, mesh_members
 
 KIND = "stickslip-attractors"
@@ -88,20 +104,21 @@ ENTRIES = ("census.json", "census.toml", "base.toml", "attractors.json", "attrac
 #: Every completed start's features, by start and summary time (read once).
 FEATURES = "features.json"
 STARTS = "starts"
-ROW_FIELDS = ("id", "n_inner", "start", "seed", "start_mode", "status", "class", "member",
-              "name", "n_components", "components", "unsettled_because", "settle_time_s",
-              "sim_time_s", "k",
+ROW_FIELDS = ("id", "n_inner", "start", "seed", "start_mode", "status", "class",
+              "member", "name", "type", "n_components", "components", "unsettled_because",
+              "settle_time_s", "sim_time_s", "k",
               "direction", "regime", "celerity_m_s", "frequency_hz", "fraction_separation",
               "fraction_stick", "fraction_slip", "psi1", "psi2", "amplitude_m",
               "rms_amplitude_m", "limit_cycle", "frame_spread", "spread_trend", "dt_s", "steps",
-              "wall_time_s", "message", "run_dir")
-MEMBER_FIELDS = ("n_inner", "member", "class", "name", "n_components", "k", "direction",
-                 "regime", "count", "starts", "settle_time_s", "settle_time_s_max",
+              "wall_time_s", "message", "run_dir", "degree")
+MEMBER_FIELDS = ("n_inner", "member", "class", "name", "n_components", "k",
+                 "direction", "regime", "count", "starts", "settle_time_s", "settle_time_s_max",
                  "share", "share_lo", "share_hi", "celerity_m_s", "celerity_m_s_sd",
                  "frequency_hz", "frequency_hz_sd", "fraction_separation",
                  "fraction_separation_sd", "fraction_stick", "fraction_stick_sd",
                  "fraction_slip", "fraction_slip_sd", "psi1", "psi1_sd", "psi2", "psi2_sd",
-                 "amplitude_m", "amplitude_m_sd", "rms_amplitude_m", "rms_amplitude_m_sd")
+                 "amplitude_m", "amplitude_m_sd", "rms_amplitude_m", "rms_amplitude_m_sd",
+                 "degree")
 
 
 #: The default cap T_max of settle-or-extend (s of simulated time): the slowest settlers
@@ -122,10 +139,11 @@ class CensusError(ValueError):
 
 @dataclass(frozen=True)
 class Census:
-    """What a census computes: a scene point, a mesh ladder, a start distribution."""
+    """What a census computes: a scene point, a ladder of rungs (N, p) in ladder order
+    (``ladder_order``; an int N is the rung (N, 1)), a start distribution."""
 
     scene: Path
-    meshes: tuple[int, ...]
+    meshes: tuple[tuple[int, int], ...]
     distribution: StartDistribution
     overrides: tuple[str, ...] = ()
     celerity_tol: float = CELERITY_TOL
@@ -133,6 +151,7 @@ class Census:
     max_time: float | None = None  # the cap of settle-or-extend (None: DEFAULT_MAX_TIME)
 
     def __post_init__(self) -> None:
+        object.__setattr__(self, "meshes", tuple(as_rung(r) for r in self.meshes))
         if self.max_time is not None and not math.isfinite(self.max_time):
             raise CensusError(f"--max-time {self.max_time}: give a finite time (s); every "
                               "unsettled start runs on to it")
@@ -148,17 +167,54 @@ class Census:
             scene = scene.with_overrides(
                 f"initial.amplitude={self.distribution.amplitude!r}",
                 f"initial.n_modes={self.distribution.n_modes}")
-            for n in self.meshes:  # every start's scene must be valid before anything runs
-                for point in self.distribution.points((n,)):
+            for rung in self.meshes:  # every start's scene must be valid before anything runs
+                for point in self.distribution.points((rung,), scene.mesh.degree):
                     scene.with_overrides(*(f"{k}={json.dumps(v)}" for k, v in point.items()))
         except SceneError as err:
             raise CensusError(str(err)) from None
         return scene
 
+    def points(self, base: Scene) -> list[dict]:
+        """The starts' sweep points on every rung (``StartDistribution.points``)."""
+        return self.distribution.points(self.meshes, base.mesh.degree)
+
+    def labels(self) -> list[int | str]:
+        """The rungs as ``census.json`` and ``attractors.json`` list them (``rung_label``)."""
+        return [rung_label(n, p) for n, p in self.meshes]
+
     def definition(self, base: Scene) -> dict:
         """What must match for two runs of the census to share a directory."""
         d = self.distribution
         return {"scene": scene_to_dict(base), "n_modes": d.n_modes, "amplitude": d.amplitude}
+
+
+def ladder_order(base: Scene, rungs: tuple[tuple[int, int], ...]
+                 ) -> tuple[tuple[int, int], ...]:
+    """The rungs (N, p) along the ladder: by dofs (``studies.resources.estimate`` of the base
+    scene at N and p), fewest first, then the lower degree; rungs of one degree by N (their
+    dofs grow with N). CensusError where a rung's scene is not valid."""
+    from stickslip.studies.resources import estimate
+
+    if len({p for _, p in rungs}) <= 1:
+        return tuple(sorted(rungs))
+    dofs = {}
+    for n, p in rungs:
+        try:
+            dofs[n, p] = estimate(base.with_overrides(f"mesh.n_inner={n}",
+                                                      f"mesh.degree={p}")).dofs
+        except (SceneError, ValueError) as err:  # ResourceError: more steps than counted
+            raise CensusError(f"--meshes: the rung {rung_key(n, p)}: {err}") from None
+    return tuple(sorted(rungs, key=lambda r: (dofs[r], r[1], r[0])))
+
+
+def row_rung(row: dict) -> tuple[int, int]:
+    """(N, p) of a start's row (``degree`` 1 where the row has none)."""
+    return int(row["n_inner"]), int(row.get("degree") or 1)
+
+
+def row_key(row: dict) -> str:
+    """The rung key (``starts.rung_key``) of a start's row."""
+    return rung_key(*row_rung(row))
 
 
 def default_dir(scene: Scene) -> Path:
@@ -190,9 +246,10 @@ def cap_problem(census: Census, out_dir: Path, ranks: int = 1) -> str | None:
     seconds = output = 0.0
     starts = 0
     try:
-        for n in census.meshes:
-            est = estimate(base.with_overrides(f"mesh.n_inner={n}", f"time.end_time={cap!r}"))
-            count = len(census.distribution.points((n,)))
+        for n, p in census.meshes:
+            est = estimate(base.with_overrides(f"mesh.n_inner={n}", f"mesh.degree={p}",
+                                               f"time.end_time={cap!r}"))
+            count = len(census.distribution.points(((n, p),), base.mesh.degree))
             starts += count
             seconds += count * est.seconds
             output += count * est.output_bytes
@@ -274,15 +331,15 @@ def _slug(text: str) -> str:
     return re.sub(r"[^A-Za-z0-9_.\-]", "_", text) or "census"
 
 
-def sweep_text(census: Census, name: str) -> str:
+def sweep_text(census: Census, base: Scene) -> str:
     """The generated sweep file: base.toml plus one point per start and mesh; the starts'
     samples stored, not deflated (``compress = false``): settle-or-extend rewrites each
     unsettled start's whole record at every leg, where zlib took about half of an N = 264
     leg's time."""
-    lines = [f'name = "{_slug(name)}-census"',
+    lines = [f'name = "{_slug(base.name)}-census"',
              f'description = "attractor census: {census.distribution.describe()}"',
              'base = "base.toml"', 'batch = "auto"', "compress = false", ""]
-    for point in census.distribution.points(census.meshes):
+    for point in census.points(base):
         lines.append("[[points]]")
         lines += [f'"{k}" = {json.dumps(v)}' for k, v in point.items()]
         lines.append("")
@@ -316,9 +373,9 @@ def prepare(census: Census, out_dir: Path, force: bool,  # noqa: ANN201 - a Clai
                               "distribution; use another -o, or --force to rerun its starts")
         clear_unstarted(out_dir / STARTS)
         write_scene(base, out_dir / "base.toml")
-        atomic_write_text(out_dir / "census.toml", sweep_text(census, base.name))
+        atomic_write_text(out_dir / "census.toml", sweep_text(census, base))
         meta = {"kind": KIND, "definition": definition, "scene_file": str(census.scene),
-                "overrides": list(census.overrides), "meshes": list(census.meshes),
+                "overrides": list(census.overrides), "meshes": census.labels(),
                 "distribution": census.distribution.to_dict(),
                 "celerity_tol": census.celerity_tol, "spread_tol": census.spread_tol,
                 "window_s": base.time.end_time / 3.0, "max_time_s": census.cap(base)}
@@ -681,11 +738,13 @@ def _first_line(text: str | None) -> str:
 def start_rows(out_dir: Path, spread_tol: float = SPREAD_TOL,
                tol: Tolerances = DEFAULT_TOLERANCES, window: float | None = None
                ) -> list[dict]:
-    """One row per start of the census (every start, whatever its state); ``window``: the
+    """One row per start of the census (every start, whatever its state), with its rung's
+    ``degree`` (its point's ``mesh.degree``, else the base scene's); ``window``: the
     length W of the windows compared (``census.json``'s ``window_s``)."""
     from stickslip.studies.sweep import load_sweep
 
     spec = load_sweep(out_dir / "census.toml")
+    base_degree = read_meta(out_dir)["definition"]["scene"].get("mesh", {}).get("degree", 1)
     cache_path = out_dir / FEATURES
     cache = read_cache(cache_path)
     rows, kept = [], {}
@@ -693,6 +752,7 @@ def start_rows(out_dir: Path, spread_tol: float = SPREAD_TOL,
         run_dir, summary, status, key = _start_state(out_dir, task, window)
         row = start_row(run_dir, task.params, summary, status, spread_tol, tol,
                         cached=cache.get(key), window=window)
+        row["degree"] = int(task.params.get("mesh.degree", base_degree))
         rows.append(row)
         if key and row.get("features"):
             kept[key] = row_cache(row)
@@ -877,9 +937,9 @@ def answer_of(meta: dict, rows: list[dict], certify_in: Path | None = None, *,
     for r in rows:
         if below_cap(r, cap):
             r["class"] = SETTLING
-    meshes = sorted({r["n_inner"] for r in rows})
-    for n in meshes:
-        group_members([r for r in rows if r["n_inner"] == n], meta["celerity_tol"],
+    meshes = ladder_rungs(meta, rows)
+    for rung in meshes:
+        group_members([r for r in rows if row_rung(r) == rung], meta["celerity_tol"],
                       tol=tolerances(meta))
     timing = dict(timing or {})
     certificates: dict = {}
@@ -895,13 +955,13 @@ def answer_of(meta: dict, rows: list[dict], certify_in: Path | None = None, *,
             if isinstance(cert, dict) and cert.get("stable") is False:
                 n, member = key.split(":", 1)
                 for r in rows:
-                    if str(r["n_inner"]) == n and r["member"] == member:
+                    if row_key(r) == n and r["member"] == member:
                         r["class"] = "transient"
-    per_mesh, structured = {}, {}
-    for n in meshes:
-        mine = [r for r in rows if r["n_inner"] == n]
-        per_mesh[n] = mesh_members([r for r in mine if r["start"] == "random"])
-        structured[n] = [r for r in mine if r["start"] == "mode"]
+    per_mesh, structured = {}, {}  # by rung label, in ladder order
+    for rung in meshes:
+        mine = [r for r in rows if row_rung(r) == rung]
+        per_mesh[rung_label(*rung)] = mesh_members([r for r in mine if r["start"] == "random"])
+        structured[rung_label(*rung)] = [r for r in mine if r["start"] == "mode"]
     lad = ladder(per_mesh)
     counts: dict[str, int] = {}
     for r in rows:
@@ -913,13 +973,27 @@ def answer_of(meta: dict, rows: list[dict], certify_in: Path | None = None, *,
                                       "celerity_tol", "spread_tol")},
               "tolerances": _tolerance_facts(tolerances(meta)),
               "scene": meta["definition"]["scene"], "counts": counts,
-              "members": {str(n): per_mesh[n] for n in meshes},
-              "structured": {str(n): [_brief(r) for r in structured[n]] for n in meshes},
+              "members": {str(n): ms for n, ms in per_mesh.items()},
+              "structured": {str(n): [_brief(r) for r in rs] for n, rs in structured.items()},
               "ladder": lad, "certificates": certificates, "timing": timing, "starts": rows}
     from stickslip.studies.attractors.report import summary_text
 
     answer["text"] = summary_text(answer)
     return answer
+
+
+def ladder_rungs(meta: dict, rows: list[dict]) -> list[tuple[int, int]]:
+    """The rungs (N, p) of ``rows`` in ladder order: as ``census.json`` lists them
+    (``ladder_order``), then any other by (N, p)."""
+    found = {row_rung(r) for r in rows}
+    listed = []
+    for label in meta.get("meshes") or []:
+        try:
+            listed.append(parse_rung_key(label))
+        except ValueError:  # an edited census.json: its rows still have their rungs
+            continue
+    ordered = [r for r in dict.fromkeys(listed) if r in found]
+    return ordered + sorted(found - set(ordered))
 
 
 def _tolerance_facts(tol: Tolerances) -> dict:
@@ -941,7 +1015,8 @@ def certify_members(out_dir: Path, rows: list[dict], *, compute: bool = True,
                     dt_limit: bool = False, window: float | None = None, kick: bool = False,
                     tol: Tolerances = DEFAULT_TOLERANCES, timing: dict | None = None,
                     write: bool = True) -> dict:
-    """Per mesh and settled member (``"N:member"``): its certificate
+    """Per rung and settled member (``"N:member"``, N the rung key ``"132"`` or
+    ``"132p2"``): its certificate
     (``studies.attractors.certify.certify_member``), cached in ``certificates.json`` by its
     first run and that run's summary time; with ``compute`` False only cached ones. The end
     state is read over the last ``window`` seconds (the census's W). ``kick`` (with
@@ -955,7 +1030,7 @@ def certify_members(out_dir: Path, rows: list[dict], *, compute: bool = True,
     cache = read_cache(cache_path)
     out: dict = {}
     members = settled_members(rows)
-    keys: dict[str, str] = {}  # "N:member" -> its cache key
+    keys: dict[str, str] = {}  # "N:member" -> its cache key (N: the rung key)
     named = {f"{n}:{member}": (n, member) for n, member in members}
     for (n, member), group in sorted(members.items(), key=lambda kv: (kv[0][0], kv[0][1])):
         key = certificate_key(group, dt_limit)
@@ -982,11 +1057,12 @@ def certify_members(out_dir: Path, rows: list[dict], *, compute: bool = True,
 
 
 def settled_members(rows: list[dict]) -> dict[tuple, list[dict]]:
-    """{(N, member): its rows, in row order} of the settled members (``SETTLED``)."""
+    """{(rung key, member): its rows, in row order} of the settled members
+    (``SETTLED``)."""
     members: dict[tuple, list[dict]] = {}
     for r in rows:
         if r["class"] in SETTLED and r["member"]:
-            members.setdefault((r["n_inner"], r["member"]), []).append(r)
+            members.setdefault((row_key(r), r["member"]), []).append(r)
     return members
 
 
@@ -1053,17 +1129,18 @@ def _certificate_jobs(out_dir: Path, ranks: int, dt_limit: bool, kick: bool
         rows = start_rows(out_dir, meta["spread_tol"], tol, meta.get("window_s"))
     except (OSError, ValueError, KeyError):
         return None
-    for n in sorted({r["n_inner"] for r in rows}):  # as answer_of groups them
-        group_members([r for r in rows if r["n_inner"] == n], meta["celerity_tol"], tol=tol)
+    for rung in ladder_rungs(meta, rows):  # as answer_of groups them
+        group_members([r for r in rows if row_rung(r) == rung], meta["celerity_tol"], tol=tol)
     cache = read_cache(out_dir / "certificates.json")
-    todo: dict[int, list[dict]] = {}
+    todo: dict[str, list[dict]] = {}
     for (n, _), group in settled_members(rows).items():
         entry = cache.get(certificate_key(group, dt_limit))
         if entry is None or (kick and not isinstance(entry.get("kick"), dict)):
             todo.setdefault(n, []).extend(group)
     if not todo:
         return None
-    jobs = [{"id": n, "cost": float(n) ** 3 * len(g), "rows": g} for n, g in todo.items()]
+    jobs = [{"id": n, "cost": float(parse_rung_key(n)[0]) ** 3 * len(g), "rows": g}
+            for n, g in todo.items()]
     return meta.get("window_s"), tol, balanced_shares(jobs, ranks)
 
 
@@ -1105,7 +1182,8 @@ def write_outputs(out_dir: Path, answer: dict, required: bool = True) -> None:
     """attractors.json, attractors.csv and members.csv (atomic writes, each only where its
     text changed); ``required`` False (an answer re-read): a directory that does not take
     them keeps the files it has (``write_if_changed``)."""
-    members = [{"n_inner": int(n), **m} for n, ms in answer["members"].items() for m in ms]
+    members = [{"n_inner": parse_rung_key(n)[0], "degree": parse_rung_key(n)[1], **m}
+               for n, ms in answer["members"].items() for m in ms]
     for name, text in (("attractors.json", answer_json(answer)),
                        ("attractors.csv", _csv(ROW_FIELDS, answer["starts"])),
                        ("members.csv", _csv(MEMBER_FIELDS, members))):

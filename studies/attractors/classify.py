@@ -36,9 +36,12 @@ unsettled end states are grouped by (k, direction, regime) of the dominant compo
 celerity (``unsettled-k12-opposite-SSS``). Rows from elsewhere that carry no features (a
 summary and a frame spread only) are classified by the frame spread (``classify``).
 
-Names a person reads (``readable_name``, ``member_label``, ``member_description``) give
-every component's direction in words, "with the rotation" or "against the rotation", and
-use those words for nothing else: a dominant wave is "carrying" its companions.
+Names a person reads (``readable_name``, ``member_label``, ``member_description``) and
+member ids give the generators of the state's frequency lattice (``Features.named``,
+``studies.attractors.lattice``), never a combination tone; a settled row's ``type`` is the
+lattice's ("rigid wave", "relative periodic orbit", "torus"). They give every component's
+direction in words, "with the rotation" or "against the rotation", and use those words for
+nothing else: a dominant wave is "carrying" its companions.
 """
 
 from __future__ import annotations
@@ -246,15 +249,17 @@ def end_state_row(start_id: str, params: dict, summary: dict, status: str,
         "sim_time_s": s.get("sim_time_s"),
         "dt_s": s.get("dt_s"), "steps": s.get("steps"), "wall_time_s": s.get("wall_time_s"),
         "message": s.get("message"), "run_dir": run_dir, "member": None,
-        "components": "", "name": "", "n_components": None, "unsettled_because": "; ".join(why),
+        "components": "", "name": "", "n_components": None, "type": "",
+        "unsettled_because": "; ".join(why),
         "features": None, "features_before": None, "drift": list(drift),
     })
     if features is not None and features[1].dominant is not None:
         earlier, later = features
         top = later.dominant
-        named = later.named(cls != "multi-wave")
+        lattice = later.lattice(cls != "multi-wave")
+        named = lattice.generators
         row.update(k=top.k, direction=top.direction, n_components=len(named),
-                   name=readable_name(named),
+                   name=readable_name(named), type=lattice.type if cls in SETTLED else "",
                    components=components_text(later.components),
                    features=later.to_dict(), features_before=earlier.to_dict())
         if not top.aliased:

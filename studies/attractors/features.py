@@ -32,15 +32,25 @@ u_r(θ_j, t_n), u_θ(θ_j, t_n) (N nodes uniform in θ, S samples every Δt_s) b
   alias. An aliased component has no celerity (NaN), never a speed. Without probes a
   component folded from above f_s/2 cannot be told from one below, except as a harmonic.
 
+Lattice (``studies.attractors.lattice``, ``Features.lattice``): the components are integer
+combinations of a few **generators** (dominant first, then the largest independent one);
+the others are **combination tones**, within ``TONE_BINS`` bins of the window's resolution.
+A name gives the generators only (``Features.named``); the number of generators that move
+types the state (rigid wave, relative periodic orbit, torus).
+
 ``match(a, b)`` is the one rule that says two feature sets are the same state: between two
 starts (grouping into attractors) and between two consecutive windows of one start
 (stationarity: a settled end state). It asks for the same listed components (k and
 direction; a component listed in one needs at least a ``weak`` one, or the same peak
-attached as a harmonic or sum tone, in the other), each
-celerity within ``CELERITY_TOL`` (relative), each share within ``SHARE_TOL_REL`` (relative,
-at least ``SHARE_TOL_ABS``), and the zone fractions within ``FRACTION_TOL``. ``stationary``
-adds, between two windows, the RMS amplitude within ``AMPLITUDE_TOL`` and, where the later
-window is not a rigid wave, the frame spread within ``SPREAD_CHANGE_REL``. Two windows
+attached as a harmonic or sum tone, in the other), each celerity within ``CELERITY_TOL``
+(relative), each share within ``SHARE_TOL_REL`` (relative, at least ``SHARE_TOL_ABS``), and
+the zone fractions within ``FRACTION_TOL``. So the generators are compared by frequency
+(celerity) and share, which keeps the lattice type; a combination tone of the two sets'
+lattice together (``joint_tones``) is not compared: its share follows from the generators'
+and, where a slow generator's period is not short against the window, swings with the
+window's phase. ``stationary`` adds, between two windows, the RMS amplitude within
+``AMPLITUDE_TOL`` and, where the later window is not a rigid wave and has no tones, the
+frame spread within ``SPREAD_CHANGE_REL`` (the spread holds the tones). Two windows
 accept a companion whose share decays slowly; ``share_drift`` judges the whole last leg of
 settle-or-extend (``leg_window_ends``): the least-squares line of each share across its
 windows, extrapolated over the next leg, (``LEG_GROWTH`` − 1) t_end, must move it by no more
@@ -54,6 +64,8 @@ import math
 from dataclasses import asdict, dataclass, field
 
 import numpy as np
+
+from stickslip.studies.attractors.lattice import Lattice, lattice_of
 
 #: Share (amplitude over the dominant component's) from which a component is listed.
 SHARE_TOL = 0.10
@@ -69,6 +81,9 @@ REGIME_SHORT = {"stick-slip-separation": "SSS", "stick-slip": "SS", "slip-separa
 FRACTION_TOL = 0.02
 #: Frequency tolerance of a harmonic, in bins of the window's resolution 1/(t₁ − t₀).
 HARMONIC_BINS = 2.0
+#: Frequency tolerance of a combination tone (``lattice``), in bins: two frequencies closer
+#: than the resolution 1/(t₁ − t₀) cannot be told apart by one window (Rayleigh).
+TONE_BINS = 1.0
 #: Relative change of the RMS amplitude between two windows above which a start is unsettled.
 AMPLITUDE_TOL = 0.05
 #: Frame spread at or below which one listed component is a rigid wave (``classify``).
@@ -131,12 +146,18 @@ class Features:
         its weak companions leave the frame spread small (``classify``)."""
         return len(self.listed) == 1
 
+    def lattice(self, rigid: bool = True) -> Lattice:
+        """The frequency lattice of the components (``lattice.lattice_of``), tones within
+        ``TONE_BINS`` bins of the resolution; generators among the listed components,
+        and among the weak ones too where one listed component is not a rigid wave (its
+        weak companions together are not small)."""
+        return lattice_of(self.components, TONE_BINS * self.resolution_hz,
+                          weak_generators=not rigid and len(self.listed) == 1)
+
     def named(self, rigid: bool) -> tuple[Component, ...]:
-        """The components a name gives: the listed ones, and the weak ones too where one
-        listed component is not a rigid wave (its weak companions together are not small)."""
-        if rigid or len(self.listed) != 1:
-            return self.listed
-        return self.components
+        """The components a name gives: the generators of its ``lattice``, never a
+        combination tone (so a tone at the listing threshold cannot flip the name)."""
+        return self.lattice(rigid).generators
 
     def to_dict(self) -> dict:
         d = asdict(self)
@@ -455,11 +476,12 @@ def share_drift(windows: list[Features], horizon: float,
     A share that only jitters has b ≈ 0; one that decays by a few points per leg fails
     although two consecutive windows pass; one below the listing threshold ``SHARE_TOL``
     at both ends (a companion that has died out, or a weak one) names nothing and is left
-    to the frame spread.
+    to the frame spread. A combination tone (``joint_tones``) follows its generators and is
+    not judged.
     """
     tol = DEFAULT_TOLERANCES if tol is None else tol
     why = []
-    keys = sorted({c.key for f in windows for c in f.listed})
+    keys = sorted({c.key for f in windows for c in f.listed} - joint_tones(windows))
     centre_last = 0.5 * sum(windows[-1].window)
     for key in keys:
         points = []
@@ -507,7 +529,10 @@ def differences(a: Features, b: Features, tol: Tolerances = DEFAULT_TOLERANCES) 
     why = []
     mine = {c.key: c for c in a.components}
     theirs = {c.key: c for c in b.components}
+    tones = joint_tones([a, b])
     for key in sorted({c.key for c in a.listed} | {c.key for c in b.listed}):
+        if key in tones:  # follows from the generators
+            continue
         ca, cb = mine.get(key), theirs.get(key)
         name = f"k = {key[0]} {_SENSE[key[1]]}"
         if ca is None or cb is None:
@@ -534,6 +559,23 @@ def differences(a: Features, b: Features, tol: Tolerances = DEFAULT_TOLERANCES) 
     return why
 
 
+def joint_tones(feature_sets: list[Features]) -> set[tuple[int, str]]:
+    """The (k, direction) of the combination tones of the lattice of several feature sets
+    together: each component at its largest share (and that window's frequency), the
+    tolerance ``TONE_BINS`` bins of the coarsest resolution. One choice of generators
+    for all, so a comparison does not depend on the order of its arguments, nor on a tone
+    that outgrows a generator in one window only."""
+    best: dict[tuple[int, str], Component] = {}
+    for f in feature_sets:
+        for c in f.components:
+            if c.key not in best or c.share > best[c.key].share:
+                best[c.key] = c
+    resolutions = [f.resolution_hz for f in feature_sets if math.isfinite(f.resolution_hz)]
+    tol = TONE_BINS * max(resolutions) if resolutions else math.nan
+    joint = lattice_of(sorted(best.values(), key=lambda c: (-c.share, c.key)), tol)
+    return {t.component.key for t in joint.tones}
+
+
 def _attached_share(f: Features, key: tuple[int, str]) -> float | None:
     """The share of the peak (k, direction) where ``f`` has it attached to a component."""
     for c in f.components:
@@ -555,11 +597,14 @@ def stationary(earlier: Features, later: Features, tol: Tolerances = DEFAULT_TOL
     ``differences``, the RMS amplitude within ``amplitude_tol`` (relative), and, where the
     later window is not a rigid wave (frame spread above ``spread_tol``), the frame spread
     (all that is not the dominant wave, weak companions included) within
-    ``SPREAD_CHANGE_REL`` (relative, at least ``SPREAD_CHANGE_ABS``)."""
+    ``SPREAD_CHANGE_REL`` (relative, at least ``SPREAD_CHANGE_ABS``), unless the later window
+    has combination tones (module docstring)."""
     why = differences(earlier, later, tol)
     ra, rb = earlier.rms_amplitude_m, later.rms_amplitude_m
     if math.isfinite(ra) and math.isfinite(rb) and abs(rb - ra) > amplitude_tol * max(ra, rb):
         why.append(f"RMS amplitude {ra:.3g} vs {rb:.3g} m")
+    if later.lattice().tones:  # the spread holds the tones: not compared
+        return why
     sa, sb = earlier.frame_spread, later.frame_spread
     if math.isfinite(sa) and math.isfinite(sb) and sb > spread_tol and abs(sb - sa) > max(
             SPREAD_CHANGE_REL * max(sa, sb), SPREAD_CHANGE_ABS):

@@ -4,10 +4,11 @@
   attractors as solid bars, every other state hatched in a group of its own
   (``basins_figure``);
 * ``members_vs_n.png``: celerity, frequency, ψ₁, ψ₂ and RMS amplitude of every member of
-  the random starts with a wavenumber, mean ± standard deviation over its starts, against N;
-* ``profile_<mesh>_<member>.png``: the paper's Figure-1 panels (U, V, P, Q over one
-  wavelength, ``postprocess.plotting.plot_uvpq``) of one run of each rigid-wave member,
-  random or structured start.
+  the random starts with a wavenumber, mean ± standard deviation over its starts, against
+  the ladder's rungs (equally spaced, in ladder order: by dofs);
+* ``profile_<rung>_<member>.png`` (rung key ``132`` or ``132p2``): the paper's Figure-1
+  panels (U, V, P, Q over one wavelength, ``postprocess.plotting.plot_uvpq``) of one run of
+  each rigid-wave member, random or structured start.
 """
 
 from __future__ import annotations
@@ -17,6 +18,8 @@ import textwrap
 from pathlib import Path
 
 import numpy as np
+
+from stickslip.studies.attractors.starts import rung_key
 
 
 def plot_census(out_dir: str | Path, answer: dict | None = None) -> list[Path]:
@@ -121,8 +124,9 @@ def _values(out_dir: Path, answer: dict) -> Path | None:
         return None
     fig, axes = plt.subplots(1, len(keys), figsize=(3.2 * len(keys), 3.6),
                              constrained_layout=True)
+    rungs = list(answer["members"])  # rung keys in ladder order (by dofs): the x axis
     for i, name in enumerate(waves):
-        pts = [(int(n), m) for n, ms in answer["members"].items() for m in ms
+        pts = [(rungs.index(n), m) for n, ms in answer["members"].items() for m in ms
                if m["member"] == name]
         ns = [n for n, _ in pts]
         style = "-" if pts[0][1]["class"] == "wave" else ":"
@@ -131,13 +135,11 @@ def _values(out_dir: Path, answer: dict) -> Path | None:
             e = [scale * (m[f"{key}_sd"] or 0.0) for _, m in pts]
             ax.errorbar(ns, y, yerr=e, marker="o", capsize=3, color=f"C{i % 10}", ls=style,
                         label=name)
-            ax.set(xlabel="N (contact nodes)", ylabel=label)
-            ax.set_xscale("log", base=2)
-    meshes = sorted(int(n) for n in answer["members"])
+            ax.set(xlabel="rung (N contact nodes; pP: element degree P)", ylabel=label)
     for ax in axes:
-        ax.set_xticks(meshes, [str(n) for n in meshes])
+        ax.set_xticks(range(len(rungs)), rungs)
         ax.minorticks_off()
-        ax.set_xlim(meshes[0] / 1.3, meshes[-1] * 1.3)
+        ax.set_xlim(-0.5, len(rungs) - 0.5)
     axes[0].legend(fontsize=7)
     fig.suptitle("members of the random starts against the mesh (mean ± sd over the starts; "
                  "solid: rigid waves, dotted: multi-wave or unsettled)", fontsize=10)
@@ -149,15 +151,16 @@ def _profiles(out_dir: Path, answer: dict) -> list[Path]:
 
     paths, seen = [], set()
     for run in answer["starts"]:  # one run of each wave member per mesh, any start
-        key = (run["n_inner"], run["member"])
+        rung = rung_key(run["n_inner"], run.get("degree") or 1)
+        key = (rung, run["member"])
         if run["class"] != "wave" or key in seen:
             continue
         seen.add(key)
-        png = out_dir / f"profile_{run['n_inner']}_{run['member'].replace('#', '_')}.png"
+        png = out_dir / f"profile_{rung}_{run['member'].replace('#', '_')}.png"
         try:
             paths.append(plot_uvpq(Path(run["run_dir"]), png, overlay=False))
         except (OSError, ValueError, KeyError) as err:
-            print(f"profile of {run['member']} at N = {run['n_inner']} not drawn: {err}")
+            print(f"profile of {run['member']} at N = {rung} not drawn: {err}")
     return paths
 
 

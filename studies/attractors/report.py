@@ -2,7 +2,9 @@
 
 Per mesh, each attractor on one line (class, dominant component, its celerity and
 frequency, regime, the starts reaching it, settle times, and its member id in brackets),
-then a line of the companions it carries and its certificate; the non-attractors apart.
+then a line of the companions it carries (its lattice's generators), a line of its lattice
+type (for a relative periodic orbit its period T and shift s) and combination tones, and
+its certificate; the non-attractors apart.
 Every component is named with its direction in words (``classify.SENSE``).
 """
 
@@ -17,6 +19,7 @@ from stickslip.studies.attractors.classify import (
     component_words,
     member_description,
 )
+from stickslip.studies.attractors.lattice import tone_text
 from stickslip.studies.attractors.statistics import (
     NAMED,
     SETTLED,
@@ -59,6 +62,36 @@ def _companions(m: dict) -> str:
     return "carrying " + "; ".join(parts) if parts else ""
 
 
+def _lattice(m: dict) -> str:
+    """"relative periodic orbit: period 1.804 ms, shift -100.3° in the frame of k = 6
+    against the rotation; combination tones k = 2 against the rotation = 2(6) − (10)": a
+    multi-wave member's lattice type (``studies.attractors.lattice``), T and s of a
+    relative periodic orbit, and its listed tones on the generators (the weak ones counted;
+    all are in ``attractors.json``); '' for a rigid wave."""
+    kind = m.get("type")
+    if not kind or (m["class"] != "multi-wave" and not m.get("combinations")):
+        return ""
+    gens = m.get("generators") or []
+    text = kind
+    if _finite(m.get("period_s")) and gens:
+        text += (f": period {1e3 * m['period_s']:.3f} ms, shift {m['shift_deg']:+.1f}° in "
+                 f"the frame of {component_words(gens[0]['k'], gens[0]['direction'])}")
+    elif kind == "torus":
+        text += f" of {len(gens)} generators"
+    elif kind == "rigid wave" and len(gens) > 1:
+        text += ": its generators travel at one celerity"
+    tones = m.get("combinations") or []
+    listed = [t for t in tones if not t.get("weak")]
+    if listed:
+        labels = [g["k"] for g in gens]
+        text += "; combination tones " + ", ".join(
+            f"{component_words(t['k'], t['direction'])} = "
+            f"{tone_text(t['coefficients'], labels)}" for t in listed)
+    if len(tones) > len(listed):
+        text += f" (and {len(tones) - len(listed)} weak)"
+    return text
+
+
 def member_lines(n: str, m: dict, certs: dict) -> list[str]:
     """A member's printed lines (module docstring), unindented; its certificate from
     ``certs`` (keyed ``"N:member"``), taken out of it."""
@@ -76,6 +109,9 @@ def member_lines(n: str, m: dict, certs: dict) -> list[str]:
     companions = _companions(m) if settled else ""
     if companions:
         lines.append(f"  {companions}")
+    lattice = _lattice(m) if settled else ""
+    if lattice:
+        lines.append(f"  {lattice}")
     near = m.get("approaching") or {}
     if near:
         lines.append("  in its last window " + ", ".join(
@@ -123,7 +159,7 @@ def ladder_lines(answer: dict) -> list[str]:
     that differ, per attractor on several meshes how each component's celerity and share
     move, and the coarse observables; every component in words."""
     lad = answer["ladder"]
-    meshes = [int(n) for n in answer["members"]]
+    meshes = list(answer["members"])  # rung keys ("132", "132p2"), in ladder order
     if len(meshes) < 2:
         return ["ladder: one mesh; the set of attractors is not checked under refinement"]
     lines = []

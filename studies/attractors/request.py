@@ -19,6 +19,7 @@ from stickslip.studies.attractors.census import (
     CensusError,
     cap_problem,
     default_dir,
+    ladder_order,
 )
 from stickslip.studies.attractors.classify import CELERITY_TOL, SPREAD_TOL
 from stickslip.studies.attractors.starts import (
@@ -26,19 +27,21 @@ from stickslip.studies.attractors.starts import (
     DEFAULT_N_MODES,
     DEFAULT_SEED,
     StartDistribution,
-    parse_meshes,
+    parse_rungs,
     parse_structured,
 )
 
 
 @dataclass(frozen=True)
 class CensusRequest:
-    """A census's options, each the command's option of the same name (``meshes`` and
-    ``structured`` as the command's text: ``"132,264"``, ``"1:8"``)."""
+    """A census's options, each the command's option of the same name (``meshes``,
+    ``degrees`` and ``structured`` as the command's text: ``"132,264"`` or
+    ``"264p1,132p2"``, ``"1,2"``, ``"1:8"``; ``degrees`` also as a sequence of ints)."""
 
     scene: str
     starts: int = 16
     meshes: str | None = None
+    degrees: str | tuple[int, ...] | None = None
     structured: str | None = None
     end_time: float | None = None
     max_time: float | None = None
@@ -66,11 +69,17 @@ def build_census(request: CensusRequest, ranks: int = 1) -> tuple[Census, Path]:
             raise ValueError(f"--end-time {request.end_time}: give a time > 0 (s)")
         overrides.append(f"time.end_time={request.end_time!r}")
     scene = load_scene(request.scene, overrides)
-    meshes = (parse_meshes(request.meshes) if request.meshes is not None
-              else (scene.mesh.n_inner,))
+    degrees = request.degrees  # the API may give a sequence (or one int)
+    if isinstance(degrees, list | tuple):
+        degrees = ",".join(str(p) for p in degrees)
+    elif degrees is not None:
+        degrees = str(degrees)
+    rungs = ladder_order(scene, parse_rungs(request.meshes, degrees, scene.mesh.n_inner,
+                                            scene.mesh.degree))
     dist = StartDistribution(starts=request.starts, seed=request.seed,
                              n_modes=request.n_modes, amplitude=request.amplitude,
-                             structured=parse_structured(request.structured, min(meshes) // 2))
+                             structured=parse_structured(request.structured,
+                                                         min(n for n, _ in rungs) // 2))
     for name, tol in (("--celerity-tol", request.celerity_tol),
                       ("--spread-tol", request.spread_tol)):
         if not 0 < tol < 1:
@@ -78,7 +87,7 @@ def build_census(request: CensusRequest, ranks: int = 1) -> tuple[Census, Path]:
     if request.max_time is not None and not request.max_time >= scene.time.end_time:
         raise ValueError(f"--max-time {request.max_time}: give a time >= the first leg's "
                          f"end time {scene.time.end_time:g} s")
-    census = Census(Path(request.scene), meshes, dist, tuple(overrides),
+    census = Census(Path(request.scene), rungs, dist, tuple(overrides),
                     request.celerity_tol, request.spread_tol,
                     DEFAULT_MAX_TIME if request.max_time is None else request.max_time)
     census.base_scene()

@@ -12,10 +12,18 @@ The same seeds are used on every mesh of the ladder, so random start i is the sa
 of θ on every mesh (common random numbers: a difference between meshes is the mesh's, not
 the draw's). The defaults K = 16, A = 0.1 are the scene's own random bump; basin shares
 belong to the distribution, so the census records it.
+
+**Rungs.** A rung of the ladder is a mesh (N contact nodes, ``mesh.n_inner``) and an element
+degree p (``mesh.degree``): ``parse_rungs`` reads ``--meshes 132,264`` (each N at the
+scene's degree, or at every degree of ``--degrees 1,2``) and explicit rungs
+``--meshes 264p1,132p2``. A rung's key (``rung_key``: per-mesh keys of ``attractors.json``)
+is ``"132"`` for degree 1, as a plain-N ladder always was, and ``"132p2"`` otherwise;
+``rung_label`` is the value a JSON list holds (the integer N for degree 1).
 """
 
 from __future__ import annotations
 
+import re
 from dataclasses import asdict, dataclass
 
 #: Defaults of the random start distribution (module docstring).
@@ -26,6 +34,10 @@ DEFAULT_SEED = 1
 #: +-1 % at 10^4 starts. Checked before the start list is made (2^31 starts would fill the
 #: memory with it before any run).
 MAX_STARTS = 10_000
+#: The Lagrange degrees a rung may take (``mesh.degree``: P1/Q1, P2/Q2).
+DEGREES = (1, 2)
+#: Most rungs of a ladder: each is a census of M starts (a ladder needs a few).
+MAX_RUNGS = 64
 #: Largest seed: random start i's seed S + i is written to the census's TOML file, whose
 #: integers are 64-bit.
 MAX_SEED = 2**63 - 1
@@ -74,13 +86,19 @@ class StartDistribution:
         d["description"] = self.describe()
         return d
 
-    def points(self, meshes: tuple[int, ...]) -> list[dict]:
-        """The sweep points (dotted scene keys): per mesh, random starts then structured."""
+    def points(self, rungs: tuple, base_degree: int = 1) -> list[dict]:
+        """The sweep points (dotted scene keys): per rung (N, p) (an int N: (N, 1)), random
+        starts then structured. A point sets ``mesh.degree`` only where p is not the base
+        scene's ``base_degree``, so the starts of a degree-1 ladder keep their names."""
         out: list[dict] = []
-        for n in meshes:
-            out += [{"mesh.n_inner": n, "initial.perturbation": "random", "initial.seed": s}
+        for rung in rungs:
+            n, degree = as_rung(rung)
+            mesh = {"mesh.n_inner": n}
+            if degree != base_degree:
+                mesh["mesh.degree"] = degree
+            out += [{**mesh, "initial.perturbation": "random", "initial.seed": s}
                     for s in self.seeds]
-            out += [{"mesh.n_inner": n, "initial.perturbation": "mode", "initial.mode": k}
+            out += [{**mesh, "initial.perturbation": "mode", "initial.mode": k}
                     for k in self.structured]
         return out
 
@@ -119,3 +137,95 @@ def parse_meshes(text: str) -> tuple[int, ...]:
     if any(n < 1 for n in meshes) or len(set(meshes)) != len(meshes):
         raise ValueError(f"--meshes {text!r}: give distinct positive node counts")
     return tuple(sorted(meshes))
+
+
+#: One rung as text: N, or N then ``p`` then the degree (``132``, ``132p2``).
+RUNG_TEXT = re.compile(r"([0-9]+)(?:p([0-9]+))?")
+
+
+def as_rung(rung: object) -> tuple[int, int]:
+    """(N, p) of a rung given as (N, p), an int N (degree 1) or a key (``parse_rung_key``)."""
+    if isinstance(rung, tuple):
+        return int(rung[0]), int(rung[1])
+    return parse_rung_key(rung)
+
+
+def rung_key(n: int, degree: int = 1) -> str:
+    """The rung's key in ``attractors.json`` (per-mesh keys): ``"132"`` for degree 1 (the
+    plain-N key), ``"132p2"`` for degree 2."""
+    return str(int(n)) if int(degree) == 1 else f"{int(n)}p{int(degree)}"
+
+
+def rung_label(n: int, degree: int = 1) -> int | str:
+    """The rung as a JSON list holds it (``meshes``, the ladder's ``meshes``): the integer N
+    for degree 1, as a plain-N ladder always wrote it, else its key ``"132p2"``."""
+    return int(n) if int(degree) == 1 else rung_key(n, degree)
+
+
+def parse_rung_key(key: object) -> tuple[int, int]:
+    """(N, p) of a rung key or label: ``132`` or ``"132"`` -> (132, 1), ``"132p2"`` ->
+    (132, 2). ValueError where it is not one."""
+    if isinstance(key, int) and not isinstance(key, bool):
+        return int(key), 1
+    found = RUNG_TEXT.fullmatch(str(key).strip())
+    if not found:
+        raise ValueError(f"{key!r} is not a rung (N or NpP, e.g. 132 or 132p2)")
+    return int(found[1]), int(found[2] or 1)
+
+
+def parse_degrees(text: str | None) -> tuple[int, ...]:
+    """``--degrees 1,2`` -> (1, 2) (each of ``DEGREES``, no repeats); () for None."""
+    if text is None:
+        return ()
+    try:
+        degrees = tuple(int(x) for x in text.split(",") if x.strip())
+    except ValueError:
+        raise ValueError(f"--degrees {text!r}: give element degrees, e.g. 1,2") from None
+    if not degrees or any(p not in DEGREES for p in degrees) \
+            or len(set(degrees)) != len(degrees):
+        raise ValueError(f"--degrees {text!r}: give distinct element degrees out of "
+                         f"{', '.join(map(str, DEGREES))} (mesh.degree), e.g. 1,2")
+    return degrees
+
+
+def parse_rungs(meshes: str | None, degrees: str | None, default_n: int,
+                default_degree: int = 1) -> tuple[tuple[int, int], ...]:
+    """The rungs (N, p) of ``--meshes`` and ``--degrees`` (module docstring): a plain N is
+    taken at every degree of ``degrees`` (default: the scene's ``default_degree``), a rung
+    ``NpP`` as it is; no ``meshes``: the scene's N (``default_n``). Returned in the order
+    given; the census orders them along the ladder (``census.ladder_order``: by dofs).
+    ValueError (one line, naming the option and the fix): malformed text, N < 1, a degree
+    out of ``DEGREES``, an odd N at degree 2 (its N/2 curved edges), a rung twice."""
+    wanted = parse_degrees(degrees) or (default_degree,)
+    text = meshes if meshes is not None else str(default_n)
+    option = "--meshes" if meshes is not None else "--degrees"
+    tokens = [t.strip() for t in text.split(",") if t.strip()]
+    if not tokens:
+        raise ValueError(f"--meshes {text!r}: the ladder is empty; give e.g. --meshes "
+                         "132,264 or 264p1,132p2")
+    if len(tokens) * len(wanted) > MAX_RUNGS:
+        raise ValueError(f"{option} {text!r}: more than {MAX_RUNGS} rungs; give fewer")
+    rungs: list[tuple[int, int]] = []
+    for token in tokens:
+        found = RUNG_TEXT.fullmatch(token)
+        if not found:
+            raise ValueError(f"--meshes {text!r}: {token!r} is not a rung; give contact-node "
+                             "counts N or rungs NpP (N, then p, then the element degree), "
+                             "e.g. 132,264 or 264p1,132p2")
+        n = int(found[1])
+        for p in (int(found[2]),) if found[2] else wanted:
+            if n < 1:
+                raise ValueError(f"{option} {text!r}: give positive node counts N")
+            if p not in DEGREES:
+                raise ValueError(f"--meshes {text!r}: degree {p} in {token!r} is not "
+                                 f"supported; give p{' or p'.join(map(str, DEGREES))} "
+                                 "(mesh.degree)")
+            if p == 2 and n % 2:
+                raise ValueError(f"{option} {text!r}: degree 2 needs an even N (N/2 curved "
+                                 f"edges); give {n + 1}p2 or {n - 1}p2" if n > 1 else
+                                 f"{option} {text!r}: degree 2 needs an even N")
+            if (n, p) in rungs:
+                raise ValueError(f"{option} {text!r}: the rung {rung_key(n, p)} appears "
+                                 "twice; give each rung once")
+            rungs.append((n, p))
+    return tuple(rungs)

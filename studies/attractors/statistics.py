@@ -26,6 +26,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from stickslip.studies.attractors.classify import member_label, readable_name
+from stickslip.studies.attractors.starts import parse_rung_key
 
 Z95 = 1.959963984540054  # the 97.5 % quantile of the standard normal
 #: Values averaged per member (row keys of ``attractors.csv``).
@@ -67,6 +68,8 @@ def mean_spread(values: Sequence[float | None]) -> tuple[float, float, int]:
 
 #: The classes whose label names a dominant component (the others: their class only).
 NAMED = ("wave", "multi-wave", "transient", "unsettled", SETTLING)
+#: The classes of a settled end state, whose member has a lattice ``type``.
+TYPED = (*SETTLED, "transient")
 
 
 def mesh_members(rows: list[dict]) -> list[dict]:
@@ -112,12 +115,17 @@ def _approaching(rows: list[dict]) -> dict:
 def member_components(rows: list[dict]) -> dict:
     """The member's components (those of its first row's last window): per component the
     mean and sample standard deviation over the rows of its celerity, share and frequency;
-    its readable ``name`` (``classify.readable_name`` of the means) and ``n_components``."""
+    the frequency lattice of the means (``studies.attractors.lattice``, at the first row's
+    resolution): ``type``, ``generators`` and ``combinations`` (the tones, each with its
+    ``coefficients`` on the generators), ``period_s`` and ``shift_deg`` of a relative
+    periodic orbit; its readable ``name`` (``classify.readable_name`` of the generators)
+    and ``n_components`` (the generators)."""
     from stickslip.studies.attractors.features import Component, Features
 
     have = [Features.from_dict(r["features"]) for r in rows if r.get("features")]
     if not have:
-        return {"components": [], "name": "", "n_components": None}
+        return {"components": [], "name": "", "n_components": None, "type": "",
+                "generators": [], "combinations": []}
     comps = []
     for c in have[0].components:
         same = [next((d for d in f.components if d.key == c.key), None) for f in have]
@@ -131,9 +139,20 @@ def member_components(rows: list[dict]) -> dict:
                       amplitude_m=e["amplitude_m"], frequency_hz=e["frequency_hz"],
                       celerity_m_s=e["celerity_m_s"], aliased=e["aliased"], weak=e["weak"])
             for e in comps]
-    named = Features(tuple(mean)).named(rows[0].get("class") != "multi-wave")
-    return {"components": comps, "name": readable_name(named),
-            "n_components": len(named)}
+    resolution = have[0].resolution_hz
+    lattice = Features(tuple(mean), resolution_hz=resolution).lattice(
+        rows[0].get("class") != "multi-wave")
+    facts = lattice.to_dict()
+    by_key = {(e["k"], e["direction"]): e for e in comps}
+    named = lattice.generators
+    return {"components": comps, "name": readable_name(named), "n_components": len(named),
+            "resolution_hz": resolution if math.isfinite(resolution) else None,
+            "type": facts["type"] if rows[0].get("class") in TYPED else "",
+            "generators": [by_key[g.key] for g in named],
+            "combinations": [{**{q: by_key[t.component.key][q] for q in
+                                 ("k", "direction", "frequency_hz", "share", "weak")},
+                              "coefficients": list(t.coefficients)} for t in lattice.tones],
+            **{q: facts[q] for q in ("period_s", "shift_deg", "frame_frequency_hz")}}
 
 
 def fisher_consistent(x_a: int, n_a: int, x_b: int, n_b: int) -> float:
@@ -145,11 +164,16 @@ def fisher_consistent(x_a: int, n_a: int, x_b: int, n_b: int) -> float:
     return float(fisher_exact([[x_a, n_a - x_a], [x_b, n_b - x_b]])[1])
 
 
-def observed_order(meshes: Sequence[int], values: Sequence[float]) -> float:
-    """p = ln(|q1 − q2| / |q2 − q3|) / ln r for three meshes of one ratio r; NaN otherwise."""
+def observed_order(meshes: Sequence[int | str], values: Sequence[float]) -> float:
+    """p = ln(|q1 − q2| / |q2 − q3|) / ln r for three meshes of one ratio r and one element
+    degree (rung labels, ``starts.parse_rung_key``); NaN otherwise."""
     if len(meshes) != 3 or not all(math.isfinite(v) for v in values):
         return math.nan
-    r1, r2 = meshes[1] / meshes[0], meshes[2] / meshes[1]
+    rungs = [parse_rung_key(m) for m in meshes]
+    if len({p for _, p in rungs}) != 1:
+        return math.nan
+    (n0, _), (n1, _), (n2, _) = rungs
+    r1, r2 = n1 / n0, n2 / n1
     if abs(r1 - r2) > 1e-9 * r1 or r1 <= 1.0:
         return math.nan
     d1, d2 = abs(values[0] - values[1]), abs(values[1] - values[2])
@@ -165,7 +189,8 @@ LADDER_TOLERANCES = {"celerity": 0.05, "share_rel": 0.5, "share_abs": 0.10, "fra
 
 
 def member_features(entry: dict):  # noqa: ANN201 - features.Features
-    """The features of a member (``mesh_members`` entry): its mean components and zones."""
+    """The features of a member (``mesh_members`` entry): its mean components and zones, at
+    its resolution (so that its lattice finds the same tones)."""
     from stickslip.studies.attractors.features import Component, Features
 
     comps = tuple(Component(k=c["k"], direction=c["direction"], share=c["share"],
@@ -178,7 +203,8 @@ def member_features(entry: dict):  # noqa: ANN201 - features.Features
                            celerity_m_s=entry.get("celerity_m_s")),)
     fr = {z: entry[f"fraction_{z}"] for z in ("separation", "stick", "slip")
           if entry.get(f"fraction_{z}") is not None and math.isfinite(entry[f"fraction_{z}"])}
-    return Features(comps, fr)
+    resolution = entry.get("resolution_hz")
+    return Features(comps, fr, resolution_hz=math.nan if resolution is None else resolution)
 
 
 def align(per_mesh: dict[int, list[dict]], tol=None, lookback: bool = False  # noqa: ANN001
@@ -192,7 +218,7 @@ def align(per_mesh: dict[int, list[dict]], tol=None, lookback: bool = False  # n
     from stickslip.studies.attractors.features import Tolerances, match
 
     tol = tol or Tolerances(**LADDER_TOLERANCES)
-    meshes = sorted(per_mesh)
+    meshes = list(per_mesh)  # in ladder order (the caller's: by dofs)
     taken: set[str] = set()
     for i, n in enumerate(meshes):
         earlier = meshes[i - 1::-1] if lookback and i else meshes[i - 1:i] if i else []
@@ -232,7 +258,7 @@ def coarse_observables(per_mesh: dict[int, list[dict]]) -> dict:
     starts, c_m the dominant celerity: where each start ends, averaged over the starts);
     along the ladder: the total-variation distance ½ Σ |p_a − p_b| between successive
     distributions and the change of the weighted celerity."""
-    meshes = sorted(per_mesh)
+    meshes = list(per_mesh)  # in ladder order (the caller's: by dofs)
     dist, celerity = {}, {}
     for n in meshes:
         counts: dict[str, int] = {}
@@ -270,7 +296,7 @@ def ladder(per_mesh: dict[int, list[dict]]) -> dict:
     one mesh only changes the set: the table shows which.
     """
     align(per_mesh)
-    meshes = sorted(per_mesh)
+    meshes = list(per_mesh)  # in ladder order (the caller's: by dofs)
     names = sorted({e["ladder_id"] for es in per_mesh.values() for e in es})
     table = {n: {e["ladder_id"]: e for e in per_mesh[n]} for n in meshes}
     members = {}
