@@ -125,6 +125,11 @@ def estimate(scene: Scene, ranks: int = 1) -> Estimate:
     # the undamped limit
     dt_crit = critical_time_step(omega_max, 0.0, ts.beta2, scene.damping.tau)
     dt = ts.dt if ts.dt > 0 else ts.dt_fraction * dt_crit
+    if not dt > 0:  # a damping so large that the explicit stability limit underflows to 0
+        raise ResourceError(
+            f"the explicit time step is 0 s: the Kelvin-Voigt damping (tau = "
+            f"{scene.damping.tau:.3g} s) leaves no stable step; lower damping.loss_factor or "
+            "damping.retardation_time, or raise damping.reference_frequency_hz")
     if not ts.end_time / dt <= MAX_STEPS:  # end_time = 1e308: no count, no estimate
         raise ResourceError(
             f"time.end_time = {ts.end_time:g} s is more than {MAX_STEPS:.0e} time steps of "

@@ -318,7 +318,7 @@ def test_sweep_resume_reruns_a_scene_with_a_damaged_summary(tmp_path, damage):
 def test_a_sweep_of_months_is_refused_before_anything_is_written(tmp_path, capsys):
     """A sweep was accepted whatever its size; now its estimated time is checked first."""
     spec = tmp_path / "s.toml"
-    spec.write_text(f'base = "{SMOKE}"\nset = ["time.end_time=1e5"]\n'
+    spec.write_text(f'base = "{SMOKE}"\nset = ["time.end_time=1e7"]\n'
                     '[grid]\n"loading.omega" = [2.0, 3.0]\n')
     rc, err = cli(capsys, "sweep", spec, "-o", tmp_path / "out")
     one_line(rc, err, "2 pending scenes would take about", "--yes-i-know")

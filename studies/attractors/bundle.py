@@ -52,7 +52,7 @@ def _spec(census, directory: Path):  # noqa: ANN001, ANN202 - a SweepSpec
 
     base = census.base_scene()
     write_scene(base, directory / "base.toml")
-    atomic_write_text(directory / "census.toml", sweep_text(census, base.name))
+    atomic_write_text(directory / "census.toml", sweep_text(census, base))
     return base, load_sweep(directory / "census.toml")
 
 
