@@ -264,8 +264,10 @@ def _share_steps(values: list[float]) -> str:
 
 def unfinished_line(answer: dict) -> str:
     """The NOT FINISHED line: why the session stopped, the starts left and their states
-    (a settling start: unsettled below the cap, its next leg not run), and the fix."""
-    left = [f"{v} {k}" + (f" (unsettled below the cap of {answer['max_time_s']:g} s)"
+    (a settling start: unsettled, or on a state that failed a certificate, below the cap,
+    its next leg not run), and the fix."""
+    left = [f"{v} {k}" + (f" (unsettled, or on a state that failed a certificate, below "
+                          f"the cap of {answer['max_time_s']:g} s)"
                           if k == SETTLING and answer.get("max_time_s") else "")
             for k, v in answer["counts"].items() if k in UNFINISHED]
     why = f" ({answer['stopped']})" if answer.get("stopped") else ""
