@@ -21,6 +21,15 @@ N³ × the time added), rank 0 classifies. A start continued beyond T₀ counts 
 the census is resumed (``studies.sweep.table``: a run continued past the sweep's end time
 is the sweep's run, and more).
 
+**Every start accounted for.** The settled members are then certified (``certify_now``:
+the direct solver's stability of a rigid wave, the kick test of every member). A member
+that fails a certificate it got (``certify.failures``) is no attractor: its starts below
+the cap are continued by the same legs from their own checkpoints, unperturbed (the kick
+runs in ``kicks/``, apart), and their new end states certified, until each reaches a
+state that passes or the cap. One still failing at the cap is a ``transient`` with its
+``rejected_because``; each mesh's headline counts the starts that reach an attractor and
+says where the others are (``statistics.accounting``, ``report.elsewhere_text``).
+
 Rank 0 then reads every start's ``summary.json`` and samples, classifies the end states, groups them
 into members, computes the statistics and writes ``attractors.json``, ``attractors.csv`` (one
 row per start) and ``members.csv`` (one row per mesh and member of the random starts).
@@ -77,6 +86,7 @@ from typing import TextIO
 
 from stickslip.solver.atomic import atomic_write_text
 from stickslip.solver.scene import Scene, SceneError, load_scene, scene_to_dict, write_scene
+from stickslip.studies.attractors.certify import failures
 from stickslip.studies.attractors.classify import (
     CELERITY_TOL,
     SETTLED,
@@ -93,7 +103,13 @@ from stickslip.studies.attractors.starts import (
     rung_key,
     rung_label,
 )
-from stickslip.studies.attractors.statistics import SETTLING, UNFINISHED, ladder, mesh_members
+from stickslip.studies.attractors.statistics import (
+    SETTLING,
+    UNFINISHED,
+    accounting,
+    ladder,
+    mesh_members,
+)
 
 KIND = "stickslip-attractors"
 #: The census directory's own entries (``studies.rundir.ownership``); the starts are a sweep
@@ -106,7 +122,7 @@ FEATURES = "features.json"
 STARTS = "starts"
 ROW_FIELDS = ("id", "n_inner", "start", "seed", "start_mode", "status", "class",
               "member", "name", "type", "n_components", "components", "unsettled_because",
-              "settle_time_s", "sim_time_s", "k",
+              "rejected_because", "settle_time_s", "sim_time_s", "k",
               "direction", "regime", "celerity_m_s", "frequency_hz", "fraction_separation",
               "fraction_stick", "fraction_slip", "psi1", "psi2", "amplitude_m",
               "rms_amplitude_m", "limit_cycle", "frame_spread", "spread_trend", "dt_s", "steps",
@@ -446,7 +462,10 @@ def run_census(census: Census, out_dir: str | Path, *, comm=None, force: bool = 
     ``kick``: the kick test of every member (``certify.kick_members``).
 
     Every unsettled start is continued up to the census's cap (``settle``, module
-    docstring). ``answer``: filled on rank 0 with the answer written (``collect``), if any.
+    docstring); then the members are certified (``certify_now``), the starts of every
+    member that failed a certificate are continued the same way, and the new end states
+    certified, until none is due. ``answer``: filled on rank 0 with the answer written
+    (``collect``), if any.
 
     Returns 0 (the answer is finished: every leg ran, no start failed), 1 (some start
     failed, counted and shown; or a leg or the answer's files failed: not finished, said
@@ -484,11 +503,16 @@ def run_census(census: Census, out_dir: str | Path, *, comm=None, force: bool = 
             _drop_if_unstarted(owned, out_dir)
         settled = settle(out_dir, comm, stream) if rc in (0, 1) else 0
         rc = max(rc, settled)
-        sweep_s = time.perf_counter() - t0
         shared: dict = {}
-        if certify and rc == 0 and certify_shared(out_dir, comm, dt_limit=dt_limit,
-                                                  kick=kick, timing=shared):
-            rc = 130
+        while certify and rc == 0:  # certify; continue the starts of failed members; again
+            if certify_now(out_dir, comm, dt_limit=dt_limit, kick=kick, timing=shared):
+                rc = 130
+            elif _legs_due(out_dir, comm):
+                settled = max(settled, settle(out_dir, comm, stream))
+                rc = max(rc, settled)
+                continue
+            break
+        sweep_s = time.perf_counter() - t0 - shared.get("certification_s", 0.0)
         if comm.rank == 0 and rc != 2:
             stopped = "interrupted" if rc == 130 else "a leg failed" if settled else None
             rc = _answer(out_dir, rc, stopped, stream, answer if answer is not None else {},
@@ -499,6 +523,49 @@ def run_census(census: Census, out_dir: str | Path, *, comm=None, force: bool = 
         if owned is not None:
             owned.release()
     return rc
+
+
+def certify_now(out_dir: Path, comm, *, dt_limit: bool = False, kick: bool = True,  # noqa: ANN001
+                timing: dict | None = None) -> bool:
+    """Collective: the certificates (and kick tests) not yet in ``certificates.json``, on
+    the ranks (``certify_shared``) or, on one rank, here (``certify_members``), so that the
+    starts of the members that fail one can be continued before the answer; ``timing``
+    accumulates ``certification_s`` and ``kick_s``. Returns whether it was interrupted. A
+    census that cannot be read is left to ``collect`` to say why."""
+    spent: dict = {}
+    t0 = time.perf_counter()
+    interrupted = False
+    if comm.size > 1:
+        interrupted = certify_shared(out_dir, comm, dt_limit=dt_limit, kick=kick, timing=spent)
+    else:
+        try:
+            meta = read_meta(out_dir)
+            tol = tolerances(meta)
+            rows = grouped(meta, start_rows(out_dir, meta["spread_tol"], tol,
+                                            meta.get("window_s")))
+            certify_members(out_dir, rows, dt_limit=dt_limit, window=meta.get("window_s"),
+                            kick=kick, tol=tol, timing=spent)
+        except KeyboardInterrupt:
+            interrupted = True
+        except (OSError, ValueError, KeyError):
+            pass
+        spent["certification_s"] = time.perf_counter() - t0
+    if timing is not None:
+        for key, seconds in spent.items():
+            timing[key] = timing.get(key, 0.0) + seconds
+    return interrupted
+
+
+def _legs_due(out_dir: Path, comm) -> bool:  # noqa: ANN001
+    """Collective: whether a start has a leg due (``extension_legs``: after ``settle``,
+    the starts of members that failed a certificate); rank 0 reads, every rank gets it."""
+    due = False
+    if comm.rank == 0:
+        try:
+            due = bool(extension_legs(out_dir))
+        except (OSError, ValueError, KeyError):
+            due = False
+    return bool(comm.bcast(due, root=0))
 
 
 def _answer(out_dir: Path, rc: int, stopped: str | None, stream: TextIO, answer: dict,
@@ -635,15 +702,17 @@ def _raise_interrupt(signum, frame):  # noqa: ANN001, ANN202, ARG001
 
 
 def extension_legs(out_dir: Path, refused: dict[str, str] | None = None) -> list[dict]:
-    """Rank 0: the next leg of every start to continue: unsettled, completed, below the cap
-    and not ``refused``: {"id", "run_dir", "from", "until", "cost"} (cost: N³ × the time
+    """Rank 0: the next leg of every start to continue: completed, below the cap, not
+    ``refused``, and unsettled or on a member that failed a certificate
+    (``failing_starts``): {"id", "run_dir", "from", "until", "cost"} (cost: N³ × the time
     added, the relative work of the leg: N² unknowns, N/R steps per second)."""
     meta = read_meta(out_dir)
     cap = float(meta.get("max_time_s") or 0.0)
     rows = start_rows(out_dir, meta["spread_tol"], tolerances(meta), meta.get("window_s"))
+    failing = failing_starts(out_dir, meta, rows)
     legs = []
     for r in rows:
-        if not below_cap(r, cap) or (refused or {}).get(r["id"]):
+        if not below_cap(r, cap, failing=r["id"] in failing) or (refused or {}).get(r["id"]):
             continue
         t = float(r.get("sim_time_s") or 0.0)
         until = min(cap, GROWTH * t)
@@ -652,12 +721,37 @@ def extension_legs(out_dir: Path, refused: dict[str, str] | None = None) -> list
     return legs
 
 
-def below_cap(row: dict, cap: float | None) -> bool:
-    """Whether a start's row is unsettled below the cap ``cap`` (s): a leg is still due
-    (``extension_legs``), so it is no end state (``SETTLING``, ``answer_of``)."""
+def below_cap(row: dict, cap: float | None, failing: bool = False) -> bool:
+    """Whether a start's row is unsettled (or, ``failing``, on a member that failed a
+    certificate) below the cap ``cap`` (s): a leg is still due (``extension_legs``), so it
+    is no end state (``SETTLING``, ``answer_of``)."""
     t = float(row.get("sim_time_s") or 0.0)
-    return (row.get("class") == "unsettled" and row.get("status") == "completed"
+    return ((failing or row.get("class") == "unsettled") and row.get("status") == "completed"
             and cap is not None and t < float(cap) * (1.0 - 1e-9))
+
+
+def failing_starts(out_dir: Path, meta: dict, rows: list[dict]) -> dict[str, str]:
+    """Rank 0: {start id: why} of the starts whose settled member failed a certificate
+    cached in ``certificates.json`` (``certify.failures``, either Δt mode); ``rows`` are
+    grouped into members on the way (as ``answer_of`` groups them). A continued start has
+    a new summary and so no cached certificate: it is certified again once settled."""
+    grouped(meta, rows)
+    cache = read_cache(out_dir / "certificates.json")
+    out: dict[str, str] = {}
+    for group in settled_members(rows).values():
+        why = [w for mode in (False, True)
+               for w in failures(cache.get(certificate_key(group, mode)))]
+        if why:
+            out.update({r["id"]: "; ".join(dict.fromkeys(why)) for r in group})
+    return out
+
+
+def grouped(meta: dict, rows: list[dict]) -> list[dict]:
+    """``rows`` grouped into members per rung (``classify.group_members``, in place)."""
+    for rung in ladder_rungs(meta, rows):
+        group_members([r for r in rows if row_rung(r) == rung], meta["celerity_tol"],
+                      tol=tolerances(meta))
+    return rows
 
 
 def balanced_shares(legs: list[dict], ranks: int) -> list[list[dict]]:
@@ -674,7 +768,8 @@ def balanced_shares(legs: list[dict], ranks: int) -> list[list[dict]]:
 
 def _say_legs(legs: list[dict], stream: TextIO) -> None:
     spans = sorted({(round(g["from"], 6), round(g["until"], 6)) for g in legs})
-    print(f"settle: continuing {len(legs)} unsettled start(s) "
+    print(f"settle: continuing {len(legs)} start(s) (unsettled, or on a state that failed "
+          "a certificate) "
           + ", ".join(f"{a:g} -> {b:g} s" for a, b in spans), file=stream, flush=True)
 
 
@@ -928,11 +1023,13 @@ def answer_of(meta: dict, rows: list[dict], certify_in: Path | None = None, *,
     (``classify.start_row`` or ``classify.end_state_row``): members per mesh, structured
     starts apart, the ladder, the counts, and (with ``certify_in``, the census directory)
     the certificates (``compute``: those not cached yet are computed; ``kick``: with their
-    kick tests, ``certify_members``). A rigid wave that its
-    certificate calls unstable is a ``transient``, not an attractor: its member and rows
-    take that class. A start unsettled below the cap (``below_cap``) is ``SETTLING``, no
-    end state; ``finished``: none is, no start is left to run, and ``stopped`` (why the
-    session stopped early) is None (module docstring)."""
+    kick tests, ``certify_members``). A member that fails a certificate it got
+    (``certify.failures``: unstable in the direct solver, not returned after its kick) is
+    no attractor: its rows take ``rejected_because`` (the reasons) and the class
+    ``transient`` at the cap, ``SETTLING`` below it (``settle`` continues them). A start
+    unsettled below the cap (``below_cap``) is ``SETTLING``, no end state; ``finished``:
+    none is, no start is left to run, and ``stopped`` (why the session stopped early) is
+    None (module docstring)."""
     cap = meta.get("max_time_s")
     for r in rows:
         if below_cap(r, cap):
@@ -952,11 +1049,14 @@ def answer_of(meta: dict, rows: list[dict], certify_in: Path | None = None, *,
         for key, seconds in (shared or {}).items():  # certify_shared's, before
             timing[key] = timing.get(key, 0.0) + seconds
         for key, cert in certificates.items():
-            if isinstance(cert, dict) and cert.get("stable") is False:
-                n, member = key.split(":", 1)
-                for r in rows:
-                    if row_key(r) == n and r["member"] == member:
-                        r["class"] = "transient"
+            why = failures(cert)
+            if not why:
+                continue
+            n, member = key.split(":", 1)
+            for r in rows:
+                if row_key(r) == n and r["member"] == member:
+                    r["rejected_because"] = "; ".join(why)
+                    r["class"] = SETTLING if below_cap(r, cap, failing=True) else "transient"
     per_mesh, structured = {}, {}  # by rung label, in ladder order
     for rung in meshes:
         mine = [r for r in rows if row_rung(r) == rung]
@@ -975,6 +1075,7 @@ def answer_of(meta: dict, rows: list[dict], certify_in: Path | None = None, *,
               "scene": meta["definition"]["scene"], "counts": counts,
               "members": {str(n): ms for n, ms in per_mesh.items()},
               "structured": {str(n): [_brief(r) for r in rs] for n, rs in structured.items()},
+              "accounting": {str(n): accounting(ms) for n, ms in per_mesh.items()},
               "ladder": lad, "certificates": certificates, "timing": timing, "starts": rows}
     from stickslip.studies.attractors.report import summary_text
 
@@ -1129,8 +1230,7 @@ def _certificate_jobs(out_dir: Path, ranks: int, dt_limit: bool, kick: bool
         rows = start_rows(out_dir, meta["spread_tol"], tol, meta.get("window_s"))
     except (OSError, ValueError, KeyError):
         return None
-    for rung in ladder_rungs(meta, rows):  # as answer_of groups them
-        group_members([r for r in rows if row_rung(r) == rung], meta["celerity_tol"], tol=tol)
+    grouped(meta, rows)  # as answer_of groups them
     cache = read_cache(out_dir / "certificates.json")
     todo: dict[str, list[dict]] = {}
     for (n, _), group in settled_members(rows).items():

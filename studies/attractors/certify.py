@@ -10,15 +10,16 @@
   its class; the numbers say by how much);
 * a **rigid wave** (one component) is also handed to the direct solver (``certify`` below):
   one Newton solve at the run's step, and a short transient started next to the wave; an
-  unstable one is a transient (``census.answer_of``). The Δt → 0 ladder runs only with
-  ``dt_limit`` (``--dt-limit``).
+  unstable one is no attractor (``failures``, ``census.answer_of``). The Δt → 0 ladder
+  runs only with ``dt_limit`` (``--dt-limit``).
 * a **kick test** (``kick_members``, every member, rigid or not, unless ``--no-kick``): one
   start of the member (the first whose checkpoint is a batch member's) is perturbed where it
   stands, at t_k, by ``KICK_FRACTION`` (1 %) of its RMS displacement and velocity, each
   along a random start's smooth radial bump (``BatchColumns.kick``: the perturbation
   a start gets, clamped outside, spread through the thickness by eq. [1]), and run on for
   ``KICK_WINDOWS`` census windows W into ``DIR/kicks/``; its last window [t_k + W, t_k + 2W]
-  must ``match`` (``features.differences``) the start's own last window before the kick.
+  must ``match`` (``features.differences``) the start's own last window before the kick;
+  one that does not is no attractor (``failures``).
   All members' kicks continue as one batch per mesh and checkpoint step
   (``studies.rundir.continue_batch``), so they cost 2W per member in a batch.
 
@@ -236,6 +237,25 @@ def _plain(value):  # noqa: ANN001, ANN202
     if isinstance(value, float) and not math.isfinite(value):
         return None
     return value
+
+
+def failures(cert: dict | None) -> list[str]:
+    """Why a member's certificate (``certify_member``) says it is no attractor: one phrase
+    per certificate it got and failed; [] where it passed every one it got. Failing means
+    a verdict against it: the direct solver calls the rigid wave unstable (``stable``
+    False), or the kicked start did not return (``kick.returned`` False). A certificate
+    not made (no solver, a kick that could not run, stability unknown) is no verdict.
+    Reproducibility and persistence hold by construction for a settled member (its starts
+    match, its two windows match) and only state their spreads, so they fail nothing."""
+    if not isinstance(cert, dict):
+        return []
+    why = []
+    if cert.get("stable") is False:
+        why.append("unstable in the direct solver")
+    kick = cert.get("kick")
+    if isinstance(kick, dict) and kick.get("returned") is False:  # what moved: kick_line
+        why.append(f"not returned after a {100 * KICK_FRACTION:.0f} % kick")
+    return why
 
 
 def member_line(cert: dict | None) -> str:

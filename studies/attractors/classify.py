@@ -71,8 +71,9 @@ from stickslip.studies.attractors.features import (
 #: Relative decrease of the frame spread over the analysis window above which a cycle that is
 #: not rigid is still settling, for rows without features.
 DECAY_TOL = 0.05
-#: The classes, in the order tables list them (``transient``: a rigid wave that the direct
-#: solver certifies unstable, set on its member after certification).
+#: The classes, in the order tables list them (``transient``: an end state at the cap whose
+#: member failed a certificate, unstable in the direct solver or not returned after its
+#: kick, set on its member after certification: ``census.answer_of``).
 CLASSES = ("wave", "multi-wave", "transient", "unsettled", "steady-sliding", "diverged",
            "failed")
 #: The classes of an attractor.

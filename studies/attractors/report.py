@@ -25,6 +25,7 @@ from stickslip.studies.attractors.statistics import (
     SETTLED,
     SETTLING,
     UNFINISHED,
+    accounting,
     member_features,
 )
 
@@ -106,6 +107,8 @@ def member_lines(n: str, m: dict, certs: dict) -> list[str]:
     if member != m["class"]:
         text += f" [{member}]"
     lines = [text]
+    if m.get("rejected_because"):
+        lines.append(f"  not an attractor: {m['rejected_because']}")
     companions = _companions(m) if settled else ""
     if companions:
         lines.append(f"  {companions}")
@@ -122,19 +125,47 @@ def member_lines(n: str, m: dict, certs: dict) -> list[str]:
     return lines
 
 
+def elsewhere_text(entries: list[dict], at_cap: bool = True) -> str:
+    """"2 unsettled at the cap, 1 on a rigid wave k = 8 with the rotation, unstable in the
+    direct solver, at the cap, 1 failed": where the starts that reached no attractor are
+    (``statistics.accounting``'s ``elsewhere``): the unsettled, steady, diverged and failed
+    starts counted per class, each member that failed a certificate with its state and why
+    (``at_cap``: the census has a cap, which such a start has reached)."""
+    cap = " at the cap" if at_cap else ""
+    counts: dict[str, int] = {}
+    rejected = []
+    for e in entries:
+        if e["class"] != "transient":
+            counts[e["class"]] = counts.get(e["class"], 0) + e["count"]
+            continue
+        where = component_words(e["k"], e["direction"]) if e.get("k") is not None else ""
+        why = " and ".join((e.get("because") or "transient").split("; "))
+        rejected.append(f"{e['count']} on a {e.get('type') or 'state'} {where}".rstrip()
+                        + f", {why}" + (f",{cap}" if cap else ""))
+    words = {"unsettled": f"unsettled{cap}", "settling": "still settling below the cap"}
+    parts = [f"{counts.pop('unsettled')} {words['unsettled']}"] if "unsettled" in counts else []
+    parts += rejected
+    parts += [f"{v} {words.get(c) or CLASS_WORDS.get(c, c)}" for c, v in counts.items()]
+    return ", ".join(parts)
+
+
 def mesh_lines(n: str, members: list[dict], structured: list[dict],
-               certs: dict | None = None) -> list[str]:
-    """One mesh's lines: the attractors, then the non-attractors, then the structured
-    starts. ``certs``: the certificates (``"N:member"``); those printed are taken out."""
+               certs: dict | None = None, at_cap: bool = True) -> list[str]:
+    """One mesh's lines: the headline (its attractors, the starts that reach them, where
+    the others are: ``elsewhere_text``), the attractors, then the non-attractors, then the
+    structured starts. ``certs``: the certificates (``"N:member"``); those printed are
+    taken out. ``at_cap``: the census has a cap (its unsettled starts are at it)."""
     certs = {} if certs is None else certs
+    counted = accounting(members)
     settled = [m for m in members if m["class"] in SETTLED]
     rigid = sum(m["class"] == "wave" for m in settled)
     others = [m for m in members if m["class"] not in SETTLED]
-    n_starts = members[0]["starts"] if members else 0
-    reached = sum(m["count"] for m in settled)
+    n_starts = counted["starts"]
     head = (f"N = {n} ({n_starts} random starts): {len(settled)} attractor"
             f"{'s' if len(settled) != 1 else ''} ({rigid} rigid, {len(settled) - rigid} "
-            f"multi-wave), reached by {reached} of {n_starts} starts")
+            f"multi-wave), reached by {counted['reached']} of {n_starts} starts")
+    if counted["elsewhere"]:
+        head += "; " + elsewhere_text(counted["elsewhere"], at_cap)
     if not members:
         head += "; no random start finished yet"
     lines = [head + (":" if settled else "")]
@@ -233,8 +264,10 @@ def _share_steps(values: list[float]) -> str:
 
 def unfinished_line(answer: dict) -> str:
     """The NOT FINISHED line: why the session stopped, the starts left and their states
-    (a settling start: unsettled below the cap, its next leg not run), and the fix."""
-    left = [f"{v} {k}" + (f" (unsettled below the cap of {answer['max_time_s']:g} s)"
+    (a settling start: unsettled, or on a state that failed a certificate, below the cap,
+    its next leg not run), and the fix."""
+    left = [f"{v} {k}" + (f" (unsettled, or on a state that failed a certificate, below "
+                          f"the cap of {answer['max_time_s']:g} s)"
                           if k == SETTLING and answer.get("max_time_s") else "")
             for k, v in answer["counts"].items() if k in UNFINISHED]
     why = f" ({answer['stopped']})" if answer.get("stopped") else ""
@@ -260,8 +293,9 @@ def summary_text(answer: dict) -> str:
         lines.append(unfinished_line(answer))
     certs = answer.get("certificates") or {}
     left = dict(certs)  # those not printed under their random starts' member
+    at_cap = answer.get("max_time_s") is not None
     for n, members in answer["members"].items():
-        lines += mesh_lines(n, members, answer["structured"].get(n, []), left)
+        lines += mesh_lines(n, members, answer["structured"].get(n, []), left, at_cap)
     lines += ladder_lines(answer)
     for key, cert in left.items():  # the structured starts' members
         lines.append(f"  certificate {key}: {member_line(cert)}")

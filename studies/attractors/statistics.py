@@ -87,6 +87,7 @@ def mesh_members(rows: list[dict]) -> list[dict]:
                  "direction": group[0]["direction"], "regime": group[0]["regime"],
                  "count": len(group), "starts": n, "share": len(group) / n,
                  "share_lo": lo, "share_hi": hi, "seeds": [r["seed"] for r in group],
+                 "rejected_because": group[0].get("rejected_because"),
                  "approaching": _approaching(group), **member_components(group)}
         entry["label"] = member_label(entry["class"], member, member_features(entry).named(
             entry["class"] != "multi-wave") if entry["class"] in NAMED else ())
@@ -101,6 +102,21 @@ def mesh_members(rows: list[dict]) -> list[dict]:
         out.append(entry)
     out.sort(key=lambda e: (-e["count"], e["member"]))
     return out
+
+
+def accounting(members: list[dict]) -> dict:
+    """Where one mesh's counted random starts are (``mesh_members`` entries): ``starts``,
+    ``attractors`` (the settled members: only those that passed every certificate they
+    got), ``reached`` (their starts) and ``elsewhere``, one entry per other member:
+    {"class", "member", "count", "type", "k", "direction", "because"} (``because``: why
+    it is no attractor, ``rejected_because`` of a member that failed a certificate)."""
+    settled = [m for m in members if m["class"] in SETTLED]
+    return {"starts": members[0]["starts"] if members else 0,
+            "attractors": len(settled), "reached": sum(m["count"] for m in settled),
+            "elsewhere": [{"class": m["class"], "member": m["member"], "count": m["count"],
+                           **{q: m.get(q) for q in ("type", "k", "direction")},
+                           "because": m.get("rejected_because")}
+                          for m in members if m["class"] not in SETTLED]}
 
 
 def _approaching(rows: list[dict]) -> dict:
