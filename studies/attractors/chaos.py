@@ -1,0 +1,290 @@
+"""Chaos told apart from a slow transient: a start still changing at the cap is tested for a
+chaotic attractor by two measurements, both needed for the class ``chaotic``.
+
+**Stationary statistics** (``stationarity``). The last leg [t/1.5, t] is tiled by K windows
+W (``features.leg_window_ends``, at least two). Per scalar observable x(t) (the RMS of the
+contact circle's radial deviation, the amplitude |a_k(t)| of the mode k dominant over the
+leg, and each contact zone's fraction of the nodes) the window means m_i and standard
+deviations s_i are taken. The observable is stationary when
+
+* its trend is small: the least-squares line through (window centre, m_i), carried over the
+  leg's length L, moves by at most ``DRIFT_TOL`` = 0.5 pooled standard deviations
+  σ = √(mean s_i²) (plus 10⁻³ |mean| so that a constant signal passes). A transient that
+  decays or grows moves its mean steadily, by a sizeable part of its own fluctuation,
+  across a leg 1/3 of its age; window means of a stationary process scatter by
+  σ √(2 τ_c / W) without a trend, small once W is many correlation times τ_c;
+* its fluctuation keeps its size: max s_i / min s_i ≤ ``SPREAD_RATIO`` = 2 (a growing or
+  dying oscillation changes its variance first).
+
+A Kolmogorov–Smirnov test between the leg's halves is not used: its p-value assumes
+independent samples, and samples 10⁻⁴ s apart of a kHz wave are strongly correlated, so it
+rejects every finite record.
+
+**Largest Lyapunov exponent** (``benettin``; Benettin et al. 1980). A twin trajectory
+starts d₀ = 10⁻⁸ (relative) away and advances side by side with the reference; every τ
+the separation d is measured and the twin pulled back along the separation to d₀; λ₁ is
+the mean of ln(d/d₀)/τ after the first ``discard`` intervals (the twin's direction aligns
+with the most unstable one), its error the standard error of the means over ``blocks``
+blocks. λ₁ > 0 beyond its error means λ₁ > 3 standard errors. The function drives any
+``Twin`` (advance, distance, rescale), so it is validated on Lorenz 63 (tests/test_chaos.py).
+
+**The FE twin** (``BatchTwin``) is the second column of the same batched stepper: a batch
+of two columns restored from the start's checkpoint (``BatchedExplicit.restore``), column 1
+perturbed as the kick test perturbs a start (``BatchedExplicit.kick``, δu and δv along the
+random start's radial bump, each 10⁻⁸ of the state's RMS displacement and velocity), both
+stepped in lockstep by the one kernel. Its distance is √((‖δu‖²/U² + ‖δv~‖²/V²)/2) over
+the dofs (U, V: the reference's RMS at the checkpoint), so the kick is d₀ exactly; the
+pull-back moves every float array of column 1's checkpoint (u, u_n, v~, the contact state,
+w = u + τ v~) to column 0's plus the factor times the difference and restores both
+columns (``BatchedExplicit.state``, ``restore``: the batch's own checkpoint API). The
+stepper is built without a recorder: nothing is written, the start's run is not touched.
+A one-scene run (not a batch member) is refused: its twin would be a second Simulation,
+not built here.
+
+Not yet in the census: ``classify_at_cap`` is the function its cap step calls; the class
+``chaotic`` in ``classify.CLASSES``, its grouping by these statistics and its report line
+are still to be wired.
+
+``classify_at_cap(run_dir, window)`` combines both for a start ``unsettled`` at the cap:
+``chaotic`` with λ₁ when both hold, otherwise ``unsettled`` with the reason.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Protocol
+
+import numpy as np
+
+from stickslip.studies.attractors.features import leg_window_ends
+
+D0 = 1e-8  # the twin's relative distance, kept by renormalisation
+DRIFT_TOL = 0.5  # a stationary mean moves by at most this many pooled standard deviations
+SPREAD_RATIO = 2.0  # a stationary fluctuation keeps its size within this factor
+ERROR_SIGMAS = 3.0  # λ₁ > 0 beyond its error: λ₁ > 3 standard errors
+TWIN_SEED = 7  # the twin's perturbation: the random bumps of seeds 7 and 8
+BUMP_MODES = 16
+
+
+# ---------------------------------------------------------------- stationary statistics
+
+
+def stationarity(t: np.ndarray, series: dict[str, np.ndarray], window_ends: list[float],
+                 window: float) -> dict:
+    """Whether every observable of ``series`` (name: samples at times ``t``) is stationary
+    across the windows [e − W, e] of ``window_ends`` (module docstring). Returns
+    {"stationary", "windows", "observables": {name: {"means", "stds", "drift_sigmas",
+    "spread_ratio", "stationary"}}, "why": [names failing, with their numbers]}."""
+    if len(window_ends) < 2:
+        raise ValueError(f"{len(window_ends)} window(s): stationarity needs at least two")
+    centres = np.array([e - 0.5 * window for e in window_ends])
+    span = float(window_ends[-1] - window_ends[0] + window)
+    out: dict[str, dict] = {}
+    why = []
+    for name, x in series.items():
+        means, stds = [], []
+        for e in window_ends:
+            sel = (t >= e - window) & (t <= e)
+            if not np.any(sel):
+                raise ValueError(f"no sample in the window [{e - window:g}, {e:g}] s")
+            means.append(float(np.mean(x[sel])))
+            stds.append(float(np.std(x[sel])))
+        m, s = np.array(means), np.array(stds)
+        sigma = math.sqrt(float(np.mean(s**2))) + 1e-3 * abs(float(np.mean(m)))
+        slope = float(np.polyfit(centres, m, 1)[0])
+        drift = abs(slope) * span / sigma if sigma > 0 else 0.0
+        ratio = float(s.max() / s.min()) if s.min() > 0 else (1.0 if s.max() == 0 else math.inf)
+        ok = drift <= DRIFT_TOL and ratio <= SPREAD_RATIO
+        out[name] = {"means": means, "stds": stds, "drift_sigmas": drift,
+                     "spread_ratio": ratio, "stationary": ok}
+        if not ok:
+            why.append(f"{name}: mean drifts {drift:.2f} sigma over the leg, "
+                       f"std ratio {ratio:.2f}")
+    return {"stationary": not why, "windows": [float(e) for e in window_ends],
+            "observables": out, "why": why}
+
+
+def fe_series(samples: dict) -> dict[str, np.ndarray]:
+    """The scalar observables of a run's samples (t, u_r (n_t, N), status where present):
+    the RMS of u_r's deviation from its circle mean, |a_k(t)| of the mode k with the largest
+    mean amplitude, and each contact zone code's fraction of the nodes."""
+    u = np.asarray(samples["u_r"], dtype=float)
+    dev = u - u.mean(axis=1, keepdims=True)
+    n = u.shape[1]
+    a = np.abs(np.fft.rfft(dev, axis=1))[:, 1:n // 2 + 1] * (2.0 / n)
+    k = int(np.argmax(a.mean(axis=0))) + 1
+    out = {"rms_u_r": np.sqrt(np.mean(dev**2, axis=1)), f"|a_{k}|": a[:, k - 1]}
+    status = samples.get("status")
+    if status is not None and np.size(status):
+        for code in np.unique(status):
+            out[f"zone_{int(code)}"] = np.mean(status == code, axis=1)
+    return out
+
+
+# ---------------------------------------------------------------- Benettin's method
+
+
+class Twin(Protocol):
+    """A reference trajectory and its twin, advanced side by side."""
+
+    def advance(self, duration: float) -> float:
+        """Advance both by about ``duration``; return the time actually advanced."""
+
+    def distance(self) -> float:
+        """The twin's distance from the reference (the measure d₀ was set in)."""
+
+    def rescale(self, factor: float) -> None:
+        """Move the twin to reference + ``factor`` × (twin − reference)."""
+
+
+@dataclass(frozen=True)
+class Lyapunov:
+    """λ₁ (1/s) and its standard error over blocks; ``logs``: ln(d/d₀) of every interval."""
+
+    exponent: float
+    error: float
+    tau: float
+    intervals: int
+    logs: tuple[float, ...]
+
+    @property
+    def positive(self) -> bool:
+        """λ₁ > 0 beyond its error (``ERROR_SIGMAS`` standard errors)."""
+        return self.exponent > ERROR_SIGMAS * self.error
+
+    def to_dict(self) -> dict:
+        return {"lambda1_per_s": self.exponent, "lambda1_error_per_s": self.error,
+                "tau_s": self.tau, "intervals": self.intervals, "positive": self.positive}
+
+
+def benettin(twin: Twin, tau: float, intervals: int, *, d0: float = D0, discard: int = 10,
+             blocks: int = 10) -> Lyapunov:
+    """The largest Lyapunov exponent of ``twin`` (already perturbed to distance ``d0``):
+    ``intervals`` renormalisations every ``tau``, the first ``discard`` left out of the mean,
+    the error the standard error of ``blocks`` block means (module docstring)."""
+    if intervals - discard < 2 * blocks:
+        raise ValueError(f"{intervals} intervals, {discard} discarded: too few for "
+                         f"{blocks} blocks (give at least {discard + 2 * blocks})")
+    logs, taus = [], []
+    for _ in range(intervals):
+        dt = twin.advance(tau)
+        d = twin.distance()
+        if not math.isfinite(d) or d <= 0.0:
+            raise ValueError(f"the twin's distance became {d!r}: no exponent")
+        logs.append(math.log(d / d0))
+        taus.append(dt)
+        twin.rescale(d0 / d)
+    rates = np.array(logs[discard:]) / np.array(taus[discard:])
+    used = len(rates) - len(rates) % blocks
+    means = rates[:used].reshape(blocks, -1).mean(axis=1)
+    lam = float(np.mean(rates))
+    err = float(np.std(means, ddof=1) / math.sqrt(blocks))
+    return Lyapunov(lam, err, float(np.mean(taus)), intervals, tuple(logs))
+
+
+# ---------------------------------------------------------------- the FE twin
+
+
+class BatchTwin:
+    """A start's checkpoint as a batch of two columns: the reference and its twin (module
+    docstring). Built from a run directory that a batch wrote (a census start)."""
+
+    def __init__(self, run_dir: str | Path, d0: float = D0, seed: int = TWIN_SEED) -> None:
+        from stickslip.solver.columns import random_bump
+        from stickslip.solver.contact import ContactLaw
+        from stickslip.solver.ensemble_run import BatchColumns, BatchOptions
+        from stickslip.solver.run import Profile
+        from stickslip.studies.rundir.continuation import plan_continuation
+
+        run_dir = Path(run_dir)
+        t_ck = float(json.loads((run_dir / "summary.json").read_text())["sim_time_s"])
+        plan = plan_continuation(run_dir, t_ck + 1.0, 1)
+        if plan.kind != "batch":
+            raise ValueError(f"{run_dir}: not a batch member's checkpoint (a census start)")
+        scene = plan.scene
+        cols = BatchColumns([scene, scene], Profile(),
+                            BatchOptions(build=False, resumed=True))
+        law = ContactLaw.from_scene(scene, cols.dt)
+        st = cols.scheme.build_batch(cols.layout.problem, [law, law], "cpu",
+                                     scene.damping.tau)
+        st.full_state_at = lambda level: False  # no diagnostics: the state is the same bits
+        n = cols.layout.problem.n
+        st.set_state(np.zeros((n, 2)), np.zeros((n, 2)))
+        head = "stepper/"
+        state = {k[len(head):]: v for k, v in plan.checkpoint.states[0].items()
+                 if k.startswith(head)}
+        st.restore([state, dict(state)])
+        self.stepper, self.dt, self.t0 = st, float(cols.dt), float(st.time)
+        u, v = st.host_column("u", 0), st.host_column("v_pred", 0)
+        self.U = float(np.sqrt(np.mean(u**2)))
+        self.V = float(np.sqrt(np.mean(v**2)))
+        kicks = []
+        for scale, s in ((self.U, seed), (self.V, seed + 1)):
+            shape = cols.problem.radial_field(random_bump(s, BUMP_MODES, 1.0))
+            kicks.append(d0 * scale / float(np.sqrt(np.mean(shape**2))) * shape)
+        st.kick(1, kicks[0], kicks[1])
+
+    def advance(self, duration: float) -> float:
+        steps = max(1, int(round(duration / self.dt)))
+        for _ in range(steps):
+            self.stepper.step()
+        return steps * self.dt
+
+    def distance(self) -> float:
+        st = self.stepper
+        du = st.host_column("u", 1) - st.host_column("u", 0)
+        dv = st.host_column("v_pred", 1) - st.host_column("v_pred", 0)
+        return math.sqrt(0.5 * (float(np.mean(du**2)) / self.U**2
+                                + float(np.mean(dv**2)) / self.V**2))
+
+    def rescale(self, factor: float) -> None:
+        """Column 1's checkpoint moved to column 0's + ``factor`` × the difference in every
+        float array, and both restored (``BatchedExplicit.state`` / ``restore``)."""
+        st = self.stepper
+        host = st.host_state()
+        ref, twin = st.state(0, host), st.state(1, host)
+        for name, value in twin.items():
+            if np.ndim(value) and np.issubdtype(np.asarray(value).dtype, np.floating):
+                twin[name] = ref[name] + factor * (value - ref[name])
+        st.restore([ref, twin])
+
+
+def fe_lyapunov(run_dir: str | Path, duration: float, tau: float, *, discard: int = 10,
+                blocks: int = 10) -> Lyapunov:
+    """λ₁ of a census start where its checkpoint stands, over ``duration`` s of twin steps
+    renormalised every ``tau`` s."""
+    twin = BatchTwin(run_dir)
+    intervals = max(discard + 2 * blocks, int(round(duration / tau)))
+    return benettin(twin, tau, intervals, discard=discard, blocks=blocks)
+
+
+def classify_at_cap(run_dir: str | Path, window: float, *, t_first: float = 0.0,
+                    duration: float | None = None, tau: float | None = None) -> dict:
+    """A start ``unsettled`` at the cap: ``chaotic`` when its statistics are stationary
+    across the windows of its last leg and λ₁ > 0 beyond its error, else ``unsettled``
+    (module docstring). ``duration`` of the twin run: default the leg's windows together
+    (at least 30 τ); ``tau``: default W/20. Returns {"class", "why", "stationarity",
+    "lyapunov"} (the exponent only when the statistics are stationary)."""
+    run_dir = Path(run_dir)
+    with np.load(run_dir / "samples.npz") as z:
+        samples = {k: z[k] for k in ("t", "u_r", "status") if k in z.files}
+    t = samples["t"]
+    ends = leg_window_ends(float(t[-1]), max(t_first, float(t[0])), window)
+    stat = stationarity(t, fe_series(samples), ends, window)
+    out = {"class": "unsettled", "why": [], "stationarity": stat, "lyapunov": None}
+    if not stat["stationary"]:
+        out["why"] = ["statistics not stationary: " + "; ".join(stat["why"])]
+        return out
+    tau = window / 20.0 if tau is None else tau
+    duration = max(30 * tau, len(ends) * window) if duration is None else duration
+    lyap = fe_lyapunov(run_dir, duration, tau)
+    out["lyapunov"] = lyap.to_dict()
+    if lyap.positive:
+        out["class"] = "chaotic"
+    else:
+        out["why"] = [f"lambda1 = {lyap.exponent:.4g} +- {lyap.error:.2g} 1/s: not > 0 "
+                      "beyond its error"]
+    return out
