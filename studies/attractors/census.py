@@ -442,6 +442,22 @@ def claim_on_rank0(comm, take, refusals: tuple[type[Exception], ...]):  # noqa: 
     return owned, bool(err)
 
 
+def _certify_and_continue(out_dir: Path, comm, stream: TextIO, dt_limit: bool,  # noqa: ANN001
+                          kick: bool, shared: dict) -> tuple[int, int]:
+    """Certify the members; continue the starts of every member that failed a certificate
+    (``settle``); certify the new end states; until no leg is due. Returns (the census's
+    status so far: 0, 1 after a failed leg, 130 interrupted; the settle legs' own status)."""
+    rc = settled = 0
+    while rc == 0:
+        if certify_now(out_dir, comm, dt_limit=dt_limit, kick=kick, timing=shared):
+            return 130, settled
+        if not _legs_due(out_dir, comm):
+            break
+        settled = max(settled, settle(out_dir, comm, stream))
+        rc = max(rc, settled)
+    return rc, settled
+
+
 def run_census(census: Census, out_dir: str | Path, *, comm=None, force: bool = False,  # noqa: ANN001
                progress: str = "auto", backend: str = "cpu", certify: bool = True,
                dt_limit: bool = False, kick: bool = True, stream: TextIO = sys.stdout,
@@ -504,14 +520,8 @@ def run_census(census: Census, out_dir: str | Path, *, comm=None, force: bool = 
         settled = settle(out_dir, comm, stream) if rc in (0, 1) else 0
         rc = max(rc, settled)
         shared: dict = {}
-        while certify and rc == 0:  # certify; continue the starts of failed members; again
-            if certify_now(out_dir, comm, dt_limit=dt_limit, kick=kick, timing=shared):
-                rc = 130
-            elif _legs_due(out_dir, comm):
-                settled = max(settled, settle(out_dir, comm, stream))
-                rc = max(rc, settled)
-                continue
-            break
+        if certify and rc == 0:
+            rc, settled = _certify_and_continue(out_dir, comm, stream, dt_limit, kick, shared)
         sweep_s = time.perf_counter() - t0 - shared.get("certification_s", 0.0)
         if comm.rank == 0 and rc != 2:
             stopped = "interrupted" if rc == 130 else "a leg failed" if settled else None
