@@ -215,3 +215,16 @@ def test_mpirun_without_home_is_one_line():
     assert res.returncode == 2 and res.stdout == "", res.stdout + res.stderr
     assert res.stderr.count("\n") == 1 and "HOME is not set" in res.stderr \
         and "export HOME=" in res.stderr, res.stderr
+
+
+def test_a_refusal_under_mpirun_is_one_line():
+    """A scene refused at load under `mpirun -n 2`: rank 0's one `error:` line and exit 2;
+    prterun's box about a process that exited non-zero is dropped (the line said why)."""
+    pytest.importorskip("dolfinx")
+    needs_mpirun()
+    res = subprocess.run([str(MPIRUN), "-n", "2", *STICKSLIP, "run", "smoke", "--set",
+                          "geometry.delta=10"], cwd=REPO, capture_output=True, text=True,
+                         timeout=120)
+    assert res.returncode == 2, res.stderr
+    assert res.stderr.count("\n") == 1 and res.stderr.startswith("error: "), res.stderr
+    assert "geometry.delta = 10" in res.stderr
