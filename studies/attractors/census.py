@@ -87,6 +87,7 @@ from typing import TextIO
 from stickslip.solver.atomic import atomic_write_text
 from stickslip.solver.scene import Scene, SceneError, load_scene, scene_to_dict, write_scene
 from stickslip.studies.attractors.certify import failures
+from stickslip.studies.attractors.chaos import classify_at_cap
 from stickslip.studies.attractors.classify import (
     CELERITY_TOL,
     SETTLED,
@@ -115,10 +116,13 @@ KIND = "stickslip-attractors"
 #: The census directory's own entries (``studies.rundir.ownership``); the starts are a sweep
 #: directory of their own, ``starts/``.
 ENTRIES = ("census.json", "census.toml", "base.toml", "attractors.json", "attractors.csv",
-           "members.csv", "certificates.json", "cea.json", "features.json", "starts",
-           "kicks", "settle-rank*.log", "*.png")
+           "members.csv", "certificates.json", "cea.json", "features.json", "chaos.json",
+           "starts", "kicks", "settle-rank*.log", "*.png")
 #: Every completed start's features, by start and summary time (read once).
 FEATURES = "features.json"
+#: The chaos test of every start unsettled at the cap (``chaos.classify_at_cap``), keyed as
+#: ``features.json`` (a continued start is tested again).
+CHAOS = "chaos.json"
 STARTS = "starts"
 ROW_FIELDS = ("id", "n_inner", "start", "seed", "start_mode", "status", "class",
               "member", "name", "type", "n_components", "components", "unsettled_because",
@@ -458,6 +462,69 @@ def _certify_and_continue(out_dir: Path, comm, stream: TextIO, dt_limit: bool,  
     return rc, settled
 
 
+def chaos_due(out_dir: Path) -> list[dict]:
+    """Rank 0: the starts unsettled at the cap whose chaos test is not in ``chaos.json``:
+    {"id", "run_dir", "key", "cost"} (cost N² × the twin's time, about the leg's)."""
+    from stickslip.studies.sweep import load_sweep
+
+    meta = read_meta(out_dir)
+    cap = meta.get("max_time_s")
+    window = meta.get("window_s")
+    verdicts = read_cache(out_dir / CHAOS)
+    rows = start_rows(out_dir, meta["spread_tol"], tolerances(meta), window)
+    tasks = {t.id: t for t in load_sweep(out_dir / "census.toml").tasks}
+    due = []
+    for r in rows:
+        if r["class"] != "unsettled" or r.get("status") != "completed" or below_cap(r, cap):
+            continue
+        key = _start_state(out_dir, tasks[r["id"]], window)[3]
+        if key and key not in verdicts:
+            due.append({"id": r["id"], "run_dir": r["run_dir"], "key": key,
+                        "cost": float(r["n_inner"]) ** 2 * float(r.get("sim_time_s") or 0.0)})
+    return due
+
+
+def _chaos_tests(out_dir: Path, due: list[dict]) -> dict:
+    """{chaos.json key: ``chaos.classify_at_cap`` of the start, its series left out}; a start
+    whose test raises gets class ``unsettled`` with the error as its reason."""
+    window = float(read_meta(out_dir)["window_s"])
+    found = {}
+    for item in due:
+        try:
+            verdict = classify_at_cap(item["run_dir"], window)
+        except (OSError, ValueError, KeyError) as err:
+            verdict = {"class": "unsettled", "why": [f"chaos test failed: {err}"],
+                       "stationarity": None, "lyapunov": None}
+        found[item["key"]] = verdict
+    return found
+
+
+def chaos_shared(out_dir: Path, comm) -> bool:  # noqa: ANN001
+    """Collective: the chaos test (``chaos.classify_at_cap``: stationary statistics over
+    the last leg's windows, then Benettin's λ₁ from a twin column) of every start unsettled
+    at the cap not yet in ``chaos.json``, shared over the ranks by cost; rank 0 tests what
+    a rank could not and writes the file. Returns whether a rank was interrupted."""
+    def merge(parts: list[dict]) -> None:
+        cache = read_cache(out_dir / CHAOS)
+        for part in parts:
+            cache.update(part)
+        write_if_changed(out_dir / CHAOS, json.dumps(_json_safe(cache)) + "\n")
+
+    def plan() -> list[list[dict]] | None:
+        due = chaos_due(out_dir)
+        return balanced_shares(due, comm.size) if due else None
+
+    interrupted = on_ranks(comm, plan, lambda share: _chaos_tests(out_dir, share), merge)
+    if comm.rank == 0 and not interrupted:
+        try:
+            left = chaos_due(out_dir)
+            if left:
+                merge([_chaos_tests(out_dir, left)])
+        except KeyboardInterrupt:
+            interrupted = True
+    return bool(comm.bcast(interrupted, root=0))
+
+
 def run_census(census: Census, out_dir: str | Path, *, comm=None, force: bool = False,  # noqa: ANN001
                progress: str = "auto", backend: str = "cpu", certify: bool = True,
                dt_limit: bool = False, kick: bool = True, stream: TextIO = sys.stdout,
@@ -522,7 +589,12 @@ def run_census(census: Census, out_dir: str | Path, *, comm=None, force: bool = 
         shared: dict = {}
         if certify and rc == 0:
             rc, settled = _certify_and_continue(out_dir, comm, stream, dt_limit, kick, shared)
-        sweep_s = time.perf_counter() - t0 - shared.get("certification_s", 0.0)
+        if certify and rc == 0:
+            t_chaos = time.perf_counter()
+            rc = 130 if chaos_shared(out_dir, comm) else 0
+            shared["chaos_s"] = time.perf_counter() - t_chaos
+        sweep_s = (time.perf_counter() - t0 - shared.get("certification_s", 0.0)
+                   - shared.get("chaos_s", 0.0))
         if comm.rank == 0 and rc != 2:
             stopped = "interrupted" if rc == 130 else "a leg failed" if settled else None
             rc = _answer(out_dir, rc, stopped, stream, answer if answer is not None else {},
@@ -852,12 +924,14 @@ def start_rows(out_dir: Path, spread_tol: float = SPREAD_TOL,
     base_degree = read_meta(out_dir)["definition"]["scene"].get("mesh", {}).get("degree", 1)
     cache_path = out_dir / FEATURES
     cache = read_cache(cache_path)
+    verdicts = read_cache(out_dir / CHAOS)
     rows, kept = [], {}
     for task in spec.tasks:
         run_dir, summary, status, key = _start_state(out_dir, task, window)
         row = start_row(run_dir, task.params, summary, status, spread_tol, tol,
                         cached=cache.get(key), window=window)
         row["degree"] = int(task.params.get("mesh.degree", base_degree))
+        row["chaos"] = verdicts.get(key) if key else None
         rows.append(row)
         if key and row.get("features"):
             kept[key] = row_cache(row)
@@ -1044,6 +1118,8 @@ def answer_of(meta: dict, rows: list[dict], certify_in: Path | None = None, *,
     for r in rows:
         if below_cap(r, cap):
             r["class"] = SETTLING
+        elif r["class"] == "unsettled" and (r.get("chaos") or {}).get("class") == "chaotic":
+            r["class"] = "chaotic"
     meshes = ladder_rungs(meta, rows)
     for rung in meshes:
         group_members([r for r in rows if row_rung(r) == rung], meta["celerity_tol"],

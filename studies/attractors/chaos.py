@@ -261,6 +261,21 @@ def fe_lyapunov(run_dir: str | Path, duration: float, tau: float, *, discard: in
     return benettin(twin, tau, intervals, discard=discard, blocks=blocks)
 
 
+def verdict_text(verdict: dict) -> str:
+    """Why a start at the cap is not chaotic, in one short clause: the observables whose
+    statistics drift, or λ₁ with its error, or the test's own error."""
+    stat = verdict.get("stationarity") or {}
+    if stat and not stat.get("stationary", True):
+        drifting = [name for name, o in (stat.get("observables") or {}).items()
+                    if not o.get("stationary", True)]
+        return "its statistics drift over the last leg (" + ", ".join(drifting) + ")"
+    lyap = verdict.get("lyapunov") or {}
+    if lyap and not lyap.get("positive"):
+        return (f"λ₁ = {lyap['lambda1_per_s']:.3g} ± {lyap['lambda1_error_per_s']:.2g} 1/s, "
+                "not > 0 beyond 3 standard errors")
+    return "; ".join(verdict.get("why") or ())
+
+
 def classify_at_cap(run_dir: str | Path, window: float, *, t_first: float = 0.0,
                     duration: float | None = None, tau: float | None = None) -> dict:
     """A start ``unsettled`` at the cap: ``chaotic`` when its statistics are stationary

@@ -33,7 +33,9 @@ their tolerances), transitively (single linkage, as a DBSCAN with one neighbour)
 id is its first start's ``features.member_key`` (``k12-opposite-SSS`` for a rigid wave,
 ``k12-opposite-SSS+k11+k13`` with companions; ``#2`` for a second group of the same id);
 unsettled end states are grouped by (k, direction, regime) of the dominant component and
-celerity (``unsettled-k12-opposite-SSS``). Rows from elsewhere that carry no features (a
+celerity (``unsettled-k12-opposite-SSS``), and so are the chaotic ones
+(``chaotic-k3-opposite-SSS``: unsettled at the cap, with stationary statistics and λ₁ > 0,
+``studies.attractors.chaos``). Rows from elsewhere that carry no features (a
 summary and a frame spread only) are classified by the frame spread (``classify``).
 
 Names a person reads (``readable_name``, ``member_label``, ``member_description``) and
@@ -74,8 +76,8 @@ DECAY_TOL = 0.05
 #: The classes, in the order tables list them (``transient``: an end state at the cap whose
 #: member failed a certificate, unstable in the direct solver or not returned after its
 #: kick, set on its member after certification: ``census.answer_of``).
-CLASSES = ("wave", "multi-wave", "transient", "unsettled", "steady-sliding", "diverged",
-           "failed")
+CLASSES = ("wave", "multi-wave", "chaotic", "transient", "unsettled", "steady-sliding",
+           "diverged", "failed")
 #: The classes of an attractor.
 SETTLED = ("wave", "multi-wave")
 
@@ -335,7 +337,8 @@ def group_members(rows: list[dict], celerity_tol: float = CELERITY_TOL,
     """Give every classified row of one mesh its ``member`` id (in place; module docstring).
 
     Settled rows: connected groups under ``features.match`` (``tol``, or the defaults with
-    ``celerity_tol``). Unsettled rows with a wavenumber: (k, direction, regime), then celerity
+    ``celerity_tol``). Unsettled and chaotic rows with a wavenumber: (k, direction,
+    regime), then celerity
     clusters (neighbours in sorted order within ``celerity_tol``); each also gets
     ``approaching``, the settled member its last window matches (None if none). Other
     classes: the class name.
@@ -378,7 +381,7 @@ def group_members(rows: list[dict], celerity_tol: float = CELERITY_TOL,
         if r["class"] == "unsettled" and r.get("features"):  # its last window already there?
             mine = row_features(r)
             r["approaching"] = next((m for m, f in firsts.items() if match(mine, f, tol)), None)
-        if r["class"] == "unsettled" and r["k"]:
+        if r["class"] in ("unsettled", "chaotic") and r["k"]:
             keyed.setdefault(MemberKey(r["class"], int(r["k"]), r["direction"], r["regime"]),
                              []).append(r)
         elif r["class"] not in SETTLED and r["class"] in CLASSES:
@@ -397,7 +400,8 @@ def group_members(rows: list[dict], celerity_tol: float = CELERITY_TOL,
 #: A component's direction in words: the only words printed for it.
 SENSE = {"rotation": "with the rotation", "opposite": "against the rotation"}
 #: A member's class as the printed answer and the plots say it.
-CLASS_WORDS = {"wave": "rigid wave", "multi-wave": "multi-wave", "transient": "transient",
+CLASS_WORDS = {"wave": "rigid wave", "multi-wave": "multi-wave", "chaotic": "chaotic",
+               "transient": "transient",
                "unsettled": "unsettled", "steady-sliding": "steady sliding",
                "diverged": "diverged", "failed": "failed", "settling": "settling"}
 
@@ -452,7 +456,8 @@ def member_description(member: str) -> str:
     carrying k = 12 against the rotation and k = 5 with the rotation" (a companion's
     ``o``/``r``: it travels the other way than the dominant); the readable name with shares
     comes from the features (``readable_name``)."""
-    prefix = next((p for p in ("unsettled-", "multi-wave-") if member.startswith(p)), "")
+    prefix = next((p for p in ("unsettled-", "chaotic-", "multi-wave-")
+                   if member.startswith(p)), "")
     body = member.removeprefix(prefix)
     if not body.startswith("k"):
         return member

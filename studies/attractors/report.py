@@ -21,6 +21,7 @@ from stickslip.studies.attractors.classify import (
 )
 from stickslip.studies.attractors.lattice import tone_text
 from stickslip.studies.attractors.statistics import (
+    ATTRACTING,
     NAMED,
     SETTLED,
     SETTLING,
@@ -107,8 +108,14 @@ def member_lines(n: str, m: dict, certs: dict) -> list[str]:
     if member != m["class"]:
         text += f" [{member}]"
     lines = [text]
+    if m["class"] == "chaotic":
+        lines.append(f"  largest Lyapunov exponent {m['lambda1_per_s']:.3g} ± "
+                     f"{m['lambda1_error_per_s']:.2g} 1/s (> 0 beyond 3 standard errors), "
+                     f"statistics stationary over {m['stationary_windows']} windows")
     if m.get("rejected_because"):
         lines.append(f"  not an attractor: {m['rejected_because']}")
+    if m.get("not_chaotic_because"):
+        lines.append(f"  not chaotic: {m['not_chaotic_because']}")
     companions = _companions(m) if settled else ""
     if companions:
         lines.append(f"  {companions}")
@@ -157,13 +164,16 @@ def mesh_lines(n: str, members: list[dict], structured: list[dict],
     taken out. ``at_cap``: the census has a cap (its unsettled starts are at it)."""
     certs = {} if certs is None else certs
     counted = accounting(members)
-    settled = [m for m in members if m["class"] in SETTLED]
+    settled = [m for m in members if m["class"] in ATTRACTING]
     rigid = sum(m["class"] == "wave" for m in settled)
-    others = [m for m in members if m["class"] not in SETTLED]
+    chaotic = sum(m["class"] == "chaotic" for m in settled)
+    others = [m for m in members if m["class"] not in ATTRACTING]
     n_starts = counted["starts"]
     head = (f"N = {n} ({n_starts} random starts): {len(settled)} attractor"
-            f"{'s' if len(settled) != 1 else ''} ({rigid} rigid, {len(settled) - rigid} "
-            f"multi-wave), reached by {counted['reached']} of {n_starts} starts")
+            f"{'s' if len(settled) != 1 else ''} ({rigid} rigid, "
+            f"{len(settled) - rigid - chaotic} multi-wave"
+            + (f", {chaotic} chaotic" if chaotic else "")
+            + f"), reached by {counted['reached']} of {n_starts} starts")
     if counted["elsewhere"]:
         head += "; " + elsewhere_text(counted["elsewhere"], at_cap)
     if not members:
@@ -175,7 +185,8 @@ def mesh_lines(n: str, members: list[dict], structured: list[dict],
         lines += [f"    {line}" for m in others for line in member_lines(n, m, certs)]
     if any(m["class"] == "unsettled" for m in members):
         lines.append("  (unsettled: its features still change between the last two windows, "
-                     "or its shares drift across the last leg, at the cap; a larger "
+                     "or its shares drift across the last leg, at the cap, and it is not "
+                     "chaotic: its statistics drift or λ₁ is not > 0; a larger "
                      "--max-time continues them)")
     if structured:
         lines.append("  structured starts: " + "; ".join(
@@ -193,11 +204,7 @@ def ladder_lines(answer: dict) -> list[str]:
     meshes = list(answer["members"])  # rung keys ("132", "132p2"), in ladder order
     if len(meshes) < 2:
         return ["ladder: one mesh; the set of attractors is not checked under refinement"]
-    lines = []
-    stable = lad.get("stable_from")
-    lines.append(f"set of attractors: the same, shares consistent (Fisher p ≥ 0.05), from "
-                 f"N = {stable} on" if stable is not None else
-                 "set of attractors: still changing within the ladder (refine further)")
+    lines = settle_lines(lad.get("steps") or [], lad.get("settles_from"))
     differ = [t for t in lad["tests"] if t["consistent"] is False]
     if differ:
         lines.append("  shares that differ (Fisher's exact test, p < 0.05): " + "; ".join(
@@ -234,6 +241,30 @@ def ladder_lines(answer: dict) -> list[str]:
             f"{v:+.1f}" if math.isfinite(v) else "–" for v in vals) + " m/s"
             + (" (change " + ", ".join(f"{d:+.1f} m/s" for d in steps) + ")" if steps else ""))
     return lines
+
+
+def _step_text(step: dict) -> str:
+    """"132 → 264: set changes (+2, −3), Fisher p = 6.8e-06, TV 0.88, celerity 31 %"."""
+    moved = ("same set" if step["same_set"] else
+             f"set changes (+{len(step['added'])}, −{len(step['lost'])})")
+    p = step["fisher_min_p"]
+    fisher = f"Fisher p = {p:.2g}" if math.isfinite(p) else "Fisher –"
+    change = step["celerity_change"]
+    cel = f"celerity {100 * change:.3g} %" if math.isfinite(change) else "celerity –"
+    return (f"{step['from']} → {step['to']}: {moved}, {fisher}, TV "
+            f"{step['dominant_tv']:.2f}, {cel}" + (" (holds)" if step["holds"] else ""))
+
+
+def settle_lines(steps: list[dict], first: object | None) -> list[str]:
+    """The settle criterion in words (``statistics.rung_steps``): the first rung from which
+    the answer stays the same, or that none does, with every step's numbers."""
+    if not steps:
+        return []
+    rule = ("same attractors, shares consistent (Fisher p ≥ 0.05), dominant distribution "
+            "within TV 0.1, basin-weighted celerity within 1 %")
+    head = (f"answer settled from N = {first} on ({rule})" if first is not None else
+            f"no rung from which the answer stays the same ({rule}): refine further")
+    return [head] + [f"  {_step_text(s)}" for s in steps]
 
 
 def _sign_words(label: str) -> str:
@@ -302,11 +333,14 @@ def summary_text(answer: dict) -> str:
     timing = answer.get("timing") or {}
     if certs and timing.get("certification_s") is not None and timing.get("sweep_s"):
         # the kicks' time is part of the certificates'
-        total = sum(timing.get(k) or 0 for k in ("sweep_s", "features_s", "certification_s"))
+        total = sum(timing.get(k) or 0 for k in ("sweep_s", "features_s", "certification_s",
+                                                  "chaos_s"))
         kicks = (f", of which kicks {timing['kick_s']:.1f} s" if timing.get("kick_s")
+                 is not None else "")
+        chaos = (f", chaos tests {timing['chaos_s']:.1f} s" if timing.get("chaos_s")
                  is not None else "")
         lines.append(f"time: runs {timing['sweep_s']:.1f} s, features "
                      f"{timing.get('features_s') or 0:.1f} s, certificates "
                      f"{timing['certification_s']:.1f} s{kicks} "
-                     f"({_pct(timing['certification_s'] / total)} of the census)")
+                     f"({_pct(timing['certification_s'] / total)} of the census){chaos}")
     return "\n".join(lines)

@@ -25,6 +25,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from stickslip.studies.attractors.chaos import verdict_text
 from stickslip.studies.attractors.classify import member_label, readable_name
 from stickslip.studies.attractors.starts import parse_rung_key
 
@@ -33,16 +34,24 @@ Z95 = 1.959963984540054  # the 97.5 % quantile of the standard normal
 VALUE_KEYS = ("celerity_m_s", "frequency_hz", "fraction_separation", "fraction_stick",
               "fraction_slip", "psi1", "psi2", "amplitude_m", "rms_amplitude_m")
 #: The classes counted in a basin-share denominator (pending/interrupted starts are not).
-COUNTED = ("wave", "multi-wave", "transient", "unsettled", "steady-sliding", "diverged",
-           "failed")
+COUNTED = ("wave", "multi-wave", "chaotic", "transient", "unsettled", "steady-sliding",
+           "diverged", "failed")
 #: The class of an unsettled start below its census's cap: its next leg has not run (or
 #: failed), so it is no end state yet (``census.answer_of``).
 SETTLING = "settling"
 #: The states of a start that leave a census's answer not finished (not counted either).
 UNFINISHED = ("pending", "running", "interrupted", "crashed", "unanalysed", SETTLING)
 ALPHA = 0.05
-#: The classes whose members make up "the set of attractors" of a mesh (settled end states).
+#: The classes of a settled end state (a rigid wave, a relative periodic orbit, a torus).
 SETTLED = ("wave", "multi-wave")
+#: The classes whose members make up "the set of attractors" of a mesh: the settled end
+#: states and the chaotic ones (``studies.attractors.chaos``).
+ATTRACTING = (*SETTLED, "chaotic")
+#: The settle criterion of the ladder (``rung_steps``): from one rung to the next the
+#: dominant-component distribution moves by less than this total variation ...
+SETTLE_TV = 0.1
+#: ... and the basin-weighted celerity by at most this relative change.
+SETTLE_CELERITY = 0.01
 
 
 def wilson(successes: int, n: int, z: float = Z95) -> tuple[float, float]:
@@ -67,7 +76,7 @@ def mean_spread(values: Sequence[float | None]) -> tuple[float, float, int]:
 
 
 #: The classes whose label names a dominant component (the others: their class only).
-NAMED = ("wave", "multi-wave", "transient", "unsettled", SETTLING)
+NAMED = ("wave", "multi-wave", "chaotic", "transient", "unsettled", SETTLING)
 #: The classes of a settled end state, whose member has a lattice ``type``.
 TYPED = (*SETTLED, "transient")
 
@@ -99,24 +108,43 @@ def mesh_members(rows: list[dict]) -> list[dict]:
                   if r.get("settle_time_s") is not None and math.isfinite(r["settle_time_s"])]
         entry["settle_time_s"] = float(np.median(settle)) if settle else math.nan
         entry["settle_time_s_max"] = max(settle) if settle else math.nan
+        if entry["class"] == "chaotic":
+            entry.update(chaos_values(group))
+        tested = [r["chaos"] for r in group if r.get("chaos")]
+        if entry["class"] == "unsettled" and tested:
+            entry["not_chaotic_because"] = verdict_text(tested[0]) + (
+                f" (and {len(tested) - 1} more start{'s' if len(tested) > 2 else ''})"
+                if len(tested) > 1 else "")
         out.append(entry)
     out.sort(key=lambda e: (-e["count"], e["member"]))
     return out
 
 
+def chaos_values(rows: list[dict]) -> dict:
+    """A chaotic member's largest Lyapunov exponent (the mean over its starts of λ₁, and
+    the largest standard error) and the windows its statistics were stationary over."""
+    found = [(r.get("chaos") or {}) for r in rows]
+    lams = [f["lyapunov"]["lambda1_per_s"] for f in found if f.get("lyapunov")]
+    errs = [f["lyapunov"]["lambda1_error_per_s"] for f in found if f.get("lyapunov")]
+    windows = [len((f.get("stationarity") or {}).get("windows") or []) for f in found]
+    return {"lambda1_per_s": float(np.mean(lams)) if lams else math.nan,
+            "lambda1_error_per_s": max(errs) if errs else math.nan,
+            "stationary_windows": min(windows) if windows else 0}
+
+
 def accounting(members: list[dict]) -> dict:
     """Where one mesh's counted random starts are (``mesh_members`` entries): ``starts``,
-    ``attractors`` (the settled members: only those that passed every certificate they
-    got), ``reached`` (their starts) and ``elsewhere``, one entry per other member:
+    ``attractors`` (the settled members that passed every certificate they got, and the
+    chaotic ones), ``reached`` (their starts) and ``elsewhere``, one entry per other member:
     {"class", "member", "count", "type", "k", "direction", "because"} (``because``: why
     it is no attractor, ``rejected_because`` of a member that failed a certificate)."""
-    settled = [m for m in members if m["class"] in SETTLED]
+    settled = [m for m in members if m["class"] in ATTRACTING]
     return {"starts": members[0]["starts"] if members else 0,
             "attractors": len(settled), "reached": sum(m["count"] for m in settled),
             "elsewhere": [{"class": m["class"], "member": m["member"], "count": m["count"],
                            **{q: m.get(q) for q in ("type", "k", "direction")},
                            "because": m.get("rejected_because")}
-                          for m in members if m["class"] not in SETTLED]}
+                          for m in members if m["class"] not in ATTRACTING]}
 
 
 def _approaching(rows: list[dict]) -> dict:
@@ -308,8 +336,11 @@ def ladder(per_mesh: dict[int, list[dict]]) -> dict:
     and pair of successive meshes), ``sets`` (the settled members reached per mesh),
     ``stable_from`` (the smallest mesh from which that set is the same on every finer mesh
     and every share test passes; None if no such mesh short of the finest, where nothing can
-    be said) and ``coarse`` (``coarse_observables``). A member reached by a single start on
-    one mesh only changes the set: the table shows which.
+    be said), ``coarse`` (``coarse_observables``), ``steps`` (``rung_steps``: the settle
+    criterion per pair of successive rungs) and ``settles_from`` (the first rung from
+    which every step holds: set, shares, dominant distribution and weighted celerity). A
+    member reached by a single start on one mesh only changes the set: the table shows
+    which.
     """
     align(per_mesh)
     meshes = list(per_mesh)  # in ladder order (the caller's: by dofs)
@@ -346,7 +377,7 @@ def ladder(per_mesh: dict[int, list[dict]]) -> dict:
             tests.append({"member": name, "mesh_a": a, "mesh_b": b, "count_a": xa,
                           "starts_a": na, "count_b": xb, "starts_b": nb, "p_value": p,
                           "consistent": bool(p >= ALPHA) if math.isfinite(p) else None})
-    sets = {n: sorted(m for m, e in table[n].items() if e["class"] in SETTLED)
+    sets = {n: sorted(m for m, e in table[n].items() if e["class"] in ATTRACTING)
             for n in meshes}
     stable_from = None
     for i, n in enumerate(meshes[:-1]):
@@ -356,5 +387,57 @@ def ladder(per_mesh: dict[int, list[dict]]) -> dict:
         if same and passed:
             stable_from = n
             break
+    coarse = coarse_observables(per_mesh)
+    steps = rung_steps(meshes, sets, tests, coarse)
     return {"members": members, "tests": tests, "sets": sets, "stable_from": stable_from,
-            "coarse": coarse_observables(per_mesh)}
+            "coarse": coarse, "steps": steps, "settles_from": settles_from(meshes, steps)}
+
+
+def rung_steps(meshes: list, sets: dict, tests: list[dict], coarse: dict) -> list[dict]:
+    """The settle criterion per pair of successive rungs (a, b) of the ladder: the four
+    things that must stay the same, each with its number and verdict:
+
+    * ``same_set``: the same attractors (matched by their features, ``align``), with those
+      ``added`` at b and ``lost`` from a;
+    * ``shares_consistent``: every member's share passes Fisher's exact test (p ≥ 0.05;
+      ``fisher_min_p`` the smallest p);
+    * ``dominant_tv``: the total-variation distance of the dominant-component distributions
+      below ``SETTLE_TV`` = 0.1;
+    * ``celerity_change``: the basin-weighted celerity's relative change |c_b − c_a| / |c_a|
+      at most ``SETTLE_CELERITY`` = 1 % (0 where neither rung has a travelling member).
+
+    ``holds``: all four."""
+    tv = coarse["dominant_k_distance"]
+    cel = coarse["weighted_celerity_m_s"]["values"]
+    out = []
+    for i, (a, b) in enumerate(zip(meshes, meshes[1:], strict=False)):
+        pair = [t for t in tests if t["mesh_a"] == a]
+        ps = [t["p_value"] for t in pair if math.isfinite(t["p_value"])]
+        consistent = all(t["consistent"] is not False for t in pair)
+        ca, cb = cel[i], cel[i + 1]
+        if math.isfinite(ca) and math.isfinite(cb):
+            change = abs(cb - ca) / abs(ca) if ca else math.inf
+        else:
+            change = 0.0 if not (math.isfinite(ca) or math.isfinite(cb)) else math.inf
+        same = sets[a] == sets[b]
+        out.append({"from": a, "to": b, "same_set": same,
+                    "added": sorted(set(sets[b]) - set(sets[a])),
+                    "lost": sorted(set(sets[a]) - set(sets[b])),
+                    "shares_consistent": consistent,
+                    "fisher_min_p": min(ps) if ps else math.nan,
+                    "dominant_tv": tv[i], "celerity_change": change,
+                    "holds": bool(same and consistent and tv[i] < SETTLE_TV
+                                  and change <= SETTLE_CELERITY)})
+    return out
+
+
+def settles_from(meshes: list, steps: list[dict]) -> object | None:
+    """The first rung of the ladder from which every later step holds (``rung_steps``), so
+    that the answer stays the same on every finer rung; None where no rung short of the
+    finest qualifies (the last step fails) or the ladder has one rung."""
+    first = None
+    for i in range(len(steps) - 1, -1, -1):
+        if not steps[i]["holds"]:
+            break
+        first = meshes[i]
+    return first
