@@ -92,3 +92,15 @@ def peaks_just_below_and_above(make_integrator, u0: np.ndarray, factors=(0.97, 1
                 integ.step()
         peaks.append(float(np.max(np.abs(integ.u))))
     return peaks
+
+
+@pytest.fixture(scope="module")
+def finished(tmp_path_factory):
+    """A finished smoke run to 0.005 s (``test_ownership.run``), made once per module and
+    copied by each test that changes it."""
+    pytest.importorskip("dolfinx")
+    from test_ownership import run
+
+    d = tmp_path_factory.mktemp("done") / "r"
+    assert run(d)["status"] == "completed"
+    return d

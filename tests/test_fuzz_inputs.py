@@ -165,19 +165,6 @@ def test_cli_option_strings(tmp_path_factory, capsys, command, options):
     assert set(written) - set(before) <= {o for o in options if o.endswith((".png", ".json"))}
 
 
-@pytest.fixture(scope="module")
-def finished(tmp_path_factory) -> Path:
-    pytest.importorskip("dolfinx")
-    from mpi4py import MPI
-
-    from stickslip.solver.scene import load_scene
-    from stickslip.studies.rundir import run_scene
-
-    d = tmp_path_factory.mktemp("fuzzrun") / "r"
-    scene = load_scene(SMOKE, ["time.end_time=0.005", "output.progress=false"])
-    run_scene(scene, d, comm=MPI.COMM_SELF, stream=io.StringIO())
-    return d
-
 
 FILES = ["summary.json", "scene.toml", "samples.npz", "final_field.npz", ".stickslip"]
 

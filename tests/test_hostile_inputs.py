@@ -21,14 +21,6 @@ REPO = Path(__file__).resolve().parents[1]
 SHORT_SET = sum((["--set", s] for s in ("time.end_time=0.005", "output.progress=false")), [])
 
 
-@pytest.fixture(scope="module")
-def finished(tmp_path_factory) -> Path:
-    """A finished smoke run (copied by each test that changes it)."""
-    pytest.importorskip("dolfinx")
-    d = tmp_path_factory.mktemp("done") / "r"
-    assert run(d)["status"] == "completed"
-    return d
-
 
 # ------------------------------------------------------------------ symbolic links
 

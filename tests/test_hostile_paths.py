@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from faults import digest, leftovers
-from test_ownership import SMOKE, cli, copy_run, one_line, run
+from test_ownership import SMOKE, cli, copy_run, one_line
 
 from stickslip.cli.main import main
 
@@ -26,14 +26,6 @@ QUIET = ["--set", "output.progress=false"]
 #: The continued end time: 0.0025 s (~32 steps) beyond the finished run's 0.005 s.
 UNTIL = "0.0075"
 
-
-@pytest.fixture(scope="module")
-def finished(tmp_path_factory) -> Path:
-    """A finished smoke run to 0.005 s (copied by each test that uses it)."""
-    pytest.importorskip("dolfinx")
-    d = tmp_path_factory.mktemp("done") / "r"
-    assert run(d)["status"] == "completed"
-    return d
 
 
 def _summary(run_dir: Path) -> dict:

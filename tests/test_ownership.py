@@ -62,14 +62,6 @@ def tree(path: Path) -> dict[str, bytes]:
             if p.is_file()}
 
 
-@pytest.fixture(scope="module")
-def finished(tmp_path_factory) -> Path:
-    """A finished run directory (copied by each test that changes it)."""
-    pytest.importorskip("dolfinx")
-    d = tmp_path_factory.mktemp("done") / "r"
-    assert run(d)["status"] == "completed"
-    return d
-
 
 def copy_run(src: Path, dst: Path) -> Path:
     import shutil
