@@ -184,10 +184,11 @@ def mesh_lines(n: str, members: list[dict], structured: list[dict],
         lines.append("  not attractors:")
         lines += [f"    {line}" for m in others for line in member_lines(n, m, certs)]
     if any(m["class"] == "unsettled" for m in members):
+        tested = any(m.get("not_chaotic_because") for m in members)
         lines.append("  (unsettled: its features still change between the last two windows, "
-                     "or its shares drift across the last leg, at the cap, and it is not "
-                     "chaotic: its statistics drift or λ₁ is not > 0; a larger "
-                     "--max-time continues them)")
+                     "or its shares drift across the last leg, at the cap"
+                     + (", and it is not chaotic: its statistics drift or λ₁ is not > 0"
+                        if tested else "") + "; a larger --max-time continues them)")
     if structured:
         lines.append("  structured starts: " + "; ".join(
             f"mode {r['start_mode']} -> " + (f"{member_description(r['member'])} "
