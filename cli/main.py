@@ -14,6 +14,7 @@ import sys
 import threading
 from collections.abc import Sequence
 
+from stickslip.cli.pipes import reader_tolerant_stdout
 from stickslip.solver import __version__
 from stickslip.studies.output import output_root
 from stickslip.studies.rundir.ownership import normal_path
@@ -198,7 +199,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 0
     try:
         _normal_directories(args)
-        with _stops_as_interrupt():
+        with _stops_as_interrupt(), reader_tolerant_stdout():
             return int(args.func(args) or 0)
     except KeyboardInterrupt as stop:  # a handler may say what it kept (its message)
         print(f"stickslip: interrupted{f' {stop}' if str(stop) else ''}", file=sys.stderr)

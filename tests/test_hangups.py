@@ -228,3 +228,25 @@ def test_a_refusal_under_mpirun_is_one_line():
     assert res.returncode == 2, res.stderr
     assert res.stderr.count("\n") == 1 and res.stderr.startswith("error: "), res.stderr
     assert "geometry.delta = 10" in res.stderr
+
+
+def test_a_reader_that_goes_away_does_not_stop_the_run(tmp_path):
+    """`stickslip run smoke | head -1`: the reader closes the pipe after the first line and
+    the next progress line meets a broken pipe. The run went `failed` (exit 120: "cannot
+    use: Broken pipe"); now the printed lines go to /dev/null from there and the run ends
+    as it would have: `completed`, exit 0, its samples whole."""
+    pytest.importorskip("dolfinx")
+    run_dir = tmp_path / "r"
+    proc = subprocess.Popen([*STICKSLIP, "run", "smoke", "--set", "time.end_time=0.02",
+                             "-o", str(run_dir)], cwd=REPO, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    first = proc.stdout.readline()  # the reader takes one line, as `head -1` does, and goes
+    proc.stdout.close()
+    _, err = proc.communicate(timeout=300)
+    assert first.startswith("stickslip "), first
+    assert proc.returncode == 0, err
+    assert "Broken pipe" not in err and "Traceback" not in err, err
+    from stickslip.studies.rundir.readers import check_run_dir
+
+    assert json.loads((run_dir / "summary.json").read_text())["status"] == "completed"
+    check_run_dir(run_dir)
