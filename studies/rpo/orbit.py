@@ -185,10 +185,14 @@ class TimeMap:
     """p steps of the census's batched explicit scheme at step h on B columns (module
     docstring); the steppers are built once per B and reused."""
 
-    def __init__(self, start: Start) -> None:
+    #: the mismatch d of a contact-free map (``contact=False``): a cylinder this far inside
+    #: the tube never touches it, so the map is the linear tube's (tests: manufactured orbits)
+    NO_CONTACT_D = -1.0e3
+
+    def __init__(self, start: Start, contact: bool = True) -> None:
         from stickslip.solver.schemes.select import for_scene
 
-        self.start = start
+        self.start, self.contact = start, contact
         self.scheme = for_scene(start.scene)
         self.n = int(start.batched.n)
         self._steppers: dict[int, object] = {}
@@ -201,6 +205,8 @@ class TimeMap:
             s = self.start
             st = self.scheme.build_batch(s.batched, [s.law] * columns, "cpu", s.tau)
             st.full_state_at = lambda level: False  # no diagnostics: the state's bits only
+            if not self.contact:
+                st.d[:] = self.NO_CONTACT_D
             self._steppers[columns] = st
         return self._steppers[columns]
 
@@ -256,8 +262,8 @@ class OrbitProblem:
     one column) once per linearisation."""
 
     def __init__(self, start: Start, guess_period: float, guess_shift: float,
-                 steps: int | None = None, eps: float = 1e-7) -> None:
-        self.start, self.map = start, TimeMap(start)
+                 steps: int | None = None, eps: float = 1e-7, contact: bool = True) -> None:
+        self.start, self.map = start, TimeMap(start, contact)
         self.rotation = RingRotation(start.problem)
         self.steps = steps or max(1, int(round(guess_period / start.dt)))
         self.period0 = float(guess_period)
