@@ -67,7 +67,8 @@ def _print(cert: dict) -> None:
           f"the run's {cert['run_step_s']:.6g} s), s = {cert['shift_deg']:.6f} deg")
     if cert["floquet"] is not None:
         mods = ", ".join(f"{m:.6f}" for m in cert["floquet"])
-        verdict = "stable" if cert["stable"] else "UNSTABLE"
+        verdict = {True: "stable", False: "UNSTABLE",
+                   None: "no verdict: Ritz values not converged"}[cert["stable"]]
         print(f"  Floquet |mu|: {mods}; {verdict} (neutral pair excluded: largest other "
               f"{cert['floquet_detail']['leading_non_neutral']:.6f})")
     for line in cert["components"][:8]:

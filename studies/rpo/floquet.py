@@ -11,7 +11,8 @@ Two multipliers are neutral where the orbit has the two continuous symmetries: t
 orbit's own direction, e_t) and rotation (e_θ = ∂_θ ξ), each with μ = 1. They are
 identified as the two eigenvectors with the largest share in span{e_t, e_θ} (their
 projection over their norm), not by |μ − 1| alone, so that an unstable real multiplier near
-1 is not taken for one. The orbit is **stable** when every other multiplier has |μ| < 1.
+1 is not taken for one. The orbit is **stable** when every other multiplier has |μ| < 1;
+the verdict is None while a non-neutral Ritz residual exceeds ``RITZ_TOL``.
 """
 
 from __future__ import annotations
@@ -23,6 +24,8 @@ import numpy as np
 from stickslip.studies.rpo.newton import arnoldi
 
 __all__ = ["Floquet", "floquet_multipliers"]
+
+RITZ_TOL = 1e-3  #: a Ritz pair whose residual ‖M x − μ x‖ (unit x) is above this is unconverged
 
 
 @dataclass
@@ -46,8 +49,15 @@ class Floquet:
         return float(other.max()) if other.size else 0.0
 
     @property
-    def stable(self) -> bool:
-        return self.leading_other < 1.0
+    def converged(self) -> bool:
+        """Every non-neutral Ritz pair has a residual ≤ ``RITZ_TOL``."""
+        return bool(np.all(self.ritz_residual[~self.neutral] <= RITZ_TOL))
+
+    @property
+    def stable(self) -> bool | None:
+        """|μ| < 1 for every non-neutral multiplier; None while the Ritz pairs have not
+        converged (a verdict on unconverged Ritz values would be a guess)."""
+        return self.leading_other < 1.0 if self.converged else None
 
     def to_dict(self) -> dict:
         return {"moduli": [float(m) for m in self.moduli],
@@ -55,7 +65,8 @@ class Floquet:
                 "neutral": [bool(b) for b in self.neutral],
                 "neutral_share": [float(x) for x in self.neutral_share],
                 "ritz_residual": [float(x) for x in self.ritz_residual],
-                "leading_non_neutral": self.leading_other, "stable": self.stable}
+                "leading_non_neutral": self.leading_other, "converged": self.converged,
+                "stable": self.stable}
 
 
 def floquet_multipliers(problem, guess, count: int = 12, krylov: int = 60,

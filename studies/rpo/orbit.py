@@ -74,8 +74,9 @@ def _build(scene, dt: float | None = None):
     from stickslip.solver.contact import ContactLaw
     from stickslip.solver.ensemble_run import BatchColumns, BatchOptions
     from stickslip.solver.run import Profile
+    from stickslip.solver.schemes.select import for_scene
 
-    if scene.time.beta1 != 0.0:
+    if for_scene(scene).name != "explicit":
         raise ValueError("rpo: the scene's scheme is implicit (time.beta1 > 0); the RPO "
                          "solver maps the explicit scheme only")
     if scene.mesh.degree != 1 or not scene.mesh.tube:
