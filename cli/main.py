@@ -93,6 +93,7 @@ COMMAND_MODULES = (
     "stickslip.cli.continuum",  # flutter-exact
     "stickslip.cli.travel",  # travel
     "stickslip.cli.attractors",  # attractors
+    "stickslip.cli.rpo",  # rpo
     "stickslip.cli.export",  # export
 )
 

@@ -1,0 +1,107 @@
+"""``stickslip rpo RUN_DIR``: the relative periodic orbit where a run's checkpoint stands.
+
+Heavy imports (dolfinx) stay inside the handler.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+from pathlib import Path
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "rpo",
+        help="solve a relative periodic orbit u(θ, t + T) = u(θ − s, t) from a run (Newton)",
+        description=(
+            "Relative periodic orbit of the scene's explicit scheme from the state where a "
+            "run's checkpoint stands (a census start): Newton-Krylov with a hookstep on "
+            "R_-s F_T(x) - x = 0, T and s free with two phase conditions, then the leading "
+            "Floquet multipliers. The guess T, s comes from the census's generators of the "
+            "start (attractors.json above RUN_DIR) or from --period and --shift. Prints T, "
+            "s, the residual, the multipliers and the orbit's components; -o writes one "
+            "period of samples (samples.npz, a run's layout) and rpo.json. "
+            "docs/howto/rpo.md"),
+    )
+    p.add_argument("run_dir", help="a run directory with a checkpoint (a census start)")
+    p.add_argument("--period", type=float, metavar="T", help="guess of the period (s)")
+    p.add_argument("--shift", type=float, metavar="S",
+                   help="guess of the shift (degrees, + with the rotation)")
+    p.add_argument("--max-iter", type=int, default=20, help="Newton iterations (default 20)")
+    p.add_argument("--tol", type=float, default=1e-10,
+                   help="residual (relative RMS of the state) to stop at (default 1e-10)")
+    p.add_argument("--multipliers", type=int, default=12,
+                   help="leading Floquet multipliers to compute (0: none; default 12)")
+    p.add_argument("--json", action="store_true", help="print the certificate as JSON")
+    p.add_argument("-o", "--output", metavar="ORBIT_DIR",
+                   help="write one period of samples (samples.npz) and rpo.json here")
+    p.set_defaults(func=_rpo)
+
+
+def census_generators(run_dir: Path) -> tuple[list[dict], list[dict]]:
+    """(generators, components) of the census member that ``run_dir`` (a start) belongs to,
+    from the nearest attractors.json above it; ([], []) where there is none."""
+    for parent in list(run_dir.parents)[:4]:
+        path = parent / "attractors.json"
+        if not path.is_file():
+            continue
+        data = json.loads(path.read_text())
+        row = next((r for r in data.get("starts", []) if r.get("id") == run_dir.name), None)
+        if row is None:
+            continue
+        for members in data.get("members", {}).values():
+            for m in members:
+                if m.get("member") == row.get("member"):
+                    return list(m.get("generators") or []), list(m.get("components") or [])
+    return [], []
+
+
+def _print(cert: dict) -> None:
+    state = "converged" if cert["converged"] else f"NOT converged ({cert['message']})"
+    print(f"rpo: {state} after {cert['iterations']} Newton iterations, residual "
+          f"{cert['residual']:.3e} (start {cert['guess']['residual']:.3e}; commutation "
+          f"defect of a half-node shift {cert['commutation_defect']:.2e})")
+    print(f"  T = {cert['period_s']:.9g} s ({cert['steps']} steps of {cert['step_s']:.6g} s; "
+          f"the run's {cert['run_step_s']:.6g} s), s = {cert['shift_deg']:.6f} deg")
+    if cert["floquet"] is not None:
+        mods = ", ".join(f"{m:.6f}" for m in cert["floquet"])
+        verdict = {True: "stable", False: "UNSTABLE",
+                   None: "no verdict: Ritz values not converged"}[cert["stable"]]
+        print(f"  Floquet |mu|: {mods}; {verdict} (neutral pair excluded: largest other "
+              f"{cert['floquet_detail']['leading_non_neutral']:.6f})")
+    for line in cert["components"][:8]:
+        print(f"  component k = {line['k']:>3} {line['direction']:<8} "
+              f"{line['frequency_hz']:+11.3f} Hz  share {line['share']:.3f}")
+    for d in cert["differences"]:
+        if d.get("orbit_frequency_hz") is not None:
+            print(f"  vs census k = {d['k']:>3}: {d['frequency_hz']:+.3f} Hz, orbit "
+                  f"{d['orbit_frequency_hz']:+.3f} Hz ({d['relative']:+.2e})")
+
+
+def _rpo(args: argparse.Namespace) -> int:
+    from stickslip.studies.rpo.certificate import rpo_certificate
+
+    run_dir = Path(args.run_dir)
+    if not (run_dir / "checkpoint.npz").is_file():
+        print(f"error: {run_dir}: no checkpoint.npz (give a finished run or census start)")
+        return 2
+    generators, components = census_generators(run_dir)
+    if (args.period is None or args.shift is None) and len(generators) < 2:
+        print(f"error: {run_dir}: no census member with two generators above it; give "
+              "--period T and --shift S")
+        return 2
+    shift = None if args.shift is None else math.radians(args.shift)
+    cert = rpo_certificate(run_dir, generators, components=components or None,
+                           period=args.period, shift=shift, tol=args.tol,
+                           max_iter=args.max_iter, floquet=args.multipliers,
+                           orbit_dir=args.output,
+                           log=None if args.json else print)
+    if args.output:
+        (Path(args.output) / "rpo.json").write_text(json.dumps(cert, indent=1))
+    if args.json:
+        print(json.dumps(cert, indent=1))
+    else:
+        _print(cert)
+    return 0 if cert["converged"] else 1

@@ -1,0 +1,187 @@
+"""The RPO certificate of a two-generator state: ``rpo_certificate(run_dir, generators)``.
+
+From a census start (or any run with a checkpoint) and the generators of its frequency
+lattice (``studies.attractors.lattice``: k₁, f₁ the dominant, k₂, f₂ the moving one), the
+start's guess is
+
+    T = 1/|f₂'|,  f₂' = f₂ − (k₂/k₁) f₁   (the period in the frame of the first wave),
+    s = 2π f₁ T / k₁                       (that frame's turn over T),
+
+and the state where the checkpoint stands. ``OrbitProblem`` + ``newton_krylov_hookstep``
+solve G = R₋ₛ F_T(x) − x = 0; ``floquet_multipliers`` give the leading multipliers.
+
+**Components of the orbit.** Over one period (p steps of h, every level sampled) the
+contact circle's u_r, u_θ give per wavenumber k the coefficient a_k(t) = (2/N) Σ_j u(θ_j, t)
+e^{−ikθ_j}. On an RPO a_k(t + T) = a_k(t) e^{−iks}, so b_k(t) = a_k(t) e^{iks t/T} is
+T-periodic; its Fourier coefficient n is the component (k, f) with f = k s/(2πT) − n/T
+(the convention of ``studies.attractors.features``: f > 0 with the rotation). Exact lines,
+no window: the orbit's own spectrum. Each given component is matched to the orbit's line
+of the same k nearest in frequency.
+
+**Commutation defect.** ‖F_T(R_{Δφ/2} ξ) − R_{Δφ/2} F_T(ξ)‖ at the start: how far the
+half-node Fourier shift is from a symmetry of the scheme on this state (0 for a field of
+wavenumbers well below N/2, round-off for whole-node shifts): the size of the
+non-equivariance that a sub-node shift brings into the problem (docs/theory/rpo.md).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from pathlib import Path
+
+import numpy as np
+
+from stickslip.studies.rpo.floquet import floquet_multipliers
+from stickslip.studies.rpo.newton import newton_krylov_hookstep
+from stickslip.studies.rpo.orbit import Guess, OrbitProblem, start_from_run
+
+__all__ = ["period_and_shift", "rpo_certificate", "orbit_samples", "orbit_components",
+           "solve_orbit"]
+
+SHARE_LISTED = 0.10  #: an orbit line is listed from this share of the largest
+
+
+def period_and_shift(generators: list[dict]) -> tuple[float, float]:
+    """(T s, s rad) of an RPO from its two generators (module docstring)."""
+    if len(generators) < 2:
+        raise ValueError(f"{len(generators)} generator(s): an RPO has two")
+    g1, g2 = generators[0], generators[1]
+    f1, f2 = float(g1["frequency_hz"]), float(g2["frequency_hz"])
+    f_frame = f2 - g2["k"] / g1["k"] * f1
+    if not (math.isfinite(f_frame) and abs(f_frame) > 0.0):
+        raise ValueError("the second generator does not move in the first one's frame")
+    period = 1.0 / abs(f_frame)
+    return period, 2.0 * math.pi * f1 * period / g1["k"]
+
+
+def orbit_samples(problem: OrbitProblem, guess: Guess) -> dict[str, np.ndarray]:
+    """One period of the orbit at every step (levels 0 … p − 1 at t = j h), in a run's
+    samples.npz layout (t, theta, u_r, u_theta, v_r, v_theta, status, r_r, r_theta, ds)."""
+    bp = problem.start.batched
+    cx = np.asarray(bp.cx, dtype=np.int64)
+    c, s = np.cos(bp.theta), np.sin(bp.theta)
+    rows: dict[str, list] = {k: [] for k in ("u_r", "u_theta", "v_r", "v_theta", "status",
+                                              "r_r", "r_theta")}
+
+    def observe(k: int, st) -> None:  # level k − 1: u_n = u_prev; v_n, status, r at level n
+        for name, field in (("u", st.u_prev), ("v", st.v)):
+            x, y = field[cx, 0], field[cx + 1, 0]
+            rows[f"{name}_r"].append(c * x + s * y)
+            rows[f"{name}_theta"].append(-s * x + c * y)
+        rows["status"].append(np.array(st.status[:, 0]))
+        rows["r_r"].append(np.array(st.r_r[:, 0]))
+        rows["r_theta"].append(np.array(st.r_t[:, 0]))
+
+    u, v = problem.physical(guess.xi[:, None])
+    h = problem.step_of(guess.period)
+    problem.map.advance(u, v, problem.steps, h, observe=observe)
+    out = {k: np.array(rows[k]) for k in rows}
+    out.update(t=np.arange(problem.steps) * h, theta=np.asarray(bp.theta),
+               ds=np.asarray(problem.start.problem.nodes.ds_weight))
+    return out
+
+
+def orbit_components(samples: dict, period: float, shift: float) -> list[dict]:
+    """The orbit's lines (k, f, amplitude, share), share ≥ ``SHARE_LISTED`` of the largest
+    (module docstring), largest first."""
+    theta, t = samples["theta"], samples["t"]
+    N, p = theta.size, t.size
+    ks = np.arange(1, N // 2 + 1)
+    phase = np.exp(-1j * np.outer(theta, ks))
+    power = 0.0
+    for name in ("u_r", "u_theta"):
+        u = samples[name] - samples[name].mean(axis=1, keepdims=True)
+        a = (2.0 / N) * (u @ phase)  # (p, K)
+        b = a * np.exp(1j * np.outer(t, ks) * shift / period)
+        power = power + np.abs(np.fft.fft(b, axis=0) / p) ** 2
+    amp = np.sqrt(power)
+    n = np.fft.fftfreq(p, 1.0 / p)
+    lines = []
+    top = float(amp.max())
+    for j, k in enumerate(ks):
+        for i in np.flatnonzero(amp[:, j] >= SHARE_LISTED * top):
+            f = k * shift / (2.0 * math.pi * period) - n[i] / period
+            lines.append({"k": int(k), "direction": "rotation" if f > 0 else "opposite",
+                          "frequency_hz": float(f), "amplitude_m": float(amp[i, j]),
+                          "share": float(amp[i, j] / top)})
+    return sorted(lines, key=lambda d: -d["share"])
+
+
+def _differences(lines: list[dict], given: list[dict]) -> list[dict]:
+    """Each given component against the orbit's line of the same k nearest in frequency."""
+    out = []
+    for g in given:
+        f = g.get("frequency_hz")
+        same = [x for x in lines if x["k"] == g["k"]]
+        if f is None or not same:
+            out.append({"k": g["k"], "frequency_hz": f, "orbit_frequency_hz": None})
+            continue
+        best = min(same, key=lambda x: abs(x["frequency_hz"] - f))
+        out.append({"k": g["k"], "frequency_hz": f, "orbit_frequency_hz": best["frequency_hz"],
+                    "difference_hz": best["frequency_hz"] - f,
+                    "relative": (best["frequency_hz"] - f) / abs(f),
+                    "share": g.get("share"), "orbit_share": best["share"]})
+    return out
+
+
+def commutation_defect(problem: OrbitProblem, guess: Guess) -> float:
+    """‖F_T(R_{Δφ/2} ξ) − R_{Δφ/2} F_T(ξ)‖ (module docstring)."""
+    half = math.pi / problem.rotation.count
+    a = problem.flow(problem.rotate(guess.xi, half), guess.period)
+    b = problem.rotate(problem.flow(guess.xi, guess.period), half)
+    return float(np.linalg.norm(a - b))
+
+
+def solve_orbit(problem: OrbitProblem, *, tol: float = 1e-10, max_iter: int = 20,
+                max_krylov: int = 80, log=None):
+    """Newton–Krylov–hookstep from the problem's guess: (NewtonResult, final Guess)."""
+    result = newton_krylov_hookstep(problem.extended_residual, problem.linearise,
+                                    problem.pack(problem.guess), tol=tol, max_iter=max_iter,
+                                    max_krylov=max_krylov, log=log)
+    return result, problem.unpack(result.X)
+
+
+def rpo_certificate(run_dir: str | Path, generators: list[dict], *,
+                    components: list[dict] | None = None, period: float | None = None,
+                    shift: float | None = None, tol: float = 1e-10, max_iter: int = 20,
+                    floquet: int = 12, orbit_dir: str | Path | None = None,
+                    log=None) -> dict:
+    """The RPO of the state where ``run_dir``'s checkpoint stands, started from the
+    ``generators`` (dicts with k, frequency_hz; ``period``/``shift`` override the guess).
+    Returns {converged, residual, iterations, period_s, shift_rad, floquet (leading moduli),
+    stable, components (the orbit's lines), differences (each of ``components``, default
+    the generators, against the orbit's line), history, guess, defect, wall_s, ...}.
+    ``orbit_dir``: one period of samples written there as samples.npz (a run's layout)."""
+    t0 = time.perf_counter()
+    guess_t, guess_s = period_and_shift(generators) if generators else (period, shift)
+    guess_t = period or guess_t
+    guess_s = guess_s if shift is None else shift
+    problem = OrbitProblem(start_from_run(run_dir), guess_t, guess_s)
+    r0 = float(np.linalg.norm(problem.residual(problem.guess)))
+    defect = commutation_defect(problem, problem.guess)
+    result, orbit = solve_orbit(problem, tol=tol, max_iter=max_iter, log=log)
+    flo = floquet_multipliers(problem, orbit, count=floquet) if floquet else None
+    samples = orbit_samples(problem, orbit)
+    lines = orbit_components(samples, orbit.period, orbit.shift)
+    if orbit_dir is not None:
+        Path(orbit_dir).mkdir(parents=True, exist_ok=True)
+        np.savez(Path(orbit_dir) / "samples.npz", **samples)
+    flips = np.array(problem.jvp_flips or [0])
+    return {"converged": bool(result.converged), "residual": result.residual,
+            "iterations": result.iterations, "message": result.message,
+            "period_s": orbit.period, "shift_rad": orbit.shift,
+            "shift_deg": math.degrees(orbit.shift), "steps": problem.steps,
+            "step_s": problem.step_of(orbit.period), "run_step_s": problem.start.dt,
+            "guess": {"period_s": guess_t, "shift_rad": guess_s, "residual": r0},
+            "commutation_defect": defect,
+            "floquet": None if flo is None else [float(m) for m in flo.moduli],
+            "floquet_detail": None if flo is None else flo.to_dict(),
+            "stable": None if flo is None else flo.stable,
+            "components": lines,
+            "differences": _differences(lines, components or generators),
+            "history": [it.to_dict() for it in result.history],
+            "jvp_status_changes": {"products": int(len(problem.jvp_flips)),
+                                   "with_changes": int(np.count_nonzero(flips)),
+                                   "max": int(flips.max())},
+            "wall_s": time.perf_counter() - t0}
