@@ -8,7 +8,11 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import sys
 from pathlib import Path
+
+from stickslip.solver.atomic import atomic_write_text
+from stickslip.studies.rundir.ownership import OwnershipError, claim, register_kind
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -36,8 +40,29 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="leading Floquet multipliers to compute (0: none; default 12)")
     p.add_argument("--json", action="store_true", help="print the certificate as JSON")
     p.add_argument("-o", "--output", metavar="ORBIT_DIR",
-                   help="write one period of samples (samples.npz) and rpo.json here")
+                   help="write one period of samples (samples.npz) and rpo.json here (a new "
+                        "or empty directory, or an earlier orbit's with --force)")
+    p.add_argument("--force", action="store_true", help="replace an earlier orbit's -o")
     p.set_defaults(func=_rpo)
+
+
+#: What an orbit directory holds (``studies.rundir.ownership``: -o is claimed as kind rpo).
+ORBIT_ENTRIES = ("samples.npz", "rpo.json")
+
+
+def option_problem(args: argparse.Namespace) -> str | None:
+    """One line naming a bad option value and its fix, or None."""
+    checks = (("--period", args.period, lambda x: x is None or (math.isfinite(x) and x > 0),
+               "a positive number of seconds"),
+              ("--shift", args.shift, lambda x: x is None or math.isfinite(x),
+               "a finite angle in degrees"),
+              ("--max-iter", args.max_iter, lambda x: x >= 0, "0 or more"),
+              ("--tol", args.tol, lambda x: math.isfinite(x) and x > 0, "a positive number"),
+              ("--multipliers", args.multipliers, lambda x: x >= 0, "0 (none) or more"))
+    for flag, value, ok, want in checks:
+        if not ok(value):
+            return f"{flag} {value}: give {want}"
+    return None
 
 
 def census_generators(run_dir: Path) -> tuple[list[dict], list[dict]]:
@@ -80,26 +105,48 @@ def _print(cert: dict) -> None:
                   f"{d['orbit_frequency_hz']:+.3f} Hz ({d['relative']:+.2e})")
 
 
+def _fail(message: str) -> int:
+    print(f"error: {message}", file=sys.stderr, flush=True)
+    return 2
+
+
 def _rpo(args: argparse.Namespace) -> int:
     from stickslip.studies.rpo.certificate import rpo_certificate
 
     run_dir = Path(args.run_dir)
+    problem = option_problem(args)
+    if problem:
+        return _fail(problem)
     if not (run_dir / "checkpoint.npz").is_file():
-        print(f"error: {run_dir}: no checkpoint.npz (give a finished run or census start)")
-        return 2
+        return _fail(f"{run_dir}: no checkpoint.npz (give a finished run or census start)")
     generators, components = census_generators(run_dir)
     if (args.period is None or args.shift is None) and len(generators) < 2:
-        print(f"error: {run_dir}: no census member with two generators above it; give "
-              "--period T and --shift S")
-        return 2
-    shift = None if args.shift is None else math.radians(args.shift)
-    cert = rpo_certificate(run_dir, generators, components=components or None,
-                           period=args.period, shift=shift, tol=args.tol,
-                           max_iter=args.max_iter, floquet=args.multipliers,
-                           orbit_dir=args.output,
-                           log=None if args.json else print)
+        return _fail(f"{run_dir}: no census member with two generators above it; give "
+                     "--period T and --shift S")
+    owned = None
     if args.output:
-        (Path(args.output) / "rpo.json").write_text(json.dumps(cert, indent=1))
+        register_kind("rpo", ORBIT_ENTRIES)
+        try:
+            owned = claim(args.output, "rpo", force=args.force)
+        except OwnershipError as err:
+            return _fail(str(err))
+    try:
+        shift = None if args.shift is None else math.radians(args.shift)
+        cert = rpo_certificate(run_dir, generators, components=components or None,
+                               period=args.period, shift=shift, tol=args.tol,
+                               max_iter=args.max_iter, floquet=args.multipliers,
+                               orbit_dir=None if owned is None else owned.work,
+                               log=None if args.json else print)
+        if owned is not None:
+            atomic_write_text(owned.work / "rpo.json", json.dumps(cert, indent=1) + "\n")
+            owned.commit()
+    except BaseException:
+        if owned is not None:
+            owned.discard()
+        raise
+    finally:
+        if owned is not None:
+            owned.release()
     if args.json:
         print(json.dumps(cert, indent=1))
     else:

@@ -189,3 +189,57 @@ def test_transient_started_on_the_rigid_orbit_stays_on_it(rigid132):
     P = OrbitProblem(start, T, s, steps=12)
     after = P.flow(P.guess.xi, T, steps=480)  # 480 steps of the orbit's h = T/12
     assert np.linalg.norm(after - P.rotate(P.guess.xi, 40 * s)) < 1e-7
+
+
+@pytest.fixture(scope="module")
+def census_start(tmp_path_factory):
+    """A census start on the smoke mesh (2 starts at N = 36 to 0.05 s) to hand the command."""
+    import io
+
+    from test_attractors import SMOKE
+
+    from stickslip.studies.attractors.census import Census, run_census
+    from stickslip.studies.attractors.starts import StartDistribution
+
+    out = tmp_path_factory.mktemp("rpo_cli") / "census"
+    spec = Census(SMOKE, (36,), StartDistribution(starts=1), ("time.end_time=0.05",),
+                  max_time=0.05)
+    assert run_census(spec, out, certify=False, stream=io.StringIO()) == 0
+    return next(p.parent for p in (out / "starts" / "runs").glob("*/checkpoint.npz"))
+
+
+@pytest.mark.parametrize("option, words", [
+    (["--period", "-1"], "--period -1.0: give a positive"),
+    (["--period", "nan"], "--period nan"),
+    (["--shift", "inf"], "--shift inf: give a finite angle"),
+    (["--tol", "0"], "--tol 0.0: give a positive"),
+    (["--max-iter", "-2"], "--max-iter -2: give 0 or more"),
+    (["--multipliers", "-1"], "--multipliers -1")])
+def test_rpo_bad_option_is_one_line(census_start, capsys, option, words):
+    from stickslip.cli.main import main
+
+    rc = main(["rpo", str(census_start), "--period", "1e-3", "--shift", "10", *option])
+    err = capsys.readouterr().err
+    assert rc == 2 and err.count("\n") == 1 and words in err, err
+
+
+def test_rpo_output_never_overwrites_a_run_and_replaces_only_with_force(census_start,
+                                                                        tmp_path, capsys):
+    """-o is claimed as kind rpo: a run directory (here the start itself, whose samples.npz
+    the orbit's would overwrite) is refused and left byte for byte; a new directory takes
+    rpo.json and samples.npz; the same -o again is refused without --force."""
+    from stickslip.cli.main import main
+
+    before = {p.name: p.read_bytes() for p in census_start.iterdir() if p.is_file()}
+    args = ["rpo", str(census_start), "--period", "1e-3", "--shift", "10", "--max-iter", "0",
+            "--multipliers", "0"]
+    assert main([*args, "-o", str(census_start)]) == 2
+    assert "not a rpo one" in capsys.readouterr().err
+    assert {p.name: p.read_bytes() for p in census_start.iterdir() if p.is_file()} == before
+    orbit = tmp_path / "orbit"
+    assert main([*args, "-o", str(orbit)]) == 1  # zero iterations: not converged, said
+    assert {"rpo.json", "samples.npz"} <= {p.name for p in orbit.iterdir()}
+    capsys.readouterr()
+    assert main([*args, "-o", str(orbit)]) == 2
+    assert "--force" in capsys.readouterr().err
+    assert main([*args, "-o", str(orbit), "--force"]) == 1
