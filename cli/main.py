@@ -12,6 +12,7 @@ import os
 import signal
 import sys
 import threading
+import traceback
 from collections.abc import Sequence
 
 from stickslip.cli.pipes import reader_tolerant_stdout
@@ -198,6 +199,26 @@ def main(argv: Sequence[str] | None = None) -> int:
             print(f"error: {problem}", file=sys.stderr, flush=True)
             return 2
         return 0
+    try:
+        return _dispatch(args)
+    except Exception:  # a bug: under mpirun every rank ends with it, never a hang
+        _abort_job_after_bug()
+        raise
+
+
+def _abort_job_after_bug() -> None:
+    """An exception no handler expects, on one rank of an MPI job: its traceback, then the
+    whole job ends (MPI Abort, exit 1). Left to Python, the rank would end in MPI's
+    finalisation and wait there for ranks that wait for it: a job that never ends."""
+    mpi = sys.modules.get("mpi4py.MPI")
+    if mpi is not None and mpi.Is_initialized() and not mpi.Is_finalized() \
+            and mpi.COMM_WORLD.size > 1:
+        traceback.print_exc()
+        _end_all_ranks(1)
+
+
+def _dispatch(args: argparse.Namespace) -> int:
+    """Run the command's handler; the errors a user can meet end in one line (exit 2)."""
     try:
         _normal_directories(args)
         with _stops_as_interrupt(), reader_tolerant_stdout():

@@ -250,3 +250,38 @@ def test_a_reader_that_goes_away_does_not_stop_the_run(tmp_path):
 
     assert json.loads((run_dir / "summary.json").read_text())["status"] == "completed"
     check_run_dir(run_dir)
+
+
+BUG_ON_RANK_0 = """
+import argparse, sys
+from mpi4py import MPI
+import stickslip.cli.main as cli
+
+def handler(args):
+    if MPI.COMM_WORLD.rank == 0:
+        raise RuntimeError("a bug on rank 0")
+    MPI.COMM_WORLD.barrier()  # rank 1 waits for rank 0, as a census's ranks do
+    return 0
+
+class Parser:
+    def parse_args(self, argv):
+        return argparse.Namespace(func=handler)
+
+cli.build_parser = Parser
+sys.exit(cli.main([]))
+"""
+
+
+@pytest.mark.skipif(shutil.which("prterun") is None and shutil.which("orterun") is None,
+                    reason="Open MPI's launcher is not installed")
+def test_an_unexpected_error_on_one_rank_ends_the_whole_job(tmp_path):
+    """A bug (an exception no handler expects) on rank 0 while rank 1 waits for it: rank 0
+    used to end in MPI's finalisation, waiting for rank 1, which waited for rank 0: a job
+    that never ended (met when a census's rank 0 raised in its answer). Now the traceback
+    is printed and the job aborts, exit non-zero; the timeout only guards the test."""
+    script = tmp_path / "bug.py"
+    script.write_text(BUG_ON_RANK_0)
+    proc = subprocess.run([str(MPIRUN), "-n", "2", sys.executable, str(script)], cwd=REPO,
+                          capture_output=True, text=True, timeout=300)
+    assert proc.returncode != 0
+    assert "RuntimeError: a bug on rank 0" in proc.stderr, proc.stderr
