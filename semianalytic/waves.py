@@ -54,7 +54,6 @@ import math
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.optimize import root
 
 from stickslip.semianalytic.coefficients import Coefficients
 from stickslip.semianalytic.separation import (
@@ -96,6 +95,8 @@ def refine_wave(
     delta: float | None = None,
 ) -> TravellingWave | None:
     """One Newton solve (continuation step) of ``wave``'s branch at new coefficients/f/δ."""
+    from scipy.optimize import root  # scipy on first use: the CLI starts without it
+
     f = wave.f if f is None else f
     delta = wave.delta if delta is None else delta
     sigma = -1.0 if wave.c > 0 else 1.0

@@ -41,7 +41,7 @@ import numpy as np
 
 from stickslip.solver.contact.law import SEPARATION, SLIP, STICK, forward_increment_factor
 from stickslip.solver.ensemble_cuda import CUDA_SOURCE
-from stickslip.solver.schemes.protocol import HookedStepper, copy_state, put_state, to_host
+from stickslip.solver.stepper import HookedStepper, copy_state, put_state, to_host
 
 #: The array module of each backend (``solver.schemes.select.BACKENDS`` names its kernel).
 ARRAY_MODULES = {"cpu": "numpy", "gpu": "cupy"}
@@ -118,7 +118,7 @@ def _require(b: int, state: dict[str, np.ndarray], names: tuple[str, ...]) -> No
 class BatchedExplicit(HookedStepper):
     """Explicit Newmark + forward-increment contact on (n, B) arrays (column b = scene b).
 
-    A ``solver.schemes.protocol.Stepper``. After ``step()``: ``u`` is u_{n+1}; ``u_prev``,
+    A ``solver.stepper.Stepper``. After ``step()``: ``u`` is u_{n+1}; ``u_prev``,
     ``v``, ``a``, ``ku``, ``r_r``, ``r_t``, ``status`` are time level n (as
     ``solver.newmark.Newmark``); ``work`` (4, B) holds [work_contact, work_cylinder,
     friction_dissipation] (``work_totals()``) and the damping work's step sum (``tau`` > 0,
@@ -362,7 +362,7 @@ class BatchedExplicit(HookedStepper):
         self.d[b] = 0.0
 
     def facts(self) -> dict:
-        """Scheme facts of every scene of the batch (``solver.schemes.protocol.Stepper``)."""
+        """Scheme facts of every scene of the batch (``solver.stepper.Stepper``)."""
         return {"scheme": "explicit", "beta1": 0.0, "beta2": self.beta2,
                 "damping_tau_s": self.tau, "contact_s": 0.0, "kernel": f"batched-{self.kernel}",
                 "kernel_first_call_s": self.compile_s}

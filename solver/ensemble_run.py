@@ -37,7 +37,7 @@ from stickslip.solver.contact import ContactLaw
 from stickslip.solver.ensemble import BatchedProblem
 from stickslip.solver.observers import ContinuedRecords, Progress
 from stickslip.solver.scene import Scene
-from stickslip.solver.schemes.protocol import BatchStepper
+from stickslip.solver.stepper import BatchStepper
 
 __all__ = ["BatchColumns", "BatchLayout", "BatchOptions", "BatchStarts", "BuiltProblem"]
 

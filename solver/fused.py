@@ -196,7 +196,7 @@ def local_csr(problem) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
 class FusedNewmark(ExplicitStart):
     """Explicit Newmark + forward-increment contact as ONE compiled call per step.
 
-    A ``solver.schemes.protocol.Stepper`` with the arrays of ``solver.newmark.Newmark``
+    A ``solver.stepper.Stepper`` with the arrays of ``solver.newmark.Newmark``
     (``u``, ``u_prev``, ``v``, ``a``, ``ku``, ``kappa``) plus ``work`` = [work_contact,
     work_cylinder, friction_dissipation] of the owned contact nodes (``FusedEnergy`` reads
     it). The contact forces and statuses are written into the ``projection``'s arrays
@@ -365,7 +365,7 @@ class FusedNewmark(ExplicitStart):
         self.stiffness_of(1 - self.cur, self.ku)
 
     def facts(self) -> dict:
-        """Scheme facts for the run summary (``solver.schemes.protocol.Stepper``)."""
+        """Scheme facts for the run summary (``solver.stepper.Stepper``)."""
         return {"scheme": "explicit", "beta1": 0.0, "beta2": self.beta2,
                 "damping_tau_s": self.tau,
                 "contact_s": 0.0, "kernel": "numba", "kernel_first_call_s": self.compile_s}

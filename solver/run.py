@@ -27,7 +27,7 @@ from stickslip.solver.columns import Profile, SceneRun
 from stickslip.solver.errors import StepTooLarge
 from stickslip.solver.observers import Cadence, Observer
 from stickslip.solver.scene import Scene
-from stickslip.solver.schemes.protocol import Stepper
+from stickslip.solver.stepper import Stepper
 
 if TYPE_CHECKING:  # mpi4py is imported where a run uses it: ``run_loop`` runs without it
     from mpi4py import MPI

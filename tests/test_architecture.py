@@ -378,14 +378,14 @@ def test_the_run_command_and_the_api_share_one_run_function():
 
 
 def test_every_scheme_follows_the_stepper_protocol():
-    """The five schemes implement ``solver.schemes.protocol.Stepper`` (checked at run time
+    """The five schemes implement ``solver.stepper.Stepper`` (checked at run time
     on the classes' attributes: set_state, step, advance, facts)."""
     pytest.importorskip("dolfinx")
     from stickslip.solver.ensemble import BatchedExplicit
     from stickslip.solver.fused import FusedNewmark
     from stickslip.solver.implicit import ImplicitNewmark
     from stickslip.solver.newmark import DampedNewmark, Newmark
-    from stickslip.solver.schemes.protocol import Stepper
+    from stickslip.solver.stepper import Stepper
 
     for cls in (Newmark, DampedNewmark, FusedNewmark, ImplicitNewmark, BatchedExplicit):
         for method in ("set_state", "step", "advance", "facts", "attach", "state", "restore",

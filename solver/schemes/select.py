@@ -182,7 +182,7 @@ def for_scene(scene: Scene) -> Scheme:
 
 @dataclass
 class SchemeParts:
-    """What a scheme builds for one scene: the stepper (``solver.schemes.protocol.Stepper``),
+    """What a scheme builds for one scene: the stepper (``solver.stepper.Stepper``),
     its contact step (``out``: r_r, r_t, status; ``slide``; the nodes' frames, as the
     observers use them), ``work``, which makes the contact-work and damping-work
     observers and attaches those that need every step as step hooks, and the step ``dt``

@@ -1,10 +1,10 @@
 """Batched sweeps: scenes that share mesh, material, dt and scheme run as one batch.
 
 ``stickslip sweep --batch off|auto|B``. ``plan_units`` groups the pending scenes by
-``batch_key`` (the scene without what only the contact law and the initial state see: Omega,
-f, delta, the initial perturbation, the name) and cuts each group into batches of at most B
-scenes; ``run_batch`` runs one batch as a ``solver.run.Simulation.batch`` on one rank
-and writes each scene's run directory.
+``studies.batching.batch_key`` (the scene without what only the contact law and the initial
+state see: Omega, f, delta, the initial perturbation, the name) and cuts each group into
+batches of at most B scenes; ``run_batch`` runs one batch as a
+``solver.run.Simulation.batch`` on one rank and writes each scene's run directory.
 
 Each scene keeps what ``stickslip run`` gives it: its run directory (scene.toml, summary.json
 with status ``running`` while the batch runs, samples.npz, final_field.npz), its log, its
@@ -34,37 +34,15 @@ from pathlib import Path
 from typing import TextIO
 
 from stickslip.solver.atomic import atomic_write_text
-from stickslip.solver.scene import Scene, scene_to_dict
+from stickslip.solver.scene import Scene
+from stickslip.studies.batching import SPOOL_MEMORY_FRACTION, batch_key
 from stickslip.studies.resources import available_memory
 from stickslip.studies.sweep.spec import SweepSpec, Task, scene_for
 from stickslip.studies.sweep.table import check_recorded
 
-#: Scene keys that may differ inside a batch (the contact law's data and the initial state).
-PER_SCENE = {"name": None, "description": None, "loading": None, "initial": None,
-             "geometry": ("delta",)}
 #: Memory a batch may use (bytes) when ``--batch auto`` picks its size.
 AUTO_MEMORY_FRACTION = 0.25
 AUTO_MAX = 1024
-#: A batch keeps its whole sample record in memory when it needs at most this fraction of
-#: the available memory; otherwise the record is spooled to files under the sweep directory.
-SPOOL_MEMORY_FRACTION = 0.1
-
-
-def batch_key(scene: Scene) -> str | None:
-    """The grouping key of ``scene`` (equal keys: same K, M, dt, scheme), or None if the
-    scene must run alone (see the module docstring)."""
-    from stickslip.solver.schemes.select import batchable
-
-    if not batchable(scene):
-        return None
-    d = scene_to_dict(scene)
-    for section, keys in PER_SCENE.items():
-        if keys is None:
-            d.pop(section, None)
-        else:
-            for k in keys:
-                d[section].pop(k, None)
-    return json.dumps(d, sort_keys=True)
 
 
 def bytes_per_scene(scene: Scene, chunk: int = 16) -> float:
