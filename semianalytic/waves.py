@@ -55,7 +55,7 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
-from stickslip.semianalytic.coefficients import Coefficients
+from stickslip.semianalytic.coefficients import Coefficients, coefficients, gamma_from_physical
 from stickslip.semianalytic.separation import (
     _solve_sss,
     _sss_res,
@@ -133,8 +133,6 @@ def continuation_omega(
     radius: float = 1.0,
 ) -> list[TravellingWave | None]:
     """Follow ``wave``'s branch over rotation speeds ``omegas`` (rad/s), one Newton step each."""
-    from stickslip.semianalytic.coefficients import coefficients, gamma_from_physical
-
     out: list[TravellingWave | None] = []
     cur: TravellingWave | None = wave
     for om in omegas:

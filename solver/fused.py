@@ -89,6 +89,7 @@ def numba_available() -> bool:
 def _kernels():
     """The kernels module, imported (and numba with it) on first use."""
     _cache_dir()
+    # numba (0.3 s) with the compiled step only: the numpy kernel runs without it
     from stickslip.solver import _fused_kernels
 
     return _fused_kernels
@@ -98,6 +99,7 @@ def sample_kernels():
     """The batch records' copies module (``solver._sample_kernels``), imported on first use
     with numba's cache where ``_kernels`` has it."""
     _cache_dir()
+    # numba (0.3 s) with the compiled step only: the numpy kernel runs without it
     from stickslip.solver import _sample_kernels
 
     return _sample_kernels

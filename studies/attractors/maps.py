@@ -30,6 +30,7 @@ from pathlib import Path
 from typing import TextIO
 
 from stickslip.solver.atomic import atomic_write_text
+from stickslip.solver.scene import SceneError
 from stickslip.studies.attractors.classify import CELERITY_TOL, SPREAD_TOL, group_members, start_row
 from stickslip.studies.attractors.starts import (
     DEFAULT_AMPLITUDE,
@@ -38,6 +39,10 @@ from stickslip.studies.attractors.starts import (
     StartDistribution,
 )
 from stickslip.studies.attractors.statistics import COUNTED, SETTLED, mesh_members, wilson
+from stickslip.studies.rundir.ownership import KINDS, register_kind
+from stickslip.studies.sweep.schedule import run_sweep
+from stickslip.studies.sweep.spec import SweepError, Task, scene_for
+from stickslip.studies.sweep.table import _read_json, live_status
 
 #: The per-point table of a census map, in the sweep directory (``.csv`` beside it).
 MAP_FILE = "attractors_map.json"
@@ -49,8 +54,6 @@ MAP_FIELDS = ("point", "starts", "finished", "attractors", "dominant", "dominant
 
 def distribution(table: dict, where: str) -> tuple[StartDistribution, float, float]:
     """The ``[attractors]`` table -> (start distribution, celerity_tol, spread_tol)."""
-    from stickslip.studies.sweep.spec import SweepError
-
     unknown = set(table) - set(_KEYS)
     if unknown:
         raise SweepError(f"{where}: unknown key(s) attractors.{', '.join(sorted(unknown))} "
@@ -71,9 +74,6 @@ def distribution(table: dict, where: str) -> tuple[StartDistribution, float, flo
 
 def expand(spec):  # noqa: ANN001, ANN201 - SweepSpec -> SweepSpec
     """Every point of ``spec`` x the M random starts of its ``[attractors]`` table."""
-    from stickslip.solver.scene import SceneError
-    from stickslip.studies.sweep.spec import SweepError, Task, scene_for
-
     dist, _, _ = distribution(spec.attractors, str(spec.path))
     extra = {"initial.perturbation": "random", "initial.n_modes": dist.n_modes,
              "initial.amplitude": dist.amplitude}
@@ -92,10 +92,6 @@ def run_map(spec, out_dir: Path, *, comm=None, stream: TextIO = sys.stdout,  # n
             **sweep_options) -> int:
     """Run the census of every point (collective); rank 0 writes attractors_map.*."""
     from mpi4py import MPI
-
-    from stickslip.studies.rundir.ownership import KINDS, register_kind
-    from stickslip.studies.sweep.schedule import run_sweep
-    from stickslip.studies.sweep.spec import SweepError
 
     comm = MPI.COMM_WORLD if comm is None else comm
     if "attractors_map.*" not in KINDS["sweep"]:  # the map's files belong to its sweep
@@ -120,8 +116,6 @@ def run_map(spec, out_dir: Path, *, comm=None, stream: TextIO = sys.stdout,  # n
 
 def map_table(spec, expanded, out_dir: Path) -> list[dict]:  # noqa: ANN001
     """Per point: the census's dominant member, number of attractors, P(SSS)."""
-    from stickslip.studies.sweep.table import _read_json, live_status
-
     _, celerity_tol, spread_tol = distribution(spec.attractors, str(spec.path))
     per_point: dict[str, list[dict]] = {t.id: [] for t in spec.tasks}
     for task in expanded.tasks:

@@ -46,7 +46,15 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from stickslip.solver.run import Profile, Simulation
 from stickslip.solver.scene import Scene, write_scene
+from stickslip.solver.schemes.select import (
+    check_continuing_kernel,
+    continuing_backend,
+    moved_backends,
+)
+from stickslip.studies.batching import SPOOL_MEMORY_FRACTION, batch_key
+from stickslip.studies.resources import available_memory
 from stickslip.studies.rundir.checkpoint import (
     CHECKPOINT,
     DAMAGED_FIX,
@@ -96,8 +104,6 @@ BUILT_KEEP = 4
 def built_key(scene: Scene) -> str | None:
     """The batch key of ``scene`` (``studies.batching.batch_key``: same K, M, dt,
     scheme, layout) without its run limits, which the legs of a continuation change."""
-    from stickslip.studies.batching import batch_key
-
     return batch_key(scene.with_overrides("time.end_time=1.0", "time.max_steps=0",
                                           "time.max_wall_time=0.0"))
 
@@ -225,7 +231,6 @@ def continue_run(run_dir: str | Path, until: float, out_dir: str | Path | None =
     kernel = comm.bcast(plan.checkpoint.meta["kernel"] if plan is not None else None, root=0)
 
     def resume(sim) -> None:  # noqa: ANN001 - a solver.run.Simulation
-        from stickslip.solver.schemes.select import check_continuing_kernel
 
         check_continuing_kernel(kernel, sim.stepper)
         try:
@@ -277,9 +282,6 @@ def continue_batch(run_dirs: list[str | Path], until: float,
     """
     from mpi4py import MPI  # a continuation starts MPI; importing this module does not
 
-    from stickslip.solver.schemes.select import continuing_backend, moved_backends
-    from stickslip.studies.batching import batch_key
-
     comm = MPI.COMM_SELF
     dirs = [Path(d) for d in run_dirs]
     outs = [None] * len(dirs) if out_dirs is None else [Path(d) for d in out_dirs]
@@ -325,10 +327,6 @@ def _continue_members(plans: list[_Plan], outs: list[Path | None], backend: str,
     import time
 
     from mpi4py import MPI  # a continuation starts MPI; importing this module does not
-
-    from stickslip.solver.run import Profile, Simulation
-    from stickslip.studies.batching import SPOOL_MEMORY_FRACTION
-    from stickslip.studies.resources import available_memory
 
     t0 = time.perf_counter()
     claims = []

@@ -17,13 +17,16 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from stickslip.postprocess.plotting import DEFAULT_WINDOW
+from stickslip.postprocess.plotting import DEFAULT_WINDOW, plot_run
+from stickslip.postprocess.resolution import sampling_problem
 from stickslip.solver import __version__
-from stickslip.solver.atomic import atomic_save_npz, atomic_write_text
+from stickslip.solver.atomic import atomic_save_npz, atomic_write_text, remove_temporaries
 from stickslip.solver.errors import Diverged, StepTooLarge
 from stickslip.solver.run import Profile, Simulation
 from stickslip.solver.scene import Scene, scene_warnings
 from stickslip.studies.output import output_root, process_alive  # noqa: F401  (re-exported)
+from stickslip.studies.resources import ResourceError
+from stickslip.studies.resources import check_resources as _check
 from stickslip.studies.rundir.directory import (
     RunDir,
     RunDirError,
@@ -98,9 +101,6 @@ def run_scene(scene: Scene, run_dir: Path, *, force: bool = False,
     the ranks of the run (default: every rank, ``MPI.COMM_WORLD``).
     """
     if check_sampling:
-        from stickslip.postprocess.resolution import sampling_problem
-        from stickslip.studies.resources import ResourceError
-
         if problem := sampling_problem(scene, "pass --yes-i-know"):
             raise ResourceError(problem)
     directory = RunDirectory(scene, run_dir, force=force, comm=comm, profile=profile,
@@ -108,7 +108,6 @@ def run_scene(scene: Scene, run_dir: Path, *, force: bool = False,
                              replace_on_failure=replace_on_failure)
     summary = directory.run()
     if plot and summary.get("status") in PLOTTABLE:  # rank 0: the others' summary is {}
-        from stickslip.postprocess.plotting import plot_run
 
         for path in plot_run(Path(run_dir), window=window):
             directory.say(f"figure: {path}")
@@ -222,9 +221,6 @@ class RunDirectory:
 
     def _check_first(self):  # noqa: ANN202 - an Estimate or None
         """The place, then the resources, before anything is created (collective)."""
-        from stickslip.studies.resources import ResourceError
-        from stickslip.studies.resources import check_resources as _check
-
         est = None
         err, kind = None, None
         if self.rank0:
@@ -406,8 +402,6 @@ class RunDirectory:
         ``interrupted`` if a SIGINT/SIGTERM came first (mpirun's SIGKILL follows its SIGTERM
         within a second), or drop an unfinished replacement. Neither status is final: a
         resumed sweep runs the scene again. The rescue writer, if any, owns the status."""
-        from stickslip.solver.atomic import remove_temporaries
-
         rd = self.rd
         status, message = "crashed", (f"the process was killed outright (SIGKILL: out of "
                                       f"memory, or mpirun/batch system) during {where}")

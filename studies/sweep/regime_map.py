@@ -14,6 +14,8 @@ from pathlib import Path
 from typing import Any
 
 from stickslip.postprocess.style import REGIME_COLORS
+from stickslip.semianalytic.coefficients import coefficients, gamma_from_physical
+from stickslip.semianalytic.waves import find_waves, refine_wave
 from stickslip.solver.atomic import atomic_write_text
 from stickslip.solver.scene import (
     Scene,
@@ -79,8 +81,6 @@ def _span(values: Sequence[float], scale: str) -> list[float]:
 
 def _reduced_params(scene: Scene) -> tuple[float, float, float, float, float, float]:
     """(nu, xi, gamma, f, delta, omega) of the reduced model (paper section 2) for ``scene``."""
-    from stickslip.semianalytic.coefficients import gamma_from_physical
-
     g, m, ld = scene.geometry, scene.material, scene.loading
     return (m.nu, g.xi, gamma_from_physical(m.wave_speed, g.R, ld.omega), ld.f, g.delta,
             ld.omega)
@@ -99,9 +99,6 @@ def existence_grid(base: Scene, xkey: str, xs: Sequence[float], ykey: str, ys: S
     keys the reduced model does not see (mesh, seed, time step...) are computed once.
     """
     import warnings
-
-    from stickslip.semianalytic.coefficients import coefficients
-    from stickslip.semianalytic.waves import find_waves, refine_wave
 
     ks = tuple(ks)
     searched: dict[tuple, list] = {}
