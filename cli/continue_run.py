@@ -1,6 +1,7 @@
 """``stickslip continue RUN --until T [-o DIR]``: a run continued from its checkpoint.
 
-Imports of dolfinx/PETSc happen inside the handler, so ``stickslip --help`` stays fast.
+dolfinx and PETSc load when the continued run builds its problem, after the command line
+and the environment are checked.
 """
 
 from __future__ import annotations

@@ -1,6 +1,7 @@
 """Subcommands of ``stickslip`` that use the FE solver: ``run`` and ``plot``.
 
-Imports of dolfinx/PETSc happen inside the handlers, so ``stickslip --help`` stays fast.
+dolfinx and PETSc load when a run builds its problem (``studies.rundir.run_scene``), after
+the command line and the environment are checked.
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """``stickslip wave`` and ``stickslip flutter`` subcommands (section 6).
 
-The lead's ``solver/cli.py`` calls :func:`register` with its ``subparsers``. Handlers return
+``cli.main`` calls :func:`register` with its ``subparsers``. Handlers return
 the exit code: 0 on success, 2 on bad input (one ``error: ...`` line on stderr naming the
 bad value and the allowed range).
 """

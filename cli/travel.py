@@ -1,6 +1,7 @@
 """``stickslip travel SCENE [--from RUN]``: a travelling wave computed directly in its frame.
 
-Heavy imports (dolfinx, matplotlib) stay inside the handler.
+The handler imports dolfinx itself, without numba (``_import_dolfinx_without_numba``);
+matplotlib loads where a figure is drawn.
 """
 
 from __future__ import annotations
