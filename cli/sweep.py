@@ -114,7 +114,6 @@ def _sweep(args: argparse.Namespace) -> int:
                 print(f"{task.id:40s} {task_state(out_dir, spec, task, failures=failures)}")
         return 0
     if spec.attractors:  # a census at every point (studies/attractors/maps.py)
-
         rc = run_map(spec, out_dir, comm=comm, group_size=args.group_size,
                      retry_failed=args.retry_failed, progress=args.progress, batch=batch,
                      backend=backend)

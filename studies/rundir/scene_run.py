@@ -108,7 +108,6 @@ def run_scene(scene: Scene, run_dir: Path, *, force: bool = False,
                              replace_on_failure=replace_on_failure)
     summary = directory.run()
     if plot and summary.get("status") in PLOTTABLE:  # rank 0: the others' summary is {}
-
         for path in plot_run(Path(run_dir), window=window):
             directory.say(f"figure: {path}")
     return summary

@@ -620,7 +620,6 @@ def frame_operators(problem: TubeProblem, damping: float = 0.0,
         # Kelvin–Voigt in the frame: D = τ K M⁻¹ B, M⁻¹B w the lumped projection of
         # (∂_θ − J)w onto P1 (forms.travelling.travelling_transport); the clamped dofs
         # have no velocity, so their rows of the projection are zero.
-
         Bm = dolfinx.fem.petsc.assemble_matrix(
             dolfinx.fem.form(travelling_transport(u, v, problem.material.rho)))
         Bm.assemble()
