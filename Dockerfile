@@ -71,14 +71,18 @@ CMD ["bash"]
 
 # Runtime image (the default): the project installed normally (not editable: the image is
 # what users run, nothing in it changes), with --no-index so that pip cannot reach any index.
-# The source tree stays in /opt/stickslip for its scenes/, sweeps/, docs/ and tests/; the
-# installed code finds the shipped scenes (`stickslip run figure3_n36`) through STICKSLIP_SCENES.
+# pyproject.toml's package-dir installs the folders solver/, cli/, ... as stickslip.solver,
+# stickslip.cli, ... The source tree stays in /opt/stickslip for its scenes/, sweeps/, docs/
+# and tests/, less its stickslip/ folder: that folder holds only the package's root (the
+# subpackages are the folders beside it), and from the working directory (first on sys.path
+# for `python3 -c` and `python3 -m`) it would hide the installed package. The installed code
+# finds the shipped scenes (`stickslip run figure3_n36`) through STICKSLIP_SCENES.
 FROM stack AS runtime
 ENV STICKSLIP_SCENES=/opt/stickslip/scenes
 COPY . /opt/stickslip
 RUN python3 -m pip install --no-index --no-cache-dir --no-deps --no-build-isolation \
         --break-system-packages --root-user-action=ignore /opt/stickslip \
- && rm -rf /opt/stickslip/build /opt/stickslip/*.egg-info
+ && rm -rf /opt/stickslip/build /opt/stickslip/*.egg-info /opt/stickslip/stickslip
 
 USER stickslip
 WORKDIR /opt/stickslip

@@ -256,10 +256,9 @@ def main() -> None:
         cmd.append("--no-certify")
     if args.ranks > 1:
         cmd = ["mpirun", "-n", str(args.ranks), *cmd]
-    env = dict(os.environ, PYTHONPATH=str(REPO))
     load_before = os.getloadavg()
     t0 = time.perf_counter()
-    res = subprocess.run(cmd, cwd=REPO, env=env, capture_output=True, text=True)
+    res = subprocess.run(cmd, cwd=REPO, capture_output=True, text=True)
     wall = time.perf_counter() - t0
     usage = resource.getrusage(resource.RUSAGE_CHILDREN)  # the command and its ranks
     if res.returncode not in (0, 1):

@@ -7,14 +7,28 @@ import os
 import sys
 from pathlib import Path
 
+from stickslip.cli.commands import command_help
+from stickslip.solver.scene import SceneError
+from stickslip.studies.attractors.along import parse_along, plot_along, point_census, run_along
+from stickslip.studies.attractors.bundle import (
+    BundleError,
+    bundle_state,
+    import_results,
+    write_bundle,
+)
+from stickslip.studies.attractors.cea import cea_lines, cea_table
+from stickslip.studies.attractors.census import CensusError, answer_json, collect, run_census
+from stickslip.studies.attractors.classify import CELERITY_TOL, SPREAD_TOL
+from stickslip.studies.attractors.plots import plot_census
+from stickslip.studies.attractors.request import CensusRequest, build_census
+from stickslip.studies.attractors.starts import DEFAULT_AMPLITUDE, DEFAULT_N_MODES, DEFAULT_SEED
+from stickslip.studies.sweep import SweepError
+
 
 def register(sub: argparse._SubParsersAction) -> None:
-    from stickslip.studies.attractors.classify import CELERITY_TOL, SPREAD_TOL
-    from stickslip.studies.attractors.starts import DEFAULT_AMPLITUDE, DEFAULT_N_MODES, DEFAULT_SEED
-
     p = sub.add_parser(
         "attractors",
-        help="census of a scene point: its attractors, their basin shares and values per mesh",
+        help=command_help("attractors"),
         description=(
             "Run M random starts (and, with --structured, mode-k starts) of SCENE at each "
             "mesh of a ladder, describe every end state by its travelling components "
@@ -111,9 +125,6 @@ def _attractors(args: argparse.Namespace) -> int:
     os.environ.setdefault("OMPI_MCA_osc", "^ucx")  # as `stickslip sweep`: one atomic counter
     from mpi4py import MPI
 
-    from stickslip.solver.scene import SceneError
-    from stickslip.studies.attractors.census import CensusError, run_census
-
     comm = MPI.COMM_WORLD
     if (Path(args.scene) / "census.json").is_file():
         return _read(Path(args.scene), args) if comm.rank == 0 else 0
@@ -128,8 +139,6 @@ def _attractors(args: argparse.Namespace) -> int:
     read_starts = None
     if args.bundle:
         from functools import partial
-
-        from stickslip.studies.attractors.bundle import import_results
 
         rc = _prepare_bundle(census, Path(args.bundle), comm)
         if rc is not None:
@@ -152,8 +161,6 @@ def _census(args: argparse.Namespace, ranks: int):  # noqa: ANN202 - (Census, Pa
     """The census the arguments ask for and its directory
     (``studies.attractors.request.build_census``: one line where an option is bad, or where
     its cap is too costly without --yes-i-know)."""
-    from stickslip.studies.attractors.request import CensusRequest, build_census
-
     return build_census(CensusRequest(
         scene=args.scene, starts=args.starts, meshes=args.meshes, degrees=args.degrees,
         structured=args.structured,
@@ -167,8 +174,6 @@ def _census(args: argparse.Namespace, ranks: int):  # noqa: ANN202 - (Census, Pa
 def _prepare_bundle(census, bundle: Path, comm) -> int | None:  # noqa: ANN001
     """--bundle: write it where it is new (0), refuse one whose results are missing or that
     is another census's (2); None: its results are there, answer."""
-    from stickslip.studies.attractors.bundle import BundleError, bundle_state, write_bundle
-
     if comm.size > 1:
         return _fail("--bundle prepares and answers in one process: run it without mpirun",
                      comm.rank)
@@ -189,13 +194,6 @@ def _prepare_bundle(census, bundle: Path, comm) -> int | None:  # noqa: ANN001
 
 
 def _along(census, out: Path, args: argparse.Namespace, comm) -> int:  # noqa: ANN001
-    from stickslip.studies.attractors.along import (
-        parse_along,
-        plot_along,
-        point_census,
-        run_along,
-    )
-    from stickslip.studies.attractors.census import CensusError
 
     try:
         key, values = parse_along(args.along)
@@ -216,9 +214,6 @@ def _read(out: Path, args: argparse.Namespace) -> int:
     """The answer of an existing census directory, as it stands (nothing runs, nothing is
     written that need not be: a read-only directory reads the same). 0 only for a
     finished answer without failed starts, else 1 (its NOT FINISHED line says why)."""
-    from stickslip.studies.attractors.census import CensusError, collect
-    from stickslip.studies.sweep import SweepError
-
     try:
         answer = collect(out, certify="cached", reading=True)
     except (CensusError, SweepError) as err:
@@ -234,19 +229,13 @@ def _show(out: Path, args: argparse.Namespace, answer: dict) -> int:
     one line), else 0."""
     import json
 
-    from stickslip.studies.attractors.census import answer_json
-
     stored = answer_json(answer)  # as attractors.json holds it
     if args.json:
         print(stored, end="")
     if args.cea:
-        from stickslip.studies.attractors.cea import cea_lines, cea_table
-
         for line in cea_lines(cea_table(out, json.loads(stored), args.cea_fmax_hz)):
             print(line)
     if args.plot:
-        from stickslip.studies.attractors.plots import plot_census
-
         try:
             paths = plot_census(out, json.loads(stored))
         except OSError as err:

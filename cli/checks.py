@@ -1,6 +1,6 @@
 """Checks the command handlers make before any work: one line naming the problem and the fix.
 
-Light (standard library only at import): every command module may use it.
+Light (standard library only at import): the command line imports it at start-up.
 """
 
 from __future__ import annotations
@@ -8,7 +8,7 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-__all__ = ["environment_problem", "output_file_problem", "samples_problem"]
+__all__ = ["environment_problem", "output_file_problem"]
 
 
 def _writable_dir(path: str) -> bool:
@@ -50,16 +50,4 @@ def output_file_problem(path: str | Path, flag: str) -> str | None:
             ("/proc", "/sys")):
         return f"{flag} {p}: cannot write in {parent} (read-only or no permission); " \
                "choose another place"
-    return None
-
-
-def samples_problem(run_dir: str | Path, need: int = 1) -> str | None:
-    """Why the run directory ``run_dir`` cannot be read back (a missing, corrupt, edited or
-    too short file: ``studies.rundir.readers``), or None."""
-    from stickslip.studies.rundir.readers import ReadError, check_run_dir
-
-    try:
-        check_run_dir(run_dir, need)
-    except ReadError as err:
-        return str(err)
     return None

@@ -9,13 +9,19 @@ from pathlib import Path
 
 import numpy as np
 
+from stickslip.cli.checks import output_file_problem
+from stickslip.cli.commands import command_help
+from stickslip.cli.semianalytic import KMAX_LIMIT
+from stickslip.solver.atomic import atomic_write_text
+from stickslip.solver.scene import load_scene
+from stickslip.studies.rundir.readers import samples_problem
 from stickslip.studies.verification import compare_run, format_table, modal_table
 
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "compare",
-        help="FE wave of a run directory against the semi-analytical waves (table + JSON)",
+        help=command_help("compare"),
         description=(
             "Measure the FE wave of RUN_DIR (mode k, signed celerity, frequency, psi1, psi2, "
             "amplitudes, zone order) and put it side by side with every travelling wave of "
@@ -34,8 +40,6 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def _compare(args: argparse.Namespace) -> int:
-    from stickslip.cli.checks import output_file_problem, samples_problem
-
     run_dir = Path(args.run_dir)
     out = Path(args.json_out) if args.json_out else run_dir / "compare.json"
     problem = samples_problem(run_dir, need=4) or output_file_problem(out, "--json")
@@ -43,7 +47,6 @@ def _compare(args: argparse.Namespace) -> int:
         print(f"error: {problem}", file=sys.stderr)
         return 2
     ks = list(args.k)
-    from stickslip.cli.semianalytic import KMAX_LIMIT
 
     if bad := [k for k in ks if not 1 <= k <= KMAX_LIMIT]:
         print(f"error: --k {bad[0]}: give a wavenumber 1 <= k <= {KMAX_LIMIT} (the reduced "
@@ -51,8 +54,6 @@ def _compare(args: argparse.Namespace) -> int:
         return 2
     result = compare_run(run_dir, ks)
     if args.modal:
-        from stickslip.solver.scene import load_scene
-
         scene = load_scene(run_dir / "scene.toml")
         result["fe_modes"] = modal_table(scene, sorted({result["fe"]["k"], *ks}))
     print(format_table(result, markdown=args.markdown))
@@ -60,7 +61,6 @@ def _compare(args: argparse.Namespace) -> int:
         for k, row in result["fe_modes"].items():
             print(f"k = {k}: " + ", ".join(f"{key} {val:.1f}" for key, val in row.items()
                                            if val is not None))
-    from stickslip.solver.atomic import atomic_write_text
 
     atomic_write_text(out, json.dumps(result, indent=2, default=_json_default))
     print(f"table: {out}")

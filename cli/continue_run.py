@@ -1,6 +1,7 @@
 """``stickslip continue RUN --until T [-o DIR]``: a run continued from its checkpoint.
 
-Imports of dolfinx/PETSc happen inside the handler, so ``stickslip --help`` stays fast.
+dolfinx and PETSc load when the continued run builds its problem, after the command line
+and the environment are checked.
 """
 
 from __future__ import annotations
@@ -9,6 +10,11 @@ import argparse
 import math
 import sys
 from pathlib import Path
+
+from stickslip.cli.commands import command_help
+from stickslip.studies.resources import ResourceError
+from stickslip.studies.rundir import EXIT_CODES, RunDirError, continue_run
+from stickslip.studies.rundir.readers import ReadError
 
 
 def _time(text: str) -> float:
@@ -25,7 +31,7 @@ def _time(text: str) -> float:
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "continue",
-        help="continue a run from its checkpoint to a later end time",
+        help=command_help("continue"),
         description=(
             "Continue a run directory (of `stickslip run`, or a scene of a batched sweep or "
             "census) from its checkpoint.npz to the time --until: the samples, final field "
@@ -52,10 +58,6 @@ def _continue(args: argparse.Namespace) -> int:
     """Exit status from the continued run's status (as ``stickslip run``); 2 with one line
     when the run cannot be continued."""
     from mpi4py import MPI
-
-    from stickslip.studies.resources import ResourceError
-    from stickslip.studies.rundir import EXIT_CODES, RunDirError, continue_run
-    from stickslip.studies.rundir.readers import ReadError
 
     comm = MPI.COMM_WORLD
     try:

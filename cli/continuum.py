@@ -15,6 +15,12 @@ import sys
 import time
 from typing import Any
 
+from stickslip.cli.commands import command_help
+from stickslip.exact import halfspace
+from stickslip.exact.annulus import Elastic
+from stickslip.exact.sliding_flutter import Dissipation, sliding_branches
+from stickslip.solver.scene import load_scene
+
 __all__ = ["flutter_exact_command", "register"]
 
 NMAX_LIMIT = 2000  # orders above this need collocation matrices > 4000² (minutes per n)
@@ -29,7 +35,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     """Add ``flutter-exact [SCENE]`` to the ``stickslip`` subcommands."""
     p = sub.add_parser(
         "flutter-exact",
-        help="exact continuum flutter of steady sliding (Bessel, every branch per order n)",
+        help=command_help("flutter-exact"),
         description=(
             "Linearised steady sliding of the plane-strain annulus R <= r <= xi R (clamped "
             "outside; u_r = 0 and sigma_rt = f sigma_rr at r = R): growth rate and frequency of "
@@ -102,8 +108,6 @@ def _scene_values(args: argparse.Namespace) -> dict[str, Any]:
                          "omega": 50.0, "tau": 0.0, "reg": "none", "L": None, "vstar": 0.0,
                          "tstar": None, "source": "defaults"}
     if args.scene is not None:
-        from stickslip.solver.scene import load_scene
-
         sc = load_scene(args.scene, args.overrides)
         v.update(E=sc.material.E, rho=sc.material.rho, nu=sc.material.nu, R=sc.geometry.R,
                  xi=sc.geometry.xi, f=sc.loading.f, omega=sc.loading.omega, source=sc.name)
@@ -135,9 +139,6 @@ def _scene_values(args: argparse.Namespace) -> dict[str, Any]:
 
 
 def _parse(args: argparse.Namespace) -> tuple[Any, list[float], list[int], Any, dict]:
-    from stickslip.exact.annulus import Elastic
-    from stickslip.exact.sliding_flutter import Dissipation
-
     v = _scene_values(args)
     _finite("E", v["E"], 0.0, 1e13, lo_open=True)
     _finite("nu", v["nu"], 0.0, 0.5, hi_open=True)
@@ -224,9 +225,6 @@ def _f_sweep(text: str) -> list[float]:
 
 def flutter_exact_command(args: argparse.Namespace) -> int:
     """Handler of ``stickslip flutter-exact``."""
-    from stickslip.exact import halfspace
-    from stickslip.exact.sliding_flutter import sliding_branches
-
     try:
         mat, fs, ns, diss, info = _parse(args)
     except (InputError, ValueError, FileNotFoundError) as err:

@@ -9,6 +9,17 @@ import math
 import sys
 from pathlib import Path
 
+from stickslip.cli.checks import output_file_problem
+from stickslip.cli.commands import command_help
+from stickslip.postprocess.analysis import load_run
+from stickslip.postprocess.plotting import save_figure
+from stickslip.postprocess.probes import signal_figure, write_probe_csv
+from stickslip.postprocess.style import wave_title
+from stickslip.solver.scene import load_scene
+from stickslip.studies.attractors.starts import rung_key
+from stickslip.studies.flutter_fe import complex_eigenvalue_analysis
+from stickslip.studies.rundir.readers import samples_problem
+
 #: The CEA's resolved unstable modes marked, the fastest growing first (``CEAResult.unstable``).
 CEA_MARKS = 8
 
@@ -16,7 +27,7 @@ CEA_MARKS = 8
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "export",
-        help="a run's probe signals (every step) as CSV; --plot: spectrogram and spectrum",
+        help=command_help("export"),
         description=(
             "Write the every-step histories of the run's probes (output.probes_deg: u_r, "
             "u_theta, v_r, v_theta of the nearest contact node) as one CSV table, a column "
@@ -46,8 +57,6 @@ def _fail(msg: str) -> int:
 
 
 def _export(args: argparse.Namespace) -> int:
-    from stickslip.cli.checks import output_file_problem, samples_problem
-
     run_dir = Path(args.run_dir)
     problem = (samples_problem(run_dir, need=4) or output_file_problem(args.output, "-o")
                or (args.plot and output_file_problem(args.plot, "--plot")))
@@ -59,8 +68,6 @@ def _export(args: argparse.Namespace) -> int:
     if census is not None and not (census / "attractors.json").is_file():
         return _fail(f"--census {census}: no attractors.json there; give a census "
                      "directory (`stickslip attractors ... -o DIR`)")
-    from stickslip.postprocess.analysis import load_run
-    from stickslip.postprocess.probes import write_probe_csv
 
     run = load_run(run_dir)
     if "probe_t" not in run.samples or run.samples["probe_t"].size < 8:
@@ -84,8 +91,6 @@ def _marks(run, census: Path | None, cea_fmax_hz: float | None) -> dict:  # noqa
     if summary.get("frequency_hz"):
         marks[f"this run: mode k = {summary.get('mode')}"] = [summary["frequency_hz"]]
     if census is not None:
-        from stickslip.studies.attractors.starts import rung_key
-
         answer = json.loads((census / "attractors.json").read_text())
         mesh = run.scene.get("mesh", {})  # the census's key of the run's rung
         n = rung_key(mesh.get("n_inner", 0), mesh.get("degree", 1))
@@ -93,9 +98,8 @@ def _marks(run, census: Path | None, cea_fmax_hz: float | None) -> dict:  # noqa
                  for c in m.get("components", []) if c.get("frequency_hz") is not None]
         marks[f"census components (N = {n})"] = freqs
     if cea_fmax_hz is not None:
+        # dolfinx for --cea only, after the command line and the environment are checked
         from stickslip.solver.problem import build_problem
-        from stickslip.solver.scene import load_scene
-        from stickslip.studies.flutter_fe import complex_eigenvalue_analysis
 
         problem = build_problem(load_scene(run.path / "scene.toml"))
         res = complex_eigenvalue_analysis(problem, None, cea_fmax_hz)
@@ -108,9 +112,6 @@ def _plot(run, marks: dict, path: str) -> None:  # noqa: ANN001
     import matplotlib
 
     matplotlib.use("Agg")
-    from stickslip.postprocess.plotting import save_figure
-    from stickslip.postprocess.probes import signal_figure
-    from stickslip.postprocess.style import wave_title
 
     save_figure(signal_figure(run.samples, f"{run.scene.get('name', run.path.name)}: "
                               f"{wave_title(run.summary)}", marks), Path(path))

@@ -13,6 +13,10 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from stickslip.cli.checks import output_file_problem
+from stickslip.cli.commands import command_help
+from stickslip.solver.atomic import atomic_write_text
+from stickslip.solver.scene import SceneError, load_scene
 from stickslip.studies.flutter_fe.cea import (
     CEAMode,
     CEAResult,
@@ -25,6 +29,7 @@ from stickslip.studies.flutter_fe.cea import (
 from stickslip.studies.flutter_fe.doublets import MIN_PURITY, doublet_lines, doublets
 from stickslip.studies.flutter_fe.plots import plot_cea_diagram, plot_spectrum
 from stickslip.studies.flutter_fe.references import reduced_model_flutter
+from stickslip.studies.flutter_fe.shapes import modes_dir_problem, write_mode_shapes
 from stickslip.studies.flutter_fe.tables import csv_text, lock_in_points, mode_rows, sweep_rows
 
 if TYPE_CHECKING:
@@ -69,7 +74,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     """Add ``flutter-fe SCENE`` to the ``stickslip`` subcommands."""
     p = sub.add_parser(
         "flutter-fe",
-        help="complex eigenvalue analysis (CEA) of FE steady sliding (SLEPc)",
+        help=command_help("flutter-fe"),
         description=(
             "Linearise the FE system about discrete steady sliding (contact nodes stay in "
             "contact, tangential force = f x normal reaction), with the scene's Kelvin-Voigt "
@@ -126,8 +131,6 @@ def flutter_fe_command(args: argparse.Namespace) -> int:
     """Handler of ``stickslip flutter-fe``."""
     from mpi4py import MPI
 
-    from stickslip.solver.scene import SceneError, load_scene
-
     comm = MPI.COMM_WORLD
     try:
         scene = load_scene(args.scene, args.overrides)
@@ -174,8 +177,6 @@ def flutter_fe_command(args: argparse.Namespace) -> int:
 def _write_tables(path: str, res: CEAResult, sweep: list[CEAResult] | None) -> list[str]:
     """``--csv``: the modes of the scene's f, and with a sweep its modes against f and the
     lock-in points (``studies.flutter_fe.tables``), each written atomically; their paths."""
-    from stickslip.solver.atomic import atomic_write_text
-
     base = Path(path).resolve()
     tables = {base: mode_rows(res)}
     if sweep is not None:
@@ -203,7 +204,6 @@ def _argument_problem(args: argparse.Namespace, scene: Scene, ranks: int) -> str
                             ("--top", args.top, 0)):
         if not lo <= value <= KMAX_LIMIT:
             return f"{flag} {value} is out of range: need {lo} <= {flag[2:]} <= {KMAX_LIMIT}"
-    from stickslip.cli.checks import output_file_problem
 
     for flag, target in (("--plot", args.plot), ("--csv", args.csv)):
         bad = target and output_file_problem(target, flag)
@@ -213,8 +213,6 @@ def _argument_problem(args: argparse.Namespace, scene: Scene, ranks: int) -> str
     if refused:
         return refused
     if args.modes:
-        from stickslip.studies.flutter_fe.shapes import modes_dir_problem
-
         return modes_dir_problem(args.modes) or None
     return None
 
@@ -223,6 +221,7 @@ def _analyse(args: argparse.Namespace, scene: Scene, comm: MPI.Comm,
              fs: np.ndarray | None) -> tuple[CEAResult, list[CEAResult] | None, dict | None] | str:
     """The CEA at the scene's f (and at each f of ``--f-sweep``), the listed mode shapes
     written with ``--modes``; or why the band cannot be solved (one line)."""
+    # dolfinx (and MPI) start after the command line and the environment are checked
     from stickslip.solver.problem import build_problem, gershgorin_omega_max
 
     friction = args.friction or scene.friction.filter
@@ -244,8 +243,6 @@ def _analyse(args: argparse.Namespace, scene: Scene, comm: MPI.Comm,
                  for f in fs]
     written = None
     if args.modes:
-        from stickslip.studies.flutter_fe.shapes import write_mode_shapes
-
         resolved, mesh = _listed(res, args.top)
         where = {id(m): i for i, m in enumerate(res.modes)}
         written = write_mode_shapes(problem, ops, res, args.modes,

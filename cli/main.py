@@ -1,20 +1,25 @@
 """The ``stickslip`` command line.
 
-Every subcommand imports what it needs only when it runs: ``stickslip wave`` never touches
-dolfinx, ``stickslip run`` never imports pyvista unless it plots.
+``stickslip COMMAND`` imports the module of COMMAND alone (``cli.commands.COMMANDS``), and
+that module imports what the command runs; ``stickslip --help`` lists the commands without
+importing any. The FE stack loads when a command builds a problem: ``stickslip wave`` never
+touches dolfinx, ``stickslip run`` never imports pyvista unless it plots.
 """
 
 from __future__ import annotations
 
 import argparse
 import contextlib
+import importlib
 import os
 import signal
 import sys
 import threading
 import traceback
-from collections.abc import Sequence
+from collections.abc import Collection, Sequence
 
+from stickslip.cli.checks import environment_problem
+from stickslip.cli.commands import COMMANDS
 from stickslip.cli.pipes import reader_tolerant_stdout
 from stickslip.solver import __version__
 from stickslip.studies.output import output_root
@@ -59,7 +64,10 @@ def _info(args: argparse.Namespace) -> int:
     return 0
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(commands: Collection[str] | None = None) -> argparse.ArgumentParser:
+    """The parser of ``stickslip``: every command's (``commands`` None), or the full parsers
+    of ``commands`` only, with every other command listed by its line of
+    ``cli.commands.COMMANDS`` (its module is not imported)."""
     parser = argparse.ArgumentParser(
         prog="stickslip",
         description=(
@@ -77,38 +85,21 @@ def build_parser() -> argparse.ArgumentParser:
                                    "./runs).")
     p.set_defaults(func=_info)
 
-    for module in COMMAND_MODULES:
-        _register(sub, module)
+    wanted = None if commands is None else {COMMANDS[c][0] for c in commands if c in COMMANDS}
+    registered: set[str] = set()
+    for name, (module, line) in COMMANDS.items():
+        if wanted is not None and module not in wanted:
+            sub.add_parser(name, help=line)  # listed; its module is not imported
+        elif module not in registered:  # adds every command of the module
+            registered.add(module)
+            importlib.import_module(module).register(sub)
     return parser
 
 
-# Modules that add subcommands through ``register(subparsers)``. Each keeps its heavy imports
-# (dolfinx, PETSc, matplotlib, pyvista) inside its handlers.
-COMMAND_MODULES = (
-    "stickslip.cli.run",  # run, plot
-    "stickslip.cli.continue_run",  # continue
-    "stickslip.cli.semianalytic",  # wave, flutter
-    "stickslip.cli.compare",  # compare
-    "stickslip.cli.sweep",  # sweep
-    "stickslip.cli.flutter_fe",  # flutter-fe
-    "stickslip.cli.continuum",  # flutter-exact
-    "stickslip.cli.travel",  # travel
-    "stickslip.cli.attractors",  # attractors
-    "stickslip.cli.rpo",  # rpo
-    "stickslip.cli.export",  # export
-)
-
-
-def _register(sub: argparse._SubParsersAction, module: str) -> None:
-    import importlib
-
-    try:
-        mod = importlib.import_module(module)
-    except ModuleNotFoundError as err:  # a feature module not present in this version
-        if err.name != module:
-            raise
-        return
-    mod.register(sub)
+def _command_named(argv: Sequence[str]) -> str | None:
+    """The command of a command line: its first word that is not an option (``stickslip``'s
+    own options, ``-h`` and ``--version``, take no value)."""
+    return next((word for word in argv if not word.startswith("-")), None)
 
 
 #: The arguments that name a directory: ``-o`` (run, continue, sweep, travel, attractors), a
@@ -179,12 +170,12 @@ def _stops_as_interrupt():  # noqa: ANN202
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point: the handler's exit status; 2 with one line for a foreseen error class."""
-    parser = build_parser()
+    argv = list(sys.argv[1:] if argv is None else argv)
+    parser = build_parser([name] if (name := _command_named(argv)) else [])
     args = parser.parse_args(argv)
     if not getattr(args, "func", None):
         parser.print_help()
         return 2
-    from stickslip.cli.checks import environment_problem
 
     problem = environment_problem()
     for flag, value in (("-o", getattr(args, "output", None)), ("--plot", getattr(

@@ -1,7 +1,4 @@
-"""``stickslip rpo RUN_DIR``: the relative periodic orbit where a run's checkpoint stands.
-
-Heavy imports (dolfinx) stay inside the handler.
-"""
+"""``stickslip rpo RUN_DIR``: the relative periodic orbit where a run's checkpoint stands."""
 
 from __future__ import annotations
 
@@ -12,6 +9,7 @@ import sys
 from pathlib import Path
 
 from stickslip.solver.atomic import atomic_write_text
+from stickslip.studies.rpo.certificate import rpo_certificate
 from stickslip.studies.rundir.ownership import OwnershipError, claim, register_kind
 
 
@@ -111,8 +109,6 @@ def _fail(message: str) -> int:
 
 
 def _rpo(args: argparse.Namespace) -> int:
-    from stickslip.studies.rpo.certificate import rpo_certificate
-
     run_dir = Path(args.run_dir)
     problem = option_problem(args)
     if problem:

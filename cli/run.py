@@ -1,6 +1,7 @@
 """Subcommands of ``stickslip`` that use the FE solver: ``run`` and ``plot``.
 
-Imports of dolfinx/PETSc happen inside the handlers, so ``stickslip --help`` stays fast.
+dolfinx and PETSc load when a run builds its problem (``studies.rundir.run_scene``), after
+the command line and the environment are checked.
 """
 
 from __future__ import annotations
@@ -9,11 +10,20 @@ import argparse
 import sys
 from pathlib import Path
 
+from stickslip.cli.commands import command_help
+from stickslip.postprocess.plotting import DEFAULT_WINDOW, parse_window, plot_run
+from stickslip.solver.scene import SceneError, load_scene
+from stickslip.studies.output import output_root
+from stickslip.studies.resources import ResourceError
+from stickslip.studies.rundir import EXIT_CODES, RunDirError, run_scene
+from stickslip.studies.rundir.readers import samples_problem
+from stickslip.studies.sweep import is_sweep_dir, plot_sweep
+
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "run",
-        help="run a scene (TOML) with the explicit FE solver; writes a run directory",
+        help=command_help("run"),
         description=(
             "Run a scene: gmsh tube, discrete steady sliding state plus the scene's "
             "perturbation, explicit Newmark with the contact/friction projection. Writes "
@@ -41,7 +51,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--profile", action="store_true", help="print where the time went")
     p.set_defaults(func=_run)
 
-    p = sub.add_parser("plot", help="draw the figures of a run or sweep directory (PNG)",
+    p = sub.add_parser("plot", help=command_help("plot"),
                        description="The figures of a run directory, as PNG files: space-time "
                                    "maps of u_r - d and the contact status (last periods, "
                                    "--window), final profile, phase diagrams, energy balance, "
@@ -53,8 +63,6 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def _window_option(p: argparse.ArgumentParser) -> None:
-    from stickslip.postprocess.plotting import DEFAULT_WINDOW, parse_window
-
     p.add_argument("--window", type=parse_window, default=DEFAULT_WINDOW,  # parsed by argparse
                    metavar="5T|4ms|0.01s|all",
                    help="time window of the space-time maps: a number of wave periods at a "
@@ -64,11 +72,6 @@ def _window_option(p: argparse.ArgumentParser) -> None:
 def _run(args: argparse.Namespace) -> int:
     """``stickslip run``: exit status from the run's status (README: "Exit codes")."""
     from mpi4py import MPI
-
-    from stickslip.solver.scene import SceneError, load_scene
-    from stickslip.studies.output import output_root
-    from stickslip.studies.resources import ResourceError
-    from stickslip.studies.rundir import EXIT_CODES, RunDirError, run_scene
 
     comm = MPI.COMM_WORLD
     try:
@@ -94,18 +97,11 @@ def _run(args: argparse.Namespace) -> int:
 
 
 def _plot(args: argparse.Namespace) -> int:
-    from stickslip.postprocess.plotting import plot_run
-
     run_dir = Path(args.run_dir)
-    try:
-        from stickslip.studies.sweep import is_sweep_dir, plot_sweep
-    except ModuleNotFoundError:  # pragma: no cover - sweep module always shipped
-        is_sweep_dir = None
-    if is_sweep_dir is not None and is_sweep_dir(run_dir):
+    if is_sweep_dir(run_dir):
         for path in plot_sweep(run_dir):
             print(f"figure: {path}")
         return 0
-    from stickslip.cli.checks import samples_problem
 
     problem = samples_problem(run_dir, need=2)  # a map, a profile in time: two at least
     if problem:

@@ -1,6 +1,6 @@
 """``stickslip wave`` and ``stickslip flutter`` subcommands (section 6).
 
-The lead's ``solver/cli.py`` calls :func:`register` with its ``subparsers``. Handlers return
+``cli.main`` calls :func:`register` with its ``subparsers``. Handlers return
 the exit code: 0 on success, 2 on bad input (one ``error: ...`` line on stderr naming the
 bad value and the allowed range).
 """
@@ -15,6 +15,15 @@ import warnings
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
+from stickslip.cli.checks import output_file_problem
+from stickslip.cli.commands import command_help
+from stickslip.postprocess.style import STATUS_COLORS
+from stickslip.semianalytic.coefficients import coefficients, gamma_from_physical
+from stickslip.semianalytic.flutter import flutter_modes, mode_physical
+from stickslip.semianalytic.plotting import plot_wave
+from stickslip.semianalytic.waves import find_waves
+from stickslip.solver.scene import RANGES, SceneError, check_speed_ratio
 
 if TYPE_CHECKING:
     from stickslip.semianalytic.coefficients import Coefficients
@@ -41,7 +50,7 @@ def register(subparsers: Any) -> None:
     """Add the ``wave`` and ``flutter`` subcommands to an argparse ``subparsers`` object."""
     pw = subparsers.add_parser(
         "wave",
-        help="travelling stick-slip(-separation) waves of the reduced model",
+        help=command_help("wave"),
         description="Solve eqs. [4]-[7] of the paper for travelling waves (semi-analytical).",
         allow_abbrev=False,
     )
@@ -64,7 +73,7 @@ def register(subparsers: Any) -> None:
     pw.set_defaults(func=wave_command)
     pf = subparsers.add_parser(
         "flutter",
-        help="flutter modes of steady sliding (reduced model)",
+        help=command_help("flutter"),
         description="Growth rate, phase speed and direction of the modes exp(i(k theta - w t)).",
         allow_abbrev=False,  # `--k 0` must not be read as `--kmax 0`
     )
@@ -90,8 +99,6 @@ KMAX_LIMIT = 10_000
 
 
 def _validate(args: argparse.Namespace) -> None:
-    from stickslip.solver.scene import RANGES, SceneError, check_speed_ratio
-
     def bad(flag: str, value: Any, allowed: str) -> InputError:
         return InputError(f"--{flag} {value!r} is out of range: need {allowed}")
 
@@ -112,7 +119,6 @@ def _validate(args: argparse.Namespace) -> None:
                                           "--omega and --wave-speed")) from None
     if hasattr(args, "kmax") and not 1 <= args.kmax <= KMAX_LIMIT:
         raise bad("kmax", args.kmax, f"an integer 1 <= kmax <= {KMAX_LIMIT}")
-    from stickslip.semianalytic.coefficients import coefficients, gamma_from_physical
 
     try:  # eqs. [3]-[5] at extreme ratios (xi = 1e300) overflow or give a singular system
         with np.errstate(all="ignore"):
@@ -140,13 +146,10 @@ def wave_command(args: argparse.Namespace) -> int:
         print(f"error: {err}", file=sys.stderr)
         return 2
     if args.plot:
-        from stickslip.cli.checks import output_file_problem
-
         problem = output_file_problem(args.plot, "--plot")
         if problem:
             print(f"error: {problem}", file=sys.stderr)
             return 2
-    from stickslip.semianalytic.coefficients import coefficients, gamma_from_physical
 
     gamma = gamma_from_physical(args.wave_speed, args.radius, args.omega)
     co = coefficients(args.nu, args.xi, gamma)
@@ -164,8 +167,6 @@ def wave_command(args: argparse.Namespace) -> int:
         if target is None:
             print("error: --plot: no wave solution was found to draw", file=sys.stderr)
             return 1
-        from stickslip.postprocess.style import STATUS_COLORS
-        from stickslip.semianalytic.plotting import plot_wave
 
         plot_wave(target, args.plot, zone_colours=STATUS_COLORS, R=args.radius,
                   omega=args.omega)
@@ -179,8 +180,6 @@ def wave_command(args: argparse.Namespace) -> int:
 def _find_waves(args: argparse.Namespace, co: Coefficients) -> list[TravellingWave]:
     """The reduced model's travelling waves of mode k (eqs. [3]-[7]) for the chosen regime
     and junction closures; none at f = 0."""
-    from stickslip.semianalytic.waves import find_waves
-
     junctions = ("impact", "smooth") if args.junction == "both" else (args.junction,)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
@@ -253,8 +252,6 @@ def flutter_command(args: argparse.Namespace) -> int:
     except InputError as err:
         print(f"error: {err}", file=sys.stderr)
         return 2
-    from stickslip.semianalytic.coefficients import coefficients, gamma_from_physical
-    from stickslip.semianalytic.flutter import flutter_modes, mode_physical
 
     co = coefficients(
         args.nu, args.xi, gamma_from_physical(args.wave_speed, args.radius, args.omega)

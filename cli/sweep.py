@@ -7,6 +7,11 @@ import os
 import sys
 from pathlib import Path
 
+from stickslip.cli.commands import command_help
+from stickslip.solver.schemes.select import check_backend
+from stickslip.studies.attractors.maps import run_map
+from stickslip.studies.output import output_root
+from stickslip.studies.sweep.batch import parse_batch
 from stickslip.studies.sweep.regime_map import plot_sweep
 from stickslip.studies.sweep.schedule import run_sweep
 from stickslip.studies.sweep.spec import SweepError, SweepSpec, load_sweep
@@ -18,7 +23,7 @@ from stickslip.studies.sweep.table import recorded_failures, task_state
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "sweep",
-        help="run a grid/list of scene variants (mpirun: dynamic load balancing, resumable)",
+        help=command_help("sweep"),
         description=(
             "Run every scene of a sweep file (base scene + [grid]/[[points]] of dotted-key "
             "overrides) into SWEEP_DIR/runs/<id>/, with a table SWEEP_DIR/sweep.{csv,json}. "
@@ -55,8 +60,6 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def _out_dir(spec: SweepSpec, args: argparse.Namespace) -> Path:
-    from stickslip.studies.output import output_root
-
     if args.output:
         return Path(args.output)
     if spec.output is not None:
@@ -95,13 +98,10 @@ def _sweep(args: argparse.Namespace) -> int:
         if comm.rank == 0:
             print("error: --group-size must be >= 1", file=sys.stderr)
         return 2
-    from stickslip.studies.sweep.batch import parse_batch
 
     backend = args.backend or spec.backend
     try:
         batch = parse_batch(args.batch if args.batch is not None else spec.batch)
-        from stickslip.solver.schemes.select import check_backend
-
         check_backend(backend, batched=batch != "off")
     except (ValueError, ImportError) as err:
         if comm.rank == 0:
@@ -114,8 +114,6 @@ def _sweep(args: argparse.Namespace) -> int:
                 print(f"{task.id:40s} {task_state(out_dir, spec, task, failures=failures)}")
         return 0
     if spec.attractors:  # a census at every point (studies/attractors/maps.py)
-        from stickslip.studies.attractors.maps import run_map
-
         rc = run_map(spec, out_dir, comm=comm, group_size=args.group_size,
                      retry_failed=args.retry_failed, progress=args.progress, batch=batch,
                      backend=backend)

@@ -1,6 +1,7 @@
 """``stickslip travel SCENE [--from RUN]``: a travelling wave computed directly in its frame.
 
-Heavy imports (dolfinx, matplotlib) stay inside the handler.
+The handler imports dolfinx itself, without numba (``_import_dolfinx_without_numba``);
+matplotlib loads where a figure is drawn.
 """
 
 from __future__ import annotations
@@ -11,11 +12,26 @@ import sys
 import time
 from pathlib import Path
 
+from stickslip.cli.commands import command_help
+from stickslip.solver.scene import SceneError, load_scene
+from stickslip.studies.output import output_root
+from stickslip.studies.travel import command
+from stickslip.studies.travel.continuation import run_continuation
+from stickslip.studies.travel.from_run import NotRigidWave
+from stickslip.studies.travel.newton import NotConverged
+from stickslip.studies.travel.output import (
+    plot_profiles,
+    prepare_dir,
+    shown,
+    write_failure,
+    write_wave,
+)
+
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "travel",
-        help="compute a travelling wave on the FE mesh in the wave's frame (Newton)",
+        help=command_help("travel"),
         description=(
             "Travelling wave of the scene's FE tube, solved in the wave's frame by a "
             "semismooth Newton for (W, omega). By default the transient's own discrete wave: "
@@ -131,16 +147,10 @@ def _import_dolfinx_without_numba() -> None:
 
 def _options(args: argparse.Namespace):  # noqa: ANN202
     """The command line's options (``studies.travel.command.DEFAULTS``' names)."""
-    from stickslip.studies.travel import command
-
     return command.options(**{name: getattr(args, name) for name in command.DEFAULTS})
 
 
 def _travel(args: argparse.Namespace) -> int:
-    from stickslip.solver.scene import SceneError, load_scene
-    from stickslip.studies.output import output_root
-    from stickslip.studies.travel import command
-
     t0 = time.perf_counter()
     _import_dolfinx_without_numba()
     opts = _options(args)
@@ -149,6 +159,7 @@ def _travel(args: argparse.Namespace) -> int:
         return _err(bad)
     try:
         scene = load_scene(args.scene, args.overrides)
+        # dolfinx after _import_dolfinx_without_numba (no numba: the command's speed)
         from stickslip.studies.travel.frame import require_rotational_symmetry
 
         require_rotational_symmetry(scene)
@@ -158,7 +169,6 @@ def _travel(args: argparse.Namespace) -> int:
                 scene.with_overrides(f"{cont[0]}={value!r}")
     except (SceneError, FileNotFoundError, ValueError) as err:
         return _err(str(err))
-    from stickslip.studies.travel.from_run import NotRigidWave
 
     try:
         bad = command.resolve(scene, opts)
@@ -168,7 +178,6 @@ def _travel(args: argparse.Namespace) -> int:
     if bad:
         return _err(bad)
     out = Path(args.output) if args.output else output_root() / f"{scene.name}_travel_k{opts.k}"
-    from stickslip.studies.travel.output import prepare_dir
 
     try:
         claim = prepare_dir(out, args.force)
@@ -177,8 +186,6 @@ def _travel(args: argparse.Namespace) -> int:
     opts.json = args.json
     try:  # results go to claim.work; a replacement is swapped in only once written
         if cont:
-            from stickslip.studies.travel.continuation import run_continuation
-
             rc = run_continuation(scene, opts, cont[0], cont[1], claim.work, t0)
         else:
             rc = _one_wave(scene, opts, claim.work, t0)
@@ -202,10 +209,6 @@ def _one_wave(scene, args, out: Path, t0: float) -> int:  # noqa: ANN001
     """Solve (``studies.travel.command.solve``), write and print one wave; ``args``: the
     resolved options."""
     import json
-
-    from stickslip.studies.travel import command
-    from stickslip.studies.travel.newton import NotConverged
-    from stickslip.studies.travel.output import plot_profiles, shown, write_failure, write_wave
 
     try:
         summary, profiles = command.solve(scene, args, t0)

@@ -215,10 +215,10 @@ run_installed_packages() {  # the install holds every package of the source tree
     out=$(crun -w / -- python3 -c '
 import importlib, importlib.util, pathlib, sys
 src = pathlib.Path("/opt/stickslip")
-# the folders are installed as stickslip.<folder> (stickslip/<folder> links in the source)
+# the folders are installed as stickslip.<folder> (pyproject.toml: package-dir)
 names = sorted(".".join(p.parent.relative_to(src).parts) for p in src.rglob("__init__.py")
                if p.parent.relative_to(src).parts[0] not in ("tests", "benchmarks"))
-names = [n if n.startswith("stickslip") else f"stickslip.{n}" for n in names]
+names = ["stickslip", *(f"stickslip.{n}" for n in names)]
 bad = [f"{top}: installed as a top-level name" for top in ("solver", "cli", "studies")
        if importlib.util.find_spec(top) is not None]
 for name in names:
@@ -231,6 +231,13 @@ for name in names:
 print("\n".join(bad) if bad else f"{len(names)} packages installed: {chr(32).join(names)}")
 sys.exit(1 if bad else 0)' 2>&1) || { echo "$out" >&2; fail "the installed project lacks packages of the source tree, or installs more than stickslip (pyproject.toml [tool.setuptools] packages)"; return; }
     say "$out"
+    # From the working directory (/opt/stickslip, first on sys.path for `python3 -c`): the
+    # installed package, never a part of the source tree.
+    out=$(crun -- python3 -c '
+import stickslip, stickslip.node, stickslip.solver.scene as scene
+print(stickslip.__file__, stickslip.node.__file__, scene.__file__)' 2>&1) &&
+        [ -z "$(tr ' ' '\n' <<<"$out" | grep -v '^/usr/local/lib/')" ] ||
+        { echo "$out" >&2; fail "python3 -c 'import stickslip...' in /opt/stickslip: not the installed package"; return; }
 }
 
 run_scenes() {  # the smoke scene and the 4-scene sweep, outputs in the mounted $OUT/image

@@ -19,7 +19,8 @@ from pathlib import Path
 
 DOCS = Path(__file__).resolve().parent
 REPO = DOCS.parent
-sys.path[:0] = [str(REPO), str(DOCS / "_ext")]
+# stickslip itself is imported from its install (./dev's editable one, or `pip install .`)
+sys.path.insert(0, str(DOCS / "_ext"))
 
 project = "stickslip"
 author = "the stickslip developers"

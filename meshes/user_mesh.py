@@ -32,6 +32,9 @@ from pathlib import Path
 
 import numpy as np
 
+from stickslip.meshes.annulus import INNER_TAG, OUTER_TAG, TUBE_TAG, TubeMesh
+from stickslip.meshes.compat import model_to_mesh
+
 __all__ = ["MeshFileError", "MeshFileFacts", "inspect_mesh_file", "user_mesh"]
 
 SUFFIXES = (".geo", ".msh")
@@ -228,9 +231,6 @@ def user_mesh(comm, path: Path, *, R: float, xi: float, n_contact: int, cell: st
     group (``n_radial`` = 0). gmsh runs on rank 0 only; a failed check raises on every rank."""
     import dolfinx
     import gmsh
-
-    from stickslip.meshes.annulus import INNER_TAG, OUTER_TAG, TUBE_TAG, TubeMesh
-    from stickslip.meshes.compat import model_to_mesh
 
     root, facts, error, owns = 0, None, None, False
     if comm.rank == root:

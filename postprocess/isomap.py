@@ -24,6 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
+from stickslip.postprocess.analysis import load_run
 from stickslip.postprocess.style import FIELD_CMAP, MM, MS, STATUS_COLORS, STATUS_LABELS, wave_title
 
 _XVFB: list[subprocess.Popen] = []
@@ -93,8 +94,6 @@ def isomap_pair(run_dirs: list[Path], out_png: Path, magnify: float | None = Non
     """
     ensure_display()
     import pyvista as pv
-
-    from stickslip.postprocess.analysis import load_run
 
     pv.OFF_SCREEN = True
     panels = [_panel(Path(rd), load_run) for rd in run_dirs]

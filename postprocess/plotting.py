@@ -30,6 +30,7 @@ from typing import Any
 
 import numpy as np
 
+from stickslip.postprocess.analysis import analyse_run, load_run, run_profile
 from stickslip.postprocess.energy_balance import energy_terms
 from stickslip.postprocess.isomap import isomap_pair
 from stickslip.postprocess.stressmap import has_stress, stress_maps
@@ -45,6 +46,8 @@ from stickslip.postprocess.style import (
     status_colorbar,
     wave_title,
 )
+from stickslip.semianalytic.coefficients import coefficients, gamma_from_physical, reaction_scale
+from stickslip.semianalytic.waves import find_waves
 
 __all__ = ["plot_run", "parse_window", "spacetime_window", "spacetime_figure",
            "energy_figure", "plot_uvpq", "phase_family", "isomap_pair", "reduced_curves",
@@ -105,8 +108,6 @@ def plot_run(run_dir: Path, window: tuple[float, str] | None | str = DEFAULT_WIN
              ) -> list[Path]:
     """Draw and save every figure of a run directory; returns the PNG paths."""
     import matplotlib
-
-    from stickslip.postprocess.analysis import load_run
 
     matplotlib.use("Agg")
     run_dir = Path(run_dir)
@@ -289,12 +290,6 @@ def reduced_curves(scene: dict, k: int, admissible_only: bool = True,
     units: ``s`` (rad), ``u_r`` = (U − δ)R, ``u_theta`` = (V − mean V)R (m), ``v_r``,
     ``v_theta`` = −c U' RΩ, −c V' RΩ (m/s), ``p``, ``q`` (Pa), ``zone``.
     """
-    from stickslip.semianalytic.coefficients import (
-        coefficients,
-        gamma_from_physical,
-        reaction_scale,
-    )
-
     mat, geo, load = scene["material"], scene["geometry"], scene["loading"]
     c0 = float(mat.get("wave_speed") or np.sqrt(mat["E"] / mat["rho"]))
     R, om = float(geo["R"]), float(load["omega"])
@@ -322,9 +317,6 @@ def reduced_curves(scene: dict, k: int, admissible_only: bool = True,
 @functools.lru_cache(maxsize=8)
 def _reduced_waves(nu: float, xi: float, gamma: float, f: float, k: int, delta: float) -> tuple:
     """``find_waves`` once per parameter set (the phase and u-v-p-q figures share it)."""
-    from stickslip.semianalytic.coefficients import coefficients
-    from stickslip.semianalytic.waves import find_waves
-
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
         return tuple(find_waves(coefficients(nu, xi, gamma), f, k, delta))
@@ -346,8 +338,6 @@ def plot_uvpq(run_dir: Path, out_png: Path, overlay: bool = True) -> Path:
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-
-    from stickslip.postprocess.analysis import analyse_run, load_run, run_profile
 
     run = load_run(run_dir)
     wave = analyse_run(run)
@@ -425,8 +415,6 @@ def phase_family(run_dirs: list[Path], colors: list[str], labels: list[str], out
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-
-    from stickslip.postprocess.analysis import analyse_run, load_run, run_profile
 
     fig, axes = plt.subplots(1, 2, figsize=(12, 5.6), layout="constrained")
     notes, meshes = [], set()

@@ -15,6 +15,8 @@ from typing import Any
 
 import numpy as np
 
+from stickslip.solver.atomic import atomic_write
+
 #: The four quantities of each probe, in ``samples.npz``'s ``probe_data[:, :, j]`` order, with
 #: their units.
 QUANTITIES = (("u_r", "m"), ("u_theta", "m"), ("v_r", "m/s"), ("v_theta", "m/s"))
@@ -38,8 +40,6 @@ def probe_table(samples: Mapping[str, np.ndarray]) -> tuple[list[str], np.ndarra
 def write_probe_csv(samples: Mapping[str, np.ndarray], path: str | Path) -> int:
     """Write ``probe_table`` as CSV (atomically: a reader never sees half a file); returns
     the number of rows."""
-    from stickslip.solver.atomic import atomic_write
-
     names, rows = probe_table(samples)
     atomic_write(path, lambda fh: np.savetxt(fh, rows, delimiter=",", fmt="%.10g",
                                              header=",".join(names), comments=""))

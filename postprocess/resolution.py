@@ -16,6 +16,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from stickslip.solver.field_output import expected_period
+
 
 def dominant_frequency(t: np.ndarray, x: np.ndarray) -> float:
     """The frequency (Hz) of the largest peak of |FFT(x - mean x)| (Hann window), without
@@ -71,8 +73,6 @@ def sampling_problem(scene, override: str) -> str | None:  # noqa: ANN001
     reduced model's flutter mode k = ``initial.mode`` (paper eq. [2];
     ``solver.field_output.expected_period``, the same estimate that sizes the field-output
     window)."""
-    from stickslip.solver.field_output import expected_period
-
     if scene.loading.f <= 0.0 or scene.loading.omega == 0.0:
         return None
     try:

@@ -17,6 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
+from stickslip.postprocess.analysis import load_run
 from stickslip.postprocess.isomap import ensure_display, save_screenshot
 from stickslip.postprocess.style import FIELD_CMAP, MPA, MS
 
@@ -45,8 +46,6 @@ def stress_maps(run_dir: Path, out_png: Path) -> Path:
     """Von Mises and contact-pressure maps of ``run_dir`` side by side, saved to ``out_png``."""
     ensure_display()
     import pyvista as pv
-
-    from stickslip.postprocess.analysis import load_run
 
     pv.OFF_SCREEN = True
     run = load_run(run_dir)

@@ -20,6 +20,8 @@ from typing import Any
 
 import numpy as np
 
+from stickslip.postprocess.isomap import ensure_display, save_screenshot
+
 #: VTX variables that describe the mesh or the writer, not a field
 MESH_VARIABLES = ("NumberOfCells", "NumberOfEntities", "NumberOfNodes", "connectivity",
                   "geometry", "types", "step", "vtkGhostType", "vtkOriginalPointIds")
@@ -80,8 +82,6 @@ def render_vtx_frame(path: str | Path, out_png: str | Path, scalars: str,
     magnitude), displaced by ``warp`` times ``displacement`` where the folder has it (10: the
     damped Figure-3 run's 5.6 mm becomes a fifth of its 0.25 m wall), into ``out_png``."""
     import pyvista as pv
-
-    from stickslip.postprocess.isomap import ensure_display, save_screenshot
 
     grid, time = read_vtx_frame(path, frame)
     if scalars not in grid.point_data and scalars not in grid.cell_data:

@@ -17,7 +17,6 @@ import math
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.linalg import expm
 
 from stickslip.semianalytic.coefficients import Coefficients
 from stickslip.semianalytic.waves import _scaled_coeffs, separation_matrix, slip_matrix
@@ -92,6 +91,8 @@ def _raw(
     sigma: float,
     conds: tuple[str, ...],
 ) -> NDArray[np.float64]:
+    from scipy.linalg import expm  # scipy on first use: the CLI starts without it
+
     T = 2.0 * math.pi / k
     Ds = sigma * co0.D
     c2 = ct * ct

@@ -7,6 +7,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from stickslip.semianalytic.waves import celerity_m_s, frequency_hz
+
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
 
@@ -110,8 +112,6 @@ def _write_facts(ax: Axes, wave: TravellingWave, R: float, omega: float,
     """The wave's facts (regime, inputs, c, frequency, ψ1, ψ2, amplitude, admissibility) and
     the zones' legend, in an empty panel."""
     from matplotlib.patches import Patch
-
-    from stickslip.semianalytic.waves import celerity_m_s, frequency_hz
 
     ax.axis("off")
     co = wave.coeffs

@@ -8,8 +8,6 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.linalg import expm
-from scipy.optimize import root
 
 from stickslip.semianalytic.coefficients import Coefficients
 from stickslip.semianalytic.stick_slip import _ct_range, _dedupe, _finish, _local_minima
@@ -39,6 +37,8 @@ def _sss_parts(
 
     ``impact``: ``x = (c̃, ψ1, ψ2)``; ``smooth``: ``x = (c̃, ψ1, ψ2, V1/(δ̃ + 1/c̃))``.
     """
+    from scipy.linalg import expm  # scipy on first use: the CLI starts without it
+
     ct, p1, p2 = x[0], x[1], x[2]
     T = 2.0 * math.pi / k
     Ds = sigma * co0.D
@@ -249,6 +249,8 @@ def _solve_sss(
     sigma: float,
     junction: str,
 ) -> NDArray[np.float64] | None:
+    from scipy.optimize import root  # scipy on first use: the CLI starts without it
+
     sol = root(_sss_res, x0, args=(co0, f, k, dt, sigma, junction), method="hybr")
     x = sol.x
     r = np.max(np.abs(_sss_res(x, co0, f, k, dt, sigma, junction)))

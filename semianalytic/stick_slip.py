@@ -7,9 +7,6 @@ import math
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.linalg import expm
-from scipy.ndimage import minimum_filter
-from scipy.optimize import root
 
 from stickslip.semianalytic.coefficients import Coefficients
 from stickslip.semianalytic.zones import (
@@ -35,6 +32,8 @@ def _ss_residual(
     ``w_s = 1``; slip ``[ψT, T]``: ``(c²−a)w'' + fD_s w' + hw = 0``; periodic closure at
     ``T``: ``w(T) = w(ψT) − ψT``, ``w_s(T) = 1``.
     """
+    from scipy.linalg import expm  # scipy on first use: the CLI starts without it
+
     ct, psi = x
     T = 2.0 * math.pi / k
     Ds = sigma * co0.D
@@ -101,6 +100,8 @@ def _dedupe(sols: list[tuple[float, ...]], tol: float = 1e-6) -> list[tuple[floa
 
 def _local_minima(F: NDArray[np.float64], nmax: int) -> list[tuple[int, ...]]:
     """Indices of the ``nmax`` smallest finite local minima of ``F``."""
+    from scipy.ndimage import minimum_filter  # scipy on first use: the CLI starts without it
+
     G = np.where(np.isfinite(F), F, np.inf)
     mins = (G == minimum_filter(G, size=3, mode="nearest")) & np.isfinite(G)
     idx = np.argwhere(mins)
@@ -131,6 +132,8 @@ def stick_slip_waves(
     ``cmax`` bounds ``|c|√γ`` (physical celerity / √(E/ρ)). Both propagation senses are
     searched. Returns admissible and rejected candidates (see ``violated``).
     """
+    from scipy.optimize import root  # scipy on first use: the CLI starts without it
+
     _check_wave_inputs(f, k, delta)
     co0 = _scaled_coeffs(coeffs)
     T = 2.0 * math.pi / k

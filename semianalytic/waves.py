@@ -54,9 +54,8 @@ import math
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.optimize import root
 
-from stickslip.semianalytic.coefficients import Coefficients
+from stickslip.semianalytic.coefficients import Coefficients, coefficients, gamma_from_physical
 from stickslip.semianalytic.separation import (
     _solve_sss,
     _sss_res,
@@ -96,6 +95,8 @@ def refine_wave(
     delta: float | None = None,
 ) -> TravellingWave | None:
     """One Newton solve (continuation step) of ``wave``'s branch at new coefficients/f/δ."""
+    from scipy.optimize import root  # scipy on first use: the CLI starts without it
+
     f = wave.f if f is None else f
     delta = wave.delta if delta is None else delta
     sigma = -1.0 if wave.c > 0 else 1.0
@@ -132,8 +133,6 @@ def continuation_omega(
     radius: float = 1.0,
 ) -> list[TravellingWave | None]:
     """Follow ``wave``'s branch over rotation speeds ``omegas`` (rad/s), one Newton step each."""
-    from stickslip.semianalytic.coefficients import coefficients, gamma_from_physical
-
     out: list[TravellingWave | None] = []
     cur: TravellingWave | None = wave
     for om in omegas:

@@ -13,7 +13,6 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.linalg import expm
 
 from stickslip.semianalytic.coefficients import Coefficients
 
@@ -214,6 +213,8 @@ def _propagate(
     yp: NDArray[np.float64],
 ) -> NDArray[np.float64]:
     """Exact ``y(s) = expm(M(s − s0))(y0 − yp) + yp`` on a uniform increasing grid."""
+    from scipy.linalg import expm  # scipy on first use: the CLI starts without it
+
     out = np.empty((s.size, y0.size))
     y = expm(M * (s[0] - s0)) @ (y0 - yp)
     out[0] = y

@@ -30,6 +30,9 @@ import numpy as np
 
 from stickslip.solver.atomic import atomic_save_npz, atomic_write_text
 from stickslip.solver.ensemble_run import BatchLayout, BatchStarts
+from stickslip.solver.run import Simulation
+from stickslip.solver.scene import scene_from_dict, scene_to_dict
+from stickslip.solver.schemes.select import batchable, check_backend
 
 __all__ = ["KIND", "MANIFEST", "RESULTS", "BundleError", "NodeResult", "done", "load_batch",
            "prepare_bundle", "read_manifest", "read_result", "run_bundle"]
@@ -50,10 +53,6 @@ def prepare_bundle(directory: str | Path, groups: list[tuple[list[str], list]],
     a batch: ``solver.schemes.select.batchable``), ``Simulation.batch(scenes, build=False)``'s
     layout and starts to ``batch_NNN.npz``; then ``manifest.json`` with ``meta``. Returns the
     manifest. BundleError where a scene cannot run in a batch or its steady state fails."""
-    from stickslip.solver.run import Simulation
-    from stickslip.solver.scene import scene_to_dict
-    from stickslip.solver.schemes.select import batchable
-
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
     batches = []
@@ -85,8 +84,6 @@ def prepare_bundle(directory: str | Path, groups: list[tuple[list[str], list]],
 
 def load_batch(directory: str | Path, entry: dict) -> tuple[list, BatchLayout, BatchStarts]:
     """(scenes, layout, starts) of one batch of the manifest (``entry``)."""
-    from stickslip.solver.scene import scene_from_dict
-
     path = Path(directory) / entry["file"]
     try:
         with np.load(path) as z:
@@ -126,9 +123,6 @@ def run_bundle(directory: str | Path, backend: str = "gpu",
 
     Raises ``BundleError`` (a bundle that is not one), ValueError or ImportError (a backend
     this machine cannot use: ``solver.schemes.select.check_backend``)."""
-    from stickslip.solver.run import Simulation
-    from stickslip.solver.schemes.select import check_backend
-
     directory = Path(directory)
     manifest = read_manifest(directory)
     check_backend(backend)

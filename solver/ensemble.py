@@ -41,7 +41,16 @@ import numpy as np
 
 from stickslip.solver.contact.law import SEPARATION, SLIP, STICK, forward_increment_factor
 from stickslip.solver.ensemble_cuda import CUDA_SOURCE
-from stickslip.solver.schemes.protocol import HookedStepper, copy_state, put_state, to_host
+from stickslip.solver.fused import (
+    COMPILE_SECONDS,
+    _kernels,
+    local_csr,
+    sample_kernels,
+    slp_vectorize,
+    timed_first_call,
+)
+from stickslip.solver.fused import kernel as get_kernel
+from stickslip.solver.stepper import HookedStepper, copy_state, put_state, to_host
 
 #: The array module of each backend (``solver.schemes.select.BACKENDS`` names its kernel).
 ARRAY_MODULES = {"cpu": "numpy", "gpu": "cupy"}
@@ -87,8 +96,6 @@ class BatchedProblem:
 
     @classmethod
     def from_problem(cls, problem, dt: float, beta2: float) -> BatchedProblem:
-        from stickslip.solver.fused import local_csr
-
         if problem.comm.size != 1:
             raise ValueError("a batch runs on one rank (group_size = 1)")
         indptr, indices, data, _ = local_csr(problem)
@@ -118,7 +125,7 @@ def _require(b: int, state: dict[str, np.ndarray], names: tuple[str, ...]) -> No
 class BatchedExplicit(HookedStepper):
     """Explicit Newmark + forward-increment contact on (n, B) arrays (column b = scene b).
 
-    A ``solver.schemes.protocol.Stepper``. After ``step()``: ``u`` is u_{n+1}; ``u_prev``,
+    A ``solver.stepper.Stepper``. After ``step()``: ``u`` is u_{n+1}; ``u_prev``,
     ``v``, ``a``, ``ku``, ``r_r``, ``r_t``, ``status`` are time level n (as
     ``solver.newmark.Newmark``); ``work`` (4, B) holds [work_contact, work_cylinder,
     friction_dissipation] (``work_totals()``) and the damping work's step sum (``tau`` > 0,
@@ -362,7 +369,7 @@ class BatchedExplicit(HookedStepper):
         self.d[b] = 0.0
 
     def facts(self) -> dict:
-        """Scheme facts of every scene of the batch (``solver.schemes.protocol.Stepper``)."""
+        """Scheme facts of every scene of the batch (``solver.stepper.Stepper``)."""
         return {"scheme": "explicit", "beta1": 0.0, "beta2": self.beta2,
                 "damping_tau_s": self.tau, "contact_s": 0.0, "kernel": f"batched-{self.kernel}",
                 "kernel_first_call_s": self.compile_s}
@@ -537,9 +544,6 @@ class NumbaColumns(ArrayColumns):
     regularised = True
 
     def __init__(self, st: BatchedExplicit) -> None:
-        from stickslip.solver.fused import _kernels
-        from stickslip.solver.fused import kernel as get_kernel
-
         # short batches: 4-scene register passes; long ones: B-long vector loops (same
         # bits either way; solver._fused_kernels.batched_kernel_name)
         k_bytes = int(st.bp.data.nbytes + st.bp.indices.nbytes)
@@ -552,14 +556,10 @@ class NumbaColumns(ArrayColumns):
         self.first_product = True  # compiled with the SLP vectoriser (register passes)
 
     def record_copies(self) -> Any:
-        from stickslip.solver.fused import sample_kernels
-
         return sample_kernels()
 
     def stiffness(self, st: BatchedExplicit, u, out) -> None:
         if self.first_product:
-            from stickslip.solver.fused import slp_vectorize
-
             self.first_product = False
             with slp_vectorize():
                 self.product(st.indptr, st.indices, st.data, u, out)
@@ -572,8 +572,6 @@ class NumbaColumns(ArrayColumns):
 
     def step(self, st: BatchedExplicit, u, u_next, diag: bool) -> None:
         """One call of the compiled step; it sums the energies on a ``diag`` step."""
-        from stickslip.solver.fused import slp_vectorize, timed_first_call
-
         dt, b2 = st.dt, st.beta2
         args = (st.indptr, st.indices, st.data, u, u_next, st.v, st.v_pred, st.a, st.ku,
                 st.nim, b2 * dt, 0.5 * dt, (0.5 - b2) * dt, b2 == 0.5, dt, st.kappa,
@@ -586,7 +584,6 @@ class NumbaColumns(ArrayColumns):
             self.first_call = False
             with slp_vectorize():
                 timed_first_call(st._name, st._fn, *args)
-            from stickslip.solver.fused import COMPILE_SECONDS
 
             st.compile_s = COMPILE_SECONDS[st._name]
         else:

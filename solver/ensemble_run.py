@@ -33,11 +33,19 @@ from stickslip.solver.columns import (
     planned_steps,
     random_bump,
 )
-from stickslip.solver.contact import ContactLaw
+from stickslip.solver.contact import ContactLaw, ContactProjection
 from stickslip.solver.ensemble import BatchedProblem
-from stickslip.solver.observers import ContinuedRecords, Progress
+from stickslip.solver.ensemble_observers import BatchRecorder
+from stickslip.solver.field_output import gather_final_field
+from stickslip.solver.observers import (
+    ContinuedRecords,
+    InnerCircleRecorder,
+    ProbeRecorder,
+    Progress,
+)
 from stickslip.solver.scene import Scene
-from stickslip.solver.schemes.protocol import BatchStepper
+from stickslip.solver.schemes.select import for_scene
+from stickslip.solver.stepper import BatchStepper
 
 __all__ = ["BatchColumns", "BatchLayout", "BatchOptions", "BatchStarts", "BuiltProblem"]
 
@@ -104,9 +112,6 @@ class BatchLayout:
     def of(cls, problem, law: ContactLaw, scene: Scene, dt_crit: float,
            omega_max: float) -> BatchLayout:
         """The layout of a dolfinx ``TubeProblem`` (one rank) at the law's dt."""
-        from stickslip.solver.contact import ContactProjection
-        from stickslip.solver.observers import InnerCircleRecorder, ProbeRecorder
-
         projection = ContactProjection(problem, law)
         shape = InnerCircleRecorder(problem, projection, None, 1, max_samples=0)
         probes = ProbeRecorder(problem, projection, scene.output.probes_deg, 0)
@@ -192,8 +197,6 @@ class BatchColumns:
     """The columns of B scenes on one rank (see the module docstring)."""
 
     def __init__(self, scenes: list[Scene], profile: Profile, options: BatchOptions) -> None:
-        from stickslip.solver.schemes.select import for_scene
-
         self.scenes, self.profile = scenes, profile
         self.scheme = for_scene(scenes[0])  # the scheme registry, asked once
         self.backend = options.backend
@@ -230,6 +233,7 @@ class BatchColumns:
         ``failed`` alone; ``resumed``: no start, zeros that ``restore`` overwrites)."""
         from mpi4py import MPI
 
+        # dolfinx: a node without it runs batches from a bundle (solver.bundle)
         from stickslip.solver.problem import build_problem, omega_max
 
         scenes = self.scenes
@@ -266,6 +270,7 @@ class BatchColumns:
 
     def _start(self, k: int) -> np.ndarray | None:
         """Scene k's steady state + its [initial] bump, or None (the scene fails alone)."""
+        # dolfinx: a node without it runs batches from a bundle (solver.bundle)
         from stickslip.solver.steady import solve_steady_sliding
 
         run = self.runs[k]
@@ -287,8 +292,6 @@ class BatchColumns:
 
     def _build(self, u0: np.ndarray, spool_parent: Path | None, memory_budget: float) -> None:
         """The batched stepper, the recorder and the probe hook."""
-        from stickslip.solver.ensemble_observers import BatchRecorder
-
         sc0, lay = self.scenes[self.live[0]], self.layout
         laws = [ContactLaw.from_scene(self.scenes[k], self.dt) for k in self.live]
         stepper = self.scheme.build_batch(lay.problem, laws, self.backend, sc0.damping.tau)
@@ -372,7 +375,6 @@ class BatchColumns:
         """The final field (rank 0), or None where the batch has no dolfinx problem."""
         if run.problem is None:
             return None
-        from stickslip.solver.field_output import gather_final_field
 
         return gather_final_field(run.problem, self.finals[run.index], self.comm,
                                   run.sim_time)

@@ -24,6 +24,8 @@ from pathlib import Path
 
 import numpy as np
 
+from stickslip.semianalytic.coefficients import coefficients, gamma_from_physical
+from stickslip.semianalytic.flutter import flutter_modes
 from stickslip.solver.scene import Scene
 
 __all__ = ["FieldOutput", "WindowCadence", "expected_period", "field_cadence", "frame_count",
@@ -33,9 +35,6 @@ __all__ = ["FieldOutput", "WindowCadence", "expected_period", "field_cadence", "
 def expected_period(scene: Scene) -> float:
     """T = 2π / ω_k [s] of the reduced model's flutter mode k = ``initial.mode`` (module
     docstring)."""
-    from stickslip.semianalytic.coefficients import coefficients, gamma_from_physical
-    from stickslip.semianalytic.flutter import flutter_modes
-
     g, m, ld = scene.geometry, scene.material, scene.loading
     k = max(1, scene.initial.mode)
     co = coefficients(m.nu, g.xi, gamma_from_physical(m.wave_speed, g.R, ld.omega))
@@ -88,6 +87,7 @@ class FieldOutput:
     r_n of the step that produced u_{n+1}."""
 
     def __init__(self, sim, output_dir: Path) -> None:
+        # dolfinx: batches and the resource estimate import this module without it
         from stickslip.solver.writers import FieldFrames
 
         self.sim = sim
@@ -111,6 +111,7 @@ def last_level_fields(sim) -> tuple[dict, dict]:
     ``gather_final_field``: the contact pressure and shear traction [Pa] at the
     points of the tube's Lagrange space, the polar stress and von Mises [Pa] per owned cell
     (``solver.writers.FieldValues``). Computed once, at the end."""
+    # dolfinx: batches and the resource estimate import this module without it
     from stickslip.solver.writers import FieldValues
 
     stepper = sim.integrator

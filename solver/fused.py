@@ -89,6 +89,7 @@ def numba_available() -> bool:
 def _kernels():
     """The kernels module, imported (and numba with it) on first use."""
     _cache_dir()
+    # numba (0.3 s) with the compiled step only: the numpy kernel runs without it
     from stickslip.solver import _fused_kernels
 
     return _fused_kernels
@@ -98,6 +99,7 @@ def sample_kernels():
     """The batch records' copies module (``solver._sample_kernels``), imported on first use
     with numba's cache where ``_kernels`` has it."""
     _cache_dir()
+    # numba (0.3 s) with the compiled step only: the numpy kernel runs without it
     from stickslip.solver import _sample_kernels
 
     return _sample_kernels
@@ -196,7 +198,7 @@ def local_csr(problem) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
 class FusedNewmark(ExplicitStart):
     """Explicit Newmark + forward-increment contact as ONE compiled call per step.
 
-    A ``solver.schemes.protocol.Stepper`` with the arrays of ``solver.newmark.Newmark``
+    A ``solver.stepper.Stepper`` with the arrays of ``solver.newmark.Newmark``
     (``u``, ``u_prev``, ``v``, ``a``, ``ku``, ``kappa``) plus ``work`` = [work_contact,
     work_cylinder, friction_dissipation] of the owned contact nodes (``FusedEnergy`` reads
     it). The contact forces and statuses are written into the ``projection``'s arrays
@@ -365,7 +367,7 @@ class FusedNewmark(ExplicitStart):
         self.stiffness_of(1 - self.cur, self.ku)
 
     def facts(self) -> dict:
-        """Scheme facts for the run summary (``solver.schemes.protocol.Stepper``)."""
+        """Scheme facts for the run summary (``solver.stepper.Stepper``)."""
         return {"scheme": "explicit", "beta1": 0.0, "beta2": self.beta2,
                 "damping_tau_s": self.tau,
                 "contact_s": 0.0, "kernel": "numba", "kernel_first_call_s": self.compile_s}

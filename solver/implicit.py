@@ -77,7 +77,7 @@ from petsc4py import PETSc
 from stickslip.solver.active_set import ActiveSetSolver, ContactSolveError
 from stickslip.solver.contact import SEPARATION, SLIP, ContactArrays, NodalFrames
 from stickslip.solver.errors import Diverged
-from stickslip.solver.schemes.protocol import HookedStepper, copy_state, put_state
+from stickslip.solver.stepper import HookedStepper, copy_state, put_state
 
 OPTIONS_PREFIX = "stickslip_implicit_"  # PETSc options of the K_eff solver
 SCHUR_BLOCK = 64  # columns of E per KSP.matSolve (bounds the dense work array)
@@ -412,7 +412,7 @@ class ImplicitNewmark(HookedStepper):
         return ("u", "u_prev", "v_next", "a_next") + (("kb", "kvd") if self.tau > 0.0 else ())
 
     def state(self) -> dict[str, np.ndarray]:
-        """The checkpoint (``solver.schemes.protocol.Stepper.state``), with the damping
+        """The checkpoint (``solver.stepper.Stepper.state``), with the damping
         work and the active-set iterations of every step so far (the run's facts)."""
         out = copy_state(self, self._state_names(), clock=True)
         out["damping_work_local"] = np.float64(self.damping_work_local)
@@ -420,7 +420,7 @@ class ImplicitNewmark(HookedStepper):
         return out
 
     def restore(self, state: dict[str, np.ndarray]) -> None:
-        """Continue from ``state()`` (``solver.schemes.protocol.Stepper.restore``)."""
+        """Continue from ``state()`` (``solver.stepper.Stepper.restore``)."""
         put_state(self, state, self._state_names())
         self.damping_work_local = float(state["damping_work_local"])
         self.iterations = [int(i) for i in state["iterations"]]
@@ -516,7 +516,7 @@ class ImplicitNewmark(HookedStepper):
         self.damping_work_local += 0.5 * self.tau * (w_old + float(np.dot(self.du, self.kvd)))
 
     def facts(self) -> dict:
-        """Scheme facts for the run summary (``solver.schemes.protocol.Stepper``)."""
+        """Scheme facts for the run summary (``solver.stepper.Stepper``)."""
         return self.iteration_stats()
 
     def iteration_stats(self) -> dict:

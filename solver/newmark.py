@@ -41,7 +41,7 @@ from collections.abc import Callable
 import numpy as np
 
 from stickslip.solver.contact.law import forward_increment_factor
-from stickslip.solver.schemes.protocol import HookedStepper, copy_state, put_state
+from stickslip.solver.stepper import HookedStepper, copy_state, put_state
 
 ContactStep = Callable[[np.ndarray, np.ndarray, np.ndarray], None]
 """contact(u_n, v~_n, a): the forward-increment constraint, in place on ``a``.
@@ -97,11 +97,11 @@ class ExplicitStart(HookedStepper):
     STATE: tuple[str, ...] = ("u", "u_prev", "v_pred")
 
     def state(self) -> dict[str, np.ndarray]:
-        """The checkpoint of the stepper (``solver.schemes.protocol.Stepper.state``)."""
+        """The checkpoint of the stepper (``solver.stepper.Stepper.state``)."""
         return copy_state(self, self.STATE, clock=True)
 
     def restore(self, state: dict[str, np.ndarray]) -> None:
-        """Continue from ``state()`` (``solver.schemes.protocol.Stepper.restore``)."""
+        """Continue from ``state()`` (``solver.stepper.Stepper.restore``)."""
         put_state(self, state, self.STATE)
 
     def set_state(self, u: np.ndarray, v: np.ndarray, a0: np.ndarray | None = None) -> None:
@@ -172,7 +172,7 @@ class Newmark(ExplicitStart):
         self._init_hooks()
 
     def facts(self) -> dict:
-        """Scheme facts for the run summary (``solver.schemes.protocol.Stepper``)."""
+        """Scheme facts for the run summary (``solver.stepper.Stepper``)."""
         return {"scheme": "explicit", "beta1": self.beta1, "beta2": self.beta2,
                 "damping_tau_s": self.tau,
                 "contact_s": float(getattr(self.contact, "seconds", 0.0)),

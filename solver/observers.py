@@ -6,7 +6,7 @@ Two kinds, as Dedalus' file handlers:
   loop (``solver.run.Simulation.proceed``) advances the stepper to the next level at which one
   is due and calls ``observe(stepper)`` on each that is (the ``Observer`` protocol);
 * step hooks, which need every step (the probes, the work of the contact forces and of the
-  damping): attached to the stepper (``solver.schemes.protocol.StepHook``).
+  damping): attached to the stepper (``solver.stepper.StepHook``).
 
 Arrays are preallocated for the whole run on rank 0.
 """

@@ -20,7 +20,8 @@ from petsc4py import PETSc
 from stickslip.forms.elasticity import Material, lumped_mass, stiffness
 from stickslip.forms.polar import ContactNodes, contact_nodes
 from stickslip.meshes.annulus import INNER_TAG, OUTER_TAG, TubeMesh, annulus_mesh
-from stickslip.solver.scene import Scene
+from stickslip.meshes.user_mesh import resolve, user_mesh
+from stickslip.solver.scene import SCENES_DIR, Scene
 
 
 @dataclass
@@ -118,8 +119,6 @@ def cross_section(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD) -> TubeMesh:
     if m.tube:
         return annulus_mesh(comm, R=g.R, xi=g.xi, n_inner=m.n_inner, n_radial=m.n_radial,
                             cell=m.cell, degree=m.degree)
-    from stickslip.meshes.user_mesh import resolve, user_mesh
-    from stickslip.solver.scene import SCENES_DIR
 
     return user_mesh(comm, resolve(m.file, (SCENES_DIR,)), R=g.R, xi=g.xi,
                      n_contact=m.n_inner, cell=m.cell, degree=m.degree,

@@ -24,10 +24,11 @@ from typing import TYPE_CHECKING, Protocol
 import numpy as np
 
 from stickslip.solver.columns import Profile, SceneRun
+from stickslip.solver.ensemble_run import BatchColumns, BatchOptions
 from stickslip.solver.errors import StepTooLarge
 from stickslip.solver.observers import Cadence, Observer
 from stickslip.solver.scene import Scene
-from stickslip.solver.schemes.protocol import Stepper
+from stickslip.solver.stepper import Stepper
 
 if TYPE_CHECKING:  # mpi4py is imported where a run uses it: ``run_loop`` runs without it
     from mpi4py import MPI
@@ -87,6 +88,7 @@ class Simulation:
         self.scene = self.scenes[0]
         self.profile = profile or Profile()
         if batch is None:
+            # dolfinx: one scene meshes; a batch on a node without dolfinx never does
             from stickslip.solver.scene_column import SceneColumn
 
             if len(self.scenes) != 1:
@@ -94,8 +96,6 @@ class Simulation:
                                  "one, or run them as Simulation.batch")
             columns: Columns = SceneColumn(self.scene, comm, self.profile, initial_state)
         else:
-            from stickslip.solver.ensemble_run import BatchColumns
-
             columns = BatchColumns(self.scenes, self.profile, batch)
         self.columns = columns
         self.comm, self.problem = columns.comm, columns.problem
@@ -118,8 +118,6 @@ class Simulation:
         """B scenes as one explicit (n, B) batch on one rank; ``options`` are
         ``solver.ensemble_run.BatchOptions``'s (backend, spool_parent, memory_budget,
         prepared, build, built, resumed)."""
-        from stickslip.solver.ensemble_run import BatchOptions
-
         return cls(scenes, profile=profile, batch=BatchOptions(**options))
 
     def planned_steps(self) -> int:

@@ -21,8 +21,17 @@ import numpy as np
 from stickslip.solver.columns import Profile, SceneRun, initial_perturbation, planned_steps
 from stickslip.solver.contact import zone_fractions
 from stickslip.solver.errors import blown_up, blowup_message, energy_bound
-from stickslip.solver.observers import Progress
+from stickslip.solver.field_output import FieldOutput, gather_final_field, last_level_fields
+from stickslip.solver.observers import (
+    ContinuedRecords,
+    InnerCircleRecorder,
+    ProbeRecorder,
+    Progress,
+)
+from stickslip.solver.problem import build_problem, omega_max
 from stickslip.solver.scene import Scene
+from stickslip.solver.schemes.select import for_scene
+from stickslip.solver.steady import solve_steady_sliding
 
 if TYPE_CHECKING:  # mpi4py is imported where a run uses it
     from mpi4py import MPI
@@ -39,10 +48,6 @@ class SceneColumn:
 
     def __init__(self, scene: Scene, comm: MPI.Comm | None, profile: Profile,
                  initial_state: tuple | None = None) -> None:
-        from stickslip.solver.problem import build_problem, omega_max
-        from stickslip.solver.schemes.select import for_scene
-        from stickslip.solver.steady import solve_steady_sliding
-
         if comm is None:
             from mpi4py import MPI
 
@@ -101,8 +106,6 @@ class SceneColumn:
         """The scheme's work observers (contact work; Kelvin-Voigt work of a damped scene:
         step hooks unless the kernel sums them, ``SchemeParts.work_observers``), the samples'
         recorder and the probes (a step hook, after the work observers)."""
-        from stickslip.solver.observers import InnerCircleRecorder, ProbeRecorder
-
         sc = self.scene
         self.energy, self.damping_work = parts.work_observers(sc.loading.f > 0.0, u0)
         n_steps = self.planned_steps()
@@ -120,7 +123,6 @@ class SceneColumn:
         self.writer = None
         if not (self.scene.output.fields and output_dir is not None):
             return []
-        from stickslip.solver.field_output import FieldOutput
 
         field_output = FieldOutput(self, Path(output_dir))
         self.writer = field_output.writer
@@ -232,8 +234,6 @@ class SceneColumn:
         this rank's). ``befores``: the records taken up to the checkpoint (samples.npz, on
         rank 0; None elsewhere), which the run's records then put in front of the new ones
         (``solver.observers.ContinuedRecords``)."""
-        from stickslip.solver.observers import ContinuedRecords
-
         (state,), (before,) = states, befores
         mine = str(state["run/partition"]) == self.partition_id()
         if not all(self.comm.allgather(mine)):
@@ -264,8 +264,6 @@ class SceneColumn:
         """Displacement on the whole tube at the end, with the stress and contact tractions
         of the last completed level n at ``fields_time`` t_n
         (``solver.field_output.last_level_fields``), gathered to rank 0 (None elsewhere)."""
-        from stickslip.solver.field_output import gather_final_field, last_level_fields
-
         stepper = self.stepper
         field = gather_final_field(self.problem, stepper.u, self.comm, stepper.time,
                                    *last_level_fields(self))

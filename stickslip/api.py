@@ -1,9 +1,12 @@
 """The functions behind ``import stickslip``: thin wrappers over ``solver``, ``studies`` and
 ``postprocess`` that take a scene (file, shipped name or ``Scene``) and return plain data.
 
-Every wrapper imports its implementation when called, so this module imports no FE stack.
-Under ``mpirun`` the FE functions are collective over ``MPI.COMM_WORLD`` (as the CLI is);
-files are written on rank 0 and the returned summaries are those of rank 0.
+The implementations are imported at the top; none of them loads the FE stack when imported
+(dolfinx, PETSc and MPI load when a function that needs them runs; the two that reach
+dolfinx's own modules import them in the function), so ``load_scene`` and ``reduced_waves``
+work where FEniCSx is not installed. Under ``mpirun`` the FE functions are collective over
+``MPI.COMM_WORLD`` (as the CLI is); files are written on rank 0 and the returned summaries
+are those of rank 0.
 """
 
 from __future__ import annotations
@@ -18,9 +21,32 @@ from pathlib import Path
 from types import SimpleNamespace
 from typing import TYPE_CHECKING, Any
 
+from stickslip.postprocess.analysis import analyse_run
+from stickslip.postprocess.analysis import load_run as _load_run
+from stickslip.postprocess.plotting import plot_run as _plot_run
+from stickslip.semianalytic.coefficients import coefficients, gamma_from_physical
+from stickslip.semianalytic.waves import find_waves
+from stickslip.solver.contact import STATUS_NAMES
+from stickslip.solver.scene import Scene
+from stickslip.solver.scene import load_scene as _load_scene
+from stickslip.studies.attractors.along import parse_along, plot_along, point_census, run_along
+from stickslip.studies.attractors.cea import cea_lines, cea_table
+from stickslip.studies.attractors.census import answer_json, run_census
+from stickslip.studies.attractors.plots import plot_census
+from stickslip.studies.attractors.request import CensusRequest, build_census
+from stickslip.studies.flutter_fe import build_operators, complex_eigenvalue_analysis
+from stickslip.studies.output import output_root
+from stickslip.studies.rundir import EXIT_CODES, run_scene
+from stickslip.studies.rundir import continue_run as _continue_run
+from stickslip.studies.sweep import load_sweep, read_table, run_sweep
+from stickslip.studies.sweep import plot_sweep as _plot_sweep
+from stickslip.studies.sweep.batch import parse_batch
+from stickslip.studies.travel import command
+from stickslip.studies.travel.continuation import run_continuation
+from stickslip.studies.travel.output import prepare_dir, write_wave
+
 if TYPE_CHECKING:
     from stickslip.postprocess.analysis import RunData, WaveSummary
-    from stickslip.solver.scene import Scene
     from stickslip.studies.flutter_fe.cea import CEAResult
 
 __all__ = ["analyse", "attractors", "cea", "cea_friction_sweep", "continue_run", "load_run",
@@ -32,7 +58,7 @@ Overrides = Mapping[str, Any] | Sequence[str] | None
 
 
 def __getattr__(name: str) -> Any:
-    """The constants, from the one place that defines each (imported on first access):
+    """The constants, from the one place that defines each (a fresh copy at each access):
 
     * ``STATUS_CODES``: ``{code: name}`` of the contact status in ``samples.npz["status"]``
       and every other status array (``solver.contact``: 0 separation, 1 stick, 2 slip);
@@ -40,12 +66,8 @@ def __getattr__(name: str) -> Any:
       ``summary.json`` (``studies.rundir``).
     """
     if name == "STATUS_CODES":
-        from stickslip.solver.contact import STATUS_NAMES
-
         return dict(enumerate(STATUS_NAMES))
     if name == "EXIT_CODES":
-        from stickslip.studies.rundir import EXIT_CODES
-
         return dict(EXIT_CODES)
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
@@ -118,13 +140,10 @@ def load_scene(scene: str | Path | Scene, overrides: Overrides = None) -> Scene:
         >>> s.loading.omega, s.mesh.n_inner
         (40.0, 132)
     """
-    from stickslip.solver.scene import Scene
-    from stickslip.solver.scene import load_scene as _load
-
     texts = _override_strings(overrides)
     if isinstance(scene, Scene):
         return scene.with_overrides(*texts) if texts else scene
-    return _load(scene, texts)
+    return _load_scene(scene, texts)
 
 
 def run(scene: str | Path | Scene, run_dir: str | Path | None = None, *,
@@ -155,9 +174,6 @@ def run(scene: str | Path | Scene, run_dir: str | Path | None = None, *,
         >>> summary["status"], summary["contact_nodes"]
         ('completed', 36)
     """
-    from stickslip.studies.output import output_root
-    from stickslip.studies.rundir import run_scene
-
     sc = load_scene(scene, overrides)
     path = Path(run_dir) if run_dir is not None else output_root() / sc.name
     with _keyword_errors("run_dir"):
@@ -196,12 +212,10 @@ def continue_run(run_dir: str | Path, until: float, out_dir: str | Path | None =
         >>> stickslip.continue_run("/tmp/smoke", 0.03, quiet=True)["sim_time_s"] >= 0.03
         True
     """
-    from stickslip.studies.rundir import continue_run as _continue
-
     with _keyword_errors("out_dir"):
-        return _continue(run_dir, until, out_dir, force=force,
-                         stream=io.StringIO() if quiet else sys.stdout,
-                         check_resources=check_resources)
+        return _continue_run(run_dir, until, out_dir, force=force,
+                             stream=io.StringIO() if quiet else sys.stdout,
+                             check_resources=check_resources)
 
 
 def load_run(run_dir: str | Path) -> RunData:
@@ -213,9 +227,7 @@ def load_run(run_dir: str | Path) -> RunData:
         >>> data.samples["u_r"].shape == (data.samples["t"].size, data.samples["theta"].size)
         True
     """
-    from stickslip.postprocess.analysis import load_run as _load
-
-    return _load(run_dir)
+    return _load_run(run_dir)
 
 
 def analyse(run_dir: str | Path, window: float | None = None) -> WaveSummary:
@@ -236,17 +248,13 @@ def analyse(run_dir: str | Path, window: float | None = None) -> WaveSummary:
         >>> w.mode, w.direction
         (4, 'opposite')
     """
-    from stickslip.postprocess.analysis import analyse_run
-
     return analyse_run(run_dir, window)
 
 
 def plot_run(run_dir: str | Path) -> list[Path]:
     """Draw a run directory's figures (space-time map, zones, profile, phase diagram,
     energies); returns the PNG paths."""
-    from stickslip.postprocess.plotting import plot_run as _plot
-
-    return _plot(Path(run_dir))
+    return _plot_run(Path(run_dir))
 
 
 def sweep(spec: str | Path, out_dir: str | Path | None = None, *, batch: str | None = None,
@@ -274,11 +282,6 @@ def sweep(spec: str | Path, out_dir: str | Path | None = None, *, batch: str | N
         >>> sorted({row["status"] for row in table["rows"]})
         ['completed']
     """
-    from stickslip.studies.output import output_root
-    from stickslip.studies.sweep import load_sweep, read_table, run_sweep
-    from stickslip.studies.sweep import plot_sweep as _plot
-    from stickslip.studies.sweep.batch import parse_batch
-
     with _keyword_errors("out_dir"):
         s = load_sweep(spec, large=not check_resources)
     path = Path(out_dir) if out_dir is not None else (
@@ -288,7 +291,7 @@ def sweep(spec: str | Path, out_dir: str | Path | None = None, *, batch: str | N
         stream=io.StringIO() if quiet else sys.stdout, check_cost=check_resources),
         f"the sweep into {path}")
     if plot:
-        _plot(path)
+        _plot_sweep(path)
     return read_table(path)
 
 
@@ -328,8 +331,6 @@ def attractors(scene: str | Path, out_dir: str | Path | None = None, *, starts: 
         >>> len(answer["starts"]), answer["meshes"]
         (2, [36])
     """
-    from stickslip.studies.attractors.request import CensusRequest, build_census
-
     run = {key: options.pop(key) for key in ("backend", "dt_limit") if key in options}
     request = CensusRequest(
         scene=str(scene), starts=starts, end_time=end_time, max_time=max_time,
@@ -355,11 +356,6 @@ def _census_run(census: Any, path: Path, along: str | None, run: dict,
                 cea_fmax_hz: float | None, plot: bool) -> int:
     """Run the census (or the censuses along a key) as the command does; print the CEA's
     lines and draw the figures where asked. The exit status the command would give."""
-    from stickslip.studies.attractors.along import parse_along, plot_along, point_census, run_along
-    from stickslip.studies.attractors.cea import cea_lines, cea_table
-    from stickslip.studies.attractors.census import answer_json, run_census
-    from stickslip.studies.attractors.plots import plot_census
-
     if along:
         key, values = parse_along(along)
         for value in values:  # every point's scene is checked before anything is written
@@ -380,9 +376,7 @@ def _census_run(census: Any, path: Path, along: str | None, run: dict,
 
 def plot_sweep(sweep_dir: str | Path) -> list[Path]:
     """Draw a sweep directory's regime map with the reduced model's existence boundaries."""
-    from stickslip.studies.sweep import plot_sweep as _plot
-
-    return _plot(sweep_dir)
+    return _plot_sweep(sweep_dir)
 
 
 def cea(scene: str | Path | Scene, *, overrides: Overrides = None, f: float | None = None,
@@ -428,8 +422,8 @@ def cea_friction_sweep(scene: str | Path | Scene, fs: Sequence[float | None], *,
         >>> [len(r.unstable()) > 0 for r in results]
         [False, True, True]
     """
+    # dolfinx on first use: load_scene and the reduced model work without it
     from stickslip.solver.problem import build_problem
-    from stickslip.studies.flutter_fe import build_operators, complex_eigenvalue_analysis
 
     sc = load_scene(scene, overrides)
     problem = build_problem(sc)
@@ -446,7 +440,7 @@ def _travel_options(scene: Scene, k: int, from_run: str | Path | None, damping: 
     """The options of ``stickslip travel``, checked and resolved by the function the command
     uses (``studies.travel.command``: one table of defaults); a bad one raises ``ValueError``
     naming the keyword argument."""
-    from stickslip.studies.travel import command
+    # dolfinx on first use: load_scene and the reduced model work without it
     from stickslip.studies.travel.frame import require_rotational_symmetry
 
     require_rotational_symmetry(scene)
@@ -494,15 +488,11 @@ def travel(scene: str | Path | Scene, k: int, out_dir: str | Path | None = None,
     """
     import time
 
-    from stickslip.studies.travel import command
-
     t0 = time.perf_counter()
     sc = load_scene(scene, overrides)
     opts = _travel_options(sc, k, from_run, damping, celerity, **options)
     summary, profiles = command.solve(sc, opts, t0)
     if out_dir is not None:
-        from stickslip.studies.travel.output import write_wave
-
         with _keyword_errors("out_dir"), _claimed(out_dir, force) as work:
             write_wave(work, sc, summary, profiles)
     return summary, profiles
@@ -543,8 +533,6 @@ def travel_branch(scene: str | Path | Scene, k: int, key: str, values: Sequence[
     import contextlib
     import time
 
-    from stickslip.studies.travel.continuation import run_continuation
-
     sc = load_scene(scene, overrides)
     for value in values:  # the key and every value, before any work
         sc.with_overrides(f"{key}={float(value)!r}")
@@ -560,8 +548,6 @@ def _claimed(out_dir: str | Path, force: bool) -> Iterator[Path]:
     """The travel directory ``out_dir`` claimed (``studies.travel.output.prepare_dir``): yields
     the folder to write; swapped in when the block ends, discarded (an earlier result kept)
     when it raises."""
-    from stickslip.studies.travel.output import prepare_dir
-
     claim = prepare_dir(Path(out_dir), force)
     try:
         yield claim.work
@@ -592,8 +578,5 @@ def reduced_waves(*, nu: float = 0.3, xi: float = 1.25, f: float = 0.7, k: int =
         >>> waves[0]["regime"]
         'stick-slip'
     """
-    from stickslip.semianalytic.coefficients import coefficients, gamma_from_physical
-    from stickslip.semianalytic.waves import find_waves
-
     co = coefficients(nu, xi, gamma_from_physical(wave_speed, radius, omega))
     return [w.summary(radius, omega) for w in find_waves(co, f, k, delta)] if f > 0 else []

@@ -14,6 +14,8 @@ import argparse
 import sys
 from pathlib import Path
 
+from stickslip.solver.bundle import run_bundle
+
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="python3 -m stickslip.node",
@@ -22,7 +24,6 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--backend", choices=("gpu", "cpu"), default="gpu",
                     help="gpu: CuPy and the CUDA kernel (default); cpu: the numba kernel")
     args = ap.parse_args(argv)
-    from stickslip.solver.bundle import run_bundle
 
     try:
         return run_bundle(args.directory, args.backend)

@@ -25,6 +25,9 @@ import time
 
 import numpy as np
 
+from stickslip.postprocess.analysis import analyse, probe_frequency, zone_fractions
+from stickslip.solver.errors import Diverged
+from stickslip.solver.run import Simulation
 from stickslip.solver.scene import SCENES_DIR, Scene, load_scene
 
 END_TIME = 0.3  # s; the limit cycle is reached by ~0.1 s (paper section 4)
@@ -67,8 +70,6 @@ def scene_for(case: dict) -> Scene:
 
 def measure(t, theta, u_r, u_t, status, probe_t, probe, d, radius, window) -> dict:
     """Limit-cycle quantities over the last ``window`` seconds (module docstring)."""
-    from stickslip.postprocess.analysis import analyse, probe_frequency, zone_fractions
-
     sel = probe_t >= probe_t[-1] - window
     sep = zone_fractions(status[t >= t[-1] - window])["separation"] > 0.02
     sig = probe[sel, 0] - d if sep else probe[sel, 1]
@@ -91,9 +92,6 @@ def measure(t, theta, u_r, u_t, status, probe_t, probe, d, radius, window) -> di
 def run_case(case: dict) -> dict:
     """Run one case (serial) and measure its limit cycle; a JSON-able dict."""
     from mpi4py import MPI
-
-    from stickslip.solver.errors import Diverged
-    from stickslip.solver.run import Simulation
 
     scene = scene_for(case)
     window = case.get("window", WINDOW)

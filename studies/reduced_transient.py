@@ -39,12 +39,10 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import scipy.sparse as sp
 from numpy.typing import NDArray
-from scipy.linalg import expm
 
 from stickslip.postprocess.analysis import angular_speed, classify, dominant_mode, mode_coefficients
 from stickslip.semianalytic.coefficients import Coefficients
@@ -58,6 +56,9 @@ from stickslip.solver.contact import (
     project_contact,
 )
 from stickslip.solver.newmark import Newmark, critical_time_step
+
+if TYPE_CHECKING:
+    import scipy.sparse as sp
 
 __all__ = [
     "GridContact",
@@ -80,6 +81,8 @@ Array = NDArray[np.float64]
 # ----------------------------------------------------------------------------- operators
 def stiffness_matrix(co: Coefficients, n: int) -> sp.csr_matrix:
     """K = Δθ [[−bL + gI, −DG], [DG, −aL + hI]] of eq. [2] on N periodic nodes (module doc)."""
+    import scipy.sparse as sp  # scipy on first use: the CLI starts without it
+
     if n < 4:
         raise ValueError(f"n={n!r} out of range: need n >= 4 grid nodes")
     h = 2.0 * math.pi / n
@@ -274,6 +277,8 @@ def wave_fields(w: TravellingWave, phi: Array) -> dict[str, Array]:
     Same closed forms as ``semianalytic.waves`` (matrix exponentials per zone) but evaluated
     at arbitrary points, so a grid θ_j − ct needs no interpolation.
     """
+    from scipy.linalg import expm  # scipy on first use: the CLI starts without it
+
     co, f, delta = w.coeffs, w.f, w.delta
     T = w.period
     sig = -1.0 if w.c > 0 else 1.0  # s = σφ (time-ordered coordinate)

@@ -47,6 +47,7 @@ import shutil
 from dataclasses import dataclass
 from pathlib import Path
 
+from stickslip.solver.field_output import frame_count
 from stickslip.solver.newmark import critical_time_step
 from stickslip.solver.scene import Scene
 
@@ -150,8 +151,6 @@ def estimate(scene: Scene, ranks: int = 1) -> Estimate:
                           * (dofs / STEP_DOFS) ** STEP_DOF_GROWTH))
     frames, field_bytes = 0, 0.0
     if scene.output.fields:
-        from stickslip.solver.field_output import frame_count
-
         vertices = {("triangle", 1): 3, ("triangle", 2): 6, ("quadrilateral", 1): 4,
                     ("quadrilateral", 2): 9}[(m.cell, m.degree)]
         frames = frame_count(scene, dt, steps)

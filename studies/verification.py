@@ -24,6 +24,13 @@ from typing import Any
 
 import numpy as np
 
+from stickslip.postprocess.analysis import analyse_run, load_run
+from stickslip.semianalytic.coefficients import coefficients, gamma_from_physical
+from stickslip.semianalytic.flutter import dispersion_roots
+from stickslip.semianalytic.waves import find_waves
+from stickslip.solver.scene import scene_to_dict
+from stickslip.studies.flutter_fe.cea import damped_exponents
+
 #: Conditions on the inner circle for the modal analyses (see the module docstring).
 CONDITIONS = ("free", "sliding", "stick", "flutter")
 
@@ -45,8 +52,6 @@ def scene_parameters(scene: dict) -> dict[str, float]:
 
 
 def _coeffs(p: dict[str, float]):
-    from stickslip.semianalytic.coefficients import coefficients, gamma_from_physical
-
     return coefficients(p["nu"], p["xi"], gamma_from_physical(p["wave_speed"], p["R"],
                                                               p["omega"]))
 
@@ -61,8 +66,6 @@ def reduced_modes(p: dict[str, float], k: int) -> dict[str, dict[str, float]]:
     w^2 = a k^2 + h + i f D k (``semianalytic.flutter``). Physical: w Omega rad/s, phase
     speed w R Omega / k.
     """
-    from stickslip.semianalytic.flutter import dispersion_roots
-
     co = _coeffs(p)
     om, R = p["omega"], p["R"]
     H = np.array([[co.b * k * k + co.g, -1j * co.D * k], [1j * co.D * k, co.a * k * k + co.h]])
@@ -90,8 +93,6 @@ def semianalytic_waves(p: dict[str, float], k: int) -> list[dict]:
     names the root and how it was found, ``why_not`` says in words which inequality fails
     and by how much (``violated``: its equation tag).
     """
-    from stickslip.semianalytic.waves import find_waves
-
     co = _coeffs(p)
     out = []
     for w in find_waves(co, p["f"], k, p["delta"]):
@@ -168,8 +169,6 @@ def violation_in_words(w, R: float = 1.0) -> str:
 
 def fe_wave(run_dir: Path) -> dict:
     """The FE wave of a run directory (``analyse_run``) as a table column."""
-    from stickslip.postprocess.analysis import analyse_run, load_run
-
     run = load_run(run_dir)
     w = analyse_run(run)
     sc = run.scene
@@ -192,8 +191,6 @@ def compare_run(run_dir: Path | str, ks: list[int] | None = None) -> dict:
 
     The reduced model is evaluated at the FE's wavenumber and at every k in ``ks``.
     """
-    from stickslip.postprocess.analysis import load_run
-
     run_dir = Path(run_dir)
     run = load_run(run_dir)
     p = scene_parameters(run.scene)
@@ -328,6 +325,7 @@ def fe_modes(scene, kmax: int = 16, n_eig: int = 80,
     """
     from mpi4py import MPI
 
+    # dolfinx on first use: the command line imports this module at start
     from stickslip.solver.problem import build_problem
 
     tube = _ModalTube(build_problem(scene, MPI.COMM_SELF))
@@ -400,8 +398,6 @@ def _mode_entry(tube: _ModalTube, cond: str, lam: complex, full: np.ndarray, kma
                 tau: float, R: float) -> dict:
     """One mode of ``fe_modes``: k, frequency, radial share at the contact nodes and, for
     flutter, the damped growth rate and the signed phase speed."""
-    from stickslip.studies.flutter_fe.cea import damped_exponents
-
     nd = tube.nodes
     w = np.sqrt(lam)
     if w.imag < 0:
@@ -456,8 +452,6 @@ def modal_table(scene, ks: list[int], kmax: int = 16) -> dict[str, dict]:
     For the free tube both the lowest tangential-dominated and radial-dominated modes are
     listed; for flutter, the fastest-growing mode of wavenumber k.
     """
-    from stickslip.solver.scene import scene_to_dict
-
     fe = fe_modes(scene, kmax=kmax)
     p = scene_parameters(scene_to_dict(scene))
     table: dict[str, dict] = {}

@@ -3,7 +3,7 @@ at each phase of ``studies.rundir.run_scene``, and the invariant that must hold 
 
 Phases, in the order a run meets them::
 
-    setup       meshing/assembly (solver.problem.build_problem)
+    setup       meshing/assembly (build_problem, one scene's or a batch's)
     loop        the time loop (the 3rd health check, i.e. the 3rd sample)
     scene.toml, summary.json (running), samples.npz, final_field.npz, summary.json (final),
     summary.json (analysis)        the writes, in this order (solver.atomic.atomic_write)
@@ -66,13 +66,16 @@ def inject(monkeypatch, kind: str, phase: str) -> dict:  # noqa: ANN001
         os.kill(os.getpid(), getattr(signal, kind))
 
     if phase == "setup":
-        real_build = solver.problem.build_problem
+        real_build = solver.scene_column.build_problem
 
         def build(*a, **k):  # noqa: ANN002, ANN003
             if not state["fired"]:
                 fire()
             return real_build(*a, **k)
 
+        # where a run looks it up: the one scene's column imports it, a batch's columns
+        # (solver.ensemble_run) read it from its module when they build
+        monkeypatch.setattr(solver.scene_column, "build_problem", build)
         monkeypatch.setattr(solver.problem, "build_problem", build)
     elif phase == "loop":
         real_check = solver.scene_column.SceneColumn._check_health

@@ -9,6 +9,8 @@ functions (a lazy import can close a circle as well as a top-level one).
 from __future__ import annotations
 
 import ast
+import importlib.util
+import tomllib
 from pathlib import Path
 
 import pytest
@@ -47,8 +49,8 @@ MODULES = _modules()
 def _local(mod: str) -> str:
     """The folder-relative name of an installed name: ``stickslip.solver.run`` -> ``solver.run``.
 
-    The folders are installed as subpackages of ``stickslip`` (``stickslip/solver`` is a link to
-    ``solver/``), so the layers are the folders whichever spelling an import uses.
+    The folders are installed as subpackages of ``stickslip`` (pyproject.toml's package-dir
+    maps ``stickslip.solver`` to ``solver/``), so the layers are the folders.
     """
     head, _, rest = mod.partition(".")
     return rest if head == "stickslip" and rest.split(".")[0] in PACKAGES else mod
@@ -92,9 +94,9 @@ def test_every_import_uses_the_installed_namespace():
     """Only ``stickslip`` is installed: ``import solver`` would load a second copy of a module."""
     bare = []
     for path in sorted(REPO.rglob("*.py")):
-        rel = path.relative_to(REPO)  # rglob does not enter the links stickslip/<pkg>
-        if rel.parts[0] in ("archive", "build"):
-            continue
+        rel = path.relative_to(REPO)
+        if rel.parts[0] in ("archive", "build") or rel.parts[0].startswith("."):
+            continue  # ./dev's editable install (.dev-site/) is generated, not the project's
         for node in ast.walk(ast.parse(path.read_text(), filename=str(path))):
             names = ([a.name for a in node.names] if isinstance(node, ast.Import) else
                      [node.module] if isinstance(node, ast.ImportFrom) and not node.level else [])
@@ -103,10 +105,18 @@ def test_every_import_uses_the_installed_namespace():
 
 
 def test_the_folders_are_the_installed_subpackages():
-    """``stickslip/<pkg>`` is a relative link to the design card's folder ``<pkg>/``."""
+    """``stickslip.<pkg>`` is the design card's folder ``<pkg>/``, mapped by pyproject.toml's
+    package-dir, with no link in the tree (an import-graph tool, a linter or an IDE sees one
+    package, not two floors), and the import system finds it there."""
+    setuptools = tomllib.loads((REPO / "pyproject.toml").read_text())["tool"]["setuptools"]
+    assert setuptools["package-dir"] == {"stickslip": "stickslip",
+                                         **{f"stickslip.{pkg}": pkg for pkg in FOLDERS}}
+    links = [str(path.relative_to(REPO)) for top in ("stickslip", *FOLDERS)
+             for path in (REPO / top, *(REPO / top).rglob("*")) if path.is_symlink()]
+    assert not links, f"links in the package tree: {links}"
     for pkg in FOLDERS:
-        link = REPO / "stickslip" / pkg
-        assert link.is_symlink() and link.readlink() == Path("..") / pkg, link
+        spec = importlib.util.find_spec(f"stickslip.{pkg}")
+        assert spec and Path(spec.origin) == REPO / pkg / "__init__.py", (pkg, spec)
 
 
 def test_the_layout_is_found():
@@ -140,8 +150,8 @@ def test_leaves_are_free_of_the_fe_stack(leaf):
             assert mod.split(".")[0] not in FE_STACK, f"{name} imports {mod}"
 
 
-def test_no_import_circles():
-    """Tarjan's strongly connected components of the module graph: all of size one."""
+def _circles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """Tarjan's strongly connected components of ``graph`` with more than one node."""
     index: dict[str, int] = {}
     low: dict[str, int] = {}
     stack: list[str] = []
@@ -152,7 +162,7 @@ def test_no_import_circles():
         index[v] = low[v] = len(index)
         stack.append(v)
         on_stack.add(v)
-        for w in GRAPH[v]:
+        for w in graph.get(v, ()):
             if w not in index:
                 visit(w)
                 low[v] = min(low[v], low[w])
@@ -169,10 +179,115 @@ def test_no_import_circles():
             if len(comp) > 1:
                 circles.append(sorted(comp))
 
-    for v in sorted(GRAPH):
+    for v in sorted(graph):
         if v not in index:
             visit(v)
+    return circles
+
+
+def test_no_import_circles():
+    """The module graph has no circle: its strongly connected components are all of size one."""
+    circles = _circles(GRAPH)
     assert not circles, f"import circles: {circles}"
+
+
+def _part(module: str) -> str | None:
+    """The part of ``studies/`` or ``solver/`` that ``module`` belongs to: its sub-package
+    (``studies.sweep``) or, directly in the folder, the module itself (``solver.run``)."""
+    parts = module.split(".")
+    return ".".join(parts[:2]) if parts[0] in ("studies", "solver") and len(parts) > 1 else None
+
+
+def _part_graph(graph: dict[str, set[str]]) -> dict[str, set[str]]:
+    """The import graph between the parts of one folder (``_part``): an edge where any
+    module of a part imports any module of another part of the same folder."""
+    parts: dict[str, set[str]] = {}
+    for name, targets in graph.items():
+        here = _part(name)
+        if here is None:
+            continue
+        for target in targets:
+            there = _part(target)
+            if there and there != here and there.split(".")[0] == here.split(".")[0]:
+                parts.setdefault(here, set()).add(there)
+    return parts
+
+
+def test_no_import_circle_between_the_sub_packages():
+    """A sub-package of ``studies/`` or ``solver/`` (or a module beside them) never imports,
+    through any of its modules and imports inside functions included, a part that imports it
+    back: ``studies.sweep`` uses ``studies.rundir``, never the other way."""
+    circles = _circles(_part_graph(GRAPH))
+    assert not circles, f"import circles between sub-packages: {circles}"
+
+
+#: In-function imports of the project: at most this many, each with its reason in a comment
+#: on its line or the line above (an optional heavy dependency, the FE stack where a module
+#: must import without it); every other import of the project sits at its module's top.
+LAZY_IMPORTS_MAX = 30
+#: Modules left out of the count (none: every module's imports are counted).
+LAZY_IMPORTS_NOT_COUNTED: tuple[str, ...] = ()
+
+
+def _lazy_project_imports(path: Path) -> list[int]:
+    """The lines of the imports of the project (``stickslip.*``, relative) inside functions."""
+    lines = []
+    for node in ast.walk(ast.parse(path.read_text(), filename=str(path))):
+        if not isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef):
+            continue
+        for inner in ast.walk(node):
+            if isinstance(inner, ast.Import):
+                project = any(a.name.split(".")[0] == "stickslip" for a in inner.names)
+            elif isinstance(inner, ast.ImportFrom):
+                project = inner.level > 0 or (inner.module or "").split(".")[0] == "stickslip"
+            else:
+                continue
+            if project:
+                lines.append(inner.lineno)
+    return sorted(set(lines))  # a nested function's import is found from both functions
+
+
+def _has_reason(source: list[str], lineno: int) -> bool:
+    """A comment on the import's line or alone on the line above it (a ``noqa`` or a
+    ``type:`` comment says no reason)."""
+    line, above = source[lineno - 1], source[lineno - 2].strip() if lineno > 1 else ""
+    comment = line.partition("  # ")[2] or (above[2:] if above.startswith("# ") else "")
+    return bool(comment) and not comment.startswith(("noqa", "type:"))
+
+
+def test_project_imports_sit_at_the_module_top():
+    """Hidden dependencies are few and explained: imports of the project inside functions,
+    at most ``LAZY_IMPORTS_MAX``, each with its reason on its line or the line above."""
+    lazy, unexplained = [], []
+    for name, path in MODULES.items():
+        if name in LAZY_IMPORTS_NOT_COUNTED:
+            continue
+        source = path.read_text().splitlines()
+        for lineno in _lazy_project_imports(path):
+            where = f"{path.relative_to(REPO)}:{lineno}"
+            lazy.append(where)
+            if not _has_reason(source, lineno):
+                unexplained.append(where)
+    assert len(lazy) <= LAZY_IMPORTS_MAX, f"{len(lazy)} imports inside functions: {lazy}"
+    assert not unexplained, f"imports inside functions without a reason: {unexplained}"
+    for name in LAZY_IMPORTS_NOT_COUNTED:
+        assert name in MODULES, f"{name}: no such module (remove it from the list)"
+
+
+def test_the_checkers_see_a_part_circle_and_an_unexplained_lazy_import(tmp_path):
+    """The two checks above are not vacuous."""
+    graph = {"studies.sweep.batch": {"studies.rundir.writer"},
+             "studies.rundir.continuation": {"studies.sweep.batch"}, "studies.rundir.writer": set()}
+    assert _circles(_part_graph(graph)) == [["studies.rundir", "studies.sweep"]]
+    assert not _circles(graph)  # no circle between the modules themselves
+    src = tmp_path / "m.py"
+    src.write_text("import os\n\n\ndef f():\n    from stickslip.solver import run\n"
+                   "    # numba on first use\n    from stickslip.solver import fused\n"
+                   "    from . import x  # cupy\n    import json\n"
+                   "    from . import y  # noqa: F401\n")
+    assert _lazy_project_imports(src) == [5, 7, 8, 10]
+    lines = src.read_text().splitlines()
+    assert [_has_reason(lines, n) for n in (5, 7, 8, 10)] == [False, True, True, False]
 
 
 def test_the_checker_sees_a_circle_and_an_upward_import(tmp_path):
@@ -368,14 +483,14 @@ def test_the_run_command_and_the_api_share_one_run_function():
 
 
 def test_every_scheme_follows_the_stepper_protocol():
-    """The five schemes implement ``solver.schemes.protocol.Stepper`` (checked at run time
+    """The five schemes implement ``solver.stepper.Stepper`` (checked at run time
     on the classes' attributes: set_state, step, advance, facts)."""
     pytest.importorskip("dolfinx")
     from stickslip.solver.ensemble import BatchedExplicit
     from stickslip.solver.fused import FusedNewmark
     from stickslip.solver.implicit import ImplicitNewmark
     from stickslip.solver.newmark import DampedNewmark, Newmark
-    from stickslip.solver.schemes.protocol import Stepper
+    from stickslip.solver.stepper import Stepper
 
     for cls in (Newmark, DampedNewmark, FusedNewmark, ImplicitNewmark, BatchedExplicit):
         for method in ("set_state", "step", "advance", "facts", "attach", "state", "restore",

@@ -17,7 +17,6 @@ here on the CPU from the GPU's checkpoints: its dynamics are bitwise the numba o
 from __future__ import annotations
 
 import json
-import os
 import shutil
 import subprocess
 import sys
@@ -46,9 +45,8 @@ runpy.run_module("stickslip.node", run_name="__main__")
 
 
 def _node(bundle: Path, *extra: str) -> subprocess.CompletedProcess:
-    env = {**os.environ, "PYTHONPATH": str(REPO)}
     return subprocess.run([sys.executable, "-c", BLOCKER, str(bundle), *extra], cwd=REPO,
-                          env=env, capture_output=True, text=True, timeout=300)
+                          capture_output=True, text=True, timeout=300)
 
 
 def _rows(census: Path) -> dict[str, dict]:

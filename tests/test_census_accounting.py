@@ -26,6 +26,7 @@ import pytest
 from test_attractor_features import _features
 from test_attractors import SMOKE
 
+import stickslip.studies.attractors.census as census_module
 import stickslip.studies.attractors.certify as certify_module
 from stickslip.studies.attractors.census import answer_of, certificate_key
 from stickslip.studies.attractors.certify import failures
@@ -187,7 +188,7 @@ def test_a_census_continues_the_starts_of_failed_members_from_their_checkpoints(
 
     cap = 0.1
     before: dict = {}
-    monkeypatch.setattr(certify_module, "kick_members", _fake_kicks(cap, 2, before))
+    monkeypatch.setattr(census_module, "kick_members", _fake_kicks(cap, 2, before))
     monkeypatch.setattr(certify_module, "certify", lambda run_dir, **_: {
         "available": False, "message": "certification unavailable: left out here"})
     census = Census(SMOKE, (36,), StartDistribution(starts=3),

@@ -205,15 +205,13 @@ def test_outputs_have_the_umask_mode(tmp_path):
 def test_failures_are_recorded_not_left_running(tmp_path, monkeypatch):
     """Case 6: a MemoryError (or any error) gives status failed with the message."""
     pytest.importorskip("dolfinx")
-    import stickslip.solver.atomic  # noqa: F401 (loaded: used as an attribute)
-    import stickslip.solver.problem  # noqa: F401 (loaded: used as an attribute)
-    import stickslip.solver.run  # noqa: F401 (loaded: used as an attribute)
+    import stickslip.solver.scene_column  # noqa: F401 (loaded: used as an attribute)
     from stickslip import solver
 
     def boom(*a, **k):
         raise MemoryError("injected")
 
-    monkeypatch.setattr(solver.problem, "build_problem", boom)
+    monkeypatch.setattr(solver.scene_column, "build_problem", boom)  # where a run looks it up
     s = run(tmp_path / "r")
     on_disk = json.loads((tmp_path / "r" / "summary.json").read_text())
     assert s["status"] == on_disk["status"] == "failed"

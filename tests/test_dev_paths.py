@@ -153,3 +153,22 @@ def test_writes_reach_a_tmpfs_under_tmp_and_a_path_with_spaces(tmp_path):
         subprocess.run(["umount", str(mnt)], check=False)
         shutil.rmtree(mnt, ignore_errors=True)
         shutil.rmtree(spaced, ignore_errors=True)
+
+
+def test_each_tree_imports_its_own_code():
+    """Static check: ./dev makes the tree importable through its own editable install
+    (``.dev-site/``, named by PYTHONUSERBASE, natively and in the rootfs), never through the
+    repository on PYTHONPATH (its ``stickslip/`` does not hold the subpackages) nor through an
+    install into the rootfs that every clone shares; the install is neither tracked nor in the
+    image."""
+    body = (REPO / "dev").read_text()
+    assert 'DEV_SITE="$REPO/.dev-site"' in body
+    assert 'export PYTHONUSERBASE="$DEV_SITE"' in body  # native
+    assert 'PYTHONUSERBASE="$repo/.dev-site"' in body  # rootfs
+    assert "PYTHONPATH" not in body
+    assert "pip install --user --editable" in body
+    assert ".dev-site/" in (REPO / ".gitignore").read_text().split()
+    assert ".dev-site" in (REPO / ".dockerignore").read_text().split()
+    # inside ./dev: this tree's finder, pointing at this tree
+    if os.environ.get("PYTHONUSERBASE"):
+        assert Path(os.environ["PYTHONUSERBASE"]) == REPO / ".dev-site"

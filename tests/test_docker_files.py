@@ -8,8 +8,8 @@ bash on docker/apt-packages.txt; they must produce the same list. The image must
 
 from __future__ import annotations
 
-import fnmatch
 import json
+import os
 import re
 import shlex
 import subprocess
@@ -42,6 +42,18 @@ def _env() -> dict[str, str]:
                 key, _, value = item.partition("=")
                 env[key] = value
     return env
+
+
+def _source_folder(package: str) -> Path:
+    """The source folder of an installed package name, by pyproject.toml's package-dir
+    (``stickslip.solver.scene`` -> ``solver/scene``)."""
+    package_dir = tomllib.loads((REPO / "pyproject.toml").read_text())["tool"]["setuptools"][
+        "package-dir"]
+    head, tail = package, []
+    while head not in package_dir:
+        head, _, last = head.rpartition(".")
+        tail.insert(0, last)
+    return REPO / package_dir[head] / Path(*tail)
 
 
 def _bash(script: str) -> list[str]:
@@ -100,7 +112,8 @@ def test_docker_run_image_stickslip_and_mpirun():
     scripts = tomllib.loads((REPO / "pyproject.toml").read_text())["project"]["scripts"]
     assert scripts["stickslip"] == "stickslip.cli.main:main"
     module, _, func = scripts["stickslip"].partition(":")
-    source = REPO / Path(*module.split("."))
+    package, _, name = module.rpartition(".")
+    source = _source_folder(package) / name
     assert func and (source.with_suffix(".py").is_file() or (source / "__init__.py").is_file())
     # Non-root by default; mpirun as root allowed (`--user root`) and -n 4 on fewer cores.
     users = [rest for word, rest in ins if word == "USER"]
@@ -211,7 +224,9 @@ def test_installed_code_finds_the_shipped_scenes_through_stickslip_scenes(tmp_pa
     (tmp_path / "only_here.toml").write_text("")
     code = ("from stickslip.solver.scene import SCENES_DIR, list_scenes; "
             "print(SCENES_DIR, [p.name for p in list_scenes()])")
-    env = {"PATH": "/usr/bin:/bin", "PYTHONPATH": str(REPO), "STICKSLIP_SCENES": str(tmp_path)}
+    # the project as the test suite sees it (./dev's editable install: its user site)
+    env = {"PATH": "/usr/bin:/bin", "STICKSLIP_SCENES": str(tmp_path),
+           **{k: v for k, v in os.environ.items() if k == "PYTHONUSERBASE"}}
     out = subprocess.run(["python3", "-c", code], env=env, capture_output=True, text=True,
                          check=True).stdout
     assert out.split()[0] == str(tmp_path) and "only_here.toml" in out
@@ -222,14 +237,12 @@ def test_pyproject_installs_every_package_of_the_source_tree():
     or discovery misses is missing there, and only the commands importing it fail
     (docker/test-image.sh checks the installed image; this catches it without one)."""
     setuptools = tomllib.loads((REPO / "pyproject.toml").read_text())["tool"]["setuptools"]
-    # the design card's folders are installed as stickslip.<folder> (stickslip/<folder> links)
+    # the design card's folders are installed as stickslip.<folder> (package-dir)
     found = {".".join(p.parent.relative_to(REPO).parts) for p in REPO.rglob("__init__.py")
              if p.parent.relative_to(REPO).parts[0] not in ("tests", "benchmarks", "build")
              and not any(part.startswith(".") for part in p.relative_to(REPO).parts)}
     found = {name if name.startswith("stickslip") else f"stickslip.{name}" for name in found}
-    if isinstance(setuptools.get("packages"), list):
-        listed = set(setuptools["packages"])
-    else:  # [tool.setuptools.packages.find] include = [...] (fnmatch patterns)
-        include = setuptools["packages"]["find"]["include"]
-        listed = {name for name in found if any(fnmatch.fnmatchcase(name, pat) for pat in include)}
+    listed = set(setuptools["packages"])
     assert listed == found, f"missing: {sorted(found - listed)}, extra: {sorted(listed - found)}"
+    for name in listed:  # each listed name is read from the folder that holds it
+        assert (_source_folder(name) / "__init__.py").is_file(), name

@@ -376,12 +376,8 @@ def test_array_namespace_reference_equals_the_kernel_to_round_off():
 
 
 def test_grouping_and_batch_option(tmp_path):
-    from stickslip.studies.sweep.batch import (
-        auto_batch_size,
-        batch_key,
-        bytes_per_scene,
-        parse_batch,
-    )
+    from stickslip.studies.batching import batch_key
+    from stickslip.studies.sweep.batch import auto_batch_size, bytes_per_scene, parse_batch
     from stickslip.studies.sweep.spec import scene_for
 
     spec = _spec(tmp_path)
@@ -638,7 +634,7 @@ def test_one_run_class_for_one_scene_and_a_batch():
     from stickslip.solver.columns import SceneRun
     from stickslip.solver.run import Simulation
     from stickslip.solver.scene import load_scene
-    from stickslip.solver.schemes.protocol import BatchStepper, Stepper
+    from stickslip.solver.stepper import BatchStepper, Stepper
 
     good = load_scene("scenes/smoke.toml", ["output.progress=false", "time.end_time=0.004"])
     bad = good.with_overrides("initial.amplitude=1e200")

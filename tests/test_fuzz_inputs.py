@@ -267,9 +267,9 @@ def _reached(*args, **kwargs):  # noqa: ANN002, ANN003, ANN202
 #: Each command: its argv before the fuzzed option ({tmp}: a fresh folder, {run}: a finished
 #: run) and the calls that do its work, replaced by ``Reached`` (the light commands run).
 COMMANDS = {
-    "run": (["run", "smoke", "-o", "{tmp}/r"], ["stickslip.studies.rundir.run_scene"]),
-    "plot": (["plot", "{run}"], ["stickslip.postprocess.plotting.plot_run"]),
-    "continue": (["continue", "{run}"], ["stickslip.studies.rundir.continue_run"]),
+    "run": (["run", "smoke", "-o", "{tmp}/r"], ["stickslip.cli.run.run_scene"]),
+    "plot": (["plot", "{run}"], ["stickslip.cli.run.plot_run"]),
+    "continue": (["continue", "{run}"], ["stickslip.cli.continue_run.continue_run"]),
     "wave": (["wave", "--json"], []),
     "flutter": (["flutter", "--json"], []),
     "compare": (["compare", "{run}", "--json", "{tmp}/c.json"], []),
@@ -278,15 +278,14 @@ COMMANDS = {
     "flutter-fe": (["flutter-fe", "smoke", "--json"],
                    ["stickslip.cli.flutter_fe.complex_eigenvalue_analysis"]),
     "flutter-exact": (["flutter-exact", "smoke", "--json"],
-                      ["stickslip.exact.sliding_flutter.sliding_branches"]),
+                      ["stickslip.cli.continuum.sliding_branches"]),
     "travel": (["travel", "smoke", "--k", "4", "-o", "{tmp}/t"],
                ["stickslip.studies.travel.command.solve",
-                "stickslip.studies.travel.continuation.run_continuation"]),
+                "stickslip.cli.travel.run_continuation"]),
     "export": (["export", "{run}", "-o", "{tmp}/p.csv", "--cea", "--plot", "{tmp}/p.png"],
                ["stickslip.cli.export._marks"]),
     "attractors": (["attractors", "smoke", "-o", "{tmp}/a"],
-                   ["stickslip.studies.attractors.census.run_census",
-                    "stickslip.studies.attractors.along.run_along"]),
+                   ["stickslip.cli.attractors.run_census", "stickslip.cli.attractors.run_along"]),
 }
 #: Options that take numbers inside a string: the string built from drawn numbers.
 TEMPLATES = {"--batch": "{i}", "--f-sweep": "{x}:{y}:{i}",

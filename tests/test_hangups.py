@@ -267,7 +267,7 @@ class Parser:
     def parse_args(self, argv):
         return argparse.Namespace(func=handler)
 
-cli.build_parser = Parser
+cli.build_parser = lambda *names: Parser()
 sys.exit(cli.main([]))
 """
 

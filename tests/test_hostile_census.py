@@ -131,6 +131,7 @@ def _disk_full_in_settle_legs(monkeypatch) -> dict:  # noqa: ANN001
     (``*.npz``) fails with ENOSPC, as on the full tmpfs of the report (the small files
     still fit); returns {"legs": calls of continue_batch}."""
     import stickslip.solver.atomic  # noqa: F401 (loaded: used as an attribute)
+    import stickslip.studies.attractors.census  # noqa: F401 (loaded: used as an attribute)
     import stickslip.studies.rundir  # noqa: F401 (loaded: used as an attribute)
     from stickslip import solver, studies
 
@@ -148,6 +149,7 @@ def _disk_full_in_settle_legs(monkeypatch) -> dict:  # noqa: ANN001
 
     monkeypatch.setattr(solver.atomic, "atomic_write", write)
     monkeypatch.setattr(studies.rundir, "continue_batch", continue_batch)
+    monkeypatch.setattr(studies.attractors.census, "continue_batch", continue_batch)
     return state
 
 

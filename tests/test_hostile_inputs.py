@@ -401,7 +401,6 @@ def test_a_killed_watchdog_does_not_take_the_run_down(tmp_path):
     driver = tmp_path / "driver.py"
     driver.write_text(f"""
 import io, os, signal, sys
-sys.path.insert(0, {str(REPO)!r})
 from pathlib import Path
 from mpi4py import MPI
 import stickslip.solver.scene_column

@@ -52,7 +52,7 @@ def _run_wave(co, w, n, beta2, consistent=True):
 
 def test_import_is_dolfinx_free():
     code = (
-        "import sys, studies.reduced_transient; "
+        "import sys, stickslip.studies.reduced_transient; "
         "bad = [m for m in ('dolfinx', 'petsc4py', 'slepc4py') if m in sys.modules]; "
         "assert not bad, bad"
     )

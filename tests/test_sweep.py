@@ -60,7 +60,6 @@ def _rows(out: Path) -> dict[str, dict]:
 
 def _env() -> dict[str, str]:
     env = dict(os.environ)
-    env["PYTHONPATH"] = str(REPO) + os.pathsep + env.get("PYTHONPATH", "")
     for key in list(env):  # a parent under mpirun must not leak its job into the child
         if key.startswith(("PMIX_", "OMPI_COMM_WORLD", "PMI_")):
             del env[key]

@@ -8,7 +8,9 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from stickslip.solver.atomic import atomic_write_text
 from stickslip.solver.scene.model import (
+    _EXCLUSIVE,
     _TOP_SCALARS,
     Scene,
     apply_overrides,
@@ -78,8 +80,6 @@ def _with_base(data: dict, p: Path, chain: tuple[Path, ...]) -> dict:
     ``p``'s folder or the current one, or a shipped scene name), key by key; the base's
     ``name`` and ``description`` are its own and are not inherited. ``chain``: the files
     already on the way (a base that comes back to one of them is refused)."""
-    from stickslip.solver.scene.model import _EXCLUSIVE
-
     if "base" not in data:
         return data
     base = data.pop("base")
@@ -160,8 +160,6 @@ def dumps_toml(scene: Scene) -> str:
 
 def write_scene(scene: Scene, path: str | Path) -> Path:
     """Atomically write ``scene`` as TOML to ``path`` (temp file + os.replace)."""
-    from stickslip.solver.atomic import atomic_write_text
-
     return atomic_write_text(path, dumps_toml(scene))
 
 

@@ -156,6 +156,7 @@ class Mesh(_Section):
     def file_facts(self, R: float):
         """The checked facts of ``file`` (``meshes.user_mesh.inspect_mesh_file``) for the
         contact radius R; ``SceneError`` (one line) when a check fails."""
+        # gmsh and dolfinx read a mesh file: scenes load without them
         from stickslip.meshes.user_mesh import MeshFileError, inspect_mesh_file, resolve
 
         try:

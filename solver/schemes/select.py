@@ -42,8 +42,12 @@ from typing import Any, Protocol
 import numpy as np
 
 from stickslip.solver.contact import ContactLaw, make_projection
+from stickslip.solver.ensemble import BatchedExplicit, array_namespace
 from stickslip.solver.errors import StepTooLarge
-from stickslip.solver.newmark import Newmark, critical_time_step
+from stickslip.solver.fused import FusedDampingWork, FusedEnergy, FusedNewmark, friction_bound
+from stickslip.solver.fused import numba_available as available
+from stickslip.solver.newmark import DampedNewmark, Newmark, critical_time_step
+from stickslip.solver.observers import DampingWork, EnergyAccumulator
 from stickslip.solver.scene import Scene
 
 __all__ = [
@@ -182,7 +186,7 @@ def for_scene(scene: Scene) -> Scheme:
 
 @dataclass
 class SchemeParts:
-    """What a scheme builds for one scene: the stepper (``solver.schemes.protocol.Stepper``),
+    """What a scheme builds for one scene: the stepper (``solver.stepper.Stepper``),
     its contact step (``out``: r_r, r_t, status; ``slide``; the nodes' frames, as the
     observers use them), ``work``, which makes the contact-work and damping-work
     observers and attaches those that need every step as step hooks, and the step ``dt``
@@ -244,8 +248,6 @@ def _checked_step(scene: Scene, omega_max: float, dt_crit: float, limit: float,
 
 def numba_available() -> bool:
     """True when numba imports (Debian's python3-numba is in the apt list)."""
-    from stickslip.solver.fused import numba_available as available
-
     return available()
 
 
@@ -260,7 +262,6 @@ def check_backend(backend: str, batched: bool = True, device: bool = True) -> No
         raise ValueError(f"backend = {backend!r}: use one of {tuple(BACKENDS)}")
     if BACKENDS[backend] != "cuda":
         return
-    from stickslip.solver.ensemble import array_namespace
 
     xp = array_namespace(backend)
     if device:
@@ -318,8 +319,6 @@ def explicit_stepper(problem, dt: float, beta2: float, tau: float):
     """The numpy explicit stepper: ``Newmark``, or ``DampedNewmark`` for a Kelvin-Voigt time
     ``tau`` > 0 (the undamped step then stays exactly the plain one)."""
     if tau > 0.0:
-        from stickslip.solver.newmark import DampedNewmark
-
         return DampedNewmark(problem.stiffness_mult(), problem.inv_mass, dt, 0.0, beta2,
                              tau=tau)
     return Newmark(problem.stiffness_mult(), problem.inv_mass, dt, 0.0, beta2)
@@ -328,8 +327,6 @@ def explicit_stepper(problem, dt: float, beta2: float, tau: float):
 def _numpy_work(stepper, contact, with_friction: bool, u0: np.ndarray) -> tuple[Any, Any]:
     """The numpy step's work observers, both step hooks: ``EnergyAccumulator`` and, damped,
     ``DampingWork``."""
-    from stickslip.solver.observers import DampingWork, EnergyAccumulator
-
     energy = EnergyAccumulator(contact, with_friction, u0)
     stepper.attach(energy)
     damping = DampingWork(stepper, u0) if stepper.damped else None
@@ -341,8 +338,6 @@ def _numpy_work(stepper, contact, with_friction: bool, u0: np.ndarray) -> tuple[
 def _numba_work(stepper, contact, with_friction: bool, u0: np.ndarray) -> tuple[Any, Any]:
     """The fused step's work observers: the kernel sums both (``FusedEnergy``,
     ``FusedDampingWork``), so neither is a step hook and the compiled loop stays."""
-    from stickslip.solver.fused import FusedDampingWork, FusedEnergy
-
     return (FusedEnergy(stepper, contact),
             FusedDampingWork(stepper, u0) if stepper.damped else None)
 
@@ -356,8 +351,6 @@ def _numpy_parts(problem, law: ContactLaw, tau: float, projection) -> SchemePart
 
 def _numba_parts(problem, law: ContactLaw, tau: float, projection) -> SchemeParts:
     """The fused numba step, which runs the projection's law inside its kernel."""
-    from stickslip.solver.fused import FusedNewmark
-
     stepper = FusedNewmark(problem, law.dt, law.beta2, projection, tau=tau)
     return SchemeParts(stepper, projection, _numba_work)
 
@@ -437,9 +430,6 @@ class ExplicitNewmarkScheme:
         """``BatchedExplicit`` of the scenes of ``laws`` (one column each) on the shared
         ``solver.ensemble.BatchedProblem`` ``bp``, on ``backend``: numba on the CPU, the
         CUDA kernel through CuPy on the GPU (``BACKENDS``)."""
-        from stickslip.solver.ensemble import BatchedExplicit, array_namespace
-        from stickslip.solver.fused import friction_bound
-
         law0 = laws[0]
         return BatchedExplicit(
             bp, d=np.array([law.d for law in laws]),
@@ -453,8 +443,8 @@ class ExplicitNewmarkScheme:
 def _implicit_work(stepper, contact, with_friction: bool, u0: np.ndarray) -> tuple[Any, Any]:
     """The implicit step's work: the contact work a step hook with the exact bookkeeping of
     its contact solve, the damping work booked by the stepper itself."""
+    # PETSc for the implicit scheme only: a node without it imports the registry
     from stickslip.solver.implicit import ImplicitDampingWork
-    from stickslip.solver.observers import EnergyAccumulator
 
     energy = EnergyAccumulator(contact, with_friction, u0, exact_work=True)
     stepper.attach(energy)
@@ -486,6 +476,7 @@ class ImplicitNewmarkScheme:
 
     def build(self, problem, scene: Scene, omega_max: float) -> SchemeParts:
         """``ImplicitNewmark`` with its active-set contact, at the step ``time_step`` gives."""
+        # PETSc for the implicit scheme only: a node without it imports the registry
         from stickslip.solver.implicit import ImplicitContact, ImplicitNewmark
 
         dt, dt_crit = self.time_step(scene, omega_max)

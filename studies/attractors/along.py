@@ -25,6 +25,10 @@ from pathlib import Path
 from typing import TextIO
 
 from stickslip.solver.atomic import atomic_write_text
+from stickslip.studies.attractors.census import CensusError, claim_on_rank0, run_census
+from stickslip.studies.attractors.features import Tolerances
+from stickslip.studies.attractors.statistics import SETTLED, align
+from stickslip.studies.rundir.ownership import OwnershipError, claim, register_kind
 
 KIND = "attractors-along"
 ENTRIES = ("along.json", "points", "*.png")
@@ -90,7 +94,6 @@ def point_census(census, key: str, value: float):  # noqa: ANN001, ANN201 - a Ce
         try:
             return replace(census, distribution=replace(census.distribution, **{field: given}))
         except ValueError as err:  # the distribution's own check (an integer, > 0)
-            from stickslip.studies.attractors.census import CensusError
 
             raise CensusError(f"{key} = {value}: {err}") from None
     return replace(census, overrides=(*census.overrides, f"{key}={value!r}"))
@@ -108,8 +111,6 @@ def run_along(census, key: str, values: list[float], out_dir: Path, *,  # noqa: 
     from mpi4py import MPI
 
     stream = sys.stdout if stream is None else stream
-    from stickslip.studies.attractors.census import CensusError, claim_on_rank0, run_census
-    from stickslip.studies.rundir.ownership import OwnershipError, claim, register_kind
 
     comm = MPI.COMM_WORLD if comm is None else comm
     if comm.rank == 0:
@@ -146,9 +147,6 @@ def run_along(census, key: str, values: list[float], out_dir: Path, *,  # noqa: 
 
 def along_table(out_dir: Path, key: str, values: list[float]) -> dict:
     """Match the attractors of neighbouring points (module docstring); write along.json."""
-    from stickslip.studies.attractors.features import Tolerances
-    from stickslip.studies.attractors.statistics import SETTLED, align
-
     points = []
     for v in values:
         path = point_dir(out_dir, key, v) / "attractors.json"

@@ -39,17 +39,24 @@ from stickslip.solver.bundle import (
     read_manifest,
     read_result,
 )
+from stickslip.solver.run import Profile
 from stickslip.solver.scene import write_scene
 from stickslip.solver.scene.files import scene_digest
+from stickslip.studies.attractors.census import sweep_text
+from stickslip.studies.rundir import (
+    prepare_run_dir,
+    running_summary,
+    write_first_files,
+    write_member,
+)
+from stickslip.studies.rundir.ownership import claim
+from stickslip.studies.sweep import load_sweep, scene_for
 
 __all__ = ["BundleError", "NodeRun", "bundle_state", "import_results", "write_bundle"]
 
 
 def _spec(census, directory: Path):  # noqa: ANN001, ANN202 - a SweepSpec
     """The census's sweep (``census.sweep_text`` on its base scene) in ``directory``."""
-    from stickslip.studies.attractors.census import sweep_text
-    from stickslip.studies.sweep import load_sweep
-
     base = census.base_scene()
     write_scene(base, directory / "base.toml")
     atomic_write_text(directory / "census.toml", sweep_text(census, base))
@@ -85,8 +92,6 @@ def _definition(census, base) -> dict:  # noqa: ANN001
 def write_bundle(census, directory: Path, stream: TextIO | None = None) -> None:  # noqa: ANN001
     """Prepare the bundle of ``census`` in ``directory`` (needs dolfinx; module docstring):
     one batch per rung (``solver.bundle.prepare_bundle``)."""
-    from stickslip.studies.sweep import scene_for
-
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
     base, spec = _spec(census, directory)
@@ -138,16 +143,6 @@ def import_results(bundle: Path, spec, starts_dir: Path,  # noqa: ANN001
     run directory ``starts_dir/runs/<id>`` (claimed as a sweep's). Returns 0, or 1 if some
     start failed on the node."""
     from mpi4py import MPI
-
-    from stickslip.solver.run import Profile
-    from stickslip.studies.rundir import (
-        prepare_run_dir,
-        running_summary,
-        write_first_files,
-        write_member,
-    )
-    from stickslip.studies.rundir.ownership import claim
-    from stickslip.studies.sweep import scene_for
 
     owned = claim(starts_dir, "sweep", reuse=True)
     try:

@@ -20,9 +20,11 @@ import json
 import math
 from pathlib import Path
 
+from stickslip.solver.scene import load_scene
 from stickslip.studies.attractors.census import read_cache, write_if_changed
 from stickslip.studies.attractors.starts import parse_rung_key, rung_key
 from stickslip.studies.attractors.statistics import COUNTED, SETTLED, wilson
+from stickslip.studies.flutter_fe import complex_eigenvalue_analysis
 
 CACHE = "cea.json"
 #: The printed table shows the fastest-growing modes and every mode a start ends on.
@@ -36,9 +38,8 @@ def unstable_modes(scene_file: Path, n_inner: int, fmax_hz: float, degree: int =
     frequency, phase speed)."""
     from mpi4py import MPI
 
+    # dolfinx on first use: the command line imports this module at start
     from stickslip.solver.problem import build_problem
-    from stickslip.solver.scene import load_scene
-    from stickslip.studies.flutter_fe import complex_eigenvalue_analysis
 
     scene = load_scene(scene_file, [f"mesh.n_inner={int(n_inner)}",
                                     f"mesh.degree={int(degree)}"])

@@ -86,7 +86,7 @@ from typing import TextIO
 
 from stickslip.solver.atomic import atomic_write_text
 from stickslip.solver.scene import Scene, SceneError, load_scene, scene_to_dict, write_scene
-from stickslip.studies.attractors.certify import failures
+from stickslip.studies.attractors.certify import certify_member, failures, kick_members
 from stickslip.studies.attractors.chaos import classify_at_cap
 from stickslip.studies.attractors.classify import (
     CELERITY_TOL,
@@ -96,7 +96,15 @@ from stickslip.studies.attractors.classify import (
     row_cache,
     start_row,
 )
-from stickslip.studies.attractors.features import DEFAULT_TOLERANCES, LEG_GROWTH, Tolerances
+from stickslip.studies.attractors.features import (
+    AMPLITUDE_TOL,
+    DEFAULT_TOLERANCES,
+    HARMONIC_BINS,
+    LEG_GROWTH,
+    SHARE_TOL,
+    Tolerances,
+)
+from stickslip.studies.attractors.report import summary_text
 from stickslip.studies.attractors.starts import (
     StartDistribution,
     as_rung,
@@ -111,6 +119,23 @@ from stickslip.studies.attractors.statistics import (
     ladder,
     mesh_members,
 )
+from stickslip.studies.output import output_root
+from stickslip.studies.resources import (
+    MAX_SECONDS,
+    MAX_STEPS,
+    ResourceError,
+    _bytes,
+    _duration,
+    _free_disk,
+    estimate,
+)
+from stickslip.studies.rundir import continue_batch
+from stickslip.studies.rundir.directory import is_run_dir
+from stickslip.studies.rundir.ownership import OwnershipError, claim, register_kind, user_entries
+from stickslip.studies.rundir.readers import ReadError
+from stickslip.studies.sweep import SweepError, load_sweep, run_sweep
+from stickslip.studies.sweep.schedule import wait_quietly
+from stickslip.studies.sweep.table import _read_json, live_status
 
 KIND = "stickslip-attractors"
 #: The census directory's own entries (``studies.rundir.ownership``); the starts are a sweep
@@ -213,7 +238,6 @@ def ladder_order(base: Scene, rungs: tuple[tuple[int, int], ...]
     """The rungs (N, p) along the ladder: by dofs (``studies.resources.estimate`` of the base
     scene at N and p), fewest first, then the lower degree; rungs of one degree by N (their
     dofs grow with N). CensusError where a rung's scene is not valid."""
-    from stickslip.studies.resources import estimate
 
     if len({p for _, p in rungs}) <= 1:
         return tuple(sorted(rungs))
@@ -238,23 +262,12 @@ def row_key(row: dict) -> str:
 
 
 def default_dir(scene: Scene) -> Path:
-    from stickslip.studies.output import output_root
-
     return output_root() / "attractors" / _slug(scene.name)
 
 
 def cap_problem(census: Census, out_dir: Path, ranks: int = 1) -> str | None:
     """Why the census's cap is too costly to start without ``--yes-i-know`` (the cost guard
     of the module docstring: every start run to T_max), or None."""
-    from stickslip.studies.resources import (
-        MAX_SECONDS,
-        MAX_STEPS,
-        ResourceError,
-        _bytes,
-        _duration,
-        _free_disk,
-        estimate,
-    )
 
     base = census.base_scene()
     cap = census.cap(base)
@@ -374,7 +387,6 @@ def prepare(census: Census, out_dir: Path, force: bool,  # noqa: ANN201 - a Clai
     empty one, or a census directory to resume; a live or foreign one is refused). The claim
     (its lock) is returned and held until the census ends. ``check_cost``: the cap's cost
     guard (``cap_problem`` on ``ranks``) first, before anything is made."""
-    from stickslip.studies.rundir.ownership import OwnershipError, claim, register_kind
 
     base = census.base_scene()
     definition = census.definition(base)
@@ -414,7 +426,6 @@ def clear_unstarted(out_dir: Path) -> list[Path]:
     directory refuses to be reused as such. Only directories under ``runs/`` whose every
     entry is one of those are emptied; anything else is left for the sweep to report.
     """
-    from stickslip.studies.rundir.directory import is_run_dir
 
     cleared = []
     runs = out_dir / "runs"
@@ -465,7 +476,6 @@ def _certify_and_continue(out_dir: Path, comm, stream: TextIO, dt_limit: bool,  
 def chaos_due(out_dir: Path) -> list[dict]:
     """Rank 0: the starts unsettled at the cap whose chaos test is not in ``chaos.json``:
     {"id", "run_dir", "key", "cost"} (cost N² × the twin's time, about the leg's)."""
-    from stickslip.studies.sweep import load_sweep
 
     meta = read_meta(out_dir)
     cap = meta.get("max_time_s")
@@ -557,8 +567,6 @@ def run_census(census: Census, out_dir: str | Path, *, comm=None, force: bool = 
     """
     from mpi4py import MPI
 
-    from stickslip.studies.sweep import SweepError, load_sweep, run_sweep
-    from stickslip.studies.sweep.schedule import wait_quietly
 
     comm = MPI.COMM_WORLD if comm is None else comm
     out_dir = Path(out_dir)
@@ -678,7 +686,6 @@ def _drop_if_unstarted(owned, out_dir: Path) -> None:  # noqa: ANN001 - a Claim
     own definition files, which the same command writes again."""
     import shutil
 
-    from stickslip.studies.rundir.ownership import user_entries
 
     if owned.created and set(user_entries(out_dir)) <= {"base.toml", "census.toml",
                                                         "census.json"}:
@@ -707,7 +714,6 @@ def settle(out_dir: Path, comm, stream: TextIO = sys.stdout) -> int:  # noqa: AN
     whole leg). Either way the same command goes on from there."""
     import signal
 
-    from stickslip.studies.sweep.schedule import wait_quietly
 
     refused: dict[str, str] = {}  # start id -> why it cannot be continued (rank 0)
     reached: dict[str, float] = {}  # start id -> the time its last leg started from
@@ -742,7 +748,6 @@ def _plan_legs(out_dir: Path, comm, refused: dict[str, str], reached: dict[str, 
     """Collective: rank 0 finds the next legs (``_next_legs``) and shares them; every rank
     gets the shares, None (no leg left, none refused), 1 (none left, but some start was
     refused, or the census could not be read) or 130 (interrupted)."""
-    from stickslip.studies.sweep.schedule import wait_quietly
 
     shares: list | int | None = None
     if comm.rank == 0:
@@ -888,8 +893,6 @@ def _continue_group(group: list[dict], until: float, fh: TextIO) -> list[dict | 
     """Continue the starts of ``group`` to ``until`` as one batch; where that raises, one
     by one (which start refuses, the others go on). Per start its summary, or why it
     could not be continued (the error's first line)."""
-    from stickslip.studies.rundir import continue_batch
-    from stickslip.studies.rundir.readers import ReadError
 
     errors = (ReadError, ValueError, OSError, RuntimeError)
     try:
@@ -918,7 +921,6 @@ def start_rows(out_dir: Path, spread_tol: float = SPREAD_TOL,
     """One row per start of the census (every start, whatever its state), with its rung's
     ``degree`` (its point's ``mesh.degree``, else the base scene's); ``window``: the
     length W of the windows compared (``census.json``'s ``window_s``)."""
-    from stickslip.studies.sweep import load_sweep
 
     spec = load_sweep(out_dir / "census.toml")
     base_degree = read_meta(out_dir)["definition"]["scene"].get("mesh", {}).get("degree", 1)
@@ -944,7 +946,6 @@ def _start_state(out_dir: Path, task, window: float | None  # noqa: ANN001 - a s
     """(run directory, summary, status, key of its features in ``features.json``) of one
     start; the key (None unless completed) names the summary's write, so a continued start
     is featurised again."""
-    from stickslip.studies.sweep.table import _read_json, live_status
 
     run_dir = out_dir / STARTS / "runs" / task.id
     summary = _read_json(run_dir / "summary.json")
@@ -980,7 +981,6 @@ def on_ranks(comm, plan, work, merge) -> bool:  # noqa: ANN001
     (``wait_quietly``); a rank whose ``work`` raises gives no result (rank 0 does that work
     itself later). Returns whether a rank was interrupted (KeyboardInterrupt: SIGINT, or
     SIGTERM where a handler raises it), on every rank once all have arrived."""
-    from stickslip.studies.sweep.schedule import wait_quietly
 
     if comm.size == 1:
         return False
@@ -1016,7 +1016,6 @@ def _unfeaturised_shares(out_dir: Path, ranks: int) -> list[list[dict]] | None:
     """Rank 0: the completed, not steady starts missing from ``features.json``, shared over
     ``ranks`` (``balanced_shares``); None if none (or the census cannot be read: rank 0's
     ``start_rows`` says why)."""
-    from stickslip.studies.sweep import load_sweep
 
     try:
         meta = read_meta(out_dir)
@@ -1035,7 +1034,6 @@ def _unfeaturised_shares(out_dir: Path, ranks: int) -> list[list[dict]] | None:
 
 def _featurise(out_dir: Path, ids: list[str]) -> dict:
     """{features.json key: ``row_cache``} of the starts ``ids`` (``start_row``)."""
-    from stickslip.studies.sweep import load_sweep
 
     meta = read_meta(out_dir)
     window = meta.get("window_s")
@@ -1066,7 +1064,6 @@ def collect(out_dir: str | Path, *, certify: str | bool = "cached", dt_limit: bo
     timing is the session's that ran it, and its files are written only where they changed
     and the directory takes them (module docstring). CensusError: ``census.json`` is not a
     census definition."""
-    from stickslip.studies.attractors.report import summary_text
 
     out_dir = Path(out_dir)
     meta = read_meta(out_dir)
@@ -1163,7 +1160,6 @@ def answer_of(meta: dict, rows: list[dict], certify_in: Path | None = None, *,
               "structured": {str(n): [_brief(r) for r in rs] for n, rs in structured.items()},
               "accounting": {str(n): accounting(ms) for n, ms in per_mesh.items()},
               "ladder": lad, "certificates": certificates, "timing": timing, "starts": rows}
-    from stickslip.studies.attractors.report import summary_text
 
     answer["text"] = summary_text(answer)
     return answer
@@ -1184,8 +1180,6 @@ def ladder_rungs(meta: dict, rows: list[dict]) -> list[tuple[int, int]]:
 
 
 def _tolerance_facts(tol: Tolerances) -> dict:
-    from stickslip.studies.attractors.features import AMPLITUDE_TOL, HARMONIC_BINS, SHARE_TOL
-
     return {"share_listed": SHARE_TOL, "celerity_rel": tol.celerity,
             "share_rel": tol.share_rel, "share_abs": tol.share_abs,
             "fraction_abs": tol.fraction, "amplitude_rel_between_windows": AMPLITUDE_TOL,
@@ -1211,7 +1205,6 @@ def certify_members(out_dir: Path, rows: list[dict], *, compute: bool = True,
     all in one call (``certify.kick_members``: one batch per mesh and step), their wall
     time in ``timing["kick_s"]``. ``write``: False leaves ``certificates.json`` as it was
     (``certify_shared``: rank 0 writes what the ranks computed)."""
-    from stickslip.studies.attractors.certify import certify_member, kick_members
 
     cache_path = out_dir / "certificates.json"
     cache = read_cache(cache_path)

@@ -1,7 +1,6 @@
 """Certificates of a census's members: what each kind of attractor can cheaply prove.
 
 ``certify_member(rows)`` gives every settled member (its rows, first start first):
-
 * **reproducibility**: how many starts reach it; they agree by construction to the grouping
   tolerances (``features.match``), and the largest spread of their dominant celerity and of
   every listed share is stated; reproduced when at least two starts reach it;
@@ -24,17 +23,14 @@
   (``studies.rundir.continue_batch``), so they cost 2W per member in a batch.
 
 Certification by the direct travelling-wave solver, through one adapter:
-
 ``certify(run_dir)`` hands one of the member's runs to ``studies.travel.wave_from_run`` with
 ``dt_limit=True``: the transient's own discrete wave at the run's step (its residual, its
 celerity and the relative difference to the transient's) and the wave as Δt → 0 at that mesh
-(with the run's own Δt error), and, where ``studies.travel.wave_stability`` exists, whether
-a transient started next to the wave keeps it. Where the finer levels of the Δt → 0 wave
+(with the run's own Δt error), and (``studies.travel.wave_stability``) whether a transient
+started next to the wave keeps it. Where the finer levels of the Δt → 0 wave
 have no wave (the free-ω Newton stagnates with an inequality violated), the wave at the run's
-step still stands and ``dt_to_0`` says why its limit is unknown. When the
-travel solver is not installed the answer says "certification unavailable" and the census
-goes on; a run that is not a rigid wave (``NotRigidWave``) or a solver failure is reported,
-never raised.
+step still stands and ``dt_to_0`` says why its limit is unknown. A run that is not a rigid
+wave (``NotRigidWave``) or a solver failure is reported, never raised.
 """
 
 from __future__ import annotations
@@ -42,21 +38,19 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
+from stickslip.studies import travel
+from stickslip.studies.attractors.classify import _radius, _samples
+from stickslip.studies.attractors.features import (
+    DEFAULT_TOLERANCES,
+    Features,
+    components_text,
+    differences,
+    window_features,
+)
+from stickslip.studies.rundir import continue_batch
+from stickslip.studies.rundir.readers import ReadError
+
 UNAVAILABLE = "certification unavailable"
-
-
-def _travel():  # noqa: ANN202
-    try:
-        import stickslip.studies.travel as travel
-
-        return travel if hasattr(travel, "wave_from_run") else None
-    except ImportError:
-        return None
-
-
-def available() -> bool:
-    """True when the direct solver's ``wave_from_run`` can be called."""
-    return _travel() is not None
 
 
 def certify(run_dir: Path, *, stability: bool = True, stability_end_time: float = 0.05,
@@ -65,10 +59,6 @@ def certify(run_dir: Path, *, stability: bool = True, stability_end_time: float 
     ``dt_limit = False`` leaves the Δt → 0 wave out (its finest level, 4S points per node, is
     a dense Newton system whose cost grows as the cube). ``window``: the end state's window
     (s; default the run's analysis window), e.g. a census's W for a start it extended."""
-    travel = _travel()
-    if travel is None:
-        return {"available": False, "message": f"{UNAVAILABLE}: studies.travel.wave_from_run "
-                "is not installed"}
     out: dict = {"available": True, "run": str(run_dir)}
     try:  # one solve: the wave at the run's step, and from it the Δt → 0 wave
         wave = travel.wave_from_run(run_dir, dt_limit=dt_limit, window=window)
@@ -84,7 +74,7 @@ def certify(run_dir: Path, *, stability: bool = True, stability_end_time: float 
     else:  # no wave at 2S or 4S, or not asked for: the Δt → 0 value is not known
         out["dt_to_0"] = {"message": wave.get("dt_limit_message") or (
             "no Δt → 0 wave from this run" if dt_limit else "not computed (dt_limit = False)")}
-    if stability and wave.get("converged") and hasattr(travel, "wave_stability"):
+    if stability and wave.get("converged"):
         try:
             st = travel.wave_stability(run_dir, end_time=stability_end_time,
                                        window=window)
@@ -102,7 +92,6 @@ def certify_member(rows: list[dict], *, dt_limit: bool = False,
                    window: float | None = None) -> dict:
     """The certificate of one settled member from its rows (module docstring), its features
     read over the last ``window`` seconds (the census's W); never raises."""
-    from stickslip.studies.attractors.features import Features
 
     out: dict = {"starts": len(rows), "reproduced": len(rows) >= 2,
                  "rigid": rows[0]["class"] == "wave"}
@@ -139,16 +128,6 @@ def kick_members(out_dir: Path, groups: dict[str, list[dict]], window: float,
     kick's RMS sizes} or {"message"} where it could not run."""
     import json
 
-    from stickslip.studies.attractors.classify import _radius, _samples
-    from stickslip.studies.attractors.features import (
-        DEFAULT_TOLERANCES,
-        Features,
-        components_text,
-        differences,
-        window_features,
-    )
-    from stickslip.studies.rundir import continue_batch
-    from stickslip.studies.rundir.readers import ReadError
 
     tol = DEFAULT_TOLERANCES if tol is None else tol
     out: dict[str, dict] = {}

@@ -59,7 +59,12 @@ from typing import Protocol
 
 import numpy as np
 
+from stickslip.solver.columns import random_bump
+from stickslip.solver.contact import ContactLaw
+from stickslip.solver.ensemble_run import BatchColumns, BatchOptions
+from stickslip.solver.run import Profile
 from stickslip.studies.attractors.features import leg_window_ends
+from stickslip.studies.rundir.continuation import plan_continuation
 
 D0 = 1e-8  # the twin's relative distance, kept by renormalisation
 DRIFT_TOL = 0.5  # a stationary mean moves by at most this many pooled standard deviations
@@ -193,12 +198,6 @@ class BatchTwin:
     docstring). Built from a run directory that a batch wrote (a census start)."""
 
     def __init__(self, run_dir: str | Path, d0: float = D0, seed: int = TWIN_SEED) -> None:
-        from stickslip.solver.columns import random_bump
-        from stickslip.solver.contact import ContactLaw
-        from stickslip.solver.ensemble_run import BatchColumns, BatchOptions
-        from stickslip.solver.run import Profile
-        from stickslip.studies.rundir.continuation import plan_continuation
-
         run_dir = Path(run_dir)
         t_ck = float(json.loads((run_dir / "summary.json").read_text())["sim_time_s"])
         plan = plan_continuation(run_dir, t_ck + 1.0, 1)

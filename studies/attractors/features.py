@@ -65,6 +65,7 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
+from stickslip.solver.contact import zone_fractions
 from stickslip.studies.attractors.lattice import Lattice, lattice_of
 
 #: Share (amplitude over the dominant component's) from which a component is listed.
@@ -352,7 +353,6 @@ def frame_spread(t: np.ndarray, theta: np.ndarray, u_r: np.ndarray, u_theta: np.
 def _fractions(status: np.ndarray | None) -> dict:
     if status is None or status.size == 0:
         return {}
-    from stickslip.solver.contact import zone_fractions
 
     return {k: float(v) for k, v in zone_fractions(status).items()}
 

@@ -13,13 +13,9 @@
 machinery (batched, resumable) and writes, per point, the census's answer
 (``attractors_map.{json,csv}``): the dominant member and its share, the number of
 attractors (settled members, rigid or multi-wave), and the probability of
-stick-slip-separation with its 95 % Wilson interval. ``census_cells`` says what each
-cell of the sweep's regime map shows for it
-(``studies.sweep.regime_map.plot_sweep`` draws them when the sweep directory holds
-``attractors_map.json``).
-
-The sweep machinery is imported from its modules (``spec``, ``schedule``, ``table``), not
-from the ``studies.sweep`` package, whose map imports this module.
+stick-slip-separation with its 95 % Wilson interval. The sweep's regime map draws them
+when the sweep directory holds ``attractors_map.json``
+(``studies.sweep.regime_map.census_cells``).
 """
 
 from __future__ import annotations
@@ -34,6 +30,7 @@ from pathlib import Path
 from typing import TextIO
 
 from stickslip.solver.atomic import atomic_write_text
+from stickslip.solver.scene import SceneError
 from stickslip.studies.attractors.classify import CELERITY_TOL, SPREAD_TOL, group_members, start_row
 from stickslip.studies.attractors.starts import (
     DEFAULT_AMPLITUDE,
@@ -42,11 +39,13 @@ from stickslip.studies.attractors.starts import (
     StartDistribution,
 )
 from stickslip.studies.attractors.statistics import COUNTED, SETTLED, mesh_members, wilson
+from stickslip.studies.rundir.ownership import KINDS, register_kind
+from stickslip.studies.sweep.schedule import run_sweep
+from stickslip.studies.sweep.spec import SweepError, Task, scene_for
+from stickslip.studies.sweep.table import _read_json, live_status
 
 #: The per-point table of a census map, in the sweep directory (``.csv`` beside it).
 MAP_FILE = "attractors_map.json"
-#: How a member's direction reads in a map cell: the celerity's sign, + = rotation sense.
-DIRECTION_SIGN = {"rotation": "+", "opposite": "−"}
 _KEYS = ("starts", "seed", "n_modes", "amplitude", "celerity_tol", "spread_tol")
 MAP_FIELDS = ("point", "starts", "finished", "attractors", "dominant", "dominant_share",
               "dominant_lo", "dominant_hi", "p_sss", "p_sss_lo", "p_sss_hi", "diverged",
@@ -55,8 +54,6 @@ MAP_FIELDS = ("point", "starts", "finished", "attractors", "dominant", "dominant
 
 def distribution(table: dict, where: str) -> tuple[StartDistribution, float, float]:
     """The ``[attractors]`` table -> (start distribution, celerity_tol, spread_tol)."""
-    from stickslip.studies.sweep.spec import SweepError
-
     unknown = set(table) - set(_KEYS)
     if unknown:
         raise SweepError(f"{where}: unknown key(s) attractors.{', '.join(sorted(unknown))} "
@@ -77,9 +74,6 @@ def distribution(table: dict, where: str) -> tuple[StartDistribution, float, flo
 
 def expand(spec):  # noqa: ANN001, ANN201 - SweepSpec -> SweepSpec
     """Every point of ``spec`` x the M random starts of its ``[attractors]`` table."""
-    from stickslip.solver.scene import SceneError
-    from stickslip.studies.sweep.spec import SweepError, Task, scene_for
-
     dist, _, _ = distribution(spec.attractors, str(spec.path))
     extra = {"initial.perturbation": "random", "initial.n_modes": dist.n_modes,
              "initial.amplitude": dist.amplitude}
@@ -98,10 +92,6 @@ def run_map(spec, out_dir: Path, *, comm=None, stream: TextIO = sys.stdout,  # n
             **sweep_options) -> int:
     """Run the census of every point (collective); rank 0 writes attractors_map.*."""
     from mpi4py import MPI
-
-    from stickslip.studies.rundir.ownership import KINDS, register_kind
-    from stickslip.studies.sweep.schedule import run_sweep
-    from stickslip.studies.sweep.spec import SweepError
 
     comm = MPI.COMM_WORLD if comm is None else comm
     if "attractors_map.*" not in KINDS["sweep"]:  # the map's files belong to its sweep
@@ -126,8 +116,6 @@ def run_map(spec, out_dir: Path, *, comm=None, stream: TextIO = sys.stdout,  # n
 
 def map_table(spec, expanded, out_dir: Path) -> list[dict]:  # noqa: ANN001
     """Per point: the census's dominant member, number of attractors, P(SSS)."""
-    from stickslip.studies.sweep.table import _read_json, live_status
-
     _, celerity_tol, spread_tol = distribution(spec.attractors, str(spec.path))
     per_point: dict[str, list[dict]] = {t.id: [] for t in spec.tasks}
     for task in expanded.tasks:
@@ -181,51 +169,3 @@ def _write(out_dir: Path, spec, points: list[dict]) -> None:  # noqa: ANN001
     atomic_write_text(out_dir / "attractors_map.csv", buf.getvalue())
 
 
-def census_cells(meta: dict) -> list[dict]:
-    """What the regime map draws at each point of ``meta`` (``attractors_map.json``).
-
-    Per point: its swept values; the dominant member (``dominant``, with ``k``, ``direction``,
-    ``regime``, ``class`` and its share with the Wilson interval); the number of attractors
-    (settled members); P(stick-slip-separation) with its Wilson interval; ``modes``, the k each
-    start reached (for the reduced model's boundaries); and the cell's colour category
-    (the dominant member's regime, or its class where it has none: steady sliding, diverged,
-    failed), its ``text`` and the ``p_text`` of the P(SSS) panel.
-    """
-    cells = []
-    for p in meta["points"]:
-        table = p.get("table") or []
-        top = next((m for m in table if m["member"] == p["dominant"]), None)
-        cell = {key: p[key] for key in meta["keys"]}
-        cell.update(point=p["point"], dominant=p["dominant"], attractors=p["attractors"],
-                    starts=p["starts"], finished=p["finished"],
-                    share=p["dominant_share"], share_lo=p["dominant_lo"],
-                    share_hi=p["dominant_hi"], p_sss=p["p_sss"], p_sss_lo=p["p_sss_lo"],
-                    p_sss_hi=p["p_sss_hi"],
-                    modes=[m["k"] for m in table if m["k"] for _ in range(m["count"])])
-        cell.update({key: top[key] if top else None
-                     for key in ("k", "direction", "regime", "class")})
-        cell["category"] = (top["regime"] if top["k"] else top["class"]) if top else None
-        cell["text"] = _cell_text(cell)
-        cell["p_text"] = ("no start\nfinished" if p["p_sss"] is None else
-                          f"{100 * p['p_sss']:.0f} %\n[{100 * p['p_sss_lo']:.0f}, "
-                          f"{100 * p['p_sss_hi']:.0f}]")
-        cells.append(cell)
-    return cells
-
-
-def _cell_text(cell: dict) -> str:
-    """"k = 11 −\n58 % of 16\n2 attractors": the dominant member (k and the celerity's
-    sign, + = rotation; "multi" for a multi-wave attractor, "unsettled" for a cycle still
-    settling),
-    its share of the finished starts, and the number of attractors."""
-    if cell["dominant"] is None:
-        return f"pending\n0 of {cell['starts']}"
-    if cell["k"]:
-        tag = {"wave": "", "multi-wave": " multi"}.get(cell["class"], f" {cell['class']}")
-        what = f"k = {cell['k']} {DIRECTION_SIGN.get(cell['direction'], '?')}{tag}"
-    else:
-        what = {"steady-sliding": "steady sliding", "failed": "error"}.get(cell["class"],
-                                                                           cell["class"])
-    plural = "" if cell["attractors"] == 1 else "s"
-    return (f"{what}\n{100 * cell['share']:.0f} % of {cell['finished']}\n"
-            f"{cell['attractors']} attractor{plural}")

@@ -19,7 +19,9 @@ from pathlib import Path
 
 import numpy as np
 
+from stickslip.postprocess.plotting import plot_uvpq
 from stickslip.studies.attractors.starts import rung_key
+from stickslip.studies.attractors.statistics import SETTLED, wilson
 
 
 def plot_census(out_dir: str | Path, answer: dict | None = None) -> list[Path]:
@@ -54,8 +56,6 @@ def basins_figure(answer: dict):  # noqa: ANN201 - matplotlib Figure, or None
     member is there."""
     import matplotlib.pyplot as plt
     from matplotlib.patches import Patch
-
-    from stickslip.studies.attractors.statistics import SETTLED, wilson
 
     meshes = list(answer["members"])
     labels: dict[str, str] = {}
@@ -147,8 +147,6 @@ def _values(out_dir: Path, answer: dict) -> Path | None:
 
 
 def _profiles(out_dir: Path, answer: dict) -> list[Path]:
-    from stickslip.postprocess.plotting import plot_uvpq
-
     paths, seen = [], set()
     for run in answer["starts"]:  # one run of each wave member per mesh, any start
         rung = rung_key(run["n_inner"], run.get("degree") or 1)

@@ -27,6 +27,7 @@ import numpy as np
 
 from stickslip.studies.attractors.chaos import verdict_text
 from stickslip.studies.attractors.classify import member_label, readable_name
+from stickslip.studies.attractors.features import Component, Features, Tolerances, match
 from stickslip.studies.attractors.starts import parse_rung_key
 
 Z95 = 1.959963984540054  # the 97.5 % quantile of the standard normal
@@ -164,7 +165,6 @@ def member_components(rows: list[dict]) -> dict:
     ``coefficients`` on the generators), ``period_s`` and ``shift_deg`` of a relative
     periodic orbit; its readable ``name`` (``classify.readable_name`` of the generators)
     and ``n_components`` (the generators)."""
-    from stickslip.studies.attractors.features import Component, Features
 
     have = [Features.from_dict(r["features"]) for r in rows if r.get("features")]
     if not have:
@@ -235,7 +235,6 @@ LADDER_TOLERANCES = {"celerity": 0.05, "share_rel": 0.5, "share_abs": 0.10, "fra
 def member_features(entry: dict):  # noqa: ANN201 - features.Features
     """The features of a member (``mesh_members`` entry): its mean components and zones, at
     its resolution (so that its lattice finds the same tones)."""
-    from stickslip.studies.attractors.features import Component, Features
 
     comps = tuple(Component(k=c["k"], direction=c["direction"], share=c["share"],
                             amplitude_m=c["amplitude_m"], frequency_hz=c["frequency_hz"],
@@ -259,7 +258,6 @@ def align(per_mesh: dict[int, list[dict]], tol=None, lookback: bool = False  # n
     with ``lookback`` also one of an earlier key, the most recent first (an attractor that
     vanishes and comes back along a parameter); otherwise its own name (``@N`` added where
     that name is already taken). Other entries keep their name."""
-    from stickslip.studies.attractors.features import Tolerances, match
 
     tol = tol or Tolerances(**LADDER_TOLERANCES)
     meshes = list(per_mesh)  # in ladder order (the caller's: by dofs)
@@ -396,7 +394,6 @@ def ladder(per_mesh: dict[int, list[dict]]) -> dict:
 def rung_steps(meshes: list, sets: dict, tests: list[dict], coarse: dict) -> list[dict]:
     """The settle criterion per pair of successive rungs (a, b) of the ladder: the four
     things that must stay the same, each with its number and verdict:
-
     * ``same_set``: the same attractors (matched by their features, ``align``), with those
       ``added`` at b and ``lost`` from a;
     * ``shares_consistent``: every member's share passes Fisher's exact test (p ≥ 0.05;

@@ -200,6 +200,7 @@ class _ContactFrame:
     def __init__(self, problem: TubeProblem, friction: str) -> None:
         from petsc4py import PETSc
 
+        # dolfinx on first use: the command line imports this package at start
         from stickslip.forms.steady import node_matrix
 
         K, nd = problem.K, problem.nodes
@@ -258,6 +259,7 @@ def _consistent_mass(problem: TubeProblem, frame: _ContactFrame,
     import dolfinx.fem.petsc
     import ufl
 
+    # dolfinx on first use: the command line imports this package at start
     from stickslip.forms.elasticity import mass as mass_form
 
     u, v = ufl.TrialFunction(problem.V), ufl.TestFunction(problem.V)

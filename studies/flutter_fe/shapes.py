@@ -22,6 +22,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from stickslip.solver.atomic import atomic_write_text
+
 if TYPE_CHECKING:
     from stickslip.solver.problem import TubeProblem
     from stickslip.studies.flutter_fe.cea import CEAOperators, CEAResult
@@ -95,8 +97,6 @@ def write_mode_shapes(problem: TubeProblem, ops: CEAOperators, res: CEAResult,
     Collective (every rank calls it); rank 0 writes the CSV files. Returns
     ``{"dir", "count", "files"}``.
     """
-    from stickslip.solver.atomic import atomic_write_text
-
     comm = problem.comm
     out = Path(out_dir)
     if comm.rank == 0:

@@ -8,6 +8,11 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from stickslip.postprocess.analysis import mode_coefficients
+from stickslip.solver.contact import SLIP
+from stickslip.solver.errors import Diverged
+from stickslip.solver.run import Simulation
+
 if TYPE_CHECKING:
     from mpi4py import MPI
 
@@ -101,11 +106,6 @@ def measure_transient_growth(
     ``postprocess.analysis.mode_coefficients`` of the recorder's u_θ samples in ``window``
     (which must lie in the linear phase: checked, every node slipping).
     """
-    from stickslip.postprocess.analysis import mode_coefficients
-    from stickslip.solver.contact import SLIP
-    from stickslip.solver.errors import Diverged
-    from stickslip.solver.run import Simulation
-
     sc = scene.with_overrides(
         'initial.perturbation="mode"', f"initial.mode={k}", f"initial.amplitude={amplitude}",
         f"time.beta2={beta2}", f"time.end_time={window[1] + 2 * sample_interval}",

@@ -45,7 +45,13 @@ from pathlib import Path
 
 import numpy as np
 
+from stickslip.solver.contact import ContactLaw
 from stickslip.solver.contact.law import forward_increment_factor
+from stickslip.solver.ensemble import BatchedProblem
+from stickslip.solver.ensemble_run import BatchColumns, BatchOptions
+from stickslip.solver.run import Profile
+from stickslip.solver.schemes.select import for_scene
+from stickslip.studies.rundir.continuation import plan_continuation
 
 __all__ = ["Start", "RingRotation", "TimeMap", "start_from_run", "start_from_state"]
 
@@ -71,11 +77,6 @@ class Start:
 def _build(scene, dt: float | None = None):
     """(TubeProblem, BatchedProblem, ContactLaw, dt) of ``scene`` on one rank; ``dt``: the
     scheme's own step unless given."""
-    from stickslip.solver.contact import ContactLaw
-    from stickslip.solver.ensemble_run import BatchColumns, BatchOptions
-    from stickslip.solver.run import Profile
-    from stickslip.solver.schemes.select import for_scene
-
     if for_scene(scene).name != "explicit":
         raise ValueError("rpo: the scene's scheme is implicit (time.beta1 > 0); the RPO "
                          "solver maps the explicit scheme only")
@@ -85,8 +86,6 @@ def _build(scene, dt: float | None = None):
     cols = BatchColumns([scene], Profile(), BatchOptions(build=False, resumed=True))
     step = float(cols.dt) if dt is None else float(dt)
     if dt is not None:
-        from stickslip.solver.ensemble import BatchedProblem
-
         bp = BatchedProblem.from_problem(cols.problem, step, float(scene.time.beta2))
     else:
         bp = cols.layout.problem
@@ -100,8 +99,6 @@ def _build(scene, dt: float | None = None):
 def start_from_run(run_dir: str | Path) -> Start:
     """The state where a run's checkpoint stands (a census start, a batch member or a
     one-rank ``stickslip run``), with its scene and step."""
-    from stickslip.studies.rundir.continuation import plan_continuation
-
     run_dir = Path(run_dir)
     t_ck = float(json.loads((run_dir / "summary.json").read_text())["sim_time_s"])
     plan = plan_continuation(run_dir, t_ck + 1.0, 1)
@@ -191,8 +188,6 @@ class TimeMap:
     NO_CONTACT_D = -1.0e3
 
     def __init__(self, start: Start, contact: bool = True) -> None:
-        from stickslip.solver.schemes.select import for_scene
-
         self.start, self.contact = start, contact
         self.scheme = for_scene(start.scene)
         self.n = int(start.batched.n)

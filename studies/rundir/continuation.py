@@ -42,11 +42,19 @@ import shlex
 import sys
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
-from mpi4py import MPI
 
+from stickslip.solver.run import Profile, Simulation
 from stickslip.solver.scene import Scene, write_scene
+from stickslip.solver.schemes.select import (
+    check_continuing_kernel,
+    continuing_backend,
+    moved_backends,
+)
+from stickslip.studies.batching import SPOOL_MEMORY_FRACTION, batch_key
+from stickslip.studies.resources import available_memory
 from stickslip.studies.rundir.checkpoint import (
     CHECKPOINT,
     DAMAGED_FIX,
@@ -64,8 +72,11 @@ from stickslip.studies.rundir.readers import (
     read_scene_file,
     read_summary,
 )
-from stickslip.studies.rundir.scene_run import RunDirectory
+from stickslip.studies.rundir.scene_run import RunDirectory, every_rank
 from stickslip.studies.rundir.writer import print_summary, write_member
+
+if TYPE_CHECKING:  # MPI starts where a run uses it, not when this module is imported
+    from mpi4py import MPI
 
 __all__ = ["RESUMABLE", "WALL_CLOCK_KEYS", "continue_batch", "continue_run",
            "plan_continuation"]
@@ -91,10 +102,8 @@ BUILT_KEEP = 4
 
 
 def built_key(scene: Scene) -> str | None:
-    """The batch key of ``scene`` (``studies.sweep.batch.batch_key``: same K, M, dt,
+    """The batch key of ``scene`` (``studies.batching.batch_key``: same K, M, dt,
     scheme, layout) without its run limits, which the legs of a continuation change."""
-    from stickslip.studies.sweep.batch import batch_key
-
     return batch_key(scene.with_overrides("time.end_time=1.0", "time.max_steps=0",
                                           "time.max_wall_time=0.0"))
 
@@ -189,7 +198,7 @@ def _planned(run_dir: Path, until: float, comm: MPI.Comm) -> _Plan | None:
 
 
 def continue_run(run_dir: str | Path, until: float, out_dir: str | Path | None = None, *,
-                 force: bool = False, comm: MPI.Comm = MPI.COMM_WORLD, stream=None,
+                 force: bool = False, comm: MPI.Comm | None = None, stream=None,
                  check_resources: bool = True) -> dict:
     """Continue the run in ``run_dir`` from its checkpoint to ``until`` seconds (collective).
 
@@ -200,7 +209,7 @@ def continue_run(run_dir: str | Path, until: float, out_dir: str | Path | None =
             atomically when the continuation ends (kept as it was if it fails or is
             interrupted).
         force: replace an earlier run directory at ``out_dir``.
-        comm: the ranks; the same number as the run's (its partition).
+        comm: the ranks; the same number as the run's (its partition); default: every rank.
         stream: where the progress and summary lines go (default stdout).
         check_resources: refuse a continuation beyond the machine's memory or disk.
 
@@ -211,7 +220,7 @@ def continue_run(run_dir: str | Path, until: float, out_dir: str | Path | None =
         studies.rundir.readers.ReadError: the run cannot be continued (one line, the fix).
         studies.rundir.RunDirError: ``out_dir`` is not free, or the run is live.
     """
-    run_dir = Path(run_dir)
+    run_dir, comm = Path(run_dir), every_rank(comm)
     plan = _planned(run_dir, until, comm)
     if comm.bcast(plan.kind if plan is not None else None, root=0) == "batch":
         return continue_batch([run_dir], until, None if out_dir is None else [out_dir],
@@ -222,7 +231,6 @@ def continue_run(run_dir: str | Path, until: float, out_dir: str | Path | None =
     kernel = comm.bcast(plan.checkpoint.meta["kernel"] if plan is not None else None, root=0)
 
     def resume(sim) -> None:  # noqa: ANN001 - a solver.run.Simulation
-        from stickslip.solver.schemes.select import check_continuing_kernel
 
         check_continuing_kernel(kernel, sim.stepper)
         try:
@@ -272,8 +280,7 @@ def continue_batch(run_dirs: list[str | Path], until: float,
             before any starts).
         ValueError: a kick without ``out_dirs``.
     """
-    from stickslip.solver.schemes.select import continuing_backend, moved_backends
-    from stickslip.studies.sweep.batch import batch_key
+    from mpi4py import MPI  # a continuation starts MPI; importing this module does not
 
     comm = MPI.COMM_SELF
     dirs = [Path(d) for d in run_dirs]
@@ -319,9 +326,7 @@ def _continue_members(plans: list[_Plan], outs: list[Path | None], backend: str,
     import shutil
     import time
 
-    from stickslip.solver.run import Profile, Simulation
-    from stickslip.studies.resources import available_memory
-    from stickslip.studies.sweep.batch import SPOOL_MEMORY_FRACTION
+    from mpi4py import MPI  # a continuation starts MPI; importing this module does not
 
     t0 = time.perf_counter()
     claims = []

@@ -6,8 +6,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
-
-from mpi4py import MPI
+from typing import TYPE_CHECKING
 
 from stickslip.studies.output import output_root, process_alive  # noqa: F401  (re-exported)
 from stickslip.studies.rundir.ownership import (
@@ -18,6 +17,9 @@ from stickslip.studies.rundir.ownership import (
     owned,
     refusal,
 )
+
+if TYPE_CHECKING:  # MPI starts where a run uses it, not when this module is imported
+    from mpi4py import MPI
 
 #: Where a run ends up (``final``) and where it is written meanwhile (``work``).
 RunDir = Claim

@@ -70,6 +70,8 @@ import uuid
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from stickslip.solver.atomic import atomic_write_text
+
 __all__ = ["KINDS", "LOCK", "MARKER", "Claim", "OwnershipError", "claim", "foreign_entries",
            "holder", "marker", "normal_path", "owned", "recover", "refusal", "register_kind",
            "user_entries"]
@@ -338,8 +340,6 @@ def _lock_into(path: Path, kind: str) -> int | None:
 
 
 def _write_marker(path: Path, kind: str) -> None:
-    from stickslip.solver.atomic import atomic_write_text
-
     atomic_write_text(path / MARKER, json.dumps({
         "kind": kind, "id": uuid.uuid4().hex, "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
         "host": socket.gethostname()}, indent=1) + "\n")

@@ -32,9 +32,12 @@ from typing import Any
 
 import numpy as np
 
+from stickslip.solver.scene import SceneError, load_scene, scene_to_dict
+from stickslip.solver.scene.files import scene_digest
+
 __all__ = ["STATUSES", "ReadError", "check_run_dir", "read_field", "read_json_object",
            "check_agreement", "read_samples", "read_scene_file", "read_summary",
-           "read_sweep_table"]
+           "read_sweep_table", "samples_problem"]
 
 #: Every status a summary may hold (``studies.rundir.scene_run``, the sweep's table).
 STATUSES = ("running", "completed", "diverged", "failed", "stopped", "interrupted",
@@ -100,8 +103,6 @@ def read_summary(run_dir: str | Path) -> dict:
 
 def read_scene_file(path: str | Path) -> Any:
     """The :class:`solver.scene.Scene` in ``path`` (a saved ``scene.toml``)."""
-    from stickslip.solver.scene import SceneError, load_scene, scene_to_dict
-
     p = Path(path)
     _no_link(p)
     if not p.is_file():
@@ -248,12 +249,20 @@ def check_run_dir(run_dir: str | Path, need: int = 1) -> None:
     check_agreement(d, summary, scene, samples)
 
 
+def samples_problem(run_dir: str | Path, need: int = 1) -> str | None:
+    """Why the run directory ``run_dir`` cannot be read back (a missing, corrupt, edited or
+    too short file: ``check_run_dir``), or None: the one line a command prints."""
+    try:
+        check_run_dir(run_dir, need)
+    except ReadError as err:
+        return str(err)
+    return None
+
+
 def check_agreement(run_dir: Path, summary: dict, scene: Any, samples: dict) -> None:
     """The run's files tell of one run: the scene of ``scene.toml`` is the one the summary
     names (and, where recorded, hashes), with the samples' number of contact nodes; else
     :class:`ReadError` naming the first difference (an edited or swapped file)."""
-    from stickslip.solver.scene.files import scene_digest
-
     fix = "put the run's own files back, or run the scene again"
     p = Path(run_dir) / "scene.toml"
     if isinstance(summary.get("scene"), str) and summary["scene"] != scene.name:

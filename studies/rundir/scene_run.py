@@ -15,16 +15,18 @@ import sys
 import time
 from collections.abc import Callable
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from mpi4py import MPI
-
-from stickslip.postprocess.plotting import DEFAULT_WINDOW
+from stickslip.postprocess.plotting import DEFAULT_WINDOW, plot_run
+from stickslip.postprocess.resolution import sampling_problem
 from stickslip.solver import __version__
-from stickslip.solver.atomic import atomic_save_npz, atomic_write_text
+from stickslip.solver.atomic import atomic_save_npz, atomic_write_text, remove_temporaries
 from stickslip.solver.errors import Diverged, StepTooLarge
 from stickslip.solver.run import Profile, Simulation
 from stickslip.solver.scene import Scene, scene_warnings
 from stickslip.studies.output import output_root, process_alive  # noqa: F401  (re-exported)
+from stickslip.studies.resources import ResourceError
+from stickslip.studies.resources import check_resources as _check
 from stickslip.studies.rundir.directory import (
     RunDir,
     RunDirError,
@@ -46,6 +48,26 @@ from stickslip.studies.rundir.writer import (  # noqa: F401  (summarise, peak_rs
     write_run_files,
 )
 
+if TYPE_CHECKING:  # MPI starts where a run uses it, not when this module is imported
+    from mpi4py import MPI
+
+def every_rank(comm: MPI.Comm | None) -> MPI.Comm:
+    """``comm``, or every rank (``MPI.COMM_WORLD``) where none is given: MPI starts when a run
+    does, not when this module is imported (the commands that only read import it too)."""
+    if comm is not None:
+        return comm
+    from mpi4py import MPI
+
+    return MPI.COMM_WORLD
+
+
+def max_op() -> MPI.Op:
+    """``MPI.MAX``, for a run's communicator (MPI has started: see ``every_rank``)."""
+    from mpi4py import MPI
+
+    return MPI.MAX
+
+
 #: Exit status of ``stickslip run`` by the run's final status (README: "Exit codes").
 EXIT_CODES = {"completed": 0, "diverged": 1, "failed": 2, "stopped": 3, "interrupted": 130}
 
@@ -55,7 +77,7 @@ PLOTTABLE = ("completed", "interrupted", "stopped")
 
 
 def run_scene(scene: Scene, run_dir: Path, *, force: bool = False,
-              comm: MPI.Comm = MPI.COMM_WORLD, profile: bool = False,
+              comm: MPI.Comm | None = None, profile: bool = False,
               stream=None, check_resources: bool = True,
               replace_on_failure: bool = False, check_sampling: bool = False,
               plot: bool = False, window: tuple[float, str] | None | str = DEFAULT_WINDOW) -> dict:
@@ -75,12 +97,10 @@ def run_scene(scene: Scene, run_dir: Path, *, force: bool = False,
     refuses (``ResourceError``, before anything is written) a scene whose samples cannot
     resolve the wave it is expected to end on (``postprocess.resolution.sampling_problem``);
     ``plot`` draws the figures of a run that holds samples (``PLOTTABLE``; the space-time
-    maps over ``window``) on rank 0, one ``figure: PATH`` line each on ``stream``.
+    maps over ``window``) on rank 0, one ``figure: PATH`` line each on ``stream``. ``comm``:
+    the ranks of the run (default: every rank, ``MPI.COMM_WORLD``).
     """
     if check_sampling:
-        from stickslip.postprocess.resolution import sampling_problem
-        from stickslip.studies.resources import ResourceError
-
         if problem := sampling_problem(scene, "pass --yes-i-know"):
             raise ResourceError(problem)
     directory = RunDirectory(scene, run_dir, force=force, comm=comm, profile=profile,
@@ -88,8 +108,6 @@ def run_scene(scene: Scene, run_dir: Path, *, force: bool = False,
                              replace_on_failure=replace_on_failure)
     summary = directory.run()
     if plot and summary.get("status") in PLOTTABLE:  # rank 0: the others' summary is {}
-        from stickslip.postprocess.plotting import plot_run
-
         for path in plot_run(Path(run_dir), window=window):
             directory.say(f"figure: {path}")
     return summary
@@ -108,11 +126,12 @@ class RunDirectory:
     """
 
     def __init__(self, scene: Scene, run_dir: Path, *, force: bool = False,
-                 comm: MPI.Comm = MPI.COMM_WORLD, profile: bool = False, stream=None,
+                 comm: MPI.Comm | None = None, profile: bool = False, stream=None,
                  check_resources: bool = True, replace_on_failure: bool = False,
                  resume: Callable[[Simulation], None] | None = None) -> None:
         """``resume(sim)``, if given, restores the built ``Simulation`` from a checkpoint
         before it proceeds (``studies.rundir.continuation``)."""
+        comm = every_rank(comm)
         self.scene, self.run_dir, self.force, self.comm = scene, Path(run_dir), force, comm
         self.resume = resume
         self.profile, self.check_resources = profile, check_resources
@@ -155,7 +174,7 @@ class RunDirectory:
         if self.rank0:
             summary["profile_s"] = {k: round(v, 4) for k, v in self.prof.seconds.items()}
             print_summary(summary, self.run_dir, self.stream, self.profile)
-        if comm.allreduce(deferred, op=MPI.MAX):
+        if comm.allreduce(deferred, op=max_op()):
             self.say(f"{_signame(deferred)} received while the files were written: they are "
                      "complete; stopping now")
             raise KeyboardInterrupt
@@ -201,9 +220,6 @@ class RunDirectory:
 
     def _check_first(self):  # noqa: ANN202 - an Estimate or None
         """The place, then the resources, before anything is created (collective)."""
-        from stickslip.studies.resources import ResourceError
-        from stickslip.studies.resources import check_resources as _check
-
         est = None
         err, kind = None, None
         if self.rank0:
@@ -385,8 +401,6 @@ class RunDirectory:
         ``interrupted`` if a SIGINT/SIGTERM came first (mpirun's SIGKILL follows its SIGTERM
         within a second), or drop an unfinished replacement. Neither status is final: a
         resumed sweep runs the scene again. The rescue writer, if any, owns the status."""
-        from stickslip.solver.atomic import remove_temporaries
-
         rd = self.rd
         status, message = "crashed", (f"the process was killed outright (SIGKILL: out of "
                                       f"memory, or mpirun/batch system) during {where}")

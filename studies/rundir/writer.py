@@ -27,10 +27,12 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from stickslip.postprocess.analysis import TRAVEL_PURITY_MIN
+from stickslip.postprocess.analysis import TRAVEL_PURITY_MIN, analyse
+from stickslip.postprocess.resolution import sampling_check
 from stickslip.solver.atomic import atomic_save_npz, atomic_write_text
 from stickslip.solver.run import Profile
 from stickslip.solver.scene import Scene, scene_warnings, write_scene
+from stickslip.solver.scene.files import scene_digest
 from stickslip.studies.rundir import directory
 from stickslip.studies.rundir.checkpoint import write_checkpoint
 
@@ -218,10 +220,6 @@ def summarise(run: Any, probes: dict | None = None) -> dict:
     (:func:`postprocess.resolution.sampling_check`: a ``warning`` where they alias it).
     ``run``: a scene's run (``solver.columns.SceneRun``, or a ``solver.run.Simulation`` of one
     scene)."""
-    from stickslip.postprocess.analysis import analyse
-    from stickslip.postprocess.resolution import sampling_check
-    from stickslip.solver.scene.files import scene_digest
-
     out = run.facts()
     data = run.recorder.arrays()
     if data["t"].size >= 4:

@@ -1,10 +1,10 @@
 """Batched sweeps: scenes that share mesh, material, dt and scheme run as one batch.
 
 ``stickslip sweep --batch off|auto|B``. ``plan_units`` groups the pending scenes by
-``batch_key`` (the scene without what only the contact law and the initial state see: Omega,
-f, delta, the initial perturbation, the name) and cuts each group into batches of at most B
-scenes; ``run_batch`` runs one batch as a ``solver.run.Simulation.batch`` on one rank
-and writes each scene's run directory.
+``studies.batching.batch_key`` (the scene without what only the contact law and the initial
+state see: Omega, f, delta, the initial perturbation, the name) and cuts each group into
+batches of at most B scenes; ``run_batch`` runs one batch as a
+``solver.run.Simulation.batch`` on one rank and writes each scene's run directory.
 
 Each scene keeps what ``stickslip run`` gives it: its run directory (scene.toml, summary.json
 with status ``running`` while the batch runs, samples.npz, final_field.npz), its log, its
@@ -34,37 +34,24 @@ from pathlib import Path
 from typing import TextIO
 
 from stickslip.solver.atomic import atomic_write_text
-from stickslip.solver.scene import Scene, scene_to_dict
+from stickslip.solver.run import Profile, Simulation
+from stickslip.solver.scene import Scene
+from stickslip.studies.batching import SPOOL_MEMORY_FRACTION, batch_key
 from stickslip.studies.resources import available_memory
+from stickslip.studies.rundir import (
+    prepare_run_dir,
+    print_summary,
+    running_summary,
+    write_first_files,
+    write_member,
+)
+from stickslip.studies.rundir.ownership import refusal
 from stickslip.studies.sweep.spec import SweepSpec, Task, scene_for
 from stickslip.studies.sweep.table import check_recorded
 
-#: Scene keys that may differ inside a batch (the contact law's data and the initial state).
-PER_SCENE = {"name": None, "description": None, "loading": None, "initial": None,
-             "geometry": ("delta",)}
 #: Memory a batch may use (bytes) when ``--batch auto`` picks its size.
 AUTO_MEMORY_FRACTION = 0.25
 AUTO_MAX = 1024
-#: A batch keeps its whole sample record in memory when it needs at most this fraction of
-#: the available memory; otherwise the record is spooled to files under the sweep directory.
-SPOOL_MEMORY_FRACTION = 0.1
-
-
-def batch_key(scene: Scene) -> str | None:
-    """The grouping key of ``scene`` (equal keys: same K, M, dt, scheme), or None if the
-    scene must run alone (see the module docstring)."""
-    from stickslip.solver.schemes.select import batchable
-
-    if not batchable(scene):
-        return None
-    d = scene_to_dict(scene)
-    for section, keys in PER_SCENE.items():
-        if keys is None:
-            d.pop(section, None)
-        else:
-            for k in keys:
-                d[section].pop(k, None)
-    return json.dumps(d, sort_keys=True)
 
 
 def bytes_per_scene(scene: Scene, chunk: int = 16) -> float:
@@ -170,8 +157,6 @@ def _run_started(spec: SweepSpec, tasks: list[Task], logs: list, claims: list, t
     """Run the members whose run directories and logs are ready (``_start_member``) as one
     batch and write each one's files; returns their statuses (KeyboardInterrupt once every
     member is written, if a signal came)."""
-    from stickslip.solver.run import Profile
-
     scenes = [scene_for(spec, t) for t in tasks]
     files = _BatchFiles(scenes, claims, logs, t0, len(tasks), backend, spec.compress,
                         failures)
@@ -216,8 +201,6 @@ def _start_member(spec: SweepSpec, task: Task, size: int, out_dir: Path, world_r
     Returns False, the member ``failed`` and left out of the batch, where a write failed
     (a full disk): its log says why, and so does its summary or else ``failures``."""
     from mpi4py import MPI
-
-    from stickslip.studies.rundir import prepare_run_dir, running_summary, write_first_files
 
     scene, run_dir = scene_for(spec, task), out_dir / "runs" / task.id
     log = open(out_dir / "logs" / f"{task.id}.log", "a")  # noqa: SIM115
@@ -265,8 +248,6 @@ def _deferred_signals():  # noqa: ANN202
 def _claimable(tasks: list[Task], out_dir: Path, stream: TextIO | None) -> list[Task]:
     """The tasks whose ``runs/ID`` is stickslip's or new; the others (a user's folder) are
     named on ``stream`` and left alone (the sweep table shows them as foreign)."""
-    from stickslip.studies.rundir.ownership import refusal
-
     out = []
     for t in tasks:
         why = refusal(out_dir / "runs" / t.id, "run", force=True)
@@ -285,8 +266,6 @@ def _build_batch(scenes, backend, out_dir, profile, files):
     ``SPOOL_MEMORY_FRACTION`` of the available memory (no file round trip in the time loop);
     otherwise it spools it in chunks to a folder under the sweep directory, so that memory
     does not grow with the run length."""
-    from stickslip.solver.run import Simulation
-
     batch = Simulation.batch(scenes, profile, backend=backend, spool_parent=out_dir,
                              memory_budget=SPOOL_MEMORY_FRACTION * available_memory())
     for k, err in batch.failures.items():
@@ -328,8 +307,6 @@ class _BatchFiles:
     def write_runs(self, batch, interrupted: bool, profile) -> None:
         """summary.json, samples.npz, final_field.npz and checkpoint.npz of every scene that
         ran, written as a single run's (``studies.rundir.write_member``)."""
-        from stickslip.studies.rundir import print_summary, write_member
-
         for k in batch.live:
             run = batch.runs[k]
             if run.recorder is None:  # interrupted before the batch was built

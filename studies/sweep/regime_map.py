@@ -14,6 +14,8 @@ from pathlib import Path
 from typing import Any
 
 from stickslip.postprocess.style import REGIME_COLORS
+from stickslip.semianalytic.coefficients import coefficients, gamma_from_physical
+from stickslip.semianalytic.waves import find_waves, refine_wave
 from stickslip.solver.atomic import atomic_write_text
 from stickslip.solver.scene import (
     Scene,
@@ -79,8 +81,6 @@ def _span(values: Sequence[float], scale: str) -> list[float]:
 
 def _reduced_params(scene: Scene) -> tuple[float, float, float, float, float, float]:
     """(nu, xi, gamma, f, delta, omega) of the reduced model (paper section 2) for ``scene``."""
-    from stickslip.semianalytic.coefficients import gamma_from_physical
-
     g, m, ld = scene.geometry, scene.material, scene.loading
     return (m.nu, g.xi, gamma_from_physical(m.wave_speed, g.R, ld.omega), ld.f, g.delta,
             ld.omega)
@@ -99,9 +99,6 @@ def existence_grid(base: Scene, xkey: str, xs: Sequence[float], ykey: str, ys: S
     keys the reduced model does not see (mesh, seed, time step...) are computed once.
     """
     import warnings
-
-    from stickslip.semianalytic.coefficients import coefficients
-    from stickslip.semianalytic.waves import find_waves, refine_wave
 
     ks = tuple(ks)
     searched: dict[tuple, list] = {}
@@ -287,6 +284,60 @@ def _draw_cells(ax, grid: _Grid, cells: list[tuple], cmap, norm,  # noqa: ANN001
     return mesh
 
 
+#: How a member's direction reads in a map cell: the celerity's sign, + = rotation sense.
+DIRECTION_SIGN = {"rotation": "+", "opposite": "−"}
+
+
+def census_cells(meta: dict) -> list[dict]:
+    """What the regime map draws at each point of ``meta`` (``attractors_map.json``).
+
+    Per point: its swept values; the dominant member (``dominant``, with ``k``, ``direction``,
+    ``regime``, ``class`` and its share with the Wilson interval); the number of attractors
+    (settled members); P(stick-slip-separation) with its Wilson interval; ``modes``, the k each
+    start reached (for the reduced model's boundaries); and the cell's colour category
+    (the dominant member's regime, or its class where it has none: steady sliding, diverged,
+    failed), its ``text`` and the ``p_text`` of the P(SSS) panel.
+    """
+    cells = []
+    for p in meta["points"]:
+        table = p.get("table") or []
+        top = next((m for m in table if m["member"] == p["dominant"]), None)
+        cell = {key: p[key] for key in meta["keys"]}
+        cell.update(point=p["point"], dominant=p["dominant"], attractors=p["attractors"],
+                    starts=p["starts"], finished=p["finished"],
+                    share=p["dominant_share"], share_lo=p["dominant_lo"],
+                    share_hi=p["dominant_hi"], p_sss=p["p_sss"], p_sss_lo=p["p_sss_lo"],
+                    p_sss_hi=p["p_sss_hi"],
+                    modes=[m["k"] for m in table if m["k"] for _ in range(m["count"])])
+        cell.update({key: top[key] if top else None
+                     for key in ("k", "direction", "regime", "class")})
+        cell["category"] = (top["regime"] if top["k"] else top["class"]) if top else None
+        cell["text"] = _cell_text(cell)
+        cell["p_text"] = ("no start\nfinished" if p["p_sss"] is None else
+                          f"{100 * p['p_sss']:.0f} %\n[{100 * p['p_sss_lo']:.0f}, "
+                          f"{100 * p['p_sss_hi']:.0f}]")
+        cells.append(cell)
+    return cells
+
+
+def _cell_text(cell: dict) -> str:
+    """"k = 11 −\n58 % of 16\n2 attractors": the dominant member (k and the celerity's
+    sign, + = rotation; "multi" for a multi-wave attractor, "unsettled" for a cycle still
+    settling),
+    its share of the finished starts, and the number of attractors."""
+    if cell["dominant"] is None:
+        return f"pending\n0 of {cell['starts']}"
+    if cell["k"]:
+        tag = {"wave": "", "multi-wave": " multi"}.get(cell["class"], f" {cell['class']}")
+        what = f"k = {cell['k']} {DIRECTION_SIGN.get(cell['direction'], '?')}{tag}"
+    else:
+        what = {"steady-sliding": "steady sliding", "failed": "error"}.get(cell["class"],
+                                                                           cell["class"])
+    plural = "" if cell["attractors"] == 1 else "s"
+    return (f"{what}\n{100 * cell['share']:.0f} % of {cell['finished']}\n"
+            f"{cell['attractors']} attractor{plural}")
+
+
 def _map_rows(sweep_dir: Path, meta: dict) -> tuple[list[dict], list[str], dict | None]:
     """(rows, swept keys, census map) of a sweep directory: one row per run, or, for a sweep
     with an ``[attractors]`` table, one per grid point (``studies.attractors.maps``). Every
@@ -294,8 +345,6 @@ def _map_rows(sweep_dir: Path, meta: dict) -> tuple[list[dict], list[str], dict 
     run)."""
     census = _read_json(sweep_dir / "attractors_map.json")
     if census is not None:
-        from stickslip.studies.attractors.maps import census_cells
-
         return census_cells(census), list(census["keys"]), census
     rows = []
     for r in meta["rows"]:
@@ -314,7 +363,7 @@ def plot_sweep(sweep_dir: str | Path) -> list[Path]:
     sense); lines mark the semi-analytical existence boundary of stick-slip (solid) and
     stick-slip-separation (dashed) waves for the wavenumbers of ``map.k`` (default: the
     four modes that most FE runs selected). A sweep with an ``[attractors]`` table (a census
-    at every point) draws its census instead (``studies.attractors.maps.census_cells``):
+    at every point) draws its census instead (``census_cells``):
     each cell coloured by its dominant member's regime, with the member's k and direction,
     its share and the number of attractors; a second panel gives P(stick-slip-separation)
     with its 95 % Wilson interval.

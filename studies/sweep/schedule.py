@@ -35,8 +35,10 @@ from stickslip.solver.scene import (
     write_scene,
 )
 from stickslip.studies.output import process_alive
-from stickslip.studies.resources import ResourceError
-from stickslip.studies.rundir.ownership import user_entries
+from stickslip.studies.resources import MAX_SECONDS, ResourceError, _duration, estimate
+from stickslip.studies.rundir import run_scene
+from stickslip.studies.rundir.ownership import OwnershipError, claim, owned, user_entries
+from stickslip.studies.sweep.batch import plan_units, run_batch
 from stickslip.studies.sweep.spec import (
     FINAL_STATUSES,
     SweepError,
@@ -274,8 +276,6 @@ def _run_one(spec: SweepSpec, task: Task, out_dir: Path, group: MPI.Comm,
     A failure that the scene's summary does not show (its write failed too: a full disk), or
     a summary that could not take the run's final word, goes into ``failures`` (id ->
     message; leader only) for the table."""
-    from stickslip.studies.rundir import run_scene
-
     leader = group.rank == 0
     run_dir = out_dir / "runs" / task.id
     log = _open_log(out_dir / "logs" / f"{task.id}.log") if leader else None
@@ -332,8 +332,6 @@ def _record_failure(spec: SweepSpec, task: Task, run_dir: Path, err: Exception, 
     """Write a ``failed`` summary for a scene whose run raised, into its run directory only if
     that is stickslip's (or new): a user's folder under ``runs/`` is never written (the
     table shows it as ``foreign``; the log has the error)."""
-    from stickslip.studies.rundir.ownership import OwnershipError, claim, owned
-
     if isinstance(err, OwnershipError):
         return
     if not owned(run_dir, "run"):
@@ -377,8 +375,6 @@ def _classify(out_dir: Path, spec: SweepSpec, retry_failed: bool
               ) -> tuple[list[Task], int, float]:
     """Rank 0, writing nothing: the pending scenes (largest first), the number already done,
     and the estimated one-rank seconds of the pending ones (``studies.resources``)."""
-    from stickslip.studies.resources import estimate
-
     pending: list[tuple[float, int, Task]] = []
     n_done = 0
     seconds = 0.0
@@ -399,8 +395,6 @@ def _classify(out_dir: Path, spec: SweepSpec, retry_failed: bool
 def _cost_problem(spec: SweepSpec, n_pending: int, seconds: float, n_groups: int,
                   group_size: int) -> str | None:
     """Why the pending scenes are too long to start without ``--yes-i-know``, or None."""
-    from stickslip.studies.resources import MAX_SECONDS, _duration
-
     wall = seconds / max(1, n_groups * group_size)
     if wall <= MAX_SECONDS:
         return None
@@ -428,8 +422,6 @@ def _lock(out_dir: Path):  # noqa: ANN202
     """Claim the sweep directory (``studies.rundir.ownership``, kind ``sweep``): a new one,
     or a sweep directory to resume; a live one (another sweep), a user's folder or another
     kind of directory is refused in one line."""
-    from stickslip.studies.rundir.ownership import OwnershipError, claim
-
     try:
         return claim(out_dir, "sweep", reuse=True)
     except OwnershipError as err:
@@ -442,7 +434,6 @@ def _run_unit(spec: SweepSpec, unit: list[Task], out_dir: Path, group: MPI.Comm,
     """One work unit: a single scene (``_run_one``) or a batch (``studies.sweep.batch``)."""
     if len(unit) == 1:
         return _run_one(spec, unit[0], out_dir, group, world_rank, check_cost, failures)
-    from stickslip.studies.sweep.batch import run_batch
 
     try:
         statuses = run_batch(spec, unit, out_dir, world_rank, backend=backend,
@@ -542,7 +533,6 @@ def _plan_on_rank0(spec: SweepSpec, out_dir: Path, comm: MPI.Comm, g: int, retry
                 shutil.rmtree(out_dir, ignore_errors=True)  # made for nothing
             raise SweepError(problem)
         _prepare(out_dir, spec)
-        from stickslip.studies.sweep.batch import plan_units
 
         units = plan_units(spec, pending, batch, (comm.size + g - 1) // g, g)
         return ([[t.id for t in u] for u in units], n_done), lock

@@ -35,11 +35,13 @@ from pathlib import Path
 from typing import Any
 
 from stickslip.solver.scene import (
+    SCENES_DIR,
     Scene,
     SceneError,
     load_scene,
     parse_override,
 )
+from stickslip.solver.schemes.select import BACKENDS
 
 SWEEP_KIND = "stickslip-sweep"
 #: A scene with one of these statuses is done; a re-run skips it.
@@ -170,14 +172,9 @@ def _resolve_base(base: str, sweep_path: Path) -> Path:
     for c in candidates:
         if c.is_file():
             return c.resolve()
-    try:  # a shipped scene name ("figure3_n36")
-        from stickslip.solver.scene import SCENES_DIR
-
-        shipped = SCENES_DIR / f"{Path(base).stem}.toml"
-        if Path(base).parent == Path(".") and shipped.is_file():
-            return shipped
-    except ImportError:  # pragma: no cover
-        pass
+    shipped = SCENES_DIR / f"{Path(base).stem}.toml"  # a shipped scene name ("figure3_n36")
+    if Path(base).parent == Path(".") and shipped.is_file():
+        return shipped
     raise SweepError(f"{sweep_path}: base = {base!r} not found (relative to the sweep file, "
                      "the current directory, or a shipped scene name)")
 
@@ -220,7 +217,6 @@ def _execution(data: dict[str, Any], p: Path) -> tuple[int, int | str, str]:
                                        or (isinstance(batch, int) and batch >= 1)):
         raise SweepError(f"{p}: batch = {batch!r} must be \"off\", \"auto\" or an integer "
                          ">= 1 (scenes per batch)")
-    from stickslip.solver.schemes.select import BACKENDS
 
     backend = data.get("backend", "cpu")
     if backend not in tuple(BACKENDS):  # a table or list given is refused too

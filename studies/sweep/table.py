@@ -23,6 +23,7 @@ from stickslip.solver.scene import (
     load_scene,
     scene_to_dict,
 )
+from stickslip.studies.output import process_alive
 from stickslip.studies.rundir.ownership import owned, user_entries
 from stickslip.studies.rundir.readers import (
     ReadError,
@@ -155,8 +156,6 @@ def live_status(summary: dict) -> str:
     A run is saved before its analysis is added (``studies.rundir.scene_run._save``); one
     killed in between is not final, and a resumed sweep runs it again.
     """
-    from stickslip.studies.output import process_alive
-
     status = str(summary.get("status", "pending"))
     if status == "running" and process_alive(summary) is False:
         return "crashed"

@@ -16,6 +16,21 @@ from collections.abc import Callable
 from pathlib import Path
 from types import SimpleNamespace
 
+from stickslip.solver.scene.files import scene_difference
+from stickslip.studies.rundir.readers import ReadError, check_run_dir, read_scene_file
+from stickslip.studies.travel import driver as D
+from stickslip.studies.travel.from_run import (
+    NotRigidWave,
+    compare_with_run,
+    dt_limit_scene,
+    dt_limit_wave,
+    matched_samples,
+    read_end_state,
+    scene_time_step,
+    solve_matched,
+)
+from stickslip.studies.travel.newton import RATES, NotConverged
+
 #: Every option with its default (None: resolved from the others or from the scene).
 DEFAULTS: dict = {"k": None, "from_run": None, "damping": None, "celerity": None,
                   "fixed_omega": False, "rate": None, "inertia": "shift", "samples": None,
@@ -56,8 +71,8 @@ def options(**given) -> SimpleNamespace:
 def check(opts: SimpleNamespace, flag: Callable[[str], str] = cli_flag) -> str | None:
     """The first bad option as a one-line message (spelt by ``flag``), or None; fills the
     route's defaults (``time_scheme``, ``rate``). Needs no scene."""
+    # dolfinx on first use: `stickslip travel` imports it first, without numba
     from stickslip.studies.travel.frame import INERTIAS
-    from stickslip.studies.travel.newton import RATES
 
     if opts.k is not None and opts.k < 1:
         return f"{flag('k')} {opts.k}: the wavenumber must be an integer >= 1"
@@ -121,9 +136,6 @@ def celerity_note(start: float, celerity: float, solve: str) -> str | None:
 def other_scene(scene, run_dir: str | Path) -> str | None:  # noqa: ANN001
     """Why the run in ``run_dir`` is not of ``scene``'s physics and mesh (the first key that
     differs: a wave solved for one scene is no measure of another's run), or None."""
-    from stickslip.solver.scene.files import scene_difference
-    from stickslip.studies.rundir.readers import read_scene_file
-
     differs = scene_difference(read_scene_file(Path(run_dir) / "scene.toml"), scene)
     if differs is None:
         return None
@@ -137,14 +149,10 @@ def resolve(scene, opts: SimpleNamespace,  # noqa: ANN001
     the matched ``samples``; ``problem`` and ``reduced``, built on the way and reused), or
     return why they cannot be (one line). ``check`` first. A run whose end state is not a
     rigid wave raises ``studies.travel.from_run.NotRigidWave``."""
-    from stickslip.studies.rundir.readers import ReadError, check_run_dir
-
     if opts.damping is None:  # same physics as the transient: the scene's Kelvin-Voigt tau
         opts.damping = float(scene.damping.tau)
     opts.end = None
     if opts.from_run:
-        from stickslip.studies.travel.from_run import NotRigidWave, read_end_state
-
         try:
             check_run_dir(opts.from_run, 1)
         except ReadError as err:
@@ -176,8 +184,6 @@ def _matched_step(scene, opts: SimpleNamespace) -> None:  # noqa: ANN001
     S = round(node passage / dt) (``studies.travel.from_run.matched_samples``) with the run's
     dt and speed (``from_run``), else the dt ``stickslip run`` uses for the scene and the
     start's speed (``opts.problem``, ``opts.reduced``: the mesh and the start, reused)."""
-    from stickslip.studies.travel.from_run import matched_samples, scene_time_step
-
     opts.problem, opts.reduced = None, None
     if opts.samples is not None:
         return
@@ -187,8 +193,8 @@ def _matched_step(scene, opts: SimpleNamespace) -> None:  # noqa: ANN001
     if opts.end is not None and scene.mesh.n_inner == opts.end.samples["theta"].size:
         opts.samples = matched_samples(opts.end.node_passage, opts.end.dt)
         return
+    # dolfinx on first use: `stickslip travel` imports it first, without numba
     from stickslip.solver.problem import build_problem
-    from stickslip.studies.travel import driver as D
 
     opts.problem = build_problem(scene)
     dt = scene_time_step(scene, opts.problem)
@@ -219,9 +225,6 @@ def solve(scene, opts: SimpleNamespace, t0: float) -> tuple[dict, dict]:  # noqa
     ``start_info`` (the start's description) attached; a bad start raises ``ValueError``."""
     import numpy as np
 
-    from stickslip.studies.travel import driver as D
-    from stickslip.studies.travel.newton import NotConverged
-
     matched = (opts.end is not None and opts.time_scheme == "central"
                and opts.celerity is None and not opts.fixed_omega)
     if matched:  # the run's own wave: its fallbacks (studies.travel.from_run)
@@ -240,8 +243,6 @@ def solve(scene, opts: SimpleNamespace, t0: float) -> tuple[dict, dict]:  # noqa
     t_setup = time.perf_counter() - t0
     try:
         if matched:
-            from stickslip.studies.travel.from_run import solve_matched
-
             opts.end.scene = scene  # the physics of the options (overrides apply)
             st, sol, info["start"] = solve_matched(opts.end, opts.samples, opts.max_iter)
         else:
@@ -252,17 +253,11 @@ def solve(scene, opts: SimpleNamespace, t0: float) -> tuple[dict, dict]:  # noqa
         raise
     summary, profiles = D.measure(st, sol, opts.k)
     if opts.end is not None:
-        from stickslip.studies.travel.from_run import compare_with_run
-
         summary["from_run"] = compare_with_run(opts.end, st, sol, summary)
         if opts.dt_limit:
-            from stickslip.studies.travel.from_run import dt_limit_wave
-
             summary["dt_limit"] = dt_limit_wave(opts.end, opts.samples,
                                                 np.r_[sol.W_r, sol.W_t], sol.omega)
     elif opts.dt_limit:
-        from stickslip.studies.travel.from_run import dt_limit_scene
-
         summary["dt_limit"] = dt_limit_scene(st, opts.k, np.r_[sol.W_r, sol.W_t], sol.omega)
     if opts.band:
         summary["band"] = D.band(st, sol, opts.k)

@@ -30,8 +30,16 @@ from pathlib import Path
 import numpy as np
 
 from stickslip.solver.scene import Scene
-from stickslip.studies.travel.arclength import ARCLENGTH_KEYS
+from stickslip.studies.travel import driver as D
+from stickslip.studies.travel.arclength import (
+    ARCLENGTH_KEYS,
+    arclength_step,
+    phase_row_of,
+    problem_at,
+)
 from stickslip.studies.travel.command import celerity_note
+from stickslip.studies.travel.newton import NotConverged, fold_state, unfold
+from stickslip.studies.travel.output import plot_branch, shown, write_branch
 
 __all__ = ["JUMP_BOUNDS", "REUSE_KEYS", "jump", "run_continuation"]
 
@@ -101,10 +109,6 @@ def _arclength(st, k: int, key: str, last: list, values: list[float], rows: list
     """Follow the branch from its last two waves by pseudo-arclength (module doc), at most
     as many steps as ``values``, until λ leaves their range or a step fails; one row per
     wave (``arclength``: true; ``fold``: true where λ turned)."""
-    from stickslip.studies.travel import driver as D
-    from stickslip.studies.travel.arclength import arclength_step, phase_row_of, problem_at
-    from stickslip.studies.travel.newton import NotConverged, fold_state, unfold
-
     R = st.scene.geometry.R
     prob0 = D.folded(st, k).prob
     period = prob0.period
@@ -155,8 +159,6 @@ def run_continuation(scene: Scene, args: argparse.Namespace, key: str, values: l
                      out: Path, t0: float) -> int:
     """Follow the branch; write branch.json/csv (+ branch.png); exit 0 if any point solved.
     Interrupted (Ctrl-C), it writes the points solved so far and re-raises."""
-    from stickslip.studies.travel.output import plot_branch, shown, write_branch
-
     rows: list[dict] = []
     try:
         _follow(scene, args, key, values, rows)
@@ -181,9 +183,6 @@ def run_continuation(scene: Scene, args: argparse.Namespace, key: str, values: l
 def _follow(scene: Scene, args: argparse.Namespace, key: str, values: list[float],
             rows: list[dict]) -> None:
     """Solve each point from the last converged one, appending a row per point to ``rows``."""
-    from stickslip.studies.travel import driver as D
-    from stickslip.studies.travel.newton import NotConverged
-
     st = None
     W, om = None, None
     waves: list[tuple[float, np.ndarray, float]] = []  # (λ, W, ω) of the converged points

@@ -25,14 +25,23 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from stickslip.postprocess.analysis import analyse, analyse_run, load_run
+from stickslip.semianalytic.coefficients import coefficients, gamma_from_physical
+from stickslip.semianalytic.flutter import flutter_modes
+from stickslip.semianalytic.waves import find_waves
 from stickslip.solver.scene import Scene
+from stickslip.studies.reduced_transient import wave_fields
 from stickslip.studies.travel.newton import (
     CircleProblem,
+    NotConverged,
     TravelSolution,
+    check_rate,
     fold_state,
     material_rate,
+    nearest_wave,
     solve_wave,
     unfold,
+    wave_band,
     zone_lengths,
 )
 
@@ -65,9 +74,11 @@ def setup(scene: Scene, damping: float = 0.0, lumped: bool = False,
     material-derivative scheme, ``newton.RATES``)."""
     from mpi4py import MPI
 
+    # dolfinx on first use: `stickslip travel` imports it first, without numba
     from stickslip.solver.problem import build_problem
+
+    # dolfinx on first use: `stickslip travel` imports it first, without numba
     from stickslip.studies.travel.frame import circle_problem, frame_operators
-    from stickslip.studies.travel.newton import check_rate
 
     check_rate(rate)
     # the wave-frame solver runs on one rank: its own mesh (a census calls it on rank 0 only)
@@ -78,6 +89,7 @@ def setup(scene: Scene, damping: float = 0.0, lumped: bool = False,
 
 def retarget(st: Setup, scene: Scene) -> Setup:
     """Same mesh and material, new loading / mismatch (continuation in Ω, f, δ): no rebuild."""
+    # dolfinx on first use: `stickslip travel` imports it first, without numba
     from stickslip.studies.travel.frame import circle_problem
 
     return Setup(scene, st.ops, circle_problem(st.ops, scene, rate=st.prob.rate))
@@ -87,8 +99,6 @@ def start_from_run(run_dir: Path, st: Setup, run=None) -> tuple[Array, float, di
     """(W0, ω0, info) from a transient run directory's last sample (module doc); with sub-node
     samples, from its probe's every-step history (``probe_history``) where it has one.
     ``run``: the directory's ``postprocess.analysis.RunData`` if already loaded."""
-    from stickslip.postprocess.analysis import analyse_run, load_run
-
     run = run if run is not None else load_run(run_dir)
     s = run.samples
     order = np.argsort(s["theta"])
@@ -138,10 +148,6 @@ def probe_history(samples: dict, omega: float, k: int, points: int) -> Array | N
 def reduced_start(scene: Scene, k: int):
     """(the reduced model's first wave at k or None, ω0): the start of ``start_from_reduced``
     (module doc), before the frame is built (its speed sets the matched step)."""
-    from stickslip.semianalytic.coefficients import coefficients, gamma_from_physical
-    from stickslip.semianalytic.flutter import flutter_modes
-    from stickslip.semianalytic.waves import find_waves
-
     R, om = scene.geometry.R, scene.loading.omega
     co = coefficients(scene.material.nu, scene.geometry.xi,
                       gamma_from_physical(scene.material.wave_speed, R, om))
@@ -154,8 +160,6 @@ def reduced_start(scene: Scene, k: int):
 def start_from_reduced(st: Setup, k: int, start=None) -> tuple[Array, float, dict]:
     """(W0, ω0, info) from the reduced model's wave at k (module doc); ``start``: the result
     of ``reduced_start`` if already computed."""
-    from stickslip.studies.reduced_transient import wave_fields
-
     sc = st.scene
     R = sc.geometry.R
     w, om0 = start if start is not None else reduced_start(sc, k)
@@ -201,6 +205,7 @@ def prolong(W: Array, n_fine: int, how: str = "linear") -> Array:
 def folded(st: Setup, k: int) -> Setup:
     """``st`` on one wavelength when k > 1 divides its contact points (the k-periodic waves,
     ``newton`` "Folding": S_k from the harmonics m ∈ kℤ), else ``st`` itself."""
+    # dolfinx on first use: `stickslip travel` imports it first, without numba
     from stickslip.studies.travel.frame import circle_problem
 
     if k <= 1 or st.prob.period != 1 or st.prob.n % (k * st.prob.tracks):
@@ -229,8 +234,6 @@ def solve_scene(st: Setup, k: int, W0: Array, omega0: float, *, free_omega: bool
 
     The step is 0.25 %: at N = 132 the admissible bands of a wave family are ~0.5 % of the
     speed wide (docs/travelling_waves.md), so steps of 1 % jump over them."""
-    from stickslip.studies.travel.newton import NotConverged, nearest_wave
-
     first: NotConverged | None = None
     if free_omega:
         try:
@@ -252,8 +255,6 @@ def solve_scene(st: Setup, k: int, W0: Array, omega0: float, *, free_omega: bool
 
 def measure(st: Setup, sol: TravelSolution, k: int) -> tuple[dict, dict[str, Array]]:
     """``stickslip run``-style summary (``postprocess.analysis.analyse``) and profiles."""
-    from stickslip.postprocess.analysis import analyse
-
     sc, ops = st.scene, st.ops
     n, R, d = ops.n, sc.geometry.R, sc.geometry.d
     theta = ops.theta
@@ -315,8 +316,6 @@ def member_amplitude(st: Setup, sol: TravelSolution) -> float:
 def band(st: Setup, sol: TravelSolution, k: int) -> dict:
     """Speeds (m/s) over which the wave's family stays admissible, with ψ and amplitude ranges
     (``studies.travel.newton.wave_band``; the discrete waves are not isolated in ω)."""
-    from stickslip.studies.travel.newton import wave_band
-
     why: list = []
     lo, hi, members = wave_band(st.prob, sol, k, rel_step=0.002, max_steps=40, max_iter=30,
                                 edge_reasons=why)

@@ -101,6 +101,7 @@ import scipy.sparse as sp
 from numpy.typing import NDArray
 from scipy.sparse.linalg import splu
 
+from stickslip.forms.travelling import travelling_inertia, travelling_transport
 from stickslip.solver.problem import TubeProblem
 from stickslip.solver.scene import Scene
 from stickslip.studies.travel.newton import CircleProblem, fold_operator
@@ -576,8 +577,6 @@ def frame_operators(problem: TubeProblem, damping: float = 0.0,
     import dolfinx.fem.petsc
     import ufl
 
-    from stickslip.forms.travelling import travelling_inertia
-
     if problem.comm.size > 1:
         raise ValueError("stickslip travel runs on one process: drop mpirun")
     require_rotational_symmetry(problem.scene)
@@ -621,8 +620,6 @@ def frame_operators(problem: TubeProblem, damping: float = 0.0,
         # Kelvin–Voigt in the frame: D = τ K M⁻¹ B, M⁻¹B w the lumped projection of
         # (∂_θ − J)w onto P1 (forms.travelling.travelling_transport); the clamped dofs
         # have no velocity, so their rows of the projection are zero.
-        from stickslip.forms.travelling import travelling_transport
-
         Bm = dolfinx.fem.petsc.assemble_matrix(
             dolfinx.fem.form(travelling_transport(u, v, problem.material.rho)))
         Bm.assemble()

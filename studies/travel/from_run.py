@@ -38,6 +38,14 @@ from pathlib import Path
 
 import numpy as np
 
+import stickslip.studies.travel.driver as D
+from stickslip.postprocess.analysis import analyse, analyse_run, load_run
+from stickslip.solver.errors import Diverged
+from stickslip.solver.run import Simulation
+from stickslip.solver.scene import load_scene
+from stickslip.solver.schemes import time_step
+from stickslip.studies.travel.newton import NotConverged
+
 __all__ = ["RIGID_TOLERANCE", "NotRigidWave", "RunEndState", "frame_spread", "matched_samples",
            "read_end_state", "solve_matched", "wave_from_run", "dt_limit_wave",
            "wave_stability", "transient_next_to", "compare_with_run", "scene_time_step",
@@ -141,9 +149,6 @@ def read_end_state(run_dir: Path, tolerance: float | None = None,
     window, its last third). A run continued well past its settling (a census's extended
     start) gives the census's own window, so that the spread does not reach back into the
     transient before it settled."""
-    from stickslip.postprocess.analysis import analyse_run, load_run
-    from stickslip.solver.scene import load_scene
-
     tolerance = RIGID_TOLERANCE if tolerance is None else tolerance
     run_dir = Path(run_dir)
     for name in ("samples.npz", "summary.json", "scene.toml"):
@@ -179,15 +184,13 @@ def scene_time_step(scene, problem=None) -> float:
     """The Δt that ``stickslip run`` uses for ``scene`` (``solver.schemes.time_step``)."""
     from mpi4py import MPI
 
+    # dolfinx on first use: `stickslip travel` imports it first, without numba
     from stickslip.solver.problem import build_problem, omega_max
-    from stickslip.solver.schemes import time_step
 
     return time_step(scene, omega_max(problem or build_problem(scene, MPI.COMM_SELF)))[0]
 
 
 def _setup(end: RunEndState, samples: int):
-    import stickslip.studies.travel.driver as D
-
     return D.setup(end.scene, float(end.scene.damping.tau), rate="bdf1", inertia="shift",
                    samples=samples, time_scheme="central")
 
@@ -196,9 +199,6 @@ def solve_matched(end: RunEndState, samples: int | None = None, max_iter: int = 
     """(Setup, TravelSolution, start) of the central-scheme wave at S = ``samples`` (default:
     the matched S) from the run (module doc: probe history, then last sample).
     Raises ``newton.NotConverged`` when both starts fail."""
-    import stickslip.studies.travel.driver as D
-    from stickslip.studies.travel.newton import NotConverged
-
     s = samples or matched_samples(end.node_passage, end.dt)
     st = _setup(end, s)
     W_hist, om0, info = D.start_from_run(end.path, st, end.data)
@@ -260,9 +260,6 @@ def wave_from_run(run_dir: Path, *, dt_limit: bool = False, window: float | None
     inequality violated, and the wave at the run's step stands). ``window``: the end state's
     window, as in ``read_end_state``. Raises ``NotRigidWave`` when the run's end state is not
     a rigidly travelling wave, ``ValueError`` when the directory is not a finished run."""
-    import stickslip.studies.travel.driver as D
-    from stickslip.studies.travel.newton import NotConverged
-
     t0 = time.process_time()
     end = read_end_state(Path(run_dir), window=window)
     s = matched_samples(end.node_passage, end.dt)
@@ -316,9 +313,6 @@ def compare_with_run(end: RunEndState, st, sol, summary: dict) -> dict:
 
 def _halved_step_change(end: RunEndState, st, sol) -> float | None:
     """Relative celerity change of the wave from S = 1 to S = 2 (h halved), or None."""
-    import stickslip.studies.travel.driver as D
-    from stickslip.studies.travel.newton import NotConverged
-
     fine = _setup(end, 2 * st.ops.samples)
     try:
         w2 = D.solve_free(fine, end.k, D.prolong(np.r_[sol.W_r, sol.W_t], fine.ops.n),
@@ -339,8 +333,6 @@ def dt_limit_wave(end: RunEndState, s: int, W: np.ndarray, omega: float) -> dict
 def dt_limit_scene(st, k: int, W: np.ndarray, omega: float) -> dict:
     """The Δt → 0 wave of the setup ``st`` (central scheme, S points per node) from its wave
     (W, ω) (``_extrapolate``); ``run_dt_error`` None (no run)."""
-    import stickslip.studies.travel.driver as D
-
     def setup(ss: int):
         return D.setup(st.scene, st.ops.tau, rate="bdf1", inertia="shift", samples=ss,
                        time_scheme="central", problem=st.ops.problem)
@@ -354,8 +346,6 @@ def _extrapolate(setup, k: int, s: int, W: np.ndarray, omega: float) -> dict:
     x₀ = x_4S + (x_4S − x_2S)/(2ᵖ − 1) for the celerity, amplitude and sub-node ψ. Without an
     asymptotic range (ratio ≤ 1) the finest level is returned and ``order`` is None.
     ``setup(S)`` builds the central-scheme frame with S points per node."""
-    import stickslip.studies.travel.driver as D
-
     levels = []
     for j, ss in enumerate((s, 2 * s, 4 * s)):
         st = setup(ss)
@@ -405,11 +395,6 @@ def transient_next_to(st, sol, k: int, *, end_time: float = 0.05, eps: float = 0
     the transient leaves drifts by more within a few periods); ``drift``: the last window's
     celerity and amplitude relative to the wave."""
     from mpi4py import MPI
-
-    import stickslip.studies.travel.driver as D
-    from stickslip.postprocess.analysis import analyse
-    from stickslip.solver.errors import Diverged
-    from stickslip.solver.run import Simulation
 
     scene, ops = st.scene, st.ops
     d, R = scene.geometry.d, scene.geometry.R

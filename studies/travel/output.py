@@ -16,8 +16,10 @@ from pathlib import Path
 
 import numpy as np
 
+from stickslip.postprocess.style import MM, MPA, shade_zones, status_handles
 from stickslip.solver.atomic import atomic_write_text
 from stickslip.solver.scene import Scene, write_scene
+from stickslip.studies.rundir.ownership import claim
 
 __all__ = ["prepare_dir", "write_wave", "write_failure", "write_branch", "plot_profiles",
            "plot_branch"]
@@ -29,8 +31,6 @@ def prepare_dir(path: Path, force: bool):
     ``Claim.commit`` once the results are written (``Claim.discard`` keeps the earlier one);
     anything else raises ``OwnershipError`` (a ``FileExistsError``) with one line. Write into
     ``claim.work``; the claim holds the directory's lock until released."""
-    from stickslip.studies.rundir.ownership import claim
-
     return claim(path, "travel", force=force)
 
 
@@ -83,8 +83,6 @@ def plot_profiles(path: Path, profiles: dict, summary: dict) -> Path:
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-
-    from stickslip.postprocess.style import MM, MPA, shade_zones, status_handles
 
     phi = profiles["phi"]
     fig, axes = plt.subplots(4, 1, figsize=(7, 8), sharex=True)

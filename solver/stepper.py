@@ -1,4 +1,5 @@
-"""The stepper protocol: what every time scheme offers the time loop.
+"""The stepper protocol: what every time scheme offers the time loop (the steppers import it,
+the scheme registry ``solver.schemes.select`` builds them).
 
 A stepper advances the semi-discrete system M a + C v + K u = r (the contact forces r from
 ``solver.contact``) from time level n to n + 1. The time loop (``solver.run.Simulation``) only
