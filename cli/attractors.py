@@ -9,18 +9,21 @@ from pathlib import Path
 
 from stickslip.cli.commands import command_help
 from stickslip.solver.scene import SceneError
-from stickslip.studies.attractors.along import parse_along, plot_along, point_census, run_along
+from stickslip.studies.attractors.along import plot_along, run_along
 from stickslip.studies.attractors.bundle import (
     BundleError,
     bundle_state,
     import_results,
     write_bundle,
 )
-from stickslip.studies.attractors.cea import cea_lines, cea_table
-from stickslip.studies.attractors.census import CensusError, answer_json, collect, run_census
+from stickslip.studies.attractors.census import CensusError, collect, run_census
 from stickslip.studies.attractors.classify import CELERITY_TOL, SPREAD_TOL
-from stickslip.studies.attractors.plots import plot_census
-from stickslip.studies.attractors.request import CensusRequest, build_census
+from stickslip.studies.attractors.request import (
+    CensusRequest,
+    along_values,
+    build_census,
+    show_answer,
+)
 from stickslip.studies.attractors.starts import DEFAULT_AMPLITUDE, DEFAULT_N_MODES, DEFAULT_SEED
 from stickslip.studies.sweep import SweepError
 
@@ -196,9 +199,7 @@ def _prepare_bundle(census, bundle: Path, comm) -> int | None:  # noqa: ANN001
 def _along(census, out: Path, args: argparse.Namespace, comm) -> int:  # noqa: ANN001
 
     try:
-        key, values = parse_along(args.along)
-        for v in values:  # every point's scene must be valid before anything is written
-            point_census(census, key, v).base_scene()
+        key, values = along_values(census, args.along)
     except (ValueError, CensusError) as err:
         return _fail(str(err), comm.rank)
     rc = run_along(census, key, values, out, comm=comm, force=args.force,
@@ -225,23 +226,6 @@ def _read(out: Path, args: argparse.Namespace) -> int:
 
 
 def _show(out: Path, args: argparse.Namespace, answer: dict) -> int:
-    """--json, --cea and --plot of ``answer``; 1 where a figure cannot be written (said in
-    one line), else 0."""
-    import json
-
-    stored = answer_json(answer)  # as attractors.json holds it
-    if args.json:
-        print(stored, end="")
-    if args.cea:
-        for line in cea_lines(cea_table(out, json.loads(stored), args.cea_fmax_hz)):
-            print(line)
-    if args.plot:
-        try:
-            paths = plot_census(out, json.loads(stored))
-        except OSError as err:
-            print(f"error: the census figures could not be written: {err}", file=sys.stderr,
-                  flush=True)
-            return 1
-        for path in paths:
-            print(f"figure: {path}")
-    return 0
+    """--json, --cea and --plot of ``answer`` (``request.show_answer``)."""
+    return show_answer(out, answer, as_json=args.json,
+                       cea_fmax_hz=args.cea_fmax_hz if args.cea else None, plot=args.plot)

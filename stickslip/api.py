@@ -29,11 +29,14 @@ from stickslip.semianalytic.waves import find_waves
 from stickslip.solver.contact import STATUS_NAMES
 from stickslip.solver.scene import Scene
 from stickslip.solver.scene import load_scene as _load_scene
-from stickslip.studies.attractors.along import parse_along, plot_along, point_census, run_along
-from stickslip.studies.attractors.cea import cea_lines, cea_table
-from stickslip.studies.attractors.census import answer_json, run_census
-from stickslip.studies.attractors.plots import plot_census
-from stickslip.studies.attractors.request import CensusRequest, build_census
+from stickslip.studies.attractors.along import plot_along, run_along
+from stickslip.studies.attractors.census import run_census
+from stickslip.studies.attractors.request import (
+    CensusRequest,
+    along_values,
+    build_census,
+    show_answer,
+)
 from stickslip.studies.flutter_fe import build_operators, complex_eigenvalue_analysis
 from stickslip.studies.output import output_root
 from stickslip.studies.rundir import EXIT_CODES, run_scene
@@ -357,20 +360,15 @@ def _census_run(census: Any, path: Path, along: str | None, run: dict,
     """Run the census (or the censuses along a key) as the command does; print the CEA's
     lines and draw the figures where asked. The exit status the command would give."""
     if along:
-        key, values = parse_along(along)
-        for value in values:  # every point's scene is checked before anything is written
-            point_census(census, key, value).base_scene()
+        key, values = along_values(census, along)
         rc = run_along(census, key, values, path, progress="lines", stream=sys.stdout, **run)
         if plot and rc in (0, 1):
             print(f"figure: {plot_along(path)}")
         return rc
     answer: dict = {}
     rc = run_census(census, path, progress="lines", stream=sys.stdout, answer=answer, **run)
-    stored = json.loads(answer_json(answer)) if answer else None  # as attractors.json has it
-    if stored and cea_fmax_hz is not None:
-        print("\n".join(cea_lines(cea_table(path, stored, cea_fmax_hz))))
-    if stored and plot:
-        print("\n".join(f"figure: {p}" for p in plot_census(path, stored)))
+    if answer:
+        rc = max(rc, show_answer(path, answer, cea_fmax_hz=cea_fmax_hz, plot=plot))
     return rc
 
 

@@ -7,21 +7,27 @@ the option as the command spells it and the fix.
 
 from __future__ import annotations
 
+import json
 import math
+import sys
 from dataclasses import dataclass
 from pathlib import Path
 
 from stickslip.solver.scene import load_scene
 from stickslip.solver.schemes.select import check_backend
+from stickslip.studies.attractors.along import parse_along, point_census
+from stickslip.studies.attractors.cea import cea_lines, cea_table
 from stickslip.studies.attractors.census import (
     DEFAULT_MAX_TIME,
     Census,
     CensusError,
+    answer_json,
     cap_problem,
     default_dir,
     ladder_order,
 )
 from stickslip.studies.attractors.classify import CELERITY_TOL, SPREAD_TOL
+from stickslip.studies.attractors.plots import plot_census
 from stickslip.studies.attractors.starts import (
     DEFAULT_AMPLITUDE,
     DEFAULT_N_MODES,
@@ -97,3 +103,36 @@ def build_census(request: CensusRequest, ranks: int = 1) -> tuple[Census, Path]:
     if request.check_cost and (problem := cap_problem(census, out, ranks)):
         raise CensusError(problem)
     return census, out
+
+
+def along_values(census: Census, along: str) -> tuple[str, list[float]]:
+    """The key and values of ``--along KEY=A:B:M``, every point's scene checked before
+    anything is written (``ValueError``/``CensusError`` with one line)."""
+    key, values = parse_along(along)
+    for value in values:
+        point_census(census, key, value).base_scene()
+    return key, values
+
+
+def show_answer(out: Path, answer: dict, *, as_json: bool = False,
+                cea_fmax_hz: float | None = None, plot: bool = False) -> int:
+    """What the command prints after a census's answer, for the command and the API: the
+    answer as ``attractors.json`` holds it (``as_json``), the CEA's lines (``cea_fmax_hz``)
+    and the figures (``plot``). 1 where a figure cannot be written (said in one line on
+    stderr), else 0."""
+    stored = answer_json(answer)
+    if as_json:
+        print(stored, end="")
+    if cea_fmax_hz is not None:
+        for line in cea_lines(cea_table(out, json.loads(stored), cea_fmax_hz)):
+            print(line)
+    if plot:
+        try:
+            paths = plot_census(out, json.loads(stored))
+        except OSError as err:
+            print(f"error: the census figures could not be written: {err}", file=sys.stderr,
+                  flush=True)
+            return 1
+        for path in paths:
+            print(f"figure: {path}")
+    return 0
