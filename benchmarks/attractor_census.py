@@ -53,6 +53,15 @@ settle-or-extend and certificates 422.8 s wall (target 600 s; 765.9 CPU s; the t
 396.8 s, certificates 24.3 s of which kicks 16.3 s; every start settled, 8 attractors at
 N = 132 and 4 at N = 264).
 
+The N = 528 rung of a 16-start census (the tutorial point, cap 4 s, certificates and the
+chaos test; target 15 minutes on 2 cores): 41 minutes of wall time on the shared 2-core
+machine (load 3 to 6), about 2000 CPU s over both ranks, so at least 17 minutes on an idle
+one. Where it goes: 13 of 16 starts are unsettled at 0.3, 0.45 and 0.675 s and 10 at
+1.01 s, so every start runs past 1 s (200 000 steps of Δt = 5.07 μs); the starts of two
+members that did not return after their kick are continued to 1.5 s and certified again;
+and each of the 2 starts unsettled at the cap gets a chaos test whose twin runs over the 13
+windows of its last leg (1.3 s of two columns: 414 s for both). The target is not met.
+
 ``--samples DIR`` compares, side by side on the starts of a finished census, the CPU time
 of writing each start's samples.npz deflated (``solver.atomic.NPZ_LEVEL``, what a batch
 member wrote before) and stored (what the census's starts write now: every leg of
