@@ -286,6 +286,8 @@ COMMANDS = {
                ["stickslip.cli.export._marks"]),
     "attractors": (["attractors", "smoke", "-o", "{tmp}/a"],
                    ["stickslip.cli.attractors.run_census", "stickslip.cli.attractors.run_along"]),
+    "rpo": (["rpo", "{run}", "--period", "1e-3", "--shift", "10", "-o", "{tmp}/o"],
+            ["stickslip.cli.rpo.rpo_certificate"]),
 }
 #: Options that take numbers inside a string: the string built from drawn numbers.
 TEMPLATES = {"--batch": "{i}", "--f-sweep": "{x}:{y}:{i}",
