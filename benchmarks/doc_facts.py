@@ -37,6 +37,8 @@ import tempfile
 import time
 from pathlib import Path
 
+from stickslip.studies.attractors.statistics import ATTRACTING, UNFINISHED
+
 REPO = Path(__file__).resolve().parents[1]
 FACTS = REPO / "docs" / "facts"
 CENSUS_FACTS = FACTS / "tutorial_census.json"
@@ -48,10 +50,6 @@ CENSUS_COMMAND = ("mpirun -n 2 stickslip attractors scenes/figure1_n132_damped.t
 #: The rungs of that command: a census directory that holds more (a ladder run into it
 #: later) gives the facts of these only.
 CENSUS_MESHES = CENSUS_COMMAND.rsplit("--meshes ", 1)[1].split(",")
-#: Classes whose members are the attractors of a mesh (``studies.attractors.statistics``).
-ATTRACTING = ("wave", "multi-wave", "chaotic")
-#: The states of a start that leave it without a final class.
-UNFINISHED = ("pending", "running", "interrupted", "crashed", "unanalysed", "settling")
 
 _DAMPED = "scenes/figure3_n132_damped.toml"
 #: Every timed command: key -> (the command's arguments after ``stickslip``, what is timed:

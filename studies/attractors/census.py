@@ -476,22 +476,13 @@ def _certify_and_continue(out_dir: Path, comm, stream: TextIO, dt_limit: bool,  
 def chaos_due(out_dir: Path) -> list[dict]:
     """Rank 0: the starts unsettled at the cap whose chaos test is not in ``chaos.json``:
     {"id", "run_dir", "key", "cost"} (cost N² × the twin's time, about the leg's)."""
-
     meta = read_meta(out_dir)
     cap = meta.get("max_time_s")
-    window = meta.get("window_s")
-    verdicts = read_cache(out_dir / CHAOS)
-    rows = start_rows(out_dir, meta["spread_tol"], tolerances(meta), window)
-    tasks = {t.id: t for t in load_sweep(out_dir / "census.toml").tasks}
-    due = []
-    for r in rows:
-        if r["class"] != "unsettled" or r.get("status") != "completed" or below_cap(r, cap):
-            continue
-        key = _start_state(out_dir, tasks[r["id"]], window)[3]
-        if key and key not in verdicts:
-            due.append({"id": r["id"], "run_dir": r["run_dir"], "key": key,
-                        "cost": float(r["n_inner"]) ** 2 * float(r.get("sim_time_s") or 0.0)})
-    return due
+    rows = start_rows(out_dir, meta["spread_tol"], tolerances(meta), meta.get("window_s"))
+    return [{"id": r["id"], "run_dir": r["run_dir"], "key": r["chaos_key"],
+             "cost": float(r["n_inner"]) ** 2 * float(r.get("sim_time_s") or 0.0)}
+            for r in rows if r["class"] == "unsettled" and r.get("status") == "completed"
+            and not below_cap(r, cap) and r["chaos_key"] and r["chaos"] is None]
 
 
 def _chaos_tests(out_dir: Path, due: list[dict]) -> dict:
@@ -515,10 +506,7 @@ def chaos_shared(out_dir: Path, comm) -> bool:  # noqa: ANN001
     at the cap not yet in ``chaos.json``, shared over the ranks by cost; rank 0 tests what
     a rank could not and writes the file. Returns whether a rank was interrupted."""
     def merge(parts: list[dict]) -> None:
-        cache = read_cache(out_dir / CHAOS)
-        for part in parts:
-            cache.update(part)
-        write_if_changed(out_dir / CHAOS, json.dumps(_json_safe(cache)) + "\n")
+        merge_into_cache(out_dir / CHAOS, parts)
 
     def plan() -> list[list[dict]] | None:
         due = chaos_due(out_dir)
@@ -933,6 +921,7 @@ def start_rows(out_dir: Path, spread_tol: float = SPREAD_TOL,
         row = start_row(run_dir, task.params, summary, status, spread_tol, tol,
                         cached=cache.get(key), window=window)
         row["degree"] = int(task.params.get("mesh.degree", base_degree))
+        row["chaos_key"] = key  # its key in chaos.json (None until completed)
         row["chaos"] = verdicts.get(key) if key else None
         rows.append(row)
         if key and row.get("features"):
@@ -957,6 +946,15 @@ def _start_state(out_dir: Path, task, window: float | None  # noqa: ANN001 - a s
     return run_dir, summary, status, key
 
 
+def merge_into_cache(path: Path, parts: list[dict], required: bool = True) -> None:
+    """Rank 0: the ranks' results ``parts`` (dicts by cache key) added to the JSON cache at
+    ``path`` (``features.json``, ``chaos.json``), written only where it changed."""
+    cache = read_cache(path)
+    for part in parts:
+        cache.update(part)
+    write_if_changed(path, json.dumps(_json_safe(cache)) + "\n", required=required)
+
+
 def featurise_shared(out_dir: Path, comm) -> bool:  # noqa: ANN001
     """Collective: featurise the completed starts not yet in ``features.json`` on every
     rank (shared as ``balanced_shares``, cost N² × the simulated time: the samples read and
@@ -965,11 +963,7 @@ def featurise_shared(out_dir: Path, comm) -> bool:  # noqa: ANN001
     rank cannot featurise is left to rank 0's ``start_rows``. Returns whether a rank was
     interrupted (SIGINT/SIGTERM; on every rank: run the census again)."""
     def merge(parts: list[dict]) -> None:
-        cache = read_cache(out_dir / FEATURES)
-        for part in parts:
-            cache.update(part)
-        write_if_changed(out_dir / FEATURES, json.dumps(_json_safe(cache)) + "\n",
-                         required=False)
+        merge_into_cache(out_dir / FEATURES, parts, required=False)
 
     return on_ranks(comm, lambda: _unfeaturised_shares(out_dir, comm.size),
                     lambda share: _featurise(out_dir, [item["id"] for item in share]), merge)
