@@ -478,11 +478,19 @@ def chaos_due(out_dir: Path) -> list[dict]:
     {"id", "run_dir", "key", "cost"} (cost N² × the twin's time, about the leg's)."""
     meta = read_meta(out_dir)
     cap = meta.get("max_time_s")
-    rows = start_rows(out_dir, meta["spread_tol"], tolerances(meta), meta.get("window_s"))
-    return [{"id": r["id"], "run_dir": r["run_dir"], "key": r["chaos_key"],
-             "cost": float(r["n_inner"]) ** 2 * float(r.get("sim_time_s") or 0.0)}
-            for r in rows if r["class"] == "unsettled" and r.get("status") == "completed"
-            and not below_cap(r, cap) and r["chaos_key"] and r["chaos"] is None]
+    window = meta.get("window_s")
+    rows = start_rows(out_dir, meta["spread_tol"], tolerances(meta), window)
+    tasks = {t.id: t for t in load_sweep(out_dir / "census.toml").tasks}
+    due = []
+    for r in rows:
+        if r["class"] != "unsettled" or r.get("status") != "completed" or below_cap(r, cap) \
+                or r["chaos"] is not None:
+            continue
+        key = _start_state(out_dir, tasks[r["id"]], window)[3]  # its key in chaos.json
+        if key:
+            due.append({"id": r["id"], "run_dir": r["run_dir"], "key": key,
+                        "cost": float(r["n_inner"]) ** 2 * float(r.get("sim_time_s") or 0.0)})
+    return due
 
 
 def _chaos_tests(out_dir: Path, due: list[dict]) -> dict:
@@ -921,7 +929,6 @@ def start_rows(out_dir: Path, spread_tol: float = SPREAD_TOL,
         row = start_row(run_dir, task.params, summary, status, spread_tol, tol,
                         cached=cache.get(key), window=window)
         row["degree"] = int(task.params.get("mesh.degree", base_degree))
-        row["chaos_key"] = key  # its key in chaos.json (None until completed)
         row["chaos"] = verdicts.get(key) if key else None
         rows.append(row)
         if key and row.get("features"):
