@@ -18,8 +18,15 @@ from stickslip.solver.contact.law import (  # the law's codes, frozen at compile
 )
 
 U1, U2, U3 = np.uint64(1), np.uint64(2), np.uint64(3)  # unsigned offsets: no wrap-around test
-# Why two batched steps (same arithmetic, same bits): register passes win for short batches,
-# B-long vector loops for long ones (``batched_kernel_name``, measured below).
+# Why three loop orders (same arithmetic, same bits): one scene runs the single-scene
+# kernel, register passes win for short batches, B-long vector loops for long ones
+# (``batched_kernel_name``, measured below).
+#: A batch of one runs ``single_step`` on its column: at B = 1 ``batched_step`` pays its
+#: block scratch and a per-node column product for nothing, 1.8x slower at N = 528 damped
+#: (244 against 450 us a step) and 2.0x at N = 132 (16 against 33 us). After the 4-scene
+#: passes, 2 scenes go together (``half_product2``): B = 2 and 3 then cost 1.3x less per
+#: scene-step than column by column (N = 528: 264 against 332 us at B = 2; B = 4 and 8
+#: unchanged) (``benchmarks/small_batches.py``).
 #: nodes per block of ``batched_step``: its scratch ``acc`` is (2 NODE_BLOCK, B) at least,
 #: (4 NODE_BLOCK, B) with damping (K w_n of the block from row KW_ROW on)
 NODE_BLOCK = 32
@@ -37,9 +44,12 @@ SMALL_K_LONG_B = 48
 
 
 def batched_kernel_name(B: int, k_bytes: int) -> str:
-    """``batched_step`` (4-scene register passes) or ``batched_step_long`` (B-long vector
-    loops) for a batch of B scenes whose K's CSR (values + column indices) is ``k_bytes``:
-    the faster of the two on the measurements above. Same bits either way."""
+    """``single_step`` for a batch of one, else ``batched_step`` (4-scene register passes)
+    or ``batched_step_long`` (B-long vector loops) for a batch of B scenes whose K's CSR
+    (values + column indices) is ``k_bytes``: the fastest on the measurements above. Same
+    bits each way."""
+    if B == 1:
+        return "single_step"
     long_from = SMALL_K_LONG_B if k_bytes <= SMALL_K_BYTES else LONG_B
     return "batched_step" if B < long_from else "batched_step_long"
 
@@ -233,25 +243,55 @@ def half_product4(indices, data, u, p, r, end, b0):
 
 
 @jit
+def half_product2(indices, data, u, p, r, end, b0):
+    """``half_product4`` for the 2 columns b0, b0 + 1 (the rest of a batch after its
+    4-scene passes): the same sequential sums, each (column index, K value) load serving 2
+    scenes. Returns (row i: b0, b0 + 1, row i + 1: b0, b0 + 1)."""
+    b1 = b0 + U1
+    x0 = 0.0
+    x1 = 0.0
+    y0 = 0.0
+    y1 = 0.0
+    while p < end:
+        c = indices[p]
+        dp = data[p]
+        dq = data[r]
+        w0 = u[c, b0]
+        w1 = u[c, b1]
+        x0 += dp * w0
+        x1 += dp * w1
+        y0 += dq * w0
+        y1 += dq * w1
+        p += U2
+        r += U2
+    return x0, x1, y0, y1
+
+
+@jit
 def single_step(indptr, indices, data, n_rows, u, u_next, v, vp, a, ku, nim,
                 c_v, c_w, c_p, b2_half, dt, kappa, inv_kappa,
                 cx, ph_re, ph_im, pc_re, pc_im, cmass, cinv,
-                d, slide, f, r_pol, r_xy, status, zprev, work, u_tau, tau,
+                d, slide, f, r_r, r_t, r_x, r_y, status, zprev, work, u_tau, u_tau_next, tau,
                 reg, sigma, ut_last, rate_slip, rate_base, started):
     """One explicit step of one scene (``solver.fused`` docstring). With Kelvin-Voigt
     damping (``tau > 0``, ``solver.newmark.DampedNewmark``) the internal force is K w_n,
-    w_n = u_n + tau v~_n, formed in ``u_tau`` (owned rows; a caller with ghosts has set
-    them), ``ku`` receives K w_n, and work[3] accumulates the damping work's per-step part
-    1/2 (K w_n . u_{n+1} - K w_n . u_{n-1}) (``solver.observers.DampingWork``), read from
-    ``u_next`` before it is overwritten (it holds u_{n-1}). Undamped (``tau = 0``) the
+    w_n = u_n + tau v~_n, read from ``u_tau`` (the previous step, or the caller at the
+    start, formed it; a caller with ghosts has updated them), ``u_tau_next`` receives
+    w_{n+1} = u_{n+1} + tau v~_{n+1} (the caller alternates the two, as u, and as
+    ``batched_step`` does), ``ku`` receives K w_n, and work[3] accumulates the damping
+    work's per-step part 1/2 (K w_n . u_{n+1} - K w_n . u_{n-1})
+    (``solver.observers.DampingWork``), read from ``u_next`` before it is overwritten (it
+    holds u_{n-1}). Undamped (``tau = 0``) the
     product reads ``u`` and the arithmetic is the plain step's. A regularised friction
     bound (``reg`` > 0) keeps its per-node state in ``sigma``, ``ut_last`` (m, 1);
-    ``started[0]`` = 0 before the first step (``project_regularised``)."""
+    ``started[0]`` = 0 before the first step (``project_regularised``).
+
+    The contact outputs r_r, r_t, r_x, r_y and ``status`` are (m,) arrays of any stride
+    (the projection's interleaved pairs, or column 0 of a batch of one: the same kernel
+    steps both, ``solver.ensemble.NumbaColumns``); ``zprev`` holds u_{n-1} at the contact
+    nodes as (x, y) pairs."""
     damped = tau > 0.0
     src = u_tau if damped else u
-    if damped:  # w_n = u_n + tau v~_n (DampedNewmark: v~ tau, then + u)
-        for i in range(n_rows):
-            u_tau[i] = vp[i] * tau + u[i]
     # K u_n (K w_n damped) and a*_n = -M^{-1} K u_n (owned rows; columns may be ghosts)
     for i in range(0, n_rows, 2):
         s0, s1 = pair_product(indptr, indices, data, src, i)
@@ -267,11 +307,11 @@ def single_step(indptr, indices, data, n_rows, u, u_next, v, vp, a, ku, nim,
             u[ix], u[iy], vp[ix], vp[iy], a[ix], a[iy], pc_re[j], pc_im[j], ph_re[j],
             ph_im[j], dt, kappa, cmass[j] * inv_kappa, d, slide, f, reg, sigma, ut_last, j,
             0, rate_slip, rate_base, started[0] == 0)
-        r_pol[2 * j] = rr
-        r_pol[2 * j + 1] = rt
+        r_r[j] = rr
+        r_t[j] = rt
         status[j] = st
-        r_xy[2 * j] = rx
-        r_xy[2 * j + 1] = ry
+        r_x[j] = rx
+        r_y[j] = ry
         a[ix] = a[ix] + rx * cinv[j]
         a[iy] = a[iy] + ry * cinv[j]
     started[0] = 1
@@ -290,6 +330,7 @@ def single_step(indptr, indices, data, n_rows, u, u_next, v, vp, a, ku, nim,
             s_old += kwi * u_next[i]
             u_next[i] = un
             vp[i] = w if b2_half else w + ai * c_p
+            u_tau_next[i] = vp[i] * tau + un  # w_{n+1} (DampedNewmark: v~ tau, then + u)
         work[3] += 0.5 * (s_new - s_old)
     else:
         for i in range(n_rows):
@@ -309,8 +350,8 @@ def single_step(indptr, indices, data, n_rows, u, u_next, v, vp, a, ku, nim,
         dzy = u_next[ix + 1] - zprev[2 * j + 1]
         zprev[2 * j] = u[ix]
         zprev[2 * j + 1] = u[ix + 1]
-        sc += r_xy[2 * j] * dzx + r_xy[2 * j + 1] * dzy
-        rt = r_pol[2 * j + 1]
+        sc += r_x[j] * dzx + r_y[j] * dzy
+        rt = r_t[j]
         st_ += rt * (dzx * pc_im[j] + dzy * pc_re[j])
         srt += rt
     work[0] += 0.5 * sc
@@ -369,7 +410,7 @@ def batched_step(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
 
     One pass over the nodes, in blocks of ``NODE_BLOCK`` nodes: the (x, y) rows of K u for
     all B scenes (one read of the row for the whole batch; 4 scenes per register pass,
-    ``half_product4``, the last B mod 4 one by one, ``pair_product_col``) and
+    ``half_product4``, then 2, ``half_product2``, the last one alone, ``pair_product_col``) and
     a*_n = -M^{-1} K u_n into the scratch ``acc`` (2 NODE_BLOCK, B), the contact projection
     at the block's contact nodes (``cslot`` >= 0), then the Newmark update of the block's
     rows as one flat loop of 2 NODE_BLOCK B elements (a loop that long vectorises; one per
@@ -397,6 +438,7 @@ def batched_step(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
     """
     n_rows, nb = u.shape
     nb4 = nb - nb % 4
+    nb2 = nb - nb % 2
     damped = tau > 0.0
     first = started[0] == 0  # a regularised bound's first step: sigma_eff = p
     src = u_tau if damped else u
@@ -440,7 +482,22 @@ def batched_step(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
                         acc[kw + 1, b0 + m] = s1
                     acc[k, b0 + m] = s0 * n0
                     acc[k + 1, b0 + m] = s1 * n1
-            for b in range(nb4, nb):  # the last nb % 4 scenes one by one
+            for b0 in range(nb4, nb2, 2):  # then 2 scenes at a time
+                bu = numba.uint64(b0)
+                e2 = half_product2(indices, data, src, a0, a1, a1, bu)
+                o2 = half_product2(indices, data, src, a0 + U1, a1 + U1, a1, bu)
+                for m in range(2):
+                    s0 = e2[m] + o2[m]
+                    s1 = e2[2 + m] + o2[2 + m]
+                    if write:
+                        ku[i, b0 + m] = s0
+                        ku[i + 1, b0 + m] = s1
+                    if damped:
+                        acc[kw, b0 + m] = s0
+                        acc[kw + 1, b0 + m] = s1
+                    acc[k, b0 + m] = s0 * n0
+                    acc[k + 1, b0 + m] = s1 * n1
+            for b in range(nb2, nb):  # the last one alone
                 s0, s1 = pair_product_col(indices, data, src, a0, a1, numba.uint64(b))
                 if write:
                     ku[i, b] = s0
@@ -706,6 +763,19 @@ def stiffness_product_cols(indptr, indices, data, u, out):
 
 
 @jit
+def column_energies(u, v, ku, mass, energy):
+    """``batched_step``'s sampled energies of (n, B) arrays, summed after the step: energy
+    (2, B) = Σ_i m_i v_i² and Σ_i u_i (K u)_i, rows in ascending order (``batch_energies``:
+    the same bits). A batch of one steps with ``single_step``, which sums none."""
+    n_rows, nb = u.shape
+    for b in range(nb):
+        energy[0, b] = 0.0
+        energy[1, b] = 0.0
+    for row in range(n_rows):
+        batch_energies(u, v, ku, mass, energy, row, nb)
+
+
+@jit
 def sequential_dot(x, y):
     """Σ_i x_i y_i in index order from 0.0 (``column_dots`` of one column: the same bits)."""
     s = 0.0
@@ -729,14 +799,15 @@ def column_dots(x, y, out):
 def advance(n_max, t_stop, clock, indptr, indices, data, n_rows, u_a, u_b, v, vp, a, ku, nim,
             c_v, c_w, c_p, b2_half, dt, kappa, inv_kappa,
             cx, ph_re, ph_im, pc_re, pc_im, cmass, cinv,
-            d, slide, f, r_pol, r_xy, status, zprev, work, u_tau, tau,
+            d, slide, f, r_r, r_t, r_x, r_y, status, zprev, work, w_a, w_b, tau,
             reg, sigma, ut_last, rate_slip, rate_base, started,
             probe_dof, probe_t, probe_u, probe_v, probe_count):
     """Up to ``n_max`` steps of ``single_step`` (same arguments, ``indptr`` to ``started``) in
     one call (one rank), stopping before a step once ``clock[0] >= t_stop``; after each step
     the probes record time level n as ``solver.observers.ProbeRecorder.record`` does (t_n,
     u_n and v_n at ``probe_dof`` (x dof; y = x + 1) while rows are left). ``u_a`` holds u_n
-    on entry; the buffers alternate. Returns the number of steps taken."""
+    (damped: ``w_a`` w_n) on entry; the buffers alternate. Returns the number of steps
+    taken."""
     cap = probe_t.size
     n_probes = probe_dof.size
     for s in range(n_max):
@@ -745,7 +816,7 @@ def advance(n_max, t_stop, clock, indptr, indices, data, n_rows, u_a, u_b, v, vp
         single_step(indptr, indices, data, n_rows, u_a, u_b, v, vp, a, ku, nim,
                     c_v, c_w, c_p, b2_half, dt, kappa, inv_kappa,
                     cx, ph_re, ph_im, pc_re, pc_im, cmass, cinv,
-                    d, slide, f, r_pol, r_xy, status, zprev, work, u_tau, tau,
+                    d, slide, f, r_r, r_t, r_x, r_y, status, zprev, work, w_a, w_b, tau,
                     reg, sigma, ut_last, rate_slip, rate_base, started)
         clock[0] += dt
         i = probe_count[0]
@@ -759,6 +830,7 @@ def advance(n_max, t_stop, clock, indptr, indices, data, n_rows, u_a, u_b, v, vp
                 probe_v[i, 2 * q + 1] = v[ix + 1]
             probe_count[0] = i + 1
         u_a, u_b = u_b, u_a
+        w_a, w_b = w_b, w_a
     return n_max
 
 

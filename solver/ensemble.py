@@ -544,8 +544,8 @@ class NumbaColumns(ArrayColumns):
     regularised = True
 
     def __init__(self, st: BatchedExplicit) -> None:
-        # short batches: 4-scene register passes; long ones: B-long vector loops (same
-        # bits either way; solver._fused_kernels.batched_kernel_name)
+        # one scene: the single-scene kernel; short batches: 4-scene register passes; long
+        # ones: B-long vector loops (same bits each; solver._fused_kernels.batched_kernel_name)
         k_bytes = int(st.bp.data.nbytes + st.bp.indices.nbytes)
         st._name = _kernels().batched_kernel_name(st.B, k_bytes)
         st._fn = get_kernel(st._name)  # the step (a benchmark may swap it)
@@ -554,6 +554,16 @@ class NumbaColumns(ArrayColumns):
         self.product = get_kernel("stiffness_product_cols")  # K u_n, damped samples
         self.dots_fn = get_kernel("column_dots")
         self.first_product = True  # compiled with the SLP vectoriser (register passes)
+        self.single = st._name == "single_step"
+        if self.single:  # column 0 of every array, as the 1-D views single_step takes
+            self.energies = get_kernel("column_energies")
+            col = lambda x: x[..., 0]  # noqa: E731 - (n, 1) -> (n,), a contiguous view
+            self.u_cols = [col(x) for x in st._u]
+            self.w_cols = [col(x) for x in st._w]
+            self.cols = {name: col(getattr(st, name))
+                         for name in ("v", "v_pred", "a", "ku", "r_r", "r_t", "r_x", "r_y",
+                                      "status", "work")}
+            self.zprev = st.zprev.reshape(-1)  # (m, 2, 1) -> (x, y) pairs
 
     def record_copies(self) -> Any:
         return sample_kernels()
@@ -572,6 +582,9 @@ class NumbaColumns(ArrayColumns):
 
     def step(self, st: BatchedExplicit, u, u_next, diag: bool) -> None:
         """One call of the compiled step; it sums the energies on a ``diag`` step."""
+        if self.single:
+            self.single_step(st, diag)
+            return
         dt, b2 = st.dt, st.beta2
         args = (st.indptr, st.indices, st.data, u, u_next, st.v, st.v_pred, st.a, st.ku,
                 st.nim, b2 * dt, 0.5 * dt, (0.5 - b2) * dt, b2 == 0.5, dt, st.kappa,
@@ -588,6 +601,27 @@ class NumbaColumns(ArrayColumns):
             st.compile_s = COMPILE_SECONDS[st._name]
         else:
             st._fn(*args)
+        st.energy_summed = diag
+
+    def single_step(self, st: BatchedExplicit, diag: bool) -> None:
+        """A batch of one: ``single_step`` on column 0 (it writes v_n, a_n and K u_n at
+        every step), then on a ``diag`` step the energies in ``batched_step``'s order."""
+        dt, b2, c, cur, nxt = st.dt, st.beta2, self.cols, st.cur, 1 - st.cur
+        args = (st.indptr, st.indices, st.data, st.n, self.u_cols[cur], self.u_cols[nxt],
+                c["v"], c["v_pred"], c["a"], c["ku"], st.nim, b2 * dt, 0.5 * dt,
+                (0.5 - b2) * dt, b2 == 0.5, dt, st.kappa, 1.0 / st.kappa, st.cx, st.ph_re,
+                st.ph_im, st.pc_re, st.pc_im, st.cmass, st.cinv, st.d[0], st.slide[0],
+                st.f[0], c["r_r"], c["r_t"], c["r_x"], c["r_y"], c["status"], self.zprev,
+                c["work"], self.w_cols[cur], self.w_cols[nxt], st.tau, st.reg, st.sigma,
+                st.ut_last, st.rate_slip, st.rate_base, st._started)
+        if self.first_call:
+            self.first_call = False
+            timed_first_call(st._name, st._fn, *args)
+            st.compile_s = COMPILE_SECONDS[st._name]
+        else:
+            st._fn(*args)
+        if diag:
+            self.energies(st._u[cur], st.v, st.ku, st.mass, st.energy)
         st.energy_summed = diag
 
 

@@ -232,9 +232,10 @@ class FusedNewmark(ExplicitStart):
         n_local = n + ghosts.size
         self._full = [np.zeros(n_local), np.zeros(n_local)]  # u_n, u_{n+1} (owned + ghosts)
         self._views = [f[:n] for f in self._full]
-        # damped: w_n = u_n + tau v~_n, the argument of K (owned + ghosts); else unused
-        self._u_tau = np.zeros(n_local if self.damped else 0)
-        self._ghosted = self._ghosted_tau = None
+        # damped: w_n = u_n + tau v~_n, the argument of K, and w_{n+1}, which the kernel
+        # writes (owned + ghosts; alternating as u); else unused
+        self._w = [np.zeros(n_local if self.damped else 0) for _ in range(2)]
+        self._ghosted = self._ghosted_w = None
         if self.comm.size > 1:
             from petsc4py import PETSc
 
@@ -245,7 +246,7 @@ class FusedNewmark(ExplicitStart):
 
             self._ghosted = [ghosted(f) for f in self._full]
             if self.damped:
-                self._ghosted_tau = ghosted(self._u_tau)
+                self._ghosted_w = [ghosted(f) for f in self._w]
         self.cur = 0
         self.v = np.zeros(n)
         self.a = np.zeros(n)
@@ -262,8 +263,9 @@ class FusedNewmark(ExplicitStart):
         self.pc_re, self.pc_im = p.phase_conj.real.copy(), p.phase_conj.imag.copy()
         self.cmass = np.ascontiguousarray(p.mass)
         self.cinv = np.ascontiguousarray(p.inv_mass)
-        self.r_pol = p.r_polar.view(np.float64)  # (r_r, r_t) interleaved: the projection's
-        self.r_xy = p.r_xy.view(np.float64)
+        # the projection's r_r, r_t, r_x, r_y: strided views of its complex arrays
+        r_pol, r_xy = p.r_polar.view(np.float64), p.r_xy.view(np.float64)
+        self.reactions = (r_pol[0::2], r_pol[1::2], r_xy[0::2], r_xy[1::2])
         self.zprev = np.zeros(2 * self.cx.size)  # u_{n-1} at the contact nodes (x, y)
         # a regularised friction bound: its per-node state is the projection's own
         # (``EffectivePressure``: sigma_eff, the last u_theta), updated by the kernel
@@ -305,41 +307,45 @@ class FusedNewmark(ExplicitStart):
         cx = self.cx.astype(np.intp)
         self.zprev[0::2] = self.u[cx]
         self.zprev[1::2] = self.u[cx + 1]
+        self._form_w()
 
     def restore(self, state: dict[str, np.ndarray]) -> None:
         """``ExplicitStart.restore``; past the first step the kernel's start flag is set."""
         super().restore(state)
         self._started[0] = int(self.step_count > 0)
+        self._form_w()
 
-    def _args(self, u: np.ndarray, u_next: np.ndarray) -> tuple:
-        """``single_step``'s arguments from the CSR matrix on (same order, same values)."""
-        p, dt, b2 = self.p, self.dt, self.beta2
-        return (self.indptr, self.indices, self.data, self.nim.size, u, u_next, self.v,
-                self.v_pred, self.a, self.kw, self.nim, b2 * dt, 0.5 * dt, (0.5 - b2) * dt,
-                b2 == 0.5, dt, self.kappa, 1.0 / self.kappa, self.cx, self.ph_re, self.ph_im,
-                self.pc_re, self.pc_im, self.cmass, self.cinv, p.d, p.slide, p.f, self.r_pol,
-                self.r_xy, p.out.status, self.zprev, self.work, self._u_tau, self.tau,
-                self.reg, self.sigma, self.ut_last, self.rate_slip, self.rate_base,
-                self._started)
+    def _form_w(self) -> None:
+        """Damped: w_n = u_n + tau v~_n on the owned dofs, with the kernel's operations (the
+        kernel forms each later w_{n+1} itself)."""
+        if self.damped:
+            w = self._w[self.cur][:self.nim.size]
+            np.multiply(self.v_pred, self.tau, out=w)
+            w += self._views[self.cur]
+
+    def _args(self, cur: int) -> tuple:
+        """``single_step``'s arguments from the CSR matrix on (same order, same values), with
+        u_n (and w_n) in buffer ``cur`` of the double buffers."""
+        p, dt, b2, nxt = self.p, self.dt, self.beta2, 1 - cur
+        return (self.indptr, self.indices, self.data, self.nim.size, self._full[cur],
+                self._full[nxt], self.v, self.v_pred, self.a, self.kw, self.nim, b2 * dt,
+                0.5 * dt, (0.5 - b2) * dt, b2 == 0.5, dt, self.kappa, 1.0 / self.kappa,
+                self.cx, self.ph_re, self.ph_im, self.pc_re, self.pc_im, self.cmass,
+                self.cinv, p.d, p.slide, p.f, *self.reactions, p.out.status, self.zprev,
+                self.work, self._w[cur], self._w[nxt], self.tau, self.reg, self.sigma,
+                self.ut_last, self.rate_slip, self.rate_base, self._started)
 
     def step(self) -> None:
         """u_n -> u_{n+1}: one ghost update (MPI) and one kernel call. Damped, the ghosts
-        K reads are those of w_n = u_n + tau v~_n, formed here on the owned dofs with the
-        kernel's operations (the kernel forms the owned part again: the same bits)."""
+        K reads are those of w_n = u_n + tau v~_n, which the previous step (or
+        ``set_state``) formed on the owned dofs."""
         cur, nxt = self.cur, 1 - self.cur
         if self._ghosted is not None:
             from petsc4py import PETSc
 
-            if self.damped:
-                n = self.nim.size
-                np.multiply(self.v_pred, self.tau, out=self._u_tau[:n])
-                self._u_tau[:n] += self._views[cur]
-                self._ghosted_tau.ghostUpdate(PETSc.InsertMode.INSERT,
-                                              PETSc.ScatterMode.FORWARD)
-            else:
-                self._ghosted[cur].ghostUpdate(PETSc.InsertMode.INSERT,
-                                               PETSc.ScatterMode.FORWARD)
-        args = self._args(self._full[cur], self._full[nxt])
+            ghosted = self._ghosted_w if self.damped else self._ghosted
+            ghosted[cur].ghostUpdate(PETSc.InsertMode.INSERT, PETSc.ScatterMode.FORWARD)
+        args = self._args(cur)
         if self._first_call:  # timed (a compile or a cache load), also when continued
             self._first_call = False
             timed_first_call("single_step", self._fn, *args)
@@ -396,7 +402,7 @@ class FusedNewmark(ExplicitStart):
         self._clock[0] = self.time
         taken = timed_first_call(
             "advance", self._advance, n_max, t_stop, self._clock,
-            *self._args(self._full[self.cur], self._full[1 - self.cur]),
+            *self._args(self.cur),
             *probes.kernel_buffers())
         self.compile_s = sum(COMPILE_SECONDS.get(k, 0.0) for k in ("single_step", "advance"))
         probes.n = int(probes.count[0])

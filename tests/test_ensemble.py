@@ -247,8 +247,9 @@ def test_batched_kernel_equals_the_single_scene_kernel_bitwise_for_any_batch_siz
 
 
 def test_register_passes_and_single_columns_give_the_single_scene_bits():
-    """A 7-scene batch runs one 4-scene register pass (``half_product4``, SLP-vectorised)
-    and 3 single columns (``pair_product_col``) per node, over node blocks whose last one
+    """A 7-scene batch runs one 4-scene register pass (``half_product4``, SLP-vectorised),
+    one 2-scene pass (``half_product2``) and a single column (``pair_product_col``) per
+    node, over node blocks whose last one
     is partial: every column is the fused single-scene run's bits (u, v~, statuses, works),
     lean steps (diag = False) included. Exact equality: same operations in the same order
     (docs/performance.md, 'Batches')."""
@@ -501,6 +502,41 @@ def test_regularised_batch_equals_the_single_scene_kernel_bitwise():
             np.testing.assert_array_equal(batch.status[:, col], s.columns.projection.out.status)
             np.testing.assert_array_equal(batch.work[:, col], it.work)
             np.testing.assert_array_equal(batch.sigma[:, col], it.sigma[:, 0])
+
+
+@pytest.mark.parametrize("common", [(), "pc"], ids=["plain", "damped-prakash-clifton"])
+def test_a_batch_of_one_runs_the_single_scene_kernel_with_the_batch_bits(common):
+    """A batch of one steps with ``single_step`` on its column (faster than the batched
+    loops at B = 1, ``batched_kernel_name``). It must keep the batch's state and outputs
+    bit for bit, so that a census leg of one start and a leg of several give the same
+    numbers: against ``batched_step`` forced at B = 1, 120 steps, lean and sampled, with a
+    kick half way: u, v~, w = u + tau v~ (damped), statuses, the four works, the
+    Prakash-Clifton state, and on sampled steps v_n, a_n, K u_n and the energy sums."""
+    from stickslip.solver.fused import kernel
+
+    if common == "pc":
+        common = ('friction.regularization="prakash-clifton"', "friction.slip_length=2e-5",
+                  "friction.reference_velocity=1.0", *DAMPED)
+    one, _ = _batch(VARIANTS[3:4], common=common)
+    forced, _ = _batch(VARIANTS[3:4], common=common)
+    assert one._name == "single_step" and one.columns.single
+    forced._name, forced._fn, forced.columns.single = "batched_step", kernel("batched_step"), False
+    rng = np.random.default_rng(0)
+    du, dv = 1e-6 * rng.standard_normal((2, one.n))
+    du[np.abs(one.u[:, 0]) == 0.0] = dv[np.abs(one.u[:, 0]) == 0.0] = 0.0
+    for n in range(120):
+        diag = n % 4 == 0
+        if n == 60:
+            for it in (one, forced):
+                it.kick(0, du, dv)
+        for it in (one, forced):
+            it.step(diag=diag)
+        names = ["u", "v_pred", "status", "work", "sigma", "ut_last"]
+        names += ["u_tau"] if one.damped else []
+        names += ["v", "a", "ku", "energy"] if diag else []
+        for name in names:
+            np.testing.assert_array_equal(getattr(one, name), getattr(forced, name), name)
+    assert one.damped == (common != ())
 
 
 DAMPED_SWEEP = """
