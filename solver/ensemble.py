@@ -560,9 +560,10 @@ class NumbaColumns(ArrayColumns):
             col = lambda x: x[..., 0]  # noqa: E731 - (n, 1) -> (n,), a contiguous view
             self.u_cols = [col(x) for x in st._u]
             self.w_cols = [col(x) for x in st._w]
-            self.cols = {name: col(getattr(st, name))
-                         for name in ("v", "v_pred", "a", "ku", "r_r", "r_t", "r_x", "r_y",
-                                      "status", "work")}
+            self.cols = {"v": col(st.v), "v_pred": col(st.v_pred), "a": col(st.a),
+                         "ku": col(st.ku), "r_r": col(st.r_r), "r_t": col(st.r_t),
+                         "r_x": col(st.r_x), "r_y": col(st.r_y), "status": col(st.status),
+                         "work": col(st.work)}
             self.zprev = st.zprev.reshape(-1)  # (m, 2, 1) -> (x, y) pairs
 
     def record_copies(self) -> Any:
