@@ -469,6 +469,36 @@ def test_one_run_class_and_one_time_loop():
     assert loop_classes == ["solver.run.Simulation"], loop_classes
 
 
+def test_summary_json_is_written_by_one_function():
+    """Every ``summary.json`` of the product (a run, a batch member, a census start, a
+    sweep's failed or interrupted scene, a travelling wave) is written by
+    ``studies.rundir.summary_file.write_summary``: no other module writes a file named
+    ``summary.json`` (an ``atomic_write_text`` or ``open(..., "w")`` of a path that ends in
+    it), so its format and its atomicity live in one place."""
+    writers = []
+    for name, path in MODULES.items():
+        for node in ast.walk(ast.parse(path.read_text())):
+            if not isinstance(node, ast.Call):
+                continue
+            func = getattr(node.func, "id", getattr(node.func, "attr", ""))
+            if func not in ("atomic_write_text", "write_text", "open"):
+                continue
+            path_of = node.func.value if func == "write_text" else (
+                node.args[0] if node.args else node.func)
+            target = ast.unparse(path_of)
+            if "summary.json" in target or "SUMMARY" in target:
+                writers.append(f"{name}:{node.lineno}")
+    assert writers == ["studies.rundir.summary_file:" + str(_line_of(
+        "studies.rundir.summary_file", "atomic_write_text"))], writers
+
+
+def _line_of(module: str, call: str) -> int:
+    """The line of the first call of ``call`` in ``module``."""
+    tree = ast.parse(MODULES[module].read_text())
+    return min(n.lineno for n in ast.walk(tree) if isinstance(n, ast.Call)
+               and getattr(n.func, "id", "") == call)
+
+
 def test_the_run_command_and_the_api_share_one_run_function():
     """``stickslip run`` and ``stickslip.run`` refuse an aliasing scene and draw the figures
     in one place (``studies.rundir.run_scene``: ``check_sampling``, ``plot``): neither

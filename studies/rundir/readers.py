@@ -34,6 +34,7 @@ import numpy as np
 
 from stickslip.solver.scene import SceneError, load_scene, scene_to_dict
 from stickslip.solver.scene.files import scene_digest
+from stickslip.studies.rundir.summary_file import SUMMARY
 
 __all__ = ["STATUSES", "ReadError", "check_run_dir", "read_field", "read_json_object",
            "check_agreement", "read_samples", "read_scene_file", "read_summary",
@@ -91,7 +92,7 @@ def read_json_object(path: str | Path, fix: str = _RERUN) -> dict:
 
 def read_summary(run_dir: str | Path) -> dict:
     """``RUN_DIR/summary.json``, checked: an object with a string ``scene`` and a status."""
-    p = Path(run_dir) / "summary.json"
+    p = Path(run_dir) / SUMMARY
     s = read_json_object(p)
     status = s.get("status")
     if status not in STATUSES:

@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING
 from stickslip.postprocess.plotting import DEFAULT_WINDOW, plot_run
 from stickslip.postprocess.resolution import sampling_problem
 from stickslip.solver import __version__
-from stickslip.solver.atomic import atomic_save_npz, atomic_write_text, remove_temporaries
+from stickslip.solver.atomic import atomic_save_npz, remove_temporaries
 from stickslip.solver.errors import Diverged, StepTooLarge
 from stickslip.solver.run import Profile, Simulation
 from stickslip.solver.scene import Scene, scene_warnings
@@ -37,6 +37,7 @@ from stickslip.studies.rundir.directory import (
     prepare_run_dir,
 )
 from stickslip.studies.rundir.signals import RunSignals, _signame
+from stickslip.studies.rundir.summary_file import write_summary
 from stickslip.studies.rundir.writer import (  # noqa: F401  (summarise, peak_rss_mb: re-exported)
     RunOutputs,
     finish_summary,
@@ -344,7 +345,7 @@ class RunDirectory:
         summary = dict(self.started, status=status, message=message,
                        wall_time_s=time.perf_counter() - self.t0)
         summary.pop("pid", None)
-        atomic_write_text(self.rd.work / "summary.json", json.dumps(summary, indent=2))
+        write_summary(self.rd.work, summary)
 
     def hard_stop(self, signum: int, where: str) -> None:
         """The watchdog's last word before SIGKILL: a signal not acknowledged in time."""
@@ -385,7 +386,7 @@ class RunDirectory:
         # The summary first (a small file, written at once): mpirun SIGKILLs the ranks 0.25 s
         # after their SIGTERM and returns, and a script that reads the status then must find
         # it final. samples.npz (megabytes) follows; the run's lock is held until it is there.
-        atomic_write_text(rd.work / "summary.json", json.dumps(out, indent=2))
+        write_summary(rd.work, out)
         commit_run_dir(rd)  # a replacement: swapped in now (rd.work is then rd.final)
         if sim is None:
             return
@@ -393,7 +394,7 @@ class RunDirectory:
             atomic_save_npz(rd.work / "samples.npz", sim.recorder.arrays(), compress=False)
         except OSError as err:
             out["message"] = f"{msg}; the samples could not be written: {err}"
-            atomic_write_text(rd.work / "summary.json", json.dumps(out, indent=2))
+            write_summary(rd.work, out)
 
     def tidy(self, pid: int, rescued: bool, where: str, signum: int = 0) -> None:
         """The run's process died outright (SIGKILL, out of memory; in the watchdog): remove
@@ -418,6 +419,5 @@ class RunDirectory:
             if rd.replacing and folder == rd.work:
                 discard_run_dir(rd)
             else:
-                atomic_write_text(folder / "summary.json", json.dumps(dict(
-                    self.started, status=status, message=message,
-                    wall_time_s=time.perf_counter() - self.t0), indent=2))
+                write_summary(folder, dict(self.started, status=status, message=message,
+                                           wall_time_s=time.perf_counter() - self.t0))

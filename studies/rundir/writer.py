@@ -19,7 +19,6 @@ the run ``failed``, with the error in its message.
 
 from __future__ import annotations
 
-import json
 import os
 import socket
 import time
@@ -29,12 +28,13 @@ from typing import Any
 
 from stickslip.postprocess.analysis import TRAVEL_PURITY_MIN, analyse
 from stickslip.postprocess.resolution import sampling_check
-from stickslip.solver.atomic import atomic_save_npz, atomic_write_text
+from stickslip.solver.atomic import atomic_save_npz
 from stickslip.solver.run import Profile
 from stickslip.solver.scene import Scene, scene_warnings, write_scene
 from stickslip.solver.scene.files import scene_digest
 from stickslip.studies.rundir import directory
 from stickslip.studies.rundir.checkpoint import write_checkpoint
+from stickslip.studies.rundir.summary_file import write_summary
 
 
 def running_summary(name: str) -> dict:
@@ -49,7 +49,7 @@ def write_first_files(work: Path, scene: Scene, started: dict) -> None:
     """``scene.toml`` and the ``running`` summary ``started`` into ``work`` (OSError: the
     caller removes what it made)."""
     write_scene(scene, work / "scene.toml")
-    atomic_write_text(work / "summary.json", json.dumps(started, indent=2))
+    write_summary(work, started)
 
 
 @dataclass
@@ -138,11 +138,10 @@ def _write_run_files(rd: directory.RunDir, out: RunOutputs, prof: Profile, t0: f
             # The rescue's summary counts the rescue's samples; the loop has taken one more
             # since. Without the count it tells of either file, so a kill between the writes
             # below never leaves a count that samples.npz contradicts.
-            atomic_write_text(rd.work / "summary.json", json.dumps(
-                {k: v for k, v in summary.items() if k != "samples"}, indent=2))
+            write_summary(rd.work, {k: v for k, v in summary.items() if k != "samples"})
         if run is not None:
             _write_arrays(rd.work, out, summary)
-        atomic_write_text(rd.work / "summary.json", json.dumps(summary, indent=2))
+        write_summary(rd.work, summary)
         directory.commit_run_dir(rd)
     except OSError as err:
         return _write_failed(rd, summary, err)
@@ -150,7 +149,7 @@ def _write_run_files(rd: directory.RunDir, out: RunOutputs, prof: Profile, t0: f
         return summary
     analysed = finish_summary(summarise(run, out.probes), out, prof, t0)
     try:  # the run is saved and true; the analysis is a bonus on top
-        atomic_write_text(rd.final / "summary.json", json.dumps(analysed, indent=2))
+        write_summary(rd.final, analysed)
     except OSError as err:
         summary["message"] = (f"{summary['message']}; " if summary.get("message") else
                               "") + f"could not add the wave analysis to summary.json: {err}"
@@ -181,7 +180,7 @@ def _write_failed(rd: directory.RunDir, summary: dict, err: OSError) -> dict:
         summary["message"] += f"; the earlier run in {rd.final} is kept unchanged"
     else:
         try:
-            atomic_write_text(rd.final / "summary.json", json.dumps(summary, indent=2))
+            write_summary(rd.final, summary)
         except OSError:
             pass
     return summary

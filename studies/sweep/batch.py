@@ -22,7 +22,6 @@ of more than one rank per scene and groups of a single scene.
 from __future__ import annotations
 
 import contextlib
-import json
 import math
 import os
 import shutil
@@ -33,7 +32,6 @@ import traceback
 from pathlib import Path
 from typing import TextIO
 
-from stickslip.solver.atomic import atomic_write_text
 from stickslip.solver.run import Profile, Simulation
 from stickslip.solver.scene import Scene
 from stickslip.studies.batching import SPOOL_MEMORY_FRACTION, batch_key
@@ -46,6 +44,7 @@ from stickslip.studies.rundir import (
     write_member,
 )
 from stickslip.studies.rundir.ownership import refusal
+from stickslip.studies.rundir.summary_file import write_summary
 from stickslip.studies.sweep.spec import SweepSpec, Task, scene_for
 from stickslip.studies.sweep.table import check_recorded
 
@@ -216,8 +215,8 @@ def _start_member(spec: SweepSpec, task: Task, size: int, out_dir: Path, world_r
         log.write(f"{message}\n== end failed\n")
         log.close()
         try:
-            atomic_write_text(run_dir / "summary.json", json.dumps(
-                {"scene": scene.name, "status": "failed", "message": message}, indent=2))
+            write_summary(run_dir, {"scene": scene.name, "status": "failed",
+                                    "message": message})
         except OSError as write_err:
             message += f"; its summary could not be written ({write_err})"
         check_recorded(run_dir, {"status": "failed", "message": message}, failures, task.id)
@@ -290,10 +289,10 @@ class _BatchFiles:
         self.statuses[k] = "failed"
         message = f"{type(err).__name__}: {err}"
         try:
-            atomic_write_text(self.run_dirs[k] / "summary.json", json.dumps({
+            write_summary(self.run_dirs[k], {
                 "scene": self.scenes[k].name, "status": "failed", "message": message,
                 "traceback": tb.splitlines()[-6:],
-                "wall_time_s": time.perf_counter() - self.t0, "ranks": 1}, indent=2))
+                "wall_time_s": time.perf_counter() - self.t0, "ranks": 1})
         except OSError as write_err:  # a full disk: the sweep's table records it
             message += f"; its summary could not be written ({write_err})"
         check_recorded(self.run_dirs[k], {"status": "failed", "message": message},
@@ -301,8 +300,7 @@ class _BatchFiles:
 
     def interrupted(self, k: int) -> None:
         self.statuses[k] = "interrupted"
-        atomic_write_text(self.run_dirs[k] / "summary.json", json.dumps(
-            {"scene": self.scenes[k].name, "status": "interrupted"}, indent=2))
+        write_summary(self.run_dirs[k], {"scene": self.scenes[k].name, "status": "interrupted"})
 
     def write_runs(self, batch, interrupted: bool, profile) -> None:
         """summary.json, samples.npz, final_field.npz and checkpoint.npz of every scene that

@@ -17,7 +17,6 @@ at most the scenes in flight (or that period); a resume rebuilds it from the sum
 
 from __future__ import annotations
 
-import json
 import math
 import os
 import shutil
@@ -38,6 +37,7 @@ from stickslip.studies.output import process_alive
 from stickslip.studies.resources import MAX_SECONDS, ResourceError, _duration, estimate
 from stickslip.studies.rundir import run_scene
 from stickslip.studies.rundir.ownership import OwnershipError, claim, owned, user_entries
+from stickslip.studies.rundir.summary_file import write_summary
 from stickslip.studies.sweep.batch import plan_units, run_batch
 from stickslip.studies.sweep.spec import (
     FINAL_STATUSES,
@@ -345,7 +345,7 @@ def _record_failure(spec: SweepSpec, task: Task, run_dir: Path, err: Exception, 
     prev.update({"scene": f"{spec.name}.{task.id}", "status": "failed",
                  "message": f"{type(err).__name__}: {err}", "traceback": tb.splitlines()[-6:],
                  "wall_time_s": wall, "ranks": ranks})
-    atomic_write_text(run_dir / "summary.json", json.dumps(prev, indent=2))
+    write_summary(run_dir, prev)
 
 
 _PETSC_WORLD: list = []  # the group communicator PETSc was initialised on (kept alive)

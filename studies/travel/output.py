@@ -20,6 +20,7 @@ from stickslip.postprocess.style import MM, MPA, shade_zones, status_handles
 from stickslip.solver.atomic import atomic_write_text
 from stickslip.solver.scene import Scene, write_scene
 from stickslip.studies.rundir.ownership import claim
+from stickslip.studies.rundir.summary_file import write_summary
 
 __all__ = ["prepare_dir", "write_wave", "write_failure", "write_branch", "plot_profiles",
            "plot_branch"]
@@ -57,13 +58,13 @@ def write_wave(path: Path, scene: Scene, summary: dict, profiles: dict) -> None:
     tmp = path / ".profiles.tmp.npz"
     np.savez_compressed(tmp, **profiles)
     os.replace(tmp, path / "profiles.npz")
-    atomic_write_text(path / "summary.json", _json(summary))
+    write_summary(path, summary)
 
 
 def write_failure(path: Path, scene: Scene, summary: dict) -> None:
     """scene.toml and summary.json (status failed); no wave file."""
     write_scene(scene, path / "scene.toml")
-    atomic_write_text(path / "summary.json", _json(summary))
+    write_summary(path, summary)
 
 
 def write_branch(path: Path, rows: list[dict]) -> None:
