@@ -268,7 +268,9 @@ def continue_batch(run_dirs: list[str | Path], until: float,
         kick: perturb every run where it stands by this fraction of its displacement and
             velocity RMS before it goes on (``solver.ensemble_run.BatchColumns.kick``,
             seed ``kick_seed``; its facts in the summary's ``kick``): batch members only,
-            into ``out_dirs`` (the runs themselves are never kicked).
+            into ``out_dirs`` (the runs themselves are never kicked). A kicked run is a new
+            experiment from the kick on: its records (samples, probes) start there, without
+            the history before it, which stays in the run it was kicked from.
         compress: the batch members' samples.npz deflated, else stored (faster to write
             and to read again; ``write_member``).
 
@@ -348,8 +350,14 @@ def _continue_members(plans: list[_Plan], outs: list[Path | None], backend: str,
         BUILT[key] = batch.columns.built
         while len(BUILT) > BUILT_KEEP:
             BUILT.pop(next(iter(BUILT)))
+        states = [p.checkpoint.states[0] for p in plans]
+        befores = [p.before for p in plans]
+        if kick:  # records from the kick on (``continue_batch``): no history copied along
+            states = [dict(s, **{"run/samples": np.int64(0), "run/probe_steps": np.int64(0)})
+                      for s in states]
+            befores = [None] * len(plans)
         try:
-            batch.restore([p.checkpoint.states[0] for p in plans], [p.before for p in plans])
+            batch.restore(states, befores)
         except (KeyError, ValueError) as err:  # checked before: a forgery consistent in itself
             raise ReadError(plans[0].checkpoint.path, f"does not fit the batch built for its "
                             f"scene ({' '.join(str(err).split())[:120]})", DAMAGED_FIX) from None
