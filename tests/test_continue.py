@@ -243,6 +243,38 @@ def test_batch_members_continue_bitwise_as_one_batch(damped, tmp_path):
         _same_summary(json.loads((full / "summary.json").read_text()), summary)
 
 
+def test_a_member_continued_alone_is_bitwise_the_batch_run_and_read_once(tmp_path,
+                                                                          monkeypatch):
+    """`stickslip continue` of one batch member (``continue_run``): the member goes on as a
+    batch of one, which steps with the single-scene kernel, and equals its column of the
+    same batch run straight through, bitwise (damped: w_{n+1} is part of the state). Its
+    samples are read once (the command's plan is the batch's)."""
+    from stickslip.studies.rundir import continuation
+    from stickslip.studies.sweep.schedule import run_sweep
+    from stickslip.studies.sweep.spec import load_sweep
+
+    dirs = {}
+    for end in (T_FULL, T_PART):
+        spec = tmp_path / f"{end}.toml"
+        extra = "".join(f', "{kv.replace("=", " = ")}"' for kv in DAMPED)
+        spec.write_text(BATCH.format(base=SMOKE, end=end, extra=extra))
+        with open(os.devnull, "w") as quiet:
+            assert run_sweep(load_sweep(spec), tmp_path / str(end), comm=MPI.COMM_SELF,
+                             batch="3", stream=quiet, progress="lines") == 0
+        dirs[end] = sorted((tmp_path / str(end) / "runs").iterdir())
+    plans = []
+    plan = continuation.plan_continuation
+    monkeypatch.setattr(continuation, "plan_continuation",
+                        lambda *a, **k: plans.append(a) or plan(*a, **k))
+    summary = continuation.continue_run(dirs[T_PART][1], T_FULL, comm=MPI.COMM_SELF,
+                                        stream=io.StringIO())
+    assert len(plans) == 1 and summary.pop("batch")["size"] == 1
+    _same_files(dirs[T_FULL][1], dirs[T_PART][1])
+    full = json.loads((dirs[T_FULL][1] / "summary.json").read_text())
+    assert full.pop("batch")["size"] == 3  # the one key that says how it ran
+    _same_summary(full, summary)
+
+
 def test_interrupted_continuation_keeps_the_run_as_it_was(tmp_path, monkeypatch):
     """A continuation interrupted in its time loop (KeyboardInterrupt from the loop, as a
     signal's handler raises it) drops its replacement: every file of the run is unchanged

@@ -224,7 +224,7 @@ def continue_run(run_dir: str | Path, until: float, out_dir: str | Path | None =
     plan = _planned(run_dir, until, comm)
     if comm.bcast(plan.kind if plan is not None else None, root=0) == "batch":
         return continue_batch([run_dir], until, None if out_dir is None else [out_dir],
-                              force=force, stream=stream)[0]
+                              force=force, stream=stream, plans=[plan])[0]
     scene = comm.bcast(plan.scene if plan is not None else None, root=0)
     state = comm.scatter(plan.checkpoint.states if plan is not None else None, root=0)
     before = plan.before if plan is not None else None
@@ -253,7 +253,7 @@ def continue_run(run_dir: str | Path, until: float, out_dir: str | Path | None =
 def continue_batch(run_dirs: list[str | Path], until: float,
                    out_dirs: list[str | Path] | None = None, *, force: bool = False,
                    stream=None, kick: float = 0.0, kick_seed: int = 0,
-                   compress: bool = True) -> list[dict]:
+                   compress: bool = True, plans: list[_Plan] | None = None) -> list[dict]:
     """Continue many runs of one rank each to ``until``: the members of batches that share a
     mesh, material, dt, scheme, backend and checkpoint step as one ``Simulation.batch`` (one
     time loop for all of them), single runs one by one (``continue_run``).
@@ -273,6 +273,8 @@ def continue_batch(run_dirs: list[str | Path], until: float,
             the history before it, which stays in the run it was kicked from.
         compress: the batch members' samples.npz deflated, else stored (faster to write
             and to read again; ``write_member``).
+        plans: ``plan_continuation`` of each run, where the caller has made them
+            (``continue_run``): a run's samples are then read once, not twice.
 
     Returns:
         The continued runs' summaries, in the order of ``run_dirs``.
@@ -287,7 +289,8 @@ def continue_batch(run_dirs: list[str | Path], until: float,
     comm = MPI.COMM_SELF
     dirs = [Path(d) for d in run_dirs]
     outs = [None] * len(dirs) if out_dirs is None else [Path(d) for d in out_dirs]
-    plans = [plan_continuation(d, float(until), 1) for d in dirs]
+    if plans is None:
+        plans = [plan_continuation(d, float(until), 1) for d in dirs]
     if kick and out_dirs is None:
         raise ValueError("a kick continues a run into another directory (out_dirs), never "
                          "in place")
