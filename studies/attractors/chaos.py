@@ -41,12 +41,11 @@ stepper is built without a recorder: nothing is written, the start's run is not 
 A one-scene run (not a batch member) is refused: its twin would be a second Simulation,
 not built here.
 
-Not yet in the census: ``classify_at_cap`` is the function its cap step calls; the class
-``chaotic`` in ``classify.CLASSES``, its grouping by these statistics and its report line
-are still to be wired.
-
 ``classify_at_cap(run_dir, window)`` combines both for a start ``unsettled`` at the cap:
-``chaotic`` with λ₁ when both hold, otherwise ``unsettled`` with the reason.
+``chaotic`` with λ₁ when both hold, otherwise ``unsettled`` with the reason. The census
+calls it for every start unsettled at its cap (``census.chaos_shared``, cached in
+``chaos.json``); a ``chaotic`` start is an attractor of class ``chaotic``
+(``classify.CLASSES``), grouped by these statistics and printed with λ₁.
 """
 
 from __future__ import annotations
