@@ -246,7 +246,9 @@ def half_product4(indices, data, u, p, r, end, b0):
 def half_product2(indices, data, u, p, r, end, b0):
     """``half_product4`` for the 2 columns b0, b0 + 1 (the rest of a batch after its
     4-scene passes): the same sequential sums, each (column index, K value) load serving 2
-    scenes. Returns (row i: b0, b0 + 1, row i + 1: b0, b0 + 1)."""
+    scenes. Returns (row i: b0, b0 + 1, row i + 1: b0, b0 + 1). Written out, not a width
+    parameter of ``half_product4``: numba keeps the sums in registers only as named
+    scalars, and two calls of a 2-wide pass would load K twice per 4 scenes."""
     b1 = b0 + U1
     x0 = 0.0
     x1 = 0.0
@@ -482,6 +484,8 @@ def batched_step(indptr, indices, data, u, u_next, v, vp, a, ku, nim,
                         acc[kw + 1, b0 + m] = s1
                     acc[k, b0 + m] = s0 * n0
                     acc[k + 1, b0 + m] = s1 * n1
+            # each pass stores its sums in place: an inlined helper for the three stores
+            # made the 4-scene pass 2x slower at N = 528 (benchmarks/small_batches.py)
             for b0 in range(nb4, nb2, 2):  # then 2 scenes at a time
                 bu = numba.uint64(b0)
                 e2 = half_product2(indices, data, src, a0, a1, a1, bu)

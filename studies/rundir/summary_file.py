@@ -28,7 +28,12 @@ def _plain(value: object) -> object:
     raise TypeError(f"{type(value).__name__} is not JSON serialisable")
 
 
+def json_text(value: object) -> str:
+    """``value`` as stickslip writes its JSON files: indented, numpy values plain."""
+    return json.dumps(value, indent=2, default=_plain)
+
+
 def write_summary(folder: str | Path, summary: dict) -> None:
     """Write ``summary`` as ``folder/summary.json``, atomically (a reader sees the old file
     or the new one, never half of one)."""
-    atomic_write_text(Path(folder) / SUMMARY, json.dumps(summary, indent=2, default=_plain))
+    atomic_write_text(Path(folder) / SUMMARY, json_text(summary))

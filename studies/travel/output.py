@@ -9,7 +9,6 @@ and the violated inequality, and **no** wave file.
 
 from __future__ import annotations
 
-import json
 import os
 import re
 from pathlib import Path
@@ -20,7 +19,7 @@ from stickslip.postprocess.style import MM, MPA, shade_zones, status_handles
 from stickslip.solver.atomic import atomic_write_text
 from stickslip.solver.scene import Scene, write_scene
 from stickslip.studies.rundir.ownership import claim
-from stickslip.studies.rundir.summary_file import write_summary
+from stickslip.studies.rundir.summary_file import json_text, write_summary
 
 __all__ = ["prepare_dir", "write_wave", "write_failure", "write_branch", "plot_profiles",
            "plot_branch"]
@@ -41,17 +40,6 @@ def shown(path: Path) -> Path:
     return Path(*parts)
 
 
-def _json(obj) -> str:
-    def default(o):
-        if isinstance(o, np.generic):
-            return o.item()
-        if isinstance(o, np.ndarray):
-            return o.tolist()
-        raise TypeError(type(o))
-
-    return json.dumps(obj, indent=2, default=default)
-
-
 def write_wave(path: Path, scene: Scene, summary: dict, profiles: dict) -> None:
     """scene.toml, summary.json and profiles.npz (atomic writes)."""
     write_scene(scene, path / "scene.toml")
@@ -69,7 +57,7 @@ def write_failure(path: Path, scene: Scene, summary: dict) -> None:
 
 def write_branch(path: Path, rows: list[dict]) -> None:
     """branch.json and branch.csv of a continuation."""
-    atomic_write_text(path / "branch.json", _json(rows))
+    atomic_write_text(path / "branch.json", json_text(rows))
     keys = ["value", "status", "celerity_m_s", "amplitude_m", "psi1", "psi2", "psi1_subnode",
             "psi2_subnode", "regime", "residual", "violated"]
     lines = [",".join(keys)]
