@@ -76,7 +76,10 @@ STAMP = re.compile(r"@[0-9.]+@")
 
 def run(out: Path) -> int:
     """Every case of ``CASES`` into ``out``; the exit status of each in ``out/status.json``."""
-    out.mkdir(parents=True, exist_ok=False)
+    if out.exists():
+        raise SystemExit(f"error: {out} exists: give a new directory (the runs are never "
+                         "written over an earlier proof)")
+    out.mkdir(parents=True)
     (out / "damped.toml").write_text(Path(DAMPED).read_text())  # the sweep's base, beside it
     (out / "sweep.toml").write_text(SWEEP)
     status = {}
@@ -158,7 +161,13 @@ def main() -> int:
     cmp.add_argument("before", type=Path)
     cmp.add_argument("after", type=Path)
     args = ap.parse_args()
-    return run(args.out) if args.what == "run" else compare(args.before, args.after)
+    if args.what == "compare":
+        for d in (args.before, args.after):
+            if not d.is_dir():
+                raise SystemExit(f"error: {d} is not a directory: give two trees of "
+                                 "`same_bits.py run`")
+        return compare(args.before, args.after)
+    return run(args.out)
 
 
 if __name__ == "__main__":

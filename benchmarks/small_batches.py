@@ -131,6 +131,9 @@ def main() -> None:
     ap.add_argument("--steps", type=int, default=0, help="steps per round (0: 3000 / (N/132)^2)")
     ap.add_argument("--rounds", type=int, default=5)
     args = ap.parse_args()
+    if not args.old.is_file():
+        raise SystemExit(f"error: --old {args.old}: no such file (git show "
+                         "COMMIT:solver/_fused_kernels.py > FILE makes one)")
     old = _old_batched_step(args.old)
     for n in args.n:
         steps = args.steps or max(50, int(3000 / (n / 132) ** 2))
