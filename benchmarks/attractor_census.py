@@ -53,14 +53,17 @@ settle-or-extend and certificates 422.8 s wall (target 600 s; 765.9 CPU s; the t
 396.8 s, certificates 24.3 s of which kicks 16.3 s; every start settled, 8 attractors at
 N = 132 and 4 at N = 264).
 
-The N = 528 rung of a 16-start census (the tutorial point, cap 4 s, certificates and the
-chaos test; target 15 minutes on 2 cores): 41 minutes of wall time on the shared 2-core
-machine (load 3 to 6), about 2000 CPU s over both ranks, so at least 17 minutes on an idle
-one. Where it goes: 13 of 16 starts are unsettled at 0.3, 0.45 and 0.675 s and 10 at
-1.01 s, so every start runs past 1 s (200 000 steps of Δt = 5.07 μs); the starts of two
-members that did not return after their kick are continued to 1.5 s and certified again;
-and each of the 2 starts unsettled at the cap gets a chaos test whose twin runs over the 13
-windows of its last leg (1.3 s of two columns: 414 s for both). The target is not met.
+The N = 528 rung of a 16-start census (cap 4 s, certificates, the chaos test; target 15
+minutes on 2 cores), ``./dev mpirun -n 2 stickslip attractors scenes/figure1_n132_damped.toml
+--starts 16 --meshes 528 -o DIR --yes-i-know`` on the idle machine: the tutorial point in
+12 min 42 s (5.23 M scene-steps), the public point P in 23 min 53 s (8.00 M). P's rung is
+bound by its steps: its multi-wave starts drift for seconds, and its tail legs run one to
+three starts. ``--step-bound LOG --dt DT`` reads the census's printed legs (``settle:
+continuing …``) and sums, leg by leg, the steps of the busier rank at the measured cost of
+a step of its batch (``STEP_US``, N = 528, ``benchmarks/small_batches.py``): a lower bound
+of the time loop on two ranks, before any certificate, overhead or idle rank. For P it is
+949 s (15.8 minutes; 7.999 M scene-steps, as the census counted), and its certificates
+took 177 s more: no schedule of these legs on this kernel reaches 15 minutes there.
 
 ``--samples DIR`` compares, side by side on the starts of a finished census, the CPU time
 of writing each start's samples.npz deflated (``solver.atomic.NPZ_LEVEL``, what a batch
@@ -80,7 +83,9 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
+import re
 import resource
 import subprocess
 import sys
@@ -227,6 +232,55 @@ def spreads(out: Path) -> dict:
     return res
 
 
+#: µs per step of a batch of B columns at N = 528 (damped tutorial scene, this 2-core
+#: machine: ``benchmarks/small_batches.py``, µs per scene-step × B); B between two
+#: measured widths takes the wider one's per-scene cost (smaller: the bound stays a bound).
+STEP_US = {1: 244.0, 2: 2 * 264.0, 3: 3 * 230.0, 4: 4 * 169.0, 8: 8 * 130.0}
+
+
+def step_us(width: int) -> float:
+    """µs per step of a batch of ``width`` columns (``STEP_US``)."""
+    wider = min((b for b in STEP_US if b >= width), default=max(STEP_US))
+    return STEP_US[wider] / wider * width
+
+
+def step_bound(log: Path, dt: float, ranks: int = 2, starts: int = 16) -> dict:
+    """A lower bound of a census's time loop on ``ranks`` ranks from its printed output
+    ``log``: the first leg (``starts`` starts, as many per rank as fit, to the first
+    continuation's start time) and every ``settle: continuing`` leg, each costing the
+    steps of its busier rank at ``step_us`` of that rank's batch. A leg whose starts stand
+    at different times runs one batch per end time: its fewest scene-steps (one start per
+    printed span, the others on the shortest) over the ranks at the cost of a batch of one,
+    the cheapest per column there."""
+    legs = []
+    first_end = None
+    for line in log.read_text().splitlines():
+        m = re.match(r"settle: continuing (\d+) start\(s\).*?\) (.*)$", line)
+        if not m:
+            continue
+        n = int(m.group(1))
+        spans = [(float(a), float(b)) for a, b in re.findall(r"([\d.]+) -> ([\d.]+) s",
+                                                                 m.group(2))]
+        first_end = spans[0][0] if first_end is None else first_end
+        if len(spans) == 1:
+            steps = (spans[0][1] - spans[0][0]) / dt
+            seconds = steps * step_us(math.ceil(n / ranks)) * 1e-6
+            legs.append({"starts": n, "span_s": spans[0], "scene_steps": n * steps,
+                         "bound_s": seconds})
+        else:  # one start on each span, the others on the shortest (the fewest steps)
+            lengths = sorted(b - a for a, b in spans)
+            steps = (sum(lengths) + (n - len(spans)) * lengths[0]) / dt
+            legs.append({"starts": n, "span_s": spans, "scene_steps": steps,
+                         "bound_s": steps / ranks * step_us(1) * 1e-6})
+    if first_end is None:
+        raise SystemExit(f"{log}: no 'settle: continuing' line (a census's printed output)")
+    first = first_end / dt
+    legs.insert(0, {"starts": starts, "span_s": (0.0, first_end), "scene_steps": starts * first,
+                    "bound_s": first * step_us(math.ceil(starts / ranks)) * 1e-6})
+    return {"legs": legs, "scene_steps": sum(g["scene_steps"] for g in legs),
+            "bound_s": sum(g["bound_s"] for g in legs), "step_us": STEP_US, "dt_s": dt}
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--scene", default="figure1_n132_damped")
@@ -243,7 +297,14 @@ def main() -> None:
                     help="CPU time of deflated vs stored samples of a finished census")
     ap.add_argument("--spreads", nargs="+", metavar="DIR",
                     help="print the feature spreads of finished census directories")
+    ap.add_argument("--step-bound", metavar="LOG",
+                    help="the time loop's lower bound from a census's printed output")
+    ap.add_argument("--dt", type=float, default=5.068e-6,
+                    help="the rung's step (s), with --step-bound (default: N = 528's)")
     args = ap.parse_args()
+    if args.step_bound:
+        print(json.dumps(step_bound(Path(args.step_bound), args.dt, args.ranks)))
+        return
     if args.spreads:
         for d in args.spreads:
             print(json.dumps(spreads(Path(d)), indent=1))

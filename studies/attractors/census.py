@@ -87,7 +87,12 @@ from typing import TextIO
 from stickslip.solver.atomic import atomic_write_text
 from stickslip.solver.scene import Scene, SceneError, load_scene, scene_to_dict, write_scene
 from stickslip.studies.attractors.certify import certify_member, failures, kick_members
-from stickslip.studies.attractors.chaos import classify_at_cap
+from stickslip.studies.attractors.chaos import (
+    Pair,
+    classify_at_cap,
+    statistics_verdict,
+    with_lyapunov,
+)
 from stickslip.studies.attractors.classify import (
     CELERITY_TOL,
     SETTLED,
@@ -493,34 +498,84 @@ def chaos_due(out_dir: Path) -> list[dict]:
     return due
 
 
-def _chaos_tests(out_dir: Path, due: list[dict]) -> dict:
+def _chaos_tests(out_dir: Path, due: list[dict], comm=None) -> dict:  # noqa: ANN001
     """{chaos.json key: ``chaos.classify_at_cap`` of the start, its series left out}; a start
-    whose test raises gets class ``unsettled`` with the error as its reason."""
+    whose test raises gets class ``unsettled`` with the error as its reason. An item with a
+    ``partner`` (``twin_shares``) has stationary statistics (its ``verdict``) and takes its
+    λ₁ on this rank and its partner's of ``comm`` together (``chaos.SplitTwin``); only the
+    reference's rank (role 0) reports it."""
     window = float(read_meta(out_dir)["window_s"])
     found = {}
     for item in due:
+        paired = "partner" in item
         try:
-            verdict = classify_at_cap(item["run_dir"], window)
+            if "verdict" in item:  # its statistics taken (``chaos_shared``): λ₁ only
+                pair = Pair(comm, item["partner"], item["role"]) if paired else None
+                verdict = with_lyapunov(item["verdict"], item["run_dir"], window,
+                                        item["windows"], pair=pair)
+            else:
+                verdict = classify_at_cap(item["run_dir"], window)
         except (OSError, ValueError, KeyError) as err:
-            verdict = {"class": "unsettled", "why": [f"chaos test failed: {err}"],
-                       "stationarity": None, "lyapunov": None}
-        found[item["key"]] = verdict
+            verdict = _failed_test(err, item.get("verdict"))
+        if not paired or item["role"] == 0:
+            found[item["key"]] = verdict
     return found
+
+
+def _failed_test(err: BaseException, verdict: dict | None = None) -> dict:
+    """The verdict of a start whose chaos test raised: ``unsettled``, with the error."""
+    return {"class": "unsettled", "why": [f"chaos test failed: {err}"],
+            "stationarity": (verdict or {}).get("stationarity"), "lyapunov": None}
+
+
+def twin_shares(tests: list[dict], ranks: int) -> list[list[dict]]:
+    """The λ₁ tests shared over ``ranks``: each on a pair of ranks (2i, 2i + 1; the
+    reference on the first, the twin on the second: ``chaos.SplitTwin``, twice as fast)
+    while there are ranks for every test to have two, otherwise one rank each
+    (``balanced_shares``): a census's tail has the others idle by then."""
+    if not 0 < 2 * len(tests) <= ranks:
+        return balanced_shares(tests, ranks)
+    shares: list[list[dict]] = [[] for _ in range(ranks)]
+    for i, test in enumerate(tests):
+        for role in (0, 1):
+            shares[2 * i + role].append(dict(test, partner=2 * i + 1 - role, role=role))
+    return shares
 
 
 def chaos_shared(out_dir: Path, comm) -> bool:  # noqa: ANN001
     """Collective: the chaos test (``chaos.classify_at_cap``: stationary statistics over
     the last leg's windows, then Benettin's λ₁ from a twin column) of every start unsettled
-    at the cap not yet in ``chaos.json``, shared over the ranks by cost; rank 0 tests what
-    a rank could not and writes the file. Returns whether a rank was interrupted."""
+    at the cap not yet in ``chaos.json``. Rank 0 takes the statistics of each (reading its
+    samples) and writes the verdicts of those that drift; the λ₁ tests of the others are
+    shared over the ranks (``twin_shares``). Rank 0 tests what a rank could not and writes
+    the file. Returns whether a rank was interrupted."""
     def merge(parts: list[dict]) -> None:
         merge_into_cache(out_dir / CHAOS, parts)
 
     def plan() -> list[list[dict]] | None:
-        due = chaos_due(out_dir)
-        return balanced_shares(due, comm.size) if due else None
+        try:
+            window = float(read_meta(out_dir)["window_s"])
+            due = chaos_due(out_dir)
+        except (OSError, ValueError, KeyError):  # rank 0's own pass below says why
+            return None
+        drifting, tests = {}, []
+        for item in due:
+            try:
+                verdict, windows = statistics_verdict(item["run_dir"], window)
+            except (OSError, ValueError, KeyError) as err:
+                verdict, windows = _failed_test(err), 0
+            if verdict["stationarity"] and verdict["stationarity"]["stationary"]:
+                tests.append(dict(item, verdict=verdict, windows=windows))
+            else:
+                drifting[item["key"]] = verdict
+        try:
+            if drifting:
+                merge([drifting])
+        except (OSError, ValueError):  # left due: rank 0's own pass below tests them again
+            pass
+        return twin_shares(tests, comm.size) if tests else None
 
-    interrupted = on_ranks(comm, plan, lambda share: _chaos_tests(out_dir, share), merge)
+    interrupted = on_ranks(comm, plan, lambda share: _chaos_tests(out_dir, share, comm), merge)
     if comm.rank == 0 and not interrupted:
         try:
             left = chaos_due(out_dir)

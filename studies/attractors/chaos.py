@@ -39,7 +39,9 @@ w = u + τ v~) to column 0's plus the factor times the difference and restores b
 columns (``BatchedExplicit.state``, ``restore``: the batch's own checkpoint API). The
 stepper is built without a recorder: nothing is written, the start's run is not touched.
 A one-scene run (not a batch member) is refused: its twin would be a second Simulation,
-not built here.
+not built here. Where a census has a rank to spare, the two columns run on two ranks
+(``SplitTwin``: a batch of one each, the reference's state sent to the twin's rank every
+τ), with the same bits in half the time.
 
 ``classify_at_cap(run_dir, window)`` combines both for a start ``unsettled`` at the cap:
 ``chaotic`` with λ₁ when both hold, otherwise ``unsettled`` with the reason. The census
@@ -64,6 +66,7 @@ from stickslip.solver.ensemble_run import BatchColumns, BatchOptions
 from stickslip.solver.run import Profile
 from stickslip.studies.attractors.features import leg_window_ends
 from stickslip.studies.rundir.continuation import plan_continuation
+from stickslip.studies.rundir.signals import deferred_signals
 
 D0 = 1e-8  # the twin's relative distance, kept by renormalisation
 DRIFT_TOL = 0.5  # a stationary mean moves by at most this many pooled standard deviations
@@ -192,38 +195,76 @@ def benettin(twin: Twin, tau: float, intervals: int, *, d0: float = D0, discard:
 # ---------------------------------------------------------------- the FE twin
 
 
+def restored_batch(run_dir: str | Path, width: int) -> tuple[BatchColumns, object]:
+    """A census start's checkpoint restored into each of ``width`` columns of one batched
+    stepper built without a recorder (nothing is written, the start's run is not touched),
+    stepping without diagnostics (the state is the same bits): (its columns, the stepper).
+    A one-scene run (not a batch member) is refused with ValueError."""
+    run_dir = Path(run_dir)
+    t_ck = float(json.loads((run_dir / "summary.json").read_text())["sim_time_s"])
+    plan = plan_continuation(run_dir, t_ck + 1.0, 1)
+    if plan.kind != "batch":
+        raise ValueError(f"{run_dir}: not a batch member's checkpoint (a census start)")
+    scene = plan.scene
+    cols = BatchColumns([scene] * width, Profile(), BatchOptions(build=False, resumed=True))
+    law = ContactLaw.from_scene(scene, cols.dt)
+    st = cols.scheme.build_batch(cols.layout.problem, [law] * width, "cpu",
+                                 scene.damping.tau)
+    st.full_state_at = lambda level: False
+    n = cols.layout.problem.n
+    st.set_state(np.zeros((n, width)), np.zeros((n, width)))
+    head = "stepper/"
+    state = {k[len(head):]: v for k, v in plan.checkpoint.states[0].items()
+             if k.startswith(head)}
+    st.restore([dict(state) for _ in range(width)])
+    return cols, st
+
+
+def rms(x: np.ndarray) -> float:
+    return float(np.sqrt(np.mean(x**2)))
+
+
+def twin_kick(cols: BatchColumns, U: float, V: float, d0: float, seed: int
+              ) -> tuple[np.ndarray, np.ndarray]:
+    """(δu, δv) of the twin: the random start's radial bumps of seeds ``seed`` and
+    ``seed + 1``, scaled to ``d0`` × the reference's RMS displacement ``U`` and velocity
+    ``V`` (module docstring)."""
+    kicks = []
+    for scale, s in ((U, seed), (V, seed + 1)):
+        shape = cols.problem.radial_field(random_bump(s, BUMP_MODES, 1.0))
+        kicks.append(d0 * scale / rms(shape) * shape)
+    return kicks[0], kicks[1]
+
+
+def twin_distance(ref: tuple[np.ndarray, np.ndarray], twin: tuple[np.ndarray, np.ndarray],
+                  U: float, V: float) -> float:
+    """√((‖δu‖²/U² + ‖δv~‖²/V²)/2) between (u, v~) of the twin and of the reference, ‖·‖ the
+    RMS over the dofs."""
+    du, dv = twin[0] - ref[0], twin[1] - ref[1]
+    return math.sqrt(0.5 * (float(np.mean(du**2)) / U**2 + float(np.mean(dv**2)) / V**2))
+
+
+def pulled_back(ref: dict[str, np.ndarray], twin: dict[str, np.ndarray], factor: float
+                ) -> dict[str, np.ndarray]:
+    """The twin's checkpoint moved to the reference's + ``factor`` × the difference in every
+    float array (the clock and the kernel's name stay)."""
+    out = dict(twin)
+    for name, value in twin.items():
+        if np.ndim(value) and np.issubdtype(np.asarray(value).dtype, np.floating):
+            out[name] = ref[name] + factor * (value - ref[name])
+    return out
+
+
 class BatchTwin:
     """A start's checkpoint as a batch of two columns: the reference and its twin (module
     docstring). Built from a run directory that a batch wrote (a census start)."""
 
     def __init__(self, run_dir: str | Path, d0: float = D0, seed: int = TWIN_SEED) -> None:
-        run_dir = Path(run_dir)
-        t_ck = float(json.loads((run_dir / "summary.json").read_text())["sim_time_s"])
-        plan = plan_continuation(run_dir, t_ck + 1.0, 1)
-        if plan.kind != "batch":
-            raise ValueError(f"{run_dir}: not a batch member's checkpoint (a census start)")
-        scene = plan.scene
-        cols = BatchColumns([scene, scene], Profile(),
-                            BatchOptions(build=False, resumed=True))
-        law = ContactLaw.from_scene(scene, cols.dt)
-        st = cols.scheme.build_batch(cols.layout.problem, [law, law], "cpu",
-                                     scene.damping.tau)
-        st.full_state_at = lambda level: False  # no diagnostics: the state is the same bits
-        n = cols.layout.problem.n
-        st.set_state(np.zeros((n, 2)), np.zeros((n, 2)))
-        head = "stepper/"
-        state = {k[len(head):]: v for k, v in plan.checkpoint.states[0].items()
-                 if k.startswith(head)}
-        st.restore([state, dict(state)])
+        cols, st = restored_batch(run_dir, 2)
         self.stepper, self.dt, self.t0 = st, float(cols.dt), float(st.time)
-        u, v = st.host_column("u", 0), st.host_column("v_pred", 0)
-        self.U = float(np.sqrt(np.mean(u**2)))
-        self.V = float(np.sqrt(np.mean(v**2)))
-        kicks = []
-        for scale, s in ((self.U, seed), (self.V, seed + 1)):
-            shape = cols.problem.radial_field(random_bump(s, BUMP_MODES, 1.0))
-            kicks.append(d0 * scale / float(np.sqrt(np.mean(shape**2))) * shape)
-        st.kick(1, kicks[0], kicks[1])
+        self.U = rms(st.host_column("u", 0))
+        self.V = rms(st.host_column("v_pred", 0))
+        st.kick(1, *twin_kick(cols, self.U, self.V, d0, seed))
 
     def advance(self, duration: float) -> float:
         steps = max(1, int(round(duration / self.dt)))
@@ -231,32 +272,121 @@ class BatchTwin:
             self.stepper.step()
         return steps * self.dt
 
+    def _column(self, b: int) -> tuple[np.ndarray, np.ndarray]:
+        return self.stepper.host_column("u", b), self.stepper.host_column("v_pred", b)
+
     def distance(self) -> float:
-        st = self.stepper
-        du = st.host_column("u", 1) - st.host_column("u", 0)
-        dv = st.host_column("v_pred", 1) - st.host_column("v_pred", 0)
-        return math.sqrt(0.5 * (float(np.mean(du**2)) / self.U**2
-                                + float(np.mean(dv**2)) / self.V**2))
+        return twin_distance(self._column(0), self._column(1), self.U, self.V)
 
     def rescale(self, factor: float) -> None:
         """Column 1's checkpoint moved to column 0's + ``factor`` × the difference in every
         float array, and both restored (``BatchedExplicit.state`` / ``restore``)."""
         st = self.stepper
         host = st.host_state()
-        ref, twin = st.state(0, host), st.state(1, host)
-        for name, value in twin.items():
-            if np.ndim(value) and np.issubdtype(np.asarray(value).dtype, np.floating):
-                twin[name] = ref[name] + factor * (value - ref[name])
-        st.restore([ref, twin])
+        ref = st.state(0, host)
+        st.restore([ref, pulled_back(ref, st.state(1, host), factor)])
+
+
+@dataclass(frozen=True)
+class Pair:
+    """Two ranks of ``comm`` that share one twin test (``SplitTwin``): this rank's
+    ``role`` (0 steps the reference, 1 the twin) and its ``partner``'s rank."""
+
+    comm: object
+    partner: int
+    role: int
+
+
+class TwinStopped(ValueError):
+    """A paired twin test ended early on both ranks: one of them failed (its reason)."""
+
+
+class SplitTwin:
+    """``BatchTwin``'s two columns on the two ranks of a ``Pair``, each a batch of one: the
+    same bits (the one-column kernel sums in the batched kernels' order, tests/test_chaos.py),
+    in about half the time. Every ``tau`` the reference's rank sends its checkpoint to the
+    twin's (one exchange), which measures the distance, sends it back (a second) and pulls
+    itself back. Both ranks meet at every exchange whatever happens: a rank whose step
+    raised sends its reason instead and both raise ``TwinStopped``; a signal is recorded
+    (``run_lyapunov``), sent as a stop, and both raise KeyboardInterrupt. So neither rank
+    waits for a partner that has left."""
+
+    def __init__(self, run_dir: str | Path, pair: Pair, signals: list[int], d0: float = D0,
+                 seed: int = TWIN_SEED) -> None:
+        self.pair = pair
+        self.signals = signals  # SIGINT/SIGTERM/SIGHUP that came, recorded (``fe_lyapunov``)
+        self.failure = ""
+        self.ref: dict[str, np.ndarray] | None = None
+        try:
+            cols, st = restored_batch(run_dir, 1)
+            self.stepper, self.dt = st, float(cols.dt)
+            self.U = rms(st.host_column("u", 0))
+            self.V = rms(st.host_column("v_pred", 0))
+            if pair.role == 1:
+                st.kick(0, *twin_kick(cols, self.U, self.V, d0, seed))
+        except Exception as err:  # noqa: BLE001 - said to the partner at once
+            self.failure, self.dt = f"{type(err).__name__}: {err}", math.nan
+        self._exchange(None)  # both built, or both stop here
+
+    def advance(self, duration: float) -> float:
+        steps = max(1, int(round(duration / self.dt)))
+        if not self.failure:
+            try:
+                for _ in range(steps):
+                    self.stepper.step()
+            except Exception as err:  # noqa: BLE001 - said to the partner at the exchange
+                self.failure = f"{type(err).__name__}: {err}"
+        return steps * self.dt
+
+    def _exchange(self, payload: object) -> object:
+        """``payload`` to the partner, the partner's back; both ranks stop together where
+        either failed or received a signal."""
+        mine = ("failed", self.failure) if self.failure else \
+            ("interrupted", "") if self.signals else ("ok", payload)
+        pair = self.pair
+        kind, theirs = pair.comm.sendrecv(mine, dest=pair.partner, source=pair.partner)
+        if "interrupted" in (mine[0], kind):
+            raise KeyboardInterrupt
+        for (what, why), rank in ((mine, pair.comm.rank), ((kind, theirs), pair.partner)):
+            if what == "failed":
+                raise TwinStopped(f"the twin test failed on rank {rank}: {why}")
+        return theirs
+
+    def distance(self) -> float:
+        st, twin = self.stepper, self.pair.role == 1
+        ref = self._exchange(None if twin else st.state(0))
+        d = None
+        if twin:
+            self.ref = ref
+            d = twin_distance((ref["u"], ref["v_pred"]),
+                              (st.host_column("u", 0), st.host_column("v_pred", 0)),
+                              self.U, self.V)
+        back = self._exchange(d)
+        return float(d if twin else back)
+
+    def rescale(self, factor: float) -> None:
+        """The twin's rank: its checkpoint moved to the reference's + ``factor`` × the
+        difference (as ``BatchTwin.rescale``); the reference's rank: nothing."""
+        if self.pair.role == 1:
+            self.stepper.restore([pulled_back(self.ref, self.stepper.state(0), factor)])
 
 
 def fe_lyapunov(run_dir: str | Path, duration: float, tau: float, *, discard: int = 10,
-                blocks: int = 10) -> Lyapunov:
+                blocks: int = 10, pair: Pair | None = None) -> Lyapunov:
     """λ₁ of a census start where its checkpoint stands, over ``duration`` s of twin steps
-    renormalised every ``tau`` s."""
-    twin = BatchTwin(run_dir)
+    renormalised every ``tau`` s: on this rank (``BatchTwin``), or with ``pair`` on two
+    ranks (``SplitTwin``; both call it and get the same exponent, bitwise that of one rank).
+    A paired test records SIGINT/SIGTERM/SIGHUP while it runs (``deferred_signals``) and
+    both ranks stop at the next exchange with KeyboardInterrupt."""
     intervals = max(discard + 2 * blocks, int(round(duration / tau)))
-    return benettin(twin, tau, intervals, discard=discard, blocks=blocks)
+    if pair is None:
+        return benettin(BatchTwin(run_dir), tau, intervals, discard=discard, blocks=blocks)
+    with deferred_signals() as came:
+        twin = SplitTwin(run_dir, pair, came)
+        lyap = benettin(twin, tau, intervals, discard=discard, blocks=blocks)
+        if came:  # a signal after the last exchange
+            raise KeyboardInterrupt
+    return lyap
 
 
 def verdict_text(verdict: dict) -> str:
@@ -274,13 +404,12 @@ def verdict_text(verdict: dict) -> str:
     return "; ".join(verdict.get("why") or ())
 
 
-def classify_at_cap(run_dir: str | Path, window: float, *, t_first: float = 0.0,
-                    duration: float | None = None, tau: float | None = None) -> dict:
-    """A start ``unsettled`` at the cap: ``chaotic`` when its statistics are stationary
-    across the windows of its last leg and λ₁ > 0 beyond its error, else ``unsettled``
-    (module docstring). ``duration`` of the twin run: default the leg's windows together
-    (at least 30 τ); ``tau``: default W/20. Returns {"class", "why", "stationarity",
-    "lyapunov"} (the exponent only when the statistics are stationary)."""
+def statistics_verdict(run_dir: str | Path, window: float, *, t_first: float = 0.0
+                       ) -> tuple[dict, int]:
+    """The first half of ``classify_at_cap``: the stationarity of the start's statistics
+    over the windows of its last leg, as its verdict {"class": "unsettled", "why",
+    "stationarity", "lyapunov": None} (``why`` filled when they are not stationary), and
+    the number of those windows."""
     run_dir = Path(run_dir)
     with np.load(run_dir / "samples.npz") as z:
         samples = {k: z[k] for k in ("t", "u_r", "status") if k in z.files}
@@ -290,10 +419,19 @@ def classify_at_cap(run_dir: str | Path, window: float, *, t_first: float = 0.0,
     out = {"class": "unsettled", "why": [], "stationarity": stat, "lyapunov": None}
     if not stat["stationary"]:
         out["why"] = ["statistics not stationary: " + "; ".join(stat["why"])]
-        return out
+    return out, len(ends)
+
+
+def with_lyapunov(verdict: dict, run_dir: str | Path, window: float, windows: int, *,
+                  duration: float | None = None, tau: float | None = None,
+                  pair: Pair | None = None) -> dict:
+    """The second half of ``classify_at_cap``: the ``verdict`` of a start with stationary
+    statistics over ``windows`` windows completed by λ₁ (``fe_lyapunov``, with ``pair`` on
+    two ranks): ``chaotic`` when λ₁ > 0 beyond its error, else ``unsettled`` and why."""
+    out = dict(verdict)
     tau = window / 20.0 if tau is None else tau
-    duration = max(30 * tau, len(ends) * window) if duration is None else duration
-    lyap = fe_lyapunov(run_dir, duration, tau)
+    duration = max(30 * tau, windows * window) if duration is None else duration
+    lyap = fe_lyapunov(run_dir, duration, tau, pair=pair)
     out["lyapunov"] = lyap.to_dict()
     if lyap.positive:
         out["class"] = "chaotic"
@@ -301,3 +439,16 @@ def classify_at_cap(run_dir: str | Path, window: float, *, t_first: float = 0.0,
         out["why"] = [f"lambda1 = {lyap.exponent:.4g} +- {lyap.error:.2g} 1/s: not > 0 "
                       "beyond its error"]
     return out
+
+
+def classify_at_cap(run_dir: str | Path, window: float, *, t_first: float = 0.0,
+                    duration: float | None = None, tau: float | None = None) -> dict:
+    """A start ``unsettled`` at the cap: ``chaotic`` when its statistics are stationary
+    across the windows of its last leg and λ₁ > 0 beyond its error, else ``unsettled``
+    (module docstring). ``duration`` of the twin run: default the leg's windows together
+    (at least 30 τ); ``tau``: default W/20. Returns {"class", "why", "stationarity",
+    "lyapunov"} (the exponent only when the statistics are stationary)."""
+    verdict, windows = statistics_verdict(run_dir, window, t_first=t_first)
+    if not verdict["stationarity"]["stationary"]:
+        return verdict
+    return with_lyapunov(verdict, run_dir, window, windows, duration=duration, tau=tau)

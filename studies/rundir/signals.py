@@ -3,10 +3,12 @@ rescue writer under mpirun."""
 
 from __future__ import annotations
 
+import contextlib
 import os
 import signal
 import threading
 import time
+from collections.abc import Iterator
 
 from stickslip.solver import keep_signals_for_python
 from stickslip.studies.output import output_root, process_alive  # noqa: F401  (re-exported)
@@ -244,3 +246,24 @@ def _fork(fn, new_session: bool = True, close: tuple[int, ...] = ()) -> int:  # 
         code = 0
     finally:
         os._exit(code)
+
+
+@contextlib.contextmanager
+def deferred_signals() -> Iterator[list[int]]:
+    """SIGINT, SIGTERM and SIGHUP inside the block: recorded in the yielded list, not raised,
+    so that work which must not stop midway ends whole: a batch's member files (a signal
+    midway would leave the later members ``running``, their samples lost), or two ranks
+    stepping a paired twin (one rank leaving the pair would leave the other waiting); the
+    caller honours them after the block. Outside the main thread nothing is recorded (no
+    handler can be set there)."""
+    came: list[int] = []
+    if threading.current_thread() is not threading.main_thread():
+        yield came
+        return
+    names = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+    previous = {s: signal.signal(s, lambda signum, frame: came.append(signum)) for s in names}
+    try:
+        yield came
+    finally:
+        for s, handler in previous.items():
+            signal.signal(s, handler)

@@ -21,12 +21,9 @@ of more than one rank per scene and groups of a single scene.
 
 from __future__ import annotations
 
-import contextlib
 import math
 import os
 import shutil
-import signal
-import threading
 import time
 import traceback
 from pathlib import Path
@@ -44,6 +41,7 @@ from stickslip.studies.rundir import (
     write_member,
 )
 from stickslip.studies.rundir.ownership import refusal
+from stickslip.studies.rundir.signals import deferred_signals
 from stickslip.studies.rundir.summary_file import write_summary
 from stickslip.studies.sweep.spec import SweepSpec, Task, scene_for
 from stickslip.studies.sweep.table import check_recorded
@@ -135,7 +133,7 @@ def run_batch(spec: SweepSpec, tasks: list[Task], out_dir: Path, world_rank: int
             statuses.update(zip((t.id for t in mine), done, strict=True))
         return [statuses[t.id] for t in tasks]
     logs, claims, started = [], [], []
-    with _deferred_signals() as early:  # every member marked running (or failed), or none
+    with deferred_signals() as early:  # every member marked running (or failed), or none
         for t in tasks:
             if _start_member(spec, t, len(tasks), out_dir, world_rank, backend, logs, claims,
                              failures):
@@ -174,7 +172,7 @@ def _run_started(spec: SweepSpec, tasks: list[Task], logs: list, claims: list, t
             if batch is None or batch.runs[k].status == "running" or k in batch.live:
                 files.fail(k, err)
         batch = None
-    with profile.phase("output"), _deferred_signals() as came:
+    with profile.phase("output"), deferred_signals() as came:
         if batch is not None:
             files.write_runs(batch, interrupted, profile)
         elif interrupted:
@@ -224,24 +222,6 @@ def _start_member(spec: SweepSpec, task: Task, size: int, out_dir: Path, world_r
     claims.append(claim)
     logs.append(log)
     return True
-
-
-@contextlib.contextmanager
-def _deferred_signals():  # noqa: ANN202
-    """SIGINT, SIGTERM and SIGHUP while the members' files are written: recorded in the
-    yielded list, not raised (one raised midway left the later members ``running``, their
-    samples lost); the caller honours them once every member is saved."""
-    came: list[int] = []
-    if threading.current_thread() is not threading.main_thread():
-        yield came
-        return
-    names = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
-    previous = {s: signal.signal(s, lambda signum, frame: came.append(signum)) for s in names}
-    try:
-        yield came
-    finally:
-        for s, handler in previous.items():
-            signal.signal(s, handler)
 
 
 def _claimable(tasks: list[Task], out_dir: Path, stream: TextIO | None) -> list[Task]:
