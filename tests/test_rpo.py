@@ -243,3 +243,21 @@ def test_rpo_output_never_overwrites_a_run_and_replaces_only_with_force(census_s
     assert main([*args, "-o", str(orbit)]) == 2
     assert "--force" in capsys.readouterr().err
     assert main([*args, "-o", str(orbit), "--force"]) == 1
+
+
+def test_the_guess_takes_a_given_period_and_shift_without_a_second_generator():
+    """With --period and --shift both given, a start on a rigid wave (one generator, as
+    its census member lists it) is an RPO guess like any other; with only one of them a
+    second generator is needed and its absence is said. The issue's two-wave example,
+    (6, −927.26 Hz) and (10, −990.96 Hz), has the frame frequency 554.47 Hz."""
+    from stickslip.studies.rpo.certificate import orbit_guess
+
+    one = [{"k": 11, "frequency_hz": -1638.4}]
+    assert orbit_guess(one, 1e-4, -0.1) == (1e-4, -0.1)
+    with pytest.raises(ValueError, match="1 generator"):
+        orbit_guess(one, 1e-4, None)
+    two = [{"k": 6, "frequency_hz": -927.26}, {"k": 10, "frequency_hz": -990.96}]
+    period, shift = orbit_guess(two)
+    assert period == pytest.approx(1 / 554.47, rel=1e-5)
+    assert shift == pytest.approx(2 * math.pi * -927.26 * period / 6, rel=1e-12)
+    assert orbit_guess(two, 2e-3) == (2e-3, shift)

@@ -36,8 +36,8 @@ from stickslip.studies.rpo.floquet import floquet_multipliers
 from stickslip.studies.rpo.newton import newton_krylov_hookstep
 from stickslip.studies.rpo.orbit import Guess, OrbitProblem, start_from_run
 
-__all__ = ["period_and_shift", "rpo_certificate", "orbit_samples", "orbit_components",
-           "solve_orbit"]
+__all__ = ["period_and_shift", "orbit_guess", "rpo_certificate", "orbit_samples",
+           "orbit_components", "solve_orbit"]
 
 SHARE_LISTED = 0.10  #: an orbit line is listed from this share of the largest
 
@@ -53,6 +53,17 @@ def period_and_shift(generators: list[dict]) -> tuple[float, float]:
         raise ValueError("the second generator does not move in the first one's frame")
     period = 1.0 / abs(f_frame)
     return period, 2.0 * math.pi * f1 * period / g1["k"]
+
+
+def orbit_guess(generators: list[dict], period: float | None = None,
+                shift: float | None = None) -> tuple[float, float]:
+    """(T s, s rad) to start Newton from: ``period`` and ``shift`` where given, the rest
+    from the two ``generators`` (``period_and_shift``). With both given the generators are
+    not read: a rigid wave (one generator) is an RPO for any T with s = ωT."""
+    if period is not None and shift is not None:
+        return period, shift
+    guess_t, guess_s = period_and_shift(generators)
+    return (period or guess_t), (guess_s if shift is None else shift)
 
 
 def orbit_samples(problem: OrbitProblem, guess: Guess) -> dict[str, np.ndarray]:
@@ -148,15 +159,14 @@ def rpo_certificate(run_dir: str | Path, generators: list[dict], *,
                     floquet: int = 12, orbit_dir: str | Path | None = None,
                     log=None) -> dict:
     """The RPO of the state where ``run_dir``'s checkpoint stands, started from the
-    ``generators`` (dicts with k, frequency_hz; ``period``/``shift`` override the guess).
+    ``generators`` (dicts with k, frequency_hz; ``period``/``shift`` override the guess, and
+    with both given the generators may be one: a rigid wave as an RPO).
     Returns {converged, residual, iterations, period_s, shift_rad, floquet (leading moduli),
     stable, components (the orbit's lines), differences (each of ``components``, default
     the generators, against the orbit's line), history, guess, defect, wall_s, ...}.
     ``orbit_dir``: one period of samples written there as samples.npz (a run's layout)."""
     t0 = time.perf_counter()
-    guess_t, guess_s = period_and_shift(generators) if generators else (period, shift)
-    guess_t = period or guess_t
-    guess_s = guess_s if shift is None else shift
+    guess_t, guess_s = orbit_guess(generators, period, shift)
     problem = OrbitProblem(start_from_run(run_dir), guess_t, guess_s)
     r0 = float(np.linalg.norm(problem.residual(problem.guess)))
     defect = commutation_defect(problem, problem.guess)
