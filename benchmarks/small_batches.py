@@ -10,7 +10,8 @@ process, interleaved (this VM's timings drift by up to 1.5x between runs)::
 Per N (the damped tutorial scene, ``figure1_n132_damped``) and B it prints microseconds per
 scene-step (lean steps, as a leg runs between samples) of:
 
-* ``alone``: the single-scene stepper ``FusedNewmark`` (``time.kernel = "numba"``), B = 1;
+* ``alone``: the single-scene stepper ``SceneExplicit`` (``time.kernel = "numba"``, a batch
+  of one seen as one scene), B = 1;
 * ``today``: ``BatchedExplicit`` with the kernel ``batched_kernel_name`` picks (a batch of
   one runs ``single_step``; the rest of a batch after its 4-scene register passes runs in
   2-scene passes, then one alone);

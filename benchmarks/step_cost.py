@@ -11,7 +11,7 @@ step): loop/bare <= 1.3 at N = 132 and <= 1.1 at N >= 528. One process, one core
 ``--kernel numpy numba`` (one or more of numpy, numba, auto; ``time.kernel``, solver/fused.py)
 gives one row per kernel, side by side; the first steps are taken before timing and their
 wall time (numba compiles or loads its on-disk cache) printed. With the fused kernel on one
-rank the loop advances between two samples in one compiled call (``FusedNewmark.advance``).
+rank the loop advances between two samples in one compiled call (``SceneExplicit.advance``).
 """
 
 from __future__ import annotations

@@ -850,8 +850,8 @@ def record_sample(i, t_n, u, v, ku, mass, node_x, perm, r_r, r_t, status,
     by e^{-i theta} later with numpy's complex multiply, so that every polar value has the
     bits of the step-by-step path), the contact forces and statuses taken through
     ``perm``; energies = (kinetic, strain, work_contact, work_cylinder,
-    friction_dissipation, damping_work: W_d of ``solver.fused.FusedDampingWork``, 0 for an
-    undamped step). A damped step passes ``ku`` = K u_n (``FusedNewmark.refresh_ku``).
+    friction_dissipation, damping_work: W_d of ``solver.scene_explicit.ColumnDampingWork``, 0
+    for an undamped step). A damped step passes ``ku`` = K u_n (``SceneExplicit.refresh_ku``).
     """
     kin = 0.0
     for k in range(v.size):

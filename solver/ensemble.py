@@ -89,20 +89,34 @@ class BatchedProblem:
         self.indices = np.ascontiguousarray(self.indices, dtype=np.uint32)
         self.cx = np.ascontiguousarray(self.cx, dtype=np.uint32)
         self.extra = {k: v for k, v in arrays.items() if k not in self.FIELDS}
+        #: global indices of K's columns past the owned rows (a scene distributed over MPI
+        #: ranks, ``from_problem(distributed=True)``), which u and w hold after their owned
+        #: rows; none on one rank
+        self.ghosts = np.zeros(0, dtype=np.int64)
 
     @property
     def n(self) -> int:
         return int(self.inv_mass.size)
 
+    @property
+    def n_local(self) -> int:
+        """Rows of u and w: the owned dofs, then the ghosts."""
+        return self.n + int(self.ghosts.size)
+
     @classmethod
-    def from_problem(cls, problem, dt: float, beta2: float) -> BatchedProblem:
-        if problem.comm.size != 1:
+    def from_problem(cls, problem, dt: float, beta2: float,
+                     distributed: bool = False) -> BatchedProblem:
+        """The arrays of a dolfinx ``TubeProblem`` on one rank, or with ``distributed`` this
+        rank's part of one scene spread over the ranks of ``problem.comm`` (``ghosts``)."""
+        if problem.comm.size != 1 and not distributed:
             raise ValueError("a batch runs on one rank (group_size = 1)")
-        indptr, indices, data, _ = local_csr(problem)
+        indptr, indices, data, ghosts = local_csr(problem)
         nd = problem.nodes
-        return cls(indptr=indptr, indices=indices, data=data, mass=problem.mass,
-                   inv_mass=problem.inv_mass, cx=nd.dofs_x, theta=nd.theta,
-                   cmass=problem.mass[nd.dofs_x], dt=dt, beta2=beta2)
+        bp = cls(indptr=indptr, indices=indices, data=data, mass=problem.mass,
+                 inv_mass=problem.inv_mass, cx=nd.dofs_x, theta=nd.theta,
+                 cmass=problem.mass[nd.dofs_x], dt=dt, beta2=beta2)
+        bp.ghosts = np.asarray(ghosts, dtype=np.int64)
+        return bp
 
     def save(self, path, **extra: np.ndarray) -> None:
         np.savez(path, **{k: getattr(self, k) for k in self.FIELDS}, **extra)
@@ -136,16 +150,32 @@ class BatchedExplicit(HookedStepper):
 
     def __init__(self, bp: BatchedProblem, d: np.ndarray, slide: np.ndarray, f: np.ndarray,
                  xp: Any = np, kernel: str = "numba", tau: float = 0.0,
-                 bound: tuple[int, float, float] = (0, 0.0, 0.0)) -> None:
+                 bound: tuple[int, float, float] = (0, 0.0, 0.0),
+                 contact: dict[str, np.ndarray] | None = None,
+                 ghost_update: Callable[[np.ndarray], None] | None = None) -> None:
         columns = self._checked_kernel(kernel, xp, tau, bound)
         self.xp, self.kernel, self.bp = xp, kernel, bp
         n, B, m = bp.n, int(np.size(d)), int(bp.cx.size)
         self.B, self.n, self.m = B, n, m
+        if bp.ghosts.size and not (B == 1 and columns.ghost_rows):
+            raise ValueError(f"a scene distributed over ranks steps alone and with a kernel "
+                             f"that refreshes ghost rows (numba), not B = {B}, {kernel}")
         self.dt, self.beta2 = bp.dt, bp.beta2
         self.beta1 = 0.0
         self.kappa = forward_increment_factor(bp.beta2, bp.dt)
         self._put_problem(bp, d, slide, f)
         self._allocate_state(n, m, B)
+        #: (m, B) arrays the step writes its contact outputs (r_r, r_t, r_x, r_y, status) and
+        #: a regularised bound's state (sigma, ut_last) into instead of its own: a scene's
+        #: contact step (``solver.contact.ContactProjection``), which its observers read
+        for name, array in (contact or {}).items():
+            if getattr(self, name).shape != array.shape:
+                raise ValueError(f"contact array {name!r}: shape {array.shape}, the batch's "
+                                 f"{getattr(self, name).shape}")
+            setattr(self, name, array)
+        #: ``ghost_update(column)``: refresh the ghost rows of an (n_local,) column of u or
+        #: w before K reads it (a distributed scene: ``solver.scene_explicit``)
+        self.ghost_update = ghost_update
         self.time = 0.0
         self.step_count = 0
         self.compile_s = 0.0
@@ -155,6 +185,9 @@ class BatchedExplicit(HookedStepper):
         self.full_state_at: Callable[[int], bool] = lambda level: True
         #: the step's implementation, chosen once (``BATCH_KERNELS``)
         self.columns = columns(self)
+        if getattr(self.columns, "single", False):
+            self.columns.columns_of_one(self)
+        self._clock = np.zeros(1)  # the time as a compiled loop accumulates it (time += dt)
 
     def _checked_kernel(self, kernel: str, xp: Any, tau: float,
                         bound: tuple[int, float, float]) -> type:
@@ -205,7 +238,9 @@ class BatchedExplicit(HookedStepper):
         scratch, all zero."""
         xp = self.xp
         z = lambda *shape: xp.zeros(shape)  # noqa: E731
-        self._u = [z(n, B), z(n, B)]
+        rows = self.bp.n_local  # owned, then ghost rows: what K reads
+        self._full_u = [z(rows, B), z(rows, B)]
+        self._u = [x[:n] for x in self._full_u]  # the owned rows: the state
         self.cur = 0
         self.v, self.v_pred, self.a, self.ku = z(n, B), z(n, B), z(n, B), z(n, B)
         self.r_r, self.r_t, self.r_x, self.r_y = z(m, B), z(m, B), z(m, B), z(m, B)
@@ -216,7 +251,8 @@ class BatchedExplicit(HookedStepper):
         # damped: w_n = u_n + tau v~_n (the argument of K), the kernels' two damping sums,
         # and u_0 . K u_0 per scene (``damping_work_totals``)
         # w_n and w_{n+1}, alternating as u (the numba kernels write w_{n+1} in the pass)
-        self._w = [z(n, B), z(n, B)] if self.damped else [z(0, B)] * 2
+        self._full_w = [z(rows, B), z(rows, B)] if self.damped else [z(0, B)] * 2
+        self._w = [x[:n] for x in self._full_w]
         self.dsum = z(2, B)
         # a regularised bound's per-node state (sigma_eff, the last u_theta), (m, B)
         self.sigma, self.ut_last = (z(m, B), z(m, B)) if self.reg else (z(0, B), z(0, B))
@@ -268,7 +304,7 @@ class BatchedExplicit(HookedStepper):
             xp.multiply(self.v_pred, self.tau, out=self.u_tau)  # the kernels' w_n, bitwise
             self.u_tau[...] += self.u
             ku0 = xp.zeros_like(self.u)
-            self._stiffness(self.u, ku0)
+            self._stiffness(self._full_u[self.cur], ku0)
             self.u0_ku0 = self._column_dots(self.u, ku0).copy()
 
     def _state_names(self) -> tuple[str, ...]:
@@ -384,7 +420,8 @@ class BatchedExplicit(HookedStepper):
 
     # ------------------------------------------------------------------- Kelvin-Voigt
     def _stiffness(self, u, out) -> None:
-        """out = K u per column, in the fused kernels' order (numba, CUDA) or scipy's (xp)."""
+        """out = K u per column (``u`` with its ghost rows), in the fused kernels' order
+        (numba, CUDA) or scipy's (xp)."""
         self.columns.stiffness(self, u, out)
 
     def _column_dots(self, x, y) -> np.ndarray:
@@ -395,11 +432,11 @@ class BatchedExplicit(HookedStepper):
     def refresh_ku(self) -> None:
         """ku = K u_n (u_n is ``u_prev`` after a step; the damped step applies K w_n) and the
         strain sums energy[1] = Σ_i u_i (K u)_i of it: what the samples read."""
-        self._stiffness(self.u_prev, self.ku)
+        self._stiffness(self._full_u[1 - self.cur], self.ku)
         self.energy[1] = self._column_dots(self.u_prev, self.ku)
 
     def damping_work_totals(self) -> np.ndarray:
-        """(B,) W_d of every scene, as ``solver.fused.FusedDampingWork`` (needs
+        """(B,) W_d of every scene, as ``solver.scene_explicit.ColumnDampingWork`` (needs
         ``refresh_ku``): work[3] - 1/2 (u_{n+1} . K u_n - u_0 . K u_0)."""
         dots = self._column_dots(self.u, self.ku)
         step_sum = self.columns.damping_step_sum(self)
@@ -422,7 +459,7 @@ class BatchedExplicit(HookedStepper):
         if diag is None:
             diag = self.full_state_at(self.step_count)
         cur, nxt = self.cur, 1 - self.cur
-        self.columns.step(self, self._u[cur], self._u[nxt], bool(diag))
+        self.columns.step(self, self._full_u[cur], self._full_u[nxt], bool(diag))
         self.cur = nxt
         self.time += self.dt
         self.step_count += 1
@@ -437,6 +474,7 @@ class ArrayColumns:
 
     host_only = False
     regularised = False
+    ghost_rows = False  # steps a scene distributed over ranks (a batch of one)
     damping_state: tuple[str, ...] = ()
     """The stepper's arrays of this kernel in a damped column's checkpoint."""
 
@@ -542,6 +580,7 @@ class NumbaColumns(ArrayColumns):
 
     host_only = True
     regularised = True
+    ghost_rows = True
 
     def __init__(self, st: BatchedExplicit) -> None:
         # one scene: the single-scene kernel; short batches: 4-scene register passes; long
@@ -555,21 +594,34 @@ class NumbaColumns(ArrayColumns):
         self.dots_fn = get_kernel("column_dots")
         self.first_product = True  # compiled with the SLP vectoriser (register passes)
         self.single = st._name == "single_step"
-        if self.single:  # column 0 of every array, as the 1-D views single_step takes
+        if self.single:
             self.energies = get_kernel("column_energies")
-            col = lambda x: x[..., 0]  # noqa: E731 - (n, 1) -> (n,), a contiguous view
-            self.u_cols = [col(x) for x in st._u]
-            self.w_cols = [col(x) for x in st._w]
-            self.cols = {"v": col(st.v), "v_pred": col(st.v_pred), "a": col(st.a),
-                         "ku": col(st.ku), "r_r": col(st.r_r), "r_t": col(st.r_t),
-                         "r_x": col(st.r_x), "r_y": col(st.r_y), "status": col(st.status),
-                         "work": col(st.work)}
-            self.zprev = st.zprev.reshape(-1)  # (m, 2, 1) -> (x, y) pairs
+            self.product1 = get_kernel("stiffness_product")
+            self.advance_fn = get_kernel("advance")
+
+    def columns_of_one(self, st: BatchedExplicit) -> None:
+        """A batch of one: column 0 of every array, as the 1-D views ``single_step`` takes
+        (u and w with their ghost rows), taken once the batch's arrays are final (after a
+        scene's contact arrays are adopted)."""
+        col = lambda x: x[..., 0]  # noqa: E731 - (n, 1) -> (n,), a view
+        self.u_cols = [col(x) for x in st._full_u]
+        self.w_cols = [col(x) for x in st._full_w]
+        self.cols = {"v": col(st.v), "v_pred": col(st.v_pred), "a": col(st.a),
+                     "ku": col(st.ku), "r_r": col(st.r_r), "r_t": col(st.r_t),
+                     "r_x": col(st.r_x), "r_y": col(st.r_y), "status": col(st.status),
+                     "work": col(st.work)}
+        self.zprev = st.zprev.reshape(-1)  # (m, 2, 1) -> (x, y) pairs
 
     def record_copies(self) -> Any:
         return sample_kernels()
 
     def stiffness(self, st: BatchedExplicit, u, out) -> None:
+        if self.single:  # one column, its ghosts refreshed: ``single_step``'s K u order
+            column = u[:, 0]
+            if st.ghost_update is not None:
+                st.ghost_update(column)
+            self.product1(st.indptr, st.indices, st.data, st.n, column, out[:, 0])
+            return
         if self.first_product:
             self.first_product = False
             with slp_vectorize():
@@ -604,17 +656,24 @@ class NumbaColumns(ArrayColumns):
             st._fn(*args)
         st.energy_summed = diag
 
-    def single_step(self, st: BatchedExplicit, diag: bool) -> None:
-        """A batch of one: ``single_step`` on column 0 (it writes v_n, a_n and K u_n at
-        every step), then on a ``diag`` step the energies in ``batched_step``'s order."""
+    def single_args(self, st: BatchedExplicit) -> tuple:
+        """``single_step``'s arguments for column 0, u_n (and w_n) in buffer ``st.cur``,
+        the ghost rows K reads refreshed first (a distributed scene)."""
         dt, b2, c, cur, nxt = st.dt, st.beta2, self.cols, st.cur, 1 - st.cur
-        args = (st.indptr, st.indices, st.data, st.n, self.u_cols[cur], self.u_cols[nxt],
+        if st.ghost_update is not None:
+            st.ghost_update(self.w_cols[cur] if st.damped else self.u_cols[cur])
+        return (st.indptr, st.indices, st.data, st.n, self.u_cols[cur], self.u_cols[nxt],
                 c["v"], c["v_pred"], c["a"], c["ku"], st.nim, b2 * dt, 0.5 * dt,
                 (0.5 - b2) * dt, b2 == 0.5, dt, st.kappa, 1.0 / st.kappa, st.cx, st.ph_re,
                 st.ph_im, st.pc_re, st.pc_im, st.cmass, st.cinv, st.d[0], st.slide[0],
                 st.f[0], c["r_r"], c["r_t"], c["r_x"], c["r_y"], c["status"], self.zprev,
                 c["work"], self.w_cols[cur], self.w_cols[nxt], st.tau, st.reg, st.sigma,
                 st.ut_last, st.rate_slip, st.rate_base, st._started)
+
+    def single_step(self, st: BatchedExplicit, diag: bool) -> None:
+        """A batch of one: ``single_step`` on column 0 (it writes v_n, a_n and K u_n at
+        every step), then on a ``diag`` step the energies in ``batched_step``'s order."""
+        args = self.single_args(st)
         if self.first_call:
             self.first_call = False
             timed_first_call(st._name, st._fn, *args)
@@ -622,8 +681,24 @@ class NumbaColumns(ArrayColumns):
         else:
             st._fn(*args)
         if diag:
-            self.energies(st._u[cur], st.v, st.ku, st.mass, st.energy)
+            self.energies(st._u[st.cur], st.v, st.ku, st.mass, st.energy)
         st.energy_summed = diag
+
+    def advance_one(self, st: BatchedExplicit, n: int, t_stop: float,
+                    probes: tuple) -> int:
+        """A batch of one on one rank: up to ``n`` steps of ``single_step`` as ONE compiled
+        call (``_fused_kernels.advance``), the probes (``ProbeRecorder.kernel_buffers``)
+        recorded in it every step, stopping before a step once the time reaches
+        ``t_stop``; the same arithmetic as ``n`` calls of ``step``. Returns the steps."""
+        st._clock[0] = st.time
+        taken = timed_first_call("advance", self.advance_fn, n, t_stop, st._clock,
+                                 *self.single_args(st), *probes)
+        self.first_call = False
+        st.compile_s = sum(COMPILE_SECONDS.get(k, 0.0) for k in ("single_step", "advance"))
+        st.time = float(st._clock[0])
+        st.step_count += taken
+        st.cur = (st.cur + taken) % 2
+        return taken
 
 
 class CudaColumns(ArrayColumns):

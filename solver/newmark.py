@@ -83,44 +83,7 @@ def critical_time_step(omega_max: float, beta1: float, beta2: float, tau: float 
     return 1.0 / (omega_max * math.sqrt(beta2 / 2.0 - beta1))
 
 
-class ExplicitStart(HookedStepper):
-    """The start of the explicit Newmark step, shared by ``Newmark`` and
-    ``solver.fused.FusedNewmark``: the arrays u, v, a, the predictor v~ and the clock."""
-
-    u: np.ndarray
-    v: np.ndarray
-    a: np.ndarray
-    v_pred: np.ndarray
-    beta2: float
-    dt: float
-    #: What the next step reads: u_{n+1}, u_n (a damped step's u_{n-1}) and v~_{n+1}.
-    STATE: tuple[str, ...] = ("u", "u_prev", "v_pred")
-
-    def state(self) -> dict[str, np.ndarray]:
-        """The checkpoint of the stepper (``solver.stepper.Stepper.state``)."""
-        return copy_state(self, self.STATE, clock=True)
-
-    def restore(self, state: dict[str, np.ndarray]) -> None:
-        """Continue from ``state()`` (``solver.stepper.Stepper.restore``)."""
-        put_state(self, state, self.STATE)
-
-    def set_state(self, u: np.ndarray, v: np.ndarray, a0: np.ndarray | None = None) -> None:
-        """Initial displacement, velocity and (optionally) acceleration.
-
-        The first step computes v_0 = v~_0 + beta_2 dt a_0, so the predictor is set to
-        v~_0 = v_0 - beta_2 dt a_0 when a_0 is known; without it v~_0 = v_0, exact when a_0 = 0
-        (e.g. a start from the steady state) and an O(dt) start-up error otherwise, which
-        makes the whole run first order.
-        """
-        self.u[:] = u
-        self.v[:] = v
-        self.v_pred[:] = v
-        if a0 is not None:
-            self.v_pred -= self.beta2 * self.dt * np.asarray(a0)
-        self.a.fill(0.0)
-
-
-class Newmark(ExplicitStart):
+class Newmark(HookedStepper):
     """Explicit Newmark (beta_1 = 0) on owned-dof numpy arrays.
 
     The only global operation per step is ``stiffness_mult(u, ku)`` (one PETSc MatMult);
@@ -135,6 +98,8 @@ class Newmark(ExplicitStart):
 
     #: Kelvin-Voigt retardation time (``DampedNewmark``; 0: undamped)
     tau: float = 0.0
+    #: What the next step reads: u_{n+1}, u_n (a damped step's u_{n-1}) and v~_{n+1}.
+    STATE: tuple[str, ...] = ("u", "u_prev", "v_pred")
 
     def __init__(
         self,
@@ -177,6 +142,29 @@ class Newmark(ExplicitStart):
                 "damping_tau_s": self.tau,
                 "contact_s": float(getattr(self.contact, "seconds", 0.0)),
                 "kernel": "numpy"}
+
+    def state(self) -> dict[str, np.ndarray]:
+        """The checkpoint of the stepper (``solver.stepper.Stepper.state``)."""
+        return copy_state(self, self.STATE, clock=True)
+
+    def restore(self, state: dict[str, np.ndarray]) -> None:
+        """Continue from ``state()`` (``solver.stepper.Stepper.restore``)."""
+        put_state(self, state, self.STATE)
+
+    def set_state(self, u: np.ndarray, v: np.ndarray, a0: np.ndarray | None = None) -> None:
+        """Initial displacement, velocity and (optionally) acceleration.
+
+        The first step computes v_0 = v~_0 + beta_2 dt a_0, so the predictor is set to
+        v~_0 = v_0 - beta_2 dt a_0 when a_0 is known; without it v~_0 = v_0, exact when a_0 = 0
+        (e.g. a start from the steady state) and an O(dt) start-up error otherwise, which
+        makes the whole run first order.
+        """
+        self.u[:] = u
+        self.v[:] = v
+        self.v_pred[:] = v
+        if a0 is not None:
+            self.v_pred -= self.beta2 * self.dt * np.asarray(a0)
+        self.a.fill(0.0)
 
     def _elastic_acceleration(self, u: np.ndarray, v_pred: np.ndarray, a: np.ndarray) -> None:
         """a*_n = -M^{-1} K u_n (K u_n kept in ``ku`` for the energies)."""

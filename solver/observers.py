@@ -266,8 +266,8 @@ class InnerCircleRecorder:
 
     def use_compiled(self, record_sample) -> None:
         """Take the samples with the compiled ``record_sample`` (``solver._fused_kernels``):
-        one rank, fused step, whose ``work`` holds the contact work (FusedEnergy); a damped
-        step's K u_n is refreshed first and its W_d taken from ``damping`` (FusedDampingWork).
+        one rank, numba step, whose ``work`` holds the contact work (ColumnWork); a damped
+        step's K u_n is refreshed first and its W_d taken from ``damping`` (ColumnDampingWork).
         The kernel stores Cartesian rows; ``_rotate_pending`` turns them polar on reading.
         A second call keeps the first (rows taken since then are still Cartesian)."""
         if self._compiled is not None:
@@ -468,7 +468,7 @@ class ProbeRecorder:
 
     def kernel_buffers(self) -> tuple:
         """(x dof of each local probe, t, u, v as (step, 2 probe) real views, count) for a
-        compiled time loop that records in place (``solver.fused.FusedNewmark.advance``);
+        compiled time loop that records in place (``solver.scene_explicit.SceneExplicit.advance``);
         ``count`` starts at ``n``, and the caller sets ``n = count[0]`` afterwards."""
         self.count[0] = self.n
         return self._buffers

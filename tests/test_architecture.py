@@ -517,12 +517,12 @@ def test_every_scheme_follows_the_stepper_protocol():
     on the classes' attributes: set_state, step, advance, facts)."""
     pytest.importorskip("dolfinx")
     from stickslip.solver.ensemble import BatchedExplicit
-    from stickslip.solver.fused import FusedNewmark
     from stickslip.solver.implicit import ImplicitNewmark
     from stickslip.solver.newmark import DampedNewmark, Newmark
+    from stickslip.solver.scene_explicit import SceneExplicit
     from stickslip.solver.stepper import Stepper
 
-    for cls in (Newmark, DampedNewmark, FusedNewmark, ImplicitNewmark, BatchedExplicit):
+    for cls in (Newmark, DampedNewmark, SceneExplicit, ImplicitNewmark, BatchedExplicit):
         for method in ("set_state", "step", "advance", "facts", "attach", "state", "restore",
                        "compiled_recorder"):
             assert callable(getattr(cls, method, None)), f"{cls.__name__}.{method}"

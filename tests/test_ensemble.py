@@ -501,7 +501,7 @@ def test_regularised_batch_equals_the_single_scene_kernel_bitwise():
             np.testing.assert_array_equal(batch.v_pred[:, col], it.v_pred)
             np.testing.assert_array_equal(batch.status[:, col], s.columns.projection.out.status)
             np.testing.assert_array_equal(batch.work[:, col], it.work)
-            np.testing.assert_array_equal(batch.sigma[:, col], it.sigma[:, 0])
+            np.testing.assert_array_equal(batch.sigma[:, col], it.batch.sigma[:, 0])
 
 
 @pytest.mark.parametrize("common", [(), "pc"], ids=["plain", "damped-prakash-clifton"])

@@ -16,8 +16,9 @@ Every branch on ``time.beta1`` (explicit or implicit), on the kernel (numpy, num
 on the backend (cpu, gpu) that decides what runs lives in this module; tests/test_architecture.py
 checks that no other module branches on them or duck-types a stepper.
 
-* ``beta1 = 0``: the paper's explicit Newmark (``solver.newmark.Newmark``, the fused numba
-  step ``solver.fused.FusedNewmark``, the batch ``solver.ensemble.BatchedExplicit``) with the
+* ``beta1 = 0``: the paper's explicit Newmark (``solver.newmark.Newmark``, and the batch
+  ``solver.ensemble.BatchedExplicit`` of B scenes or, one scene, of one:
+  ``solver.scene_explicit.SceneExplicit``) with the
   forward-increment (Carpenter-Taylor-Katona) nodal contact projection; stable for
   dt <= dt_crit = sqrt(2 / beta2) / omega_max, so ``0 < dt_fraction <= 1``;
 * ``beta1 > 0``: implicit Newmark (``solver.implicit.ImplicitNewmark``) with the active-set
@@ -44,11 +45,12 @@ import numpy as np
 from stickslip.solver.contact import ContactLaw, make_projection
 from stickslip.solver.ensemble import BatchedExplicit, array_namespace
 from stickslip.solver.errors import StepTooLarge
-from stickslip.solver.fused import FusedDampingWork, FusedEnergy, FusedNewmark, friction_bound
+from stickslip.solver.fused import friction_bound
 from stickslip.solver.fused import numba_available as available
 from stickslip.solver.newmark import DampedNewmark, Newmark, critical_time_step
 from stickslip.solver.observers import DampingWork, EnergyAccumulator
 from stickslip.solver.scene import Scene
+from stickslip.solver.scene_explicit import ColumnDampingWork, ColumnWork, scene_explicit
 
 __all__ = [
     "SCHEMES", "BACKENDS", "Scheme", "SchemeParts", "add_scheme", "for_scene", "check_backend",
@@ -336,10 +338,10 @@ def _numpy_work(stepper, contact, with_friction: bool, u0: np.ndarray) -> tuple[
 
 
 def _numba_work(stepper, contact, with_friction: bool, u0: np.ndarray) -> tuple[Any, Any]:
-    """The fused step's work observers: the kernel sums both (``FusedEnergy``,
-    ``FusedDampingWork``), so neither is a step hook and the compiled loop stays."""
-    return (FusedEnergy(stepper, contact),
-            FusedDampingWork(stepper, u0) if stepper.damped else None)
+    """The numba step's work observers: the kernel sums both (``ColumnWork``,
+    ``ColumnDampingWork``), so neither is a step hook and the compiled loop stays."""
+    return (ColumnWork(stepper, contact),
+            ColumnDampingWork(stepper) if stepper.damped else None)
 
 
 def _numpy_parts(problem, law: ContactLaw, tau: float, projection) -> SchemeParts:
@@ -350,9 +352,11 @@ def _numpy_parts(problem, law: ContactLaw, tau: float, projection) -> SchemePart
 
 
 def _numba_parts(problem, law: ContactLaw, tau: float, projection) -> SchemeParts:
-    """The fused numba step, which runs the projection's law inside its kernel."""
-    stepper = FusedNewmark(problem, law.dt, law.beta2, projection, tau=tau)
-    return SchemeParts(stepper, projection, _numba_work)
+    """The numba step: the scene as a batch of one (``solver.scene_explicit``), which runs
+    the projection's law inside its kernel and writes into the projection's arrays."""
+    if not 0.5 <= law.beta2 <= 1.0:
+        raise ValueError(f"time.beta2 = {law.beta2} must be in [0.5, 1]")
+    return SchemeParts(scene_explicit(problem, law, projection, tau), projection, _numba_work)
 
 
 #: The explicit scheme's kernels: each builds the stepper and its work observers.
