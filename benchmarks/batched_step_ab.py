@@ -71,7 +71,7 @@ def main() -> None:
     if args.today != "auto":
         from stickslip.solver.fused import kernel
 
-        it._name, it._fn = args.today, kernel(args.today)
+        it.columns.name, it.columns.fn = args.today, kernel(args.today)
     it.set_state(u0, np.zeros_like(u0))
     it.step()  # load / compile today's kernel
     old = _old_kernel(args.old) if args.old else None
@@ -99,7 +99,7 @@ def main() -> None:
 
         def pick(name: str, diag: bool):
             def run() -> None:
-                it._name, it._fn = name, fns[name]
+                it.columns.name, it.columns.fn = name, fns[name]
                 it.step(diag=diag)
             return run
 
@@ -125,7 +125,7 @@ def main() -> None:
         ref.step()
     same = bool(np.array_equal(ref.u, it.u))
     for k, x in times.items():
-        name = k if k.startswith("old") or args.both else f"{k} ({it._name})"
+        name = k if k.startswith("old") or args.both else f"{k} ({it.columns.name})"
         print(f"{args.tag} {args.bundle.name} B={B} {name}: "
               f"median {statistics.median(x):.1f} "
               f"min {min(x):.1f} max {max(x):.1f} us/scene-step ({args.rounds} rounds x "

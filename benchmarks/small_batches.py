@@ -118,7 +118,7 @@ def measure(n_inner: int, batches: list[int], old, steps: int, rounds: int) -> N
         med = _timed(paths, steps, rounds, B)
         same = bool(np.array_equal(today.u, before.u))
         extra = f"  alone {med['alone']:7.1f}" if B == 1 else ""
-        print(f"N = {n_inner:4d}  B = {B}  {today._name:>17}  today {med['today']:7.1f}  "
+        print(f"N = {n_inner:4d}  B = {B}  {today.columns.name:>17}  today {med['today']:7.1f}  "
               f"before {med['before']:7.1f} us/scene-step  before/today "
               f"{med['before'] / med['today']:4.2f}{extra}  same bits: {same}", flush=True)
 

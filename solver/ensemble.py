@@ -259,7 +259,6 @@ class BatchedExplicit(HookedStepper):
         self._started = np.zeros(1, dtype=np.int64)  # 0 until the first step
         self._first_call = True  # of the kernel by this stepper
         self.u0_ku0 = np.zeros(B)
-        self._dots = np.zeros(B)
         self.energy = z(2, B)  # numba kernels, sampled steps: Σ m v², Σ u K u (x 2 energies)
         self.energy_summed = False  # True after a numba step that summed ``energy``
         self.acc = z(4, B)  # the numba kernels' scratch (a*_n of a block of nodes, sums)
@@ -489,12 +488,12 @@ class ArrayColumns:
             import scipy.sparse as sp
         else:  # pragma: no cover - GPU only
             import cupyx.scipy.sparse as sp
-        st.K = sp.csr_matrix((st.data, st.indices.astype(np.int32),
+        self.K = sp.csr_matrix((st.data, st.indices.astype(np.int32),
                               st.indptr.astype(np.int32)), shape=(st.n, st.n))
-        st._ix = st.cx.astype(np.int64)
+        self.ix = st.cx.astype(np.int64)
 
     def stiffness(self, st: BatchedExplicit, u, out) -> None:
-        out[...] = st.K @ u
+        out[...] = self.K @ u
 
     def column_dots(self, st: BatchedExplicit, x, y):
         return st.xp.einsum("ib,ib->b", x, y)
@@ -519,15 +518,15 @@ class ArrayColumns:
     def step(self, st: BatchedExplicit, u, u_next, diag: bool) -> None:
         """The step as array operations (always writes v_n, a_n and K u_n: ``diag`` unused)."""
         xp, dt, b2, kappa = st.xp, st.dt, st.beta2, st.kappa
-        ix, iy = st._ix, st._ix + 1
+        ix, iy = self.ix, self.ix + 1
         pcr, pci = st.pc_re[:, None], st.pc_im[:, None]
         if st.damped:  # K w_n, w_n = u_n + tau v~_n (DampedNewmark)
             w = st.u_tau
             xp.multiply(st.v_pred, st.tau, out=w)
             w += u
-            st.ku[...] = st.K @ w
+            st.ku[...] = self.K @ w
         else:
-            st.ku[...] = st.K @ u
+            st.ku[...] = self.K @ u
         xp.multiply(st.ku, st.nim[:, None], out=st.a)
         a = st.a
         ux, uy = u[ix], u[iy]
@@ -586,14 +585,15 @@ class NumbaColumns(ArrayColumns):
         # one scene: the single-scene kernel; short batches: 4-scene register passes; long
         # ones: B-long vector loops (same bits each; solver._fused_kernels.batched_kernel_name)
         k_bytes = int(st.bp.data.nbytes + st.bp.indices.nbytes)
-        st._name = _kernels().batched_kernel_name(st.B, k_bytes)
-        st._fn = get_kernel(st._name)  # the step (a benchmark may swap it)
+        self.name = _kernels().batched_kernel_name(st.B, k_bytes)
+        self.fn = get_kernel(self.name)  # the step (a benchmark may swap it)
+        self.dots = np.zeros(st.B)  # ``column_dots``' sums
         self.first_call = True  # of the kernel by this stepper
         st.acc = st.xp.zeros((max(6, (4 if st.damped else 2) * _kernels().NODE_BLOCK), st.B))
         self.product = get_kernel("stiffness_product_cols")  # K u_n, damped samples
         self.dots_fn = get_kernel("column_dots")
         self.first_product = True  # compiled with the SLP vectoriser (register passes)
-        self.single = st._name == "single_step"
+        self.single = self.name == "single_step"
         if self.single:
             self.energies = get_kernel("column_energies")
             self.product1 = get_kernel("stiffness_product")
@@ -630,8 +630,8 @@ class NumbaColumns(ArrayColumns):
         self.product(st.indptr, st.indices, st.data, u, out)
 
     def column_dots(self, st: BatchedExplicit, x, y):
-        self.dots_fn(x, y, st._dots)
-        return st._dots
+        self.dots_fn(x, y, self.dots)
+        return self.dots
 
     def step(self, st: BatchedExplicit, u, u_next, diag: bool) -> None:
         """One call of the compiled step; it sums the energies on a ``diag`` step."""
@@ -649,11 +649,11 @@ class NumbaColumns(ArrayColumns):
         if self.first_call:  # compiled (or loaded) here, with SLP, even when continued
             self.first_call = False
             with slp_vectorize():
-                timed_first_call(st._name, st._fn, *args)
+                timed_first_call(self.name, self.fn, *args)
 
-            st.compile_s = COMPILE_SECONDS[st._name]
+            st.compile_s = COMPILE_SECONDS[self.name]
         else:
-            st._fn(*args)
+            self.fn(*args)
         st.energy_summed = diag
 
     def single_args(self, st: BatchedExplicit) -> tuple:
@@ -676,10 +676,10 @@ class NumbaColumns(ArrayColumns):
         args = self.single_args(st)
         if self.first_call:
             self.first_call = False
-            timed_first_call(st._name, st._fn, *args)
-            st.compile_s = COMPILE_SECONDS[st._name]
+            timed_first_call(self.name, self.fn, *args)
+            st.compile_s = COMPILE_SECONDS[self.name]
         else:
-            st._fn(*args)
+            self.fn(*args)
         if diag:
             self.energies(st._u[st.cur], st.v, st.ku, st.mass, st.energy)
         st.energy_summed = diag

@@ -288,7 +288,7 @@ def test_long_batches_run_the_term_outer_kernel_with_the_same_bits():
     big = BatchedExplicit(small.bp, d=np.tile(small.d, reps), slide=np.tile(small.slide, reps),
                           f=np.tile(small.f, reps))
     big.set_state(np.tile(small.u, reps), np.zeros((small.n, 4 * reps)))
-    assert big._name == "batched_step_long" and small._name == "batched_step"
+    assert big.columns.name == "batched_step_long" and small.columns.name == "batched_step"
     for n in range(120):
         big.step(diag=n % 5 == 0)
         small.step(diag=n % 5 == 0)
@@ -453,7 +453,8 @@ def test_damped_batch_equals_the_damped_single_scene_kernel_bitwise():
                           slide=np.tile(integ.slide, reps), f=np.tile(integ.f, reps),
                           tau=integ.tau)
     big.set_state(np.tile(integ.u, reps), np.zeros((integ.n, 4 * reps)))
-    assert integ.damped and integ._name == "batched_step" and big._name == "batched_step_long"
+    assert integ.damped and integ.columns.name == "batched_step"
+    assert big.columns.name == "batched_step_long"
     for n in range(120):
         for it in (integ, big):
             it.step(diag=n % 5 == 0)
@@ -488,7 +489,7 @@ def test_regularised_batch_equals_the_single_scene_kernel_bitwise():
                           slide=np.tile(integ.slide, reps), f=np.tile(integ.f, reps),
                           tau=integ.tau, bound=(integ.reg, integ.rate_slip, integ.rate_base))
     big.set_state(np.tile(integ.u, reps), np.zeros((integ.n, 4 * reps)))
-    assert integ.reg == 1 and big._name == "batched_step_long"
+    assert integ.reg == 1 and big.columns.name == "batched_step_long"
     for n in range(120):
         for it in (integ, big):
             it.step(diag=n % 5 == 0)
@@ -519,8 +520,9 @@ def test_a_batch_of_one_runs_the_single_scene_kernel_with_the_batch_bits(common)
                   "friction.reference_velocity=1.0", *DAMPED)
     one, _ = _batch(VARIANTS[3:4], common=common)
     forced, _ = _batch(VARIANTS[3:4], common=common)
-    assert one._name == "single_step" and one.columns.single
-    forced._name, forced._fn, forced.columns.single = "batched_step", kernel("batched_step"), False
+    assert one.columns.name == "single_step" and one.columns.single
+    forced.columns.name, forced.columns.fn = "batched_step", kernel("batched_step")
+    forced.columns.single = False
     rng = np.random.default_rng(0)
     du, dv = 1e-6 * rng.standard_normal((2, one.n))
     du[np.abs(one.u[:, 0]) == 0.0] = dv[np.abs(one.u[:, 0]) == 0.0] = 0.0
