@@ -106,8 +106,8 @@ def measure(n_inner: int, batches: list[int], old, steps: int, rounds: int) -> N
     u0, v0 = alone.u.copy(), alone.v_pred.copy()
     alone.step()
     for B in batches:
-        today = _batch(bp, alone.p, alone.tau, B, u0, v0)
-        before = _batch(bp, alone.p, alone.tau, B, u0, v0)
+        today = _batch(bp, sim.columns.projection, alone.tau, B, u0, v0)
+        before = _batch(bp, sim.columns.projection, alone.tau, B, u0, v0)
         today.step(diag=False)
         step_before = _stepper_of(old, before)
         with slp_vectorize():  # compiled as today's is (``NumbaColumns``)
