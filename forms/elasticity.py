@@ -1,4 +1,6 @@
-"""Plane-strain linear elasticity (paper section 2, eq. of the governing system), SI units.
+"""Linear elasticity (paper section 2, eq. of the governing system), SI units: plane strain on
+the 2D cross-section, and the same law in 3D on the finite-length tube (``meshes.tube3d``;
+every form here follows the mesh's dimension).
 
 ``σ = λ tr(ε) I + 2μ ε`` with ``λ = Eν/((1+ν)(1−2ν))``, ``μ = E/(2(1+ν))``; divided by ``E`` this is
 the paper's non-dimensional law ``σ = ν/((1+ν)(1−2ν)) tr(ε) I + ε/(1+ν)``.
@@ -62,7 +64,8 @@ def strain(u: ufl.core.expr.Expr) -> ufl.core.expr.Expr:
 
 
 def stress(u: ufl.core.expr.Expr, material: Material) -> ufl.core.expr.Expr:
-    """Plane-strain Cauchy stress ``σ = λ tr(ε) I + 2μ ε`` (2×2 in-plane part)."""
+    """Cauchy stress ``σ = λ tr(ε) I + 2μ ε``: in 2D the plane-strain in-plane part (2×2),
+    in 3D the whole tensor."""
     eps = strain(u)
     dim = ufl.shape(eps)[0]
     return material.lame_lambda * ufl.tr(eps) * ufl.Identity(dim) + 2.0 * material.lame_mu * eps

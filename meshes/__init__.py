@@ -1,4 +1,5 @@
-"""Meshes of the tube cross-section (paper section 2) and dolfinx version shims."""
+"""Meshes of the tube cross-section (paper section 2), of the finite-length tube in 3D
+(``tube3d``), and dolfinx version shims."""
 
 from stickslip.meshes.annulus import (
     INNER_TAG,

@@ -86,8 +86,12 @@ def _check(R: float, xi: float, n_inner: int, n_radial: int, cell: str, degree: 
         raise ValueError(f"n_radial={n_radial!r}: need an integer >= 0 (0 = automatic)")
 
 
-def _build_model(R: float, xi: float, n_edges: int, n_radial: int, cell: str, degree: int) -> None:
-    """Create the structured annulus in the current gmsh model and mesh it (rank 0 only)."""
+def annulus_surfaces(R: float, xi: float, n_edges: int, n_radial: int,
+                     recombine: bool) -> tuple[list[int], list[int], list[int]]:
+    """The structured annulus's four transfinite sectors in the current gmsh model's geo
+    kernel, its mesh constraints set there too (so that they survive a later extrusion;
+    ``recombine``: quadrilaterals): (surfaces, inner arcs, outer arcs). Neither synchronised
+    nor meshed: ``_build_model`` meshes it as the 2D tube, ``meshes.tube3d`` extrudes it."""
     geo = gmsh.model.geo
     # Edges per sector, as equal as possible; sector boundaries at multiples of 2π/n_edges.
     counts = [n_edges // _N_SECTORS + (k < n_edges % _N_SECTORS) for k in range(_N_SECTORS)]
@@ -109,23 +113,62 @@ def _build_model(R: float, xi: float, n_edges: int, n_radial: int, cell: str, de
         surfaces.append(geo.addPlaneSurface([loop]))
         inner.append(a)
         outer.append(b)
-    geo.synchronize()
-    mesh = gmsh.model.mesh
+    mesh = geo.mesh
     for k in range(_N_SECTORS):
         k1 = (k + 1) % _N_SECTORS
         mesh.setTransfiniteCurve(inner[k], counts[k] + 1)
         mesh.setTransfiniteCurve(outer[k], counts[k] + 1)
         mesh.setTransfiniteCurve(radial[k], n_radial + 1)
         mesh.setTransfiniteSurface(surfaces[k], "Left", [p_in[k], p_in[k1], p_out[k1], p_out[k]])
-        if cell == "quadrilateral":
+        if recombine:
             mesh.setRecombine(2, surfaces[k])
+    return surfaces, inner, outer
+
+
+def _build_model(R: float, xi: float, n_edges: int, n_radial: int, cell: str, degree: int) -> None:
+    """Create the structured annulus in the current gmsh model and mesh it (rank 0 only)."""
+    surfaces, inner, outer = annulus_surfaces(R, xi, n_edges, n_radial,
+                                              cell == "quadrilateral")
+    gmsh.model.geo.synchronize()
     gmsh.model.addPhysicalGroup(2, surfaces, TUBE_TAG, name="tube")
     gmsh.model.addPhysicalGroup(1, inner, INNER_TAG, name="inner")
     gmsh.model.addPhysicalGroup(1, outer, OUTER_TAG, name="outer")
+    mesh = gmsh.model.mesh
     mesh.generate(2)
     if degree == 2:
         gmsh.option.setNumber("Mesh.SecondOrderIncomplete", 0)  # Q9 for quadrilaterals
         mesh.setOrder(2)  # midside nodes placed on the geometry (the circles)
+
+
+def distributed_gmsh_mesh(comm: MPI.Comm, name: str, build, gdim: int):  # noqa: ANN001, ANN201
+    """``build()`` a gmsh model on rank 0 only and distribute it over ``comm`` as (mesh,
+    cell_tags, facet_tags). gmsh is left as found (initialised and finalised here unless
+    the caller had already initialised it). PT-Scotch partitions with one thread, so that
+    the same mesh on the same ranks gets the same partition every time (a continued run
+    needs it: ``studies.rundir.continuation``; the variable is read at each partitioning)."""
+    os.environ.setdefault("SCOTCH_PTHREAD_NUMBER", "1")
+    root = 0
+    if comm.rank != root:
+        return model_to_mesh(gmsh.model, comm, root, gdim=gdim)
+    owns_gmsh = not gmsh.isInitialized()
+    if owns_gmsh:
+        gmsh.initialize(readConfigFiles=False, interruptible=False)
+    terminal = gmsh.option.getNumber("General.Terminal")
+    gmsh.option.setNumber("General.Terminal", 0)
+    previous = gmsh.model.getCurrent() if not owns_gmsh else None
+    gmsh.model.add(name)
+    try:
+        build()
+        return model_to_mesh(gmsh.model, comm, root, gdim=gdim)
+    finally:
+        gmsh.model.setCurrent(name)
+        gmsh.model.remove()
+        if owns_gmsh:
+            gmsh.finalize()
+        else:
+            gmsh.option.setNumber("General.Terminal", terminal)
+            if previous:
+                gmsh.model.setCurrent(previous)
 
 
 def _snap_circles(msh: dolfinx.mesh.Mesh, R: float, xi: float, n_nodes: int) -> None:
@@ -162,37 +205,11 @@ def annulus_mesh(
     (initialised and finalised here unless the caller had already initialised it).
     """
     _check(R, xi, n_inner, n_radial, cell, degree)
-    # PT-Scotch partitions with several threads by default, and then not reproducibly: the
-    # same mesh on the same ranks gets another partition from one build to the next (and
-    # an MPI run other bits). One thread makes it the same every time, which a continued
-    # run needs (studies.rundir.continuation); the variable is read at each partitioning.
-    os.environ.setdefault("SCOTCH_PTHREAD_NUMBER", "1")
     n_edges = n_inner // degree
     n_radial = n_radial or auto_n_radial(xi, n_edges)
-    root = 0
-    if comm.rank == root:
-        owns_gmsh = not gmsh.isInitialized()
-        if owns_gmsh:
-            gmsh.initialize(readConfigFiles=False, interruptible=False)
-        terminal = gmsh.option.getNumber("General.Terminal")
-        gmsh.option.setNumber("General.Terminal", 0)
-        previous = gmsh.model.getCurrent() if not owns_gmsh else None
-        name = "stickslip_annulus"
-        gmsh.model.add(name)
-        try:
-            _build_model(float(R), float(xi), n_edges, n_radial, cell, degree)
-            result = model_to_mesh(gmsh.model, comm, root, gdim=2)
-        finally:
-            gmsh.model.setCurrent(name)
-            gmsh.model.remove()
-            if owns_gmsh:
-                gmsh.finalize()
-            else:
-                gmsh.option.setNumber("General.Terminal", terminal)
-                if previous:
-                    gmsh.model.setCurrent(previous)
-    else:
-        result = model_to_mesh(gmsh.model, comm, root, gdim=2)
+    result = distributed_gmsh_mesh(
+        comm, "stickslip_annulus",
+        lambda: _build_model(float(R), float(xi), n_edges, n_radial, cell, degree), gdim=2)
     msh, cell_tags, facet_tags = result
     msh.name = "tube"
     _snap_circles(msh, float(R), float(xi), n_edges * degree)
