@@ -171,12 +171,13 @@ def distributed_gmsh_mesh(comm: MPI.Comm, name: str, build, gdim: int):  # noqa:
                 gmsh.model.setCurrent(previous)
 
 
-def _snap_circles(msh: dolfinx.mesh.Mesh, R: float, xi: float, n_nodes: int) -> None:
+def snap_circles(msh: dolfinx.mesh.Mesh, R: float, xi: float, n_nodes: int) -> None:
     """Put the geometry nodes of both circles exactly at radius R/ξR and angles 2πj/n_nodes.
 
     gmsh places transfinite arc points (and P2 midside points) by numerical arc-length
     parametrisation, ~1e-8 relative off the uniform angles; snapping them (on every rank,
     ghosts included, deterministically) makes the contact nodes exactly rotationally uniform.
+    In 3D (``meshes.tube3d``) the cylinders' nodes alike, whatever their z.
     """
     x = msh.geometry.x
     r = np.hypot(x[:, 0], x[:, 1])
@@ -212,7 +213,7 @@ def annulus_mesh(
         lambda: _build_model(float(R), float(xi), n_edges, n_radial, cell, degree), gdim=2)
     msh, cell_tags, facet_tags = result
     msh.name = "tube"
-    _snap_circles(msh, float(R), float(xi), n_edges * degree)
+    snap_circles(msh, float(R), float(xi), n_edges * degree)
     return TubeMesh(
         mesh=msh,
         cell_tags=cell_tags,

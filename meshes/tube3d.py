@@ -32,6 +32,7 @@ from stickslip.meshes.annulus import (
     annulus_surfaces,
     auto_n_radial,
     distributed_gmsh_mesh,
+    snap_circles,
 )
 
 __all__ = ["END0_TAG", "END1_TAG", "Tube3DMesh", "tube_mesh_3d"]
@@ -85,17 +86,11 @@ def _build_model(R: float, xi: float, length: float, n_inner: int, n_radial: int
 
 def _snap(msh: dolfinx.mesh.Mesh, R: float, xi: float, length: float, n_inner: int,
           n_axial: int) -> None:
-    """Put the nodes of both cylinders exactly at radius R/ξR and angles 2πj/``n_inner``, and
-    every node exactly on its axial level L k/``n_axial`` (gmsh's arc and extrusion
-    arithmetic leaves them ~1e-8 relative off)."""
+    """Put the nodes of both cylinders exactly at radius R/ξR and angles 2πj/``n_inner``
+    (``snap_circles``), and every node exactly on its axial level L k/``n_axial`` (gmsh's
+    arc and extrusion arithmetic leaves them ~1e-8 relative off)."""
+    snap_circles(msh, R, xi, n_inner)
     x = msh.geometry.x
-    r = np.hypot(x[:, 0], x[:, 1])
-    step = 2.0 * np.pi / n_inner
-    for radius in (R, xi * R):
-        on = np.abs(r - radius) < 1e-9 * radius
-        angle = step * np.rint(np.arctan2(x[on, 1], x[on, 0]) / step)
-        x[on, 0] = radius * np.cos(angle)
-        x[on, 1] = radius * np.sin(angle)
     dz = length / n_axial
     x[:, 2] = dz * np.rint(x[:, 2] / dz)
 
