@@ -204,6 +204,9 @@ def test_a_census_continues_the_starts_of_failed_members_from_their_checkpoints(
     kicked_early = {i for i, (t, _, _) in before.items() if t < cap * (1 - 1e-9)}
     assert kicked_early, text  # some start settled at the first leg and failed its kick
     assert "settle: continuing" in text
+    # the silent phases say what they do, before they do it (progress on a long census)
+    assert "certify: " in text and "member(s) (N = 36)" in text, text
+    assert text.index("certify: ") < text.rindex("settle: continuing"), text
     for r in answer["starts"]:
         if r["id"] in kicked_early:  # continued to the cap, from its own checkpoint
             assert r["sim_time_s"] >= cap - 1e-9

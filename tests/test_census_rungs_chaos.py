@@ -159,13 +159,15 @@ def test_chaos_verdicts_of_a_real_census_at_its_cap(tmp_path):
     assert run_census(spec, out, certify=False, stream=io.StringIO()) == 0
     from mpi4py import MPI
 
-    assert chaos_shared(out, MPI.COMM_SELF) is False
+    said = io.StringIO()
+    assert chaos_shared(out, MPI.COMM_SELF, said) is False
     answer = collect(out, certify=False)
     verdicts = json.loads((out / "chaos.json").read_text()) if (out / "chaos.json").exists() \
         else {}
     at_cap = [r for r in answer["starts"] if r["class"] in ("unsettled", "chaotic")]
     assert at_cap  # both starts are still growing at 0.05 s (measured: unsettled)
     assert len(verdicts) == len(at_cap)
+    assert said.getvalue().startswith(f"chaos: {len(at_cap)} start(s) unsettled at the cap")
     for r in at_cap:
         assert r["chaos"] is not None
         lyap = r["chaos"]["lyapunov"]

@@ -469,7 +469,8 @@ def _certify_and_continue(out_dir: Path, comm, stream: TextIO, dt_limit: bool,  
     status so far: 0, 1 after a failed leg, 130 interrupted; the settle legs' own status)."""
     rc = settled = 0
     while rc == 0:
-        if certify_now(out_dir, comm, dt_limit=dt_limit, kick=kick, timing=shared):
+        if certify_now(out_dir, comm, dt_limit=dt_limit, kick=kick, timing=shared,
+                       stream=stream):
             return 130, settled
         if not _legs_due(out_dir, comm):
             break
@@ -542,7 +543,7 @@ def twin_shares(tests: list[dict], ranks: int) -> list[list[dict]]:
     return shares
 
 
-def chaos_shared(out_dir: Path, comm) -> bool:  # noqa: ANN001
+def chaos_shared(out_dir: Path, comm, stream: TextIO | None = None) -> bool:  # noqa: ANN001
     """Collective: the chaos test (``chaos.classify_at_cap``: stationary statistics over
     the last leg's windows, then Benettin's λ₁ from a twin column) of every start unsettled
     at the cap not yet in ``chaos.json``. Rank 0 takes the statistics of each (reading its
@@ -573,12 +574,22 @@ def chaos_shared(out_dir: Path, comm) -> bool:  # noqa: ANN001
                 merge([drifting])
         except (OSError, ValueError):  # left due: rank 0's own pass below tests them again
             pass
+        if due and stream is not None:
+            pairs = " (reference and twin on two ranks)" if 0 < 2 * len(tests) <= comm.size \
+                else ""
+            what = f"{len(tests)} with stationary statistics: their λ₁{pairs}" if tests \
+                else "none with stationary statistics (no λ₁ to take)"
+            print(f"chaos: {len(due)} start(s) unsettled at the cap, {what}", file=stream,
+                  flush=True)
         return twin_shares(tests, comm.size) if tests else None
 
     interrupted = on_ranks(comm, plan, lambda share: _chaos_tests(out_dir, share, comm), merge)
     if comm.rank == 0 and not interrupted:
         try:
             left = chaos_due(out_dir)
+            if left and stream is not None:
+                print(f"chaos: {len(left)} start(s) unsettled at the cap: their statistics, "
+                      "and λ₁ where they are stationary", file=stream, flush=True)
             if left:
                 merge([_chaos_tests(out_dir, left)])
         except KeyboardInterrupt:
@@ -650,7 +661,7 @@ def run_census(census: Census, out_dir: str | Path, *, comm=None, force: bool = 
             rc, settled = _certify_and_continue(out_dir, comm, stream, dt_limit, kick, shared)
         if certify and rc == 0:
             t_chaos = time.perf_counter()
-            rc = 130 if chaos_shared(out_dir, comm) else 0
+            rc = 130 if chaos_shared(out_dir, comm, stream if comm.rank == 0 else None) else 0
             shared["chaos_s"] = time.perf_counter() - t_chaos
         sweep_s = (time.perf_counter() - t0 - shared.get("certification_s", 0.0)
                    - shared.get("chaos_s", 0.0))
@@ -667,7 +678,7 @@ def run_census(census: Census, out_dir: str | Path, *, comm=None, force: bool = 
 
 
 def certify_now(out_dir: Path, comm, *, dt_limit: bool = False, kick: bool = True,  # noqa: ANN001
-                timing: dict | None = None) -> bool:
+                timing: dict | None = None, stream: TextIO | None = None) -> bool:
     """Collective: the certificates (and kick tests) not yet in ``certificates.json``, on
     the ranks (``certify_shared``) or, on one rank, here (``certify_members``), so that the
     starts of the members that fail one can be continued before the answer; ``timing``
@@ -677,9 +688,13 @@ def certify_now(out_dir: Path, comm, *, dt_limit: bool = False, kick: bool = Tru
     t0 = time.perf_counter()
     interrupted = False
     if comm.size > 1:
-        interrupted = certify_shared(out_dir, comm, dt_limit=dt_limit, kick=kick, timing=spent)
+        interrupted = certify_shared(out_dir, comm, dt_limit=dt_limit, kick=kick, timing=spent,
+                                     stream=stream)
     else:
         try:
+            found = _certificate_jobs(out_dir, 1, dt_limit, kick)
+            if found is not None:
+                _say_certifying(found[2][0], kick, stream)
             meta = read_meta(out_dir)
             tol = tolerances(meta)
             rows = grouped(meta, start_rows(out_dir, meta["spread_tol"], tol,
@@ -1311,7 +1326,8 @@ def certificate_key(group: list[dict], dt_limit: bool) -> str:
 
 
 def certify_shared(out_dir: Path, comm, *, dt_limit: bool = False,  # noqa: ANN001
-                   kick: bool = True, timing: dict | None = None) -> bool:
+                   kick: bool = True, timing: dict | None = None,
+                   stream: TextIO | None = None) -> bool:
     """Collective: the members' certificates (and kick tests) not yet in
     ``certificates.json``, ``certify_members`` on the ranks, a mesh per rank
     (``balanced_shares``, cost N³ × its starts: one batch of kicks per mesh stays whole),
@@ -1327,6 +1343,7 @@ def certify_shared(out_dir: Path, comm, *, dt_limit: bool = False,  # noqa: ANN0
         if found is None:
             return None
         window, tol, shares = found
+        _say_certifying([job for share in shares for job in share], kick, stream)
         return [[{"window": window, "tol": tol, **job} for job in share] for share in shares]
 
     def work(share: list[dict]) -> tuple[dict, float]:
@@ -1352,6 +1369,17 @@ def certify_shared(out_dir: Path, comm, *, dt_limit: bool = False,  # noqa: ANN0
     if timing is not None and comm.rank == 0 and "kick_s" in jobs:
         timing.update(certification_s=time.perf_counter() - t0, kick_s=jobs["kick_s"])
     return interrupted
+
+
+def _say_certifying(jobs: list[dict], kick: bool, stream: TextIO | None) -> None:
+    """Rank 0: one progress line before the certificates of ``jobs`` (per mesh, the rows of
+    the members whose certificate is not cached) are computed."""
+    if stream is None:
+        return
+    members = sum(len({r["member"] for r in job["rows"]}) for job in jobs)
+    meshes = ", ".join(f"N = {job['id']}" for job in jobs)
+    print(f"certify: {members} member(s) ({meshes}): reproduced, persistent, the direct "
+          f"solver for a rigid wave{', a kick' if kick else ''}", file=stream, flush=True)
 
 
 def _certificate_jobs(out_dir: Path, ranks: int, dt_limit: bool, kick: bool
