@@ -31,6 +31,14 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--period", type=float, metavar="T", help="guess of the period (s)")
     p.add_argument("--shift", type=float, metavar="S",
                    help="guess of the shift (degrees, + with the rotation)")
+    p.add_argument("--nodes", type=int, metavar="M",
+                   help="instead of --shift: a shift of M whole node passages (+ with the "
+                        "rotation), held, so that the rotation is the mesh's own symmetry "
+                        "(a rigid wave: T = M node passages; its multipliers are then the "
+                        "scheme's)")
+    p.add_argument("--krylov", type=int, default=60,
+                   help="Arnoldi vectors of the multipliers (default 60; a rigid wave's "
+                        "lightly damped modes crowd the unit circle: give several hundred)")
     p.add_argument("--max-iter", type=int, default=20, help="Newton iterations (default 20)")
     p.add_argument("--tol", type=float, default=1e-10,
                    help="residual (relative RMS of the state) to stop at (default 1e-10)")
@@ -56,7 +64,13 @@ def option_problem(args: argparse.Namespace) -> str | None:
                "a finite angle in degrees"),
               ("--max-iter", args.max_iter, lambda x: x >= 0, "0 or more"),
               ("--tol", args.tol, lambda x: math.isfinite(x) and x > 0, "a positive number"),
-              ("--multipliers", args.multipliers, lambda x: x >= 0, "0 (none) or more"))
+              ("--multipliers", args.multipliers, lambda x: x >= 0, "0 (none) or more"),
+              ("--nodes", args.nodes, lambda x: x is None or x != 0,
+               "a nonzero number of node passages"),
+              ("--krylov", args.krylov, lambda x: x >= max(2, args.multipliers),
+               f"at least --multipliers ({args.multipliers}) and 2"))
+    if args.nodes is not None and args.shift is not None:
+        return f"--nodes {args.nodes} and --shift {args.shift}: give one of them"
     for flag, value, ok, want in checks:
         if not ok(value):
             return f"{flag} {value}: give {want}"
@@ -116,9 +130,10 @@ def _rpo(args: argparse.Namespace) -> int:
     if not (run_dir / "checkpoint.npz").is_file():
         return _fail(f"{run_dir}: no checkpoint.npz (give a finished run or census start)")
     generators, components = census_generators(run_dir)
-    if (args.period is None or args.shift is None) and len(generators) < 2:
+    given = args.shift is not None or args.nodes is not None
+    if (args.period is None or not given) and len(generators) < 2:
         return _fail(f"{run_dir}: no census member with two generators above it; give "
-                     "--period T and --shift S")
+                     "--period T and --shift S (or --nodes M)")
     owned = None
     if args.output:
         register_kind("rpo", ORBIT_ENTRIES)
@@ -131,6 +146,7 @@ def _rpo(args: argparse.Namespace) -> int:
         cert = rpo_certificate(run_dir, generators, components=components or None,
                                period=args.period, shift=shift, tol=args.tol,
                                max_iter=args.max_iter, floquet=args.multipliers,
+                               nodes=args.nodes, krylov=args.krylov,
                                orbit_dir=None if owned is None else owned.work,
                                log=None if args.json else print)
         if owned is not None:

@@ -261,3 +261,37 @@ def test_the_guess_takes_a_given_period_and_shift_without_a_second_generator():
     assert period == pytest.approx(1 / 554.47, rel=1e-5)
     assert shift == pytest.approx(2 * math.pi * -927.26 * period / 6, rel=1e-12)
     assert orbit_guess(two, 2e-3) == (2e-3, shift)
+
+
+def test_a_held_whole_node_shift_keeps_s_and_finds_the_wave(rigid132):
+    """``hold_shift``: s stays at exactly −4Δφ (the node permutation, the mesh's symmetry)
+    and Newton moves T alone, from T(1 + 1e-3), back to the wave: residual < 1e-9, T to 1e-6
+    relative, u to 1e-6 d, as with s free."""
+    from stickslip.studies.rpo.certificate import solve_orbit
+    from stickslip.studies.rpo.orbit import OrbitProblem
+
+    start, wave, h = rigid132
+    T, s = 12 * h, -4 * 2 * math.pi / 132
+    held = OrbitProblem(start, T * (1 + 1e-3), s, steps=12, hold_shift=True)
+    assert held.pack(held.guess).size == held.guess.xi.size + 1
+    result, orbit = solve_orbit(held, tol=1e-9, max_iter=12, max_krylov=60)
+    assert result.converged, result.message
+    assert orbit.shift == s
+    assert abs(orbit.period / T - 1) < 1e-6
+    u, _ = held.physical(orbit.xi)
+    assert np.abs(u - start.u).max() < 1e-6 * start.scene.geometry.d
+
+
+@pytest.mark.parametrize("option, words", [
+    (["--nodes", "0"], "--nodes 0: give a nonzero number"),
+    (["--nodes", "4", "--shift", "10"], "--nodes 4 and --shift 10.0: give one of them"),
+    (["--krylov", "5"], "--krylov 5: give at least --multipliers (12)")])
+def test_rpo_held_shift_options_are_one_line(census_start, capsys, option, words):
+    from stickslip.cli.main import main
+
+    base = ["rpo", str(census_start), "--period", "1e-3"]
+    if "--shift" not in option and "--nodes" not in option:
+        base += ["--shift", "10"]
+    rc = main([*base, *option])
+    err = capsys.readouterr().err
+    assert rc == 2 and err.count("\n") == 1 and words in err, err

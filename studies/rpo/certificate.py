@@ -157,21 +157,28 @@ def rpo_certificate(run_dir: str | Path, generators: list[dict], *,
                     components: list[dict] | None = None, period: float | None = None,
                     shift: float | None = None, tol: float = 1e-10, max_iter: int = 20,
                     floquet: int = 12, orbit_dir: str | Path | None = None,
-                    log=None) -> dict:
+                    log=None, nodes: int | None = None, krylov: int = 60) -> dict:
     """The RPO of the state where ``run_dir``'s checkpoint stands, started from the
     ``generators`` (dicts with k, frequency_hz; ``period``/``shift`` override the guess, and
     with both given the generators may be one: a rigid wave as an RPO).
     Returns {converged, residual, iterations, period_s, shift_rad, floquet (leading moduli),
     stable, components (the orbit's lines), differences (each of ``components``, default
     the generators, against the orbit's line), history, guess, defect, wall_s, ...}.
-    ``orbit_dir``: one period of samples written there as samples.npz (a run's layout)."""
+    ``orbit_dir``: one period of samples written there as samples.npz (a run's layout).
+    ``nodes``: s held at that many node passages, + with the rotation (``OrbitProblem``'s
+    ``hold_shift``: the mesh's own symmetry; a rigid wave, with ``period`` its guess of T);
+    ``krylov``: the Arnoldi vectors of the multipliers (``floquet_multipliers``)."""
     t0 = time.perf_counter()
+    start = start_from_run(run_dir)
+    if nodes is not None:
+        shift = 2.0 * math.pi * nodes / start.scene.mesh.n_inner
     guess_t, guess_s = orbit_guess(generators, period, shift)
-    problem = OrbitProblem(start_from_run(run_dir), guess_t, guess_s)
+    problem = OrbitProblem(start, guess_t, guess_s, hold_shift=nodes is not None)
     r0 = float(np.linalg.norm(problem.residual(problem.guess)))
     defect = commutation_defect(problem, problem.guess)
     result, orbit = solve_orbit(problem, tol=tol, max_iter=max_iter, log=log)
-    flo = floquet_multipliers(problem, orbit, count=floquet) if floquet else None
+    flo = floquet_multipliers(problem, orbit, count=floquet, krylov=krylov) if floquet \
+        else None
     samples = orbit_samples(problem, orbit)
     lines = orbit_components(samples, orbit.period, orbit.shift)
     if orbit_dir is not None:

@@ -241,6 +241,9 @@ class OrbitProblem:
     """G(ξ, T, s) = R₋ₛ F_T(x) − ξ in the scaled state (module docstring) and its
     linearisation for the Newton–Krylov solver, with the two phase conditions.
 
+    ``hold_shift``: s stays at its guess, a whole number of node passages for a rigid wave
+    (R_s is then the node permutation), and X = (ξ, T/T₀) with the time condition alone.
+
     Unknowns X = (ξ, T/T₀, s) (2n + 2); equations: G (2n) and the phase conditions on the
     update, ⟨e_t, δξ⟩ = 0 and ⟨e_θ, δξ⟩ = 0, with e_t the direction of time (one step of the
     map from ξ) and e_θ = ∂_θ ξ (the rotation), each normalised: the update moves neither
@@ -258,8 +261,13 @@ class OrbitProblem:
     one column) once per linearisation."""
 
     def __init__(self, start: Start, guess_period: float, guess_shift: float,
-                 steps: int | None = None, eps: float = 1e-7, contact: bool = True) -> None:
+                 steps: int | None = None, eps: float = 1e-7, contact: bool = True,
+                 hold_shift: bool = False) -> None:
         self.start, self.map = start, TimeMap(start, contact)
+        #: the shift held at its guess, T alone free with the time phase condition: with a
+        #: whole number of node passages R_s is the node permutation, an exact symmetry of
+        #: the mesh, so the orbit and its multipliers are the scheme's own (a rigid wave)
+        self.hold_shift = hold_shift
         self.rotation = RingRotation(start.problem)
         self.steps = steps or max(1, int(round(guess_period / start.dt)))
         self.period0 = float(guess_period)
@@ -310,13 +318,18 @@ class OrbitProblem:
 
     # ------------------------------------------------------------------ the Newton system
     def pack(self, g: Guess) -> np.ndarray:
+        if self.hold_shift:
+            return np.r_[g.xi, g.period / self.period0]
         return np.r_[g.xi, g.period / self.period0, g.shift]
 
     def unpack(self, X: np.ndarray) -> Guess:
+        if self.hold_shift:
+            return Guess(X[:-1].copy(), float(X[-1]) * self.period0, self.guess.shift)
         return Guess(X[:-2].copy(), float(X[-2]) * self.period0, float(X[-1]))
 
     def extended_residual(self, X: np.ndarray) -> np.ndarray:
-        return np.r_[self.residual(self.unpack(X)), 0.0, 0.0]
+        conditions = 1 if self.hold_shift else 2
+        return np.r_[self.residual(self.unpack(X)), np.zeros(conditions)]
 
     def linearise(self, X: np.ndarray):
         """J(X) as a function δX ↦ J δX (class docstring)."""
@@ -333,8 +346,11 @@ class OrbitProblem:
         e_th = self.d_theta(g.xi)
         e_th /= np.linalg.norm(e_th)
 
+        held = self.hold_shift
+        extra = 1 if held else 2  # (T, s) or T alone
+
         def jvp(dX: np.ndarray) -> np.ndarray:
-            dxi = dX[:-2]
+            dxi = dX[:-extra]
             size = float(np.linalg.norm(dxi))
             out = -dxi.copy()
             if size > 0.0:
@@ -342,7 +358,10 @@ class OrbitProblem:
                 cols = self.flow(np.c_[g.xi + eps * dxi, g.xi - eps * dxi], g.period)
                 self.jvp_flips.append(int(self.map.flips[1]))
                 out += self.rotate((cols[:, 0] - cols[:, 1]) / (2.0 * eps), -g.shift)
-            out += d_period * dX[-2] + d_shift * dX[-1]
+            out += d_period * dX[-extra]
+            if held:
+                return np.r_[out, e_t @ dxi]
+            out += d_shift * dX[-1]
             return np.r_[out, e_t @ dxi, e_th @ dxi]
 
         return jvp
