@@ -70,7 +70,7 @@ def scene_explicit(problem, law, projection, tau: float) -> SceneExplicit:
         bp, d=np.array([law.d]), slide=np.array([law.slide]), f=np.array([law.f]),
         kernel="numba", tau=tau, bound=friction_bound(law),
         contact={k: v.reshape(m, 1) for k, v in contact.items()}, ghost_update=ghosts)
-    return SceneExplicit(batch, problem.comm, several_ranks=problem.comm.size > 1)
+    return SceneExplicit(batch, several_ranks=problem.comm.size > 1)
 
 
 class SceneExplicit(HookedStepper):
@@ -88,9 +88,9 @@ class SceneExplicit(HookedStepper):
     #: (x, y) pairs, and the work sums (a regularised bound's state is the contact step's).
     STATE = ("u", "u_prev", "v_pred", "zprev", "work")
 
-    def __init__(self, batch: BatchedExplicit, comm, several_ranks: bool = False) -> None:
-        self.batch, self.comm = batch, comm
-        self.several_ranks = several_ranks
+    def __init__(self, batch: BatchedExplicit, several_ranks: bool = False) -> None:
+        self.batch = batch
+        self.several_ranks = several_ranks  # its dofs over MPI ranks: a ghost update a step
         self.dt, self.beta1, self.beta2 = batch.dt, 0.0, batch.beta2
         self.tau, self.damped, self.kappa = batch.tau, batch.damped, batch.kappa
         self.work = batch.work[:, 0]
@@ -193,8 +193,8 @@ class ColumnWork:
     """The contact work of a ``SceneExplicit``: the kernel sums it (``work``), so this is no
     step hook; it reads the sums (``solver.observers.EnergyAccumulator``'s interface)."""
 
-    def __init__(self, stepper: SceneExplicit, projection) -> None:
-        self.integ, self.p = stepper, projection
+    def __init__(self, stepper: SceneExplicit) -> None:
+        self.integ = stepper
 
     def state(self) -> dict[str, np.ndarray]:
         """Nothing of its own: the sums are the stepper's ``work``."""

@@ -340,7 +340,7 @@ def _numpy_work(stepper, contact, with_friction: bool, u0: np.ndarray) -> tuple[
 def _numba_work(stepper, contact, with_friction: bool, u0: np.ndarray) -> tuple[Any, Any]:
     """The numba step's work observers: the kernel sums both (``ColumnWork``,
     ``ColumnDampingWork``), so neither is a step hook and the compiled loop stays."""
-    return (ColumnWork(stepper, contact),
+    return (ColumnWork(stepper),
             ColumnDampingWork(stepper) if stepper.damped else None)
 
 

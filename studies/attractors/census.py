@@ -574,14 +574,15 @@ def chaos_shared(out_dir: Path, comm, stream: TextIO | None = None) -> bool:  # 
                 merge([drifting])
         except (OSError, ValueError):  # left due: rank 0's own pass below tests them again
             pass
+        shares = twin_shares(tests, comm.size) if tests else None
         if due and stream is not None:
-            pairs = " (reference and twin on two ranks)" if 0 < 2 * len(tests) <= comm.size \
-                else ""
+            paired = any("partner" in test for share in shares or [] for test in share)
+            pairs = " (reference and twin on two ranks)" if paired else ""
             what = f"{len(tests)} with stationary statistics: their λ₁{pairs}" if tests \
                 else "none with stationary statistics (no λ₁ to take)"
             print(f"chaos: {len(due)} start(s) unsettled at the cap, {what}", file=stream,
                   flush=True)
-        return twin_shares(tests, comm.size) if tests else None
+        return shares
 
     interrupted = on_ranks(comm, plan, lambda share: _chaos_tests(out_dir, share, comm), merge)
     if comm.rank == 0 and not interrupted:
@@ -692,13 +693,12 @@ def certify_now(out_dir: Path, comm, *, dt_limit: bool = False, kick: bool = Tru
                                      stream=stream)
     else:
         try:
-            found = _certificate_jobs(out_dir, 1, dt_limit, kick)
-            if found is not None:
-                _say_certifying(found[2][0], kick, stream)
             meta = read_meta(out_dir)
             tol = tolerances(meta)
             rows = grouped(meta, start_rows(out_dir, meta["spread_tol"], tol,
                                             meta.get("window_s")))
+            todo = _uncertified(out_dir, rows, dt_limit, kick)
+            _say_certifying([{"id": n, "rows": g} for n, g in todo.items()], kick, stream)
             certify_members(out_dir, rows, dt_limit=dt_limit, window=meta.get("window_s"),
                             kick=kick, tol=tol, timing=spent)
         except KeyboardInterrupt:
@@ -1373,8 +1373,8 @@ def certify_shared(out_dir: Path, comm, *, dt_limit: bool = False,  # noqa: ANN0
 
 def _say_certifying(jobs: list[dict], kick: bool, stream: TextIO | None) -> None:
     """Rank 0: one progress line before the certificates of ``jobs`` (per mesh, the rows of
-    the members whose certificate is not cached) are computed."""
-    if stream is None:
+    the members whose certificate is not cached) are computed; none if there are none."""
+    if stream is None or not jobs:
         return
     members = sum(len({r["member"] for r in job["rows"]}) for job in jobs)
     meshes = ", ".join(f"N = {job['id']}" for job in jobs)
@@ -1394,17 +1394,25 @@ def _certificate_jobs(out_dir: Path, ranks: int, dt_limit: bool, kick: bool
     except (OSError, ValueError, KeyError):
         return None
     grouped(meta, rows)  # as answer_of groups them
+    todo = _uncertified(out_dir, rows, dt_limit, kick)
+    if not todo:
+        return None
+    jobs = [{"id": n, "cost": float(parse_rung_key(n)[0]) ** 3 * len(g), "rows": g}
+            for n, g in todo.items()]
+    return meta.get("window_s"), tol, balanced_shares(jobs, ranks)
+
+
+def _uncertified(out_dir: Path, rows: list[dict], dt_limit: bool,
+                 kick: bool) -> dict[str, list[dict]]:
+    """Rank 0: per mesh, the rows (grouped into members) of the members whose certificate,
+    or with ``kick`` whose kick test, is not in ``certificates.json``."""
     cache = read_cache(out_dir / "certificates.json")
     todo: dict[str, list[dict]] = {}
     for (n, _), group in settled_members(rows).items():
         entry = cache.get(certificate_key(group, dt_limit))
         if entry is None or (kick and not isinstance(entry.get("kick"), dict)):
             todo.setdefault(n, []).extend(group)
-    if not todo:
-        return None
-    jobs = [{"id": n, "cost": float(parse_rung_key(n)[0]) ** 3 * len(g), "rows": g}
-            for n, g in todo.items()]
-    return meta.get("window_s"), tol, balanced_shares(jobs, ranks)
+    return todo
 
 
 def _cell(v: object) -> object:

@@ -220,6 +220,15 @@ def restored_batch(run_dir: str | Path, width: int) -> tuple[BatchColumns, objec
     return cols, st
 
 
+def run_steps(stepper, dt: float, duration: float) -> float:  # noqa: ANN001
+    """``duration`` rounded to whole steps of ``dt`` (at least one), stepped; the time
+    advanced."""
+    steps = max(1, int(round(duration / dt)))
+    for _ in range(steps):
+        stepper.step()
+    return steps * dt
+
+
 def rms(x: np.ndarray) -> float:
     return float(np.sqrt(np.mean(x**2)))
 
@@ -267,10 +276,7 @@ class BatchTwin:
         st.kick(1, *twin_kick(cols, self.U, self.V, d0, seed))
 
     def advance(self, duration: float) -> float:
-        steps = max(1, int(round(duration / self.dt)))
-        for _ in range(steps):
-            self.stepper.step()
-        return steps * self.dt
+        return run_steps(self.stepper, self.dt, duration)
 
     def _column(self, b: int) -> tuple[np.ndarray, np.ndarray]:
         return self.stepper.host_column("u", b), self.stepper.host_column("v_pred", b)
@@ -308,7 +314,7 @@ class SplitTwin:
     twin's (one exchange), which measures the distance, sends it back (a second) and pulls
     itself back. Both ranks meet at every exchange whatever happens: a rank whose step
     raised sends its reason instead and both raise ``TwinStopped``; a signal is recorded
-    (``run_lyapunov``), sent as a stop, and both raise KeyboardInterrupt. So neither rank
+    (``fe_lyapunov``), sent as a stop, and both raise KeyboardInterrupt. So neither rank
     waits for a partner that has left."""
 
     def __init__(self, run_dir: str | Path, pair: Pair, signals: list[int], d0: float = D0,
@@ -329,14 +335,13 @@ class SplitTwin:
         self._exchange(None)  # both built, or both stop here
 
     def advance(self, duration: float) -> float:
-        steps = max(1, int(round(duration / self.dt)))
-        if not self.failure:
-            try:
-                for _ in range(steps):
-                    self.stepper.step()
-            except Exception as err:  # noqa: BLE001 - said to the partner at the exchange
-                self.failure = f"{type(err).__name__}: {err}"
-        return steps * self.dt
+        if self.failure:
+            return duration
+        try:
+            return run_steps(self.stepper, self.dt, duration)
+        except Exception as err:  # noqa: BLE001 - said to the partner at the exchange
+            self.failure = f"{type(err).__name__}: {err}"
+            return duration
 
     def _exchange(self, payload: object) -> object:
         """``payload`` to the partner, the partner's back; both ranks stop together where

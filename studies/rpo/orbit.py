@@ -339,15 +339,14 @@ class OrbitProblem:
         plus = self.flow(g.xi, g.period + self.steps * dh)
         minus = self.flow(g.xi, g.period - self.steps * dh)
         d_period = self.rotate(plus - minus, -g.shift) / (2.0 * dh * self.steps) * self.period0
-        base = self.rotate(self.flow(g.xi, g.period), -g.shift)
-        d_shift = self.d_theta(base)
         e_t = self.flow(g.xi, g.period, steps=1) - g.xi
         e_t /= np.linalg.norm(e_t)
-        e_th = self.d_theta(g.xi)
-        e_th /= np.linalg.norm(e_th)
-
         held = self.hold_shift
         extra = 1 if held else 2  # (T, s) or T alone
+        if not held:  # s free: its column (a map of the base) and its phase condition
+            d_shift = self.d_theta(self.rotate(self.flow(g.xi, g.period), -g.shift))
+            e_th = self.d_theta(g.xi)
+            e_th /= np.linalg.norm(e_th)
 
         def jvp(dX: np.ndarray) -> np.ndarray:
             dxi = dX[:-extra]
