@@ -1,23 +1,25 @@
-"""A rigid wave's stability two ways: its Floquet multipliers, and a transient started on it.
+"""A rigid wave's stability three ways: the multipliers of its orbit locked to p steps per M
+node passages, the growth of the map started on that orbit, and λ₁ of the run at its own
+step.
 
     ./dev python3 benchmarks/rigid_wave_floquet.py RUN_DIR --period T --nodes M \\
-        [--krylov 600] [--periods 300]
+        [--steps P [P ...]] [--periods 0] [--krylov 150]
 
-RUN_DIR is a census start on a rigid wave. The orbit is solved with the shift held at M whole
-node passages (``OrbitProblem(hold_shift=True)``, as ``stickslip rpo --nodes``): R_s is then
-the node permutation, the mesh's own symmetry, and G = R₋ₛ F_T is the scheme's map. It prints:
+RUN_DIR is a census start on a rigid wave; T a guess of M node passages (M signed: − against
+the rotation). For each p of ``--steps`` (default round(T/Δt)) the orbit is solved with the
+shift held at M whole node passages (``OrbitProblem(hold_shift=True)``, as ``stickslip rpo
+--nodes``): R_s is the node permutation, and G = R₋ₛ F_T the scheme's map over p steps of
+h = T/p. It prints per p:
 
-* the orbit's residual, T and s;
-* the leading multipliers of DG (Arnoldi, ``--krylov`` vectors), each with its Ritz
-  residual, its growth rate ln|μ|/T, its frame frequency arg μ/(2πT) and the dominant
-  wavenumber of its eigenvector's u_r on the contact circle;
-* a transient of G from the orbit plus a random 10⁻⁶ (relative RMS) perturbation over
-  ``--periods`` periods: |δξ| every tenth of them, and the growth rate of |δξ| fitted where
-  it grows linearly: above 100 times its start (the leading mode dominates) and below a
-  tenth of its largest (before it saturates).
+* h/Δt, the orbit's residual, and the leading multipliers' growth rates ln|μ|/T and
+  frame angles (``floquet_multipliers``, ``--krylov`` vectors);
+* with ``--periods`` > 0, the map G iterated from the orbit plus 10⁻⁶ over that many
+  periods, and the growth rate fitted over its linear range (``growth_from_the_orbit``).
 
-The two rates agree when the multipliers are the scheme's (the how-to's table,
-docs/howto/rpo.md: P at N = 264, the tutorial point at N = 528).
+Then λ₁ of the run where its checkpoint stands, at its own step Δt (``fe_lyapunov``: the
+census's stability certificate, 0.2 s of twin renormalised every 5 ms). The how-to's table
+(docs/howto/rpo.md) is this script's output at the tutorial point (N = 132) and at P
+(N = 264): the locked orbit's growth swings with p; λ₁ at Δt does not see it.
 """
 
 from __future__ import annotations
@@ -28,18 +30,10 @@ import time
 
 import numpy as np
 
+from stickslip.studies.attractors.chaos import fe_lyapunov
 from stickslip.studies.rpo.certificate import solve_orbit
-from stickslip.studies.rpo.newton import arnoldi
+from stickslip.studies.rpo.floquet import floquet_multipliers, growth_from_the_orbit
 from stickslip.studies.rpo.orbit import OrbitProblem, start_from_run
-
-
-def contact_wavenumber(problem: OrbitProblem, xi_part: np.ndarray) -> int:
-    """The dominant wavenumber of the radial displacement of a state (or an eigenvector) on
-    the contact circle."""
-    nd = problem.start.problem.nodes
-    u = xi_part[: problem.n] * problem.scale[: problem.n]
-    ur = (nd.cos_t * u[nd.dofs_x] + nd.sin_t * u[nd.dofs_y])[np.argsort(nd.theta)]
-    return int(np.argmax(np.abs(np.fft.fft(ur))[: ur.size // 2 + 1]))  # ur may be complex
 
 
 def main() -> None:
@@ -47,47 +41,31 @@ def main() -> None:
     ap.add_argument("run_dir")
     ap.add_argument("--period", type=float, required=True, help="guess of T (s)")
     ap.add_argument("--nodes", type=int, required=True, help="node passages in T (signed)")
-    ap.add_argument("--krylov", type=int, default=600)
-    ap.add_argument("--periods", type=int, default=300)
+    ap.add_argument("--steps", type=int, nargs="*", default=None, help="steps p in T")
+    ap.add_argument("--krylov", type=int, default=150)
+    ap.add_argument("--periods", type=int, default=0)
     args = ap.parse_args()
     start = start_from_run(args.run_dir)
     shift = 2.0 * math.pi * args.nodes / start.scene.mesh.n_inner
-    P = OrbitProblem(start, args.period, shift, hold_shift=True)
-    result, orbit = solve_orbit(P, tol=1e-10, max_iter=25)
-    T = orbit.period
-    print(f"orbit: residual {result.residual:.2e} after {result.iterations} iterations, "
-          f"T = {T:.6e} s ({P.steps} steps), s = {math.degrees(orbit.shift):.4f} deg")
-    t0 = time.perf_counter()
-    V, H = arnoldi(P.monodromy(orbit), np.random.default_rng(1).standard_normal(orbit.xi.size),
-                   args.krylov, 0.0)
-    m = H.shape[1]
-    values, y = np.linalg.eig(H[:m, :m])
-    ritz = np.abs(H[m, m - 1] * y[-1, :] / np.linalg.norm(y, axis=0))
-    for j in np.argsort(-np.abs(values))[:8]:
-        mu = values[j]
-        print(f"  |mu| {abs(mu):.6f}  growth {math.log(abs(mu)) / T:+7.2f} 1/s  "
-              f"frame {np.angle(mu) / (2 * math.pi * T):+8.2f} Hz  ritz {ritz[j]:.1e}  "
-              f"k {contact_wavenumber(P, V[:, :m] @ y[:, j])}")
-    print(f"  ({args.krylov} Arnoldi vectors, {time.perf_counter() - t0:.0f} s)")
-    rng = np.random.default_rng(5)
-    xi = orbit.xi + 1e-6 * rng.standard_normal(orbit.xi.size) / math.sqrt(orbit.xi.size)
-    size = []
-    for _ in range(args.periods):
-        xi = P.rotate(P.flow(xi, T), -orbit.shift)
-        size.append(float(np.linalg.norm(xi - orbit.xi)))
-    for k in range(0, args.periods, max(1, args.periods // 10)):
-        print(f"  period {k + 1:5d}  |dxi| {size[k]:.3e}")
-    size = np.array(size)
-    linear = (size > 100.0 * size[0]) & (size < 0.1 * size.max())
-    if linear.sum() < 3:
-        print("transient from the orbit: no linear range (|dxi| between 100 x its start and "
-              "a tenth of its largest) to fit")
-        return
-    times = T * np.arange(1, args.periods + 1)
-    rate = np.polyfit(times[linear], np.log(size[linear]), 1)[0]
-    print(f"transient from the orbit: |dxi| grows at {rate:+.2f} 1/s over periods "
-          f"{int(np.flatnonzero(linear)[0]) + 1} - {int(np.flatnonzero(linear)[-1]) + 1} "
-          f"(its linear range: 100 x its start to a tenth of its largest)")
+    print(f"node passages per step of the run: {abs(args.nodes) * start.dt / args.period:.4f}")
+    for steps in args.steps or [None]:
+        t0 = time.perf_counter()
+        P = OrbitProblem(start, args.period, shift, steps=steps, hold_shift=True)
+        result, orbit = solve_orbit(P, tol=1e-10, max_iter=25)
+        flo = floquet_multipliers(P, orbit, count=6, krylov=args.krylov)
+        growth = ", ".join(f"{g:+.2f} ({a:+.3f})" for g, a in
+                           zip(flo.growth, np.angle(flo.multipliers), strict=True))
+        print(f"p = {P.steps}, M = {args.nodes}: h/dt = {P.step_of(orbit.period) / start.dt:.4f}"
+              f", residual {result.residual:.1e}; growth 1/s (angle): {growth}; "
+              f"{'stable' if flo.stable else 'UNSTABLE' if flo.stable is False else '?'} "
+              f"({time.perf_counter() - t0:.0f} s)")
+        if args.periods > 0:
+            _, rate, (first, last) = growth_from_the_orbit(P, orbit, args.periods)
+            print("  the map from the orbit: " + (
+                "no linear range" if rate is None else
+                f"|dxi| grows at {rate:+.2f} 1/s over periods {first} - {last}"))
+    lyap = fe_lyapunov(args.run_dir, 0.2, 0.005)
+    print(f"lambda1 of the run at its own step: {lyap.exponent:+.2f} +- {lyap.error:.2f} 1/s")
 
 
 if __name__ == "__main__":

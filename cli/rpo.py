@@ -37,8 +37,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "(a rigid wave: T = M node passages; its multipliers are then the "
                         "scheme's)")
     p.add_argument("--krylov", type=int, default=60,
-                   help="Arnoldi vectors of the multipliers (default 60; a rigid wave's "
-                        "lightly damped modes crowd the unit circle: give several hundred)")
+                   help="Arnoldi vectors of the multipliers (default 60; the verdict "
+                        "says when a growing Ritz value has not converged: give more)")
     p.add_argument("--max-iter", type=int, default=20, help="Newton iterations (default 20)")
     p.add_argument("--tol", type=float, default=1e-10,
                    help="residual (relative RMS of the state) to stop at (default 1e-10)")
@@ -103,11 +103,20 @@ def _print(cert: dict) -> None:
     print(f"  T = {cert['period_s']:.9g} s ({cert['steps']} steps of {cert['step_s']:.6g} s; "
           f"the run's {cert['run_step_s']:.6g} s), s = {cert['shift_deg']:.6f} deg")
     if cert["floquet"] is not None:
+        detail = cert["floquet_detail"]
         mods = ", ".join(f"{m:.6f}" for m in cert["floquet"])
-        verdict = {True: "stable", False: "UNSTABLE",
-                   None: "no verdict: Ritz values not converged"}[cert["stable"]]
-        print(f"  Floquet |mu|: {mods}; {verdict} (neutral pair excluded: largest other "
-              f"{cert['floquet_detail']['leading_non_neutral']:.6f})")
+        tol = detail["growth_tol_per_s"]
+        verdict = {True: f"stable (no mode grows faster than {tol:g} 1/s)", False: "UNSTABLE",
+                   None: "no verdict: no orbit, or a growing Ritz value unconverged"}[
+                       cert["stable"]]
+        excluded = sum(detail["neutral"])
+        print(f"  Floquet |mu|: {mods} over T; {verdict}; fastest non-neutral growth "
+              f"{detail['fastest_growth_per_s']:.3g} 1/s ({excluded} neutral set aside, "
+              f"{detail['krylov']} Arnoldi vectors)")
+        if cert.get("held_shift"):
+            print(f"  (the orbit locked to {cert['steps']} steps per T: its multipliers "
+                  "change with that number; the run's own stability is λ₁ at its step, "
+                  "docs/howto/rpo.md)")
     for line in cert["components"][:8]:
         print(f"  component k = {line['k']:>3} {line['direction']:<8} "
               f"{line['frequency_hz']:+11.3f} Hz  share {line['share']:.3f}")

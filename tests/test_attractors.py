@@ -384,9 +384,13 @@ def _assert_census_map(out: Path) -> None:
 
 def test_certification_adapter(monkeypatch, tmp_path):
     """The direct solver's numbers, or its refusal, in the certificate and its line; a
-    certificate from elsewhere that says it was not made is shown as such."""
+    certificate from elsewhere that says it was not made is shown as such. The stability
+    is λ₁ of the start at its own step (``chaos.fe_lyapunov`` over 2W, renormalised every
+    W/20), unstable when > 1 1/s beyond 3 standard errors; a one-scene run, which has no
+    twin, gets the transient test instead, and the certificate says which judged."""
+    import stickslip.studies.attractors.chaos as chaos
     import stickslip.studies.travel as travel
-    from stickslip.studies.attractors.certify import certificate_line, certify
+    from stickslip.studies.attractors.certify import certificate_line, certify, failures
 
     assert "unavailable" in certificate_line({"available": False,
                                               "message": "certification unavailable"})
@@ -396,34 +400,58 @@ def test_certification_adapter(monkeypatch, tmp_path):
 
     def wave_from_run(run_dir, *, dt_limit=False, window=None):
         return {"converged": True, "residual": 1e-11, "celerity_m_s": -935.6, "k": 11,
+                "frequency_hz": 1639.6, "direction": "opposite",
                 "difference": {"celerity_rel": 0.001},
                 "dt_limit": {"celerity_m_s": -925.0, "run_dt_error": 0.0115, "levels": []}}
 
+    asked = []
+
+    def twin(exponent, error):
+        def fe_lyapunov(run_dir, duration, tau):
+            asked.append((duration, tau))
+            return chaos.Lyapunov(exponent, error, tau, 40, ())
+        return fe_lyapunov
+
     monkeypatch.setattr(travel, "wave_from_run", wave_from_run, raising=False)
-    monkeypatch.setattr(travel, "wave_stability",
-                        lambda run_dir, *, end_time=0.05, window=None: {
-                            "stable": True, "drift": 1e-4}, raising=False)
-    cert = certify(tmp_path)
-    assert cert["at_dt"]["residual"] == 1e-11 and cert["stable"] is True
-    assert certificate_line(cert) == ("direct solver residual 1.0e-11, -935.6 m/s (+0.10 % vs "
-                                      "the transient); Δt → 0: -925.0 m/s (the run's Δt error "
-                                      "+1.15 %); stable")
+    monkeypatch.setattr(chaos, "fe_lyapunov", twin(23.4, 2.0))
+    cert = certify(tmp_path, window=0.1)
+    assert asked == [(0.2, 0.005)]
+    assert cert["at_dt"]["residual"] == 1e-11 and cert["stable"] is False
+    assert cert["stability_test"] == "lyapunov"
+    assert certificate_line(cert) == (
+        "direct solver residual 1.0e-11, -935.6 m/s (+0.10 % vs the transient); Δt → 0: "
+        "-925.0 m/s (the run's Δt error +1.15 %); unstable (λ₁ = 23 ± 2 1/s at the run's "
+        "step)")
+    why = failures({"stable": False, "direct": cert})
+    assert why == ["unstable in the direct solver (λ₁ = 23 ± 2 1/s at the run's step)"]
+    # λ₁ − 3 SE > 1 1/s: unstable (3 − 1.8 = 1.2); at or within it, not shown unstable
+    for exponent, error, stable in ((0.2, 0.85, True), (3.0, 0.7, True), (3.0, 0.6, False),
+                                    (-8.5, 4.4, True)):
+        monkeypatch.setattr(chaos, "fe_lyapunov", twin(exponent, error))
+        assert certify(tmp_path, window=0.1)["stable"] is stable, (exponent, error)
+
+    def one_scene(run_dir, duration, tau):
+        raise chaos.NotABatchMember(f"{run_dir}: not a batch member's checkpoint")
 
     def no_finer_wave(run_dir, *, dt_limit=False, window=None):  # the wave at 2S or 4S is not found
         return {"converged": True, "residual": 1e-11, "celerity_m_s": -935.6, "k": 11,
+                "frequency_hz": 1639.6, "direction": "opposite",
                 "samples": 2, "difference": {"celerity_rel": 0.001}, "dt_limit": None,
                 "dt_limit_message": "NotConverged: no wave at 4S"}
 
     monkeypatch.setattr(travel, "wave_from_run", no_finer_wave)
+    monkeypatch.setattr(chaos, "fe_lyapunov", one_scene)
     monkeypatch.setattr(travel, "wave_stability", lambda run_dir, *, end_time=0.05,
                         window=None: {"stable": True, "drift": 1e-4, "samples": 3},
                         raising=False)
     cert = certify(tmp_path)  # the wave at the run's step is kept, its limit says why not
     assert cert["at_dt"]["residual"] == 1e-11 and cert["stable"] is True
+    assert cert["stability_test"] == "transient"
     assert cert["dt_to_0"] == {"message": "NotConverged: no wave at 4S"}
     assert cert["stability_samples"] == 3  # tested at S' = ceil(tau / dt)
     assert certificate_line(cert).endswith("(+0.10 % vs the transient); Δt → 0 wave not "
-                                           "found (NotConverged); stable")
+                                           "found (NotConverged); stable (a transient next "
+                                           "to the wave)")
 
     def not_rigid(run_dir, *, dt_limit=False, window=None):
         raise NotRigidWave("frame spread 0.45")

@@ -8,9 +8,9 @@
   between the two consecutive windows of each start (every row of a member is stationary by
   its class; the numbers say by how much);
 * a **rigid wave** (one component) is also handed to the direct solver (``certify`` below):
-  one Newton solve at the run's step, and a short transient started next to the wave; an
-  unstable one is no attractor (``failures``, ``census.answer_of``). The Δt → 0 ladder
-  runs only with ``dt_limit`` (``--dt-limit``).
+  one Newton solve at the run's step, and its stability; an unstable one is no attractor
+  (``failures``, ``census.answer_of``). The Δt → 0 ladder runs only with ``dt_limit``
+  (``--dt-limit``).
 * a **kick test** (``kick_members``, every member, rigid or not, unless ``--no-kick``): one
   start of the member (the first whose checkpoint is a batch member's) is perturbed where it
   stands, at t_k, by ``KICK_FRACTION`` (1 %) of its RMS displacement and velocity, each
@@ -26,8 +26,21 @@ Certification by the direct travelling-wave solver, through one adapter:
 ``certify(run_dir)`` hands one of the member's runs to ``studies.travel.wave_from_run`` with
 ``dt_limit=True``: the transient's own discrete wave at the run's step (its residual, its
 celerity and the relative difference to the transient's) and the wave as Δt → 0 at that mesh
-(with the run's own Δt error), and (``studies.travel.wave_stability``) whether a transient
-started next to the wave keeps it. Where the finer levels of the Δt → 0 wave
+(with the run's own Δt error), and its **stability at the run's own step**: the largest
+Lyapunov exponent λ₁ of the start where its checkpoint stands (``chaos.fe_lyapunov``: the
+chaos test's twin, 10⁻⁸ away, renormalised every W/20 over ``STABILITY_WINDOWS`` census
+windows W); the wave is unstable when λ₁ > ``GROWTH_TOL`` = 1 1/s beyond 3 standard errors
+(a stable wave has λ₁ = 0: its translation is neutral). Two other tests were found wanting:
+* a 0.05 s transient started next to the travel solver's wave (kept for a one-scene run,
+  which has no twin; ``stability_test`` says which judged) runs at the matched step
+  h = τ/S, not at Δt, and is short;
+* the Floquet multipliers of the wave as an orbit at a held whole-node shift
+  (``stickslip rpo --nodes``) are those of the orbit locked to p steps per M node passages
+  at h = Mτ/p. With few steps per passage they hang on that ratio, not on the physics: the
+  tutorial's N = 132 rigid k = 8 wave (0.94 steps per passage) grows at −13, +90 and
+  +21 1/s at h/Δt = 0.971, 0.995 and 1.021, while its census starts hold it for 3.5 s and
+  λ₁ at Δt is 0.2 ± 0.9 1/s (docs/howto/rpo.md).
+Where the finer levels of the Δt → 0 wave
 have no wave (the free-ω Newton stagnates with an inequality violated), the wave at the run's
 step still stands and ``dt_to_0`` says why its limit is unknown. A run that is not a rigid
 wave (``NotRigidWave``) or a solver failure is reported, never raised.
@@ -38,6 +51,7 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
+import stickslip.studies.attractors.chaos as chaos
 from stickslip.studies import travel
 from stickslip.studies.attractors.classify import _radius, _samples
 from stickslip.studies.attractors.features import (
@@ -75,17 +89,46 @@ def certify(run_dir: Path, *, stability: bool = True, stability_end_time: float 
         out["dt_to_0"] = {"message": wave.get("dt_limit_message") or (
             "no Δt → 0 wave from this run" if dt_limit else "not computed (dt_limit = False)")}
     if stability and wave.get("converged"):
-        try:
-            st = travel.wave_stability(run_dir, end_time=stability_end_time,
-                                       window=window)
-            out["stable"] = bool(st.get("stable"))
-            out["drift"] = _plain(st.get("drift"))
-            if st.get("samples") is not None and st["samples"] != wave.get("samples"):
-                out["stability_samples"] = int(st["samples"])  # S' = ceil(τ/Δt)
-        except Exception as err:  # reported, the census goes on
-            out["stable"] = None
-            out["stability_message"] = f"{type(err).__name__}: {err}"
+        out.update(_stability(run_dir, wave, stability_end_time, window))
     return out
+
+
+#: the λ₁ test of a rigid wave: the twin runs this many census windows W, renormalised
+#: every W/20 (the chaos test's τ)
+STABILITY_WINDOWS = 2
+#: W where a caller gives none (s): the census's default window
+DEFAULT_WINDOW = 0.1
+#: a wave is unstable when λ₁ exceeds this (1/s) by more than 3 standard errors: a slower
+#: growth needs ln(10³)/λ₁ > 7 s to take a 10⁻³ perturbation to the state's size, longer
+#: than a census's cap
+GROWTH_TOL = 1.0
+
+
+def _stability(run_dir: Path, wave: dict, end_time: float, window: float | None) -> dict:
+    """The rigid wave's stability at the run's own step (module docstring): λ₁ of the
+    start where its checkpoint stands (``chaos.fe_lyapunov``, the twin of the chaos test),
+    unstable when λ₁ > ``GROWTH_TOL`` beyond 3 standard errors. A one-scene run, which has
+    no twin, gets the transient started next to the wave (``travel.wave_stability``);
+    ``stability_test`` says which judged. Never raises."""
+    W = float(window or DEFAULT_WINDOW)
+    try:
+        lyap = chaos.fe_lyapunov(run_dir, STABILITY_WINDOWS * W, W / 20.0)
+    except chaos.NotABatchMember:
+        out = {"stability_test": "transient"}
+        try:
+            st = travel.wave_stability(run_dir, end_time=end_time, window=window)
+        except Exception as err:  # reported, the census goes on
+            return {**out, "stable": None, "stability_message": f"{type(err).__name__}: {err}"}
+        out.update(stable=bool(st.get("stable")), drift=_plain(st.get("drift")))
+        if st.get("samples") is not None and st["samples"] != wave.get("samples"):
+            out["stability_samples"] = int(st["samples"])  # S' = ceil(τ/Δt)
+        return out
+    except Exception as err:  # a failed twin: reported, the census goes on
+        return {"stability_test": "lyapunov", "stable": None,
+                "stability_message": f"{type(err).__name__}: {err}"}
+    growing = lyap.exponent - chaos.ERROR_SIGMAS * lyap.error > GROWTH_TOL
+    return {"stability_test": "lyapunov", "stable": not growing,
+            "lyapunov": _plain(lyap.to_dict())}
 
 
 def certify_member(rows: list[dict], *, dt_limit: bool = False,
@@ -230,7 +273,8 @@ def failures(cert: dict | None) -> list[str]:
         return []
     why = []
     if cert.get("stable") is False:
-        why.append("unstable in the direct solver")
+        why.append("unstable in the direct solver"
+                   + _stability_how(cert.get("direct") or {}))
     kick = cert.get("kick")
     if isinstance(kick, dict) and kick.get("returned") is False:  # what moved: kick_line
         why.append(f"not returned after a {100 * KICK_FRACTION:.0f} % kick")
@@ -304,5 +348,16 @@ def certificate_line(cert: dict | None) -> str:
         text += f"; Δt → 0 wave not found ({lim['message'].split(':')[0]})"
     if "stable" in cert:
         text += {True: "; stable", False: "; unstable", None: "; stability unknown"}[
-            cert["stable"]]
+            cert["stable"]] + _stability_how(cert)
     return text
+
+
+def _stability_how(cert: dict) -> str:
+    """By what the stability was judged: λ₁ at the run's step, or the transient."""
+    lyap = cert.get("lyapunov")
+    if isinstance(lyap, dict) and lyap.get("lambda1_per_s") is not None:
+        return (f" (λ₁ = {lyap['lambda1_per_s']:.2g} ± {lyap['lambda1_error_per_s']:.2g} 1/s "
+                "at the run's step)")
+    if cert.get("stability_test") == "transient":
+        return " (a transient next to the wave)"
+    return ""

@@ -147,6 +147,10 @@ class Twin(Protocol):
         """Move the twin to reference + ``factor`` × (twin − reference)."""
 
 
+class NotABatchMember(ValueError):
+    """A one-scene run's checkpoint: the batch twin has no second column to run."""
+
+
 @dataclass(frozen=True)
 class Lyapunov:
     """λ₁ (1/s) and its standard error over blocks; ``logs``: ln(d/d₀) of every interval."""
@@ -199,12 +203,12 @@ def restored_batch(run_dir: str | Path, width: int) -> tuple[BatchColumns, objec
     """A census start's checkpoint restored into each of ``width`` columns of one batched
     stepper built without a recorder (nothing is written, the start's run is not touched),
     stepping without diagnostics (the state is the same bits): (its columns, the stepper).
-    A one-scene run (not a batch member) is refused with ValueError."""
+    A one-scene run (not a batch member) is refused with ``NotABatchMember``."""
     run_dir = Path(run_dir)
     t_ck = float(json.loads((run_dir / "summary.json").read_text())["sim_time_s"])
     plan = plan_continuation(run_dir, t_ck + 1.0, 1)
     if plan.kind != "batch":
-        raise ValueError(f"{run_dir}: not a batch member's checkpoint (a census start)")
+        raise NotABatchMember(f"{run_dir}: not a batch member's checkpoint (a census start)")
     scene = plan.scene
     cols = BatchColumns([scene] * width, Profile(), BatchOptions(build=False, resumed=True))
     law = ContactLaw.from_scene(scene, cols.dt)

@@ -34,7 +34,7 @@ import numpy as np
 
 from stickslip.studies.rpo.floquet import floquet_multipliers
 from stickslip.studies.rpo.newton import newton_krylov_hookstep
-from stickslip.studies.rpo.orbit import Guess, OrbitProblem, start_from_run
+from stickslip.studies.rpo.orbit import Guess, OrbitProblem, Start, start_from_run
 
 __all__ = ["period_and_shift", "orbit_guess", "rpo_certificate", "orbit_samples",
            "orbit_components", "solve_orbit"]
@@ -157,7 +157,8 @@ def rpo_certificate(run_dir: str | Path, generators: list[dict], *,
                     components: list[dict] | None = None, period: float | None = None,
                     shift: float | None = None, tol: float = 1e-10, max_iter: int = 20,
                     floquet: int = 12, orbit_dir: str | Path | None = None,
-                    log=None, nodes: int | None = None, krylov: int = 60) -> dict:
+                    log=None, nodes: int | None = None, krylov: int = 60,
+                    krylov_max: int | None = None, start: Start | None = None) -> dict:
     """The RPO of the state where ``run_dir``'s checkpoint stands, started from the
     ``generators`` (dicts with k, frequency_hz; ``period``/``shift`` override the guess, and
     with both given the generators may be one: a rigid wave as an RPO).
@@ -167,9 +168,11 @@ def rpo_certificate(run_dir: str | Path, generators: list[dict], *,
     ``orbit_dir``: one period of samples written there as samples.npz (a run's layout).
     ``nodes``: s held at that many node passages, + with the rotation (``OrbitProblem``'s
     ``hold_shift``: the mesh's own symmetry; a rigid wave, with ``period`` its guess of T);
-    ``krylov``: the Arnoldi vectors of the multipliers (``floquet_multipliers``)."""
+    ``krylov``: the Arnoldi vectors of the multipliers, doubled while their verdict is
+    open up to ``krylov_max`` (``floquet_multipliers``); ``start``: the run's state where
+    already read (``orbit.start_from_run``)."""
     t0 = time.perf_counter()
-    start = start_from_run(run_dir)
+    start = start or start_from_run(run_dir)
     if nodes is not None:
         shift = 2.0 * math.pi * nodes / start.scene.mesh.n_inner
     guess_t, guess_s = orbit_guess(generators, period, shift)
@@ -177,8 +180,8 @@ def rpo_certificate(run_dir: str | Path, generators: list[dict], *,
     r0 = float(np.linalg.norm(problem.residual(problem.guess)))
     defect = commutation_defect(problem, problem.guess)
     result, orbit = solve_orbit(problem, tol=tol, max_iter=max_iter, log=log)
-    flo = floquet_multipliers(problem, orbit, count=floquet, krylov=krylov) if floquet \
-        else None
+    flo = floquet_multipliers(problem, orbit, count=floquet, krylov=krylov,
+                              krylov_max=krylov_max) if floquet else None
     samples = orbit_samples(problem, orbit)
     lines = orbit_components(samples, orbit.period, orbit.shift)
     if orbit_dir is not None:
@@ -191,10 +194,10 @@ def rpo_certificate(run_dir: str | Path, generators: list[dict], *,
             "shift_deg": math.degrees(orbit.shift), "steps": problem.steps,
             "step_s": problem.step_of(orbit.period), "run_step_s": problem.start.dt,
             "guess": {"period_s": guess_t, "shift_rad": guess_s, "residual": r0},
-            "commutation_defect": defect,
+            "commutation_defect": defect, "held_shift": nodes is not None,
             "floquet": None if flo is None else [float(m) for m in flo.moduli],
             "floquet_detail": None if flo is None else flo.to_dict(),
-            "stable": None if flo is None else flo.stable,
+            "stable": None if flo is None or not result.converged else flo.stable,
             "components": lines,
             "differences": _differences(lines, components or generators),
             "history": [it.to_dict() for it in result.history],
@@ -202,3 +205,4 @@ def rpo_certificate(run_dir: str | Path, generators: list[dict], *,
                                    "with_changes": int(np.count_nonzero(flips)),
                                    "max": int(flips.max())},
             "wall_s": time.perf_counter() - t0}
+

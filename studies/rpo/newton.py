@@ -15,6 +15,7 @@ products); ρ > 0.75 with the step on the boundary doubles Δ.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -57,29 +58,41 @@ class NewtonResult:
 
 def arnoldi(jvp: Callable[[np.ndarray], np.ndarray], b: np.ndarray, max_krylov: int,
             tol: float) -> tuple[np.ndarray, np.ndarray]:
-    """(V (M, k + 1), H (k + 1, k)) of the Krylov space of J from b (modified Gram–Schmidt,
-    reorthogonalised once), stopped when the GMRES residual is ≤ tol ‖b‖ (module
-    docstring)."""
+    """(V (M, k + 1), H (k + 1, k)) of the Krylov space of J from b: J V_k = V_{k+1} H_k,
+    classical Gram–Schmidt applied twice (CGS2: orthogonal to round-off, each pass one
+    matrix–vector product with the basis), stopped when the GMRES residual
+    min ‖H_k y − β e₁‖ is ≤ tol ‖b‖ (module docstring) or at ``max_krylov``. That residual
+    is kept by Givens rotations, O(k) a step: the QR factors of H_k are updated by one
+    rotation per column, and |g_{k+1}| of the rotated β e₁ is the residual (Saad, Iterative
+    Methods for Sparse Linear Systems, §6.5.3). tol ≤ 0 builds all ``max_krylov`` vectors
+    (the Floquet multipliers). The basis is stored by rows, each vector contiguous."""
     beta = float(np.linalg.norm(b))
-    V = np.zeros((b.size, max_krylov + 1))
+    V = np.zeros((max_krylov + 1, b.size))
     H = np.zeros((max_krylov + 1, max_krylov))
-    V[:, 0] = b / beta
+    cs, sn = np.zeros(max_krylov), np.zeros(max_krylov)
+    g = np.zeros(max_krylov + 1)
+    g[0] = beta
+    V[0] = b / beta
     k = 0
     for j in range(max_krylov):
-        w = jvp(V[:, j])
+        w = jvp(V[j])
         for _ in range(2):
-            c = V[:, : j + 1].T @ w
-            w -= V[:, : j + 1] @ c
+            c = V[: j + 1] @ w
+            w -= c @ V[: j + 1]
             H[: j + 1, j] += c
         H[j + 1, j] = float(np.linalg.norm(w))
         k = j + 1
-        rhs = np.zeros(k + 1)
-        rhs[0] = beta
-        y = np.linalg.lstsq(H[: k + 1, :k], rhs, rcond=None)[0]
-        if np.linalg.norm(H[: k + 1, :k] @ y - rhs) <= tol * beta or H[j + 1, j] == 0.0:
+        col = H[: j + 2, j].copy()
+        for i in range(j):  # the earlier rotations on the new column
+            col[i], col[i + 1] = cs[i] * col[i] + sn[i] * col[i + 1], \
+                -sn[i] * col[i] + cs[i] * col[i + 1]
+        rho = math.hypot(col[j], col[j + 1])
+        cs[j], sn[j] = (1.0, 0.0) if rho == 0.0 else (col[j] / rho, col[j + 1] / rho)
+        g[j], g[j + 1] = cs[j] * g[j], -sn[j] * g[j]
+        if H[j + 1, j] == 0.0 or (tol > 0.0 and abs(g[j + 1]) <= tol * beta):
             break
-        V[:, j + 1] = w / H[j + 1, j]
-    return V[:, : k + 1], H[: k + 1, :k]
+        V[j + 1] = w / H[j + 1, j]
+    return V[: k + 1].T, H[: k + 1, :k]
 
 
 def hookstep(H: np.ndarray, beta: float, radius: float) -> tuple[np.ndarray, float]:
