@@ -37,9 +37,10 @@ windows W); the wave is unstable when λ₁ > ``GROWTH_TOL`` = 1 1/s beyond 3 st
 * the Floquet multipliers of the wave as an orbit at a held whole-node shift
   (``stickslip rpo --nodes``) are those of the orbit locked to p steps per M node passages
   at h = Mτ/p. With few steps per passage they hang on that ratio, not on the physics: the
-  tutorial's N = 132 rigid k = 8 wave (0.94 steps per passage) grows at −13, +90 and
-  +21 1/s at h/Δt = 0.971, 0.995 and 1.021, while its census starts hold it for 3.5 s and
-  λ₁ at Δt is 0.2 ± 0.9 1/s (docs/howto/rpo.md).
+  tutorial's N = 132 rigid k = 8 wave (0.94 steps per passage) grows at +9.5, +90 and
+  +21 1/s at h/Δt = 0.971, 0.995 and 1.021 (another guess of T finds another locked orbit
+  with other multipliers), while its census starts hold it for seconds and λ₁ at Δt is
+  −0.1 ± 0.8 1/s (docs/howto/rpo.md).
 Where the finer levels of the Δt → 0 wave
 have no wave (the free-ω Newton stagnates with an inequality violated), the wave at the run's
 step still stands and ``dt_to_0`` says why its limit is unknown. A run that is not a rigid
