@@ -56,7 +56,7 @@ N = 132 and 4 at N = 264).
 The N = 528 rung of a 16-start census (cap 4 s, certificates, the chaos test; target 15
 minutes on 2 cores), ``./dev mpirun -n 2 stickslip attractors scenes/figure1_n132_damped.toml
 --starts 16 --meshes 528 -o DIR --yes-i-know`` on the idle machine: the tutorial point in
-12 min 42 s (5.23 M scene-steps), the public point P in 23 min 53 s (8.00 M). P's rung is
+12 min 9 s (5.23 M scene-steps), the public point P in 23 min 53 s (8.00 M). P's rung is
 bound by its steps: its multi-wave starts drift for seconds, and its tail legs run one to
 three starts. ``--step-bound LOG --dt DT`` reads the census's printed legs (``settle:
 continuing …``) and sums, leg by leg, the steps of the busier rank at the measured cost of
