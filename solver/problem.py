@@ -20,6 +20,7 @@ from petsc4py import PETSc
 from stickslip.forms.elasticity import Material, lumped_mass, stiffness
 from stickslip.forms.polar import ContactNodes, contact_nodes
 from stickslip.meshes.annulus import INNER_TAG, OUTER_TAG, TubeMesh, annulus_mesh
+from stickslip.meshes.tube3d import END0_TAG, END1_TAG, tube_mesh_3d
 from stickslip.meshes.user_mesh import resolve, user_mesh
 from stickslip.solver.scene import SCENES_DIR, Scene
 
@@ -127,8 +128,45 @@ def cross_section(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD) -> TubeMesh:
 
 def build_problem(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD) -> TubeProblem:
     """Mesh, P1/P2 space, stiffness matrix, lumped mass and contact nodes for ``scene``."""
+    return problem_on(scene, cross_section(scene, comm), comm)
+
+
+#: the ends of a finite tube: the components held at 0 on z = 0 and z = L (0, 1, 2: x, y, z);
+#: a roller end holds u_z and leaves the end free in its plane
+ENDS = {"free": (), "roller": (2,), "clamped": (0, 1, 2)}
+
+
+def tube_problem_3d(scene: Scene, *, length: float, n_axial: int, ends: str = "roller",
+                    comm: MPI.Comm = MPI.COMM_WORLD) -> TubeProblem:
+    """The finite tube of length ``length`` (m) in hexahedra (``meshes.tube3d``: the scene's
+    annulus, N = ``mesh.n_inner`` around, ``mesh.n_radial`` through the wall, ``n_axial``
+    layers along z), degree 1, outer surface clamped and ``ends`` (``ENDS``) on z = 0, L.
+    With roller ends the plane-strain fields (u_z = 0, no z dependence) are a subspace that
+    K, the lumped mass and the sliding CEA's friction rows keep, so every eigenvalue of the
+    2D scene in quadrilaterals (the cross-section extruded) is one of the 3D tube
+    (tests/test_tube3d.py). The CEA (``studies.flutter_fe.build_operators``) couples the
+    friction to the θ-rows only: about sliding along θ, the disc-shaped Coulomb cone adds
+    a damping f λ₀/(ΩR) on the contact's z-dofs that it leaves out, so of a 3D tube it is
+    exact for the plane-strain modes alone."""
+    if ends not in ENDS:
+        raise ValueError(f"ends = {ends!r}: use one of {', '.join(ENDS)}")
+    if scene.mesh.degree != 1 or not scene.mesh.tube:
+        raise ValueError("the 3D tube is the structured annulus of degree 1 extruded "
+                         "(mesh.degree = 1, no mesh.file)")
+    g = scene.geometry
+    tube = tube_mesh_3d(comm, R=g.R, xi=g.xi, length=length, n_inner=scene.mesh.n_inner,
+                        n_axial=n_axial, n_radial=scene.mesh.n_radial)
+    return problem_on(scene, tube, comm, fixed=[(tag, ENDS[ends]) for tag in (END0_TAG,
+                                                                              END1_TAG)])
+
+
+def problem_on(scene: Scene, tube, comm: MPI.Comm,  # noqa: ANN001 - TubeMesh or Tube3DMesh
+               fixed: list[tuple[int, tuple[int, ...]]] = ()) -> TubeProblem:
+    """The problem on the mesh ``tube`` (tags ``INNER_TAG``: contact, ``OUTER_TAG``:
+    clamped): the Lagrange space of the scene's degree with the mesh's dimension, K, the
+    lumped mass, the clamped dofs (every component on ``OUTER_TAG``, and each (tag,
+    components) of ``fixed``) and the contact nodes."""
     m = scene.mesh
-    tube = cross_section(scene, comm)
     msh = tube.mesh
     V = dolfinx.fem.functionspace(msh, ("Lagrange", m.degree, (msh.geometry.dim,)))
     mat = scene.material
@@ -140,14 +178,24 @@ def build_problem(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD) -> TubeProblem:
     mass = mass_vec.array.copy()
     bs = V.dofmap.index_map_bs
     n_owned = V.dofmap.index_map.size_local * bs
-    outer = tube.facet_tags.find(OUTER_TAG)
-    blocks = dolfinx.fem.locate_dofs_topological(V, msh.topology.dim - 1, outer)
-    clamped = (blocks[:, None] * bs + np.arange(bs)[None, :]).ravel()
+    held = [_tag_dofs(V, tube.facet_tags, OUTER_TAG, range(bs))]
+    held += [_tag_dofs(V, tube.facet_tags, tag, parts) for tag, parts in fixed if parts]
+    clamped = np.unique(np.concatenate(held))
     clamped = np.sort(clamped[clamped < n_owned])
     inv_mass = 1.0 / mass
     inv_mass[clamped] = 0.0
     nodes = contact_nodes(V, tube.facet_tags, INNER_TAG)
     return TubeProblem(scene, tube, V, material, K, mass, inv_mass, clamped, nodes, comm)
+
+
+def _tag_dofs(V: dolfinx.fem.FunctionSpace, facet_tags: dolfinx.mesh.MeshTags, tag: int,
+              parts) -> np.ndarray:  # noqa: ANN001 - an iterable of components
+    """The local dofs of the components ``parts`` at the nodes of the facets ``tag``."""
+    msh = V.mesh
+    bs = V.dofmap.index_map_bs
+    blocks = dolfinx.fem.locate_dofs_topological(V, msh.topology.dim - 1,
+                                                 facet_tags.find(tag))
+    return (blocks[:, None] * bs + np.asarray(list(parts))[None, :]).ravel()
 
 
 def omega_max(problem: TubeProblem) -> float:

@@ -30,7 +30,8 @@ celerity and the relative difference to the transient's) and the wave as Δt →
 Lyapunov exponent λ₁ of the start where its checkpoint stands (``chaos.fe_lyapunov``: the
 chaos test's twin, 10⁻⁸ away, renormalised every W/20 over ``STABILITY_WINDOWS`` census
 windows W); the wave is unstable when λ₁ > ``GROWTH_TOL`` = 1 1/s beyond 3 standard errors
-(a stable wave has λ₁ = 0: its translation is neutral). Two other tests were found wanting:
+(a stable wave has λ₁ ≤ 0: its translation is neutral, its other directions decay; measured
+−4 to +0.1 1/s over 2W on the tutorial's rigid members). Two other tests were found wanting:
 * a 0.05 s transient started next to the travel solver's wave (kept for a one-scene run,
   which has no twin; ``stability_test`` says which judged) runs at the matched step
   h = τ/S, not at Δt, and is short;
