@@ -198,3 +198,32 @@ def test_the_distributed_mesh_has_the_same_tags():
               for tag in (INNER_TAG, OUTER_TAG, END0_TAG, END1_TAG)}
     assert counts == {INNER_TAG: 48, OUTER_TAG: 48, END0_TAG: 32, END1_TAG: 32}
     assert comm.allreduce(msh.topology.index_map(3).size_local) == 96
+
+
+def test_the_3d_cea_labels_each_mode_by_wavenumber_and_axial_order():
+    """``complex_eigenvalue_analysis`` on the 3D tube with roller ends (N = 32, Figure 1,
+    L = 50 mm, 4 axial layers) finds the 2D scene's unstable modes below 3 kHz with their
+    wavenumber k, frequency and growth rate (to 1e-8 relative: the same pencil restricted
+    to a subspace), each of axial order m = 0; ``axial_order`` counts the sign changes of a
+    ring profile after its common phase is removed."""
+    from stickslip.solver.problem import build_problem, tube_problem_3d
+    from stickslip.solver.scene import load_scene
+    from stickslip.studies.flutter_fe.cea import axial_order, complex_eigenvalue_analysis
+
+    assert axial_order(np.array([1.0, 0.9, 1.1])) == 0
+    assert axial_order(np.exp(0.7j) * np.array([1.0, 0.4, -0.3, -1.0])) == 1
+    assert axial_order(np.array([1.0, -1.0, 1.0, 0.001, -1.0])) == 3  # 0.001: below the floor
+    assert axial_order(np.array([2.0])) == 0
+    scene = load_scene("scenes/figure1.toml", ["mesh.n_inner=32", "mesh.cell=quadrilateral"])
+    two = complex_eigenvalue_analysis(build_problem(scene, MPI.COMM_SELF), fmax_hz=3000.0)
+    three = complex_eigenvalue_analysis(
+        tube_problem_3d(scene, length=0.05, n_axial=4, ends="roller", comm=MPI.COMM_SELF),
+        fmax_hz=3000.0)
+    plane = [m for m in three.unstable() if m.axial_order == 0]
+    assert len(two.unstable()) >= 8
+    for mode in two.unstable():
+        twin = min(plane, key=lambda m: abs(m.frequency_hz - mode.frequency_hz)
+                   + abs(m.growth_rate - mode.growth_rate))
+        assert twin.k == mode.k
+        assert twin.frequency_hz == pytest.approx(mode.frequency_hz, rel=1e-8)
+        assert twin.growth_rate == pytest.approx(mode.growth_rate, rel=1e-8)

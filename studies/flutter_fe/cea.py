@@ -45,6 +45,7 @@ from dataclasses import asdict, dataclass, field
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from mpi4py import MPI
 
 from stickslip.solver.contact import ContactLaw, SpatialFilter
 
@@ -73,12 +74,15 @@ class CEAOperators:
     free: np.ndarray  # owned local dof indices (rotated frame) kept in the eigenproblem
     pos_theta: np.ndarray  # positions of the owned contact θ-dofs in the free numbering
     theta: np.ndarray  # angles of the owned contact nodes
-    n_contact: int  # contact nodes in total (all ranks)
+    n_contact: int  # contact nodes around the circle N (all ranks; per level in 3D)
     radius: float
     mass_kind: str
     friction: str = "nodal"  # friction law on the reactions: 'nodal' or '1-2-1'
     consistent_friction_mass: PETSc.Mat | None = None  # −E M̂_c (consistent mass only)
     comm: Any = None
+    #: the z-level of each owned contact node (0 … levels − 1; all 0 in 2D) and the levels
+    level: np.ndarray | None = None
+    levels: int = 1
 
     @property
     def n_free(self) -> int:
@@ -183,13 +187,28 @@ def build_operators(
     for m in (Khat, Kf, iset):
         m.destroy()
     frame.destroy()
+    level, levels = contact_levels(problem)
     return CEAOperators(
         Kt=Kt_f, Kf=Kf_f, B=B, free=free,
         pos_theta=np.searchsorted(free, nd.dofs_y), theta=nd.theta,
-        n_contact=nd.n_global, radius=problem.scene.geometry.R, mass_kind=mass,
+        n_contact=nd.n_global // levels, radius=problem.scene.geometry.R, mass_kind=mass,
         friction=friction,
-        consistent_friction_mass=friction_mass, comm=comm,
+        consistent_friction_mass=friction_mass, comm=comm, level=level, levels=levels,
     )
+
+
+def contact_levels(problem: TubeProblem) -> tuple[np.ndarray, int]:
+    """(level of each owned contact node, number of levels): the distinct z of the contact
+    surface's nodes, in order (a 3D tube: N_z + 1 rings of N nodes); one level in 2D."""
+    nd = problem.nodes
+    xyz = problem.V.tabulate_dof_coordinates()[nd.nodes]
+    if problem.V.mesh.geometry.dim < 3:
+        return np.zeros(nd.n_owned, dtype=np.int64), 1
+    scale = max(float(problem.comm.allreduce(np.abs(xyz[:, 2]).max(initial=0.0), op=MPI.MAX)),
+                1e-300)
+    keys = np.round(xyz[:, 2] / scale * 1e9).astype(np.int64)
+    every = np.unique(np.concatenate(problem.comm.allgather(keys)))
+    return np.searchsorted(every, keys).astype(np.int64), int(every.size)
 
 
 class _ContactFrame:
@@ -343,11 +362,12 @@ def band_eigenvalues(
     nearest ``σ`` leaves none out (up to Krylov convergence) in the disc ``|μ − σ| < ρ``
     (``ρ`` = distance of the ``nev``-th). The eigenvalues lie in a strip ``|Im μ| ≤ H``
     around the real axis (flutter: ``Im μ = −2σ_g ω``); ``H`` = ``strip_safety`` × the largest
-    ``|Im μ|`` found in the disc, and the disc must reach above it (``ρ > H``, else ``nev``
-    doubles). The disc then covers the strip on ``Re μ ∈ σ ± √(ρ² − H²)``: slices are
-    accepted there only, march upwards from ``lo = −0.02 mu_max`` (first target ``lo``, next
-    ``0.7`` half-width above the covered end), and a slice that does not reach back to ``lo``
-    is redone nearer. Each accepted pair's relative residual is checked (< 1e-6, recorded).
+    ``|Im μ|`` found in the disc, and no lower than the lower slices' ``H``, and the disc must
+    reach above it (``ρ > H``, else ``nev`` doubles). The disc then covers the strip on
+    ``Re μ ∈ σ ± √(ρ² − H²)``: slices are accepted there only, march upwards from
+    ``lo = −0.02 mu_max`` (first target ``lo``, next ``0.7`` half-width above the covered
+    end), and a slice that does not reach back to ``lo`` is redone nearer. Each accepted
+    pair's relative residual is checked (< 1e-6, recorded).
     Returns ``μ`` (complex), the eigenvectors at ``contact_pos`` (owned entries; rows =
     eigenvalues) and statistics. With ``keep_vector`` and ``vectors``, the whole owned
     eigenvector of each ``μ`` with ``keep_vector(μ)`` goes into ``vectors`` under its index
@@ -377,7 +397,11 @@ def band_eigenvalues(
         inside = order if everything else order[:nev]
         # open disc, shrunk by 1e-9: the nev-th may have an unreturned twin at equal distance
         rho = math.inf if everything else float(dist[order[nev - 1]]) * (1.0 - 1e-9)
-        strip = _strip_half_height(mu[inside], sigma, rho, strip_safety)
+        # the strip is at least as tall as the lower slices found it: a disc smaller than the
+        # tallest eigenvalues sees none of them (a 3D tube's dense spectrum: Figure 3,
+        # N = 64, L = R/4 lost 10 of its 201 unstable modes, two of the top four, without it)
+        strip = max(_strip_half_height(mu[inside], sigma, rho, strip_safety),
+                    stats.strip_half_height)
         if not everything and rho <= strip:
             eps.destroy()
             nev = min(2 * nev, n)
@@ -651,6 +675,7 @@ class CEAMode:
     zeta: float = 0.0  # damping ratio −Re λ / |λ| (< 0: unstable)
     elements_per_wavelength: float = math.inf  # N / |k| on the contact circle
     mesh_scale: bool = False  # elements_per_wavelength < MESH_SCALE_ELEMENTS
+    axial_order: int = 0  # m: nodal rings of the mode along a 3D tube (``axial_order``)
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
@@ -755,15 +780,21 @@ def _classify(lam: np.ndarray, shape: np.ndarray, real: np.ndarray, mu: np.ndarr
     kk = np.arange(-(n_c // 2), n_c // 2 + 1)
     growth, omega = lam.real, np.abs(lam.imag)
     basis = np.exp(-1j * np.outer(ops.theta, kk))  # owned nodes × k
-    local = shape @ basis if shape.size else np.zeros((lam.size, kk.size), dtype=complex)
+    level = np.zeros(ops.theta.size, dtype=np.int64) if ops.level is None else ops.level
+    local = np.zeros((lam.size, ops.levels, kk.size), dtype=complex)
+    for z in range(ops.levels):  # the DFT along θ on each ring of the contact surface
+        on = level == z
+        if shape.size and on.any():
+            local[:, z] = shape[:, on] @ basis[on]
     coeff = np.zeros_like(local)
     ops.comm.Allreduce(local, coeff)
-    power = np.abs(coeff) ** 2
+    power = (np.abs(coeff) ** 2).sum(axis=1)
     modes = []
     for i in range(lam.size):
         p = power[i]
         j = int(np.argmax(p))
         k = int(kk[j])
+        m = axial_order(coeff[i, :, j])
         total = float(p.sum())
         pair = p[j] + (p[kk == -k][0] if k != 0 else 0.0)
         purity = float(pair / total) if total > 0 else 0.0
@@ -781,9 +812,26 @@ def _classify(lam: np.ndarray, shape: np.ndarray, real: np.ndarray, mu: np.ndarr
             phase_speed_m_s=float(speed),
             zeta=float(-growth[i] / abs(lam[i])) if lam[i] != 0 else 0.0,
             elements_per_wavelength=float(per_wave),
-            mesh_scale=bool(per_wave < MESH_SCALE_ELEMENTS),
+            mesh_scale=bool(per_wave < MESH_SCALE_ELEMENTS), axial_order=m,
         ))
     return modes
+
+
+#: a ring whose |a_k| is below this share of the largest does not count in ``axial_order``
+AXIAL_FLOOR = 0.05
+
+
+def axial_order(profile: np.ndarray) -> int:
+    """The axial order m of a mode along the tube: the sign changes of its dominant
+    wavenumber's coefficient a_k(z) from ring to ring, after the common phase is removed
+    (a_k e^{−iφ} with φ = arg(Σ a_k²)/2, real for a standing axial shape); rings below
+    ``AXIAL_FLOOR`` of the largest |a_k| are skipped. 0: uniform or of one sign along z
+    (the plane-strain modes), 1: one nodal ring, and so on; 0 in 2D (one ring)."""
+    if profile.size < 2:
+        return 0
+    real = (profile * np.exp(-0.5j * np.angle(np.sum(profile**2)))).real
+    kept = real[np.abs(profile) >= AXIAL_FLOOR * np.abs(profile).max()]
+    return int(np.count_nonzero(np.diff(np.sign(kept)) != 0))
 
 
 def _unstable_mu(tau: float) -> Callable[[complex], bool]:
