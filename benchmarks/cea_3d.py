@@ -2,7 +2,7 @@
 axial order does it take?
 
     ./dev python3 benchmarks/cea_3d.py [SCENE] [--n 64] [--lengths 0.25 0.5 1 2]
-        [--ends free roller] [--fmax 3000] [--top 4]
+        [--ends free roller] [--fmax 3000] [--top 4] [--set KEY=VALUE ...]
 
 For the scene (default ``scenes/figure3_n132_damped.toml``: R = 1 m, ξ = 1.25, f = 0.7,
 Kelvin–Voigt 2 % at 1.6 kHz) in quadrilaterals at N contact nodes around, it runs the 2D
@@ -46,8 +46,11 @@ def main() -> None:
     ap.add_argument("--ends", nargs="+", default=["free", "roller"])
     ap.add_argument("--fmax", type=float, default=3000.0)
     ap.add_argument("--top", type=int, default=4)
+    ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                    help="a scene override, as stickslip's --set")
     args = ap.parse_args()
-    scene = load_scene(args.scene, [f"mesh.n_inner={args.n}", "mesh.cell=quadrilateral"])
+    scene = load_scene(args.scene, [*args.set, f"mesh.n_inner={args.n}",
+                                    "mesh.cell=quadrilateral"])
     R = scene.geometry.R
     t0 = time.perf_counter()
     two = complex_eigenvalue_analysis(build_problem(scene, MPI.COMM_SELF), fmax_hz=args.fmax)

@@ -97,8 +97,9 @@ GENERATED = {"cli.md", "scene.md"}
 #: The budget of the user docs (Markdown, generated reference pages excepted): the whole site,
 #: and any one page (a page past it is a log or a study, which belongs in archive/).
 #: 320 kB: the P2 soundness tables (docs/convergence.md) took the site past 300 kB; 330 kB:
-#: the relative periodic orbits (theory and how-to), the chaos test and the ladder table.
-DOCS_BYTES, PAGE_BYTES = 330_000, 36_000
+#: the relative periodic orbits (theory and how-to), the chaos test and the ladder table;
+#: 332 kB: the finite tube's CEA table (docs/flutter.md).
+DOCS_BYTES, PAGE_BYTES = 332_000, 36_000
 
 
 def test_user_docs_stay_small():
