@@ -17,6 +17,7 @@ from stickslip.cli.checks import output_file_problem
 from stickslip.cli.commands import command_help
 from stickslip.solver.atomic import atomic_write_text
 from stickslip.solver.scene import SceneError, load_scene
+from stickslip.solver.scene.sections import ENDS
 from stickslip.studies.flutter_fe.cea import (
     CEAMode,
     CEAResult,
@@ -116,6 +117,17 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.add_argument("--plot", metavar="PNG", default=None,
                    help="growth vs frequency (or the CEA diagram with --f-sweep) to this file")
+    p.add_argument("--length", type=float, default=None, metavar="L",
+                   help="the finite tube of this length (m) in 3D instead of plane strain: "
+                        "the scene's annulus extruded in hexahedra; each mode also gets its "
+                        "axial order m (nodal rings along z); friction on the theta-rows only "
+                        "(docs/flutter.md, 'A finite tube')")
+    p.add_argument("--n-axial", type=int, default=None, metavar="NZ",
+                   help="with --length: element layers along z (default: cells as long as "
+                        "they are wide on the contact surface, round(L N / (2 pi R)))")
+    p.add_argument("--ends", choices=tuple(ENDS), default="free",
+                   help="with --length: the ends z = 0, L: free (default), roller (u_z = 0; "
+                        "the plane-strain modes are then 3D modes) or clamped")
     p.set_defaults(func=flutter_fe_command)
 
 
@@ -144,13 +156,15 @@ def flutter_fe_command(args: argparse.Namespace) -> int:
     if isinstance(solved, str):
         return _fail(comm, solved)
     res, sweep, written = solved
-    reduced = [] if scene.mesh.file else reduced_model_flutter(scene, args.kmax)
+    reduced = [] if scene.mesh.file or args.length else reduced_model_flutter(scene, args.kmax)
     if comm.rank != 0:
         return 0
     out = res.to_dict()
     out["reduced_model"] = reduced
     out["doublets"] = [d.to_dict() for d in doublets(res, args.kmax)]
     out["beta2_note"] = _beta2_note(scene)
+    if args.length is not None:
+        out["tube_3d"] = {"length_m": args.length, "n_axial": res.levels - 1, "ends": args.ends}
     if written:
         out["mode_shapes"] = written
     if sweep is not None:
@@ -169,6 +183,11 @@ def flutter_fe_command(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps(out, indent=2))
     else:
+        if args.length is not None:
+            layers = res.levels - 1
+            print(f"3D tube: length {args.length:g} m, {layers} axial "
+                  f"layer{'s' if layers != 1 else ''}, "
+                  f"{args.ends} ends (friction on the theta-rows only: docs/flutter.md)")
         _print_table(res, reduced, args.top, args.plot, _beta2_note(scene), written, args.kmax)
         print("\n".join(f"table: {path}" for path in out.get("tables", [])))
     return 0
@@ -212,8 +231,33 @@ def _argument_problem(args: argparse.Namespace, scene: Scene, ranks: int) -> str
     refused = unrepresented_terms(friction_relaxation_time(scene), args.mass, ranks)
     if refused:
         return refused
+    bad = _tube_3d_problem(args, scene)
+    if bad:
+        return bad
     if args.modes:
         return modes_dir_problem(args.modes) or None
+    return None
+
+
+def _tube_3d_problem(args: argparse.Namespace, scene: Scene) -> str | None:
+    """Why ``--length``, ``--n-axial`` and ``--ends`` cannot run (one line), or None."""
+    if args.length is None:
+        if args.n_axial is not None or args.ends != "free":
+            return "--n-axial and --ends describe the 3D tube: give its --length too"
+        return None
+    if not (math.isfinite(args.length) and args.length > 0):
+        return f"--length {args.length!r} is out of range: need a length > 0 (m)"
+    if args.n_axial is not None and args.n_axial < 1:
+        return f"--n-axial {args.n_axial} is out of range: need at least 1 layer"
+    if scene.mesh.degree != 1 or scene.mesh.file:
+        return ("--length: the 3D tube extrudes the structured annulus of degree 1 "
+                "(mesh.degree = 1, no mesh.file)")
+    for flag, value in (("--modes", args.modes), ("--friction 1-2-1",
+                                                  args.friction == "1-2-1"
+                                                  or (args.friction is None
+                                                      and scene.friction.filter != "nodal"))):
+        if value:
+            return f"{flag} is for the plane-strain tube; drop it with --length"
     return None
 
 
@@ -222,11 +266,17 @@ def _analyse(args: argparse.Namespace, scene: Scene, comm: MPI.Comm,
     """The CEA at the scene's f (and at each f of ``--f-sweep``), the listed mode shapes
     written with ``--modes``; or why the band cannot be solved (one line)."""
     # dolfinx (and MPI) start after the command line and the environment are checked
-    from stickslip.solver.problem import build_problem, gershgorin_omega_max
+    from stickslip.solver.problem import build_problem, gershgorin_omega_max, tube_problem_3d
 
     friction = args.friction or scene.friction.filter
     t0 = time.perf_counter()
-    problem = build_problem(scene, comm)
+    if args.length is None:
+        problem = build_problem(scene, comm)
+    else:  # cells as long as they are wide on the contact surface, unless given
+        n_axial = args.n_axial or max(1, round(args.length * scene.mesh.n_inner
+                                               / (2 * math.pi * scene.geometry.R)))
+        problem = tube_problem_3d(scene, length=args.length, n_axial=n_axial, ends=args.ends,
+                                  comm=comm)
     t_build = time.perf_counter() - t0
     f_top = gershgorin_omega_max(problem) / (2 * math.pi)  # no mode of the mesh above it
     if args.fmax_hz > FMAX_FACTOR * f_top:
@@ -286,7 +336,8 @@ def _listed(res: CEAResult, top: int) -> tuple[list[CEAMode], list[CEAMode]]:
 def _mode_row(m: CEAMode) -> str:
     flag = "  mesh-scale" if m.mesh_scale else ""
     return (f"{m.frequency_hz:10.1f} {m.growth_rate:12.2f} {m.zeta:+9.5f} {m.k:+5d} "
-            f"{m.direction:>9} {m.phase_speed_m_s:11.1f} {m.purity:6.3f}{flag}")
+            f"{m.axial_order:3d} {m.direction:>9} {m.phase_speed_m_s:11.1f} "
+            f"{m.purity:6.3f}{flag}")
 
 
 def _print_table(res: CEAResult, reduced: list[dict], top: int, plot: str | None,
@@ -310,10 +361,10 @@ def _print_table(res: CEAResult, reduced: list[dict], top: int, plot: str | None
     ]
     if beta2_note:
         lines.append(f"note: {beta2_note}")
-    head = (f"{'freq (Hz)':>10} {'growth (1/s)':>12} {'zeta':>9} {'k':>5} {'direction':>9} "
-            f"{'speed (m/s)':>11} {'purity':>6}")
+    head = (f"{'freq (Hz)':>10} {'growth (1/s)':>12} {'zeta':>9} {'k':>5} {'m':>3} "
+            f"{'direction':>9} {'speed (m/s)':>11} {'purity':>6}")
     lines.append("zeta = -Re(lambda)/|lambda| (< 0: unstable); k > 0 and speed < 0: against "
-                 "the rotation")
+                 "the rotation; m: nodal rings along a 3D tube (0 in plane strain)")
     shown, shown_mesh = _listed(res, top)
     lines.append(f"unstable modes resolved by the mesh (most unstable first, {top} at most):")
     lines.append(head)

@@ -23,6 +23,7 @@ from stickslip.meshes.annulus import INNER_TAG, OUTER_TAG, TubeMesh, annulus_mes
 from stickslip.meshes.tube3d import END0_TAG, END1_TAG, tube_mesh_3d
 from stickslip.meshes.user_mesh import resolve, user_mesh
 from stickslip.solver.scene import SCENES_DIR, Scene
+from stickslip.solver.scene.sections import ENDS
 
 
 @dataclass
@@ -129,11 +130,6 @@ def cross_section(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD) -> TubeMesh:
 def build_problem(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD) -> TubeProblem:
     """Mesh, P1/P2 space, stiffness matrix, lumped mass and contact nodes for ``scene``."""
     return problem_on(scene, cross_section(scene, comm), comm)
-
-
-#: the ends of a finite tube: the components held at 0 on z = 0 and z = L (0, 1, 2: x, y, z);
-#: a roller end holds u_z and leaves the end free in its plane
-ENDS = {"free": (), "roller": (2,), "clamped": (0, 1, 2)}
 
 
 def tube_problem_3d(scene: Scene, *, length: float, n_axial: int, ends: str = "roller",

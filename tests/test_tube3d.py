@@ -265,3 +265,36 @@ def test_the_band_solver_finds_every_unstable_mode_of_a_dense_3d_spectrum():
                       complex_eigenvalue_analysis(problem, fmax_hz=3000.0, ops=ops).unstable()])
     assert exact.size == 165 and found.size == exact.size
     assert np.allclose(found, exact, rtol=1e-8)
+
+
+def test_flutter_fe_length_runs_the_3d_tube(capsys):
+    """``stickslip flutter-fe --length L --ends roller`` (Figure 1, N = 32, L = 50 mm,
+    4 layers): the JSON names the tube, and its fastest unstable mode is the plane-strain
+    scene's (quadrilaterals), m = 0, to 1e-8; the table has the m column. Options that
+    describe no 3D tube, or that it cannot take, are one line each (exit 2)."""
+    import json
+
+    from stickslip.cli.main import main
+
+    base = ["flutter-fe", "figure1", "--set", "mesh.n_inner=32", "--set",
+            "mesh.cell=quadrilateral", "--fmax-hz", "3000"]
+    assert main([*base, "--json"]) == 0
+    two = json.loads(capsys.readouterr().out)
+    assert main([*base, "--length", "0.05", "--n-axial", "4", "--ends", "roller",
+                 "--json"]) == 0
+    three = json.loads(capsys.readouterr().out)
+    assert three["tube_3d"] == {"length_m": 0.05, "n_axial": 4, "ends": "roller"}
+    top2, top3 = two["unstable"][0], three["unstable"][0]
+    assert (top3["k"], top3["axial_order"]) == (top2["k"], 0)
+    assert top3["growth_rate"] == pytest.approx(top2["growth_rate"], rel=1e-8)
+    assert main([*base, "--length", "0.05", "--top", "1"]) == 0
+    # R = 1 m: the default N_z = round(L N / (2π R)) = 0 is raised to 1 layer
+    assert "3D tube: length 0.05 m, 1 axial layer, free ends" in capsys.readouterr().out
+    for extra, words in ((["--ends", "roller"], "give its --length too"),
+                         (["--length", "0"], "--length 0.0 is out of range"),
+                         (["--length", "0.05", "--n-axial", "0"], "--n-axial 0"),
+                         (["--length", "0.05", "--friction", "1-2-1"], "--friction 1-2-1"),
+                         (["--length", "0.05", "--set", "mesh.degree=2"], "degree 1")):
+        assert main([*base, *extra]) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and words in err, err

@@ -121,6 +121,10 @@ class Loading(_Section):
 
 
 CELL_TYPES = ("triangle", "quadrilateral")
+#: the ends of a finite tube (``solver.problem.tube_problem_3d``): the displacement
+#: components held at 0 on z = 0 and z = L (0, 1, 2: x, y, z); a roller end holds u_z and
+#: leaves the end free in its plane
+ENDS = {"free": (), "roller": (2,), "clamped": (0, 1, 2)}
 PERTURBATIONS = ("none", "mode", "random")
 TIME_KERNELS = ("auto", "numpy", "numba")
 

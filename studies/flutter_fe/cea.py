@@ -45,7 +45,6 @@ from dataclasses import asdict, dataclass, field
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from mpi4py import MPI
 
 from stickslip.solver.contact import ContactLaw, SpatialFilter
 
@@ -204,8 +203,7 @@ def contact_levels(problem: TubeProblem) -> tuple[np.ndarray, int]:
     xyz = problem.V.tabulate_dof_coordinates()[nd.nodes]
     if problem.V.mesh.geometry.dim < 3:
         return np.zeros(nd.n_owned, dtype=np.int64), 1
-    scale = max(float(problem.comm.allreduce(np.abs(xyz[:, 2]).max(initial=0.0), op=MPI.MAX)),
-                1e-300)
+    scale = max(*problem.comm.allgather(float(np.abs(xyz[:, 2]).max(initial=0.0))), 1e-300)
     keys = np.round(xyz[:, 2] / scale * 1e9).astype(np.int64)
     every = np.unique(np.concatenate(problem.comm.allgather(keys)))
     return np.searchsorted(every, keys).astype(np.int64), int(every.size)
@@ -397,9 +395,8 @@ def band_eigenvalues(
         inside = order if everything else order[:nev]
         # open disc, shrunk by 1e-9: the nev-th may have an unreturned twin at equal distance
         rho = math.inf if everything else float(dist[order[nev - 1]]) * (1.0 - 1e-9)
-        # the strip is at least as tall as the lower slices found it: a disc smaller than the
-        # tallest eigenvalues sees none of them (a 3D tube's dense spectrum: Figure 3,
-        # N = 64, L = R/4 lost 10 of its 201 unstable modes, two of the top four, without it)
+        # at least as tall as the lower slices found it: a disc smaller than the tallest
+        # eigenvalues sees none of them (a 3D tube's crowded band: tests/test_tube3d.py)
         strip = max(_strip_half_height(mu[inside], sigma, rho, strip_safety),
                     stats.strip_half_height)
         if not everything and rho <= strip:
@@ -708,6 +705,7 @@ class CEAResult:
     friction: str = "nodal"  # friction law on the reactions: 'nodal' or '1-2-1'
     n_contact: int = 0  # contact nodes N
     t_star: float = 0.0  # relaxation time of a regularised friction bound [s] (0: Coulomb)
+    levels: int = 1  # rings of contact nodes along z (a 3D tube: N_z + 1; 1 in plane strain)
     #: owned free-dof shapes ψ of the unstable modes (index in ``modes``), on request
     shapes: dict[int, np.ndarray] = field(default_factory=dict, repr=False)
 
@@ -921,6 +919,7 @@ def complex_eigenvalue_analysis(
         timings={"operators": t1 - t0, "eigensolve": stats.seconds,
                  "modes": t2 - t1 - stats.seconds},
         tau=tau, friction=ops.friction, n_contact=ops.n_contact, shapes=kept, t_star=t_star,
+        levels=ops.levels,
     )
     if own:
         ops.destroy()
