@@ -239,6 +239,21 @@ def _argument_problem(args: argparse.Namespace, scene: Scene, ranks: int) -> str
     return None
 
 
+#: a 3D tube's cells, length along z over width at r = R, within this range (``--length``)
+ASPECT = (1e-3, 1e3)
+#: the largest 3D tube (dofs) that ``--length`` builds: each slice of the band is one
+#: sparse LU of it (a 3D tube of 6912 dofs took 10 min over 2.5 kHz on one core)
+MAX_3D_DOFS = 1_000_000
+
+
+def axial_layers(args: argparse.Namespace, scene: Scene) -> int:
+    """``--n-axial``, or cells as long as they are wide on the contact surface,
+    round(L N / (2πR)), at least 1."""
+    if args.n_axial:
+        return int(args.n_axial)
+    return max(1, round(args.length * scene.mesh.n_inner / (2 * math.pi * scene.geometry.R)))
+
+
 def _tube_3d_problem(args: argparse.Namespace, scene: Scene) -> str | None:
     """Why ``--length``, ``--n-axial`` and ``--ends`` cannot run (one line), or None."""
     if args.length is None:
@@ -249,6 +264,22 @@ def _tube_3d_problem(args: argparse.Namespace, scene: Scene) -> str | None:
         return f"--length {args.length!r} is out of range: need a length > 0 (m)"
     if args.n_axial is not None and args.n_axial < 1:
         return f"--n-axial {args.n_axial} is out of range: need at least 1 layer"
+    arc = 2 * math.pi * scene.geometry.R / scene.mesh.n_inner  # a cell's width at r = R
+    layers = float(args.n_axial) if args.n_axial else max(1.0, args.length / arc)
+    # ≈ square cells through the wall (meshes.annulus.auto_n_radial) unless mesh.n_radial
+    radial = scene.mesh.n_radial or max(2, round((scene.geometry.xi - 1.0) / arc
+                                                 * scene.geometry.R))
+    dofs = 3.0 * scene.mesh.n_inner * (radial + 1) * (layers + 1)
+    if dofs > MAX_3D_DOFS:
+        return (f"--length {args.length:g}: the 3D tube would have about {dofs:.3g} dofs, "
+                f"above the {MAX_3D_DOFS:.0e} that a shift-and-invert CEA factorises here; "
+                "use a smaller --length, --n-axial or mesh.n_inner")
+    aspect = args.length / axial_layers(args, scene) / arc
+    if not ASPECT[0] <= aspect <= ASPECT[1]:
+        fix = ("a longer tube" if args.length / arc < 1.0
+               else f"--n-axial about {round(args.length / arc)}")
+        return (f"--length {args.length:g} makes cells {aspect:.3g} times as long as they are "
+                f"wide at r = R: keep it within {ASPECT[0]:g} … {ASPECT[1]:g} ({fix})")
     if scene.mesh.degree != 1 or scene.mesh.file:
         return ("--length: the 3D tube extrudes the structured annulus of degree 1 "
                 "(mesh.degree = 1, no mesh.file)")
@@ -272,11 +303,9 @@ def _analyse(args: argparse.Namespace, scene: Scene, comm: MPI.Comm,
     t0 = time.perf_counter()
     if args.length is None:
         problem = build_problem(scene, comm)
-    else:  # cells as long as they are wide on the contact surface, unless given
-        n_axial = args.n_axial or max(1, round(args.length * scene.mesh.n_inner
-                                               / (2 * math.pi * scene.geometry.R)))
-        problem = tube_problem_3d(scene, length=args.length, n_axial=n_axial, ends=args.ends,
-                                  comm=comm)
+    else:
+        problem = tube_problem_3d(scene, length=args.length, n_axial=axial_layers(args, scene),
+                                  ends=args.ends, comm=comm)
     t_build = time.perf_counter() - t0
     f_top = gershgorin_omega_max(problem) / (2 * math.pi)  # no mode of the mesh above it
     if args.fmax_hz > FMAX_FACTOR * f_top:
