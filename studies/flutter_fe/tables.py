@@ -17,7 +17,8 @@ from stickslip.studies.flutter_fe.cea import CEAMode, CEAResult
 
 #: The columns of one mode, in order.
 MODE_COLUMNS = ("mode", "frequency_hz", "re_lambda_per_s", "im_lambda_rad_s", "damping_ratio",
-                "k", "direction", "purity", "phase_speed_m_s", "unstable", "mesh_scale")
+                "k", "direction", "purity", "phase_speed_m_s", "unstable", "mesh_scale",
+                "axial_order")
 
 
 def mode_row(index: int, mode: CEAMode, unstable: bool) -> dict:
@@ -27,7 +28,8 @@ def mode_row(index: int, mode: CEAMode, unstable: bool) -> dict:
             "im_lambda_rad_s": 2.0 * math.pi * mode.frequency_hz,
             "damping_ratio": mode.zeta, "k": mode.k, "direction": mode.direction,
             "purity": mode.purity, "phase_speed_m_s": mode.phase_speed_m_s,
-            "unstable": int(unstable), "mesh_scale": int(mode.mesh_scale)}
+            "unstable": int(unstable), "mesh_scale": int(mode.mesh_scale),
+            "axial_order": mode.axial_order}
 
 
 def mode_rows(result: CEAResult) -> list[dict]:
