@@ -23,7 +23,6 @@ than they should be.
 from __future__ import annotations
 
 import argparse
-import math
 import time
 
 from mpi4py import MPI
@@ -31,6 +30,7 @@ from mpi4py import MPI
 from stickslip.solver.problem import build_problem, tube_problem_3d
 from stickslip.solver.scene import load_scene
 from stickslip.studies.flutter_fe.cea import complex_eigenvalue_analysis
+from stickslip.studies.resources import axial_layers
 
 
 def modes_text(result, top: int) -> str:  # noqa: ANN001 - a CEAResult
@@ -57,7 +57,7 @@ def main() -> None:
     print(f"2D, N = {args.n}: {len(two.unstable())} unstable ({time.perf_counter() - t0:.1f} s)"
           f": {modes_text(two, args.top)}")
     for ratio in args.lengths:
-        n_axial = max(1, round(ratio * R / (2 * math.pi * R / args.n)))
+        n_axial = int(axial_layers(scene, ratio * R))
         for ends in args.ends:
             t0 = time.perf_counter()
             problem = tube_problem_3d(scene, length=ratio * R, n_axial=n_axial, ends=ends,

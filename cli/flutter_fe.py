@@ -32,6 +32,7 @@ from stickslip.studies.flutter_fe.plots import plot_cea_diagram, plot_spectrum
 from stickslip.studies.flutter_fe.references import reduced_model_flutter
 from stickslip.studies.flutter_fe.shapes import modes_dir_problem, write_mode_shapes
 from stickslip.studies.flutter_fe.tables import csv_text, lock_in_points, mode_rows, sweep_rows
+from stickslip.studies.resources import axial_layers, tube_nodes
 
 if TYPE_CHECKING:
     from mpi4py import MPI
@@ -246,12 +247,9 @@ ASPECT = (1e-3, 1e3)
 MAX_3D_DOFS = 1_000_000
 
 
-def axial_layers(args: argparse.Namespace, scene: Scene) -> int:
-    """``--n-axial``, or cells as long as they are wide on the contact surface,
-    round(L N / (2πR)), at least 1."""
-    if args.n_axial:
-        return int(args.n_axial)
-    return max(1, round(args.length * scene.mesh.n_inner / (2 * math.pi * scene.geometry.R)))
+def _axial_layers(args: argparse.Namespace, scene: Scene) -> float:
+    """``--n-axial``, or the square cells' count (``studies.resources.axial_layers``)."""
+    return float(args.n_axial) if args.n_axial else axial_layers(scene, args.length)
 
 
 def _tube_3d_problem(args: argparse.Namespace, scene: Scene) -> str | None:
@@ -264,17 +262,14 @@ def _tube_3d_problem(args: argparse.Namespace, scene: Scene) -> str | None:
         return f"--length {args.length!r} is out of range: need a length > 0 (m)"
     if args.n_axial is not None and args.n_axial < 1:
         return f"--n-axial {args.n_axial} is out of range: need at least 1 layer"
-    arc = 2 * math.pi * scene.geometry.R / scene.mesh.n_inner  # a cell's width at r = R
-    layers = float(args.n_axial) if args.n_axial else max(1.0, args.length / arc)
-    # ≈ square cells through the wall (meshes.annulus.auto_n_radial) unless mesh.n_radial
-    radial = scene.mesh.n_radial or max(2, round((scene.geometry.xi - 1.0) / arc
-                                                 * scene.geometry.R))
-    dofs = 3.0 * scene.mesh.n_inner * (radial + 1) * (layers + 1)
+    layers = _axial_layers(args, scene)
+    dofs = 3.0 * tube_nodes(scene) * (layers + 1)
     if dofs > MAX_3D_DOFS:
         return (f"--length {args.length:g}: the 3D tube would have about {dofs:.3g} dofs, "
                 f"above the {MAX_3D_DOFS:.0e} that a shift-and-invert CEA factorises here; "
                 "use a smaller --length, --n-axial or mesh.n_inner")
-    aspect = args.length / axial_layers(args, scene) / arc
+    arc = 2 * math.pi * scene.geometry.R / scene.mesh.n_inner  # a cell's width at r = R
+    aspect = args.length / layers / arc
     if not ASPECT[0] <= aspect <= ASPECT[1]:
         fix = ("a longer tube" if args.length / arc < 1.0
                else f"--n-axial about {round(args.length / arc)}")
@@ -304,8 +299,9 @@ def _analyse(args: argparse.Namespace, scene: Scene, comm: MPI.Comm,
     if args.length is None:
         problem = build_problem(scene, comm)
     else:
-        problem = tube_problem_3d(scene, length=args.length, n_axial=axial_layers(args, scene),
-                                  ends=args.ends, comm=comm)
+        problem = tube_problem_3d(scene, length=args.length,
+                                  n_axial=int(_axial_layers(args, scene)), ends=args.ends,
+                                  comm=comm)
     t_build = time.perf_counter() - t0
     f_top = gershgorin_omega_max(problem) / (2 * math.pi)  # no mode of the mesh above it
     if args.fmax_hz > FMAX_FACTOR * f_top:

@@ -104,13 +104,34 @@ class Estimate:
                 f"~{_duration(self.seconds)} on one rank")
 
 
+def tube_layers(scene: Scene) -> int:
+    """Element layers through the tube's wall: ``mesh.n_radial``, or the mesher's own
+    choice (``meshes.annulus.auto_n_radial``) round((xi - 1) n_edges / 2 pi), at least 2."""
+    m = scene.mesh
+    return m.n_radial or max(2, round((scene.geometry.xi - 1.0) * (m.n_inner // m.degree)
+                                      / (2.0 * math.pi)))
+
+
+def tube_nodes(scene: Scene) -> int:
+    """Nodes of the tube's cross-section: n_inner x (layers x degree + 1)."""
+    return scene.mesh.n_inner * (tube_layers(scene) * scene.mesh.degree + 1)
+
+
+def axial_layers(scene: Scene, length: float) -> float:
+    """Element layers along a finite tube of ``length`` (m) whose cells are as long as they
+    are wide on the contact surface, round(L N / (2 pi R)), at least 1 (a float: huge or
+    infinite lengths are compared before they are rounded)."""
+    layers = max(1.0, length * scene.mesh.n_inner / (2.0 * math.pi * scene.geometry.R))
+    return float(round(layers)) if math.isfinite(layers) else layers
+
+
 def estimate(scene: Scene, ranks: int = 1) -> Estimate:
     """Dofs, steps, memory (all ranks), output size and one-rank run time of ``scene``."""
     g, m, ts = scene.geometry, scene.mesh, scene.time
     n_edges = m.n_inner // m.degree
     if m.tube:
-        layers = m.n_radial or max(2, round((g.xi - 1.0) * n_edges / (2.0 * math.pi)))
-        nodes = m.n_inner * (layers * m.degree + 1)
+        layers = tube_layers(scene)
+        nodes = tube_nodes(scene)
         cells = n_edges * layers * (2 if m.cell == "triangle" else 1)
         h_min = min(2 * math.pi * g.R / m.n_inner, (g.xi - 1.0) * g.R / (layers * m.degree))
     else:  # a user's mesh file: its own counts and shortest edge (meshes.user_mesh)

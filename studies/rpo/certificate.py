@@ -205,4 +205,3 @@ def rpo_certificate(run_dir: str | Path, generators: list[dict], *,
                                    "with_changes": int(np.count_nonzero(flips)),
                                    "max": int(flips.max())},
             "wall_s": time.perf_counter() - t0}
-

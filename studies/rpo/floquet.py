@@ -79,7 +79,7 @@ class Floquet:
     @property
     def growth(self) -> np.ndarray:
         """σ = ln|μ| / T (1/s) of each multiplier."""
-        return np.log(np.maximum(self.moduli, 1e-300)) / self.period
+        return growth_rates(self.multipliers, self.period)
 
     @property
     def leading_other(self) -> float:
@@ -120,6 +120,11 @@ class Floquet:
                 "stable": self.stable}
 
 
+def growth_rates(multipliers: np.ndarray, period: float) -> np.ndarray:
+    """σ = ln|μ| / T (1/s) of each multiplier μ over the period T."""
+    return np.log(np.maximum(np.abs(multipliers), 1e-300)) / period
+
+
 def neutral_marks(share: np.ndarray, growth: np.ndarray, held: bool) -> np.ndarray:
     """Which multipliers are neutral (module docstring): the two of largest ``share``, or
     with ``held`` at most the one of largest share, if its share ≥ ``NEUTRAL_SHARE`` and
@@ -147,7 +152,7 @@ def _ritz(problem, guess, V: np.ndarray, H: np.ndarray, count: int, held: bool) 
     e_th = problem.d_theta(guess.xi)
     basis, _ = np.linalg.qr(np.c_[e_t, e_th])
     share = np.linalg.norm(basis.T @ vecs, axis=0) / np.linalg.norm(vecs, axis=0)
-    growth = np.log(np.maximum(np.abs(vals), 1e-300)) / guess.period
+    growth = growth_rates(vals, guess.period)
     return Floquet(vals, neutral_marks(share, growth, held), share, ritz_res,
                    float(guess.period), m)
 
@@ -159,10 +164,9 @@ def floquet_multipliers(problem, guess, count: int = 12, krylov: int = 60,
     while the verdict is None the basis is rebuilt at twice the size, up to ``krylov_max``
     (default ``krylov``: one size) (module docstring)."""
     apply = problem.monodromy(guess)
-    free = np.asarray(problem.start.batched.inv_mass) > 0.0
-    # the clamped dofs (no mass) keep u and ṽ: a Jordan block at μ = 1 that is no mode of
-    # the tube; a start without them keeps every product without them
-    v0 = np.random.default_rng(seed).standard_normal(guess.xi.size) * np.r_[free, free]
+    # the clamped dofs keep u and ṽ: a Jordan block at μ = 1 that is no mode of the tube; a
+    # start without them keeps every product without them
+    v0 = np.random.default_rng(seed).standard_normal(guess.xi.size) * problem.free
     held = bool(getattr(problem, "hold_shift", False))
     size, top = int(krylov), int(krylov_max or krylov)
     while True:
@@ -181,8 +185,7 @@ def growth_from_the_orbit(problem, guess, periods: int, size: float = 1e-6,
     grows linearly (above 100 times its start, where the leading modes dominate, and below a
     tenth of its largest, before it saturates; None where fewer than 3 periods lie there),
     and that range's first and last period (1-based)."""
-    free = np.asarray(problem.start.batched.inv_mass) > 0.0
-    free = np.r_[free, free]
+    free = problem.free
     rng = np.random.default_rng(seed)
     xi = guess.xi + size * free * rng.standard_normal(guess.xi.size) / math.sqrt(free.sum())
     sizes = np.empty(periods)

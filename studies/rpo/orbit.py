@@ -53,13 +53,7 @@ from stickslip.solver.run import Profile
 from stickslip.solver.schemes.select import for_scene
 from stickslip.studies.rundir.continuation import plan_continuation
 
-__all__ = ["NotAnOrbitScene", "Start", "RingRotation", "TimeMap", "start_from_run",
-           "start_from_state"]
-
-
-class NotAnOrbitScene(ValueError):
-    """The scene is outside what the map and the rotation here cover: the implicit scheme,
-    a mesh other than the structured degree-1 tube, or a friction bound with a state."""
+__all__ = ["Start", "RingRotation", "TimeMap", "start_from_run", "start_from_state"]
 
 
 @dataclass
@@ -84,10 +78,10 @@ def _build(scene, dt: float | None = None):
     """(TubeProblem, BatchedProblem, ContactLaw, dt) of ``scene`` on one rank; ``dt``: the
     scheme's own step unless given."""
     if for_scene(scene).name != "explicit":
-        raise NotAnOrbitScene("rpo: the scene's scheme is implicit (time.beta1 > 0); the RPO "
+        raise ValueError("rpo: the scene's scheme is implicit (time.beta1 > 0); the RPO "
                          "solver maps the explicit scheme only")
     if scene.mesh.degree != 1 or not scene.mesh.tube:
-        raise NotAnOrbitScene("rpo: the rotation by s needs the structured tube of degree 1 "
+        raise ValueError("rpo: the rotation by s needs the structured tube of degree 1 "
                          "(mesh.degree = 1, no mesh.file)")
     cols = BatchColumns([scene], Profile(), BatchOptions(build=False, resumed=True))
     step = float(cols.dt) if dt is None else float(dt)
@@ -97,7 +91,7 @@ def _build(scene, dt: float | None = None):
         bp = cols.layout.problem
     law = ContactLaw.from_scene(scene, step)
     if law.kernel_bound()[0]:
-        raise NotAnOrbitScene("rpo: a regularised friction bound has a state of its own; the "
+        raise ValueError("rpo: a regularised friction bound has a state of its own; the "
                          "map here carries (u, v~) only")
     return cols.problem, bp, law, step
 
@@ -137,16 +131,16 @@ class RingRotation:
         radii = np.unique(keys)
         count = th.size // radii.size
         if count * radii.size != th.size:
-            raise NotAnOrbitScene("rpo: the mesh's rings do not all hold the same node count")
+            raise ValueError("rpo: the mesh's rings do not all hold the same node count")
         idx = np.empty((radii.size, count), dtype=np.int64)
         for i, key in enumerate(radii):
             nodes = np.flatnonzero(keys == key)
             if nodes.size != count:
-                raise NotAnOrbitScene("rpo: the mesh's rings do not all hold the same node count")
+                raise ValueError("rpo: the mesh's rings do not all hold the same node count")
             idx[i] = nodes[np.argsort(th[nodes])]
         d_theta = np.diff(th[idx], axis=1)
         if np.ptp(d_theta) > 1e-8 or abs(float(d_theta.mean()) - 2 * math.pi / count) > 1e-8:
-            raise NotAnOrbitScene("rpo: the nodes of a ring are not uniform in θ")
+            raise ValueError("rpo: the nodes of a ring are not uniform in θ")
         self.idx, self.n, self.count = idx, n, count
         self.cos, self.sin = np.cos(th[idx]), np.sin(th[idx])
         self.m = np.arange(count // 2 + 1)
@@ -304,6 +298,13 @@ class OrbitProblem:
     def d_theta(self, xi: np.ndarray) -> np.ndarray:
         return np.concatenate([self.rotation.derivative(xi[: self.n]),
                                self.rotation.derivative(xi[self.n:])])
+
+    @property
+    def free(self) -> np.ndarray:
+        """Which entries of ξ are free (not clamped): the clamped dofs carry no mass, so the
+        scheme keeps their u and ṽ (``floquet``)."""
+        free = np.asarray(self.start.batched.inv_mass) > 0.0
+        return np.r_[free, free]
 
     def step_of(self, period: float) -> float:
         return period / self.steps
