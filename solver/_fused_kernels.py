@@ -805,11 +805,12 @@ def advance(n_max, t_stop, clock, indptr, indices, data, n_rows, u_a, u_b, v, vp
             cx, ph_re, ph_im, pc_re, pc_im, cmass, cinv,
             d, slide, f, r_r, r_t, r_x, r_y, status, zprev, work, w_a, w_b, tau,
             reg, sigma, ut_last, rate_slip, rate_base, started,
-            probe_dof, probe_t, probe_u, probe_v, probe_count):
+            probe_dof, probe_t, probe_rows, probe_count):
     """Up to ``n_max`` steps of ``single_step`` (same arguments, ``indptr`` to ``started``) in
     one call (one rank), stopping before a step once ``clock[0] >= t_stop``; after each step
-    the probes record time level n as ``solver.observers.ProbeRecorder.record`` does (t_n,
-    u_n and v_n at ``probe_dof`` (x dof; y = x + 1) while rows are left). ``u_a`` holds u_n
+    the probes record time level n as ``solver.ensemble_observers.BatchRecorder.
+    record_probes`` does (t_n, and probe_rows[i, :, q] = (u_x, u_y, v_x, v_y) of level n
+    at ``probe_dof[q]`` (x dof; y = x + 1) while rows are left). ``u_a`` holds u_n
     (damped: ``w_a`` w_n) on entry; the buffers alternate. Returns the number of steps
     taken."""
     cap = probe_t.size
@@ -828,54 +829,11 @@ def advance(n_max, t_stop, clock, indptr, indices, data, n_rows, u_a, u_b, v, vp
             probe_t[i] = clock[0] - dt
             for q in range(n_probes):
                 ix = probe_dof[q]
-                probe_u[i, 2 * q] = u_a[ix]
-                probe_u[i, 2 * q + 1] = u_a[ix + 1]
-                probe_v[i, 2 * q] = v[ix]
-                probe_v[i, 2 * q + 1] = v[ix + 1]
+                probe_rows[i, 0, q] = u_a[ix]
+                probe_rows[i, 1, q] = u_a[ix + 1]
+                probe_rows[i, 2, q] = v[ix]
+                probe_rows[i, 3, q] = v[ix + 1]
             probe_count[0] = i + 1
         u_a, u_b = u_b, u_a
         w_a, w_b = w_b, w_a
     return n_max
-
-
-@jit
-def record_sample(i, t_n, u, v, ku, mass, node_x, perm, r_r, r_t, status,
-                  out_t, out_ux, out_uy, out_vx, out_vy, out_rr, out_rt, out_status,
-                  energies, e_local, work, damping_work):
-    """One rank: ``InnerCircleRecorder._record_single`` as one compiled pass.
-
-    Kinetic 1/2 v.Mv and strain 1/2 u.Ku energies (sequential sums: round-off against the
-    numpy path's BLAS dot), and row ``i`` of the samples: the CARTESIAN (x, y) of u_n and
-    v_n at the contact nodes in angle order (``node_x``: x dof; the recorder rotates them
-    by e^{-i theta} later with numpy's complex multiply, so that every polar value has the
-    bits of the step-by-step path), the contact forces and statuses taken through
-    ``perm``; energies = (kinetic, strain, work_contact, work_cylinder,
-    friction_dissipation, damping_work: W_d of ``solver.scene_explicit.ColumnDampingWork``, 0
-    for an undamped step). A damped step passes ``ku`` = K u_n (``SceneExplicit.refresh_ku``).
-    """
-    kin = 0.0
-    for k in range(v.size):
-        kin += v[k] * mass[k] * v[k]
-    strain = 0.0
-    for k in range(u.size):
-        strain += u[k] * ku[k]
-    e_local[0] = 0.5 * kin
-    e_local[1] = 0.5 * strain
-    e_local[2] = damping_work
-    out_t[i] = t_n
-    for j in range(node_x.size):
-        ix = node_x[j]
-        out_ux[i, j] = u[ix]
-        out_uy[i, j] = u[ix + 1]
-        out_vx[i, j] = v[ix]
-        out_vy[i, j] = v[ix + 1]
-        p = perm[j]
-        out_rr[i, j] = r_r[p]
-        out_rt[i, j] = r_t[p]
-        out_status[i, j] = status[p]
-    energies[i, 0] = e_local[0]
-    energies[i, 1] = e_local[1]
-    energies[i, 2] = work[0]
-    energies[i, 3] = work[1]
-    energies[i, 4] = work[2]
-    energies[i, 5] = damping_work

@@ -14,14 +14,16 @@ import math
 import time
 from collections.abc import Callable
 from contextlib import contextmanager
+from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
 from stickslip.solver import __version__
 from stickslip.solver.scene import Scene
 
-__all__ = ["Profile", "SceneRun", "energy_balance", "initial_perturbation", "planned_steps",
-           "random_bump", "run_facts"]
+__all__ = ["Profile", "SceneRecords", "SceneRun", "energy_balance", "initial_perturbation",
+           "planned_steps", "random_bump", "run_facts"]
 
 
 class Profile:
@@ -37,6 +39,22 @@ class Profile:
             yield
         finally:
             self.seconds[name] = self.seconds.get(name, 0.0) + time.perf_counter() - t0
+
+
+@dataclass
+class SceneRecords:
+    """What one scene's column records, as its scheme's kernel records it
+    (``solver.schemes.select.SchemeParts.scene_records``): the ``sampler`` the time loop
+    asks at each level (``every``, ``due(level)``, ``observe(stepper)`` -> {0: message} of
+    the energy guard, ``guard``), the ``samples`` and ``probes`` a run directory writes
+    (``arrays()``, ``n``; the samples also ``n_nodes`` and ``recent_status(last)``), and
+    ``parts``: the observers besides the stepper and the contact step whose ``state()`` a
+    checkpoint keeps, by name."""
+
+    sampler: Any
+    samples: Any
+    probes: Any
+    parts: dict[str, Any]
 
 
 class SceneRun:

@@ -434,6 +434,12 @@ class BatchedExplicit(HookedStepper):
         self._stiffness(self._full_u[1 - self.cur], self.ku)
         self.energy[1] = self._column_dots(self.u_prev, self.ku)
 
+    def sum_energies(self) -> bool:
+        """The kernel's own sums of the sampled energies into ``energy`` (numba: row order,
+        True), or False where the recorder sums them (``BatchRecorder.sample``)."""
+        self.energy_summed = self.columns.sum_energies(self)
+        return self.energy_summed
+
     def damping_work_totals(self) -> np.ndarray:
         """(B,) W_d of every scene, as ``solver.scene_explicit.ColumnDampingWork`` (needs
         ``refresh_ku``): work[3] - 1/2 (u_{n+1} . K u_n - u_0 . K u_0)."""
@@ -481,6 +487,10 @@ class ArrayColumns:
         """The compiled copies of the batch's samples and probes
         (``solver._sample_kernels``), or None: the recorder copies by array indexing."""
         return None
+
+    def sum_energies(self, st: BatchedExplicit) -> bool:
+        """False: the recorder sums a sample's energies itself (``BatchRecorder.sample``)."""
+        return False
 
     def __init__(self, st: BatchedExplicit) -> None:
         xp = st.xp
@@ -593,9 +603,9 @@ class NumbaColumns(ArrayColumns):
         self.product = get_kernel("stiffness_product_cols")  # K u_n, damped samples
         self.dots_fn = get_kernel("column_dots")
         self.first_product = True  # compiled with the SLP vectoriser (register passes)
+        self.energies = get_kernel("column_energies")
         self.single = self.name == "single_step"
         if self.single:
-            self.energies = get_kernel("column_energies")
             self.product1 = get_kernel("stiffness_product")
             self.advance_fn = get_kernel("advance")
 
@@ -614,6 +624,12 @@ class NumbaColumns(ArrayColumns):
 
     def record_copies(self) -> Any:
         return sample_kernels()
+
+    def sum_energies(self, st: BatchedExplicit) -> bool:
+        """energy = Σ_i m_i v_i², Σ_i u_i (K u)_i of level n in row order
+        (``column_energies``: the sums ``batched_step`` takes on a sampled step)."""
+        self.energies(st.u_prev, st.v, st.ku, st.mass, st.energy)
+        return True
 
     def stiffness(self, st: BatchedExplicit, u, out) -> None:
         if self.single:  # one column, its ghosts refreshed: ``single_step``'s K u order
@@ -694,6 +710,7 @@ class NumbaColumns(ArrayColumns):
         taken = timed_first_call("advance", self.advance_fn, n, t_stop, st._clock,
                                  *self.single_args(st), *probes)
         self.first_call = False
+        st.energy_summed = False  # ``advance`` sums none: ``sum_energies`` at a sample
         st.compile_s = sum(COMPILE_SECONDS.get(k, 0.0) for k in ("single_step", "advance"))
         st.time = float(st._clock[0])
         st.step_count += taken

@@ -16,7 +16,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from stickslip.solver.errors import blown_up, blowup_message, energy_bound
+from stickslip.solver.errors import EnergyGuard
+from stickslip.solver.observers import gather_probes
 
 if TYPE_CHECKING:  # pragma: no cover
     from stickslip.solver.ensemble import BatchedExplicit
@@ -247,6 +248,58 @@ class _Record:
     def read(self, b: int, n: int) -> np.ndarray:
         return np.array(self.data[b, :n])
 
+    def tail(self, b: int, last: int) -> np.ndarray:
+        """Scene b's last ``last`` rows taken (a view)."""
+        return self.data[b, max(0, self.rows - last): self.rows]
+
+
+def _mpi_type(dtype):
+    """The MPI datatype of a record's dtype (float64 or int8)."""
+    from mpi4py import MPI
+
+    return MPI.DOUBLE if np.dtype(dtype) == np.float64 else MPI.INT8_T
+
+
+class _GatheredRows:
+    """One recorded field of a batch of one whose contact nodes are spread over the ranks
+    of ``circle`` (``solver.observers.ContactCircle``): ``row()`` is this rank's send row
+    (1, *lead, m_local), filled in its local contact order, and ``commit()`` (collective)
+    gathers it to rank 0 (one Gatherv per leading index), which puts it in angle order
+    (``circle.perm``) into its whole record; ``read`` and ``tail`` on rank 0."""
+
+    def __init__(self, circle, lead: tuple[int, ...], rows: int, dtype, mpitype) -> None:
+        self.circle, self.mpitype = circle, mpitype
+        self.send = np.zeros((1, *lead, circle.n_local), dtype=dtype)
+        self.flat = self.send.reshape(-1, circle.n_local)
+        self.record = self.recv = None
+        if circle.is_root:
+            self.record = _Record((*lead, circle.n_nodes), 1, rows, dtype)
+            self.recv = np.zeros((self.flat.shape[0], circle.n_nodes), dtype=dtype)
+        self.rows = 0
+
+    def row(self) -> np.ndarray:
+        self.rows += 1
+        return self.send
+
+    def commit(self) -> None:
+        circle = self.circle
+        for k in range(self.flat.shape[0]):
+            circle.gatherv(self.flat[k], None if self.recv is None else self.recv[k],
+                           self.mpitype)
+        if self.record is not None:
+            out = self.record.row()[0].reshape(self.recv.shape)  # (1, *lead, m): a view
+            for k in range(self.recv.shape[0]):
+                out[k] = self.recv[k][circle.perm]
+
+    def close(self) -> None:
+        pass
+
+    def read(self, b: int, n: int) -> np.ndarray:
+        return self.record.read(b, n)
+
+    def tail(self, b: int, last: int) -> np.ndarray:
+        return self.record.tail(b, last)
+
 
 class BatchRecorder:
     """The records of a batch's columns (``solver.ensemble_run.BatchColumns``), scene by scene.
@@ -264,13 +317,23 @@ class BatchRecorder:
     chunks. A scene is then masked up to two chunks of samples later than on the CPU (its
     record goes on past the blow-up until then); the scenes are independent columns, so no
     other scene's bits change.
+
+    One scene whose dofs are spread over MPI ranks (a batch of one, ``circle``: its
+    ``solver.observers.ContactCircle``): each rank takes its own contact nodes in its local
+    order (``perm`` the identity) and a sample is gathered to rank 0 (``_GatheredRows``),
+    which keeps the record; the energies are this rank's sums, added over the ranks; each
+    probe is recorded by the rank that owns it (``probe_slots``: its place among the
+    scene's probes) and gathered when read.
     """
 
     def __init__(self, integ: BatchedExplicit, *, mass: np.ndarray, perm: np.ndarray,
                  theta: np.ndarray, ds: np.ndarray, every: int, max_samples: int,
                  max_steps: int, probe_nodes: np.ndarray, probe_pc: np.ndarray,
-                 probe_deg: np.ndarray, spool_dir=None, chunk: int = 16) -> None:
+                 probe_deg: np.ndarray, spool_dir=None, chunk: int = 16, circle=None,
+                 probe_slots: tuple[list[int], int] | None = None) -> None:
         xp, B, m = integ.xp, integ.B, integ.m
+        self.circle = circle if circle is not None and circle.comm.size > 1 else None
+        self.probe_slots = probe_slots
         self.integ, self.xp = integ, xp
         self.every, self.max_samples, self.max_steps = max(1, every), max_samples, max_steps
         self.mass = xp.asarray(mass)[:, None]
@@ -297,6 +360,11 @@ class BatchRecorder:
 
         def store(name: str, inner: tuple[int, ...], dtype, rows: int, chunk_rows: int,
                   on_host=None):
+            if self.circle is not None:  # a scene over ranks: its samples go to rank 0
+                if name in ("fields.f64", "status.i8"):
+                    return _GatheredRows(self.circle, inner[:-1], rows, dtype,
+                                         _mpi_type(dtype))
+                return _Record(inner, B, rows, dtype)  # the ranks' sums; its own probes
             if spool_dir is None and host:  # the whole record, in host memory
                 return _Record(inner, B, rows, dtype)
             path = None if spool_dir is None else spool_dir / name  # chunks (file or host)
@@ -319,8 +387,10 @@ class BatchRecorder:
         #: kernel has them (``solver._sample_kernels``), else None (array indexing)
         self.copies = integ.columns.record_copies()
         self.zv = xp.zeros((B, m), dtype=np.complex128) if self.copies else None
-        self.initial = np.full(B, np.nan)
-        self.bound = np.full(B, np.inf)
+        self.guard = EnergyGuard(B)
+        #: the probes' count as a compiled loop advances it (``kernel_buffers``)
+        self.count = np.zeros(1, dtype=np.int64)
+        self.kin_scratch = np.zeros(integ.n) if self.circle is not None else None
 
     @staticmethod
     def record_bytes(B: int, m: int, n_probes: int, max_samples: int, max_steps: int) -> int:
@@ -332,6 +402,19 @@ class BatchRecorder:
 
     def due(self, step: int) -> bool:
         return step % self.every == 0 and self.n < self.max_samples
+
+    def kernel_buffers(self) -> tuple:
+        """(x dof of each probe, t, rows (steps, 4, probes), count) of a batch of one whose
+        record is whole in host memory, for a compiled loop that records the probes in
+        place every step (``solver.ensemble.NumbaColumns.advance_one``: the layout of
+        ``record_probes``); ``recorded()`` takes the count back afterwards."""
+        self.count[0] = self.n_probe
+        return (np.ascontiguousarray(self.probe_x, dtype=np.uint32), self.probe_t,
+                self.probes.data[0], self.count)
+
+    def recorded(self) -> None:
+        """The probes' count after a compiled loop (``kernel_buffers``)."""
+        self.n_probe = self.probes.rows = int(self.count[0])
 
     def record_probes(self) -> None:
         """u_n and v_n at the probe nodes, every step (ProbeRecorder.record)."""
@@ -350,13 +433,13 @@ class BatchRecorder:
         row[...] = self.probe_scratch.reshape(4, k2 // 2, -1).transpose(2, 0, 1)
         self.n_probe += 1
 
-    def observe(self, time_now: float) -> dict[int, str]:
+    def observe(self, stepper) -> dict[int, str]:
         """Record time level n (``sample``) and run the energy guard: {b: message} of the
         blow-ups found now (CPU: in this sample; GPU: in the chunks of samples that reached
         the host since the last call, see the class docstring). The caller masks them."""
         energies = self.sample()
         if energies is not None:
-            return self.check_health(*energies, time_now)
+            return self.check_health(*energies, stepper.time)
         return self.take_blowups()
 
     def take_blowups(self) -> dict[int, str]:
@@ -406,7 +489,9 @@ class BatchRecorder:
         e = self.energies.row()  # (B, 6): kinetic, strain, the three works (on the device)
         if it.damped:  # the damped step applied K w_n: K u_n for the strain energy and W_d
             it.refresh_ku()
-        if it.energy_summed:  # the numba kernel summed them on this step, in row order
+        if self.circle is not None:
+            self._rank_sums(e)
+        elif it.energy_summed or it.sum_energies():  # the numba kernel's, in row order
             e[:, :2] = it.energy.T
         else:
             if self.scratch is None:
@@ -417,6 +502,10 @@ class BatchRecorder:
         e[:, :2] *= 0.5
         e[:, 2:5] = it.work_sums().T
         e[:, 5] = it.damping_work_totals() if it.damped else 0.0
+        if self.circle is not None:  # the scene's sums over the ranks; its sample to rank 0
+            self._add_over_ranks(e)
+            self.fields.commit()
+            self.status.commit()
         self.t[self.n] = it.time - it.dt
         self.clock[self.n] = it.time
         self.n += 1
@@ -424,24 +513,31 @@ class BatchRecorder:
             return None
         return e[:, 0], e[:, 1], e[:, 3]
 
+    def _rank_sums(self, e: np.ndarray) -> None:
+        """A scene over ranks: this rank's 2 x kinetic and 2 x strain energy, BLAS dots over
+        its owned dofs (as ``solver.observers.InnerCircleRecorder`` sums them)."""
+        it = self.integ
+        v, u = it.v[:, 0], it.u_prev[:, 0]
+        np.multiply(v, self.mass[:, 0], out=self.kin_scratch)
+        e[0, 0] = float(np.dot(self.kin_scratch, v))
+        e[0, 1] = float(np.dot(u, it.ku[:, 0]))
+
+    def _add_over_ranks(self, e: np.ndarray) -> None:
+        """The energy row (1, 6) summed over the ranks, in place (every rank has it)."""
+        from mpi4py import MPI
+
+        self.circle.comm.Allreduce(MPI.IN_PLACE, e, op=MPI.SUM)
+
     def check_health(self, kin: np.ndarray, strain: np.ndarray, w_cyl: np.ndarray,
                      time_now: float) -> dict[int, str]:
-        """``SceneColumn._check_health`` for every active scene: {b: message} of new blow-ups."""
-        total = kin + strain
-        active = self.integ.active & ~self.flagged
-        finite = np.isfinite(total)
-        first = active & finite & np.isnan(self.initial)  # a scene's first sample: its scale
-        self.initial[first] = total[first]
-        self.bound[first] = energy_bound(total[first])
-        fed = self.initial + np.abs(w_cyl)
-        blown = active & finite & ~first & blown_up(total, self.bound, fed)
-        out: dict[int, str] = {}
-        for b in np.flatnonzero(active & (~finite | blown)):  # none, nearly always
-            if not finite[b]:
-                out[int(b)] = f"non-finite energy at t = {time_now:.6g} s"
-            else:
-                out[int(b)] = blowup_message(float(total[b]), float(fed[b]), time_now)
-        return out
+        """The energy guard (``solver.errors.EnergyGuard``) on every active scene: {b:
+        message} of new blow-ups."""
+        return self.guard.check(kin, strain, w_cyl, self.integ.active & ~self.flagged,
+                                time_now)
+
+    def recent_status(self, b: int, last: int) -> np.ndarray:
+        """Scene b's statuses of the last ``last`` samples (rank 0; a whole record)."""
+        return self.status.tail(b, last)
 
     def close(self) -> dict[int, str]:
         """Write out the record; returns the blow-ups the guard found in its last chunks
@@ -485,5 +581,71 @@ class BatchRecorder:
         zu = (p[:, 0] + 1j * p[:, 1]) * self.probe_pc
         zv = (p[:, 2] + 1j * p[:, 3]) * self.probe_pc
         data = np.stack([zu.real, zu.imag, zv.real, zv.imag], axis=-1).transpose(1, 0, 2)
+        if self.probe_slots is not None:  # each rank's own probes, to their slots on rank 0
+            slots, n_probes = self.probe_slots
+            return gather_probes(self.circle.comm, slots, list(self.probe_deg), data,
+                                 self.probe_t[:n], n_probes)
         return {"probe_t": self.probe_t[:n].copy(), "probe_deg": self.probe_deg,
                 "probe_data": data}
+
+
+class MemberRecords:
+    """The samples of scene b of a ``BatchRecorder`` as one scene's records
+    (``solver.observers.InnerCircleRecorder``'s face: ``arrays()``, ``n``, ``n_nodes``,
+    ``recent_status``); ``n`` is the recorder's count until the scene's is set (it ended)."""
+
+    def __init__(self, rec: BatchRecorder, b: int, n_nodes: int) -> None:
+        self.rec, self.b, self.n_nodes = rec, b, n_nodes
+        self.taken: int | None = None
+
+    @property
+    def n(self) -> int:
+        return self.rec.n if self.taken is None else self.taken
+
+    @n.setter
+    def n(self, value: int) -> None:
+        self.taken = value
+
+    def arrays(self) -> dict[str, np.ndarray]:
+        return self.rec.arrays(self.b, self.n)
+
+    def recent_status(self, last: int) -> np.ndarray:
+        """The statuses of the last ``last`` samples (rank 0)."""
+        return self.rec.recent_status(self.b, last)
+
+
+class MemberProbes:
+    """The probes of scene b of a ``BatchRecorder`` (``ProbeRecorder``'s face: ``arrays()``,
+    ``n``); ``n`` is the recorder's count until the scene's is set (it ended)."""
+
+    def __init__(self, rec: BatchRecorder, b: int) -> None:
+        self.rec, self.b = rec, b
+        self.taken: int | None = None
+
+    @property
+    def n(self) -> int:
+        return self.rec.n_probe if self.taken is None else self.taken
+
+    @n.setter
+    def n(self, value: int) -> None:
+        self.taken = value
+
+    def arrays(self) -> dict[str, np.ndarray] | None:
+        return self.rec.probe_arrays(self.b, self.n)
+
+
+class ProbeHook:
+    """Step hook: the batch's probes every step (``BatchRecorder.record_probes``), or in a
+    compiled loop's own pass (``kernel_buffers``, then ``recorded``)."""
+
+    def __init__(self, rec: BatchRecorder) -> None:
+        self.rec = rec
+
+    def after_step(self, stepper) -> None:
+        self.rec.record_probes()
+
+    def kernel_buffers(self) -> tuple:
+        return self.rec.kernel_buffers()
+
+    def recorded(self) -> None:
+        self.rec.recorded()

@@ -35,11 +35,16 @@ from stickslip.solver.columns import (
 )
 from stickslip.solver.contact import ContactLaw, ContactProjection
 from stickslip.solver.ensemble import BatchedProblem
-from stickslip.solver.ensemble_observers import BatchRecorder
+from stickslip.solver.ensemble_observers import (
+    BatchRecorder,
+    MemberProbes,
+    MemberRecords,
+    ProbeHook,
+)
 from stickslip.solver.field_output import gather_final_field
 from stickslip.solver.observers import (
+    ContactCircle,
     ContinuedRecords,
-    InnerCircleRecorder,
     ProbeRecorder,
     Progress,
 )
@@ -51,38 +56,6 @@ __all__ = ["BatchColumns", "BatchLayout", "BatchOptions", "BatchStarts", "BuiltP
 
 #: The modes of a kick's random bump (``BatchColumns.kick``): a start's default.
 KICK_MODES = 16
-
-
-class MemberRecords:
-    """``InnerCircleRecorder`` face of scene b of a ``BatchRecorder``."""
-
-    def __init__(self, rec, b: int, n_nodes: int) -> None:
-        self.rec, self.b, self.n_nodes = rec, b, n_nodes
-        self.n = 0
-
-    def arrays(self) -> dict[str, np.ndarray]:
-        return self.rec.arrays(self.b, self.n)
-
-
-class MemberProbes:
-    """``ProbeRecorder`` face of scene b of a ``BatchRecorder``."""
-
-    def __init__(self, rec, b: int) -> None:
-        self.rec, self.b = rec, b
-        self.n = 0
-
-    def arrays(self) -> dict[str, np.ndarray]:
-        return self.rec.probe_arrays(self.b, self.n)
-
-
-class ProbeHook:
-    """Step hook: the batch's probes every step (``BatchRecorder.record_probes``)."""
-
-    def __init__(self, rec) -> None:
-        self.rec = rec
-
-    def after_step(self, stepper) -> None:
-        self.rec.record_probes()
 
 
 @dataclass
@@ -113,11 +86,11 @@ class BatchLayout:
            omega_max: float) -> BatchLayout:
         """The layout of a dolfinx ``TubeProblem`` (one rank) at the law's dt."""
         projection = ContactProjection(problem, law)
-        shape = InnerCircleRecorder(problem, projection, None, 1, max_samples=0)
+        circle = ContactCircle(problem)
         probes = ProbeRecorder(problem, projection, scene.output.probes_deg, 0)
         return cls(BatchedProblem.from_problem(problem, law.dt, law.beta2),
-                   perm=np.asarray(shape.perm), theta=np.asarray(shape.theta),
-                   ds=np.asarray(shape.ds), n_nodes=int(shape.n_nodes),
+                   perm=np.asarray(circle.perm), theta=np.asarray(circle.theta),
+                   ds=np.asarray(circle.ds), n_nodes=int(circle.n_nodes),
                    probe_nodes=np.asarray(probes.index), probe_pc=np.asarray(probes.phase_conj),
                    probe_deg=np.asarray(probes.angles), dofs=int(problem.n_global_dofs),
                    dt_crit=float(dt_crit), omega_max=float(omega_max))
@@ -337,7 +310,7 @@ class BatchColumns:
     def sample(self, stepper) -> dict[int, str]:
         """Record time level n and run the energy guard: {b: message} of the blow-ups found
         (CPU: in this sample; GPU: in the chunks that reached the host since the last)."""
-        return self.recorder.observe(stepper.time)
+        return self.recorder.observe(stepper)
 
     def mask(self, b: int) -> None:
         """Column b steps no further; the others go on."""
@@ -360,7 +333,7 @@ class BatchColumns:
         """Column b ended: its u, its records' counts, and its checkpoint when it completed
         at a whole level (not a masked, diverged scene)."""
         records, probes = self.members[run.index]
-        records.n = self.recorder.n
+        records.n = self.recorder.n  # this scene's count stops here
         probes.n = self.recorder.n_probe
         if run.status == "completed" and at_level:
             run.state = self.checkpoint(b, run)  # from the one host copy of the batch
@@ -389,8 +362,9 @@ class BatchColumns:
         if self._host_state is None:  # one copy of the batch for all its columns
             self._host_state = self.stepper.host_state()
         out = {f"stepper/{k}": v for k, v in self.stepper.state(b, self._host_state).items()}
-        out.update({"run/initial_energy": np.float64(self.recorder.initial[b]),
-                    "run/energy_bound": np.float64(self.recorder.bound[b]),
+        guard = self.recorder.guard
+        out.update({"run/initial_energy": np.float64(guard.initial[b]),
+                    "run/energy_bound": np.float64(guard.bound[b]),
                     "run/steady_pressure": np.float64(run.steady_mean_pressure),
                     "run/samples": np.int64(run.recorder.n),
                     "run/probe_steps": np.int64(run.probes.n)})
@@ -407,8 +381,8 @@ class BatchColumns:
         self.stepper.restore([{k[len(head):]: v for k, v in s.items() if k.startswith(head)}
                               for s in states])
         for b, (run, state, before) in enumerate(zip(self.runs, states, befores, strict=True)):
-            self.recorder.initial[b] = float(state["run/initial_energy"])
-            self.recorder.bound[b] = float(state["run/energy_bound"])
+            self.recorder.guard.initial[b] = float(state["run/initial_energy"])
+            self.recorder.guard.bound[b] = float(state["run/energy_bound"])
             run.steady_mean_pressure = float(state["run/steady_pressure"])
             records, probes = self.members[b]
             run.recorder = ContinuedRecords(records, before, state["run/samples"])

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import numpy as np
+
 
 class Diverged(RuntimeError):
     """The time scheme blew up (NaN, energy beyond the bound, a failed contact solve)."""
@@ -21,8 +23,6 @@ FED_FACTOR = 10.0
 
 def energy_bound(initial):
     """ENERGY_GROWTH x E(0) (a float or an array of them)."""
-    import numpy as np
-
     return ENERGY_GROWTH * np.maximum(initial, 1e-300)
 
 
@@ -37,3 +37,32 @@ def blowup_message(total: float, fed: float, t: float) -> str:
     return (f"energy {total:.3g} J/m exceeds 1e4 x the initial energy and 10 x the energy fed "
             f"by the cylinder ({fed:.3g} J/m) at t = {t:.6g} s: the time scheme is unstable "
             "here; reduce time.dt_fraction")
+
+
+class EnergyGuard:
+    """The energy guard of B scenes (one, or a batch's columns): a scene's first finite
+    sample sets its scale E(0) (``initial``) and ``bound`` = ``energy_bound(E(0))``; a later
+    sample diverges when ``blown_up`` (E > 1e4 E(0) and E > 10 (E(0) + |W_cylinder|)) or
+    its energy is not finite. ``initial`` and ``bound`` are what a checkpoint keeps."""
+
+    def __init__(self, B: int) -> None:
+        self.initial = np.full(B, np.nan)
+        self.bound = np.full(B, np.inf)
+
+    def check(self, kin, strain, w_cyl, active, time_now: float) -> dict[int, str]:
+        """{b: message} of the scenes among ``active`` (B,) whose sample (kinetic, strain
+        energy, cylinder work: (B,) arrays) at ``time_now`` diverged."""
+        total = kin + strain
+        finite = np.isfinite(total)
+        first = active & finite & np.isnan(self.initial)  # a scene's first sample: its scale
+        self.initial[first] = total[first]
+        self.bound[first] = energy_bound(total[first])
+        fed = self.initial + np.abs(w_cyl)
+        blown = active & finite & ~first & blown_up(total, self.bound, fed)
+        out: dict[int, str] = {}
+        for b in np.flatnonzero(active & (~finite | blown)):  # none, nearly always
+            if not finite[b]:
+                out[int(b)] = f"non-finite energy at t = {time_now:.6g} s"
+            else:
+                out[int(b)] = blowup_message(float(total[b]), float(fed[b]), time_now)
+        return out

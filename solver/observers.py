@@ -21,6 +21,9 @@ from typing import TYPE_CHECKING, Protocol, runtime_checkable
 
 import numpy as np
 
+from stickslip.solver.columns import SceneRecords
+from stickslip.solver.errors import EnergyGuard
+
 if TYPE_CHECKING:  # imported where a recorder talks to other ranks: the module loads without
     from mpi4py import MPI
 
@@ -192,25 +195,19 @@ class DampingWork:
         return self.local_total(integrator)
 
 
-class InnerCircleRecorder:
-    """Samples u_r(theta), u_theta(theta), velocities and contact status on the inner circle.
+class ContactCircle:
+    """The contact nodes of a problem over the ranks of its communicator: how many each rank
+    owns (``counts``, ``displs``: its block of the gathered array), and on rank 0 the gathered
+    position -> angle order ``perm`` (by global node index) with each node's angle ``theta``
+    and arc weight ``ds`` in that order. ``gatherv`` gathers a per-node array to rank 0."""
 
-    Every ``every`` steps the owned contact-node values are gathered to rank 0 (one Gatherv
-    each) and stored, ordered by angle, in preallocated arrays. Energies are sampled at the
-    same times.
-    """
-
-    def __init__(self, problem, projection, energy: EnergyAccumulator, every: int,
-                 max_samples: int) -> None:
+    def __init__(self, problem) -> None:
         from mpi4py import MPI
 
-        self.problem, self.p, self.energy = problem, projection, energy
-        self.every = max(1, every)
         self.comm = problem.comm
         nd = problem.nodes
-        n_local = nd.dofs_x.size
-        counts = self.comm.allgather(n_local)
-        self.counts = np.array(counts)
+        self.n_local = nd.dofs_x.size
+        self.counts = np.array(self.comm.allgather(self.n_local))
         self.displs = np.concatenate([[0], np.cumsum(self.counts)[:-1]])
         self.n_nodes = int(self.counts.sum())
         self.is_root = self.comm.rank == 0
@@ -218,17 +215,46 @@ class InnerCircleRecorder:
         order = np.zeros(self.n_nodes, dtype=np.int64) if root else None
         theta_all = np.zeros(self.n_nodes) if root else None
         ds_all = np.zeros(self.n_nodes) if root else None
-        self._gatherv(np.asarray(nd.global_node_index, dtype=np.int64), order, MPI.INT64_T)
-        self._gatherv(nd.theta, theta_all, MPI.DOUBLE)
-        self._gatherv(nd.ds_weight, ds_all, MPI.DOUBLE)
+        self.gatherv(np.asarray(nd.global_node_index, dtype=np.int64), order, MPI.INT64_T)
+        self.gatherv(nd.theta, theta_all, MPI.DOUBLE)
+        self.gatherv(nd.ds_weight, ds_all, MPI.DOUBLE)
+        self.perm = self.theta = self.ds = None
+        if root:
+            self.perm = np.argsort(order)  # gathered position -> angle order
+            self.theta = theta_all[self.perm]
+            self.ds = ds_all[self.perm]
+
+    def gatherv(self, local: np.ndarray, recv: np.ndarray | None, mpitype) -> None:
+        """Gather the owned contact-node values ``local`` into ``recv`` on rank 0."""
+        self.comm.Gatherv(np.ascontiguousarray(local),
+                          (recv, self.counts, self.displs, mpitype) if self.is_root else None,
+                          root=0)
+
+
+class InnerCircleRecorder:
+    """Samples u_r(theta), u_theta(theta), velocities and contact status on the inner circle
+    (the numpy and implicit steppers; a batch's, of any B, are ``solver.ensemble_observers.
+    BatchRecorder``'s).
+
+    Every ``every`` steps the owned contact-node values are gathered to rank 0 (one Gatherv
+    each) and stored, ordered by angle, in preallocated arrays. Energies are sampled at the
+    same times; ``observe`` runs the energy guard (``solver.errors.EnergyGuard``) on them.
+    """
+
+    def __init__(self, problem, projection, energy: EnergyAccumulator, every: int,
+                 max_samples: int) -> None:
+        self.problem, self.p, self.energy = problem, projection, energy
+        self.every = max(1, every)
+        self.comm = problem.comm
+        circle = self.circle = ContactCircle(problem)
+        self.n_nodes, self.is_root = circle.n_nodes, circle.is_root
+        self.perm, self.theta, self.ds = circle.perm, circle.theta, circle.ds
+        n_local = circle.n_local
         self.max_samples = max_samples
         self.n = 0
         # send buffers (owned): u_r, u_theta, v_r, v_theta, r_r, r_theta and the status
         self.send = np.zeros((6, n_local))
         if self.is_root:
-            self.perm = np.argsort(order)  # gathered position -> angle order
-            self.theta = theta_all[self.perm]
-            self.ds = ds_all[self.perm]
             self.recv = np.zeros((6, self.n_nodes))
             self.recv_status = np.zeros(self.n_nodes, dtype=np.int8)
             self.t = np.zeros(max_samples)
@@ -253,65 +279,21 @@ class InnerCircleRecorder:
         self.e_total = np.zeros(3)
         #: the damping-work observer of a damped scene (``at_sample``), set by the run
         self.damping = None
-        self._compiled: tuple | None = None  # set by ``use_compiled`` (fused step, one rank)
-
-    def _gatherv(self, local: np.ndarray, recv: np.ndarray | None, mpitype) -> None:
-        """Gather the owned contact-node values ``local`` into ``recv`` on rank 0."""
-        self.comm.Gatherv(np.ascontiguousarray(local),
-                          (recv, self.counts, self.displs, mpitype) if self.is_root else None,
-                          root=0)
+        self.guard = EnergyGuard(1)
 
     def due(self, step: int) -> bool:
         return step % self.every == 0 and self.n < self.max_samples
 
-    def use_compiled(self, record_sample) -> None:
-        """Take the samples with the compiled ``record_sample`` (``solver._fused_kernels``):
-        one rank, numba step, whose ``work`` holds the contact work (ColumnWork); a damped
-        step's K u_n is refreshed first and its W_d taken from ``damping`` (ColumnDampingWork).
-        The kernel stores Cartesian rows; ``_rotate_pending`` turns them polar on reading.
-        A second call keeps the first (rows taken since then are still Cartesian)."""
-        if self._compiled is not None:
-            return
-        if not self.single:
-            raise RuntimeError("the compiled sample is for one rank")
-        self._compiled = (record_sample, np.ascontiguousarray(2 * self.idx_sorted,
-                                                              dtype=np.uint32),
-                          np.ascontiguousarray(self.perm, dtype=np.intp))
-        self._polar_rows = self.n  # rows below are polar already
-
-    def _sample_compiled(self, integrator) -> None:
-        fn, node_x, perm = self._compiled
-        out = self.p.out
-        damping_work = 0.0
-        if self.damping is not None:
-            damping_work = self.damping.at_sample(integrator)
-        fn(self.n, integrator.time - integrator.dt, integrator.u_prev, integrator.v,
-           integrator.ku, self.problem.mass, node_x, perm, out.r_r, out.r_t, out.status,
-           self.t, self.u_r, self.u_t, self.v_r, self.v_t, self.r_r, self.r_t, self.status,
-           self.energies, self.e_local, integrator.work, damping_work)
-        np.copyto(self.e_total, self.e_local)  # the sum over one rank
-        w = integrator.work
-        self.last_work = (float(w[0]), float(w[1]), float(w[2]), damping_work)
-
-    def _rotate_pending(self) -> None:
-        """(x, y) rows of the compiled samples -> (r, theta): z e^{-i theta}, the same numpy
-        complex multiply as ``_record_single`` (element by element: the same bits)."""
-        if self._compiled is None or self._polar_rows >= self.n:
-            return
-        rows = slice(self._polar_rows, self.n)
-        for re, im in ((self.u_r, self.u_t), (self.v_r, self.v_t)):
-            z = re[rows] + 1j * im[rows]
-            z *= self.phase_sorted
-            re[rows] = z.real
-            im[rows] = z.imag
-        self._polar_rows = self.n
+    def observe(self, integrator) -> dict[int, str]:
+        """Record time level n (``sample``) and run the energy guard on it: {0: message} on a
+        blow-up (the same on every rank: the energies are sums over the ranks)."""
+        kinetic, strain = self.sample(integrator)
+        return self.guard.check(np.array([kinetic]), np.array([strain]),
+                                np.array([self.last_work[1]]), np.ones(1, dtype=bool),
+                                integrator.time)
 
     def sample(self, integrator) -> tuple[float, float]:
         """Record time level n (u_prev, v, a, K u_n, r_n). Returns (kinetic, strain) energy."""
-        if self._compiled is not None:
-            self._sample_compiled(integrator)
-            self.n += 1
-            return float(self.e_total[0]), float(self.e_total[1])
         p = self.p
         if self.damping is not None:  # the scheme's damping-work observer
             self.e_local[2] = self.damping.at_sample(integrator)
@@ -362,8 +344,10 @@ class InnerCircleRecorder:
         work = (*self.energy.totals(self.comm), float(self.e_total[2]))
         self.last_work = work  # on every rank (collective above)
         for k in range(6):
-            self._gatherv(self.send[k], self.recv[k] if self.is_root else None, MPI.DOUBLE)
-        self._gatherv(p.out.status, self.recv_status if self.is_root else None, MPI.INT8_T)
+            self.circle.gatherv(self.send[k], self.recv[k] if self.is_root else None,
+                                MPI.DOUBLE)
+        self.circle.gatherv(p.out.status, self.recv_status if self.is_root else None,
+                            MPI.INT8_T)
         if self.is_root:
             i, perm = self.n, self.perm
             self.t[i] = integrator.time - integrator.dt
@@ -378,7 +362,6 @@ class InnerCircleRecorder:
 
     def arrays(self) -> dict[str, np.ndarray]:
         """The recorded samples (rank 0), trimmed to the samples actually taken."""
-        self._rotate_pending()
         n = self.n
         out = {
             "t": self.t[:n], "theta": self.theta, "u_r": self.u_r[:n], "u_theta": self.u_t[:n],
@@ -462,16 +445,6 @@ class ProbeRecorder:
         self.zv = np.zeros((max_steps + 1, len(slots)), dtype=complex)
         self.t = np.zeros(max_steps + 1)
         self.n = 0
-        self.count = np.zeros(1, dtype=np.int64)  # ``n`` as a compiled recorder updates it
-        self._buffers = (np.ascontiguousarray(2 * self.index, dtype=np.uint32), self.t,
-                         self.zu.view(np.float64), self.zv.view(np.float64), self.count)
-
-    def kernel_buffers(self) -> tuple:
-        """(x dof of each local probe, t, u, v as (step, 2 probe) real views, count) for a
-        compiled time loop that records in place (``solver.scene_explicit.SceneExplicit.advance``);
-        ``count`` starts at ``n``, and the caller sets ``n = count[0]`` afterwards."""
-        self.count[0] = self.n
-        return self._buffers
 
     def after_step(self, integrator) -> None:
         """Record time level n (u_prev = u_n, v = v_n) after a step: two ``take`` calls."""
@@ -493,19 +466,27 @@ class ProbeRecorder:
 
     def arrays(self) -> dict[str, np.ndarray] | None:
         """Gathered histories on rank 0 (None elsewhere): probe_t, probe_deg, probe_data."""
-        local = (self.slots, self.angles, self.data, self.t[: self.n])
-        gathered = self.comm.gather(local, root=0)
-        if self.comm.rank != 0:
-            return None
-        n = max(len(g[3]) for g in gathered)
-        t = next((g[3] for g in gathered if g[0]), self.t[:n])
-        data = np.zeros((self.n_probes, n, 4))
-        deg = np.zeros(self.n_probes)
-        for slots, angles, arr, _ in gathered:
-            for k, slot in enumerate(slots):
-                data[slot] = arr[k]
-                deg[slot] = angles[k]
-        return {"probe_t": t, "probe_deg": deg, "probe_data": data}
+        return gather_probes(self.comm, self.slots, self.angles, self.data,
+                             self.t[: self.n], self.n_probes)
+
+
+def gather_probes(comm, slots: list[int], angles: list[float], data: np.ndarray,
+                  t: np.ndarray, n_probes: int) -> dict[str, np.ndarray] | None:
+    """The probes' histories on rank 0 (None elsewhere): each rank's ``data`` (its probes'
+    (probe, step, [u_r, u_theta, v_r, v_theta])) put in its ``slots`` of the ``n_probes``,
+    with their angles and the times ``t`` (collective)."""
+    gathered = comm.gather((slots, angles, data, t), root=0)
+    if comm.rank != 0:
+        return None
+    n = max(len(g[3]) for g in gathered)
+    t = next((g[3] for g in gathered if g[0]), t[:n])
+    out = np.zeros((n_probes, n, 4))
+    deg = np.zeros(n_probes)
+    for slots_r, angles_r, arr, _ in gathered:
+        for k, slot in enumerate(slots_r):
+            out[slot] = arr[k]
+            deg[slot] = angles_r[k]
+    return {"probe_t": t, "probe_deg": deg, "probe_data": out}
 
 
 #: The axis along which each recorded array grows with time (samples.npz's keys); the keys
@@ -546,3 +527,18 @@ class ContinuedRecords:
             if key in now and key in self.before:
                 out[key] = np.concatenate([self.before[key], now[key]], axis=axis)
         return out
+
+
+def observer_records(problem, projection, stepper, energy, damping, probes_deg,
+                     every: int, n_steps: int) -> SceneRecords:
+    """The records of a scene stepped by the numpy or implicit stepper: its samples
+    (``InnerCircleRecorder``, reading the contact work ``energy`` and the damping work
+    ``damping`` or None), its probes (``ProbeRecorder``, a step hook after the work
+    observers), and the work observers as checkpoint parts."""
+    recorder = InnerCircleRecorder(problem, projection, energy, every,
+                                   max_samples=n_steps // every + 2)
+    recorder.damping = damping
+    probes = ProbeRecorder(problem, projection, probes_deg, n_steps)
+    stepper.attach(probes)
+    parts = {"energy": energy} if damping is None else {"energy": energy, "damping": damping}
+    return SceneRecords(recorder, recorder, probes, parts)

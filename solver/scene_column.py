@@ -2,9 +2,10 @@
 
 ``SceneColumn`` builds, in order: the problem (mesh, K, M, contact nodes: ``solver.problem``),
 the steady sliding state (``solver.steady``), the scheme's parts (``Scheme.build``: the step,
-refused above the scheme's limit, the stepper, its contact step and its work observers), the
-step hooks (the work observers that need them, the probes), and the records (the inner-circle
-samples: ``solver.observers.InnerCircleRecorder``). ``solver.run.Simulation`` drives it with
+refused above the scheme's limit, the stepper and its contact step), and the records as the
+scheme's kernel takes them (``SchemeParts.scene_records``: the samples with the energy guard,
+the probes and the work observers; a batch of one's ``BatchRecorder`` for the numba kernel).
+``solver.run.Simulation`` drives it with
 the observers every run has; this module is what differs from a batch's columns
 (``solver.ensemble_run.BatchColumns``): any scheme, MPI-distributed dofs, field output, and the
 energy guard's sums over the ranks.
@@ -12,7 +13,7 @@ energy guard's sums over the ranks.
 
 from __future__ import annotations
 
-import math
+import hashlib
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -20,14 +21,8 @@ import numpy as np
 
 from stickslip.solver.columns import Profile, SceneRun, initial_perturbation, planned_steps
 from stickslip.solver.contact import zone_fractions
-from stickslip.solver.errors import blown_up, blowup_message, energy_bound
 from stickslip.solver.field_output import FieldOutput, gather_final_field, last_level_fields
-from stickslip.solver.observers import (
-    ContinuedRecords,
-    InnerCircleRecorder,
-    ProbeRecorder,
-    Progress,
-)
+from stickslip.solver.observers import ContinuedRecords, Progress
 from stickslip.solver.problem import build_problem, omega_max
 from stickslip.solver.scene import Scene
 from stickslip.solver.schemes.select import for_scene
@@ -69,21 +64,21 @@ class SceneColumn:
         self.stepper, self.projection = parts.stepper, parts.contact
         self.integrator = self.stepper
         u0 = self._start(initial_state)
-        self._attach_step_hooks(parts, u0)
+        every = max(1, int(round(scene.output.sample_interval / self.dt)))
+        self.records = parts.scene_records(self.problem, every, self.planned_steps(), u0)
+        self.sampler = self.records.sampler
         run = SceneRun(scene, self, self.problem, int(self.problem.n_global_dofs), comm.size)
         run.steady, run.steady_mean_pressure = self.steady, steady_pressure
-        run.recorder, run.probes = self.recorder, self.probes
+        run.recorder, run.probes = self.records.samples, self.records.probes
         self.runs, self.live, self.failures = [run], [0], {}
         self.active = np.ones(1, dtype=bool)
         self.progress = Progress(scene.time.end_time, scene.output.progress and comm.rank == 0)
-        self.initial_energy: float | None = None
-        self.energy_bound = math.inf
         self._stop_code = np.zeros(1, dtype=np.int32)  # reused by ``agree``'s Allreduce
 
     @property
     def every(self) -> int:
         """The samples' cadence in steps."""
-        return self.recorder.every
+        return self.sampler.every
 
     def _start(self, initial_state) -> np.ndarray:
         """Set the stepper's initial state; returns u_0."""
@@ -102,21 +97,6 @@ class SceneColumn:
             self.stepper.set_state(u0, v0, a0)
         return u0
 
-    def _attach_step_hooks(self, parts, u0: np.ndarray) -> None:
-        """The scheme's work observers (contact work; Kelvin-Voigt work of a damped scene:
-        step hooks unless the kernel sums them, ``SchemeParts.work_observers``), the samples'
-        recorder and the probes (a step hook, after the work observers)."""
-        sc = self.scene
-        self.energy, self.damping_work = parts.work_observers(sc.loading.f > 0.0, u0)
-        n_steps = self.planned_steps()
-        every = max(1, int(round(sc.output.sample_interval / self.dt)))
-        self.recorder = InnerCircleRecorder(self.problem, self.projection, self.energy, every,
-                                            max_samples=n_steps // every + 2)
-        self.recorder.damping = self.damping_work
-        self.probes = ProbeRecorder(self.problem, self.projection, sc.output.probes_deg,
-                                    n_steps)
-        self.stepper.attach(self.probes)
-
     def observers(self, output_dir: Path | None) -> list:
         """The observers of this column before the samples: field output, when the scene
         asks for it."""
@@ -134,38 +114,17 @@ class SceneColumn:
     # ------------------------------------------------------------------ the time loop
 
     def start(self) -> None:
-        """Before the loop: a compiled loop takes its samples compiled too."""
-        record_sample = self.stepper.compiled_recorder()
-        if record_sample is not None:
-            self.recorder.use_compiled(record_sample)
+        """Before the loop: nothing to prepare."""
 
     def due(self, level: int) -> bool:
-        return self.recorder.due(level)
+        return self.sampler.due(level)
 
     def sample(self, stepper) -> dict[int, str]:
-        """Record time level n and run the energy guard on it: {0: message} on a blow-up
-        (the same on every rank: the energies are sums over the ranks)."""
-        kinetic, strain = self.recorder.sample(stepper)
-        message = self._check_health(kinetic, strain)
-        return {0: message} if message else {}
-
-    def _check_health(self, kinetic: float, strain: float) -> str:
-        """NaN check, and an energy bound: a blow-up, not a wave fed by the cylinder.
-
-        The guard of ``solver.errors``: diverged when E > 1e4 E(0) *and*
-        E > 10 (E(0) + W_cylinder(t)). Returns "" or why it diverged.
-        """
-        total = kinetic + strain
-        if not math.isfinite(total):
-            return f"non-finite energy at t = {self.stepper.time:.6g} s"
-        if self.initial_energy is None:
-            self.initial_energy = total
-            self.energy_bound = float(energy_bound(total))
-            return ""
-        fed = self.initial_energy + abs(self.recorder.last_work[1])
-        if blown_up(total, self.energy_bound, fed):
-            return blowup_message(total, fed, self.stepper.time)
-        return ""
+        """Record time level n and run the energy guard on it (``solver.errors.EnergyGuard``:
+        diverged when E > 1e4 E(0) *and* E > 10 (E(0) + W_cylinder(t)), or not finite):
+        {0: message} on a blow-up, the same on every rank (the energies are sums over the
+        ranks)."""
+        return self.sampler.observe(stepper)
 
     def mask(self, b: int) -> None:
         """Column b steps no further (the loop ends: it is the only one)."""
@@ -173,7 +132,7 @@ class SceneColumn:
 
     def recent_zones(self) -> dict[str, float] | None:
         """The contact zones' fractions over the recent tenth of the samples."""
-        rec = self.recorder
+        rec = self.records.samples
         return zone_fractions(rec.recent_status(max(1, rec.n // 10)))
 
     def agree(self, code: int) -> int:
@@ -202,11 +161,8 @@ class SceneColumn:
 
     def _state_parts(self) -> dict:
         """The objects whose state a continued run needs, by name: the stepper, the contact
-        step, the contact-work and (damped explicit) damping-work observers."""
-        parts = {"stepper": self.stepper, "contact": self.projection, "energy": self.energy}
-        if self.damping_work is not None:
-            parts["damping"] = self.damping_work
-        return parts
+        step, and the records' work observers (``SceneRecords.parts``)."""
+        return {"stepper": self.stepper, "contact": self.projection, **self.records.parts}
 
     def checkpoint(self, b: int = 0, run: SceneRun | None = None) -> dict[str, np.ndarray]:
         """This rank's checkpoint of the column, flat ``{"part/name": array}``: each part's
@@ -219,10 +175,10 @@ class SceneColumn:
         run = self.runs[b]
         out = {f"{part}/{key}": value for part, obj in self._state_parts().items()
                for key, value in obj.state().items()}
-        e0 = math.nan if self.initial_energy is None else self.initial_energy
+        guard = self.sampler.guard
         out.update({"run/partition": np.array(self.partition_id()),
-                    "run/initial_energy": np.float64(e0),
-                    "run/energy_bound": np.float64(self.energy_bound),
+                    "run/initial_energy": np.float64(guard.initial[0]),
+                    "run/energy_bound": np.float64(guard.bound[0]),
                     "run/steady_pressure": np.float64(run.steady_mean_pressure),
                     "run/samples": np.int64(run.recorder.n),
                     "run/probe_steps": np.int64(run.probes.n)})
@@ -243,19 +199,17 @@ class SceneColumn:
         for part, obj in self._state_parts().items():
             head = f"{part}/"
             obj.restore({k[len(head):]: v for k, v in state.items() if k.startswith(head)})
-        e0 = float(state["run/initial_energy"])
-        self.initial_energy = None if math.isnan(e0) else e0
-        self.energy_bound = float(state["run/energy_bound"])
+        guard = self.sampler.guard
+        guard.initial[0] = float(state["run/initial_energy"])
+        guard.bound[0] = float(state["run/energy_bound"])
         run = self.runs[0]
         run.steady_mean_pressure = float(state["run/steady_pressure"])
-        run.recorder = ContinuedRecords(self.recorder, before, state["run/samples"])
-        run.probes = ContinuedRecords(self.probes, before, state["run/probe_steps"])
+        run.recorder = ContinuedRecords(self.records.samples, before, state["run/samples"])
+        run.probes = ContinuedRecords(self.records.probes, before, state["run/probe_steps"])
 
     def partition_id(self) -> str:
         """This rank's part of the mesh, as a hash of its owned nodes' coordinates (sorted):
         the same on every build of the same partition, whatever the local numbering."""
-        import hashlib
-
         x = self.problem.V.tabulate_dof_coordinates()[: self.problem.n_owned // 2, :2]
         ordered = np.ascontiguousarray(x[np.lexsort(x.T)])
         return hashlib.sha256(ordered.tobytes()).hexdigest()

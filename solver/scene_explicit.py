@@ -1,5 +1,6 @@
 """One scene's explicit step as the batch of one it is: ``BatchedExplicit`` with B = 1 seen as
-a single-scene stepper (``solver.stepper.Stepper``), for ``solver.scene_column.SceneColumn``.
+a single-scene stepper (``solver.stepper.Stepper``), for ``solver.scene_column.SceneColumn``,
+recorded as a batch is (``solver.ensemble_observers.BatchRecorder``, ``one_scene_records``).
 
 The arithmetic is the batch's (``solver.ensemble.NumbaColumns``: ``single_step`` on column 0),
 so a scene alone and in a batch step with the same code and the same bits. What this module
@@ -14,9 +15,10 @@ adds is what one scene has that a batch member does not:
 * **the single-run view**: u, u_prev, v, a, ku and v~ as 1-D arrays of the owned dofs, the
   single-run checkpoint (u, u_prev, v~, u_{n-1} at the contact nodes, the work sums), a start
   with a known a_0 (v~_0 = v_0 − β₂ Δt a_0), and one compiled call for the steps between two
-  samples on one rank (the probes recorded in it);
-* **the work observers** the kernel feeds: ``ColumnWork`` (contact and cylinder work,
-  friction dissipation) and, damped, ``ColumnDampingWork`` (Kelvin–Voigt work W_d).
+  samples on one rank (the probes recorded in it).
+
+The kernel sums the work of the contact forces and the damping itself (``work``); the
+records read them at a sample (``BatchRecorder.sample``).
 """
 
 from __future__ import annotations
@@ -25,11 +27,19 @@ import math
 
 import numpy as np
 
+from stickslip.solver.columns import SceneRecords
 from stickslip.solver.ensemble import BatchedExplicit, BatchedProblem
-from stickslip.solver.fused import friction_bound, kernel
+from stickslip.solver.ensemble_observers import (
+    BatchRecorder,
+    MemberProbes,
+    MemberRecords,
+    ProbeHook,
+)
+from stickslip.solver.fused import friction_bound
+from stickslip.solver.observers import ContactCircle, ProbeRecorder
 from stickslip.solver.stepper import HookedStepper, copy_state, put_state
 
-__all__ = ["ColumnDampingWork", "ColumnWork", "GhostRows", "SceneExplicit", "scene_explicit"]
+__all__ = ["DampingStart", "GhostRows", "SceneExplicit", "one_scene_records", "scene_explicit"]
 
 
 class GhostRows:
@@ -73,6 +83,30 @@ def scene_explicit(problem, law, projection, tau: float) -> SceneExplicit:
     return SceneExplicit(batch, several_ranks=problem.comm.size > 1)
 
 
+def one_scene_records(stepper: SceneExplicit, problem, projection, probes_deg,
+                      every: int, n_steps: int) -> SceneRecords:
+    """The records of one scene stepped as a batch of one: a ``BatchRecorder`` of B = 1,
+    its whole record in memory, its probes a step hook (or recorded by the compiled loop),
+    the levels it samples stepped with their full state (``full_state_at``); over several
+    ranks each rank takes its own contact nodes and probes and the samples gather to rank 0
+    (``ContactCircle``). Its checkpoint part besides the stepper's: ``DampingStart``."""
+    batch, circle = stepper.batch, ContactCircle(problem)
+    owned = ProbeRecorder(problem, projection, probes_deg, 0)  # the probes this rank owns
+    several = problem.comm.size > 1
+    rec = BatchRecorder(
+        batch, mass=problem.mass, perm=np.arange(circle.n_local) if several else circle.perm,
+        theta=circle.theta, ds=circle.ds, every=every, max_samples=n_steps // every + 2,
+        max_steps=n_steps, probe_nodes=np.asarray(owned.index),
+        probe_pc=np.asarray(owned.phase_conj), probe_deg=np.asarray(owned.angles),
+        circle=circle, probe_slots=(owned.slots, owned.n_probes) if several else None)
+    batch.keep_nodes(np.asarray(owned.index))
+    batch.full_state_at = rec.due
+    stepper.attach(ProbeHook(rec))
+    parts = {"damping": DampingStart(stepper)} if stepper.damped else {}
+    return SceneRecords(rec, MemberRecords(rec, 0, circle.n_nodes), MemberProbes(rec, 0),
+                        parts)
+
+
 class SceneExplicit(HookedStepper):
     """A ``BatchedExplicit`` of one column as one scene's stepper (module docstring).
 
@@ -98,7 +132,6 @@ class SceneExplicit(HookedStepper):
         self._u = [x[:, 0] for x in batch._u]
         self.v, self.a, self.ku, self.v_pred = (x[:, 0] for x in (batch.v, batch.a, batch.ku,
                                                                   batch.v_pred))
-        batch.full_state_at = lambda level: False  # single_step writes v, a, K u anyway
         self._init_hooks()
 
     # the arrays of the last level: 1-D views of the batch's column (owned dofs), made once
@@ -173,75 +206,29 @@ class SceneExplicit(HookedStepper):
         return not self.several_ranks and (len(hooks) == 1
                                            and hasattr(hooks[0], "kernel_buffers"))
 
-    def compiled_recorder(self):
-        """``_fused_kernels.record_sample`` while ``compiled_loop`` holds, else None."""
-        return kernel("record_sample") if self.compiled_loop else None
-
     def advance(self, n: int, t_stop: float = math.inf) -> int:
         """Up to ``n`` steps, stopping before a step once ``time >= t_stop``: with
         ``compiled_loop`` ONE call (``NumbaColumns.advance_one``; the probes recorded in
-        it, as ``ProbeRecorder.after_step`` would), else step by step with the hooks."""
+        it, as ``ProbeHook.after_step`` would), else step by step with the hooks."""
         if not self.compiled_loop:
             return super().advance(n, t_stop)
         probes = self.hooks[0]
         taken = self.batch.columns.advance_one(self.batch, n, t_stop, probes.kernel_buffers())
-        probes.n = int(probes.count[0])
+        probes.recorded()
         return taken
 
 
-class ColumnWork:
-    """The contact work of a ``SceneExplicit``: the kernel sums it (``work``), so this is no
-    step hook; it reads the sums (``solver.observers.EnergyAccumulator``'s interface)."""
+class DampingStart:
+    """The checkpoint part of a damped ``SceneExplicit``'s Kelvin–Voigt work W_d that is not
+    the stepper's: u_0 · K u_0 of the run's start (W_d = work[3] − 1/2 (u_{n+1} · K u_n −
+    u_0 · K u_0), ``BatchedExplicit.damping_work_totals``; the step sums are the stepper's
+    ``work``)."""
 
     def __init__(self, stepper: SceneExplicit) -> None:
         self.integ = stepper
 
     def state(self) -> dict[str, np.ndarray]:
-        """Nothing of its own: the sums are the stepper's ``work``."""
-        return {}
-
-    def restore(self, state: dict[str, np.ndarray]) -> None:
-        pass
-
-    def totals(self, comm) -> tuple[float, float, float]:
-        """(work_contact, work_cylinder, friction_dissipation) summed over the ranks."""
-        w = self.integ.work
-        if comm.size == 1:  # one rank: the sum is the local value (no Allreduce)
-            return float(w[0]), float(w[1]), float(w[2])
-        from mpi4py import MPI
-
-        total = np.zeros(3)
-        comm.Allreduce(np.ascontiguousarray(w[:3]), total, op=MPI.SUM)
-        return float(total[0]), float(total[1]), float(total[2])
-
-
-class ColumnDampingWork:
-    """The Kelvin–Voigt work of a damped ``SceneExplicit`` (``solver.observers.DampingWork``'s
-    interface): the kernel sums Σ_m 1/2 K w_m · (u_{m+1} − u_{m-1}) (``work[3]``), so this is
-    no step hook and the compiled loop stays. At a sample (``ku`` = K u_n refreshed)
-
-        W_d = work[3] − 1/2 (u_{n+1} · K u_n − u_0 · K u_0)
-
-    on this rank's dofs, the dot products in row order (``sequential_dot``: the bits of a
-    batch's ``damping_work_totals``); u_0 · K u_0 is the batch's, from ``set_state``."""
-
-    def __init__(self, stepper: SceneExplicit) -> None:
-        self.integ = stepper
-        self._dot = kernel("sequential_dot")
-
-    def state(self) -> dict[str, np.ndarray]:
-        """u_0 · K u_0 of the run's start (the step sums are the stepper's ``work``)."""
         return {"u0_ku0": np.float64(self.integ.batch.u0_ku0[0])}
 
     def restore(self, state: dict[str, np.ndarray]) -> None:
         self.integ.batch.u0_ku0[0] = float(state["u0_ku0"])
-
-    def local_total(self, integrator: SceneExplicit) -> float:
-        """W_d up to level n on this rank's dofs; needs ``integrator.ku`` = K u_n."""
-        return float(integrator.work[3]) - 0.5 * (
-            float(self._dot(integrator.u, integrator.ku)) - float(integrator.batch.u0_ku0[0]))
-
-    def at_sample(self, integrator: SceneExplicit) -> float:
-        """W_d up to level n on this rank's dofs, K u_n refreshed first."""
-        integrator.refresh_ku()
-        return self.local_total(integrator)

@@ -52,11 +52,6 @@ class Stepper(Protocol):
     v: np.ndarray
     ku: np.ndarray
 
-    def compiled_recorder(self):
-        """The compiled sample recorder of a stepper whose ``advance`` runs its steps as one
-        compiled call (the samples then too), else None
-        (``solver.observers.InnerCircleRecorder.use_compiled``)."""
-
     def attach(self, hook: StepHook) -> None:
         """Call ``hook.after_step(self)`` after every step taken by ``advance``."""
 
@@ -148,16 +143,12 @@ def to_host(array):
 
 class HookedStepper:
     """The step hooks and the plain ``advance`` (``step`` then the hooks, n times) that the
-    schemes share; a scheme with a compiled loop overrides ``advance``, ``compiled_loop``
-    and ``compiled_recorder``."""
+    schemes share; a scheme with a compiled loop overrides ``advance`` and
+    ``compiled_loop``."""
 
     kernel: str = "numpy"
     damped: bool = False
     compiled_loop: bool = False
-
-    def compiled_recorder(self):
-        """None: the plain loop samples with numpy."""
-        return None
 
     def _init_hooks(self) -> None:
         self.hooks: list[StepHook] = []

@@ -78,15 +78,15 @@ def inject(monkeypatch, kind: str, phase: str) -> dict:  # noqa: ANN001
         monkeypatch.setattr(solver.scene_column, "build_problem", build)
         monkeypatch.setattr(solver.problem, "build_problem", build)
     elif phase == "loop":
-        real_check = solver.scene_column.SceneColumn._check_health
+        real_sample = solver.scene_column.SceneColumn.sample
 
-        def check(self, kinetic, strain):  # noqa: ANN001
+        def sample(self, stepper):  # noqa: ANN001
             state["count"]["loop"] = state["count"].get("loop", 0) + 1
             if state["count"]["loop"] == 3 and not state["fired"]:
                 fire()
-            return real_check(self, kinetic, strain)
+            return real_sample(self, stepper)
 
-        monkeypatch.setattr(solver.scene_column.SceneColumn, "_check_health", check)
+        monkeypatch.setattr(solver.scene_column.SceneColumn, "sample", sample)
     elif phase == "swap":
         real_commit = studies.rundir.directory.commit_run_dir
 

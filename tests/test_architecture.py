@@ -523,8 +523,7 @@ def test_every_scheme_follows_the_stepper_protocol():
     from stickslip.solver.stepper import Stepper
 
     for cls in (Newmark, DampedNewmark, SceneExplicit, ImplicitNewmark, BatchedExplicit):
-        for method in ("set_state", "step", "advance", "facts", "attach", "state", "restore",
-                       "compiled_recorder"):
+        for method in ("set_state", "step", "advance", "facts", "attach", "state", "restore"):
             assert callable(getattr(cls, method, None)), f"{cls.__name__}.{method}"
     for method in ("keep_nodes", "mask", "host_state", "kick", "host_column"):  # BatchStepper
         assert callable(getattr(BatchedExplicit, method, None)), method

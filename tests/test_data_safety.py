@@ -268,16 +268,16 @@ def test_a_signal_on_one_rank_stops_every_rank_at_the_same_sample(tmp_path, monk
     from stickslip.studies.rundir import run_scene
 
     comm = MPI.COMM_WORLD
-    real = solver.scene_column.SceneColumn._check_health
+    real = solver.scene_column.SceneColumn.sample
     calls = {"n": 0}
 
-    def check(self, kinetic, strain):
+    def sample(self, stepper):
         calls["n"] += 1
         if calls["n"] == 3 and comm.rank == comm.size - 1:
             os.kill(os.getpid(), signal.SIGTERM)
-        return real(self, kinetic, strain)
+        return real(self, stepper)
 
-    monkeypatch.setattr(solver.scene_column.SceneColumn, "_check_health", check)
+    monkeypatch.setattr(solver.scene_column.SceneColumn, "sample", sample)
     run_dir = Path(comm.bcast(str(tmp_path), root=0)) / "mpi"
     s = run_scene(smoke(), run_dir, comm=comm, stream=io.StringIO())
     status = comm.bcast(s.get("status"), root=0)

@@ -173,14 +173,15 @@ def test_failures_divergence_resume_and_retry(tmp_path, monkeypatch):
     from stickslip import solver
     from stickslip.studies.sweep import run_sweep, write_table
 
-    original = solver.scene_column.SceneColumn._check_health
+    original = solver.scene_column.SceneColumn.sample
 
-    def check(self, kinetic, strain):  # Omega = 5: pretend the scheme blows up
-        if self.scene.loading.omega == 5.0 and self.initial_energy is not None:
-            return "forced divergence for the test"
-        return original(self, kinetic, strain)
+    def sample(self, stepper):  # Omega = 5: pretend the scheme blows up after one sample
+        found = original(self, stepper)
+        if self.scene.loading.omega == 5.0 and self.records.samples.n > 1:
+            return {0: "forced divergence for the test"}
+        return found
 
-    monkeypatch.setattr(solver.scene_column.SceneColumn, "_check_health", check)
+    monkeypatch.setattr(solver.scene_column.SceneColumn, "sample", sample)
     body = f"""
 base = "{SMOKE}"
 set = ["time.end_time=0.02"]

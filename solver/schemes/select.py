@@ -6,8 +6,8 @@ asks; the scheme it returns knows the rest (gusto's scheme objects handed to a t
 
 * ``time_step(scene, omega_max)``: its stability limit and the step (with advice);
 * ``build(problem, scene, omega_max)``: ``SchemeParts``, its step (``time_step``), its stepper
-  and contact step, and ``work_observers`` (the contact and damping work, step hooks where
-  the kernel does not sum them);
+  and contact step, and ``scene_records`` (the samples, probes and work observers, as its
+  kernel records them);
 * ``batchable(scene)`` and ``build_batch(bp, laws, backend, tau)``: B scenes as the
   columns of one stepper (the explicit scheme only);
 * ``kernel(scene)``: the step kernel, chosen once here and then a strategy inside the stepper.
@@ -42,15 +42,16 @@ from typing import Any, Protocol
 
 import numpy as np
 
+from stickslip.solver.columns import SceneRecords
 from stickslip.solver.contact import ContactLaw, make_projection
 from stickslip.solver.ensemble import BatchedExplicit, array_namespace
 from stickslip.solver.errors import StepTooLarge
 from stickslip.solver.fused import friction_bound
 from stickslip.solver.fused import numba_available as available
 from stickslip.solver.newmark import DampedNewmark, Newmark, critical_time_step
-from stickslip.solver.observers import DampingWork, EnergyAccumulator
+from stickslip.solver.observers import DampingWork, EnergyAccumulator, observer_records
 from stickslip.solver.scene import Scene
-from stickslip.solver.scene_explicit import ColumnDampingWork, ColumnWork, scene_explicit
+from stickslip.solver.scene_explicit import one_scene_records, scene_explicit
 
 __all__ = [
     "SCHEMES", "BACKENDS", "Scheme", "SchemeParts", "add_scheme", "for_scene", "check_backend",
@@ -190,20 +191,23 @@ def for_scene(scene: Scene) -> Scheme:
 class SchemeParts:
     """What a scheme builds for one scene: the stepper (``solver.stepper.Stepper``),
     its contact step (``out``: r_r, r_t, status; ``slide``; the nodes' frames, as the
-    observers use them), ``work``, which makes the contact-work and damping-work
-    observers and attaches those that need every step as step hooks, and the step ``dt``
-    with the explicit limit ``dt_crit`` (``Scheme.time_step``)."""
+    observers use them), ``records``, which makes the scene's records as the kernel takes
+    them (``scene_records``), the step ``dt`` with the explicit limit ``dt_crit``
+    (``Scheme.time_step``) and the ``scene`` they were built for."""
 
     stepper: Any
     contact: Any
-    work: Callable[[Any, Any, bool, np.ndarray], tuple[Any, Any]]
+    records: Callable[..., SceneRecords]
     dt: float = math.nan
     dt_crit: float = math.nan
+    scene: Scene | None = None
 
-    def work_observers(self, with_friction: bool, u0: np.ndarray) -> tuple[Any, Any]:
-        """(contact work, damping work or None) from u_0, the step hooks among them attached
-        to the stepper (contact work first)."""
-        return self.work(self.stepper, self.contact, with_friction, u0)
+    def scene_records(self, problem, every: int, n_steps: int,
+                      u0: np.ndarray) -> SceneRecords:
+        """The scene's samples (every ``every`` steps, ``n_steps`` planned), probes and work
+        observers from u_0 (``solver.columns.SceneRecords``), the step hooks among them
+        attached to the stepper (the work observers first, then the probes)."""
+        return self.records(self, problem, every, n_steps, u0)
 
 
 def time_step(scene: Scene, omega_max: float) -> tuple[float, float]:
@@ -326,29 +330,34 @@ def explicit_stepper(problem, dt: float, beta2: float, tau: float):
     return Newmark(problem.stiffness_mult(), problem.inv_mass, dt, 0.0, beta2)
 
 
-def _numpy_work(stepper, contact, with_friction: bool, u0: np.ndarray) -> tuple[Any, Any]:
-    """The numpy step's work observers, both step hooks: ``EnergyAccumulator`` and, damped,
-    ``DampingWork``."""
-    energy = EnergyAccumulator(contact, with_friction, u0)
+def _numpy_records(parts: SchemeParts, problem, every: int, n_steps: int,
+                   u0: np.ndarray) -> SceneRecords:
+    """The numpy step's records (``observer_records``) with its work observers, both step
+    hooks: ``EnergyAccumulator`` and, damped, ``DampingWork``."""
+    stepper, contact, scene = parts.stepper, parts.contact, parts.scene
+    energy = EnergyAccumulator(contact, scene.loading.f > 0.0, u0)
     stepper.attach(energy)
     damping = DampingWork(stepper, u0) if stepper.damped else None
     if damping is not None:
         stepper.attach(damping)
-    return energy, damping
+    return observer_records(problem, contact, stepper, energy, damping,
+                            scene.output.probes_deg, every, n_steps)
 
 
-def _numba_work(stepper, contact, with_friction: bool, u0: np.ndarray) -> tuple[Any, Any]:
-    """The numba step's work observers: the kernel sums both (``ColumnWork``,
-    ``ColumnDampingWork``), so neither is a step hook and the compiled loop stays."""
-    return (ColumnWork(stepper),
-            ColumnDampingWork(stepper) if stepper.damped else None)
+def _numba_records(parts: SchemeParts, problem, every: int, n_steps: int,
+                   u0: np.ndarray) -> SceneRecords:
+    """The numba step's records: a batch of one's (``one_scene_records``); the kernel sums
+    the contact and damping work, so no work observer is a step hook and the compiled loop
+    stays."""
+    return one_scene_records(parts.stepper, problem, parts.contact,
+                             parts.scene.output.probes_deg, every, n_steps)
 
 
 def _numpy_parts(problem, law: ContactLaw, tau: float, projection) -> SchemeParts:
     """The numpy step (damped or plain) with the projection timed as its contact step."""
     stepper = explicit_stepper(problem, law.dt, law.beta2, tau)
     stepper.contact = TimedContact(projection)
-    return SchemeParts(stepper, projection, _numpy_work)
+    return SchemeParts(stepper, projection, _numpy_records)
 
 
 def _numba_parts(problem, law: ContactLaw, tau: float, projection) -> SchemeParts:
@@ -356,7 +365,8 @@ def _numba_parts(problem, law: ContactLaw, tau: float, projection) -> SchemePart
     the projection's law inside its kernel and writes into the projection's arrays."""
     if not 0.5 <= law.beta2 <= 1.0:
         raise ValueError(f"time.beta2 = {law.beta2} must be in [0.5, 1]")
-    return SchemeParts(scene_explicit(problem, law, projection, tau), projection, _numba_work)
+    return SchemeParts(scene_explicit(problem, law, projection, tau), projection,
+                       _numba_records)
 
 
 #: The explicit scheme's kernels: each builds the stepper and its work observers.
@@ -418,7 +428,7 @@ class ExplicitNewmarkScheme:
         kernel = self.law_kernel(scene.time.kernel, law)
         parts = EXPLICIT_KERNELS[kernel](problem, law, scene.damping.tau,
                                          make_projection(problem, law))
-        parts.dt, parts.dt_crit = dt, dt_crit
+        parts.dt, parts.dt_crit, parts.scene = dt, dt_crit, scene
         return parts
 
     def batchable(self, scene: Scene) -> bool:
@@ -444,15 +454,19 @@ class ExplicitNewmarkScheme:
 
 # ------------------------------------------------------------------------------ implicit
 
-def _implicit_work(stepper, contact, with_friction: bool, u0: np.ndarray) -> tuple[Any, Any]:
-    """The implicit step's work: the contact work a step hook with the exact bookkeeping of
-    its contact solve, the damping work booked by the stepper itself."""
+def _implicit_records(parts: SchemeParts, problem, every: int, n_steps: int,
+                      u0: np.ndarray) -> SceneRecords:
+    """The implicit step's records (``observer_records``): the contact work a step hook with
+    the exact bookkeeping of its contact solve, the damping work booked by the stepper."""
     # PETSc for the implicit scheme only: a node without it imports the registry
     from stickslip.solver.implicit import ImplicitDampingWork
 
-    energy = EnergyAccumulator(contact, with_friction, u0, exact_work=True)
+    stepper, contact, scene = parts.stepper, parts.contact, parts.scene
+    energy = EnergyAccumulator(contact, scene.loading.f > 0.0, u0, exact_work=True)
     stepper.attach(energy)
-    return energy, ImplicitDampingWork() if stepper.damped else None
+    damping = ImplicitDampingWork() if stepper.damped else None
+    return observer_records(problem, contact, stepper, energy, damping,
+                            scene.output.probes_deg, every, n_steps)
 
 
 @add_scheme("implicit")
@@ -489,7 +503,7 @@ class ImplicitNewmarkScheme:
                                   problem.comm)
         stepper = ImplicitNewmark(problem.K, problem.mass, problem.clamped, dt, ts.beta1,
                                   ts.beta2, contact, problem.comm, tau=scene.damping.tau)
-        return SchemeParts(stepper, contact, _implicit_work, dt, dt_crit)
+        return SchemeParts(stepper, contact, _implicit_records, dt, dt_crit, scene)
 
     def batchable(self, scene: Scene) -> bool:
         return False
