@@ -98,8 +98,9 @@ GENERATED = {"cli.md", "scene.md"}
 #: and any one page (a page past it is a log or a study, which belongs in archive/).
 #: 320 kB: the P2 soundness tables (docs/convergence.md) took the site past 300 kB; 330 kB:
 #: the relative periodic orbits (theory and how-to), the chaos test and the ladder table;
-#: 332 kB: the finite tube's CEA table (docs/flutter.md).
-DOCS_BYTES, PAGE_BYTES = 332_000, 36_000
+#: 332 kB: the finite tube's CEA table (docs/flutter.md); 333 kB: what its 3D forms and
+#: stress are verified against.
+DOCS_BYTES, PAGE_BYTES = 333_000, 36_000
 
 
 def test_user_docs_stay_small():

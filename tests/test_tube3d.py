@@ -10,10 +10,8 @@
   HRZ-lumped mass are the 2D ones times the lumped P1 weights along z (dz/2 at the ends, dz
   inside), so the match is exact but for round-off: 1e-10 relative allowed (dense
   eigensolvers on matrices of condition ~1e3), 5e-15 measured.
-* The forms in 3D: a manufactured static solution of −div σ(u) = f on the tube, clamped on
-  its whole boundary, converges in L² at the trilinear element's order 2 (observed order from
-  three meshes within 0.25 of 2: the polygonal surfaces add an O(h²) geometry error of
-  their own; measured 1.97 and 1.99 at N = 16, 32, 64).
+* The forms' own checks in 3D (a manufactured solution's convergence, the strain energy,
+  the lumped mass, the cylindrical stress) are tests/test_forms_3d.py.
 """
 
 from __future__ import annotations
@@ -30,9 +28,8 @@ import dolfinx.fem.petsc  # noqa: E402
 import ufl  # noqa: E402
 from mpi4py import MPI  # noqa: E402
 
-from stickslip.forms.elasticity import Material, lumped_mass, stiffness, stress  # noqa: E402
+from stickslip.forms.elasticity import Material, lumped_mass, stiffness  # noqa: E402
 from stickslip.meshes.annulus import INNER_TAG, OUTER_TAG, annulus_mesh  # noqa: E402
-from stickslip.meshes.compat import solve_linear  # noqa: E402
 from stickslip.meshes.tube3d import END0_TAG, END1_TAG, tube_mesh_3d  # noqa: E402
 
 STEEL = Material(E=2.1e11, nu=0.3, rho=7800.0)
@@ -155,36 +152,6 @@ def test_the_3d_cea_with_roller_ends_holds_the_2d_cea():
     p2 = load_scene("scenes/figure1.toml", ["mesh.n_inner=16", "mesh.degree=2"])
     with pytest.raises(ValueError, match="degree 1"):
         tube_problem_3d(p2, length=0.02, n_axial=3, comm=MPI.COMM_SELF)
-
-
-def _mms_error(n_inner: int, n_radial: int, n_axial: int) -> tuple[float, float]:
-    """(h, L² error) of the manufactured static solution on one mesh (module docstring)."""
-    t = tube_mesh_3d(MPI.COMM_SELF, R=1.0, xi=1.25, length=0.5, n_inner=n_inner,
-                     n_axial=n_axial, n_radial=n_radial)
-    msh = t.mesh
-    V = dolfinx.fem.functionspace(msh, ("Lagrange", 1, (3,)))
-    x = ufl.SpatialCoordinate(msh)
-    scale = 1e-3
-    exact = scale * ufl.as_vector((ufl.sin(2 * x[2]) * x[1], ufl.cos(x[0]) * x[2],
-                                   x[0] * x[1] * ufl.exp(x[2])))
-    f = -ufl.div(stress(exact, STEEL))
-    u, v = ufl.TrialFunction(V), ufl.TestFunction(V)
-    boundary = dolfinx.fem.Function(V)
-    boundary.interpolate(dolfinx.fem.Expression(exact, V.element.interpolation_points()))
-    dofs = dolfinx.fem.locate_dofs_topological(V, 2, t.facet_tags.indices)
-    uh = solve_linear(stiffness(u, v, STEEL), ufl.inner(f, v) * ufl.dx,
-                      [dolfinx.fem.dirichletbc(boundary, dofs)],
-                      {"ksp_type": "preonly", "pc_type": "lu"})
-    err = dolfinx.fem.assemble_scalar(dolfinx.fem.form(ufl.inner(uh - exact, uh - exact)
-                                                       * ufl.dx))
-    return 2 * math.pi / n_inner, math.sqrt(err)
-
-
-def test_the_forms_converge_at_order_two_in_3d():
-    errors = [_mms_error(n, n // 8, n // 8) for n in (16, 32, 64)]
-    orders = [math.log(e0 / e1) / math.log(h0 / h1)
-              for (h0, e0), (h1, e1) in zip(errors, errors[1:], strict=False)]
-    assert all(abs(p - 2.0) < 0.25 for p in orders), (errors, orders)
 
 
 @pytest.mark.parallel
