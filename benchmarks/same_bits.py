@@ -8,7 +8,8 @@
 ``run DIR`` runs, from the repository it is called in, one small case of every path a
 refactor of the explicit path can touch (``CASES``): single runs with the numba and numpy
 kernels, implicit, damped (both kernels), Prakash-Clifton, the 1-2-1 filtered bound, fields,
-a diverging run, a damped run under ``mpirun -n 2``, a batched sweep, two censuses under
+a diverging run, damped runs (numba, numpy) and an implicit run under ``mpirun -n 2``, a
+batched sweep, two censuses under
 ``mpirun -n 2`` (settle legs with batches of one, two and three), a census with kicks, and
 a continuation. About 2 minutes on 2 cores.
 
@@ -51,6 +52,9 @@ CASES: dict[str, tuple[tuple[str, ...], int]] = {
     "fields": (("run", SMOKE, *SHORT, "--set", "output.fields=true"), 1),
     "diverging": (("run", SMOKE, *SHORT, "--set", "initial.amplitude=1e200"), 1),
     "mpi2": (("run", DAMPED, *DAMPED_SHORT), 2),
+    "numpy_mpi2": (("run", DAMPED, *DAMPED_SHORT, "--set", 'time.kernel="numpy"'), 2),
+    "implicit_mpi2": (("run", SMOKE, *SHORT, "--set", "time.beta1=0.25", "--set",
+                       "time.beta2=0.5", "--set", "time.dt_fraction=2"), 2),
     "sweep": (("sweep", "{sweep_file}"), 1),
     "census5": (("attractors", DAMPED, "--starts", "5", *CENSUS), 2),
     "census3": (("attractors", DAMPED, "--starts", "3", *CENSUS), 2),

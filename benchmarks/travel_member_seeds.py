@@ -117,7 +117,7 @@ def _scene(fam: dict):
 
 def analyse_windows(rec: dict, scene, window: float) -> list[dict]:
     """``postprocess.analysis.analyse`` over consecutive windows of ``window`` seconds of a
-    run's inner-circle record ``rec`` (``InnerCircleRecorder.arrays``): mode, speed,
+    run's inner-circle record ``rec`` (``sim.recorder.arrays()``): mode, speed,
     amplitude, ψ and regime per window."""
     from stickslip.postprocess.analysis import analyse
 

@@ -2,7 +2,7 @@
 spectrogram, with the frequencies other analyses predict marked on them.
 
 The probes (``output.probes_deg``) record u_r, u_θ, v_r, v_θ of the contact node nearest each
-angle at every time step (``solver.observers.ProbeRecorder``), so their spectra are free of the
+angle at every time step (``solver.observers.ProbeChoice``), so their spectra are free of the
 aliasing that the sparser field samples can have. A point fixed in space sees a wave of mode k
 and angular speed c at f = k |c| / (2π) (``postprocess.analysis``).
 """

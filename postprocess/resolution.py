@@ -36,7 +36,7 @@ def sampling_check(sample_t: np.ndarray, probes: dict | None, summary: dict) -> 
     wave, fewer than 4 samples).
 
     ``probes``: ``probe_t``, ``probe_data`` (probe, step, [u_r, u_theta, v_r, v_theta]) of
-    :class:`solver.observers.ProbeRecorder`; ``summary``: the analysed run (its ``regime``,
+    :class:`solver.ensemble_observers.BatchRecorder`; ``summary``: the analysed run (its ``regime``,
     ``amplitude_m``, ``frequency_hz`` and ``analysis_window_s``).
     """
     if not probes or "probe_t" not in probes or sample_t.size < 4 or summary.get("regime") in (None,

@@ -441,8 +441,8 @@ class BatchedExplicit(HookedStepper):
         return self.energy_summed
 
     def damping_work_totals(self) -> np.ndarray:
-        """(B,) W_d of every scene, as ``solver.scene_explicit.ColumnDampingWork`` (needs
-        ``refresh_ku``): work[3] - 1/2 (u_{n+1} . K u_n - u_0 . K u_0)."""
+        """(B,) W_d of every scene (needs ``refresh_ku``): work[3] - 1/2 (u_{n+1} . K u_n -
+        u_0 . K u_0), the telescoped sum of ``solver.observers.DampingWork``."""
         dots = self._column_dots(self.u, self.ku)
         step_sum = self.columns.damping_step_sum(self)
         return step_sum - 0.5 * (dots - self.xp.asarray(self.u0_ku0))
@@ -703,7 +703,7 @@ class NumbaColumns(ArrayColumns):
     def advance_one(self, st: BatchedExplicit, n: int, t_stop: float,
                     probes: tuple) -> int:
         """A batch of one on one rank: up to ``n`` steps of ``single_step`` as ONE compiled
-        call (``_fused_kernels.advance``), the probes (``ProbeRecorder.kernel_buffers``)
+        call (``_fused_kernels.advance``), the probes (``BatchRecorder.kernel_buffers``)
         recorded in it every step, stopping before a step once the time reaches
         ``t_stop``; the same arithmetic as ``n`` calls of ``step``. Returns the steps."""
         st._clock[0] = st.time

@@ -16,8 +16,9 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from stickslip.solver.columns import SceneRecords
 from stickslip.solver.errors import EnergyGuard
-from stickslip.solver.observers import gather_probes
+from stickslip.solver.observers import ContactCircle, ProbeChoice, gather_probes
 
 if TYPE_CHECKING:  # pragma: no cover
     from stickslip.solver.ensemble import BatchedExplicit
@@ -307,8 +308,8 @@ class BatchRecorder:
     Samples (every ``every`` steps, time level n): u_r, u_theta, v_r, v_theta, r_r, r_theta
     and the status at the contact nodes in angle order ``perm``, the energies (kinetic,
     strain, the three works); probes (every step): u_n and v_n (x, y) at the probe nodes.
-    ``arrays(b)`` / ``probe_arrays(b)`` return exactly the dictionaries of
-    ``InnerCircleRecorder.arrays`` / ``ProbeRecorder.arrays`` for scene b.
+    ``arrays(b)`` / ``probe_arrays(b)`` return scene b's samples and probes, as a run's
+    samples.npz holds them.
 
     The energy guard (``observe``; ``check_health``): on the CPU every sample is checked as
     it is taken. On a GPU (``xp`` not numpy) a sample stays on the device: the guard checks
@@ -417,7 +418,7 @@ class BatchRecorder:
         self.n_probe = self.probes.rows = int(self.count[0])
 
     def record_probes(self) -> None:
-        """u_n and v_n at the probe nodes, every step (ProbeRecorder.record)."""
+        """u_n and v_n at the probe nodes, every step."""
         if self.n_probe >= self.probe_t.size:
             return
         it = self.integ
@@ -430,7 +431,7 @@ class BatchRecorder:
         k2 = self.probe_rows.size
         self.xp.take(it.u_prev, self.probe_rows, axis=0, out=self.probe_scratch[:k2])
         self.xp.take(it.v, self.probe_rows, axis=0, out=self.probe_scratch[k2:])
-        row[...] = self.probe_scratch.reshape(4, k2 // 2, -1).transpose(2, 0, 1)
+        row[...] = self.probe_scratch.reshape(4, k2 // 2, it.B).transpose(2, 0, 1)
         self.n_probe += 1
 
     def observe(self, stepper) -> dict[int, str]:
@@ -515,7 +516,7 @@ class BatchRecorder:
 
     def _rank_sums(self, e: np.ndarray) -> None:
         """A scene over ranks: this rank's 2 x kinetic and 2 x strain energy, BLAS dots over
-        its owned dofs (as ``solver.observers.InnerCircleRecorder`` sums them)."""
+        its owned dofs (as ``solver.observers.SteppedColumn.sum_energies``)."""
         it = self.integ
         v, u = it.v[:, 0], it.u_prev[:, 0]
         np.multiply(v, self.mass[:, 0], out=self.kin_scratch)
@@ -566,7 +567,8 @@ class BatchRecorder:
                    for s in (self.fields, self.status, self.energies, self.probes))
 
     def arrays(self, b: int, n: int | None = None) -> dict[str, np.ndarray]:
-        """Scene b's ``InnerCircleRecorder.arrays()`` (its first n samples)."""
+        """Scene b's samples (its first n): t, theta, u_r, u_theta, v_r, v_theta, status,
+        energies, r_r, r_theta, ds."""
         n = self.n if n is None else n
         f = self.fields.read(b, n)
         return {"t": self.t[:n].copy(), "theta": self.theta, "u_r": f[:, 0],
@@ -575,7 +577,8 @@ class BatchRecorder:
                 "r_r": f[:, 4], "r_theta": f[:, 5], "ds": self.ds}
 
     def probe_arrays(self, b: int, n: int | None = None) -> dict[str, np.ndarray]:
-        """Scene b's ``ProbeRecorder.arrays()`` (its first n steps)."""
+        """Scene b's probes (its first n steps): probe_t, probe_deg and probe_data (probe,
+        step, [u_r, u_theta, v_r, v_theta])."""
         n = self.n_probe if n is None else n
         p = self.probes.read(b, n)  # (n, 4, n_probes)
         zu = (p[:, 0] + 1j * p[:, 1]) * self.probe_pc
@@ -590,9 +593,9 @@ class BatchRecorder:
 
 
 class MemberRecords:
-    """The samples of scene b of a ``BatchRecorder`` as one scene's records
-    (``solver.observers.InnerCircleRecorder``'s face: ``arrays()``, ``n``, ``n_nodes``,
-    ``recent_status``); ``n`` is the recorder's count until the scene's is set (it ended)."""
+    """The samples of scene b of a ``BatchRecorder`` as one scene's records (``arrays()``,
+    ``n``, ``n_nodes``, ``recent_status``); ``n`` is the recorder's count until the
+    scene's is set (it ended)."""
 
     def __init__(self, rec: BatchRecorder, b: int, n_nodes: int) -> None:
         self.rec, self.b, self.n_nodes = rec, b, n_nodes
@@ -615,8 +618,8 @@ class MemberRecords:
 
 
 class MemberProbes:
-    """The probes of scene b of a ``BatchRecorder`` (``ProbeRecorder``'s face: ``arrays()``,
-    ``n``); ``n`` is the recorder's count until the scene's is set (it ended)."""
+    """The probes of scene b of a ``BatchRecorder`` (``arrays()``, ``n``); ``n`` is the
+    recorder's count until the scene's is set (it ended)."""
 
     def __init__(self, rec: BatchRecorder, b: int) -> None:
         self.rec, self.b = rec, b
@@ -649,3 +652,27 @@ class ProbeHook:
 
     def recorded(self) -> None:
         self.rec.recorded()
+
+
+def one_scene_records(source, stepper, problem, projection, probes_deg, every: int,
+                      n_steps: int, parts: dict) -> SceneRecords:
+    """The records of one scene: a ``BatchRecorder`` of B = 1 on ``source`` (the stepper's
+    ``BatchedExplicit``, or a ``solver.observers.SteppedColumn``), its whole record in
+    memory, its probes a step hook of ``stepper`` (or recorded by its compiled loop), the
+    levels it samples stepped with their full state (``full_state_at``). Over several ranks
+    each rank takes its own contact nodes and probes and the samples gather to rank 0
+    (``ContactCircle``). ``parts``: the work observers a checkpoint keeps, by name."""
+    circle = ContactCircle(problem)
+    owned = ProbeChoice.of(problem, projection, probes_deg)  # the probes this rank records
+    several = problem.comm.size > 1
+    rec = BatchRecorder(
+        source, mass=problem.mass, perm=np.arange(circle.n_local) if several else circle.perm,
+        theta=circle.theta, ds=circle.ds, every=every, max_samples=n_steps // every + 2,
+        max_steps=n_steps, probe_nodes=owned.index, probe_pc=owned.phase_conj,
+        probe_deg=np.asarray(owned.angles), circle=circle,
+        probe_slots=(owned.slots, owned.n_probes) if several else None)
+    source.keep_nodes(owned.index)
+    source.full_state_at = rec.due
+    stepper.attach(ProbeHook(rec))
+    return SceneRecords(rec, MemberRecords(rec, 0, circle.n_nodes), MemberProbes(rec, 0),
+                        parts)

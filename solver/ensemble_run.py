@@ -45,7 +45,7 @@ from stickslip.solver.field_output import gather_final_field
 from stickslip.solver.observers import (
     ContactCircle,
     ContinuedRecords,
-    ProbeRecorder,
+    ProbeChoice,
     Progress,
 )
 from stickslip.solver.scene import Scene
@@ -62,8 +62,8 @@ KICK_MODES = 16
 class BatchLayout:
     """What a batch is built from besides its scenes and starts, as host arrays (npz-able):
     K, M and dt (``BatchedProblem``), the contact circle's order for the samples (``perm``,
-    ``theta``, ``ds``, ``n_nodes``: ``InnerCircleRecorder``), the probes (``probe_nodes``,
-    ``probe_pc``, ``probe_deg``: ``ProbeRecorder``) and the problem's facts (``dofs``,
+    ``theta``, ``ds``, ``n_nodes``: ``ContactCircle``), the probes (``probe_nodes``,
+    ``probe_pc``, ``probe_deg``: ``ProbeChoice``) and the problem's facts (``dofs``,
     ``dt_crit``, ``omega_max``)."""
 
     problem: BatchedProblem
@@ -87,7 +87,7 @@ class BatchLayout:
         """The layout of a dolfinx ``TubeProblem`` (one rank) at the law's dt."""
         projection = ContactProjection(problem, law)
         circle = ContactCircle(problem)
-        probes = ProbeRecorder(problem, projection, scene.output.probes_deg, 0)
+        probes = ProbeChoice.of(problem, projection, scene.output.probes_deg)
         return cls(BatchedProblem.from_problem(problem, law.dt, law.beta2),
                    perm=np.asarray(circle.perm), theta=np.asarray(circle.theta),
                    ds=np.asarray(circle.ds), n_nodes=int(circle.n_nodes),

@@ -21,7 +21,7 @@ is K w_n, w_n = u_n + tau v~_n, in place of K u_n (one product), the contact ste
 unchanged, and the kernel also sums the damping work's per-step part
 1/2 (K w_n . u_{n+1} - K w_n . u_{n-1}) (``solver.observers.DampingWork``; u_{n-1} is the
 spare half of the double buffer before u_{n+1} overwrites it), closed at the samples with
-K u_n (``solver.scene_explicit.ColumnDampingWork``, ``BatchedExplicit.damping_work_totals``).
+K u_n (``BatchedExplicit.damping_work_totals``).
 
 Only the summation order of K u (CSR order here, PETSc's order in MatMult) and of the work
 sums (sequential here, BLAS in ``np.vdot``) differ, so the two kernels agree to round-off

@@ -1,4 +1,7 @@
-"""Observers of the time loop: sampled diagnostics on the inner circle, energies, progress.
+"""Observers of the time loop: the work of the contact forces and of the damping, progress,
+and what the records of a run are built from (the contact circle over the ranks, the probes'
+choice, a one-scene stepper seen as a batch of one); the records themselves are
+``solver.ensemble_observers.BatchRecorder``'s, for every scheme and every B.
 
 Two kinds, as Dedalus' file handlers:
 
@@ -7,8 +10,6 @@ Two kinds, as Dedalus' file handlers:
   is due and calls ``observe(stepper)`` on each that is (the ``Observer`` protocol);
 * step hooks, which need every step (the probes, the work of the contact forces and of the
   damping): attached to the stepper (``solver.stepper.StepHook``).
-
-Arrays are preallocated for the whole run on rank 0.
 """
 
 from __future__ import annotations
@@ -17,15 +18,9 @@ import math
 import sys
 import time
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Protocol, runtime_checkable
+from typing import Protocol, runtime_checkable
 
 import numpy as np
-
-from stickslip.solver.columns import SceneRecords
-from stickslip.solver.errors import EnergyGuard
-
-if TYPE_CHECKING:  # imported where a recorder talks to other ranks: the module loads without
-    from mpi4py import MPI
 
 
 @dataclass(frozen=True)
@@ -128,23 +123,15 @@ class EnergyAccumulator:
         # roll: (n-1, n, n+1) <- (n, n+1, reuse)
         self.z_prev, self.z_now, self.z_next = self.z_now, self.z_next, self.z_prev
 
-    def totals(self, comm: MPI.Comm) -> tuple[float, float, float]:
-        """(work_contact, work_cylinder, friction_dissipation) summed over ranks. Collective.
-
-        A projection that keeps its own exact work bookkeeping (the implicit scheme's
-        ``work_totals``, whose energy identity is exact) supplies the first two.
-        """
-        if comm.size == 1:  # one rank: the sum is the local value (no Allreduce)
-            total = [self.work_contact, self.work_cylinder, self.friction_dissipation]
-        else:
-            from mpi4py import MPI
-
-            local = np.array([self.work_contact, self.work_cylinder, self.friction_dissipation])
-            total = np.zeros(3)
-            comm.Allreduce(local, total, op=MPI.SUM)
+    def local_sums(self) -> np.ndarray:
+        """(work_contact, work_cylinder, friction_dissipation) on this rank's contact nodes
+        (the records add them over the ranks). A projection that keeps its own exact work
+        bookkeeping (the implicit scheme's ``work_exposed``, whose energy identity is exact)
+        supplies the first two."""
+        sums = np.array([self.work_contact, self.work_cylinder, self.friction_dissipation])
         if self._exact_work:
-            total[0], total[1] = self.p.work_totals(exposed=True)
-        return float(total[0]), float(total[1]), float(total[2])
+            sums[:2] = self.p.work_exposed
+        return sums
 
 
 class DampingWork:
@@ -231,151 +218,6 @@ class ContactCircle:
                           root=0)
 
 
-class InnerCircleRecorder:
-    """Samples u_r(theta), u_theta(theta), velocities and contact status on the inner circle
-    (the numpy and implicit steppers; a batch's, of any B, are ``solver.ensemble_observers.
-    BatchRecorder``'s).
-
-    Every ``every`` steps the owned contact-node values are gathered to rank 0 (one Gatherv
-    each) and stored, ordered by angle, in preallocated arrays. Energies are sampled at the
-    same times; ``observe`` runs the energy guard (``solver.errors.EnergyGuard``) on them.
-    """
-
-    def __init__(self, problem, projection, energy: EnergyAccumulator, every: int,
-                 max_samples: int) -> None:
-        self.problem, self.p, self.energy = problem, projection, energy
-        self.every = max(1, every)
-        self.comm = problem.comm
-        circle = self.circle = ContactCircle(problem)
-        self.n_nodes, self.is_root = circle.n_nodes, circle.is_root
-        self.perm, self.theta, self.ds = circle.perm, circle.theta, circle.ds
-        n_local = circle.n_local
-        self.max_samples = max_samples
-        self.n = 0
-        # send buffers (owned): u_r, u_theta, v_r, v_theta, r_r, r_theta and the status
-        self.send = np.zeros((6, n_local))
-        if self.is_root:
-            self.recv = np.zeros((6, self.n_nodes))
-            self.recv_status = np.zeros(self.n_nodes, dtype=np.int8)
-            self.t = np.zeros(max_samples)
-            self.u_r = np.zeros((max_samples, self.n_nodes))
-            self.u_t = np.zeros((max_samples, self.n_nodes))
-            self.v_r = np.zeros((max_samples, self.n_nodes))
-            self.v_t = np.zeros((max_samples, self.n_nodes))
-            self.r_r = np.zeros((max_samples, self.n_nodes))
-            self.r_t = np.zeros((max_samples, self.n_nodes))
-            self.status = np.zeros((max_samples, self.n_nodes), dtype=np.int8)
-            self.energies = np.zeros((max_samples, len(ENERGY_FIELDS)))
-        self.single = self.comm.size == 1
-        if self.single:  # one rank: gathered order = local order; sort while taking
-            self.idx_sorted = np.asarray(projection.node_index, dtype=np.intp)[self.perm]
-            self.phase_sorted = np.ascontiguousarray(projection.phase_conj[self.perm])
-            self.z_sorted = np.zeros((2, n_local), dtype=complex)  # (u, v) as u_r + i u_theta
-            z = self.z_sorted  # the four real views, made once
-            self.z_parts = (z[0].real, z[0].imag, z[1].real, z[1].imag)
-        self.last_work = (0.0, 0.0, 0.0, 0.0)
-        self.kin_scratch = np.zeros(problem.n_owned)
-        self.e_local = np.zeros(3)  # kinetic, strain, damping work (local)
-        self.e_total = np.zeros(3)
-        #: the damping-work observer of a damped scene (``at_sample``), set by the run
-        self.damping = None
-        self.guard = EnergyGuard(1)
-
-    def due(self, step: int) -> bool:
-        return step % self.every == 0 and self.n < self.max_samples
-
-    def observe(self, integrator) -> dict[int, str]:
-        """Record time level n (``sample``) and run the energy guard on it: {0: message} on a
-        blow-up (the same on every rank: the energies are sums over the ranks)."""
-        kinetic, strain = self.sample(integrator)
-        return self.guard.check(np.array([kinetic]), np.array([strain]),
-                                np.array([self.last_work[1]]), np.ones(1, dtype=bool),
-                                integrator.time)
-
-    def sample(self, integrator) -> tuple[float, float]:
-        """Record time level n (u_prev, v, a, K u_n, r_n). Returns (kinetic, strain) energy."""
-        p = self.p
-        if self.damping is not None:  # the scheme's damping-work observer
-            self.e_local[2] = self.damping.at_sample(integrator)
-        np.multiply(integrator.v, self.problem.mass, out=self.kin_scratch)  # no allocation
-        self.e_local[0] = 0.5 * float(np.dot(self.kin_scratch, integrator.v))
-        self.e_local[1] = 0.5 * float(np.dot(integrator.u_prev, integrator.ku))
-        if self.single:
-            self._record_single(integrator, p)
-        else:
-            self._record_gathered(integrator, p)
-        self.n += 1
-        return float(self.e_total[0]), float(self.e_total[1])
-
-    def _record_single(self, integrator, p) -> None:
-        """One rank: take the nodes already in angle order straight into the sample rows.
-
-        Same products z e^{-i theta} as ``ContactProjection.polar_at_nodes``, node by node,
-        so every recorded value is bitwise the one of the gathered path; no MPI call.
-        """
-        i, z, idx, perm, out = self.n, self.z_sorted, self.idx_sorted, self.perm, p.out
-        ur, ut, vr, vt = self.z_parts
-        np.copyto(self.e_total, self.e_local)  # the sum over one rank
-        work = (*self.energy.totals(self.comm), float(self.e_total[2]))
-        self.last_work = work
-        # mode="clip": the indices are valid, and "raise" would copy through a buffer
-        p.complex_view(integrator.u_prev).take(idx, out=z[0], mode="clip")
-        p.complex_view(integrator.v).take(idx, out=z[1], mode="clip")
-        z *= self.phase_sorted
-        self.t[i] = integrator.time - integrator.dt
-        np.copyto(self.u_r[i], ur)
-        np.copyto(self.u_t[i], ut)
-        np.copyto(self.v_r[i], vr)
-        np.copyto(self.v_t[i], vt)
-        out.r_r.take(perm, out=self.r_r[i], mode="clip")
-        out.r_t.take(perm, out=self.r_t[i], mode="clip")
-        out.status.take(perm, out=self.status[i], mode="clip")
-        self.energies[i] = (self.e_total[0], self.e_total[1], *work)
-
-    def _record_gathered(self, integrator, p) -> None:
-        """Several ranks: polar values of the owned nodes, one Gatherv each, sorted on rank 0."""
-        from mpi4py import MPI
-
-        p._polar(integrator.u_prev, self.send[0], self.send[1])
-        p._polar(integrator.v, self.send[2], self.send[3])
-        self.send[4] = p.out.r_r
-        self.send[5] = p.out.r_t
-        self.comm.Allreduce(self.e_local, self.e_total, op=MPI.SUM)
-        work = (*self.energy.totals(self.comm), float(self.e_total[2]))
-        self.last_work = work  # on every rank (collective above)
-        for k in range(6):
-            self.circle.gatherv(self.send[k], self.recv[k] if self.is_root else None,
-                                MPI.DOUBLE)
-        self.circle.gatherv(p.out.status, self.recv_status if self.is_root else None,
-                            MPI.INT8_T)
-        if self.is_root:
-            i, perm = self.n, self.perm
-            self.t[i] = integrator.time - integrator.dt
-            self.u_r[i] = self.recv[0][perm]
-            self.u_t[i] = self.recv[1][perm]
-            self.v_r[i] = self.recv[2][perm]
-            self.v_t[i] = self.recv[3][perm]
-            self.r_r[i] = self.recv[4][perm]
-            self.r_t[i] = self.recv[5][perm]
-            self.status[i] = self.recv_status[perm]
-            self.energies[i] = (self.e_total[0], self.e_total[1], *work)
-
-    def arrays(self) -> dict[str, np.ndarray]:
-        """The recorded samples (rank 0), trimmed to the samples actually taken."""
-        n = self.n
-        out = {
-            "t": self.t[:n], "theta": self.theta, "u_r": self.u_r[:n], "u_theta": self.u_t[:n],
-            "v_r": self.v_r[:n], "v_theta": self.v_t[:n], "status": self.status[:n],
-            "energies": self.energies[:n], "r_r": self.r_r[:n], "r_theta": self.r_t[:n],
-            "ds": self.ds,
-        }
-        return out
-
-    def recent_status(self, last: int) -> np.ndarray:
-        """Statuses of the last ``last`` samples (rank 0), e.g. for ``analysis.zone_fractions``."""
-        return self.status[max(0, self.n - last): self.n]
-
-
 class Progress:
     """One line every ``interval`` seconds of wall time on rank 0: time, ETA, contact status."""
 
@@ -408,20 +250,26 @@ class Progress:
         )
 
 
-class ProbeRecorder:
-    """Time histories (every step) of u_r, u_theta, v_r, v_theta at probe angles.
+@dataclass(frozen=True)
+class ProbeChoice:
+    """The probes this rank records: each probe is the contact node nearest to its angle
+    (``output.probes_deg``; ties broken by the global node order, so the choice does not
+    depend on the partition), recorded every step by the rank that owns it. ``slots``: their
+    places among the scene's ``n_probes``; ``index``: their nodes (the owned blocked array's
+    node index, x dof = 2 index); ``angles`` [deg] and ``phase_conj`` e^{-iθ} of each."""
 
-    Each probe is the contact node nearest to its angle (ties broken by the global node
-    order, so the choice does not depend on the partition). The owning rank records it
-    locally every step, without communication; ``arrays()`` gathers the histories to rank 0.
-    """
+    slots: list[int]
+    index: np.ndarray
+    angles: list[float]
+    phase_conj: np.ndarray
+    n_probes: int
 
-    def __init__(self, problem, projection, probes_deg, max_steps: int) -> None:
+    @classmethod
+    def of(cls, problem, projection, probes_deg) -> ProbeChoice:
+        """The choice on ``problem``'s ranks (collective)."""
         from mpi4py import MPI
 
-        self.comm = problem.comm
-        self.p = projection
-        nd = problem.nodes
+        comm, nd = problem.comm, problem.nodes
         slots, index, angles = [], [], []
         for slot, deg in enumerate(probes_deg):
             target = np.radians(deg) % (2 * np.pi)
@@ -431,43 +279,13 @@ class ProbeRecorder:
                 mine = (float(dist[j]), int(nd.global_node_index[j]))
             else:
                 j, mine = -1, (np.inf, -1)
-            best = self.comm.allreduce(mine, op=MPI.MIN)
+            best = comm.allreduce(mine, op=MPI.MIN)
             if mine == best and j >= 0:
                 slots.append(slot)
                 index.append(j)
                 angles.append(float(np.degrees(nd.theta[j])))
-        self.slots, self.angles = slots, angles
-        self.index = np.asarray(projection.node_index[index], dtype=np.intp)
-        self.phase_conj = projection.phase_conj[index].copy()
-        self.n_probes = len(probes_deg)
-        # (x + i y) of u_n and v_n per step; rotated to (r, theta) once, in ``arrays()``
-        self.zu = np.zeros((max_steps + 1, len(slots)), dtype=complex)
-        self.zv = np.zeros((max_steps + 1, len(slots)), dtype=complex)
-        self.t = np.zeros(max_steps + 1)
-        self.n = 0
-
-    def after_step(self, integrator) -> None:
-        """Record time level n (u_prev = u_n, v = v_n) after a step: two ``take`` calls."""
-        i = self.n
-        if i >= self.t.size:
-            return
-        self.t[i] = integrator.time - integrator.dt
-        if self.slots:  # mode="clip": valid indices, no buffered copy ("raise" buffers out)
-            self.p.complex_view(integrator.u_prev).take(self.index, out=self.zu[i], mode="clip")
-            self.p.complex_view(integrator.v).take(self.index, out=self.zv[i], mode="clip")
-        self.n = i + 1
-
-    @property
-    def data(self) -> np.ndarray:
-        """(probe, step, [u_r, u_theta, v_r, v_theta]) of the recorded steps (local probes)."""
-        zu = self.zu[: self.n] * self.phase_conj
-        zv = self.zv[: self.n] * self.phase_conj
-        return np.stack([zu.real, zu.imag, zv.real, zv.imag], axis=-1).transpose(1, 0, 2)
-
-    def arrays(self) -> dict[str, np.ndarray] | None:
-        """Gathered histories on rank 0 (None elsewhere): probe_t, probe_deg, probe_data."""
-        return gather_probes(self.comm, self.slots, self.angles, self.data,
-                             self.t[: self.n], self.n_probes)
+        return cls(slots, np.asarray(projection.node_index[index], dtype=np.intp), angles,
+                   projection.phase_conj[index].copy(), len(probes_deg))
 
 
 def gather_probes(comm, slots: list[int], angles: list[float], data: np.ndarray,
@@ -498,12 +316,12 @@ TIME_AXIS = {"t": 0, "u_r": 0, "u_theta": 0, "v_r": 0, "v_theta": 0, "status": 0
 class ContinuedRecords:
     """The records of a continued run: the ``n_before`` taken before its checkpoint
     (``before``, read back from the run's samples.npz on rank 0; None elsewhere) followed by
-    those of the live recorder ``live`` (an ``InnerCircleRecorder``, a ``ProbeRecorder`` or
-    a batch member's face of them).
+    those of the live records ``live`` (``solver.ensemble_observers.MemberRecords`` or
+    ``MemberProbes``).
 
     ``arrays()`` joins the two along ``TIME_AXIS``; ``n`` is the count of both. Each
-    recorded row is computed row by row (``InnerCircleRecorder._record_single``, the
-    probes' rotation), so the joined arrays are bitwise those of one run straight through.
+    recorded row is computed row by row (``BatchRecorder.sample``, the probes' rotation), so
+    the joined arrays are bitwise those of one run straight through.
     Everything else is the live recorder's."""
 
     def __init__(self, live, before: dict[str, np.ndarray] | None, n_before: int) -> None:
@@ -529,16 +347,66 @@ class ContinuedRecords:
         return out
 
 
-def observer_records(problem, projection, stepper, energy, damping, probes_deg,
-                     every: int, n_steps: int) -> SceneRecords:
-    """The records of a scene stepped by the numpy or implicit stepper: its samples
-    (``InnerCircleRecorder``, reading the contact work ``energy`` and the damping work
-    ``damping`` or None), its probes (``ProbeRecorder``, a step hook after the work
-    observers), and the work observers as checkpoint parts."""
-    recorder = InnerCircleRecorder(problem, projection, energy, every,
-                                   max_samples=n_steps // every + 2)
-    recorder.damping = damping
-    probes = ProbeRecorder(problem, projection, probes_deg, n_steps)
-    stepper.attach(probes)
-    parts = {"energy": energy} if damping is None else {"energy": energy, "damping": damping}
-    return SceneRecords(recorder, recorder, probes, parts)
+class SteppedColumn:
+    """A one-scene stepper that is no batch (``Newmark``, ``DampedNewmark``,
+    ``ImplicitNewmark``) and its contact step, seen as a batch of one by the records
+    (``solver.ensemble_observers.BatchRecorder``): the observed level's u_n, v_n, K u_n and
+    the contact outputs as (rows, 1) views, the work sums of the scene's work observers
+    (``EnergyAccumulator.local_sums``; the damping work W_d of ``damping``'s ``at_sample``,
+    which refreshes K u_n first: ``refresh_ku``), and the sampled energies as BLAS dots over
+    the owned dofs, 2 E_kin = v · M v and 2 E_strain = u · K u (``sum_energies``)."""
+
+    xp = np
+    B = 1
+    host_records = True  # numpy arrays: the record is kept whole, in memory
+    energy_summed = False
+
+    def __init__(self, stepper, contact, mass: np.ndarray, work: EnergyAccumulator,
+                 damping=None) -> None:
+        self.stepper, self.contact, self.mass, self.work = stepper, contact, mass, work
+        self.damping, self.damped = damping, damping is not None
+        self.n, self.m = stepper.u.size, contact.node_index.size
+        self.cx = 2 * np.asarray(contact.node_index, dtype=np.int64)
+        self.phase_conj = contact.phase_conj
+        self.active = np.ones(1, dtype=bool)
+        self.columns = self  # the records' copies: array indexing (``record_copies``)
+        self.energy = np.zeros((2, 1))
+        self.kin_scratch = np.zeros(self.n)
+        self.damping_work = 0.0
+        self.full_state_at = None  # every level is stepped in full
+
+    def record_copies(self) -> None:
+        return None
+
+    def keep_nodes(self, nodes: np.ndarray) -> None:
+        """Every node's v_n, a_n, K u_n is kept at every step."""
+
+    time = property(lambda self: self.stepper.time)
+    dt = property(lambda self: self.stepper.dt)
+    u_prev = property(lambda self: self.stepper.u_prev[:, None])
+    v = property(lambda self: self.stepper.v[:, None])
+    ku = property(lambda self: self.stepper.ku[:, None])
+    r_r = property(lambda self: self.contact.out.r_r[:, None])
+    r_t = property(lambda self: self.contact.out.r_t[:, None])
+    status = property(lambda self: self.contact.out.status[:, None])
+
+    def refresh_ku(self) -> None:
+        """W_d up to level n (``damping.at_sample``: K u_n refreshed where the step formed
+        K w_n)."""
+        self.damping_work = self.damping.at_sample(self.stepper)
+
+    def sum_energies(self) -> bool:
+        """energy = v · M v and u · K u of level n, BLAS dots over this rank's dofs."""
+        st = self.stepper
+        np.multiply(st.v, self.mass, out=self.kin_scratch)
+        self.energy[0, 0] = float(np.dot(self.kin_scratch, st.v))
+        self.energy[1, 0] = float(np.dot(st.u_prev, st.ku))
+        return True
+
+    def work_sums(self) -> np.ndarray:
+        """(3, 1): work_contact, work_cylinder, friction_dissipation on this rank."""
+        return self.work.local_sums()[:, None]
+
+    def damping_work_totals(self) -> np.ndarray:
+        """(1,): W_d on this rank's dofs, taken by ``refresh_ku``."""
+        return np.array([self.damping_work])

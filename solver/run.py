@@ -206,7 +206,7 @@ class Simulation:
 
     @property
     def recorder(self):
-        """Run 0's samples (``InnerCircleRecorder``, or its records when continued)."""
+        """Run 0's samples (``MemberRecords``, or its records when continued)."""
         return self.runs[0].recorder
 
     @property

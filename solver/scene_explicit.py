@@ -1,6 +1,6 @@
 """One scene's explicit step as the batch of one it is: ``BatchedExplicit`` with B = 1 seen as
 a single-scene stepper (``solver.stepper.Stepper``), for ``solver.scene_column.SceneColumn``,
-recorded as a batch is (``solver.ensemble_observers.BatchRecorder``, ``one_scene_records``).
+recorded as a batch is (``solver.ensemble_observers.one_scene_records``).
 
 The arithmetic is the batch's (``solver.ensemble.NumbaColumns``: ``single_step`` on column 0),
 so a scene alone and in a batch step with the same code and the same bits. What this module
@@ -27,19 +27,11 @@ import math
 
 import numpy as np
 
-from stickslip.solver.columns import SceneRecords
 from stickslip.solver.ensemble import BatchedExplicit, BatchedProblem
-from stickslip.solver.ensemble_observers import (
-    BatchRecorder,
-    MemberProbes,
-    MemberRecords,
-    ProbeHook,
-)
 from stickslip.solver.fused import friction_bound
-from stickslip.solver.observers import ContactCircle, ProbeRecorder
 from stickslip.solver.stepper import HookedStepper, copy_state, put_state
 
-__all__ = ["DampingStart", "GhostRows", "SceneExplicit", "one_scene_records", "scene_explicit"]
+__all__ = ["DampingStart", "GhostRows", "SceneExplicit", "scene_explicit"]
 
 
 class GhostRows:
@@ -81,30 +73,6 @@ def scene_explicit(problem, law, projection, tau: float) -> SceneExplicit:
         kernel="numba", tau=tau, bound=friction_bound(law),
         contact={k: v.reshape(m, 1) for k, v in contact.items()}, ghost_update=ghosts)
     return SceneExplicit(batch, several_ranks=problem.comm.size > 1)
-
-
-def one_scene_records(stepper: SceneExplicit, problem, projection, probes_deg,
-                      every: int, n_steps: int) -> SceneRecords:
-    """The records of one scene stepped as a batch of one: a ``BatchRecorder`` of B = 1,
-    its whole record in memory, its probes a step hook (or recorded by the compiled loop),
-    the levels it samples stepped with their full state (``full_state_at``); over several
-    ranks each rank takes its own contact nodes and probes and the samples gather to rank 0
-    (``ContactCircle``). Its checkpoint part besides the stepper's: ``DampingStart``."""
-    batch, circle = stepper.batch, ContactCircle(problem)
-    owned = ProbeRecorder(problem, projection, probes_deg, 0)  # the probes this rank owns
-    several = problem.comm.size > 1
-    rec = BatchRecorder(
-        batch, mass=problem.mass, perm=np.arange(circle.n_local) if several else circle.perm,
-        theta=circle.theta, ds=circle.ds, every=every, max_samples=n_steps // every + 2,
-        max_steps=n_steps, probe_nodes=np.asarray(owned.index),
-        probe_pc=np.asarray(owned.phase_conj), probe_deg=np.asarray(owned.angles),
-        circle=circle, probe_slots=(owned.slots, owned.n_probes) if several else None)
-    batch.keep_nodes(np.asarray(owned.index))
-    batch.full_state_at = rec.due
-    stepper.attach(ProbeHook(rec))
-    parts = {"damping": DampingStart(stepper)} if stepper.damped else {}
-    return SceneRecords(rec, MemberRecords(rec, 0, circle.n_nodes), MemberProbes(rec, 0),
-                        parts)
 
 
 class SceneExplicit(HookedStepper):

@@ -45,13 +45,14 @@ import numpy as np
 from stickslip.solver.columns import SceneRecords
 from stickslip.solver.contact import ContactLaw, make_projection
 from stickslip.solver.ensemble import BatchedExplicit, array_namespace
+from stickslip.solver.ensemble_observers import one_scene_records
 from stickslip.solver.errors import StepTooLarge
 from stickslip.solver.fused import friction_bound
 from stickslip.solver.fused import numba_available as available
 from stickslip.solver.newmark import DampedNewmark, Newmark, critical_time_step
-from stickslip.solver.observers import DampingWork, EnergyAccumulator, observer_records
+from stickslip.solver.observers import DampingWork, EnergyAccumulator, SteppedColumn
 from stickslip.solver.scene import Scene
-from stickslip.solver.scene_explicit import one_scene_records, scene_explicit
+from stickslip.solver.scene_explicit import DampingStart, scene_explicit
 
 __all__ = [
     "SCHEMES", "BACKENDS", "Scheme", "SchemeParts", "add_scheme", "for_scene", "check_backend",
@@ -332,16 +333,25 @@ def explicit_stepper(problem, dt: float, beta2: float, tau: float):
 
 def _numpy_records(parts: SchemeParts, problem, every: int, n_steps: int,
                    u0: np.ndarray) -> SceneRecords:
-    """The numpy step's records (``observer_records``) with its work observers, both step
-    hooks: ``EnergyAccumulator`` and, damped, ``DampingWork``."""
+    """The numpy step's records (``one_scene_records`` of a ``SteppedColumn``) with its
+    work observers, both step hooks: ``EnergyAccumulator`` and, damped, ``DampingWork``."""
     stepper, contact, scene = parts.stepper, parts.contact, parts.scene
     energy = EnergyAccumulator(contact, scene.loading.f > 0.0, u0)
     stepper.attach(energy)
     damping = DampingWork(stepper, u0) if stepper.damped else None
     if damping is not None:
         stepper.attach(damping)
-    return observer_records(problem, contact, stepper, energy, damping,
-                            scene.output.probes_deg, every, n_steps)
+    return _stepped_records(parts, problem, every, n_steps, energy, damping)
+
+
+def _stepped_records(parts: SchemeParts, problem, every: int, n_steps: int,
+                     energy: EnergyAccumulator, damping) -> SceneRecords:
+    """The records of a stepper that is no batch, with its work observers (checkpoint
+    parts ``energy`` and ``damping``)."""
+    column = SteppedColumn(parts.stepper, parts.contact, problem.mass, energy, damping)
+    named = {"energy": energy} if damping is None else {"energy": energy, "damping": damping}
+    return one_scene_records(column, parts.stepper, problem, parts.contact,
+                             parts.scene.output.probes_deg, every, n_steps, named)
 
 
 def _numba_records(parts: SchemeParts, problem, every: int, n_steps: int,
@@ -349,8 +359,10 @@ def _numba_records(parts: SchemeParts, problem, every: int, n_steps: int,
     """The numba step's records: a batch of one's (``one_scene_records``); the kernel sums
     the contact and damping work, so no work observer is a step hook and the compiled loop
     stays."""
-    return one_scene_records(parts.stepper, problem, parts.contact,
-                             parts.scene.output.probes_deg, every, n_steps)
+    stepper = parts.stepper
+    named = {"damping": DampingStart(stepper)} if stepper.damped else {}
+    return one_scene_records(stepper.batch, stepper, problem, parts.contact,
+                             parts.scene.output.probes_deg, every, n_steps, named)
 
 
 def _numpy_parts(problem, law: ContactLaw, tau: float, projection) -> SchemeParts:
@@ -456,8 +468,9 @@ class ExplicitNewmarkScheme:
 
 def _implicit_records(parts: SchemeParts, problem, every: int, n_steps: int,
                       u0: np.ndarray) -> SceneRecords:
-    """The implicit step's records (``observer_records``): the contact work a step hook with
-    the exact bookkeeping of its contact solve, the damping work booked by the stepper."""
+    """The implicit step's records (``one_scene_records`` of a ``SteppedColumn``): the
+    contact work a step hook with the exact bookkeeping of its contact solve, the damping
+    work booked by the stepper."""
     # PETSc for the implicit scheme only: a node without it imports the registry
     from stickslip.solver.implicit import ImplicitDampingWork
 
@@ -465,8 +478,7 @@ def _implicit_records(parts: SchemeParts, problem, every: int, n_steps: int,
     energy = EnergyAccumulator(contact, scene.loading.f > 0.0, u0, exact_work=True)
     stepper.attach(energy)
     damping = ImplicitDampingWork() if stepper.damped else None
-    return observer_records(problem, contact, stepper, energy, damping,
-                            scene.output.probes_deg, every, n_steps)
+    return _stepped_records(parts, problem, every, n_steps, energy, damping)
 
 
 @add_scheme("implicit")
