@@ -73,7 +73,8 @@ def measure(n_inner: int, steps: int, kernel: str, repeats: int) -> dict:
         t0 = time.perf_counter()
         sim.proceed(end_time=np.inf, max_steps=integ.step_count + steps)
         full = min(full, (time.perf_counter() - t0) / steps)
-    assert sim.recorder.n < sim.recorder.max_samples and sim.probes.n < sim.probes.t.size
+    rec = sim.columns.sampler  # the run's BatchRecorder: no record may have filled up
+    assert rec.n < rec.max_samples and rec.n_probe < rec.probe_t.size
     return {"n_inner": n_inner, "dofs": sim.problem.n_global_dofs, "bare_us": 1e6 * bare,
             "step_us": 1e6 * step_only, "loop_us": 1e6 * full, "first_s": first,
             "kernel": getattr(integ, "kernel", "numpy")}

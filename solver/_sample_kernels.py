@@ -57,3 +57,43 @@ def gather_probes(u, v, x_dofs, row):
             row[b, 1, p] = u[i + 1, b]
             row[b, 2, p] = v[i, b]
             row[b, 3, p] = v[i + 1, b]
+
+
+@jit
+def sample_one(i, u, u_next, v, ku, mass, r_r, r_t, status, node_x, perm, work, u0_ku0,
+               damped, fields, status_rows, energies):
+    """Row ``i`` of a batch of one's record in one pass (columns of (n, 1) arrays):
+    fields[i, 0:4, j] = the CARTESIAN (x, y) of u_n and v_n at contact node j in angle order
+    (``node_x[j]``: its x dof; ``BatchRecorder`` turns them to (r, θ) with numpy's complex
+    multiply when they are read), fields[i, 4:6, j] = r_r, r_t and status_rows[i, j] = the
+    status at its contact index ``perm[j]``; energies[i] = (½ Σ m v², ½ Σ u K u, the three
+    works of ``work``, W_d = work[3] − ½ (u_{n+1} · K u_n − u_0 · K u_0) when ``damped``, else
+    0), the sums in row order from 0.0 (``column_energies``, ``column_dots``: the same
+    bits). ``u`` is u_n, ``u_next`` u_{n+1}, ``ku`` K u_n."""
+    kin = 0.0
+    strain = 0.0
+    for k in range(u.shape[0]):
+        vk = v[k, 0]
+        kin += vk * mass[k] * vk
+        strain += u[k, 0] * ku[k, 0]
+    energies[i, 0] = kin * 0.5
+    energies[i, 1] = strain * 0.5
+    energies[i, 2] = work[0, 0]
+    energies[i, 3] = work[1, 0]
+    energies[i, 4] = work[2, 0]
+    energies[i, 5] = 0.0
+    if damped:
+        dot = 0.0
+        for k in range(u.shape[0]):
+            dot += u_next[k, 0] * ku[k, 0]
+        energies[i, 5] = work[3, 0] - 0.5 * (dot - u0_ku0[0])
+    for j in range(node_x.size):
+        ix = node_x[j]
+        fields[i, 0, j] = u[ix, 0]
+        fields[i, 1, j] = u[ix + 1, 0]
+        fields[i, 2, j] = v[ix, 0]
+        fields[i, 3, j] = v[ix + 1, 0]
+        p = perm[j]
+        fields[i, 4, j] = r_r[p, 0]
+        fields[i, 5, j] = r_t[p, 0]
+        status_rows[i, j] = status[p, 0]

@@ -428,11 +428,13 @@ class BatchedExplicit(HookedStepper):
         ``sequential_dot``)."""
         return self.columns.column_dots(self, x, y)
 
-    def refresh_ku(self) -> None:
-        """ku = K u_n (u_n is ``u_prev`` after a step; the damped step applies K w_n) and the
-        strain sums energy[1] = Σ_i u_i (K u)_i of it: what the samples read."""
+    def refresh_ku(self, strain: bool = True) -> None:
+        """ku = K u_n (u_n is ``u_prev`` after a step; the damped step applies K w_n) and,
+        with ``strain``, the strain sums energy[1] = Σ_i u_i (K u)_i of it: what the samples
+        read."""
         self._stiffness(self._full_u[1 - self.cur], self.ku)
-        self.energy[1] = self._column_dots(self.u_prev, self.ku)
+        if strain:
+            self.energy[1] = self._column_dots(self.u_prev, self.ku)
 
     def sum_energies(self) -> bool:
         """The kernel's own sums of the sampled energies into ``energy`` (numba: row order,

@@ -388,6 +388,16 @@ class BatchRecorder:
         #: kernel has them (``solver._sample_kernels``), else None (array indexing)
         self.copies = integ.columns.record_copies()
         self.zv = xp.zeros((B, m), dtype=np.complex128) if self.copies else None
+        #: one scene on one rank, its record whole in host memory: a sample is ONE compiled
+        #: pass (``_sample_kernels.sample_one``) that stores u and v Cartesian, turned polar
+        #: when read (``_rotate_pending``; rows below ``polar_rows`` are polar)
+        self.one = (self.copies is not None and B == 1 and self.circle is None
+                    and isinstance(self.fields, _Record))
+        self.polar_rows = 0
+        if self.one:
+            self.node_x = np.ascontiguousarray(self.cx_sorted, dtype=np.intp)
+            self.perm_one = np.ascontiguousarray(self.perm, dtype=np.intp)
+            self.mass_one = np.ascontiguousarray(mass, dtype=np.float64)
         self.guard = EnergyGuard(B)
         #: the probes' count as a compiled loop advances it (``kernel_buffers``)
         self.count = np.zeros(1, dtype=np.int64)
@@ -464,6 +474,8 @@ class BatchRecorder:
         """Record time level n; returns host (kinetic, strain, work_cylinder) per scene on
         the CPU, None on a GPU (no device-to-host copy per sample: ``observe`` runs the
         guard on the host chunks)."""
+        if self.one:
+            return self._sample_one()
         it, xp = self.integ, self.xp
         cx = self.cx_sorted
         row = self.fields.row()  # (B, 6, m), scene-first
@@ -513,6 +525,37 @@ class BatchRecorder:
         if self.deferred:
             return None
         return e[:, 0], e[:, 1], e[:, 3]
+
+    def _sample_one(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``sample`` of one scene on one rank in one compiled pass (``self.one``)."""
+        it, i = self.integ, self.n
+        if it.damped:  # the damped step applied K w_n: K u_n for the strain energy and W_d
+            it.refresh_ku(strain=False)
+        for record in (self.fields, self.status, self.energies):
+            record.row()
+        e = self.energies.data[0]
+        self.copies.sample_one(i, it.u_prev, it.u, it.v, it.ku, self.mass_one, it.r_r, it.r_t,
+                               it.status, self.node_x, self.perm_one, it.work, it.u0_ku0,
+                               it.damped, self.fields.data[0], self.status.data[0], e)
+        self.t[i] = it.time - it.dt
+        self.clock[i] = it.time
+        self.n = i + 1
+        return e[i, 0:1], e[i, 1:2], e[i, 3:4]
+
+    def _rotate_pending(self) -> None:
+        """The Cartesian (x, y) of u and v of the samples ``_sample_one`` took since the last
+        call, turned to (r, θ): z e^{-iθ} by numpy's complex multiply, as ``sample`` turns
+        each row (element by element: the same bits)."""
+        if not self.one or self.polar_rows >= self.n:
+            return
+        rows = self.fields.data[0, self.polar_rows:self.n]
+        z = np.empty((rows.shape[0], rows.shape[2]), dtype=np.complex128)
+        for k in (0, 2):
+            z.real, z.imag = rows[:, k], rows[:, k + 1]  # exact, whatever the values
+            z *= self.pc_sorted
+            rows[:, k] = z.real
+            rows[:, k + 1] = z.imag
+        self.polar_rows = self.n
 
     def _rank_sums(self, e: np.ndarray) -> None:
         """A scene over ranks: this rank's 2 x kinetic and 2 x strain energy, BLAS dots over
@@ -570,6 +613,7 @@ class BatchRecorder:
         """Scene b's samples (its first n): t, theta, u_r, u_theta, v_r, v_theta, status,
         energies, r_r, r_theta, ds."""
         n = self.n if n is None else n
+        self._rotate_pending()
         f = self.fields.read(b, n)
         return {"t": self.t[:n].copy(), "theta": self.theta, "u_r": f[:, 0],
                 "u_theta": f[:, 1], "v_r": f[:, 2], "v_theta": f[:, 3],

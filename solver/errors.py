@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 
@@ -52,6 +54,9 @@ class EnergyGuard:
     def check(self, kin, strain, w_cyl, active, time_now: float) -> dict[int, str]:
         """{b: message} of the scenes among ``active`` (B,) whose sample (kinetic, strain
         energy, cylinder work: (B,) arrays) at ``time_now`` diverged."""
+        if len(kin) == 1:  # one scene: the same operations on scalars, cheaper
+            return self._check_one(float(kin[0]), float(strain[0]), float(w_cyl[0]),
+                                   bool(active[0]), time_now)
         total = kin + strain
         finite = np.isfinite(total)
         first = active & finite & np.isnan(self.initial)  # a scene's first sample: its scale
@@ -66,3 +71,20 @@ class EnergyGuard:
             else:
                 out[int(b)] = blowup_message(float(total[b]), float(fed[b]), time_now)
         return out
+
+    def _check_one(self, kin: float, strain: float, w_cyl: float, active: bool,
+                   time_now: float) -> dict[int, str]:
+        """``check`` of a single scene (B = 1) in scalar arithmetic."""
+        total = kin + strain
+        if not active:
+            return {}
+        if not math.isfinite(total):
+            return {0: f"non-finite energy at t = {time_now:.6g} s"}
+        if math.isnan(self.initial[0]):  # the first sample: its scale
+            self.initial[0] = total
+            self.bound[0] = energy_bound(total)
+            return {}
+        fed = self.initial[0] + abs(w_cyl)
+        if blown_up(total, self.bound[0], fed):
+            return {0: blowup_message(float(total), float(fed), time_now)}
+        return {}
