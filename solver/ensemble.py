@@ -148,6 +148,10 @@ class BatchedExplicit(HookedStepper):
     sampled ones), see ``step``.
     """
 
+    #: a batch of one on one rank may be sampled in one compiled pass
+    #: (``solver.ensemble_observers.BatchRecorder``, ``_sample_kernels.sample_one``)
+    one_pass_samples = True
+
     def __init__(self, bp: BatchedProblem, d: np.ndarray, slide: np.ndarray, f: np.ndarray,
                  xp: Any = np, kernel: str = "numba", tau: float = 0.0,
                  bound: tuple[int, float, float] = (0, 0.0, 0.0),

@@ -392,7 +392,7 @@ class BatchRecorder:
         #: pass (``_sample_kernels.sample_one``) that stores u and v Cartesian, turned polar
         #: when read (``_rotate_pending``; rows below ``polar_rows`` are polar)
         self.one = (self.copies is not None and B == 1 and self.circle is None
-                    and isinstance(self.fields, _Record))
+                    and isinstance(self.fields, _Record) and integ.one_pass_samples)
         self.polar_rows = 0
         if self.one:
             self.node_x = np.ascontiguousarray(self.cx_sorted, dtype=np.intp)
