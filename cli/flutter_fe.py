@@ -22,6 +22,7 @@ from stickslip.studies.flutter_fe.cea import (
     CEAMode,
     CEAResult,
     build_operators,
+    cea_problem,
     complex_eigenvalue_analysis,
     distinct_modes,
     friction_relaxation_time,
@@ -32,7 +33,7 @@ from stickslip.studies.flutter_fe.plots import plot_cea_diagram, plot_spectrum
 from stickslip.studies.flutter_fe.references import reduced_model_flutter
 from stickslip.studies.flutter_fe.shapes import modes_dir_problem, write_mode_shapes
 from stickslip.studies.flutter_fe.tables import csv_text, lock_in_points, mode_rows, sweep_rows
-from stickslip.studies.resources import axial_layers, tube_nodes
+from stickslip.studies.resources import tube_axial_layers, tube_nodes
 
 if TYPE_CHECKING:
     from mpi4py import MPI
@@ -257,13 +258,6 @@ ASPECT = (1e-3, 1e3)
 MAX_3D_DOFS = 1_000_000
 
 
-def _axial_layers(scene: Scene) -> float:
-    """The 3D scene's ``mesh.n_axial``, or where it is 0 the square cells' count
-    (``studies.resources.axial_layers``)."""
-    n_axial, length = scene.mesh.n_axial, scene.geometry.length
-    return float(n_axial) if n_axial else axial_layers(scene, length)
-
-
 def _with_tube_options(args: argparse.Namespace, scene: Scene) -> Scene | str:
     """``scene`` with ``--length``, ``--n-axial`` and ``--ends`` as overrides of its 3D keys
     (``geometry.length`` and ``mesh.dim = 3``, ``mesh.n_axial``, ``boundary.ends``); or why
@@ -296,7 +290,7 @@ def _tube_3d_problem(args: argparse.Namespace, scene: Scene) -> str | None:
     if scene.mesh.dim != 3:
         return None
     length = scene.geometry.length
-    layers = _axial_layers(scene)
+    layers = tube_axial_layers(scene)
     dofs = 3.0 * tube_nodes(scene) * (layers + 1)
     if dofs > MAX_3D_DOFS:
         return (f"length {length:g} m: the 3D tube would have about {dofs:.3g} dofs, "
@@ -323,16 +317,11 @@ def _analyse(args: argparse.Namespace, scene: Scene, comm: MPI.Comm,
     """The CEA at the scene's f (and at each f of ``--f-sweep``), the listed mode shapes
     written with ``--modes``; or why the band cannot be solved (one line)."""
     # dolfinx (and MPI) start after the command line and the environment are checked
-    from stickslip.solver.problem import build_problem, gershgorin_omega_max, tube_problem_3d
+    from stickslip.solver.problem import gershgorin_omega_max
 
     friction = args.friction or scene.friction.filter
     t0 = time.perf_counter()
-    if scene.mesh.dim == 2:
-        problem = build_problem(scene, comm)
-    else:
-        problem = tube_problem_3d(scene, length=scene.geometry.length,
-                                  n_axial=int(_axial_layers(scene)), ends=scene.boundary.ends,
-                                  comm=comm)
+    problem = cea_problem(scene, comm)  # plane strain, or the 3D scene's tube
     t_build = time.perf_counter() - t0
     f_top = gershgorin_omega_max(problem) / (2 * math.pi)  # no mode of the mesh above it
     if args.fmax_hz > FMAX_FACTOR * f_top:

@@ -207,3 +207,17 @@ def test_flutter_fe_reads_the_3d_keys_of_the_scene(tmp_path, capsys):
         assert a["growth_rate"] == pytest.approx(b["growth_rate"], rel=1e-8, abs=1e-6)
     assert main(["flutter-fe", str(scene), "--ends", "free", "--top", "1"]) == 0
     assert "3D tube: length 0.05 m, 4 axial layers, free ends" in capsys.readouterr().out
+
+
+def test_the_api_runs_the_cea_of_a_3d_scene_and_refuses_its_transient(tmp_path):
+    """``stickslip.cea`` of a 3D scene is its tube's (the same unstable modes as the CLI);
+    ``stickslip.run`` refuses it in one line before a run directory is made."""
+    pytest.importorskip("dolfinx")
+    import stickslip
+
+    res = stickslip.cea("figure1", overrides=TUBE_3D, fmax_hz=3000.0)
+    assert res.levels == 5 and len(res.unstable()) >= 8
+    with pytest.raises(SceneError, match="plane strain only"):
+        stickslip.run("smoke", tmp_path / "run", overrides=["mesh.dim=3",
+                                                           "geometry.length=0.1"])
+    assert not (tmp_path / "run").exists()
