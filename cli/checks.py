@@ -8,7 +8,9 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-__all__ = ["environment_problem", "output_file_problem"]
+from stickslip.solver.scene import SceneError, load_scene, require_plane_strain
+
+__all__ = ["environment_problem", "output_file_problem", "run_dir_dimension_problem"]
 
 
 def _writable_dir(path: str) -> bool:
@@ -50,4 +52,20 @@ def output_file_problem(path: str | Path, flag: str) -> str | None:
             ("/proc", "/sys")):
         return f"{flag} {p}: cannot write in {parent} (read-only or no permission); " \
                "choose another place"
+    return None
+
+
+def run_dir_dimension_problem(run_dir: str | Path) -> str | None:
+    """Why the transient cannot go on from ``run_dir`` (its scene.toml a 3D scene:
+    ``solver.scene.require_plane_strain``, one line), or None. A missing or invalid
+    scene.toml is left to the command's own reader, which names what is wrong with it."""
+    path = Path(run_dir) / "scene.toml"
+    try:
+        scene = load_scene(path)
+    except (SceneError, OSError):
+        return None
+    try:
+        require_plane_strain(scene)
+    except SceneError as err:
+        return f"{path}: {err}"
     return None

@@ -17,11 +17,12 @@ from stickslip.cli.checks import output_file_problem
 from stickslip.cli.commands import command_help
 from stickslip.solver.atomic import atomic_write_text
 from stickslip.solver.scene import SceneError, load_scene
-from stickslip.solver.scene.sections import ENDS
+from stickslip.solver.scene.sections import END_NAMES
 from stickslip.studies.flutter_fe.cea import (
     CEAMode,
     CEAResult,
     build_operators,
+    cea_problem,
     complex_eigenvalue_analysis,
     distinct_modes,
     friction_relaxation_time,
@@ -32,7 +33,7 @@ from stickslip.studies.flutter_fe.plots import plot_cea_diagram, plot_spectrum
 from stickslip.studies.flutter_fe.references import reduced_model_flutter
 from stickslip.studies.flutter_fe.shapes import modes_dir_problem, write_mode_shapes
 from stickslip.studies.flutter_fe.tables import csv_text, lock_in_points, mode_rows, sweep_rows
-from stickslip.studies.resources import axial_layers, tube_nodes
+from stickslip.studies.resources import tube_axial_layers, tube_nodes
 
 if TYPE_CHECKING:
     from mpi4py import MPI
@@ -122,13 +123,17 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="the finite tube of this length (m) in 3D instead of plane strain: "
                         "the scene's annulus extruded in hexahedra; each mode also gets its "
                         "axial order m (nodal rings along z); friction on the theta-rows only "
-                        "(docs/flutter.md, 'A finite tube')")
+                        "(docs/flutter.md, 'A finite tube'). Overrides the scene's "
+                        "geometry.length and sets mesh.dim = 3; a scene with mesh.dim = 3 "
+                        "needs no option")
     p.add_argument("--n-axial", type=int, default=None, metavar="NZ",
-                   help="with --length: element layers along z (default: cells as long as "
-                        "they are wide on the contact surface, round(L N / (2 pi R)))")
-    p.add_argument("--ends", choices=tuple(ENDS), default="free",
-                   help="with --length: the ends z = 0, L: free (default), roller (u_z = 0; "
-                        "the plane-strain modes are then 3D modes) or clamped")
+                   help="3D tube: element layers along z; overrides mesh.n_axial (default: "
+                        "the scene's, 0 = cells as long as they are wide on the contact "
+                        "surface, round(L N / (2 pi R)))")
+    p.add_argument("--ends", choices=END_NAMES, default=None,
+                   help="3D tube: the ends z = 0, L: free, roller (u_z = 0; the plane-strain "
+                        "modes are then 3D modes) or clamped; overrides boundary.ends "
+                        "(default: the scene's, \"free\")")
     p.set_defaults(func=flutter_fe_command)
 
 
@@ -150,6 +155,9 @@ def flutter_fe_command(args: argparse.Namespace) -> int:
         fs = parse_f_sweep(args.f_sweep) if args.f_sweep else None
     except (SceneError, FileNotFoundError, ValueError) as err:
         return _fail(comm, str(err))
+    scene = _with_tube_options(args, scene)
+    if isinstance(scene, str):
+        return _fail(comm, scene)
     bad = _argument_problem(args, scene, comm.size)
     if bad:
         return _fail(comm, bad)
@@ -157,15 +165,17 @@ def flutter_fe_command(args: argparse.Namespace) -> int:
     if isinstance(solved, str):
         return _fail(comm, solved)
     res, sweep, written = solved
-    reduced = [] if scene.mesh.file or args.length else reduced_model_flutter(scene, args.kmax)
+    tube_3d = scene.mesh.dim == 3
+    reduced = [] if scene.mesh.file or tube_3d else reduced_model_flutter(scene, args.kmax)
     if comm.rank != 0:
         return 0
     out = res.to_dict()
     out["reduced_model"] = reduced
     out["doublets"] = [d.to_dict() for d in doublets(res, args.kmax)]
     out["beta2_note"] = _beta2_note(scene)
-    if args.length is not None:
-        out["tube_3d"] = {"length_m": args.length, "n_axial": res.levels - 1, "ends": args.ends}
+    if tube_3d:
+        out["tube_3d"] = {"length_m": scene.geometry.length, "n_axial": res.levels - 1,
+                          "ends": scene.boundary.ends}
     if written:
         out["mode_shapes"] = written
     if sweep is not None:
@@ -184,11 +194,12 @@ def flutter_fe_command(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps(out, indent=2))
     else:
-        if args.length is not None:
+        if tube_3d:
             layers = res.levels - 1
-            print(f"3D tube: length {args.length:g} m, {layers} axial "
+            print(f"3D tube: length {scene.geometry.length:g} m, {layers} axial "
                   f"layer{'s' if layers != 1 else ''}, "
-                  f"{args.ends} ends (friction on the theta-rows only: docs/flutter.md)")
+                  f"{scene.boundary.ends} ends (friction on the theta-rows only: "
+                  "docs/flutter.md)")
         _print_table(res, reduced, args.top, args.plot, _beta2_note(scene), written, args.kmax)
         print("\n".join(f"table: {path}" for path in out.get("tables", [])))
     return 0
@@ -247,43 +258,57 @@ ASPECT = (1e-3, 1e3)
 MAX_3D_DOFS = 1_000_000
 
 
-def _axial_layers(args: argparse.Namespace, scene: Scene) -> float:
-    """``--n-axial``, or the square cells' count (``studies.resources.axial_layers``)."""
-    return float(args.n_axial) if args.n_axial else axial_layers(scene, args.length)
-
-
-def _tube_3d_problem(args: argparse.Namespace, scene: Scene) -> str | None:
-    """Why ``--length``, ``--n-axial`` and ``--ends`` cannot run (one line), or None."""
-    if args.length is None:
-        if args.n_axial is not None or args.ends != "free":
-            return "--n-axial and --ends describe the 3D tube: give its --length too"
-        return None
-    if not (math.isfinite(args.length) and args.length > 0):
+def _with_tube_options(args: argparse.Namespace, scene: Scene) -> Scene | str:
+    """``scene`` with ``--length``, ``--n-axial`` and ``--ends`` as overrides of its 3D keys
+    (``geometry.length`` and ``mesh.dim = 3``, ``mesh.n_axial``, ``boundary.ends``); or why
+    they cannot apply (one line). Without them a scene's own 3D keys describe the tube."""
+    if args.length is None and scene.mesh.dim == 2:
+        if args.n_axial is not None or args.ends is not None:
+            return ("--n-axial and --ends describe the 3D tube: give its --length too (or "
+                    "a scene with mesh.dim = 3)")
+        return scene
+    if args.length is not None and not (math.isfinite(args.length) and args.length > 0):
         return f"--length {args.length!r} is out of range: need a length > 0 (m)"
     if args.n_axial is not None and args.n_axial < 1:
         return f"--n-axial {args.n_axial} is out of range: need at least 1 layer"
-    layers = _axial_layers(args, scene)
+    sets = ["mesh.dim=3"]
+    if args.length is not None:
+        sets.append(f"geometry.length={args.length!r}")
+    if args.n_axial is not None:
+        sets.append(f"mesh.n_axial={args.n_axial}")
+    if args.ends is not None:
+        sets.append(f'boundary.ends="{args.ends}"')
+    try:
+        return scene.with_overrides(*sets)
+    except SceneError as err:
+        return str(err)
+
+
+def _tube_3d_problem(args: argparse.Namespace, scene: Scene) -> str | None:
+    """Why the 3D scene (its keys, or ``--length``, ``--n-axial``, ``--ends``) cannot run
+    (one line), or None: its size, its cells' aspect, and the options it cannot take."""
+    if scene.mesh.dim != 3:
+        return None
+    length = scene.geometry.length
+    layers = tube_axial_layers(scene)
     dofs = 3.0 * tube_nodes(scene) * (layers + 1)
     if dofs > MAX_3D_DOFS:
-        return (f"--length {args.length:g}: the 3D tube would have about {dofs:.3g} dofs, "
+        return (f"length {length:g} m: the 3D tube would have about {dofs:.3g} dofs, "
                 f"above the {MAX_3D_DOFS:.0e} that a shift-and-invert CEA factorises here; "
                 "use a smaller --length, --n-axial or mesh.n_inner")
     arc = 2 * math.pi * scene.geometry.R / scene.mesh.n_inner  # a cell's width at r = R
-    aspect = args.length / layers / arc
+    aspect = length / layers / arc
     if not ASPECT[0] <= aspect <= ASPECT[1]:
-        fix = ("a longer tube" if args.length / arc < 1.0
-               else f"--n-axial about {round(args.length / arc)}")
-        return (f"--length {args.length:g} makes cells {aspect:.3g} times as long as they are "
+        fix = ("a longer tube" if length / arc < 1.0
+               else f"--n-axial about {round(length / arc)}")
+        return (f"length {length:g} m makes cells {aspect:.3g} times as long as they are "
                 f"wide at r = R: keep it within {ASPECT[0]:g} … {ASPECT[1]:g} ({fix})")
-    if scene.mesh.degree != 1 or scene.mesh.file:
-        return ("--length: the 3D tube extrudes the structured annulus of degree 1 "
-                "(mesh.degree = 1, no mesh.file)")
     for flag, value in (("--modes", args.modes), ("--friction 1-2-1",
                                                   args.friction == "1-2-1"
                                                   or (args.friction is None
                                                       and scene.friction.filter != "nodal"))):
         if value:
-            return f"{flag} is for the plane-strain tube; drop it with --length"
+            return f"{flag} is for the plane-strain tube; drop it with a 3D tube"
     return None
 
 
@@ -292,16 +317,11 @@ def _analyse(args: argparse.Namespace, scene: Scene, comm: MPI.Comm,
     """The CEA at the scene's f (and at each f of ``--f-sweep``), the listed mode shapes
     written with ``--modes``; or why the band cannot be solved (one line)."""
     # dolfinx (and MPI) start after the command line and the environment are checked
-    from stickslip.solver.problem import build_problem, gershgorin_omega_max, tube_problem_3d
+    from stickslip.solver.problem import gershgorin_omega_max
 
     friction = args.friction or scene.friction.filter
     t0 = time.perf_counter()
-    if args.length is None:
-        problem = build_problem(scene, comm)
-    else:
-        problem = tube_problem_3d(scene, length=args.length,
-                                  n_axial=int(_axial_layers(args, scene)), ends=args.ends,
-                                  comm=comm)
+    problem = cea_problem(scene, comm)  # plane strain, or the 3D scene's tube
     t_build = time.perf_counter() - t0
     f_top = gershgorin_omega_max(problem) / (2 * math.pi)  # no mode of the mesh above it
     if args.fmax_hz > FMAX_FACTOR * f_top:

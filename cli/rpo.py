@@ -8,6 +8,7 @@ import math
 import sys
 from pathlib import Path
 
+from stickslip.cli.checks import run_dir_dimension_problem
 from stickslip.solver.atomic import atomic_write_text
 from stickslip.studies.rpo.certificate import rpo_certificate
 from stickslip.studies.rundir.ownership import OwnershipError, claim, register_kind
@@ -133,7 +134,7 @@ def _fail(message: str) -> int:
 
 def _rpo(args: argparse.Namespace) -> int:
     run_dir = Path(args.run_dir)
-    problem = option_problem(args)
+    problem = option_problem(args) or run_dir_dimension_problem(run_dir)
     if problem:
         return _fail(problem)
     if not (run_dir / "checkpoint.npz").is_file():

@@ -13,7 +13,7 @@ import time
 from pathlib import Path
 
 from stickslip.cli.commands import command_help
-from stickslip.solver.scene import SceneError, load_scene
+from stickslip.solver.scene import SceneError, load_scene, require_plane_strain
 from stickslip.studies.output import output_root
 from stickslip.studies.travel import command
 from stickslip.studies.travel.continuation import run_continuation
@@ -159,6 +159,7 @@ def _travel(args: argparse.Namespace) -> int:
         return _err(bad)
     try:
         scene = load_scene(args.scene, args.overrides)
+        require_plane_strain(scene)
         # dolfinx after _import_dolfinx_without_numba (no numba: the command's speed)
         from stickslip.studies.travel.frame import require_rotational_symmetry
 

@@ -22,7 +22,7 @@ from stickslip.forms.polar import ContactNodes, contact_nodes
 from stickslip.meshes.annulus import INNER_TAG, OUTER_TAG, TubeMesh, annulus_mesh
 from stickslip.meshes.tube3d import END0_TAG, END1_TAG, tube_mesh_3d
 from stickslip.meshes.user_mesh import resolve, user_mesh
-from stickslip.solver.scene import SCENES_DIR, Scene
+from stickslip.solver.scene import PLANE_STRAIN_ONLY, SCENES_DIR, Scene, SceneError
 from stickslip.solver.scene.sections import ENDS
 
 
@@ -128,7 +128,11 @@ def cross_section(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD) -> TubeMesh:
 
 
 def build_problem(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD) -> TubeProblem:
-    """Mesh, P1/P2 space, stiffness matrix, lumped mass and contact nodes for ``scene``."""
+    """Mesh, P1/P2 space, stiffness matrix, lumped mass and contact nodes for ``scene``, the
+    plane-strain cross-section (a scene with ``mesh.dim = 3`` is refused in one line: its
+    tube is ``tube_problem_3d``'s, and the transient that builds this one is 2D only)."""
+    if scene.mesh.dim != 2:  # checked here, not handed back to solver.scene (the walk)
+        raise SceneError(PLANE_STRAIN_ONLY)
     return problem_on(scene, cross_section(scene, comm), comm)
 
 

@@ -27,7 +27,7 @@ from stickslip.postprocess.plotting import plot_run as _plot_run
 from stickslip.semianalytic.coefficients import coefficients, gamma_from_physical
 from stickslip.semianalytic.waves import find_waves
 from stickslip.solver.contact import STATUS_NAMES
-from stickslip.solver.scene import Scene
+from stickslip.solver.scene import Scene, require_plane_strain
 from stickslip.solver.scene import load_scene as _load_scene
 from stickslip.studies.attractors.along import plot_along, run_along
 from stickslip.studies.attractors.census import run_census
@@ -38,6 +38,7 @@ from stickslip.studies.attractors.request import (
     show_answer,
 )
 from stickslip.studies.flutter_fe import build_operators, complex_eigenvalue_analysis
+from stickslip.studies.flutter_fe.cea import cea_problem
 from stickslip.studies.output import output_root
 from stickslip.studies.rundir import EXIT_CODES, run_scene
 from stickslip.studies.rundir import continue_run as _continue_run
@@ -178,6 +179,7 @@ def run(scene: str | Path | Scene, run_dir: str | Path | None = None, *,
         ('completed', 36)
     """
     sc = load_scene(scene, overrides)
+    require_plane_strain(sc)  # SceneError, one line: the transient is plane strain only
     path = Path(run_dir) if run_dir is not None else output_root() / sc.name
     with _keyword_errors("run_dir"):
         return run_scene(sc, path, force=force, check_resources=check_resources,
@@ -386,7 +388,8 @@ def cea(scene: str | Path | Scene, *, overrides: Overrides = None, f: float | No
     tangential force = f x normal reaction), every eigenvalue up to ``fmax_hz``.
 
     Args:
-        scene: scene file, shipped name or ``Scene``; only mesh, material and ``f`` matter.
+        scene: scene file, shipped name or ``Scene``; only mesh, material and ``f`` matter
+            (and with ``mesh.dim`` = 3 the finite tube's keys, as ``stickslip flutter-fe``).
         overrides: scene overrides, as for ``load_scene``.
         f: the friction coefficient (default: the scene's ``loading.f``).
         fmax_hz: upper end of the frequency band [Hz].
@@ -420,11 +423,8 @@ def cea_friction_sweep(scene: str | Path | Scene, fs: Sequence[float | None], *,
         >>> [len(r.unstable()) > 0 for r in results]
         [False, True, True]
     """
-    # dolfinx on first use: load_scene and the reduced model work without it
-    from stickslip.solver.problem import build_problem
-
     sc = load_scene(scene, overrides)
-    problem = build_problem(sc)
+    problem = cea_problem(sc)
     ops = build_operators(problem, mass, friction or sc.friction.filter)
     try:
         return [complex_eigenvalue_analysis(problem, None if f is None else float(f), fmax_hz,
@@ -441,6 +441,7 @@ def _travel_options(scene: Scene, k: int, from_run: str | Path | None, damping: 
     # dolfinx on first use: load_scene and the reduced model work without it
     from stickslip.studies.travel.frame import require_rotational_symmetry
 
+    require_plane_strain(scene)  # SceneError, one line: the travelling wave is 2D only
     require_rotational_symmetry(scene)
     opts = command.options(k=int(k), from_run=str(from_run) if from_run else None,
                            damping=damping, celerity=celerity, **options)

@@ -125,6 +125,13 @@ def axial_layers(scene: Scene, length: float) -> float:
     return float(round(layers)) if math.isfinite(layers) else layers
 
 
+def tube_axial_layers(scene: Scene) -> float:
+    """Element layers along the tube of a 3D scene (``mesh.dim`` = 3): ``mesh.n_axial``, or
+    where it is 0 the square cells' ``axial_layers`` of ``geometry.length``."""
+    n_axial = scene.mesh.n_axial
+    return float(n_axial) if n_axial else axial_layers(scene, scene.geometry.length)
+
+
 def estimate(scene: Scene, ranks: int = 1) -> Estimate:
     """Dofs, steps, memory (all ranks), output size and one-rank run time of ``scene``."""
     g, m, ts = scene.geometry, scene.mesh, scene.time

@@ -139,8 +139,8 @@ def test_unknown_key_message_lists_allowed_keys() -> None:
     with pytest.raises(SceneError) as exc:
         scene_from_dict({"mesh": {"n_inne": 10}})
     assert str(exc.value) == (
-        "unknown key 'mesh.n_inne' (allowed: n_inner, n_radial, cell, degree, file, "
-        "contact_group, clamped_group); "
+        "unknown key 'mesh.n_inne' (allowed: dim, n_inner, n_radial, n_axial, cell, degree, "
+        "file, contact_group, clamped_group); "
         "did you mean 'n_inner'?"
     )
 

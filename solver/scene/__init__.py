@@ -4,9 +4,11 @@ A scene is a TOML file mapped onto frozen, validated dataclasses (SI units)::
 
     name = "figure3_n132"
     [material]   E, wave_speed | rho, nu
-    [geometry]   R, xi, delta | d
+    [geometry]   R, xi, delta | d, length
     [loading]    omega, f
-    [mesh]       n_inner, n_radial, cell, degree, file, contact_group, clamped_group
+    [mesh]       dim, n_inner, n_radial, n_axial, cell, degree, file, contact_group,
+                 clamped_group
+    [boundary]   ends                                                      (mesh.dim = 3)
     [time]       beta1, beta2, dt, dt_fraction, end_time, max_steps, max_wall_time, kernel
     [initial]    perturbation, mode, amplitude, seed, n_modes
     [damping]    loss_factor + reference_frequency_hz | retardation_time   (default: none)
@@ -14,10 +16,12 @@ A scene is a TOML file mapped onto frozen, validated dataclasses (SI units)::
     [output]     sample_interval, probes_deg, fields, field_interval, field_window,
                  field_periods, field_format, progress
 
-Every table and key is optional (defaults below).  Unknown keys, wrong types and
-out-of-range values raise :class:`SceneError`, whose message names the dotted key,
-the offending value and the allowed range or keys.  Pure standard library: this
-module must not import dolfinx.
+Every table and key is optional (defaults below). The 3D keys (mesh.dim, mesh.n_axial,
+geometry.length, boundary.ends) are written and hashed only where mesh.dim = 3, so a
+plane-strain scene's resolved text and hashes do not depend on them
+(``model.scene_to_dict``).  Unknown keys, wrong types and out-of-range values raise
+:class:`SceneError`, whose message names the dotted key, the offending value and the
+allowed range or keys.  Pure standard library: this module must not import dolfinx.
 """
 
 
@@ -29,14 +33,17 @@ from stickslip.solver.scene.files import (
     write_scene,
 )
 from stickslip.solver.scene.model import (
+    PLANE_STRAIN_ONLY,
     Scene,
     apply_overrides,
     parse_override,
+    require_plane_strain,
     scene_from_dict,
     scene_to_dict,
     scene_warnings,
 )
 from stickslip.solver.scene.sections import (
+    Boundary,
     Damping,
     Friction,
     Geometry,
@@ -58,7 +65,9 @@ from stickslip.solver.scene.values import (
 )
 
 __all__ = [
+    "PLANE_STRAIN_ONLY",
     "SCENES_DIR",
+    "Boundary",
     "Damping",
     "Friction",
     "Geometry",
@@ -81,6 +90,7 @@ __all__ = [
     "list_scenes",
     "load_scene",
     "parse_override",
+    "require_plane_strain",
     "scene_from_dict",
     "scene_to_dict",
     "scene_warnings",

@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 import tomllib
 from collections.abc import Sequence
+from dataclasses import fields
 from pathlib import Path
 from typing import Any
 
@@ -152,7 +153,7 @@ def dumps_toml(scene: Scene) -> str:
     d = scene_to_dict(scene)
     lines = ["# stickslip scene (resolved: all defaults written out)"]
     lines += [f"{k} = {_toml_value(d[k])}" for k in _TOP_SCALARS]
-    for sec in _SECTIONS:
+    for sec in (s for s in _SECTIONS if s in d):  # a section the rule left empty: none
         lines += ["", f"[{sec}]"]
         lines += [f"{k} = {_toml_value(v)}" for k, v in d[sec].items()]
     return "\n".join(lines) + "\n"
@@ -165,7 +166,8 @@ def write_scene(scene: Scene, path: str | Path) -> Path:
 
 #: The sections that fix the physical problem and its mesh, on which a run's wave depends;
 #: ``time``, ``initial`` and ``output`` say how it is computed, started and recorded.
-PHYSICS_SECTIONS = ("material", "geometry", "loading", "mesh", "damping", "friction")
+PHYSICS_SECTIONS = ("material", "geometry", "loading", "mesh", "boundary", "damping",
+                    "friction")
 
 
 def scene_digest(scene: Scene) -> str:
@@ -179,10 +181,13 @@ def scene_digest(scene: Scene) -> str:
 def scene_difference(a: Scene, b: Scene, sections: Sequence[str] = PHYSICS_SECTIONS
                      ) -> str | None:
     """The first ``section.key`` in ``sections`` where ``a`` and ``b`` differ, as
-    ``"section.key = A, not B"``; None if they agree there."""
-    da, db = scene_to_dict(a), scene_to_dict(b)
+    ``"section.key = A, not B"``; None if they agree there. Every key is compared, those
+    that ``scene_to_dict`` leaves out at their default too."""
     for sec in sections:
-        for key, va in da[sec].items():
-            if db[sec].get(key) != va:
-                return f"{sec}.{key} = {va!r}, not {db[sec].get(key)!r}"
+        sa, sb = getattr(a, sec), getattr(b, sec)
+        for f in fields(sa):
+            va, vb = (list(v) if isinstance(v, tuple) else v
+                      for v in (getattr(sa, f.name), getattr(sb, f.name)))
+            if va != vb:
+                return f"{sec}.{f.name} = {va!r}, not {vb!r}"
     return None

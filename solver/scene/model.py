@@ -5,12 +5,13 @@ from __future__ import annotations
 import math
 import re
 import tomllib
-from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field, fields, replace
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import Field, dataclass, field, fields, replace
 from typing import Any
 
 from stickslip.solver.scene.sections import (
     _SECTIONS,
+    Boundary,
     Damping,
     Friction,
     Geometry,
@@ -52,6 +53,7 @@ class Scene(_Section):
     geometry: Geometry = field(default_factory=Geometry)
     loading: Loading = field(default_factory=Loading)
     mesh: Mesh = field(default_factory=Mesh)
+    boundary: Boundary = field(default_factory=Boundary)
     time: Time = field(default_factory=Time)
     initial: Initial = field(default_factory=Initial)
     output: Output = field(default_factory=Output)
@@ -83,6 +85,7 @@ class Scene(_Section):
                 f"(time.beta1 = 0; got {self.time.beta1}): the filtered bound couples "
                 "neighbouring nodes, which the implicit active set does not model; use "
                 'time.beta1 = 0 or friction.filter = "nodal"')
+        self._check_needs()
         if self.mesh.file:  # a user's cross-section: read and checked (meshes.user_mesh)
             self.mesh.file_facts(self.geometry.R)
         half = self.mesh.n_inner // 2
@@ -99,6 +102,22 @@ class Scene(_Section):
                 f"1 <= n_modes <= {why}",
             )
 
+    def _check_needs(self) -> None:
+        """The 3D tube's length, and no key off its default where it does not apply
+        (``NEEDS``): one line that names the key, its value and the fix."""
+        if self.mesh.dim == 3:
+            _require("geometry.length", self.geometry.length, self.geometry.length > 0,
+                     "length > 0 (m) with mesh.dim = 3 (the tube's length along z: give "
+                     "geometry.length)")
+        for sec in _SECTIONS:
+            obj = getattr(self, sec)
+            for f in fields(obj):
+                need = f.metadata.get("needs")
+                if need and not NEEDS[need][0](self) and getattr(obj, f.name) != f.default:
+                    _, where, fix = NEEDS[need]
+                    raise SceneError(f"{sec}.{f.name} = {_fmt(getattr(obj, f.name))} only "
+                                     f"applies to {where}: {fix} or drop {sec}.{f.name}")
+
     def with_overrides(self, *overrides: str) -> Scene:
         """Return a copy with ``"section.key=value"`` overrides applied (and re-validated)."""
         return scene_from_dict(apply_overrides(scene_to_dict(self), overrides))
@@ -106,6 +125,34 @@ class Scene(_Section):
     def replace(self, **changes: Any) -> Scene:
         """``dataclasses.replace`` shortcut (validated)."""
         return replace(self, **changes)
+
+
+#: The conditions of the keys that apply to some scenes only (``values._opt(needs=...)``):
+#: name -> (does ``scene`` meet it, the words that name it in an error, the fix).
+NEEDS: dict[str, tuple[Callable[[Scene], bool], str, str]] = {
+    "3d": (lambda scene: scene.mesh.dim == 3, "mesh.dim = 3 (the finite tube)",
+           "set mesh.dim = 3"),
+}
+
+#: Why a 3D scene cannot run the transient (``require_plane_strain``).
+PLANE_STRAIN_ONLY = ("mesh.dim = 3: the transient (run, sweep, attractors, continue, travel, "
+                     "rpo) is plane strain only for now; use `stickslip flutter-fe` for the "
+                     "3D tube's CEA")
+
+
+def require_plane_strain(scene: Scene) -> None:
+    """Raise :class:`SceneError` (``PLANE_STRAIN_ONLY``, one line) unless ``scene`` is a
+    plane-strain scene: the commands that run the transient call it where they load one."""
+    if scene.mesh.dim != 2:
+        raise SceneError(PLANE_STRAIN_ONLY)
+
+
+def _written(scene: Scene, obj: _Section, f: Field) -> bool:
+    """The compatibility rule: a key is written unless it applies to some scenes only
+    (``NEEDS``), ``scene`` is not one of them, and it is at its default. Adding such a key
+    leaves every other scene's resolved text, digest and hashes as they were."""
+    need = f.metadata.get("needs")
+    return not need or NEEDS[need][0](scene) or getattr(obj, f.name) != f.default
 
 
 def scene_warnings(scene: Scene) -> list[str]:
@@ -214,14 +261,18 @@ def _exactly_one(section: str, sub: Mapping[str, Any], a: str, b: str, rel: str)
 
 
 def scene_to_dict(scene: Scene) -> dict[str, Any]:
-    """Resolved nested dict of ``scene`` (all defaults filled in; lists for tuples)."""
+    """Resolved nested dict of ``scene`` (defaults filled in; lists for tuples), less the keys
+    that the compatibility rule (``_written``) leaves out and the sections left empty by it.
+    It is what a run writes (``files.dumps_toml``) and what every scene hash reads
+    (``files.scene_digest``, ``studies.rundir.checkpoint.scene_fingerprint``, the sweep's,
+    batch's and census's keys), so a plane-strain scene has no 3D key in any of them."""
     out: dict[str, Any] = {"name": scene.name, "description": scene.description}
     for sec in _SECTIONS:
         obj = getattr(scene, sec)
-        out[sec] = {
-            f.name: list(v) if isinstance(v := getattr(obj, f.name), tuple) else v
-            for f in fields(obj)
-        }
+        table = {f.name: list(v) if isinstance(v := getattr(obj, f.name), tuple) else v
+                 for f in fields(obj) if _written(scene, obj, f)}
+        if table:
+            out[sec] = table
     return out
 
 

@@ -12,6 +12,7 @@ from stickslip.solver.scene.values import (
     SCENES_DIR,
     SceneError,
     _choice,
+    _fmt,
     _opt,
     _require,
     _Section,
@@ -70,6 +71,8 @@ class Geometry(_Section):
     """Outer/inner radius ratio R*/R [-]."""
     delta: float = _opt(4.0e-4, "float")
     """Non-dimensional mismatch d/R [-] (the scene may give ``d`` in metres instead)."""
+    length: float = _opt(0.0, "float", needs="3d")
+    """Length of the finite tube along z [m] (``mesh.dim`` = 3 only, where it is required)."""
 
     @property
     def d(self) -> float:
@@ -92,6 +95,8 @@ class Geometry(_Section):
     def _check(self) -> None:
         for name in ("R", "xi", "delta"):
             check_range(self._key(name), getattr(self, name))
+        _require(self._key("length"), self.length, self.length >= 0,
+                 "length >= 0 (m; > 0 with mesh.dim = 3)")
         strain = self.d / self.strained_length
         if strain > MAX_STRAIN * (1.0 + 1e-9):  # the bound itself is allowed, to round-off
             raise SceneError(
@@ -125,6 +130,7 @@ CELL_TYPES = ("triangle", "quadrilateral")
 #: components held at 0 on z = 0 and z = L (0, 1, 2: x, y, z); a roller end holds u_z and
 #: leaves the end free in its plane
 ENDS = {"free": (), "roller": (2,), "clamped": (0, 1, 2)}
+END_NAMES = tuple(ENDS)
 PERTURBATIONS = ("none", "mode", "random")
 TIME_KERNELS = ("auto", "numpy", "numba")
 
@@ -136,10 +142,17 @@ class Mesh(_Section):
 
     SECTION: ClassVar[str] = "mesh"
 
+    dim: int = _opt(2, "int", needs="3d")
+    """2: the cross-section in plane strain; 3: the finite tube of ``geometry.length`` in
+    hexahedra, the structured annulus of degree 1 extruded (``mesh.cell`` is not used), for
+    ``stickslip flutter-fe`` (the transient is plane strain only)."""
     n_inner: int = _opt(132, "int")
     """Number of nodes on the inner (contact) circle (with ``file``: the stated count)."""
     n_radial: int = _opt(0, "int")
     """Element layers through the thickness; 0 = automatic (the tube only)."""
+    n_axial: int = _opt(0, "int", needs="3d")
+    """Element layers along z (``dim`` = 3); 0 = cells as long as they are wide on the
+    contact surface, round(L N / (2 pi R)), at least 1."""
     cell: str = _opt("triangle", "str")
     """Cell type: "triangle" or "quadrilateral"."""
     degree: int = _opt(1, "int")
@@ -181,6 +194,34 @@ class Mesh(_Section):
         )
         _choice(self._key("cell"), self.cell, CELL_TYPES)
         _choice(self._key("degree"), self.degree, (1, 2))
+        _choice(self._key("dim"), self.dim, (2, 3))
+        _require(self._key("n_axial"), self.n_axial, self.n_axial >= 0,
+                 "n_axial >= 0 (0 = cells as long as they are wide on the contact surface)")
+        if self.dim == 3:  # what solver.problem.tube_problem_3d extrudes
+            _require(self._key("degree"), self.degree, self.degree == 1,
+                     "degree = 1 with mesh.dim = 3 (the 3D tube extrudes the structured "
+                     "annulus of degree 1)")
+            if self.file:
+                raise SceneError(f"mesh.file = {_fmt(self.file)} is not allowed with mesh.dim "
+                                 "= 3: the 3D tube extrudes the structured annulus; drop "
+                                 "mesh.file or set mesh.dim = 2")
+
+
+@dataclass(frozen=True)
+class Boundary(_Section):
+    """The ends z = 0 and z = L of the finite tube (``mesh.dim`` = 3); its outer surface is
+    clamped, as the outer circle in plane strain. Default "free": nothing holds a tube's
+    ends unless something is built there, and ``stickslip flutter-fe --length L`` alone
+    builds the same tube."""
+
+    SECTION: ClassVar[str] = "boundary"
+
+    ends: str = _opt("free", "str", needs="3d")
+    """"free", "roller" (u_z = 0: the plane-strain modes are then modes of the 3D tube) or
+    "clamped" (u = 0), on both ends."""
+
+    def _check(self) -> None:
+        _choice(self._key("ends"), self.ends, END_NAMES)
 
 
 @dataclass(frozen=True)
@@ -450,6 +491,7 @@ _SECTIONS: dict[str, type[_Section]] = {
     "geometry": Geometry,
     "loading": Loading,
     "mesh": Mesh,
+    "boundary": Boundary,
     "time": Time,
     "initial": Initial,
     "output": Output,

@@ -88,9 +88,13 @@ _COERCE: dict[str, Callable[[str, Any], Any]] = {
 }
 
 
-def _opt(default: Any, kind: str) -> Any:
-    """Dataclass field with a coercion kind (key of ``_COERCE``) in its metadata."""
-    return field(default=default, metadata={"kind": kind})
+def _opt(default: Any, kind: str, needs: str = "") -> Any:
+    """Dataclass field with a coercion kind (key of ``_COERCE``) in its metadata, and the
+    condition (a key of ``model.NEEDS``, e.g. "3d") that a scene must meet for the key to
+    apply: such a key is left out of the resolved scene while it is at its default and the
+    scene does not meet it (``model.scene_to_dict``), and refused off its default there."""
+    return field(default=default, metadata={"kind": kind, "needs": needs} if needs
+                 else {"kind": kind})
 
 
 def _require(key: str, value: Any, ok: bool, rule: str) -> None:

@@ -47,11 +47,14 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from stickslip.solver.contact import ContactLaw, SpatialFilter
+from stickslip.studies.resources import tube_axial_layers
 
 if TYPE_CHECKING:
+    from mpi4py import MPI
     from petsc4py import PETSc
 
     from stickslip.solver.problem import TubeProblem
+    from stickslip.solver.scene import Scene
 
 
 TARGET_STEP = 0.7  # next target: this many half-widths of the last slice above its end
@@ -869,6 +872,24 @@ def unrepresented_terms(t_star: float, mass: str = "lumped", ranks: int = 1) -> 
         return (f"a regularised friction bound (t* = {t_star:.3g} s): the regularised CEA "
                 f"runs on one rank (got {ranks}); run it without mpirun")
     return None
+
+
+def cea_problem(scene: Scene, comm: MPI.Comm | None = None) -> TubeProblem:
+    """The problem whose steady sliding the CEA linearises: the scene's plane-strain
+    cross-section (``build_problem``), or with ``mesh.dim`` = 3 the finite tube its 3D keys
+    describe (``tube_problem_3d``: ``geometry.length``, ``tube_axial_layers``,
+    ``boundary.ends``), on the ranks of ``comm`` (default: all)."""
+    from mpi4py import MPI
+
+    # dolfinx on first use: the command line and the scene are checked before it loads
+    from stickslip.solver.problem import build_problem, tube_problem_3d
+
+    comm = MPI.COMM_WORLD if comm is None else comm
+    if scene.mesh.dim == 2:
+        return build_problem(scene, comm)
+    return tube_problem_3d(scene, length=scene.geometry.length,
+                           n_axial=int(tube_axial_layers(scene)), ends=scene.boundary.ends,
+                           comm=comm)
 
 
 def complex_eigenvalue_analysis(
