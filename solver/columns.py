@@ -20,10 +20,11 @@ from typing import Any
 import numpy as np
 
 from stickslip.solver import __version__
+from stickslip.solver.observers import ContinuedRecords
 from stickslip.solver.scene import Scene
 
 __all__ = ["Profile", "SceneRecords", "SceneRun", "energy_balance", "initial_perturbation",
-           "planned_steps", "random_bump", "run_facts"]
+           "planned_steps", "random_bump", "restore_run_state", "run_facts", "run_state"]
 
 
 class Profile:
@@ -111,6 +112,32 @@ class SceneRun:
         st = self.columns.stepper
         self.status, self.stop_reason = status, stop
         self.frozen = (st.step_count, st.time, st.facts())
+
+
+def run_state(guard, b: int, run: SceneRun) -> dict[str, np.ndarray]:
+    """The ``run/`` part of column b's checkpoint, the same for every kind of columns: the
+    energy guard's E(0) and bound (``solver.errors.EnergyGuard``), the steady pressure and
+    the counts of samples and probe steps taken (those before a continuation included). The
+    cadences need nothing: they are fixed levels and the step count is the stepper's; the
+    records themselves are the run's samples.npz (``restore_run_state``'s ``before``)."""
+    return {"run/initial_energy": np.float64(guard.initial[b]),
+            "run/energy_bound": np.float64(guard.bound[b]),
+            "run/steady_pressure": np.float64(run.steady_mean_pressure),
+            "run/samples": np.int64(run.recorder.n),
+            "run/probe_steps": np.int64(run.probes.n)}
+
+
+def restore_run_state(guard, b: int, run: SceneRun, state: dict[str, np.ndarray],
+                      before: dict[str, np.ndarray] | None, samples, probes) -> None:
+    """Column b continues from ``run_state``'s part of ``state``: its guard and steady
+    pressure, and its live records ``samples`` and ``probes`` with the earlier ones
+    ``before`` (samples.npz, on rank 0; None elsewhere) in front
+    (``solver.observers.ContinuedRecords``)."""
+    guard.initial[b] = float(state["run/initial_energy"])
+    guard.bound[b] = float(state["run/energy_bound"])
+    run.steady_mean_pressure = float(state["run/steady_pressure"])
+    run.recorder = ContinuedRecords(samples, before, state["run/samples"])
+    run.probes = ContinuedRecords(probes, before, state["run/probe_steps"])
 
 
 def planned_steps(scene: Scene, dt: float) -> int:

@@ -32,6 +32,8 @@ from stickslip.solver.columns import (
     initial_perturbation,
     planned_steps,
     random_bump,
+    restore_run_state,
+    run_state,
 )
 from stickslip.solver.contact import ContactLaw, ContactProjection
 from stickslip.solver.ensemble import BatchedProblem
@@ -44,7 +46,6 @@ from stickslip.solver.ensemble_observers import (
 from stickslip.solver.field_output import gather_final_field
 from stickslip.solver.observers import (
     ContactCircle,
-    ContinuedRecords,
     ProbeChoice,
     Progress,
 )
@@ -356,18 +357,11 @@ class BatchColumns:
 
     def checkpoint(self, b: int, run: SceneRun) -> dict[str, np.ndarray]:
         """Column b's checkpoint, flat as ``SceneColumn.checkpoint``'s: the stepper's column
-        (``BatchedExplicit.state``), the energy guard's E(0) and bound of that scene, its
-        steady pressure and its counts of samples and probe steps (those before a
-        continuation included)."""
+        (``BatchedExplicit.state``) and the ``run/`` part (``solver.columns.run_state``)."""
         if self._host_state is None:  # one copy of the batch for all its columns
             self._host_state = self.stepper.host_state()
         out = {f"stepper/{k}": v for k, v in self.stepper.state(b, self._host_state).items()}
-        guard = self.recorder.guard
-        out.update({"run/initial_energy": np.float64(guard.initial[b]),
-                    "run/energy_bound": np.float64(guard.bound[b]),
-                    "run/steady_pressure": np.float64(run.steady_mean_pressure),
-                    "run/samples": np.int64(run.recorder.n),
-                    "run/probe_steps": np.int64(run.probes.n)})
+        out.update(run_state(self.recorder.guard, b, run))
         return out
 
     def restore(self, states: list[dict[str, np.ndarray]],
@@ -381,12 +375,7 @@ class BatchColumns:
         self.stepper.restore([{k[len(head):]: v for k, v in s.items() if k.startswith(head)}
                               for s in states])
         for b, (run, state, before) in enumerate(zip(self.runs, states, befores, strict=True)):
-            self.recorder.guard.initial[b] = float(state["run/initial_energy"])
-            self.recorder.guard.bound[b] = float(state["run/energy_bound"])
-            run.steady_mean_pressure = float(state["run/steady_pressure"])
-            records, probes = self.members[b]
-            run.recorder = ContinuedRecords(records, before, state["run/samples"])
-            run.probes = ContinuedRecords(probes, before, state["run/probe_steps"])
+            restore_run_state(self.recorder.guard, b, run, state, before, *self.members[b])
 
     def kick(self, b: int, fraction: float, seed: int) -> dict:
         """Perturb scene ``b`` where it stands (after ``restore``), as a start is perturbed:

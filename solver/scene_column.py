@@ -19,10 +19,17 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from stickslip.solver.columns import Profile, SceneRun, initial_perturbation, planned_steps
+from stickslip.solver.columns import (
+    Profile,
+    SceneRun,
+    initial_perturbation,
+    planned_steps,
+    restore_run_state,
+    run_state,
+)
 from stickslip.solver.contact import zone_fractions
 from stickslip.solver.field_output import FieldOutput, gather_final_field, last_level_fields
-from stickslip.solver.observers import ContinuedRecords, Progress
+from stickslip.solver.observers import Progress
 from stickslip.solver.problem import build_problem, omega_max
 from stickslip.solver.scene import Scene
 from stickslip.solver.schemes.select import for_scene
@@ -167,21 +174,12 @@ class SceneColumn:
     def checkpoint(self, b: int = 0, run: SceneRun | None = None) -> dict[str, np.ndarray]:
         """This rank's checkpoint of the column, flat ``{"part/name": array}``: each part's
         ``state()`` (``_state_parts``: the last level's vectors, the contact statuses, the work
-        sums), and
-        under ``run/`` the energy guard's E(0) and bound, the steady pressure and the counts
-        of samples and probe steps taken. The cadences need nothing: they are fixed levels
-        (``Cadence``) and the step count is the stepper's. The records themselves are the
-        run's samples.npz (``restore``'s ``befores``)."""
-        run = self.runs[b]
+        sums), this rank's part of the mesh (``run/partition``) and the ``run/`` part every
+        column has (``solver.columns.run_state``)."""
         out = {f"{part}/{key}": value for part, obj in self._state_parts().items()
                for key, value in obj.state().items()}
-        guard = self.sampler.guard
-        out.update({"run/partition": np.array(self.partition_id()),
-                    "run/initial_energy": np.float64(guard.initial[0]),
-                    "run/energy_bound": np.float64(guard.bound[0]),
-                    "run/steady_pressure": np.float64(run.steady_mean_pressure),
-                    "run/samples": np.int64(run.recorder.n),
-                    "run/probe_steps": np.int64(run.probes.n)})
+        out["run/partition"] = np.array(self.partition_id())
+        out.update(run_state(self.sampler.guard, 0, self.runs[b]))
         return out
 
     def restore(self, states: list[dict[str, np.ndarray]],
@@ -199,13 +197,8 @@ class SceneColumn:
         for part, obj in self._state_parts().items():
             head = f"{part}/"
             obj.restore({k[len(head):]: v for k, v in state.items() if k.startswith(head)})
-        guard = self.sampler.guard
-        guard.initial[0] = float(state["run/initial_energy"])
-        guard.bound[0] = float(state["run/energy_bound"])
-        run = self.runs[0]
-        run.steady_mean_pressure = float(state["run/steady_pressure"])
-        run.recorder = ContinuedRecords(self.records.samples, before, state["run/samples"])
-        run.probes = ContinuedRecords(self.records.probes, before, state["run/probe_steps"])
+        restore_run_state(self.sampler.guard, 0, self.runs[0], state, before,
+                          self.records.samples, self.records.probes)
 
     def partition_id(self) -> str:
         """This rank's part of the mesh, as a hash of its owned nodes' coordinates (sorted):
