@@ -68,12 +68,11 @@ def _strip(summary: dict) -> dict:
     return {k: v for k, v in summary.items() if k not in MACHINE_KEYS | {"energy"}}
 
 
-def _close_energies(a: dict | None, b: dict | None) -> None:
-    """Kinetic and strain energies are sums over the dofs: BLAS ``dot`` alone, ``einsum``
-    in a batch, so equal to round-off (1e-12 relative), not necessarily bitwise."""
-    assert (a is None) == (b is None)
-    for key in a or {}:
-        assert abs(a[key] - b[key]) <= 1e-12 * max(abs(a[key]), 1e-300), key
+def _same_energies(a: dict | None, b: dict | None) -> None:
+    """The energy balance of a scene alone and in a batch: bitwise (one recorder,
+    ``BatchRecorder``: the kinetic and strain energies are the kernel's sums in row order
+    either way)."""
+    assert a == b
 
 
 @pytest.fixture(scope="module")
@@ -98,10 +97,10 @@ def two_sweeps(tmp_path_factory):
 
 
 def test_every_summary_equals_the_single_scene_run(two_sweeps):
-    """Bitwise: the batched kernel sums in the single-scene kernel's order, so the summaries
-    (regime, mode, celerity, fractions, amplitude, works, steps, status, message) and the
-    recorded samples and probes are the same numbers, not only close ones; the kinetic and
-    strain energies (diagnostics, not state) to round-off."""
+    """Bitwise: the batched kernel sums in the single-scene kernel's order and one recorder
+    takes both, so the summaries (regime, mode, celerity, fractions, amplitude, energies,
+    works, steps, status, message) and the recorded samples and probes are the same numbers,
+    not only close ones."""
     spec, out = two_sweeps
     statuses = {}
     for task in spec.tasks:
@@ -109,17 +108,13 @@ def test_every_summary_equals_the_single_scene_run(two_sweeps):
         batched = json.loads((out["3"] / "runs" / task.id / "summary.json").read_text())
         assert batched["batch"]["size"] in (2, 3)
         assert _strip(batched) == _strip(single), task.id
-        _close_energies(single.get("energy"), batched.get("energy"))
+        _same_energies(single.get("energy"), batched.get("energy"))
         statuses[task.id] = batched["status"]
         a = np.load(out["off"] / "runs" / task.id / "samples.npz")
         b = np.load(out["3"] / "runs" / task.id / "samples.npz")
         assert sorted(a.files) == sorted(b.files)
         for key in a.files:
-            if key == "energies":  # kinetic, strain: round-off (above); works: bitwise
-                np.testing.assert_allclose(a[key], b[key], rtol=1e-12, atol=0)
-                np.testing.assert_array_equal(a[key][:, 2:], b[key][:, 2:])
-            else:
-                np.testing.assert_array_equal(a[key], b[key], err_msg=f"{task.id}: {key}")
+            np.testing.assert_array_equal(a[key], b[key], err_msg=f"{task.id}: {key}")
         fa = np.load(out["off"] / "runs" / task.id / "final_field.npz")
         fb = np.load(out["3"] / "runs" / task.id / "final_field.npz")
         np.testing.assert_array_equal(fa["u"], fb["u"])
@@ -139,7 +134,7 @@ def test_a_batch_member_directory_is_a_single_runs_directory(two_sweeps, tmp_pat
     """One writer (``studies.rundir.writer``): the same scene alone and as a member of a
     batch (of 3, of 1) leaves the same files and the same summary keys (the sampling check's
     included: a scene that reaches a wave in 0.03 s, sampled every 1e-4 s), with the same
-    numbers (bitwise; the energies to round-off, as above)."""
+    numbers, bitwise."""
     from pathlib import Path
 
     from stickslip.studies.rundir import run_scene
@@ -163,7 +158,7 @@ def test_a_batch_member_directory_is_a_single_runs_directory(two_sweeps, tmp_pat
     s_alone, s_member = (json.loads((d / "summary.json").read_text()) for d in (alone, member))
     assert "nyquist_hz" in s_member and s_member["batch"] == {"size": 1, "backend": "cpu"}
     assert _strip(s_member) == _strip(s_alone)
-    _close_energies(s_alone.get("energy"), s_member.get("energy"))
+    _same_energies(s_alone.get("energy"), s_member.get("energy"))
     for name in ("samples.npz", "final_field.npz"):
         a, b = np.load(alone / name), np.load(member / name)
         if name == "samples.npz":
@@ -171,7 +166,7 @@ def test_a_batch_member_directory_is_a_single_runs_directory(two_sweeps, tmp_pat
         else:  # a member's final field is the displacement on the mesh only: the last
             # level's stress and contact tractions are not gathered from a batch's columns
             assert set(b.files) == {"points", "cells", "cell_types", "u", "time"}
-        for key in set(b.files) - {"energies"}:  # energies: round-off, as above
+        for key in b.files:
             np.testing.assert_array_equal(a[key], b[key], err_msg=f"{name}: {key}")
 
 
@@ -554,8 +549,8 @@ set = ["time.end_time = 0.01", "damping.retardation_time = 2e-6"]
 def test_damped_sweep_batched_equals_the_sweep_without_batches(tmp_path):
     """A damped sweep (4 scenes, tau = 2 us) with --batch off (the fused single-scene
     kernel) and --batch 3: summaries, samples and final fields as the undamped sweep above
-    (bitwise, the energies' kinetic and strain terms to 1e-12), the Kelvin-Voigt work W_d
-    included, and the batched scenes do run in a batch."""
+    (bitwise, the energies and the Kelvin-Voigt work W_d included), and the batched scenes
+    do run in a batch."""
     from pathlib import Path
 
     from stickslip.studies.sweep.schedule import run_sweep
@@ -576,15 +571,11 @@ def test_damped_sweep_batched_equals_the_sweep_without_batches(tmp_path):
         assert single["scheme"]["damping_tau_s"] == batched["scheme"]["damping_tau_s"] > 0
         sizes.append(batched.get("batch", {}).get("size", 1))
         assert _strip(batched) == _strip(single), task.id
-        _close_energies(single.get("energy"), batched.get("energy"))
+        _same_energies(single.get("energy"), batched.get("energy"))
         assert single["energy"]["damping_dissipation_J_per_m"] > 0.0
         a, b = (np.load(r / "samples.npz") for r in runs)
         for key in a.files:
-            if key == "energies":
-                np.testing.assert_allclose(a[key], b[key], rtol=1e-12, atol=0)
-                np.testing.assert_array_equal(a[key][:, 2:], b[key][:, 2:])
-            else:
-                np.testing.assert_array_equal(a[key], b[key], err_msg=f"{task.id}: {key}")
+            np.testing.assert_array_equal(a[key], b[key], err_msg=f"{task.id}: {key}")
         fa, fb = (np.load(r / "final_field.npz") for r in runs)
         np.testing.assert_array_equal(fa["u"], fb["u"])
     assert 3 in sizes
