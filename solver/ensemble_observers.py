@@ -636,22 +636,32 @@ class BatchRecorder:
                 "probe_data": data}
 
 
-class MemberRecords:
-    """The samples of scene b of a ``BatchRecorder`` as one scene's records (``arrays()``,
-    ``n``, ``n_nodes``, ``recent_status``); ``n`` is the recorder's count until the
-    scene's is set (it ended)."""
+class _Member:
+    """Scene b's face of a ``BatchRecorder``: ``n``, the recorder's count (its attribute
+    ``COUNT``) until the scene's own is set (the scene ended there)."""
 
-    def __init__(self, rec: BatchRecorder, b: int, n_nodes: int) -> None:
-        self.rec, self.b, self.n_nodes = rec, b, n_nodes
+    COUNT = "n"
+
+    def __init__(self, rec: BatchRecorder, b: int) -> None:
+        self.rec, self.b = rec, b
         self.taken: int | None = None
 
     @property
     def n(self) -> int:
-        return self.rec.n if self.taken is None else self.taken
+        return getattr(self.rec, self.COUNT) if self.taken is None else self.taken
 
     @n.setter
     def n(self, value: int) -> None:
         self.taken = value
+
+
+class MemberRecords(_Member):
+    """The samples of scene b of a ``BatchRecorder`` as one scene's records (``arrays()``,
+    ``n``, ``n_nodes``, ``recent_status``)."""
+
+    def __init__(self, rec: BatchRecorder, b: int, n_nodes: int) -> None:
+        super().__init__(rec, b)
+        self.n_nodes = n_nodes
 
     def arrays(self) -> dict[str, np.ndarray]:
         return self.rec.arrays(self.b, self.n)
@@ -661,21 +671,10 @@ class MemberRecords:
         return self.rec.recent_status(self.b, last)
 
 
-class MemberProbes:
-    """The probes of scene b of a ``BatchRecorder`` (``arrays()``, ``n``); ``n`` is the
-    recorder's count until the scene's is set (it ended)."""
+class MemberProbes(_Member):
+    """The probes of scene b of a ``BatchRecorder`` (``arrays()``, ``n``)."""
 
-    def __init__(self, rec: BatchRecorder, b: int) -> None:
-        self.rec, self.b = rec, b
-        self.taken: int | None = None
-
-    @property
-    def n(self) -> int:
-        return self.rec.n_probe if self.taken is None else self.taken
-
-    @n.setter
-    def n(self, value: int) -> None:
-        self.taken = value
+    COUNT = "n_probe"
 
     def arrays(self) -> dict[str, np.ndarray] | None:
         return self.rec.probe_arrays(self.b, self.n)
