@@ -79,12 +79,14 @@ def project(tr, tt, now_t, stiff, d, slide, f):
 @inline
 def project_regularised(tr, tt, now_t, stiff, d, slide, f, reg, sigma, ut_last, j, b,
                         rate_slip, rate_base, dt, first):
-    """``project`` with the Prakash-Clifton bound f sigma_eff (reg = 1; reg = 2: constant
-    time), the operations of ``solver.contact.nodal.project_contact_regularized``: the
-    normal force, then sigma_eff[j, b] relaxed exactly towards p over dt with the rate of
-    the last step's slip (``EffectivePressure.update``; sigma_eff = p and the last u_theta
-    = u_theta,n at the first step), then the tangential projection inside f sigma_eff
-    (zero off contact)."""
+    """``project`` with a regularised bound f sigma_eff (``reg`` > 0: any
+    ``solver.contact.law.Regularisation``, by its two rates), the operations of
+    ``solver.contact.nodal.project_contact_regularized``: the normal force, then
+    sigma_eff[j, b] relaxed exactly towards p over dt at rate = |V dt| rate_slip + rate_base,
+    V dt the last step's slip (``EffectivePressure.update``; a slip-independent rate,
+    rate_slip = 0, is rate_base itself; sigma_eff = p and the last u_theta = u_theta,n at
+    the first step), then the tangential projection inside f sigma_eff (zero off
+    contact)."""
     rr = d - tr
     if rr < 0.0:
         rr = 0.0
@@ -93,12 +95,12 @@ def project_regularised(tr, tt, now_t, stiff, d, slide, f, reg, sigma, ut_last, 
     if first:
         sigma[j, b] = rr
         ut_last[j, b] = now_t
-    if reg == 1:  # (|V| + V*) / L, V = (u_theta,n - u_theta,{n-1} - R Omega dt) / dt
+    if rate_slip != 0.0:  # e.g. (|V| + V*) / L, V dt = u_theta,n - u_theta,{n-1} - R Omega dt
         rate = now_t - ut_last[j, b]
         rate = rate - slide
         rate = abs(rate) * rate_slip
         rate = rate + rate_base
-    else:  # 1 / t*
+    else:  # e.g. 1 / t*
         rate = rate_base
     decay = math.exp(rate * -dt)
     sg = sigma[j, b] - rr

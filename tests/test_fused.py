@@ -241,6 +241,44 @@ def test_regularised_fused_step_equals_the_numpy_step_to_round_off(extra):
     np.testing.assert_allclose(sb, sa, rtol=0, atol=1e-9 * np.abs(sa).max())
 
 
+def test_a_friction_law_written_in_the_law_alone_runs_in_the_kernel(monkeypatch):
+    """A regularised bound the kernels can express is a ``Regularisation`` subclass in
+    ``solver/contact/law.py`` and nothing else: the kernels take its code and its two rates
+    (``ContactLaw.kernel_bound``), the numpy projection its rates, the scene its name and
+    required keys. Here a law defined in this test only, d sigma_eff/dt = -|V|/L (sigma_eff
+    - p), registered as the module does, runs in the fused kernel and agrees with the numpy
+    step as the shipped laws do (tolerances of the test above)."""
+    from dataclasses import dataclass
+
+    from stickslip.solver.contact import law as law_module
+    from stickslip.solver.scene import sections
+
+    @dataclass(frozen=True)
+    class SlipDistance(law_module.Regularisation):
+        slip_length: float = 0.0
+        name = "slip-distance"  # class attributes (the module's are ClassVar-annotated)
+        code = 3
+        compiled = True
+        required = {"slip_length": ("m", "")}
+
+        def rates(self, dt: float) -> tuple[float, float]:
+            return 1.0 / (dt * self.slip_length), 0.0
+
+    monkeypatch.setitem(law_module.REGULARISATIONS, SlipDistance.name, SlipDistance)
+    monkeypatch.setattr(sections, "REGULARIZATIONS",
+                        (*sections.REGULARIZATIONS, SlipDistance.name))
+    sc = smoke('friction.regularization="slip-distance"', "friction.slip_length=2e-5")
+    ref, fused = run(sc, "numpy"), run(sc, "numba")
+    assert fused.integrator.batch.reg == 3 and fused.integrator.compiled_loop
+    scale = np.max(np.abs(ref.integrator.u))
+    assert np.max(np.abs(ref.integrator.u - fused.integrator.u)) < 1e-11 * scale
+    a, b = ref.recorder.arrays(), fused.recorder.arrays()
+    np.testing.assert_array_equal(a["status"], b["status"])
+    sa, sb = ref.columns.projection.effective.sigma, fused.columns.projection.effective.sigma
+    assert np.abs(sa).max() > 0.0
+    np.testing.assert_allclose(sb, sa, rtol=0, atol=1e-9 * np.abs(sa).max())
+
+
 @pytest.mark.parallel
 def test_damped_fused_step_with_ghosts_equals_the_numpy_step():
     """Damped on COMM_WORLD (2 ranks under mpirun): the ghosts K reads are those of
