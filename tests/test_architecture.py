@@ -469,6 +469,30 @@ def test_one_run_class_and_one_time_loop():
     assert loop_classes == ["solver.run.Simulation"], loop_classes
 
 
+@pytest.mark.dolfinx
+@pytest.mark.parametrize("overrides", [(), ('time.kernel="numpy"',),
+                                       ("time.beta1=0.25", "time.dt_fraction=2")],
+                         ids=["numba", "numpy", "implicit"])
+def test_one_recorder_for_every_scheme_and_every_b(overrides):
+    """One recorder family: a scene alone, whatever its scheme and kernel, and a batch's
+    scenes record with ``BatchRecorder``, the scene alone through its face
+    ``MemberRecords``."""
+    pytest.importorskip("dolfinx")
+    from mpi4py import MPI
+
+    from stickslip.solver.ensemble_observers import BatchRecorder, MemberRecords
+    from stickslip.solver.run import Simulation
+    from stickslip.solver.scene import load_scene
+
+    scene = load_scene("smoke", ["output.progress=false", *overrides])
+    alone = Simulation(scene, MPI.COMM_SELF)
+    assert isinstance(alone.columns.sampler, BatchRecorder)
+    assert isinstance(alone.recorder, MemberRecords)
+    if not overrides:
+        batch = Simulation.batch([scene, scene])
+        assert isinstance(batch.columns.recorder, BatchRecorder)
+
+
 def test_summary_json_is_written_by_one_function():
     """Every ``summary.json`` of the product (a run, a batch member, a census start, a
     sweep's failed or interrupted scene, a travelling wave) is written by
