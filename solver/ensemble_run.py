@@ -302,9 +302,6 @@ class BatchColumns:
         """The samples' cadence in steps."""
         return self.recorder.every
 
-    def start(self) -> None:
-        """Before the loop: nothing to prepare."""
-
     def due(self, level: int) -> bool:
         return self.recorder.due(level)
 

@@ -120,9 +120,6 @@ class SceneColumn:
 
     # ------------------------------------------------------------------ the time loop
 
-    def start(self) -> None:
-        """Before the loop: nothing to prepare."""
-
     def due(self, level: int) -> bool:
         return self.sampler.due(level)
 
@@ -153,8 +150,8 @@ class SceneColumn:
         return int(self._stop_code[0])
 
     def close(self) -> dict[int, str]:
-        """After the loop: nothing is left to check (every sample was)."""
-        return {}
+        """After the loop: the record closed; nothing is left to check (every sample was)."""
+        return self.sampler.close()
 
     def finish(self, b: int, run: SceneRun, at_level: bool) -> None:
         """Column b ended: its checkpoint when it completed at a whole level."""
