@@ -401,6 +401,7 @@ class BatchRecorder:
         self.guard = EnergyGuard(B)
         #: the probes' count as a compiled loop advances it (``kernel_buffers``)
         self.count = np.zeros(1, dtype=np.int64)
+        self.probe_x_u32 = np.ascontiguousarray(pd, dtype=np.uint32)
         self.kin_scratch = np.zeros(integ.n) if self.circle is not None else None
 
     @staticmethod
@@ -420,8 +421,7 @@ class BatchRecorder:
         place every step (``solver.ensemble.NumbaColumns.advance_one``: the layout of
         ``record_probes``); ``recorded()`` takes the count back afterwards."""
         self.count[0] = self.n_probe
-        return (np.ascontiguousarray(self.probe_x, dtype=np.uint32), self.probe_t,
-                self.probes.data[0], self.count)
+        return self.probe_x_u32, self.probe_t, self.probes.data[0], self.count
 
     def recorded(self) -> None:
         """The probes' count after a compiled loop (``kernel_buffers``)."""
