@@ -21,15 +21,21 @@ from stickslip.solver.scene.sections import END_NAMES
 from stickslip.studies.flutter_fe.cea import (
     CEAMode,
     CEAResult,
+    ContactGrid,
     build_operators,
     cea_problem,
     complex_eigenvalue_analysis,
+    contact_grid,
     distinct_modes,
     friction_relaxation_time,
     unrepresented_terms,
 )
 from stickslip.studies.flutter_fe.doublets import MIN_PURITY, doublet_lines, doublets
-from stickslip.studies.flutter_fe.plots import plot_cea_diagram, plot_spectrum
+from stickslip.studies.flutter_fe.plots import (
+    plot_cea_diagram,
+    plot_contact_modes,
+    plot_spectrum,
+)
 from stickslip.studies.flutter_fe.references import reduced_model_flutter
 from stickslip.studies.flutter_fe.shapes import modes_dir_problem, write_mode_shapes
 from stickslip.studies.flutter_fe.tables import csv_text, lock_in_points, mode_rows, sweep_rows
@@ -119,6 +125,12 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.add_argument("--plot", metavar="PNG", default=None,
                    help="growth vs frequency (or the CEA diagram with --f-sweep) to this file")
+    p.add_argument("--mode-plot", metavar="PNG", default=None,
+                   help="3D tube: the --mode-count fastest-growing unstable modes, one panel "
+                        "each: Re u_theta on the contact surface r = R unrolled in (theta, z) "
+                        "(u_r = 0 there: the sliding contact holds it), max |u_theta| = 1")
+    p.add_argument("--mode-count", type=int, default=4, metavar="K",
+                   help=f"modes drawn by --mode-plot (default 4, at most {MODE_COUNT_MAX})")
     p.add_argument("--length", type=float, default=None, metavar="L",
                    help="the finite tube of this length (m) in 3D instead of plane strain: "
                         "the scene's annulus extruded in hexahedra; each mode also gets its "
@@ -137,6 +149,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=flutter_fe_command)
 
 
+#: The most panels of ``--mode-plot`` (``--mode-count``): each keeps a whole eigenvector.
+MODE_COUNT_MAX = 16
 #: The largest wavenumber (``--kmax``, ``--k-detail``) and table length (``--top``) taken:
 #: as for ``stickslip flutter --kmax``.
 KMAX_LIMIT = 10_000
@@ -164,7 +178,7 @@ def flutter_fe_command(args: argparse.Namespace) -> int:
     solved = _analyse(args, scene, comm, fs)
     if isinstance(solved, str):
         return _fail(comm, solved)
-    res, sweep, written = solved
+    res, sweep, written, drawn = solved
     tube_3d = scene.mesh.dim == 3
     reduced = [] if scene.mesh.file or tube_3d else reduced_model_flutter(scene, args.kmax)
     if comm.rank != 0:
@@ -189,6 +203,11 @@ def flutter_fe_command(args: argparse.Namespace) -> int:
         args.plot = str(Path(args.plot).resolve())
         _plot(args, scene, res, sweep, fs, reduced)
         out["figure"] = args.plot
+    if args.mode_plot:
+        args.mode_plot = str(Path(args.mode_plot).resolve())
+        plot_contact_modes([m for m, _ in drawn], [g for _, g in drawn], args.mode_plot,
+                           title=_mode_plot_title(scene, res))
+        out["mode_figure"] = args.mode_plot
     if args.csv:
         out["tables"] = _write_tables(args.csv, res, sweep)
     if args.json:
@@ -201,6 +220,9 @@ def flutter_fe_command(args: argparse.Namespace) -> int:
                   f"{scene.boundary.ends} ends (friction on the theta-rows only: "
                   "docs/flutter.md)")
         _print_table(res, reduced, args.top, args.plot, _beta2_note(scene), written, args.kmax)
+        if args.mode_plot:
+            print(f"figure: {args.mode_plot} (the {len(drawn)} fastest-growing modes on the "
+                  "contact surface)")
         print("\n".join(f"table: {path}" for path in out.get("tables", [])))
     return 0
 
@@ -236,7 +258,14 @@ def _argument_problem(args: argparse.Namespace, scene: Scene, ranks: int) -> str
         if not lo <= value <= KMAX_LIMIT:
             return f"{flag} {value} is out of range: need {lo} <= {flag[2:]} <= {KMAX_LIMIT}"
 
-    for flag, target in (("--plot", args.plot), ("--csv", args.csv)):
+    if not 1 <= args.mode_count <= MODE_COUNT_MAX:
+        return (f"--mode-count {args.mode_count} is out of range: need 1 <= mode-count <= "
+                f"{MODE_COUNT_MAX}")
+    if args.mode_plot and scene.mesh.dim != 3:
+        return ("--mode-plot draws a 3D tube's contact surface in (theta, z): give --length "
+                "(or a scene with mesh.dim = 3); for plane strain --modes DIR writes the shapes")
+    for flag, target in (("--plot", args.plot), ("--csv", args.csv),
+                         ("--mode-plot", args.mode_plot)):
         bad = target and output_file_problem(target, flag)
         if bad:
             return bad
@@ -312,10 +341,12 @@ def _tube_3d_problem(args: argparse.Namespace, scene: Scene) -> str | None:
     return None
 
 
-def _analyse(args: argparse.Namespace, scene: Scene, comm: MPI.Comm,
-             fs: np.ndarray | None) -> tuple[CEAResult, list[CEAResult] | None, dict | None] | str:
+def _analyse(args: argparse.Namespace, scene: Scene, comm: MPI.Comm, fs: np.ndarray | None
+             ) -> tuple[CEAResult, list[CEAResult] | None, dict | None,
+                        list[tuple[CEAMode, ContactGrid]]] | str:
     """The CEA at the scene's f (and at each f of ``--f-sweep``), the listed mode shapes
-    written with ``--modes``; or why the band cannot be solved (one line)."""
+    written with ``--modes``, the ``--mode-plot`` modes on the contact grid; or why the band
+    cannot be solved (one line)."""
     # dolfinx (and MPI) start after the command line and the environment are checked
     from stickslip.solver.problem import gershgorin_omega_max
 
@@ -329,8 +360,9 @@ def _analyse(args: argparse.Namespace, scene: Scene, comm: MPI.Comm,
                 f"({f_top:.4g} Hz, Gershgorin bound): no mode lies there, and the "
                 f"eigensolver's shift fails; use --fmax-hz <= {f_top:.4g}")
     ops = build_operators(problem, args.mass, friction)
-    res = complex_eigenvalue_analysis(problem, None, args.fmax_hz, ops=ops,
-                                      shapes=bool(args.modes))
+    # --mode-plot keeps the drawn modes' vectors only (a 3D tube's are large)
+    keep = args.mode_count if args.mode_plot else bool(args.modes)
+    res = complex_eigenvalue_analysis(problem, None, args.fmax_hz, ops=ops, shapes=keep)
     res.timings["mesh+assembly"] = t_build
     sweep = None
     if fs is not None:
@@ -342,8 +374,20 @@ def _analyse(args: argparse.Namespace, scene: Scene, comm: MPI.Comm,
         where = {id(m): i for i, m in enumerate(res.modes)}
         written = write_mode_shapes(problem, ops, res, args.modes,
                                     [where[id(m)] for m in resolved + mesh])
+    drawn = []
+    if args.mode_plot:
+        where = {id(m): i for i, m in enumerate(res.modes)}
+        drawn = [(m, contact_grid(ops, res.shapes[where[id(m)]]))
+                 for m in res.unstable()[:args.mode_count] if where[id(m)] in res.shapes]
     ops.destroy()
-    return res, sweep, written
+    return res, sweep, written, drawn
+
+
+def _mode_plot_title(scene: Scene, res: CEAResult) -> str:
+    """The ``--mode-plot`` figure's title: the scene, f, the tube and its mesh."""
+    return (f"{scene.name}: f = {res.f:g}, L = {scene.geometry.length:g} m "
+            f"(L/R = {scene.geometry.length / scene.geometry.R:g}), {scene.boundary.ends} "
+            f"ends, N = {res.n_contact}, {res.levels - 1} axial layers; Re u_θ at r = R")
 
 
 def _plot(args: argparse.Namespace, scene, res: CEAResult, sweep: list[CEAResult] | None,

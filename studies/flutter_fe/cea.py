@@ -212,6 +212,44 @@ def contact_levels(problem: TubeProblem) -> tuple[np.ndarray, int]:
     return np.searchsorted(every, keys).astype(np.int64), int(every.size)
 
 
+@dataclass
+class ContactGrid:
+    """A field on the contact surface unrolled: ``values[level, j]`` at the angle ``theta[j]``
+    (rad, ``2πj/N`` in ``[0, 2π)``) and the height ``z_rel[level]`` = z/L of its ring (the
+    rings are equally spaced, ``tube_mesh_3d``; one ring at 0 in 2D)."""
+
+    theta: np.ndarray  # (N,)
+    z_rel: np.ndarray  # (levels,)
+    values: np.ndarray  # (levels, N), complex
+
+
+def contact_grid(ops: CEAOperators, free_vec: np.ndarray) -> ContactGrid:
+    """ψ_θ of a free-dof vector (owned entries) on the (θ, z) grid of every contact node (all
+    ranks; collective), grouped in rings by ``contact_levels`` as ``axial_order`` groups them,
+    normalised: ``max |ψ_θ| = 1`` and ``ψ_θ`` real > 0 at that node. ψ_θ, not ψ_r: the
+    sliding linearisation holds each contact node on the cylinder (``ψ_r = 0`` there)."""
+    comm = ops.comm
+    level = np.zeros(ops.theta.size, dtype=np.int64) if ops.level is None else ops.level
+    theta = np.concatenate(comm.allgather(np.mod(np.asarray(ops.theta, dtype=float),
+                                                 2 * math.pi)))
+    rings = np.concatenate(comm.allgather(level))
+    psi = np.concatenate(comm.allgather(np.asarray(free_vec)[ops.pos_theta]))
+    n = ops.n_contact
+    column = np.rint(theta / (2 * math.pi / n)).astype(np.int64) % n
+    hits = np.zeros((ops.levels, n), dtype=np.int64)
+    np.add.at(hits, (rings, column), 1)
+    if not np.all(hits == 1):
+        raise ValueError("the contact nodes are not N equally spaced angles on each ring "
+                         "(a structured tube's contact surface)")
+    values = np.zeros((ops.levels, n), dtype=complex)
+    values[rings, column] = psi
+    peak = values.flat[int(np.argmax(np.abs(values)))]
+    if peak != 0:
+        values = values / peak
+    z_rel = np.linspace(0.0, 1.0, ops.levels) if ops.levels > 1 else np.zeros(1)
+    return ContactGrid(theta=2 * math.pi * np.arange(n) / n, z_rel=z_rel, values=values)
+
+
 class _ContactFrame:
     """The contact nodes' polar frame, u = T ũ (ũ = (ũ_r, ũ_θ) at the contact nodes), and the
     friction row-combination E: the θ-row of node i takes f × the r-row (nodal law, through
@@ -356,6 +394,7 @@ def band_eigenvalues(
     strip_safety: float = STRIP_SAFETY,
     keep_vector: Callable[[complex], bool] | None = None,
     vectors: dict[int, np.ndarray] | None = None,
+    keep_most: tuple[int, Callable[[complex], float]] | None = None,
 ) -> tuple[np.ndarray, np.ndarray, BandStats]:
     """All eigenvalues ``μ`` of ``A φ = μ B φ`` with ``Re μ ≤ mu_max`` (slices along Re μ).
 
@@ -372,13 +411,12 @@ def band_eigenvalues(
     Returns ``μ`` (complex), the eigenvectors at ``contact_pos`` (owned entries; rows =
     eigenvalues) and statistics. With ``keep_vector`` and ``vectors``, the whole owned
     eigenvector of each ``μ`` with ``keep_vector(μ)`` goes into ``vectors`` under its index
-    in the returned array (for mode shapes: only the few wanted, the band may hold
-    thousands).
+    in the returned array (mode shapes: the band may hold thousands), with ``keep_most =
+    (count, score)`` only the ``count`` of the largest ``score(μ)`` (a 3D tube's are large).
     """
     t0 = time.perf_counter()
-    stats = BandStats()
-    n = A.getSize()[0]
-    found = _BandPairs(A, contact_pos, keep_vector)
+    stats, n = BandStats(), A.getSize()[0]
+    found = _BandPairs(A, contact_pos, keep_vector, keep_most)
     lo = -0.02 * mu_max
     sigma, nev = lo, nev_slice
     while lo < mu_max:
@@ -456,8 +494,9 @@ class _BandPairs:
     positions, and the whole eigenvector where ``keep_vector(μ)``."""
 
     def __init__(self, A: PETSc.Mat, contact_pos: np.ndarray | None,
-                 keep_vector: Callable[[complex], bool] | None) -> None:
-        self.contact_pos, self.keep_vector = contact_pos, keep_vector
+                 keep_vector: Callable[[complex], bool] | None,
+                 keep_most: tuple[int, Callable[[complex], float]] | None = None) -> None:
+        self.contact_pos, self.keep_vector, self.keep_most = contact_pos, keep_vector, keep_most
         self.pos = np.zeros(0, dtype=np.int64) if contact_pos is None else contact_pos
         self.vr, self.vi = A.createVecRight(), A.createVecRight()
         self.mus: list[complex] = []
@@ -479,6 +518,16 @@ class _BandPairs:
             self.vecs.append(vr.getArray()[pos] + 1j * vi.getArray()[pos])
             if self.keep_vector is not None and self.keep_vector(m):
                 self.full[len(self.mus) - 1] = vr.getArray() + 1j * vi.getArray()
+                self._evict()
+
+    def _evict(self) -> None:
+        """Drop the kept vector of the smallest score while more than ``keep_most``'s count
+        are held."""
+        if self.keep_most is None:
+            return
+        count, score = self.keep_most
+        while len(self.full) > count:
+            del self.full[min(self.full, key=lambda i: score(self.mus[i]))]
 
     def result(self, mu_max: float,
                vectors: dict[int, np.ndarray] | None) -> tuple[np.ndarray, np.ndarray]:
@@ -835,16 +884,31 @@ def axial_order(profile: np.ndarray) -> int:
     return int(np.count_nonzero(np.diff(np.sign(kept)) != 0))
 
 
-def _unstable_mu(tau: float) -> Callable[[complex], bool]:
-    """Predicate on an eigenvalue ``μ``: is its motion (with damping ``τ``) growing?"""
+def _exponent(mu: complex, tau: float) -> complex:
+    """``λ`` of one eigenvalue ``μ`` (a real one when ``|Im μ| ≤ REAL_TOL |μ|``)."""
+    if abs(mu.imag) <= REAL_TOL * abs(mu):
+        mu = complex(mu.real)
+    return complex(damped_exponents(np.array([mu]), tau)[0])
+
+
+def _unstable_mu(tau: float, fmax_hz: float = math.inf) -> Callable[[complex], bool]:
+    """Predicate on an eigenvalue ``μ``: is its motion (with damping ``τ``) growing, at a
+    frequency ≤ ``fmax_hz``?"""
     def unstable(mu: complex) -> bool:
         if mu.imag < 0:  # one member of each conjugate pair
             return False
-        if abs(mu.imag) <= REAL_TOL * abs(mu):
-            mu = complex(mu.real)
-        lam = complex(damped_exponents(np.array([mu]), tau)[0])
-        return _is_unstable(lam.real, abs(lam.imag) / (2 * math.pi))
+        lam = _exponent(mu, tau)
+        hz = abs(lam.imag) / (2 * math.pi)
+        return hz <= fmax_hz and _is_unstable(lam.real, hz)
     return unstable
+
+
+def _fastest(shapes: bool | int, tau: float) -> tuple[int, Callable[[complex], float]] | None:
+    """``band_eigenvalues``' ``keep_most`` for ``shapes``: a count K keeps the K vectors of
+    the largest growth rate ``Re λ(μ)``; True (or nothing) no limit."""
+    if shapes is True or not shapes:
+        return None
+    return int(shapes), lambda mu: _exponent(mu, tau).real
 
 
 def friction_relaxation_time(scene: Any) -> float:
@@ -903,7 +967,7 @@ def complex_eigenvalue_analysis(
     tol: float = 1e-10,
     tau: float | None = None,
     t_star: float | None = None,
-    shapes: bool = False,
+    shapes: bool | int = False,
 ) -> CEAResult:
     """CEA of ``problem``'s steady sliding at friction ``f`` (default: the scene's) up to
     ``fmax_hz``: every eigenvalue with frequency ≤ fmax, growth rates, damping ratios,
@@ -911,7 +975,8 @@ def complex_eigenvalue_analysis(
     ``damping.tau``; the damping matrix is ``τA``, see the module docstring). ``t_star``:
     relaxation time of a regularised friction bound (default: the scene's,
     :func:`friction_relaxation_time`; > 0 solves :func:`regularised_band`). ``shapes``:
-    keep the shapes of the unstable modes (``CEAResult.shapes``).
+    keep the shapes of the unstable modes (``CEAResult.shapes``): True every one, a count
+    K > 0 only those of the K fastest-growing (``unstable()[:K]``).
     """
     t0 = time.perf_counter()
     f = problem.scene.loading.f if f is None else float(f)
@@ -948,7 +1013,7 @@ def complex_eigenvalue_analysis(
 
 
 def _coulomb_modes(ops: CEAOperators, f: float, tau: float, fmax_hz: float, nev_slice: int,
-                   tol: float, shapes: bool
+                   tol: float, shapes: bool | int
                    ) -> tuple[list[CEAMode], dict[int, np.ndarray], BandStats]:
     """Coulomb friction: the pencil ``A φ = μ M φ`` by slices, then ``λ`` per ``μ``."""
     A, B = ops.operator(f), ops.mass(f)
@@ -960,7 +1025,8 @@ def _coulomb_modes(ops: CEAOperators, f: float, tau: float, fmax_hz: float, nev_
     vectors: dict[int, np.ndarray] = {}
     mu, psi, stats = band_eigenvalues(
         A, B, mu_max * 1.0001, nev_slice=nev_slice, tol=tol, contact_pos=ops.pos_theta,
-        keep_vector=_unstable_mu(tau) if shapes else None, vectors=vectors,
+        keep_vector=_unstable_mu(tau, fmax_hz) if shapes else None, vectors=vectors,
+        keep_most=_fastest(shapes, tau),
     )
     A.destroy()
     if B is not ops.B:
@@ -976,7 +1042,7 @@ def _coulomb_modes(ops: CEAOperators, f: float, tau: float, fmax_hz: float, nev_
 
 
 def _regularised_modes(ops: CEAOperators, f: float, tau: float, t_star: float,
-                       fmax_hz: float, tol: float, shapes: bool
+                       fmax_hz: float, tol: float, shapes: bool | int
                        ) -> tuple[list[CEAMode], dict[int, np.ndarray], BandStats]:
     """Regularised friction: ``λ`` directly (:func:`regularised_band`). Every motion of
     positive frequency is listed (the growing wave and the decaying one of each pair);
@@ -992,6 +1058,9 @@ def _regularised_modes(ops: CEAOperators, f: float, tau: float, t_star: float,
     if full is not None:
         kept = {new: full[i] for new, i in enumerate(order)
                 if _is_unstable(modes[i].growth_rate, modes[i].frequency_hz)}
+        if shapes is not True:  # a count: the fastest-growing ones
+            fastest = sorted(kept, key=lambda new: -modes[order[new]].growth_rate)
+            kept = {new: kept[new] for new in fastest[:int(shapes)]}
     return [modes[i] for i in order], kept, stats
 
 

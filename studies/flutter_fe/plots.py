@@ -1,17 +1,12 @@
-"""CEA figures: the diagram against f and the spectrum (matplotlib)."""
+"""CEA figures: the diagram against f, the spectrum and a 3D tube's unstable modes on its
+contact surface (matplotlib, Agg)."""
 
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 import numpy as np
 
-if TYPE_CHECKING:
-
-    pass
-
-from stickslip.studies.flutter_fe.cea import CEAResult, distinct_modes
+from stickslip.studies.flutter_fe.cea import CEAMode, CEAResult, ContactGrid, distinct_modes
 from stickslip.studies.flutter_fe.tables import lock_in_points
 
 # --------------------------------------------------------------------------------- plots
@@ -135,3 +130,47 @@ def plot_spectrum(result: CEAResult, path: str, *, reduced: list[dict] | None = 
     return path
 
 
+
+
+def plot_contact_modes(modes: list[CEAMode], grids: list[ContactGrid], path: str,
+                       title: str = "") -> str:
+    """One panel per mode: ``Re ψ_θ(θ, z)`` on the contact surface r = R unrolled (θ in
+    degrees across, z/L up), each grid normalised by ``contact_grid`` (``max |ψ_θ| = 1``,
+    real at its peak), on a diverging colour scale symmetric about 0; titled with the mode's
+    k, m, frequency and growth rate. The motion is ``Re(ψ e^{λt})``: this is its t = 0
+    snapshot, the wave travelling at ``−ω/k`` rad/s."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    count = len(modes)
+    cols = min(count, 2)
+    rows = max(1, -(-count // cols))
+    fig, axes = plt.subplots(rows, cols, figsize=(5.2 * cols, 2.6 * rows + 0.4),
+                             constrained_layout=True, squeeze=False)
+    image = None
+    for ax, mode, grid in zip(axes.flat, modes, grids, strict=False):
+        deg = np.degrees(grid.theta)
+        step = 360.0 / deg.size
+        edges_t = np.append(deg, 360.0) - step / 2  # cells centred on the nodes
+        z = grid.z_rel
+        dz = z[1] - z[0] if z.size > 1 else 1.0
+        edges_z = np.append(z, z[-1] + dz) - dz / 2
+        image = ax.pcolormesh(edges_t, edges_z, grid.values.real, cmap="RdBu_r",
+                              vmin=-1.0, vmax=1.0, shading="flat")
+        scale = ", mesh-scale" if mode.mesh_scale else ""
+        ax.set_title(f"k = {mode.k:+d}, m = {mode.axial_order}: {mode.frequency_hz:.1f} Hz, "
+                     f"{mode.growth_rate:.1f} 1/s{scale}", fontsize=9)
+        ax.set_xlabel("θ (deg)")
+        ax.set_ylabel("z / L")
+        ax.set_xlim(-step / 2, 360.0 - step / 2)
+    for ax in list(axes.flat)[count:]:
+        ax.set_visible(False)
+    if image is not None:
+        fig.colorbar(image, ax=axes, shrink=0.8, label="Re u_θ (max |u_θ| = 1)")
+    if title:
+        fig.suptitle(title, fontsize=10)
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+    return path
