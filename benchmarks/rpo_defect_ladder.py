@@ -2,7 +2,7 @@
 census's two-generator members at each mesh N.
 
     ./dev python3 benchmarks/rpo_defect_ladder.py /work/census/P/census \\
-        /tmp/tut2,/tmp/c528d --max-iter 8 --json /tmp/rpo_defect_ladder.json
+        /tmp/tut2,/tmp/c528d --max-iter 16 --json /tmp/rpo_defect_ladder.json
 
 Each positional argument is one scene point: a census directory, or several separated by
 commas that hold rungs of the same scene (checked: their scenes differ in mesh.n_inner only).
