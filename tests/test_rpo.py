@@ -106,7 +106,11 @@ def test_manufactured_two_wave_state_of_the_linear_tube_is_reproduced(linear32):
     on the unit circle)."""
     from scipy.optimize import brentq
 
-    from stickslip.studies.rpo.certificate import solve_orbit
+    from stickslip.studies.rpo.certificate import (
+        orbit_verdict,
+        solve_orbit,
+        two_period_residual,
+    )
     from stickslip.studies.rpo.orbit import OrbitProblem, RingRotation, start_from_state
 
     scene, start = linear32
@@ -132,6 +136,9 @@ def test_manufactured_two_wave_state_of_the_linear_tube_is_reproduced(linear32):
     result, orbit = solve_orbit(off, tol=2e-9, max_iter=6)
     assert result.converged
     assert abs(orbit.period / T - 1) < 1e-9 and abs(orbit.shift / s - 1) < 1e-9
+    # an orbit, not only a root: one more period keeps it (|multipliers| = 1 here)
+    r2 = two_period_residual(off, orbit)
+    assert orbit_verdict(result, r2, 2e-9, 0.0)[0] and r2 < 10 * max(result.residual, 2e-9)
 
 
 @pytest.fixture(scope="module")
@@ -417,3 +424,21 @@ def test_a_rigid_waves_multipliers_predict_the_growth_of_the_map_from_it(smoke_r
     _, rate, (first, last) = growth_from_the_orbit(problem, orbit, 80)
     assert rate is not None and last - first >= 10
     assert rate == pytest.approx(growth, rel=0.02)
+
+
+def test_a_root_that_the_map_does_not_repeat_is_no_orbit():
+    """The verdict's rule (``orbit_verdict``) on the numbers of the two-wave state of P at
+    N = 132 (seed 4, docs/theory/rpo.md): Newton's root had residual 6.3e-11 over one
+    period and 0.079 over two, the size of the commutation defect (0.078); it is no orbit,
+    and says so. An orbit whose error grows over the second period by a multiplier (here 5)
+    stays one."""
+    from types import SimpleNamespace
+
+    from stickslip.studies.rpo.certificate import orbit_verdict
+
+    root = SimpleNamespace(converged=True, residual=6.3e-11, message="converged")
+    ok, why = orbit_verdict(root, 0.079, 1e-10, 0.078)
+    assert not ok and "no orbit" in why and "0.079" in why
+    assert orbit_verdict(root, 6 * 6.3e-11, 1e-10, 0.078) == (True, "converged")
+    stalled = SimpleNamespace(converged=False, residual=3.7e-3, message="stagnated")
+    assert orbit_verdict(stalled, 1e-3, 1e-10, 0.1) == (False, "stagnated")

@@ -18,6 +18,12 @@ T-periodic; its Fourier coefficient n is the component (k, f) with f = k s/(2πT
 no window: the orbit's own spectrum. Each given component is matched to the orbit's line
 of the same k nearest in frequency.
 
+**An orbit, not only a root.** Newton's root x solves R₋ₛ F_T(x) = x to its tolerance; it is
+an orbit of the scheme when one more period keeps it: ‖R₋₂ₛ F_{2T}(x) − x‖ within
+``ORBIT_CHECK_FACTOR`` times its one-period residual. A root that is no orbit (on a torus
+of the map the equation has roots the map does not repeat) is ``converged: false``, with
+both residuals.
+
 **Commutation defect.** ‖F_T(R_{Δφ/2} ξ) − R_{Δφ/2} F_T(ξ)‖ at the start: how far the
 half-node Fourier shift is from a symmetry of the scheme on this state (0 for a field of
 wavenumbers well below N/2, round-off for whole-node shifts): the size of the
@@ -40,6 +46,12 @@ __all__ = ["period_and_shift", "orbit_guess", "rpo_certificate", "orbit_samples"
            "orbit_components", "solve_orbit"]
 
 SHARE_LISTED = 0.10  #: an orbit line is listed from this share of the largest
+#: Newton's root is an orbit when its residual over two periods is at most this many times
+#: its one-period residual (or the tolerance): an orbit's error grows over the second period
+#: by its multipliers (e^{growth T}, a few on the census's orbits), while a root that is no
+#: orbit jumps to the size of the commutation defect (from 6e-11 to 0.079 on the two-wave
+#: state of P at N = 132, seed 4: docs/theory/rpo.md)
+ORBIT_CHECK_FACTOR = 1e3
 
 
 def period_and_shift(generators: list[dict]) -> tuple[float, float]:
@@ -144,6 +156,24 @@ def commutation_defect(problem: OrbitProblem, guess: Guess) -> float:
     return float(np.linalg.norm(a - b))
 
 
+def two_period_residual(problem: OrbitProblem, orbit: Guess) -> float:
+    """‖R₋₂ₛ F_{2T}(ξ) − ξ‖ of a root (module docstring), 2p steps of the root's h."""
+    x2 = problem.flow(orbit.xi, orbit.period, steps=2 * problem.steps)
+    return float(np.linalg.norm(problem.rotate(x2, -2.0 * orbit.shift) - orbit.xi))
+
+
+def orbit_verdict(result, r2: float, tol: float, defect: float) -> tuple[bool, str]:
+    """(converged, message): Newton converged and its root is an orbit (``r2``, its
+    residual over two periods, within ``ORBIT_CHECK_FACTOR`` of the one-period one)."""
+    if not result.converged:
+        return False, result.message
+    if r2 <= ORBIT_CHECK_FACTOR * max(result.residual, tol):
+        return True, result.message
+    return False, (f"Newton's root (residual {result.residual:.2g}) is no orbit of the scheme: "
+                   f"over two periods its residual is {r2:.2g} (commutation defect "
+                   f"{defect:.2g}): an invariant torus of the map, not a periodic orbit")
+
+
 def solve_orbit(problem: OrbitProblem, *, tol: float = 1e-10, max_iter: int = 20,
                 max_krylov: int = 80, log=None):
     """Newton–Krylov–hookstep from the problem's guess: (NewtonResult, final Guess)."""
@@ -162,7 +192,8 @@ def rpo_certificate(run_dir: str | Path, generators: list[dict], *,
     """The RPO of the state where ``run_dir``'s checkpoint stands, started from the
     ``generators`` (dicts with k, frequency_hz; ``period``/``shift`` override the guess, and
     with both given the generators may be one: a rigid wave as an RPO).
-    Returns {converged, residual, iterations, period_s, shift_rad, floquet (leading moduli),
+    Returns {converged (Newton's and an orbit: module docstring), residual,
+    residual_two_periods, iterations, period_s, shift_rad, floquet (leading moduli),
     stable, components (the orbit's lines), differences (each of ``components``, default
     the generators, against the orbit's line), history, guess, defect, wall_s, ...}.
     ``orbit_dir``: one period of samples written there as samples.npz (a run's layout).
@@ -180,6 +211,8 @@ def rpo_certificate(run_dir: str | Path, generators: list[dict], *,
     r0 = float(np.linalg.norm(problem.residual(problem.guess)))
     defect = commutation_defect(problem, problem.guess)
     result, orbit = solve_orbit(problem, tol=tol, max_iter=max_iter, log=log)
+    r2 = two_period_residual(problem, orbit)
+    converged, message = orbit_verdict(result, r2, tol, defect)
     flo = floquet_multipliers(problem, orbit, count=floquet, krylov=krylov,
                               krylov_max=krylov_max) if floquet else None
     samples = orbit_samples(problem, orbit)
@@ -188,8 +221,9 @@ def rpo_certificate(run_dir: str | Path, generators: list[dict], *,
         Path(orbit_dir).mkdir(parents=True, exist_ok=True)
         np.savez(Path(orbit_dir) / "samples.npz", **samples)
     flips = np.array(problem.jvp_flips or [0])
-    return {"converged": bool(result.converged), "residual": result.residual,
-            "iterations": result.iterations, "message": result.message,
+    return {"converged": converged, "residual": result.residual,
+            "residual_two_periods": r2, "newton_converged": bool(result.converged),
+            "iterations": result.iterations, "message": message,
             "period_s": orbit.period, "shift_rad": orbit.shift,
             "shift_deg": math.degrees(orbit.shift), "steps": problem.steps,
             "step_s": problem.step_of(orbit.period), "run_step_s": problem.start.dt,
@@ -197,7 +231,7 @@ def rpo_certificate(run_dir: str | Path, generators: list[dict], *,
             "commutation_defect": defect, "held_shift": nodes is not None,
             "floquet": None if flo is None else [float(m) for m in flo.moduli],
             "floquet_detail": None if flo is None else flo.to_dict(),
-            "stable": None if flo is None or not result.converged else flo.stable,
+            "stable": None if flo is None or not converged else flo.stable,
             "components": lines,
             "differences": _differences(lines, components or generators),
             "history": [it.to_dict() for it in result.history],
