@@ -213,8 +213,9 @@ def rpo_certificate(run_dir: str | Path, generators: list[dict], *,
     result, orbit = solve_orbit(problem, tol=tol, max_iter=max_iter, log=log)
     r2 = two_period_residual(problem, orbit)
     converged, message = orbit_verdict(result, r2, tol, defect)
+    # multipliers of a point that is no orbit certify nothing: not computed
     flo = floquet_multipliers(problem, orbit, count=floquet, krylov=krylov,
-                              krylov_max=krylov_max) if floquet else None
+                              krylov_max=krylov_max) if floquet and converged else None
     samples = orbit_samples(problem, orbit)
     lines = orbit_components(samples, orbit.period, orbit.shift)
     if orbit_dir is not None:
