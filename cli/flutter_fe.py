@@ -110,7 +110,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--modes", metavar="DIR", default=None,
                    help="write the unstable mode shapes to DIR: one VTX folder per mode "
                         "(ParaView: one period of the motion), modes.csv (the table) and "
-                        "contact.csv (psi on the contact circle)")
+                        "contact.csv (psi on the contact circle; a 3D tube's by ring, z/L)")
     p.add_argument("--f-sweep", default=None, metavar="A:B:N|F1,F2,...",
                    help="also sweep the friction coefficient (CEA diagram with --plot)")
     p.add_argument("--kmax", type=int, default=12, help="reduced-model modes to compare (k<=)")
@@ -332,12 +332,8 @@ def _tube_3d_problem(args: argparse.Namespace, scene: Scene) -> str | None:
                else f"--n-axial about {round(length / arc)}")
         return (f"length {length:g} m makes cells {aspect:.3g} times as long as they are "
                 f"wide at r = R: keep it within {ASPECT[0]:g} … {ASPECT[1]:g} ({fix})")
-    for flag, value in (("--modes", args.modes), ("--friction 1-2-1",
-                                                  args.friction == "1-2-1"
-                                                  or (args.friction is None
-                                                      and scene.friction.filter != "nodal"))):
-        if value:
-            return f"{flag} is for the plane-strain tube; drop it with a 3D tube"
+    if args.friction == "1-2-1" or (args.friction is None and scene.friction.filter != "nodal"):
+        return "--friction 1-2-1 is for the plane-strain tube; drop it with a 3D tube"
     return None
 
 

@@ -117,3 +117,24 @@ def test_flutter_fe_mode_plot_writes_the_figure_and_refuses_a_plane_strain_scene
         err = capsys.readouterr().err
         assert err.count("\n") == 1 and words in err, err
     assert not (tmp_path / "x.png").exists()
+
+
+def test_flutter_fe_modes_writes_a_3d_tubes_shapes_ring_by_ring(tmp_path, capsys):
+    """``--modes DIR`` on the roller tube (N = 32, 4 layers): one VTX folder per listed mode,
+    modes.csv with the axial order m (0: every listed mode is a plane-strain one with roller
+    ends), and contact.csv with ψ_θ on every ring (5 rings x 32 angles per mode), normalised
+    to max |ψ_θ| = 1 with ψ_θ real there; an m = 0 mode's rings are equal (to 1e-8 of the
+    peak, as ``contact_grid`` above)."""
+    out_dir = tmp_path / "modes"
+    tube = ["--length", "0.05", "--n-axial", "4", "--ends", "roller"]
+    assert main([*BASE, *tube, "--top", "2", "--modes", str(out_dir)]) == 0
+    capsys.readouterr()
+    rows = [r.split(",") for r in (out_dir / "modes.csv").read_text().splitlines()]
+    assert rows[0][-1] == "axial_order" and len(rows) >= 2
+    assert all(r[-1] == "0" and (out_dir / r[9]).is_dir() for r in rows[1:])
+    table = np.genfromtxt(out_dir / "contact.csv", delimiter=",", names=True)
+    one = table[table["index"] == 1]
+    assert one.size == 5 * 32 and sorted(set(one["z_rel"])) == [0.0, 0.25, 0.5, 0.75, 1.0]
+    assert np.max(one["abs_psi_theta"]) == pytest.approx(1.0, rel=1e-12)
+    psi = (one["re_psi_theta"] + 1j * one["im_psi_theta"]).reshape(5, 32)
+    assert np.abs(psi - psi[0]).max() < 1e-8

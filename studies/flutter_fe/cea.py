@@ -223,10 +223,11 @@ class ContactGrid:
     values: np.ndarray  # (levels, N), complex
 
 
-def contact_grid(ops: CEAOperators, free_vec: np.ndarray) -> ContactGrid:
+def contact_grid(ops: CEAOperators, free_vec: np.ndarray, normalise: bool = True
+                 ) -> ContactGrid:
     """ψ_θ of a free-dof vector (owned entries) on the (θ, z) grid of every contact node (all
     ranks; collective), grouped in rings by ``contact_levels`` as ``axial_order`` groups them,
-    normalised: ``max |ψ_θ| = 1`` and ``ψ_θ`` real > 0 at that node. ψ_θ, not ψ_r: the
+    ``normalise``d: ``max |ψ_θ| = 1`` and ``ψ_θ`` real > 0 at that node. ψ_θ, not ψ_r: the
     sliding linearisation holds each contact node on the cylinder (``ψ_r = 0`` there)."""
     comm = ops.comm
     level = np.zeros(ops.theta.size, dtype=np.int64) if ops.level is None else ops.level
@@ -244,7 +245,7 @@ def contact_grid(ops: CEAOperators, free_vec: np.ndarray) -> ContactGrid:
     values = np.zeros((ops.levels, n), dtype=complex)
     values[rings, column] = psi
     peak = values.flat[int(np.argmax(np.abs(values)))]
-    if peak != 0:
+    if normalise and peak != 0:
         values = values / peak
     z_rel = np.linspace(0.0, 1.0, ops.levels) if ops.levels > 1 else np.zeros(1)
     return ContactGrid(theta=2 * math.pi * np.arange(n) / n, z_rel=z_rel, values=values)

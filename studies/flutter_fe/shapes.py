@@ -6,11 +6,13 @@ A mode is the real motion ``u(t) = Re(ψ e^{λt})`` (``studies.flutter_fe.cea``)
   phases ``φ`` of one period, time stamps ``φ / ω`` (s), so ParaView's play button animates the
   wave; without growth (the growth factor is left out, or one frame would dwarf the others).
 * ``modes.csv``: the table (frequency, growth, damping ratio, k, direction, speed, purity,
-  mesh-scale flag, file) in the order of ``NN`` (``flutter-fe``: its table's order).
+  mesh-scale flag, file, axial order m: 0 in plane strain) in the order of ``NN``
+  (``flutter-fe``: its table's order).
 * ``contact.csv``: ``ψ_θ`` on the contact circle (``ψ_r = 0`` there: the sliding
-  linearisation holds the contact nodes on the cylinder), per mode and node, by angle.
+  linearisation holds the contact nodes on the cylinder), per mode and node, by angle; on a
+  finite 3D tube per mode, ring (``z_rel`` = z/L) and angle (``cea.contact_grid``).
 
-``ψ`` is normalised so that ``max |ψ_θ|`` on the contact circle is 1 (arbitrary units: an
+``ψ`` is normalised so that ``max |ψ_θ|`` on the contact surface is 1 (arbitrary units: an
 eigenvector has no amplitude), with ``ψ_θ`` real and positive at that node.
 """
 
@@ -23,6 +25,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from stickslip.solver.atomic import atomic_write_text
+from stickslip.studies.flutter_fe.cea import contact_grid
 
 if TYPE_CHECKING:
     from stickslip.solver.problem import TubeProblem
@@ -74,6 +77,19 @@ def _gather_contact(comm: Any, ops: CEAOperators, free_vec: np.ndarray
     return theta[order], psi_all[order]
 
 
+def _contact_values(comm: Any, ops: CEAOperators, free_vec: np.ndarray
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(θ, z/L, ψ_θ) of every contact node (all ranks): by angle on the plane-strain circle
+    (z/L = 0), ring by ring and by angle on a 3D tube's surface (``contact_grid``)."""
+    if ops.levels == 1:
+        theta, psi = _gather_contact(comm, ops, free_vec)
+        return theta, np.zeros(theta.size), psi
+    grid = contact_grid(ops, free_vec, normalise=False)  # ``_normalise`` scales it with ψ
+    rings, n = grid.values.shape
+    return (np.tile(grid.theta, rings), np.repeat(grid.z_rel, n),
+            grid.values.reshape(-1))
+
+
 def _write_vtx(problem: TubeProblem, path: Path, u: np.ndarray, frequency_hz: float) -> None:
     """One period of ``Re(ψ e^{iφ})`` (PHASES frames; one frame without oscillation)."""
     import dolfinx.io
@@ -107,21 +123,24 @@ def write_mode_shapes(problem: TubeProblem, ops: CEAOperators, res: CEAResult,
     else:
         order = [i for i in indices if i in res.shapes]
     table = ["index,frequency_hz,growth_rate_per_s,zeta,k,direction,phase_speed_m_s,purity,"
-             "mesh_scale,file"]
-    contact = ["index,theta_deg,re_psi_theta,im_psi_theta,abs_psi_theta"]
+             "mesh_scale,file,axial_order"]
+    tube = ops.levels > 1  # a finite 3D tube: the contact surface in rings
+    contact = ["index," + ("z_rel," if tube else "")
+               + "theta_deg,re_psi_theta,im_psi_theta,abs_psi_theta"]
     files = []
     for n, i in enumerate(order, start=1):
         m = res.modes[i]
-        theta, psi_theta = _gather_contact(comm, ops, res.shapes[i])
+        theta, z_rel, psi_theta = _contact_values(comm, ops, res.shapes[i])
         u, psi_theta = _normalise(_displacement(ops, problem, res.shapes[i]), psi_theta)
         name = f"mode_{n:02d}.bp"
         _write_vtx(problem, out / name, u, m.frequency_hz)
         files.append(name)
         table.append(f"{n},{m.frequency_hz:.6g},{m.growth_rate:.6g},{m.zeta:.6g},{m.k},"
                      f"{m.direction},{m.phase_speed_m_s:.6g},{m.purity:.4f},"
-                     f"{str(m.mesh_scale).lower()},{name}")
-        contact += [f"{n},{math.degrees(t):.6f},{p.real:.8g},{p.imag:.8g},{abs(p):.8g}"
-                    for t, p in zip(theta, psi_theta, strict=True)]
+                     f"{str(m.mesh_scale).lower()},{name},{m.axial_order}")
+        contact += [f"{n}," + (f"{z:.6f}," if tube else "")
+                    + f"{math.degrees(t):.6f},{p.real:.8g},{p.imag:.8g},{abs(p):.8g}"
+                    for z, t, p in zip(z_rel, theta, psi_theta, strict=True)]
     if comm.rank == 0:
         atomic_write_text(out / "modes.csv", "\n".join(table) + "\n")
         atomic_write_text(out / "contact.csv", "\n".join(contact) + "\n")
