@@ -223,11 +223,6 @@ class ContactLaw:
         """R Omega dt, the distance the cylinder's surface travels in one step [m]."""
         return self.surface_speed * self.dt
 
-    @property
-    def nodal_coulomb(self) -> bool:
-        """The plain bound f p_i: nodal, not regularised (the CUDA kernel's only one)."""
-        return self.filter is SpatialFilter.NODAL and not self.regularisation.code
-
     def kernel_bound(self) -> tuple[int, float, float]:
         """(code, rate_slip, rate_base) of the bound for the compiled kernels
         (``Regularisation``); ValueError for a bound they do not have (a filtered one, a
