@@ -64,8 +64,8 @@ class SceneColumn:
             p = self.steady.pressure
             steady_pressure = comm.allreduce(float(p.sum())) / comm.allreduce(p.size)
         # the scheme registry, asked once: the step (refused above the scheme's limit), the
-        # stepper, the contact step and the work observers; after the steady solve, as the
-        # implicit scheme's factorisation always was (the parallel solves in the same order)
+        # stepper, the contact step and how its kernel records; after the steady solve, as
+        # the implicit scheme's factorisation always was (the parallel solves in the same order)
         parts = for_scene(scene).build(self.problem, scene, self.omega_max)
         self.dt, self.dt_crit = parts.dt, parts.dt_crit
         self.stepper, self.projection = parts.stepper, parts.contact
