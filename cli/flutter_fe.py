@@ -321,8 +321,10 @@ def _tube_3d_problem(args: argparse.Namespace, scene: Scene) -> str | None:
     length = scene.geometry.length
     layers = tube_axial_layers(scene)
     dofs = 3.0 * tube_nodes(scene) * (layers + 1)
-    if dofs > MAX_3D_DOFS:
-        return (f"length {length:g} m: the 3D tube would have about {dofs:.3g} dofs, "
+    if not dofs <= MAX_3D_DOFS:  # an overflowed count too
+        size = (f" would have about {dofs:.3g} dofs" if math.isfinite(dofs)
+                else "'s dof count overflows")
+        return (f"length {length:g} m: the 3D tube{size}, "
                 f"above the {MAX_3D_DOFS:.0e} that a shift-and-invert CEA factorises here; "
                 "use a smaller --length, --n-axial or mesh.n_inner")
     arc = 2 * math.pi * scene.geometry.R / scene.mesh.n_inner  # a cell's width at r = R
