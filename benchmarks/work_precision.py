@@ -78,7 +78,8 @@ def run_point(scheme: str, n: int, fraction: float, extra: tuple[str, ...] = (),
     t0 = time.perf_counter()
     sim = Simulation(sc, MPI.COMM_SELF)
     # physics may exceed the run's guard
-    sim.columns.initial_energy, sim.columns.energy_bound = 1.0, math.inf
+    guard = sim.columns.sampler.guard
+    guard.initial[:], guard.bound[:] = 1.0, math.inf
     t1 = time.perf_counter()
     try:  # a non-finite energy ends the run "diverged"; a failed solve raises
         failed = sim.message if sim.proceed() == "diverged" else ""
