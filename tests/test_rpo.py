@@ -442,3 +442,28 @@ def test_a_root_that_the_map_does_not_repeat_is_no_orbit():
     assert orbit_verdict(root, 6 * 6.3e-11, 1e-10, 0.078) == (True, "converged")
     stalled = SimpleNamespace(converged=False, residual=3.7e-3, message="stagnated")
     assert orbit_verdict(stalled, 1e-3, 1e-10, 0.1) == (False, "stagnated")
+
+
+def test_the_rpo_screen_of_a_census_start_and_its_line(census_start):
+    """``rpo_screen`` (the census's screen of a two-generator member: no Newton) on a census
+    start with two generators given: T = 1/|f₂ − (k₂/k₁) f₁| and s = 2π f₁T/k₁ exactly, p =
+    round(T/Δt) steps, the three norms finite and non-negative (the smoke state moves, so the
+    residual over T is not 0); its census line names them. A screen that cannot run (one
+    generator) says why and never raises."""
+    from stickslip.studies.attractors.certify import rpo_line
+    from stickslip.studies.rpo.certificate import rpo_screen
+
+    generators = [{"k": 4, "frequency_hz": 800.0}, {"k": 5, "frequency_hz": 1500.0}]
+    screen = rpo_screen(census_start, generators)
+    T = 1.0 / abs(1500.0 - 5 / 4 * 800.0)
+    assert screen["period_s"] == pytest.approx(T, rel=1e-15)
+    assert screen["shift_rad"] == pytest.approx(2 * math.pi * 800.0 * T / 4, rel=1e-15)
+    assert screen["steps"] >= 1
+    for key in ("residual", "residual_two_periods", "commutation_defect"):
+        assert math.isfinite(screen[key]) and screen[key] >= 0.0, key
+    assert screen["residual"] > 0.0
+    line = rpo_line(screen)
+    assert line.startswith("RPO screen: half-node commutation defect ") and line.endswith(
+        "over 2T")
+    bad = rpo_screen(census_start, generators[:1])
+    assert "ValueError" in bad["message"] and rpo_line(bad).startswith("RPO screen: ValueError")

@@ -7,6 +7,11 @@
 * **persistence**: the largest change of the dominant celerity and of the listed shares
   between the two consecutive windows of each start (every row of a member is stationary by
   its class; the numbers say by how much);
+* a member of two generators, the second moving in the first one's frame, gets an **RPO
+  screen**
+  (``studies.rpo.rpo_screen``, no Newton): its half-node commutation defect and its
+  residuals over T and 2T at the generators' guess; a defect well above round-off makes it a
+  torus of the scheme's map, not an exact RPO (docs/theory/rpo.md);
 * a **rigid wave** (one component) is also handed to the direct solver (``certify`` below):
   one Newton solve at the run's step, and its stability; an unstable one is no attractor
   (``failures``, ``census.answer_of``). The Δt → 0 ladder runs only with ``dt_limit``
@@ -63,6 +68,7 @@ from stickslip.studies.attractors.features import (
     differences,
     window_features,
 )
+from stickslip.studies.rpo.certificate import rpo_screen
 from stickslip.studies.rundir import continue_batch
 from stickslip.studies.rundir.readers import ReadError
 
@@ -152,6 +158,12 @@ def certify_member(rows: list[dict], *, dt_limit: bool = False,
     if out["rigid"]:
         out["direct"] = certify(Path(rows[0]["run_dir"]), dt_limit=dt_limit, window=window)
         out["stable"] = out["direct"].get("stable")
+    elif later:  # two generators that move against each other: an RPO or a torus
+        lattice = later[0].lattice(False)
+        if len(lattice.generators) == 2 and lattice.moving:
+            named = [{"k": g.k, "frequency_hz": g.frequency_hz}
+                     for g in (lattice.generators[0], lattice.moving[0])]
+            out["rpo"] = rpo_screen(Path(rows[0]["run_dir"]), named)
     out["kick"] = "not run"
     return _plain(out)
 
@@ -302,10 +314,21 @@ def member_line(cert: dict | None) -> str:
                      f", shares {_pct_abs(windows['share'])})")
     if cert.get("rigid"):
         parts.append(certificate_line(cert.get("direct")))
+    if isinstance(cert.get("rpo"), dict):
+        parts.append(rpo_line(cert["rpo"]))
     kick = cert.get("kick")
     if isinstance(kick, dict):
         parts.append(kick_line(kick))
     return "; ".join(parts)
+
+
+def rpo_line(screen: dict) -> str:
+    """One short phrase for a two-generator member's RPO screen (``rpo_screen``)."""
+    if "commutation_defect" not in screen:
+        return f"RPO screen: {screen.get('message', 'not run')}"
+    return (f"RPO screen: half-node commutation defect {screen['commutation_defect']:.2g}, "
+            f"residual {screen['residual']:.2g} over T, {screen['residual_two_periods']:.2g} "
+            "over 2T")
 
 
 def kick_line(kick: dict) -> str:

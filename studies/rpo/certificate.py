@@ -42,8 +42,8 @@ from stickslip.studies.rpo.floquet import floquet_multipliers
 from stickslip.studies.rpo.newton import newton_krylov_hookstep
 from stickslip.studies.rpo.orbit import Guess, OrbitProblem, Start, start_from_run
 
-__all__ = ["period_and_shift", "orbit_guess", "rpo_certificate", "orbit_samples",
-           "orbit_components", "solve_orbit"]
+__all__ = ["period_and_shift", "orbit_guess", "rpo_certificate", "rpo_screen",
+           "orbit_samples", "orbit_components", "solve_orbit"]
 
 SHARE_LISTED = 0.10  #: an orbit line is listed from this share of the largest
 #: Newton's root is an orbit when its residual over two periods is at most this many times
@@ -172,6 +172,28 @@ def orbit_verdict(result, r2: float, tol: float, defect: float) -> tuple[bool, s
     return False, (f"Newton's root (residual {result.residual:.2g}) is no orbit of the scheme: "
                    f"over two periods its residual is {r2:.2g} (commutation defect "
                    f"{defect:.2g}): an invariant torus of the map, not a periodic orbit")
+
+
+def rpo_screen(run_dir: str | Path, generators: list[dict]) -> dict:
+    """What a two-generator census member is on the mesh, cheaply (three flows of T, no
+    Newton): at the state where ``run_dir``'s checkpoint stands, the generators' guess T, s
+    (``period_and_shift``), the residuals ‖R₋ₛ F_T x − x‖ and ‖R₋₂ₛ F_{2T} x − x‖ (relative
+    RMS of the state, as ``rpo_certificate``'s) and the half-node ``commutation_defect``.
+    A defect well above round-off makes the state an invariant torus of the scheme's map,
+    not an exact RPO: Newton's roots of R₋ₛ F_T x = x then fail the two-period check by
+    about the defect (docs/theory/rpo.md). Never raises: ``message`` says why it is
+    missing."""
+    try:
+        start = start_from_run(run_dir)
+        period, shift = period_and_shift(generators)
+        problem = OrbitProblem(start, period, shift)
+        guess = problem.guess
+        return {"period_s": period, "shift_rad": shift, "steps": problem.steps,
+                "residual": float(np.linalg.norm(problem.residual(guess))),
+                "residual_two_periods": two_period_residual(problem, guess),
+                "commutation_defect": commutation_defect(problem, guess)}
+    except Exception as err:  # noqa: BLE001 - a screen that cannot run is reported
+        return {"message": f"{type(err).__name__}: {err}"}
 
 
 def solve_orbit(problem: OrbitProblem, *, tol: float = 1e-10, max_iter: int = 20,
