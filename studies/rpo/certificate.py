@@ -148,12 +148,15 @@ def _differences(lines: list[dict], given: list[dict]) -> list[dict]:
     return out
 
 
-def commutation_defect(problem: OrbitProblem, guess: Guess) -> float:
-    """‖F_T(R_{Δφ/2} ξ) − R_{Δφ/2} F_T(ξ)‖ (module docstring)."""
+def guess_norms(problem: OrbitProblem, guess: Guess) -> tuple[float, float]:
+    """(‖R₋ₛ F_T(ξ) − ξ‖, the commutation defect ‖F_T(R_{Δφ/2} ξ) − R_{Δφ/2} F_T(ξ)‖) at
+    ``guess`` (module docstring): two flows of T, F_T(ξ) shared."""
+    flowed = problem.flow(guess.xi, guess.period)
+    residual = problem.rotate(flowed, -guess.shift) - guess.xi
     half = math.pi / problem.rotation.count
     a = problem.flow(problem.rotate(guess.xi, half), guess.period)
-    b = problem.rotate(problem.flow(guess.xi, guess.period), half)
-    return float(np.linalg.norm(a - b))
+    return float(np.linalg.norm(residual)), float(np.linalg.norm(a - problem.rotate(flowed,
+                                                                                      half)))
 
 
 def two_period_residual(problem: OrbitProblem, orbit: Guess) -> float:
@@ -175,10 +178,11 @@ def orbit_verdict(result, r2: float, tol: float, defect: float) -> tuple[bool, s
 
 
 def rpo_screen(run_dir: str | Path, generators: list[dict]) -> dict:
-    """What a two-generator census member is on the mesh, cheaply (three flows of T, no
-    Newton): at the state where ``run_dir``'s checkpoint stands, the generators' guess T, s
+    """What a two-generator census member is on the mesh, cheaply (four periods of flow,
+    no Newton): at the state where ``run_dir``'s checkpoint stands, the generators' guess T, s
     (``period_and_shift``), the residuals ‖R₋ₛ F_T x − x‖ and ‖R₋₂ₛ F_{2T} x − x‖ (relative
-    RMS of the state, as ``rpo_certificate``'s) and the half-node ``commutation_defect``.
+    RMS of the state, as ``rpo_certificate``'s) and the half-node commutation defect
+    (``guess_norms``).
     A defect well above round-off makes the state an invariant torus of the scheme's map,
     not an exact RPO: Newton's roots of R₋ₛ F_T x = x then fail the two-period check by
     about the defect (docs/theory/rpo.md). Never raises: ``message`` says why it is
@@ -187,11 +191,11 @@ def rpo_screen(run_dir: str | Path, generators: list[dict]) -> dict:
         start = start_from_run(run_dir)
         period, shift = period_and_shift(generators)
         problem = OrbitProblem(start, period, shift)
-        guess = problem.guess
+        residual, defect = guess_norms(problem, problem.guess)
         return {"period_s": period, "shift_rad": shift, "steps": problem.steps,
-                "residual": float(np.linalg.norm(problem.residual(guess))),
-                "residual_two_periods": two_period_residual(problem, guess),
-                "commutation_defect": commutation_defect(problem, guess)}
+                "residual": residual,
+                "residual_two_periods": two_period_residual(problem, problem.guess),
+                "commutation_defect": defect}
     except Exception as err:  # noqa: BLE001 - a screen that cannot run is reported
         return {"message": f"{type(err).__name__}: {err}"}
 
@@ -230,8 +234,7 @@ def rpo_certificate(run_dir: str | Path, generators: list[dict], *,
         shift = 2.0 * math.pi * nodes / start.scene.mesh.n_inner
     guess_t, guess_s = orbit_guess(generators, period, shift)
     problem = OrbitProblem(start, guess_t, guess_s, hold_shift=nodes is not None)
-    r0 = float(np.linalg.norm(problem.residual(problem.guess)))
-    defect = commutation_defect(problem, problem.guess)
+    r0, defect = guess_norms(problem, problem.guess)
     result, orbit = solve_orbit(problem, tol=tol, max_iter=max_iter, log=log)
     r2 = two_period_residual(problem, orbit)
     converged, message = orbit_verdict(result, r2, tol, defect)
