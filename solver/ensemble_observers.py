@@ -18,7 +18,12 @@ import numpy as np
 
 from stickslip.solver.columns import SceneRecords
 from stickslip.solver.errors import EnergyGuard
-from stickslip.solver.observers import ContactCircle, ProbeChoice, gather_probes
+from stickslip.solver.observers import (
+    ContactCircle,
+    ProbeChoice,
+    blas_energies,
+    gather_probes,
+)
 
 if TYPE_CHECKING:  # pragma: no cover
     from stickslip.solver.ensemble import BatchedExplicit
@@ -558,13 +563,11 @@ class BatchRecorder:
         self.polar_rows = self.n
 
     def _rank_sums(self, e: np.ndarray) -> None:
-        """A scene over ranks: this rank's 2 x kinetic and 2 x strain energy, BLAS dots over
-        its owned dofs (as ``solver.observers.SteppedColumn.sum_energies``)."""
+        """A scene over ranks: this rank's 2 x kinetic and 2 x strain energy
+        (``solver.observers.blas_energies``, as a stepper that is no batch sums them)."""
         it = self.integ
-        v, u = it.v[:, 0], it.u_prev[:, 0]
-        np.multiply(v, self.mass[:, 0], out=self.kin_scratch)
-        e[0, 0] = float(np.dot(self.kin_scratch, v))
-        e[0, 1] = float(np.dot(u, it.ku[:, 0]))
+        e[0, :2] = blas_energies(it.v[:, 0], self.mass[:, 0], it.u_prev[:, 0], it.ku[:, 0],
+                                 self.kin_scratch)
 
     def _add_over_ranks(self, e: np.ndarray) -> None:
         """The energy row (1, 6) summed over the ranks, in place (every rank has it)."""

@@ -349,6 +349,14 @@ class ContinuedRecords:
         return out
 
 
+def blas_energies(v: np.ndarray, mass: np.ndarray, u: np.ndarray, ku: np.ndarray,
+                  scratch: np.ndarray) -> tuple[float, float]:
+    """(v · M v, u · K u): twice the kinetic and the strain energy over this rank's owned
+    dofs, BLAS dots (``scratch`` takes M v: no allocation)."""
+    np.multiply(v, mass, out=scratch)
+    return float(np.dot(scratch, v)), float(np.dot(u, ku))
+
+
 class SteppedColumn:
     """A one-scene stepper that is no batch (``Newmark``, ``DampedNewmark``,
     ``ImplicitNewmark``) and its contact step, seen as a batch of one by the records
@@ -401,11 +409,9 @@ class SteppedColumn:
         self.damping_work = self.damping.at_sample(self.stepper)
 
     def sum_energies(self) -> bool:
-        """energy = v · M v and u · K u of level n, BLAS dots over this rank's dofs."""
+        """energy = v · M v and u · K u of level n (``blas_energies``)."""
         st = self.stepper
-        np.multiply(st.v, self.mass, out=self.kin_scratch)
-        self.energy[0, 0] = float(np.dot(self.kin_scratch, st.v))
-        self.energy[1, 0] = float(np.dot(st.u_prev, st.ku))
+        self.energy[:, 0] = blas_energies(st.v, self.mass, st.u_prev, st.ku, self.kin_scratch)
         return True
 
     def work_sums(self) -> np.ndarray:
