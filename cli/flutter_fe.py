@@ -358,23 +358,22 @@ def _analyse(args: argparse.Namespace, scene: Scene, comm: MPI.Comm, fs: np.ndar
                 f"({f_top:.4g} Hz, Gershgorin bound): no mode lies there, and the "
                 f"eigensolver's shift fails; use --fmax-hz <= {f_top:.4g}")
     ops = build_operators(problem, args.mass, friction)
-    # --mode-plot keeps the drawn modes' vectors only (a 3D tube's are large)
-    keep = args.mode_count if args.mode_plot else bool(args.modes)
+    # --modes writes every listed unstable mode; --mode-plot alone keeps only the vectors it
+    # draws (a 3D tube's are large)
+    keep = True if args.modes else (args.mode_count if args.mode_plot else False)
     res = complex_eigenvalue_analysis(problem, None, args.fmax_hz, ops=ops, shapes=keep)
     res.timings["mesh+assembly"] = t_build
     sweep = None
     if fs is not None:
         sweep = [complex_eigenvalue_analysis(problem, float(f), args.fmax_hz, ops=ops)
                  for f in fs]
-    written = None
+    written, drawn = None, []
+    where = {id(m): i for i, m in enumerate(res.modes)}  # a mode's index, for its shape
     if args.modes:
         resolved, mesh = _listed(res, args.top)
-        where = {id(m): i for i, m in enumerate(res.modes)}
         written = write_mode_shapes(problem, ops, res, args.modes,
                                     [where[id(m)] for m in resolved + mesh])
-    drawn = []
     if args.mode_plot:
-        where = {id(m): i for i, m in enumerate(res.modes)}
         drawn = [(m, contact_grid(ops, res.shapes[where[id(m)]]))
                  for m in res.unstable()[:args.mode_count] if where[id(m)] in res.shapes]
     ops.destroy()

@@ -124,13 +124,19 @@ def test_flutter_fe_modes_writes_a_3d_tubes_shapes_ring_by_ring(tmp_path, capsys
     modes.csv with the axial order m (0: every listed mode is a plane-strain one with roller
     ends), and contact.csv with ψ_θ on every ring (5 rings x 32 angles per mode), normalised
     to max |ψ_θ| = 1 with ψ_θ real there; an m = 0 mode's rings are equal (to 1e-8 of the
-    peak, as ``contact_grid`` above)."""
+    peak, as ``contact_grid`` above). With ``--mode-plot --mode-count 1`` beside it, every
+    listed mode is still written (the plot keeps its one vector, the shapes all of theirs)."""
     out_dir = tmp_path / "modes"
     tube = ["--length", "0.05", "--n-axial", "4", "--ends", "roller"]
     assert main([*BASE, *tube, "--top", "2", "--modes", str(out_dir)]) == 0
     capsys.readouterr()
     rows = [r.split(",") for r in (out_dir / "modes.csv").read_text().splitlines()]
-    assert rows[0][-1] == "axial_order" and len(rows) >= 2
+    assert rows[0][-1] == "axial_order" and len(rows) >= 3  # the header, 2 or more modes
+    both = tmp_path / "both"
+    assert main([*BASE, *tube, "--top", "2", "--modes", str(both), "--mode-plot",
+                 str(tmp_path / "m.png"), "--mode-count", "1"]) == 0
+    capsys.readouterr()
+    assert (both / "modes.csv").read_text() == (out_dir / "modes.csv").read_text()
     assert all(r[-1] == "0" and (out_dir / r[9]).is_dir() for r in rows[1:])
     table = np.genfromtxt(out_dir / "contact.csv", delimiter=",", names=True)
     one = table[table["index"] == 1]
