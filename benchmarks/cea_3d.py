@@ -28,9 +28,8 @@ import time
 from mpi4py import MPI
 
 from stickslip.solver.problem import build_problem, tube_problem_3d
-from stickslip.solver.scene import load_scene
+from stickslip.solver.scene import axial_layers, load_scene
 from stickslip.studies.flutter_fe.cea import complex_eigenvalue_analysis
-from stickslip.studies.resources import axial_layers
 
 
 def modes_text(result, top: int) -> str:  # noqa: ANN001 - a CEAResult

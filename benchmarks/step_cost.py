@@ -12,6 +12,10 @@ step): loop/bare <= 1.3 at N = 132 and <= 1.1 at N >= 528. One process, one core
 gives one row per kernel, side by side; the first steps are taken before timing and their
 wall time (numba compiles or loads its on-disk cache) printed. With the fused kernel on one
 rank the loop advances between two samples in one compiled call (``SceneExplicit.advance``).
+
+``--tube L`` measures the finite tube besides (``mesh.dim = 3``, length L m, free ends,
+numpy: its contact surface has the numpy step) and its plane-strain cross-section, both in
+quadrilaterals, and prints the loop's cost per dof of each and their ratio (3D / 2D).
 """
 
 from __future__ import annotations
@@ -46,13 +50,14 @@ def bare_loop(problem, steps: int) -> float:
     return (time.perf_counter() - t0) / steps
 
 
-def measure(n_inner: int, steps: int, kernel: str, repeats: int) -> dict:
+def measure(n_inner: int, steps: int, kernel: str, repeats: int,
+            extra: tuple[str, ...] = ()) -> dict:
     """Bare loop, step alone and full loop, ``repeats`` interleaved blocks of ``steps`` steps
     each; the minimum per block kind (the least-disturbed block: on a shared machine other
     jobs only ever add time)."""
     scene = load_scene("scenes/figure3_n132.toml",
                        [f"mesh.n_inner={n_inner}", "output.progress=false",
-                        f'time.kernel="{kernel}"'])
+                        f'time.kernel="{kernel}"', *extra])
     sim = Simulation(scene, MPI.COMM_SELF)
     integ = sim.integrator
     if 2 * repeats * steps + 16 > sim.planned_steps():
@@ -87,7 +92,12 @@ def main() -> None:
     ap.add_argument("--repeats", type=int, default=5, help="interleaved blocks per kind")
     ap.add_argument("--kernel", choices=("auto", "numpy", "numba"), nargs="+",
                     default=["auto"], help="one row per kernel and mesh, side by side")
+    ap.add_argument("--tube", type=float, default=0.0,
+                    help="also the 3D tube of this length (m) against its cross-section")
     args = ap.parse_args()
+    if args.tube > 0.0:
+        tube_rows(args)
+        return
     print(f"{'N':>5} {'dofs':>7} {'kernel':>6} {'1st call s':>10} {'bare us':>9} {'step us':>9} "
           f"{'loop us':>9} {'step/bare':>9} {'target':>7} {'loop/bare':>9}")
     for n, kernel in ((n, k) for n in args.n for k in args.kernel):
@@ -98,6 +108,21 @@ def main() -> None:
               f" {tgt:7.1f} {r['loop_us'] / r['bare_us']:9.2f}")
     rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     print(f"peak RSS {rss:.0f} MB")
+
+
+def tube_rows(args: argparse.Namespace) -> None:
+    """The loop's cost per dof of the 3D tube against its plane-strain cross-section, both
+    numpy and in quadrilaterals, measured side by side (``--tube``)."""
+    plane = ("mesh.cell=quadrilateral",)
+    tube = (*plane, "mesh.dim=3", f"geometry.length={args.tube}", "boundary.ends=free")
+    print(f"{'N':>5} {'case':>6} {'dofs':>7} {'loop us':>9} {'loop ns/dof':>11}")
+    for n in args.n:
+        rows = {name: measure(n, args.steps, "numpy", args.repeats, extra)
+                for name, extra in (("2D", plane), ("3D", tube))}
+        per_dof = {name: 1e3 * r["loop_us"] / r["dofs"] for name, r in rows.items()}
+        for name, r in rows.items():
+            print(f"{n:5d} {name:>6} {r['dofs']:7d} {r['loop_us']:9.1f} {per_dof[name]:11.2f}")
+        print(f"{n:5d} {'3D/2D':>6} {'':>7} {'':>9} {per_dof['3D'] / per_dof['2D']:11.2f}")
 
 
 if __name__ == "__main__":

@@ -16,7 +16,7 @@ import numpy as np
 from stickslip.cli.checks import output_file_problem
 from stickslip.cli.commands import command_help
 from stickslip.solver.atomic import atomic_write_text
-from stickslip.solver.scene import SceneError, load_scene
+from stickslip.solver.scene import SceneError, load_scene, tube_axial_layers
 from stickslip.solver.scene.sections import END_NAMES
 from stickslip.studies.flutter_fe.cea import (
     CEAMode,
@@ -39,7 +39,7 @@ from stickslip.studies.flutter_fe.plots import (
 from stickslip.studies.flutter_fe.references import reduced_model_flutter
 from stickslip.studies.flutter_fe.shapes import modes_dir_problem, write_mode_shapes
 from stickslip.studies.flutter_fe.tables import csv_text, lock_in_points, mode_rows, sweep_rows
-from stickslip.studies.resources import tube_axial_layers, tube_nodes
+from stickslip.studies.resources import tube_nodes
 
 if TYPE_CHECKING:
     from mpi4py import MPI

@@ -12,7 +12,7 @@ from pathlib import Path
 
 from stickslip.cli.commands import command_help
 from stickslip.postprocess.plotting import DEFAULT_WINDOW, parse_window, plot_run
-from stickslip.solver.scene import SceneError, load_scene, require_plane_strain
+from stickslip.solver.scene import SceneError, load_scene
 from stickslip.studies.output import output_root
 from stickslip.studies.resources import ResourceError
 from stickslip.studies.rundir import EXIT_CODES, RunDirError, run_scene
@@ -76,7 +76,6 @@ def _run(args: argparse.Namespace) -> int:
     comm = MPI.COMM_WORLD
     try:
         scene = load_scene(args.scene, args.overrides)
-        require_plane_strain(scene)
     except (SceneError, FileNotFoundError) as err:
         if comm.rank == 0:
             print(f"error: {err}", file=sys.stderr)

@@ -21,6 +21,7 @@ __all__ = [
     "contact_nodes",
     "radial_component",
     "radial_unit",
+    "ring_first",
     "tangential_component",
     "tangential_unit",
 ]
@@ -79,10 +80,26 @@ class ContactNodes:
     n_global: int
 
 
+def ring_first(surface: ContactNodes, ring: ContactNodes) -> ContactNodes:
+    """The nodes of ``surface`` with those of ``ring`` (a subset) first, in the ring's
+    order, then the others in their own: so arrays over the surface hold the ring's values
+    as their first ``ring.n_owned`` entries."""
+    rest = np.flatnonzero(~np.isin(surface.nodes, ring.nodes))
+    where = {int(node): j for j, node in enumerate(surface.nodes)}
+    order = np.concatenate([[where[int(node)] for node in ring.nodes], rest]).astype(np.intp)
+    taken = {name: getattr(surface, name)[order] for name in
+             ("nodes", "dofs_x", "dofs_y", "theta", "cos_t", "sin_t", "ds_weight",
+              "global_node_index")}
+    return ContactNodes(**taken, n_owned=surface.n_owned, n_global=surface.n_global)
+
+
 def contact_nodes(
-    V: dolfinx.fem.FunctionSpace, facet_tags: dolfinx.mesh.MeshTags, tag: int
+    V: dolfinx.fem.FunctionSpace, facet_tags: dolfinx.mesh.MeshTags, tag: int,
+    z_level: float | None = None,
 ) -> ContactNodes:
-    """Owned nodes of the vector Lagrange space ``V`` on the facets ``tag`` (computed once)."""
+    """Owned nodes of the vector Lagrange space ``V`` on the facets ``tag`` (computed once);
+    with ``z_level`` those of the ring z = ``z_level`` of a 3D contact surface only (its
+    nodes lie on their axial levels: ``meshes.tube3d``)."""
     msh = V.mesh
     comm = msh.comm
     fdim = msh.topology.dim - 1
@@ -91,6 +108,9 @@ def contact_nodes(
     n_local = V.dofmap.index_map.size_local
     blocks = dolfinx.fem.locate_dofs_topological(V, fdim, facet_tags.find(tag))
     nodes = np.sort(blocks[blocks < n_local]).astype(np.int32)
+    if z_level is not None:
+        z = V.tabulate_dof_coordinates()[nodes, 2]
+        nodes = nodes[np.abs(z - z_level) <= 1e-9 * max(1.0, abs(z_level))]
     xy = V.tabulate_dof_coordinates()[nodes, :2]
     theta = np.arctan2(xy[:, 1], xy[:, 0])
     theta[theta < -1e-12] += 2.0 * np.pi

@@ -75,21 +75,26 @@ def static_sliding(
     material: Material,
     delta_m: float,
     f: float,
+    held: NDArray[np.int32] | None = None,
 ) -> StaticSliding:
-    """Solve the discrete steady sliding problem (mismatch ``delta_m`` = d [m], friction ``f``)."""
+    """Solve the discrete steady sliding problem (mismatch ``delta_m`` = d [m], friction
+    ``f``), u = 0 on the outer boundary and at the owned local dofs ``held`` (a 3D tube's
+    ends, ``solver.problem.TubeProblem.end_held``)."""
     msh = V.mesh
     comm = msh.comm
     fdim = msh.topology.dim - 1
     msh.topology.create_connectivity(fdim, msh.topology.dim)
     outer = dolfinx.fem.locate_dofs_topological(V, fdim, tube.facet_tags.find(OUTER_TAG))
-    bc = dolfinx.fem.dirichletbc(np.zeros(2, dtype=dolfinx.default_scalar_type), outer, V)
+    bs = V.dofmap.index_map_bs
+    bc = dolfinx.fem.dirichletbc(np.zeros(bs, dtype=dolfinx.default_scalar_type), outer, V)
     u_, v_ = ufl.TrialFunction(V), ufl.TestFunction(V)
     K = dolfinx.fem.petsc.assemble_matrix(dolfinx.fem.form(stiffness(u_, v_, material)), bcs=[bc])
     K.assemble()
+    rstart = V.dofmap.index_map.local_range[0] * bs
+    if held is not None and comm.allreduce(int(np.size(held))):
+        K.zeroRowsColumns((rstart + np.asarray(held)).astype(PETSc.IntType), diag=1.0)
 
     cn = contact_nodes(V, tube.facet_tags, INNER_TAG)
-    bs = V.dofmap.index_map_bs
-    rstart = V.dofmap.index_map.local_range[0] * bs
     rows_x = (rstart + cn.dofs_x).astype(PETSc.IntType)
     c, s = cn.cos_t, cn.sin_t
     T = node_matrix(K, rows_x, cn.dofs_x, (c, -s, s, c))  # u = T ũ, ũ = (ũ_r, ũ_θ)

@@ -12,7 +12,9 @@
   coordinate, u_r − d, u_θ (zones shaded, time order), phase diagrams, and the contact
   pressures p, q when the run recorded nodal forces; reduced-model waves dashed;
 * ``isomap.png``: iso-values of u_r − d on the deformed tube (``postprocess.isomap``);
-* ``stress.png``: von Mises and contact pressure at the end (``postprocess.stressmap``).
+* ``stress.png``: von Mises and contact pressure at the end (``postprocess.stressmap``);
+* ``surface.png`` (a 3D tube, instead of the two maps of the cross-section): its contact
+  surface unrolled in (θ, z) (``postprocess.surface_map``).
 
 Colours and units come from ``postprocess.style`` (mm, MPa, m/s, Hz, ms, J/m).
 ``phase_family`` overlays several runs' phase diagrams like the paper's Figures 4-6;
@@ -46,6 +48,7 @@ from stickslip.postprocess.style import (
     status_colorbar,
     wave_title,
 )
+from stickslip.postprocess.surface_map import surface_figure
 from stickslip.semianalytic.coefficients import coefficients, gamma_from_physical, reaction_scale
 from stickslip.semianalytic.waves import find_waves
 
@@ -123,6 +126,9 @@ def plot_run(run_dir: Path, window: tuple[float, str] | None | str = DEFAULT_WIN
     if run.summary.get("regime") not in (None, "steady-sliding") \
             and run.summary.get("direction") != "standing":  # one period of a travelling wave
         out.append(plot_uvpq(run_dir, run_dir / "uvpq.png"))
+    if (run_dir / "surface.npz").exists():  # a 3D tube: its contact surface unrolled
+        out.append(save_figure(surface_figure(run_dir, run.d), run_dir / "surface.png"))
+        return out
     if (run_dir / "final_field.npz").exists():
         out.append(isomap_pair([run_dir], run_dir / "isomap.png"))
     if has_stress(run_dir):

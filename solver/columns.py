@@ -205,23 +205,40 @@ def run_facts(run: SceneRun, scheme: dict) -> dict:
         "steady_pressure_pa": run.steady_mean_pressure,
         "scheme": scheme,
     }
+    unit = "J_per_m"  # plane strain: per unit length of the tube
+    surface = getattr(run.problem, "surface", None)  # a batch's shared problem has none
+    if surface is not None:
+        out["tube_3d"] = tube_3d_facts(run.problem)
+        unit = "J"  # the finite tube's whole energy
     data = run.recorder.arrays()
     if data["t"].size >= 4:  # as many samples as the wave analysis needs
-        out["energy"] = energy_balance(data["energies"])
+        out["energy"] = energy_balance(data["energies"], unit)
     return out
 
 
-def energy_balance(e: np.ndarray) -> dict[str, float]:
+def tube_3d_facts(problem) -> dict:
+    """What a 3D tube's summary says of it: its length, layers and ends, the contact
+    surface's nodes, and the axial level of the ring that the samples record."""
+    tube, comm = problem.tube, problem.comm
+    return {"length_m": tube.length, "n_axial": tube.n_axial,
+            "ends": problem.scene.boundary.ends,
+            "surface_nodes": int(comm.allreduce(problem.surface.nodes.size)),
+            "ring_z_m": tube.length / tube.n_axial * float(tube.n_axial // 2)}
+
+
+def energy_balance(e: np.ndarray, unit: str = "J_per_m") -> dict[str, float]:
     """The energy terms at the last sample and the residual of the balance
-    E(t) - E(0) = W_contact - W_damping (columns of ``solver.observers.ENERGY_FIELDS``)."""
+    E(t) - E(0) = W_contact - W_damping (columns of ``solver.observers.ENERGY_FIELDS``), in
+    ``unit`` (the keys' suffix: J per m of a plane-strain tube, J of a finite one)."""
     wd = e[:, 5] if e.shape[1] > 5 else np.zeros(e.shape[0])
-    return {
-        "initial_J_per_m": float(e[0, 0] + e[0, 1]),
-        "final_J_per_m": float(e[-1, 0] + e[-1, 1]),
-        "work_contact_J_per_m": float(e[-1, 2]),
-        "work_cylinder_J_per_m": float(e[-1, 3]),
-        "friction_dissipation_J_per_m": float(e[-1, 4]),
-        "damping_dissipation_J_per_m": float(wd[-1]),
-        "balance_residual_J_per_m": float(e[-1, 0] + e[-1, 1] - e[0, 0] - e[0, 1]
-                                          - (e[-1, 2] - e[0, 2]) + (wd[-1] - wd[0])),
+    terms = {
+        "initial": float(e[0, 0] + e[0, 1]),
+        "final": float(e[-1, 0] + e[-1, 1]),
+        "work_contact": float(e[-1, 2]),
+        "work_cylinder": float(e[-1, 3]),
+        "friction_dissipation": float(e[-1, 4]),
+        "damping_dissipation": float(wd[-1]),
+        "balance_residual": float(e[-1, 0] + e[-1, 1] - e[0, 0] - e[0, 1]
+                                  - (e[-1, 2] - e[0, 2]) + (wd[-1] - wd[0])),
     }
+    return {f"{name}_{unit}": value for name, value in terms.items()}

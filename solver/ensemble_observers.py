@@ -336,7 +336,7 @@ class BatchRecorder:
                  theta: np.ndarray, ds: np.ndarray, every: int, max_samples: int,
                  max_steps: int, probe_nodes: np.ndarray, probe_pc: np.ndarray,
                  probe_deg: np.ndarray, spool_dir=None, chunk: int = 16, circle=None,
-                 probe_slots: tuple[list[int], int] | None = None) -> None:
+                 probe_slots: tuple[list[int], int] | None = None, bs: int = 2) -> None:
         xp, B, m = integ.xp, integ.B, integ.m
         self.circle = circle if circle is not None and circle.comm.size > 1 else None
         self.probe_slots = probe_slots
@@ -346,7 +346,7 @@ class BatchRecorder:
         self.scratch = None  # (n, B), for the energies of steps the kernel did not sum
         self.perm = xp.asarray(np.asarray(perm, dtype=np.int64))
         self.theta, self.ds = theta, ds
-        pd = 2 * np.asarray(probe_nodes, dtype=np.int64)
+        pd = bs * np.asarray(probe_nodes, dtype=np.int64)  # bs dofs a node: 2, or 3 in 3D
         self.probe_x = pd  # the probes' x dofs
         self.probe_rows = xp.asarray(np.concatenate([pd, pd + 1]))  # x dofs, then y dofs
         self.probe_scratch = xp.zeros((2 * self.probe_rows.size, B))  # u rows, then v rows
@@ -716,7 +716,8 @@ def one_scene_records(source, stepper, problem, projection, probes_deg, every: i
         theta=circle.theta, ds=circle.ds, every=every, max_samples=n_steps // every + 2,
         max_steps=n_steps, probe_nodes=owned.index, probe_pc=owned.phase_conj,
         probe_deg=np.asarray(owned.angles), circle=circle,
-        probe_slots=(owned.slots, owned.n_probes) if several else None)
+        probe_slots=(owned.slots, owned.n_probes) if several else None,
+        bs=problem.V.dofmap.index_map_bs)
     source.keep_nodes(owned.index)
     source.full_state_at = rec.due
     stepper.attach(ProbeHook(rec))

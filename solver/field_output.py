@@ -101,7 +101,7 @@ class FieldOutput:
     def observe(self, stepper) -> str:
         with self.sim.profile.phase("output"):
             self.writer.write(stepper.time - stepper.dt, stepper.u_prev, stepper.v,
-                              self.sim.projection.out)
+                              self.sim.projection.surface_out)
         self.frames += 1
         return ""
 
@@ -116,7 +116,7 @@ def last_level_fields(sim) -> tuple[dict, dict]:
 
     stepper = sim.integrator
     values = FieldValues(sim.problem)
-    values.update(stepper.u_prev, stepper.v, sim.projection.out)
+    values.update(stepper.u_prev, stepper.v, sim.projection.surface_out)
     points = {"contact_pressure": values.pressure.x.array,
               "contact_shear": values.shear.x.array}
     dofs = values.stress[0].function_space.dofmap.list[: values.n_cells, 0]
@@ -130,8 +130,8 @@ def gather_final_field(problem, u: np.ndarray, comm, time_s: float,
     """Displacement ``u`` (owned dofs) on the whole tube, gathered to rank 0 (None elsewhere).
 
     VTK-ready arrays for iso-value maps: ``points`` (n, 3), ``cells`` (flat VTK topology
-    [nv, i0, ..., nv, ...]), ``cell_types``, ``u`` (n, 2) at the points. Each rank sends
-    its local cells; ghost points are duplicated, which is harmless for plotting.
+    [nv, i0, ..., nv, ...]), ``cell_types``, ``u`` (n, 2), or (n, 3) in 3D, at the points.
+    Each rank sends its local cells; ghost points are duplicated, which is harmless for plotting.
     ``point_data`` (values at the rank's local dofs of the scalar space, ghosts included)
     and ``cell_data`` (values at its owned cells) are gathered alongside, under their keys.
     """
@@ -141,7 +141,7 @@ def gather_final_field(problem, u: np.ndarray, comm, time_s: float,
     fn = problem.to_function(u)
     topology, cell_types, geometry = dolfinx.plot.vtk_mesh(problem.V)
     n_points = geometry.shape[0]
-    values = fn.x.array.reshape(-1, 2)[:n_points]
+    values = fn.x.array.reshape(-1, problem.V.dofmap.index_map_bs)[:n_points]
     extra = {k: np.asarray(v)[:n_points] for k, v in point_data.items()}
     extra.update(cell_data)
     pieces = comm.gather((topology, cell_types, geometry, values, extra), root=0)

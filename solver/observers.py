@@ -136,6 +136,59 @@ class EnergyAccumulator:
         return sums
 
 
+class SurfaceWork:
+    """``EnergyAccumulator`` on the finite tube's contact surface
+    (``solver.contact.surface.SurfaceContactProjection``): the same sums with the forces in
+    (x, y, z), and the friction's axial power besides its circumferential one,
+
+      friction_dissipation = work_cylinder - sum (r_theta,n Delta u_theta,n + r_z,n Delta u_z,n),
+
+    with the centred increment Delta u_n = (u_{n+1} - u_{n-1}) / 2."""
+
+    def __init__(self, projection, with_friction: bool, u0: np.ndarray) -> None:
+        self.p, self.with_friction = projection, with_friction
+        m = projection.dofs.shape[0]
+        self.u_prev = u0.take(projection.dofs)  # u_{n-1} at the surface's nodes, (x, y, z)
+        self.u_now = self.u_prev.copy()  # u_n
+        self.u_next = np.zeros((m, 3))  # u_{n+1}
+        self.du = np.zeros((m, 3))
+        self.du_polar = np.zeros((2, m))  # Delta u_r, Delta u_theta
+        self.work_contact = self.work_cylinder = self.friction_dissipation = 0.0
+
+    def state(self) -> dict[str, np.ndarray]:
+        """The checkpoint: u_n, u_{n+1} at the nodes and the three sums (after a step)."""
+        return {"u_prev": self.u_prev.copy(), "u_now": self.u_now.copy(),
+                "sums": np.array([self.work_contact, self.work_cylinder,
+                                  self.friction_dissipation])}
+
+    def restore(self, state: dict[str, np.ndarray]) -> None:
+        """Continue from ``state()``."""
+        self.u_prev[:] = state["u_prev"]
+        self.u_now[:] = state["u_now"]
+        self.work_contact, self.work_cylinder, self.friction_dissipation = (
+            float(x) for x in state["sums"])
+
+    def after_step(self, stepper) -> None:
+        """Accumulate the work of r_n with the centred increment (u_{n+1} - u_{n-1}) / 2."""
+        p, du = self.p, self.du
+        stepper.u.take(p.dofs, out=self.u_next, mode="clip")
+        np.subtract(self.u_next, self.u_prev, out=du)
+        self.work_contact += 0.5 * float(np.vdot(p.force, du))
+        if self.with_friction:
+            p.rotate(du, self.du_polar[0], self.du_polar[1])
+            out = p.surface_out
+            wt = 0.5 * (float(np.dot(out.r_t, self.du_polar[1]))
+                        + float(np.dot(p.r_z, du[:, 2])))
+            wc = float(out.r_t.sum()) * p.slide
+            self.work_cylinder += wc
+            self.friction_dissipation += wc - wt
+        self.u_prev, self.u_now, self.u_next = self.u_now, self.u_next, self.u_prev
+
+    def local_sums(self) -> np.ndarray:
+        """(work_contact, work_cylinder, friction_dissipation) on this rank's surface."""
+        return np.array([self.work_contact, self.work_cylinder, self.friction_dissipation])
+
+
 class DampingWork:
     """Work dissipated by the Kelvin-Voigt damping of ``DampedNewmark`` (scene ``[damping]``).
 
@@ -377,7 +430,7 @@ class SteppedColumn:
         self.stepper, self.contact, self.mass, self.work = stepper, contact, mass, work
         self.damping, self.damped = damping, damping is not None
         self.n, self.m = stepper.u.size, contact.node_index.size
-        self.cx = 2 * np.asarray(contact.node_index, dtype=np.int64)
+        self.cx = np.asarray(contact.nodes.dofs_x, dtype=np.int64)  # bs x the node
         self.phase_conj = contact.phase_conj
         self.active = np.ones(1, dtype=bool)
         self.columns = self  # the records' copies (``record_copies``)

@@ -8,7 +8,7 @@ Everything here is built once per run. The time loop (``solver.newmark``) then o
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import dolfinx
 import dolfinx.fem.petsc
@@ -18,11 +18,11 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from stickslip.forms.elasticity import Material, lumped_mass, stiffness
-from stickslip.forms.polar import ContactNodes, contact_nodes
+from stickslip.forms.polar import ContactNodes, contact_nodes, ring_first
 from stickslip.meshes.annulus import INNER_TAG, OUTER_TAG, TubeMesh, annulus_mesh
 from stickslip.meshes.tube3d import END0_TAG, END1_TAG, tube_mesh_3d
 from stickslip.meshes.user_mesh import resolve, user_mesh
-from stickslip.solver.scene import PLANE_STRAIN_ONLY, SCENES_DIR, Scene, SceneError
+from stickslip.solver.scene import SCENES_DIR, Scene, tube_axial_layers
 from stickslip.solver.scene.sections import ENDS
 
 
@@ -38,8 +38,18 @@ class TubeProblem:
     mass: np.ndarray  # lumped mass per owned dof
     inv_mass: np.ndarray  # 0 on clamped dofs
     clamped: np.ndarray  # owned local dof indices on the outer circle
-    nodes: ContactNodes
+    nodes: ContactNodes  # the contact circle; of a 3D tube, the ring at mid-length
     comm: MPI.Comm
+    #: A 3D tube's contact surface, every node (``solver.contact.surface``); None in 2D.
+    surface: ContactNodes | None = None
+    #: Owned dofs that the ends hold at 0 (``boundary.ends``; empty in 2D), besides the
+    #: outer surface's: the steady state holds them too.
+    end_held: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int32))
+
+    @property
+    def every_contact_node(self) -> ContactNodes:
+        """Every owned contact node: a 3D tube's ``surface``, else the circle ``nodes``."""
+        return self.nodes if self.surface is None else self.surface
 
     @property
     def n_owned(self) -> int:
@@ -105,7 +115,8 @@ class TubeProblem:
             # the product in eq. [1]'s order (the tube's starts keep their bits); 0 beyond xi R
             radial = np.where(r < xi * R, amplitude_of_theta(theta) * (xi**2 * R / r - r / R)
                               / (xi**2 - 1.0), 0.0)
-            return np.vstack([radial * x[0] / r, radial * x[1] / r])
+            xy = [radial * x[0] / r, radial * x[1] / r]
+            return np.vstack(xy if self.surface is None else [*xy, np.zeros_like(r)])
 
         fn = dolfinx.fem.Function(self.V)
         fn.interpolate(expr)
@@ -128,11 +139,13 @@ def cross_section(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD) -> TubeMesh:
 
 
 def build_problem(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD) -> TubeProblem:
-    """Mesh, P1/P2 space, stiffness matrix, lumped mass and contact nodes for ``scene``, the
-    plane-strain cross-section (a scene with ``mesh.dim = 3`` is refused in one line: its
-    tube is ``tube_problem_3d``'s, and the transient that builds this one is 2D only)."""
-    if scene.mesh.dim != 2:  # checked here, not handed back to solver.scene (the walk)
-        raise SceneError(PLANE_STRAIN_ONLY)
+    """Mesh, P1/P2 space, stiffness matrix, lumped mass and contact nodes for ``scene``: the
+    plane-strain cross-section, or with ``mesh.dim`` = 3 the finite tube its keys describe
+    (``tube_problem_3d``: ``geometry.length``, ``tube_axial_layers``, ``boundary.ends``)."""
+    if scene.mesh.dim == 3:
+        return tube_problem_3d(scene, length=scene.geometry.length,
+                               n_axial=int(tube_axial_layers(scene)),
+                               ends=scene.boundary.ends, comm=comm)
     return problem_on(scene, cross_section(scene, comm), comm)
 
 
@@ -147,7 +160,9 @@ def tube_problem_3d(scene: Scene, *, length: float, n_axial: int, ends: str = "r
     (tests/test_tube3d.py). The CEA (``studies.flutter_fe.build_operators``) couples the
     friction to the θ-rows only: about sliding along θ, the disc-shaped Coulomb cone adds
     a damping f λ₀/(ΩR) on the contact's z-dofs that it leaves out, so of a 3D tube it is
-    exact for the plane-strain modes alone."""
+    exact for the plane-strain modes alone. ``nodes`` is the ring of contact nodes at
+    z = L floor(n_axial / 2) / n_axial, ``surface`` every contact node, the ring's first
+    (``forms.polar.ring_first``)."""
     if ends not in ENDS:
         raise ValueError(f"ends = {ends!r}: use one of {', '.join(ENDS)}")
     if scene.mesh.degree != 1 or not scene.mesh.tube:
@@ -156,8 +171,15 @@ def tube_problem_3d(scene: Scene, *, length: float, n_axial: int, ends: str = "r
     g = scene.geometry
     tube = tube_mesh_3d(comm, R=g.R, xi=g.xi, length=length, n_inner=scene.mesh.n_inner,
                         n_axial=n_axial, n_radial=scene.mesh.n_radial)
-    return problem_on(scene, tube, comm, fixed=[(tag, ENDS[ends]) for tag in (END0_TAG,
-                                                                              END1_TAG)])
+    fixed = [(tag, ENDS[ends]) for tag in (END0_TAG, END1_TAG)]
+    problem = problem_on(scene, tube, comm, fixed=fixed)
+    z_mid = (length / n_axial) * float(n_axial // 2)  # on its level (tube3d._snap)
+    ring = contact_nodes(problem.V, tube.facet_tags, INNER_TAG, z_level=z_mid)
+    problem.surface, problem.nodes = ring_first(problem.nodes, ring), ring
+    held = [_tag_dofs(problem.V, tube.facet_tags, tag, parts) for tag, parts in fixed if parts]
+    end_held = np.unique(np.concatenate(held)) if held else np.zeros(0, dtype=np.int32)
+    problem.end_held = end_held[end_held < problem.n_owned].astype(np.int32)
+    return problem
 
 
 def problem_on(scene: Scene, tube, comm: MPI.Comm,  # noqa: ANN001 - TubeMesh or Tube3DMesh

@@ -34,6 +34,7 @@ from stickslip.solver.problem import build_problem, omega_max
 from stickslip.solver.scene import Scene
 from stickslip.solver.schemes.select import for_scene
 from stickslip.solver.steady import solve_steady_sliding
+from stickslip.solver.surface_samples import SurfaceSamples
 
 if TYPE_CHECKING:  # mpi4py is imported where a run uses it
     from mpi4py import MPI
@@ -81,6 +82,7 @@ class SceneColumn:
         self.active = np.ones(1, dtype=bool)
         self.progress = Progress(scene.time.end_time, scene.output.progress and comm.rank == 0)
         self._stop_code = np.zeros(1, dtype=np.int32)  # reused by ``agree``'s Allreduce
+        self.surface: SurfaceSamples | None = None  # a 3D tube's (``observers``)
 
     @property
     def every(self) -> int:
@@ -105,15 +107,23 @@ class SceneColumn:
         return u0
 
     def observers(self, output_dir: Path | None) -> list:
-        """The observers of this column before the samples: field output, when the scene
-        asks for it."""
-        self.writer = None
-        if not (self.scene.output.fields and output_dir is not None):
-            return []
+        """The observers of this column before the samples: the contact surface of a 3D
+        tube (``solver.surface_samples``) and field output, when the scene asks for it."""
+        self.writer, found = None, []
+        if self.problem.surface is not None:
+            self.surface = SurfaceSamples(self.problem, self.projection, self.due, self.every,
+                                          self.planned_steps() // self.every + 2)
+            found.append(self.surface)
+        if self.scene.output.fields and output_dir is not None:
+            field_output = FieldOutput(self, Path(output_dir))
+            self.writer = field_output.writer
+            found.append(field_output)
+        return found
 
-        field_output = FieldOutput(self, Path(output_dir))
-        self.writer = field_output.writer
-        return [field_output]
+    def surface_arrays(self) -> dict[str, np.ndarray] | None:
+        """A 3D tube's contact surface at the samples (``SurfaceSamples.arrays``), gathered
+        to rank 0 (collective); None elsewhere and in plane strain."""
+        return None if self.surface is None else self.surface.arrays()
 
     def planned_steps(self) -> int:
         return planned_steps(self.scene, self.dt)
@@ -200,7 +210,8 @@ class SceneColumn:
     def partition_id(self) -> str:
         """This rank's part of the mesh, as a hash of its owned nodes' coordinates (sorted):
         the same on every build of the same partition, whatever the local numbering."""
-        x = self.problem.V.tabulate_dof_coordinates()[: self.problem.n_owned // 2, :2]
+        bs = self.problem.V.dofmap.index_map_bs
+        x = self.problem.V.tabulate_dof_coordinates()[: self.problem.n_owned // bs, :bs]
         ordered = np.ascontiguousarray(x[np.lexsort(x.T)])
         return hashlib.sha256(ordered.tobytes()).hexdigest()
 

@@ -31,7 +31,8 @@ class SteadyState:
 def solve_steady_sliding(problem: TubeProblem) -> SteadyState:
     """The discrete steady sliding state of ``problem`` (see module docstring)."""
     sc = problem.scene
-    st = static_sliding(problem.V, problem.tube, problem.material, sc.geometry.d, sc.loading.f)
+    st = static_sliding(problem.V, problem.tube, problem.material, sc.geometry.d, sc.loading.f,
+                        held=problem.end_held)
     if np.any(st.normal_force <= 0.0):
         raise RuntimeError(
             "discrete steady sliding state has non-positive contact pressure at "

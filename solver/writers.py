@@ -33,7 +33,12 @@ import dolfinx.io
 import numpy as np
 import ufl
 
-from stickslip.forms.stress import STRESS_COMPONENTS, cell_area, cell_average_stress
+from stickslip.forms.stress import (
+    STRESS_COMPONENTS,
+    STRESS_COMPONENTS_3D,
+    cell_area,
+    cell_average_stress,
+)
 
 __all__ = ["FIELD_FILES", "FieldFrames", "FieldValues", "NODAL_FIELDS"]
 
@@ -48,7 +53,9 @@ class FieldValues:
     """The fields of one time level (module docstring) as dolfinx Functions, no files.
 
     ``update(u, v, contact)``: u, v the owned dofs of u_n, v_n; ``contact`` the contact
-    step's ``out`` (r_r, r_t, status at the owned contact nodes, in ``problem.nodes`` order).
+    step's ``surface_out`` (r_r, r_t, status at the owned contact nodes, in the order of
+    ``problem.nodes``, or of a 3D tube's ``problem.surface``). In 3D the cell stress is
+    ``forms.stress.cylindrical_stress``'s six components and von Mises.
     """
 
     def __init__(self, problem) -> None:
@@ -63,10 +70,12 @@ class FieldValues:
         self.shear = dolfinx.fem.Function(scalar, name="contact_shear")
         self.status = dolfinx.fem.Function(scalar, name="contact_status")
         self.status.x.array[:] = -1.0
-        self.nodes = problem.nodes.nodes
-        self.inv_ds = 1.0 / problem.nodes.ds_weight  # nodal force [N/m] -> traction [Pa]
-        # cell stress: s_K = (∫_K s·q dx) / |K| on (DG0)^4, components split into scalars
-        cells4 = dolfinx.fem.functionspace(msh, ("DG", 0, (len(STRESS_COMPONENTS),)))
+        contact = problem.nodes if problem.surface is None else problem.surface
+        self.nodes = contact.nodes
+        self.inv_ds = 1.0 / contact.ds_weight  # nodal force [N/m, N in 3D] -> traction [Pa]
+        # cell stress: s_K = (∫_K s·q dx) / |K| on (DG0)^k, components split into scalars
+        names = STRESS_COMPONENTS if msh.geometry.dim == 2 else STRESS_COMPONENTS_3D
+        cells4 = dolfinx.fem.functionspace(msh, ("DG", 0, (len(names),)))
         cells = dolfinx.fem.functionspace(msh, ("DG", 0))
         self._stress_rhs = dolfinx.fem.form(
             cell_average_stress(self.u, problem.material, ufl.TestFunction(cells4)))
@@ -74,7 +83,7 @@ class FieldValues:
         self.n_cells = cells.dofmap.index_map.size_local
         self._inv_area = 1.0 / area.array[: self.n_cells]
         self._stress_vec = dolfinx.fem.Function(cells4).x  # the assembly target, reused
-        self.stress = [dolfinx.fem.Function(cells, name=n) for n in STRESS_COMPONENTS]
+        self.stress = [dolfinx.fem.Function(cells, name=n) for n in names]
 
     @property
     def nodal(self) -> list:
@@ -95,7 +104,7 @@ class FieldValues:
         rhs = self._stress_vec
         rhs.array[:] = 0.0
         dolfinx.fem.assemble_vector(rhs.array, self._stress_rhs)
-        k = len(STRESS_COMPONENTS)
+        k = len(self.stress)
         cellwise = rhs.array[: k * self.n_cells].reshape(-1, k)
         for j, fn in enumerate(self.stress):
             fn.x.array[: self.n_cells] = cellwise[:, j] * self._inv_area

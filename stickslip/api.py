@@ -179,7 +179,6 @@ def run(scene: str | Path | Scene, run_dir: str | Path | None = None, *,
         ('completed', 36)
     """
     sc = load_scene(scene, overrides)
-    require_plane_strain(sc)  # SceneError, one line: the transient is plane strain only
     path = Path(run_dir) if run_dir is not None else output_root() / sc.name
     with _keyword_errors("run_dir"):
         return run_scene(sc, path, force=force, check_resources=check_resources,

@@ -49,7 +49,8 @@ from pathlib import Path
 
 from stickslip.solver.field_output import frame_count
 from stickslip.solver.newmark import critical_time_step
-from stickslip.solver.scene import Scene
+from stickslip.solver.scene import Scene, tube_axial_layers
+from stickslip.solver.surface_samples import SURFACE_BYTES_PER_NODE_SAMPLE
 
 __all__ = ["Estimate", "ResourceError", "available_memory", "check_resources", "estimate"]
 
@@ -117,21 +118,6 @@ def tube_nodes(scene: Scene) -> int:
     return scene.mesh.n_inner * (tube_layers(scene) * scene.mesh.degree + 1)
 
 
-def axial_layers(scene: Scene, length: float) -> float:
-    """Element layers along a finite tube of ``length`` (m) whose cells are as long as they
-    are wide on the contact surface, round(L N / (2 pi R)), at least 1 (a float: huge or
-    infinite lengths are compared before they are rounded)."""
-    layers = max(1.0, length * scene.mesh.n_inner / (2.0 * math.pi * scene.geometry.R))
-    return float(round(layers)) if math.isfinite(layers) else layers
-
-
-def tube_axial_layers(scene: Scene) -> float:
-    """Element layers along the tube of a 3D scene (``mesh.dim`` = 3): ``mesh.n_axial``, or
-    where it is 0 the square cells' ``axial_layers`` of ``geometry.length``."""
-    n_axial = scene.mesh.n_axial
-    return float(n_axial) if n_axial else axial_layers(scene, scene.geometry.length)
-
-
 def estimate(scene: Scene, ranks: int = 1) -> Estimate:
     """Dofs, steps, memory (all ranks), output size and one-rank run time of ``scene``."""
     g, m, ts = scene.geometry, scene.mesh, scene.time
@@ -145,7 +131,13 @@ def estimate(scene: Scene, ranks: int = 1) -> Estimate:
         facts = m.file_facts(g.R)
         nodes, cells = facts.n_nodes, facts.n_cells
         h_min = facts.h_min / m.degree
-    dofs = 2 * nodes
+    dofs, surface_nodes = 2 * nodes, 0
+    if m.dim == 3:  # the cross-section extruded in hexahedra (meshes.tube3d)
+        levels = tube_axial_layers(scene)
+        h_min = min(h_min, g.length / levels)
+        cells = n_edges * tube_layers(scene) * int(levels)
+        nodes, surface_nodes = nodes * (levels + 1), m.n_inner * (levels + 1)
+        dofs = int(3 * nodes) if math.isfinite(nodes) else 3 * nodes
     nu = scene.material.nu
     c_p = scene.material.wave_speed * math.sqrt((1 - nu) / ((1 + nu) * (1 - 2 * nu)))
     omega_max = OMEGA_MAX_C * c_p / h_min
@@ -168,7 +160,8 @@ def estimate(scene: Scene, ranks: int = 1) -> Estimate:
         steps = min(steps, ts.max_steps)
     every = max(1, round(scene.output.sample_interval / dt))
     samples = steps // every + 2
-    sample_bytes = samples * m.n_inner * 49.0
+    sample_bytes = samples * (m.n_inner * 49.0
+                              + surface_nodes * SURFACE_BYTES_PER_NODE_SAMPLE)
     n_probes = len(scene.output.probes_deg)
     probe_bytes = (steps + 1) * (40.0 * n_probes + 8.0)
     probe_peak = (steps + 1) * (BYTES_PER_PROBE_STEP * n_probes + 8.0)
@@ -179,8 +172,9 @@ def estimate(scene: Scene, ranks: int = 1) -> Estimate:
                           * (dofs / STEP_DOFS) ** STEP_DOF_GROWTH))
     frames, field_bytes = 0, 0.0
     if scene.output.fields:
-        vertices = {("triangle", 1): 3, ("triangle", 2): 6, ("quadrilateral", 1): 4,
-                    ("quadrilateral", 2): 9}[(m.cell, m.degree)]
+        vertices = 8 if m.dim == 3 else {("triangle", 1): 3, ("triangle", 2): 6,
+                                         ("quadrilateral", 1): 4,
+                                         ("quadrilateral", 2): 9}[(m.cell, m.degree)]
         frames = frame_count(scene, dt, steps)
         field_bytes = frames * (1.05 * (FIELD_BYTES_PER_NODE * nodes
                                         + (32.0 + 8.0 * (vertices + 1)) * cells) + 5e3)

@@ -155,10 +155,11 @@ def test_the_scene_reference_lists_the_3d_keys():
         assert row in page, row
 
 
-def test_the_transient_commands_refuse_a_3d_scene(tmp_path, capsys):
-    """``stickslip run`` and ``stickslip travel`` on a 3D scene: exit 2, one line
-    (``PLANE_STRAIN_ONLY``); ``continue`` and ``rpo`` on a run directory whose scene.toml is
-    3D, likewise; a sweep and a census refuse it when they load their scenes."""
+def test_the_plane_strain_commands_refuse_a_3d_scene(tmp_path, capsys):
+    """``stickslip travel`` on a 3D scene: exit 2, one line (``PLANE_STRAIN_ONLY``);
+    ``continue`` and ``rpo`` on a run directory whose scene.toml is 3D, likewise; a sweep and
+    a census refuse it when they load their scenes. ``stickslip run`` runs it
+    (tests/test_tube3d_transient.py)."""
     from stickslip.cli.main import main
     from stickslip.studies.attractors.request import CensusRequest, build_census
     from stickslip.studies.sweep.spec import SweepError, load_sweep
@@ -166,14 +167,12 @@ def test_the_transient_commands_refuse_a_3d_scene(tmp_path, capsys):
     (tmp_path / "run").mkdir()
     path = write_scene(load_scene("smoke", ["mesh.dim=3", "geometry.length=0.1"]),
                        tmp_path / "run" / "scene.toml")
-    for argv in (["run", str(path), "-o", str(tmp_path / "out")],
-                 ["travel", str(path), "--k", "4"],
+    for argv in (["travel", str(path), "--k", "4"],
                  ["continue", str(path.parent), "--until", "1"],
                  ["rpo", str(path.parent), "--period", "0.01", "--shift", "1"]):
         assert main(argv) == 2, argv
         err = capsys.readouterr().err
         assert err.count("\n") == 1 and PLANE_STRAIN_ONLY in err, (argv, err)
-    assert not (tmp_path / "out").exists()
     sweep = tmp_path / "s.toml"
     sweep.write_text('base = "smoke"\n[grid]\n"loading.f" = [0.5]\n'
                      '[set]\n"mesh.dim" = 3\n"geometry.length" = 0.1\n')
@@ -209,15 +208,13 @@ def test_flutter_fe_reads_the_3d_keys_of_the_scene(tmp_path, capsys):
     assert "3D tube: length 0.05 m, 4 axial layers, free ends" in capsys.readouterr().out
 
 
-def test_the_api_runs_the_cea_of_a_3d_scene_and_refuses_its_transient(tmp_path):
+def test_the_api_runs_the_cea_of_a_3d_scene_and_refuses_its_travelling_wave(tmp_path):
     """``stickslip.cea`` of a 3D scene is its tube's (the same unstable modes as the CLI);
-    ``stickslip.run`` refuses it in one line before a run directory is made."""
+    ``stickslip.travel`` refuses it in one line."""
     pytest.importorskip("dolfinx")
     import stickslip
 
     res = stickslip.cea("figure1", overrides=TUBE_3D, fmax_hz=3000.0)
     assert res.levels == 5 and len(res.unstable()) >= 8
     with pytest.raises(SceneError, match="plane strain only"):
-        stickslip.run("smoke", tmp_path / "run", overrides=["mesh.dim=3",
-                                                           "geometry.length=0.1"])
-    assert not (tmp_path / "run").exists()
+        stickslip.travel("smoke", k=4, overrides=["mesh.dim=3", "geometry.length=0.1"])

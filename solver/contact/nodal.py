@@ -103,6 +103,46 @@ def project_tangential(u_t_trial: np.ndarray, u_t_prev: np.ndarray, slide: float
     np.copyto(r_t, work, where=out.slipping)
 
 
+def project_contact_disc(
+    u_r_trial: np.ndarray, u_t_trial: np.ndarray, u_z_trial: np.ndarray,
+    u_t_prev: np.ndarray, u_z_prev: np.ndarray, mass: np.ndarray, kappa: float, d: float,
+    slide: float, f: float, out: ContactArrays, r_z: np.ndarray,
+) -> None:
+    """``project_contact`` on a contact surface: the tangent plane is (e_theta, e_z) and the
+    Coulomb cone a disc, |q| <= f p (the finite tube, ``solver.contact.surface``).
+
+    The stick force moves the node with the cylinder's surface over the step,
+
+        q_stick = m / kappa (u_theta,n + R Omega dt - u_theta~, u_z,n - u_z~),
+
+    stick where |q_stick| <= f p, else slip with the return mapping onto the disc,
+    q = f p q_stick / |q_stick| (the slip takes the direction of the trial traction). The
+    axial force is written into ``r_z``. Where u_z~ = u_z,n the step is ``project_contact``'s,
+    bit for bit: |q_stick| = |q_theta,stick| and q_theta,stick / |q_stick| = +-1 exactly.
+    """
+    project_normal(u_r_trial, mass, kappa, d, out)
+    r_t, work, norm = out.r_t, out.work, out.cone_norm
+    if f == 0.0:  # frictionless: contact nodes slip freely, no tangential force
+        r_t.fill(0.0)
+        r_z.fill(0.0)
+        np.multiply(out.in_contact, SLIP, out=out.status)
+        return
+    np.multiply(out.r_r, f, out=out.cone)  # Coulomb bound f p
+    np.add(u_t_prev, slide, out=r_t)  # the stick force, in project_tangential's operations
+    r_t -= u_t_trial
+    r_t *= out.stiff
+    np.subtract(u_z_prev, u_z_trial, out=r_z)
+    r_z *= out.stiff
+    np.hypot(r_t, r_z, out=norm)
+    np.greater(norm, out.cone, out=out.slipping)
+    np.add(out.slipping, STICK, out=out.status)
+    out.status *= out.in_contact
+    for component in (r_t, r_z):  # q = f p q_stick / |q_stick| where slipping (norm > 0)
+        np.divide(component, norm, out=work, where=out.slipping)
+        work *= out.cone
+        np.copyto(component, work, where=out.slipping)
+
+
 # ---------------------------------------------------------------------------------------------
 # Regularised friction bound (Prakash-Clifton)
 
@@ -288,6 +328,7 @@ class ContactArrays:
         self.stiff = np.zeros(n)
         self.work = np.zeros(n)
         self.cone = np.zeros(n)
+        self.cone_norm = np.zeros(n)  # |q_stick| on a contact surface (the disc cone)
         self.in_contact = np.zeros(n, dtype=bool)
         self.slipping = np.zeros(n, dtype=bool)
 

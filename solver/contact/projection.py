@@ -22,6 +22,7 @@ from stickslip.solver.contact.nodal import (
     project_contact_filtered,
     project_contact_regularized,
 )
+from stickslip.solver.contact.surface import SurfaceContactProjection
 
 __all__ = ["NodalFrames", "ContactProjection", "RegularizedContactProjection",
            "FilteredContactProjection", "make_projection"]
@@ -62,6 +63,12 @@ class NodalFrames:
         z = self.polar_at_nodes(array, np.empty(self.node_index.size, dtype=complex))
         radial[:] = z.real
         tangential[:] = z.imag
+
+    @property
+    def surface_out(self) -> ContactArrays:
+        """The outputs at every contact node (``problem.surface`` of a 3D tube's
+        projection): here the circle's, ``out``."""
+        return self.out
 
 
 class ContactProjection(NodalFrames):
@@ -185,9 +192,12 @@ def _effective_pressure(n: int, law: ContactLaw) -> EffectivePressure:
     return EffectivePressure(n, law.regularisation, law.dt)
 
 
-def make_projection(problem, law: ContactLaw) -> ContactProjection:
-    """The explicit contact step of ``law``'s bound: by its spatial filter
-    (``PROJECTIONS``), then, nodal, Coulomb or regularised."""
+def make_projection(problem, law: ContactLaw) -> ContactProjection | SurfaceContactProjection:
+    """The explicit contact step of ``law``'s bound: on a 3D tube's contact surface
+    (``problem.surface``) the disc cone's ``SurfaceContactProjection``; in plane strain by
+    the bound's spatial filter (``PROJECTIONS``), then, nodal, Coulomb or regularised."""
+    if problem.surface is not None:
+        return SurfaceContactProjection(problem, law)
     projection = PROJECTIONS[law.filter]
     if projection is ContactProjection and law.regularisation.code:
         projection = RegularizedContactProjection

@@ -36,11 +36,13 @@ from stickslip.solver.scene.model import (
     PLANE_STRAIN_ONLY,
     Scene,
     apply_overrides,
+    axial_layers,
     parse_override,
     require_plane_strain,
     scene_from_dict,
     scene_to_dict,
     scene_warnings,
+    tube_axial_layers,
 )
 from stickslip.solver.scene.sections import (
     Boundary,
@@ -84,6 +86,7 @@ __all__ = [
     "SceneError",
     "Time",
     "apply_overrides",
+    "axial_layers",
     "check_range",
     "check_speed_ratio",
     "dumps_toml",
@@ -94,5 +97,6 @@ __all__ = [
     "scene_from_dict",
     "scene_to_dict",
     "scene_warnings",
+    "tube_axial_layers",
     "write_scene",
 ]

@@ -135,9 +135,9 @@ NEEDS: dict[str, tuple[Callable[[Scene], bool], str, str]] = {
 }
 
 #: Why a 3D scene cannot run the transient (``require_plane_strain``).
-PLANE_STRAIN_ONLY = ("mesh.dim = 3: the transient (run, sweep, attractors, continue, travel, "
-                     "rpo) is plane strain only for now; use `stickslip flutter-fe` for the "
-                     "3D tube's CEA")
+PLANE_STRAIN_ONLY = ("mesh.dim = 3: sweep, attractors, continue, travel and rpo are plane "
+                     "strain only for now; `stickslip run` runs the 3D tube's transient and "
+                     "`stickslip flutter-fe` its CEA")
 
 
 def require_plane_strain(scene: Scene) -> None:
@@ -145,6 +145,21 @@ def require_plane_strain(scene: Scene) -> None:
     plane-strain scene: the commands that run the transient call it where they load one."""
     if scene.mesh.dim != 2:
         raise SceneError(PLANE_STRAIN_ONLY)
+
+
+def axial_layers(scene: Scene, length: float) -> float:
+    """Element layers along a finite tube of ``length`` (m) whose cells are as long as they
+    are wide on the contact surface, round(L N / (2 pi R)), at least 1 (a float: huge or
+    infinite lengths are compared before they are rounded)."""
+    layers = max(1.0, length * scene.mesh.n_inner / (2.0 * math.pi * scene.geometry.R))
+    return float(round(layers)) if math.isfinite(layers) else layers
+
+
+def tube_axial_layers(scene: Scene) -> float:
+    """Element layers along the tube of a 3D scene (``mesh.dim`` = 3): ``mesh.n_axial``, or
+    where it is 0 the square cells' ``axial_layers`` of ``geometry.length``."""
+    n_axial = scene.mesh.n_axial
+    return float(n_axial) if n_axial else axial_layers(scene, scene.geometry.length)
 
 
 def _written(scene: Scene, obj: _Section, f: Field) -> bool:

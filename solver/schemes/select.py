@@ -44,13 +44,19 @@ import numpy as np
 
 from stickslip.solver.columns import SceneRecords
 from stickslip.solver.contact import ContactLaw, make_projection
+from stickslip.solver.contact.surface import SurfaceContactProjection
 from stickslip.solver.ensemble import BatchedExplicit, array_namespace
 from stickslip.solver.ensemble_observers import one_scene_records
 from stickslip.solver.errors import StepTooLarge
 from stickslip.solver.fused import friction_bound
 from stickslip.solver.fused import numba_available as available
 from stickslip.solver.newmark import DampedNewmark, Newmark, critical_time_step
-from stickslip.solver.observers import DampingWork, EnergyAccumulator, SteppedColumn
+from stickslip.solver.observers import (
+    DampingWork,
+    EnergyAccumulator,
+    SteppedColumn,
+    SurfaceWork,
+)
 from stickslip.solver.scene import Scene
 from stickslip.solver.scene_explicit import DampingStart, scene_explicit
 
@@ -336,7 +342,8 @@ def _numpy_records(parts: SchemeParts, problem, every: int, n_steps: int,
     """The numpy step's records (``one_scene_records`` of a ``SteppedColumn``) with its
     work observers, both step hooks: ``EnergyAccumulator`` and, damped, ``DampingWork``."""
     stepper, contact, scene = parts.stepper, parts.contact, parts.scene
-    energy = EnergyAccumulator(contact, scene.loading.f > 0.0, u0)
+    work = SurfaceWork if isinstance(contact, SurfaceContactProjection) else EnergyAccumulator
+    energy = work(contact, scene.loading.f > 0.0, u0)
     stepper.attach(energy)
     damping = DampingWork(stepper, u0) if stepper.damped else None
     if damping is not None:
@@ -405,8 +412,22 @@ class ExplicitNewmarkScheme:
         return _checked_step(scene, omega_max, dt_crit, dt_crit, ("explicit", rule, ""))
 
     def kernel(self, scene: Scene) -> str:
-        """``"numba"`` or ``"numpy"`` (``law_kernel`` of the scene's contact law)."""
-        return self.law_kernel(scene.time.kernel, ContactLaw.from_scene(scene, 1.0))
+        """``"numba"`` or ``"numpy"``: ``surface_kernel``, else ``law_kernel`` of the
+        scene's contact law."""
+        return (self.surface_kernel(scene)
+                or self.law_kernel(scene.time.kernel, ContactLaw.from_scene(scene, 1.0)))
+
+    def surface_kernel(self, scene: Scene) -> str:
+        """"numpy" for a 3D tube's contact surface (the disc cone of
+        ``solver.contact.surface`` has the numpy step; ValueError naming the fix where
+        ``time.kernel = "numba"`` asks otherwise), "" for a plane-strain scene."""
+        if scene.mesh.dim != 3:
+            return ""
+        if scene.time.kernel == "numba":
+            raise ValueError("time.kernel = \"numba\" with mesh.dim = 3: the 3D tube's "
+                             "contact surface steps with numpy; set time.kernel = "
+                             "\"numpy\" or \"auto\"")
+        return "numpy"
 
     def law_kernel(self, requested: str, law: ContactLaw) -> str:
         """The kernel for ``time.kernel = requested`` and ``law``. THE fallback rule:
@@ -436,8 +457,9 @@ class ExplicitNewmarkScheme:
         """The kernel's stepper (``EXPLICIT_KERNELS``) with ``make_projection``'s step, at
         the step ``time_step`` gives."""
         dt, dt_crit = self.time_step(scene, omega_max)
+        surface = self.surface_kernel(scene)
         law = ContactLaw.from_scene(scene, dt)
-        kernel = self.law_kernel(scene.time.kernel, law)
+        kernel = surface or self.law_kernel(scene.time.kernel, law)
         parts = EXPLICIT_KERNELS[kernel](problem, law, scene.damping.tau,
                                          make_projection(problem, law))
         parts.dt, parts.dt_crit, parts.scene = dt, dt_crit, scene
@@ -509,6 +531,9 @@ class ImplicitNewmarkScheme:
         # PETSc for the implicit scheme only: a node without it imports the registry
         from stickslip.solver.implicit import ImplicitContact, ImplicitNewmark
 
+        if problem.surface is not None:
+            raise ValueError("time.beta1 > 0 with mesh.dim = 3: the implicit contact solve "
+                             "is plane strain only; run the 3D tube with time.beta1 = 0")
         dt, dt_crit = self.time_step(scene, omega_max)
         ts, law = scene.time, ContactLaw.from_scene(scene, dt)
         contact = ImplicitContact(problem.nodes, law.d, law.f, law.surface_speed,

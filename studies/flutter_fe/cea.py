@@ -47,7 +47,6 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from stickslip.solver.contact import ContactLaw, SpatialFilter
-from stickslip.studies.resources import tube_axial_layers
 
 if TYPE_CHECKING:
     from mpi4py import MPI
@@ -173,7 +172,7 @@ def build_operators(
     if friction not in FRICTION_FILTERS:
         raise ValueError(f"friction={friction!r}: use one of {sorted(FRICTION_FILTERS)}")
     comm = problem.comm
-    K, nd = problem.K, problem.nodes
+    K, nd = problem.K, problem.every_contact_node
     rstart = K.getOwnershipRange()[0]
     frame = _ContactFrame(problem, friction)
     Khat = K.ptap(frame.T)
@@ -202,7 +201,7 @@ def build_operators(
 def contact_levels(problem: TubeProblem) -> tuple[np.ndarray, int]:
     """(level of each owned contact node, number of levels): the distinct z of the contact
     surface's nodes, in order (a 3D tube: N_z + 1 rings of N nodes); one level in 2D."""
-    nd = problem.nodes
+    nd = problem.every_contact_node
     xyz = problem.V.tabulate_dof_coordinates()[nd.nodes]
     if problem.V.mesh.geometry.dim < 3:
         return np.zeros(nd.n_owned, dtype=np.int64), 1
@@ -262,7 +261,7 @@ class _ContactFrame:
         # dolfinx on first use: the command line imports this package at start
         from stickslip.forms.steady import node_matrix
 
-        K, nd = problem.K, problem.nodes
+        K, nd = problem.K, problem.every_contact_node
         rows_x = (K.getOwnershipRange()[0] + nd.dofs_x).astype(PETSc.IntType)
         c, s = nd.cos_t, nd.sin_t
         one, zero = np.ones_like(c), np.zeros_like(c)
@@ -292,7 +291,7 @@ def _free_dofs(problem: TubeProblem) -> np.ndarray:
     eliminated)."""
     keep = np.ones(problem.n_owned, dtype=bool)
     keep[problem.clamped] = False
-    keep[problem.nodes.dofs_x] = False  # ũ_r = d: eliminated
+    keep[problem.every_contact_node.dofs_x] = False  # ũ_r = d: eliminated
     return np.flatnonzero(keep)
 
 
@@ -940,21 +939,15 @@ def unrepresented_terms(t_star: float, mass: str = "lumped", ranks: int = 1) -> 
 
 
 def cea_problem(scene: Scene, comm: MPI.Comm | None = None) -> TubeProblem:
-    """The problem whose steady sliding the CEA linearises: the scene's plane-strain
-    cross-section (``build_problem``), or with ``mesh.dim`` = 3 the finite tube its 3D keys
-    describe (``tube_problem_3d``: ``geometry.length``, ``tube_axial_layers``,
-    ``boundary.ends``), on the ranks of ``comm`` (default: all)."""
+    """The problem whose steady sliding the CEA linearises (``build_problem``): the scene's
+    plane-strain cross-section, or with ``mesh.dim`` = 3 the finite tube its 3D keys
+    describe, on the ranks of ``comm`` (default: all)."""
     from mpi4py import MPI
 
     # dolfinx on first use: the command line and the scene are checked before it loads
-    from stickslip.solver.problem import build_problem, tube_problem_3d
+    from stickslip.solver.problem import build_problem
 
-    comm = MPI.COMM_WORLD if comm is None else comm
-    if scene.mesh.dim == 2:
-        return build_problem(scene, comm)
-    return tube_problem_3d(scene, length=scene.geometry.length,
-                           n_axial=int(tube_axial_layers(scene)), ends=scene.boundary.ends,
-                           comm=comm)
+    return build_problem(scene, MPI.COMM_WORLD if comm is None else comm)
 
 
 def complex_eigenvalue_analysis(

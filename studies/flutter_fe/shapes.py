@@ -50,7 +50,7 @@ def modes_dir_problem(path: str | Path) -> str | None:
 def _displacement(ops: CEAOperators, problem: TubeProblem, free_vec: np.ndarray
                   ) -> np.ndarray:
     """Owned (x, y) dof values of ψ from its owned free-dof values (rotated frame)."""
-    nd = problem.nodes
+    nd = problem.every_contact_node
     rot = np.zeros(problem.n_owned, dtype=complex)
     rot[ops.free] = free_vec
     u = rot.copy()

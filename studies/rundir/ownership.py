@@ -85,7 +85,7 @@ KINDS: dict[str, tuple[str, ...]] = {
     "run": ("scene.toml", "summary.json", "samples.npz", "final_field.npz", "fields.xdmf",
             "fields.h5", "fields.bp", "stress.bp", "spacetime.png", "profile.png", "phase.png",
             "energy.png", "uvpq.png", "isomap.png", "stress.png", "compare.json",
-            "checkpoint.npz"),
+            "checkpoint.npz", "surface.npz", "surface.png"),
     "sweep": ("sweep.toml", "sweep.json", "sweep.csv", "runs", "logs", ".lock",
               "regime_map*.png", "semianalytic.json"),
     "travel": ("scene.toml", "summary.json", "profiles.npz", "branch.json", "branch.csv",

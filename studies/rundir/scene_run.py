@@ -197,6 +197,7 @@ class RunDirectory:
             if sim is not None:
                 sim.status = status
                 out.probes, out.final_field = sim.probes.arrays(), sim.final_field()
+                out.surface = sim.columns.surface_arrays()
                 # the checkpoint of a run that stands at a whole level (not failed, diverged)
                 out.states = self.comm.gather(sim.runs[0].state, root=0) \
                     if sim.resumable else None
@@ -282,7 +283,11 @@ class RunDirectory:
                 f"time.end_time = {scene.time.end_time:g} s is shorter than one time step "
                 f"(dt = {sim.dt:.4g} s): the run would end before its first sample; raise "
                 "time.end_time or lower time.dt")
-        self.say(f"  {sim.problem.n_global_dofs} dofs, {sim.recorder.n_nodes} contact nodes, "
+        surface = sim.problem.surface
+        ring = ("" if surface is None else  # a 3D tube records its ring at mid-length
+                f" (the ring at mid-length of {sim.comm.allreduce(surface.nodes.size)})")
+        self.say(f"  {sim.problem.n_global_dofs} dofs, {sim.recorder.n_nodes} contact nodes"
+                 f"{ring}, "
                  f"dt = {sim.dt:.4g} s ({sim.dt / sim.dt_crit:.2f} dt_crit), "
                  f"{sim.planned_steps()} steps to t = {scene.time.end_time} s")
         self.phase = "the time loop"

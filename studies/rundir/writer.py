@@ -65,6 +65,8 @@ class RunOutputs:
         error: the message of a run that did not complete, else None.
         probes: the probes' arrays (``probe_t``, ``probe_data``), gathered over the ranks.
         final_field: the final field, gathered (None where there is none).
+        surface: a 3D tube's contact surface at the samples, gathered (``surface.npz``;
+            None in plane strain).
         states: the checkpoint's state per rank, or None (a run not at a whole level).
         kind: the checkpoint's kind: ``run`` (continued alone) or ``batch`` (continued as
             a batch again).
@@ -82,6 +84,7 @@ class RunOutputs:
     error: str | None = None
     probes: dict | None = None
     final_field: dict | None = None
+    surface: dict | None = None
     states: list[dict] | None = None
     kind: str = "run"
     backend: str = "cpu"
@@ -158,13 +161,16 @@ def _write_run_files(rd: directory.RunDir, out: RunOutputs, prof: Profile, t0: f
 
 
 def _write_arrays(work: Path, out: RunOutputs, summary: dict) -> None:
-    """samples.npz (the samples and the probes), final_field.npz, checkpoint.npz."""
+    """samples.npz (the samples and the probes), final_field.npz, surface.npz (a 3D tube),
+    checkpoint.npz."""
     arrays = out.run.recorder.arrays()
     arrays.update(out.probes or {})
     atomic_save_npz(work / "samples.npz", arrays,
                     compress=out.compress and out.status != "interrupted")
     if out.final_field is not None:
         atomic_save_npz(work / "final_field.npz", out.final_field)
+    if out.surface is not None:
+        atomic_save_npz(work / "surface.npz", out.surface)
     if out.states is not None:
         write_checkpoint(work, out.states, kind=out.kind, scene=out.scene, status=out.status,
                          kernel=summary["scheme"].get("kernel", ""), backend=out.backend)

@@ -1,0 +1,47 @@
+"""The finite tube's contact surface unrolled in (theta, z): ``surface.png`` of a 3D run.
+
+From ``surface.npz`` (``solver.surface_samples``): u_r - d over the unrolled surface r = R,
+theta in [0, 360) degrees along, z in [0, L] across, at the last sample, beside the contact
+status there (separation / stick / slip) and the axial profile of the wave, the RMS over the
+last fifth of the samples of u_r - d on each ring. A plane-strain wave is a pattern of
+stripes along z; end effects and axial orders show as their bending and as the profile.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from stickslip.postprocess.style import FIELD_CMAP, MM, status_cmap, status_colorbar
+
+__all__ = ["surface_figure"]
+
+
+def surface_figure(run_dir: Path, d: float) -> Any:
+    """The three panels of ``surface.png`` (module docstring) for the run in ``run_dir``
+    with mismatch ``d`` [m]."""
+    import matplotlib.pyplot as plt
+
+    with np.load(Path(run_dir) / "surface.npz") as data:
+        t, z, theta = data["t"], data["z"], data["theta"]
+        wave = (data["u_r"].astype(float) - d) * MM  # (samples, rings, angles), mm
+        status = data["status"]
+    degrees = np.degrees(theta)
+    fig, axes = plt.subplots(1, 3, figsize=(14, 4.2), width_ratios=[1.0, 1.0, 0.45],
+                             constrained_layout=True)
+    image = axes[0].pcolormesh(degrees, z, wave[-1], shading="nearest", cmap=FIELD_CMAP)
+    fig.colorbar(image, ax=axes[0], label="u_r − d (mm)")
+    cmap, norm = status_cmap()
+    shown = axes[1].pcolormesh(degrees, z, np.ma.masked_less(status[-1], 0),
+                               shading="nearest", cmap=cmap, norm=norm)
+    status_colorbar(fig, shown, axes[1])
+    for ax, what in zip(axes[:2], ("u_r − d", "contact status"), strict=True):
+        ax.set(xlabel="θ (deg)", ylabel="z (m)", title=f"{what} at t = {t[-1] * 1e3:.2f} ms")
+    window = wave[-max(1, wave.shape[0] // 5):]
+    rms = np.sqrt(np.mean((window - window.mean(axis=(0, 2), keepdims=True)) ** 2,
+                          axis=(0, 2)))
+    axes[2].plot(rms, z, "o-")
+    axes[2].set(xlabel="RMS of u_r − d (mm)", ylabel="z (m)", title="axial profile")
+    return fig
