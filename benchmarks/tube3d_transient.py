@@ -8,6 +8,7 @@ For the scene (default ``figure3_n132_damped``: Figure-3 physics, R = 1 m, xi = 
 N = 132, Kelvin-Voigt 2 % at 1.6 kHz, beta_2 = 1/2, mode-4 bump of 0.1 d, 0.3 s) in
 quadrilaterals, it runs the plane-strain scene and, for each L/R of ``--lengths``, the 3D
 tube (``mesh.dim = 3``, N_z = round(L N / (2 pi R)) layers, the same start extruded along z)
+at the plane-strain run's step (``time.dt``: the same N, dt, beta_2, damping and start)
 with ``stickslip.run``, and prints one row each: the wave of the mid-length ring (k,
 celerity, frequency, zone fractions: the plane-strain analysis of ``samples.npz``), and its
 axial structure from ``surface.npz``: over the last fifth of the samples, the RMS along time
@@ -84,11 +85,13 @@ def main() -> None:
     print("| tube | dofs | regime | k | celerity m/s | frequency Hz | sep / stick / slip "
           "| A_k end / quarter / middle | end phase deg | wall s |")
     print("|---|---|---|---|---|---|---|---|---|---|")
+    step: list[str] = []  # the plane-strain run's dt, for every tube after it
     for i, (label, overrides) in enumerate(cases):
         out = Path(args.out) / f"case{i}"
         t0 = time.perf_counter()
-        summary = run(args.scene, out, overrides=overrides, force=True, quiet=True)
+        summary = run(args.scene, out, overrides=[*overrides, *step], force=True, quiet=True)
         seconds = time.perf_counter() - t0
+        step = step or [f"time.dt={summary['dt_s']!r}"]
         path = out / "surface.npz"
         surface = dict(np.load(path)) if path.exists() else None
         print(row(label, summary, surface, seconds), flush=True)

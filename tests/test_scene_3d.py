@@ -158,11 +158,10 @@ def test_the_scene_reference_lists_the_3d_keys():
 def test_the_plane_strain_commands_refuse_a_3d_scene(tmp_path, capsys):
     """``stickslip travel`` on a 3D scene: exit 2, one line (``PLANE_STRAIN_ONLY``);
     ``continue`` and ``rpo`` on a run directory whose scene.toml is 3D, likewise; a sweep and
-    a census refuse it when they load their scenes. ``stickslip run`` runs it
+    census refuses it when it loads its scene. ``stickslip run`` and a sweep run it
     (tests/test_tube3d_transient.py)."""
     from stickslip.cli.main import main
     from stickslip.studies.attractors.request import CensusRequest, build_census
-    from stickslip.studies.sweep.spec import SweepError, load_sweep
 
     (tmp_path / "run").mkdir()
     path = write_scene(load_scene("smoke", ["mesh.dim=3", "geometry.length=0.1"]),
@@ -173,11 +172,6 @@ def test_the_plane_strain_commands_refuse_a_3d_scene(tmp_path, capsys):
         assert main(argv) == 2, argv
         err = capsys.readouterr().err
         assert err.count("\n") == 1 and PLANE_STRAIN_ONLY in err, (argv, err)
-    sweep = tmp_path / "s.toml"
-    sweep.write_text('base = "smoke"\n[grid]\n"loading.f" = [0.5]\n'
-                     '[set]\n"mesh.dim" = 3\n"geometry.length" = 0.1\n')
-    with pytest.raises(SweepError, match="plane strain only"):
-        load_sweep(sweep)
     with pytest.raises(SceneError, match="plane strain only"):
         build_census(CensusRequest(scene=str(path)))
 

@@ -40,7 +40,6 @@ from stickslip.solver.scene import (
     SceneError,
     load_scene,
     parse_override,
-    require_plane_strain,
 )
 from stickslip.solver.schemes.select import BACKENDS
 
@@ -342,7 +341,7 @@ def load_sweep(path: str | Path, large: bool = False) -> SweepSpec:
     )
     for task in spec.tasks:  # every variant must be a valid scene before anything runs
         try:
-            require_plane_strain(scene_for(spec, task))
+            scene_for(spec, task)
         except SceneError as err:
             raise SweepError(f"{p}: scene {task.id}: {err}") from None
     return spec
