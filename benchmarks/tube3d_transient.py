@@ -2,7 +2,7 @@
 structure does it take?
 
     ./dev python3 benchmarks/tube3d_transient.py [SCENE] [--lengths 0.25 0.5 1 2]
-        [--ends free] [--control L/R] [--out DIR] [--set KEY=VALUE ...]
+        [--ends free] [--n-axial N_z ...] [--control L/R] [--out DIR] [--set KEY=VALUE ...]
 
 For the scene (default ``figure3_n132_damped``: Figure-3 physics, R = 1 m, xi = 1.25,
 N = 132, Kelvin-Voigt 2 % at 1.6 kHz, beta_2 = 1/2, mode-4 bump of 0.1 d, 0.3 s) in
@@ -11,12 +11,11 @@ tube (``mesh.dim = 3``, N_z = round(L N / (2 pi R)) layers, the same start extru
 at the plane-strain run's step (``time.dt``: the same N, dt, beta_2, damping and start)
 with ``stickslip.run``, and prints one row each: the wave of the mid-length ring (k,
 celerity, frequency, zone fractions: the plane-strain analysis of ``samples.npz``), and its
-axial structure from ``surface.npz``: over the last fifth of the samples, the RMS along time
-of |a_k(z, t)|, a_k the ring's k-th Fourier coefficient of u_r, at the end, the quarter and
-the middle of the tube relative to its largest value, and the phase of the wave at the end
-against the middle, arg of the time mean of a_k(0, t) conj(a_k(L/2, t)) (0: straight
-fronts along z; a travelling wave whose fronts bend towards the ends leads or lags there).
-A control case runs the first length with roller ends: the plane-strain fields are then a
+axial structure from ``surface.npz`` (``postprocess.surface_map.axial_structure``): the
+amplitude of its k-th harmonic at the end, the quarter and the middle of the tube relative
+to its largest, and its phase at the end against the middle.
+``--n-axial`` runs the first length at each of these layer counts instead (the convergence
+in N_z). A control case runs the first length with roller ends: the plane-strain fields are then a
 subspace of the 3D tube's (tests/test_tube3d_transient.py), so it must give the
 plane-strain wave unless the round-off, amplified by the flutter, takes another attractor.
 """
@@ -30,19 +29,8 @@ from pathlib import Path
 import numpy as np
 
 from stickslip import run
+from stickslip.postprocess.surface_map import axial_structure
 from stickslip.solver.scene import load_scene
-
-
-def axial_structure(surface: dict, k: int) -> tuple[np.ndarray, float]:
-    """(A(z) / max A, phase of the end against the middle in degrees) over the last fifth
-    of the samples (module docstring)."""
-    u_r = surface["u_r"].astype(float)
-    window = u_r[-max(1, u_r.shape[0] // 5):]
-    n, middle = u_r.shape[2], u_r.shape[1] // 2
-    a_k = np.fft.fft(window, axis=2)[..., k % n] / n  # (t, z)
-    amplitude = np.sqrt(np.mean(np.abs(a_k) ** 2, axis=0))
-    lag = np.degrees(np.angle(np.mean(a_k[:, 0] * np.conj(a_k[:, middle]))))
-    return amplitude / amplitude.max(), float(lag)
 
 
 def row(label: str, summary: dict, surface: dict | None, seconds: float) -> str:
@@ -50,11 +38,11 @@ def row(label: str, summary: dict, surface: dict | None, seconds: float) -> str:
     k = int(summary["mode"])
     shape, lag = "uniform", "0"
     if surface is not None and k:
-        profile, phase = axial_structure(surface, k)
-        levels = profile.size - 1
+        axial = axial_structure(surface, k)
+        profile, levels = axial["profile"], len(axial["profile"]) - 1
         shape = (f"{profile[0]:.2f} / {profile[levels // 4]:.2f} / "
                  f"{profile[levels // 2]:.2f}")
-        lag = f"{phase:+.0f}"
+        lag = f"{axial['end_phase_deg']:+.0f}"
     return (f"| {label} | {summary['dofs']} | {summary['regime']} | {k} | "
             f"{summary['celerity_m_s']:.1f} | {summary['frequency_hz']:.1f} | "
             f"{fr['separation']:.3f} / {fr['stick']:.3f} / {fr['slip']:.3f} | {shape} | "
@@ -67,6 +55,8 @@ def main() -> None:
     parser.add_argument("--lengths", type=float, nargs="+", default=[0.25, 0.5, 1.0, 2.0])
     parser.add_argument("--ends", default="free")
     parser.add_argument("--out", default="/tmp/tube3d_transient")
+    parser.add_argument("--n-axial", type=int, nargs="+", default=[],
+                        help="the first length at each of these layer counts (convergence)")
     parser.add_argument("--control", type=float, default=None,
                         help="L/R of the roller control (default: the first length)")
     parser.add_argument("--set", dest="sets", action="append", default=[])
@@ -77,7 +67,11 @@ def main() -> None:
     cases += [(f"L/R = {ratio:g}, {args.ends}",
                [*base, "mesh.dim=3", f"geometry.length={ratio * radius}",
                 f"boundary.ends={args.ends}"])
-              for ratio in args.lengths]
+              for ratio in args.lengths if not args.n_axial]
+    cases += [(f"L/R = {args.lengths[0]:g}, {args.ends}, N_z = {layers}",
+               [*base, "mesh.dim=3", f"geometry.length={args.lengths[0] * radius}",
+                f"boundary.ends={args.ends}", f"mesh.n_axial={layers}"])
+              for layers in args.n_axial]
     control = args.lengths[0] if args.control is None else args.control
     cases.append((f"L/R = {control:g}, roller (control)",
                   [*base, "mesh.dim=3", f"geometry.length={control * radius}",

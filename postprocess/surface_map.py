@@ -16,7 +16,26 @@ import numpy as np
 
 from stickslip.postprocess.style import FIELD_CMAP, MM, status_cmap, status_colorbar
 
-__all__ = ["surface_figure"]
+__all__ = ["axial_structure", "surface_figure"]
+
+
+def axial_structure(surface: dict, k: int) -> dict:
+    """The axial shape of the wave of wavenumber ``k`` on a 3D tube's contact surface
+    (``surface.npz``'s arrays) over the last fifth of the samples: ``profile``, the RMS over
+    time of |a_k(z, t)| on each ring, a_k the ring's k-th Fourier coefficient of u_r,
+    relative to its largest; ``end_phase_deg``, the phase of the wave at z = 0 against the
+    middle ring, arg of the time mean of a_k(0, t) conj(a_k(L/2, t)) (0: straight fronts
+    along z; fronts that bend towards the ends lead or lag there)."""
+    u_r = np.asarray(surface["u_r"], dtype=float)
+    window = u_r[-max(1, u_r.shape[0] // 5):]
+    n, middle = u_r.shape[2], u_r.shape[1] // 2
+    a_k = np.fft.fft(window, axis=2)[..., k % n] / n  # (t, z)
+    amplitude = np.sqrt(np.mean(np.abs(a_k) ** 2, axis=0))
+    lag = np.degrees(np.angle(np.mean(a_k[:, 0] * np.conj(a_k[:, middle]))))
+    peak = amplitude.max() if amplitude.max() > 0 else 1.0
+    return {"k": int(k), "z_m": [float(z) for z in surface["z"]],
+            "profile": [round(float(a), 4) for a in amplitude / peak],
+            "end_phase_deg": round(float(lag), 2)}
 
 
 def surface_figure(run_dir: Path, d: float) -> Any:

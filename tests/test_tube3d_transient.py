@@ -101,8 +101,11 @@ def test_a_tube_with_roller_ends_runs_the_plane_strain_wave(tmp_path):
     np.testing.assert_allclose(b["r_r"], 0.175 * a["r_r"], rtol=1e-9, atol=1e-9 * a["r_r"].max())
     assert (tube["mode"], tube["regime"]) == (flat["mode"], flat["regime"])
     assert tube["celerity_m_s"] == pytest.approx(flat["celerity_m_s"], rel=1e-9)
+    axial = tube["tube_3d"].pop("axial")
     assert tube["tube_3d"] == {"length_m": 0.35, "n_axial": 2, "ends": "roller",
                                "surface_nodes": 108, "ring_z_m": 0.175}
+    assert axial["k"] == tube["mode"] and axial["z_m"] == [0.0, 0.175, 0.35]
+    assert axial["profile"] == [1.0, 1.0, 1.0] and abs(axial["end_phase_deg"]) < 1e-6
     assert set(tube["energy"]) == {k.replace("_J_per_m", "_J") for k in flat["energy"]}
     u = np.load(tmp_path / "tube" / "final_field.npz")["u"]
     assert u.shape[1] == 3 and np.max(np.abs(u[:, 2])) < 1e-12 * np.max(np.abs(u))
@@ -147,7 +150,8 @@ def test_a_sweep_runs_3d_tubes_one_by_one(tmp_path):
     from stickslip.studies.sweep import load_sweep, run_sweep
 
     body = ('base = "smoke"\nset = ["time.end_time=0.005", "mesh.cell=quadrilateral", '
-            '"mesh.dim=3", "mesh.n_axial=2", "geometry.length=0.3"]\n[grid]\n"geometry.length" = [0.2, 0.4]\n')
+            '"mesh.dim=3", "mesh.n_axial=2", "geometry.length=0.3"]\n'
+            '[grid]\n"geometry.length" = [0.2, 0.4]\n')
     path = tmp_path / "s.toml"
     path.write_text(body)
     out = tmp_path / "out"
