@@ -8,7 +8,8 @@ For the scene (default ``figure3_n132_damped``: Figure-3 physics, R = 1 m, xi = 
 N = 132, Kelvin-Voigt 2 % at 1.6 kHz, beta_2 = 1/2, mode-4 bump of 0.1 d, 0.3 s) in
 quadrilaterals, it runs the plane-strain scene and, for each L/R of ``--lengths``, the 3D
 tube (``mesh.dim = 3``, N_z = round(L N / (2 pi R)) layers, the same start extruded along z)
-at the plane-strain run's step (``time.dt``: the same N, dt, beta_2, damping and start)
+at the plane-strain run's step (``time.dt``, unless ``--set time.dt=...`` gives one: the
+same N, dt, beta_2, damping and start)
 with ``stickslip.run``, and prints one row each: the wave of the mid-length ring (k,
 celerity, frequency, zone fractions: the plane-strain analysis of ``samples.npz``), and its
 axial structure from ``surface.npz`` (``postprocess.surface_map.axial_structure``): the
@@ -34,6 +35,8 @@ from stickslip.solver.scene import load_scene
 
 
 def row(label: str, summary: dict, surface: dict | None, seconds: float) -> str:
+    if "fractions" not in summary:  # a run that did not reach the wave analysis
+        return f"| {label} | {summary['status']}: {summary.get('message', '')} |"
     fr = summary["fractions"]
     k = int(summary["mode"])
     shape, lag = "uniform", "0"
@@ -85,7 +88,8 @@ def main() -> None:
         t0 = time.perf_counter()
         summary = run(args.scene, out, overrides=[*overrides, *step], force=True, quiet=True)
         seconds = time.perf_counter() - t0
-        step = step or [f"time.dt={summary['dt_s']!r}"]
+        given = any(kv.startswith("time.dt=") for kv in args.sets)  # the user's step
+        step = step or ([] if given else [f"time.dt={summary['dt_s']!r}"])
         path = out / "surface.npz"
         surface = dict(np.load(path)) if path.exists() else None
         print(row(label, summary, surface, seconds), flush=True)

@@ -17,6 +17,10 @@ import numpy as np
 from stickslip.forms.steady import static_sliding
 from stickslip.solver.problem import TubeProblem
 
+#: A 3D tube above this many dofs solves its steady state iteratively
+#: (``forms.steady.static_sliding``): the LU's fill-in grows faster than the dofs.
+STEADY_DIRECT_DOFS = 150_000
+
 
 @dataclass
 class SteadyState:
@@ -31,8 +35,9 @@ class SteadyState:
 def solve_steady_sliding(problem: TubeProblem) -> SteadyState:
     """The discrete steady sliding state of ``problem`` (see module docstring)."""
     sc = problem.scene
+    iterative = problem.surface is not None and problem.n_global_dofs > STEADY_DIRECT_DOFS
     st = static_sliding(problem.V, problem.tube, problem.material, sc.geometry.d, sc.loading.f,
-                        held=problem.end_held)
+                        held=problem.end_held, iterative=iterative)
     if np.any(st.normal_force <= 0.0):
         raise RuntimeError(
             "discrete steady sliding state has non-positive contact pressure at "

@@ -95,12 +95,10 @@ def test_docs_carry_no_history():
 GENERATED = {"cli.md", "scene.md"}
 
 #: The budget of the user docs (Markdown, generated reference pages excepted): the whole site,
-#: and any one page (a page past it is a log or a study, which belongs in archive/).
-#: 320 kB: the P2 soundness tables (docs/convergence.md) took the site past 300 kB; 330 kB:
-#: the relative periodic orbits (theory and how-to), the chaos test and the ladder table;
-#: 332 kB: the finite tube's CEA table (docs/flutter.md); 333 kB: what its 3D forms and
-#: stress are verified against.
-DOCS_BYTES, PAGE_BYTES = 333_000, 36_000
+#: and any one page (a page past it is a log or a study, which belongs in archive/). It holds
+#: the tutorials, how-tos, theory and evidence pages of every command, with room for a
+#: page's new table, not for run logs.
+DOCS_BYTES, PAGE_BYTES = 337_000, 36_000
 
 
 def test_user_docs_stay_small():

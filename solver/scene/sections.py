@@ -145,7 +145,8 @@ class Mesh(_Section):
     dim: int = _opt(2, "int", needs="3d")
     """2: the cross-section in plane strain; 3: the finite tube of ``geometry.length`` in
     hexahedra, the structured annulus of degree 1 extruded (``mesh.cell`` is not used), for
-    ``stickslip flutter-fe`` (the transient is plane strain only)."""
+    ``stickslip flutter-fe``, ``run`` and ``sweep`` (the census, ``continue``, ``travel``
+    and ``rpo`` are plane strain only)."""
     n_inner: int = _opt(132, "int")
     """Number of nodes on the inner (contact) circle (with ``file``: the stated count)."""
     n_radial: int = _opt(0, "int")
