@@ -112,6 +112,40 @@ def isomap_pair(run_dirs: list[Path], out_png: Path, magnify: float | None = Non
     return save_screenshot(pl, out_png)
 
 
+def isomap_tube(run_dir: Path, out_png: Path) -> Path:
+    """Iso-values of u_r − d w(r) on a 3D run's tube (``final_field.npz``, points and u in 3D),
+    its half y < 0 cut away so that the contact surface r = R shows, drawn displaced by the
+    wave (u − u_steady with u_z, magnified as ``isomap_pair``) and seen obliquely."""
+    ensure_display()
+    import pyvista as pv
+
+    pv.OFF_SCREEN = True
+    with np.load(Path(run_dir) / "final_field.npz") as ff:
+        pts, cells, types, u = ff["points"], ff["cells"], ff["cell_types"], ff["u"]
+        t_end = float(ff["time"])
+    run = load_run(Path(run_dir))
+    disp_xy, ur = wave_displacement(pts, u[:, :2], run.radius,
+                                    float(run.scene["geometry"]["xi"]), run.d)
+    grid = pv.UnstructuredGrid(cells.astype(np.int64), types.astype(np.uint8), pts.copy())
+    grid.point_data["u_r − d (mm)"] = MM * ur
+    grid.point_data["disp"] = np.column_stack([disp_xy, u[:, 2]])
+    umax = max(float(np.abs(grid.point_data["disp"]).max()), 1e-3 * run.d)
+    warped = grid.warp_by_vector("disp", factor=0.08 * run.radius / umax)
+    half = warped.clip(normal=(0.0, -1.0, 0.0), origin=(0.0, 0.0, 0.0))
+    pl = pv.Plotter(off_screen=True, window_size=(1100, 860), border=False)
+    pl.add_mesh(half, scalars="u_r − d (mm)", cmap=FIELD_CMAP, show_edges=False, ambient=0.4,
+                scalar_bar_args={"title": "u_r − d (mm)", "vertical": False,
+                                 "position_x": 0.2, "position_y": 0.04, "width": 0.6})
+    pl.add_text(f"{run.scene['name']}, L = {run.scene['geometry']['length']} m, "
+                f"t = {MS * t_end:.1f} ms\n{wave_title(run.summary)}\n"
+                "half the tube (y > 0), wave displacement magnified",
+                position="upper_left", font_size=10, color="black")
+    middle = 0.5 * float(pts[:, 2].max())
+    pl.camera_position = [(0.0, -4.0 * run.radius, middle + 2.0 * run.radius),
+                          (0.0, 0.4 * run.radius, middle), (0.0, 0.0, 1.0)]
+    return save_screenshot(pl, out_png)
+
+
 def save_screenshot(pl, out_png: Path) -> Path:  # noqa: ANN001 - a pyvista Plotter
     """Write the plotter's picture to ``out_png`` on a white background, atomically (a
     hidden temporary renamed into place), and close the plotter."""

@@ -13,8 +13,8 @@
   pressures p, q when the run recorded nodal forces; reduced-model waves dashed;
 * ``isomap.png``: iso-values of u_r − d on the deformed tube (``postprocess.isomap``);
 * ``stress.png``: von Mises and contact pressure at the end (``postprocess.stressmap``);
-* ``surface.png`` (a 3D tube, instead of the two maps of the cross-section): its contact
-  surface unrolled in (θ, z) (``postprocess.surface_map``).
+* ``surface.png`` (a 3D tube, instead of the stress map): its contact surface unrolled in
+  (θ, z) (``postprocess.surface_map``); its ``isomap.png`` is half the tube, seen obliquely.
 
 Colours and units come from ``postprocess.style`` (mm, MPa, m/s, Hz, ms, J/m).
 ``phase_family`` overlays several runs' phase diagrams like the paper's Figures 4-6;
@@ -34,7 +34,7 @@ import numpy as np
 
 from stickslip.postprocess.analysis import analyse_run, load_run, run_profile
 from stickslip.postprocess.energy_balance import energy_terms
-from stickslip.postprocess.isomap import isomap_pair
+from stickslip.postprocess.isomap import isomap_pair, isomap_tube
 from stickslip.postprocess.stressmap import has_stress, stress_maps
 from stickslip.postprocess.style import (
     FIELD_CMAP,
@@ -128,6 +128,7 @@ def plot_run(run_dir: Path, window: tuple[float, str] | None | str = DEFAULT_WIN
         out.append(plot_uvpq(run_dir, run_dir / "uvpq.png"))
     if (run_dir / "surface.npz").exists():  # a 3D tube: its contact surface unrolled
         out.append(save_figure(surface_figure(run_dir, run.d), run_dir / "surface.png"))
+        out.append(isomap_tube(run_dir, run_dir / "isomap.png"))
         return out
     if (run_dir / "final_field.npz").exists():
         out.append(isomap_pair([run_dir], run_dir / "isomap.png"))
