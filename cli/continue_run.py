@@ -11,7 +11,6 @@ import math
 import sys
 from pathlib import Path
 
-from stickslip.cli.checks import run_dir_dimension_problem
 from stickslip.cli.commands import command_help
 from stickslip.studies.resources import ResourceError
 from stickslip.studies.rundir import EXIT_CODES, RunDirError, continue_run
@@ -61,11 +60,6 @@ def _continue(args: argparse.Namespace) -> int:
     from mpi4py import MPI
 
     comm = MPI.COMM_WORLD
-    bad = run_dir_dimension_problem(args.run_dir)
-    if bad:
-        if comm.rank == 0:
-            print(f"error: {bad}", file=sys.stderr)
-        return 2
     try:
         summary = continue_run(Path(args.run_dir), args.until,
                                None if args.output is None else Path(args.output),

@@ -120,6 +120,12 @@ class SceneColumn:
             found.append(field_output)
         return found
 
+    def surface_before(self, before: dict[str, np.ndarray] | None) -> None:
+        """A continued 3D run's surface records up to its checkpoint (rank 0; None
+        elsewhere and in plane strain), put in front of the new ones."""
+        if self.surface is not None:
+            self.surface.before = before
+
     def surface_arrays(self) -> dict[str, np.ndarray] | None:
         """A 3D tube's contact surface at the samples (``SurfaceSamples.arrays``), gathered
         to rank 0 (collective); None elsewhere and in plane strain."""

@@ -38,6 +38,7 @@ class SurfaceSamples:
         self.now = np.zeros((m, 3))
         self.polar = np.zeros((2, m))
         self.n = 0
+        self.before: dict[str, np.ndarray] | None = None  # a continued run's earlier records
 
     def observe(self, stepper) -> str:
         """Record level n (``stepper.u_prev`` after the step that made u_{n+1})."""
@@ -56,7 +57,8 @@ class SurfaceSamples:
     def arrays(self) -> dict[str, np.ndarray] | None:
         """Gathered to rank 0 (None elsewhere; collective): ``t`` (n,), ``z`` (L+1,),
         ``theta`` (N,), ``u_r``, ``u_theta``, ``u_z`` (n, L+1, N) and ``status``
-        (n, L+1, N) on the grid of levels z and angles theta."""
+        (n, L+1, N) on the grid of levels z and angles theta; a continued run's ``before``
+        in front."""
         problem, n = self.problem, self.n
         surface, tube = problem.surface, problem.tube
         dz = tube.length / tube.n_axial
@@ -76,4 +78,7 @@ class SurfaceSamples:
             out["status"][:, lev, ang] = status
         out.update(t=self.t[:n].copy(), z=dz * np.arange(tube.n_axial + 1),
                    theta=2.0 * math.pi / tube.n_inner * np.arange(tube.n_inner))
+        if self.before is not None:  # a continuation: the records up to its checkpoint first
+            for key in ("t", "u_r", "u_theta", "u_z", "status"):
+                out[key] = np.concatenate([self.before[key], out[key]])
         return out

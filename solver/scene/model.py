@@ -135,9 +135,9 @@ NEEDS: dict[str, tuple[Callable[[Scene], bool], str, str]] = {
 }
 
 #: Why a 3D scene cannot run the transient (``require_plane_strain``).
-PLANE_STRAIN_ONLY = ("mesh.dim = 3: attractors, continue, travel and rpo are plane strain "
-                     "only for now; `stickslip run` and `stickslip sweep` run the 3D tube's "
-                     "transient, `stickslip flutter-fe` its CEA")
+PLANE_STRAIN_ONLY = ("mesh.dim = 3: travel and rpo are plane strain only for now; `stickslip "
+                     "run`, `sweep`, `continue` and `attractors` run the 3D tube's transient, "
+                     "`stickslip flutter-fe` its CEA")
 
 
 def require_plane_strain(scene: Scene) -> None:

@@ -13,7 +13,7 @@ import sys
 from dataclasses import dataclass
 from pathlib import Path
 
-from stickslip.solver.scene import load_scene, require_plane_strain
+from stickslip.solver.scene import load_scene
 from stickslip.solver.schemes.select import check_backend
 from stickslip.studies.attractors.along import parse_along, point_census
 from stickslip.studies.attractors.cea import cea_lines, cea_table
@@ -75,7 +75,6 @@ def build_census(request: CensusRequest, ranks: int = 1) -> tuple[Census, Path]:
             raise ValueError(f"--end-time {request.end_time}: give a time > 0 (s)")
         overrides.append(f"time.end_time={request.end_time!r}")
     scene = load_scene(request.scene, overrides)
-    require_plane_strain(scene)
     degrees = request.degrees  # the API may give a sequence (or one int)
     if isinstance(degrees, list | tuple):
         degrees = ",".join(str(p) for p in degrees)

@@ -142,6 +142,7 @@ STATE_ARRAYS = {
               "energy/z_now"),
     **_arrays("f", ((2,),), "contact/work", "contact/work_exposed", "damping/sums"),
     **_arrays("f", ((3,),), "energy/sums"),
+    **_arrays("f", (("m", 3),), "energy/u_prev", "energy/u_now"),  # a 3D tube's surface
 }
 DTYPES = {"f": ("float64",), "c": ("complex128",), "i": ("int8", "int16", "int32", "int64"),
           "U": ()}
@@ -394,9 +395,9 @@ def _check_state(p: Path, head: str, state: dict[str, np.ndarray], meta: dict,
 def _sizes(p: Path, head: str, state: dict[str, np.ndarray], meta: dict,
            summary: dict) -> dict[str, int]:
     """The sizes ``STATE_ARRAYS`` counts in for this rank: its dofs n (its u), contact
-    nodes m (its statuses; a batch member's: the run's), the run's contact nodes M and the
-    checkpoint's step."""
-    n_all, m_all = summary["dofs"], summary["contact_nodes"]
+    nodes m (its statuses; a batch member's: the run's), the run's contact nodes M (a 3D
+    tube's: its surface's) and the checkpoint's step."""
+    n_all, m_all = summary["dofs"], stepped_contact_nodes(summary)
     for key, n in (("stepper/u", n_all), ("contact/status", m_all)):
         a = state.get(key)
         if a is not None and (a.ndim != 1 or a.size > n):
@@ -441,11 +442,20 @@ def _check_guard(p: Path, head: str, state: dict[str, np.ndarray], summary: dict
                 f"steady_pressure_pa is {found!r}")
 
 
+def stepped_contact_nodes(summary: dict) -> int:
+    """The contact nodes the run's contact step holds: its ``contact_nodes``, or a 3D
+    tube's whole surface (``tube_3d.surface_nodes``; its samples are one ring's)."""
+    tube = summary.get("tube_3d")
+    if isinstance(tube, dict) and isinstance(tube.get("surface_nodes"), int):
+        return tube["surface_nodes"]
+    return summary["contact_nodes"]
+
+
 def _check_sizes(p: Path, ck: Checkpoint, summary: dict) -> None:
     """The ranks' parts add up to the run: their u to its dofs, their contact statuses to
     its contact nodes (each dof and node is one rank's)."""
     for key, n, what in (("stepper/u", summary["dofs"], "dofs"),
-                         ("contact/status", summary["contact_nodes"], "contact nodes")):
+                         ("contact/status", stepped_contact_nodes(summary), "contact nodes")):
         parts = [state[key].size for state in ck.states if key in state]
         if parts and sum(parts) != n:
             _bad(p, f"{key} holds {' + '.join(map(str, parts))} {what} on its "

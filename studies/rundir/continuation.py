@@ -71,6 +71,7 @@ from stickslip.studies.rundir.readers import (
     read_samples,
     read_scene_file,
     read_summary,
+    read_surface,
 )
 from stickslip.studies.rundir.scene_run import RunDirectory, every_rank
 from stickslip.studies.rundir.writer import print_summary, write_member
@@ -117,6 +118,7 @@ class _Plan:
     scene: Scene
     checkpoint: Checkpoint
     before: dict[str, np.ndarray]
+    surface: dict[str, np.ndarray] | None = None  # a 3D tube's surface.npz
 
     @property
     def kind(self) -> str:
@@ -171,8 +173,9 @@ def plan_continuation(run_dir: str | Path, until: float, ranks: int = 1) -> _Pla
     before = read_samples(run_dir, need=0)
     check_agreement(run_dir, summary, scene, before)
     check_checkpoint(ck, scene=scene, summary=summary, samples=before)
+    surface = read_surface(run_dir, before) if scene.mesh.dim == 3 else None
     scene = scene.with_overrides(f"time.end_time={until!r}", "time.max_steps=0")
-    return _Plan(run_dir, scene, ck, before)
+    return _Plan(run_dir, scene, ck, before, surface)
 
 
 class Refused(ReadError):
@@ -228,6 +231,7 @@ def continue_run(run_dir: str | Path, until: float, out_dir: str | Path | None =
     scene = comm.bcast(plan.scene if plan is not None else None, root=0)
     state = comm.scatter(plan.checkpoint.states if plan is not None else None, root=0)
     before = plan.before if plan is not None else None
+    surface = plan.surface if plan is not None else None
     kernel = comm.bcast(plan.checkpoint.meta["kernel"] if plan is not None else None, root=0)
 
     def resume(sim) -> None:  # noqa: ANN001 - a solver.run.Simulation
@@ -235,6 +239,7 @@ def continue_run(run_dir: str | Path, until: float, out_dir: str | Path | None =
         check_continuing_kernel(kernel, sim.stepper)
         try:
             sim.restore([state], [before])
+            sim.columns.surface_before(surface)
         except KeyError as err:  # every key is written by this format: an edited file
             raise ValueError(f"checkpoint.npz has no {err}: not written by this version of "
                              "stickslip (or edited); run the scene again to T") from None

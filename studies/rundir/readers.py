@@ -37,7 +37,7 @@ from stickslip.solver.scene.files import scene_digest
 from stickslip.studies.rundir.summary_file import SUMMARY
 
 __all__ = ["STATUSES", "ReadError", "check_run_dir", "read_field", "read_json_object",
-           "check_agreement", "read_samples", "read_scene_file", "read_summary",
+           "check_agreement", "read_samples", "read_scene_file", "read_summary", "read_surface",
            "read_sweep_table", "samples_problem"]
 
 #: Every status a summary may hold (``studies.rundir.scene_run``, the sweep's table).
@@ -179,6 +179,22 @@ def read_samples(run_dir: str | Path, need: int = 1) -> dict[str, np.ndarray]:
     return data
 
 
+def read_surface(run_dir: str | Path, samples: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """``RUN_DIR/surface.npz`` of a 3D run, checked against its ``samples`` (read_samples):
+    the same times, u and statuses on a (samples, rings, angles) grid."""
+    p = Path(run_dir) / "surface.npz"
+    data = _load_npz(p, ("t", "z", "theta", "u_r", "u_theta", "u_z", "status"))
+    _shape(p, data["z"], "z", (None,))
+    _shape(p, data["theta"], "theta", (samples["theta"].size,))
+    grid = (samples["t"].size, data["z"].size, data["theta"].size)
+    for key in ("u_r", "u_theta", "u_z", "status"):
+        _shape(p, data[key], key, grid)
+    if not np.array_equal(data["t"], samples["t"]):
+        raise ReadError(p, "its times are not samples.npz's (edited, or of another run)",
+                        "run the scene again")
+    return data
+
+
 def read_field(run_dir: str | Path) -> dict[str, np.ndarray]:
     """``RUN_DIR/final_field.npz``, checked (points, displacement, cells, time)."""
     p = Path(run_dir) / "final_field.npz"
@@ -186,7 +202,7 @@ def read_field(run_dir: str | Path) -> dict[str, np.ndarray]:
     pts = data["points"]
     if pts.ndim != 2 or pts.shape[1] < 2:
         raise ReadError(p, f"points has shape {pts.shape}, not n x 2 or n x 3 (edited)")
-    _shape(p, data["u"], "u", (pts.shape[0], 2))
+    _shape(p, data["u"], "u", (pts.shape[0], None))  # 2 components, 3 in a 3D tube
     _shape(p, data["time"], "time", ())
     _shape(p, data["cells"], "cells", (None,))
     return data
