@@ -199,6 +199,23 @@ def test_a_census_counts_the_starts_of_a_3d_tube(tmp_path):
         assert summary["tube_3d"]["ends"] == "free" and summary["status"] == "completed"
 
 
+def test_the_wave_frame_certificates_say_they_are_plane_strain(tmp_path):
+    """The census's certificates that work in the wave's frame of the contact circle, the
+    direct solver and the RPO screen, tell a 3D start in one line that they are plane
+    strain only (not a numpy shape error)."""
+    from stickslip import run
+    from stickslip.studies.attractors.certify import certify
+    from stickslip.studies.rpo.certificate import rpo_screen
+
+    run("smoke", tmp_path / "tube", overrides=[*TUBE, "boundary.ends=free"], force=True,
+        quiet=True)
+    direct = certify(tmp_path / "tube")
+    assert "plane strain only" in direct["at_dt"]["message"]
+    screen = rpo_screen(tmp_path / "tube", [{"k": 4, "frequency_hz": 1400.0},
+                                            {"k": 5, "frequency_hz": 1500.0}])
+    assert "plane strain only" in screen["message"]
+
+
 def test_the_iterative_steady_state_is_the_direct_one():
     """A large 3D tube's steady sliding is solved by GMRES with smoothed aggregation
     (``STEADY_DIRECT_DOFS``); on the smoke tube with free ends (972 dofs) it gives the LU's

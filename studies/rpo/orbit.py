@@ -50,6 +50,7 @@ from stickslip.solver.contact.law import forward_increment_factor
 from stickslip.solver.ensemble import BatchedProblem
 from stickslip.solver.ensemble_run import BatchColumns, BatchOptions
 from stickslip.solver.run import Profile
+from stickslip.solver.scene import require_plane_strain
 from stickslip.solver.schemes.select import for_scene
 from stickslip.studies.rundir.continuation import plan_continuation
 
@@ -103,6 +104,7 @@ def start_from_run(run_dir: str | Path) -> Start:
     t_ck = float(json.loads((run_dir / "summary.json").read_text())["sim_time_s"])
     plan = plan_continuation(run_dir, t_ck + 1.0, 1)
     scene = plan.scene
+    require_plane_strain(scene)  # SceneError, one line: the orbit's shift is the circle's
     state = plan.checkpoint.states[0]
     problem, bp, law, dt = _build(scene)
     return Start(scene, problem, bp, law, dt, float(scene.damping.tau),

@@ -42,7 +42,7 @@ import stickslip.studies.travel.driver as D
 from stickslip.postprocess.analysis import analyse, analyse_run, load_run
 from stickslip.solver.errors import Diverged
 from stickslip.solver.run import Simulation
-from stickslip.solver.scene import load_scene
+from stickslip.solver.scene import load_scene, require_plane_strain
 from stickslip.solver.schemes import time_step
 from stickslip.studies.travel.newton import NotConverged
 
@@ -165,6 +165,7 @@ def read_end_state(run_dir: Path, tolerance: float | None = None,
     if window is None:
         window = float(summ.get("analysis_window_s") or (run.samples["t"][-1] / 3.0))
     scene = load_scene(str(run_dir / "scene.toml"))
+    require_plane_strain(scene)  # SceneError, one line: the wave frame is the circle's
     spread, _ = frame_spread(run.samples, wave.angular_speed_rad_s, window,
                              int(scene.mesh.degree))
     if not spread < tolerance:
