@@ -219,10 +219,10 @@ def run_facts(run: SceneRun, scheme: dict) -> dict:
 def tube_3d_facts(problem) -> dict:
     """What a 3D tube's summary says of it: its length, layers and ends, the contact
     surface's nodes, and the axial level of the ring that the samples record."""
-    tube, comm = problem.tube, problem.comm
+    tube = problem.tube  # no collective here: rank 0 alone writes the summary
     return {"length_m": tube.length, "n_axial": tube.n_axial,
             "ends": problem.scene.boundary.ends,
-            "surface_nodes": int(comm.allreduce(problem.surface.nodes.size)),
+            "surface_nodes": int(problem.surface.n_global),
             "ring_z_m": tube.length / tube.n_axial * float(tube.n_axial // 2)}
 
 

@@ -285,7 +285,7 @@ class RunDirectory:
                 "time.end_time or lower time.dt")
         surface = sim.problem.surface
         ring = ("" if surface is None else  # a 3D tube records its ring at mid-length
-                f" (the ring at mid-length of {sim.comm.allreduce(surface.nodes.size)})")
+                f" (the ring at mid-length of {surface.n_global})")
         self.say(f"  {sim.problem.n_global_dofs} dofs, {sim.recorder.n_nodes} contact nodes"
                  f"{ring}, "
                  f"dt = {sim.dt:.4g} s ({sim.dt / sim.dt_crit:.2f} dt_crit), "
