@@ -69,7 +69,8 @@ class SurfaceContactProjection:
         self.law, self.kappa, self.dt = law, law.kappa, law.dt
         self.d, self.f, self.slide = law.d, law.f, law.slide
         self.mass = problem.mass[self.dofs[:, 0]].copy()
-        self.inv_mass = (1.0 / self.mass)[:, None]  # a column: it scales (x, y, z) rows
+        # M^{-1} at the (x, y, z) dofs: 0 where an end holds a component (roller: u_z)
+        self.inv_mass = problem.inv_mass[self.dofs]
         m = order.size
         self.now = np.zeros((m, 3))  # u_n at the nodes, (x, y, z)
         self.trial = np.zeros((m, 3))  # trial u_{n+1}
