@@ -16,10 +16,7 @@ import numpy as np
 
 from stickslip.forms.steady import static_sliding
 from stickslip.solver.problem import TubeProblem
-
-#: A 3D tube above this many dofs solves its steady state iteratively
-#: (``forms.steady.static_sliding``): the LU's fill-in grows faster than the dofs.
-STEADY_DIRECT_DOFS = 150_000
+from stickslip.solver.scene import STEADY_DIRECT_DOFS
 
 
 @dataclass

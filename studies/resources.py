@@ -33,6 +33,10 @@ Dofs, steps, memory, output size and run time follow from the scene alone (no do
   (beta2 = 0.6) costs 45 % more than one of the damped scene at N = 264, which no model of
   dofs and steps alone tells apart.
 
+A 3D tube (``mesh.dim = 3``: the cross-section's nodes on N_z + 1 levels, 3 dofs a node) has
+its own costs (``tube_costs``): the steady state's LU sets its memory and setup, and its numpy
+step costs about 200 ns per dof.
+
 The numbers are order-of-magnitude guards, not promises: a run is refused when the memory
 exceeds what the machine has available, the samples exceed the free disk, or the run time on
 the ranks given (perfect scaling assumed) exceeds ``MAX_SECONDS`` without a
@@ -49,12 +53,13 @@ from pathlib import Path
 
 from stickslip.solver.field_output import frame_count
 from stickslip.solver.newmark import critical_time_step
-from stickslip.solver.scene import Scene, tube_axial_layers
+from stickslip.solver.scene import STEADY_DIRECT_DOFS, Scene, tube_axial_layers
 from stickslip.solver.surface_samples import SURFACE_BYTES_PER_NODE_SAMPLE
 
 __all__ = ["Estimate", "ResourceError", "available_memory", "check_resources", "estimate"]
 
 OMEGA_MAX_C = 2.8
+OMEGA_MAX_C_3D = 1.95  # hexahedra: measured at N = 132, L/R = 0.5 (dt_crit 3.74e-5 s)
 BASE_MEMORY = 250e6
 BYTES_PER_DOF = 3e3
 BYTES_PER_PROBE_STEP = 180.0  # peak memory of the probe histories (module docstring)
@@ -118,6 +123,33 @@ def tube_nodes(scene: Scene) -> int:
     return scene.mesh.n_inner * (tube_layers(scene) * scene.mesh.degree + 1)
 
 
+#: The 3D tube's costs (``tube_costs``), fitted to Figure 3 damped with free ends at N = 132,
+#: L/R = 0.25 to 2 (14 256 to 102 168 dofs; docs/tube3d.md) on one core: its numpy step
+#: 170-215 ns per dof (with its observers and the surface record); the steady state's LU
+#: 1.3, 2.2, 7.7 and 33 s, and the peak memory above the base 202, 374, 810 and 1879 MB.
+STEP_SECONDS_PER_DOF_3D = 2.1e-7
+TUBE_DOFS = 102168.0
+TUBE_SETUP_SECONDS = 34.0
+TUBE_LU_BYTES = 1.88e9
+#: Above ``STEADY_DIRECT_DOFS`` GMRES with GAMG: 5.4 GB held at 617 760 dofs.
+TUBE_ITERATIVE_BYTES_PER_DOF = 9e3
+
+
+def tube_costs(dofs: float) -> tuple[float, float, float]:
+    """(bytes, setup seconds, seconds per step) of a 3D tube of ``dofs`` dofs on one rank:
+    the LU's memory as dofs^1.25 and time as dofs^2 up to ``STEADY_DIRECT_DOFS``, the
+    iterative solve's memory linear beyond (its time assumed linear from there), and the
+    step's ``STEP_SECONDS_PER_DOF_3D`` per dof."""
+    scale = dofs / TUBE_DOFS
+    if dofs <= STEADY_DIRECT_DOFS:
+        memory, setup = TUBE_LU_BYTES * scale**1.25, TUBE_SETUP_SECONDS * scale**2
+    else:
+        edge = STEADY_DIRECT_DOFS / TUBE_DOFS
+        memory = TUBE_ITERATIVE_BYTES_PER_DOF * dofs
+        setup = TUBE_SETUP_SECONDS * edge**2 * (dofs / STEADY_DIRECT_DOFS)
+    return memory, setup, STEP_SECONDS_PER_DOF_3D * dofs
+
+
 def estimate(scene: Scene, ranks: int = 1) -> Estimate:
     """Dofs, steps, memory (all ranks), output size and one-rank run time of ``scene``."""
     g, m, ts = scene.geometry, scene.mesh, scene.time
@@ -140,7 +172,7 @@ def estimate(scene: Scene, ranks: int = 1) -> Estimate:
         dofs = int(3 * nodes) if math.isfinite(nodes) else 3 * nodes
     nu = scene.material.nu
     c_p = scene.material.wave_speed * math.sqrt((1 - nu) / ((1 + nu) * (1 - 2 * nu)))
-    omega_max = OMEGA_MAX_C * c_p / h_min
+    omega_max = (OMEGA_MAX_C_3D if m.dim == 3 else OMEGA_MAX_C) * c_p / h_min
     # the explicit limit with the Kelvin-Voigt damping's (lower) one: the unit of dt_fraction
     # of the explicit scheme; an upper bound of the steps of the implicit one, whose unit is
     # the undamped limit
@@ -165,11 +197,12 @@ def estimate(scene: Scene, ranks: int = 1) -> Estimate:
     n_probes = len(scene.output.probes_deg)
     probe_bytes = (steps + 1) * (40.0 * n_probes + 8.0)
     probe_peak = (steps + 1) * (BYTES_PER_PROBE_STEP * n_probes + 8.0)
-    memory = ranks * BASE_MEMORY + BYTES_PER_DOF * dofs + sample_bytes + probe_peak
-    seconds = (RUN_SECONDS + SAMPLE_SECONDS * samples * m.n_inner
-               + SETUP_SECONDS * (dofs / 90816.0) ** 1.5
-               + steps * (STEP_SECONDS + STEP_SECONDS_PER_DOF * dofs
-                          * (dofs / STEP_DOFS) ** STEP_DOF_GROWTH))
+    dof_bytes, setup, step_cost = (tube_costs(dofs) if m.dim == 3 else (
+        BYTES_PER_DOF * dofs, SETUP_SECONDS * (dofs / 90816.0) ** 1.5,
+        STEP_SECONDS_PER_DOF * dofs * (dofs / STEP_DOFS) ** STEP_DOF_GROWTH))
+    memory = ranks * BASE_MEMORY + dof_bytes + sample_bytes + probe_peak
+    seconds = (RUN_SECONDS + SAMPLE_SECONDS * samples * m.n_inner + setup
+               + steps * (STEP_SECONDS + step_cost))
     frames, field_bytes = 0, 0.0
     if scene.output.fields:
         vertices = 8 if m.dim == 3 else {("triangle", 1): 3, ("triangle", 2): 6,

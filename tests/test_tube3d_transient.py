@@ -216,6 +216,26 @@ def test_the_wave_frame_certificates_say_they_are_plane_strain(tmp_path):
     assert "plane strain only" in screen["message"]
 
 
+@pytest.mark.parametrize("length, dofs, wall_s, rss_mb", [
+    (0.25, 14256, 25.8, 452), (0.5, 28512, 50.1, 624), (2.0, 102168, 214.4, 2129)])
+def test_the_estimate_knows_a_3d_tube(length, dofs, wall_s, rss_mb):
+    """Before meshing, ``studies.resources.estimate`` counts a 3D tube's dofs exactly, and
+    its time per step and memory within 35 % of what Figure 3 damped with free ends took
+    over 8060 steps (summary.json of docs/tube3d.md's runs: wall_time_s, peak_rss_mb; the
+    model's fit, ``tube_costs``); the shipped scene's own step count, 8918 (its
+    dt = 3.364e-5 s), within 35 % too. A guard that let a 3D run cost ten times what it
+    said would be no guard."""
+    from stickslip.solver.scene import load_scene
+    from stickslip.studies.resources import estimate
+
+    est = estimate(load_scene("tube3d_figure3_damped", [f"geometry.length={length}"]))
+    assert est.dofs == dofs
+    assert est.seconds / est.steps == pytest.approx(wall_s / 8060, rel=0.35)
+    assert est.memory_bytes / 1e6 == pytest.approx(rss_mb, rel=0.35)
+    if length == 0.5:
+        assert est.steps == pytest.approx(8918, rel=0.35)
+
+
 def test_the_iterative_steady_state_is_the_direct_one():
     """A large 3D tube's steady sliding is solved by GMRES with smoothed aggregation
     (``STEADY_DIRECT_DOFS``); on the smoke tube with free ends (972 dofs) it gives the LU's

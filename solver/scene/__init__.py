@@ -34,6 +34,7 @@ from stickslip.solver.scene.files import (
 )
 from stickslip.solver.scene.model import (
     PLANE_STRAIN_ONLY,
+    STEADY_DIRECT_DOFS,
     Scene,
     apply_overrides,
     axial_layers,
@@ -68,6 +69,7 @@ from stickslip.solver.scene.values import (
 
 __all__ = [
     "PLANE_STRAIN_ONLY",
+    "STEADY_DIRECT_DOFS",
     "SCENES_DIR",
     "Boundary",
     "Damping",

@@ -147,6 +147,11 @@ def require_plane_strain(scene: Scene) -> None:
         raise SceneError(PLANE_STRAIN_ONLY)
 
 
+#: A 3D tube above this many dofs solves its steady state iteratively
+#: (``forms.steady.static_sliding``): the LU's fill-in grows faster than the dofs.
+STEADY_DIRECT_DOFS = 150_000
+
+
 def axial_layers(scene: Scene, length: float) -> float:
     """Element layers along a finite tube of ``length`` (m) whose cells are as long as they
     are wide on the contact surface, round(L N / (2 pi R)), at least 1 (a float: huge or
