@@ -107,6 +107,7 @@ def project_contact_disc(
     u_r_trial: np.ndarray, u_t_trial: np.ndarray, u_z_trial: np.ndarray,
     u_t_prev: np.ndarray, u_z_prev: np.ndarray, mass: np.ndarray, kappa: float, d: float,
     slide: float, f: float, out: ContactArrays, r_z: np.ndarray,
+    effective: EffectivePressure | None = None,
 ) -> None:
     """``project_contact`` on a contact surface: the tangent plane is (e_theta, e_z) and the
     Coulomb cone a disc, |q| <= f p (the finite tube, ``solver.contact.surface``).
@@ -119,6 +120,9 @@ def project_contact_disc(
     q = f p q_stick / |q_stick| (the slip takes the direction of the trial traction). The
     axial force is written into ``r_z``. Where u_z~ = u_z,n the step is ``project_contact``'s,
     bit for bit: |q_stick| = |q_theta,stick| and q_theta,stick / |q_stick| = +-1 exactly.
+    With ``effective`` (a regularised bound, ``EffectivePressure``) the disc's radius is
+    f sigma_eff, sigma_eff relaxing at the tangent plane's slip rate, and without axial motion
+    the step is ``project_contact_regularized``'s.
     """
     project_normal(u_r_trial, mass, kappa, d, out)
     r_t, work, norm = out.r_t, out.work, out.cone_norm
@@ -127,7 +131,10 @@ def project_contact_disc(
         r_z.fill(0.0)
         np.multiply(out.in_contact, SLIP, out=out.status)
         return
-    np.multiply(out.r_r, f, out=out.cone)  # Coulomb bound f p
+    if effective is None:
+        np.multiply(out.r_r, f, out=out.cone)  # Coulomb bound f p
+    else:
+        effective.update(out.r_r, u_t_prev, slide, f, out, u_z_prev)  # f sigma_eff
     np.add(u_t_prev, slide, out=r_t)  # the stick force, in project_tangential's operations
     r_t -= u_t_trial
     r_t *= out.stiff
@@ -195,25 +202,37 @@ class EffectivePressure:
         self.sigma = np.zeros(n)
         self.rate = np.zeros(n) if self.rate_slip else np.full(n, self.rate_base)
         self.u_t_last = np.zeros(n)  # u_theta,{n-1}
+        self.u_z_last = np.zeros(n)  # u_z,{n-1} on a contact surface (``update``'s u_z_now)
         self.work = np.zeros(n)
         self.started = False
 
     def update(self, p: np.ndarray, u_t_now: np.ndarray, slide: float, f: float,
-               out: ContactArrays) -> None:
-        """Advance sigma_eff to t_n and set ``out.cone`` = f sigma_eff where in contact, else 0."""
+               out: ContactArrays, u_z_now: np.ndarray | None = None) -> None:
+        """Advance sigma_eff to t_n and set ``out.cone`` = f sigma_eff where in contact, else 0.
+        On a contact surface (``u_z_now``) the slip rate is the tangent plane's,
+        |V| dt = |(u_theta,n - u_theta,{n-1} - slide, u_z,n - u_z,{n-1})|, which is the
+        circle's |u_theta,n - u_theta,{n-1} - slide| bit for bit where u_z does not move."""
         if not self.started:
             self.sigma[:] = p
             self.u_t_last[:] = u_t_now  # at rest: slip rate R Omega, as in steady sliding
+            if u_z_now is not None:
+                self.u_z_last[:] = u_z_now
             self.started = True
         if self.rate_slip:
             # Prakash-Clifton: rate = (|V| + V*) / L, V = (u_theta,n - u_theta,{n-1} - slide) / dt
             np.subtract(u_t_now, self.u_t_last, out=self.rate)
             self.rate -= slide
-            np.abs(self.rate, out=self.rate)
+            if u_z_now is None:
+                np.abs(self.rate, out=self.rate)
+            else:
+                np.subtract(u_z_now, self.u_z_last, out=self.work)
+                np.hypot(self.rate, self.work, out=self.rate)
             self.rate *= self.rate_slip
             self.rate += self.rate_base
         relax_effective_pressure(self.sigma, p, self.rate, self.dt, self.work)
         self.u_t_last[:] = u_t_now
+        if u_z_now is not None:
+            self.u_z_last[:] = u_z_now
         np.multiply(self.sigma, f, out=out.cone)
         out.cone *= out.in_contact  # no friction without contact
 

@@ -21,8 +21,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from stickslip.solver.contact.law import ContactLaw
-from stickslip.solver.contact.nodal import ContactArrays, project_contact_disc
+from stickslip.solver.contact.law import ContactLaw, SpatialFilter
+from stickslip.solver.contact.nodal import (
+    ContactArrays,
+    EffectivePressure,
+    project_contact_disc,
+)
 
 __all__ = ["RingOutputs", "SurfaceContactProjection"]
 
@@ -47,13 +51,11 @@ class SurfaceContactProjection:
     the step needs no communication.
     """
 
-    effective = None  # the disc cone has no regularised state
-
     def __init__(self, problem, law: ContactLaw) -> None:
-        if law.variant != "nodal":
-            raise ValueError(f"friction variant {law.variant!r}: the 3D tube's contact "
-                             "surface has the Coulomb law only; remove [friction] or set "
-                             "mesh.dim = 2")
+        if law.filter is not SpatialFilter.NODAL:
+            raise ValueError(f"friction variant {law.variant!r}: the 1-2-1 filter runs along "
+                             "a circle, not on the 3D tube's surface; set friction.filter = "
+                             "\"nodal\" or mesh.dim = 2")
         if problem.scene.boundary.ends == "clamped":
             raise ValueError("boundary.ends = \"clamped\" holds the contact surface's end "
                              "rings, which the cylinder's mismatch pushes: the transient "
@@ -79,6 +81,9 @@ class SurfaceContactProjection:
         self.polar = np.zeros((5, m))  # u_r~, u_theta~, u_theta,n, and scratch
         self.r_z = np.zeros(m)
         self.surface_out = ContactArrays(m)
+        # a regularised bound's per-node state (Prakash-Clifton, constant time), else None
+        self.effective = (EffectivePressure(m, law.regularisation, law.dt)
+                          if law.regularisation.code else None)
         n = self.node_index.size
         so = self.surface_out
         self.out = RingOutputs(so.r_r[:n], so.r_t[:n], so.status[:n])
@@ -108,7 +113,8 @@ class SurfaceContactProjection:
         self.rotate(now, self.polar[3], t_now)
         so = self.surface_out
         project_contact_disc(r_trial, t_trial, trial[:, 2], t_now, now[:, 2], self.mass,
-                             self.kappa, self.d, self.slide, self.f, so, self.r_z)
+                             self.kappa, self.d, self.slide, self.f, so, self.r_z,
+                             self.effective)
         force, scratch = self.force, self.polar[4]
         np.multiply(so.r_r, self.cos_t, out=force[:, 0])  # back to (x, y, z)
         np.multiply(so.r_t, self.sin_t, out=scratch)
@@ -123,9 +129,21 @@ class SurfaceContactProjection:
         np.put(accel, dofs, trial)
 
     def state(self) -> dict[str, np.ndarray]:
-        """The checkpoint: the surface's statuses of the last level."""
-        return {"status": self.surface_out.status.copy()}
+        """The checkpoint: the surface's statuses of the last level and, for a regularised
+        bound, sigma_eff, the last u_theta and u_z and the rate (the step reads those)."""
+        out = {"status": self.surface_out.status.copy()}
+        eff = self.effective
+        if eff is not None:
+            out.update(sigma=eff.sigma.copy(), u_t_last=eff.u_t_last.copy(),
+                       u_z_last=eff.u_z_last.copy(), rate=eff.rate.copy(),
+                       started=np.int8(eff.started))
+        return out
 
     def restore(self, state: dict[str, np.ndarray]) -> None:
         """Continue from ``state()`` (in place)."""
         self.surface_out.status[:] = state["status"]
+        eff = self.effective
+        if eff is not None:
+            for name in ("sigma", "u_t_last", "u_z_last", "rate"):
+                getattr(eff, name)[:] = state[name]
+            eff.started = bool(state["started"])

@@ -137,7 +137,8 @@ STATE_ARRAYS = {
     **_arrays("U", ((),), "stepper/kernel", "run/partition"),
     **_arrays("i", (("m",),), "contact/status"),
     **_arrays("i", (("M",),), "contact/mode"),  # the active set, on rank 0
-    **_arrays("f", (("m",),), "contact/sigma", "contact/u_t_last", "contact/rate"),
+    **_arrays("f", (("m",),), "contact/sigma", "contact/u_t_last", "contact/u_z_last",
+              "contact/rate"),
     **_arrays("c", (("m",),), "contact/r_polar", "contact/r_xy", "energy/z_prev",
               "energy/z_now"),
     **_arrays("f", ((2,),), "contact/work", "contact/work_exposed", "damping/sums"),
