@@ -276,7 +276,8 @@ class _GatheredRows:
     def __init__(self, circle, lead: tuple[int, ...], rows: int, dtype, mpitype) -> None:
         self.circle, self.mpitype = circle, mpitype
         self.send = np.zeros((1, *lead, circle.n_local), dtype=dtype)
-        self.flat = self.send.reshape(-1, circle.n_local)
+        # (leading rows, m_local): explicit, since a rank may own no contact node (m = 0)
+        self.flat = self.send.reshape(int(np.prod(lead, dtype=np.int64)), circle.n_local)
         self.record = self.recv = None
         if circle.is_root:
             self.record = _Record((*lead, circle.n_nodes), 1, rows, dtype)

@@ -287,6 +287,19 @@ def test_the_estimate_knows_a_3d_tube(length, dofs, wall_s, rss_mb):
         assert est.steps == pytest.approx(8918, rel=0.35)
 
 
+def test_a_rank_that_owns_no_node_of_the_ring_records_nothing():
+    """A long tube over 3 ranks leaves ranks without a node of the mid-length ring (L = 6 m,
+    48 layers: 0, 0 and 36 of its 36): their gathered rows are (rows, 0), not a reshape
+    error (the 3-rank run then gives the serial samples to 7e-16, statuses equal)."""
+    from types import SimpleNamespace
+
+    from stickslip.solver.ensemble_observers import _GatheredRows
+
+    empty = SimpleNamespace(n_local=0, is_root=False, n_nodes=36)
+    rows = _GatheredRows(empty, (6,), 10, np.float64, None)
+    assert rows.flat.shape == (6, 0) and rows.row().shape == (1, 6, 0)
+
+
 def test_the_iterative_steady_state_is_the_direct_one():
     """A large 3D tube's steady sliding is solved by GMRES with smoothed aggregation
     (``STEADY_DIRECT_DOFS``); on the smoke tube with free ends (972 dofs) it gives the LU's
