@@ -23,8 +23,9 @@ from stickslip.solver import __version__
 from stickslip.solver.observers import ContinuedRecords
 from stickslip.solver.scene import Scene
 
-__all__ = ["Profile", "SceneRecords", "SceneRun", "energy_balance", "initial_perturbation",
-           "planned_steps", "random_bump", "restore_run_state", "run_facts", "run_state"]
+__all__ = ["KICK_MODES", "Profile", "SceneRecords", "SceneRun", "energy_balance",
+           "initial_perturbation", "kick_fields", "planned_steps", "random_bump",
+           "restore_run_state", "run_facts", "run_state"]
 
 
 class Profile:
@@ -81,6 +82,7 @@ class SceneRun:
         #: continued, ``solver.observers.ContinuedRecords``)
         self.recorder = None
         self.probes = None
+        self.kick: dict | None = None  # the kick a continuation started with (its facts)
         #: this scene's checkpoint when it finished at a whole level (``finish``), else None
         self.state: dict[str, np.ndarray] | None = None
         self.frozen: tuple[int, float, dict] | None = None  # steps, time, scheme facts
@@ -163,6 +165,27 @@ def initial_perturbation(problem, scene: Scene) -> np.ndarray:
         k = ini.mode
         return problem.radial_field(lambda th: amp * 0.5 * (1.0 + np.cos(k * th)))
     return problem.radial_field(random_bump(ini.seed, ini.n_modes, amp))
+
+
+#: The random modes of a kick's bumps (``kick_fields``).
+KICK_MODES = 16
+
+
+def kick_fields(problem, u: np.ndarray, v: np.ndarray, fraction: float, seed: int,
+                rms: Callable[[np.ndarray], float]) -> tuple[np.ndarray, np.ndarray, dict]:
+    """(δu, δv, facts) of a kick of the state (u, v~) where a scene stands, as a start is
+    perturbed: δu = ε ‖u‖ φ₁/‖φ₁‖ and δv = ε ‖v~‖ φ₂/‖φ₂‖, ε = ``fraction``, ‖·‖ = ``rms``
+    (over the dofs), φ_i the random start's radial bump A(θ) X(r) e_r of ``problem``
+    (``random_bump`` with ``KICK_MODES`` modes, seeds ``seed`` and ``seed + 1``; clamped
+    outside, smooth, the contact circle's shape spread through the thickness by eq. [1]).
+    The facts are the RMS sizes of u, v~, δu and δv."""
+    kicks = []
+    for x, s in ((u, seed), (v, seed + 1)):
+        shape = problem.radial_field(random_bump(s, KICK_MODES, 1.0))
+        kicks.append(fraction * rms(x) / rms(shape) * shape)
+    return kicks[0], kicks[1], {
+        "fraction": fraction, "seed": seed, "u_rms_m": rms(u), "v_rms_m_s": rms(v),
+        "du_rms_m": rms(kicks[0]), "dv_rms_m_s": rms(kicks[1])}
 
 
 def random_bump(seed: int, n_modes: int, amplitude: float) -> Callable[[np.ndarray],

@@ -30,8 +30,8 @@ from stickslip.solver.columns import (
     Profile,
     SceneRun,
     initial_perturbation,
+    kick_fields,
     planned_steps,
-    random_bump,
     restore_run_state,
     run_state,
 )
@@ -56,7 +56,6 @@ from stickslip.solver.stepper import BatchStepper
 __all__ = ["BatchColumns", "BatchLayout", "BatchOptions", "BatchStarts", "BuiltProblem"]
 
 #: The modes of a kick's random bump (``BatchColumns.kick``): a start's default.
-KICK_MODES = 16
 
 
 @dataclass
@@ -375,21 +374,13 @@ class BatchColumns:
             restore_run_state(self.recorder.guard, b, run, state, before, *self.members[b])
 
     def kick(self, b: int, fraction: float, seed: int) -> dict:
-        """Perturb scene ``b`` where it stands (after ``restore``), as a start is perturbed:
-        δu = ε ‖u‖ φ₁/‖φ₁‖ and δv = ε ‖v~‖ φ₂/‖φ₂‖, ε = ``fraction``, ‖·‖ the RMS over the
-        dofs, φ_i the random start's radial bump A(θ) X(r) e_r (``solver.columns.random_bump``
-        with its default 16 modes, seeds ``seed`` and ``seed + 1``; clamped outside, smooth,
-        the contact circle's shape spread through the thickness by eq. [1]). Returns the
-        kick's facts (RMS sizes of u, v~, δu, δv)."""
+        """Perturb scene ``b`` where it stands (after ``restore``): ``kick_fields`` with the
+        RMS over its dofs. Returns the kick's facts (RMS sizes of u, v~, δu, δv)."""
         u, v = (self.stepper.host_column(name, b) for name in ("u", "v_pred"))  # before it
 
         def rms(x: np.ndarray) -> float:
             return float(np.sqrt(np.mean(x**2)))
 
-        kicks = []
-        for x, s in ((u, seed), (v, seed + 1)):
-            shape = self.problem.radial_field(random_bump(s, KICK_MODES, 1.0))
-            kicks.append(fraction * rms(x) / rms(shape) * shape)
-        self.stepper.kick(b, kicks[0], kicks[1])
-        return {"fraction": fraction, "seed": seed, "u_rms_m": rms(u), "v_rms_m_s": rms(v),
-                "du_rms_m": rms(kicks[0]), "dv_rms_m_s": rms(kicks[1])}
+        du, dv, facts = kick_fields(self.problem, u, v, fraction, seed, rms)
+        self.stepper.kick(b, du, dv)
+        return facts

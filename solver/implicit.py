@@ -396,6 +396,11 @@ class ImplicitNewmark(HookedStepper):
     def _mult(self, u: np.ndarray, out: np.ndarray) -> None:
         self.K.mult(self._vec(u), self._vec(out))
 
+    def kick(self, b: int, du: np.ndarray, dv: np.ndarray) -> None:
+        """Not defined: a kick perturbs the explicit scheme's (u, v~) where it stands."""
+        raise ValueError("a kick perturbs the explicit scheme's state; the implicit scheme's "
+                         "runs are not kicked (run the census with time.beta1 = 0)")
+
     def set_state(self, u: np.ndarray, v: np.ndarray) -> None:
         """Initial u_0, v_0; r_0 from the nodal law at rest (module docstring)."""
         self.u[:] = u
@@ -548,6 +553,9 @@ class ImplicitDampingWork:
     def at_sample(self, integrator: ImplicitNewmark) -> float:
         """W_d up to level n on this rank's dofs."""
         return integrator.damping_work_local
+
+    def kicked(self, du: np.ndarray) -> None:
+        """Nothing to move (the implicit scheme is not kicked)."""
 
 
 def amplification_eigenvalues(omega_dt: float, beta1: float, beta2: float) -> np.ndarray:

@@ -151,6 +151,15 @@ class Newmark(HookedStepper):
         """Continue from ``state()`` (``solver.stepper.Stepper.restore``)."""
         put_state(self, state, self.STATE)
 
+    def kick(self, b: int, du: np.ndarray, dv: np.ndarray) -> None:
+        """Perturb the scene where it stands (``b`` = 0: one scene), as
+        ``solver.ensemble.BatchedExplicit.kick``: u_{n+1} and u_n move by ``du`` (the
+        displacement kick leaves the velocity alone), v~_{n+1} by ``dv``; a damped step forms
+        w = u + tau v~ from them."""
+        self.u += du
+        self.u_prev += du
+        self.v_pred += dv
+
     def set_state(self, u: np.ndarray, v: np.ndarray, a0: np.ndarray | None = None) -> None:
         """Initial displacement, velocity and (optionally) acceleration.
 

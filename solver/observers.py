@@ -110,6 +110,13 @@ class EnergyAccumulator:
         self.work_contact, self.work_cylinder, self.friction_dissipation = (
             float(x) for x in state["sums"])
 
+    def kicked(self, du: np.ndarray) -> None:
+        """A kick moved u_n and u_{n+1} by ``du`` (``Newmark.kick``): so do their copies at
+        the contact nodes, and the next increment is motion, not the kick."""
+        moved = self.p.complex_view(du).take(self.p.node_index)
+        self.z_prev += moved
+        self.z_now += moved
+
     def after_step(self, stepper) -> None:
         """Accumulate the work of r_n with the centred increment (u_{n+1} - u_{n-1}) / 2."""
         p = self.p
@@ -168,6 +175,12 @@ class SurfaceWork:
         self.work_contact, self.work_cylinder, self.friction_dissipation = (
             float(x) for x in state["sums"])
 
+    def kicked(self, du: np.ndarray) -> None:
+        """A kick moved u_n and u_{n+1} by ``du``: so do their copies on the surface."""
+        moved = du.take(self.p.dofs)
+        self.u_prev += moved
+        self.u_now += moved
+
     def after_step(self, stepper) -> None:
         """Accumulate the work of r_n with the centred increment (u_{n+1} - u_{n-1}) / 2."""
         p, du = self.p, self.du
@@ -220,6 +233,10 @@ class DampingWork:
         """Continue from ``state()``."""
         self.u_older[:] = state["u_older"]
         self.u0_ku0, self.sum_kw = (float(x) for x in state["sums"])
+
+    def kicked(self, du: np.ndarray) -> None:
+        """A kick moved u_n (this part's u_{n-1} at the next step) by ``du``."""
+        self.u_older += du
 
     def after_step(self, integrator) -> None:
         """Accumulate K w_n . (u_{n+1} - u_{n-1}) / 2 (integrator.u = u_{n+1}, u_prev = u_n)."""

@@ -14,6 +14,7 @@ energy guard's sums over the ranks.
 from __future__ import annotations
 
 import hashlib
+import math
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -23,6 +24,7 @@ from stickslip.solver.columns import (
     Profile,
     SceneRun,
     initial_perturbation,
+    kick_fields,
     planned_steps,
     restore_run_state,
     run_state,
@@ -212,6 +214,23 @@ class SceneColumn:
             obj.restore({k[len(head):]: v for k, v in state.items() if k.startswith(head)})
         restore_run_state(self.sampler.guard, 0, self.runs[0], state, before,
                           self.records.samples, self.records.probes)
+
+    def kick(self, b: int, fraction: float, seed: int) -> dict:
+        """Perturb the scene where it stands (after ``restore``), as a batch member is
+        (``solver.columns.kick_fields``, the RMS over every rank's dofs); the work observers'
+        copies of u move with it (``kicked``). Returns the kick's facts."""
+        comm = self.comm
+
+        def rms(x: np.ndarray) -> float:
+            return math.sqrt(comm.allreduce(float(np.dot(x, x))) / comm.allreduce(x.size))
+
+        state = self.stepper.state()
+        du, dv, facts = kick_fields(self.problem, state["u"], state["v_pred"], fraction,
+                                    seed, rms)
+        self.stepper.kick(b, du, dv)
+        for part in self.records.parts.values():
+            part.kicked(du)
+        return facts
 
     def partition_id(self) -> str:
         """This rank's part of the mesh, as a hash of its owned nodes' coordinates (sorted):

@@ -139,6 +139,10 @@ class SceneExplicit(HookedStepper):
         self.batch.set_state(np.asarray(u, dtype=float)[:, None], v_pred[:, None])
         self.v[:] = v
 
+    def kick(self, b: int, du: np.ndarray, dv: np.ndarray) -> None:
+        """Perturb the scene where it stands (``BatchedExplicit.kick`` of its column)."""
+        self.batch.kick(b, du, dv)
+
     def step(self) -> None:
         """u_n -> u_{n+1}: the ghost rows K reads refreshed (several ranks), one kernel call."""
         self.batch.step(False)
@@ -200,3 +204,6 @@ class DampingStart:
 
     def restore(self, state: dict[str, np.ndarray]) -> None:
         self.integ.batch.u0_ku0[0] = float(state["u0_ku0"])
+
+    def kicked(self, du: np.ndarray) -> None:
+        """A kick moves nothing this part holds (the stepper's ``kick`` moves its sums')."""

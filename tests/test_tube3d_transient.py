@@ -300,6 +300,32 @@ def test_a_rank_that_owns_no_node_of_the_ring_records_nothing():
     assert rows.flat.shape == (6, 0) and rows.row().shape == (1, 6, 0)
 
 
+@pytest.mark.parametrize("sets", [[*TUBE, "boundary.ends=free"], ["time.kernel=numpy"],
+                                  ["time.kernel=numba"]], ids=["3d", "2d-numpy", "2d-numba"])
+def test_a_one_scene_run_is_kicked_into_a_new_run(tmp_path, sets):
+    """The census's kick test on a start that is no batch member (a 3D tube; a plane-strain
+    run alone): ``continue_run(..., kick=0.01)`` perturbs u and v~ by 1 % of their RMS
+    (the facts in the summary's ``kick``: δu/u = 0.01 to 1e-12), writes a new run whose
+    records start at the kick, and leaves the run itself as it was."""
+    from stickslip import run
+    from stickslip.studies.rundir import continue_run
+
+    first = run("smoke", tmp_path / "run", overrides=[*sets, "time.end_time=0.006"],
+                force=True, quiet=True)
+    before = (tmp_path / "run" / "samples.npz").read_bytes()
+    kicked = continue_run(tmp_path / "run", 0.01, tmp_path / "kicked", kick=0.01,
+                          kick_seed=3, stream=io.StringIO())
+    facts = kicked["kick"]
+    assert kicked["status"] == "completed" and facts["seed"] == 3
+    assert facts["du_rms_m"] / facts["u_rms_m"] == pytest.approx(0.01, rel=1e-12)
+    assert facts["dv_rms_m_s"] / facts["v_rms_m_s"] == pytest.approx(0.01, rel=1e-12)
+    t = np.load(tmp_path / "kicked" / "samples.npz")["t"]
+    assert t[0] >= first["sim_time_s"] - 1e-12 and t[-1] == pytest.approx(0.01, abs=2e-4)
+    assert (tmp_path / "run" / "samples.npz").read_bytes() == before
+    with pytest.raises(ValueError, match="another directory"):
+        continue_run(tmp_path / "run", 0.01, kick=0.01, stream=io.StringIO())
+
+
 def test_the_iterative_steady_state_is_the_direct_one():
     """A large 3D tube's steady sliding is solved by GMRES with smoothed aggregation
     (``STEADY_DIRECT_DOFS``); on the smoke tube with free ends (972 dofs) it gives the LU's

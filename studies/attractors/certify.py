@@ -190,9 +190,9 @@ def kick_members(out_dir: Path, groups: dict[str, list[dict]], window: float,
     out: dict[str, dict] = {}
     chosen: dict[str, tuple[dict, Path, float]] = {}
     for key, rows in groups.items():
-        row = next((r for r in rows if r.get("features") and _batch_member(r)), None)
+        row = next((r for r in rows if r.get("features") and _at_checkpoint(r)), None)
         if row is None:
-            out[key] = {"message": "not run: no start of it is a batch member's checkpoint"}
+            out[key] = {"message": "not run: no start of it ended at a checkpoint"}
             continue
         t_k = float(row["sim_time_s"])
         chosen[key] = (row, out_dir / KICKS / _slug(key), t_k + KICK_WINDOWS * window)
@@ -230,15 +230,16 @@ def kick_members(out_dir: Path, groups: dict[str, list[dict]], window: float,
     return _plain(out)
 
 
-def _batch_member(row: dict) -> bool:
-    """Whether a start's run stepped as a batch member (only those can be kicked)."""
+def _at_checkpoint(row: dict) -> bool:
+    """Whether a start's run completed at a whole level, its checkpoint the kick's start (a
+    batch member's, or a one-scene run's: a 3D tube, an implicit scene)."""
     import json
 
     try:
         summary = json.loads((Path(row["run_dir"]) / "summary.json").read_text())
     except (OSError, ValueError, KeyError):
         return False
-    return bool(summary.get("batch")) and summary.get("status") == "completed"
+    return summary.get("status") == "completed"
 
 
 def _slug(key: str) -> str:

@@ -202,7 +202,8 @@ def _planned(run_dir: Path, until: float, comm: MPI.Comm) -> _Plan | None:
 
 def continue_run(run_dir: str | Path, until: float, out_dir: str | Path | None = None, *,
                  force: bool = False, comm: MPI.Comm | None = None, stream=None,
-                 check_resources: bool = True) -> dict:
+                 check_resources: bool = True, kick: float = 0.0,
+                 kick_seed: int = 0) -> dict:
     """Continue the run in ``run_dir`` from its checkpoint to ``until`` seconds (collective).
 
     Args:
@@ -215,6 +216,10 @@ def continue_run(run_dir: str | Path, until: float, out_dir: str | Path | None =
         comm: the ranks; the same number as the run's (its partition); default: every rank.
         stream: where the progress and summary lines go (default stdout).
         check_resources: refuse a continuation beyond the machine's memory or disk.
+        kick: perturb the run where it stands by this fraction of its displacement and
+            velocity RMS (``solver.scene_column.SceneColumn.kick``, seed ``kick_seed``; its
+            facts in the summary's ``kick``), into ``out_dir`` only: a new experiment from
+            the kick on, its records starting there (as ``continue_batch``'s kicks).
 
     Returns:
         The continued run's summary (rank 0; ``{}`` elsewhere), as ``run_scene``'s.
@@ -224,14 +229,20 @@ def continue_run(run_dir: str | Path, until: float, out_dir: str | Path | None =
         studies.rundir.RunDirError: ``out_dir`` is not free, or the run is live.
     """
     run_dir, comm = Path(run_dir), every_rank(comm)
+    if kick and (out_dir is None or Path(out_dir).resolve() == run_dir.resolve()):
+        raise ValueError("a kick continues a run into another directory (out_dir), never "
+                         "into the run itself")
     plan = _planned(run_dir, until, comm)
     if comm.bcast(plan.kind if plan is not None else None, root=0) == "batch":
         return continue_batch([run_dir], until, None if out_dir is None else [out_dir],
-                              force=force, stream=stream, plans=[plan])[0]
+                              force=force, stream=stream, plans=[plan], kick=kick,
+                              kick_seed=kick_seed)[0]
     scene = comm.bcast(plan.scene if plan is not None else None, root=0)
     state = comm.scatter(plan.checkpoint.states if plan is not None else None, root=0)
-    before = plan.before if plan is not None else None
-    surface = plan.surface if plan is not None else None
+    before = plan.before if plan is not None and not kick else None
+    surface = plan.surface if plan is not None and not kick else None
+    if kick:  # records from the kick on: no history copied along
+        state = dict(state, **{"run/samples": np.int64(0), "run/probe_steps": np.int64(0)})
     kernel = comm.bcast(plan.checkpoint.meta["kernel"] if plan is not None else None, root=0)
 
     def resume(sim) -> None:  # noqa: ANN001 - a solver.run.Simulation
@@ -240,6 +251,8 @@ def continue_run(run_dir: str | Path, until: float, out_dir: str | Path | None =
         try:
             sim.restore([state], [before])
             sim.columns.surface_before(surface)
+            if kick:
+                sim.runs[0].kick = sim.columns.kick(0, kick, kick_seed)
         except KeyError as err:  # every key is written by this format: an edited file
             raise ValueError(f"checkpoint.npz has no {err}: not written by this version of "
                              "stickslip (or edited); run the scene again to T") from None
@@ -272,10 +285,11 @@ def continue_batch(run_dirs: list[str | Path], until: float,
         stream: where the summary lines go (default stdout).
         kick: perturb every run where it stands by this fraction of its displacement and
             velocity RMS before it goes on (``solver.ensemble_run.BatchColumns.kick``,
-            seed ``kick_seed``; its facts in the summary's ``kick``): batch members only,
-            into ``out_dirs`` (the runs themselves are never kicked). A kicked run is a new
-            experiment from the kick on: its records (samples, probes) start there, without
-            the history before it, which stays in the run it was kicked from.
+            seed ``kick_seed``; its facts in the summary's ``kick``; a one-scene run's:
+            ``continue_run``'s), into ``out_dirs`` (the runs themselves are never kicked).
+            A kicked run is a new experiment from the kick on: its records (samples,
+            probes) start there, without the history before it, which stays in the run it
+            was kicked from.
         compress: the batch members' samples.npz deflated, else stored (faster to write
             and to read again; ``write_member``).
         plans: ``plan_continuation`` of each run, where the caller has made them
@@ -299,10 +313,6 @@ def continue_batch(run_dirs: list[str | Path], until: float,
     if kick and out_dirs is None:
         raise ValueError("a kick continues a run into another directory (out_dirs), never "
                          "in place")
-    for d, plan in zip(dirs, plans, strict=True):
-        if kick and plan.kind != "batch":
-            raise ReadError(d, "a one-scene run cannot be kicked (only a batch member's "
-                               "checkpoint)", "kick a member of a batch")
     summaries: list[dict] = [{} for _ in dirs]
     groups: dict[tuple, list[int]] = {}
     backends = [p.checkpoint.meta["backend"] for p in plans if p.kind == "batch"]
@@ -317,7 +327,7 @@ def continue_batch(run_dirs: list[str | Path], until: float,
     for i, plan in enumerate(plans):
         if plan.kind != "batch":
             summaries[i] = continue_run(dirs[i], until, outs[i], force=force, comm=comm,
-                                        stream=stream)
+                                        stream=stream, kick=kick, kick_seed=kick_seed)
     for (_, backend, _), members in groups.items():
         done = _continue_members([plans[i] for i in members], [outs[i] for i in members],
                                  backend, force, sys.stdout if stream is None else stream,

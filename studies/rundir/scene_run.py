@@ -194,6 +194,8 @@ class RunDirectory:
             and not self.replace_on_failure
         with self.prof.phase("output"):
             out = RunOutputs(self.scene, None if sim is None else sim.runs[0], status, error)
+            if sim is not None and sim.runs[0].kick:
+                out.extra["kick"] = sim.runs[0].kick
             if sim is not None:
                 sim.status = status
                 out.probes, out.final_field = sim.probes.arrays(), sim.final_field()
