@@ -8,7 +8,7 @@ Everything here is built once per run. The time loop (``solver.newmark``) then o
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import dolfinx
 import dolfinx.fem.petsc
@@ -175,11 +175,22 @@ def tube_problem_3d(scene: Scene, *, length: float, n_axial: int, ends: str = "r
     problem = problem_on(scene, tube, comm, fixed=fixed)
     z_mid = (length / n_axial) * float(n_axial // 2)  # on its level (tube3d._snap)
     ring = contact_nodes(problem.V, tube.facet_tags, INNER_TAG, z_level=z_mid)
-    problem.surface, problem.nodes = ring_first(problem.nodes, ring), ring
+    problem.surface, problem.nodes = ring_first(_ring_major(problem, tube), ring), ring
     held = [_tag_dofs(problem.V, tube.facet_tags, tag, parts) for tag, parts in fixed if parts]
     end_held = np.unique(np.concatenate(held)) if held else np.zeros(0, dtype=np.int32)
     problem.end_held = end_held[end_held < problem.n_owned].astype(np.int32)
     return problem
+
+
+def _ring_major(problem: TubeProblem, tube) -> ContactNodes:  # noqa: ANN001 - Tube3DMesh
+    """The contact surface's nodes with their partition-free global index ring-major:
+    level x N + the angle's rank (level = z / dz, angle = theta N / 2 pi, both exact on the
+    snapped mesh), so that a ring's nodes are consecutive (the 1-2-1 filter's neighbours)."""
+    surface, n = problem.nodes, tube.n_inner
+    z = problem.V.tabulate_dof_coordinates()[surface.nodes, 2]
+    level = np.rint(z / (tube.length / tube.n_axial)).astype(np.int64)
+    angle = np.rint(surface.theta * n / (2.0 * math.pi)).astype(np.int64) % n
+    return replace(surface, global_node_index=level * n + angle)
 
 
 def problem_on(scene: Scene, tube, comm: MPI.Comm,  # noqa: ANN001 - TubeMesh or Tube3DMesh

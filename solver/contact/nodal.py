@@ -107,7 +107,7 @@ def project_contact_disc(
     u_r_trial: np.ndarray, u_t_trial: np.ndarray, u_z_trial: np.ndarray,
     u_t_prev: np.ndarray, u_z_prev: np.ndarray, mass: np.ndarray, kappa: float, d: float,
     slide: float, f: float, out: ContactArrays, r_z: np.ndarray,
-    effective: EffectivePressure | None = None,
+    effective: EffectivePressure | None = None, filt: NeighbourFilter | None = None,
 ) -> None:
     """``project_contact`` on a contact surface: the tangent plane is (e_theta, e_z) and the
     Coulomb cone a disc, |q| <= f p (the finite tube, ``solver.contact.surface``).
@@ -122,7 +122,8 @@ def project_contact_disc(
     bit for bit: |q_stick| = |q_theta,stick| and q_theta,stick / |q_stick| = +-1 exactly.
     With ``effective`` (a regularised bound, ``EffectivePressure``) the disc's radius is
     f sigma_eff, sigma_eff relaxing at the tangent plane's slip rate, and without axial motion
-    the step is ``project_contact_regularized``'s.
+    the step is ``project_contact_regularized``'s. With ``filt`` (``NeighbourFilter`` along
+    each ring) the bound takes the filtered pressure p~, as ``project_contact_filtered``.
     """
     project_normal(u_r_trial, mass, kappa, d, out)
     r_t, work, norm = out.r_t, out.work, out.cone_norm
@@ -131,10 +132,11 @@ def project_contact_disc(
         r_z.fill(0.0)
         np.multiply(out.in_contact, SLIP, out=out.status)
         return
+    p = out.r_r if filt is None else filt.apply(out.r_r, out.in_contact)
     if effective is None:
-        np.multiply(out.r_r, f, out=out.cone)  # Coulomb bound f p
+        np.multiply(p, f, out=out.cone)  # Coulomb bound f p (or f p~)
     else:
-        effective.update(out.r_r, u_t_prev, slide, f, out, u_z_prev)  # f sigma_eff
+        effective.update(p, u_t_prev, slide, f, out, u_z_prev)  # f sigma_eff
     np.add(u_t_prev, slide, out=r_t)  # the stick force, in project_tangential's operations
     r_t -= u_t_trial
     r_t *= out.stiff
@@ -267,15 +269,21 @@ class NeighbourFilter:
     of all ``n_global`` contact nodes (``forms.polar.ContactNodes.global_node_index``). Under
     MPI the N nodal p's are Allgather-ed each step (N is small: ~1 kB), so each rank filters
     the same global array: results do not depend on the rank count. Arrays are allocated once.
+    On a 3D tube's contact surface the filter runs along each ring of ``ring`` nodes: the
+    global index is ring x ``ring`` + the angle's rank, and the neighbours are the ring's
+    (``ring`` = ``n_global``: the circle).
     """
 
-    def __init__(self, global_index: np.ndarray, n_global: int, comm=None) -> None:
+    def __init__(self, global_index: np.ndarray, n_global: int, comm=None,
+                 ring: int | None = None) -> None:
         gidx = np.asarray(global_index, dtype=np.intp)
         self.comm = comm if comm is not None and comm.size > 1 else None
         self.full = np.zeros(n_global)  # p at every contact node, in angle order
         self.mine = gidx
-        self.left = (gidx - 1) % n_global
-        self.right = (gidx + 1) % n_global
+        ring = n_global if ring is None else ring
+        start = gidx - gidx % ring  # the first node of each node's ring
+        self.left = start + (gidx - start - 1) % ring
+        self.right = start + (gidx - start + 1) % ring
         self.p = np.zeros(gidx.size)  # p~ at the owned nodes (the output)
         self.work = np.zeros(gidx.size)
         if self.comm is not None:

@@ -25,6 +25,7 @@ from stickslip.solver.contact.law import ContactLaw, SpatialFilter
 from stickslip.solver.contact.nodal import (
     ContactArrays,
     EffectivePressure,
+    NeighbourFilter,
     project_contact_disc,
 )
 
@@ -52,10 +53,6 @@ class SurfaceContactProjection:
     """
 
     def __init__(self, problem, law: ContactLaw) -> None:
-        if law.filter is not SpatialFilter.NODAL:
-            raise ValueError(f"friction variant {law.variant!r}: the 1-2-1 filter runs along "
-                             "a circle, not on the 3D tube's surface; set friction.filter = "
-                             "\"nodal\" or mesh.dim = 2")
         if problem.scene.boundary.ends == "clamped":
             raise ValueError("boundary.ends = \"clamped\" holds the contact surface's end "
                              "rings, which the cylinder's mismatch pushes: the transient "
@@ -84,6 +81,10 @@ class SurfaceContactProjection:
         # a regularised bound's per-node state (Prakash-Clifton, constant time), else None
         self.effective = (EffectivePressure(m, law.regularisation, law.dt)
                           if law.regularisation.code else None)
+        # the 1-2-1 filtered bound along each ring (``NeighbourFilter``), else None
+        self.filter = (NeighbourFilter(surface.global_node_index, surface.n_global,
+                                       problem.comm, ring=problem.tube.n_inner)
+                       if law.filter is SpatialFilter.ONE_TWO_ONE else None)
         n = self.node_index.size
         so = self.surface_out
         self.out = RingOutputs(so.r_r[:n], so.r_t[:n], so.status[:n])
@@ -114,7 +115,7 @@ class SurfaceContactProjection:
         so = self.surface_out
         project_contact_disc(r_trial, t_trial, trial[:, 2], t_now, now[:, 2], self.mass,
                              self.kappa, self.d, self.slide, self.f, so, self.r_z,
-                             self.effective)
+                             self.effective, self.filter)
         force, scratch = self.force, self.polar[4]
         np.multiply(so.r_r, self.cos_t, out=force[:, 0])  # back to (x, y, z)
         np.multiply(so.r_t, self.sin_t, out=scratch)
