@@ -5,8 +5,8 @@ The samples of a 3D run (``samples.npz``) are its mid-length ring's, so that eve
 of a plane-strain run reads them unchanged. This observer keeps the whole surface besides, at
 the same levels: each rank its own nodes, in float32 (a wave's displacement to 6 digits;
 13 bytes a node and sample with the status), gathered to rank 0 once, at the end, and put on
-the grid by each node's level z / dz and angle theta N / (2 pi). Nothing is allocated per
-sample.
+the grid by each node's ring-major global index (level x N + angle). Nothing is allocated
+per sample.
 """
 
 from __future__ import annotations
@@ -60,12 +60,10 @@ class SurfaceSamples:
         (n, L+1, N) on the grid of levels z and angles theta; a continued run's ``before``
         in front."""
         problem, n = self.problem, self.n
-        surface, tube = problem.surface, problem.tube
+        tube = problem.tube
         dz = tube.length / tube.n_axial
-        xyz = problem.V.tabulate_dof_coordinates()[surface.nodes]
-        level = np.rint(xyz[:, 2] / dz).astype(np.int64)
-        angle = np.rint(surface.theta * tube.n_inner / (2.0 * math.pi)).astype(np.int64)
-        angle %= tube.n_inner
+        # the surface's global index is ring-major: level x N + angle (solver.problem)
+        level, angle = np.divmod(problem.surface.global_node_index, tube.n_inner)
         pieces = problem.comm.gather((level, angle, self.u[:n], self.status[:n]), root=0)
         if pieces is None:
             return None

@@ -201,8 +201,12 @@ def compare_run(run_dir: Path | str, ks: list[int] | None = None) -> dict:
     for k in ks:
         waves += semianalytic_waves(p, k)
         reduced[str(k)] = reduced_modes(p, k)
-    return {"run": str(run_dir), "parameters": p, "fe": fe, "semianalytic": waves,
-            "reduced_modes": reduced}
+    out = {"run": str(run_dir), "parameters": p, "fe": fe, "semianalytic": waves,
+           "reduced_modes": reduced}
+    tube = run.summary.get("tube_3d")
+    if isinstance(tube, dict):  # a 3D run: its wave is the mid-length ring's
+        out["tube_3d"] = {k: tube.get(k) for k in ("length_m", "ends", "ring_z_m")}
+    return out
 
 
 ROWS = (
@@ -290,6 +294,10 @@ def conclusion(result: dict) -> str:
     sense = {"opposite": "against the rotation", "rotation": "with the rotation"}
     head = (f"Conclusion: the FE wave is {fe['regime']} k = {fe['k']}, "
             f"{sense.get(fe['direction'], fe['direction'])} at {fe['celerity_m_s']:+.0f} m/s")
+    if tube := result.get("tube_3d"):
+        head += (f" (on the ring z = {tube['ring_z_m']:g} m of a finite tube, L = "
+                 f"{tube['length_m']:g} m, {tube['ends']} ends; the reduced model is the "
+                 "plane-strain tube's)")
     why = ("docs/verification.md, 'Why the FE wave travels at ≈ −2500 m/s': the reduced "
            "model's one-term radial ansatz X(r) cannot carry the tube's free radial flight")
     if not ok:

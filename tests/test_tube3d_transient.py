@@ -146,6 +146,11 @@ def test_a_tube_with_roller_ends_runs_the_plane_strain_wave(tmp_path):
         assert np.max(np.abs(surface["u_r"][:, level] - b["u_r"])) < 1e-6 * np.max(b["u_r"])
         np.testing.assert_array_equal(surface["status"][:, level], b["status"])
     assert np.max(np.abs(surface["u_z"])) < 1e-12 * np.max(np.abs(b["u_r"]))
+    from stickslip.studies.verification import compare_run, conclusion
+
+    said = conclusion(compare_run(tmp_path / "tube"))  # against the plane-strain model
+    assert "ring z = 0.175 m of a finite tube, L = 0.35 m, roller ends" in said
+    assert "finite tube" not in conclusion(compare_run(tmp_path / "plane"))
     made = {p.name for p in (tmp_path / "tube").glob("*.png")}
     assert {"surface.png", "isomap.png"} <= made and "stress.png" not in made
 
