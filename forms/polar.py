@@ -85,8 +85,8 @@ def ring_first(surface: ContactNodes, ring: ContactNodes) -> ContactNodes:
     order, then the others in their own: so arrays over the surface hold the ring's values
     as their first ``ring.n_owned`` entries."""
     rest = np.flatnonzero(~np.isin(surface.nodes, ring.nodes))
-    where = {int(node): j for j, node in enumerate(surface.nodes)}
-    order = np.concatenate([[where[int(node)] for node in ring.nodes], rest]).astype(np.intp)
+    first = np.searchsorted(surface.nodes, ring.nodes)  # ``contact_nodes`` sorts the nodes
+    order = np.concatenate([first, rest]).astype(np.intp)
     taken = {name: getattr(surface, name)[order] for name in
              ("nodes", "dofs_x", "dofs_y", "theta", "cos_t", "sin_t", "ds_weight",
               "global_node_index")}

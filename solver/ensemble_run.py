@@ -55,8 +55,6 @@ from stickslip.solver.stepper import BatchStepper
 
 __all__ = ["BatchColumns", "BatchLayout", "BatchOptions", "BatchStarts", "BuiltProblem"]
 
-#: The modes of a kick's random bump (``BatchColumns.kick``): a start's default.
-
 
 @dataclass
 class BatchLayout:

@@ -66,7 +66,59 @@ ENERGY_FIELDS = (
 )
 
 
-class EnergyAccumulator:
+class CentredWork:
+    """The three work sums of the contact forces, taken with the centred increment
+    Delta u_n = (u_{n+1} - u_{n-1}) / 2 (``EnergyAccumulator``: the contact circle;
+    ``SurfaceWork``: a 3D tube's contact surface). It keeps u_{n-1}, u_n at the contact nodes
+    (``prev``, ``now``: the checkpoint's ``KEYS``), taken by the subclass's ``at_nodes``,
+    and writes, restores, kicks and sums them alike."""
+
+    #: The checkpoint's names of ``prev`` and ``now``.
+    KEYS: tuple[str, str] = ("prev", "now")
+
+    def __init__(self, projection, with_friction: bool, u0: np.ndarray) -> None:
+        self.p, self.with_friction = projection, with_friction
+        self.now = self.at_nodes(u0)  # u_n (u_0 before the first step)
+        self.prev = self.now.copy()  # u_{n-1}
+        self.next = np.zeros_like(self.now)  # u_{n+1}
+        self.delta = np.zeros_like(self.now)  # u_{n+1} - u_{n-1}
+        self.work_contact = self.work_cylinder = self.friction_dissipation = 0.0
+
+    def at_nodes(self, array: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
+        """``array`` (owned dofs) at the contact nodes, into ``out`` where given."""
+        raise NotImplementedError
+
+    def state(self) -> dict[str, np.ndarray]:
+        """The checkpoint: u_n, u_{n+1} at the nodes and the three sums (after a step)."""
+        return {self.KEYS[0]: self.prev.copy(), self.KEYS[1]: self.now.copy(),
+                "sums": np.array([self.work_contact, self.work_cylinder,
+                                  self.friction_dissipation])}
+
+    def restore(self, state: dict[str, np.ndarray]) -> None:
+        """Continue from ``state()``."""
+        self.prev[:] = state[self.KEYS[0]]
+        self.now[:] = state[self.KEYS[1]]
+        self.work_contact, self.work_cylinder, self.friction_dissipation = (
+            float(x) for x in state["sums"])
+
+    def kicked(self, du: np.ndarray) -> None:
+        """A kick moved u_n and u_{n+1} by ``du`` (``Newmark.kick``): so do their copies at
+        the contact nodes, and the next increment is motion, not the kick."""
+        moved = self.at_nodes(du)
+        self.prev += moved
+        self.now += moved
+
+    def roll(self) -> None:
+        """After a step: (n-1, n, n+1) <- (n, n+1, reuse)."""
+        self.prev, self.now, self.next = self.now, self.next, self.prev
+
+    def local_sums(self) -> np.ndarray:
+        """(work_contact, work_cylinder, friction_dissipation) on this rank's contact nodes
+        (the records add them over the ranks)."""
+        return np.array([self.work_contact, self.work_cylinder, self.friction_dissipation])
+
+
+class EnergyAccumulator(CentredWork):
     """Work of the contact forces, accumulated every step over the owned contact nodes.
 
     The force r_n acts at t_n; its work uses the centred displacement increment
@@ -80,70 +132,44 @@ class EnergyAccumulator:
     z = u_x + i u_y (see ``ContactProjection``), so r . Delta u = Re(conj(r_xy) Delta z).
     """
 
+    KEYS = ("z_prev", "z_now")
+
     def __init__(self, projection, with_friction: bool, u0: np.ndarray,
                  exact_work: bool = False) -> None:
-        self.p = projection
-        self.with_friction = with_friction
-        n = projection.node_index.size
-        self.z_prev = np.zeros(n, dtype=complex)  # u_{n-1} (x + i y)
-        self.z_now = np.zeros(n, dtype=complex)  # u_n
-        self.z_next = np.zeros(n, dtype=complex)  # u_{n+1}
-        self.dz = np.zeros(n, dtype=complex)
-        np.take(projection.complex_view(u0), projection.node_index, out=self.z_now)
-        self.z_prev[:] = self.z_now
-        self.work_contact = 0.0
-        self.work_cylinder = 0.0
-        self.friction_dissipation = 0.0
+        super().__init__(projection, with_friction, u0)
         # the implicit scheme's contact solve keeps exact work sums (``work_totals``)
         self._exact_work = exact_work
 
-    def state(self) -> dict[str, np.ndarray]:
-        """The checkpoint: u_n, u_{n+1} at the nodes and the three sums (after a step)."""
-        return {"z_prev": self.z_prev.copy(), "z_now": self.z_now.copy(),
-                "sums": np.array([self.work_contact, self.work_cylinder,
-                                  self.friction_dissipation])}
-
-    def restore(self, state: dict[str, np.ndarray]) -> None:
-        """Continue from ``state()``."""
-        self.z_prev[:] = state["z_prev"]
-        self.z_now[:] = state["z_now"]
-        self.work_contact, self.work_cylinder, self.friction_dissipation = (
-            float(x) for x in state["sums"])
-
-    def kicked(self, du: np.ndarray) -> None:
-        """A kick moved u_n and u_{n+1} by ``du`` (``Newmark.kick``): so do their copies at
-        the contact nodes, and the next increment is motion, not the kick."""
-        moved = self.p.complex_view(du).take(self.p.node_index)
-        self.z_prev += moved
-        self.z_now += moved
+    def at_nodes(self, array: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
+        """z = u_x + i u_y at the contact nodes (a plain view: ``array`` may be a one-off
+        array, which the projection's cached views must not hold)."""
+        return array.view(np.complex128).take(self.p.node_index, out=out, mode="clip")
 
     def after_step(self, stepper) -> None:
         """Accumulate the work of r_n with the centred increment (u_{n+1} - u_{n-1}) / 2."""
         p = self.p
-        p.complex_view(stepper.u).take(p.node_index, out=self.z_next, mode="clip")
-        np.subtract(self.z_next, self.z_prev, out=self.dz)
-        self.work_contact += 0.5 * np.vdot(p.r_xy, self.dz).real
+        p.complex_view(stepper.u).take(p.node_index, out=self.next, mode="clip")
+        np.subtract(self.next, self.prev, out=self.delta)
+        self.work_contact += 0.5 * np.vdot(p.r_xy, self.delta).real
         if self.with_friction:
-            self.dz *= p.phase_conj  # polar increment: Delta u_r + i Delta u_theta
-            wt = 0.5 * float(np.dot(p.out.r_t, self.dz.imag))
+            self.delta *= p.phase_conj  # polar increment: Delta u_r + i Delta u_theta
+            wt = 0.5 * float(np.dot(p.out.r_t, self.delta.imag))
             wc = float(p.out.r_t.sum()) * p.slide
             self.work_cylinder += wc
             self.friction_dissipation += wc - wt
-        # roll: (n-1, n, n+1) <- (n, n+1, reuse)
-        self.z_prev, self.z_now, self.z_next = self.z_now, self.z_next, self.z_prev
+        self.roll()
 
     def local_sums(self) -> np.ndarray:
-        """(work_contact, work_cylinder, friction_dissipation) on this rank's contact nodes
-        (the records add them over the ranks). A projection that keeps its own exact work
+        """``CentredWork.local_sums``; a projection that keeps its own exact work
         bookkeeping (the implicit scheme's ``work_exposed``, whose energy identity is exact)
         supplies the first two."""
-        sums = np.array([self.work_contact, self.work_cylinder, self.friction_dissipation])
+        sums = super().local_sums()
         if self._exact_work:
             sums[:2] = self.p.work_exposed
         return sums
 
 
-class SurfaceWork:
+class SurfaceWork(CentredWork):
     """``EnergyAccumulator`` on the finite tube's contact surface
     (``solver.contact.surface.SurfaceContactProjection``): the same sums with the forces in
     (x, y, z), and the friction's axial power besides its circumferential one,
@@ -152,40 +178,21 @@ class SurfaceWork:
 
     with the centred increment Delta u_n = (u_{n+1} - u_{n-1}) / 2."""
 
+    KEYS = ("u_prev", "u_now")
+
     def __init__(self, projection, with_friction: bool, u0: np.ndarray) -> None:
-        self.p, self.with_friction = projection, with_friction
-        m = projection.dofs.shape[0]
-        self.u_prev = u0.take(projection.dofs)  # u_{n-1} at the surface's nodes, (x, y, z)
-        self.u_now = self.u_prev.copy()  # u_n
-        self.u_next = np.zeros((m, 3))  # u_{n+1}
-        self.du = np.zeros((m, 3))
-        self.du_polar = np.zeros((2, m))  # Delta u_r, Delta u_theta
-        self.work_contact = self.work_cylinder = self.friction_dissipation = 0.0
+        super().__init__(projection, with_friction, u0)
+        self.du_polar = np.zeros((2, self.now.shape[0]))  # Delta u_r, Delta u_theta
 
-    def state(self) -> dict[str, np.ndarray]:
-        """The checkpoint: u_n, u_{n+1} at the nodes and the three sums (after a step)."""
-        return {"u_prev": self.u_prev.copy(), "u_now": self.u_now.copy(),
-                "sums": np.array([self.work_contact, self.work_cylinder,
-                                  self.friction_dissipation])}
-
-    def restore(self, state: dict[str, np.ndarray]) -> None:
-        """Continue from ``state()``."""
-        self.u_prev[:] = state["u_prev"]
-        self.u_now[:] = state["u_now"]
-        self.work_contact, self.work_cylinder, self.friction_dissipation = (
-            float(x) for x in state["sums"])
-
-    def kicked(self, du: np.ndarray) -> None:
-        """A kick moved u_n and u_{n+1} by ``du``: so do their copies on the surface."""
-        moved = du.take(self.p.dofs)
-        self.u_prev += moved
-        self.u_now += moved
+    def at_nodes(self, array: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
+        """(x, y, z) at the surface's nodes, (m, 3)."""
+        return array.take(self.p.dofs, out=out, mode="clip")
 
     def after_step(self, stepper) -> None:
         """Accumulate the work of r_n with the centred increment (u_{n+1} - u_{n-1}) / 2."""
-        p, du = self.p, self.du
-        stepper.u.take(p.dofs, out=self.u_next, mode="clip")
-        np.subtract(self.u_next, self.u_prev, out=du)
+        p, du = self.p, self.delta
+        self.at_nodes(stepper.u, self.next)
+        np.subtract(self.next, self.prev, out=du)
         self.work_contact += 0.5 * float(np.vdot(p.force, du))
         if self.with_friction:
             p.rotate(du, self.du_polar[0], self.du_polar[1])
@@ -195,11 +202,7 @@ class SurfaceWork:
             wc = float(out.r_t.sum()) * p.slide
             self.work_cylinder += wc
             self.friction_dissipation += wc - wt
-        self.u_prev, self.u_now, self.u_next = self.u_now, self.u_next, self.u_prev
-
-    def local_sums(self) -> np.ndarray:
-        """(work_contact, work_cylinder, friction_dissipation) on this rank's surface."""
-        return np.array([self.work_contact, self.work_cylinder, self.friction_dissipation])
+        self.roll()
 
 
 class DampingWork:

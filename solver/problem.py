@@ -176,9 +176,6 @@ def tube_problem_3d(scene: Scene, *, length: float, n_axial: int, ends: str = "r
     z_mid = (length / n_axial) * float(n_axial // 2)  # on its level (tube3d._snap)
     ring = contact_nodes(problem.V, tube.facet_tags, INNER_TAG, z_level=z_mid)
     problem.surface, problem.nodes = ring_first(_ring_major(problem, tube), ring), ring
-    held = [_tag_dofs(problem.V, tube.facet_tags, tag, parts) for tag, parts in fixed if parts]
-    end_held = np.unique(np.concatenate(held)) if held else np.zeros(0, dtype=np.int32)
-    problem.end_held = end_held[end_held < problem.n_owned].astype(np.int32)
     return problem
 
 
@@ -198,7 +195,7 @@ def problem_on(scene: Scene, tube, comm: MPI.Comm,  # noqa: ANN001 - TubeMesh or
     """The problem on the mesh ``tube`` (tags ``INNER_TAG``: contact, ``OUTER_TAG``:
     clamped): the Lagrange space of the scene's degree with the mesh's dimension, K, the
     lumped mass, the clamped dofs (every component on ``OUTER_TAG``, and each (tag,
-    components) of ``fixed``) and the contact nodes."""
+    components) of ``fixed``, which are also ``end_held``) and the contact nodes."""
     m = scene.mesh
     msh = tube.mesh
     V = dolfinx.fem.functionspace(msh, ("Lagrange", m.degree, (msh.geometry.dim,)))
@@ -211,14 +208,16 @@ def problem_on(scene: Scene, tube, comm: MPI.Comm,  # noqa: ANN001 - TubeMesh or
     mass = mass_vec.array.copy()
     bs = V.dofmap.index_map_bs
     n_owned = V.dofmap.index_map.size_local * bs
-    held = [_tag_dofs(V, tube.facet_tags, OUTER_TAG, range(bs))]
-    held += [_tag_dofs(V, tube.facet_tags, tag, parts) for tag, parts in fixed if parts]
+    ends = [_tag_dofs(V, tube.facet_tags, tag, parts) for tag, parts in fixed if parts]
+    held = [_tag_dofs(V, tube.facet_tags, OUTER_TAG, range(bs)), *ends]
     clamped = np.unique(np.concatenate(held))
     clamped = np.sort(clamped[clamped < n_owned])
     inv_mass = 1.0 / mass
     inv_mass[clamped] = 0.0
     nodes = contact_nodes(V, tube.facet_tags, INNER_TAG)
-    return TubeProblem(scene, tube, V, material, K, mass, inv_mass, clamped, nodes, comm)
+    end_held = np.unique(np.concatenate(ends)) if ends else np.zeros(0, dtype=np.int32)
+    return TubeProblem(scene, tube, V, material, K, mass, inv_mass, clamped, nodes, comm,
+                       end_held=end_held[end_held < n_owned].astype(np.int32))
 
 
 def _tag_dofs(V: dolfinx.fem.FunctionSpace, facet_tags: dolfinx.mesh.MeshTags, tag: int,
