@@ -86,7 +86,7 @@ def _run(args: argparse.Namespace) -> int:
                             check_resources=not args.yes_i_know,
                             check_sampling=not args.yes_i_know, plot=args.plot,
                             window=args.window)
-    except (RunDirError, ResourceError) as err:
+    except (RunDirError, ResourceError, SceneError) as err:
         if comm.rank == 0:
             print(f"error: {err}", file=sys.stderr)
         return 2

@@ -24,6 +24,7 @@ __all__ = [
     "ring_first",
     "tangential_component",
     "tangential_unit",
+    "without_held",
 ]
 
 
@@ -87,10 +88,26 @@ def ring_first(surface: ContactNodes, ring: ContactNodes) -> ContactNodes:
     rest = np.flatnonzero(~np.isin(surface.nodes, ring.nodes))
     first = np.searchsorted(surface.nodes, ring.nodes)  # ``contact_nodes`` sorts the nodes
     order = np.concatenate([first, rest]).astype(np.intp)
-    taken = {name: getattr(surface, name)[order] for name in
+    return _taken(surface, order, surface.n_global)
+
+
+def _taken(nodes: ContactNodes, index: NDArray, n_global: int) -> ContactNodes:
+    """The nodes ``index`` (indices or a mask) of ``nodes``, every array alike."""
+    taken = {name: getattr(nodes, name)[index] for name in
              ("nodes", "dofs_x", "dofs_y", "theta", "cos_t", "sin_t", "ds_weight",
               "global_node_index")}
-    return ContactNodes(**taken, n_owned=surface.n_owned, n_global=surface.n_global)
+    return ContactNodes(**taken, n_owned=int(taken["nodes"].size), n_global=int(n_global))
+
+
+def without_held(nodes: ContactNodes, held: NDArray[np.int32], comm) -> ContactNodes:  # noqa: ANN001 - an MPI communicator
+    """``nodes`` less those whose x dof is in ``held`` (owned local dofs that a support holds
+    at 0: a 3D tube's clamped end rings). A node the support holds cannot be pushed: it is
+    no contact node but part of the support. The others keep their order and global index;
+    ``nodes`` itself where no rank drops one (collective)."""
+    keep = ~np.isin(nodes.dofs_x, np.asarray(held))
+    if not comm.allreduce(int(np.count_nonzero(~keep))):
+        return nodes
+    return _taken(nodes, keep, comm.allreduce(int(keep.sum())))
 
 
 def contact_nodes(

@@ -26,7 +26,7 @@ from numpy.typing import NDArray
 from petsc4py import PETSc
 
 from stickslip.forms.elasticity import Material, stiffness
-from stickslip.forms.polar import ContactNodes, contact_nodes
+from stickslip.forms.polar import ContactNodes, contact_nodes, without_held
 from stickslip.meshes.annulus import INNER_TAG, OUTER_TAG, TubeMesh
 
 __all__ = ["StaticSliding", "node_matrix", "static_sliding"]
@@ -102,7 +102,8 @@ def static_sliding(
 ) -> StaticSliding:
     """Solve the discrete steady sliding problem (mismatch ``delta_m`` = d [m], friction
     ``f``), u = 0 on the outer boundary and at the owned local dofs ``held`` (a 3D tube's
-    ends, ``solver.problem.TubeProblem.end_held``). One LU (MUMPS), or with ``iterative``
+    ends, ``solver.problem.TubeProblem.end_held``; a contact node whose radial dof is held,
+a clamped end's, is no contact node). One LU (MUMPS), or with ``iterative``
     GMRES preconditioned by smoothed aggregation (GAMG) to 1e-13: memory linear in the
     dofs where a 3D LU's fill-in is not (2.1 GB at 102 168 dofs); with the refinement
     below both give u to round-off (8e-16 apart at 28 512 dofs)."""
@@ -121,6 +122,8 @@ def static_sliding(
         K.zeroRowsColumns((rstart + np.asarray(held)).astype(PETSc.IntType), diag=1.0)
 
     cn = contact_nodes(V, tube.facet_tags, INNER_TAG)
+    if held is not None:  # a node the ends hold is the support's, no contact node
+        cn = without_held(cn, held, comm)
     rows_x = (rstart + cn.dofs_x).astype(PETSc.IntType)
     c, s = cn.cos_t, cn.sin_t
     T = node_matrix(K, rows_x, cn.dofs_x, (c, -s, s, c))  # u = T ũ, ũ = (ũ_r, ũ_θ)

@@ -25,13 +25,15 @@ def axial_structure(surface: dict, k: int) -> dict:
     time of |a_k(z, t)| on each ring, a_k the ring's k-th Fourier coefficient of u_r,
     relative to its largest; ``end_phase_deg``, the phase of the wave at z = 0 against the
     middle ring, arg of the time mean of a_k(0, t) conj(a_k(L/2, t)) (0: straight fronts
-    along z; fronts that bend towards the ends lead or lag there)."""
+    along z; fronts that bend towards the ends lead or lag there). Clamped ends hold their
+    rings (status -1: no contact node, u = 0): the end is then the first ring in contact."""
     u_r = np.asarray(surface["u_r"], dtype=float)
     window = u_r[-max(1, u_r.shape[0] // 5):]
     n, middle = u_r.shape[2], u_r.shape[1] // 2
+    end = int(np.flatnonzero((np.asarray(surface["status"]) >= 0).any(axis=(0, 2)))[0])
     a_k = np.fft.fft(window, axis=2)[..., k % n] / n  # (t, z)
     amplitude = np.sqrt(np.mean(np.abs(a_k) ** 2, axis=0))
-    lag = np.degrees(np.angle(np.mean(a_k[:, 0] * np.conj(a_k[:, middle]))))
+    lag = np.degrees(np.angle(np.mean(a_k[:, end] * np.conj(a_k[:, middle]))))
     peak = amplitude.max() if amplitude.max() > 0 else 1.0
     return {"k": int(k), "z_m": [float(z) for z in surface["z"]],
             "profile": [round(float(a), 4) for a in amplitude / peak],
@@ -45,8 +47,9 @@ def surface_figure(run_dir: Path, d: float) -> Any:
 
     with np.load(Path(run_dir) / "surface.npz") as data:
         t, z, theta = data["t"], data["z"], data["theta"]
-        wave = (data["u_r"].astype(float) - d) * MM  # (samples, rings, angles), mm
         status = data["status"]
+        # (samples, rings, angles), mm; a clamped end's held rings (status -1) left blank
+        wave = np.ma.masked_where(status < 0, (data["u_r"].astype(float) - d) * MM)
     degrees = np.degrees(theta)
     fig, axes = plt.subplots(1, 3, figsize=(14, 4.2), width_ratios=[1.0, 1.0, 0.45],
                              constrained_layout=True)

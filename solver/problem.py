@@ -18,7 +18,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from stickslip.forms.elasticity import Material, lumped_mass, stiffness
-from stickslip.forms.polar import ContactNodes, contact_nodes, ring_first
+from stickslip.forms.polar import ContactNodes, contact_nodes, ring_first, without_held
 from stickslip.meshes.annulus import INNER_TAG, OUTER_TAG, TubeMesh, annulus_mesh
 from stickslip.meshes.tube3d import END0_TAG, END1_TAG, tube_mesh_3d
 from stickslip.meshes.user_mesh import resolve, user_mesh
@@ -162,9 +162,13 @@ def tube_problem_3d(scene: Scene, *, length: float, n_axial: int, ends: str = "r
     a damping f λ₀/(ΩR) on the contact's z-dofs that it leaves out, so of a 3D tube it is
     exact for the plane-strain modes alone. ``nodes`` is the ring of contact nodes at
     z = L floor(n_axial / 2) / n_axial, ``surface`` every contact node, the ring's first
-    (``forms.polar.ring_first``)."""
+    (``forms.polar.ring_first``); clamped ends hold their rings, which are then no
+    contact nodes (``forms.polar.without_held``)."""
     if ends not in ENDS:
         raise ValueError(f"ends = {ends!r}: use one of {', '.join(ENDS)}")
+    if ends == "clamped" and n_axial < 2:
+        raise ValueError(f"n_axial = {n_axial} with clamped ends: no ring of contact nodes "
+                         "between them; use mesh.n_axial >= 2")
     if scene.mesh.degree != 1 or not scene.mesh.tube:
         raise ValueError("the 3D tube is the structured annulus of degree 1 extruded "
                          "(mesh.degree = 1, no mesh.file)")
@@ -175,15 +179,20 @@ def tube_problem_3d(scene: Scene, *, length: float, n_axial: int, ends: str = "r
     problem = problem_on(scene, tube, comm, fixed=fixed)
     z_mid = (length / n_axial) * float(n_axial // 2)  # on its level (tube3d._snap)
     ring = contact_nodes(problem.V, tube.facet_tags, INNER_TAG, z_level=z_mid)
-    problem.surface, problem.nodes = ring_first(_ring_major(problem, tube), ring), ring
+    surface = without_held(problem.nodes, problem.end_held, comm)  # clamped: less the ends
+    problem.surface = ring_first(_ring_major(problem, surface, tube), ring)
+    problem.nodes = ring
     return problem
 
 
-def _ring_major(problem: TubeProblem, tube) -> ContactNodes:  # noqa: ANN001 - Tube3DMesh
+def _ring_major(problem: TubeProblem, surface: ContactNodes,
+                tube) -> ContactNodes:  # noqa: ANN001 - Tube3DMesh
     """The contact surface's nodes with their partition-free global index ring-major:
     level x N + the angle's rank (level = z / dz, angle = theta N / 2 pi, both exact on the
-    snapped mesh), so that a ring's nodes are consecutive (the 1-2-1 filter's neighbours)."""
-    surface, n = problem.nodes, tube.n_inner
+    snapped mesh), so that a ring's nodes are consecutive (the 1-2-1 filter's neighbours).
+    The index runs over every level, 0 .. (n_axial + 1) N - 1, the held end rings of
+    clamped ends included (they are no contact nodes: ``forms.polar.without_held``)."""
+    n = tube.n_inner
     z = problem.V.tabulate_dof_coordinates()[surface.nodes, 2]
     level = np.rint(z / (tube.length / tube.n_axial)).astype(np.int64)
     angle = np.rint(surface.theta * n / (2.0 * math.pi)).astype(np.int64) % n

@@ -271,7 +271,8 @@ class NeighbourFilter:
     the same global array: results do not depend on the rank count. Arrays are allocated once.
     On a 3D tube's contact surface the filter runs along each ring of ``ring`` nodes: the
     global index is ring x ``ring`` + the angle's rank, and the neighbours are the ring's
-    (``ring`` = ``n_global``: the circle).
+    (``ring`` = ``n_global``: the circle); ``n_global`` then bounds the index (every level's
+    ring, a clamped end's held ring too, which has no contact node).
     """
 
     def __init__(self, global_index: np.ndarray, n_global: int, comm=None,
@@ -291,7 +292,7 @@ class NeighbourFilter:
             self.counts = counts
             self.displs = np.concatenate([[0], np.cumsum(counts)[:-1]])
             self.order = np.concatenate(self.comm.allgather(gidx))  # gathered slot -> node
-            self.gathered = np.zeros(n_global)
+            self.gathered = np.zeros(int(counts.sum()))  # the nodes, in the ranks' order
             self.send = np.zeros(gidx.size)  # contiguous copy (p may be a strided view)
 
     def apply(self, p: np.ndarray, in_contact: np.ndarray) -> np.ndarray:

@@ -53,10 +53,6 @@ class SurfaceContactProjection:
     """
 
     def __init__(self, problem, law: ContactLaw) -> None:
-        if problem.scene.boundary.ends == "clamped":
-            raise ValueError("boundary.ends = \"clamped\" holds the contact surface's end "
-                             "rings, which the cylinder's mismatch pushes: the transient "
-                             "runs \"free\" or \"roller\" ends (flutter-fe takes clamped)")
         bs = problem.V.dofmap.index_map_bs
         ring, surface = problem.nodes, problem.surface
         self.nodes = ring  # what the records read: the ring at mid-length
@@ -82,8 +78,10 @@ class SurfaceContactProjection:
         self.effective = (EffectivePressure(m, law.regularisation, law.dt)
                           if law.regularisation.code else None)
         # the 1-2-1 filtered bound along each ring (``NeighbourFilter``), else None
-        self.filter = (NeighbourFilter(surface.global_node_index, surface.n_global,
-                                       problem.comm, ring=problem.tube.n_inner)
+        tube = problem.tube  # the ring-major index runs over every level (n_axial + 1)
+        self.filter = (NeighbourFilter(surface.global_node_index,
+                                       (tube.n_axial + 1) * tube.n_inner, problem.comm,
+                                       ring=tube.n_inner)
                        if law.filter is SpatialFilter.ONE_TWO_ONE else None)
         n = self.node_index.size
         so = self.surface_out

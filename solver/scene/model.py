@@ -109,6 +109,11 @@ class Scene(_Section):
             _require("geometry.length", self.geometry.length, self.geometry.length > 0,
                      "length > 0 (m) with mesh.dim = 3 (the tube's length along z: give "
                      "geometry.length)")
+            if self.boundary.ends == "clamped" and tube_axial_layers(self) < 2:
+                _require("mesh.n_axial", self.mesh.n_axial, False,
+                         f"n_axial >= 2 with clamped ends, here {tube_axial_layers(self):g} "
+                         "layers (the ends hold their rings: a ring of contact nodes must lie "
+                         "between them)")
         for sec in _SECTIONS:
             obj = getattr(self, sec)
             for f in fields(obj):

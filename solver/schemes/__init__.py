@@ -19,10 +19,11 @@ from stickslip.solver.schemes.select import (
     shortest_wave_period,
     stability_advice,
     time_step,
+    unsteppable,
 )
 
 __all__ = [
     "SCHEMES", "add_scheme", "for_scene", "STEP_WARNING", "batchable", "check_backend",
-    "damping_advice", "make_explicit", "resolve_kernel", "shortest_wave_period",
+    "damping_advice", "make_explicit", "resolve_kernel", "unsteppable", "shortest_wave_period",
     "stability_advice", "time_step",
 ]

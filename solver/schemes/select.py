@@ -62,7 +62,7 @@ from stickslip.solver.scene_explicit import DampingStart, scene_explicit
 
 __all__ = [
     "SCHEMES", "BACKENDS", "Scheme", "SchemeParts", "add_scheme", "for_scene", "check_backend",
-    "time_step", "resolve_kernel", "batchable", "make_explicit", "STEP_WARNING",
+    "time_step", "resolve_kernel", "unsteppable", "batchable", "make_explicit", "STEP_WARNING",
     "shortest_wave_period", "stability_advice", "damping_advice",
 ]
 
@@ -225,6 +225,17 @@ def time_step(scene: Scene, omega_max: float) -> tuple[float, float]:
 def resolve_kernel(scene: Scene) -> str:
     """The step kernel of ``scene``'s scheme (``Scheme.kernel``)."""
     return for_scene(scene).kernel(scene)
+
+
+def unsteppable(scene: Scene) -> str | None:
+    """Why ``scene``'s scheme cannot step it (``Scheme.kernel`` refuses it: one line that
+    names the fix), or None: asked before anything is meshed or made (a run, a sweep's
+    variants, a census's base scene)."""
+    try:
+        resolve_kernel(scene)
+    except ValueError as err:
+        return str(err)
+    return None
 
 
 def batchable(scene: Scene) -> bool:
@@ -523,7 +534,11 @@ class ImplicitNewmarkScheme:
         return _checked_step(scene, omega_max, dt_crit, limit, why)
 
     def kernel(self, scene: Scene) -> str:
-        """"numpy": no fused step (the step is a linear solve; ``time.kernel`` is ignored)."""
+        """"numpy": no fused step (the step is a linear solve; ``time.kernel`` is ignored);
+        ValueError for a 3D tube, whose contact surface has no implicit solve."""
+        if scene.mesh.dim == 3:
+            raise ValueError("time.beta1 > 0 with mesh.dim = 3: the implicit contact solve "
+                             "is plane strain only; run the 3D tube with time.beta1 = 0")
         return "numpy"
 
     def build(self, problem, scene: Scene, omega_max: float) -> SchemeParts:
@@ -531,9 +546,7 @@ class ImplicitNewmarkScheme:
         # PETSc for the implicit scheme only: a node without it imports the registry
         from stickslip.solver.implicit import ImplicitContact, ImplicitNewmark
 
-        if problem.surface is not None:
-            raise ValueError("time.beta1 > 0 with mesh.dim = 3: the implicit contact solve "
-                             "is plane strain only; run the 3D tube with time.beta1 = 0")
+        self.kernel(scene)  # a 3D tube's refusal
         dt, dt_crit = self.time_step(scene, omega_max)
         ts, law = scene.time, ContactLaw.from_scene(scene, dt)
         contact = ImplicitContact(problem.nodes, law.d, law.f, law.surface_speed,

@@ -86,6 +86,7 @@ from typing import TextIO
 
 from stickslip.solver.atomic import atomic_write_text
 from stickslip.solver.scene import Scene, SceneError, load_scene, scene_to_dict, write_scene
+from stickslip.solver.schemes import unsteppable
 from stickslip.studies.attractors.certify import certify_member, failures, kick_members
 from stickslip.studies.attractors.chaos import (
     Pair,
@@ -391,9 +392,12 @@ def prepare(census: Census, out_dir: Path, force: bool,  # noqa: ANN201 - a Clai
     The directory is claimed as kind ``attractors`` (``studies.rundir.ownership``: a new or
     empty one, or a census directory to resume; a live or foreign one is refused). The claim
     (its lock) is returned and held until the census ends. ``check_cost``: the cap's cost
-    guard (``cap_problem`` on ``ranks``) first, before anything is made."""
+    guard (``cap_problem`` on ``ranks``) first, before anything is made, and before that a
+    base scene that its scheme cannot step (``unsteppable``)."""
 
     base = census.base_scene()
+    if why := unsteppable(base):
+        raise CensusError(f"{census.scene}: {why}")
     definition = census.definition(base)
     if check_cost and (problem := cap_problem(census, out_dir, ranks)):
         raise CensusError(problem)

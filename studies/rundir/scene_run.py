@@ -23,7 +23,8 @@ from stickslip.solver import __version__
 from stickslip.solver.atomic import atomic_save_npz, remove_temporaries
 from stickslip.solver.errors import Diverged, StepTooLarge
 from stickslip.solver.run import Profile, Simulation
-from stickslip.solver.scene import Scene, scene_warnings
+from stickslip.solver.scene import Scene, SceneError, scene_warnings
+from stickslip.solver.schemes import unsteppable
 from stickslip.studies.output import output_root, process_alive  # noqa: F401  (re-exported)
 from stickslip.studies.resources import ResourceError
 from stickslip.studies.resources import check_resources as _check
@@ -223,11 +224,15 @@ class RunDirectory:
             return write_run_files(rd, out, self.prof, self.t0)
 
     def _check_first(self):  # noqa: ANN202 - an Estimate or None
-        """The place, then the resources, before anything is created (collective)."""
+        """The place, the scheme (``unsteppable``: a scene it cannot step is refused
+        before meshing), then the resources, before anything is created
+        (collective)."""
         est = None
         err, kind = None, None
         if self.rank0:
             err, kind = _refusal(self.run_dir, self.force), "dir"
+            if err is None and (why := unsteppable(self.scene)):
+                err, kind = why, "scene"
             if err is None and self.check_resources:
                 try:
                     est = _check(self.scene, self.run_dir, self.comm.size)
@@ -235,7 +240,7 @@ class RunDirectory:
                     err, kind = str(e), "resources"
         err, kind = self.comm.bcast((err, kind), root=0)
         if err:
-            raise (RunDirError if kind == "dir" else ResourceError)(err)
+            raise {"dir": RunDirError, "scene": SceneError}.get(kind, ResourceError)(err)
         return est
 
     def _execute(self, signals: RunSignals, est) -> None:  # noqa: ANN001

@@ -41,7 +41,7 @@ from stickslip.solver.scene import (
     load_scene,
     parse_override,
 )
-from stickslip.solver.schemes.select import BACKENDS
+from stickslip.solver.schemes.select import BACKENDS, unsteppable
 
 SWEEP_KIND = "stickslip-sweep"
 #: A scene with one of these statuses is done; a re-run skips it.
@@ -339,11 +339,13 @@ def load_sweep(path: str | Path, large: bool = False) -> SweepSpec:
         output=p.parent / str(data["output"]) if data.get("output") else None,
         description=str(data.get("description", "")), map=map_spec,
     )
-    for task in spec.tasks:  # every variant must be a valid scene before anything runs
+    for task in spec.tasks:  # every variant a valid scene its scheme steps, before any runs
         try:
-            scene_for(spec, task)
+            why = unsteppable(scene_for(spec, task))
         except SceneError as err:
             raise SweepError(f"{p}: scene {task.id}: {err}") from None
+        if why:
+            raise SweepError(f"{p}: scene {task.id}: {why}")
     return spec
 
 
