@@ -54,6 +54,10 @@ class Tube3DMesh:
     n_inner: int
     n_radial: int
     n_axial: int
+    #: the z of the contact surface's rings (n_axial + 1) and the angles of a ring's nodes
+    #: (n_inner), in order: L k / n_axial and 2 pi j / n_inner on the built-in tube
+    levels: np.ndarray
+    angles: np.ndarray
 
 
 def _check(R: float, xi: float, length: float, n_inner: int, n_radial: int,
@@ -133,4 +137,5 @@ def tube_mesh_3d(comm: MPI.Comm, *, R: float, xi: float, length: float, n_inner:
     _snap(msh, R, xi, length, n_inner, n_axial)
     return Tube3DMesh(mesh=msh, cell_tags=cell_tags, facet_tags=_facet_tags(msh, R, xi, length),
                       R=R, xi=xi, length=length, n_inner=int(n_inner), n_radial=int(n_radial),
-                      n_axial=int(n_axial))
+                      n_axial=int(n_axial), levels=length / n_axial * np.arange(n_axial + 1),
+                      angles=2.0 * math.pi / n_inner * np.arange(n_inner))

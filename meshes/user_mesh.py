@@ -65,7 +65,9 @@ class MeshFileFacts:
     rotation_invariant: bool  # the mesh's nodes map onto themselves under 2π/(N/degree)
 
 
-def _gmsh_session():
+def gmsh_session():  # noqa: ANN201 - the gmsh module and whether this call initialised it
+    """gmsh, initialised (quiet) if it was not: (the module, True when the caller must
+    finalise it)."""
     import gmsh
 
     owns = not gmsh.isInitialized()
@@ -198,7 +200,7 @@ def resolve(file: str, search: tuple[Path, ...] = ()) -> Path:
 @functools.lru_cache(maxsize=32)
 def _inspect_cached(path: str, mtime: float, R: float, n_contact: int, cell: str, degree: int,
                     contact_group: str, clamped_group: str) -> MeshFileFacts:
-    gmsh, owns = _gmsh_session()
+    gmsh, owns = gmsh_session()
     try:
         _load(gmsh, Path(path), cell, degree)
         return _check_model(gmsh, f"mesh.file = {path!r}", R, n_contact, cell, degree,
@@ -234,7 +236,7 @@ def user_mesh(comm, path: Path, *, R: float, xi: float, n_contact: int, cell: st
 
     root, facts, error, owns = 0, None, None, False
     if comm.rank == root:
-        _, owns = _gmsh_session()
+        _, owns = gmsh_session()
         try:
             _load(gmsh, Path(path), cell, degree)
             facts = _check_model(gmsh, f"mesh.file = {str(path)!r}", R, n_contact, cell,

@@ -246,7 +246,7 @@ def tube_3d_facts(problem) -> dict:
     return {"length_m": tube.length, "n_axial": tube.n_axial,
             "ends": problem.scene.boundary.ends,
             "surface_nodes": int(problem.surface.n_global),
-            "ring_z_m": tube.length / tube.n_axial * float(tube.n_axial // 2)}
+            "ring_z_m": float(tube.levels[tube.n_axial // 2])}
 
 
 def energy_balance(e: np.ndarray, unit: str = "J_per_m") -> dict[str, float]:

@@ -22,6 +22,7 @@ from stickslip.forms.polar import ContactNodes, contact_nodes, ring_first, witho
 from stickslip.meshes.annulus import INNER_TAG, OUTER_TAG, TubeMesh, annulus_mesh
 from stickslip.meshes.tube3d import END0_TAG, END1_TAG, tube_mesh_3d
 from stickslip.meshes.user_mesh import resolve, user_mesh
+from stickslip.meshes.user_tube import user_tube_mesh
 from stickslip.solver.scene import SCENES_DIR, Scene, tube_axial_layers
 from stickslip.solver.scene.sections import ENDS
 
@@ -142,10 +143,15 @@ def build_problem(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD) -> TubeProblem:
     """Mesh, P1/P2 space, stiffness matrix, lumped mass and contact nodes for ``scene``: the
     plane-strain cross-section, or with ``mesh.dim`` = 3 the finite tube its keys describe
     (``tube_problem_3d``: ``geometry.length``, ``tube_axial_layers``, ``boundary.ends``)."""
-    if scene.mesh.dim == 3:
-        return tube_problem_3d(scene, length=scene.geometry.length,
-                               n_axial=int(tube_axial_layers(scene)),
+    m, g = scene.mesh, scene.geometry
+    if m.dim == 3 and m.tube:
+        return tube_problem_3d(scene, length=g.length, n_axial=int(tube_axial_layers(scene)),
                                ends=scene.boundary.ends, comm=comm)
+    if m.dim == 3:  # a user's tube (``meshes.user_tube``)
+        tube = user_tube_mesh(comm, resolve(m.file, (SCENES_DIR,)), R=g.R, xi=g.xi,
+                              n_contact=m.n_inner, contact_group=m.contact_group,
+                              clamped_group=m.clamped_group, ends_group=m.ends_group)
+        return finite_tube_problem(scene, tube, scene.boundary.ends, comm)
     return problem_on(scene, cross_section(scene, comm), comm)
 
 
@@ -175,9 +181,18 @@ def tube_problem_3d(scene: Scene, *, length: float, n_axial: int, ends: str = "r
     g = scene.geometry
     tube = tube_mesh_3d(comm, R=g.R, xi=g.xi, length=length, n_inner=scene.mesh.n_inner,
                         n_axial=n_axial, n_radial=scene.mesh.n_radial)
+    return finite_tube_problem(scene, tube, ends, comm)
+
+
+def finite_tube_problem(scene: Scene, tube, ends: str,  # noqa: ANN001 - a Tube3DMesh
+                        comm: MPI.Comm) -> TubeProblem:
+    """The problem on the 3D tube mesh ``tube`` (the built-in one or a user's) with ``ends``
+    held on the facets ``END0_TAG`` and ``END1_TAG``: ``nodes`` the ring of contact nodes at
+    its middle level, ``surface`` every contact node that the ends do not hold, the ring's
+    first, with its ring-major index (``tube_problem_3d``)."""
     fixed = [(tag, ENDS[ends]) for tag in (END0_TAG, END1_TAG)]
     problem = problem_on(scene, tube, comm, fixed=fixed)
-    z_mid = (length / n_axial) * float(n_axial // 2)  # on its level (tube3d._snap)
+    z_mid = float(tube.levels[tube.n_axial // 2])  # a ring's exact z (snapped)
     ring = contact_nodes(problem.V, tube.facet_tags, INNER_TAG, z_level=z_mid)
     surface = without_held(problem.nodes, problem.end_held, comm)  # clamped: less the ends
     problem.surface = ring_first(_ring_major(problem, surface, tube), ring)
@@ -188,15 +203,16 @@ def tube_problem_3d(scene: Scene, *, length: float, n_axial: int, ends: str = "r
 def _ring_major(problem: TubeProblem, surface: ContactNodes,
                 tube) -> ContactNodes:  # noqa: ANN001 - Tube3DMesh
     """The contact surface's nodes with their partition-free global index ring-major:
-    level x N + the angle's rank (level = z / dz, angle = theta N / 2 pi, both exact on the
-    snapped mesh), so that a ring's nodes are consecutive (the 1-2-1 filter's neighbours).
+    level x N + the angle's rank (the nearest of the tube's ``levels`` and ``angles``), so
+    that a ring's nodes are consecutive (the 1-2-1 filter's neighbours).
     The index runs over every level, 0 .. (n_axial + 1) N - 1, the held end rings of
     clamped ends included (they are no contact nodes: ``forms.polar.without_held``)."""
-    n = tube.n_inner
+    n, levels, angles = tube.n_inner, tube.levels, tube.angles
     z = problem.V.tabulate_dof_coordinates()[surface.nodes, 2]
-    level = np.rint(z / (tube.length / tube.n_axial)).astype(np.int64)
-    angle = np.rint(surface.theta * n / (2.0 * math.pi)).astype(np.int64) % n
-    return replace(surface, global_node_index=level * n + angle)
+    level = np.searchsorted((levels[1:] + levels[:-1]) / 2.0, z)  # the nearest ring
+    around = np.append(angles, angles[0] + 2.0 * math.pi)
+    angle = np.searchsorted((around[1:] + around[:-1]) / 2.0, surface.theta) % n
+    return replace(surface, global_node_index=(level * n + angle).astype(np.int64))
 
 
 def problem_on(scene: Scene, tube, comm: MPI.Comm,  # noqa: ANN001 - TubeMesh or Tube3DMesh

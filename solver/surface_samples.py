@@ -11,8 +11,6 @@ per sample.
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from stickslip.solver.observers import Cadence
@@ -61,7 +59,6 @@ class SurfaceSamples:
         in front."""
         problem, n = self.problem, self.n
         tube = problem.tube
-        dz = tube.length / tube.n_axial
         # the surface's global index is ring-major: level x N + angle (solver.problem)
         level, angle = np.divmod(problem.surface.global_node_index, tube.n_inner)
         pieces = problem.comm.gather((level, angle, self.u[:n], self.status[:n]), root=0)
@@ -74,8 +71,7 @@ class SurfaceSamples:
             for j, name in enumerate(("u_r", "u_theta", "u_z")):
                 out[name][:, lev, ang] = u[:, j]
             out["status"][:, lev, ang] = status
-        out.update(t=self.t[:n].copy(), z=dz * np.arange(tube.n_axial + 1),
-                   theta=2.0 * math.pi / tube.n_inner * np.arange(tube.n_inner))
+        out.update(t=self.t[:n].copy(), z=tube.levels.copy(), theta=tube.angles.copy())
         if self.before is not None:  # a continuation: the records up to its checkpoint first
             for key in ("t", "u_r", "u_theta", "u_z", "status"):
                 out[key] = np.concatenate([self.before[key], out[key]])

@@ -159,12 +159,15 @@ def estimate(scene: Scene, ranks: int = 1) -> Estimate:
         nodes = tube_nodes(scene)
         cells = n_edges * layers * (2 if m.cell == "triangle" else 1)
         h_min = min(2 * math.pi * g.R / m.n_inner, (g.xi - 1.0) * g.R / (layers * m.degree))
-    else:  # a user's mesh file: its own counts and shortest edge (meshes.user_mesh)
+    else:  # a user's mesh file: its own counts and shortest edge (meshes.user_mesh, _tube)
         facts = m.file_facts(g.R)
         nodes, cells = facts.n_nodes, facts.n_cells
         h_min = facts.h_min / m.degree
-    dofs, surface_nodes = 2 * nodes, 0
-    if m.dim == 3:  # the cross-section extruded in hexahedra (meshes.tube3d)
+    dofs, surface_nodes, vertices = 2 * nodes, 0, 8
+    if m.dim == 3 and not m.tube:  # a user's tube: the file's counts (meshes.user_tube)
+        surface_nodes, dofs, vertices = m.n_inner * (facts.n_axial + 1), 3 * nodes, \
+            facts.nodes_per_cell
+    elif m.dim == 3:  # the cross-section extruded in hexahedra (meshes.tube3d)
         levels = tube_axial_layers(scene)
         h_min = min(h_min, g.length / levels)
         cells = n_edges * tube_layers(scene) * int(levels)
@@ -205,9 +208,9 @@ def estimate(scene: Scene, ranks: int = 1) -> Estimate:
                + steps * (STEP_SECONDS + step_cost))
     frames, field_bytes = 0, 0.0
     if scene.output.fields:
-        vertices = 8 if m.dim == 3 else {("triangle", 1): 3, ("triangle", 2): 6,
-                                         ("quadrilateral", 1): 4,
-                                         ("quadrilateral", 2): 9}[(m.cell, m.degree)]
+        vertices = vertices if m.dim == 3 else {("triangle", 1): 3, ("triangle", 2): 6,
+                                                ("quadrilateral", 1): 4,
+                                                ("quadrilateral", 2): 9}[(m.cell, m.degree)]
         frames = frame_count(scene, dt, steps)
         field_bytes = frames * (1.05 * (FIELD_BYTES_PER_NODE * nodes
                                         + (32.0 + 8.0 * (vertices + 1)) * cells) + 5e3)

@@ -140,7 +140,7 @@ def test_unknown_key_message_lists_allowed_keys() -> None:
         scene_from_dict({"mesh": {"n_inne": 10}})
     assert str(exc.value) == (
         "unknown key 'mesh.n_inne' (allowed: dim, n_inner, n_radial, n_axial, cell, degree, "
-        "file, contact_group, clamped_group); "
+        "file, contact_group, clamped_group, ends_group); "
         "did you mean 'n_inner'?"
     )
 

@@ -138,8 +138,8 @@ def test_a_3d_scene_writes_its_keys_and_loads_back(tmp_path):
     (['boundary.ends="roller"'], "boundary.ends = 'roller' only applies to mesh.dim = 3"),
     (["mesh.dim=3", "geometry.length=0.1", "mesh.degree=2"],
      "mesh.degree = 2 is out of range: must satisfy degree = 1 with mesh.dim = 3"),
-    (["mesh.dim=3", "geometry.length=0.1", 'mesh.file="meshes/four_clamps.geo"'],
-     "mesh.file = 'meshes/four_clamps.geo' is not allowed with mesh.dim = 3"),
+    (["mesh.dim=3", "geometry.length=0.1", 'mesh.file="meshes/tube_four_clamps.geo"',
+      "mesh.n_inner=48"], "no volume cells: mesh the tube in 3D"),
 ])
 def test_bad_3d_keys_are_one_line_errors(sets, words):
     with pytest.raises(SceneError) as err:

@@ -86,8 +86,10 @@ class Scene(_Section):
                 "neighbouring nodes, which the implicit active set does not model; use "
                 'time.beta1 = 0 or friction.filter = "nodal"')
         self._check_needs()
-        if self.mesh.file:  # a user's cross-section: read and checked (meshes.user_mesh)
-            self.mesh.file_facts(self.geometry.R)
+        if self.mesh.file:  # a user's cross-section or tube: read and checked (meshes.user_*)
+            facts = self.mesh.file_facts(self.geometry.R)
+            if self.mesh.dim == 3:
+                self._check_tube_file(facts)
         half = self.mesh.n_inner // 2
         why = f"mesh.n_inner // 2 = {half} (at least 2 contact nodes per wavelength)"
         if self.initial.perturbation == "mode":
@@ -101,6 +103,25 @@ class Scene(_Section):
                 self.initial.n_modes <= half,
                 f"1 <= n_modes <= {why}",
             )
+
+    def _check_tube_file(self, facts) -> None:  # noqa: ANN001 - meshes.user_tube.TubeFileFacts
+        """A user's 3D tube against the scene's keys: its length, its layers and the group
+        that ``boundary.ends`` holds (one line each, naming the file's value)."""
+        file, length = _fmt(self.mesh.file), facts.length
+        if abs(self.geometry.length - length) > 1e-6 * length:
+            raise SceneError(f"geometry.length = {_fmt(self.geometry.length)}: the tube of "
+                             f"mesh.file = {file} is {length:.9g} m long (its contact surface "
+                             f"along z): set geometry.length = {length:.9g}")
+        if self.mesh.n_axial not in (0, facts.n_axial):
+            raise SceneError(f"mesh.n_axial = {self.mesh.n_axial}: the contact surface of "
+                             f"mesh.file = {file} has {facts.n_axial} layers: set "
+                             f"mesh.n_axial = 0 (the file's) or {facts.n_axial}")
+        if self.boundary.ends != "free" and not facts.ends_tag:
+            raise SceneError(f"boundary.ends = {_fmt(self.boundary.ends)} holds the group "
+                             f"mesh.ends_group = {_fmt(self.mesh.ends_group)}, which mesh.file "
+                             f"= {file} does not have: add Physical Surface"
+                             f"(\"{self.mesh.ends_group}\") = {{...}} on the ends, or set "
+                             "boundary.ends = \"free\"")
 
     def _check_needs(self) -> None:
         """The 3D tube's length, and no key off its default where it does not apply
@@ -167,8 +188,11 @@ def axial_layers(scene: Scene, length: float) -> float:
 
 def tube_axial_layers(scene: Scene) -> float:
     """Element layers along the tube of a 3D scene (``mesh.dim`` = 3): ``mesh.n_axial``, or
-    where it is 0 the square cells' ``axial_layers`` of ``geometry.length``."""
+    where it is 0 the user's file's, else the square cells' ``axial_layers`` of
+    ``geometry.length``."""
     n_axial = scene.mesh.n_axial
+    if not n_axial and scene.mesh.file:  # a user's tube: its own (meshes.user_tube)
+        return float(scene.mesh.file_facts(scene.geometry.R).n_axial)
     return float(n_axial) if n_axial else axial_layers(scene, scene.geometry.length)
 
 

@@ -12,7 +12,6 @@ from stickslip.solver.scene.values import (
     SCENES_DIR,
     SceneError,
     _choice,
-    _fmt,
     _opt,
     _require,
     _Section,
@@ -143,10 +142,10 @@ class Mesh(_Section):
     SECTION: ClassVar[str] = "mesh"
 
     dim: int = _opt(2, "int", needs="3d")
-    """2: the cross-section in plane strain; 3: the finite tube of ``geometry.length`` in
-    hexahedra, the structured annulus of degree 1 extruded (``mesh.cell`` is not used), for
-    ``stickslip flutter-fe``, ``run`` and ``sweep`` (the census, ``continue``, ``travel``
-    and ``rpo`` are plane strain only)."""
+    """2: the cross-section in plane strain; 3: the finite tube of ``geometry.length``, the
+    structured annulus of degree 1 extruded in hexahedra (``mesh.cell`` is not used) or a
+    user's ``file`` (meshes.user_tube), for ``stickslip flutter-fe``, ``run``, ``sweep``,
+    ``continue`` and ``attractors`` (``travel`` and ``rpo`` are plane strain only)."""
     n_inner: int = _opt(132, "int")
     """Number of nodes on the inner (contact) circle (with ``file``: the stated count)."""
     n_radial: int = _opt(0, "int")
@@ -159,12 +158,17 @@ class Mesh(_Section):
     degree: int = _opt(1, "int")
     """Lagrange degree: 1 (P1/Q1) or 2 (P2/Q2)."""
     file: str = _opt("", "str")
-    """A gmsh .geo or .msh cross-section instead of the tube ("" = the tube); a relative
-    path is looked up in the working directory, then in the shipped scenes' folder."""
+    """A gmsh .geo or .msh cross-section instead of the tube ("" = the tube), or with
+    ``dim`` = 3 a finite tube; a relative path is looked up in the working directory, then
+    in the shipped scenes' folder."""
     contact_group: str = _opt("contact", "str")
-    """Physical curve group of ``file`` on the contact circle r = R (N nodes)."""
+    """Physical group of ``file`` on the contact circle r = R (N nodes; in 3D the surface
+    r = R, rings of N nodes)."""
     clamped_group: str = _opt("clamped", "str")
-    """Physical curve group of ``file`` that is clamped (u = 0)."""
+    """Physical group of ``file`` that is clamped (u = 0; a curve, in 3D a surface)."""
+    ends_group: str = _opt("ends", "str", needs="3d")
+    """Physical surface group of a 3D ``file`` that ``boundary.ends`` holds (the tube's
+    ends); optional where the ends are free."""
 
     @property
     def tube(self) -> bool:
@@ -172,12 +176,21 @@ class Mesh(_Section):
         return not self.file
 
     def file_facts(self, R: float):
-        """The checked facts of ``file`` (``meshes.user_mesh.inspect_mesh_file``) for the
-        contact radius R; ``SceneError`` (one line) when a check fails."""
+        """The checked facts of ``file`` (``meshes.user_mesh.inspect_mesh_file``, with
+        ``dim`` = 3 ``meshes.user_tube.inspect_tube_file``) for the contact radius R;
+        ``SceneError`` (one line) when a check fails."""
         # gmsh and dolfinx read a mesh file: scenes load without them
         from stickslip.meshes.user_mesh import MeshFileError, inspect_mesh_file, resolve
+        # the same: gmsh reads a user's 3D tube (meshes.user_tube)
+        from stickslip.meshes.user_tube import inspect_tube_file
 
         try:
+            if self.dim == 3:
+                return inspect_tube_file(resolve(self.file, (SCENES_DIR,)), R=R,
+                                         n_contact=self.n_inner,
+                                         contact_group=self.contact_group,
+                                         clamped_group=self.clamped_group,
+                                         ends_group=self.ends_group)
             return inspect_mesh_file(resolve(self.file, (SCENES_DIR,)), R=R,
                                      n_contact=self.n_inner, cell=self.cell,
                                      degree=self.degree, contact_group=self.contact_group,
@@ -198,14 +211,10 @@ class Mesh(_Section):
         _choice(self._key("dim"), self.dim, (2, 3))
         _require(self._key("n_axial"), self.n_axial, self.n_axial >= 0,
                  "n_axial >= 0 (0 = cells as long as they are wide on the contact surface)")
-        if self.dim == 3:  # what solver.problem.tube_problem_3d extrudes
+        if self.dim == 3:  # what solver.problem.tube_problem_3d extrudes, or a user's
             _require(self._key("degree"), self.degree, self.degree == 1,
-                     "degree = 1 with mesh.dim = 3 (the 3D tube extrudes the structured "
-                     "annulus of degree 1)")
-            if self.file:
-                raise SceneError(f"mesh.file = {_fmt(self.file)} is not allowed with mesh.dim "
-                                 "= 3: the 3D tube extrudes the structured annulus; drop "
-                                 "mesh.file or set mesh.dim = 2")
+                     "degree = 1 with mesh.dim = 3 (the 3D tube, the structured annulus "
+                     "extruded or a user's file, is of degree 1)")
 
 
 @dataclass(frozen=True)
