@@ -181,6 +181,7 @@ class Mesh(_Section):
         ``SceneError`` (one line) when a check fails."""
         # gmsh and dolfinx read a mesh file: scenes load without them
         from stickslip.meshes.user_mesh import MeshFileError, inspect_mesh_file, resolve
+
         # the same: gmsh reads a user's 3D tube (meshes.user_tube)
         from stickslip.meshes.user_tube import inspect_tube_file
 
