@@ -180,22 +180,16 @@ def row_cache(row: dict) -> dict:
             "drift": list(row.get("drift") or ())}
 
 
-def end_state_features(samples: dict, summary: dict, radius: float
-                       ) -> tuple[tuple[Features, Features], tuple[float, float, float]]:
-    """(features of the two consecutive windows, (frame spread, RMS amplitude, spread
-    trend) in the dominant component's frame) of a run's samples (``samples.npz``'s arrays,
-    with the every-step probe where recorded): what ``end_state_row`` classifies."""
-    features, spread, _, _ = settled_features(samples, summary, radius)
-    return features, spread
-
-
 def settled_features(samples: dict, summary: dict, radius: float, window: float | None = None,
                      tol: Tolerances = DEFAULT_TOLERANCES, spread_tol: float = SPREAD_TOL
                      ) -> tuple[tuple[Features, Features], tuple[float, float, float], float,
                                 tuple[str, ...]]:
-    """``end_state_features`` over windows of length ``window`` (default: the run's
-    analysis window), the settle time and why the shares still drift across the last leg
-    (``features.settle_verdict``; NaN, and the reasons: unsettled)."""
+    """(features of the two consecutive windows, (frame spread, RMS amplitude, spread
+    trend) in the dominant component's frame) of a run's samples (``samples.npz``'s arrays,
+    with the every-step probe where recorded): what ``end_state_row`` classifies; over
+    windows of length ``window`` (default: the run's analysis window), the settle time and
+    why the shares still drift across the last leg (``features.settle_verdict``; NaN, and
+    the reasons: unsettled)."""
     t = samples["t"]
     if window is None:
         window = float(summary.get("analysis_window_s") or (t[-1] - t[0]) / 3.0)
