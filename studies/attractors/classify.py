@@ -58,10 +58,12 @@ from stickslip.studies.attractors.features import (
     CELERITY_TOL,
     DEFAULT_TOLERANCES,
     REGIME_SHORT,
+    SENSE,
     SPREAD_TOL,
     Component,
     Features,
     Tolerances,
+    _num,
     components_text,
     frame_spread,
     match,
@@ -156,7 +158,7 @@ def start_row(run_dir: Path, params: dict, summary: dict | None, status: str,
             features = (Features.from_dict(cached["features_before"]),
                         Features.from_dict(cached["features"]))
             spread = tuple(math.nan if v is None else float(v) for v in cached["spread"])
-            settle_time = _float(cached.get("settle_time_s"))
+            settle_time = _num(cached.get("settle_time_s"))
             drift = tuple(cached.get("drift") or ())
         else:
             samples = _samples(run_dir)
@@ -166,10 +168,6 @@ def start_row(run_dir: Path, params: dict, summary: dict | None, status: str,
     return end_state_row(run_dir.name, params, s, status, spread, spread_tol,
                          run_dir=str(run_dir), features=features, tol=tol,
                          settle_time=settle_time, drift=drift)
-
-
-def _float(x: object) -> float:
-    return math.nan if x is None else float(x)
 
 
 def row_cache(row: dict) -> dict:
@@ -391,8 +389,6 @@ def group_members(rows: list[dict], celerity_tol: float = CELERITY_TOL,
             r["member"] = key.label() + ("" if cluster == 1 else f"#{cluster}")
 
 
-#: A component's direction in words: the only words printed for it.
-SENSE = {"rotation": "with the rotation", "opposite": "against the rotation"}
 #: A member's class as the printed answer and the plots say it.
 CLASS_WORDS = {"wave": "rigid wave", "multi-wave": "multi-wave", "chaotic": "chaotic",
                "transient": "transient",
