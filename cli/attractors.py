@@ -7,6 +7,7 @@ import os
 import sys
 from pathlib import Path
 
+from stickslip.cli.checks import fail
 from stickslip.cli.commands import command_help
 from stickslip.solver.scene import SceneError
 from stickslip.studies.attractors.along import plot_along, run_along
@@ -118,12 +119,6 @@ def _checks_and_outputs(p: argparse.ArgumentParser) -> None:
                    help="print attractors.json instead of the summary")
 
 
-def _fail(msg: str, rank: int) -> int:
-    if rank == 0:
-        print(f"error: {msg}", file=sys.stderr, flush=True)
-    return 2
-
-
 def _attractors(args: argparse.Namespace) -> int:
     os.environ.setdefault("OMPI_MCA_osc", "^ucx")  # as `stickslip sweep`: one atomic counter
     from mpi4py import MPI
@@ -134,10 +129,10 @@ def _attractors(args: argparse.Namespace) -> int:
     try:
         census, out = _census(args, comm.size)
     except (SceneError, CensusError, ValueError, ImportError) as err:
-        return _fail(str(err), comm.rank)
+        return fail(str(err), comm.rank)
     if args.along:
         if args.bundle:
-            return _fail("--along runs here: drop --bundle", comm.rank)
+            return fail("--along runs here: drop --bundle", comm.rank)
         return _along(census, out, args, comm)
     read_starts = None
     if args.bundle:
@@ -149,7 +144,7 @@ def _attractors(args: argparse.Namespace) -> int:
         read_starts = partial(import_results, Path(args.bundle))
     stream = open(os.devnull, "w") if args.json else sys.stdout  # noqa: SIM115
     if not (args.cea_fmax_hz > 0):
-        return _fail(f"--cea-fmax-hz {args.cea_fmax_hz}: give a frequency > 0 (Hz)", comm.rank)
+        return fail(f"--cea-fmax-hz {args.cea_fmax_hz}: give a frequency > 0 (Hz)", comm.rank)
     answer: dict = {}
     rc = run_census(census, out, comm=comm, force=args.force, progress=args.progress,
                     backend=args.backend, certify=not args.no_certify,
@@ -178,7 +173,7 @@ def _prepare_bundle(census, bundle: Path, comm) -> int | None:  # noqa: ANN001
     """--bundle: write it where it is new (0), refuse one whose results are missing or that
     is another census's (2); None: its results are there, answer."""
     if comm.size > 1:
-        return _fail("--bundle prepares and answers in one process: run it without mpirun",
+        return fail("--bundle prepares and answers in one process: run it without mpirun",
                      comm.rank)
     try:
         state = bundle_state(census, bundle)
@@ -190,7 +185,7 @@ def _prepare_bundle(census, bundle: Path, comm) -> int | None:  # noqa: ANN001
             return None
         write_bundle(census, bundle)
     except (ValueError, OSError) as err:  # BundleError, CensusError: one line
-        return _fail(str(err), comm.rank)
+        return fail(str(err), comm.rank)
     print(f"bundle written: copy {bundle} to the GPU node, run `python3 -m stickslip.node "
           f"{bundle}` there, copy {bundle / 'results'} back, then run this command again")
     return 0
@@ -201,7 +196,7 @@ def _along(census, out: Path, args: argparse.Namespace, comm) -> int:  # noqa: A
     try:
         key, values = along_values(census, args.along)
     except (ValueError, CensusError) as err:
-        return _fail(str(err), comm.rank)
+        return fail(str(err), comm.rank)
     rc = run_along(census, key, values, out, comm=comm, force=args.force,
                    progress=args.progress, backend=args.backend,
                    certify=not args.no_certify, dt_limit=args.dt_limit,
@@ -218,7 +213,7 @@ def _read(out: Path, args: argparse.Namespace) -> int:
     try:
         answer = collect(out, certify="cached", reading=True)
     except (CensusError, SweepError) as err:
-        return _fail(str(err), 0)
+        return fail(str(err), 0)
     if not args.json:
         print(answer["text"])
     rc = 0 if answer["finished"] and not answer["counts"].get("failed") else 1

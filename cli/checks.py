@@ -6,11 +6,12 @@ Light (standard library only at import): the command line imports it at start-up
 from __future__ import annotations
 
 import os
+import sys
 from pathlib import Path
 
 from stickslip.solver.scene import SceneError, load_scene, require_plane_strain
 
-__all__ = ["environment_problem", "output_file_problem", "run_dir_dimension_problem"]
+__all__ = ["environment_problem", "fail", "output_file_problem", "run_dir_dimension_problem"]
 
 
 def _writable_dir(path: str) -> bool:
@@ -69,3 +70,11 @@ def run_dir_dimension_problem(run_dir: str | Path) -> str | None:
     except SceneError as err:
         return f"{path}: {err}"
     return None
+
+
+def fail(message: str, rank: int = 0) -> int:
+    """The one-line refusal ``error: message`` on stderr (by rank 0 only: ``rank`` is this
+    process's); exit status 2."""
+    if rank == 0:
+        print(f"error: {message}", file=sys.stderr, flush=True)
+    return 2

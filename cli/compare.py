@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from stickslip.cli.checks import output_file_problem
+from stickslip.cli.checks import fail, output_file_problem
 from stickslip.cli.commands import command_help
 from stickslip.cli.semianalytic import KMAX_LIMIT
 from stickslip.solver.atomic import atomic_write_text
@@ -44,8 +44,7 @@ def _compare(args: argparse.Namespace) -> int:
     out = Path(args.json_out) if args.json_out else run_dir / "compare.json"
     problem = samples_problem(run_dir, need=4) or output_file_problem(out, "--json")
     if problem:
-        print(f"error: {problem}", file=sys.stderr)
-        return 2
+        return fail(problem)
     ks = list(args.k)
 
     if bad := [k for k in ks if not 1 <= k <= KMAX_LIMIT]:

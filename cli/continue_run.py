@@ -8,9 +8,9 @@ from __future__ import annotations
 
 import argparse
 import math
-import sys
 from pathlib import Path
 
+from stickslip.cli.checks import fail
 from stickslip.cli.commands import command_help
 from stickslip.studies.resources import ResourceError
 from stickslip.studies.rundir import EXIT_CODES, RunDirError, continue_run
@@ -66,9 +66,7 @@ def _continue(args: argparse.Namespace) -> int:
                                force=args.force, comm=comm,
                                check_resources=not args.yes_i_know)
     except (ReadError, RunDirError, ResourceError) as err:
-        if comm.rank == 0:
-            print(f"error: {err}", file=sys.stderr)
-        return 2
+        return fail(str(err), comm.rank)
     except KeyboardInterrupt:  # a signal during the final save, honoured after it
         return EXIT_CODES["interrupted"]
     status = comm.bcast(summary.get("status") if comm.rank == 0 else None, root=0)

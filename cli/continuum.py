@@ -15,6 +15,7 @@ import sys
 import time
 from typing import Any
 
+from stickslip.cli.checks import fail
 from stickslip.cli.commands import command_help
 from stickslip.exact import halfspace
 from stickslip.exact.annulus import Elastic
@@ -228,8 +229,7 @@ def flutter_exact_command(args: argparse.Namespace) -> int:
     try:
         mat, fs, ns, diss, info = _parse(args)
     except (InputError, ValueError, FileNotFoundError) as err:
-        print(f"error: {err}", file=sys.stderr)
-        return 2
+        return fail(str(err))
     t0 = time.perf_counter()
     results = []
     for f in fs:

@@ -6,10 +6,9 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import sys
 from pathlib import Path
 
-from stickslip.cli.checks import output_file_problem
+from stickslip.cli.checks import fail, output_file_problem
 from stickslip.cli.commands import command_help
 from stickslip.postprocess.analysis import load_run
 from stickslip.postprocess.plotting import save_figure
@@ -51,27 +50,22 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=_export)
 
 
-def _fail(msg: str) -> int:
-    print(f"error: {msg}", file=sys.stderr)
-    return 2
-
-
 def _export(args: argparse.Namespace) -> int:
     run_dir = Path(args.run_dir)
     problem = (samples_problem(run_dir, need=4) or output_file_problem(args.output, "-o")
                or (args.plot and output_file_problem(args.plot, "--plot")))
     if problem:
-        return _fail(problem)
+        return fail(problem)
     if not (math.isfinite(args.cea_fmax_hz) and args.cea_fmax_hz > 0):
-        return _fail(f"--cea-fmax-hz {args.cea_fmax_hz}: give a finite frequency > 0 (Hz)")
+        return fail(f"--cea-fmax-hz {args.cea_fmax_hz}: give a finite frequency > 0 (Hz)")
     census = Path(args.census) if args.census else None
     if census is not None and not (census / "attractors.json").is_file():
-        return _fail(f"--census {census}: no attractors.json there; give a census "
+        return fail(f"--census {census}: no attractors.json there; give a census "
                      "directory (`stickslip attractors ... -o DIR`)")
 
     run = load_run(run_dir)
     if "probe_t" not in run.samples or run.samples["probe_t"].size < 8:
-        return _fail(f"{run_dir}: the run recorded no probe history (output.probes_deg is "
+        return fail(f"{run_dir}: the run recorded no probe history (output.probes_deg is "
                      "empty, or fewer than 8 steps); rerun it with a probe angle, e.g. "
                      "--set output.probes_deg=[0.0]")
     rows = write_probe_csv(run.samples, args.output)

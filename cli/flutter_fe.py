@@ -6,14 +6,13 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import sys
 import time
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
 
-from stickslip.cli.checks import output_file_problem
+from stickslip.cli.checks import fail, output_file_problem
 from stickslip.cli.commands import command_help
 from stickslip.solver.atomic import atomic_write_text
 from stickslip.solver.scene import SceneError, load_scene, tube_axial_layers
@@ -168,16 +167,16 @@ def flutter_fe_command(args: argparse.Namespace) -> int:
         scene = load_scene(args.scene, args.overrides)
         fs = parse_f_sweep(args.f_sweep) if args.f_sweep else None
     except (SceneError, FileNotFoundError, ValueError) as err:
-        return _fail(comm, str(err))
+        return fail(str(err), comm.rank)
     scene = _with_tube_options(args, scene)
     if isinstance(scene, str):
-        return _fail(comm, scene)
+        return fail(scene, comm.rank)
     bad = _argument_problem(args, scene, comm.size)
     if bad:
-        return _fail(comm, bad)
+        return fail(bad, comm.rank)
     solved = _analyse(args, scene, comm, fs)
     if isinstance(solved, str):
-        return _fail(comm, solved)
+        return fail(solved, comm.rank)
     res, sweep, written, drawn = solved
     tube_3d = scene.mesh.dim == 3
     reduced = [] if scene.mesh.file or tube_3d else reduced_model_flutter(scene, args.kmax)
@@ -239,13 +238,6 @@ def _write_tables(path: str, res: CEAResult, sweep: list[CEAResult] | None) -> l
     for target, rows in tables.items():
         atomic_write_text(target, csv_text(rows))
     return [str(target) for target in tables]
-
-
-def _fail(comm: MPI.Comm, msg: str) -> int:
-    """The one-line refusal (rank 0 prints it); exit status 2."""
-    if comm.rank == 0:
-        print(f"error: {msg}", file=sys.stderr)
-    return 2
 
 
 def _argument_problem(args: argparse.Namespace, scene: Scene, ranks: int) -> str | None:

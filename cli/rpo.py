@@ -5,10 +5,9 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import sys
 from pathlib import Path
 
-from stickslip.cli.checks import run_dir_dimension_problem
+from stickslip.cli.checks import fail, run_dir_dimension_problem
 from stickslip.solver.atomic import atomic_write_text
 from stickslip.studies.rpo.certificate import rpo_certificate
 from stickslip.studies.rundir.ownership import OwnershipError, claim, register_kind
@@ -127,22 +126,17 @@ def _print(cert: dict) -> None:
                   f"{d['orbit_frequency_hz']:+.3f} Hz ({d['relative']:+.2e})")
 
 
-def _fail(message: str) -> int:
-    print(f"error: {message}", file=sys.stderr, flush=True)
-    return 2
-
-
 def _rpo(args: argparse.Namespace) -> int:
     run_dir = Path(args.run_dir)
     problem = option_problem(args) or run_dir_dimension_problem(run_dir)
     if problem:
-        return _fail(problem)
+        return fail(problem)
     if not (run_dir / "checkpoint.npz").is_file():
-        return _fail(f"{run_dir}: no checkpoint.npz (give a finished run or census start)")
+        return fail(f"{run_dir}: no checkpoint.npz (give a finished run or census start)")
     generators, components = census_generators(run_dir)
     given = args.shift is not None or args.nodes is not None
     if (args.period is None or not given) and len(generators) < 2:
-        return _fail(f"{run_dir}: no census member with two generators above it; give "
+        return fail(f"{run_dir}: no census member with two generators above it; give "
                      "--period T and --shift S (or --nodes M)")
     owned = None
     if args.output:
@@ -150,7 +144,7 @@ def _rpo(args: argparse.Namespace) -> int:
         try:
             owned = claim(args.output, "rpo", force=args.force)
         except OwnershipError as err:
-            return _fail(str(err))
+            return fail(str(err))
     try:
         shift = None if args.shift is None else math.radians(args.shift)
         cert = rpo_certificate(run_dir, generators, components=components or None,

@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from stickslip.cli.checks import output_file_problem
+from stickslip.cli.checks import fail, output_file_problem
 from stickslip.cli.commands import command_help
 from stickslip.postprocess.style import STATUS_COLORS
 from stickslip.semianalytic.coefficients import coefficients, gamma_from_physical
@@ -143,13 +143,11 @@ def wave_command(args: argparse.Namespace) -> int:
     try:
         _validate(args)
     except InputError as err:
-        print(f"error: {err}", file=sys.stderr)
-        return 2
+        return fail(str(err))
     if args.plot:
         problem = output_file_problem(args.plot, "--plot")
         if problem:
-            print(f"error: {problem}", file=sys.stderr)
-            return 2
+            return fail(problem)
 
     gamma = gamma_from_physical(args.wave_speed, args.radius, args.omega)
     co = coefficients(args.nu, args.xi, gamma)
@@ -250,8 +248,7 @@ def flutter_command(args: argparse.Namespace) -> int:
     try:
         _validate(args)
     except InputError as err:
-        print(f"error: {err}", file=sys.stderr)
-        return 2
+        return fail(str(err))
 
     co = coefficients(
         args.nu, args.xi, gamma_from_physical(args.wave_speed, args.radius, args.omega)

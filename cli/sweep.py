@@ -7,6 +7,7 @@ import os
 import sys
 from pathlib import Path
 
+from stickslip.cli.checks import fail
 from stickslip.cli.commands import command_help
 from stickslip.solver.schemes.select import check_backend
 from stickslip.studies.attractors.maps import run_map
@@ -78,8 +79,7 @@ def _sweep(args: argparse.Namespace) -> int:
             for path in plot_sweep(target):
                 print(f"figure: {path}")
         except SweepError as err:
-            print(f"error: {err}", file=sys.stderr)
-            return 2
+            return fail(str(err))
         return 0
     # Only an atomic counter is needed (one operation per scene): keep OpenMPI's UCX one-sided
     # component, which warns on hosts without UCX devices, out of the way unless asked for.
@@ -90,9 +90,7 @@ def _sweep(args: argparse.Namespace) -> int:
     try:
         spec = load_sweep(target, large=args.yes_i_know)
     except SweepError as err:
-        if comm.rank == 0:
-            print(f"error: {err}", file=sys.stderr)
-        return 2
+        return fail(str(err), comm.rank)
     out_dir = _out_dir(spec, args)
     if args.group_size is not None and args.group_size < 1:
         if comm.rank == 0:
@@ -104,9 +102,7 @@ def _sweep(args: argparse.Namespace) -> int:
         batch = parse_batch(args.batch if args.batch is not None else spec.batch)
         check_backend(backend, batched=batch != "off")
     except (ValueError, ImportError) as err:
-        if comm.rank == 0:
-            print(f"error: {err}", file=sys.stderr)
-        return 2
+        return fail(str(err), comm.rank)
     if args.list:
         if comm.rank == 0:
             failures = recorded_failures(out_dir)

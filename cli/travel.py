@@ -12,6 +12,7 @@ import sys
 import time
 from pathlib import Path
 
+from stickslip.cli.checks import fail
 from stickslip.cli.commands import command_help
 from stickslip.solver.scene import SceneError, load_scene, require_plane_strain
 from stickslip.studies.output import output_root
@@ -98,11 +99,6 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=_travel)
 
 
-def _err(msg: str) -> int:
-    print(f"error: {msg}", file=sys.stderr)
-    return 2
-
-
 #: Points of one ``--continue`` branch (each a Newton solve, about a second).
 CONTINUE_MAX = 2000
 
@@ -156,7 +152,7 @@ def _travel(args: argparse.Namespace) -> int:
     opts = _options(args)
     bad = command.check(opts)
     if bad:
-        return _err(bad)
+        return fail(bad)
     try:
         scene = load_scene(args.scene, args.overrides)
         require_plane_strain(scene)
@@ -169,7 +165,7 @@ def _travel(args: argparse.Namespace) -> int:
             for value in cont[1]:  # the key and every value of the branch, before solving
                 scene.with_overrides(f"{cont[0]}={value!r}")
     except (SceneError, FileNotFoundError, ValueError) as err:
-        return _err(str(err))
+        return fail(str(err))
 
     try:
         bad = command.resolve(scene, opts)
@@ -177,13 +173,13 @@ def _travel(args: argparse.Namespace) -> int:
         print(f"error: {err}", file=sys.stderr)
         return 1
     if bad:
-        return _err(bad)
+        return fail(bad)
     out = Path(args.output) if args.output else output_root() / f"{scene.name}_travel_k{opts.k}"
 
     try:
         claim = prepare_dir(out, args.force)
     except FileExistsError as err:
-        return _err(str(err))
+        return fail(str(err))
     opts.json = args.json
     try:  # results go to claim.work; a replacement is swapped in only once written
         if cont:
@@ -214,7 +210,7 @@ def _one_wave(scene, args, out: Path, t0: float) -> int:  # noqa: ANN001
     try:
         summary, profiles = command.solve(scene, args, t0)
     except ValueError as err:
-        return _err(str(err))
+        return fail(str(err))
     except NotConverged as err:
         summary = {"status": "failed", "reason": str(err), "k": args.k,
                    "last_residual": err.info.get("residual"),

@@ -19,10 +19,6 @@ from __future__ import annotations
 
 import numpy as np
 
-#: Keys of ``energy_terms``, in the order the energy figure draws them.
-FLOW_TERMS = ("work_cylinder", "friction_dissipation", "impact_dissipation",
-              "viscous_dissipation", "residual")
-
 
 def energy_terms(energies: np.ndarray) -> dict[str, np.ndarray]:
     """Time series (J/m) of every term of the balance from ``samples.npz``'s ``energies``.

@@ -34,12 +34,10 @@ REGIME_COLORS = {
     "failed": "#ffffff",
 }
 
-#: Scale factors from SI to the units of the figures, and the unit names.
+#: Scale factors from SI to the units of the figures.
 MM = 1e3  # m -> mm
 MPA = 1e-6  # Pa -> MPa
 MS = 1e3  # s -> ms
-UNITS = {"displacement": "mm", "pressure": "MPa", "velocity": "m/s", "frequency": "Hz",
-         "time": "ms", "energy": "J/m"}
 
 
 def status_cmap() -> tuple[Any, Any]:

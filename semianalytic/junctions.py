@@ -23,21 +23,23 @@ from stickslip.semianalytic.waves import _scaled_coeffs, separation_matrix, slip
 
 __all__ = ["CLOSURES", "junction_residual"]
 
+#: continuity of U, V, U', V' at lift-off and landing, and of V at stick -> slip (9)
+_CONTINUITY: tuple[str, ...] = (
+    "liftoff:U",
+    "liftoff:V",
+    "liftoff:dU",
+    "liftoff:dV",
+    "landing:U",
+    "landing:V",
+    "landing:dU",
+    "landing:dV",
+    "stickslip:V",
+)
+
 #: closures compared in docs/semianalytic.md (number of equations in brackets)
 CLOSURES: dict[str, tuple[str, ...]] = {
     # full continuity of U, V, U', V' (10): the paper's "3 nonlinear unknowns" count
-    "smooth": (
-        "liftoff:U",
-        "liftoff:V",
-        "liftoff:dU",
-        "liftoff:dV",
-        "landing:U",
-        "landing:V",
-        "landing:dU",
-        "landing:dV",
-        "stickslip:V",
-        "stickslip:dV",
-    ),
+    "smooth": (*_CONTINUITY, "stickslip:dV"),
     # impact at landing, P -> 0 at lift-off, Q = fP at stick -> slip (10): physical
     "impact": (
         "liftoff:U",
@@ -52,30 +54,9 @@ CLOSURES: dict[str, tuple[str, ...]] = {
         "stickslip:Qbound",
     ),
     # paper read literally: U', V' continuous at ψ1T and T only (9; underdetermined)
-    "paper-literal": (
-        "liftoff:U",
-        "liftoff:V",
-        "liftoff:dU",
-        "liftoff:dV",
-        "landing:U",
-        "landing:V",
-        "landing:dU",
-        "landing:dV",
-        "stickslip:V",
-    ),
+    "paper-literal": _CONTINUITY,
     # paper literal + friction bound at stick -> slip (10)
-    "paper-literal+Qbound": (
-        "liftoff:U",
-        "liftoff:V",
-        "liftoff:dU",
-        "liftoff:dV",
-        "landing:U",
-        "landing:V",
-        "landing:dU",
-        "landing:dV",
-        "stickslip:V",
-        "stickslip:Qbound",
-    ),
+    "paper-literal+Qbound": (*_CONTINUITY, "stickslip:Qbound"),
 }
 
 

@@ -782,15 +782,6 @@ def column_energies(u, v, ku, mass, energy):
 
 
 @jit
-def sequential_dot(x, y):
-    """Σ_i x_i y_i in index order from 0.0 (``column_dots`` of one column: the same bits)."""
-    s = 0.0
-    for i in range(x.size):
-        s += x[i] * y[i]
-    return s
-
-
-@jit
 def column_dots(x, y, out):
     """out[b] = Σ_i x[i, b] y[i, b] in row order from 0.0, per column of (n, B) arrays."""
     n_rows, nb = x.shape

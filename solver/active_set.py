@@ -63,7 +63,6 @@ class ActiveSetSolver:
         self.p, self.q = np.zeros(nc), np.zeros(nc)
         self.u_r, self.u_t = np.zeros(nc), np.zeros(nc)
         self.r = np.zeros(S.shape[0])
-        self.factorisations = 0
         self.fallbacks = 0  # steps that needed the friction fixed point
         self._cache_key: bytes | None = None
         self._cache_lu = None
@@ -89,7 +88,6 @@ class ActiveSetSolver:
             lu = None
             if A.size:
                 lu = scipy.linalg.lu_factor(A, check_finite=False)
-                self.factorisations += 1
                 pivots = np.abs(np.diag(lu[0]))
                 if not np.all(np.isfinite(pivots)) or pivots.min() <= 1e-13 * pivots.max():
                     raise ContactSolveError(

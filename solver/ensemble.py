@@ -261,7 +261,6 @@ class BatchedExplicit(HookedStepper):
         # a regularised bound's per-node state (sigma_eff, the last u_theta), (m, B)
         self.sigma, self.ut_last = (z(m, B), z(m, B)) if self.reg else (z(0, B), z(0, B))
         self._started = np.zeros(1, dtype=np.int64)  # 0 until the first step
-        self._first_call = True  # of the kernel by this stepper
         self.u0_ku0 = np.zeros(B)
         self.energy = z(2, B)  # numba kernels, sampled steps: Σ m v², Σ u K u (x 2 energies)
         self.energy_summed = False  # True after a numba step that summed ``energy``
@@ -428,8 +427,7 @@ class BatchedExplicit(HookedStepper):
         self.columns.stiffness(self, u, out)
 
     def _column_dots(self, x, y) -> np.ndarray:
-        """Σ_i x[i, b] y[i, b] per column (numba: in row order, the bits of a single scene's
-        ``sequential_dot``)."""
+        """Σ_i x[i, b] y[i, b] per column (numba: in row order from 0.0, ``column_dots``)."""
         return self.columns.column_dots(self, x, y)
 
     def refresh_ku(self, strain: bool = True) -> None:

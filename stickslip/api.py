@@ -57,7 +57,6 @@ __all__ = ["analyse", "attractors", "cea", "cea_friction_sweep", "continue_run",
            "load_scene", "plot_run", "plot_sweep", "reduced_waves", "run", "sweep", "travel",
            "travel_branch"]
 
-SceneLike = "str | Path | Scene"
 Overrides = Mapping[str, Any] | Sequence[str] | None
 
 

@@ -58,10 +58,12 @@ from stickslip.studies.attractors.features import (
     CELERITY_TOL,
     DEFAULT_TOLERANCES,
     REGIME_SHORT,
+    SENSE,
     SPREAD_TOL,
     Component,
     Features,
     Tolerances,
+    _num,
     components_text,
     frame_spread,
     match,
@@ -156,7 +158,7 @@ def start_row(run_dir: Path, params: dict, summary: dict | None, status: str,
             features = (Features.from_dict(cached["features_before"]),
                         Features.from_dict(cached["features"]))
             spread = tuple(math.nan if v is None else float(v) for v in cached["spread"])
-            settle_time = _float(cached.get("settle_time_s"))
+            settle_time = _num(cached.get("settle_time_s"))
             drift = tuple(cached.get("drift") or ())
         else:
             samples = _samples(run_dir)
@@ -168,10 +170,6 @@ def start_row(run_dir: Path, params: dict, summary: dict | None, status: str,
                          settle_time=settle_time, drift=drift)
 
 
-def _float(x: object) -> float:
-    return math.nan if x is None else float(x)
-
-
 def row_cache(row: dict) -> dict:
     """What ``start_row(cached=...)`` needs of a row to rebuild it without its samples."""
     return {"features": row.get("features"), "features_before": row.get("features_before"),
@@ -180,22 +178,16 @@ def row_cache(row: dict) -> dict:
             "drift": list(row.get("drift") or ())}
 
 
-def end_state_features(samples: dict, summary: dict, radius: float
-                       ) -> tuple[tuple[Features, Features], tuple[float, float, float]]:
-    """(features of the two consecutive windows, (frame spread, RMS amplitude, spread
-    trend) in the dominant component's frame) of a run's samples (``samples.npz``'s arrays,
-    with the every-step probe where recorded): what ``end_state_row`` classifies."""
-    features, spread, _, _ = settled_features(samples, summary, radius)
-    return features, spread
-
-
 def settled_features(samples: dict, summary: dict, radius: float, window: float | None = None,
                      tol: Tolerances = DEFAULT_TOLERANCES, spread_tol: float = SPREAD_TOL
                      ) -> tuple[tuple[Features, Features], tuple[float, float, float], float,
                                 tuple[str, ...]]:
-    """``end_state_features`` over windows of length ``window`` (default: the run's
-    analysis window), the settle time and why the shares still drift across the last leg
-    (``features.settle_verdict``; NaN, and the reasons: unsettled)."""
+    """(features of the two consecutive windows, (frame spread, RMS amplitude, spread
+    trend) in the dominant component's frame) of a run's samples (``samples.npz``'s arrays,
+    with the every-step probe where recorded): what ``end_state_row`` classifies; over
+    windows of length ``window`` (default: the run's analysis window), the settle time and
+    why the shares still drift across the last leg (``features.settle_verdict``; NaN, and
+    the reasons: unsettled)."""
     t = samples["t"]
     if window is None:
         window = float(summary.get("analysis_window_s") or (t[-1] - t[0]) / 3.0)
@@ -397,8 +389,6 @@ def group_members(rows: list[dict], celerity_tol: float = CELERITY_TOL,
             r["member"] = key.label() + ("" if cluster == 1 else f"#{cluster}")
 
 
-#: A component's direction in words: the only words printed for it.
-SENSE = {"rotation": "with the rotation", "opposite": "against the rotation"}
 #: A member's class as the printed answer and the plots say it.
 CLASS_WORDS = {"wave": "rigid wave", "multi-wave": "multi-wave", "chaotic": "chaotic",
                "transient": "transient",

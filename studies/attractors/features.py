@@ -501,7 +501,7 @@ def share_drift(windows: list[Features], horizon: float,
         if max(now, later) < SHARE_TOL:
             continue
         if abs(later - now) > max(tol.share_rel * max(now, later), tol.share_abs):
-            why.append(f"k = {key[0]} {_SENSE[key[1]]} share drifts {100 * slope:+.1f} "
+            why.append(f"k = {key[0]} {SENSE[key[1]]} share drifts {100 * slope:+.1f} "
                        f"points/s ({100 * now:.0f} % now, {100 * later:.0f} % in "
                        f"{horizon:.2g} s)")
     return why
@@ -534,7 +534,7 @@ def differences(a: Features, b: Features, tol: Tolerances = DEFAULT_TOLERANCES) 
         if key in tones:  # follows from the generators
             continue
         ca, cb = mine.get(key), theirs.get(key)
-        name = f"k = {key[0]} {_SENSE[key[1]]}"
+        name = f"k = {key[0]} {SENSE[key[1]]}"
         if ca is None or cb is None:
             # a peak found attached in one (a harmonic or a sum tone of two components) and
             # listed in the other is there in both: compare its share only
@@ -615,7 +615,8 @@ def stationary(earlier: Features, later: Features, tol: Tolerances = DEFAULT_TOL
 # ====================================================================== names
 
 
-_SENSE = {"rotation": "with the rotation", "opposite": "against the rotation"}
+#: A component's direction in words: the only words printed for it.
+SENSE = {"rotation": "with the rotation", "opposite": "against the rotation"}
 
 
 def describe(comps: tuple[Component, ...] | list[Component], with_weak: bool = False) -> str:
@@ -625,12 +626,12 @@ def describe(comps: tuple[Component, ...] | list[Component], with_weak: bool = F
     if not listed:
         return "no travelling component"
     top = listed[0]
-    text = f"k = {top.k} {_SENSE[top.direction]}"
+    text = f"k = {top.k} {SENSE[top.direction]}"
     if top.aliased:
         text += " (aliased)"
     rest = []
     for c in listed[1:]:  # an aliased component's direction is not known: not named
-        sense = "" if c.direction == top.direction or c.aliased else f" {_SENSE[c.direction]}"
+        sense = "" if c.direction == top.direction or c.aliased else f" {SENSE[c.direction]}"
         tag = ", aliased" if c.aliased else ""
         rest.append(f"k = {c.k}{sense} ({100 * c.share:.0f} %{tag})")
     if rest:

@@ -179,13 +179,6 @@ class _Search:
         return tuple(coefficients), float(misfit[best])
 
 
-def combination(c: object, generators: tuple | list, tol_hz: float,
-                bound: int = MAX_COEFFICIENT) -> tuple[tuple[int, ...], float] | None:
-    """(coefficients, misfit in Hz) of the simplest integer combination of ``generators``
-    that gives the component ``c`` (module docstring), or None."""
-    return _Search(list(generators), bound).find(c, tol_hz)
-
-
 def lattice_of(components: tuple | list, tol_hz: float, *, weak_generators: bool = False,
                bound: int = MAX_COEFFICIENT) -> Lattice:
     """The frequency lattice of ``components`` (dominant first, then by share, as
