@@ -101,8 +101,8 @@ class ImplicitContact(NodalFrames):
 
     Exposes what the observers read, with the same meaning as in
     ``solver.contact.ContactProjection``: ``out`` (r_r, r_t, status), ``r_xy``, ``slide``,
-    ``nodes``, ``node_index``, ``phase_conj``, ``complex_view``, ``polar_at_nodes`` and
-    ``_polar``; ``out`` and ``r_xy`` belong to the exposed time level n (module docstring).
+    ``nodes``, ``node_index``, ``phase_conj``, ``complex_view`` and ``polar_at_nodes``;
+    ``out`` and ``r_xy`` belong to the exposed time level n (module docstring).
     Nodal values are complex z = u_x + i u_y, z e^{-i theta} = u_r + i u_theta.
     """
 

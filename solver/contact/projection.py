@@ -58,12 +58,6 @@ class NodalFrames:
         out *= self.phase_conj
         return out
 
-    def _polar(self, array: np.ndarray, radial: np.ndarray, tangential: np.ndarray) -> None:
-        """Radial and tangential components at the contact nodes (diagnostics, not hot)."""
-        z = self.polar_at_nodes(array, np.empty(self.node_index.size, dtype=complex))
-        radial[:] = z.real
-        tangential[:] = z.imag
-
     @property
     def surface_out(self) -> ContactArrays:
         """The outputs at every contact node (``problem.surface`` of a 3D tube's
