@@ -386,8 +386,8 @@ def test_certification_adapter(monkeypatch, tmp_path):
     """The direct solver's numbers, or its refusal, in the certificate and its line; a
     certificate from elsewhere that says it was not made is shown as such. The stability
     is λ₁ of the start at its own step (``chaos.fe_lyapunov`` over 2W, renormalised every
-    W/20), unstable when > 1 1/s beyond 3 standard errors; a one-scene run, which has no
-    twin, gets the transient test instead, and the certificate says which judged."""
+    W/20), unstable when > 1 1/s beyond 3 standard errors; a run with no twin (the implicit
+    scheme's), gets the transient test instead, and the certificate says which judged."""
     import stickslip.studies.attractors.chaos as chaos
     import stickslip.studies.travel as travel
     from stickslip.studies.attractors.certify import certificate_line, certify, failures
@@ -431,7 +431,7 @@ def test_certification_adapter(monkeypatch, tmp_path):
         assert certify(tmp_path, window=0.1)["stable"] is stable, (exponent, error)
 
     def one_scene(run_dir, duration, tau):
-        raise chaos.NotABatchMember(f"{run_dir}: not a batch member's checkpoint")
+        raise chaos.NoTwin(f"{run_dir}: the implicit scheme's runs are not kicked")
 
     def no_finer_wave(run_dir, *, dt_limit=False, window=None):  # the wave at 2S or 4S is not found
         return {"converged": True, "residual": 1e-11, "celerity_m_s": -935.6, "k": 11,

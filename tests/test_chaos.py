@@ -152,6 +152,34 @@ def test_fe_twin_on_a_settled_wave_is_not_chaotic(settled_start):
     assert {p: p.read_bytes() for p in before} == before
 
 
+def test_a_one_scene_run_has_the_batch_members_twin(settled_start, tmp_path):
+    """The census start's scene run alone to the same time (``stickslip.run``: one scene,
+    the kernel's batch of one, the same bits as the batch member): its twin
+    (``SceneTwin``: one Simulation stepping the reference and the twin in turn, each a
+    checkpoint) gives the batch member's exponent (``BatchTwin``: two columns of one
+    stepper) bit for bit, every interval's ln(d/d0) equal. A 3D tube's start is such a
+    one-scene run. The implicit scheme's run has no twin (it is not kicked): ``NoTwin``."""
+    from stickslip import run as run_scene_api
+    from stickslip.studies.attractors.chaos import NoTwin, SceneTwin, batch_member
+
+    member, window = settled_start
+    alone = tmp_path / "alone"
+    summary = run_scene_api(member / "scene.toml", alone, force=True, quiet=True)
+    assert summary["status"] == "completed"
+    assert batch_member(member) and not batch_member(alone)
+    a = np.load(member / "samples.npz")["u_r"]
+    np.testing.assert_array_equal(np.load(alone / "samples.npz")["u_r"], a)
+    tau = window / 20
+    ours = fe_lyapunov(alone, duration=30 * tau, tau=tau)
+    theirs = fe_lyapunov(member, duration=30 * tau, tau=tau)
+    assert ours.logs == theirs.logs and ours.exponent == theirs.exponent, (ours, theirs)
+    implicit = tmp_path / "implicit"
+    run_scene_api(member / "scene.toml", implicit, overrides=["time.beta1=0.3"], force=True,
+                  quiet=True)
+    with pytest.raises(NoTwin, match="not kicked"):
+        SceneTwin(implicit)
+
+
 def test_classify_at_cap_of_a_settled_wave_is_unsettled_not_chaotic(settled_start):
     """Its statistics are stationary (a rigid wave's are constant) but λ₁ is not positive:
     ``unsettled`` with the reason, never ``chaotic``."""

@@ -115,13 +115,13 @@ GROWTH_TOL = 1.0
 def _stability(run_dir: Path, wave: dict, end_time: float, window: float | None) -> dict:
     """The rigid wave's stability at the run's own step (module docstring): λ₁ of the
     start where its checkpoint stands (``chaos.fe_lyapunov``, the twin of the chaos test),
-    unstable when λ₁ > ``GROWTH_TOL`` beyond 3 standard errors. A one-scene run, which has
-    no twin, gets the transient started next to the wave (``travel.wave_stability``);
-    ``stability_test`` says which judged. Never raises."""
+    unstable when λ₁ > ``GROWTH_TOL`` beyond 3 standard errors. A run with no twin (the
+    implicit scheme's, ``chaos.NoTwin``) gets the transient started next to the wave
+    (``travel.wave_stability``); ``stability_test`` says which judged. Never raises."""
     W = float(window or DEFAULT_WINDOW)
     try:
         lyap = chaos.fe_lyapunov(run_dir, STABILITY_WINDOWS * W, W / 20.0)
-    except chaos.NotABatchMember:
+    except chaos.NoTwin:
         out = {"stability_test": "transient"}
         try:
             st = travel.wave_stability(run_dir, end_time=end_time, window=window)

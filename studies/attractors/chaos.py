@@ -38,8 +38,10 @@ pull-back moves every float array of column 1's checkpoint (u, u_n, v~, the cont
 w = u + τ v~) to column 0's plus the factor times the difference and restores both
 columns (``BatchedExplicit.state``, ``restore``: the batch's own checkpoint API). The
 stepper is built without a recorder: nothing is written, the start's run is not touched.
-A one-scene run (not a batch member) is refused: its twin would be a second Simulation,
-not built here. Where a census has a rank to spare, the two columns run on two ranks
+A one-scene run (no batch member: a 3D tube's start) has ``SceneTwin``: one one-scene
+Simulation steps the reference and the twin in turn, each a checkpoint it restores and takes
+again (the continuation's, bit for bit), the twin kicked and pulled back as the batch's.
+Where a census has a rank to spare, a batch member's two columns run on two ranks
 (``SplitTwin``: a batch of one each, the reference's state sent to the twin's rank every
 τ), with the same bits in half the time.
 
@@ -63,7 +65,7 @@ import numpy as np
 from stickslip.solver.columns import random_bump
 from stickslip.solver.contact import ContactLaw
 from stickslip.solver.ensemble_run import BatchColumns, BatchOptions
-from stickslip.solver.run import Profile
+from stickslip.solver.run import Profile, Simulation
 from stickslip.studies.attractors.features import leg_window_ends
 from stickslip.studies.rundir.continuation import plan_continuation
 from stickslip.studies.rundir.signals import deferred_signals
@@ -147,8 +149,13 @@ class Twin(Protocol):
         """Move the twin to reference + ``factor`` × (twin − reference)."""
 
 
-class NotABatchMember(ValueError):
-    """A one-scene run's checkpoint: the batch twin has no second column to run."""
+class NoTwin(ValueError):
+    """A run whose twin cannot be made: the implicit scheme's, which is not kicked."""
+
+
+class NotABatchMember(NoTwin):
+    """A one-scene run's checkpoint: the batch twin has no second column to run (its twin
+    is ``SceneTwin``)."""
 
 
 @dataclass(frozen=True)
@@ -297,6 +304,58 @@ class BatchTwin:
         st.restore([ref, pulled_back(ref, st.state(1, host), factor)])
 
 
+class SceneTwin:
+    """A one-scene run's checkpoint (no batch member: a 3D tube's start, say) as the
+    reference and its twin, stepped in turn by one one-scene ``Simulation`` on this rank:
+    each trajectory is a checkpoint (``Simulation.checkpoint``) that ``advance`` restores,
+    steps and takes again, bit for bit a continuation. The twin starts at distance ``d0``
+    along ``BatchTwin``'s kick (``twin_kick``); ``rescale`` pulls every float array of its
+    checkpoint back (``pulled_back``). A one-scene run of a batch member's scene steps the
+    same bits, so the two twins give the same exponent (tests/test_chaos.py)."""
+
+    def __init__(self, run_dir: str | Path, d0: float = D0, seed: int = TWIN_SEED) -> None:
+        from mpi4py import MPI  # a census rank's own twin: no other rank takes part
+
+        run_dir = Path(run_dir)
+        t_ck = float(json.loads((run_dir / "summary.json").read_text())["sim_time_s"])
+        plan = plan_continuation(run_dir, t_ck + 1.0, 1)
+        self.sim = Simulation(plan.scene, MPI.COMM_SELF)
+        self.sim.restore([plan.checkpoint.states[0]], [None])
+        self.dt = float(self.sim.dt)
+        self.ref = self.sim.checkpoint()
+        try:  # the implicit scheme's state has no v~, and its stepper refuses a kick
+            self.U = rms(self.ref["stepper/u"])
+            self.V = rms(self.ref["stepper/v_pred"])
+            self.sim.stepper.kick(0, *twin_kick(self.sim.columns, self.U, self.V, d0, seed))
+        except (KeyError, ValueError):
+            raise NoTwin(f"{run_dir}: the implicit scheme's runs are not kicked: no "
+                         "twin") from None
+        self.twin = self.sim.checkpoint()
+
+    def advance(self, duration: float) -> float:
+        for name in ("ref", "twin"):
+            self.sim.restore([getattr(self, name)], [None])
+            advanced = run_steps(self.sim.stepper, self.dt, duration)
+            setattr(self, name, self.sim.checkpoint())
+        return advanced
+
+    def distance(self) -> float:
+        return twin_distance((self.ref["stepper/u"], self.ref["stepper/v_pred"]),
+                             (self.twin["stepper/u"], self.twin["stepper/v_pred"]),
+                             self.U, self.V)
+
+    def rescale(self, factor: float) -> None:
+        self.twin = pulled_back(self.ref, self.twin, factor)
+
+
+def batch_member(run_dir: str | Path) -> bool:
+    """True when ``run_dir``'s checkpoint is a batch member's (a census start that a batch
+    stepped: ``BatchTwin``), False for a one-scene run's (``SceneTwin``)."""
+    run_dir = Path(run_dir)
+    t_ck = float(json.loads((run_dir / "summary.json").read_text())["sim_time_s"])
+    return plan_continuation(run_dir, t_ck + 1.0, 1).kind == "batch"
+
+
 @dataclass(frozen=True)
 class Pair:
     """Two ranks of ``comm`` that share one twin test (``SplitTwin``): this rank's
@@ -388,6 +447,8 @@ def fe_lyapunov(run_dir: str | Path, duration: float, tau: float, *, discard: in
     A paired test records SIGINT/SIGTERM/SIGHUP while it runs (``deferred_signals``) and
     both ranks stop at the next exchange with KeyboardInterrupt."""
     intervals = max(discard + 2 * blocks, int(round(duration / tau)))
+    if not batch_member(run_dir):  # each rank of a pair the same twin: the same exponent
+        return benettin(SceneTwin(run_dir), tau, intervals, discard=discard, blocks=blocks)
     if pair is None:
         return benettin(BatchTwin(run_dir), tau, intervals, discard=discard, blocks=blocks)
     with deferred_signals() as came:
