@@ -16,7 +16,11 @@ import numpy as np
 
 from stickslip.postprocess.style import FIELD_CMAP, MM, status_cmap, status_colorbar
 
-__all__ = ["axial_structure", "surface_figure"]
+__all__ = ["AXIAL_ORDERS", "axial_modes", "axial_structure", "surface_figure"]
+
+#: The axial orders m that ``axial_modes`` resolves: cos(m pi zeta), m = 0 .. 4 (at most the
+#: surface's layers)
+AXIAL_ORDERS = 5
 
 
 def axial_structure(surface: dict, k: int) -> dict:
@@ -38,6 +42,42 @@ def axial_structure(surface: dict, k: int) -> dict:
     return {"k": int(k), "z_m": [float(z) for z in surface["z"]],
             "profile": [round(float(a), 4) for a in amplitude / peak],
             "end_phase_deg": round(float(lag), 2)}
+
+
+def axial_modes(surface: dict, floor: float = 0.01, top: int = 8) -> list[dict]:
+    """The wave's content on a 3D tube's contact surface by wavenumber k (around) and axial
+    order m (along), over the last fifth of the samples: u_r's k-th Fourier coefficient on
+    each ring a_k(z, t) (k and −k, both directions, together), projected on the axial
+    shapes cos(m pi zeta), zeta = (z − z_0) / L, orthonormalised for the trapezoid rule on
+    the rings' levels (m = 0: uniform along z, m nodal rings otherwise; ``AXIAL_ORDERS``
+    of them at most). ``share``: the time mean of |c_km|² over the whole of Σ_k ∫ |a_k|² dz,
+    so what the orders left out carry is what the shares miss. The ``top`` (k, m) of share
+    ≥ ``floor``, largest first; none where the surface carries no wave."""
+    u_r = np.asarray(surface["u_r"], dtype=float)
+    window = u_r[-max(1, u_r.shape[0] // 5):]
+    n = window.shape[2]
+    a = np.fft.fft(window, axis=2) / n  # (t, z, n): a_k(z, t)
+    z = np.asarray(surface["z"], dtype=float)
+    zeta = (z - z[0]) / (z[-1] - z[0])
+    weight = np.zeros_like(zeta)  # the trapezoid rule on the levels
+    weight[1:] += 0.5 * np.diff(zeta)
+    weight[:-1] += 0.5 * np.diff(zeta)
+    orders = min(AXIAL_ORDERS, z.size - 1)
+    shapes = np.cos(np.pi * np.outer(zeta, np.arange(orders)))  # (z, m)
+    basis, _ = np.linalg.qr(np.sqrt(weight)[:, None] * shapes)  # orthonormal columns
+    ks = np.arange(1, n // 2 + 1)
+    sides = [a[..., ks], a[..., (n - ks) % n] * (ks != n - ks)]  # k, then −k (once)
+    total = sum(float(np.mean(np.sum(weight[None, :, None] * np.abs(x) ** 2, axis=1).sum(
+        axis=1))) for x in sides)
+    power = sum(np.mean(np.abs(np.einsum("zm,tzk->tmk", basis,
+                                         np.sqrt(weight)[None, :, None] * x)) ** 2, axis=0)
+                for x in sides)  # (m, k)
+    if not total > 1e-20 * float(np.mean(window**2)):  # no wave on the surface
+        return []
+    share = power / total
+    found = [{"k": int(ks[j]), "m": int(m), "share": round(float(share[m, j]), 4)}
+             for m, j in zip(*np.nonzero(share >= floor), strict=True)]
+    return sorted(found, key=lambda e: -e["share"])[:top]
 
 
 def surface_figure(run_dir: Path, d: float) -> Any:

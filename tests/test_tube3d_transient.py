@@ -404,6 +404,7 @@ def test_clamped_ends_hold_their_rings_and_balance_the_energy(tmp_path):
     facts = tube["tube_3d"]
     assert facts["ends"] == "clamped" and facts["surface_nodes"] == 3 * 36
     assert facts["axial"]["profile"][0] == facts["axial"]["profile"][-1] == 0.0
+    assert facts["axial"]["modes"] == []  # steady sliding by 3 ms: no wave to take apart
     surface = np.load(tmp_path / "tube1e-05" / "surface.npz")
     held, inner = surface["status"][:, [0, -1]], surface["status"][:, 1:-1]
     assert (held == -1).all() and (inner >= 0).all()
@@ -444,3 +445,31 @@ def test_the_3d_tube_runs_the_same_on_every_rank_count(tmp_path):
         for key in ("u_r", "u_theta"):
             assert np.max(np.abs(a[key] - b[key])) < 1e-10 * scale, key
         assert np.max(np.abs(a["energies"] - b["energies"])) < 1e-9 * np.max(a["energies"])
+
+
+def test_axial_modes_take_a_wave_apart_by_k_and_m():
+    """``axial_modes`` on a made surface (N = 36, 7 levels, refined towards the ends): a
+    k = 4 wave uniform along z (amplitude 2) and a k = 7 wave of one nodal ring,
+    cos(pi zeta) (amplitude 1), travelling in opposite directions. The shares are the
+    waves' powers over the total, 2²/2 against 1²/2 x the trapezoid rule's mean of
+    cos², recovered to the 4 digits kept (the axial shapes are in the basis: the
+    projection is exact);
+    nothing else is found above the floor."""
+    from stickslip.postprocess.surface_map import axial_modes
+
+    z = np.array([0.0, 0.02, 0.05, 0.15, 0.25, 0.28, 0.3])
+    zeta = z / z[-1]
+    theta = 2 * np.pi * np.arange(36) / 36
+    t = np.linspace(0.0, 0.01, 200)
+    T, Z, TH = np.meshgrid(t, zeta, theta, indexing="ij")
+    u_r = (1e-3 + 2.0 * np.cos(4 * TH - 900.0 * T)
+           + np.cos(np.pi * Z) * np.cos(7 * TH + 1300.0 * T))
+    modes = axial_modes({"u_r": u_r, "z": z})
+    w = np.zeros_like(zeta)
+    w[1:] += 0.5 * np.diff(zeta)
+    w[:-1] += 0.5 * np.diff(zeta)
+    cos2 = float(np.sum(w * np.cos(np.pi * zeta) ** 2))
+    total = 2.0**2 / 2 + cos2 / 2
+    assert [(e["k"], e["m"]) for e in modes] == [(4, 0), (7, 1)]
+    assert modes[0]["share"] == pytest.approx(2.0 / total, abs=1e-4)  # rounded to 4 digits
+    assert modes[1]["share"] == pytest.approx(cos2 / 2 / total, abs=1e-4)

@@ -28,7 +28,7 @@ from typing import Any
 
 from stickslip.postprocess.analysis import TRAVEL_PURITY_MIN, analyse
 from stickslip.postprocess.resolution import sampling_check
-from stickslip.postprocess.surface_map import axial_structure
+from stickslip.postprocess.surface_map import axial_modes, axial_structure
 from stickslip.solver.atomic import atomic_save_npz
 from stickslip.solver.run import Profile
 from stickslip.solver.scene import Scene, scene_warnings, write_scene
@@ -153,7 +153,8 @@ def _write_run_files(rd: directory.RunDir, out: RunOutputs, prof: Profile, t0: f
         return summary
     analysed = finish_summary(summarise(run, out.probes), out, prof, t0)
     if out.surface is not None and analysed.get("mode"):  # a 3D tube's wave along z
-        analysed["tube_3d"]["axial"] = axial_structure(out.surface, analysed["mode"])
+        analysed["tube_3d"]["axial"] = dict(axial_structure(out.surface, analysed["mode"]),
+                                            modes=axial_modes(out.surface))
     try:  # the run is saved and true; the analysis is a bonus on top
         write_summary(rd.final, analysed)
     except OSError as err:
