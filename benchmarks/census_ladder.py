@@ -3,6 +3,7 @@ docs/attractors.md ("Where the answer settles"), from finished census directorie
 
     ./dev python3 benchmarks/census_ladder.py NAME=DIR[:TIMINGS.jsonl] [NAME=DIR ...]
         [--json docs/facts/census_ladder.json]
+    ./dev python3 benchmarks/census_ladder.py NAME=DIR_DT+DIR_DT2+DIR_DT4   # in the time step
 
 Each DIR is a census directory (``stickslip attractors ... -o DIR``) whose ladder holds the
 rungs measured; TIMINGS (optional) the JSON lines that ``benchmarks/attractor_census.py``
@@ -23,6 +24,10 @@ reach them, the dominant-component distribution's two largest entries, the basin
 celerity, the wall time of the rung; per step: the settle criterion's four numbers
 (``statistics.rung_steps``) and whether it holds; last, the first rung from which the answer
 stays the same (``ladder.settles_from``), or that none does.
+
+With ``NAME=DIR+DIR+...`` the ladder is in the time step: each DIR a census of one rung at
+one ``time.dt_fraction`` (``--set time.dt_fraction=0.45``, then 0.225), the rungs labelled
+``N@fraction`` in the order given and compared by the same criterion.
 """
 
 from __future__ import annotations
@@ -72,6 +77,35 @@ def point_table(name: str, census: Path, timings: Path | None) -> dict:
             "steps": lad.get("steps") or [], "settles_from": lad.get("settles_from")}
 
 
+def time_step_table(name: str, dirs: list[Path]) -> dict:
+    """The same table for a ladder in the time step: census directories of one rung each
+    (the same scene and mesh, ``time.dt_fraction`` halved from one to the next), each rung
+    labelled ``N@fraction``; the steps are ``statistics.ladder``'s on those rungs."""
+    from stickslip.studies.attractors.statistics import ladder
+
+    per_rung, accounts = {}, {}
+    for d in dirs:
+        answer = json.loads((d / "attractors.json").read_text())
+        (key, members), = answer["members"].items()
+        fraction = answer["scene"]["time"]["dt_fraction"]
+        label = f"{key}@{fraction:g}"
+        per_rung[label], accounts[label] = members, answer["accounting"][key]
+    lad = ladder(per_rung)
+    coarse = lad["coarse"]
+    rungs = []
+    for i, (key, members) in enumerate(per_rung.items()):
+        kinds = {c: sum(m["class"] == c for m in members)
+                 for c in ("wave", "multi-wave", "chaotic")}
+        dist = sorted(coarse["dominant_k"][key].items(), key=lambda kv: -kv[1])[:2]
+        rungs.append({"rung": key, "attractors": accounts[key]["attractors"], "kinds": kinds,
+                      "reached": accounts[key]["reached"], "starts": accounts[key]["starts"],
+                      "dominant": dist,
+                      "weighted_celerity_m_s": coarse["weighted_celerity_m_s"]["values"][i],
+                      "wall_s": None})
+    return {"point": name, "finished": True, "rungs": rungs, "steps": lad["steps"],
+            "settles_from": lad["settles_from"]}
+
+
 def _dominant(dist: list) -> str:
     return ", ".join(f"{k} {100 * p:.0f} %" for k, p in dist)
 
@@ -110,6 +144,9 @@ def main() -> None:
     tables = []
     for item in args.points:
         name, _, rest = item.partition("=")
+        if "+" in rest:  # a ladder in the time step: one rung per directory
+            tables.append(time_step_table(name, [Path(d) for d in rest.split("+")]))
+            continue
         census, _, timings = rest.partition(":")
         tables.append(point_table(name, Path(census), Path(timings) if timings else None))
     print(markdown(tables))

@@ -35,7 +35,9 @@ import numpy as np
 from stickslip.meshes.annulus import INNER_TAG, OUTER_TAG, TUBE_TAG, TubeMesh
 from stickslip.meshes.compat import model_to_mesh
 
-__all__ = ["MeshFileError", "MeshFileFacts", "inspect_mesh_file", "user_mesh"]
+__all__ = ["MeshFileError", "MeshFileFacts", "distributed_checked", "group_nodes_on_radius",
+           "group_tag", "inspect_mesh_file", "inspected", "physical_groups", "retagged",
+           "snap_to_circle", "user_mesh"]
 
 SUFFIXES = (".geo", ".msh")
 ON_CIRCLE = 1e-6  # relative distance to r = R accepted for a contact node
@@ -92,14 +94,22 @@ def _load(gmsh, path: Path, cell: str, degree: int) -> None:
         gmsh.merge(str(path))
 
 
-def _group_tag(gmsh, name: str, key: str, label: str) -> int:
-    names = {gmsh.model.getPhysicalName(d, t): t for d, t in gmsh.model.getPhysicalGroups(1)}
-    if name not in names:
-        have = ", ".join(repr(n) for n in sorted(names)) or "none"
+def physical_groups(gmsh, dim: int) -> dict[str, int]:  # noqa: ANN001 - the gmsh module
+    """{name: tag} of the current model's physical groups of dimension ``dim``."""
+    return {gmsh.model.getPhysicalName(dim, t): t for _, t in gmsh.model.getPhysicalGroups(dim)}
+
+
+def group_tag(groups: dict[str, int], name: str, key: str, label: str,
+              kind: str = "Curve") -> int:
+    """The tag of the group ``name`` of ``groups`` (``physical_groups``), else a one-line
+    ``MeshFileError`` naming the groups there are and the fix (``kind``: its gmsh word)."""
+    if name not in groups:
+        have = ", ".join(repr(n) for n in sorted(groups)) or "none"
+        word = kind.lower()
         raise MeshFileError(
-            f"{label}: no curve physical group named {name!r} ({key}); the file's curve groups: "
-            f"{have}: add Physical Curve(\"{name}\") = {{...}}; or set {key}")
-    return names[name]
+            f"{label}: no {word} physical group named {name!r} ({key}); the file's {word} "
+            f"groups: {have}: add Physical {kind}(\"{name}\") = {{...}}; or set {key}")
+    return groups[name]
 
 
 def _check_model(gmsh, label: str, R: float, n_contact: int, cell: str, degree: int,
@@ -130,18 +140,13 @@ def _check_model(gmsh, label: str, R: float, n_contact: int, cell: str, degree: 
         raise MeshFileError(f"{label}: the file has degree-{file_degree} {file_cell} cells, the "
                             f"scene says mesh.cell = {cell!r}, mesh.degree = {degree}: set "
                             f"mesh.cell = {file_cell!r}, mesh.degree = {file_degree}")
-    contact_tag = _group_tag(gmsh, contact_group, "mesh.contact_group", label)
-    clamped_tag = _group_tag(gmsh, clamped_group, "mesh.clamped_group", label)
-    _, pts = gmsh.model.mesh.getNodesForPhysicalGroup(1, contact_tag)
-    pts = np.asarray(pts).reshape(-1, 3)
+    groups = physical_groups(gmsh, 1)
+    contact_tag = group_tag(groups, contact_group, "mesh.contact_group", label)
+    clamped_tag = group_tag(groups, clamped_group, "mesh.clamped_group", label)
+    pts = group_nodes_on_radius(gmsh, 1, contact_tag, R, f"{label}: ", contact_group,
+                                "contact boundary must be the circle r = geometry.R centred "
+                                "at the origin")
     r = np.hypot(pts[:, 0], pts[:, 1])
-    off = np.abs(r - R) > ON_CIRCLE * R
-    if off.any():
-        worst = float(r[np.argmax(np.abs(r - R))])
-        raise MeshFileError(
-            f"{label}: {int(off.sum())} of {r.size} nodes of the contact group "
-            f"{contact_group!r} are not on r = R = {R:g} m (one at r = {worst:.9g}): the "
-            "contact boundary must be the circle r = geometry.R centred at the origin")
     angles = np.sort(np.arctan2(pts[:, 1], pts[:, 0]))
     gap = float(np.max(np.diff(np.append(angles, angles[0] + 2 * np.pi)))) if r.size else 0.0
     if r.size and gap > 2.0 * (2 * np.pi / r.size):
@@ -197,14 +202,30 @@ def resolve(file: str, search: tuple[Path, ...] = ()) -> Path:
                         "path of a gmsh .geo or .msh file")
 
 
-@functools.lru_cache(maxsize=32)
-def _inspect_cached(path: str, mtime: float, R: float, n_contact: int, cell: str, degree: int,
-                    contact_group: str, clamped_group: str) -> MeshFileFacts:
+def group_nodes_on_radius(gmsh, dim: int, tag: int, R: float, where: str, group: str,  # noqa: ANN001 - the gmsh module
+                          what: str) -> np.ndarray:
+    """The (n, 3) nodes of the physical group ``tag`` of dimension ``dim``, checked to lie
+    on r = R (to ``ON_CIRCLE`` R): else ``MeshFileError`` saying how many do not and
+    ``what`` the group must be."""
+    _, pts = gmsh.model.mesh.getNodesForPhysicalGroup(dim, tag)
+    pts = np.asarray(pts).reshape(-1, 3)
+    r = np.hypot(pts[:, 0], pts[:, 1])
+    off = np.abs(r - R) > ON_CIRCLE * R
+    if off.any():
+        worst = float(r[np.argmax(np.abs(r - R))])
+        raise MeshFileError(
+            f"{where}{int(off.sum())} of {r.size} nodes of the contact group {group!r} are "
+            f"not on r = R = {R:g} m (one at r = {worst:.9g}): the {what}")
+    return pts
+
+
+def inspected(path: str, load, check):  # noqa: ANN001, ANN201 - gmsh callables, the facts
+    """``check(gmsh)`` of the file ``path`` after ``load(gmsh)``, in a gmsh session of its
+    own: what gmsh cannot read is a one-line ``MeshFileError`` too."""
     gmsh, owns = gmsh_session()
     try:
-        _load(gmsh, Path(path), cell, degree)
-        return _check_model(gmsh, f"mesh.file = {path!r}", R, n_contact, cell, degree,
-                            contact_group, clamped_group)
+        load(gmsh)
+        return check(gmsh)
     except Exception as err:
         if isinstance(err, MeshFileError):
             raise
@@ -214,6 +235,14 @@ def _inspect_cached(path: str, mtime: float, R: float, n_contact: int, cell: str
         gmsh.model.remove()
         if owns:
             gmsh.finalize()
+
+
+@functools.lru_cache(maxsize=32)
+def _inspect_cached(path: str, mtime: float, R: float, n_contact: int, cell: str, degree: int,
+                    contact_group: str, clamped_group: str) -> MeshFileFacts:
+    return inspected(path, lambda gmsh: _load(gmsh, Path(path), cell, degree),
+                     lambda gmsh: _check_model(gmsh, f"mesh.file = {path!r}", R, n_contact,
+                                               cell, degree, contact_group, clamped_group))
 
 
 def inspect_mesh_file(path: Path, *, R: float, n_contact: int, cell: str, degree: int,
@@ -231,50 +260,72 @@ def user_mesh(comm, path: Path, *, R: float, xi: float, n_contact: int, cell: st
     """The checked mesh of ``path``, distributed over ``comm``: a ``meshes.annulus.TubeMesh``
     whose facet tags are ``INNER_TAG`` on the contact group and ``OUTER_TAG`` on the clamped
     group (``n_radial`` = 0). gmsh runs on rank 0 only; a failed check raises on every rank."""
-    import dolfinx
+    msh, cell_tags, facet_tags, facts = distributed_checked(
+        comm, lambda gmsh: _load(gmsh, Path(path), cell, degree),
+        lambda gmsh: _check_model(gmsh, f"mesh.file = {str(path)!r}", R, n_contact, cell,
+                                  degree, contact_group, clamped_group), gdim=2)
+    msh.name = "cross_section"
+    facet_tags = retagged(msh, facet_tags, {facts.contact_tag: INNER_TAG,
+                                            facts.clamped_tag: OUTER_TAG})
+    snap_to_circle(msh, R)
+    return TubeMesh(mesh=msh, cell_tags=cell_tags, facet_tags=facet_tags, R=float(R),
+                    xi=float(xi), n_inner=int(n_contact), n_radial=0, cell=cell,
+                    degree=int(degree))
+
+
+def distributed_checked(comm, load, check, gdim: int, renumber: bool = False):  # noqa: ANN001, ANN201
+    """(mesh, cell tags, facet tags, facts) of a user's file: on rank 0 gmsh ``load``s it
+    and ``check`` returns its facts or raises ``MeshFileError`` (raised on every rank);
+    cells of dimension ``gdim`` outside any physical group are grouped (dolfinx reads a
+    group's cells), with ``renumber`` the nodes numbered 1 .. n (a .msh saved from its
+    groups has gaps, which dolfinx does not read); then distributed over ``comm``."""
     import gmsh
 
     root, facts, error, owns = 0, None, None, False
     if comm.rank == root:
         _, owns = gmsh_session()
         try:
-            _load(gmsh, Path(path), cell, degree)
-            facts = _check_model(gmsh, f"mesh.file = {str(path)!r}", R, n_contact, cell,
-                                 degree, contact_group, clamped_group)
-            if not gmsh.model.getPhysicalGroups(2):  # dolfinx reads the cells of a group
-                gmsh.model.addPhysicalGroup(2, [t for _, t in gmsh.model.getEntities(2)],
+            load(gmsh)
+            facts = check(gmsh)
+            if not gmsh.model.getPhysicalGroups(gdim):
+                gmsh.model.addPhysicalGroup(gdim, [t for _, t in gmsh.model.getEntities(gdim)],
                                             TUBE_TAG)
+            if renumber:
+                gmsh.model.mesh.renumberNodes()
         except MeshFileError as err:
             error = str(err)
     error, facts = comm.bcast((error, facts), root=root)
     try:
         if error is not None:
             raise MeshFileError(error)
-        msh, cell_tags, facet_tags = model_to_mesh(gmsh.model, comm, root, gdim=2)
+        msh, cell_tags, facet_tags = model_to_mesh(gmsh.model, comm, root, gdim=gdim)
     finally:
         if comm.rank == root:
             gmsh.model.remove()
             if owns:
                 gmsh.finalize()
-    msh.name = "cross_section"
-    values = facet_tags.values
-    keep = (values == facts.contact_tag) | (values == facts.clamped_tag)
-    tags = np.where(values[keep] == facts.contact_tag, INNER_TAG, OUTER_TAG).astype(np.int32)
-    facet_tags = dolfinx.mesh.meshtags(msh, msh.topology.dim - 1, facet_tags.indices[keep],
-                                       tags)
-    _snap_to_circle(msh, R)
-    return TubeMesh(mesh=msh, cell_tags=cell_tags, facet_tags=facet_tags, R=float(R),
-                    xi=float(xi), n_inner=int(n_contact), n_radial=0, cell=cell,
-                    degree=int(degree))
+    return msh, cell_tags, facet_tags, facts
 
 
-def _snap_to_circle(msh, R: float) -> None:
-    """Put the geometry nodes within ``ON_CIRCLE`` R of r = R exactly on it (radially)."""
+def retagged(msh, facet_tags, ours: dict[int, int]):  # noqa: ANN001, ANN201 - dolfinx objects
+    """The facets of the file's physical tags that ``ours`` maps (a tag 0: none), tagged with
+    the project's tags (``INNER_TAG``, ...); the other facets dropped."""
+    import dolfinx
+
+    keep = np.isin(facet_tags.values, [t for t in ours if t])
+    tags = np.array([ours[v] for v in facet_tags.values[keep]], dtype=np.int32)
+    return dolfinx.mesh.meshtags(msh, msh.topology.dim - 1, facet_tags.indices[keep], tags)
+
+
+def snap_to_circle(msh, R: float) -> np.ndarray:  # noqa: ANN001 - a dolfinx Mesh
+    """Put the geometry nodes within ``ON_CIRCLE`` R of r = R exactly on it (radially);
+    returns which nodes those are."""
     x = msh.geometry.x
     r = np.hypot(x[:, 0], x[:, 1])
     near = np.abs(r - R) <= ON_CIRCLE * R
     x[near, 0] *= R / r[near]
     x[near, 1] *= R / r[near]
+    return near
 
 
 def is_rotation_invariant(points: np.ndarray, n: int, tol: float) -> bool:

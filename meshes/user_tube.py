@@ -36,10 +36,18 @@ from pathlib import Path
 
 import numpy as np
 
-from stickslip.meshes.annulus import INNER_TAG, OUTER_TAG, TUBE_TAG
-from stickslip.meshes.compat import model_to_mesh
+from stickslip.meshes.annulus import INNER_TAG, OUTER_TAG
 from stickslip.meshes.tube3d import END0_TAG, Tube3DMesh
-from stickslip.meshes.user_mesh import ON_CIRCLE, MeshFileError, gmsh_session
+from stickslip.meshes.user_mesh import (
+    MeshFileError,
+    distributed_checked,
+    group_nodes_on_radius,
+    group_tag,
+    inspected,
+    physical_groups,
+    retagged,
+    snap_to_circle,
+)
 
 __all__ = ["TubeFileFacts", "inspect_tube_file", "user_tube_mesh"]
 
@@ -90,19 +98,6 @@ def _load(gmsh, path: Path) -> None:
     if path.suffix == ".geo":
         gmsh.model.geo.synchronize()
         gmsh.model.mesh.generate(3)
-
-
-def _surface_groups(gmsh) -> dict[str, int]:
-    return {gmsh.model.getPhysicalName(2, t): t for _, t in gmsh.model.getPhysicalGroups(2)}
-
-
-def _group_tag(groups: dict[str, int], name: str, key: str, label: str) -> int:
-    if name not in groups:
-        have = ", ".join(repr(n) for n in sorted(groups)) or "none"
-        raise MeshFileError(
-            f"{label}: no surface physical group named {name!r} ({key}); the file's surface "
-            f"groups: {have}: add Physical Surface(\"{name}\") = {{...}}; or set {key}")
-    return groups[name]
 
 
 def _volume_cells(gmsh, label: str) -> tuple[int, str, int, tuple]:
@@ -162,19 +157,12 @@ def _check_model(gmsh, label: str, R: float, n_contact: int, contact_group: str,
                  clamped_group: str, ends_group: str) -> TubeFileFacts:
     """The checks of the module docstring on the current gmsh model."""
     cell_type, cell, per_cell, edges = _volume_cells(gmsh, label)
-    groups = _surface_groups(gmsh)
-    contact_tag = _group_tag(groups, contact_group, "mesh.contact_group", label)
-    clamped_tag = _group_tag(groups, clamped_group, "mesh.clamped_group", label)
-    _, pts = gmsh.model.mesh.getNodesForPhysicalGroup(2, contact_tag)
-    pts = np.asarray(pts).reshape(-1, 3)
-    r = np.hypot(pts[:, 0], pts[:, 1])
-    off = np.abs(r - R) > ON_CIRCLE * R
-    if off.any():
-        worst = float(r[np.argmax(np.abs(r - R))])
-        raise MeshFileError(
-            f"{label}: {int(off.sum())} of {r.size} nodes of the contact group "
-            f"{contact_group!r} are not on r = R = {R:g} m (one at r = {worst:.9g}): the "
-            "contact surface must be the cylinder r = geometry.R about the z axis")
+    groups = physical_groups(gmsh, 2)
+    contact_tag = group_tag(groups, contact_group, "mesh.contact_group", label, "Surface")
+    clamped_tag = group_tag(groups, clamped_group, "mesh.clamped_group", label, "Surface")
+    pts = group_nodes_on_radius(gmsh, 2, contact_tag, R, f"{label}: ", contact_group,
+                                "contact surface must be the cylinder r = geometry.R about "
+                                "the z axis")
     levels, angles = _rings(pts, label, contact_group, n_contact)
     _, clamped_pts = gmsh.model.mesh.getNodesForPhysicalGroup(2, clamped_tag)
     if len(clamped_pts) < 9:  # three nodes (x, y, z each): one clamped face at least
@@ -193,20 +181,9 @@ def _check_model(gmsh, label: str, R: float, n_contact: int, contact_group: str,
 @functools.lru_cache(maxsize=32)
 def _inspect_cached(path: str, mtime: float, R: float, n_contact: int, contact_group: str,
                     clamped_group: str, ends_group: str) -> TubeFileFacts:
-    gmsh, owns = gmsh_session()
-    try:
-        _load(gmsh, Path(path))
-        return _check_model(gmsh, f"mesh.file = {path!r}", R, n_contact, contact_group,
-                            clamped_group, ends_group)
-    except Exception as err:
-        if isinstance(err, MeshFileError):
-            raise
-        raise MeshFileError(f"mesh.file = {path!r}: gmsh cannot read it ({err}): check the "
-                            "file with `gmsh FILE`") from err
-    finally:
-        gmsh.model.remove()
-        if owns:
-            gmsh.finalize()
+    return inspected(path, lambda gmsh: _load(gmsh, Path(path)),
+                     lambda gmsh: _check_model(gmsh, f"mesh.file = {path!r}", R, n_contact,
+                                               contact_group, clamped_group, ends_group))
 
 
 def inspect_tube_file(path: Path, *, R: float, n_contact: int, contact_group: str = "contact",
@@ -226,41 +203,15 @@ def user_tube_mesh(comm, path: Path, *, R: float, xi: float, n_contact: int,  # 
     whose facet tags are ``INNER_TAG`` on the contact group, ``OUTER_TAG`` on the clamped
     group and ``END0_TAG`` on the ends group, with the rings' ``levels`` and ``angles``
     (``n_radial`` = 0). gmsh runs on rank 0 only; a failed check raises on every rank."""
-    import dolfinx
-    import gmsh
-
-    root, facts, error, owns = 0, None, None, False
-    if comm.rank == root:
-        _, owns = gmsh_session()
-        try:
-            _load(gmsh, Path(path))
-            facts = _check_model(gmsh, f"mesh.file = {str(path)!r}", R, n_contact,
-                                 contact_group, clamped_group, ends_group)
-            if not gmsh.model.getPhysicalGroups(3):  # dolfinx reads the cells of a group
-                gmsh.model.addPhysicalGroup(3, [t for _, t in gmsh.model.getEntities(3)],
-                                            TUBE_TAG)
-            # a .msh saved from its physical groups numbers its nodes with gaps; dolfinx
-            # reads them numbered 1 .. n
-            gmsh.model.mesh.renumberNodes()
-        except MeshFileError as err:
-            error = str(err)
-    error, facts = comm.bcast((error, facts), root=root)
-    try:
-        if error is not None:
-            raise MeshFileError(error)
-        msh, cell_tags, facet_tags = model_to_mesh(gmsh.model, comm, root, gdim=3)
-    finally:
-        if comm.rank == root:
-            gmsh.model.remove()
-            if owns:
-                gmsh.finalize()
+    msh, cell_tags, facet_tags, facts = distributed_checked(
+        comm, lambda gmsh: _load(gmsh, Path(path)),
+        lambda gmsh: _check_model(gmsh, f"mesh.file = {str(path)!r}", R, n_contact,
+                                  contact_group, clamped_group, ends_group),
+        gdim=3, renumber=True)
     msh.name = "tube"
-    ours = {facts.contact_tag: INNER_TAG, facts.clamped_tag: OUTER_TAG,
-            facts.ends_tag: END0_TAG}
-    keep = np.isin(facet_tags.values, [t for t in ours if t])
-    tags = np.array([ours[v] for v in facet_tags.values[keep]], dtype=np.int32)
-    facet_tags = dolfinx.mesh.meshtags(msh, msh.topology.dim - 1, facet_tags.indices[keep],
-                                       tags)
+    facet_tags = retagged(msh, facet_tags, {facts.contact_tag: INNER_TAG,
+                                            facts.clamped_tag: OUTER_TAG,
+                                            facts.ends_tag: END0_TAG})
     levels = np.array(facts.levels)
     _snap_to_rings(msh, R, levels)
     return Tube3DMesh(mesh=msh, cell_tags=cell_tags, facet_tags=facet_tags, R=float(R),
@@ -271,11 +222,8 @@ def user_tube_mesh(comm, path: Path, *, R: float, xi: float, n_contact: int,  # 
 def _snap_to_rings(msh, R: float, levels: np.ndarray) -> None:  # noqa: ANN001 - a dolfinx Mesh
     """Put the geometry nodes within ``ON_CIRCLE`` R of r = R exactly on it (radially) and
     on their ring's z."""
+    near = snap_to_circle(msh, R)
     x = msh.geometry.x
-    r = np.hypot(x[:, 0], x[:, 1])
-    near = np.abs(r - R) <= ON_CIRCLE * R
-    x[near, 0] *= R / r[near]
-    x[near, 1] *= R / r[near]
     ring = np.searchsorted((levels[1:] + levels[:-1]) / 2.0, x[:, 2])
     on_ring = near & (np.abs(x[:, 2] - levels[ring]) <= ON_RING * max(np.ptp(levels), 1.0))
     x[on_ring, 2] = levels[ring[on_ring]]
