@@ -83,27 +83,31 @@ def time_step_table(name: str, dirs: list[Path]) -> dict:
     labelled ``N@fraction``; the steps are ``statistics.ladder``'s on those rungs."""
     from stickslip.studies.attractors.statistics import ladder
 
-    per_rung, accounts = {}, {}
-    for d in dirs:
-        answer = json.loads((d / "attractors.json").read_text())
+    answers = [json.loads((d / "attractors.json").read_text()) for d in dirs]
+    fractions = [a["scene"]["time"]["dt_fraction"] for a in answers]
+    per_rung, accounts, labels = {}, {}, {}
+    for answer, fraction in zip(answers, fractions, strict=True):
         (key, members), = answer["members"].items()
-        fraction = answer["scene"]["time"]["dt_fraction"]
-        label = f"{key}@{fraction:g}"
-        per_rung[label], accounts[label] = members, answer["accounting"][key]
+        step = str(round(max(fractions) / fraction))  # the ladder's rung: 1, 2, 4 (Δt / h)
+        labels[step] = f"{key}@{fraction:g}"
+        per_rung[step], accounts[step] = members, answer["accounting"][key]
     lad = ladder(per_rung)
+    for step in lad["steps"]:
+        step["from"], step["to"] = labels[str(step["from"])], labels[str(step["to"])]
     coarse = lad["coarse"]
     rungs = []
     for i, (key, members) in enumerate(per_rung.items()):
         kinds = {c: sum(m["class"] == c for m in members)
                  for c in ("wave", "multi-wave", "chaotic")}
         dist = sorted(coarse["dominant_k"][key].items(), key=lambda kv: -kv[1])[:2]
-        rungs.append({"rung": key, "attractors": accounts[key]["attractors"], "kinds": kinds,
-                      "reached": accounts[key]["reached"], "starts": accounts[key]["starts"],
-                      "dominant": dist,
+        rungs.append({"rung": labels[key], "attractors": accounts[key]["attractors"],
+                      "kinds": kinds, "reached": accounts[key]["reached"],
+                      "starts": accounts[key]["starts"], "dominant": dist,
                       "weighted_celerity_m_s": coarse["weighted_celerity_m_s"]["values"][i],
                       "wall_s": None})
+    settles = lad["settles_from"]
     return {"point": name, "finished": True, "rungs": rungs, "steps": lad["steps"],
-            "settles_from": lad["settles_from"]}
+            "settles_from": None if settles is None else labels[str(settles)]}
 
 
 def _dominant(dist: list) -> str:

@@ -19,7 +19,9 @@ Then, per key present at several N and per *family* (the two generators' directi
 k₁ − k₂, e.g. "k, k − 1 against the rotation", whose k may change with N), the observed
 order of the defect, p = ln(d_a/d_b)/ln(N_b/N_a) between consecutive rungs (defect ∝ N^−p),
 and of the generators' frequencies of one k across three rungs
-(``statistics.observed_order``). Costs at P (Ω = 60, N = 528, T ≈ 12.7 ms, 2497 steps):
+(``statistics.observed_order``). With ``--in-time`` the censuses of a point are one mesh at
+``time.dt_fraction`` halved from one to the next, and the rungs (the N column) are the
+step's refinement 1, 2, 4 (Δt, Δt/2, Δt/4). Costs at P (Ω = 60, N = 528, T ≈ 12.7 ms, 2497 steps):
 one map of two columns (a Jacobian product) 1.4 s on one core.
 """
 
@@ -43,29 +45,35 @@ def signed_k(g: dict) -> int:
     return int(g["k"]) if g["direction"] == "rotation" else -int(g["k"])
 
 
-def scene_without_mesh(census: Path) -> dict:
+def scene_without(census: Path, section: str, key: str) -> dict:
+    """The census's scene less its ``section.key`` (what its ladder varies)."""
     scene = json.loads((census / "census.json").read_text())["definition"]["scene"]
-    scene = {**scene, "mesh": {**scene["mesh"], "n_inner": None}}
-    return scene
+    return {**scene, section: {**scene[section], key: None}}
 
 
-def point_members(dirs: list[Path]) -> tuple[dict, dict[int, dict]]:
-    """(scene, {N: {(k₁, k₂): row}}) of one scene point: each row a member with two
-    generators (module docstring) and its first start's run directory."""
-    scenes = [scene_without_mesh(d) for d in dirs]
+def point_members(dirs: list[Path], in_time: bool = False) -> tuple[dict, dict[int, dict]]:
+    """(scene, {rung: {(k₁, k₂): row}}) of one scene point: each row a member with two
+    generators (module docstring) and its first start's run directory. The rung is N, or
+    with ``in_time`` (censuses of one mesh, ``time.dt_fraction`` halved from one to the
+    next) the step's refinement, round(coarsest fraction / fraction): 1, 2, 4, ..."""
+    varied = ("time", "dt_fraction") if in_time else ("mesh", "n_inner")
+    scenes = [scene_without(d, *varied) for d in dirs]
     if any(s != scenes[0] for s in scenes[1:]):
-        sys.exit(f"{dirs}: the censuses' scenes differ beyond mesh.n_inner")
+        sys.exit(f"{dirs}: the censuses' scenes differ beyond {'.'.join(varied)}")
+    fractions = [json.loads((d / "census.json").read_text())["definition"]["scene"]["time"]
+                 ["dt_fraction"] for d in dirs]
     per_n: dict[int, dict] = {}
-    for d in dirs:
+    for d, fraction in zip(dirs, fractions, strict=True):
         data = json.loads((d / "attractors.json").read_text())
         run_dirs = {s["id"]: s for s in data["starts"]}
         for n_text, members in data["members"].items():
+            rung = round(max(fractions) / fraction) if in_time else int(n_text)
             for m in members:
                 gens = [g for g in (m.get("generators") or []) if g.get("frequency_hz")]
                 if m.get("type") not in TWO_GENERATOR_TYPES or len(gens) < 2:
                     continue
                 key = (signed_k(gens[0]), signed_k(gens[1]))
-                rows = per_n.setdefault(int(n_text), {})
+                rows = per_n.setdefault(rung, {})
                 if key in rows and rows[key]["count"] >= m["count"]:
                     continue
                 seed = min(m["seeds"])
@@ -150,11 +158,14 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--newton-max-n", type=int, default=None,
                     help="Newton only on rungs N up to this (the others: defect only)")
     ap.add_argument("--json", type=Path, help="write every row here")
+    ap.add_argument("--in-time", action="store_true",
+                    help="the censuses of a point are one mesh at time.dt_fraction halved "
+                         "from one to the next: the rungs are the step's refinement 1, 2, 4")
     args = ap.parse_args(argv)
     report = []
     for point in args.points:
         dirs = [Path(p) for p in point.split(",")]
-        scene, per_n = point_members(dirs)
+        scene, per_n = point_members(dirs, args.in_time)
         print(f"\n== {point}: Ω = {scene['loading']['omega']} rad/s, δ = "
               f"{scene['geometry']['delta']}, f = {scene['loading']['f']}, β₂ = "
               f"{scene['time']['beta2']}, Δt = {scene['time']['dt_fraction']} Δt_crit, "
