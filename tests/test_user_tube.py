@@ -116,6 +116,7 @@ def test_a_users_tube_that_does_not_fit_is_one_line(tmp_path):
     noends = write_tube(tmp_path / "noends.msh", [3], ends=False)
     scene = [*TUBE, f'mesh.file="{good}"']
     for extra, words in ((["geometry.length=0.25"], "set geometry.length = 0.3"),
+                         (["geometry.length=0"], "set geometry.length = 0.3"),
                          (["mesh.n_axial=4"], "has 3 layers"),
                          (["mesh.n_inner=40"], "set mesh.n_inner = 36"),
                          ([f'mesh.file="{noends}"', "boundary.ends=roller"],

@@ -127,9 +127,10 @@ class Scene(_Section):
         """The 3D tube's length, and no key off its default where it does not apply
         (``NEEDS``): one line that names the key, its value and the fix."""
         if self.mesh.dim == 3:
-            _require("geometry.length", self.geometry.length, self.geometry.length > 0,
-                     "length > 0 (m) with mesh.dim = 3 (the tube's length along z: give "
-                     "geometry.length)")
+            if not self.mesh.file:  # a user's tube: its file's length (``_check_tube_file``)
+                _require("geometry.length", self.geometry.length, self.geometry.length > 0,
+                         "length > 0 (m) with mesh.dim = 3 (the tube's length along z: give "
+                         "geometry.length)")
             if self.boundary.ends == "clamped" and tube_axial_layers(self) < 2:
                 _require("mesh.n_axial", self.mesh.n_axial, False,
                          f"n_axial >= 2 with clamped ends, here {tube_axial_layers(self):g} "
