@@ -19,7 +19,8 @@ Checks, each a one-line :class:`MeshFileError` naming the value and the fix:
 * every node of the contact group lies on r = R (to 1e-6 R; they are then put exactly on
   it, and on their ring's z);
 * the contact nodes lie on two or more rings of ``mesh.n_inner`` = N nodes each, every ring
-  at the first ring's angles (to 1e-6 rad);
+  at the first ring's angles (to 1e-6 rad), all around (no gap wider than two mean
+  spacings);
 * the clamped group holds a face.
 
 :func:`inspect_tube_file` runs the checks and counts nodes and cells (gmsh only: the scene's
@@ -138,6 +139,12 @@ def _rings(pts: np.ndarray, label: str, group: str, n_contact: int
         raise MeshFileError(f"{label}: the rings of the contact group {group!r} have their "
                             f"nodes at other angles (up to {off:.3g} rad apart): mesh the "
                             "tube as a cross-section extruded along z (gmsh: Extrude, Layers)")
+    gap = float(np.max(np.diff(np.append(angles[0], angles[0][0] + 2.0 * np.pi))))
+    if gap > 2.0 * (2.0 * np.pi / n_contact):
+        raise MeshFileError(f"{label}: the contact group {group!r} leaves a gap of "
+                            f"{np.degrees(gap):.1f} degrees around the tube without nodes: it "
+                            "must be the whole cylinder r = R (the cylinder turns under all of "
+                            "it)")
     return levels, angles[0]
 
 

@@ -25,10 +25,11 @@ TUBE = ("mesh.cell=quadrilateral", "mesh.dim=3", "geometry.length=0.3", "time.dt
 
 
 def write_tube(path, layers: list[int], heights: list[float] | None = None,
-               length: float = 0.3, ends: bool = True, hexahedra: bool = True) -> str:
+               length: float = 0.3, ends: bool = True, hexahedra: bool = True,
+               contact_sectors: int = 4) -> str:
     """The smoke annulus extruded over ``length`` in ``layers`` (gmsh ``Layers``: counts and
-    cumulated heights), hexahedra (else prisms); the surface groups by position. Returns
-    the path."""
+    cumulated heights), hexahedra (else prisms); the surface groups by position, the
+    contact group the first ``contact_sectors`` quarters of r = R. Returns the path."""
     from stickslip.meshes.annulus import annulus_surfaces
 
     gmsh.initialize(readConfigFiles=False)
@@ -50,6 +51,7 @@ def write_tube(path, layers: list[int], heights: list[float] | None = None,
                 groups["clamped"].append(tag)
             elif np.ptp(xyz[:, 2]) < 1e-12 and ends:
                 groups["ends"].append(tag)
+        groups["contact"] = groups["contact"][:contact_sectors]
         for name, tags in groups.items():
             if tags:
                 gmsh.model.addPhysicalGroup(2, tags, name=name)
@@ -110,7 +112,8 @@ def test_a_tube_with_graded_layers_runs_with_its_own_rings(tmp_path):
 
 def test_a_users_tube_that_does_not_fit_is_one_line(tmp_path):
     """One line each: a length, a layer count or ``mesh.n_inner`` other than the file's;
-    held ends without an ends group; a file whose rings are not at the same angles; cells
+    held ends without an ends group; a file whose rings are not at the same angles, or
+    cover half the tube; cells
     other than hexahedra (prisms); a 2D file given as a 3D tube."""
     good = write_tube(tmp_path / "tube.msh", [3])
     noends = write_tube(tmp_path / "noends.msh", [3], ends=False)
@@ -142,6 +145,9 @@ def test_a_users_tube_that_does_not_fit_is_one_line(tmp_path):
         gmsh.finalize()
     with pytest.raises(SceneError, match="other angles .* Extrude"):
         load_scene("smoke", [*TUBE, f'mesh.file="{twisted}"'])
+    half = write_tube(tmp_path / "half.msh", [3], contact_sectors=2)
+    with pytest.raises(SceneError, match="leaves a gap of 180.0 degrees"):
+        load_scene("smoke", [*TUBE, f'mesh.file="{half}"', "mesh.n_inner=19"])
     prisms = write_tube(tmp_path / "prisms.msh", [3], hexahedra=False)
     with pytest.raises(SceneError, match="need 8-node hexahedra alone"):
         load_scene("smoke", [*TUBE, f'mesh.file="{prisms}"'])
