@@ -98,7 +98,7 @@ GENERATED = {"cli.md", "scene.md"}
 #: and any one page (a page past it is a log or a study, which belongs in archive/). It holds
 #: the tutorials, how-tos, theory and evidence pages of every command, with room for a
 #: page's new table, not for run logs.
-DOCS_BYTES, PAGE_BYTES = 342_000, 36_000
+DOCS_BYTES, PAGE_BYTES = 343_000, 36_000
 
 
 def test_user_docs_stay_small():
