@@ -1,5 +1,6 @@
 """Is a census member's companion the time step's? Each multi-wave member's first start,
-restarted where its checkpoint stands at half its time step, against the member.
+restarted where its checkpoint stands at half its time step, against the member: the
+census's ``--half-step`` test (``studies.attractors.step_check``) on a finished census.
 
     ./dev python3 benchmarks/half_step_check.py CENSUS_DIR [--windows 4] [--json FILE]
 
@@ -23,9 +24,6 @@ import sys
 import time
 from pathlib import Path
 
-from mpi4py import MPI
-
-from stickslip.solver.run import Simulation
 from stickslip.studies.attractors.features import (
     DEFAULT_TOLERANCES,
     components_text,
@@ -33,7 +31,7 @@ from stickslip.studies.attractors.features import (
     window_features,
 )
 from stickslip.studies.attractors.statistics import member_features
-from stickslip.studies.rundir.continuation import plan_continuation
+from stickslip.studies.attractors.step_check import half_step_run
 
 
 def first_start(answer: dict, member: dict, n_text: str) -> Path:
@@ -42,22 +40,6 @@ def first_start(answer: dict, member: dict, n_text: str) -> Path:
     start = next(s for s in answer["starts"] if s["member"] == member["member"]
                  and s["seed"] == seed and str(s["n_inner"]) == n_text)
     return Path(start["run_dir"])
-
-
-def half_step(run_dir: Path, windows: int, window: float) -> dict:
-    """The samples of ``run_dir``'s scene at half its step, from its checkpoint's (u, v~),
-    over ``windows`` W (module docstring)."""
-    t_ck = float(json.loads((run_dir / "summary.json").read_text())["sim_time_s"])
-    plan = plan_continuation(run_dir, t_ck + 1.0, 1)
-    state = plan.checkpoint.states[0]
-    ts = plan.scene.time
-    step = f"time.dt={ts.dt / 2!r}" if ts.dt > 0 else f"time.dt_fraction={ts.dt_fraction / 2!r}"
-    scene = plan.scene.with_overrides(step, f"time.end_time={windows * window!r}",
-                                      "output.progress=false")
-    sim = Simulation(scene, MPI.COMM_SELF,
-                     initial_state=(state["stepper/u"], state["stepper/v_pred"], None))
-    sim.proceed()
-    return {"samples": sim.recorder.arrays(), "dt_s": float(sim.dt), "radius": scene.geometry.R}
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -74,7 +56,7 @@ def main(argv: list[str] | None = None) -> int:
             if member["class"] != "multi-wave" or not member.get("seeds"):
                 continue
             t0 = time.perf_counter()
-            run = half_step(first_start(answer, member, n_text), args.windows, window)
+            run = half_step_run(first_start(answer, member, n_text), args.windows, window)
             samples = run["samples"]
             t_end = float(samples["t"][-1])
             after = window_features(samples, run["radius"], t_end - window, t_end)

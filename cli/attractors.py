@@ -97,6 +97,9 @@ def _checks_and_outputs(p: argparse.ArgumentParser) -> None:
     p.add_argument("--no-kick", action="store_true",
                    help="skip the kick test (one start per attractor perturbed by 1 %% and "
                    "run on for two windows: does it return?)")
+    p.add_argument("--half-step", action="store_true",
+                   help="also restart each multi-wave member's first start at half the time "
+                   "step (4 windows): is it an end state of the finer scheme too?")
     p.add_argument("--cea", action="store_true",
                    help="also print the CEA's resolved unstable modes of steady sliding per "
                    "mesh and the share of starts ending on each (dominant or companion)")
@@ -166,7 +169,7 @@ def _census(args: argparse.Namespace, ranks: int):  # noqa: ANN202 - (Census, Pa
         seed=args.seed, n_modes=args.n_modes, amplitude=args.amplitude,
         celerity_tol=args.celerity_tol, spread_tol=args.spread_tol, output=args.output,
         backend=args.backend, bundle=args.bundle is not None,
-        check_cost=not args.yes_i_know), ranks)
+        check_cost=not args.yes_i_know, half_step=args.half_step), ranks)
 
 
 def _prepare_bundle(census, bundle: Path, comm) -> int | None:  # noqa: ANN001

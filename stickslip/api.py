@@ -315,7 +315,8 @@ def attractors(scene: str | Path, out_dir: str | Path | None = None, *, starts: 
     ``along`` (``"KEY=A:B:M"``: a census at each value; returns ``along.json``), ``certify``
     and ``kick`` (the certificates and the kick test), ``cea`` and ``cea_fmax_hz`` (print the
     CEA's unstable modes per mesh), ``plot``; ``options`` takes ``seed``, ``n_modes``,
-    ``amplitude``, ``celerity_tol``, ``spread_tol``, ``backend``, ``dt_limit``.
+    ``amplitude``, ``celerity_tol``, ``spread_tol``, ``backend``, ``dt_limit``,
+    ``half_step``.
     ``check_resources=False`` is ``--yes-i-know``; ``quiet`` prints nothing. The folder
     defaults to ``$STICKSLIP_OUTPUT/attractors/<scene name>`` (else
     ``runs/attractors/<scene name>``).

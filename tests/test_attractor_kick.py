@@ -123,3 +123,45 @@ def test_a_kick_is_never_in_place(census):
     with pytest.raises(ValueError, match="never in place"):
         continue_batch([out / "starts" / "runs" / kick["start"]], kick["until_s"] + 0.01,
                        kick=0.01)
+
+
+def test_the_half_step_test_restarts_each_member_at_half_the_step(census):
+    """``step_check.half_step_members`` (``--half-step``; the census runs it on its
+    multi-wave members, here on every member): each member's first start restarted from its
+    checkpoint's (u, v~) at half its step for 4 windows, its last window against the start's
+    own. The smoke mesh is coarse (N = 36, Δt = 7.7e-5 s): its rigid k = 6 wave against the
+    rotation moves from −1921.1 to −1836.2 m/s at Δt/2 (measured), 4.4 %, beyond the
+    census's 2 % tolerance, so the test says "moved" and names the celerity; the step is
+    half the start's to round-off; the starts' files are untouched."""
+    from stickslip.studies.attractors.census import settled_members
+    from stickslip.studies.attractors.certify import member_line
+    from stickslip.studies.attractors.features import DEFAULT_TOLERANCES
+    from stickslip.studies.attractors.step_check import half_step_members
+
+    out, starts, answer = census
+    window = json.loads((out / "census.json").read_text())["window_s"]
+    groups = {f"{n}:{m}": rows for (n, m), rows in settled_members(answer["starts"]).items()}
+    found = half_step_members(groups, window, DEFAULT_TOLERANCES)
+    wave = found["36:k6-opposite-SS"]
+    assert wave["kept"] is False
+    assert any(d.startswith("k = 6 against the rotation celerity") for d in wave["differences"])
+    assert wave["components"].startswith("k6- 1.00 -18")
+    for key, result in found.items():
+        assert result["dt_s"] == pytest.approx(0.5 * groups[key][0]["dt_s"], rel=1e-12)
+    assert "moved at Δt/2" in member_line({"starts": 1, "half_step": wave})
+    assert {p: p.read_bytes() for p in starts} == starts
+
+
+def test_half_step_is_a_census_option_kept_in_census_json(tmp_path):
+    """``--half-step`` (``Census.half_step``) is kept in census.json, where the
+    certificates read it; a census without it says False."""
+    pytest.importorskip("dolfinx")
+    from stickslip.studies.attractors.census import Census, prepare, read_meta
+    from stickslip.studies.attractors.starts import StartDistribution
+
+    for flag in (True, False):
+        spec = Census(SMOKE, (36,), StartDistribution(starts=1), ("time.end_time=0.05",),
+                      max_time=0.1, half_step=flag)
+        claim = prepare(spec, tmp_path / str(flag), False)
+        claim.release()
+        assert read_meta(tmp_path / str(flag))["half_step"] is flag

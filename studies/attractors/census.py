@@ -125,6 +125,7 @@ from stickslip.studies.attractors.statistics import (
     ladder,
     mesh_members,
 )
+from stickslip.studies.attractors.step_check import half_step_members
 from stickslip.studies.output import output_root
 from stickslip.studies.resources import (
     MAX_SECONDS,
@@ -200,6 +201,9 @@ class Census:
     celerity_tol: float = CELERITY_TOL
     spread_tol: float = SPREAD_TOL
     max_time: float | None = None  # the cap of settle-or-extend (None: DEFAULT_MAX_TIME)
+    #: the half-step test of every multi-wave member (``step_check``; a certificate option,
+    #: kept in census.json, not in its definition)
+    half_step: bool = False
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "meshes", tuple(as_rung(r) for r in self.meshes))
@@ -419,7 +423,8 @@ def prepare(census: Census, out_dir: Path, force: bool,  # noqa: ANN201 - a Clai
                 "overrides": list(census.overrides), "meshes": census.labels(),
                 "distribution": census.distribution.to_dict(),
                 "celerity_tol": census.celerity_tol, "spread_tol": census.spread_tol,
-                "window_s": base.time.end_time / 3.0, "max_time_s": census.cap(base)}
+                "window_s": base.time.end_time / 3.0, "max_time_s": census.cap(base),
+                "half_step": census.half_step}
         atomic_write_text(meta_path, json.dumps(meta, indent=1) + "\n")
     except BaseException:
         owned.release()
@@ -1278,8 +1283,10 @@ def certify_members(out_dir: Path, rows: list[dict], *, compute: bool = True,
     state is read over the last ``window`` seconds (the census's W). ``kick`` (with
     ``compute`` and ``window``): the kick tests of the members whose certificate has none,
     all in one call (``certify.kick_members``: one batch per mesh and step), their wall
-    time in ``timing["kick_s"]``. ``write``: False leaves ``certificates.json`` as it was
-    (``certify_shared``: rank 0 writes what the ranks computed)."""
+    time in ``timing["kick_s"]``; with them, where census.json asks (``--half-step``), the
+    half-step test of every multi-wave member (``step_check.half_step_members``). ``write``:
+    False leaves ``certificates.json`` as it was (``certify_shared``: rank 0 writes what the
+    ranks computed)."""
 
     cache_path = out_dir / "certificates.json"
     cache = read_cache(cache_path)
@@ -1306,6 +1313,14 @@ def certify_members(out_dir: Path, rows: list[dict], *, compute: bool = True,
             timing["kick_s"] = time.perf_counter() - t0
         for name, result in kicks.items():
             cache[keys[name]] = out[name] = {**out[name], "kick": result}
+        if write:
+            write_if_changed(cache_path, _cache_text(cache), required=False)
+    unchecked = {name: members[tuple_key] for name, tuple_key in named.items()
+                 if name in out and members[tuple_key][0]["class"] == "multi-wave"
+                 and not isinstance(out[name].get("half_step"), dict)}
+    if kick and compute and window and unchecked and read_meta(out_dir).get("half_step"):
+        for name, result in half_step_members(unchecked, float(window), tol).items():
+            cache[keys[name]] = out[name] = {**out[name], "half_step": result}
         if write:
             write_if_changed(cache_path, _cache_text(cache), required=False)
     return out

@@ -68,6 +68,7 @@ from stickslip.studies.attractors.features import (
     differences,
     window_features,
 )
+from stickslip.studies.attractors.step_check import at_checkpoint, half_step_line
 from stickslip.studies.rpo.certificate import rpo_screen
 from stickslip.studies.rundir import continue_batch
 from stickslip.studies.rundir.readers import ReadError
@@ -190,7 +191,7 @@ def kick_members(out_dir: Path, groups: dict[str, list[dict]], window: float,
     out: dict[str, dict] = {}
     chosen: dict[str, tuple[dict, Path, float]] = {}
     for key, rows in groups.items():
-        row = next((r for r in rows if r.get("features") and _at_checkpoint(r)), None)
+        row = next((r for r in rows if r.get("features") and at_checkpoint(r)), None)
         if row is None:
             out[key] = {"message": "not run: no start of it ended at a checkpoint"}
             continue
@@ -228,18 +229,6 @@ def kick_members(out_dir: Path, groups: dict[str, list[dict]], window: float,
         except (OSError, ValueError, KeyError, IndexError) as err:
             out[key] = {"message": f"not run: {type(err).__name__}: {err}"}
     return _plain(out)
-
-
-def _at_checkpoint(row: dict) -> bool:
-    """Whether a start's run completed at a whole level, its checkpoint the kick's start (a
-    batch member's, or a one-scene run's: a 3D tube, an implicit scene)."""
-    import json
-
-    try:
-        summary = json.loads((Path(row["run_dir"]) / "summary.json").read_text())
-    except (OSError, ValueError, KeyError):
-        return False
-    return summary.get("status") == "completed"
 
 
 def _slug(key: str) -> str:
@@ -320,6 +309,8 @@ def member_line(cert: dict | None) -> str:
     kick = cert.get("kick")
     if isinstance(kick, dict):
         parts.append(kick_line(kick))
+    if isinstance(cert.get("half_step"), dict):
+        parts.append(half_step_line(cert["half_step"]))
     return "; ".join(parts)
 
 

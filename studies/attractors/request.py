@@ -61,6 +61,7 @@ class CensusRequest:
     backend: str = "cpu"
     bundle: bool = False  # a GPU node runs the starts: the backend is not checked here
     check_cost: bool = True  # False: --yes-i-know
+    half_step: bool = False  # every multi-wave member's half-step test (``step_check``)
 
 
 def build_census(request: CensusRequest, ranks: int = 1) -> tuple[Census, Path]:
@@ -95,7 +96,8 @@ def build_census(request: CensusRequest, ranks: int = 1) -> tuple[Census, Path]:
                          f"end time {scene.time.end_time:g} s")
     census = Census(Path(request.scene), rungs, dist, tuple(overrides),
                     request.celerity_tol, request.spread_tol,
-                    DEFAULT_MAX_TIME if request.max_time is None else request.max_time)
+                    DEFAULT_MAX_TIME if request.max_time is None else request.max_time,
+                    half_step=request.half_step)
     census.base_scene()
     if not request.bundle:
         check_backend(request.backend)
