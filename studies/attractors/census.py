@@ -609,7 +609,7 @@ def chaos_shared(out_dir: Path, comm, stream: TextIO | None = None) -> bool:  # 
 
 def run_census(census: Census, out_dir: str | Path, *, comm=None, force: bool = False,  # noqa: ANN001
                progress: str = "auto", backend: str = "cpu", certify: bool = True,
-               dt_limit: bool = False, kick: bool = True, stream: TextIO = sys.stdout,
+               dt_limit: bool = False, kick: bool = True, stream: TextIO | None = None,
                read_starts: Callable[..., int] | None = None, check_cost: bool = True,
                answer: dict | None = None) -> int:
     """Run (or resume) the census into ``out_dir`` and write its answer; collective.
@@ -624,7 +624,8 @@ def run_census(census: Census, out_dir: str | Path, *, comm=None, force: bool = 
 
     ``certify``: certify every member (``studies.attractors.certify``); ``dt_limit``: also the
     rigid waves' Δt → 0 ladder (several Newton solves on finer levels; off by default);
-    ``kick``: the kick test of every member (``certify.kick_members``).
+    ``kick``: the kick test of every member (``certify.kick_members``). ``stream``: where
+    the lines go (sys.stdout as the call finds it by default).
 
     Every unsettled start is continued up to the census's cap (``settle``, module
     docstring); then the members are certified (``certify_now``), the starts of every
@@ -641,6 +642,7 @@ def run_census(census: Census, out_dir: str | Path, *, comm=None, force: bool = 
 
 
     comm = MPI.COMM_WORLD if comm is None else comm
+    stream = sys.stdout if stream is None else stream
     out_dir = Path(out_dir)
     owned, refused = claim_on_rank0(
         comm, lambda: prepare(census, out_dir, force, check_cost, comm.size),
@@ -781,14 +783,16 @@ def _read(read_starts: Callable[..., int], spec, out_dir: Path, stream: TextIO) 
 # ========================================================================= settle or extend
 
 
-def settle(out_dir: Path, comm, stream: TextIO = sys.stdout) -> int:  # noqa: ANN001
+def settle(out_dir: Path, comm, stream: TextIO | None = None) -> int:  # noqa: ANN001
     """Continue the unsettled starts of the census in ``out_dir`` in legs until each is
     settled or at the cap (module docstring); collective. Returns 0 (every leg ran), 1 (a
     leg failed, said on stderr with its start, which stays where its last whole leg ended;
     or the census could not be read) or 130 (interrupted: every start stands at its last
-    whole leg). Either way the same command goes on from there."""
+    whole leg). Either way the same command goes on from there. ``stream``: where the
+    lines go (sys.stdout as the call finds it by default)."""
     import signal
 
+    stream = sys.stdout if stream is None else stream
 
     refused: dict[str, str] = {}  # start id -> why it cannot be continued (rank 0)
     reached: dict[str, float] = {}  # start id -> the time its last leg started from

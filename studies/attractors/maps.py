@@ -88,12 +88,14 @@ def expand(spec):  # noqa: ANN001, ANN201 - SweepSpec -> SweepSpec
     return out
 
 
-def run_map(spec, out_dir: Path, *, comm=None, stream: TextIO = sys.stdout,  # noqa: ANN001
+def run_map(spec, out_dir: Path, *, comm=None, stream: TextIO | None = None,  # noqa: ANN001
             **sweep_options) -> int:
-    """Run the census of every point (collective); rank 0 writes attractors_map.*."""
+    """Run the census of every point (collective); rank 0 writes attractors_map.*
+    (``stream``: where the lines go, sys.stdout as the call finds it by default)."""
     from mpi4py import MPI
 
     comm = MPI.COMM_WORLD if comm is None else comm
+    stream = sys.stdout if stream is None else stream
     if "attractors_map.*" not in KINDS["sweep"]:  # the map's files belong to its sweep
         register_kind("sweep", (*KINDS["sweep"], "attractors_map.*"))
     try:
