@@ -23,6 +23,14 @@ __all__ = ["AXIAL_ORDERS", "axial_modes", "axial_structure", "surface_figure"]
 AXIAL_ORDERS = 5
 
 
+def _ring_coefficients(surface: dict) -> tuple[np.ndarray, float]:
+    """u_r's Fourier coefficients around each ring over the last fifth of the samples,
+    a_k(z, t) as (t, z, N), and the mean square of u_r there."""
+    u_r = np.asarray(surface["u_r"], dtype=float)
+    window = u_r[-max(1, u_r.shape[0] // 5):]
+    return np.fft.fft(window, axis=2) / window.shape[2], float(np.mean(window**2))
+
+
 def axial_structure(surface: dict, k: int) -> dict:
     """The axial shape of the wave of wavenumber ``k`` on a 3D tube's contact surface
     (``surface.npz``'s arrays) over the last fifth of the samples: ``profile``, the RMS over
@@ -31,11 +39,10 @@ def axial_structure(surface: dict, k: int) -> dict:
     middle ring, arg of the time mean of a_k(0, t) conj(a_k(L/2, t)) (0: straight fronts
     along z; fronts that bend towards the ends lead or lag there). Clamped ends hold their
     rings (status -1: no contact node, u = 0): the end is then the first ring in contact."""
-    u_r = np.asarray(surface["u_r"], dtype=float)
-    window = u_r[-max(1, u_r.shape[0] // 5):]
-    n, middle = u_r.shape[2], u_r.shape[1] // 2
+    a, _ = _ring_coefficients(surface)
+    n, middle = a.shape[2], a.shape[1] // 2
     end = int(np.flatnonzero((np.asarray(surface["status"]) >= 0).any(axis=(0, 2)))[0])
-    a_k = np.fft.fft(window, axis=2)[..., k % n] / n  # (t, z)
+    a_k = a[..., k % n]  # (t, z)
     amplitude = np.sqrt(np.mean(np.abs(a_k) ** 2, axis=0))
     lag = np.degrees(np.angle(np.mean(a_k[:, end] * np.conj(a_k[:, middle]))))
     peak = amplitude.max() if amplitude.max() > 0 else 1.0
@@ -53,10 +60,8 @@ def axial_modes(surface: dict, floor: float = 0.01, top: int = 8) -> list[dict]:
     of them at most). ``share``: the time mean of |c_km|² over the whole of Σ_k ∫ |a_k|² dz,
     so what the orders left out carry is what the shares miss. The ``top`` (k, m) of share
     ≥ ``floor``, largest first; none where the surface carries no wave."""
-    u_r = np.asarray(surface["u_r"], dtype=float)
-    window = u_r[-max(1, u_r.shape[0] // 5):]
-    n = window.shape[2]
-    a = np.fft.fft(window, axis=2) / n  # (t, z, n): a_k(z, t)
+    a, mean_square = _ring_coefficients(surface)
+    n = a.shape[2]
     z = np.asarray(surface["z"], dtype=float)
     zeta = (z - z[0]) / (z[-1] - z[0])
     weight = np.zeros_like(zeta)  # the trapezoid rule on the levels
@@ -69,11 +74,11 @@ def axial_modes(surface: dict, floor: float = 0.01, top: int = 8) -> list[dict]:
     sides = [a[..., ks], a[..., (n - ks) % n] * (ks != n - ks)]  # k, then −k (once)
     total = sum(float(np.mean(np.sum(weight[None, :, None] * np.abs(x) ** 2, axis=1).sum(
         axis=1))) for x in sides)
+    if not total > 1e-20 * mean_square:  # no wave on the surface
+        return []
     power = sum(np.mean(np.abs(np.einsum("zm,tzk->tmk", basis,
                                          np.sqrt(weight)[None, :, None] * x)) ** 2, axis=0)
                 for x in sides)  # (m, k)
-    if not total > 1e-20 * float(np.mean(window**2)):  # no wave on the surface
-        return []
     share = power / total
     found = [{"k": int(ks[j]), "m": int(m), "share": round(float(share[m, j]), 4)}
              for m, j in zip(*np.nonzero(share >= floor), strict=True)]

@@ -67,7 +67,7 @@ from stickslip.solver.contact import ContactLaw
 from stickslip.solver.ensemble_run import BatchColumns, BatchOptions
 from stickslip.solver.run import Profile, Simulation
 from stickslip.studies.attractors.features import leg_window_ends
-from stickslip.studies.rundir.continuation import plan_continuation
+from stickslip.studies.rundir.continuation import checkpoint_plan
 from stickslip.studies.rundir.signals import deferred_signals
 
 D0 = 1e-8  # the twin's relative distance, kept by renormalisation
@@ -211,9 +211,7 @@ def restored_batch(run_dir: str | Path, width: int) -> tuple[BatchColumns, objec
     stepper built without a recorder (nothing is written, the start's run is not touched),
     stepping without diagnostics (the state is the same bits): (its columns, the stepper).
     A one-scene run (not a batch member) is refused with ``NotABatchMember``."""
-    run_dir = Path(run_dir)
-    t_ck = float(json.loads((run_dir / "summary.json").read_text())["sim_time_s"])
-    plan = plan_continuation(run_dir, t_ck + 1.0, 1)
+    plan = checkpoint_plan(run_dir)
     if plan.kind != "batch":
         raise NotABatchMember(f"{run_dir}: not a batch member's checkpoint (a census start)")
     scene = plan.scene
@@ -316,9 +314,7 @@ class SceneTwin:
     def __init__(self, run_dir: str | Path, d0: float = D0, seed: int = TWIN_SEED) -> None:
         from mpi4py import MPI  # a census rank's own twin: no other rank takes part
 
-        run_dir = Path(run_dir)
-        t_ck = float(json.loads((run_dir / "summary.json").read_text())["sim_time_s"])
-        plan = plan_continuation(run_dir, t_ck + 1.0, 1)
+        plan = checkpoint_plan(run_dir)
         self.sim = Simulation(plan.scene, MPI.COMM_SELF)
         self.sim.restore([plan.checkpoint.states[0]], [None])
         self.dt = float(self.sim.dt)
@@ -349,11 +345,12 @@ class SceneTwin:
 
 
 def batch_member(run_dir: str | Path) -> bool:
-    """True when ``run_dir``'s checkpoint is a batch member's (a census start that a batch
-    stepped: ``BatchTwin``), False for a one-scene run's (``SceneTwin``)."""
-    run_dir = Path(run_dir)
-    t_ck = float(json.loads((run_dir / "summary.json").read_text())["sim_time_s"])
-    return plan_continuation(run_dir, t_ck + 1.0, 1).kind == "batch"
+    """True when ``run_dir`` is a batch member's run (a census start that a batch stepped:
+    ``BatchTwin``), False for a one-scene run's (``SceneTwin``): its summary's ``batch``
+    entry, which a checkpoint's kind must agree with (``rundir.checkpoint``; the twin reads
+    and checks the checkpoint itself)."""
+    summary = json.loads((Path(run_dir) / "summary.json").read_text())
+    return isinstance(summary.get("batch"), dict)
 
 
 @dataclass(frozen=True)

@@ -25,7 +25,7 @@ from stickslip.studies.attractors.features import (
     differences,
     window_features,
 )
-from stickslip.studies.rundir.continuation import plan_continuation
+from stickslip.studies.rundir.continuation import checkpoint_plan
 from stickslip.studies.rundir.readers import ReadError
 
 __all__ = ["HALF_STEP_WINDOWS", "at_checkpoint", "half_step_line", "half_step_members",
@@ -50,9 +50,7 @@ def half_step_run(run_dir: str | Path, windows: int, window: float) -> dict:
     checkpoint's (u, v~), over ``windows`` W, and the contact radius (``radius``)."""
     from mpi4py import MPI  # MPI starts where a run does (the API imports this module)
 
-    run_dir = Path(run_dir)
-    t_ck = float(json.loads((run_dir / "summary.json").read_text())["sim_time_s"])
-    plan = plan_continuation(run_dir, t_ck + 1.0, 1)
+    plan = checkpoint_plan(run_dir)
     state = plan.checkpoint.states[0]
     ts = plan.scene.time
     step = f"time.dt={ts.dt / 2!r}" if ts.dt > 0 else f"time.dt_fraction={ts.dt_fraction / 2!r}"

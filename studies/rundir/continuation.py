@@ -79,7 +79,7 @@ from stickslip.studies.rundir.writer import print_summary, write_member
 if TYPE_CHECKING:  # MPI starts where a run uses it, not when this module is imported
     from mpi4py import MPI
 
-__all__ = ["RESUMABLE", "WALL_CLOCK_KEYS", "continue_batch", "continue_run",
+__all__ = ["RESUMABLE", "WALL_CLOCK_KEYS", "checkpoint_plan", "continue_batch", "continue_run",
            "plan_continuation"]
 
 #: The field files a run directory gets per ``output.field_format`` (as
@@ -176,6 +176,15 @@ def plan_continuation(run_dir: str | Path, until: float, ranks: int = 1) -> _Pla
     surface = read_surface(run_dir, before) if scene.mesh.dim == 3 else None
     scene = scene.with_overrides(f"time.end_time={until!r}", "time.max_steps=0")
     return _Plan(run_dir, scene, ck, before, surface)
+
+
+def checkpoint_plan(run_dir: str | Path) -> _Plan:
+    """``plan_continuation`` of ``run_dir`` where its checkpoint stands, on one rank (a
+    second past it: every file read and checked): what a test restarted from the checkpoint
+    reads, its scene and state, without continuing the run itself."""
+    run_dir = Path(run_dir)
+    t_ck = float(read_summary(run_dir)["sim_time_s"])
+    return plan_continuation(run_dir, t_ck + 1.0, 1)
 
 
 class Refused(ReadError):
