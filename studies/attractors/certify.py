@@ -11,7 +11,12 @@
   screen**
   (``studies.rpo.rpo_screen``, no Newton): its half-node commutation defect and its
   residuals over T and 2T at the generators' guess; a defect well above round-off makes it a
-  torus of the scheme's map, not an exact RPO (docs/theory/rpo.md);
+  torus of the scheme's map, not an exact RPO (docs/theory/rpo.md); and a **sideband
+  test** (``sideband_test``, from the starts' own samples): the growth rate σ of the second
+  generator's amplitude over each start's last leg. A sideband that decays
+  (σ < −``SIDEBAND_RATE_TOL``) belongs to a slow transient onto the rigid wave of the first
+  (a stable wave whose least-damped complex pair is close to a Hopf bifurcation), one that
+  grows to a state leaving it: either is no attractor (``failures``); a torus holds it;
 * a **rigid wave** (one component) is also handed to the direct solver (``certify`` below):
   one Newton solve at the run's step, and its stability; an unstable one is no attractor
   (``failures``, ``census.answer_of``). The Δt → 0 ladder runs only with ``dt_limit``
@@ -63,12 +68,14 @@ from stickslip.studies import travel
 from stickslip.studies.attractors.classify import _radius, _samples
 from stickslip.studies.attractors.features import (
     DEFAULT_TOLERANCES,
+    LEG_GROWTH,
     Features,
     components_text,
     differences,
     window_features,
 )
 from stickslip.studies.attractors.step_check import at_checkpoint, half_step_line
+from stickslip.studies.rpo.birth import sideband_fit
 from stickslip.studies.rpo.certificate import rpo_screen
 from stickslip.studies.rundir import continue_batch
 from stickslip.studies.rundir.readers import ReadError
@@ -165,6 +172,7 @@ def certify_member(rows: list[dict], *, dt_limit: bool = False,
             named = [{"k": g.k, "frequency_hz": g.frequency_hz}
                      for g in (lattice.generators[0], lattice.moving[0])]
             out["rpo"] = rpo_screen(Path(rows[0]["run_dir"]), named)
+            out["sideband"] = sideband_test(rows, named[0]["k"], named[1]["k"])
     out["kick"] = "not run"
     return _plain(out)
 
@@ -282,6 +290,9 @@ def failures(cert: dict | None) -> list[str]:
     kick = cert.get("kick")
     if isinstance(kick, dict) and kick.get("returned") is False:  # what moved: kick_line
         why.append(f"not returned after a {100 * KICK_FRACTION:.0f} % kick")
+    side = cert.get("sideband")
+    if isinstance(side, dict) and side.get("verdict") in ("decays", "grows"):
+        why.append(sideband_line(side))
     return why
 
 
@@ -306,6 +317,8 @@ def member_line(cert: dict | None) -> str:
         parts.append(certificate_line(cert.get("direct")))
     if isinstance(cert.get("rpo"), dict):
         parts.append(rpo_line(cert["rpo"]))
+    if isinstance(cert.get("sideband"), dict):
+        parts.append(sideband_line(cert["sideband"]))
     kick = cert.get("kick")
     if isinstance(kick, dict):
         parts.append(kick_line(kick))
@@ -321,6 +334,68 @@ def rpo_line(screen: dict) -> str:
     return (f"RPO screen: half-node commutation defect {screen['commutation_defect']:.2g}, "
             f"residual {screen['residual']:.2g} over T, {screen['residual_two_periods']:.2g} "
             "over 2T")
+
+
+#: |σ| (1/s) of a two-generator member's sideband above which it is a transient: its amplitude
+#: halves (or doubles) within ln 2 / 0.2 = 3.5 s, less than the census's default cap of 4 s.
+#: A saturated torus holds its sideband: |σ| ≤ 0.06 1/s on Figure 3 damped's k = 8 carrying
+#: 9 (N = 132); P's k = 11 carrying 10 at N = 264 decays at −0.54 to −0.83 1/s
+#: (docs/theory/rpo.md, "Where a two-wave state is born").
+SIDEBAND_RATE_TOL = 0.2
+#: RMS misfit of log|a| above which the last leg is no single exponential (beats of several
+#: modes, a state still switching): no verdict.
+SIDEBAND_MISFIT = 0.05
+
+
+def sideband_test(rows: list[dict], k_wave: int, k_side: int) -> dict:
+    """The sideband test of a two-generator member (``k_wave`` carrying ``k_side``): each
+    start's growth rate σ of |a_{k_side}| over its last leg (the last 1 − 1/LEG_GROWTH of its
+    samples, ``studies.rpo.birth.sideband_fit``), and the verdict from their median:
+    "decays" (σ < −``SIDEBAND_RATE_TOL``: a slow transient onto the rigid wave k_wave),
+    "grows" (σ > ``SIDEBAND_RATE_TOL``: the state is leaving), "holds" (a torus), or
+    "unclear" where a start's log|a| is no exponential (misfit > ``SIDEBAND_MISFIT``) or its
+    samples cannot be read. Never raises."""
+    out: dict = {"k_wave": k_wave, "k_side": k_side, "sigma_per_start": [],
+                 "share_end": [], "misfit": 0.0}
+    for r in rows:
+        samples = _samples(Path(r["run_dir"]))
+        if samples is None:
+            return {**out, "verdict": "unclear", "message": f"no samples in {r['run_dir']}"}
+        try:
+            fit = sideband_fit(samples, k_side, k_wave, 1.0 - 1.0 / LEG_GROWTH)
+        except ValueError as err:
+            return {**out, "verdict": "unclear", "message": str(err)}
+        out["sigma_per_start"].append(fit.sigma)
+        out["share_end"].append(fit.share_end)
+        out["misfit"] = max(out["misfit"], fit.misfit)
+    sigma = float(sorted(out["sigma_per_start"])[len(rows) // 2])
+    out["sigma"] = sigma
+    if out["misfit"] > SIDEBAND_MISFIT:
+        out["verdict"] = "unclear"
+    elif sigma < -SIDEBAND_RATE_TOL:
+        out["verdict"] = "decays"
+    elif sigma > SIDEBAND_RATE_TOL:
+        out["verdict"] = "grows"
+    else:
+        out["verdict"] = "holds"
+    return out
+
+
+def sideband_line(side: dict) -> str:
+    """One short phrase for a sideband test (``sideband_test``)."""
+    verdict = side.get("verdict")
+    if "sigma" not in side:
+        return f"sideband test: {side.get('message', 'not run')}"
+    head = (f"k = {side['k_side']} sideband {'σ' if verdict != 'unclear' else 'fit'} = "
+            f"{side['sigma']:+.2f} 1/s over the last leg")
+    if verdict == "decays":
+        return (f"{head}: decays (e-folding {-1.0 / side['sigma']:.1g} s), a transient onto "
+                f"the rigid k = {side['k_wave']}")
+    if verdict == "grows":
+        return f"{head}: grows, a transient leaving k = {side['k_wave']}"
+    if verdict == "holds":
+        return f"{head}: holds"
+    return f"{head}: unclear (misfit {side['misfit']:.2g})"
 
 
 def kick_line(kick: dict) -> str:

@@ -1,0 +1,144 @@
+"""Where a two-wave state is born: a rigid wave's sideband followed along a scene parameter.
+
+A two-generator state k₁ + k₂ near a rigid wave k₁ is, in the frame of k₁, a small
+oscillation of wavenumber content k₂ (and k₂ − k₁, k₂ + k₁, ...). Linearised about the rigid
+wave it is one complex pair λ = σ ± iω of the wave's operator: the sideband's complex
+amplitude a_{k₂}(t) = (1/N) Σ_j u_r(θ_j, t) e^{−i k₂ θ_j} behaves as e^{σt} e^{∓iω_lab t},
+with ω_lab the k₂ line's lab frequency; in the frame of k₁ it turns at
+f_frame = f_{k₂} − (k₂/k₁) f_{k₁}. If σ crosses 0 as a parameter p moves, the rigid wave
+loses its stability there (a Hopf bifurcation in its frame) and, past the crossing, the
+sideband grows to a finite amplitude: the two-wave state, a relative periodic orbit of the
+continuum (docs/theory/rpo.md). Supercritical, its saturated share A ∝ √(p − p_c) and its
+frame frequency tends to ω/2π of the pair at p_c (the normal form dA/dt = σA − ℓA³).
+
+``sideband_scan`` follows it by transients (natural-parameter continuation): the first value
+restarts a run's checkpoint, each next value the end state (u, v~) of the one before, with
+``key`` set to the value. Per value it measures, over the run, ``sideband_fit``'s σ and
+frequency from the linear tail of log|a_{k₂}(t)| (the last ``fit_fraction`` of the run, where
+the sideband is small), and the end's share |a_{k₂}|/|a_{k₁}|. σ < 0 with the share decaying
+to 0: the rigid wave is the attractor (σ its eigenvalue's real part); a share that levels off
+(σ → 0 over the tail) is a two-wave state. Nothing of the run is changed or written.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import numpy as np
+
+from stickslip.solver.run import Simulation
+from stickslip.studies.rundir.continuation import checkpoint_plan
+
+#: A sideband at or below this fraction of the wave's amplitude is round-off, not a mode.
+ROUND_OFF = 1e-12
+
+__all__ = ["SidebandFit", "checkpoint_state", "mode_series", "restart", "scan_line",
+           "sideband_fit", "sideband_row", "sideband_scan"]
+
+
+def mode_series(samples: dict, k: int) -> tuple[np.ndarray, np.ndarray]:
+    """(t, a_k(t)): the complex amplitude (1/N) Σ_j u_r(θ_j, t) e^{−i k θ_j} of wavenumber k
+    at every sample (``samples.npz``'s t, theta, u_r)."""
+    phase = np.exp(-1j * k * np.asarray(samples["theta"]))
+    u_r = np.asarray(samples["u_r"])
+    return np.asarray(samples["t"]), (u_r @ phase) / phase.size
+
+
+@dataclass(frozen=True)
+class SidebandFit:
+    """``sideband_fit``'s result: σ (1/s), the sideband's signed lab frequency (Hz, + with the
+    rotation: a_k ∝ e^{−i 2π f t}), the fit window (s), the RMS misfit of log|a| (how far
+    from one exponential), and the share |a_k|/|a_{k₁}| at the window's start and end."""
+
+    sigma: float
+    frequency_hz: float
+    t0: float
+    t1: float
+    misfit: float
+    share_start: float
+    share_end: float
+
+
+def sideband_fit(samples: dict, k: int, k_wave: int, fit_fraction: float = 0.5) -> SidebandFit:
+    """σ and the lab frequency of wavenumber ``k`` over the last ``fit_fraction`` of the
+    samples: least squares of log|a_k| = σ t + c, and of the unwrapped phase of a_k,
+    arg a_k = −2π f t + c; the shares against the wave ``k_wave``'s mean |a|."""
+    t, a = mode_series(samples, k)
+    _, wave = mode_series(samples, k_wave)
+    sel = t >= t[-1] - fit_fraction * (t[-1] - t[0])
+    ts, amp = t[sel], np.abs(a[sel])
+    ref = float(np.mean(np.abs(wave[sel])))  # |a_k₁|: constant on a rigid wave
+    if ts.size < 4 or not np.all(amp > ROUND_OFF * ref):
+        raise ValueError(f"sideband k = {k}: {ts.size} samples in the fit window, or at "
+                         f"round-off (|a| <= {ROUND_OFF:g} of the wave k = {k_wave}'s)")
+    A = np.vstack([ts, np.ones_like(ts)]).T
+    (sigma, c), *_ = np.linalg.lstsq(A, np.log(amp), rcond=None)
+    misfit = float(np.sqrt(np.mean((np.log(amp) - (sigma * ts + c)) ** 2)))
+    (slope, _), *_ = np.linalg.lstsq(A, np.unwrap(np.angle(a[sel])), rcond=None)
+    # the shares over the first and last twentieth of the window
+    edge = max(1, ts.size // 20)
+    return SidebandFit(float(sigma), float(-slope / (2.0 * math.pi)), float(ts[0]),
+                       float(ts[-1]), misfit, float(np.mean(amp[:edge]) / ref),
+                       float(np.mean(amp[-edge:]) / ref))
+
+
+def checkpoint_state(run_dir: str | Path) -> tuple[object, tuple[np.ndarray, np.ndarray]]:
+    """(scene, (u, v~)): ``run_dir``'s scene and the state its checkpoint stands at."""
+    plan = checkpoint_plan(run_dir)
+    ck = plan.checkpoint.states[0]
+    return plan.scene, (np.array(ck["stepper/u"]), np.array(ck["stepper/v_pred"]))
+
+
+def restart(scene, state: tuple[np.ndarray, np.ndarray], key: str, value: float,
+            duration: float) -> tuple[dict, float, tuple[np.ndarray, np.ndarray]]:
+    """``scene`` with ``key`` = ``value`` run for ``duration`` s from (u, v~) on this rank:
+    (its samples, its step, its end state (u, v~))."""
+    from mpi4py import MPI  # MPI starts where a run does (the module imports without it)
+
+    run = scene.with_overrides(f"{key}={value!r}", f"time.end_time={duration!r}",
+                               "time.max_steps=0", "output.progress=false")
+    sim = Simulation(run, MPI.COMM_SELF, initial_state=(state[0], state[1], None))
+    sim.proceed()
+    if sim.status != "completed":
+        raise ValueError(f"{key} = {value}: the run ended {sim.status}")
+    stepper = sim.integrator
+    return (sim.recorder.arrays(), float(sim.dt),
+            (np.array(stepper.u), np.array(stepper.v_pred)))
+
+
+def sideband_row(samples: dict, value: float, dt: float, k_wave: int, k_side: int,
+                 fit_fraction: float = 0.5) -> dict:
+    """One scan row: {"value", "dt_s", "duration_s", **SidebandFit, "wave_hz",
+    "frame_hz"} of ``samples`` at the parameter ``value``."""
+    fit = sideband_fit(samples, k_side, k_wave, fit_fraction)
+    wave = sideband_fit(samples, k_wave, k_wave, fit_fraction).frequency_hz
+    t = samples["t"]
+    return {"value": float(value), "dt_s": dt, "duration_s": float(t[-1] - t[0]),
+            **asdict(fit), "wave_hz": wave,
+            "frame_hz": fit.frequency_hz - k_side / k_wave * wave}
+
+
+def sideband_scan(scene, state: tuple[np.ndarray, np.ndarray], key: str,
+                  values: list[float], k_wave: int, k_side: int, duration: float,
+                  fit_fraction: float = 0.5, report=None  # noqa: ANN001 - report(row)
+                  ) -> tuple[list[dict], tuple[np.ndarray, np.ndarray]]:
+    """Follow ``state`` of ``scene`` along ``key`` = ``values``, each value ``duration`` s
+    from the end of the one before (module docstring): the rows (``sideband_row``) and the
+    last end state; ``report(row)`` as each row is done."""
+    rows = []
+    for value in values:
+        samples, dt, state = restart(scene, state, key, float(value), duration)
+        rows.append(sideband_row(samples, value, dt, k_wave, k_side, fit_fraction))
+        if report is not None:
+            report(rows[-1])
+    return rows, state
+
+
+def scan_line(row: dict, key: str) -> str:
+    """One line of a ``sideband_scan`` row."""
+    return (f"{key} = {row['value']:g}: sigma = {row['sigma']:+.3f} 1/s (misfit "
+            f"{row['misfit']:.2g}), share {row['share_start']:.4f} -> {row['share_end']:.4f} "
+            f"over {row['t0']:.2f}-{row['t1']:.2f} s; sideband {row['frequency_hz']:+.2f} Hz, "
+            f"wave {row['wave_hz']:+.2f} Hz, frame {row['frame_hz']:+.2f} Hz")
