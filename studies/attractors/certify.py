@@ -389,7 +389,7 @@ def sideband_line(side: dict) -> str:
     head = (f"k = {side['k_side']} sideband {'σ' if verdict != 'unclear' else 'fit'} = "
             f"{side['sigma']:+.2f} 1/s over the last leg")
     if verdict == "decays":
-        return (f"{head}: decays (e-folding {-1.0 / side['sigma']:.1g} s), a transient onto "
+        return (f"{head}: decays (e-folding {-1.0 / side['sigma']:.2g} s), a transient onto "
                 f"the rigid k = {side['k_wave']}")
     if verdict == "grows":
         return f"{head}: grows, a transient leaving k = {side['k_wave']}"
