@@ -3,7 +3,7 @@
 
     ./dev python3 benchmarks/rpo_birth.py RUN_DIR --key loading.omega --k-wave 11 \\
         --k-side 10 --scan 60,62.5,65,67.5,70 [--duration 1] \\
-        [--fan-from 65 --fan 68,70,72 --fan-duration 6]
+        [--fan-from 65 --fan 68,70,72 --fan-duration 6] [--seed-side 1e-3]
 
 RUN_DIR: a run or census start standing near the rigid wave k_wave (its checkpoint). The
 scan continues it along ``--scan`` (each value ``--duration`` s from the end of the one
@@ -13,7 +13,8 @@ frame frequency and its share |a_side|/|a_wave|. ``--fan`` then restarts the end
 share over the run in tenths, and σ over its last 80 %: from a start whose sideband is
 small (a long first scan leg), σ is the rigid wave's eigenvalue (real part) and the frame
 frequency its imaginary part; from a finite sideband, a share that levels off is a two-wave
-state, one that keeps growing leaves for another state.
+state, one that keeps growing leaves for another state. ``--seed-side EPS`` adds
+EPS d cos(k_side θ) to each fan leg's start (a state without a sideband above round-off).
 """
 
 from __future__ import annotations
@@ -52,6 +53,10 @@ def main() -> None:
     ap.add_argument("--fan-from", type=float, default=None)
     ap.add_argument("--fan", type=floats, default=[])
     ap.add_argument("--fan-duration", type=float, default=6.0)
+    ap.add_argument("--linear-below", type=float, default=None, metavar="SHARE",
+                    help="fit a fan leg's sigma only where its share is below SHARE")
+    ap.add_argument("--seed-side", type=float, default=None, metavar="EPS",
+                    help="add EPS d cos(k_side theta) to each fan leg's start")
     args = ap.parse_args()
     t0 = time.perf_counter()
     scene, state = checkpoint_state(args.run_dir)
@@ -64,13 +69,19 @@ def main() -> None:
         if args.fan_from is not None and value == args.fan_from:
             fan_state = state
     for value in args.fan:
-        samples, dt, _ = restart(scene, fan_state, args.key, value, args.fan_duration)
+        seed = None if args.seed_side is None else (args.k_side, args.seed_side)
+        samples, dt, _ = restart(scene, fan_state, args.key, value, args.fan_duration, seed)
         t, side = mode_series(samples, args.k_side)
         _, wave = mode_series(samples, args.k_wave)
         share = np.abs(side) / np.abs(wave).mean()
         tenths = np.array_split(np.arange(t.size), 10)
-        trace = " ".join(f"{share[i].mean():.4f}" for i in tenths)
-        fit = sideband_row(samples, value, dt, args.k_wave, args.k_side, FAN_FIT)
+        trace = " ".join(f"{share[i].mean():.3g}" for i in tenths)
+        try:
+            fit = sideband_row(samples, value, dt, args.k_wave, args.k_side, FAN_FIT,
+                               args.linear_below)
+        except ValueError as err:  # no sample in the linear range: the trace says why
+            print(f"fan {args.key} = {value:g}: share by tenths {trace}; {err}")
+            continue
         print(f"fan {args.key} = {value:g} from {args.fan_from:g} (dt {dt:.4g} s, "
               f"{args.fan_duration:g} s): share by tenths {trace}; sigma over the last "
               f"{FAN_FIT:.0%} {fit['sigma']:+.3f} 1/s (misfit {fit['misfit']:.2g}), frame "

@@ -41,6 +41,14 @@ def test_sideband_fit_returns_the_manufactured_rate_frequency_and_shares(sigma):
     edge = t.size // 20
     assert fit.share_start == pytest.approx(eps * np.exp(sigma * t[:edge]).mean(), rel=1e-9)
     assert fit.share_end == pytest.approx(eps * np.exp(sigma * t[-edge:]).mean(), rel=1e-9)
+    # the linear range only: the samples whose share is below its value at t = 0.75 s, the
+    # half of the window at the small end (its later half decaying, its earlier growing)
+    middle = eps * math.exp(0.75 * sigma)
+    low = sideband_fit(samples, 2, 3, fit_fraction=0.5, below=middle)
+    assert low.sigma == pytest.approx(sigma, rel=1e-9)
+    assert max(low.share_start, low.share_end) < middle
+    assert low.t1 - low.t0 == pytest.approx(0.25, abs=2e-4)
+    assert (low.t0 > 0.74) == (sigma < 0.0)
     row = sideband_row(samples, 67.5, 1e-5, 3, 2)
     assert row["wave_hz"] == pytest.approx(f_w, rel=1e-9)
     assert row["frame_hz"] == pytest.approx(f_s - 2.0 / 3.0 * f_w, rel=1e-9)

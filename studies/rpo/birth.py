@@ -61,15 +61,20 @@ class SidebandFit:
     share_end: float
 
 
-def sideband_fit(samples: dict, k: int, k_wave: int, fit_fraction: float = 0.5) -> SidebandFit:
+def sideband_fit(samples: dict, k: int, k_wave: int, fit_fraction: float = 0.5,
+                 below: float | None = None) -> SidebandFit:
     """σ and the lab frequency of wavenumber ``k`` over the last ``fit_fraction`` of the
     samples: least squares of log|a_k| = σ t + c, and of the unwrapped phase of a_k,
-    arg a_k = −2π f t + c; the shares against the wave ``k_wave``'s mean |a|."""
+    arg a_k = −2π f t + c; the shares against the wave ``k_wave``'s mean |a|. With
+    ``below``, only the samples whose share is below it (the linear range of a sideband
+    that grows from a seed, or has decayed into it)."""
     t, a = mode_series(samples, k)
     _, wave = mode_series(samples, k_wave)
     sel = t >= t[-1] - fit_fraction * (t[-1] - t[0])
-    ts, amp = t[sel], np.abs(a[sel])
     ref = float(np.mean(np.abs(wave[sel])))  # |a_k₁|: constant on a rigid wave
+    if below is not None:
+        sel &= np.abs(a) < below * ref
+    ts, amp = t[sel], np.abs(a[sel])
     if ts.size < 4 or not np.all(amp > ROUND_OFF * ref):
         raise ValueError(f"sideband k = {k}: {ts.size} samples in the fit window, or at "
                          f"round-off (|a| <= {ROUND_OFF:g} of the wave k = {k_wave}'s)")
@@ -92,14 +97,24 @@ def checkpoint_state(run_dir: str | Path) -> tuple[object, tuple[np.ndarray, np.
 
 
 def restart(scene, state: tuple[np.ndarray, np.ndarray], key: str, value: float,
-            duration: float) -> tuple[dict, float, tuple[np.ndarray, np.ndarray]]:
+            duration: float, seed: tuple[int, float] | None = None
+            ) -> tuple[dict, float, tuple[np.ndarray, np.ndarray]]:
     """``scene`` with ``key`` = ``value`` run for ``duration`` s from (u, v~) on this rank:
-    (its samples, its step, its end state (u, v~))."""
+    (its samples, its step, its end state (u, v~)). ``seed`` = (k, ε) adds the radial bump
+    ε d cos kθ (eq. [1] through the thickness) to u first: a sideband to measure where the
+    state has none above round-off."""
     from mpi4py import MPI  # MPI starts where a run does (the module imports without it)
 
     run = scene.with_overrides(f"{key}={value!r}", f"time.end_time={duration!r}",
                                "time.max_steps=0", "output.progress=false")
     sim = Simulation(run, MPI.COMM_SELF, initial_state=(state[0], state[1], None))
+    if seed is not None:
+        k, eps = seed
+        d = run.geometry.delta * run.geometry.R
+        du = sim.problem.radial_field(lambda theta: eps * d * np.cos(k * theta))
+        sim.integrator.kick(0, du, np.zeros_like(du))
+        for part in sim.columns.records.parts.values():  # the work observers' copies of u
+            part.kicked(du)
     sim.proceed()
     if sim.status != "completed":
         raise ValueError(f"{key} = {value}: the run ended {sim.status}")
@@ -109,10 +124,10 @@ def restart(scene, state: tuple[np.ndarray, np.ndarray], key: str, value: float,
 
 
 def sideband_row(samples: dict, value: float, dt: float, k_wave: int, k_side: int,
-                 fit_fraction: float = 0.5) -> dict:
+                 fit_fraction: float = 0.5, below: float | None = None) -> dict:
     """One scan row: {"value", "dt_s", "duration_s", **SidebandFit, "wave_hz",
-    "frame_hz"} of ``samples`` at the parameter ``value``."""
-    fit = sideband_fit(samples, k_side, k_wave, fit_fraction)
+    "frame_hz"} of ``samples`` at the parameter ``value`` (``sideband_fit``'s options)."""
+    fit = sideband_fit(samples, k_side, k_wave, fit_fraction, below)
     wave = sideband_fit(samples, k_wave, k_wave, fit_fraction).frequency_hz
     t = samples["t"]
     return {"value": float(value), "dt_s": dt, "duration_s": float(t[-1] - t[0]),
