@@ -5,6 +5,19 @@
         --k-side 10 --scan 60,62.5,65,67.5,70 [--duration 1] \\
         [--fan-from 65 --fan 68,70,72 --fan-duration 6] [--seed-side 1e-3]
 
+The tables of docs/theory/rpo.md ("Where a two-wave state is born"), RUN_DIR P's census
+start seed 1 at N = 264 (``stickslip attractors figure1_n132_damped --starts 8 --meshes 264
+--set loading.omega=60 --set geometry.delta=8e-4 --set loading.f=0.6``):
+
+    ... --k-wave 11 --k-side 10 --scan 60 --duration 6 --fan-from 60 \\
+        --fan 62,64,66,67,68,70 --fan-duration 2                 # σ, linear
+    ... --k-wave 11 --k-side 10 --scan 62.5,65 --fan-from 65 \\
+        --fan 63.5,64,66,67 --fan-duration 8                     # the sideband held
+
+and Figure 3 damped's start seed 7 at N = 132 (16 starts): ``--k-wave 8 --k-side 9 --scan
+45,40,35,30 --duration 2 --fan-from 30 --fan 30,31,31.5,32,33,34,35,35.5,36,38,40,42,43,45,50
+--fan-duration 1.5 --seed-side 1e-2 --linear-below 0.01``.
+
 RUN_DIR: a run or census start standing near the rigid wave k_wave (its checkpoint). The
 scan continues it along ``--scan`` (each value ``--duration`` s from the end of the one
 before) and prints σ (the sideband's growth rate over the last half of each leg), its

@@ -9,6 +9,7 @@ from pathlib import Path
 
 from stickslip.cli.checks import fail, run_dir_dimension_problem
 from stickslip.solver.atomic import atomic_write_text
+from stickslip.studies.rpo.birth import checkpoint_state, scan_line, sideband_scan
 from stickslip.studies.rpo.certificate import rpo_certificate
 from stickslip.studies.rundir.ownership import OwnershipError, claim, register_kind
 
@@ -44,6 +45,25 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="residual (relative RMS of the state) to stop at (default 1e-10)")
     p.add_argument("--multipliers", type=int, default=12,
                    help="leading Floquet multipliers to compute (0: none; default 12)")
+    p.add_argument("--along", metavar="KEY=A:B:M",
+                   help="instead of solving, follow the start along a scene key: M values "
+                        "from A to B (or KEY=V1,V2,...), each --leg s from the end of the one "
+                        "before; per value the second generator's growth rate sigma (1/s) and "
+                        "its frequency in the first's frame: where sigma crosses 0 the "
+                        "two-wave state is born (docs/theory/rpo.md)")
+    p.add_argument("--leg", type=float, default=1.0,
+                   help="with --along: seconds run at each value (default 1; sigma is "
+                        "fitted over its second half)")
+    p.add_argument("--wave", type=int, metavar="K",
+                   help="with --along: the wave's wavenumber (default: the census member's "
+                        "first generator)")
+    p.add_argument("--sideband", type=int, metavar="K",
+                   help="with --along: the sideband's wavenumber (default: the census "
+                        "member's second generator)")
+    p.add_argument("--seed", type=float, metavar="EPS",
+                   help="with --along: add EPS d cos(K theta) (K = --sideband) at each "
+                        "value's start and fit sigma where the sideband is below 1 %% of the "
+                        "wave (its linear range): a rigid wave's eigenvalue")
     p.add_argument("--json", action="store_true", help="print the certificate as JSON")
     p.add_argument("-o", "--output", metavar="ORBIT_DIR",
                    help="write one period of samples (samples.npz) and rpo.json here (a new "
@@ -69,12 +89,85 @@ def option_problem(args: argparse.Namespace) -> str | None:
                "a nonzero number of node passages"),
               ("--krylov", args.krylov, lambda x: x >= max(2, args.multipliers),
                f"at least --multipliers ({args.multipliers}) and 2"))
+    if args.leg is not None and not (math.isfinite(args.leg) and args.leg > 0):
+        return f"--leg {args.leg}: give a positive number of seconds"
+    if args.seed is not None and not (math.isfinite(args.seed) and args.seed > 0):
+        return f"--seed {args.seed}: give a positive fraction of d, e.g. 1e-2"
+    for flag, value in (("--wave", args.wave), ("--sideband", args.sideband)):
+        if value is not None and value < 1:
+            return f"{flag} {value}: give a wavenumber >= 1"
+    if args.along is None and any(x is not None for x in (args.wave, args.sideband,
+                                                           args.seed)):
+        return "--wave, --sideband and --seed go with --along KEY=A:B:M"
     if args.nodes is not None and args.shift is not None:
         return f"--nodes {args.nodes} and --shift {args.shift}: give one of them"
     for flag, value, ok, want in checks:
         if not ok(value):
             return f"{flag} {value}: give {want}"
     return None
+
+
+def parse_values(text: str) -> tuple[str, list[float]]:
+    """``--along``: ``KEY=A:B:M`` (M >= 2 values from A to B) or ``KEY=V1,V2,...`` ->
+    (key, values); ValueError naming the fix."""
+    key, sep, spec = text.partition("=")
+    fix = "give KEY=A:B:M (M >= 2 values from A to B) or KEY=V1,V2,..."
+    try:
+        if not sep or "." not in key:
+            raise ValueError
+        if ":" in spec:
+            a, b, m = spec.split(":")
+            count, lo, hi = int(m), float(a), float(b)
+            if count < 2:
+                raise ValueError
+            values = [lo + (hi - lo) * i / (count - 1) for i in range(count)]
+        else:
+            values = [float(v) for v in spec.split(",")]
+        if not values or not all(math.isfinite(v) for v in values):
+            raise ValueError
+    except ValueError:
+        raise ValueError(f"--along {text!r}: {fix}, e.g. loading.omega=60:70:5") from None
+    return key.strip(), values
+
+
+def _along(args: argparse.Namespace, run_dir: Path, generators: list[dict]) -> int:
+    """``--along``: the sideband scan of ``studies.rpo.birth`` from the start's checkpoint,
+    one line per value (or the rows as JSON)."""
+    try:
+        key, values = parse_values(args.along)
+    except ValueError as err:
+        return fail(str(err))
+    k_wave = args.wave or (abs(int(generators[0]["k"])) if generators else None)
+    k_side = args.sideband or (abs(int(generators[1]["k"])) if len(generators) > 1 else None)
+    if k_wave is None or k_side is None or k_wave == k_side:
+        return fail(f"{run_dir}: give --wave K and --sideband K2 (two wavenumbers; no census "
+                     "member with two generators above it names them)")
+    scene, state = checkpoint_state(run_dir)
+    seed = None if args.seed is None else (k_side, args.seed)
+    try:
+        scene.with_overrides(f"{key}={values[0]!r}")
+    except ValueError as err:
+        return fail(f"--along {args.along!r}: {err}")
+    report = None if args.json else (lambda row: print(scan_line(row, key), flush=True))
+    if report is not None:
+        print(f"rpo --along {key}: k = {k_wave} and its sideband k = {k_side} from "
+              f"{run_dir}, {args.leg:g} s per value")
+    try:
+        rows, _ = sideband_scan(scene, state, key, values, k_wave, k_side, args.leg,
+                                seed=seed, below=None if seed is None else SEEDED_BELOW,
+                                report=report)
+    except ValueError as err:  # a run that did not complete, a sideband at round-off
+        return fail(f"{run_dir}: {err}" + ("" if seed else "; a state without the sideband "
+                                           "needs --seed EPS (e.g. 1e-2)"))
+    if args.json:
+        print(json.dumps({"key": key, "k_wave": k_wave, "k_side": k_side, "rows": rows},
+                         indent=1))
+    return 0
+
+
+#: ``--seed``: σ is fitted where the sideband is below this share of the wave (its linear
+#: range; a seed of 10⁻² d is a share of about 10⁻⁴ on the paper's waves).
+SEEDED_BELOW = 0.01
 
 
 def census_generators(run_dir: Path) -> tuple[list[dict], list[dict]]:
@@ -134,6 +227,8 @@ def _rpo(args: argparse.Namespace) -> int:
     if not (run_dir / "checkpoint.npz").is_file():
         return fail(f"{run_dir}: no checkpoint.npz (give a finished run or census start)")
     generators, components = census_generators(run_dir)
+    if args.along is not None:
+        return _along(args, run_dir, generators)
     given = args.shift is not None or args.nodes is not None
     if (args.period is None or not given) and len(generators) < 2:
         return fail(f"{run_dir}: no census member with two generators above it; give "

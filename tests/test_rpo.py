@@ -467,3 +467,41 @@ def test_the_rpo_screen_of_a_census_start_and_its_line(census_start):
         "over 2T")
     bad = rpo_screen(census_start, generators[:1])
     assert "ValueError" in bad["message"] and rpo_line(bad).startswith("RPO screen: ValueError")
+
+
+@pytest.mark.parametrize("option, words", [
+    (["--along", "omega=60"], "give KEY=A:B:M"),
+    (["--along", "loading.omega=60:70:1"], "(M >= 2 values from A to B)"),
+    (["--along", "loading.omegax=1,2", "--wave", "4", "--sideband", "3"],
+     "unknown key 'loading.omegax'"),
+    (["--along", "loading.omega=1,2", "--leg", "0"], "--leg 0.0: give a positive"),
+    (["--along", "loading.omega=1,2", "--seed", "-1"], "--seed -1.0: give a positive"),
+    (["--along", "loading.omega=1,2", "--wave", "4", "--sideband", "4"],
+     "give --wave K and --sideband K2"),
+    (["--seed", "1e-2"], "go with --along")])
+def test_rpo_along_bad_option_is_one_line(census_start, capsys, option, words):
+    from stickslip.cli.main import main
+
+    rc = main(["rpo", str(census_start), *option])
+    err = capsys.readouterr().err
+    assert rc == 2 and err.count("\n") == 1 and words in err, err
+
+
+def test_rpo_along_follows_the_start_and_reports_each_value(census_start, capsys):
+    """``--along``: two values of Ω, each 10 ms from the end of the one before, k = 3 read
+    against k = 4 (the smoke start carries every mode): one row per value with σ, the
+    frequencies and the frame frequency f₃ − (3/4) f₄, finite; the start is not changed."""
+    import json
+
+    from stickslip.cli.main import main
+
+    before = (census_start / "checkpoint.npz").read_bytes()
+    rc = main(["rpo", str(census_start), "--along", "loading.omega=40,41", "--wave", "4",
+               "--sideband", "3", "--leg", "0.01", "--json"])
+    out = json.loads(capsys.readouterr().out)
+    assert rc == 0 and out["key"] == "loading.omega" and (out["k_wave"], out["k_side"]) == (4, 3)
+    assert [r["value"] for r in out["rows"]] == [40.0, 41.0]
+    for r in out["rows"]:
+        assert all(math.isfinite(r[k]) for k in ("sigma", "frequency_hz", "wave_hz", "frame_hz"))
+        assert r["frame_hz"] == pytest.approx(r["frequency_hz"] - 0.75 * r["wave_hz"])
+    assert (census_start / "checkpoint.npz").read_bytes() == before

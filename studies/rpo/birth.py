@@ -137,15 +137,17 @@ def sideband_row(samples: dict, value: float, dt: float, k_wave: int, k_side: in
 
 def sideband_scan(scene, state: tuple[np.ndarray, np.ndarray], key: str,
                   values: list[float], k_wave: int, k_side: int, duration: float,
-                  fit_fraction: float = 0.5, report=None  # noqa: ANN001 - report(row)
+                  fit_fraction: float = 0.5, seed: tuple[int, float] | None = None,
+                  below: float | None = None, report=None  # noqa: ANN001 - report(row)
                   ) -> tuple[list[dict], tuple[np.ndarray, np.ndarray]]:
     """Follow ``state`` of ``scene`` along ``key`` = ``values``, each value ``duration`` s
-    from the end of the one before (module docstring): the rows (``sideband_row``) and the
-    last end state; ``report(row)`` as each row is done."""
+    from the end of the one before (module docstring), ``seed`` added at each start
+    (``restart``): the rows (``sideband_row``, ``below`` its linear range) and the last end
+    state; ``report(row)`` as each row is done."""
     rows = []
     for value in values:
-        samples, dt, state = restart(scene, state, key, float(value), duration)
-        rows.append(sideband_row(samples, value, dt, k_wave, k_side, fit_fraction))
+        samples, dt, state = restart(scene, state, key, float(value), duration, seed)
+        rows.append(sideband_row(samples, value, dt, k_wave, k_side, fit_fraction, below))
         if report is not None:
             report(rows[-1])
     return rows, state
