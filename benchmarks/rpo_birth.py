@@ -13,6 +13,7 @@ start seed 1 at N = 264 (``stickslip attractors figure1_n132_damped --starts 8 -
         --fan 62,64,66,67,68,70 --fan-duration 2                 # σ, linear
     ... --k-wave 11 --k-side 10 --scan 62.5,65 --fan-from 65 \\
         --fan 63.5,64,66,67 --fan-duration 8                     # the sideband held
+    ... (the first) --set time.dt_fraction=0.45 --fan 62,64,65,66,67,68  # at Δt/2
 
 and Figure 3 damped's start seed 7 at N = 132 (16 starts): ``--k-wave 8 --k-side 9 --scan
 45,40,35,30 --duration 2 --fan-from 30 --fan 30,31,31.5,32,33,34,35,35.5,36,38,40,42,43,45,50
@@ -66,6 +67,9 @@ def main() -> None:
     ap.add_argument("--fan-from", type=float, default=None)
     ap.add_argument("--fan", type=floats, default=[])
     ap.add_argument("--fan-duration", type=float, default=6.0)
+    ap.add_argument("--set", dest="overrides", action="append", default=[],
+                    metavar="KEY=VALUE", help="override a key of the start's scene (e.g. "
+                    "time.dt_fraction=0.45: the scan at half the step)")
     ap.add_argument("--linear-below", type=float, default=None, metavar="SHARE",
                     help="fit a fan leg's sigma only where its share is below SHARE")
     ap.add_argument("--seed-side", type=float, default=None, metavar="EPS",
@@ -73,6 +77,7 @@ def main() -> None:
     args = ap.parse_args()
     t0 = time.perf_counter()
     scene, state = checkpoint_state(args.run_dir)
+    scene = scene.with_overrides(*args.overrides)
     fan_state = state
     for value in args.scan:
         rows, state = sideband_scan(scene, state, args.key, [value], args.k_wave,
