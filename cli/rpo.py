@@ -9,7 +9,8 @@ from pathlib import Path
 
 from stickslip.cli.checks import fail, run_dir_dimension_problem
 from stickslip.solver.atomic import atomic_write_text
-from stickslip.studies.rpo.birth import checkpoint_state, scan_line, sideband_scan
+from stickslip.solver.scene import SceneError
+from stickslip.studies.rpo.birth import along, census_generators, scan_line
 from stickslip.studies.rpo.certificate import rpo_certificate
 from stickslip.studies.rundir.ownership import OwnershipError, claim, register_kind
 
@@ -130,62 +131,27 @@ def parse_values(text: str) -> tuple[str, list[float]]:
     return key.strip(), values
 
 
-def _along(args: argparse.Namespace, run_dir: Path, generators: list[dict]) -> int:
-    """``--along``: the sideband scan of ``studies.rpo.birth`` from the start's checkpoint,
-    one line per value (or the rows as JSON)."""
+def _along(args: argparse.Namespace, run_dir: Path) -> int:
+    """``--along``: ``studies.rpo.birth.along`` from the start's checkpoint, one line per
+    value (or the result as JSON)."""
     try:
         key, values = parse_values(args.along)
     except ValueError as err:
         return fail(str(err))
-    k_wave = args.wave or (abs(int(generators[0]["k"])) if generators else None)
-    k_side = args.sideband or (abs(int(generators[1]["k"])) if len(generators) > 1 else None)
-    if k_wave is None or k_side is None or k_wave == k_side:
-        return fail(f"{run_dir}: give --wave K and --sideband K2 (two wavenumbers; no census "
-                     "member with two generators above it names them)")
-    scene, state = checkpoint_state(run_dir)
-    seed = None if args.seed is None else (k_side, args.seed)
-    try:
-        scene.with_overrides(f"{key}={values[0]!r}")
-    except ValueError as err:
-        return fail(f"--along {args.along!r}: {err}")
     report = None if args.json else (lambda row: print(scan_line(row, key), flush=True))
-    if report is not None:
-        print(f"rpo --along {key}: k = {k_wave} and its sideband k = {k_side} from "
-              f"{run_dir}, {args.leg:g} s per value")
     try:
-        rows, _ = sideband_scan(scene, state, key, values, k_wave, k_side, args.leg,
-                                seed=seed, below=None if seed is None else SEEDED_BELOW,
-                                report=report)
-    except ValueError as err:  # a run that did not complete, a sideband at round-off
-        return fail(f"{run_dir}: {err}" + ("" if seed else "; a state without the sideband "
-                                           "needs --seed EPS (e.g. 1e-2)"))
+        out = along(run_dir, key, values, leg=args.leg, wave=args.wave,
+                    sideband=args.sideband, seed=args.seed, report=report)
+    except SceneError as err:  # the key or a value of --along
+        return fail(f"--along {args.along!r}: {err}")
+    except ValueError as err:
+        return fail(str(err))
     if args.json:
-        print(json.dumps({"key": key, "k_wave": k_wave, "k_side": k_side, "rows": rows},
-                         indent=1))
+        print(json.dumps(out, indent=1))
+    else:
+        print(f"rpo --along {key}: k = {out['k_wave']} and its sideband k = {out['k_side']}, "
+              f"{args.leg:g} s per value, from {run_dir}")
     return 0
-
-
-#: ``--seed``: σ is fitted where the sideband is below this share of the wave (its linear
-#: range; a seed of 10⁻² d is a share of about 10⁻⁴ on the paper's waves).
-SEEDED_BELOW = 0.01
-
-
-def census_generators(run_dir: Path) -> tuple[list[dict], list[dict]]:
-    """(generators, components) of the census member that ``run_dir`` (a start) belongs to,
-    from the nearest attractors.json above it; ([], []) where there is none."""
-    for parent in list(run_dir.parents)[:4]:
-        path = parent / "attractors.json"
-        if not path.is_file():
-            continue
-        data = json.loads(path.read_text())
-        row = next((r for r in data.get("starts", []) if r.get("id") == run_dir.name), None)
-        if row is None:
-            continue
-        for members in data.get("members", {}).values():
-            for m in members:
-                if m.get("member") == row.get("member"):
-                    return list(m.get("generators") or []), list(m.get("components") or [])
-    return [], []
 
 
 def _print(cert: dict) -> None:
@@ -226,9 +192,9 @@ def _rpo(args: argparse.Namespace) -> int:
         return fail(problem)
     if not (run_dir / "checkpoint.npz").is_file():
         return fail(f"{run_dir}: no checkpoint.npz (give a finished run or census start)")
-    generators, components = census_generators(run_dir)
     if args.along is not None:
-        return _along(args, run_dir, generators)
+        return _along(args, run_dir)
+    generators, components = census_generators(run_dir)
     given = args.shift is not None or args.nodes is not None
     if (args.period is None or not given) and len(generators) < 2:
         return fail(f"{run_dir}: no census member with two generators above it; give "

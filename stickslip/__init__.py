@@ -25,6 +25,7 @@ The public API, one import for a notebook or a study script::
 ``travel_branch``      a branch of travelling waves followed in one scene key
 ``reduced_waves``      the reduced model's travelling waves at one point (no FE)
 ``attractors``         the census of a scene point: its attractors and basin shares
+``rpo_along``          a start followed along a scene key: where its two-wave state is born
 =====================  ===============================================================
 
 Importing ``stickslip`` is cheap: every name is imported on first use, so the reduced model
@@ -55,6 +56,7 @@ _EXPORTS = {
     "travel_branch": "stickslip.api",
     "reduced_waves": "stickslip.api",
     "attractors": "stickslip.api",
+    "rpo_along": "stickslip.api",
     "Scene": "stickslip.solver.scene",
     "SceneError": "stickslip.solver.scene",
     "STATUS_CODES": "stickslip.api",

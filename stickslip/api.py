@@ -40,6 +40,8 @@ from stickslip.studies.attractors.request import (
 from stickslip.studies.flutter_fe import build_operators, complex_eigenvalue_analysis
 from stickslip.studies.flutter_fe.cea import cea_problem
 from stickslip.studies.output import output_root
+from stickslip.studies.rpo.birth import along as _along
+from stickslip.studies.rpo.birth import scan_line as _scan_line
 from stickslip.studies.rundir import EXIT_CODES, run_scene
 from stickslip.studies.rundir import continue_run as _continue_run
 from stickslip.studies.sweep import load_sweep, read_table, run_sweep
@@ -54,8 +56,8 @@ if TYPE_CHECKING:
     from stickslip.studies.flutter_fe.cea import CEAResult
 
 __all__ = ["analyse", "attractors", "cea", "cea_friction_sweep", "continue_run", "load_run",
-           "load_scene", "plot_run", "plot_sweep", "reduced_waves", "run", "sweep", "travel",
-           "travel_branch"]
+           "load_scene", "plot_run", "plot_sweep", "reduced_waves", "rpo_along", "run", "sweep",
+           "travel", "travel_branch"]
 
 Overrides = Mapping[str, Any] | Sequence[str] | None
 
@@ -578,3 +580,41 @@ def reduced_waves(*, nu: float = 0.3, xi: float = 1.25, f: float = 0.7, k: int =
     """
     co = coefficients(nu, xi, gamma_from_physical(wave_speed, radius, omega))
     return [w.summary(radius, omega) for w in find_waves(co, f, k, delta)] if f > 0 else []
+
+
+def rpo_along(run_dir: str | Path, key: str, values: Sequence[float], *, leg: float = 1.0,
+              wave: int | None = None, sideband: int | None = None,
+              seed: float | None = None, quiet: bool = False) -> dict:
+    """Follow a start along a scene key and measure its sideband (``stickslip rpo
+    --along``): where a two-wave state is born (docs/theory/rpo.md).
+
+    Each value runs ``leg`` s from the end state of the one before; per value the second
+    wave's growth rate σ over the leg's second half (the real part of the rigid wave's
+    complex pair where the sideband is small) and its frequency in the first wave's frame.
+
+    Args:
+        run_dir: a run or census start with a checkpoint.
+        key: the dotted scene key (``loading.omega``, ...); values: its values, in order.
+        leg: seconds run at each value.
+        wave, sideband: the two wavenumbers (default: the census member's generators).
+        seed: add seed × d cos(sideband θ) at each start and fit where the sideband is below
+            1 % of the wave (a state with no sideband above round-off).
+        quiet: do not print a line per value.
+
+    Returns:
+        {"key", "k_wave", "k_side", "rows"}; each row ``value``, ``sigma`` (1/s),
+        ``frequency_hz``, ``wave_hz``, ``frame_hz``, ``share_start``, ``share_end``,
+        ``misfit``, ``dt_s``.
+
+    Example:
+        >>> out = stickslip.rpo_along("census/P/starts/runs/n_inner-264_perturbation-"
+        ...                           "random_seed-1", "loading.omega", [60.0, 66.0])
+        >>> [round(r["frame_hz"]) for r in out["rows"]]
+        [-78, -78]
+    """
+    values = [float(v) for v in values]
+    if not values:
+        raise ValueError("values: give at least one value of the key")
+    report = None if quiet else (lambda row: print(_scan_line(row, key), flush=True))
+    return _along(run_dir, key, values, leg=leg, wave=wave, sideband=sideband, seed=seed,
+                  report=report)

@@ -505,3 +505,21 @@ def test_rpo_along_follows_the_start_and_reports_each_value(census_start, capsys
         assert all(math.isfinite(r[k]) for k in ("sigma", "frequency_hz", "wave_hz", "frame_hz"))
         assert r["frame_hz"] == pytest.approx(r["frequency_hz"] - 0.75 * r["wave_hz"])
     assert (census_start / "checkpoint.npz").read_bytes() == before
+
+
+def test_rpo_along_in_python_is_the_command(census_start, capsys):
+    """``stickslip.rpo_along`` returns the rows ``stickslip rpo --along --json`` prints: the
+    same function on the same start, so the same bits."""
+    import json
+
+    import stickslip
+    from stickslip.cli.main import main
+
+    args = dict(key="loading.omega", values=[40.0], leg=0.01, wave=4, sideband=3)
+    out = stickslip.rpo_along(census_start, **args, quiet=True)
+    assert capsys.readouterr().out == ""
+    assert main(["rpo", str(census_start), "--along", "loading.omega=40", "--wave", "4",
+                 "--sideband", "3", "--leg", "0.01", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out) == json.loads(json.dumps(out))
+    with pytest.raises(stickslip.SceneError, match="loading.omegax"):
+        stickslip.rpo_along(census_start, "loading.omegax", [1.0], wave=4, sideband=3)

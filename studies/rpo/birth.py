@@ -22,6 +22,7 @@ to 0: the rigid wave is the attractor (σ its eigenvalue's real part); a share t
 
 from __future__ import annotations
 
+import json
 import math
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -34,8 +35,13 @@ from stickslip.studies.rundir.continuation import checkpoint_plan
 #: A sideband at or below this fraction of the wave's amplitude is round-off, not a mode.
 ROUND_OFF = 1e-12
 
-__all__ = ["SidebandFit", "checkpoint_state", "mode_series", "restart", "scan_line",
-           "sideband_fit", "sideband_row", "sideband_scan"]
+__all__ = ["SEEDED_BELOW", "SidebandFit", "along", "census_generators", "checkpoint_state",
+           "mode_series", "restart", "scan_line", "sideband_fit", "sideband_row",
+           "sideband_scan"]
+
+#: With a seeded sideband, σ is fitted where it is below this share of the wave (its linear
+#: range; a seed of 10⁻² d is a share of about 10⁻⁴ on the paper's waves).
+SEEDED_BELOW = 0.01
 
 
 def mode_series(samples: dict, k: int) -> tuple[np.ndarray, np.ndarray]:
@@ -151,6 +157,52 @@ def sideband_scan(scene, state: tuple[np.ndarray, np.ndarray], key: str,
         if report is not None:
             report(rows[-1])
     return rows, state
+
+
+def census_generators(run_dir: str | Path) -> tuple[list[dict], list[dict]]:
+    """(generators, components) of the census member that ``run_dir`` (a start) belongs to,
+    from the nearest attractors.json above it; ([], []) where there is none."""
+    run_dir = Path(run_dir)
+    for parent in list(run_dir.parents)[:4]:
+        path = parent / "attractors.json"
+        if not path.is_file():
+            continue
+        data = json.loads(path.read_text())
+        row = next((r for r in data.get("starts", []) if r.get("id") == run_dir.name), None)
+        if row is None:
+            continue
+        for members in data.get("members", {}).values():
+            for m in members:
+                if m.get("member") == row.get("member"):
+                    return list(m.get("generators") or []), list(m.get("components") or [])
+    return [], []
+
+
+def along(run_dir: str | Path, key: str, values: list[float], *, leg: float = 1.0,
+          wave: int | None = None, sideband: int | None = None, seed: float | None = None,
+          report=None) -> dict:  # noqa: ANN001 - report(row) or None
+    """The sideband scan of a start (module docstring) as ``stickslip rpo --along`` runs it:
+    the wavenumbers ``wave`` and ``sideband`` (default: the census member's two generators,
+    ``census_generators``), ``leg`` s per value, a seed ε = ``seed`` (× d) at each start
+    fitted below ``SEEDED_BELOW``. Returns {"key", "k_wave", "k_side", "rows"}; ValueError
+    naming the fix for a missing wavenumber, a bad key, a run that did not complete or a
+    sideband at round-off."""
+    generators, _ = census_generators(run_dir)
+    k_wave = wave or (abs(int(generators[0]["k"])) if generators else None)
+    k_side = sideband or (abs(int(generators[1]["k"])) if len(generators) > 1 else None)
+    if k_wave is None or k_side is None or k_wave == k_side:
+        raise ValueError(f"{run_dir}: give --wave K and --sideband K2 (two wavenumbers; no "
+                         "census member with two generators above it names them)")
+    scene, state = checkpoint_state(run_dir)
+    scene.with_overrides(f"{key}={values[0]!r}")  # a bad key: SceneError naming it
+    try:
+        rows, _ = sideband_scan(scene, state, key, values, k_wave, k_side, leg,
+                                seed=None if seed is None else (k_side, seed),
+                                below=None if seed is None else SEEDED_BELOW, report=report)
+    except ValueError as err:  # a run that did not complete, a sideband at round-off
+        raise ValueError(f"{run_dir}: {err}" + ("" if seed else "; a state without the "
+                                                "sideband needs a seed (e.g. 1e-2)")) from None
+    return {"key": key, "k_wave": k_wave, "k_side": k_side, "rows": rows}
 
 
 def scan_line(row: dict, key: str) -> str:
