@@ -12,8 +12,9 @@ continuum (docs/theory/rpo.md). Supercritical, its saturated share A ∝ √(p �
 frame frequency tends to ω/2π of the pair at p_c (the normal form dA/dt = σA − ℓA³).
 
 ``sideband_scan`` follows it by transients (natural-parameter continuation): the first value
-restarts a run's checkpoint, each next value the end state (u, v~) of the one before, with
-``key`` set to the value. Per value it measures, over the run, ``sideband_fit``'s σ and
+starts from a given state (a run's checkpoint, ``checkpoint_state``), each next value from
+the end state (u, v~) of the one before, with ``key`` set to the value; ``along`` is that
+scan from a census start, as ``stickslip rpo --along`` and ``stickslip.rpo_along`` run it. Per value it measures, over the run, ``sideband_fit``'s σ and
 frequency from the linear tail of log|a_{k₂}(t)| (the last ``fit_fraction`` of the run, where
 the sideband is small), and the end's share |a_{k₂}|/|a_{k₁}|. σ < 0 with the share decaying
 to 0: the rigid wave is the attractor (σ its eigenvalue's real part); a share that levels off
