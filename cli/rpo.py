@@ -10,7 +10,13 @@ from pathlib import Path
 from stickslip.cli.checks import fail, run_dir_dimension_problem
 from stickslip.solver.atomic import atomic_write_text
 from stickslip.solver.scene import SceneError
-from stickslip.studies.rpo.birth import along, census_generators, scan_line
+from stickslip.studies.rpo.birth import (
+    MAX_LEG,
+    MAX_VALUES,
+    along,
+    census_generators,
+    scan_line,
+)
 from stickslip.studies.rpo.certificate import rpo_certificate
 from stickslip.studies.rundir.ownership import OwnershipError, claim, register_kind
 
@@ -90,8 +96,9 @@ def option_problem(args: argparse.Namespace) -> str | None:
                "a nonzero number of node passages"),
               ("--krylov", args.krylov, lambda x: x >= max(2, args.multipliers),
                f"at least --multipliers ({args.multipliers}) and 2"))
-    if args.leg is not None and not (math.isfinite(args.leg) and args.leg > 0):
-        return f"--leg {args.leg}: give a positive number of seconds"
+    if args.leg is not None and not (math.isfinite(args.leg) and 0 < args.leg <= MAX_LEG):
+        return (f"--leg {args.leg}: give a positive number of seconds up to {MAX_LEG:g} (a "
+                "census's cap is 4 s)")
     if args.seed is not None and not (math.isfinite(args.seed) and args.seed > 0):
         return f"--seed {args.seed}: give a positive fraction of d, e.g. 1e-2"
     for flag, value in (("--wave", args.wave), ("--sideband", args.sideband)):
@@ -109,22 +116,22 @@ def option_problem(args: argparse.Namespace) -> str | None:
 
 
 def parse_values(text: str) -> tuple[str, list[float]]:
-    """``--along``: ``KEY=A:B:M`` (M >= 2 values from A to B) or ``KEY=V1,V2,...`` ->
-    (key, values); ValueError naming the fix."""
+    """``--along``: ``KEY=A:B:M`` (2 <= M <= ``MAX_VALUES`` values from A to B) or
+    ``KEY=V1,V2,...`` -> (key, values); ValueError naming the fix."""
     key, sep, spec = text.partition("=")
-    fix = "give KEY=A:B:M (M >= 2 values from A to B) or KEY=V1,V2,..."
+    fix = f"give KEY=A:B:M (2 <= M <= {MAX_VALUES} values from A to B) or KEY=V1,V2,..."
     try:
         if not sep or "." not in key:
             raise ValueError
         if ":" in spec:
             a, b, m = spec.split(":")
             count, lo, hi = int(m), float(a), float(b)
-            if count < 2:
+            if not 2 <= count <= MAX_VALUES:
                 raise ValueError
             values = [lo + (hi - lo) * i / (count - 1) for i in range(count)]
         else:
             values = [float(v) for v in spec.split(",")]
-        if not values or not all(math.isfinite(v) for v in values):
+        if not 0 < len(values) <= MAX_VALUES or not all(math.isfinite(v) for v in values):
             raise ValueError
     except ValueError:
         raise ValueError(f"--along {text!r}: {fix}, e.g. loading.omega=60:70:5") from None

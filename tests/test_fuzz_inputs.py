@@ -287,7 +287,7 @@ COMMANDS = {
     "attractors": (["attractors", "smoke", "-o", "{tmp}/a"],
                    ["stickslip.cli.attractors.run_census", "stickslip.cli.attractors.run_along"]),
     "rpo": (["rpo", "{run}", "--period", "1e-3", "--shift", "10", "-o", "{tmp}/o"],
-            ["stickslip.cli.rpo.rpo_certificate"]),
+            ["stickslip.cli.rpo.rpo_certificate", "stickslip.cli.rpo.along"]),
 }
 #: Options that take numbers inside a string: the string built from drawn numbers.
 TEMPLATES = {"--batch": "{i}", "--f-sweep": "{x}:{y}:{i}",

@@ -471,7 +471,9 @@ def test_the_rpo_screen_of_a_census_start_and_its_line(census_start):
 
 @pytest.mark.parametrize("option, words", [
     (["--along", "omega=60"], "give KEY=A:B:M"),
-    (["--along", "loading.omega=60:70:1"], "(M >= 2 values from A to B)"),
+    (["--along", "loading.omega=60:70:1"], "(2 <= M <= 200 values from A to B)"),
+    (["--along", "loading.omega=1:2:100000"], "(2 <= M <= 200 values from A to B)"),
+    (["--along", "loading.omega=1,2", "--leg", "1e308"], "up to 100 (a census's cap"),
     (["--along", "loading.omegax=1,2", "--wave", "4", "--sideband", "3"],
      "unknown key 'loading.omegax'"),
     (["--along", "loading.omega=1,2", "--leg", "0"], "--leg 0.0: give a positive"),
@@ -523,3 +525,9 @@ def test_rpo_along_in_python_is_the_command(census_start, capsys):
     assert json.loads(capsys.readouterr().out) == json.loads(json.dumps(out))
     with pytest.raises(stickslip.SceneError, match="loading.omegax"):
         stickslip.rpo_along(census_start, "loading.omegax", [1.0], wave=4, sideband=3)
+    for bad, words in (({"leg": float("inf")}, "leg = inf"), ({"leg": 1e308}, "up to 100"),
+                       ({"values": [40.0] * 201}, "201 values"),
+                       ({"values": [40.0, -1.0]}, "loading.omega = -1.0"),
+                       ({"seed": float("nan")}, "seed = nan")):
+        with pytest.raises(ValueError, match=words):
+            stickslip.rpo_along(census_start, **{**args, **bad}, quiet=True)

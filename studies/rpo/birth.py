@@ -14,11 +14,12 @@ frame frequency tends to ω/2π of the pair at p_c (the normal form dA/dt = σA 
 ``sideband_scan`` follows it by transients (natural-parameter continuation): the first value
 starts from a given state (a run's checkpoint, ``checkpoint_state``), each next value from
 the end state (u, v~) of the one before, with ``key`` set to the value; ``along`` is that
-scan from a census start, as ``stickslip rpo --along`` and ``stickslip.rpo_along`` run it. Per value it measures, over the run, ``sideband_fit``'s σ and
-frequency from the linear tail of log|a_{k₂}(t)| (the last ``fit_fraction`` of the run, where
-the sideband is small), and the end's share |a_{k₂}|/|a_{k₁}|. σ < 0 with the share decaying
-to 0: the rigid wave is the attractor (σ its eigenvalue's real part); a share that levels off
-(σ → 0 over the tail) is a two-wave state. Nothing of the run is changed or written.
+scan from a census start, as ``stickslip rpo --along`` and ``stickslip.rpo_along`` run it.
+Per value it measures ``sideband_fit``'s σ and frequency from the tail of log|a_{k₂}(t)|
+(the last ``fit_fraction`` of the run) and the shares |a_{k₂}|/|a_{k₁}|. σ < 0 with the
+share decaying to 0: the rigid wave is the attractor (σ its eigenvalue's real part); a
+share that levels off (σ → 0 over the tail) is a two-wave state. Nothing of the run is
+changed or written.
 """
 
 from __future__ import annotations
@@ -36,13 +37,15 @@ from stickslip.studies.rundir.continuation import checkpoint_plan
 #: A sideband at or below this fraction of the wave's amplitude is round-off, not a mode.
 ROUND_OFF = 1e-12
 
-__all__ = ["SEEDED_BELOW", "SidebandFit", "along", "census_generators", "checkpoint_state",
-           "mode_series", "restart", "scan_line", "sideband_fit", "sideband_row",
-           "sideband_scan"]
+__all__ = ["MAX_LEG", "MAX_VALUES", "SEEDED_BELOW", "SidebandFit", "along",
+           "census_generators", "checkpoint_state", "mode_series", "restart", "scan_line",
+           "sideband_fit", "sideband_row", "sideband_scan"]
 
 #: With a seeded sideband, σ is fitted where it is below this share of the wave (its linear
 #: range; a seed of 10⁻² d is a share of about 10⁻⁴ on the paper's waves).
 SEEDED_BELOW = 0.01
+#: ``along``: each value's run at most (s; a census's cap is 4 s), and at most this many values.
+MAX_LEG, MAX_VALUES = 100.0, 200
 
 
 def mode_series(samples: dict, k: int) -> tuple[np.ndarray, np.ndarray]:
@@ -188,6 +191,12 @@ def along(run_dir: str | Path, key: str, values: list[float], *, leg: float = 1.
     fitted below ``SEEDED_BELOW``. Returns {"key", "k_wave", "k_side", "rows"}; ValueError
     naming the fix for a missing wavenumber, a bad key, a run that did not complete or a
     sideband at round-off."""
+    if not (math.isfinite(leg) and 0.0 < leg <= MAX_LEG):
+        raise ValueError(f"leg = {leg}: give a positive number of seconds up to {MAX_LEG:g}")
+    if not 0 < len(values) <= MAX_VALUES:
+        raise ValueError(f"{len(values)} values: give 1 to {MAX_VALUES}")
+    if seed is not None and not (math.isfinite(seed) and seed > 0.0):
+        raise ValueError(f"seed = {seed}: give a positive fraction of d, e.g. 1e-2")
     generators, _ = census_generators(run_dir)
     k_wave = wave or (abs(int(generators[0]["k"])) if generators else None)
     k_side = sideband or (abs(int(generators[1]["k"])) if len(generators) > 1 else None)
@@ -195,7 +204,8 @@ def along(run_dir: str | Path, key: str, values: list[float], *, leg: float = 1.
         raise ValueError(f"{run_dir}: give --wave K and --sideband K2 (two wavenumbers; no "
                          "census member with two generators above it names them)")
     scene, state = checkpoint_state(run_dir)
-    scene.with_overrides(f"{key}={values[0]!r}")  # a bad key: SceneError naming it
+    for value in values:  # the key and every value, before any run: SceneError naming it
+        scene.with_overrides(f"{key}={float(value)!r}")
     try:
         rows, _ = sideband_scan(scene, state, key, values, k_wave, k_side, leg,
                                 seed=None if seed is None else (k_side, seed),
