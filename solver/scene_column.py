@@ -227,10 +227,15 @@ class SceneColumn:
         state = self.stepper.state()
         du, dv, facts = kick_fields(self.problem, state["u"], state["v_pred"], fraction,
                                     seed, rms)
+        self.perturb(b, du, dv)
+        return facts
+
+    def perturb(self, b: int, du: np.ndarray, dv: np.ndarray) -> None:
+        """Move the scene by (du, dv) where it stands (``Stepper.kick``: u_{n+1} and u_n by
+        ``du``, v~ by ``dv``); the work observers' copies of u move with it (``kicked``)."""
         self.stepper.kick(b, du, dv)
         for part in self.records.parts.values():
             part.kicked(du)
-        return facts
 
     def partition_id(self) -> str:
         """This rank's part of the mesh, as a hash of its owned nodes' coordinates (sorted):

@@ -613,8 +613,6 @@ def rpo_along(run_dir: str | Path, key: str, values: Sequence[float], *, leg: fl
         [-78, -78]
     """
     values = [float(v) for v in values]
-    if not values:
-        raise ValueError("values: give at least one value of the key")
     report = None if quiet else (lambda row: print(_scan_line(row, key), flush=True))
     return _along(run_dir, key, values, leg=leg, wave=wave, sideband=sideband, seed=seed,
                   report=report)

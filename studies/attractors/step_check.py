@@ -18,14 +18,13 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from stickslip.solver.run import Simulation
 from stickslip.studies.attractors.features import (
     Features,
     components_text,
     differences,
     window_features,
 )
-from stickslip.studies.rundir.continuation import checkpoint_plan
+from stickslip.studies.rpo.birth import checkpoint_state, restart
 from stickslip.studies.rundir.readers import ReadError
 
 __all__ = ["HALF_STEP_WINDOWS", "at_checkpoint", "half_step_line", "half_step_members",
@@ -47,22 +46,14 @@ def at_checkpoint(row: dict) -> bool:
 
 def half_step_run(run_dir: str | Path, windows: int, window: float) -> dict:
     """The samples (``samples``) of ``run_dir``'s scene at half its step (``dt_s``) from its
-    checkpoint's (u, v~), over ``windows`` W, and the contact radius (``radius``)."""
-    from mpi4py import MPI  # MPI starts where a run does (the API imports this module)
-
-    plan = checkpoint_plan(run_dir)
-    state = plan.checkpoint.states[0]
-    ts = plan.scene.time
-    step = f"time.dt={ts.dt / 2!r}" if ts.dt > 0 else f"time.dt_fraction={ts.dt_fraction / 2!r}"
-    scene = plan.scene.with_overrides(step, f"time.end_time={windows * window!r}",
-                                      "time.max_steps=0", "output.progress=false")
-    u, v = state["stepper/u"], state["stepper/v_pred"]  # KeyError: no v~ (implicit scheme)
-    sim = Simulation(scene, MPI.COMM_SELF, initial_state=(u, v, None))
-    sim.proceed()
-    if sim.status != "completed":
-        raise ValueError(f"the run at Δt/2 ended {sim.status}")
-    return {"samples": sim.recorder.arrays(), "dt_s": float(sim.dt),
-            "radius": float(scene.geometry.R)}
+    checkpoint's (u, v~) (``studies.rpo.birth.restart``), over ``windows`` W, and the contact
+    radius (``radius``)."""
+    scene, state = checkpoint_state(run_dir)  # KeyError: no v~ (implicit scheme)
+    ts = scene.time
+    key, value = (("time.dt", ts.dt / 2) if ts.dt > 0
+                  else ("time.dt_fraction", ts.dt_fraction / 2))
+    samples, dt, _ = restart(scene, state, key, value, windows * window)
+    return {"samples": samples, "dt_s": dt, "radius": float(scene.geometry.R)}
 
 
 def half_step_members(groups: dict[str, list[dict]], window: float, tol) -> dict[str, dict]:  # noqa: ANN001 - features.Tolerances

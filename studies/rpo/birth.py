@@ -122,9 +122,7 @@ def restart(scene, state: tuple[np.ndarray, np.ndarray], key: str, value: float,
         k, eps = seed
         d = run.geometry.delta * run.geometry.R
         du = sim.problem.radial_field(lambda theta: eps * d * np.cos(k * theta))
-        sim.integrator.kick(0, du, np.zeros_like(du))
-        for part in sim.columns.records.parts.values():  # the work observers' copies of u
-            part.kicked(du)
+        sim.columns.perturb(0, du, np.zeros_like(du))
     sim.proceed()
     if sim.status != "completed":
         raise ValueError(f"{key} = {value}: the run ended {sim.status}")
