@@ -4,6 +4,7 @@ docs/attractors.md ("Where the answer settles"), from finished census directorie
     ./dev python3 benchmarks/census_ladder.py NAME=DIR[:TIMINGS.jsonl] [NAME=DIR ...]
         [--json docs/facts/census_ladder.json]
     ./dev python3 benchmarks/census_ladder.py NAME=DIR_DT+DIR_DT2+DIR_DT4   # in the time step
+    ./dev python3 benchmarks/census_ladder.py NAME=DIR --compare 264p2:528 [--compare ...]
 
 Each DIR is a census directory (``stickslip attractors ... -o DIR``) whose ladder holds the
 rungs measured; TIMINGS (optional) the JSON lines that ``benchmarks/attractor_census.py``
@@ -24,6 +25,10 @@ reach them, the dominant-component distribution's two largest entries, the basin
 celerity, the wall time of the rung; per step: the settle criterion's four numbers
 (``statistics.rung_steps``) and whether it holds; last, the first rung from which the answer
 stays the same (``ladder.settles_from``), or that none does.
+
+``--compare A:B`` prints, per point, the settle criterion between two rungs that need not be
+neighbours by dofs (``statistics.ladder`` on those two): whether a coarse rung of one degree
+already gives a fine rung of the other's answer.
 
 With ``NAME=DIR+DIR+...`` the ladder is in the time step: each DIR a census of one rung at
 one ``time.dt_fraction`` (``--set time.dt_fraction=0.45``, then 0.225), the rungs labelled
@@ -140,11 +145,32 @@ def markdown(tables: list[dict]) -> str:
     return "\n".join(out)
 
 
+def compare_line(name: str, census: Path, a: str, b: str) -> str:
+    """The settle criterion between rungs ``a`` and ``b`` of one census (``--compare``)."""
+    from stickslip.studies.attractors.statistics import ladder
+
+    members = json.loads((census / "attractors.json").read_text())["members"]
+    lad = ladder({a: members[a], b: members[b]})
+    s, cel = lad["steps"][0], lad["coarse"]["weighted_celerity_m_s"]["values"]
+    return (f"{name} {a} -> {b}: {'same set' if s['same_set'] else 'set changes'}, Fisher p "
+            f"{s['fisher_min_p']:.2g}, TV {s['dominant_tv']:.2f}, celerity "
+            f"{cel[0]:+.1f} -> {cel[1]:+.1f} m/s ({100 * s['celerity_change']:.2f} %)")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("points", nargs="+", metavar="NAME=DIR[:TIMINGS]")
     ap.add_argument("--json", type=Path, help="also write the tables as JSON here")
+    ap.add_argument("--compare", action="append", default=[], metavar="A:B",
+                    help="two rungs of each census to compare directly (e.g. 264p2:528)")
     args = ap.parse_args()
+    if args.compare:
+        for item in args.points:
+            name, _, census = item.partition("=")
+            for pair in args.compare:
+                a, _, b = pair.partition(":")
+                print(compare_line(name, Path(census.partition(":")[0]), a, b))
+        return
     tables = []
     for item in args.points:
         name, _, rest = item.partition("=")
