@@ -150,6 +150,9 @@ def compare_line(name: str, census: Path, a: str, b: str) -> str:
     from stickslip.studies.attractors.statistics import ladder
 
     members = json.loads((census / "attractors.json").read_text())["members"]
+    if missing := [r for r in (a, b) if r not in members]:
+        raise SystemExit(f"--compare {a}:{b}: {census} has no rung {missing[0]!r} (its rungs: "
+                         f"{', '.join(members)})")
     lad = ladder({a: members[a], b: members[b]})
     s, cel = lad["steps"][0], lad["coarse"]["weighted_celerity_m_s"]["values"]
     return (f"{name} {a} -> {b}: {'same set' if s['same_set'] else 'set changes'}, Fisher p "
