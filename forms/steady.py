@@ -132,6 +132,21 @@ def set_near_nullspace(A: PETSc.Mat, V: dolfinx.fem.FunctionSpace, T: PETSc.Mat)
         vec.destroy()
 
 
+def _refine(A: PETSc.Mat, ksp: PETSc.KSP, b: PETSc.Vec, x: PETSc.Vec) -> None:
+    """Two steps of iterative refinement of A x = b, in place: the LU error (~cond(A) eps)
+    would otherwise make the initial state depend on the factorisation (serial vs parallel
+    MUMPS) at ~1e-12, and the flutter-unstable steady state amplifies it; refined, it is
+    round-off (~eps) in u."""
+    res, corr = A.createVecLeft(), A.createVecRight()
+    for _ in range(2):
+        A.mult(x, res)
+        res.aypx(-1.0, b)  # res = b - A x
+        ksp.solve(res, corr)
+        x.axpy(1.0, corr)
+    res.destroy()
+    corr.destroy()
+
+
 def static_sliding(
     V: dolfinx.fem.FunctionSpace,
     tube: TubeMesh,
@@ -188,17 +203,7 @@ def static_sliding(
     if ksp.getConvergedReason() < 0:
         raise RuntimeError(f"static sliding solve failed: reason {ksp.getConvergedReason()}")
     iterations = max(1, ksp.getIterationNumber())
-    # Two steps of iterative refinement: the LU error (~cond(A) eps) would otherwise make the
-    # initial state depend on the factorisation (serial vs parallel MUMPS) at ~1e-12, and the
-    # flutter-unstable steady state amplifies it; refined, it is round-off (~eps) in u.
-    res, corr = A.createVecLeft(), A.createVecRight()
-    for _ in range(2):
-        A.mult(ut, res)
-        res.aypx(-1.0, b)  # res = b - A ut
-        ksp.solve(res, corr)
-        ut.axpy(1.0, corr)
-    res.destroy()
-    corr.destroy()
+    _refine(A, ksp, b, ut)
 
     r = Kt.createVecLeft()
     Kt.mult(ut, r)  # = Tᵀ F_ext: (λ_i, f λ_i) on the contact nodes, 0 elsewhere
