@@ -111,7 +111,8 @@ def member_lines(n: str, m: dict, certs: dict) -> list[str]:
     if m["class"] == "chaotic":
         lines.append(f"  largest Lyapunov exponent {m['lambda1_per_s']:.3g} ± "
                      f"{m['lambda1_error_per_s']:.2g} 1/s (> 0 beyond 3 standard errors), "
-                     f"statistics stationary over {m['stationary_windows']} windows")
+                     f"statistics stationary over {m['stationary_windows']} windows, up to "
+                     "the cap (a larger --max-time can end it: transient chaos)")
     if m.get("rejected_because"):
         lines.append(f"  not an attractor: {m['rejected_because']}")
     if m.get("not_chaotic_because"):
