@@ -730,26 +730,27 @@ class CudaColumns(ArrayColumns):
     def __init__(self, st: BatchedExplicit) -> None:  # pragma: no cover - GPU only
         import cupy
 
-        st._module = cupy.RawModule(code=CUDA_SOURCE, options=("--fmad=false",))
-        st._kern = st._module.get_function("fused_step_damped" if st.damped
-                                           else "fused_step")
-        st._kern_w = st._module.get_function("kelvin_voigt_argument")
-        st._kern_k = st._module.get_function("stiffness_product")
+        # the compiled module, its kernels and the launch shape: this strategy's own state
+        self.module = cupy.RawModule(code=CUDA_SOURCE, options=("--fmad=false",))
+        self.kern = self.module.get_function("fused_step_damped" if st.damped
+                                             else "fused_step")
+        self.kern_w = self.module.get_function("kelvin_voigt_argument")
+        self.kern_k = self.module.get_function("stiffness_product")
         nodes = st.n // 2
         st.cslot = st.cslot.astype(np.int32)
         st.keep = cupy.zeros(nodes, dtype=np.int8)
         st.work = cupy.zeros((3, st.m, st.B))  # per (node, scene): no atomics
         # damped: the damping work's step sum per (node, scene)
         st.dwork = cupy.zeros((nodes, st.B))
-        st._threads = 128
-        st._blocks = (nodes * st.B + st._threads - 1) // st._threads
+        self.threads = 128
+        self.blocks = (nodes * st.B + self.threads - 1) // self.threads
 
     @property
     def damping_state(self) -> tuple[str, ...]:
         return ("dwork",)
 
     def stiffness(self, st: BatchedExplicit, u, out) -> None:  # pragma: no cover - GPU only
-        st._kern_k((st._blocks,), (st._threads,), (
+        self.kern_k((self.blocks,), (self.threads,), (
             st.indptr, st.indices, st.data, u, out, np.int32(st.n // 2), np.int32(st.B)))
 
     def work_sums(self, st: BatchedExplicit):  # pragma: no cover - GPU only
@@ -784,10 +785,10 @@ class CudaColumns(ArrayColumns):
         damped = ()
         if st.damped:  # w_n = u_n + tau v~_n first: the step overwrites v~
             count = st.n * st.B
-            st._kern_w(((count + st._threads - 1) // st._threads,), (st._threads,),
+            self.kern_w(((count + self.threads - 1) // self.threads,), (self.threads,),
                        (u, st.v_pred, st.u_tau, f64(st.tau), np.int32(count)))
             damped = (st.u_tau, st.dwork)
-        st._kern((st._blocks,), (st._threads,), (
+        self.kern((self.blocks,), (self.threads,), (
             st.indptr, st.indices, st.data, u, u_next, st.v, st.v_pred, st.a,
             st.ku, st.nim, st.cslot, st.ph_re, st.ph_im, st.pc_re, st.pc_im,
             st.cmass, st.cinv, st.d, st.slide, st.f, st.r_r, st.r_t, st.r_x,
