@@ -40,6 +40,7 @@ def dev_env(tmp_path: Path, bindir: Path) -> dict:
         STICKSLIP_CACHE=str(tmp_path / "cache"),
         STICKSLIP_MIRROR="http://mirror.invalid/debian",
         STICKSLIP_FORCE_ROOTFS="1",
+        STICKSLIP_MIN_FREE_KB="0",  # the fake build writes nothing: the host's disk is moot
     )
     return env
 
@@ -51,9 +52,14 @@ def start(env: dict) -> subprocess.Popen:
     )
 
 
-def wait_for(path: Path, timeout: float = 120.0) -> None:  # a hang guard only
+def wait_for(path: Path, timeout: float = 120.0,
+             proc: subprocess.Popen | None = None) -> None:  # a hang guard only
+    """Wait until ``path`` exists; fail at once, with its stderr, if ``proc`` has ended."""
     t0 = time.time()
     while not path.exists():
+        if proc is not None and proc.poll() is not None:
+            pytest.fail(f"./dev ended (exit {proc.returncode}) before {path.name} appeared: "
+                        f"{proc.stderr.read().strip()}")
         assert time.time() - t0 < timeout, f"{path} never appeared"
         time.sleep(0.05)
 
@@ -62,7 +68,7 @@ def test_killed_build_is_discarded_and_the_next_call_rebuilds(tmp_path):
     cache = tmp_path / "cache"
     env = dev_env(tmp_path, fake_debootstrap(tmp_path, "sleep 60"))
     proc = start(env)
-    wait_for(tmp_path / "calls")
+    wait_for(tmp_path / "calls", proc=proc)
     os.killpg(proc.pid, signal.SIGKILL)  # worst case: no trap, no cleanup at all
     proc.wait()
     leftovers = list(cache.glob(".build.*"))
@@ -84,7 +90,7 @@ def test_killed_build_is_discarded_and_the_next_call_rebuilds(tmp_path):
 def test_concurrent_calls_wait_on_the_lock(tmp_path):
     env = dev_env(tmp_path, fake_debootstrap(tmp_path, "sleep 60"))
     first = start(env)
-    wait_for(tmp_path / "calls")
+    wait_for(tmp_path / "calls", proc=first)
     log = tmp_path / "second.err"
     with open(log, "w") as err:
         second = subprocess.Popen([str(REPO / "dev"), "true"], env=env, stdout=subprocess.DEVNULL,
@@ -104,3 +110,19 @@ def test_concurrent_calls_wait_on_the_lock(tmp_path):
         time.sleep(0.05)
     os.killpg(second.pid, signal.SIGKILL)
     second.wait()
+
+
+@pytest.mark.parametrize("minimum, says", [
+    (str(10**15), "MB free in"), ("5GB", "give a whole number of KB")])
+def test_a_build_without_room_is_refused_in_one_line(tmp_path, minimum, says):
+    """Before debootstrap runs: a disk with less free space than asked (here an impossible
+    10^15 KB), or an asked amount that is no number, ends ./dev with exit 2 and one
+    ``dev: error:`` line that names the problem; nothing is built."""
+    env = dict(dev_env(tmp_path, fake_debootstrap(tmp_path, "sleep 60")),
+               STICKSLIP_MIN_FREE_KB=minimum)
+    res = subprocess.run([str(REPO / "dev"), "true"], env=env, capture_output=True, text=True,
+                         timeout=60)
+    assert res.returncode == 2
+    assert res.stderr.startswith("dev: error:") and says in res.stderr
+    assert not (tmp_path / "calls").exists()
+    assert not (tmp_path / "cache" / "trixie").exists()
