@@ -285,3 +285,39 @@ def test_an_unexpected_error_on_one_rank_ends_the_whole_job(tmp_path):
                           capture_output=True, text=True, timeout=300)
     assert proc.returncode != 0
     assert "RuntimeError: a bug on rank 0" in proc.stderr, proc.stderr
+
+
+def _wrapper_stderr(text: bytes) -> bytes:
+    """What docker/bin/mpirun's ``copy_stderr`` passes on of the real mpirun's ``text``
+    (no stop forwarded), read from a pipe as it runs."""
+    import importlib.machinery
+    import importlib.util
+    import io
+
+    loader = importlib.machinery.SourceFileLoader("mpirun_wrapper", str(MPIRUN))
+    wrapper = importlib.util.module_from_spec(importlib.util.spec_from_loader(loader.name,
+                                                                              loader))
+    loader.exec_module(wrapper)
+    read, write = os.pipe()
+    os.write(write, text)
+    os.close(write)
+    out = io.BytesIO()
+    real, sys.stderr = sys.stderr, io.TextIOWrapper(out, write_through=True)
+    try:
+        wrapper.copy_stderr(wrapper.Launch(), read)
+        return out.getvalue()
+    finally:
+        sys.stderr.detach()  # leave ``out`` open; the wrapper's text layer goes
+        sys.stderr = real
+        os.close(read)
+
+
+def test_the_pmix_teardown_line_after_the_jobs_own_error_is_dropped():
+    """A rank's refusal ends the job; the PMIx server may then note that it could not reach
+    the rank that had exited (``PMIX_ERR_UNREACH``, a teardown race): after the job's own
+    ``error:`` line that note is dropped, so the refusal stays one line; where the job said
+    nothing it is kept (nothing is hidden that nothing explains)."""
+    note = b"[vm:1] PMIX ERROR: PMIX_ERR_UNREACH in file pmix_server.c at line 3184\n"
+    refusal = b"error: scene.toml: geometry.delta = 10 is out of range\n"
+    assert _wrapper_stderr(refusal + note) == refusal
+    assert _wrapper_stderr(note) == note
