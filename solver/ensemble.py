@@ -786,7 +786,7 @@ class CudaColumns(ArrayColumns):
         if st.damped:  # w_n = u_n + tau v~_n first: the step overwrites v~
             count = st.n * st.B
             self.kern_w(((count + self.threads - 1) // self.threads,), (self.threads,),
-                       (u, st.v_pred, st.u_tau, f64(st.tau), np.int32(count)))
+                        (u, st.v_pred, st.u_tau, f64(st.tau), np.int32(count)))
             damped = (st.u_tau, st.dwork)
         self.kern((self.blocks,), (self.threads,), (
             st.indptr, st.indices, st.data, u, u_next, st.v, st.v_pred, st.a,
