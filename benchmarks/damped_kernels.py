@@ -8,7 +8,7 @@ The scene (default: the damped Figure-1 scene, N = 132, beta2 = 1/2, loss factor
 1.6 kHz, 0.9 dt_crit) runs ``--steps`` steps from its start, with its samples every
 ``output.sample_interval`` (the energies, W_d included), three ways:
 
-* ``numpy``: ``DampedNewmark`` (PETSc MatMult of K w_n) with ``DampingWork`` as a step hook;
+* ``numpy``: the numpy kernel (PETSc MatMult of K w_n) with ``DampingWork`` as a step hook;
 * ``fused``: ``SceneExplicit`` with tau (one compiled call between two samples);
 * ``batched``: ``Simulation.batch`` of ``--batch`` copies of the scene with random starts
   (``initial.seed`` = 0 .. B - 1), ``BatchedExplicit`` with tau.
@@ -67,7 +67,7 @@ def main() -> None:
 
     undamped = ("damping.retardation_time=0.0", "damping.loss_factor=0.0")
     cases = {
-        "numpy (DampedNewmark)": (single("numpy"), 1),
+        "numpy kernel": (single("numpy"), 1),
         "fused (SceneExplicit)": (single("numba"), 1),
         f"batched B = {args.batch}": (lambda: Simulation.batch(starts), args.batch),
         "fused, undamped": (single("numba", base.with_overrides(*undamped)), 1),

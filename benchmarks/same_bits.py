@@ -8,10 +8,10 @@
 ``run DIR`` runs, from the repository it is called in, one small case of every path a
 refactor of the explicit path can touch (``CASES``): single runs with the numba and numpy
 kernels, implicit, damped (both kernels), Prakash-Clifton, the 1-2-1 filtered bound, fields,
-a diverging run, damped runs (numba, numpy) and an implicit run under ``mpirun -n 2``, a
-batched sweep, two censuses under
-``mpirun -n 2`` (settle legs with batches of one, two and three), a census with kicks, and
-a continuation. About 2 minutes on 2 cores.
+a 3D tube (serial and ``mpirun -n 2``), a diverging run, damped runs (numba, numpy) and an
+implicit run under ``mpirun -n 2``, a batched sweep, two censuses under ``mpirun -n 2``
+(settle legs with batches of one, two and three), a census with kicks, and a continuation.
+About 2 minutes on 2 cores.
 
 ``compare A B`` then checks every ``.npz`` array bitwise (shape, dtype, values; NaN equal to
 NaN) and every JSON file equal after dropping what differs from run to run: wall times and
@@ -35,6 +35,9 @@ SMOKE = "scenes/smoke.toml"
 DAMPED = "scenes/figure1_n132_damped.toml"
 SHORT = ("--set", "time.end_time=0.01")
 DAMPED_SHORT = ("--set", "time.end_time=0.004")
+TUBE3D = "scenes/tube3d_figure3_damped.toml"
+TUBE3D_SHORT = ("--set", "mesh.n_inner=32", "--set", "mesh.n_axial=3", "--set",
+                "time.end_time=0.002")
 CENSUS = ("--meshes", "36", "--end-time", "0.03", "--max-time", "0.1", "--yes-i-know")
 #: name: (command line after ``stickslip``, ranks); ``{out}`` is the case's directory.
 CASES: dict[str, tuple[tuple[str, ...], int]] = {
@@ -55,6 +58,8 @@ CASES: dict[str, tuple[tuple[str, ...], int]] = {
     "numpy_mpi2": (("run", DAMPED, *DAMPED_SHORT, "--set", 'time.kernel="numpy"'), 2),
     "implicit_mpi2": (("run", SMOKE, *SHORT, "--set", "time.beta1=0.25", "--set",
                        "time.beta2=0.5", "--set", "time.dt_fraction=2"), 2),
+    "tube3d": (("run", TUBE3D, *TUBE3D_SHORT), 1),
+    "tube3d_mpi2": (("run", TUBE3D, *TUBE3D_SHORT), 2),
     "sweep": (("sweep", "{sweep_file}"), 1),
     "census5": (("attractors", DAMPED, "--starts", "5", *CENSUS), 2),
     "census3": (("attractors", DAMPED, "--starts", "3", *CENSUS), 2),

@@ -25,7 +25,7 @@ converged for the harmonics that carry the wave.
 
 ``./dev nice python3 benchmarks/travel_symbol.py transient --n 132 264 --omega -2580``
     the same symbol for the *transient's* semi-discrete equations M ü + τK u̇ + K u = r
-    (lumped M, ``solver.newmark.DampedNewmark``, continuous in time): a wave W(θ − ωt) that
+    (lumped M, ``solver.ensemble.ArrayColumns``, continuous in time): a wave W(θ − ωt) that
     is invariant under the mesh's discrete shift has, per discrete harmonic m, the frequency
     −mω, so its dynamic stiffness is the contact Schur complement of
     A_m = (1 − imωτ)K − (mω)² M, t_m(ω) = e_mᴴ S(A_m) e_m / (2π/N) (``frame`` with

@@ -278,7 +278,7 @@ def single_step(indptr, indices, data, n_rows, u, u_next, v, vp, a, ku, nim,
                 d, slide, f, r_r, r_t, r_x, r_y, status, zprev, work, u_tau, u_tau_next, tau,
                 reg, sigma, ut_last, rate_slip, rate_base, started):
     """One explicit step of one scene (``solver.fused`` docstring). With Kelvin-Voigt
-    damping (``tau > 0``, ``solver.newmark.DampedNewmark``) the internal force is K w_n,
+    damping (``tau > 0``, ``solver.ensemble.internal_force``) the internal force is K w_n,
     w_n = u_n + tau v~_n, read from ``u_tau`` (the previous step, or the caller at the
     start, formed it; a caller with ghosts has updated them), ``u_tau_next`` receives
     w_{n+1} = u_{n+1} + tau v~_{n+1} (the caller alternates the two, as u, and as
@@ -334,7 +334,7 @@ def single_step(indptr, indices, data, n_rows, u, u_next, v, vp, a, ku, nim,
             s_old += kwi * u_next[i]
             u_next[i] = un
             vp[i] = w if b2_half else w + ai * c_p
-            u_tau_next[i] = vp[i] * tau + un  # w_{n+1} (DampedNewmark: v~ tau, then + u)
+            u_tau_next[i] = vp[i] * tau + un  # w_{n+1} (ArrayColumns: v~ tau, then + u)
         work[3] += 0.5 * (s_new - s_old)
     else:
         for i in range(n_rows):

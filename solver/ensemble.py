@@ -52,6 +52,11 @@ from stickslip.solver.fused import (
 from stickslip.solver.fused import kernel as get_kernel
 from stickslip.solver.stepper import HookedStepper, copy_state, put_state, to_host
 
+#: One scene's own operators (``SceneArrayColumns``): ``mult(u, out)``, out = K u on the
+#: owned dofs, and its contact step ``contact(u_n, v~_n, a)`` (``solver.newmark.ContactStep``:
+#: it adds M⁻¹ r_n to a*_n at the contact dofs), or None without contact.
+SceneOperators = tuple[Callable[[np.ndarray, np.ndarray], None], Callable | None]
+
 #: The array module of each backend (``solver.schemes.select.BACKENDS`` names its kernel).
 ARRAY_MODULES = {"cpu": "numpy", "gpu": "cupy"}
 
@@ -118,6 +123,19 @@ class BatchedProblem:
         bp.ghosts = np.asarray(ghosts, dtype=np.int64)
         return bp
 
+    @classmethod
+    def without_matrix(cls, mass: np.ndarray, inv_mass: np.ndarray, dt: float, beta2: float,
+                       cx: np.ndarray | None = None,
+                       theta: np.ndarray | None = None) -> BatchedProblem:
+        """A problem whose K is the scene's own product (``SceneArrayColumns``): no CSR,
+        the masses, and the contact nodes' x dofs ``cx`` and angles ``theta`` where the
+        batch's ``kick`` and ``zprev`` should see them (none: a reduced model's grid)."""
+        cx = np.zeros(0, dtype=np.int64) if cx is None else np.asarray(cx)
+        theta = np.zeros(0) if theta is None else np.asarray(theta)
+        return cls(indptr=np.zeros(1), indices=np.zeros(0), data=np.zeros(0), mass=mass,
+                   inv_mass=inv_mass, cx=cx, theta=theta, cmass=np.asarray(mass)[cx],
+                   dt=dt, beta2=beta2)
+
     def save(self, path, **extra: np.ndarray) -> None:
         np.savez(path, **{k: getattr(self, k) for k in self.FIELDS}, **extra)
 
@@ -141,7 +159,7 @@ class BatchedExplicit(HookedStepper):
 
     A ``solver.stepper.Stepper``. After ``step()``: ``u`` is u_{n+1}; ``u_prev``,
     ``v``, ``a``, ``ku``, ``r_r``, ``r_t``, ``status`` are time level n (as
-    ``solver.newmark.Newmark``); ``work`` (4, B) holds [work_contact, work_cylinder,
+    ``solver.scene_explicit.SceneExplicit``); ``work`` (4, B) holds [work_contact, work_cylinder,
     friction_dissipation] (``work_totals()``) and the damping work's step sum (``tau`` > 0,
     ``damping_work_totals()``; ``ku`` is K u_n only after ``refresh_ku``). ``advance``
     writes v_n, a_n and K u_n in full only at the levels ``full_state_at(level)`` names (the
@@ -156,7 +174,10 @@ class BatchedExplicit(HookedStepper):
                  xp: Any = np, kernel: str = "numba", tau: float = 0.0,
                  bound: tuple[int, float, float] = (0, 0.0, 0.0),
                  contact: dict[str, np.ndarray] | None = None,
-                 ghost_update: Callable[[np.ndarray], None] | None = None) -> None:
+                 ghost_update: Callable[[np.ndarray], None] | None = None,
+                 operators: SceneOperators | None = None) -> None:
+        #: one scene's own K product and contact step (``SceneArrayColumns``: kernel numpy)
+        self.operators = operators
         columns = self._checked_kernel(kernel, xp, tau, bound)
         self.xp, self.kernel, self.bp = xp, kernel, bp
         n, B, m = bp.n, int(np.size(d)), int(bp.cx.size)
@@ -201,6 +222,11 @@ class BatchedExplicit(HookedStepper):
         if kernel not in BATCH_KERNELS:
             raise ValueError(f"kernel = {kernel!r}: use one of {tuple(BATCH_KERNELS)}")
         columns = BATCH_KERNELS[kernel]
+        if columns.scene_operators != (self.operators is not None):
+            raise ValueError(f"kernel = {kernel!r} "
+                             + ("steps one scene with its own K product and contact step "
+                                "(operators)" if columns.scene_operators else
+                                "has its own K product and contact law (no operators)"))
         if columns.host_only and xp is not np:
             raise ValueError(f"the {kernel} kernel runs on numpy arrays (backend cpu)")
         if not (math.isfinite(tau) and tau >= 0.0):
@@ -477,6 +503,38 @@ class BatchedExplicit(HookedStepper):
 # ------------------------------------------------------------------------------ kernels
 
 
+def internal_force(xp: Any, product: Callable, u, v_pred, tau: float, w, ku, nim, a) -> None:
+    """a*_n = −M⁻¹ K u_n, or with Kelvin–Voigt damping (``tau`` > 0) a*_n = −M⁻¹ K w_n with
+    w_n = u_n + τ v~_n (one product: the damping force τ K v~_n rides on the predictor).
+    ``product(x, out)``: out = K x; ``ku`` keeps K u_n (K w_n), ``nim`` = −M⁻¹."""
+    if tau > 0.0:
+        xp.multiply(v_pred, tau, out=w)
+        w += u
+        product(w, ku)
+    else:
+        product(u, ku)
+    xp.multiply(ku, nim, out=a)
+
+
+def newmark_update(xp: Any, dt: float, beta2: float, a, v, v_pred, u, u_next,
+                   scratch) -> None:
+    """The paper's explicit Newmark update once a_n = a*_n + M⁻¹ r_n is known, in place,
+    with w = v_n + Δt/2 a_n kept in ``v_pred``:
+
+        v_n = v~_n + β₂ Δt a_n,  u_{n+1} = u_n + Δt w,  v~_{n+1} = w + (1/2 − β₂) Δt a_n.
+
+    ``scratch`` (shaped as ``a``) is read only for β₂ ≠ 1/2."""
+    xp.multiply(a, beta2 * dt, out=v)
+    v += v_pred
+    xp.multiply(a, 0.5 * dt, out=v_pred)
+    v_pred += v
+    xp.multiply(v_pred, dt, out=u_next)
+    u_next += u
+    if beta2 != 0.5:
+        xp.multiply(a, (0.5 - beta2) * dt, out=scratch)
+        v_pred += scratch
+
+
 class ArrayColumns:
     """The readable reference step: plain array operations on the namespace ``xp`` (numpy or
     cupy), allocating temporaries; K u by scipy's (or cupyx's) sparse product."""
@@ -484,6 +542,11 @@ class ArrayColumns:
     host_only = False
     regularised = False
     ghost_rows = False  # steps a scene distributed over ranks (a batch of one)
+    scene_operators = False  # steps with a scene's own K product and contact step
+    compiled_advance = False  # ``advance_one``: the steps between samples in one call
+    #: what a batch of one's next step reads (``solver.scene_explicit.SceneExplicit.state``):
+    #: the kernel sums the work, so u_n at the contact nodes and the sums are state
+    scene_state: tuple[str, ...] = ("u", "u_prev", "v_pred", "zprev", "work")
     damping_state: tuple[str, ...] = ()
     """The stepper's arrays of this kernel in a damped column's checkpoint."""
 
@@ -505,6 +568,8 @@ class ArrayColumns:
         self.K = sp.csr_matrix((st.data, st.indices.astype(np.int32),
                               st.indptr.astype(np.int32)), shape=(st.n, st.n))
         self.ix = st.cx.astype(np.int64)
+        self.nim = st.nim[:, None]  # −M⁻¹ as a column
+        self.scratch = xp.zeros_like(st.v) if st.beta2 != 0.5 else None
 
     def stiffness(self, st: BatchedExplicit, u, out) -> None:
         out[...] = self.K @ u
@@ -514,6 +579,12 @@ class ArrayColumns:
 
     def work_sums(self, st: BatchedExplicit):
         return st.work[:3]
+
+    def facts(self, st: BatchedExplicit) -> dict:
+        """The scheme facts of a batch of one (``solver.scene_explicit.SceneExplicit``)."""
+        return {"scheme": "explicit", "beta1": 0.0, "beta2": st.beta2,
+                "damping_tau_s": st.tau, "contact_s": 0.0, "kernel": st.kernel,
+                "kernel_first_call_s": st.compile_s}
 
     @staticmethod
     def totals(state: dict[str, np.ndarray], damped: bool) -> dict[str, np.ndarray]:
@@ -530,19 +601,27 @@ class ArrayColumns:
         return st.work[3]
 
     def step(self, st: BatchedExplicit, u, u_next, diag: bool) -> None:
-        """The step as array operations (always writes v_n, a_n and K u_n: ``diag`` unused)."""
-        xp, dt, b2, kappa = st.xp, st.dt, st.beta2, st.kappa
+        """The step as array operations (always writes v_n, a_n and K u_n: ``diag`` unused):
+        the internal force, the contact force, the Newmark update, the work sums."""
+        internal_force(st.xp, self.product, u, st.v_pred, st.tau, st.u_tau, st.ku, self.nim,
+                       st.a)
+        self.contact_force(st, u)
+        # damped: Σ K w_n · u_{n−1} per column, before u_{n+1} overwrites u_{n−1}
+        before = st.xp.einsum("ib,ib->b", st.ku, u_next) if st.damped else None
+        newmark_update(st.xp, st.dt, st.beta2, st.a, st.v, st.v_pred, u, u_next,
+                       self.scratch)
+        self.sum_work(st, u, u_next, before)
+
+    def product(self, u, out) -> None:
+        """out = K u in the step (scipy's or cupyx's sparse product)."""
+        out[...] = self.K @ u
+
+    def contact_force(self, st: BatchedExplicit, u) -> None:
+        """r_n of the forward-increment law (``solver.contact.nodal``) at every column's
+        contact nodes from the trial u_n + Δt v~_n + κ a*_n, and a_n = a*_n + M⁻¹ r_n."""
+        xp, dt, kappa, a = st.xp, st.dt, st.kappa, st.a
         ix, iy = self.ix, self.ix + 1
         pcr, pci = st.pc_re[:, None], st.pc_im[:, None]
-        if st.damped:  # K w_n, w_n = u_n + tau v~_n (DampedNewmark)
-            w = st.u_tau
-            xp.multiply(st.v_pred, st.tau, out=w)
-            w += u
-            st.ku[...] = self.K @ w
-        else:
-            st.ku[...] = self.K @ u
-        xp.multiply(st.ku, st.nim[:, None], out=st.a)
-        a = st.a
         ux, uy = u[ix], u[iy]
         now_r = ux * pcr - uy * pci
         now_t = ux * pci + uy * pcr
@@ -566,23 +645,79 @@ class ArrayColumns:
         st.r_y[...] = rr * st.ph_im[:, None] + rt * st.ph_re[:, None]
         a[ix] = a[ix] + st.r_x * st.cinv[:, None]
         a[iy] = a[iy] + st.r_y * st.cinv[:, None]
-        st.v[...] = a * (b2 * dt) + st.v_pred
-        w = a * (0.5 * dt) + st.v
-        if st.damped:  # u_next holds u_{n-1} until it is overwritten
-            st.work[3] += 0.5 * (xp.einsum("ib,ib->b", st.ku, w * dt + u)
-                                 - xp.einsum("ib,ib->b", st.ku, u_next))
-        u_next[...] = w * dt + u
-        st.v_pred[...] = w if b2 == 0.5 else w + a * ((0.5 - b2) * dt)
+
+    def sum_work(self, st: BatchedExplicit, u, u_next, before) -> None:
+        """The step's work sums with the centred increment (u_{n+1} − u_{n−1}) / 2: the
+        damping's K w_n · Δu_n (the step sum of ``damping_work_totals``), the contact
+        force's r_n · Δu_n, the cylinder's r_θ R Ω Δt and the friction's dissipation."""
+        xp, ix = st.xp, self.ix
+        if st.damped:
+            st.work[3] += 0.5 * (xp.einsum("ib,ib->b", st.ku, u_next) - before)
         dzx = u_next[ix] - st.zprev[:, 0]
-        dzy = u_next[iy] - st.zprev[:, 1]
-        st.zprev[:, 0] = ux
-        st.zprev[:, 1] = uy
+        dzy = u_next[ix + 1] - st.zprev[:, 1]
+        st.zprev[:, 0] = u[ix]
+        st.zprev[:, 1] = u[ix + 1]
         st.work[0] += 0.5 * (st.r_x * dzx + st.r_y * dzy).sum(axis=0)
         wc = st.r_t.sum(axis=0) * st.slide
-        wt = 0.5 * (st.r_t * (dzx * pci + dzy * pcr)).sum(axis=0)
+        wt = 0.5 * (st.r_t * (dzx * st.pc_im[:, None] + dzy * st.pc_re[:, None])).sum(axis=0)
         fr = st.f > 0.0
         st.work[1] += xp.where(fr, wc, 0.0)
         st.work[2] += xp.where(fr, wc - wt, 0.0)
+
+
+class SceneArrayColumns(ArrayColumns):
+    """One scene's numpy step: ``ArrayColumns``' step on column 0 with the scene's own
+    operators (``SceneOperators``): K u by its product (a PETSc MatMult, whose ghost
+    exchange is PETSc's: a scene over MPI ranks), r_n by its contact step (every friction
+    variant of ``solver.contact``: nodal, regularised, filtered, the 3D tube's disc cone).
+    The work sums are the scene's work observers' (step hooks), not the step's."""
+
+    host_only = True
+    regularised = True
+    ghost_rows = True
+    scene_operators = True
+    #: what the next step reads (``solver.scene_explicit.SceneExplicit.state``)
+    scene_state = ("u", "u_prev", "v_pred")
+
+    def __init__(self, st: BatchedExplicit) -> None:
+        if st.B != 1:
+            raise ValueError(f"the numpy kernel with a scene's operators steps one scene, "
+                             f"not B = {st.B}")
+        self.mult, self.contact = st.operators
+        # 1-D views of column 0, made once: the product and the contact step cache their
+        # wrappers of an array by its identity
+        col = lambda x: x[:, 0]  # noqa: E731 - (n, 1) -> (n,), a view
+        self.u_cols = [col(x) for x in st._u]
+        self.w_cols = [col(x) for x in st._w] if st.damped else [None, None]
+        self.v, self.v_pred, self.a, self.ku = (col(x) for x in (st.v, st.v_pred, st.a, st.ku))
+        self.nim = col(st.nim[:, None])
+        self.scratch = np.zeros(st.n) if st.beta2 != 0.5 else None
+        self.product_out = np.zeros(st.n)  # K u of ``stiffness`` (a sample's K u_n)
+        self.views = {id(x): col(x) for x in (*st._full_u, *st._u)}
+
+    def step(self, st: BatchedExplicit, u, u_next, diag: bool) -> None:
+        """``ArrayColumns``' step on the column: the internal force by the scene's product,
+        its contact step, the Newmark update (the work: the scene's step hooks)."""
+        cur = st.cur
+        u_now = self.u_cols[cur]
+        internal_force(np, self.mult, u_now, self.v_pred, st.tau, self.w_cols[cur], self.ku,
+                       self.nim, self.a)
+        if self.contact is not None:
+            self.contact(u_now, self.v_pred, self.a)
+        newmark_update(np, st.dt, st.beta2, self.a, self.v, self.v_pred, u_now,
+                       self.u_cols[1 - cur], self.scratch)
+
+    def stiffness(self, st: BatchedExplicit, u, out) -> None:
+        """out = K u for one of the batch's u arrays (a sample's K u_n)."""
+        self.mult(self.views[id(u)], self.product_out)
+        out[:, 0] = self.product_out
+
+    def facts(self, st: BatchedExplicit) -> dict:
+        """The scheme facts of one scene (``contact_s``: its contact step's wall time)."""
+        return {"scheme": "explicit", "beta1": 0.0, "beta2": st.beta2,
+                "damping_tau_s": st.tau,
+                "contact_s": float(getattr(self.contact, "seconds", 0.0)),
+                "kernel": "numpy"}
 
 
 class NumbaColumns(ArrayColumns):
@@ -609,6 +744,7 @@ class NumbaColumns(ArrayColumns):
         self.first_product = True  # compiled with the SLP vectoriser (register passes)
         self.energies = get_kernel("column_energies")
         self.single = self.name == "single_step"
+        self.compiled_advance = self.single
         if self.single:
             self.product1 = get_kernel("stiffness_product")
             self.advance_fn = get_kernel("advance")
@@ -801,4 +937,5 @@ class CudaColumns(ArrayColumns):
 #: The batched step's implementations (a strategy of ``BatchedExplicit``, chosen once; the
 #: backend's kernel is ``solver.schemes.select.BACKENDS``).
 BATCH_KERNELS: dict[str, type[ArrayColumns]] = {
-    "numba": NumbaColumns, "cuda": CudaColumns, "xp": ArrayColumns}
+    "numba": NumbaColumns, "cuda": CudaColumns, "xp": ArrayColumns,
+    "numpy": SceneArrayColumns}

@@ -4,7 +4,7 @@ in one compiled pass (numba), ``solver._fused_kernels``: ``single_step`` for one
 ``solver.ensemble.BatchedExplicit`` (one scene is a batch of one:
 ``solver.scene_explicit``). This module loads the kernels and holds their plumbing.
 
-The arithmetic is the one of the numpy reference (``solver.newmark.Newmark`` +
+The arithmetic is the one of the numpy reference (``solver.ensemble.ArrayColumns`` +
 ``solver.contact.ContactProjection`` + ``solver.contact.project_contact`` +
 ``solver.observers.EnergyAccumulator``), element by element, with beta_2 and kappa of the
 paper's explicit scheme (solver/newmark.py docstring):
@@ -16,9 +16,9 @@ paper's explicit scheme (solver/newmark.py docstring):
     v_n    = v~_n + beta_2 dt a_n,   w = v_n + dt/2 a_n
     u_{n+1} = u_n + dt w,            v~_{n+1} = w + (1/2 - beta_2) dt a_n
 
-With Kelvin-Voigt damping C = tau K (``solver.newmark.DampedNewmark``) the internal force
-is K w_n, w_n = u_n + tau v~_n, in place of K u_n (one product), the contact step is
-unchanged, and the kernel also sums the damping work's per-step part
+With Kelvin-Voigt damping C = tau K (``solver.ensemble.internal_force``) the
+internal force is K w_n, w_n = u_n + tau v~_n, in place of K u_n (one product), the contact
+step is unchanged, and the kernel also sums the damping work's per-step part
 1/2 (K w_n . u_{n+1} - K w_n . u_{n-1}) (``solver.observers.DampingWork``; u_{n-1} is the
 spare half of the double buffer before u_{n+1} overwrites it), closed at the samples with
 K u_n (``BatchedExplicit.damping_work_totals``).

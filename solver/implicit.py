@@ -53,8 +53,9 @@ MPI: every rank owns some contact nodes; S (small) and w are gathered to rank 0,
 active set and scatters (p, q, status) back. The displacement is then u_{n+1} = K_eff^{-1}(b +
 E r / (2 beta_1)) (a second triangular solve with the same factorisation).
 
-Diagnostics follow the explicit path's convention (``solver.newmark.Newmark``): after ``step()``
-the integrator holds ``u`` = u_{n+1}, and ``u_prev``, ``v``, ``a``, ``ku`` = u_n, v_n, a_n, K u_n
+Diagnostics follow the explicit path's convention (``solver.ensemble.BatchedExplicit``): after
+``step()`` the integrator holds ``u`` = u_{n+1}, and ``u_prev``, ``v``, ``a``, ``ku`` = u_n,
+v_n, a_n, K u_n
 (a_n = a*_n + M^{-1} r_n), and ``ImplicitContact.out`` / ``r_xy`` hold r_n and the statuses at
 t_n: one consistent time level for the observers. ``ImplicitContact.work_totals()`` is the
 exact contact work sum r_{n+1} . (u_{n+1} - u_n) of the identity above (the observers' centred

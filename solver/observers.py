@@ -102,7 +102,7 @@ class CentredWork:
             float(x) for x in state["sums"])
 
     def kicked(self, du: np.ndarray) -> None:
-        """A kick moved u_n and u_{n+1} by ``du`` (``Newmark.kick``): so do their copies at
+        """A kick moved u_n and u_{n+1} by ``du`` (``BatchedExplicit.kick``): so do their copies at
         the contact nodes, and the next increment is motion, not the kick."""
         moved = self.at_nodes(du)
         self.prev += moved
@@ -206,7 +206,8 @@ class SurfaceWork(CentredWork):
 
 
 class DampingWork:
-    """Work dissipated by the Kelvin-Voigt damping of ``DampedNewmark`` (scene ``[damping]``).
+    """Work dissipated by the Kelvin-Voigt damping of the numpy explicit step (scene
+    ``[damping]``, ``solver.scene_explicit.SceneExplicit``).
 
     The damping force tau K v~_n acts at t_n; its work with the centred increment
     Delta u_n = (u_{n+1} - u_{n-1}) / 2 (as the contact work) is W_d = sum tau K v~_n . Delta u_n.
@@ -223,7 +224,7 @@ class DampingWork:
     def __init__(self, integrator, u0: np.ndarray) -> None:
         self.u_older = u0.copy()  # u_{n-1}
         ku0 = np.zeros_like(u0)
-        integrator._mult(u0, ku0)
+        integrator.stiffness_product(u0, ku0)
         self.u0_ku0 = float(np.dot(u0, ku0))
         self.sum_kw = 0.0
 
@@ -431,7 +432,7 @@ def blas_energies(v: np.ndarray, mass: np.ndarray, u: np.ndarray, ku: np.ndarray
 
 
 class SteppedColumn:
-    """A one-scene stepper that is no batch (``Newmark``, ``DampedNewmark``,
+    """A one-scene stepper whose work observers are step hooks (the numpy explicit step,
     ``ImplicitNewmark``) and its contact step, seen as a batch of one by the records
     (``solver.ensemble_observers.BatchRecorder``): the observed level's u_n, v_n, K u_n and
     the contact outputs as (rows, 1) views, the work sums of the scene's work observers

@@ -1,29 +1,35 @@
 """One scene's explicit step as the batch of one it is: ``BatchedExplicit`` with B = 1 seen as
-a single-scene stepper (``solver.stepper.Stepper``), for ``solver.scene_column.SceneColumn``,
-recorded as a batch is (``solver.ensemble_observers.one_scene_records``).
+a single-scene stepper (``solver.stepper.Stepper``), for ``solver.scene_column.SceneColumn``.
 
-The arithmetic is the batch's (``solver.ensemble.NumbaColumns``: ``single_step`` on column 0),
-so a scene alone and in a batch step with the same code and the same bits. What this module
-adds is what one scene has that a batch member does not:
+The arithmetic is the batch's, on column 0, with one of two kernels
+(``solver.ensemble.BATCH_KERNELS``):
 
-* **its dofs over MPI ranks.** The batch's u and w hold the owned rows, then the ghosts (the
-  columns of K's owned rows that other ranks own); ``GhostRows`` refreshes them through PETSc
-  (``Vec.ghostUpdate``) before K reads them;
-* **its contact step's arrays.** The batch writes r_r, r_t, r_x, r_y, the statuses and a
-  regularised bound's state into the scene's ``solver.contact.ContactProjection``, which its
-  observers, field output and checkpoint read;
+* **numba** (``NumbaColumns``: ``single_step``), so a scene alone and in a batch step with
+  the same code and the same bits. The kernel runs the contact law itself and writes r_r,
+  r_t, r_x, r_y, the statuses and a regularised bound's state into the scene's
+  ``solver.contact.ContactProjection``, which its observers, field output and checkpoint
+  read; it sums the work of the contact forces and the damping (``work``), and the scene is
+  recorded as a batch is (``solver.ensemble_observers.one_scene_records``);
+* **numpy** (``SceneArrayColumns``): ``ArrayColumns``' step with the scene's own operators,
+  K u by one PETSc MatMult and r_n by its contact step (every friction variant, the 3D
+  tube's surface); the work is summed by the scene's work observers (step hooks:
+  ``solver.observers.EnergyAccumulator``, ``DampingWork``).
+
+What this module adds is what one scene has that a batch member does not:
+
+* **its dofs over MPI ranks.** numba: the batch's u and w hold the owned rows, then the
+  ghosts (the columns of K's owned rows that other ranks own); ``GhostRows`` refreshes them
+  through PETSc (``Vec.ghostUpdate``) before K reads them. numpy: the MatMult exchanges them;
 * **the single-run view**: u, u_prev, v, a, ku and v~ as 1-D arrays of the owned dofs, the
-  single-run checkpoint (u, u_prev, v~, u_{n-1} at the contact nodes, the work sums), a start
-  with a known a_0 (v~_0 = v_0 − β₂ Δt a_0), and one compiled call for the steps between two
-  samples on one rank (the probes recorded in it).
-
-The kernel sums the work of the contact forces and the damping itself (``work``); the
-records read them at a sample (``BatchRecorder.sample``).
+  single-run checkpoint, a start with a known a_0 (v~_0 = v_0 − β₂ Δt a_0), and (numba, one
+  rank) one compiled call for the steps between two samples (the probes recorded in it).
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
+from time import perf_counter
 
 import numpy as np
 
@@ -31,7 +37,8 @@ from stickslip.solver.ensemble import BatchedExplicit, BatchedProblem
 from stickslip.solver.fused import friction_bound
 from stickslip.solver.stepper import HookedStepper, copy_state, put_state
 
-__all__ = ["DampingStart", "GhostRows", "SceneExplicit", "scene_explicit"]
+__all__ = ["DampingStart", "GhostRows", "SceneExplicit", "TimedContact", "operator_stepper",
+           "scene_explicit"]
 
 
 class GhostRows:
@@ -55,9 +62,16 @@ class GhostRows:
         vec.ghostUpdate(PETSc.InsertMode.INSERT, PETSc.ScatterMode.FORWARD)
 
 
-def scene_explicit(problem, law, projection, tau: float) -> SceneExplicit:
-    """The numba explicit stepper of one scene on ``problem``'s ranks: a batch of one on
-    this rank's dofs, writing into ``projection``'s arrays (module docstring)."""
+def scene_explicit(problem, law, projection, tau: float, kernel: str) -> SceneExplicit:
+    """The explicit stepper of one scene on ``problem``'s ranks, ``kernel`` "numba" or
+    "numpy": a batch of one on this rank's dofs, stepping the law of ``projection`` (module
+    docstring)."""
+    check_beta2(law.beta2)
+    if kernel == "numpy":
+        bp = BatchedProblem.without_matrix(problem.mass, problem.inv_mass, law.dt, law.beta2,
+                                           cx=problem.nodes.dofs_x, theta=problem.nodes.theta)
+        return operator_stepper(bp, problem.stiffness_mult(), TimedContact(projection), tau,
+                                several_ranks=problem.comm.size > 1)
     bp = BatchedProblem.from_problem(problem, law.dt, law.beta2, distributed=True)
     m = int(bp.cx.size)
     r_pol, r_xy = projection.r_polar.view(np.float64), projection.r_xy.view(np.float64)
@@ -75,6 +89,39 @@ def scene_explicit(problem, law, projection, tau: float) -> SceneExplicit:
     return SceneExplicit(batch, several_ranks=problem.comm.size > 1)
 
 
+def operator_stepper(bp: BatchedProblem, mult: Callable[[np.ndarray, np.ndarray], None],
+                     contact: Callable | None = None, tau: float = 0.0,
+                     several_ranks: bool = False) -> SceneExplicit:
+    """The numpy explicit stepper of one system M a + K (u + τ v~) = r given by its
+    operators: ``mult(u, out)`` (out = K u), ``contact`` (``solver.newmark.ContactStep``, or
+    None) and ``bp``'s masses, step and β₂ (``BatchedProblem.without_matrix``): a scene's
+    (``scene_explicit``), the reduced model's θ grid, a test's oscillator."""
+    check_beta2(bp.beta2)
+    batch = BatchedExplicit(bp, d=np.zeros(1), slide=np.zeros(1), f=np.zeros(1),
+                            kernel="numpy", tau=tau, operators=(mult, contact))
+    return SceneExplicit(batch, several_ranks=several_ranks)
+
+
+def check_beta2(beta2: float) -> None:
+    """The explicit scheme's β₂ in [1/2, 1] (ValueError naming the value)."""
+    if not 0.5 <= beta2 <= 1.0:
+        raise ValueError(f"time.beta2 = {beta2} must be in [0.5, 1]")
+
+
+class TimedContact:
+    """The explicit contact step with its wall time summed in ``seconds`` (two clock reads a
+    step, ~0.1 us; the numbers the projection computes are unchanged)."""
+
+    def __init__(self, projection) -> None:
+        self.projection = projection
+        self.seconds = 0.0
+
+    def __call__(self, u_trial, u_now, force) -> None:
+        t0 = perf_counter()
+        self.projection(u_trial, u_now, force)
+        self.seconds += perf_counter() - t0
+
+
 class SceneExplicit(HookedStepper):
     """A ``BatchedExplicit`` of one column as one scene's stepper (module docstring).
 
@@ -85,10 +132,6 @@ class SceneExplicit(HookedStepper):
     one compiled call when its only step hook is the probe recorder and the run has one rank.
     """
 
-    kernel = "numba"
-    #: What the next step reads: u_{n+1}, u_n, v~_{n+1}, u_{n-1}... at the contact nodes as
-    #: (x, y) pairs, and the work sums (a regularised bound's state is the contact step's).
-    STATE = ("u", "u_prev", "v_pred", "zprev", "work")
 
     def __init__(self, batch: BatchedExplicit, several_ranks: bool = False) -> None:
         self.batch = batch
@@ -100,7 +143,27 @@ class SceneExplicit(HookedStepper):
         self._u = [x[:, 0] for x in batch._u]
         self.v, self.a, self.ku, self.v_pred = (x[:, 0] for x in (batch.v, batch.a, batch.ku,
                                                                   batch.v_pred))
+        #: What the next step reads: u_{n+1}, u_n, v~_{n+1} and, where the kernel sums the
+        #: work, u_n at the contact nodes as (x, y) pairs and the sums (a regularised
+        #: bound's state is the contact step's)
+        self.STATE = batch.columns.scene_state
         self._init_hooks()
+
+    @property
+    def kernel(self) -> str:
+        """The step kernel: "numba" or "numpy"."""
+        return self.batch.kernel
+
+    @property
+    def kw(self) -> np.ndarray:
+        """K w_n after a damped step (w_n = u_n + τ v~_n: the force it applied), until
+        ``refresh_ku`` makes it K u_n (``solver.observers.DampingWork``)."""
+        return self.ku
+
+    def stiffness_product(self, u: np.ndarray, out: np.ndarray) -> None:
+        """out = K u on the owned dofs (1-D arrays) by the scene's own product: the numpy
+        kernel's operators (``solver.observers.DampingWork``'s u_0 · K u_0)."""
+        self.batch.operators[0](u, out)
 
     # the arrays of the last level: 1-D views of the batch's column (owned dofs), made once
     # (an observer may cache its own views of them by identity)
@@ -130,7 +193,7 @@ class SceneExplicit(HookedStepper):
 
     def set_state(self, u: np.ndarray, v: np.ndarray, a0: np.ndarray | None = None) -> None:
         """u_0 and v_0 (at rest where a scene starts from steady sliding); with a known a_0
-        the predictor v~_0 = v_0 − β₂ Δt a_0 (``solver.newmark.Newmark.set_state``),
+        the predictor v~_0 = v_0 − β₂ Δt a_0 (as a run from a known state needs),
         else v~_0 = v_0. Also u_{-1} := u_0 and, damped, w_0 = u_0 + τ v~_0 and u_0·K u_0
         (``BatchedExplicit.set_state``)."""
         v_pred = np.array(v, dtype=float)
@@ -166,17 +229,15 @@ class SceneExplicit(HookedStepper):
 
     def facts(self) -> dict:
         """Scheme facts for the run summary (``solver.stepper.Stepper``)."""
-        return {"scheme": "explicit", "beta1": 0.0, "beta2": self.beta2,
-                "damping_tau_s": self.tau, "contact_s": 0.0, "kernel": "numba",
-                "kernel_first_call_s": self.batch.compile_s}
+        return self.batch.columns.facts(self.batch)
 
     @property
     def compiled_loop(self) -> bool:
         """``advance`` runs as one compiled call: one rank (several need a ghost update per
         step) and no step hook but the probe recorder, which the kernel records."""
         hooks = self.hooks
-        return not self.several_ranks and (len(hooks) == 1
-                                           and hasattr(hooks[0], "kernel_buffers"))
+        return (self.batch.columns.compiled_advance and not self.several_ranks
+                and len(hooks) == 1 and hasattr(hooks[0], "kernel_buffers"))
 
     def advance(self, n: int, t_stop: float = math.inf) -> int:
         """Up to ``n`` steps, stopping before a step once ``time >= t_stop``: with

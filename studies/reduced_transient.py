@@ -1,6 +1,6 @@
 """Reduced transient model: the paper's eq. [2] on a periodic θ grid, integrated with the FE
-solver's own explicit Newmark scheme (:class:`solver.newmark.Newmark`) and nodal contact law
-(:func:`solver.contact.project_contact`). Pure numpy/scipy (no dolfinx, no PETSc).
+solver's own explicit Newmark step (``solver.scene_explicit.operator_stepper``) and nodal
+contact law (:func:`solver.contact.project_contact`). Pure numpy/scipy (no dolfinx, no PETSc).
 
 Non-dimensional (paper section 2): lengths / R, time Ωt, so the cylinder surface speed is 1.
 Unknowns U_j(t), V_j(t) at θ_j = jΔθ, Δθ = 2π/N, stored as one vector u = (U_0..U_{N−1},
@@ -29,7 +29,7 @@ Coulomb's law with the stick condition V̇ = 1, exactly as the FE solver does on
 
 Start from a travelling wave ([3], :func:`wave_fields` evaluates a
 :class:`semianalytic.waves.TravellingWave` exactly at any φ): U, V from the profile at t = 0 and
-U̇ = −cU', V̇ = −cV'. ``Newmark.set_state`` starts its velocity predictor at v₀, which shifts
+U̇ = −cU', V̇ = −cV'. ``SceneExplicit.set_state`` starts its velocity predictor at v₀, which shifts
 the first step's velocity by β₂Δt·a₀ (a first-order global error whenever a₀ ≠ 0);
 :meth:`ReducedModel.set_state` therefore passes the consistent predictor v₀ − β₂Δt·a₀ with
 a₀ = M⁻¹(r₀ − K u₀) and r₀ the wave's reactions.
@@ -55,7 +55,9 @@ from stickslip.solver.contact import (
     forward_increment_factor,
     project_contact,
 )
-from stickslip.solver.newmark import Newmark, critical_time_step
+from stickslip.solver.ensemble import BatchedProblem
+from stickslip.solver.newmark import critical_time_step
+from stickslip.solver.scene_explicit import operator_stepper
 
 if TYPE_CHECKING:
     import scipy.sparse as sp
@@ -112,7 +114,8 @@ def eigenfrequencies(co: Coefficients, n: int) -> Array:
 
 # ----------------------------------------------------------------------------- contact
 class GridContact:
-    """Forward-increment contact step of ``Newmark`` for the θ grid (radial = U, tangential = V).
+    """Forward-increment contact step of the explicit scheme for the θ grid (radial = U,
+    tangential = V).
 
     Calls the FE solver's nodal law ``project_contact`` with d = δ, slide = 1·dt (cylinder
     surface speed 1 in units of RΩ) and nodal mass Δθ; preallocated, allocation-free.
@@ -128,7 +131,7 @@ class GridContact:
         self.inv_mass = 1.0 / self.mass
 
     def __call__(self, u_now: Array, v_pred: Array, accel: Array) -> None:
-        """The ``Newmark`` contact step (``solver.newmark.ContactStep``): every node is a
+        """The explicit contact step (``solver.newmark.ContactStep``): every node is a
         contact node, so the trial position is formed on the whole grid."""
         n, out, trial = self.n, self.out, self.trial
         np.multiply(v_pred, self.dt, out=trial)
@@ -204,7 +207,8 @@ class ReducedModel:
 
         kappa = forward_increment_factor(beta2, self.dt)
         self.contact = GridContact(n, kappa, self.dt, delta, f)
-        self.integ = Newmark(mult, 1.0 / self.mass, self.dt, 0.0, beta2, self.contact)
+        bp = BatchedProblem.without_matrix(self.mass, 1.0 / self.mass, self.dt, beta2)
+        self.integ = operator_stepper(bp, mult, self.contact)
 
     @property
     def steady(self) -> tuple[float, float, float, float]:

@@ -104,3 +104,17 @@ def finished(tmp_path_factory):
     d = tmp_path_factory.mktemp("done") / "r"
     assert run(d)["status"] == "completed"
     return d
+
+
+def explicit_stepper(mult, inv_mass: np.ndarray, dt: float, beta2: float = 0.5, contact=None,
+                     tau: float = 0.0):
+    """The numpy explicit step of M a + K (u + tau v~) = r given by ``mult(u, out)`` (out =
+    K u), the inverse lumped mass (0: a held dof) and ``contact`` (``ContactStep``): a
+    batch of one with these operators (``solver.scene_explicit.operator_stepper``)."""
+    from stickslip.solver.ensemble import BatchedProblem
+    from stickslip.solver.scene_explicit import operator_stepper
+
+    inv_mass = np.asarray(inv_mass, dtype=float)
+    mass = np.divide(1.0, inv_mass, out=np.zeros_like(inv_mass), where=inv_mass > 0)
+    return operator_stepper(BatchedProblem.without_matrix(mass, inv_mass, dt, beta2), mult,
+                            contact, tau)

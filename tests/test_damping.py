@@ -1,7 +1,7 @@
 """Kelvin-Voigt damping: stability limit, energy balance, implicit decay, bad input.
 
-The explicit damped scheme (``solver.newmark.DampedNewmark``) puts the damping force tau K v~_n
-on the velocity predictor; its limit (``critical_time_step`` docstring) is
+The explicit damped scheme (``solver.ensemble.internal_force``) puts the damping
+force tau K v~_n on the velocity predictor; its limit (``critical_time_step`` docstring) is
 beta2 (w dt)^2 + tau w^2 dt <= 2.
 """
 
@@ -9,9 +9,9 @@ import math
 
 import numpy as np
 import pytest
-from conftest import peaks_just_below_and_above
+from conftest import explicit_stepper, peaks_just_below_and_above
 
-from stickslip.solver.newmark import DampedNewmark, Newmark, critical_time_step
+from stickslip.solver.newmark import critical_time_step
 from stickslip.solver.scene import SceneError, load_scene
 
 
@@ -58,7 +58,7 @@ def test_damped_explicit_stable_just_below_and_unstable_just_above_the_limit(bet
     rng = np.random.default_rng(1)
     u0 = rng.normal(size=inv_m.size)
     peaks = peaks_just_below_and_above(
-        lambda factor: DampedNewmark(mult, inv_m, factor * dt_crit, 0.0, beta2, tau=tau),
+        lambda factor: explicit_stepper(mult, inv_m, factor * dt_crit, beta2, tau=tau),
         u0, factors=(0.98, 1.02))
     assert peaks[0] < 2 * np.max(np.abs(u0))
     assert not np.isfinite(peaks[1]) or peaks[1] > 1e6 * np.max(np.abs(u0))
@@ -76,7 +76,7 @@ def test_damping_work_is_the_work_of_the_applied_damping_force():
     residuals = []
     for frac in (0.2, 0.1):
         dt = frac * critical_time_step(w_max, 0.0, 0.5, tau)
-        integ = DampedNewmark(mult, inv_m, dt, 0.0, 0.5, tau=tau)
+        integ = explicit_stepper(mult, inv_m, dt, 0.5, tau=tau)
         integ.set_state(u0, np.zeros_like(u0))
         work = DampingWork(integ, u0)
         direct, u_older = 0.0, u0.copy()
@@ -103,7 +103,7 @@ from mpi4py import MPI  # noqa: E402
 
 from stickslip.solver.problem import build_problem, omega_max  # noqa: E402
 from stickslip.solver.run import Simulation  # noqa: E402
-from stickslip.solver.schemes import damping_advice, make_explicit  # noqa: E402
+from stickslip.solver.schemes import damping_advice  # noqa: E402
 
 SELF = MPI.COMM_SELF
 
@@ -124,8 +124,8 @@ def test_damped_limit_on_the_fe_matrices():
     dt_crit = critical_time_step(w_max, 0.0, 0.5, tau)
     assert dt_crit < 0.9 * critical_time_step(w_max, 0.0, 0.5)
     peaks = peaks_just_below_and_above(
-        lambda factor: DampedNewmark(problem.stiffness_mult(), problem.inv_mass,
-                                     factor * dt_crit, 0.0, 0.5, tau=tau), u0)
+        lambda factor: explicit_stepper(problem.stiffness_mult(), problem.inv_mass,
+                                        factor * dt_crit, 0.5, tau=tau), u0)
     assert peaks[0] < 10 * np.max(np.abs(u0))
     assert not np.isfinite(peaks[1]) or peaks[1] > 1e6 * np.max(np.abs(u0))
 
@@ -151,8 +151,8 @@ def test_energy_balance_with_damping_closes_at_second_order():
 
 
 def test_energy_balance_with_damping_closes_in_the_fused_and_batched_kernels():
-    """The damped scene of the test above at dt_fraction = 0.225, run by ``DampedNewmark``
-    (numpy), the fused kernel and a batch of two (with a second Omega): the fused and
+    """The damped scene of the test above at dt_fraction = 0.225, run by the numpy
+    kernel, the fused kernel and a batch of two (with a second Omega): the fused and
     batched runs record W_d and the other energies of the numpy run to round-off (1e-9 of
     max E: ~400 steps of sums in other orders), so their balance
     E_n - E_0 - W_contact + W_d closes as the numpy one does (0.8 % of max E measured).
@@ -186,25 +186,23 @@ def test_energy_balance_with_damping_closes_in_the_fused_and_batched_kernels():
 
 
 def test_undamped_step_is_the_plain_step():
-    """No [damping]: the plain ``Newmark`` (one MatMult, no damping work, no extra arrays).
-
-    The undamped step is also bit-identical to the plain explicit step's (smoke scene, 300
-    steps, sha256 of u checked against commit b147d39 when this was written)."""
+    """No [damping]: the plain step (one MatMult a step, no damping work, no w arrays)."""
     sc = smoke("time.beta2=0.5")
     problem = build_problem(sc, SELF)
-    integ = make_explicit(problem, sc, 1e-6)
-    assert type(integ) is Newmark and not hasattr(integ, "kw")
     calls = []
-    base = integ._mult
-    integ._mult = lambda u, out: (calls.append(1), base(u, out))
+    base = problem.stiffness_mult()
+    integ = explicit_stepper(lambda u, out: (calls.append(1), base(u, out)), problem.inv_mass,
+                             1e-6)
+    assert not integ.damped and integ.batch._w[0].size == 0
     integ.set_state(np.zeros(problem.n_owned), np.zeros(problem.n_owned))
+    calls.clear()
     for _ in range(5):
         integ.step()
     assert len(calls) == 5
     sim = Simulation(sc, SELF)
     assert "damping" not in sim.columns.records.parts  # no damping-work observer
-    damped = make_explicit(problem, smoke("damping.retardation_time=1e-6"), 1e-6)
-    assert isinstance(damped, DampedNewmark) and damped.tau == 1e-6
+    damped = explicit_stepper(base, problem.inv_mass, 1e-6, tau=1e-6)
+    assert damped.damped and damped.tau == 1e-6
 
 
 def test_implicit_damped_free_vibration_decays_at_the_kelvin_voigt_rate():

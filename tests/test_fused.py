@@ -174,8 +174,8 @@ def test_fused_step_with_ghosts_equals_the_numpy_step():
 
 
 @pytest.mark.parametrize("beta2", [0.6, 0.5])
-def test_damped_fused_step_equals_damped_newmark_to_round_off(beta2):
-    """Kelvin-Voigt damping in the fused kernel against ``DampedNewmark`` (numpy, K w_n by
+def test_damped_fused_step_equals_the_damped_numpy_step_to_round_off(beta2):
+    """Kelvin-Voigt damping in the fused kernel against the numpy kernel (K w_n by
     PETSc MatMult, ``DampingWork`` as a step hook), 300 steps: the same operations, only the
     sum orders of K w and of the dot products differ. u to 1e-11 of max|u| and the samples
     as for the undamped scenes above (measured 3e-13 at beta2 = 0.6); statuses exactly; the
@@ -184,7 +184,8 @@ def test_damped_fused_step_equals_damped_newmark_to_round_off(beta2):
     (the damping work is summed in the kernel, no step hook)."""
     sc = smoke(DAMPED, f"time.beta2={beta2}")
     ref, fused = run(sc, "numpy"), run(sc, "numba")
-    assert type(ref.integrator).__name__ == "DampedNewmark"
+    assert ref.integrator.damped and ref.integrator.kernel == "numpy"
+    assert not ref.integrator.compiled_loop  # its work observers are step hooks
     assert fused.integrator.damped and fused.integrator.compiled_loop
     scale = np.max(np.abs(ref.integrator.u))
     assert np.max(np.abs(ref.integrator.u - fused.integrator.u)) < 1e-11 * scale

@@ -28,9 +28,10 @@ import stickslip.solver.ensemble  # noqa: F401 (used as solver.ensemble)
 import stickslip.solver.ensemble_observers  # noqa: F401 (used as solver.ensemble_observers)
 import stickslip.solver.run  # noqa: F401 (used as solver.run)
 from stickslip import solver
-from stickslip.solver.newmark import Newmark
+from stickslip.solver.ensemble import BatchedProblem
 from stickslip.solver.observers import Cadence
 from stickslip.solver.run import run_loop
+from stickslip.solver.scene_explicit import operator_stepper
 
 
 class Count:
@@ -45,7 +46,8 @@ class Count:
         return ""
 
 
-stepper = Newmark(lambda u, out: np.multiply(u, 4.0, out=out), np.ones(2), 0.1)
+bp = BatchedProblem.without_matrix(np.ones(2), np.ones(2), 0.1, 0.5)
+stepper = operator_stepper(bp, lambda u, out: np.multiply(u, 4.0, out=out))
 stepper.set_state(np.ones(2), np.zeros(2))
 reason = run_loop(stepper, [Count()], t_stop=1.0 - 1e-12, step_stop=float("inf"))
 print(reason, stepper.step_count, Count.levels)
@@ -53,7 +55,7 @@ print(reason, stepper.step_count, Count.levels)
 
 
 def test_run_loop_runs_without_mpi4py():
-    """With mpi4py, PETSc and dolfinx unimportable, the loop steps a Newmark oscillator to
+    """With mpi4py, PETSc and dolfinx unimportable, the loop steps an explicit Newmark oscillator to
     t = 1 (10 steps of 0.1) and the observer sees levels 0, 3, 6, 9 of its cadence."""
     out = subprocess.run([sys.executable, "-c", SCRIPT], cwd=REPO, capture_output=True,
                          text=True, timeout=120)

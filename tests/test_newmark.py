@@ -1,4 +1,5 @@
-"""Explicit Newmark (solver.newmark) on a spring chain: stability limit and contact kappa.
+"""The explicit Newmark step (solver.ensemble, a batch of one with its own operators) on a
+spring chain: stability limit and contact kappa.
 
 No dolfinx needed: the stiffness is a scipy sparse matrix with exactly known spectrum.
 """
@@ -6,8 +7,9 @@ No dolfinx needed: the stiffness is a scipy sparse matrix with exactly known spe
 import numpy as np
 import pytest
 import scipy.sparse as sp
+from conftest import explicit_stepper
 
-from stickslip.solver.newmark import Newmark, critical_time_step
+from stickslip.solver.newmark import critical_time_step
 
 N = 60
 
@@ -21,7 +23,7 @@ def chain():
 
 def run(dt, beta2, steps=3000):
     K, _ = chain()
-    integ = Newmark(lambda u, out: np.copyto(out, K @ u), np.ones(N), dt, 0.0, beta2)
+    integ = explicit_stepper(lambda u, out: np.copyto(out, K @ u), np.ones(N), dt, beta2)
     rng = np.random.default_rng(0)
     integ.set_state(rng.normal(size=N), np.zeros(N))
     for _ in range(steps):
@@ -42,9 +44,10 @@ def test_stability_limit_sqrt2_over_beta2(beta2):
     assert not np.isfinite(blown) or blown > 1e6
 
 
-def test_implicit_is_refused_with_a_clear_message():
-    with pytest.raises(NotImplementedError, match="beta1 = 0"):
-        Newmark(lambda u, out: None, np.ones(3), 1e-3, 0.25, 0.5)
+@pytest.mark.parametrize("beta2", [0.4, 1.5])
+def test_a_beta2_outside_one_half_to_one_is_refused_with_its_value(beta2):
+    with pytest.raises(ValueError, match=rf"time.beta2 = {beta2} must be in \[0.5, 1\]"):
+        explicit_stepper(lambda u, out: None, np.ones(4), 1e-3, beta2)
 
 
 def test_contact_force_moves_next_displacement_by_kappa_over_m():
@@ -55,10 +58,58 @@ def test_contact_force_moves_next_displacement_by_kappa_over_m():
     def contact(u_now, v_pred, accel):
         accel += r / m  # a_n = a*_n + M^{-1} r_n
 
-    base = Newmark(lambda u, out: out.fill(0.0), np.full(1, 1 / m), dt, 0.0, beta2)
-    pushed = Newmark(lambda u, out: out.fill(0.0), np.full(1, 1 / m), dt, 0.0, beta2, contact)
+    base = explicit_stepper(lambda u, out: out.fill(0.0), np.full(2, 1 / m), dt, beta2)
+    pushed = explicit_stepper(lambda u, out: out.fill(0.0), np.full(2, 1 / m), dt, beta2,
+                              contact)
     for integ in (base, pushed):
-        integ.set_state(np.zeros(1), np.zeros(1))
+        integ.set_state(np.zeros(2), np.zeros(2))
         integ.step()
     assert pushed.u[0] - base.u[0] == pytest.approx((beta2 + 0.5) * dt**2 * r / m, rel=1e-12)
     assert pushed.kappa == pytest.approx((beta2 + 0.5) * dt**2)
+
+
+@pytest.mark.parametrize(("beta2", "tau"), [(0.5, 0.0), (0.6, 0.02)])
+def test_one_system_steps_as_the_batch_of_one_it_is(beta2, tau):
+    """The numpy step of one system given by its operators (``SceneArrayColumns``: 1-D
+    views, its own product) and the numpy reference batch (``ArrayColumns``, kernel "xp":
+    (n, 1) arrays, scipy's K) run the same two functions, ``internal_force`` and
+    ``newmark_update``: on the spring chain without contact, 400 steps, plain and damped,
+    u, v and v~ are the same bits."""
+    from stickslip.solver.ensemble import BatchedExplicit, BatchedProblem
+
+    K, w_max = chain()
+    dt = 0.5 * critical_time_step(w_max, 0.0, beta2, tau)
+    one = explicit_stepper(lambda u, out: np.copyto(out, K @ u), np.ones(N), dt, beta2,
+                           tau=tau)
+    bp = BatchedProblem(indptr=K.indptr, indices=K.indices, data=K.data, mass=np.ones(N),
+                        inv_mass=np.ones(N), cx=np.zeros(0, dtype=np.int64),
+                        theta=np.zeros(0), cmass=np.zeros(0), dt=dt, beta2=beta2)
+    batch = BatchedExplicit(bp, d=np.zeros(1), slide=np.zeros(1), f=np.zeros(1),
+                            kernel="xp", tau=tau)
+    u0 = np.random.default_rng(2).normal(size=N)
+    one.set_state(u0, np.zeros(N))
+    batch.set_state(u0[:, None], np.zeros((N, 1)))
+    for _ in range(400):
+        one.step()
+        batch.step()
+    for name in ("u", "u_prev", "v", "v_pred"):
+        np.testing.assert_array_equal(getattr(one, name), getattr(batch, name)[:, 0], name)
+    assert np.max(np.abs(one.u)) > 0.1 * np.max(np.abs(u0))  # it moved, and stays bounded
+
+
+def test_the_numpy_kernel_and_its_operators_go_together():
+    """The numpy kernel steps one system with its own operators; the batch kernels bring
+    their own product and law: either mismatch is one line naming it."""
+    from stickslip.solver.ensemble import BatchedExplicit, BatchedProblem
+
+    bp = BatchedProblem.without_matrix(np.ones(4), np.ones(4), 1e-3, 0.5)
+    args = dict(d=np.zeros(1), slide=np.zeros(1), f=np.zeros(1))
+    with pytest.raises(ValueError, match=r"kernel = 'numpy' steps one scene with its own K "
+                       r"product and contact step \(operators\)$"):
+        BatchedExplicit(bp, kernel="numpy", **args)
+    with pytest.raises(ValueError, match=r"kernel = 'xp' has its own K product and contact "
+                       r"law \(no operators\)$"):
+        BatchedExplicit(bp, kernel="xp", operators=(lambda u, out: None, None), **args)
+    with pytest.raises(ValueError, match="steps one scene, not B = 2"):
+        BatchedExplicit(bp, kernel="numpy", operators=(lambda u, out: None, None),
+                        d=np.zeros(2), slide=np.zeros(2), f=np.zeros(2))

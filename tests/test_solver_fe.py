@@ -12,13 +12,13 @@ pytest.importorskip("dolfinx")
 
 from conftest import (  # noqa: E402
     assert_steady_sliding_stays,
+    explicit_stepper,
     peaks_just_below_and_above,
     step_checking_contact,
 )
 from mpi4py import MPI  # noqa: E402
 
 from stickslip.solver.contact import SEPARATION, SLIP, STICK  # noqa: E402
-from stickslip.solver.newmark import Newmark  # noqa: E402
 from stickslip.solver.problem import build_problem, omega_max  # noqa: E402
 from stickslip.solver.run import Simulation, StepTooLarge  # noqa: E402
 from stickslip.solver.scene import load_scene  # noqa: E402
@@ -66,7 +66,8 @@ def test_explicit_limit_on_the_fe_matrices():
     for beta2 in (0.5, 0.8):
         dt_crit = np.sqrt(2 / beta2) / w_max
         def explicit(factor, b2=beta2, dtc=dt_crit):
-            return Newmark(problem.stiffness_mult(), problem.inv_mass, factor * dtc, 0.0, b2)
+            return explicit_stepper(problem.stiffness_mult(), problem.inv_mass, factor * dtc,
+                                    b2)
 
         results = peaks_just_below_and_above(explicit, u0)
         assert results[0] < 10 * np.max(np.abs(u0))

@@ -66,7 +66,7 @@ class NodalFrames:
 
 
 class ContactProjection(NodalFrames):
-    """The forward-increment contact step of ``Newmark`` for the tube's inner circle.
+    """The forward-increment contact step of the explicit scheme for the tube's inner circle.
 
     Rotating to and from the nodes' polar frames is done with complex numbers: an owned
     blocked array (x0, y0, x1, y1, ...) viewed as complex128 holds z_i = x_i + i y_i per node,
@@ -105,7 +105,7 @@ class ContactProjection(NodalFrames):
                         self.slide, self.f, self.out)
 
     def __call__(self, u_now: np.ndarray, v_pred: np.ndarray, accel: np.ndarray) -> None:
-        """The ``Newmark`` contact step (see ``solver.newmark.ContactStep``)."""
+        """The explicit scheme's contact step (see ``solver.newmark.ContactStep``)."""
         idx, trial, work = self.node_index, self.z_trial, self.z_work
         now = self.polar_at_nodes(u_now, self.z_now)
         # trial u_{n+1} = u_n + dt v~_n + kappa a*_n at the nodes only, (x, y) then polar

@@ -42,7 +42,7 @@ class RingOutputs:
 
 
 class SurfaceContactProjection:
-    """The forward-increment contact step of ``Newmark`` on the contact surface of a 3D
+    """The forward-increment contact step of the explicit scheme on the contact surface of a 3D
     ``solver.problem.TubeProblem`` (``problem.surface``; module docstring).
 
     Per step: three ``take`` of (x, y, z) at the surface's dofs, the polar frame in real
@@ -98,7 +98,7 @@ class SurfaceContactProjection:
         tangential -= scratch
 
     def __call__(self, u_now: np.ndarray, v_pred: np.ndarray, accel: np.ndarray) -> None:
-        """The ``Newmark`` contact step (see ``solver.newmark.ContactStep``)."""
+        """The explicit scheme's contact step (see ``solver.newmark.ContactStep``)."""
         dofs, now, trial, work = self.dofs, self.now, self.trial, self.work3
         u_now.take(dofs, out=now, mode="clip")
         v_pred.take(dofs, out=trial, mode="clip")  # trial u_{n+1} = u_n + dt v~_n + kappa a*_n

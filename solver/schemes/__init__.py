@@ -1,7 +1,8 @@
 """Time schemes: the scheme registry (``select``: ``SCHEMES``, ``add_scheme``, ``for_scene``),
 the one module that knows a scene's scheme, time step, kernel and backend. The steppers
-themselves are ``solver.newmark`` (explicit numpy, damped), ``solver.fused`` (explicit numba),
-``solver.implicit`` (implicit Newmark) and ``solver.ensemble`` (B scenes at once); what each
+themselves are ``solver.ensemble`` (the explicit step of B scenes at once, with its numpy,
+numba and CUDA kernels; one scene is a batch of one, ``solver.scene_explicit``) and
+``solver.implicit`` (implicit Newmark); what each
 offers the time loop is the protocol of ``solver.stepper``, beside them (the registry imports
 the steppers, never the other way).
 """
@@ -14,7 +15,6 @@ from stickslip.solver.schemes.select import (
     check_backend,
     damping_advice,
     for_scene,
-    make_explicit,
     resolve_kernel,
     shortest_wave_period,
     stability_advice,
@@ -24,6 +24,6 @@ from stickslip.solver.schemes.select import (
 
 __all__ = [
     "SCHEMES", "add_scheme", "for_scene", "STEP_WARNING", "batchable", "check_backend",
-    "damping_advice", "make_explicit", "resolve_kernel", "unsteppable", "shortest_wave_period",
+    "damping_advice", "resolve_kernel", "unsteppable", "shortest_wave_period",
     "stability_advice", "time_step",
 ]

@@ -16,9 +16,8 @@ Every branch on ``time.beta1`` (explicit or implicit), on the kernel (numpy, num
 on the backend (cpu, gpu) that decides what runs lives in this module; tests/test_architecture.py
 checks that no other module branches on them or duck-types a stepper.
 
-* ``beta1 = 0``: the paper's explicit Newmark (``solver.newmark.Newmark``, and the batch
-  ``solver.ensemble.BatchedExplicit`` of B scenes or, one scene, of one:
-  ``solver.scene_explicit.SceneExplicit``) with the
+* ``beta1 = 0``: the paper's explicit Newmark, the batch ``solver.ensemble.BatchedExplicit``
+  of B scenes or, one scene, of one (``solver.scene_explicit.SceneExplicit``), with the
   forward-increment (Carpenter-Taylor-Katona) nodal contact projection; stable for
   dt <= dt_crit = sqrt(2 / beta2) / omega_max, so ``0 < dt_fraction <= 1``;
 * ``beta1 > 0``: implicit Newmark (``solver.implicit.ImplicitNewmark``) with the active-set
@@ -37,7 +36,6 @@ import math
 import sys
 from collections.abc import Callable
 from dataclasses import dataclass
-from time import perf_counter
 from typing import Any, Protocol
 
 import numpy as np
@@ -50,7 +48,7 @@ from stickslip.solver.ensemble_observers import one_scene_records
 from stickslip.solver.errors import StepTooLarge
 from stickslip.solver.fused import friction_bound
 from stickslip.solver.fused import numba_available as available
-from stickslip.solver.newmark import DampedNewmark, Newmark, critical_time_step
+from stickslip.solver.newmark import critical_time_step
 from stickslip.solver.observers import (
     DampingWork,
     EnergyAccumulator,
@@ -62,7 +60,7 @@ from stickslip.solver.scene_explicit import DampingStart, scene_explicit
 
 __all__ = [
     "SCHEMES", "BACKENDS", "Scheme", "SchemeParts", "add_scheme", "for_scene", "check_backend",
-    "time_step", "resolve_kernel", "unsteppable", "batchable", "make_explicit", "STEP_WARNING",
+    "time_step", "resolve_kernel", "unsteppable", "batchable", "STEP_WARNING",
     "shortest_wave_period", "stability_advice", "damping_advice",
 ]
 
@@ -334,20 +332,6 @@ def check_continuing_kernel(kernel: str, stepper) -> None:
                          "the same (python3-numba) to continue it bitwise")
 
 
-def make_explicit(problem, scene: Scene, dt: float):
-    """The numpy explicit stepper of ``scene`` (``explicit_stepper``)."""
-    return explicit_stepper(problem, dt, scene.time.beta2, scene.damping.tau)
-
-
-def explicit_stepper(problem, dt: float, beta2: float, tau: float):
-    """The numpy explicit stepper: ``Newmark``, or ``DampedNewmark`` for a Kelvin-Voigt time
-    ``tau`` > 0 (the undamped step then stays exactly the plain one)."""
-    if tau > 0.0:
-        return DampedNewmark(problem.stiffness_mult(), problem.inv_mass, dt, 0.0, beta2,
-                             tau=tau)
-    return Newmark(problem.stiffness_mult(), problem.inv_mass, dt, 0.0, beta2)
-
-
 def _numpy_records(parts: SchemeParts, problem, every: int, n_steps: int,
                    u0: np.ndarray) -> SceneRecords:
     """The numpy step's records (``one_scene_records`` of a ``SteppedColumn``) with its
@@ -384,18 +368,16 @@ def _numba_records(parts: SchemeParts, problem, every: int, n_steps: int,
 
 
 def _numpy_parts(problem, law: ContactLaw, tau: float, projection) -> SchemeParts:
-    """The numpy step (damped or plain) with the projection timed as its contact step."""
-    stepper = explicit_stepper(problem, law.dt, law.beta2, tau)
-    stepper.contact = TimedContact(projection)
-    return SchemeParts(stepper, projection, _numpy_records)
+    """The numpy step: the scene as a batch of one (``solver.scene_explicit``) with its own
+    K product and the projection, timed, as its contact step."""
+    return SchemeParts(scene_explicit(problem, law, projection, tau, "numpy"), projection,
+                       _numpy_records)
 
 
 def _numba_parts(problem, law: ContactLaw, tau: float, projection) -> SchemeParts:
     """The numba step: the scene as a batch of one (``solver.scene_explicit``), which runs
     the projection's law inside its kernel and writes into the projection's arrays."""
-    if not 0.5 <= law.beta2 <= 1.0:
-        raise ValueError(f"time.beta2 = {law.beta2} must be in [0.5, 1]")
-    return SchemeParts(scene_explicit(problem, law, projection, tau), projection,
+    return SchemeParts(scene_explicit(problem, law, projection, tau, "numba"), projection,
                        _numba_records)
 
 
@@ -560,17 +542,3 @@ class ImplicitNewmarkScheme:
 
     def build_batch(self, bp, laws: list[ContactLaw], backend: str, tau: float):
         raise ValueError("the implicit scheme runs one scene at a time (no batch)")
-
-
-class TimedContact:
-    """The explicit contact step with its wall time summed in ``seconds`` (two clock reads a
-    step, ~0.1 us; the numbers the projection computes are unchanged)."""
-
-    def __init__(self, projection) -> None:
-        self.projection = projection
-        self.seconds = 0.0
-
-    def __call__(self, u_trial, u_now, force) -> None:
-        t0 = perf_counter()
-        self.projection(u_trial, u_now, force)
-        self.seconds += perf_counter() - t0

@@ -15,7 +15,7 @@ On the free dofs (outer circle clamped, contact radial dofs removed) this gives
 ``L TᵀM_cT`` with the consistent one). It does not depend on ``d`` or ``Ω``: only on the
 mesh, material and ``f``.
 
-Kelvin–Voigt damping ``C = τK`` (scene ``[damping]``, ``solver.newmark.DampedNewmark``):
+Kelvin–Voigt damping ``C = τK`` (scene ``[damping]``, ``solver.ensemble.ArrayColumns``):
 the transient's internal force is ``K(u + τu̇)`` on every dof, and the contact projection
 takes the normal reaction from it, so the viscous force enters ``λ_i`` and the friction
 force as well: the damping matrix of the linearised system is ``τA``, and

@@ -55,7 +55,7 @@ def newmark_exponents(
     (the radial acceleration of a contact node then vanishes: ``a_{n+1} = a_n (β₂−½)/(β₂+½)``
     from ``a_0 = 0``), so the free dofs follow explicit Newmark (``β₁ = 0``, ``γ = β₂``) on
     ``M ü + τA u̇ + A u = 0``, ``A = K + K_f``, with the damping force on the velocity
-    predictor (``solver.newmark.DampedNewmark``). Per eigenvalue (``W = ω² dt²``,
+    predictor (``solver.ensemble.ArrayColumns``). Per eigenvalue (``W = ω² dt²``,
     ``C = τω² dt``) the amplification matrix of ``(u_n, dt ṽ_n)`` has
     ``z² − (2 − (β₂ + ½)W − C) z + 1 − C − (β₂ − ½)W = 0``. Returns the root of larger
     ``|z|`` (the growing / less damped one) as ``s`` with ``Im s ≥ 0``; it tends to the CEA's
