@@ -536,6 +536,43 @@ def test_the_run_command_and_the_api_share_one_run_function():
         assert not names & {"sampling_problem", "plot_run", "PLOTTABLE"}, (module, names)
 
 
+#: Every class of the production code with a ``step`` method: the explicit step's kernel
+#: strategies of ``BatchedExplicit`` (B scenes, or one as a batch of one), the one-scene view
+#: of a batch of one, the implicit scheme, the protocol, and the travelling-wave Newton's
+#: ``step(omega)`` (not a time step).
+STEP_CLASSES = {
+    ("solver/ensemble.py", "BatchedExplicit"), ("solver/ensemble.py", "ArrayColumns"),
+    ("solver/ensemble.py", "SceneArrayColumns"), ("solver/ensemble.py", "NumbaColumns"),
+    ("solver/ensemble.py", "CudaColumns"), ("solver/scene_explicit.py", "SceneExplicit"),
+    ("solver/implicit.py", "ImplicitNewmark"), ("solver/stepper.py", "Stepper"),
+    ("studies/travel/frame.py", "FrameOperators"),
+    ("studies/travel/newton.py", "CircleProblem"),
+}
+
+
+def test_the_explicit_step_is_written_once_per_backend():
+    """No time stepper outside ``STEP_CLASSES``; the two numpy strategies (the batch's, with
+    its law in arrays, and one scene's, with its own product and contact step) both step
+    through ``internal_force`` and ``newmark_update``, the numpy step written once; numba
+    and CUDA are each one kernel family (``solver._fused_kernels``, ``ensemble_cuda``)."""
+    found, calls = set(), {}
+    for path in sorted((REPO / "solver").rglob("*.py")) + sorted((REPO / "studies").rglob(
+            "*.py")):
+        rel = path.relative_to(REPO).as_posix()
+        for node in ast.walk(ast.parse(path.read_text())):
+            if not isinstance(node, ast.ClassDef):
+                continue
+            for item in node.body:
+                if isinstance(item, ast.FunctionDef) and item.name == "step":
+                    found.add((rel, node.name))
+                    calls[node.name] = {c.func.id for c in ast.walk(item)
+                                        if isinstance(c, ast.Call)
+                                        and isinstance(c.func, ast.Name)}
+    assert found == STEP_CLASSES
+    for strategy in ("ArrayColumns", "SceneArrayColumns"):
+        assert {"internal_force", "newmark_update"} <= calls[strategy], strategy
+
+
 def test_every_scheme_follows_the_stepper_protocol():
     """The three steppers implement ``solver.stepper.Stepper`` (checked at run time
     on the classes' attributes: set_state, step, advance, facts)."""
