@@ -10,7 +10,8 @@ refactor of the explicit path can touch (``CASES``): single runs with the numba 
 kernels, implicit, damped (both kernels), Prakash-Clifton, the 1-2-1 filtered bound, fields,
 a 3D tube (serial and ``mpirun -n 2``), a diverging run, damped runs (numba, numpy) and an
 implicit run under ``mpirun -n 2``, a batched sweep, two censuses under ``mpirun -n 2``
-(settle legs with batches of one, two and three), a census with kicks, and a continuation.
+(settle legs with batches of one, two and three), a census with kicks, and three
+continuations (``CONTINUED``).
 About 2 minutes on 2 cores.
 
 ``compare A B`` then checks every ``.npz`` array bitwise (shape, dtype, values; NaN equal to
@@ -67,6 +68,8 @@ CASES: dict[str, tuple[tuple[str, ...], int]] = {
                       "0.05", "--max-time", "0.1", "--set", "loading.omega=20", "--set",
                       "geometry.delta=0.005"), 1),
 }
+#: The runs continued from their checkpoints (numba, numpy, the 3D tube) and until when.
+CONTINUED = {"damped": "0.006", "damped_numpy": "0.006", "tube3d": "0.003"}
 SWEEP = """name = "same-bits"
 base = "damped.toml"
 group_size = 1
@@ -99,9 +102,10 @@ def run(out: Path) -> int:
         with open(out / f"{name}.log", "w") as log:
             status[name] = subprocess.run(cmd, stdout=log, stderr=subprocess.STDOUT).returncode
         print(f"{name}: exit {status[name]}", flush=True)
-    subprocess.run([sys.executable, "-m", "stickslip.cli.main", "continue",
-                    str(out / "damped"), "--until", "0.006"], stdout=subprocess.DEVNULL,
-                   check=True)
+    for name, until in CONTINUED.items():
+        subprocess.run([sys.executable, "-m", "stickslip.cli.main", "continue",
+                        str(out / name), "--until", until], stdout=subprocess.DEVNULL,
+                       check=True)
     (out / "status.json").write_text(json.dumps(status, indent=2))
     return 0
 
