@@ -690,7 +690,7 @@ class SceneArrayColumns(ArrayColumns):
         self.u_cols = [col(x) for x in st._u]
         self.w_cols = [col(x) for x in st._w] if st.damped else [None, None]
         self.v, self.v_pred, self.a, self.ku = (col(x) for x in (st.v, st.v_pred, st.a, st.ku))
-        self.nim = col(st.nim[:, None])
+        self.nim = st.nim
         self.scratch = np.zeros(st.n) if st.beta2 != 0.5 else None
         self.product_out = np.zeros(st.n)  # K u of ``stiffness`` (a sample's K u_n)
         self.views = {id(x): col(x) for x in (*st._full_u, *st._u)}
