@@ -14,6 +14,12 @@ start seed 1 at N = 264 (``stickslip attractors figure1_n132_damped --starts 8 -
     ... --k-wave 11 --k-side 10 --scan 62.5,65 --fan-from 65 \\
         --fan 63.5,64,66,67 --fan-duration 8                     # the sideband held
     ... (the first) --set time.dt_fraction=0.45 --fan 62,64,65,66,67,68  # at Δt/2
+    ... --k-wave 11 --k-side 10 --scan 56 --duration 6 --fan-from 56 \
+        --fan 58.5,59,59.5,60 --fan-duration 2 --set time.dt_fraction=0.225   # at Δt/4
+    ... --k-wave 11 --k-side 10 --scan 50 --duration 4 --fan-from 50 \
+        --fan 52,55,58 --fan-duration 1.5 --set time.dt_fraction=0.1125       # at Δt/8
+    ... --k-wave 11 --k-side 10 --scan 56 --duration 4 --fan-from 56 \
+        --fan 59,59.5,60,62 --fan-duration 1.5 --set time.dt_fraction=0.1125
 
 and Figure 3 damped's start seed 7 at N = 132 (16 starts): ``--k-wave 8 --k-side 9 --scan
 45,40,35,30 --duration 2 --fan-from 30 --fan 30,31,31.5,32,33,34,35,35.5,36,38,40,42,43,45,50
