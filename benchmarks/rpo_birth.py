@@ -25,7 +25,9 @@ and Figure 3 damped's start seed 7 at N = 132 (16 starts): ``--k-wave 8 --k-side
 45,40,35,30 --duration 2 --fan-from 30 --fan 30,31,31.5,32,33,34,35,35.5,36,38,40,42,43,45,50
 --fan-duration 1.5 --seed-side 1e-2 --linear-below 0.01``; in Δt the same with ``--set
 time.dt_fraction=0.45 --fan 30,30.5,31,31.5,32,33,34,35``, ``0.225 --fan
-30,31,32,33,34,35,36,37,38,40,42,45,50`` and ``0.1125 --fan 30,31,32,33,34,36,38,40,42,45,50``.
+30,31,32,33,34,35,36,37,38,40,42,45,50`` and ``0.1125 --fan
+30,31,32,33,34,36,38,40,42,45,50``; the torus itself: ``--k-wave 8 --k-side 9 --scan 50
+--duration 6 --set time.dt_fraction=F`` (F = 0.9, 0.45, 0.225, 0.1125).
 
 RUN_DIR: a run or census start standing near the rigid wave k_wave (its checkpoint). The
 scan continues it along ``--scan`` (each value ``--duration`` s from the end of the one
