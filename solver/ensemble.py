@@ -24,7 +24,10 @@ Backends (``kernel``: a strategy, ``BATCH_KERNELS``, chosen once by the construc
   ``--fmad=false`` and the same summation order: the state is bitwise the CPU one as well
   (only the contact-work sums are ordered differently: round-off);
 * ``"xp"``: plain array operations written against the namespace ``xp`` (numpy or cupy), the
-  readable reference of the two kernels (tests/test_ensemble.py).
+  readable reference of the two kernels (tests/test_ensemble.py);
+* ``"numpy"``: one scene (B = 1) with its own K product and contact step
+  (``SceneArrayColumns``: every friction variant, the 3D tube, MPI through PETSc's MatMult),
+  the ``"xp"`` step's ``internal_force`` and ``newmark_update`` on its column.
 
 A scene whose energy check fails is *masked*: its columns are zeroed and its d set to 0 (no
 contact force), so it stays at rest at no risk to the others; the caller records it.
