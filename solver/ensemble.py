@@ -127,17 +127,14 @@ class BatchedProblem:
         return bp
 
     @classmethod
-    def without_matrix(cls, mass: np.ndarray, inv_mass: np.ndarray, dt: float, beta2: float,
-                       cx: np.ndarray | None = None,
-                       theta: np.ndarray | None = None) -> BatchedProblem:
-        """A problem whose K is the scene's own product (``SceneArrayColumns``): no CSR,
-        the masses, and the contact nodes' x dofs ``cx`` and angles ``theta`` where the
-        batch's ``kick`` and ``zprev`` should see them (none: a reduced model's grid)."""
-        cx = np.zeros(0, dtype=np.int64) if cx is None else np.asarray(cx)
-        theta = np.zeros(0) if theta is None else np.asarray(theta)
+    def without_matrix(cls, mass: np.ndarray, inv_mass: np.ndarray, dt: float,
+                       beta2: float) -> BatchedProblem:
+        """A problem whose K and contact step are the system's own (``SceneArrayColumns``):
+        the masses, no CSR and no contact nodes of the batch's law (its contact step keeps
+        its own nodes, forces and work)."""
         return cls(indptr=np.zeros(1), indices=np.zeros(0), data=np.zeros(0), mass=mass,
-                   inv_mass=inv_mass, cx=cx, theta=theta, cmass=np.asarray(mass)[cx],
-                   dt=dt, beta2=beta2)
+                   inv_mass=inv_mass, cx=np.zeros(0, dtype=np.int64), theta=np.zeros(0),
+                   cmass=np.zeros(0), dt=dt, beta2=beta2)
 
     def save(self, path, **extra: np.ndarray) -> None:
         np.savez(path, **{k: getattr(self, k) for k in self.FIELDS}, **extra)
@@ -181,6 +178,7 @@ class BatchedExplicit(HookedStepper):
                  operators: SceneOperators | None = None) -> None:
         #: one scene's own K product and contact step (``SceneArrayColumns``: kernel numpy)
         self.operators = operators
+        self.beta2 = bp.beta2
         columns = self._checked_kernel(kernel, xp, tau, bound)
         self.xp, self.kernel, self.bp = xp, kernel, bp
         n, B, m = bp.n, int(np.size(d)), int(bp.cx.size)
@@ -188,7 +186,7 @@ class BatchedExplicit(HookedStepper):
         if bp.ghosts.size and not (B == 1 and columns.ghost_rows):
             raise ValueError(f"a scene distributed over ranks steps alone and with a kernel "
                              f"that refreshes ghost rows (numba), not B = {B}, {kernel}")
-        self.dt, self.beta2 = bp.dt, bp.beta2
+        self.dt = bp.dt
         self.beta1 = 0.0
         self.kappa = forward_increment_factor(bp.beta2, bp.dt)
         self._put_problem(bp, d, slide, f)
@@ -234,6 +232,8 @@ class BatchedExplicit(HookedStepper):
             raise ValueError(f"the {kernel} kernel runs on numpy arrays (backend cpu)")
         if not (math.isfinite(tau) and tau >= 0.0):
             raise ValueError(f"damping tau = {tau} must be a finite number >= 0 (s)")
+        if not 0.5 <= self.beta2 <= 1.0:
+            raise ValueError(f"time.beta2 = {self.beta2} must be in [0.5, 1]")
         self.tau = float(tau)
         self.damped = self.tau > 0.0
         # the friction bound (``solver.fused.friction_bound``): regularised in numba only

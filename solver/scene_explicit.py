@@ -66,10 +66,8 @@ def scene_explicit(problem, law, projection, tau: float, kernel: str) -> SceneEx
     """The explicit stepper of one scene on ``problem``'s ranks, ``kernel`` "numba" or
     "numpy": a batch of one on this rank's dofs, stepping the law of ``projection`` (module
     docstring)."""
-    check_beta2(law.beta2)
     if kernel == "numpy":
-        bp = BatchedProblem.without_matrix(problem.mass, problem.inv_mass, law.dt, law.beta2,
-                                           cx=problem.nodes.dofs_x, theta=problem.nodes.theta)
+        bp = BatchedProblem.without_matrix(problem.mass, problem.inv_mass, law.dt, law.beta2)
         return operator_stepper(bp, problem.stiffness_mult(), TimedContact(projection), tau,
                                 several_ranks=problem.comm.size > 1)
     bp = BatchedProblem.from_problem(problem, law.dt, law.beta2, distributed=True)
@@ -96,16 +94,9 @@ def operator_stepper(bp: BatchedProblem, mult: Callable[[np.ndarray, np.ndarray]
     operators: ``mult(u, out)`` (out = K u), ``contact`` (``solver.newmark.ContactStep``, or
     None) and ``bp``'s masses, step and β₂ (``BatchedProblem.without_matrix``): a scene's
     (``scene_explicit``), the reduced model's θ grid, a test's oscillator."""
-    check_beta2(bp.beta2)
     batch = BatchedExplicit(bp, d=np.zeros(1), slide=np.zeros(1), f=np.zeros(1),
                             kernel="numpy", tau=tau, operators=(mult, contact))
     return SceneExplicit(batch, several_ranks=several_ranks)
-
-
-def check_beta2(beta2: float) -> None:
-    """The explicit scheme's β₂ in [1/2, 1] (ValueError naming the value)."""
-    if not 0.5 <= beta2 <= 1.0:
-        raise ValueError(f"time.beta2 = {beta2} must be in [0.5, 1]")
 
 
 class TimedContact:
