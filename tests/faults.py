@@ -95,9 +95,8 @@ def inject(monkeypatch, kind: str, phase: str) -> dict:  # noqa: ANN001
                 fire()
             return real_commit(rd)
 
-        # the writer's swap (``studies.rundir.writer``) and the abnormal ends' (``scene_run``)
+        # every swap, the writer's and the abnormal ends', is ``RunDirectory``'s (the writer)
         monkeypatch.setattr(studies.rundir.directory, "commit_run_dir", commit)
-        monkeypatch.setattr(studies.rundir.scene_run, "commit_run_dir", commit)
     else:
         name, _, nth = phase.partition("#")
         real_write = solver.atomic.atomic_write

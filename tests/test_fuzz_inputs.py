@@ -426,7 +426,7 @@ def test_scene_numbers_hostile_grid(tmp_path, capsys, monkeypatch, value):
     reached; never a traceback (time.end_time = 1e308 overflowed the step count)."""
     from stickslip.cli.main import main
 
-    monkeypatch.setattr("stickslip.studies.rundir.scene_run.prepare_run_dir", _reached)
+    monkeypatch.setattr("stickslip.studies.rundir.directory.prepare_run_dir", _reached)
     keys = _numeric_scene_keys()
     assert len(keys) >= 30
     for key in keys:

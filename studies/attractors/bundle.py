@@ -11,7 +11,7 @@ The same command runs twice where dolfinx is, around a runner on the node:
    a sweep, from files, through the one time loop) writes ``DIR/results``;
 3. **answer** (``import_results``; DIR's results present): each start's records become its
    run directory under the census's ``starts/runs/<id>`` (``studies.rundir.
-   write_member``, the writer of every run: scene.toml, samples.npz,
+   RunDirectory``, the driver of every run directory: scene.toml, samples.npz,
    checkpoint.npz, summary.json with the wave analysis; no final_field.npz). The census then
    goes on as ``run_census`` does after its sweep: settle-or-extend continues its unsettled
    starts here from their checkpoints, and ``collect`` featurises, groups and prints.
@@ -24,7 +24,6 @@ from __future__ import annotations
 
 import json
 import sys
-import time
 from pathlib import Path
 from typing import TextIO
 
@@ -43,12 +42,7 @@ from stickslip.solver.run import Profile
 from stickslip.solver.scene import write_scene
 from stickslip.solver.scene.files import scene_digest
 from stickslip.studies.attractors.census import sweep_text
-from stickslip.studies.rundir import (
-    prepare_run_dir,
-    running_summary,
-    write_first_files,
-    write_member,
-)
+from stickslip.studies.rundir import RunDirectory
 from stickslip.studies.rundir.ownership import claim
 from stickslip.studies.sweep import load_sweep, scene_for
 
@@ -106,7 +100,7 @@ def write_bundle(census, directory: Path, stream: TextIO | None = None) -> None:
 
 
 class NodeRun:
-    """A start that ran on the node, read back: what ``studies.rundir.write_member`` reads of
+    """A start that ran on the node, read back: what ``RunDirectory.save_member`` reads of
     a batch's ``solver.ensemble_run.SceneRun`` (scene, status, facts, records, checkpoint)."""
 
     def __init__(self, scene, directory: Path, start_id: str) -> None:  # noqa: ANN001
@@ -152,13 +146,13 @@ def import_results(bundle: Path, spec, starts_dir: Path,  # noqa: ANN001
         for task in spec.tasks:
             run = NodeRun(scene_for(spec, task), bundle, task.id)
             folder = starts_dir / "runs" / task.id
-            rd = prepare_run_dir(folder, True, MPI.COMM_SELF, in_place=True)
-            rd.release()
-            write_first_files(rd.work, run.scene, running_summary(run.scene.name))
+            member = RunDirectory(run.scene, folder)
+            member.claim(True, MPI.COMM_SELF, in_place=True)
+            member.release()
+            member.start()
             batch = {"size": len(batches[task.id]["ids"]), "backend": run.backend,
                      "bundle": str(bundle)}
-            write_member(rd, run, Profile(), time.perf_counter(), run.backend,
-                         {"batch": batch})
+            member.save_member(run, Profile(), run.backend, {"batch": batch})
             rc = max(rc, int(run.status == "failed"))
         print(f"bundle: {len(spec.tasks)} starts read from {bundle}",
               file=stream or sys.stdout, flush=True)

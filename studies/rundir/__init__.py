@@ -8,7 +8,8 @@ the wave analysis of ``postprocess.analysis``). Only rank 0 writes files; every 
 ``ownership`` (which directories stickslip may write or replace: every command),
 ``readers`` (every file stickslip reads back, validated), ``directory`` (a run's directory),
 ``signals`` (interrupts by phase), ``scene_run`` (``run_scene``, the exit codes), ``writer``
-(a run's files and summary, the same for a single run, a batch member and a continued run),
+(``RunDirectory``, the driver of every run directory, and a run's files and summary: the same
+for a single run, a batch member and a continued run),
 ``checkpoint`` (a run's checkpoint.npz), ``continuation`` (``continue_run``,
 ``continue_batch``: a run or batch members continued from their checkpoints).
 
@@ -33,13 +34,12 @@ _WHERE = {
     "EXIT_CODES": "stickslip.studies.rundir.scene_run",
     "run_scene": "stickslip.studies.rundir.scene_run",
     "scene_warnings": "stickslip.studies.rundir.scene_run",
+    "RunDirectory": "stickslip.studies.rundir.writer",
     "RunOutputs": "stickslip.studies.rundir.writer",
     "peak_rss_mb": "stickslip.studies.rundir.writer",
     "print_summary": "stickslip.studies.rundir.writer",
     "running_summary": "stickslip.studies.rundir.writer",
     "summarise": "stickslip.studies.rundir.writer",
-    "write_first_files": "stickslip.studies.rundir.writer",
-    "write_member": "stickslip.studies.rundir.writer",
     "write_run_files": "stickslip.studies.rundir.writer",
     "CHECKPOINT": "stickslip.studies.rundir.checkpoint",
     "read_checkpoint": "stickslip.studies.rundir.checkpoint",

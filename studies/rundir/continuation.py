@@ -63,7 +63,6 @@ from stickslip.studies.rundir.checkpoint import (
     read_checkpoint,
     scene_fingerprint,
 )
-from stickslip.studies.rundir.directory import prepare_run_dir
 from stickslip.studies.rundir.ownership import owned
 from stickslip.studies.rundir.readers import (
     ReadError,
@@ -73,8 +72,8 @@ from stickslip.studies.rundir.readers import (
     read_summary,
     read_surface,
 )
-from stickslip.studies.rundir.scene_run import RunDirectory, every_rank
-from stickslip.studies.rundir.writer import print_summary, write_member
+from stickslip.studies.rundir.scene_run import SceneRunner, every_rank
+from stickslip.studies.rundir.writer import RunDirectory, print_summary
 
 if TYPE_CHECKING:  # MPI starts where a run uses it, not when this module is imported
     from mpi4py import MPI
@@ -273,8 +272,8 @@ def continue_run(run_dir: str | Path, until: float, out_dir: str | Path | None =
         print(f"continuing {run_dir} from t = {meta['time']:.6g} s (step {meta['step']}) to "
               f"{until:g} s" + ("" if in_place else f" into {target}"),
               file=sys.stdout if stream is None else stream, flush=True)
-    return RunDirectory(scene, target, force=force or in_place, comm=comm, stream=stream,
-                        check_resources=check_resources, resume=resume).run()
+    return SceneRunner(scene, target, force=force or in_place, comm=comm, stream=stream,
+                       check_resources=check_resources, resume=resume).run()
 
 
 def continue_batch(run_dirs: list[str | Path], until: float,
@@ -300,7 +299,7 @@ def continue_batch(run_dirs: list[str | Path], until: float,
             probes) start there, without the history before it, which stays in the run it
             was kicked from.
         compress: the batch members' samples.npz deflated, else stored (faster to write
-            and to read again; ``write_member``).
+            and to read again; ``RunDirectory.save_member``).
         plans: ``plan_continuation`` of each run, where the caller has made them
             (``continue_run``): a run's samples are then read once, not twice.
 
@@ -364,7 +363,10 @@ def _continue_members(plans: list[_Plan], outs: list[Path | None], backend: str,
         for plan, out in zip(plans, outs, strict=True):
             target = plan.run_dir if out is None else out
             in_place = target.resolve() == plan.run_dir.resolve()
-            claims.append(prepare_run_dir(target, force or in_place, MPI.COMM_SELF))
+            member = RunDirectory(plan.scene, target)
+            member.claim(force or in_place, MPI.COMM_SELF)
+            member.t0 = t0  # the batch's wall time is every member's
+            claims.append(member)
         profile = Profile()
         key = built_key(plans[0].scene)
         batch = Simulation.batch([p.scene for p in plans], profile, backend=backend,
@@ -397,7 +399,7 @@ def _continue_members(plans: list[_Plan], outs: list[Path | None], backend: str,
             extra = {"batch": {"size": len(plans), "backend": backend}}
             if kicked:
                 extra["kick"] = kicked
-            summary = write_member(claim, run, profile, t0, backend, extra, compress)
+            summary = claim.save_member(run, profile, backend, extra, compress)
             print_summary(summary, claim.final, stream, False)
             summaries.append(summary)
         return summaries

@@ -28,26 +28,16 @@ from stickslip.solver.schemes import unsteppable
 from stickslip.studies.output import output_root, process_alive  # noqa: F401  (re-exported)
 from stickslip.studies.resources import ResourceError
 from stickslip.studies.resources import check_resources as _check
-from stickslip.studies.rundir.directory import (
-    RunDir,
-    RunDirError,
-    _disk_status,
-    _refusal,
-    commit_run_dir,
-    discard_run_dir,
-    prepare_run_dir,
-)
+from stickslip.studies.rundir.directory import RunDirError, _disk_status, _refusal
 from stickslip.studies.rundir.signals import RunSignals, _signame
 from stickslip.studies.rundir.summary_file import write_summary
 from stickslip.studies.rundir.writer import (  # noqa: F401  (summarise, peak_rss_mb: re-exported)
+    RunDirectory,
     RunOutputs,
     finish_summary,
     peak_rss_mb,
     print_summary,
-    running_summary,
     summarise,
-    write_first_files,
-    write_run_files,
 )
 
 if TYPE_CHECKING:  # MPI starts where a run uses it, not when this module is imported
@@ -93,7 +83,7 @@ def run_scene(scene: Scene, run_dir: Path, *, force: bool = False,
     A signal that arrives while the files are written is honoured afterwards
     (KeyboardInterrupt on every rank). Resources are estimated before meshing and a scene
     beyond the machine is refused (:class:`studies.resources.ResourceError`) unless
-    ``check_resources`` is False. See :class:`RunDirectory`.
+    ``check_resources`` is False. See :class:`SceneRunner`.
 
     What ``stickslip run`` and ``stickslip.run`` add, in this one place: ``check_sampling``
     refuses (``ResourceError``, before anything is written) a scene whose samples cannot
@@ -105,26 +95,26 @@ def run_scene(scene: Scene, run_dir: Path, *, force: bool = False,
     if check_sampling:
         if problem := sampling_problem(scene, "pass --yes-i-know"):
             raise ResourceError(problem)
-    directory = RunDirectory(scene, run_dir, force=force, comm=comm, profile=profile,
-                             stream=stream, check_resources=check_resources,
-                             replace_on_failure=replace_on_failure)
-    summary = directory.run()
+    runner = SceneRunner(scene, run_dir, force=force, comm=comm, profile=profile,
+                         stream=stream, check_resources=check_resources,
+                         replace_on_failure=replace_on_failure)
+    summary = runner.run()
     if plot and summary.get("status") in PLOTTABLE:  # rank 0: the others' summary is {}
         for path in plot_run(Path(run_dir), window=window):
-            directory.say(f"figure: {path}")
+            runner.say(f"figure: {path}")
     return summary
 
 
-class RunDirectory:
-    """One scene's run into its directory, from the claim to the final summary.
+class SceneRunner:
+    """One scene's run on the ranks of ``comm`` into its directory (``dir``, a
+    :class:`studies.rundir.writer.RunDirectory`, the driver of every run directory).
 
-    :meth:`run` checks the place and the resources, claims the directory
-    (:func:`studies.rundir.directory.prepare_run_dir`), writes ``scene.toml`` and a
-    ``running`` summary, runs the :class:`solver.run.Simulation` under :class:`RunSignals`,
-    and saves (:meth:`_save`). The other methods are the ways a run can end without the
-    normal save: :meth:`mark` (an error on one rank), :meth:`hard_stop` (a signal not
-    acknowledged in compiled code), :meth:`rescue` (the forked writer under mpirun) and
-    :meth:`tidy` (the process killed outright, seen by the watchdog).
+    :meth:`run` checks the place and the resources, claims the directory, writes
+    ``scene.toml`` and a ``running`` summary, runs the :class:`solver.run.Simulation` under
+    :class:`RunSignals`, and saves (:meth:`_save`). The other methods are the ways a run on
+    ranks can end without the normal save: :meth:`mark` (an error on one rank),
+    :meth:`hard_stop` (a signal not acknowledged in compiled code), :meth:`rescue` (the forked
+    writer under mpirun) and :meth:`tidy` (the process killed outright, seen by the watchdog).
     """
 
     def __init__(self, scene: Scene, run_dir: Path, *, force: bool = False,
@@ -141,9 +131,7 @@ class RunDirectory:
         self.stream = sys.stdout if stream is None else stream
         self.rank0 = comm.rank == 0
         self.prof = Profile()
-        self.rd: RunDir | None = None
-        self.t0 = time.perf_counter()
-        self.started = running_summary(scene.name)
+        self.dir = RunDirectory(scene, self.run_dir)
         self.phase = "setup"
         self.sim: Simulation | None = None
         self.status, self.error = "failed", None
@@ -158,8 +146,7 @@ class RunDirectory:
     def run(self) -> dict:
         """Claim, run, save; the summary (rank 0; ``{}`` elsewhere)."""
         est = self._check_first()
-        self.rd = prepare_run_dir(self.run_dir, self.force, self.comm)
-        self.t0 = time.perf_counter()
+        self.dir.claim(self.force, self.comm)
         comm = self.comm
         try:
             mpi_rank0 = self.rank0 and comm.size > 1
@@ -172,7 +159,7 @@ class RunDirectory:
                 signals.mode = "done"
                 deferred = signals.requested if self.status != "interrupted" else 0
         finally:
-            self.rd.release()  # the directory is no longer live
+            self.dir.release()  # the directory is no longer live
         if self.rank0:
             summary["profile_s"] = {k: round(v, 4) for k, v in self.prof.seconds.items()}
             print_summary(summary, self.run_dir, self.stream, self.profile)
@@ -190,7 +177,7 @@ class RunDirectory:
         an earlier run leaves that run as it was (unless ``replace_on_failure``). A write
         error makes the run ``failed`` with it.
         """
-        sim, rd, status, error = self.sim, self.rd, self.status, self.error
+        sim, rd, status, error = self.sim, self.dir.rd, self.status, self.error
         keep_previous = (status in ("failed", "interrupted") or sim is None) \
             and not self.replace_on_failure
         with self.prof.phase("output"):
@@ -211,17 +198,17 @@ class RunDirectory:
             out.rescued = signals.rescue_pid > 0  # the rescue writer saved this run first
             signals.wait_rescue()
             if keep_previous and rd.replacing:
-                discard_run_dir(rd)
+                self.dir.discard()
                 summary = sim.facts() if sim is not None else {"scene": self.scene.name}
                 summary.update(status=status, message=f"{error or status}; the earlier run "
                                f"in {rd.final} is kept unchanged")
-                return finish_summary(summary, None, self.prof, self.t0)
+                return finish_summary(summary, None, self.prof, self.dir.t0)
             if rd.replacing and not rd.work.exists():  # the rescue writer swapped it in
                 rd.work = rd.final
             if status in ("interrupted", "failed") and _disk_status(rd.work) == "failed":
                 # another rank failed and marked the run before mpirun's signal reached us
                 return json.loads((rd.work / "summary.json").read_text())
-            return write_run_files(rd, out, self.prof, self.t0)
+            return self.dir.save(out, self.prof)
 
     def _check_first(self):  # noqa: ANN202 - an Estimate or None
         """The place, the scheme (``unsteppable``: a scene it cannot step is refused
@@ -281,7 +268,7 @@ class RunDirectory:
             self.say(f"  {est.line()}")
         for warning in scene_warnings(scene):
             self.say(f"  warning: {warning}")
-        sim = self.sim = Simulation(scene, comm, self.prof, output_dir=self.rd.work)
+        sim = self.sim = Simulation(scene, comm, self.prof, output_dir=self.dir.work)
         sim.columns.progress.stream = self.stream  # progress lines go where the run's lines go
         if self.resume is not None:
             self.resume(sim)
@@ -315,15 +302,15 @@ class RunDirectory:
     def first_files(self) -> None:
         """scene.toml and the ``running`` summary; a write error leaves nothing half-made."""
         problem = None
-        rd = self.rd
+        rd = self.dir.rd
         if self.rank0:
             try:
-                write_first_files(rd.work, self.scene, self.started)
+                self.dir.start()
             except OSError as err:
                 problem = (f"cannot write in {self.run_dir}: {err.strerror or err}; choose "
                            "another -o")
                 if rd.replacing:
-                    discard_run_dir(rd)
+                    self.dir.discard()
                 else:  # our two files, and the folder if we made it
                     for name in ("scene.toml", "summary.json"):
                         (rd.work / name).unlink(missing_ok=True)
@@ -338,26 +325,18 @@ class RunDirectory:
     def mark(self, status: str, message: str) -> None:
         """The run ended without the normal save (rank-local; a last resort). A final status
         already on disk (another rank's ``failed``) is the first truth: it stays."""
-        rd = self.rd
+        rd = self.dir.rd
         if _disk_status(rd.work) not in (None, "running"):
             return
         if rd.replacing and not self.replace_on_failure:
-            discard_run_dir(rd)
+            self.dir.discard()
             return
         try:
-            self._write_ended(status, message)
+            self.dir.end(status, message)
             if rd.replacing:
-                commit_run_dir(rd)
+                self.dir.commit()
         except OSError:
             pass
-
-    def _write_ended(self, status: str, message: str) -> None:
-        """summary.json of a run that ended without the normal save: what is known at the
-        start, the status and why (no pid: nobody runs it now)."""
-        summary = dict(self.started, status=status, message=message,
-                       wall_time_s=time.perf_counter() - self.t0)
-        summary.pop("pid", None)
-        write_summary(self.rd.work, summary)
 
     def hard_stop(self, signum: int, where: str) -> None:
         """The watchdog's last word before SIGKILL: a signal not acknowledged in time."""
@@ -372,34 +351,34 @@ class RunDirectory:
         ``interrupted``; say so before mpirun's SIGKILL (the normal path writes the same
         status). Only over this run's own ``running`` summary: never another rank's
         ``failed``, never a replacement (its earlier run stays, final)."""
-        rd = self.rd
+        rd = self.dir.rd
         if rd.replacing or _disk_status(rd.work) != "running":
             return
         try:
-            self._write_ended("interrupted", f"interrupted by {_signame(signum)} during setup")
+            self.dir.end("interrupted", f"interrupted by {_signame(signum)} during setup")
         except OSError:
             pass
 
     def rescue(self) -> None:
         """The forked rescue writer (rank 0 under mpirun): save what rank 0 holds, now."""
-        rd = self.rd
+        rd = self.dir.rd
         sim = self.sim if self.phase != "setup" else None  # the time loop has started
         status = self.status if self.ended else "interrupted"
         msg = (self.error if self.ended else None) or f"interrupted during {self.phase}"
-        out = sim.facts() if sim is not None else dict(self.started)
+        out = sim.facts() if sim is not None else dict(self.dir.started)
         out.pop("pid", None)
-        out.update(status=status, wall_time_s=time.perf_counter() - self.t0,
+        out.update(status=status, wall_time_s=time.perf_counter() - self.dir.t0,
                    message=msg + " (saved by the rescue writer: no probes, no final field)")
         if _disk_status(rd.work) not in (None, "running"):
             return  # another rank marked the run (failed) before mpirun's signal came
         if rd.replacing and (sim is None or not self.replace_on_failure):
-            discard_run_dir(rd)  # an interrupted rerun keeps the earlier run
+            self.dir.discard()  # an interrupted rerun keeps the earlier run
             return
         # The summary first (a small file, written at once): mpirun SIGKILLs the ranks 0.25 s
         # after their SIGTERM and returns, and a script that reads the status then must find
         # it final. samples.npz (megabytes) follows; the run's lock is held until it is there.
         write_summary(rd.work, out)
-        commit_run_dir(rd)  # a replacement: swapped in now (rd.work is then rd.final)
+        self.dir.commit()  # a replacement: swapped in now (rd.work is then rd.final)
         if sim is None:
             return
         try:
@@ -414,7 +393,7 @@ class RunDirectory:
         ``interrupted`` if a SIGINT/SIGTERM came first (mpirun's SIGKILL follows its SIGTERM
         within a second), or drop an unfinished replacement. Neither status is final: a
         resumed sweep runs the scene again. The rescue writer, if any, owns the status."""
-        rd = self.rd
+        rd = self.dir.rd
         status, message = "crashed", (f"the process was killed outright (SIGKILL: out of "
                                       f"memory, or mpirun/batch system) during {where}")
         if signum:
@@ -429,7 +408,6 @@ class RunDirectory:
             if _disk_status(folder) != "running":
                 continue
             if rd.replacing and folder == rd.work:
-                discard_run_dir(rd)
+                self.dir.discard()
             else:
-                write_summary(folder, dict(self.started, status=status, message=message,
-                                           wall_time_s=time.perf_counter() - self.t0))
+                self.dir.end(status, message, folder)

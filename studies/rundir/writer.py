@@ -1,9 +1,9 @@
 """A run's files, written by one piece of code for every kind of run.
 
-A single run (``studies.rundir.scene_run.RunDirectory``), a member of a batch
-(``studies.sweep.batch``, a census) and a continued run (``studies.rundir.continuation``) all
-leave the same directory: ``scene.toml`` and a ``running`` summary when they start
-(:func:`write_first_files`), then :func:`write_run_files` when they end:
+A single run (``studies.rundir.scene_run``), a member of a batch (``studies.sweep.batch``, a
+census) and a continued run (``studies.rundir.continuation``) all leave the same directory,
+driven by one :class:`RunDirectory`: ``scene.toml`` and a ``running`` summary when they start
+(:meth:`RunDirectory.start`), then :func:`write_run_files` when they end:
 
 1. ``samples.npz`` (uncompressed for an interrupted run: faster), ``final_field.npz``,
    ``checkpoint.npz`` (a run that stands at a whole level),
@@ -44,13 +44,6 @@ def running_summary(name: str) -> dict:
     (``studies.output``)."""
     return {"scene": name, "status": "running", "pid": os.getpid(),
             "host": socket.gethostname(), "started": time.strftime("%Y-%m-%dT%H:%M:%S%z")}
-
-
-def write_first_files(work: Path, scene: Scene, started: dict) -> None:
-    """``scene.toml`` and the ``running`` summary ``started`` into ``work`` (OSError: the
-    caller removes what it made)."""
-    write_scene(scene, work / "scene.toml")
-    write_summary(work, started)
 
 
 @dataclass
@@ -250,16 +243,87 @@ def summarise(run: Any, probes: dict | None = None) -> dict:
     return out
 
 
-def write_member(rd: directory.RunDir, run: Any, prof: Profile, t0: float, backend: str,
-                 extra: dict | None = None, compress: bool = True) -> dict:
-    """A finished batch member (``solver.columns.SceneRun``) into its claimed directory
-    ``rd``, by :func:`write_run_files` as a single run; ``extra`` (the ``batch`` facts, a
-    ``kick``) goes at the end of its summary. Returns the summary."""
-    out = RunOutputs(run.scene, run, run.status, run.message or None,
-                     probes=run.probes.arrays(), final_field=run.final_field(),
-                     states=None if run.state is None else [run.state], kind="batch",
-                     backend=backend, extra=dict(extra or {}), compress=compress)
-    return write_run_files(rd, out, prof, t0)
+class RunDirectory:
+    """One run's directory from its claim to its final summary: the one driver of every run
+    directory, whatever runs in it (a scene on ranks, ``studies.rundir.scene_run``; a batch
+    member, ``studies.sweep.batch``; a continued run or batch, ``studies.rundir.
+    continuation``; a census start read back from a node, ``studies.attractors.bundle``).
+
+    1. :meth:`claim` (``directory.prepare_run_dir``): the path is stickslip's or new; a
+       replacement is written beside an earlier run and swapped in at the end (``force``), or
+       the earlier run's files go first (``in_place``);
+    2. :meth:`start`: ``scene.toml`` and the ``running`` summary (``started``: pid, host);
+    3. :meth:`save` (:func:`write_run_files`), or :meth:`end`: a run that ended without its
+       files, its status and why;
+    4. :meth:`release`: the directory's lock let go (it is no longer live).
+
+    Only the rank that claimed (rank 0 of ``comm``) writes.
+    """
+
+    def __init__(self, scene: Scene, path: Path) -> None:
+        self.scene, self.path = scene, Path(path)
+        self.rd: directory.RunDir | None = None
+        self.started = running_summary(scene.name)
+        self.t0 = time.perf_counter()
+
+    @property
+    def work(self) -> Path:
+        """Where the run is written meanwhile: the claim's, else (no claim) the path."""
+        return self.path if self.rd is None else self.rd.work
+
+    @property
+    def final(self) -> Path:
+        """Where the run ends up."""
+        return self.path if self.rd is None else self.rd.final
+
+    def claim(self, force: bool, comm: Any, in_place: bool = False) -> None:
+        """Claim the path (collective over ``comm``; ``directory.prepare_run_dir``). The
+        run's wall time counts from here."""
+        self.rd = directory.prepare_run_dir(self.path, force, comm, in_place=in_place)
+        self.t0 = time.perf_counter()
+
+    def start(self) -> None:
+        """``scene.toml`` and the ``running`` summary (OSError: the caller removes what it
+        made, or records the failure)."""
+        write_scene(self.scene, self.work / "scene.toml")
+        write_summary(self.work, self.started)
+
+    def save(self, out: RunOutputs, prof: Profile) -> dict:
+        """The run's files (:func:`write_run_files`); returns the summary as written."""
+        return write_run_files(self.rd, out, prof, self.t0)
+
+    def save_member(self, run: Any, prof: Profile, backend: str, extra: dict | None = None,
+                    compress: bool = True) -> dict:
+        """A finished batch member (``solver.columns.SceneRun``) saved as a single run;
+        ``extra`` (the ``batch`` facts, a ``kick``) goes at the end of its summary."""
+        out = RunOutputs(run.scene, run, run.status, run.message or None,
+                         probes=run.probes.arrays(), final_field=run.final_field(),
+                         states=None if run.state is None else [run.state], kind="batch",
+                         backend=backend, extra=dict(extra or {}), compress=compress)
+        return self.save(out, prof)
+
+    def end(self, status: str, message: str, folder: Path | None = None, **facts: Any) -> dict:
+        """``summary.json`` of a run that ended without its files (into ``folder``, default
+        ``work``): what was known at its start (no pid: nobody runs it now), the status, why,
+        the wall time and ``facts``. Returns it (OSError: not written)."""
+        summary = dict(self.started, status=status, message=message,
+                       wall_time_s=time.perf_counter() - self.t0, **facts)
+        summary.pop("pid", None)
+        write_summary(self.work if folder is None else folder, summary)
+        return summary
+
+    def commit(self) -> None:
+        """Swap a finished replacement into place."""
+        directory.commit_run_dir(self.rd)
+
+    def discard(self) -> None:
+        """Drop an unfinished replacement: the earlier run stays as it was."""
+        directory.discard_run_dir(self.rd)
+
+    def release(self) -> None:
+        """Let the directory's lock go (no-op where nothing was claimed)."""
+        if self.rd is not None:
+            self.rd.release()
 
 
 def peak_rss_mb() -> float:

@@ -33,16 +33,9 @@ from stickslip.solver.run import Profile, Simulation
 from stickslip.solver.scene import Scene
 from stickslip.studies.batching import SPOOL_MEMORY_FRACTION, batch_key
 from stickslip.studies.resources import available_memory
-from stickslip.studies.rundir import (
-    prepare_run_dir,
-    print_summary,
-    running_summary,
-    write_first_files,
-    write_member,
-)
 from stickslip.studies.rundir.ownership import refusal
 from stickslip.studies.rundir.signals import deferred_signals
-from stickslip.studies.rundir.summary_file import write_summary
+from stickslip.studies.rundir.writer import RunDirectory, print_summary
 from stickslip.studies.sweep.spec import SweepSpec, Task, scene_for
 from stickslip.studies.sweep.table import check_recorded
 
@@ -121,9 +114,10 @@ def run_batch(spec: SweepSpec, tasks: list[Task], out_dir: Path, world_rank: int
     """Run ``tasks`` (same ``batch_key``) as one batch on this rank; returns their statuses.
 
     The batch is a ``solver.run.Simulation.batch``; this function only prepares each
-    scene's run directory and log, and writes each scene's files when the batch is done.
-    A member whose files could not be written (a full disk) is ``failed``, and where its own
-    summary cannot say so, ``failures`` (id -> message, as ``table.check_recorded``) does."""
+    scene's run directory (a ``studies.rundir.RunDirectory``, as every run's) and log, and
+    saves each scene's files when the batch is done. A member whose files could not be
+    written (a full disk) is ``failed``, and where its own summary cannot say so,
+    ``failures`` (id -> message, as ``table.check_recorded``) does."""
     t0 = time.perf_counter()
     mine = _claimable(tasks, out_dir, stream)
     if len(mine) < len(tasks):  # a user's folder under runs/ is never written: run the rest
@@ -132,96 +126,61 @@ def run_batch(spec: SweepSpec, tasks: list[Task], out_dir: Path, world_rank: int
             done = run_batch(spec, mine, out_dir, world_rank, backend, stream, failures)
             statuses.update(zip((t.id for t in mine), done, strict=True))
         return [statuses[t.id] for t in tasks]
-    logs, claims, started = [], [], []
+    members: list[_Member] = []
     with deferred_signals() as early:  # every member marked running (or failed), or none
         for t in tasks:
-            if _start_member(spec, t, len(tasks), out_dir, world_rank, backend, logs, claims,
-                             failures):
-                started.append(t)
-    if not started:
+            member = _Member(spec, t, out_dir, t0, failures)
+            if member.start(f"world rank {world_rank} (1 rank(s)) pid {os.getpid()} "
+                            f"batch of {len(tasks)} ({backend})"):
+                members.append(member)
+    if not members:
         if early:
             raise KeyboardInterrupt
         return ["failed"] * len(tasks)
     statuses = dict.fromkeys((t.id for t in tasks), "failed")
-    done = _run_started(spec, started, logs, claims, t0, backend, out_dir, early, failures)
-    statuses.update(zip((t.id for t in started), done, strict=True))
+    _run_members(members, backend, out_dir, early, spec.compress)
+    statuses.update((m.task.id, m.status) for m in members)
     return [statuses[t.id] for t in tasks]
 
 
-def _run_started(spec: SweepSpec, tasks: list[Task], logs: list, claims: list, t0: float,
-                 backend: str, out_dir: Path, early: list[int],
-                 failures: dict[str, str] | None) -> list[str]:
-    """Run the members whose run directories and logs are ready (``_start_member``) as one
-    batch and write each one's files; returns their statuses (KeyboardInterrupt once every
-    member is written, if a signal came)."""
-    scenes = [scene_for(spec, t) for t in tasks]
-    files = _BatchFiles(scenes, claims, logs, t0, len(tasks), backend, spec.compress,
-                        failures)
+def _run_members(members: list[_Member], backend: str, out_dir: Path, early: list[int],
+                 compress: bool) -> None:
+    """Run the members whose run directories and logs are ready (``_Member.start``) as one
+    batch and save each one's files (``_Member.status``); KeyboardInterrupt once every
+    member is written, if a signal came."""
     profile = Profile()
     interrupted = bool(early)
     batch = None
     try:
         if not interrupted:
-            batch = _build_batch(scenes, backend, out_dir, profile, files)
+            batch = Simulation.batch([m.dir.scene for m in members], profile,
+                                     backend=backend, spool_parent=out_dir,
+                                     memory_budget=SPOOL_MEMORY_FRACTION * available_memory())
+            for k, err in batch.failures.items():  # a set-up that failed fails alone
+                members[k].fail(err)
         if batch is not None and batch.live:
             batch.proceed()
     except KeyboardInterrupt:
         interrupted = True
     except Exception as err:  # the batch as a whole failed: every scene still running fails
-        for k in range(len(tasks)):
+        for k, member in enumerate(members):
             if batch is None or batch.runs[k].status == "running" or k in batch.live:
-                files.fail(k, err)
+                member.fail(err)
         batch = None
     with profile.phase("output"), deferred_signals() as came:
-        if batch is not None:
-            files.write_runs(batch, interrupted, profile)
-        elif interrupted:
-            for k in range(len(tasks)):
-                files.interrupted(k)
+        extra = {"batch": {"size": len(members), "backend": backend}}
+        for k, member in enumerate(members):
+            if batch is not None and k in batch.live:
+                member.save(batch.runs[k], interrupted, profile, backend, extra, compress)
+            elif batch is None and interrupted:
+                member.end("interrupted", "interrupted before the batch was built")
     interrupted = interrupted or bool(came)  # honoured once every member is written
     if batch is not None and batch.columns.spool_dir is not None:  # now in each samples.npz
         shutil.rmtree(batch.columns.spool_dir, ignore_errors=True)
-    files.close()
+    for member in members:
+        member.close()
     if interrupted:
         raise KeyboardInterrupt
-    return files.statuses
-
-
-def _start_member(spec: SweepSpec, task: Task, size: int, out_dir: Path, world_rank: int,
-                  backend: str, logs: list, claims: list,
-                  failures: dict[str, str] | None) -> bool:
-    """A member's log opened (appended to ``logs``), its run directory claimed (appended to
-    ``claims``), its scene.toml and a ``running`` summary written as a single run's
-    (``studies.rundir.writer``). The claims are written in place and their locks let go at
-    once: a batch of B members would otherwise hold B open files while it runs.
-
-    Returns False, the member ``failed`` and left out of the batch, where a write failed
-    (a full disk): its log says why, and so does its summary or else ``failures``."""
-    from mpi4py import MPI
-
-    scene, run_dir = scene_for(spec, task), out_dir / "runs" / task.id
-    log = open(out_dir / "logs" / f"{task.id}.log", "a")  # noqa: SIM115
-    log.write(f"== start {time.strftime('%Y-%m-%dT%H:%M:%S')} world rank {world_rank} "
-              f"(1 rank(s)) pid {os.getpid()} batch of {size} ({backend})\n")
-    log.flush()
-    try:
-        claim = prepare_run_dir(run_dir, True, MPI.COMM_SELF, in_place=True)
-        claim.release()
-        write_first_files(claim.work, scene, running_summary(scene.name))
-    except OSError as err:
-        message = f"{type(err).__name__}: {err}"
-        log.write(f"{message}\n== end failed\n")
-        log.close()
-        try:
-            write_summary(run_dir, {"scene": scene.name, "status": "failed",
-                                    "message": message})
-        except OSError as write_err:
-            message += f"; its summary could not be written ({write_err})"
-        check_recorded(run_dir, {"status": "failed", "message": message}, failures, task.id)
-        return False
-    claims.append(claim)
-    logs.append(log)
-    return True
 
 
 def _claimable(tasks: list[Task], out_dir: Path, stream: TextIO | None) -> list[Task]:
@@ -238,69 +197,75 @@ def _claimable(tasks: list[Task], out_dir: Path, stream: TextIO | None) -> list[
     return out
 
 
-def _build_batch(scenes, backend, out_dir, profile, files):
-    """The batch (``Simulation.batch``); scenes whose set-up failed are written ``failed`` at once.
+class _Member:
+    """A batch member's run directory (``studies.rundir.RunDirectory``), its log and its
+    status in the sweep (``table.check_recorded``: a failure its own summary cannot hold
+    goes into the sweep's ``failures``)."""
 
-    The batch keeps its whole sample record in memory when it needs at most
-    ``SPOOL_MEMORY_FRACTION`` of the available memory (no file round trip in the time loop);
-    otherwise it spools it in chunks to a folder under the sweep directory, so that memory
-    does not grow with the run length."""
-    batch = Simulation.batch(scenes, profile, backend=backend, spool_parent=out_dir,
-                             memory_budget=SPOOL_MEMORY_FRACTION * available_memory())
-    for k, err in batch.failures.items():
-        files.fail(k, err)
-    return batch
+    def __init__(self, spec: SweepSpec, task: Task, out_dir: Path, t0: float,
+                 failures: dict[str, str] | None) -> None:
+        self.task, self.failures = task, failures
+        self.dir = RunDirectory(scene_for(spec, task), out_dir / "runs" / task.id)
+        self.log_path = out_dir / "logs" / f"{task.id}.log"
+        self.log: TextIO | None = None
+        self.t0, self.status = t0, "failed"
 
+    def start(self, where: str) -> bool:
+        """Open the log, claim the run directory in place and let its lock go at once (a
+        batch of B members would otherwise hold B open files while it runs), write its
+        scene.toml and ``running`` summary. False: a write failed (a full disk), and the
+        member is ``failed`` and left out of the batch; its log says why, and so does its
+        summary or else ``failures``."""
+        from mpi4py import MPI
 
-class _BatchFiles:
-    """Each scene's run directory and log while and after its batch runs."""
-
-    def __init__(self, scenes, claims, logs, t0: float, size: int, backend: str,
-                 compress: bool = True, failures: dict[str, str] | None = None) -> None:
-        self.scenes, self.claims, self.logs = scenes, claims, logs
-        self.run_dirs = [c.final for c in claims]
-        self.t0, self.size, self.backend, self.compress = t0, size, backend, compress
-        self.statuses = ["failed"] * len(scenes)
-        self.failures = failures  # the sweep's: the failures no summary could record
-
-    def fail(self, k: int, err: BaseException) -> None:
-        tb = "".join(traceback.format_exception(err))
-        self.logs[k].write(tb)
-        self.statuses[k] = "failed"
-        message = f"{type(err).__name__}: {err}"
+        self.log = open(self.log_path, "a")  # noqa: SIM115 - closed by ``close``
+        self.log.write(f"== start {time.strftime('%Y-%m-%dT%H:%M:%S')} {where}\n")
+        self.log.flush()
         try:
-            write_summary(self.run_dirs[k], {
-                "scene": self.scenes[k].name, "status": "failed", "message": message,
-                "traceback": tb.splitlines()[-6:],
-                "wall_time_s": time.perf_counter() - self.t0, "ranks": 1})
+            self.dir.claim(True, MPI.COMM_SELF, in_place=True)
+            self.dir.release()
+            self.dir.t0 = self.t0  # the batch's wall time is every member's
+            self.dir.start()
+        except OSError as err:
+            self.end("failed", f"{type(err).__name__}: {err}")
+            self.log.write(f"{type(err).__name__}: {err}\n")
+            self.close()
+            return False
+        return True
+
+    def fail(self, err: BaseException) -> None:
+        """The member's run raised: its traceback in the log, ``failed`` in its summary."""
+        tb = "".join(traceback.format_exception(err))
+        self.log.write(tb)
+        self.end("failed", f"{type(err).__name__}: {err}", traceback=tb.splitlines()[-6:],
+                 ranks=1)
+
+    def end(self, status: str, message: str, **facts: object) -> None:
+        """``RunDirectory.end``; a summary that cannot be written goes to ``failures``."""
+        self.status = status
+        try:
+            self.dir.end(status, message, **facts)
         except OSError as write_err:  # a full disk: the sweep's table records it
             message += f"; its summary could not be written ({write_err})"
-        check_recorded(self.run_dirs[k], {"status": "failed", "message": message},
-                       self.failures, self.run_dirs[k].name)
+        if status == "failed":
+            check_recorded(self.dir.final, {"status": status, "message": message},
+                           self.failures, self.task.id)
 
-    def interrupted(self, k: int) -> None:
-        self.statuses[k] = "interrupted"
-        write_summary(self.run_dirs[k], {"scene": self.scenes[k].name, "status": "interrupted"})
-
-    def write_runs(self, batch, interrupted: bool, profile) -> None:
-        """summary.json, samples.npz, final_field.npz and checkpoint.npz of every scene that
-        ran, written as a single run's (``studies.rundir.write_member``)."""
-        for k in batch.live:
-            run = batch.runs[k]
-            if run.recorder is None:  # interrupted before the batch was built
-                self.interrupted(k)
-                continue
-            if interrupted:
-                run.status, run.message = "interrupted", "interrupted"
-            summary = write_member(self.claims[k], run, profile, self.t0, self.backend,
-                                   {"batch": {"size": self.size, "backend": self.backend}},
-                                   self.compress)
-            print_summary(summary, self.run_dirs[k], self.logs[k], False)
-            # the summary's status (failed where a write failed), if its file holds it
-            self.statuses[k] = check_recorded(self.run_dirs[k], summary, self.failures,
-                                              self.run_dirs[k].name)
+    def save(self, run, interrupted: bool, profile: Profile, backend: str,  # noqa: ANN001
+             extra: dict, compress: bool) -> None:
+        """summary.json, samples.npz, final_field.npz and checkpoint.npz of the member's run
+        (a ``solver.columns.SceneRun``), saved as a single run's."""
+        if run.recorder is None:  # interrupted before the batch was built
+            self.end("interrupted", "interrupted before the batch was built")
+            return
+        if interrupted:
+            run.status, run.message = "interrupted", "interrupted"
+        summary = self.dir.save_member(run, profile, backend, extra, compress)
+        print_summary(summary, self.dir.final, self.log, False)
+        # the summary's status (failed where a write failed), if its file holds it
+        self.status = check_recorded(self.dir.final, summary, self.failures, self.task.id)
 
     def close(self) -> None:
-        for log, st in zip(self.logs, self.statuses, strict=True):
-            log.write(f"== end {st}\n")
-            log.close()
+        if self.log is not None and not self.log.closed:
+            self.log.write(f"== end {self.status}\n")
+            self.log.close()
