@@ -101,6 +101,31 @@ def test_a_sweep_never_appends_to_a_symlinked_log(tmp_path, capsys):
     assert (out / "logs" / f"{log.name}.link").is_symlink()  # set aside, not followed
 
 
+def test_a_batched_sweep_never_appends_to_a_symlinked_log(tmp_path, capsys):
+    """The same for a batch's member: its log was opened by a plain ``open``, which follows
+    a link into the user's file."""
+    pytest.importorskip("dolfinx")
+    spec = tmp_path / "s.toml"
+    spec.write_text(f'base = "{SMOKE}"\nset = ["time.end_time=0.002", "output.progress=false"]'
+                    '\nbatch = 2\n[grid]\n"loading.omega" = [2.0, 3.0]\n')
+    out = tmp_path / "out"
+    assert cli(capsys, "sweep", spec, "-o", out)[0] == 0
+    victims = []
+    for run_dir in (out / "runs").iterdir():
+        (run_dir / "summary.json").unlink()  # both scenes run again on resume, as a batch
+        log = out / "logs" / f"{run_dir.name}.log"
+        victims.append(tmp_path / f"diary-{run_dir.name}.txt")
+        victims[-1].write_text("keep")
+        log.unlink()
+        log.symlink_to(victims[-1])
+    assert cli(capsys, "sweep", spec, "-o", out)[0] == 0
+    assert [v.read_text() for v in victims] == ["keep", "keep"]
+    for run_dir in (out / "runs").iterdir():
+        log = out / "logs" / f"{run_dir.name}.log"
+        assert not log.is_symlink() and "batch of 2" in log.read_text()
+        assert (out / "logs" / f"{log.name}.link").is_symlink()  # set aside, not followed
+
+
 @pytest.mark.parametrize("name", ["runs", "logs"])
 def test_a_sweep_refuses_a_symlinked_folder(tmp_path, capsys, name):
     """`runs/` or `logs/` a link to elsewhere: the resume wrote into the link's target."""

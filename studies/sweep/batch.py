@@ -38,6 +38,7 @@ from stickslip.studies.rundir.signals import deferred_signals
 from stickslip.studies.rundir.writer import RunDirectory, print_summary
 from stickslip.studies.sweep.spec import SweepSpec, Task, scene_for
 from stickslip.studies.sweep.table import check_recorded
+from stickslip.studies.sweep.task_log import TaskLog
 
 #: Memory a batch may use (bytes) when ``--batch auto`` picks its size.
 AUTO_MEMORY_FRACTION = 0.25
@@ -198,16 +199,17 @@ def _claimable(tasks: list[Task], out_dir: Path, stream: TextIO | None) -> list[
 
 
 class _Member:
-    """A batch member's run directory (``studies.rundir.RunDirectory``), its log and its
-    status in the sweep (``table.check_recorded``: a failure its own summary cannot hold
-    goes into the sweep's ``failures``)."""
+    """A batch member's run directory (``studies.rundir.RunDirectory``), its log
+    (``task_log.TaskLog``, as a scene run alone has) and its status in the sweep
+    (``table.check_recorded``: a failure its own summary cannot hold goes into the sweep's
+    ``failures``)."""
 
     def __init__(self, spec: SweepSpec, task: Task, out_dir: Path, t0: float,
                  failures: dict[str, str] | None) -> None:
         self.task, self.failures = task, failures
         self.dir = RunDirectory(scene_for(spec, task), out_dir / "runs" / task.id)
         self.log_path = out_dir / "logs" / f"{task.id}.log"
-        self.log: TextIO | None = None
+        self.log: TaskLog | None = None
         self.t0, self.status = t0, "failed"
 
     def start(self, where: str) -> bool:
@@ -218,9 +220,8 @@ class _Member:
         summary or else ``failures``."""
         from mpi4py import MPI
 
-        self.log = open(self.log_path, "a")  # noqa: SIM115 - closed by ``close``
-        self.log.write(f"== start {time.strftime('%Y-%m-%dT%H:%M:%S')} {where}\n")
-        self.log.flush()
+        self.log = TaskLog(self.log_path)
+        self.log.start(where)
         try:
             self.dir.claim(True, MPI.COMM_SELF, in_place=True)
             self.dir.release()
@@ -261,11 +262,10 @@ class _Member:
         if interrupted:
             run.status, run.message = "interrupted", "interrupted"
         summary = self.dir.save_member(run, profile, backend, extra, compress)
-        print_summary(summary, self.dir.final, self.log, False)
+        print_summary(summary, self.dir.final, self.log.file, False)
         # the summary's status (failed where a write failed), if its file holds it
         self.status = check_recorded(self.dir.final, summary, self.failures, self.task.id)
 
     def close(self) -> None:
-        if self.log is not None and not self.log.closed:
-            self.log.write(f"== end {self.status}\n")
-            self.log.close()
+        if self.log is not None:
+            self.log.end(self.status)

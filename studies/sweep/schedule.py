@@ -55,6 +55,7 @@ from stickslip.studies.sweep.table import (
     task_state,
     write_table,
 )
+from stickslip.studies.sweep.task_log import TaskLog
 
 if TYPE_CHECKING:  # pragma: no cover
     from mpi4py import MPI
@@ -278,18 +279,16 @@ def _run_one(spec: SweepSpec, task: Task, out_dir: Path, group: MPI.Comm,
     message; leader only) for the table."""
     leader = group.rank == 0
     run_dir = out_dir / "runs" / task.id
-    log = _open_log(out_dir / "logs" / f"{task.id}.log") if leader else None
+    log = TaskLog(out_dir / "logs" / f"{task.id}.log") if leader else None
     t0 = time.perf_counter()
     status = "failed"
     try:
         if log is not None:
-            log.write(f"== start {time.strftime('%Y-%m-%dT%H:%M:%S')} world rank {world_rank} "
-                      f"({group.size} rank(s)) pid {os.getpid()}\n")
-            log.flush()
+            log.start(f"world rank {world_rank} ({group.size} rank(s)) pid {os.getpid()}")
         try:
             summary = run_scene(scene_for(spec, task), run_dir, force=True, comm=group,
                                 replace_on_failure=True, check_resources=check_cost,
-                                stream=log if log is not None else sys.stdout)
+                                stream=log.file if log is not None else sys.stdout)
             status = str(summary.get("status", "failed")) if leader else "?"
             if leader:
                 status = check_recorded(run_dir, summary, failures, task.id)
@@ -313,18 +312,8 @@ def _run_one(spec: SweepSpec, task: Task, out_dir: Path, group: MPI.Comm,
             status = group.bcast(status, root=0)
     finally:
         if log is not None:
-            log.write(f"== end {status}\n")
-            log.close()
+            log.end(status)
     return status
-
-
-def _open_log(path: Path) -> TextIO:
-    """The scene's log, appended to; never through a symbolic link (a user's file): a link
-    in its place is set aside as ``NAME.link`` (kept, unfollowed) and a new log begun."""
-    if path.is_symlink():
-        os.replace(path, path.with_name(path.name + ".link"))
-    fd = os.open(path, os.O_WRONLY | os.O_APPEND | os.O_CREAT | os.O_NOFOLLOW, 0o666)
-    return os.fdopen(fd, "a")
 
 
 def _record_failure(spec: SweepSpec, task: Task, run_dir: Path, err: Exception, tb: str,
