@@ -80,49 +80,29 @@ def test_a_symlinked_run_file_is_not_read(finished, tmp_path, capsys, name):
     one_line(rc, err, f"{d / name}: is a symbolic link")
 
 
-def test_a_sweep_never_appends_to_a_symlinked_log(tmp_path, capsys):
-    """A sweep's `logs/ID.log` -> a user's file: the resume appended to the user's file."""
+@pytest.mark.parametrize("batch", ["off", 2])
+def test_a_sweep_never_appends_to_a_symlinked_log(tmp_path, capsys, batch):
+    """A sweep's `logs/ID.log` -> a user's file: the resume appended to the user's file (a
+    scene alone; a batch's members, whose logs were opened by a plain ``open``)."""
     pytest.importorskip("dolfinx")
     spec = tmp_path / "s.toml"
-    spec.write_text(f'base = "{SMOKE}"\nset = ["time.end_time=0.005", "output.progress=false"]'
-                    '\n[grid]\n"loading.omega" = [2.0]\n')
-    out = tmp_path / "out"
-    assert cli(capsys, "sweep", spec, "-o", out)[0] == 0
-    (run_dir,) = (out / "runs").iterdir()
-    (run_dir / "summary.json").unlink()  # the scene runs again on resume
-    log = out / "logs" / f"{run_dir.name}.log"
-    victim = tmp_path / "diary.txt"
-    victim.write_text("keep")
-    log.unlink()
-    log.symlink_to(victim)
-    assert cli(capsys, "sweep", spec, "-o", out)[0] == 0
-    assert victim.read_text() == "keep"
-    assert not log.is_symlink() and "== start" in log.read_text()
-    assert (out / "logs" / f"{log.name}.link").is_symlink()  # set aside, not followed
-
-
-def test_a_batched_sweep_never_appends_to_a_symlinked_log(tmp_path, capsys):
-    """The same for a batch's member: its log was opened by a plain ``open``, which follows
-    a link into the user's file."""
-    pytest.importorskip("dolfinx")
-    spec = tmp_path / "s.toml"
+    batched = batch != "off"
     spec.write_text(f'base = "{SMOKE}"\nset = ["time.end_time=0.002", "output.progress=false"]'
-                    '\nbatch = 2\n[grid]\n"loading.omega" = [2.0, 3.0]\n')
+                    f'\nbatch = {batch!r}\n[grid]\n"loading.omega" = '
+                    f'{[2.0, 3.0] if batched else [2.0]}\n'.replace("'", '"'))
     out = tmp_path / "out"
     assert cli(capsys, "sweep", spec, "-o", out)[0] == 0
-    victims = []
-    for run_dir in (out / "runs").iterdir():
-        (run_dir / "summary.json").unlink()  # both scenes run again on resume, as a batch
-        log = out / "logs" / f"{run_dir.name}.log"
-        victims.append(tmp_path / f"diary-{run_dir.name}.txt")
-        victims[-1].write_text("keep")
+    logs = [out / "logs" / f"{run_dir.name}.log" for run_dir in (out / "runs").iterdir()]
+    for log in logs:
+        (out / "runs" / log.stem / "summary.json").unlink()  # the scene runs again on resume
         log.unlink()
-        log.symlink_to(victims[-1])
+        log.symlink_to(tmp_path / f"diary-{log.stem}.txt")
+        (tmp_path / f"diary-{log.stem}.txt").write_text("keep")
     assert cli(capsys, "sweep", spec, "-o", out)[0] == 0
-    assert [v.read_text() for v in victims] == ["keep", "keep"]
-    for run_dir in (out / "runs").iterdir():
-        log = out / "logs" / f"{run_dir.name}.log"
-        assert not log.is_symlink() and "batch of 2" in log.read_text()
+    for log in logs:
+        assert (tmp_path / f"diary-{log.stem}.txt").read_text() == "keep"
+        assert not log.is_symlink() and "== start" in log.read_text()
+        assert ("batch of 2" in log.read_text()) == batched
         assert (out / "logs" / f"{log.name}.link").is_symlink()  # set aside, not followed
 
 
