@@ -308,6 +308,25 @@ def test_travel_from_a_run_of_another_scene_is_refused(finished, tmp_path, capsy
 # ------------------------------------------------------------------ tracebacks, exit codes
 
 
+@pytest.mark.parametrize(("damage", "words"), [
+    ("not JSON", "summary.json: not valid JSON"),
+    ("no sim_time_s", "sim_time_s is None"),
+])
+def test_rpo_from_a_damaged_summary_is_one_line(finished, tmp_path, capsys, damage, words):
+    """`rpo RUN --period T --shift S` read summary.json raw for the checkpoint's time: a
+    JSONDecodeError or KeyError traceback. Now its validated readers: one line, exit 2."""
+    d = copy_run(finished, tmp_path / "r")
+    summary = d / "summary.json"
+    if damage == "not JSON":
+        summary.write_text("{garbage")
+    else:
+        s = json.loads(summary.read_text())
+        s.pop("sim_time_s")
+        summary.write_text(json.dumps(s))
+    rc, err = cli(capsys, "rpo", d, "--period", "0.001", "--shift", "0.1")
+    one_line(rc, err, words)
+
+
 @pytest.mark.parametrize(("argv", "words"), [
     (["flutter-fe", "smoke", "--fmax-hz", "1e12"], "--fmax-hz 1e+12 is far above the mesh's "
                                                    "highest frequency"),

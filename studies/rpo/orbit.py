@@ -38,7 +38,6 @@ displacement and velocity), so ‖ξ‖ ≈ 1 and ‖G‖ is a relative RMS resi
 
 from __future__ import annotations
 
-import json
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -52,6 +51,7 @@ from stickslip.solver.ensemble_run import BatchColumns, BatchOptions
 from stickslip.solver.run import Profile
 from stickslip.solver.scene import require_plane_strain
 from stickslip.solver.schemes.select import for_scene
+from stickslip.studies.rundir.checkpoint import read_checkpoint
 from stickslip.studies.rundir.continuation import plan_continuation
 
 __all__ = ["Start", "RingRotation", "TimeMap", "start_from_run", "start_from_state"]
@@ -101,7 +101,9 @@ def start_from_run(run_dir: str | Path) -> Start:
     """The state where a run's checkpoint stands (a census start, a batch member or a
     one-rank ``stickslip run``), with its scene and step."""
     run_dir = Path(run_dir)
-    t_ck = float(json.loads((run_dir / "summary.json").read_text())["sim_time_s"])
+    # the checkpoint's time from its validated reader; the plan then checks every file
+    # (summary.json included) against it: a damaged run is one line (ReadError), not a trace
+    t_ck = read_checkpoint(run_dir).time
     plan = plan_continuation(run_dir, t_ck + 1.0, 1)
     scene = plan.scene
     require_plane_strain(scene)  # SceneError, one line: the orbit's shift is the circle's
