@@ -39,11 +39,14 @@ def atomic_write(path: str | Path, fill: Callable[[IO[bytes]], Any]) -> Path:
             fh.flush()
             os.fsync(fh.fileno())
         os.replace(tmp, p)
-    except BaseException:
+    except BaseException as err:
         try:
             os.unlink(tmp)
         except FileNotFoundError:
             pass
+        if isinstance(err, OSError) and err.filename is None and err.errno is not None:
+            # a failed write names no file ("No space left on device"): name the one written
+            raise OSError(err.errno, err.strerror, str(p)) from err
         raise
     return p
 

@@ -158,6 +158,24 @@ def _full_disk_for(monkeypatch, run_id: str, fit: int) -> None:
     monkeypatch.setattr(solver.atomic, "atomic_write", write)
 
 
+def test_a_write_that_fails_names_its_file(tmp_path):
+    """A full disk fails ``fh.write`` with an OSError that names no file: the one-line errors
+    and the summaries' messages said "No space left on device" without saying where. The
+    atomic writer now names the file it wrote, and leaves no temporary file."""
+    import errno
+
+    from stickslip.solver.atomic import atomic_write
+
+    def full(fh):  # noqa: ANN001 - as a full disk's write fails
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    target = tmp_path / "summary.json"
+    with pytest.raises(OSError) as caught:
+        atomic_write(target, full)
+    assert caught.value.errno == errno.ENOSPC and caught.value.filename == str(target)
+    assert str(target) in str(caught.value) and list(tmp_path.iterdir()) == []
+
+
 @pytest.mark.parametrize("fit", [1, 3, 5], ids=["scene.toml", "samples", "analysis"])
 def test_a_full_disk_fails_the_scene_in_the_table_and_the_exit_status(tmp_path, monkeypatch,
                                                                       capsys, fit):
