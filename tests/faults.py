@@ -49,6 +49,7 @@ def digest(run_dir: Path) -> str | None:
 def inject(monkeypatch, kind: str, phase: str) -> dict:  # noqa: ANN001
     """Arm one fault; returns a dict whose "fired" says whether it happened."""
     import stickslip.solver.atomic  # noqa: F401 (loaded: used as an attribute)
+    import stickslip.solver.ensemble_run  # noqa: F401 (loaded: used as an attribute)
     import stickslip.solver.problem  # noqa: F401 (loaded: used as an attribute)
     import stickslip.solver.scene_column  # noqa: F401 (loaded: used as an attribute)
     import stickslip.studies.rundir  # noqa: F401 (loaded: used as an attribute)
@@ -78,15 +79,15 @@ def inject(monkeypatch, kind: str, phase: str) -> dict:  # noqa: ANN001
         monkeypatch.setattr(solver.scene_column, "build_problem", build)
         monkeypatch.setattr(solver.problem, "build_problem", build)
     elif phase == "loop":
-        real_sample = solver.scene_column.SceneColumn.sample
+        # the third sample of the run: a scene's column or a batch's columns
+        for columns in (solver.scene_column.SceneColumn, solver.ensemble_run.BatchColumns):
+            def sample(self, stepper, real_sample=columns.sample):  # noqa: ANN001
+                state["count"]["loop"] = state["count"].get("loop", 0) + 1
+                if state["count"]["loop"] == 3 and not state["fired"]:
+                    fire()
+                return real_sample(self, stepper)
 
-        def sample(self, stepper):  # noqa: ANN001
-            state["count"]["loop"] = state["count"].get("loop", 0) + 1
-            if state["count"]["loop"] == 3 and not state["fired"]:
-                fire()
-            return real_sample(self, stepper)
-
-        monkeypatch.setattr(solver.scene_column.SceneColumn, "sample", sample)
+            monkeypatch.setattr(columns, "sample", sample)
     elif phase == "swap":
         real_commit = studies.rundir.directory.commit_run_dir
 

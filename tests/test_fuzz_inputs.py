@@ -510,6 +510,45 @@ def test_a_signal_at_any_phase(tmp_path_factory, monkeypatch, command, kind, pha
     _nothing_half_written(tmp / "out")
 
 
+@pytest.mark.parametrize(("kind", "phase"), [
+    ("SIGINT", "setup"), ("SIGTERM", "loop"), ("SIGHUP", "samples.npz"),
+    ("SIGINT", "summary.json#3"), ("disk-full", "summary.json#1"),
+    ("disk-full", "samples.npz"), ("disk-full", "checkpoint.npz")])
+def test_a_batched_sweep_at_a_fault(tmp_path, monkeypatch, kind, phase):
+    """A batch of two (each member's directory a ``RunDirectory``, its log a ``TaskLog``)
+    under a signal or a full disk at a phase (``faults.inject``; the hypothesis tests above
+    sample unbatched sweeps): a signal gives 130 and a resume completes both; a full disk
+    fails the member that hit it, exit 1, its message naming the file, the other member
+    completed. Nothing half-written, no summary left ``running``."""
+    pytest.importorskip("dolfinx")
+    import json
+    import sys
+
+    sys.path.insert(0, str(REPO / "tests"))
+    from faults import inject
+
+    spec = tmp_path / "tiny.toml"
+    spec.write_text(f'name = "tiny"\nbase = "{SMOKE}"\nbatch = 2\n[set]\n'
+                    '"time.end_time" = 0.002\n"output.progress" = false\n[grid]\n'
+                    '"loading.omega" = [40.0, 50.0]\n')
+    argv = ["sweep", str(spec), "-o", str(tmp_path / "out")]
+    with monkeypatch.context() as patch:
+        state = inject(patch, kind, phase)
+        rc = _run_quietly(argv)
+    assert state["fired"], phase
+    _nothing_half_written(tmp_path / "out")
+    rows = json.loads((tmp_path / "out" / "sweep.json").read_text())["rows"]
+    if kind == "disk-full":
+        assert rc == 1 and sorted(r["status"] for r in rows) == ["completed", "failed"], rows
+        (failed,) = (r for r in rows if r["status"] == "failed")
+        assert "No space left" in failed["message"] and phase.split("#")[0] in failed["message"]
+        return
+    assert rc == 130 and _run_quietly(argv) == 0
+    rows = json.loads((tmp_path / "out" / "sweep.json").read_text())["rows"]
+    assert [r["status"] for r in rows] == ["completed", "completed"], rows
+    _nothing_half_written(tmp_path / "out")
+
+
 @settings(FUZZ, max_examples=8)
 @given(st.sampled_from(["run", "sweep", "attractors", "travel"]),
        st.sampled_from(["scene.toml", "summary.json#1", "samples.npz", "final_field.npz",
