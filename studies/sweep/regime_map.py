@@ -19,9 +19,11 @@ from stickslip.semianalytic.waves import find_waves, refine_wave
 from stickslip.solver.atomic import atomic_write_text
 from stickslip.solver.scene import (
     Scene,
+    SceneError,
     load_scene,
     scene_to_dict,
 )
+from stickslip.studies.rundir.readers import ReadError
 from stickslip.studies.sweep.spec import (
     _SEMIANALYTIC_KEYS,
     REGIMES,
@@ -531,13 +533,22 @@ def _map_base(sweep_dir: Path, meta: dict) -> Scene:
     """A resolved scene of the sweep (every swept key is overridden per cell anyway).
 
     A run's own ``scene.toml`` first, so a sweep directory copied elsewhere (out of a
-    container) still plots; the base scene file the sweep named otherwise.
+    container) still plots; one that no longer loads (damaged, edited) is passed over; the
+    base scene file the sweep named otherwise (ReadError, one line, where none loads).
     """
     for row in meta["rows"]:
         path = sweep_dir / str(row.get("run_dir", "")) / "scene.toml"
         if row.get("run_dir") and path.is_file():
-            return load_scene(path)
-    return load_scene(meta["base"], meta.get("set", []))
+            try:
+                return load_scene(path)
+            except SceneError:
+                continue
+    try:
+        return load_scene(meta["base"], meta.get("set", []))
+    except SceneError as err:
+        raise ReadError(sweep_dir / "sweep.json", f"no run's scene.toml loads, nor its base "
+                        f"scene ({' '.join(str(err).split())[:160]})",
+                        "run the sweep again, or restore its base scene file") from None
 
 
 def _hashable(v: Any) -> Any:
