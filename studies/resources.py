@@ -172,7 +172,7 @@ def estimate(scene: Scene, ranks: int = 1) -> Estimate:
     elif m.dim == 3:  # the cross-section extruded in hexahedra (meshes.tube3d)
         levels = tube_axial_layers(scene)
         h_min = min(h_min, g.length / levels)
-        cells = n_edges * tube_layers(scene) * int(levels)
+        cells = n_edges * tube_layers(scene) * levels  # a float: inf for a huge length
         nodes, surface_nodes = nodes * (levels + 1), m.n_inner * (levels + 1)
         dofs = int(3 * nodes) if math.isfinite(nodes) else 3 * nodes
     nu = scene.material.nu

@@ -129,7 +129,7 @@ def test_a_3d_scene_writes_its_keys_and_loads_back(tmp_path):
                      "with mesh.dim = 3"),
     (["mesh.dim=3", "geometry.length=-0.1"], "geometry.length = -0.1 is out of range"),
     (["mesh.dim=3", "geometry.length=0.1", "mesh.n_axial=-1"],
-     "mesh.n_axial = -1 is out of range: must satisfy n_axial >= 0"),
+     "mesh.n_axial = -1 is out of range: must satisfy 0 <= n_axial <= 1e7"),
     (["mesh.dim=3", "geometry.length=0.1", 'boundary.ends="hinged"'],
      "boundary.ends = 'hinged' is not allowed: must be one of 'free', 'roller', 'clamped'"),
     (["geometry.length=0.1"], "geometry.length = 0.1 only applies to mesh.dim = 3 (the "
@@ -154,7 +154,7 @@ def test_the_scene_reference_lists_the_3d_keys():
     assert "## `[boundary]`" in page
     for row in ("| `mesh.dim` | integer | `2` | one of 2, 3 |",
                 "| `geometry.length` | number | `0.0` | length >= 0",
-                "| `mesh.n_axial` | integer | `0` | n\\_axial >= 0",
+                "| `mesh.n_axial` | integer | `0` | 0 &lt;= n\\_axial &lt;= 1e7",
                 "| `boundary.ends` | string | `\"free\"` | one of 'free', 'roller', 'clamped' |"):
         assert row in page, row
 

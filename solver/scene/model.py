@@ -23,6 +23,7 @@ from stickslip.solver.scene.sections import (
     Time,
 )
 from stickslip.solver.scene.values import (
+    MAX_AXIAL_LAYERS,
     MAX_STRAIN,
     SceneError,
     _fmt,
@@ -131,6 +132,18 @@ class Scene(_Section):
                 _require("geometry.length", self.geometry.length, self.geometry.length > 0,
                          "length > 0 (m) with mesh.dim = 3 (the tube's length along z: give "
                          "geometry.length)")
+                g = self.geometry
+                lo, hi = LENGTH_RATIO
+                _require("geometry.length", g.length, lo <= g.length / g.R <= hi,
+                         f"{lo:g} R <= length <= {hi:g} R with mesh.dim = 3 (R = {g.R:g} m: "
+                         f"{lo * g.R:.4g} to {hi * g.R:.4g} m; a brake pad's L/R is about 0.1 "
+                         "to 2, and far outside the range the tube's cells cannot be meshed)")
+                longest = MAX_AXIAL_LAYERS * 2.0 * math.pi * g.R / self.mesh.n_inner
+                _require("geometry.length", g.length,
+                         self.mesh.n_axial or tube_axial_layers(self) <= MAX_AXIAL_LAYERS,
+                         f"length <= {longest:.4g} m with mesh.n_axial = 0 (cells as long as "
+                         f"they are wide: at most {MAX_AXIAL_LAYERS:.0e} layers along z); "
+                         "shorten it or set mesh.n_axial")
             if self.boundary.ends == "clamped" and tube_axial_layers(self) < 2:
                 _require("mesh.n_axial", self.mesh.n_axial, False,
                          f"n_axial >= 2 with clamped ends, here {tube_axial_layers(self):g} "
@@ -160,6 +173,9 @@ NEEDS: dict[str, tuple[Callable[[Scene], bool], str, str]] = {
     "3d": (lambda scene: scene.mesh.dim == 3, "mesh.dim = 3 (the finite tube)",
            "set mesh.dim = 3"),
 }
+
+#: The 3D tube's length in units of R that a generated tube may have (``_check_needs``).
+LENGTH_RATIO = (1e-3, 1e3)
 
 #: Why a 3D scene cannot run the transient (``require_plane_strain``).
 PLANE_STRAIN_ONLY = ("mesh.dim = 3: travel and rpo are plane strain only for now; `stickslip "

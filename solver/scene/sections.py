@@ -8,6 +8,7 @@ from typing import ClassVar
 
 from stickslip.solver.contact.law import REGULARISATIONS, SpatialFilter, regularisation_of
 from stickslip.solver.scene.values import (
+    MAX_AXIAL_LAYERS,
     MAX_STRAIN,
     SCENES_DIR,
     SceneError,
@@ -210,8 +211,10 @@ class Mesh(_Section):
         _choice(self._key("cell"), self.cell, CELL_TYPES)
         _choice(self._key("degree"), self.degree, (1, 2))
         _choice(self._key("dim"), self.dim, (2, 3))
-        _require(self._key("n_axial"), self.n_axial, self.n_axial >= 0,
-                 "n_axial >= 0 (0 = cells as long as they are wide on the contact surface)")
+        # the rule a literal (the scene reference reads it): 1e7 is MAX_AXIAL_LAYERS
+        _require(self._key("n_axial"), self.n_axial, 0 <= self.n_axial <= MAX_AXIAL_LAYERS,
+                 "0 <= n_axial <= 1e7 (0 = cells as long as they are wide on the contact "
+                 "surface)")
         if self.dim == 3:  # what solver.problem.tube_problem_3d extrudes, or a user's
             _require(self._key("degree"), self.degree, self.degree == 1,
                      "degree = 1 with mesh.dim = 3 (the 3D tube, the structured annulus "

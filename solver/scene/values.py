@@ -132,6 +132,10 @@ class Range:
 #: a wall of 0.25 R), 2.5 times below it.
 MAX_STRAIN = 0.05
 
+#: Element layers along a 3D tube, at most (``mesh.n_axial``, or those of
+#: ``geometry.length``): beyond it the mesh's cell count leaves 32-bit indices (dolfinx's).
+MAX_AXIAL_LAYERS = 10_000_000
+
 #: The physical ranges, in one place for the scenes and the reduced-model CLI (``wave``,
 #: ``flutter``): key -> range. Keys are dotted scene keys.
 RANGES: dict[str, Range] = {
