@@ -23,6 +23,7 @@ import math
 import tempfile
 from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import TextIO
 
 import numpy as np
 
@@ -153,7 +154,9 @@ class BatchOptions:
     batch's). ``resumed``: the batch is continued from checkpoints (``restore`` follows): no
     steady sliding solve and no start, which ``restore`` overwrites (u, u_prev, v~, the contact
     state and the steady pressure come from the checkpoint; v and a start at rest either
-    way)."""
+    way). ``progress``: where the batch's progress lines go (``solver.observers.Progress``;
+    a sweep's member logs, whose scenes have ``output.progress`` off for the console); None:
+    nowhere (a batch's scenes finish together, so its caller hears of none until then)."""
 
     backend: str = "cpu"
     spool_parent: Path | None = None
@@ -162,6 +165,7 @@ class BatchOptions:
     build: bool = True
     built: BuiltProblem | None = None
     resumed: bool = False
+    progress: TextIO | None = None
 
 
 class BatchColumns:
@@ -189,7 +193,8 @@ class BatchColumns:
         self.recorder = None
         self.spool_dir: Path | None = None
         self.active = np.zeros(0, dtype=bool)
-        self.progress = Progress(0.0, False)  # a batch's progress is its caller's to say
+        self.progress = Progress(scenes[0].time.end_time, options.progress is not None,
+                                 stream=options.progress)
         self.members: dict[int, tuple[MemberRecords, MemberProbes]] = {}  # the live records
         self.finals: dict[int, np.ndarray] = {}  # each finished scene's u
         self._host_state: dict | None = None  # the stepper's arrays on the host, while finishing

@@ -161,6 +161,26 @@ def test_progress_modes_and_status_line(tmp_path, monkeypatch):
     assert line.startswith("sweep killme: 2/6 done, 0 running, 0 failed") and "ETA ?" in line
 
 
+def test_a_batch_writes_its_progress_into_its_members_logs(tmp_path, monkeypatch):
+    """A batch's scenes finish together, so a long batched sweep (or a census's starts)
+    said nothing for hours, where scenes run alone finish one by one. Its progress line now
+    goes into every member's log; every sample is "due" here (``Progress.due`` made
+    wall-clock free, as no test waits on the clock)."""
+    pytest.importorskip("dolfinx")
+    from stickslip.cli.main import main
+    from stickslip.solver.observers import Progress
+
+    monkeypatch.setattr(Progress, "due", lambda self: self.enabled)
+    spec = _write(tmp_path / "s.toml", f'base = "{SMOKE}"\nbatch = 2\nset = '
+                  '["time.end_time=0.002"]\n[grid]\n"loading.omega" = [2.0, 3.0]\n')
+    assert main(["sweep", str(spec), "-o", str(tmp_path / "out")]) == 0
+    for log in (tmp_path / "out" / "logs").iterdir():
+        lines = log.read_text().splitlines()
+        progress = [line for line in lines if line.startswith("  t = ")]
+        assert "batch of 2" in lines[0] and len(progress) >= 10, lines
+        assert "(100.0%)  step 26" in progress[-1], progress[-1]  # 26 steps to 0.002 s
+
+
 # ------------------------------------------------------------------------ FE sweeps
 
 

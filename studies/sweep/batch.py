@@ -38,7 +38,7 @@ from stickslip.studies.rundir.signals import deferred_signals
 from stickslip.studies.rundir.writer import RunDirectory, print_summary
 from stickslip.studies.sweep.spec import SweepSpec, Task, scene_for
 from stickslip.studies.sweep.table import check_recorded
-from stickslip.studies.sweep.task_log import TaskLog
+from stickslip.studies.sweep.task_log import LogTee, TaskLog
 
 #: Memory a batch may use (bytes) when ``--batch auto`` picks its size.
 AUTO_MEMORY_FRACTION = 0.25
@@ -156,7 +156,8 @@ def _run_members(members: list[_Member], backend: str, out_dir: Path, early: lis
         if not interrupted:
             batch = Simulation.batch([m.dir.scene for m in members], profile,
                                      backend=backend, spool_parent=out_dir,
-                                     memory_budget=SPOOL_MEMORY_FRACTION * available_memory())
+                                     memory_budget=SPOOL_MEMORY_FRACTION * available_memory(),
+                                     progress=LogTee([m.log for m in members]))
             for k, err in batch.failures.items():  # a set-up that failed fails alone
                 members[k].fail(err)
         if batch is not None and batch.live:

@@ -36,3 +36,20 @@ class TaskLog:
         if not self.file.closed:
             self.file.write(f"== end {status}\n")
             self.file.close()
+
+
+class LogTee:
+    """The logs of a batch's members as one stream: each line (the batch's progress, every
+    ``Progress.interval`` seconds) goes into every member's log, as a scene run alone writes
+    its progress into its own."""
+
+    def __init__(self, logs: list[TaskLog]) -> None:
+        self.files = [log.file for log in logs]
+
+    def write(self, text: str) -> None:
+        for file in self.files:
+            file.write(text)
+
+    def flush(self) -> None:
+        for file in self.files:
+            file.flush()
