@@ -383,14 +383,17 @@ def test_rpo_from_a_damaged_summary_is_one_line(finished, tmp_path, capsys, dama
      "geometry.length = 1e+308 is out of range: must satisfy 0.001 R <= length <= 1000 R"),
     (["run", "tube3d_figure3_damped", "--set", "geometry.length=1e-300", "--set",
       "mesh.n_axial=2", "-o", "OUT"], "geometry.length = 1e-300 is out of range"),
+    (["run", "tube3d_figure3_damped", "--set", "material.E=1e-300", "-o", "OUT"],
+     "material.E = 1e-300 is out of range: must satisfy E >= 1"),
     (["run", "tube3d_figure3_damped", "--set", "mesh.n_axial=100000000", "-o", "OUT"],
      "mesh.n_axial = 100000000 is out of range: must satisfy 0 <= n_axial <= 1e7"),
 ])
 def test_bad_input_is_one_line_with_exit_2(tmp_path, capsys, argv, words):
     """Tracebacks (flutter-fe, flutter-exact, a 3D tube's length of 1e308 m), a 10-line SLEPc
-    stack (E = 1e308), a gmsh abort (a length of 1e308 m in 2 layers), a silent write to
-    runs/ (-o ""), exit 1 after a solve (travel --k 1000 at N = 36), numpy warnings and empty
-    figures (plot of a one-sample run): now one line, exit 2, nothing written."""
+    stack (E = 1e308; a 3D tube's E = 1e-300, its mass's inverse overflowing), a gmsh abort
+    (a length of 1e308 m in 2 layers), a silent write to runs/ (-o ""), exit 1 after a solve
+    (travel --k 1000 at N = 36), numpy warnings and empty figures (plot of a one-sample run):
+    now one line, exit 2, nothing written."""
     pytest.importorskip("dolfinx")
     if "ONE" in argv:
         run(tmp_path / "one", "time.end_time=0.003", "output.sample_interval=0.003")

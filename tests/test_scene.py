@@ -164,7 +164,7 @@ def test_section_must_be_table() -> None:
     [
         ("material", "nu", 0.5, "0 <= nu < 0.5"),
         ("material", "nu", -0.1, "0 <= nu < 0.5"),
-        ("material", "E", 0.0, "E > 0"),
+        ("material", "E", 0.0, "E >= 1"),
         ("material", "wave_speed", -1.0, "wave_speed > 0"),
         ("geometry", "xi", 1.0, "xi > 1"),
         ("geometry", "R", 0.0, "R > 0"),

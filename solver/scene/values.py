@@ -139,9 +139,10 @@ MAX_AXIAL_LAYERS = 10_000_000
 #: The physical ranges, in one place for the scenes and the reduced-model CLI (``wave``,
 #: ``flutter``): key -> range. Keys are dotted scene keys.
 RANGES: dict[str, Range] = {
-    "material.E": Range(lambda x: 0 < x <= 1e13,
-                        "E > 0 and E <= 1e13 (Pa; diamond is 1.2e12: above, the "
-                        "stiffness overflows the eigensolvers)"),
+    "material.E": Range(lambda x: 1 <= x <= 1e13,
+                        "E >= 1 and E <= 1e13 (Pa; a soft gel is about 1e2, diamond 1.2e12: "
+                        "outside, the lumped mass E / wave_speed^2 or the stiffness under- or "
+                        "overflows the eigensolvers)"),
     "material.wave_speed": Range(lambda x: x > 0, "wave_speed > 0 (m/s)"),
     "material.rho": Range(lambda x: x > 0, "rho > 0 (kg/m^3)"),
     "material.nu": Range(
