@@ -80,6 +80,30 @@ def test_a_symlinked_run_file_is_not_read(finished, tmp_path, capsys, name):
     one_line(rc, err, f"{d / name}: is a symbolic link")
 
 
+def test_a_batch_members_directory_is_in_use_while_its_batch_runs(finished, tmp_path, capsys):
+    """A batch lets each member's lock go once its directory is claimed (B open files
+    otherwise), so `run -o SWEEP/runs/ID --force` replaced a member while its batch ran, and
+    the batch then wrote its files over the user's run. The member's ``running`` summary
+    names the batch's live process: now refused in one line; a dead one's is replaced."""
+    import socket
+    import subprocess
+
+    d = copy_run(finished, tmp_path / "r")
+    batch = subprocess.Popen(["sleep", "600"])  # the batch's process, alive
+    try:
+        running = {"scene": "s.omega-2.0", "status": "running", "pid": batch.pid,
+                   "host": socket.gethostname()}
+        (d / "summary.json").write_text(json.dumps(running))
+        rc, err = cli(capsys, "run", SMOKE, "-o", d, "--force", *SHORT_SET)
+        one_line(rc, err, f"is in use by a running stickslip command (pid {batch.pid}")
+        assert json.loads((d / "summary.json").read_text()) == running
+    finally:
+        batch.kill()
+        batch.wait()
+    assert cli(capsys, "run", SMOKE, "-o", d, "--force", *SHORT_SET)[0] == 0  # it died
+    assert json.loads((d / "summary.json").read_text())["status"] == "completed"
+
+
 @pytest.mark.parametrize("batch", ["off", 2])
 def test_a_sweep_never_appends_to_a_symlinked_log(tmp_path, capsys, batch):
     """A sweep's `logs/ID.log` -> a user's file: the resume appended to the user's file (a

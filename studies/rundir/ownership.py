@@ -71,6 +71,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from stickslip.solver.atomic import atomic_write_text
+from stickslip.studies.output import process_alive
 
 __all__ = ["KINDS", "LOCK", "MARKER", "Claim", "OwnershipError", "claim", "foreign_entries",
            "holder", "marker", "normal_path", "owned", "recover", "refusal", "register_kind",
@@ -198,6 +199,21 @@ def holder(path: str | Path) -> dict | None:
         os.close(fd)
 
 
+def running_writer(path: str | Path) -> dict | None:
+    """The pid/host of another live process whose ``running`` summary.json is in ``path``, or
+    None. A batch member's directory is claimed and its lock let go at once (a batch of B
+    would hold B open files), so its batch's process is known by its summary alone
+    (``studies.output.process_alive``: on this host; another host's cannot be told)."""
+    try:
+        summary = json.loads((Path(path) / "summary.json").read_text())
+    except (OSError, ValueError):
+        return None
+    if not isinstance(summary, dict) or summary.get("status") != "running" \
+            or summary.get("pid") == os.getpid():
+        return None
+    return summary if process_alive(summary) else None
+
+
 def _names(entries: list[str], most: int = 5) -> str:
     more = f" and {len(entries) - most} more" if len(entries) > most else ""
     return ", ".join(entries[:most]) + more
@@ -223,7 +239,7 @@ def refusal(path: str | Path, kind: str, *, force: bool = False, reuse: bool = F
     if p.exists() and not p.is_dir():
         return f"{flag} {p} is not a directory (a file or device); {fix}"
     if p.is_dir():
-        live = holder(p)
+        live = holder(p) or running_writer(p)
         if live is not None:
             who = f"pid {live.get('pid', '?')} on {live.get('host', '?')}"
             return f"{p} is in use by a running stickslip command ({who}); wait for it, or {fix}"
