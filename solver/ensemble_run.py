@@ -317,7 +317,8 @@ class BatchColumns:
         self.stepper.mask(b)
 
     def recent_zones(self) -> dict[str, float] | None:
-        """None: a batch prints no progress line of its own."""
+        """None: a batch's progress line (``BatchOptions.progress``) has no zones of its
+        own (each column has its own)."""
         return None
 
     def agree(self, code: int) -> int:

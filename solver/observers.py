@@ -295,7 +295,10 @@ class ContactCircle:
 
 
 class Progress:
-    """One line every ``interval`` seconds of wall time on rank 0: time, ETA, contact status."""
+    """One line every ``interval`` seconds of wall time on rank 0: time, ETA, contact status.
+
+    The ETA is the time loop's own rate over the span it covers, from :meth:`begin` (the
+    simulated time the loop starts at: 0, or a continued run's checkpoint) to ``end_time``."""
 
     def __init__(self, end_time: float, enabled: bool, interval: float = 5.0,
                  stream=sys.stdout) -> None:
@@ -303,6 +306,13 @@ class Progress:
         self.stream = stream
         self.t0 = time.perf_counter()
         self.last = self.t0
+        self.t_begin = 0.0  # the simulated time the loop starts at (``begin``)
+
+    def begin(self, sim_time: float) -> None:
+        """The time loop starts now, at ``sim_time``: the wall clock and the span of the ETA
+        count from here (not from the set-up, nor from t = 0 for a continued run)."""
+        self.t0 = self.last = time.perf_counter()
+        self.t_begin = sim_time
 
     def due(self) -> bool:
         """True when a progress line should be printed now (cheap: one clock read)."""
@@ -314,7 +324,9 @@ class Progress:
         self.last = now
         elapsed = now - self.t0
         frac = min(1.0, sim_time / self.end_time) if self.end_time > 0 else 0.0
-        eta = elapsed * (1.0 - frac) / frac if frac > 0 else math.nan
+        span = self.end_time - self.t_begin
+        done = min(1.0, (sim_time - self.t_begin) / span) if span > 0 else 0.0
+        eta = elapsed * (1.0 - done) / done if done > 0 else math.nan
         zones = ""
         if fractions:
             zones = "  sep {separation:.0%} stick {stick:.0%} slip {slip:.0%}".format(**fractions)

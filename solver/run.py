@@ -139,6 +139,7 @@ class Simulation:
         columns, stop = self.columns, ""
         self.at_level = False
         self._t_start = time.perf_counter()
+        columns.progress.begin(self.stepper.time)
         try:
             with self.profile.phase("time-loop"):
                 stop = run_loop(self.stepper, self.observers, t_stop, step_stop)

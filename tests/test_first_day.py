@@ -27,6 +27,45 @@ def test_quiet_run_prints_no_progress_line(tmp_path, capsys, monkeypatch):
     assert "ETA" in capsys.readouterr().out
 
 
+def test_the_eta_counts_from_where_the_loop_starts(monkeypatch):
+    """A continued run's loop starts at its checkpoint: the ETA took t = 0 as its start and
+    the set-up's seconds as the loop's, so continuing 0.3 s to 0.6 s at a steady rate said
+    half the time it had left. Now the span from ``begin`` to the end, at the loop's rate
+    (a clock of our own: no test waits on wall time)."""
+    import io
+
+    import stickslip.solver.observers as observers
+
+    clock = [100.0]
+    monkeypatch.setattr(observers.time, "perf_counter", lambda: clock[0])
+    out = io.StringIO()
+    progress = Progress(end_time=0.6, enabled=True, stream=out)
+    clock[0] += 50.0  # the set-up: not the loop's
+    progress.begin(0.3)
+    clock[0] += 10.0  # 0.1 s of the 0.3 s to go, in 10 s: 20 s left
+    progress.update(0.4, 100, None)
+    assert "t = 0.4 s (66.7%)" in out.getvalue() and "wall 10.0 s  ETA 20 s" in out.getvalue()
+
+
+def test_a_census_settle_log_carries_the_batch_progress(tmp_path, monkeypatch):
+    """A census's settle legs (its starts continued as batches) said nothing between one
+    leg's start and its end, however long; their progress line now goes into the settle
+    log (every sample due here: ``Progress.due`` without the clock)."""
+    pytest.importorskip("dolfinx")
+    from stickslip.cli.main import main
+
+    monkeypatch.setattr(Progress, "due", lambda self: self.enabled)
+    out = tmp_path / "census"
+    # the tutorial scene at N = 132: 2 of its first 4 starts are unsettled at 0.3 s (seeds
+    # 2 and 3, k = 3 and 13), so one settle leg runs to 0.45 s (a few seconds)
+    assert main(["attractors", "figure1_n132_damped", "--starts", "4", "--meshes", "132",
+                 "--end-time", "0.3", "--max-time", "0.45", "--no-certify", "--yes-i-know",
+                 "-o", str(out)]) == 0
+    log = (out / "settle-rank0.log").read_text().splitlines()
+    progress = [line for line in log if line.startswith("  t = ")]
+    assert progress and "(100.0%)" in progress[-1], log
+
+
 def _pattern(standing: bool, k: int = 4, f_hz: float = 198.0):
     """Synthetic stick-slip samples of mode k at f_hz: travelling against the rotation
     cos(k θ + ω t), or standing cos(k θ) cos(ω t), sampled at 20 points a period."""

@@ -975,13 +975,15 @@ def _continue_group(group: list[dict], until: float, fh: TextIO) -> list[dict | 
 
     errors = (ReadError, ValueError, OSError, RuntimeError)
     try:
-        return continue_batch([g["run_dir"] for g in group], until, stream=fh, compress=False)
+        return continue_batch([g["run_dir"] for g in group], until, stream=fh, compress=False,
+                              progress=True)
     except errors:
         pass
     out: list[dict | str] = []
     for g in group:
         try:
-            out += continue_batch([g["run_dir"]], until, stream=fh, compress=False)
+            out += continue_batch([g["run_dir"]], until, stream=fh, compress=False,
+                                  progress=True)
         except errors as err:
             out.append(_first_line(str(err)) or type(err).__name__)
     return out

@@ -279,7 +279,8 @@ def continue_run(run_dir: str | Path, until: float, out_dir: str | Path | None =
 def continue_batch(run_dirs: list[str | Path], until: float,
                    out_dirs: list[str | Path] | None = None, *, force: bool = False,
                    stream=None, kick: float = 0.0, kick_seed: int = 0,
-                   compress: bool = True, plans: list[_Plan] | None = None) -> list[dict]:
+                   compress: bool = True, plans: list[_Plan] | None = None,
+                   progress: bool = False) -> list[dict]:
     """Continue many runs of one rank each to ``until``: the members of batches that share a
     mesh, material, dt, scheme, backend and checkpoint step as one ``Simulation.batch`` (one
     time loop for all of them), single runs one by one (``continue_run``).
@@ -302,6 +303,9 @@ def continue_batch(run_dirs: list[str | Path], until: float,
             and to read again; ``RunDirectory.save_member``).
         plans: ``plan_continuation`` of each run, where the caller has made them
             (``continue_run``): a run's samples are then read once, not twice.
+        progress: a batch's progress line on ``stream`` every few seconds of its time loop
+            (``solver.observers.Progress``; a census's settle log), which its members'
+            scenes (a sweep's: ``output.progress`` off) would not print.
 
     Returns:
         The continued runs' summaries, in the order of ``run_dirs``.
@@ -336,10 +340,11 @@ def continue_batch(run_dirs: list[str | Path], until: float,
         if plan.kind != "batch":
             summaries[i] = continue_run(dirs[i], until, outs[i], force=force, comm=comm,
                                         stream=stream, kick=kick, kick_seed=kick_seed)
+    out = sys.stdout if stream is None else stream
     for (_, backend, _), members in groups.items():
         done = _continue_members([plans[i] for i in members], [outs[i] for i in members],
-                                 backend, force, sys.stdout if stream is None else stream,
-                                 kick, kick_seed, compress)
+                                 backend, force, out, kick, kick_seed, compress,
+                                 out if progress else None)
         for i, summary in zip(members, done, strict=True):
             summaries[i] = summary
     return summaries
@@ -347,10 +352,11 @@ def continue_batch(run_dirs: list[str | Path], until: float,
 
 def _continue_members(plans: list[_Plan], outs: list[Path | None], backend: str,
                       force: bool, stream, kick: float = 0.0, kick_seed: int = 0,
-                      compress: bool = True) -> list[dict]:
+                      compress: bool = True, progress=None) -> list[dict]:  # noqa: ANN001
     """One ``Simulation.batch`` of batch members at the same step, continued (each kicked
     by ``kick``, ``continue_batch``) and written; an error or interrupt drops every
-    replacement (the runs stay as they were)."""
+    replacement (the runs stay as they were). ``progress``: where the batch's progress
+    lines go, or None."""
     import shutil
     import time
 
@@ -372,7 +378,7 @@ def _continue_members(plans: list[_Plan], outs: list[Path | None], backend: str,
         batch = Simulation.batch([p.scene for p in plans], profile, backend=backend,
                                  spool_parent=plans[0].run_dir.parent,
                                  memory_budget=SPOOL_MEMORY_FRACTION * available_memory(),
-                                 built=BUILT.get(key), resumed=True)
+                                 built=BUILT.get(key), resumed=True, progress=progress)
         if batch.failures:
             raise next(iter(batch.failures.values()))
         BUILT.pop(key, None)  # the latest last: the oldest goes first
