@@ -84,7 +84,8 @@ def main() -> None:
     def old_step(diag: bool = True) -> None:
         cur, nxt = it.cur, 1 - it.cur
         tail = (diag, it.keep) if lean_old else ()
-        old(it.indptr, it.indices, it.data, it._u[cur], it._u[nxt], it.v, it.v_pred, it.a,
+        old(it.indptr, it.indices, it.data, it.u_levels[cur], it.u_levels[nxt], it.v,
+            it.v_pred, it.a,
             it.ku, it.nim, *coef, it.cx, it.ph_re, it.ph_im, it.pc_re, it.pc_im, it.cmass,
             it.cinv, it.d, it.slide, it.f, it.r_r, it.r_t, it.r_x, it.r_y, it.status,
             it.zprev, it.work, it.acc, it.cslot, *tail)

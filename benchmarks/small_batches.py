@@ -55,13 +55,14 @@ def _old_batched_step(path: Path):
 def _args(st: BatchedExplicit, diag: bool) -> tuple:
     """``batched_step``'s arguments (the signature of ``NumbaColumns.step``)."""
     dt, b2 = st.dt, st.beta2
-    return (st.indptr, st.indices, st.data, st._u[st.cur], st._u[1 - st.cur], st.v, st.v_pred,
+    return (st.indptr, st.indices, st.data, st.u_levels[st.cur], st.u_levels[1 - st.cur],
+            st.v, st.v_pred,
             st.a, st.ku, st.nim, b2 * dt, 0.5 * dt, (0.5 - b2) * dt, b2 == 0.5, dt, st.kappa,
             1.0 / st.kappa, st.cx, st.ph_re, st.ph_im, st.pc_re, st.pc_im, st.cmass, st.cinv,
             st.d, st.slide, st.f, st.r_r, st.r_t, st.r_x, st.r_y, st.status, st.zprev,
-            st.work, st.acc, st.cslot, diag, st.keep, st.mass, st.energy, st._w[st.cur],
-            st._w[1 - st.cur], st.tau, st.dsum, st.reg, st.sigma, st.ut_last, st.rate_slip,
-            st.rate_base, st._started)
+            st.work, st.acc, st.cslot, diag, st.keep, st.mass, st.energy, st.w_levels[st.cur],
+            st.w_levels[1 - st.cur], st.tau, st.dsum, st.reg, st.sigma, st.ut_last, st.rate_slip,
+            st.rate_base, st.started)
 
 
 def _batch(bp: BatchedProblem, law, tau: float, B: int, u0: np.ndarray,

@@ -213,7 +213,7 @@ class BatchedExplicit(HookedStepper):
         self.columns = columns(self)
         if getattr(self.columns, "single", False):
             self.columns.columns_of_one(self)
-        self._clock = np.zeros(1)  # the time as a compiled loop accumulates it (time += dt)
+        self.clock = np.zeros(1)  # the time as a compiled loop accumulates it (time += dt)
 
     def _checked_kernel(self, kernel: str, xp: Any, tau: float,
                         bound: tuple[int, float, float]) -> type:
@@ -272,8 +272,10 @@ class BatchedExplicit(HookedStepper):
         xp = self.xp
         z = lambda *shape: xp.zeros(shape)  # noqa: E731
         rows = self.bp.n_local  # owned, then ghost rows: what K reads
-        self._full_u = [z(rows, B), z(rows, B)]
-        self._u = [x[:n] for x in self._full_u]  # the owned rows: the state
+        # u_n and u_{n-1}, alternating (``cur``): with the ghost rows that K reads, and their
+        # owned rows, the state (the kernel strategies read both)
+        self.u_rows = [z(rows, B), z(rows, B)]
+        self.u_levels = [x[:n] for x in self.u_rows]
         self.cur = 0
         self.v, self.v_pred, self.a, self.ku = z(n, B), z(n, B), z(n, B), z(n, B)
         self.r_r, self.r_t, self.r_x, self.r_y = z(m, B), z(m, B), z(m, B), z(m, B)
@@ -284,12 +286,12 @@ class BatchedExplicit(HookedStepper):
         # damped: w_n = u_n + tau v~_n (the argument of K), the kernels' two damping sums,
         # and u_0 . K u_0 per scene (``damping_work_totals``)
         # w_n and w_{n+1}, alternating as u (the numba kernels write w_{n+1} in the pass)
-        self._full_w = [z(rows, B), z(rows, B)] if self.damped else [z(0, B)] * 2
-        self._w = [x[:n] for x in self._full_w]
+        self.w_rows = [z(rows, B), z(rows, B)] if self.damped else [z(0, B)] * 2
+        self.w_levels = [x[:n] for x in self.w_rows]
         self.dsum = z(2, B)
         # a regularised bound's per-node state (sigma_eff, the last u_theta), (m, B)
         self.sigma, self.ut_last = (z(m, B), z(m, B)) if self.reg else (z(0, B), z(0, B))
-        self._started = np.zeros(1, dtype=np.int64)  # 0 until the first step
+        self.started = np.zeros(1, dtype=np.int64)  # 0 until the first step
         self.u0_ku0 = np.zeros(B)
         self.energy = z(2, B)  # numba kernels, sampled steps: Σ m v², Σ u K u (x 2 energies)
         self.energy_summed = False  # True after a numba step that summed ``energy``
@@ -305,16 +307,16 @@ class BatchedExplicit(HookedStepper):
 
     @property
     def u(self):
-        return self._u[self.cur]
+        return self.u_levels[self.cur]
 
     @property
     def u_prev(self):
-        return self._u[1 - self.cur]
+        return self.u_levels[1 - self.cur]
 
     @property
     def u_tau(self):
         """w_n = u_n + tau v~_n before a step (damped; the argument of K)."""
-        return self._w[self.cur]
+        return self.w_levels[self.cur]
 
     def set_state(self, u0: np.ndarray, v0: np.ndarray, a0: np.ndarray | None = None) -> None:
         """(n, B) initial displacement and velocity (predictor v~_0 = v_0: a start at rest)."""
@@ -335,7 +337,7 @@ class BatchedExplicit(HookedStepper):
             xp.multiply(self.v_pred, self.tau, out=self.u_tau)  # the kernels' w_n, bitwise
             self.u_tau[...] += self.u
             ku0 = xp.zeros_like(self.u)
-            self._stiffness(self._full_u[self.cur], ku0)
+            self._stiffness(self.u_rows[self.cur], ku0)
             self.u0_ku0 = self._column_dots(self.u, ku0).copy()
 
     def _state_names(self) -> tuple[str, ...]:
@@ -389,7 +391,7 @@ class BatchedExplicit(HookedStepper):
         step, time = steps.pop()
         put_state(self, dict(stacked, time=np.float64(time), step_count=np.int64(step)),
                   names)
-        self._started[0] = int(step > 0)
+        self.started[0] = int(step > 0)
 
     def _adopt(self, state: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
         """A column's checkpoint of any kernel in this kernel's layout. The dynamics' arrays
@@ -430,7 +432,8 @@ class BatchedExplicit(HookedStepper):
     def mask(self, b: int) -> None:
         """Take scene ``b`` out of the batch: zero state and no contact (stays at rest)."""
         self.active[b] = False
-        for arr in (*self._u, self.v, self.v_pred, self.a, self.ku, self.zprev, *self._w,
+        for arr in (*self.u_levels, self.v, self.v_pred, self.a, self.ku, self.zprev,
+                    *self.w_levels,
                     *(getattr(self, name) for name in self.columns.damping_state)):
             arr[..., b] = 0.0
         self.d[b] = 0.0
@@ -463,7 +466,7 @@ class BatchedExplicit(HookedStepper):
         """ku = K u_n (u_n is ``u_prev`` after a step; the damped step applies K w_n) and,
         with ``strain``, the strain sums energy[1] = Σ_i u_i (K u)_i of it: what the samples
         read."""
-        self._stiffness(self._full_u[1 - self.cur], self.ku)
+        self._stiffness(self.u_rows[1 - self.cur], self.ku)
         if strain:
             self.energy[1] = self._column_dots(self.u_prev, self.ku)
 
@@ -497,7 +500,7 @@ class BatchedExplicit(HookedStepper):
         if diag is None:
             diag = self.full_state_at(self.step_count)
         cur, nxt = self.cur, 1 - self.cur
-        self.columns.step(self, self._full_u[cur], self._full_u[nxt], bool(diag))
+        self.columns.step(self, self.u_rows[cur], self.u_rows[nxt], bool(diag))
         self.cur = nxt
         self.time += self.dt
         self.step_count += 1
@@ -690,13 +693,13 @@ class SceneArrayColumns(ArrayColumns):
         # 1-D views of column 0, made once: the product and the contact step cache their
         # wrappers of an array by its identity
         col = lambda x: x[:, 0]  # noqa: E731 - (n, 1) -> (n,), a view
-        self.u_cols = [col(x) for x in st._u]
-        self.w_cols = [col(x) for x in st._w] if st.damped else [None, None]
+        self.u_cols = [col(x) for x in st.u_levels]
+        self.w_cols = [col(x) for x in st.w_levels] if st.damped else [None, None]
         self.v, self.v_pred, self.a, self.ku = (col(x) for x in (st.v, st.v_pred, st.a, st.ku))
         self.nim = st.nim
         self.scratch = np.zeros(st.n) if st.beta2 != 0.5 else None
         self.product_out = np.zeros(st.n)  # K u of ``stiffness`` (a sample's K u_n)
-        self.views = {id(x): col(x) for x in (*st._full_u, *st._u)}
+        self.views = {id(x): col(x) for x in (*st.u_rows, *st.u_levels)}
 
     def step(self, st: BatchedExplicit, u, u_next, diag: bool) -> None:
         """``ArrayColumns``' step on the column: the internal force by the scene's product,
@@ -757,8 +760,8 @@ class NumbaColumns(ArrayColumns):
         (u and w with their ghost rows), taken once the batch's arrays are final (after a
         scene's contact arrays are adopted)."""
         col = lambda x: x[..., 0]  # noqa: E731 - (n, 1) -> (n,), a view
-        self.u_cols = [col(x) for x in st._full_u]
-        self.w_cols = [col(x) for x in st._full_w]
+        self.u_cols = [col(x) for x in st.u_rows]
+        self.w_cols = [col(x) for x in st.w_rows]
         self.cols = {"v": col(st.v), "v_pred": col(st.v_pred), "a": col(st.a),
                      "ku": col(st.ku), "r_r": col(st.r_r), "r_t": col(st.r_t),
                      "r_x": col(st.r_x), "r_y": col(st.r_y), "status": col(st.status),
@@ -803,8 +806,8 @@ class NumbaColumns(ArrayColumns):
                 1.0 / st.kappa, st.cx, st.ph_re, st.ph_im, st.pc_re, st.pc_im, st.cmass,
                 st.cinv, st.d, st.slide, st.f, st.r_r, st.r_t, st.r_x, st.r_y, st.status,
                 st.zprev, st.work, st.acc, st.cslot, diag, st.keep, st.mass, st.energy,
-                st._w[st.cur], st._w[1 - st.cur], st.tau, st.dsum, st.reg, st.sigma,
-                st.ut_last, st.rate_slip, st.rate_base, st._started)
+                st.w_levels[st.cur], st.w_levels[1 - st.cur], st.tau, st.dsum, st.reg, st.sigma,
+                st.ut_last, st.rate_slip, st.rate_base, st.started)
         if self.first_call:  # compiled (or loaded) here, with SLP, even when continued
             self.first_call = False
             with slp_vectorize():
@@ -827,7 +830,7 @@ class NumbaColumns(ArrayColumns):
                 st.ph_im, st.pc_re, st.pc_im, st.cmass, st.cinv, st.d[0], st.slide[0],
                 st.f[0], c["r_r"], c["r_t"], c["r_x"], c["r_y"], c["status"], self.zprev,
                 c["work"], self.w_cols[cur], self.w_cols[nxt], st.tau, st.reg, st.sigma,
-                st.ut_last, st.rate_slip, st.rate_base, st._started)
+                st.ut_last, st.rate_slip, st.rate_base, st.started)
 
     def single_step(self, st: BatchedExplicit, diag: bool) -> None:
         """A batch of one: ``single_step`` on column 0 (it writes v_n, a_n and K u_n at
@@ -840,7 +843,7 @@ class NumbaColumns(ArrayColumns):
         else:
             self.fn(*args)
         if diag:
-            self.energies(st._u[st.cur], st.v, st.ku, st.mass, st.energy)
+            self.energies(st.u_levels[st.cur], st.v, st.ku, st.mass, st.energy)
         st.energy_summed = diag
 
     def advance_one(self, st: BatchedExplicit, n: int, t_stop: float,
@@ -849,13 +852,13 @@ class NumbaColumns(ArrayColumns):
         call (``_fused_kernels.advance``), the probes (``BatchRecorder.kernel_buffers``)
         recorded in it every step, stopping before a step once the time reaches
         ``t_stop``; the same arithmetic as ``n`` calls of ``step``. Returns the steps."""
-        st._clock[0] = st.time
-        taken = timed_first_call("advance", self.advance_fn, n, t_stop, st._clock,
+        st.clock[0] = st.time
+        taken = timed_first_call("advance", self.advance_fn, n, t_stop, st.clock,
                                  *self.single_args(st), *probes)
         self.first_call = False
         st.energy_summed = False  # ``advance`` sums none: ``sum_energies`` at a sample
         st.compile_s = sum(COMPILE_SECONDS.get(k, 0.0) for k in ("single_step", "advance"))
-        st.time = float(st._clock[0])
+        st.time = float(st.clock[0])
         st.step_count += taken
         st.cur = (st.cur + taken) % 2
         return taken

@@ -131,7 +131,7 @@ class SceneExplicit(HookedStepper):
         self.tau, self.damped, self.kappa = batch.tau, batch.damped, batch.kappa
         self.work = batch.work[:, 0]
         self.zprev = batch.zprev.reshape(-1)
-        self._u = [x[:, 0] for x in batch._u]
+        self._u = [x[:, 0] for x in batch.u_levels]
         self.v, self.a, self.ku, self.v_pred = (x[:, 0] for x in (batch.v, batch.a, batch.ku,
                                                                   batch.v_pred))
         #: What the next step reads: u_{n+1}, u_n, v~_{n+1} and, where the kernel sums the
@@ -209,7 +209,7 @@ class SceneExplicit(HookedStepper):
         """Continue from ``state()``; damped, w = u + τ v~ formed as ``set_state`` forms it."""
         put_state(self, state, self.STATE)
         batch = self.batch
-        batch._started[0] = int(self.step_count > 0)
+        batch.started[0] = int(self.step_count > 0)
         if self.damped:
             np.multiply(batch.v_pred, self.tau, out=batch.u_tau)
             batch.u_tau[...] += batch.u

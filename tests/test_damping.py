@@ -193,7 +193,7 @@ def test_undamped_step_is_the_plain_step():
     base = problem.stiffness_mult()
     integ = explicit_stepper(lambda u, out: (calls.append(1), base(u, out)), problem.inv_mass,
                              1e-6)
-    assert not integ.damped and integ.batch._w[0].size == 0
+    assert not integ.damped and integ.batch.w_levels[0].size == 0
     integ.set_state(np.zeros(problem.n_owned), np.zeros(problem.n_owned))
     calls.clear()
     for _ in range(5):

@@ -134,7 +134,8 @@ def test_cuda_kernel_source_equals_the_numba_kernel_on_the_cpu(tmp_path, diag):
         ref.step()
         cur, nxt = emu.cur, 1 - emu.cur
         emulate(ctypes.c_int(blocks), ctypes.c_int(threads), *map(ptr, (
-            emu.indptr, emu.indices, emu.data, emu._u[cur], emu._u[nxt], emu.v, emu.v_pred,
+            emu.indptr, emu.indices, emu.data, emu.u_levels[cur], emu.u_levels[nxt], emu.v,
+            emu.v_pred,
             emu.a, emu.ku, emu.nim, cslot, emu.ph_re, emu.ph_im, emu.pc_re, emu.pc_im,
             emu.cmass, emu.cinv, emu.d, emu.slide, emu.f, emu.r_r, emu.r_t, emu.r_x, emu.r_y,
             emu.status, emu.zprev, work)),
