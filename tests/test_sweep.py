@@ -161,6 +161,19 @@ def test_progress_modes_and_status_line(tmp_path, monkeypatch):
     assert line.startswith("sweep killme: 2/6 done, 0 running, 0 failed") and "ETA ?" in line
 
 
+def test_the_batch_plan_is_one_line_however_many_batches(tmp_path):
+    """The plan listed every batch's size ("251 batch(es) of 4, 4, 4, ... scenes"): a line
+    of a thousand characters for a large sweep. Now one entry per size."""
+    from stickslip.studies.sweep.schedule import _announce
+
+    spec = load_sweep(_write(tmp_path / "s.toml", KILL_SWEEP))
+    out = io.StringIO()
+    units = [["a"] * 4] * 250 + [["b"] * 2] + [["c"]]
+    _announce(spec, tmp_path, units, 0, 2, 1, "cpu", out)
+    assert out.getvalue().splitlines()[1] == (
+        "  batched (cpu): 251 batch(es) (250 × 4, 1 × 2 scenes), 1 single scene(s)")
+
+
 def test_a_batch_writes_its_progress_into_its_members_logs(tmp_path, monkeypatch):
     """A batch's scenes finish together, so a long batched sweep (or a census's starts)
     said nothing for hours, where scenes run alone finish one by one. Its progress line now

@@ -24,6 +24,7 @@ import sys
 import threading
 import time
 import traceback
+from collections import Counter
 from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, TextIO
@@ -537,12 +538,11 @@ def _announce(spec: SweepSpec, out_dir: Path, units: list[list[Task]], n_done: i
     print(f"sweep {spec.name}: {len(spec.tasks)} scenes, {n_done} already done, "
           f"{pending} to run on {n_groups} group(s) of {g} rank(s) -> {out_dir}",
           file=stream, flush=True)
-    batches = [len(u) for u in units if len(u) > 1]
-    if batches:
-        sizes = ", ".join(map(str, batches))
-        print(f"  batched ({backend}): {len(batches)} batch(es) of {sizes}"
-              f" scenes, {len(units) - len(batches)} single scene(s)", file=stream,
-              flush=True)
+    batches = Counter(len(u) for u in units if len(u) > 1)  # size -> how many
+    if batches:  # one entry per size, however many batches: "(250 × 4, 1 × 2 scenes)"
+        sizes = ", ".join(f"{n} × {size}" for size, n in sorted(batches.items(), reverse=True))
+        print(f"  batched ({backend}): {batches.total()} batch(es) ({sizes} scenes), "
+              f"{len(units) - batches.total()} single scene(s)", file=stream, flush=True)
     if g > ranks:
         print(f"  note: group_size {g} is more than the {ranks} rank(s) of this run: each "
               f"scene runs on {ranks} rank(s) (mpirun -n {g} gives it {g})", file=stream,
