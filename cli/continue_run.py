@@ -64,7 +64,7 @@ def _continue(args: argparse.Namespace) -> int:
         summary = continue_run(Path(args.run_dir), args.until,
                                None if args.output is None else Path(args.output),
                                force=args.force, comm=comm,
-                               check_resources=not args.yes_i_know)
+                               check_resources=not args.yes_i_know, progress=True)
     except (ReadError, RunDirError, ResourceError) as err:
         return fail(str(err), comm.rank)
     except KeyboardInterrupt:  # a signal during the final save, honoured after it

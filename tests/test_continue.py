@@ -347,3 +347,27 @@ def test_what_cannot_be_continued_is_refused_in_one_line(tmp_path):
     assert {p.name: p.read_bytes() for p in run.iterdir() if p.is_file()} == original
     assert json.loads((tmp_path / "longer" / "summary.json").read_text())["sim_time_s"] \
         >= T_FULL * (1 - 1e-12)
+
+
+@pytest.mark.parametrize("batch", ["off", 2])
+def test_continue_shows_its_progress_for_a_sweeps_scene(tmp_path, capsys, monkeypatch, batch):
+    """A sweep's scenes have ``output.progress`` off (the sweep's console has its own), so
+    `stickslip continue SWEEP/runs/ID` ran for hours without a line, alone or as a batch
+    member. The command now prints its progress (every sample due here: ``Progress.due``
+    without the clock)."""
+    from stickslip.cli.main import main
+    from stickslip.solver.observers import Progress
+
+    spec = tmp_path / "s.toml"
+    spec.write_text(f'base = "{SMOKE}"\nbatch = {batch!r}\nset = ["time.end_time=0.002"]\n'
+                    '[grid]\n"loading.omega" = [2.0, 3.0]\n'.replace("'", '"'))
+    assert main(["sweep", str(spec), "-o", str(tmp_path / "out")]) == 0
+    capsys.readouterr()
+    monkeypatch.setattr(Progress, "due", lambda self: self.enabled)
+    run = tmp_path / "out" / "runs" / "omega-2.0"
+    assert main(["continue", str(run), "--until", "0.004"]) == 0
+    progress = [line for line in capsys.readouterr().out.splitlines()
+                if line.startswith("  t = ")]
+    assert progress and "(100.0%)" in progress[-1], progress
+    kind = json.loads((run / "summary.json").read_text()).get("batch")
+    assert (kind is not None) == (batch != "off")  # both ways a scene continues

@@ -211,7 +211,7 @@ def _planned(run_dir: Path, until: float, comm: MPI.Comm) -> _Plan | None:
 def continue_run(run_dir: str | Path, until: float, out_dir: str | Path | None = None, *,
                  force: bool = False, comm: MPI.Comm | None = None, stream=None,
                  check_resources: bool = True, kick: float = 0.0,
-                 kick_seed: int = 0) -> dict:
+                 kick_seed: int = 0, progress: bool | None = None) -> dict:
     """Continue the run in ``run_dir`` from its checkpoint to ``until`` seconds (collective).
 
     Args:
@@ -228,6 +228,8 @@ def continue_run(run_dir: str | Path, until: float, out_dir: str | Path | None =
             velocity RMS (``solver.scene_column.SceneColumn.kick``, seed ``kick_seed``; its
             facts in the summary's ``kick``), into ``out_dir`` only: a new experiment from
             the kick on, its records starting there (as ``continue_batch``'s kicks).
+        progress: progress lines on ``stream`` while it runs; None: as its scene's
+            ``output.progress`` (off in a sweep's or census's scenes, for their consoles).
 
     Returns:
         The continued run's summary (rank 0; ``{}`` elsewhere), as ``run_scene``'s.
@@ -244,7 +246,8 @@ def continue_run(run_dir: str | Path, until: float, out_dir: str | Path | None =
     if comm.bcast(plan.kind if plan is not None else None, root=0) == "batch":
         return continue_batch([run_dir], until, None if out_dir is None else [out_dir],
                               force=force, stream=stream, plans=[plan], kick=kick,
-                              kick_seed=kick_seed)[0]
+                              kick_seed=kick_seed, progress=plan.scene.output.progress
+                              if progress is None else progress)[0]
     scene = comm.bcast(plan.scene if plan is not None else None, root=0)
     state = comm.scatter(plan.checkpoint.states if plan is not None else None, root=0)
     before = plan.before if plan is not None and not kick else None
@@ -273,6 +276,7 @@ def continue_run(run_dir: str | Path, until: float, out_dir: str | Path | None =
               f"{until:g} s" + ("" if in_place else f" into {target}"),
               file=sys.stdout if stream is None else stream, flush=True)
     return SceneRunner(scene, target, force=force or in_place, comm=comm, stream=stream,
+                       progress=progress,
                        check_resources=check_resources, resume=resume).run()
 
 

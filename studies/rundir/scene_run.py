@@ -120,12 +120,14 @@ class SceneRunner:
     def __init__(self, scene: Scene, run_dir: Path, *, force: bool = False,
                  comm: MPI.Comm | None = None, profile: bool = False, stream=None,
                  check_resources: bool = True, replace_on_failure: bool = False,
-                 resume: Callable[[Simulation], None] | None = None) -> None:
+                 resume: Callable[[Simulation], None] | None = None,
+                 progress: bool | None = None) -> None:
         """``resume(sim)``, if given, restores the built ``Simulation`` from a checkpoint
-        before it proceeds (``studies.rundir.continuation``)."""
+        before it proceeds (``studies.rundir.continuation``). ``progress``: progress lines
+        on ``stream`` (rank 0), or none; None: as the scene's ``output.progress``."""
         comm = every_rank(comm)
         self.scene, self.run_dir, self.force, self.comm = scene, Path(run_dir), force, comm
-        self.resume = resume
+        self.resume, self.progress = resume, progress
         self.profile, self.check_resources = profile, check_resources
         self.replace_on_failure = replace_on_failure
         self.stream = sys.stdout if stream is None else stream
@@ -270,6 +272,8 @@ class SceneRunner:
             self.say(f"  warning: {warning}")
         sim = self.sim = Simulation(scene, comm, self.prof, output_dir=self.dir.work)
         sim.columns.progress.stream = self.stream  # progress lines go where the run's lines go
+        if self.progress is not None:
+            sim.columns.progress.enabled = self.progress and self.rank0
         if self.resume is not None:
             self.resume(sim)
         if sim.dt > scene.time.end_time:  # same on every rank: collective
