@@ -136,7 +136,7 @@ def run_bundle(directory: str | Path, backend: str = "gpu",
         scenes, layout, starts = load_batch(directory, entry)
         t0 = time.perf_counter()
         batch = Simulation.batch(scenes, backend=backend, spool_parent=directory,
-                                 prepared=(layout, starts))
+                                 prepared=(layout, starts), progress=stream or sys.stdout)
         try:
             batch.proceed()
             for start_id, run in zip(ids, batch.runs, strict=True):
