@@ -55,7 +55,13 @@ COMPILE_SECONDS: dict[str, float] = {}
 
 
 def _cache_dir() -> None:
-    """Point numba's cache to a writable directory when the package directory is not."""
+    """Point numba's cache to a writable directory when the package directory is not, and
+    refuse a thread count that numba's import would reject in words that name no variable
+    (ValueError, one line with the fix)."""
+    threads = os.environ.get("NUMBA_NUM_THREADS", "").strip()
+    if threads.lstrip("+-").isdigit() and int(threads) < 1:
+        raise ValueError(f"NUMBA_NUM_THREADS = {threads}: numba needs at least 1 thread; "
+                         "unset it or set NUMBA_NUM_THREADS=1")
     if os.environ.get("NUMBA_CACHE_DIR"):
         return
     here = Path(__file__).resolve().parent

@@ -430,6 +430,23 @@ def test_bad_input_is_one_line_with_exit_2(tmp_path, capsys, argv, words):
     assert not (tmp_path / "out").exists() and sorted(Path.cwd().iterdir()) == before
 
 
+def test_a_thread_count_numba_refuses_is_named(tmp_path):
+    """NUMBA_NUM_THREADS=0 in the environment (a batch system's template): numba's import
+    said "Number of threads specified must be > 0." without naming the variable. Now one
+    line that names it and the fix (a fresh process: numba reads it once, at import)."""
+    import os
+    import subprocess
+    import sys
+
+    pytest.importorskip("dolfinx")
+    done = subprocess.run([sys.executable, "-m", "stickslip.cli.main", "run", str(SMOKE),
+                           "-o", str(tmp_path / "r"), *SHORT_SET], capture_output=True,
+                          text=True, env={**os.environ, "NUMBA_NUM_THREADS": "0"}, timeout=300)
+    one_line(done.returncode, done.stderr, "NUMBA_NUM_THREADS = 0",
+             "unset it or set NUMBA_NUM_THREADS=1")
+    assert not (tmp_path / "r").exists()  # refused before anything is written
+
+
 def test_help_and_reference_print_percent_once_and_keep_table_rows():
     """`attractors --help` printed "95 %% Wilson"; the reference, "0.2 %%"; a `|` inside a
     metavar (`5T|4ms|0.01s|all`, `off|auto|B`, `A:B:N|F1,F2,...`) split the reference's table
