@@ -120,7 +120,7 @@ def test_shipped_damped_omega_delta_sweep_is_the_same_grid_on_the_damped_setting
 
 
 def test_compress_key_chooses_deflated_or_stored_samples(tmp_path):
-    """``compress`` (default true) reaches the batches (``write_member``)."""
+    """``compress`` (default true) reaches the batches (``RunDirectory.save_member``)."""
     assert load_sweep(_write(tmp_path / "a.toml", f'base = "{SMOKE}"\n')).compress is True
     spec = load_sweep(_write(tmp_path / "b.toml", f'base = "{SMOKE}"\ncompress = false\n'))
     assert spec.compress is False
