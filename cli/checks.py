@@ -61,6 +61,8 @@ def run_dir_dimension_problem(run_dir: str | Path) -> str | None:
     ``solver.scene.require_plane_strain``, one line), or None. A missing or invalid
     scene.toml is left to the command's own reader, which names what is wrong with it."""
     path = Path(run_dir) / "scene.toml"
+    if not path.is_file() or path.is_symlink():  # a FIFO's read would wait forever
+        return None
     try:
         scene = load_scene(path)
     except (SceneError, OSError):

@@ -447,6 +447,33 @@ def test_a_thread_count_numba_refuses_is_named(tmp_path):
     assert not (tmp_path / "r").exists()  # refused before anything is written
 
 
+@pytest.mark.parametrize(("entry", "command", "words"), [
+    ("summary.json", ["run", "SMOKE", "--force", "-o", "D"], "holds D/summary.json as"),
+    (".stickslip.lock", ["continue", "D", "--until", "0.01"], "holds D/.stickslip.lock as"),
+    ("scene.toml", ["rpo", "D", "--period", "0.001", "--shift", "1"],
+     "scene.toml: not a regular file"),
+    ("summary.json", ["plot", "D"], "summary.json: cannot be read (not a regular file"),
+    ("summary.json", ["compare", "D"], "summary.json: cannot be read (not a regular file"),
+])
+def test_a_fifo_in_a_run_directory_is_refused_not_waited_on(finished, tmp_path, entry,
+                                                            command, words):
+    """A FIFO where stickslip writes a file: every reader's open waited for a writer, for
+    ever (`run --force`, `continue`, `rpo`, `plot`, `compare` hung). Now one line, exit 2.
+    A child process with a time limit, so that a regression fails instead of hanging."""
+    import os
+    import subprocess
+    import sys
+
+    d = copy_run(finished, tmp_path / "r")
+    (d / entry).unlink()
+    os.mkfifo(d / entry)
+    argv = [str(SMOKE) if a == "SMOKE" else str(d) if a == "D" else a for a in command]
+    done = subprocess.run([sys.executable, "-m", "stickslip.cli.main", *argv,
+                           *(SHORT_SET if command[0] == "run" else [])],
+                          capture_output=True, text=True, timeout=120)
+    one_line(done.returncode, done.stderr, words.replace("D/", f"{d}/"))
+
+
 def test_help_and_reference_print_percent_once_and_keep_table_rows():
     """`attractors --help` printed "95 %% Wilson"; the reference, "0.2 %%"; a `|` inside a
     metavar (`5T|4ms|0.01s|all`, `off|auto|B`, `A:B:N|F1,F2,...`) split the reference's table

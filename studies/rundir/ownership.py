@@ -65,6 +65,7 @@ import json
 import os
 import shutil
 import socket
+import stat
 import time
 import uuid
 from dataclasses import dataclass, field
@@ -134,17 +135,33 @@ def _ours(name: str, kind: str) -> bool:
     return any(fnmatch.fnmatchcase(name, p) for p in (*_ALWAYS, *KINDS.get(kind, ())))
 
 
+def _small_json(path: Path, most: int) -> object | None:
+    """The JSON of ``path`` if it is a regular file of at most ``most`` bytes, else None: a
+    symbolic link (stickslip writes files itself), a FIFO (whose open would wait for a
+    writer forever), a device or a huge file is not one of stickslip's."""
+    try:
+        fd = os.open(path, os.O_RDONLY | os.O_NOFOLLOW | os.O_NONBLOCK)
+    except OSError:
+        return None
+    try:
+        if not stat.S_ISREG(os.fstat(fd).st_mode):
+            return None
+        data = os.read(fd, most + 1)
+    except OSError:
+        return None
+    finally:
+        os.close(fd)
+    if len(data) > most:
+        return None
+    try:
+        return json.loads(data)
+    except (ValueError, UnicodeDecodeError):
+        return None
+
+
 def marker(path: str | Path) -> dict | None:
     """The marker of ``path`` (kind, id, ...), or None if it has no valid one."""
-    try:
-        fd = os.open(Path(path) / MARKER, os.O_RDONLY | os.O_NOFOLLOW)
-    except OSError:  # none, or a symbolic link: stickslip writes the marker as a file
-        return None
-    try:
-        with os.fdopen(fd, "rb") as fh:
-            m = json.loads(fh.read(65536))
-    except (OSError, ValueError, UnicodeDecodeError):
-        return None
+    m = _small_json(Path(path) / MARKER, 65536)
     if not isinstance(m, dict) or not isinstance(m.get("kind"), str) \
             or not isinstance(m.get("id"), str):
         return None
@@ -180,11 +197,13 @@ def foreign_entries(path: str | Path, kind: str) -> list[str]:
 def holder(path: str | Path) -> dict | None:
     """The pid/host of the live command holding ``path``'s lock, or None if none holds it."""
     lock = Path(path) / LOCK
-    try:
-        fd = os.open(lock, os.O_RDONLY | os.O_NOFOLLOW)
+    try:  # not waiting: a FIFO's open would wait for a writer forever (refusal() names it)
+        fd = os.open(lock, os.O_RDONLY | os.O_NOFOLLOW | os.O_NONBLOCK)
     except OSError:  # none, or a symbolic link (refused by refusal(), never opened)
         return None
     try:
+        if not stat.S_ISREG(os.fstat(fd).st_mode):
+            return None
         try:
             fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)
         except OSError:
@@ -204,14 +223,32 @@ def running_writer(path: str | Path) -> dict | None:
     None. A batch member's directory is claimed and its lock let go at once (a batch of B
     would hold B open files), so its batch's process is known by its summary alone
     (``studies.output.process_alive``: on this host; another host's cannot be told)."""
-    try:
-        summary = json.loads((Path(path) / "summary.json").read_text())
-    except (OSError, ValueError):
-        return None
+    summary = _small_json(Path(path) / "summary.json", 1 << 20)
     if not isinstance(summary, dict) or summary.get("status") != "running" \
             or summary.get("pid") == os.getpid():
         return None
     return summary if process_alive(summary) else None
+
+
+def _special_files(path: Path, depth: int = 3) -> list[Path]:
+    """FIFOs, sockets and devices in ``path``, down to ``depth`` levels (a census's
+    ``starts/runs/ID/summary.json``), links not followed: stickslip writes regular files
+    only, and a FIFO in their place makes every reader's open wait for a writer."""
+    found, level = [], [path]
+    for _ in range(depth):
+        below = []
+        for folder in level:
+            try:
+                entries = list(os.scandir(folder))
+            except OSError:
+                continue
+            for entry in entries:
+                if entry.is_dir(follow_symlinks=False):
+                    below.append(Path(entry.path))
+                elif not entry.is_symlink() and not entry.is_file(follow_symlinks=False):
+                    found.append(Path(entry.path))
+        level = below
+    return found
 
 
 def _names(entries: list[str], most: int = 5) -> str:
@@ -238,6 +275,12 @@ def refusal(path: str | Path, kind: str, *, force: bool = False, reuse: bool = F
                 f"through links: give the real directory, or {fix}")
     if p.exists() and not p.is_dir():
         return f"{flag} {p} is not a directory (a file or device); {fix}"
+    odd = [q for q in (p / LOCK, p / MARKER) if q.exists() and not q.is_file()]
+    odd = odd or ([] if not p.is_dir() or marker(p) is None else _special_files(p))
+    if odd:
+        return (f"{flag} {p} holds {odd[0]} as something other than a file (a FIFO, a "
+                f"device or a folder), which stickslip never makes and cannot read without "
+                f"waiting forever: remove it, or {fix}")
     if p.is_dir():
         live = holder(p) or running_writer(p)
         if live is not None:

@@ -23,8 +23,10 @@ Light (standard library and numpy; the scene reader imports ``solver.scene`` on 
 
 from __future__ import annotations
 
+import errno
 import json
 import os
+import stat
 import tomllib
 import zipfile
 from pathlib import Path
@@ -63,8 +65,11 @@ def _no_link(p: Path, fix: str = _RERUN) -> None:
 
 
 def _read_bytes(p: Path) -> bytes:
-    """The bytes of ``p``, opened without following a symbolic link (OSError otherwise)."""
-    with os.fdopen(os.open(p, os.O_RDONLY | os.O_NOFOLLOW), "rb") as fh:
+    """The bytes of ``p``, opened without following a symbolic link and without waiting (a
+    FIFO's open would wait for a writer forever): OSError unless a regular file."""
+    with os.fdopen(os.open(p, os.O_RDONLY | os.O_NOFOLLOW | os.O_NONBLOCK), "rb") as fh:
+        if not stat.S_ISREG(os.fstat(fh.fileno()).st_mode):
+            raise OSError(errno.EINVAL, "not a regular file (a FIFO or a device?)", str(p))
         return fh.read()
 
 
@@ -107,7 +112,8 @@ def read_scene_file(path: str | Path) -> Any:
     p = Path(path)
     _no_link(p)
     if not p.is_file():
-        raise ReadError(p, "missing")
+        raise ReadError(p, "missing" if not p.exists() else "not a regular file (a FIFO, a "
+                        "device or a folder?)")
     try:
         scene = load_scene(p)
         written = tomllib.loads(p.read_text(encoding="utf-8"))
