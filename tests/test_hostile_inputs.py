@@ -474,6 +474,27 @@ def test_a_fifo_in_a_run_directory_is_refused_not_waited_on(finished, tmp_path, 
     one_line(done.returncode, done.stderr, words.replace("D/", f"{d}/"))
 
 
+def test_a_fifo_deep_in_a_sweep_is_refused_on_resume(tmp_path, capsys):
+    """A FIFO as a member's summary.json: the resumed sweep's table waited on it for ever.
+    The claim now looks four levels down (a census's starts/runs/ID/summary.json)."""
+    import os
+    import subprocess
+    import sys
+
+    pytest.importorskip("dolfinx")
+    spec = tmp_path / "s.toml"
+    spec.write_text(f'base = "{SMOKE}"\nset = ["time.end_time=0.002", "output.progress=false"]'
+                    '\n[grid]\n"loading.omega" = [2.0]\n')
+    out = tmp_path / "out"
+    assert cli(capsys, "sweep", spec, "-o", out)[0] == 0
+    fifo = out / "runs" / "omega-2.0" / "summary.json"
+    fifo.unlink()
+    os.mkfifo(fifo)
+    done = subprocess.run([sys.executable, "-m", "stickslip.cli.main", "sweep", str(spec),
+                           "-o", str(out)], capture_output=True, text=True, timeout=120)
+    one_line(done.returncode, done.stderr, f"holds {fifo} as something other than a file")
+
+
 def test_help_and_reference_print_percent_once_and_keep_table_rows():
     """`attractors --help` printed "95 %% Wilson"; the reference, "0.2 %%"; a `|` inside a
     metavar (`5T|4ms|0.01s|all`, `off|auto|B`, `A:B:N|F1,F2,...`) split the reference's table

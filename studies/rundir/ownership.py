@@ -230,7 +230,7 @@ def running_writer(path: str | Path) -> dict | None:
     return summary if process_alive(summary) else None
 
 
-def _special_files(path: Path, depth: int = 3) -> list[Path]:
+def _special_files(path: Path, depth: int = 4) -> list[Path]:
     """FIFOs, sockets and devices in ``path``, down to ``depth`` levels (a census's
     ``starts/runs/ID/summary.json``), links not followed: stickslip writes regular files
     only, and a FIFO in their place makes every reader's open wait for a writer."""
