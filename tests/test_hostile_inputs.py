@@ -482,10 +482,7 @@ def test_a_fifo_deep_in_a_sweep_is_refused_on_resume(tmp_path, capsys):
     import sys
 
     pytest.importorskip("dolfinx")
-    spec = tmp_path / "s.toml"
-    spec.write_text(f'base = "{SMOKE}"\nset = ["time.end_time=0.002", "output.progress=false"]'
-                    '\n[grid]\n"loading.omega" = [2.0]\n')
-    out = tmp_path / "out"
+    spec, out = _one_point_sweep(tmp_path, "[2.0]"), tmp_path / "out"
     assert cli(capsys, "sweep", spec, "-o", out)[0] == 0
     fifo = out / "runs" / "omega-2.0" / "summary.json"
     fifo.unlink()
