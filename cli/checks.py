@@ -9,7 +9,8 @@ import os
 import sys
 from pathlib import Path
 
-from stickslip.solver.scene import SceneError, load_scene, require_plane_strain
+from stickslip.solver.scene import SceneError, require_plane_strain
+from stickslip.studies.rundir.readers import ReadError, read_scene_file
 
 __all__ = ["environment_problem", "fail", "output_file_problem", "run_dir_dimension_problem"]
 
@@ -61,11 +62,9 @@ def run_dir_dimension_problem(run_dir: str | Path) -> str | None:
     ``solver.scene.require_plane_strain``, one line), or None. A missing or invalid
     scene.toml is left to the command's own reader, which names what is wrong with it."""
     path = Path(run_dir) / "scene.toml"
-    if not path.is_file() or path.is_symlink():  # a FIFO's read would wait forever
-        return None
-    try:
-        scene = load_scene(path)
-    except (SceneError, OSError):
+    try:  # the validated reader: no link, no FIFO (whose read would wait for ever)
+        scene = read_scene_file(path)
+    except (ReadError, OSError):
         return None
     try:
         require_plane_strain(scene)

@@ -54,14 +54,19 @@ COMPILE_SECONDS: dict[str, float] = {}
 """Wall time of the first (compiling or cache-loading) call of each kernel, seconds."""
 
 
-def _cache_dir() -> None:
-    """Point numba's cache to a writable directory when the package directory is not, and
-    refuse a thread count that numba's import would reject in words that name no variable
-    (ValueError, one line with the fix)."""
+def _before_numba() -> None:
+    """What numba's import reads from the environment, set up before it: a thread count it
+    would reject in words that name no variable is refused (ValueError, one line with the
+    fix), and its cache goes where it can be written (``_cache_dir``)."""
     threads = os.environ.get("NUMBA_NUM_THREADS", "").strip()
     if threads.lstrip("+-").isdigit() and int(threads) < 1:
         raise ValueError(f"NUMBA_NUM_THREADS = {threads}: numba needs at least 1 thread; "
                          "unset it or set NUMBA_NUM_THREADS=1")
+    _cache_dir()
+
+
+def _cache_dir() -> None:
+    """Point numba's cache to a writable directory when the package directory is not."""
     if os.environ.get("NUMBA_CACHE_DIR"):
         return
     here = Path(__file__).resolve().parent
@@ -82,7 +87,7 @@ def _cache_dir() -> None:
 def numba_available() -> bool:
     """True when numba imports (Debian's python3-numba is in the apt list)."""
     try:
-        _cache_dir()
+        _before_numba()
         import numba  # noqa: F401
     except ImportError:
         return False
@@ -93,7 +98,7 @@ def numba_available() -> bool:
 
 def _kernels():
     """The kernels module, imported (and numba with it) on first use."""
-    _cache_dir()
+    _before_numba()
     # numba (0.3 s) with the compiled step only: the numpy kernel runs without it
     from stickslip.solver import _fused_kernels
 
@@ -103,7 +108,7 @@ def _kernels():
 def sample_kernels():
     """The batch records' copies module (``solver._sample_kernels``), imported on first use
     with numba's cache where ``_kernels`` has it."""
-    _cache_dir()
+    _before_numba()
     # numba (0.3 s) with the compiled step only: the numpy kernel runs without it
     from stickslip.solver import _sample_kernels
 

@@ -276,8 +276,8 @@ def continue_run(run_dir: str | Path, until: float, out_dir: str | Path | None =
               f"{until:g} s" + ("" if in_place else f" into {target}"),
               file=sys.stdout if stream is None else stream, flush=True)
     return SceneRunner(scene, target, force=force or in_place, comm=comm, stream=stream,
-                       progress=progress,
-                       check_resources=check_resources, resume=resume).run()
+                       check_resources=check_resources, resume=resume,
+                       progress=progress).run()
 
 
 def continue_batch(run_dirs: list[str | Path], until: float,
@@ -374,8 +374,7 @@ def _continue_members(plans: list[_Plan], outs: list[Path | None], backend: str,
             target = plan.run_dir if out is None else out
             in_place = target.resolve() == plan.run_dir.resolve()
             member = RunDirectory(plan.scene, target)
-            member.claim(force or in_place, MPI.COMM_SELF)
-            member.t0 = t0  # the batch's wall time is every member's
+            member.claim(force or in_place, MPI.COMM_SELF, t0=t0)  # the batch's wall time
             claims.append(member)
         profile = Profile()
         key = built_key(plans[0].scene)

@@ -59,6 +59,7 @@ Standard library only: every command may import it without the FE stack.
 
 from __future__ import annotations
 
+import errno
 import fcntl
 import fnmatch
 import json
@@ -75,8 +76,8 @@ from stickslip.solver.atomic import atomic_write_text
 from stickslip.studies.output import process_alive
 
 __all__ = ["KINDS", "LOCK", "MARKER", "Claim", "OwnershipError", "claim", "foreign_entries",
-           "holder", "marker", "normal_path", "owned", "recover", "refusal", "register_kind",
-           "user_entries"]
+           "holder", "marker", "normal_path", "open_regular", "owned", "recover", "refusal",
+           "register_kind", "user_entries"]
 
 MARKER = ".stickslip"
 LOCK = ".stickslip.lock"
@@ -135,17 +136,25 @@ def _ours(name: str, kind: str) -> bool:
     return any(fnmatch.fnmatchcase(name, p) for p in (*_ALWAYS, *KINDS.get(kind, ())))
 
 
+def open_regular(path: str | Path) -> int:
+    """A read-only descriptor of ``path`` if it is a regular file (the caller closes it),
+    opened without following a symbolic link (stickslip writes its files itself) and without
+    waiting (a FIFO's open would wait for a writer forever); OSError otherwise."""
+    fd = os.open(path, os.O_RDONLY | os.O_NOFOLLOW | os.O_NONBLOCK)
+    if not stat.S_ISREG(os.fstat(fd).st_mode):
+        os.close(fd)
+        raise OSError(errno.EINVAL, "not a regular file (a FIFO or a device?)", str(path))
+    return fd
+
+
 def _small_json(path: Path, most: int) -> object | None:
-    """The JSON of ``path`` if it is a regular file of at most ``most`` bytes, else None: a
-    symbolic link (stickslip writes files itself), a FIFO (whose open would wait for a
-    writer forever), a device or a huge file is not one of stickslip's."""
+    """The JSON of ``path`` if it is a regular file (``open_regular``) of at most ``most``
+    bytes, else None: a link, a FIFO, a device or a huge file is not one of stickslip's."""
     try:
-        fd = os.open(path, os.O_RDONLY | os.O_NOFOLLOW | os.O_NONBLOCK)
+        fd = open_regular(path)
     except OSError:
         return None
     try:
-        if not stat.S_ISREG(os.fstat(fd).st_mode):
-            return None
         data = os.read(fd, most + 1)
     except OSError:
         return None
@@ -197,13 +206,11 @@ def foreign_entries(path: str | Path, kind: str) -> list[str]:
 def holder(path: str | Path) -> dict | None:
     """The pid/host of the live command holding ``path``'s lock, or None if none holds it."""
     lock = Path(path) / LOCK
-    try:  # not waiting: a FIFO's open would wait for a writer forever (refusal() names it)
-        fd = os.open(lock, os.O_RDONLY | os.O_NOFOLLOW | os.O_NONBLOCK)
-    except OSError:  # none, or a symbolic link (refused by refusal(), never opened)
+    try:
+        fd = open_regular(lock)
+    except OSError:  # none, a symbolic link or a FIFO (refused by refusal(), never opened)
         return None
     try:
-        if not stat.S_ISREG(os.fstat(fd).st_mode):
-            return None
         try:
             fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)
         except OSError:
@@ -275,8 +282,9 @@ def refusal(path: str | Path, kind: str, *, force: bool = False, reuse: bool = F
                 f"through links: give the real directory, or {fix}")
     if p.exists() and not p.is_dir():
         return f"{flag} {p} is not a directory (a file or device); {fix}"
+    m = marker(p) if p.is_dir() else None
     odd = [q for q in (p / LOCK, p / MARKER) if q.exists() and not q.is_file()]
-    odd = odd or ([] if not p.is_dir() or marker(p) is None else _special_files(p))
+    odd = odd or ([] if m is None else _special_files(p))
     if odd:
         return (f"{flag} {p} holds {odd[0]} as something other than a file (a FIFO, a "
                 f"device or a folder), which stickslip never makes and cannot read without "
@@ -291,7 +299,6 @@ def refusal(path: str | Path, kind: str, *, force: bool = False, reuse: bool = F
         except OSError as err:
             return f"cannot read {p}: {err.strerror}; {fix}"
         if user_entries(p):
-            m = marker(p)
             if m is None:
                 return (f"{p} is not a stickslip {kind} directory (no {MARKER} marker) and is not "
                         f"empty; stickslip never writes into it: {fix}, or empty it yourself")

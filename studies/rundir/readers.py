@@ -23,10 +23,8 @@ Light (standard library and numpy; the scene reader imports ``solver.scene`` on 
 
 from __future__ import annotations
 
-import errno
 import json
 import os
-import stat
 import tomllib
 import zipfile
 from pathlib import Path
@@ -36,6 +34,7 @@ import numpy as np
 
 from stickslip.solver.scene import SceneError, load_scene, scene_to_dict
 from stickslip.solver.scene.files import scene_digest
+from stickslip.studies.rundir.ownership import open_regular
 from stickslip.studies.rundir.summary_file import SUMMARY
 
 __all__ = ["STATUSES", "ReadError", "check_run_dir", "read_field", "read_json_object",
@@ -65,11 +64,8 @@ def _no_link(p: Path, fix: str = _RERUN) -> None:
 
 
 def _read_bytes(p: Path) -> bytes:
-    """The bytes of ``p``, opened without following a symbolic link and without waiting (a
-    FIFO's open would wait for a writer forever): OSError unless a regular file."""
-    with os.fdopen(os.open(p, os.O_RDONLY | os.O_NOFOLLOW | os.O_NONBLOCK), "rb") as fh:
-        if not stat.S_ISREG(os.fstat(fh.fileno()).st_mode):
-            raise OSError(errno.EINVAL, "not a regular file (a FIFO or a device?)", str(p))
+    """The bytes of ``p``, a regular file (``ownership.open_regular``: OSError otherwise)."""
+    with os.fdopen(open_regular(p), "rb") as fh:
         return fh.read()
 
 

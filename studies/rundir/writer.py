@@ -276,11 +276,13 @@ class RunDirectory:
         """Where the run ends up."""
         return self.path if self.rd is None else self.rd.final
 
-    def claim(self, force: bool, comm: Any, in_place: bool = False) -> None:
+    def claim(self, force: bool, comm: Any, in_place: bool = False,
+              t0: float | None = None) -> None:
         """Claim the path (collective over ``comm``; ``directory.prepare_run_dir``). The
-        run's wall time counts from here."""
+        run's wall time counts from ``t0`` (``time.perf_counter``; a batch's start, shared by
+        its members), default from here."""
         self.rd = directory.prepare_run_dir(self.path, force, comm, in_place=in_place)
-        self.t0 = time.perf_counter()
+        self.t0 = time.perf_counter() if t0 is None else t0
 
     def start(self) -> None:
         """``scene.toml`` and the ``running`` summary (OSError: the caller removes what it

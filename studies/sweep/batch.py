@@ -224,9 +224,8 @@ class _Member:
         self.log = TaskLog(self.log_path)
         self.log.start(where)
         try:
-            self.dir.claim(True, MPI.COMM_SELF, in_place=True)
+            self.dir.claim(True, MPI.COMM_SELF, in_place=True, t0=self.t0)  # the batch's
             self.dir.release()
-            self.dir.t0 = self.t0  # the batch's wall time is every member's
             self.dir.start()
         except OSError as err:
             self.end("failed", f"{type(err).__name__}: {err}")
